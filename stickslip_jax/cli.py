@@ -1,0 +1,77 @@
+"""The `stickslip` command line: one subcommand per module.
+
+Each subcommand lives in its own module exposing `NAME`, `HELP`,
+`add_arguments(parser)` and `run(args) -> int`. Modules that are not installed yet
+are skipped, so subcommands can be added without editing this file's logic.
+Errors a user can fix are printed as one line on stderr with exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+SUBCOMMANDS = (
+    "stickslip_jax.commands.steady",
+    "stickslip_jax.commands.simulate",
+    "stickslip_jax.commands.plot",
+    "fitting.commands.fit",
+    "fitting.commands.mcmc",
+    "fitting.commands.design",
+    "fitting.commands.plan",
+    "fitting.commands.discover",
+    "fitting.commands.pitch",
+)
+
+
+class UsageError(Exception):
+    """An input problem the user can fix; printed as one line, exit code 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit code 2
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _load():
+    modules = []
+    for name in SUBCOMMANDS:
+        try:
+            modules.append(importlib.import_module(name))
+        except ModuleNotFoundError as exc:
+            if exc.name is None or not name.startswith(exc.name):
+                raise
+    return modules
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="stickslip",
+        description="Stick-slip on machine-tool slideways (Kato et al.): analysis, simulation, "
+        "identification and design. Units: kgf, mm, s unless an argument says otherwise.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for mod in _load():
+        p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
+        mod.add_arguments(p)
+        p.set_defaults(_run=mod.run)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "_run", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except (UsageError, ValueError, FileNotFoundError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        print(f"stickslip {args.command}: error: {msg}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

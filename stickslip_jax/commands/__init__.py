@@ -1,0 +1,1 @@
+"""Subcommands of the `stickslip` CLI (see `stickslip_jax.cli`)."""

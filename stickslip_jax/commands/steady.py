@@ -1,0 +1,87 @@
+"""`stickslip steady`: steady stick-slip amplitude, frequency and critical speed (chapter 5)."""
+
+from __future__ import annotations
+
+import json
+
+import jax.numpy as jnp
+
+from ..lubricants import lubricant, lubricants
+from ..steady import steady_map
+from ..units import mm_per_min
+from ._args import quantity
+
+NAME = "steady"
+HELP = "steady stick-slip (eqs 5-7, 12) for a paper lubricant at given W, k and drive speeds"
+
+
+def add_arguments(p):
+    p.add_argument("--lubricant", default="A", help="paper lubricant (Table 6: A, C)")
+    p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
+                   help="table of eq (1) parameters (default 6; 4 and 9 borrow delta, n of A)")
+    p.add_argument("--weight", type=quantity("force", "kgf"), required=True,
+                   help="slider weight W (kgf, or with unit: '353 N')")
+    p.add_argument("--stiffness", type=quantity("stiffness", "kgf/mm"), required=True,
+                   help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
+    p.add_argument("--speed", type=quantity("speed", "mm/min"), nargs="+", required=True,
+                   help="drive speeds v (mm/min unless a unit is given, e.g. '10 um/s')")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+
+
+COLUMNS = (
+    ("speed_mm_min", "v [mm/min]"),
+    ("stick_slip", "stick-slip"),
+    ("stick_time_s", "T1 [s]"),
+    ("slip_time_s", "T2 [s]"),
+    ("amplitude_mm", "a [mm]"),
+    ("ak_over_W", "ak/W [-]"),
+    ("frequency_hz", "f [Hz]"),
+    ("f_over_f0", "f/f0 [-]"),
+    ("critical_speed_mm_min", "v_c [mm/min]"),
+)
+
+
+def run(args) -> int:
+    if args.lubricant not in lubricants(args.table):
+        raise ValueError(
+            f"--lubricant: unknown lubricant {args.lubricant!r}; "
+            f"Table {args.table} has {', '.join(lubricants(args.table))}"
+        )
+    friction = lubricant(args.lubricant, table=args.table)
+    speeds = jnp.asarray(args.speed)
+    out = steady_map(friction, args.weight, args.stiffness, speeds)
+    rows = []
+    for i, v in enumerate(args.speed):
+        rows.append({
+            "speed_mm_min": mm_per_min(v),
+            "stick_slip": bool(out.stick_slip[i]),
+            "stick_time_s": float(out.stick_time[i]),
+            "slip_time_s": float(out.slip_time[i]),
+            "amplitude_mm": float(out.amplitude[i]),
+            "ak_over_W": float(out.amplitude_ratio[i]),
+            "frequency_hz": float(out.frequency[i]),
+            "f_over_f0": float(out.frequency_ratio[i]),
+            "critical_speed_mm_min": float(mm_per_min(out.critical_speed[i])),
+        })
+    if args.json:
+        print(json.dumps({
+            "lubricant": args.lubricant,
+            "table": args.table,
+            "weight_kgf": args.weight,
+            "stiffness_kgf_mm": args.stiffness,
+            "natural_frequency_hz": float(out.natural_frequency[0]),
+            "results": rows,
+        }, indent=2))
+        return 0
+    print(f"lubricant {args.lubricant} (Table {args.table}), W = {args.weight:g} kgf, "
+          f"k = {args.stiffness:g} kgf/mm, f0 = {float(out.natural_frequency[0]):.4g} Hz")
+    widths = [max(len(h), 12) for _, h in COLUMNS]
+    print("  ".join(h.rjust(w) for (_, h), w in zip(COLUMNS, widths)))
+    for r in rows:
+        cells = []
+        for (key, _), w in zip(COLUMNS, widths):
+            val = r[key]
+            cells.append(("yes" if val else "no").rjust(w) if isinstance(val, bool)
+                         else f"{val:.5g}".rjust(w))
+        print("  ".join(cells))
+    return 0

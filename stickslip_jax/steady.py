@@ -1,0 +1,187 @@
+r"""Steady-state stick-slip analysis, chapter 5 of the paper.
+
+For a slider of weight $W$ (kgf) on a spring of stiffness $k$ (kgf/mm) driven at
+$v$ (mm/s), with friction laws $\mu_0(T_1)$ and $\mu_m(\mu_0, T_2)$:
+
+- slip time, eq (7): $T_2 = \pi\sqrt{W/(g k)} = 1/(2 f_0)$;
+- stick time, eq (6) generalised to any law: $k v T_1 / (2W) = \mu_0(T_1) - \mu_m(\mu_0(T_1), T_2)$;
+- amplitude, eq (5): $a = (\mu_0 - \mu_m) W / k = v T_1 / 2$ (half the peak-to-peak swing);
+- frequency $f = 1/(T_1 + T_2)$;
+- critical speed, eq (12) as corrected in NOTES.md item 3: eq (6) at $T_1 = T_2 = T_0$,
+  $v_c = 2 W (\mu_0(T_0) - \mu_m(T_0)) / (k T_0)$.
+
+Above $v_c$ there is no stick-slip: `amplitude`, `stick_time`, `frequency` are 0 and
+`stick_slip` is False, with finite gradients.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import optimistix as optx
+from jaxtyping import Array, ArrayLike, Bool, Float
+
+from .friction import Friction
+from .units import G_MM_S2
+
+_LOG_T_START = jnp.log(1e12)
+
+
+def natural_angular_frequency(weight, stiffness):
+    r"""$\omega_0 = \sqrt{g k / W}$ in rad/s; W in kgf, k in kgf/mm."""
+    return jnp.sqrt(G_MM_S2 * stiffness / weight)
+
+
+def slip_time(weight, stiffness):
+    r"""Eq (7): $T_2 = \pi \sqrt{W/(g k)}$ in s; W in kgf, k in kgf/mm."""
+    return jnp.pi / natural_angular_frequency(weight, stiffness)
+
+
+def critical_speed(friction: Friction, weight, stiffness):
+    r"""Critical drive speed $v_c$ in mm/s, corrected eq (12) (NOTES.md item 3).
+
+    $v_c = \frac{2W}{k T_0}(\mu_0(T_0) - \mu_m(\mu_0(T_0), T_0))$, $T_0 = \pi\sqrt{W/(gk)}$.
+    For eq (1) + eq (3) this is
+    $\frac{2W}{kT_0}(\mu_s-\mu_d)(1-e^{-\gamma T_0^m})(1-e^{-\delta T_0^n})$.
+    """
+    t0 = slip_time(weight, stiffness)
+    return 2.0 * weight * friction.drop(t0, t0) / (stiffness * t0)
+
+
+def _log_residual(log_t1, args):
+    friction, weight, stiffness, speed, t2 = args
+    t1 = jnp.exp(log_t1)
+    drop = jnp.maximum(friction.drop(t1, t2), 1e-300)
+    return jnp.log(drop) + jnp.log(2.0 * weight / (stiffness * speed)) - log_t1
+
+
+class SteadyState(eqx.Module):
+    """Steady stick-slip cycle (chapter 5). Units: s, mm, Hz, mm/s; ratios dimensionless."""
+
+    stick_time: Float[Array, "..."]
+    slip_time: Float[Array, "..."]
+    amplitude: Float[Array, "..."]
+    amplitude_ratio: Float[Array, "..."]
+    frequency: Float[Array, "..."]
+    natural_frequency: Float[Array, "..."]
+    frequency_ratio: Float[Array, "..."]
+    critical_speed: Float[Array, "..."]
+    mu_0: Float[Array, "..."]
+    mu_m: Float[Array, "..."]
+    stick_slip: Bool[Array, "..."]
+    result: optx.RESULTS
+
+
+def _check_positive(x, name):
+    return eqx.error_if(x, ~(x > 0), f"{name} must be positive")
+
+
+@eqx.filter_jit
+def steady_state(
+    friction: Friction,
+    weight: Float[ArrayLike, ""],
+    stiffness: Float[ArrayLike, ""],
+    speed: Float[ArrayLike, ""],
+    rtol: float = 1e-13,
+    max_steps: int = 100,
+) -> SteadyState:
+    r"""Steady stick-slip of eqs (5)-(7) and (12) at one design point.
+
+    `weight` W in kgf, `stiffness` k in kgf/mm, `speed` v in mm/s (all scalars; use
+    `jax.vmap` for many points). Eq (6) is solved for $\log T_1$ with an optimistix
+    Newton root finder started above the root (the residual is concave in
+    $\log T_1$, so Newton converges monotonically); its derivative follows from the
+    implicit function theorem.
+    """
+    if not isinstance(friction, Friction):
+        raise ValueError(f"friction must be a Friction, got {type(friction)}")
+    weight = _check_positive(jnp.asarray(weight, dtype=float), "weight W")
+    stiffness = _check_positive(jnp.asarray(stiffness, dtype=float), "stiffness k")
+    speed = _check_positive(jnp.asarray(speed, dtype=float), "drive speed v")
+    if weight.ndim or stiffness.ndim or speed.ndim:
+        raise ValueError("steady_state takes scalars; use jax.vmap over design points")
+
+    t2 = slip_time(weight, stiffness)
+    omega0 = jnp.pi / t2
+    v_c = critical_speed(friction, weight, stiffness)
+    stick = speed < v_c
+    # Above v_c solve at a safe speed and mask (double-where: finite gradients).
+    v_solve = jnp.where(stick, speed, 0.5 * v_c)
+    solver = optx.Newton(rtol=rtol, atol=rtol)
+    sol = optx.root_find(
+        _log_residual,
+        solver,
+        _LOG_T_START,
+        args=(friction, weight, stiffness, v_solve, t2),
+        max_steps=max_steps,
+        throw=False,
+    )
+    t1 = jnp.exp(sol.value)
+    mu_0 = friction.static(t1)
+    mu_m = friction.kinetic(mu_0, friction.mu_d, t2)
+    amplitude = (mu_0 - mu_m) * weight / stiffness
+    zero = jnp.zeros_like(t1)
+    t1 = jnp.where(stick, t1, zero)
+    amplitude = jnp.where(stick, amplitude, zero)
+    f0 = omega0 / (2 * jnp.pi)
+    freq = jnp.where(stick, 1.0 / (t1 + t2), zero)
+    mu_0_out = jnp.where(stick, mu_0, friction.static(t2))
+    mu_m_out = jnp.where(stick, mu_m, friction.mu_d + zero)
+    result = optx.RESULTS.where(stick, sol.result, optx.RESULTS.successful)
+    return SteadyState(
+        stick_time=t1,
+        slip_time=t2,
+        amplitude=amplitude,
+        amplitude_ratio=amplitude * stiffness / weight,
+        frequency=freq,
+        natural_frequency=f0,
+        frequency_ratio=freq / f0,
+        critical_speed=v_c,
+        mu_0=mu_0_out,
+        mu_m=mu_m_out,
+        stick_slip=stick,
+        result=result,
+    )
+
+
+def steady_map(friction: Friction, weight, stiffness, speed) -> SteadyState:
+    """`steady_state` under `jax.vmap` over broadcast arrays of W (kgf), k (kgf/mm), v (mm/s)."""
+    w, k, v = jnp.broadcast_arrays(
+        jnp.asarray(weight, float), jnp.asarray(stiffness, float), jnp.asarray(speed, float)
+    )
+    shape = w.shape
+    out = _vmapped_steady(friction, w.ravel(), k.ravel(), v.ravel())
+    return jax.tree_util.tree_map(lambda x: x.reshape(shape) if hasattr(x, "reshape") else x, out)
+
+
+@eqx.filter_jit
+def _vmapped_steady(friction, w, k, v):
+    return jax.vmap(steady_state, in_axes=(None, 0, 0, 0))(friction, w, k, v)
+
+
+class SlipTrajectory(eqx.Module):
+    """Slip phase of eq (11): time (s), deflection x (mm) and xdot/omega0 (mm)."""
+
+    time: Float[Array, " n"]
+    deflection: Float[Array, " n"]
+    velocity_over_omega0: Float[Array, " n"]
+
+
+def slip_trajectory(
+    friction: Friction, weight, stiffness, stick_time, num: int = 101
+) -> SlipTrajectory:
+    r"""Eq (11): $x = \{(\mu_0 - \mu_m)\cos\omega_0 t + \mu_m\} W/k$ for $0 \le t \le \pi/\omega_0$.
+
+    The v -> 0 limit of the slip (NOTES.md item 7); the phase plane of Figs 34-35 plots
+    `deflection` against `velocity_over_omega0` (both mm).
+    """
+    omega0 = natural_angular_frequency(weight, stiffness)
+    t2 = jnp.pi / omega0
+    mu_0 = friction.static(stick_time)
+    mu_m = friction.kinetic(mu_0, friction.mu_d, t2)
+    t = jnp.linspace(0.0, t2, num)
+    scale = weight / stiffness
+    x = ((mu_0 - mu_m) * jnp.cos(omega0 * t) + mu_m) * scale
+    xdot_over_w = -(mu_0 - mu_m) * jnp.sin(omega0 * t) * scale
+    return SlipTrajectory(t, x, xdot_over_w)

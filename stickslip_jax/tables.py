@@ -1,0 +1,95 @@
+"""The paper's tables (Tables 1-4 and 6-12) shipped as CSV in `data/paper/`.
+
+Each CSV starts with `#` comment lines (table number and notes), then a header row
+whose columns carry their unit in brackets, e.g. `stiffness [kgf/mm]`. Values are in
+the internal unit system (kgf, mm, s) except where the header says otherwise (Table 1
+contact pressure in kgf/cm^2, viscosities in cSt as printed).
+
+```python
+>>> from stickslip_jax.tables import load_table
+>>> t6 = load_table(6)
+>>> t6.row("A").delta
+67.0
+```
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import os
+import re
+from collections import namedtuple
+from pathlib import Path
+
+_HEADER = re.compile(r"^\s*([A-Za-z0-9_]+)\s*(?:\[(.*)\])?\s*$")
+
+
+def data_dir() -> Path:
+    """Directory of the shipped data (`data/` at the repository root, or $STICKSLIP_DATA)."""
+    env = os.environ.get("STICKSLIP_DATA")
+    if env:
+        return Path(env)
+    return Path(__file__).resolve().parent.parent / "data"
+
+
+@dataclasses.dataclass(frozen=True)
+class PaperTable:
+    """One table of the paper: typed rows (named tuples), the column units and its notes."""
+
+    number: int
+    title: str
+    columns: tuple[str, ...]
+    units: dict[str, str]
+    rows: tuple
+    path: Path
+
+    def row(self, key: str):
+        """The row whose first column equals `key` (e.g. a lubricant or surface name)."""
+        for r in self.rows:
+            if str(r[0]) == str(key):
+                return r
+        keys = ", ".join(str(r[0]) for r in self.rows)
+        raise KeyError(f"Table {self.number} has no row {key!r}; available: {keys}")
+
+    def rows_where(self, **match):
+        return tuple(r for r in self.rows if all(getattr(r, k) == v for k, v in match.items()))
+
+    def column(self, name: str) -> tuple:
+        return tuple(getattr(r, name) for r in self.rows)
+
+
+def _convert(cell: str):
+    cell = cell.strip()
+    if cell == "":
+        return None
+    try:
+        return float(cell)
+    except ValueError:
+        return cell
+
+
+def load_table(number: int) -> PaperTable:
+    """Load Table `number` (1-4, 6-12) from `data/paper/tableNN_*.csv`."""
+    folder = data_dir() / "paper"
+    matches = sorted(folder.glob(f"table{number:02d}_*.csv"))
+    if not matches:
+        raise ValueError(f"no CSV for Table {number} in {folder}")
+    path = matches[0]
+    with path.open(encoding="utf-8") as fh:
+        lines = fh.read().splitlines()
+    notes = [ln[1:].strip() for ln in lines if ln.startswith("#")]
+    body = [ln for ln in lines if ln.strip() and not ln.startswith("#")]
+    reader = csv.reader(body)
+    header = next(reader)
+    names, units = [], {}
+    for h in header:
+        m = _HEADER.match(h)
+        if m is None:
+            raise ValueError(f"{path}: malformed column header {h!r}")
+        names.append(m.group(1))
+        units[m.group(1)] = m.group(2) if m.group(2) is not None else ""
+    Row = namedtuple(f"Table{number}Row", names)
+    rows = tuple(Row(*[_convert(c) for c in rec]) for rec in reader)
+    title = notes[0] if notes else f"Table {number}"
+    return PaperTable(number, title, tuple(names), units, rows, path)
