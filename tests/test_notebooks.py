@@ -1,0 +1,28 @@
+"""Every notebook's jupytext twin (`notebooks/NN_*.py`) runs headless, top to bottom, at small size.
+
+Notebooks read `STICKSLIP_SMALL=1` to shrink their grids and sample counts.
+"""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+NOTEBOOKS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
+
+
+@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+def test_notebook_runs_headless(path, tmp_path):
+    env = dict(os.environ, MPLBACKEND="Agg", STICKSLIP_SMALL="1", STICKSLIP_FIGDIR=str(tmp_path))
+    proc = subprocess.run(
+        [sys.executable, str(path)], cwd=ROOT, env=env, capture_output=True, text=True, timeout=600
+    )
+    assert proc.returncode == 0, proc.stderr[-4000:]
+
+
+def test_each_notebook_has_ipynb_twin():
+    for path in NOTEBOOKS:
+        assert path.with_suffix(".ipynb").exists(), f"{path.name} has no .ipynb twin (jupytext --to ipynb)"
