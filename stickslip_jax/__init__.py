@@ -31,6 +31,7 @@ from .steady import (  # noqa: E402
     steady_map,
     steady_state,
 )
+from .slideway import Slideway  # noqa: E402
 from .tables import load_table  # noqa: E402
 
 __all__ = [
@@ -43,6 +44,7 @@ __all__ = [
     "KatoStatic",
     "OkamuraStatic",
     "PowerLawStatic",
+    "Slideway",
     "SteadyState",
     "critical_speed",
     "experimental_conditions",
