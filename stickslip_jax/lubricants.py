@@ -27,13 +27,13 @@ def kato_static(name: str, table: int = 6) -> KatoStatic:
     """Eq (1) parameters of lubricant `name` from Table 4, 6 or 9."""
     if table not in (4, 6, 9):
         raise ValueError(f"eq (1) parameters are in Tables 4, 6 and 9, not {table}")
-    r = load_table(table).row(name)
+    r = load_table(table).row(name)  # unknown name: MissingRowError, a ValueError
     return KatoStatic(mu_s=r.mu_s, mu_d=r.mu_d, gamma=r.gamma, m=r.m)
 
 
 def kato_kinetic(name: str) -> KatoKinetic:
     """Eq (3) parameters (delta, n) of lubricant `name` from Table 6."""
-    r = load_table(6).row(name)
+    r = load_table(6).row(name)  # unknown name: MissingRowError, a ValueError
     return KatoKinetic(delta=r.delta, n=r.n)
 
 
@@ -47,6 +47,8 @@ def lubricant(name: str, table: int = 6, kinetic_from: str = "A") -> Friction:
 
     Raises `ValueError` naming the available lubricants if `name` is unknown.
     """
+    if table not in (4, 6, 9):
+        raise ValueError(f"eq (1) parameters are in Tables 4, 6 and 9, not {table}")
     names = lubricants(table)
     if name not in names:
         raise ValueError(

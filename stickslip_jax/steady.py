@@ -77,7 +77,6 @@ def _check_positive(x, name):
     return eqx.error_if(x, ~(x > 0), f"{name} must be positive")
 
 
-@eqx.filter_jit
 def steady_state(
     friction: Friction,
     weight: Float[ArrayLike, ""],
@@ -93,7 +92,22 @@ def steady_state(
     Newton root finder started above the root (the residual is concave in
     $\log T_1$, so Newton converges monotonically); its derivative follows from the
     implicit function theorem.
+
+    W, k and v are converted to arrays before the (cached) compiled call, so new
+    Python-float values do not trigger recompilation.
     """
+    return _steady_state(
+        friction,
+        jnp.asarray(weight, dtype=float),
+        jnp.asarray(stiffness, dtype=float),
+        jnp.asarray(speed, dtype=float),
+        rtol,
+        max_steps,
+    )
+
+
+@eqx.filter_jit
+def _steady_state(friction, weight, stiffness, speed, rtol, max_steps) -> SteadyState:
     if not isinstance(friction, Friction):
         raise ValueError(f"friction must be a Friction, got {type(friction)}")
     weight = _check_positive(jnp.asarray(weight, dtype=float), "weight W")
@@ -157,7 +171,9 @@ def steady_map(friction: Friction, weight, stiffness, speed) -> SteadyState:
 
 @eqx.filter_jit
 def _vmapped_steady(friction, w, k, v):
-    return jax.vmap(steady_state, in_axes=(None, 0, 0, 0))(friction, w, k, v)
+    return jax.vmap(_steady_state, in_axes=(None, 0, 0, 0, None, None))(
+        friction, w, k, v, 1e-13, 100
+    )
 
 
 class SlipTrajectory(eqx.Module):

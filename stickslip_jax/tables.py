@@ -33,6 +33,13 @@ def data_dir() -> Path:
     return Path(__file__).resolve().parent.parent / "data"
 
 
+class MissingRowError(KeyError, ValueError):
+    """A row key that a table does not have (both a `KeyError` and a `ValueError`)."""
+
+    def __str__(self):
+        return str(self.args[0]) if self.args else ""
+
+
 @dataclasses.dataclass(frozen=True)
 class PaperTable:
     """One table of the paper: typed rows (named tuples), the column units and its notes."""
@@ -50,7 +57,7 @@ class PaperTable:
             if str(r[0]) == str(key):
                 return r
         keys = ", ".join(str(r[0]) for r in self.rows)
-        raise KeyError(f"Table {self.number} has no row {key!r}; available: {keys}")
+        raise MissingRowError(f"Table {self.number} has no row {key!r}; available: {keys}")
 
     def rows_where(self, **match):
         return tuple(r for r in self.rows if all(getattr(r, k) == v for k, v in match.items()))
