@@ -1,0 +1,69 @@
+"""Unit conversions at the edges (stickslip_jax.units): internal kgf, mm, s."""
+
+import math
+
+import pytest
+
+from stickslip_jax import units
+
+
+def test_viscosity_of_lubricant_a_in_pa_s():
+    # NOTES.md: lubricant A, 2.2e-8 kgf*s/mm^2 = 0.216 Pa*s (1 kgf = 9.80665 N, 1 mm^2 = 1e-6 m^2)
+    pa_s = units.from_internal(2.2e-8, "Pa*s", "viscosity")
+    assert pa_s == pytest.approx(2.2e-8 * 9.80665e6, rel=1e-12)
+    assert round(pa_s, 3) == 0.216
+    assert units.to_internal(0.216, "Pa*s", "viscosity") == pytest.approx(2.2e-8, rel=2e-3)
+    assert units.from_internal(2.2e-8, "mPa*s", "viscosity") == pytest.approx(215.746, rel=1e-5)
+    assert units.factor("cP", "viscosity") == units.factor("mPa*s", "viscosity")
+
+
+def test_speed_mm_per_min():
+    assert units.from_mm_per_min(92.0) == pytest.approx(92.0 / 60.0)
+    assert units.mm_per_min(units.from_mm_per_min(0.0022)) == pytest.approx(0.0022, rel=1e-15)
+    assert units.parse_quantity("0.0022", "speed", "mm/min") == pytest.approx(0.0022 / 60)
+    assert units.parse_quantity("10 um/s", "speed", "mm/min") == pytest.approx(0.01)
+    assert units.parse_quantity("1.2 m/min", "speed") == pytest.approx(20.0)
+
+
+def test_stiffness_force_mass_pressure():
+    assert units.to_internal(852.2, "N/mm", "stiffness") == pytest.approx(852.2 / 9.80665)
+    assert units.to_internal(1e6, "N/m", "stiffness") == pytest.approx(1e3 / 9.80665)
+    assert units.to_internal(9.80665, "N", "force") == pytest.approx(1.0)
+    # A 36 kg slider weighs 36 kgf; its mass is W/g in kgf*s^2/mm.
+    assert units.to_internal(36.0, "kg", "mass") == pytest.approx(36.0 / 9806.65)
+    assert units.G_MM_S2 == pytest.approx(units.KGF_N * 1000.0)
+    assert units.to_internal(0.215, "kgf/cm^2", "pressure") == pytest.approx(0.00215)
+    assert units.from_internal(1.0, "MPa", "pressure") == pytest.approx(9.80665)
+    assert units.parse_quantity("0.5 µm", "length") == pytest.approx(5e-4)
+    assert units.parse_quantity("0.5μm", "length") == pytest.approx(5e-4)
+
+
+def test_round_trip_every_unit():
+    for dimension, table in units.UNITS.items():
+        for unit in table:
+            x = units.to_internal(3.7, unit, dimension)
+            assert units.from_internal(x, unit, dimension) == pytest.approx(3.7, rel=1e-14)
+            assert units.INTERNAL_UNIT[dimension] in table
+
+
+@pytest.mark.parametrize(
+    "text, dimension, default",
+    [
+        ("abc", "speed", "mm/min"),
+        ("1.5 furlongs/fortnight", "speed", "mm/min"),
+        ("1.5", "speed", None),  # bare number without a default unit
+        ("2 kgf/mm", "speed", "mm/min"),  # wrong kind of unit
+        ("", "force", "kgf"),
+        ("nan", "force", "kgf"),
+    ],
+)
+def test_bad_quantities_raise_unit_error(text, dimension, default):
+    with pytest.raises(units.UnitError):
+        units.parse_quantity(text, dimension, default)
+    assert issubclass(units.UnitError, ValueError)
+
+
+def test_unknown_dimension():
+    with pytest.raises(units.UnitError, match="unknown dimension"):
+        units.factor("mm", "colour")
+    assert math.isclose(units.factor(" kgf ", "force"), 1.0)
