@@ -54,6 +54,11 @@ class KatoStatic(AbstractStaticFriction):
     gamma: Scalar = eqx.field(converter=_as_float)
     m: Scalar = eqx.field(converter=_as_float)
 
+    def __init__(self, mu_s, mu_d, gamma, m):
+        # Explicit so that positional order is (mu_s, mu_d, gamma, m) as in eq (1); the
+        # inherited abstract `mu_d` would otherwise come first in the dataclass order.
+        self.mu_s, self.mu_d, self.gamma, self.m = mu_s, mu_d, gamma, m
+
     def __call__(self, stick_time):
         t = jnp.asarray(stick_time, dtype=float)
         rise = one_minus_exp_neg(self.gamma * safe_power(t, self.m))
@@ -69,6 +74,10 @@ class HoweStatic(AbstractStaticFriction):
     mu_s: Scalar = eqx.field(converter=_as_float)
     mu_d: Scalar = eqx.field(converter=_as_float)
     C: Scalar = eqx.field(converter=_as_float)
+
+    def __init__(self, mu_s, mu_d, C):
+        # Explicit so that positional order is (mu_s, mu_d, C) as in Table 3.
+        self.mu_s, self.mu_d, self.C = mu_s, mu_d, C
 
     def __call__(self, stick_time):
         t = jnp.maximum(jnp.asarray(stick_time, dtype=float), 0.0)
@@ -116,6 +125,10 @@ class OkamuraStatic(AbstractStaticFriction):
     mu_s: Scalar = eqx.field(converter=_as_float)
     mu_d: Scalar = eqx.field(converter=_as_float)
     C: Scalar = eqx.field(converter=_as_float)
+
+    def __init__(self, mu_s, mu_d, C):
+        # Explicit so that positional order is (mu_s, mu_d, C) as in Table 3.
+        self.mu_s, self.mu_d, self.C = mu_s, mu_d, C
 
     def __call__(self, stick_time):
         t = jnp.maximum(jnp.asarray(stick_time, dtype=float), 0.0)
