@@ -1,0 +1,1124 @@
+r"""Measured records: one run of the slideway read from (and written to) a CSV file.
+
+A record is the spring deflection $x(t)$ (or the spring force $F = kx$) sampled at a
+uniform step, with the run's conditions: stiffness $k$, slider weight $W$ and the drive
+(a constant speed $v$, a piecewise-constant speed program, or a measured drive
+displacement $u(t)$). Everything is held in the internal units kgf, mm, s; the file may
+use any unit that `stickslip_jax.units` knows, converted on the way in.
+
+File format (UTF-8, version 1)::
+
+    # stickslip-record: 1
+    # drive_speed: 1.0 mm/min
+    # stiffness: 86.9 kgf/mm
+    # slider_weight: 36.0 kgf
+    # lubricant: A
+    # surface: S1G1
+    time [s],deflection [mm]
+    0.000,0.1203
+    0.001,0.1204
+
+- The first line is `# stickslip-record: 1`. Header lines are `# key: value` with a
+  lowercase key; quantities are `number unit` (`86.9 kgf/mm`, `852 N/mm`); a bare
+  number is an error (no unit is guessed).
+- Required: `stiffness`; `slider_weight` or `slider_mass` (in kg: W = m g, so 1 kg
+  weighs 1 kgf); a `time` column; a `deflection` or a `force` column (x = F/k); and at
+  least one drive: `drive_speed`, `drive_program` or a `drive` column. When several
+  are given, the drive is the `drive` column, else the `drive_program`, else
+  `drive_speed` (which then stays as the nominal speed).
+- `drive_program: 0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min` lists segments
+  `start-time speed` separated by `;`: the speed holds from its start time to the next
+  start (the last holds for ever). A hold is speed 0. Starts increase strictly, speeds
+  are >= 0; before the first start the drive rests. The drive displacement is
+  $u(t) = \int_0^t v(s)\,ds$ (zero at t = 0, like `drive_speed`'s $u = vt$).
+- Optional: `lubricant`, `surface`, `note` (one line of free text), `truth: {json}`
+  (parameters a synthetic record was made from), any other `key: value` (kept as
+  raw text), and more columns `name [unit]` (e.g. `pitch_1 [um]`; `[-]` for a pure
+  number) stored in `Record.channels` in internal units.
+- Data rows: one number per column, `.` as decimal point. Time must increase strictly
+  and be uniform: every step within `TIME_STEP_RTOL` (1e-3) of the mean step.
+  Blank lines are ignored; `#` lines after the column row are an error.
+- Files over `MAX_FILE_BYTES` (200 MB) are refused.
+
+Reading never guesses and never crashes: every problem is one `RecordError` (a
+`ValueError`) whose message names the file, the line and what to fix. Writing with the
+defaults (internal units, `repr` precision) then reading gives the record back exactly.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import glob as _glob
+import json
+import math
+import os
+import re
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+import numpy as np
+
+from .units import G_MM_S2, INTERNAL_UNIT, UNITS, UnitError, factor
+
+__all__ = [
+    "FORMAT_VERSION",
+    "MAX_FILE_BYTES",
+    "TIME_STEP_RTOL",
+    "Record",
+    "RecordError",
+    "check_campaign",
+    "format_record",
+    "parse_record",
+    "read_campaign",
+    "read_record",
+    "write_record",
+]
+
+FORMAT_VERSION = "1"
+"""The version in a record's first line, `# stickslip-record: 1`."""
+
+MAX_FILE_BYTES = 200 * 1024 * 1024
+"""Largest record file read (200 MiB, about 10 million samples of two columns)."""
+
+TIME_STEP_RTOL = 1e-3
+"""Largest relative deviation of a time step from the mean step, |dt_i - dt| / dt."""
+
+RESERVED_COLUMNS = ("time", "deflection", "force", "drive")
+KNOWN_KEYS = (
+    "stickslip-record",
+    "stiffness",
+    "slider_weight",
+    "slider_mass",
+    "drive_speed",
+    "drive_program",
+    "lubricant",
+    "surface",
+    "note",
+    "truth",
+)
+
+_NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_NUMBER = re.compile(_NUM)
+_QUANTITY = re.compile(rf"\s*({_NUM})\s*(.*?)\s*")
+_SEGMENT = re.compile(rf"\s*({_NUM})\s*([^\s\d.+-]\S*)\s+({_NUM})\s*(\S+)\s*")
+_HEADER = re.compile(r"#\s*([A-Za-z][A-Za-z0-9_-]*)\s*:(.*)")
+_COLUMN = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*\[([^\[\]]*)\]\s*")
+_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+_KEY = re.compile(r"[a-z][a-z0-9_-]*")
+_NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
+
+
+class RecordError(ValueError):
+    """A record that cannot be read or built; the message names the file, line and fix.
+
+    Attributes: `path` (file or None), `line` (1-based line number or None) and
+    `reason` (the message without the location).
+    """
+
+    def __init__(self, reason: str, path=None, line: int | None = None):
+        self.path = None if path is None else str(path)
+        self.line = line
+        self.reason = reason
+        where = ""
+        if self.path is not None:
+            where = f"{self.path}: " if line is None else f"{self.path}: line {line}: "
+        elif line is not None:
+            where = f"line {line}: "
+        super().__init__(where + reason)
+
+
+# ----------------------------------------------------------------------------- units
+
+
+def unit_dimension(unit: str) -> str:
+    """The dimension (`"length"`, `"time"`, ...) of a unit that `stickslip_jax.units` knows."""
+    for dimension in UNITS:
+        try:
+            factor(unit, dimension)
+        except UnitError:
+            continue
+        return dimension
+    raise UnitError(f"unknown unit {unit!r}")
+
+
+def _unit_choices(dimension: str) -> str:
+    return ", ".join(u for u in UNITS[dimension] if u)
+
+
+def _channel_factor(unit: str) -> float:
+    return factor(unit, unit_dimension(unit))
+
+
+# ---------------------------------------------------------------------------- record
+
+
+def _array(name, value, n=None):
+    try:
+        a = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise RecordError(f"{name} must be an array of numbers ({exc})") from None
+    if a.ndim != 1:
+        raise RecordError(f"{name} must be one-dimensional, got shape {a.shape}")
+    if n is not None and a.shape[0] != n:
+        raise RecordError(f"{name} has {a.shape[0]} samples but time has {n}")
+    if not np.all(np.isfinite(a)):
+        i = int(np.flatnonzero(~np.isfinite(a))[0])
+        raise RecordError(f"{name}[{i}] is {a[i]}; every sample must be finite")
+    a.setflags(write=False)
+    return a
+
+
+def _positive(name, value):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise RecordError(f"{name} must be a number, got {value!r}") from None
+    if not (math.isfinite(v) and v > 0):
+        raise RecordError(f"{name} must be positive and finite, got {v}")
+    return v
+
+
+def _text(name, value):
+    if value is None:
+        return None
+    if not isinstance(value, str):
+        raise RecordError(f"{name} must be a string, got {type(value).__name__}")
+    if value == "" or value != value.strip() or not value.isprintable():
+        raise RecordError(
+            f"{name} must be one line of printable text without surrounding spaces, "
+            f"got {value!r}"
+        )
+    return value
+
+
+def time_step_deviation(time: np.ndarray) -> tuple[float, int, float]:
+    """(max relative deviation |dt_i - dt|/dt, index i of the worst step, mean step dt)."""
+    dt = (time[-1] - time[0]) / (time.shape[0] - 1)
+    dev = np.abs(np.diff(time) - dt) / dt
+    i = int(np.argmax(dev))
+    return float(dev[i]), i, float(dt)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Record:
+    r"""One run of the slideway, in internal units (kgf, mm, s).
+
+    - `time` (s, shape (n,), strictly increasing, uniform within `TIME_STEP_RTOL`),
+      `deflection` x (mm, shape (n,)); `force` is $kx$ in kgf.
+    - `stiffness` k (kgf/mm), `weight` W (kgf).
+    - Drive: `drive_speed` v (mm/s), `drive` (measured drive displacement u in mm at
+      `time`) or `drive_program` ((segment start s, speed mm/s), ...); at least one.
+      `drive_position(t)` gives u(t) from the first present of drive, drive_program,
+      drive_speed (`drive_source` says which).
+    - `lubricant`, `surface`, `note`: one line of text or None.
+    - `channels`: extra columns in internal units (lengths mm); `channel_units`: the
+      unit each had in the file (its dimension picks the internal unit on writing).
+    - `truth`: dict from a `# truth: {json}` header (synthetic records) or None.
+    - `source`: the file it was read from; `extra_header`: other header keys, raw text.
+
+    Arrays are read-only copies. Equality (`==`) compares the content in internal
+    units; `source` and the file units of `channel_units` (not their dimensions) are
+    presentation and are not compared.
+    """
+
+    time: np.ndarray
+    deflection: np.ndarray
+    stiffness: float
+    weight: float
+    drive_speed: float | None = None
+    drive: np.ndarray | None = None
+    drive_program: tuple[tuple[float, float], ...] | None = None
+    lubricant: str | None = None
+    surface: str | None = None
+    note: str | None = None
+    channels: dict[str, np.ndarray] = dataclasses.field(default_factory=dict)
+    channel_units: dict[str, str] = dataclasses.field(default_factory=dict)
+    truth: dict | None = None
+    source: str | None = None
+    extra_header: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        def put(name, value):
+            object.__setattr__(self, name, value)
+
+        time = _array("time", self.time)
+        n = time.shape[0]
+        if n < 2:
+            raise RecordError(f"a record needs at least two samples, got {n}")
+        steps = np.diff(time)
+        if not np.all(steps > 0):
+            i = int(np.flatnonzero(~(steps > 0))[0])
+            raise RecordError(
+                f"time must increase strictly: time[{i + 1}] = {time[i + 1]!r} s "
+                f"follows time[{i}] = {time[i]!r} s"
+            )
+        dev, i, dt = time_step_deviation(time)
+        if not dev <= TIME_STEP_RTOL:
+            raise RecordError(
+                f"time is uneven: step {i} is {steps[i]!r} s against the mean step {dt!r} s "
+                f"(relative deviation {dev:.3g} > {TIME_STEP_RTOL:g}); resample uniformly"
+            )
+        put("time", time)
+        put("deflection", _array("deflection", self.deflection, n))
+        put("stiffness", _positive("stiffness", self.stiffness))
+        put("weight", _positive("weight", self.weight))
+        if self.drive_speed is not None:
+            try:
+                v = float(self.drive_speed)
+            except (TypeError, ValueError):
+                raise RecordError(f"drive_speed must be a number, got {self.drive_speed!r}")
+            if not (math.isfinite(v) and v >= 0):
+                raise RecordError(f"drive_speed must be finite and >= 0, got {v}")
+            put("drive_speed", v)
+        if self.drive is not None:
+            put("drive", _array("drive", self.drive, n))
+        if self.drive_program is not None:
+            put("drive_program", _check_program(self.drive_program))
+        if self.drive_speed is None and self.drive is None and self.drive_program is None:
+            raise RecordError("a record needs a drive: drive_speed, drive_program or drive")
+        for name in ("lubricant", "surface", "note"):
+            put(name, _text(name, getattr(self, name)))
+        channels, units = {}, {}
+        if not isinstance(self.channels, Mapping) or not isinstance(self.channel_units, Mapping):
+            raise RecordError("channels and channel_units must be dicts keyed by column name")
+        if set(self.channels) != set(self.channel_units):
+            raise RecordError(
+                "channel_units must give the unit of every channel and no other: "
+                f"channels {sorted(self.channels)}, units {sorted(self.channel_units)}"
+            )
+        for name, values in self.channels.items():
+            if not isinstance(name, str) or not _NAME.fullmatch(name) or name in RESERVED_COLUMNS:
+                raise RecordError(
+                    f"channel name {name!r} must be an identifier (letters, digits, _) "
+                    f"other than {', '.join(RESERVED_COLUMNS)}"
+                )
+            unit = self.channel_units[name]
+            if not isinstance(unit, str) or "[" in unit or "]" in unit or "," in unit:
+                raise RecordError(f"channel {name!r}: unit {unit!r} is not a unit")
+            try:
+                unit_dimension(unit)
+            except UnitError as exc:
+                raise RecordError(f"channel {name!r}: {exc}") from None
+            channels[name] = _array(f"channel {name}", values, n)
+            units[name] = unit.strip()
+        put("channels", channels)
+        put("channel_units", units)
+        if self.truth is not None:
+            if not isinstance(self.truth, Mapping):
+                raise RecordError(f"truth must be a dict, got {type(self.truth).__name__}")
+            try:
+                json.dumps(dict(self.truth))
+            except (TypeError, ValueError) as exc:
+                raise RecordError(f"truth must be JSON-serialisable: {exc}") from None
+            put("truth", dict(self.truth))
+        if self.source is not None:
+            put("source", str(self.source))
+        extra = {}
+        for key, value in dict(self.extra_header).items():
+            if not isinstance(key, str) or not _KEY.fullmatch(key) or key in KNOWN_KEYS:
+                raise RecordError(
+                    f"extra header key {key!r} must be lowercase letters, digits, _ or - "
+                    f"and not one of {', '.join(KNOWN_KEYS)}"
+                )
+            extra[key] = _text(f"extra header {key!r}", value)
+        put("extra_header", extra)
+
+    # -- derived quantities
+    @property
+    def n_samples(self) -> int:
+        """Number of samples n."""
+        return int(self.time.shape[0])
+
+    @property
+    def sample_interval(self) -> float:
+        """Mean time step in s: (t[-1] - t[0]) / (n - 1)."""
+        return float((self.time[-1] - self.time[0]) / (self.n_samples - 1))
+
+    @property
+    def duration(self) -> float:
+        """t[-1] - t[0] in s."""
+        return float(self.time[-1] - self.time[0])
+
+    @property
+    def force(self) -> np.ndarray:
+        """Spring force k x in kgf."""
+        return self.stiffness * self.deflection
+
+    @property
+    def omega0(self) -> float:
+        r"""Natural angular frequency $\omega_0 = \sqrt{g k / W}$ in rad/s (paper section 2)."""
+        return math.sqrt(G_MM_S2 * self.stiffness / self.weight)
+
+    @property
+    def name(self) -> str | None:
+        """The file name without its extension, or None for a record not read from a file."""
+        return None if self.source is None else Path(self.source).stem
+
+    @property
+    def drive_source(self) -> str:
+        """Which field defines the drive: "column", "program" or "speed"."""
+        if self.drive is not None:
+            return "column"
+        if self.drive_program is not None:
+            return "program"
+        return "speed"
+
+    @property
+    def nominal_drive_speed(self) -> float:
+        """drive_speed if given, else the largest program speed, else the mean measured speed (mm/s)."""
+        if self.drive_speed is not None:
+            return self.drive_speed
+        if self.drive_program is not None:
+            return max(v for _, v in self.drive_program)
+        return float((self.drive[-1] - self.drive[0]) / self.duration)
+
+    def drive_position(self, t=None) -> np.ndarray:
+        """Drive displacement u in mm at times `t` (s; default the record's times).
+
+        From the `drive` column (linear interpolation, held constant outside the record),
+        else the `drive_program` (u = integral of the speed from 0 to t), else
+        u = drive_speed * t.
+        """
+        t = self.time if t is None else np.asarray(t, dtype=np.float64)
+        if self.drive is not None:
+            return np.interp(t, self.time, self.drive)
+        if self.drive_program is not None:
+            return program_position(self.drive_program, t)
+        return self.drive_speed * t
+
+    def drive_velocity(self, t=None) -> np.ndarray:
+        """Drive speed du/dt in mm/s at times `t` (s; default the record's times)."""
+        t = self.time if t is None else np.asarray(t, dtype=np.float64)
+        if self.drive is not None:
+            return np.interp(t, self.time, np.gradient(self.drive, self.time))
+        if self.drive_program is not None:
+            return program_speed(self.drive_program, t)
+        return np.full_like(t, self.drive_speed, dtype=np.float64)
+
+    def replace(self, **changes) -> Record:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def __eq__(self, other):
+        if not isinstance(other, Record):
+            return NotImplemented
+
+        def same(a, b):
+            if a is None or b is None:
+                return a is None and b is None
+            return np.array_equal(a, b)
+
+        return (
+            same(self.time, other.time)
+            and same(self.deflection, other.deflection)
+            and same(self.drive, other.drive)
+            and self.stiffness == other.stiffness
+            and self.weight == other.weight
+            and self.drive_speed == other.drive_speed
+            and self.drive_program == other.drive_program
+            and (self.lubricant, self.surface, self.note)
+            == (other.lubricant, other.surface, other.note)
+            and self.channels.keys() == other.channels.keys()
+            and all(same(v, other.channels[k]) for k, v in self.channels.items())
+            and all(
+                unit_dimension(u) == unit_dimension(other.channel_units[k])
+                for k, u in self.channel_units.items()
+            )
+            and self.truth == other.truth
+            and self.extra_header == other.extra_header
+        )
+
+    __hash__ = None
+
+
+def _check_program(program) -> tuple[tuple[float, float], ...]:
+    try:
+        segs = tuple((float(s), float(v)) for s, v in program)
+    except (TypeError, ValueError):
+        raise RecordError(
+            f"drive_program must be ((start s, speed mm/s), ...), got {program!r}"
+        ) from None
+    if not segs:
+        raise RecordError("drive_program needs at least one segment")
+    for s, v in segs:
+        if not (math.isfinite(s) and math.isfinite(v)):
+            raise RecordError(f"drive_program segment ({s}, {v}) is not finite")
+        if v < 0:
+            raise RecordError(f"drive_program speed {v} mm/s is negative; use 0 for a hold")
+    for (s0, _), (s1, _) in zip(segs, segs[1:]):
+        if not s1 > s0:
+            raise RecordError(f"drive_program start times must increase: {s1} s follows {s0} s")
+    return segs
+
+
+def program_speed(program, t) -> np.ndarray:
+    """Drive speed (mm/s) of a program ((start s, speed mm/s), ...) at times t (s); 0 before it."""
+    t = np.asarray(t, dtype=np.float64)
+    starts = np.array([s for s, _ in program])
+    speeds = np.array([0.0] + [v for _, v in program])
+    return speeds[np.searchsorted(starts, t, side="right")]
+
+
+def program_position(program, t) -> np.ndarray:
+    """Drive displacement u(t) = integral_0^t v(s) ds (mm) of a program, at times t (s)."""
+    t = np.asarray(t, dtype=np.float64)
+    starts = [s for s, _ in program]
+    ends = starts[1:] + [np.inf]
+    u = np.zeros_like(t)
+    for (s, v), e in zip(program, ends):
+        u = u + v * (np.clip(t, s, e) - np.clip(0.0, s, e))
+    return u
+
+
+# ---------------------------------------------------------------------------- reading
+
+
+def _read_bytes(path: Path, max_bytes: int) -> bytes:
+    try:
+        if not path.exists():
+            raise RecordError("no such file; check the path", path)
+        if path.is_dir():
+            raise RecordError("is a directory, not a record file (use read_campaign)", path)
+        size = path.stat().st_size
+        if size > max_bytes:
+            raise RecordError(
+                f"file is {size / 1e6:.1f} MB, over the {max_bytes / 1e6:.0f} MB limit; "
+                "split the run into several records or decimate it",
+                path,
+            )
+        with open(path, "rb") as fh:
+            data = fh.read(max_bytes + 1)
+    except OSError as exc:
+        raise RecordError(f"cannot read the file: {exc.strerror or exc}", path) from None
+    if len(data) > max_bytes:
+        raise RecordError(f"file is over the {max_bytes / 1e6:.0f} MB limit", path)
+    return data
+
+
+def _decode(data: bytes, path) -> str:
+    if data.startswith(b"\xef\xbb\xbf"):
+        data = data[3:]
+    nul = data.find(b"\x00")
+    if nul >= 0:
+        raise RecordError(
+            f"binary file (NUL byte at offset {nul}); a record is UTF-8 CSV text",
+            path,
+            data.count(b"\n", 0, nul) + 1,
+        )
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise RecordError(
+            f"not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
+            "save the file as UTF-8",
+            path,
+            data.count(b"\n", 0, exc.start) + 1,
+        ) from None
+    return text
+
+
+def _lines(text: str, path) -> list[str]:
+    lines = text.split("\n")
+    for i, line in enumerate(lines):
+        if "\r" in line.rstrip("\r"):
+            raise RecordError(
+                "bare carriage return inside a line; use \\n (or \\r\\n) line ends", path, i + 1
+            )
+        lines[i] = line.rstrip("\r")
+    return lines
+
+
+def _quantity(text: str, dimension: str, key: str, path, line: int) -> float:
+    m = _QUANTITY.fullmatch(text)
+    if m is None:
+        raise RecordError(
+            f"{key}: cannot read 'number unit' from {text.strip()!r}; "
+            f"write e.g. '{key}: 1.5 {INTERNAL_UNIT[dimension]}'",
+            path,
+            line,
+        )
+    value, unit = float(m.group(1)), m.group(2)
+    if unit == "":
+        raise RecordError(
+            f"{key}: {text.strip()!r} has no unit; add one of {_unit_choices(dimension)}",
+            path,
+            line,
+        )
+    try:
+        f = factor(unit, dimension)
+    except UnitError:
+        raise RecordError(
+            f"{key}: unknown {dimension} unit {unit!r}; use one of {_unit_choices(dimension)}",
+            path,
+            line,
+        ) from None
+    if not math.isfinite(value):
+        raise RecordError(f"{key}: {m.group(1)!r} is out of range", path, line)
+    return value * f
+
+
+def _parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]:
+    segs = []
+    hint = "write e.g. 'drive_program: 0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min'"
+    for part in text.split(";"):
+        m = _SEGMENT.fullmatch(part)
+        if m is None:
+            raise RecordError(
+                f"drive_program: cannot read segment {part.strip()!r} as "
+                f"'start-time unit speed unit'; {hint}",
+                path,
+                line,
+            )
+        try:
+            start = float(m.group(1)) * factor(m.group(2), "time")
+        except UnitError:
+            raise RecordError(
+                f"drive_program: unknown time unit {m.group(2)!r}; use one of "
+                f"{_unit_choices('time')}",
+                path,
+                line,
+            ) from None
+        try:
+            speed = float(m.group(3)) * factor(m.group(4), "speed")
+        except UnitError:
+            raise RecordError(
+                f"drive_program: unknown speed unit {m.group(4)!r}; use one of "
+                f"{_unit_choices('speed')}",
+                path,
+                line,
+            ) from None
+        segs.append((start, speed))
+    try:
+        return _check_program(segs)
+    except RecordError as exc:
+        raise RecordError(f"{exc.reason}; {hint}", path, line) from None
+
+
+def _text_value(key, value, path, line):
+    if value == "":
+        raise RecordError(f"{key}: empty value; give a value or delete the line", path, line)
+    if not value.isprintable():
+        raise RecordError(f"{key}: the value has control characters; remove them", path, line)
+    return value
+
+
+def _cell_problem(cell: str, column: str) -> str:
+    c = cell.strip()
+    if c == "":
+        return f"empty cell in column {column!r}; every sample needs a value"
+    if c.lower() in _NONFINITE:
+        return f"{c} in column {column!r}; every value must be finite: remove or fill the sample"
+    if "," in c:
+        return f"{c!r} in column {column!r} is not a number"
+    return f"{c[:40]!r} in column {column!r} is not a number; use '.' as the decimal point"
+
+
+def _parse_data(lines, start, columns, path):
+    ncol = len(columns)
+    cell = rf"\s*{_NUM}\s*"
+    row_re = re.compile(cell + (rf",{cell}" * (ncol - 1)))
+    rows, numbers = [], []
+    fullmatch = row_re.fullmatch
+    for i in range(start, len(lines)):
+        line = lines[i]
+        if fullmatch(line):
+            rows.append(i + 1)
+            numbers.append(line.split(","))
+            continue
+        if line.strip() == "":
+            continue
+        if line.lstrip().startswith("#"):
+            raise RecordError(
+                "header line after the column row; move every '# key: value' line above it",
+                path,
+                i + 1,
+            )
+        cells = line.split(",")
+        if len(cells) != ncol:
+            hint = " (a decimal comma? use '.' for decimals)" if len(cells) > ncol else ""
+            raise RecordError(
+                f"{len(cells)} cells but the column row has {ncol} "
+                f"({', '.join(columns)}){hint}",
+                path,
+                i + 1,
+            )
+        for c, name in zip(cells, columns):
+            if not _NUMBER.fullmatch(c.strip()):
+                raise RecordError(_cell_problem(c, name), path, i + 1)
+        raise RecordError("cannot read this row", path, i + 1)  # pragma: no cover
+    if not numbers:
+        return np.zeros((0, ncol)), rows
+    with np.errstate(over="ignore"):
+        data = np.array(numbers, dtype=np.float64)
+    if not np.all(np.isfinite(data)):
+        r, c = np.argwhere(~np.isfinite(data))[0]
+        raise RecordError(
+            f"{numbers[r][c].strip()!r} in column {columns[c]!r} is out of the float range",
+            path,
+            rows[r],
+        )
+    return data, rows
+
+
+def _decimals(text: str) -> float:
+    """Resolution of a written number: 10**-(decimals) scaled by its exponent."""
+    t = text.strip().lower()
+    mant, _, exp = t.partition("e")
+    d = len(mant.partition(".")[2])
+    return 10.0 ** (int(exp or 0) - d)
+
+
+def parse_record(text: str, source=None) -> Record:
+    """Parse the text of a record file; `source` names it in errors and in `Record.source`."""
+    path = "<text>" if source is None else str(source)
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    if text.strip() == "":
+        raise RecordError("file is empty; a record starts with '# stickslip-record: 1'", path)
+    if "\x00" in text:
+        raise RecordError("binary content (NUL character); a record is UTF-8 CSV text", path)
+    lines = _lines(text, path)
+    m = _HEADER.fullmatch(lines[0].strip())
+    if m is None or m.group(1) != "stickslip-record":
+        raise RecordError(
+            f"the first line must be '# stickslip-record: {FORMAT_VERSION}', "
+            f"got {lines[0][:60]!r}",
+            path,
+            1,
+        )
+    # header lines
+    header: dict[str, tuple[str, int]] = {}
+    i = 0
+    while i < len(lines):
+        line = lines[i].strip()
+        if line == "":
+            i += 1
+            continue
+        if not line.startswith("#"):
+            break
+        m = _HEADER.fullmatch(line)
+        if m is None:
+            raise RecordError(
+                f"header line {line[:60]!r} is not '# key: value'; "
+                "put free text in '# note: ...'",
+                path,
+                i + 1,
+            )
+        key, value = m.group(1), m.group(2).strip()
+        if not _KEY.fullmatch(key):
+            raise RecordError(
+                f"header key {key!r} must be lowercase: write '{key.lower()}'", path, i + 1
+            )
+        if key in header:
+            raise RecordError(
+                f"{key} given twice (also at line {header[key][1]}); keep one", path, i + 1
+            )
+        header[key] = (value, i + 1)
+        i += 1
+    version = header["stickslip-record"][0]
+    if version != FORMAT_VERSION:
+        raise RecordError(
+            f"unsupported format version {version!r}; this reader knows "
+            f"'stickslip-record: {FORMAT_VERSION}'",
+            path,
+            header["stickslip-record"][1],
+        )
+    if i >= len(lines):
+        raise RecordError(
+            "no column row after the header; add e.g. 'time [s],deflection [mm]' and the data",
+            path,
+            len(lines),
+        )
+    column_line = i + 1
+    columns, units = [], []
+    for cell in lines[i].split(","):
+        cm = _COLUMN.fullmatch(cell)
+        if cm is None:
+            raise RecordError(
+                f"column {cell.strip()[:40]!r} must be 'name [unit]' "
+                "(e.g. 'time [s]', '[-]' for a pure number)",
+                path,
+                column_line,
+            )
+        name, unit = cm.group(1), cm.group(2).strip()
+        if name in columns:
+            raise RecordError(f"column {name!r} appears twice", path, column_line)
+        columns.append(name)
+        units.append(unit)
+    col = dict(zip(columns, units))
+    dims = {"time": "time", "deflection": "length", "force": "force", "drive": "length"}
+    factors = []
+    for name, unit in zip(columns, units):
+        if name in dims:
+            try:
+                factors.append(factor(unit, dims[name]))
+            except UnitError:
+                raise RecordError(
+                    f"column {name!r}: unknown {dims[name]} unit {unit!r}; use one of "
+                    f"{_unit_choices(dims[name])}",
+                    path,
+                    column_line,
+                ) from None
+        else:
+            try:
+                factors.append(_channel_factor(unit))
+            except UnitError:
+                raise RecordError(
+                    f"column {name!r}: unknown unit {unit!r}; use a unit of length, time, "
+                    "force, speed, ... (e.g. um) or '-' for a pure number",
+                    path,
+                    column_line,
+                ) from None
+    if "time" not in col:
+        raise RecordError(
+            f"no 'time [s]' column (columns: {', '.join(columns)})", path, column_line
+        )
+    if ("deflection" in col) == ("force" in col):
+        what = "both" if "deflection" in col else "neither"
+        raise RecordError(
+            f"{what} of 'deflection' and 'force' columns; give exactly one", path, column_line
+        )
+    # required header keys
+    def need(key, how):
+        if key not in header:
+            raise RecordError(f"missing header line '# {key}: {how}'", path, column_line)
+        return header[key]
+
+    k_text, k_line = need("stiffness", "86.9 kgf/mm")
+    stiffness = _quantity(k_text, "stiffness", "stiffness", path, k_line)
+    if not stiffness > 0:
+        raise RecordError("stiffness must be positive", path, k_line)
+    if "slider_weight" in header and "slider_mass" in header:
+        raise RecordError(
+            "both slider_weight and slider_mass given; keep one",
+            path,
+            header["slider_mass"][1],
+        )
+    if "slider_mass" in header:
+        m_text, w_line = header["slider_mass"]
+        mm = _QUANTITY.fullmatch(m_text)
+        if mm is not None and mm.group(2).strip() == "kg":
+            weight = float(mm.group(1))  # 1 kg weighs 1 kgf (W = m g, standard gravity)
+        else:
+            weight = _quantity(m_text, "mass", "slider_mass", path, w_line) * G_MM_S2
+    else:
+        w_text, w_line = need("slider_weight", "36.0 kgf")
+        weight = _quantity(w_text, "force", "slider_weight", path, w_line)
+    if not (math.isfinite(weight) and weight > 0):
+        raise RecordError("slider weight must be positive and finite", path, w_line)
+    drive_speed = None
+    if "drive_speed" in header:
+        v_text, v_line = header["drive_speed"]
+        drive_speed = _quantity(v_text, "speed", "drive_speed", path, v_line)
+        if drive_speed < 0:
+            raise RecordError("drive_speed must be >= 0", path, v_line)
+    program = None
+    if "drive_program" in header:
+        program = _parse_program(header["drive_program"][0], path, header["drive_program"][1])
+    if drive_speed is None and program is None and "drive" not in col:
+        raise RecordError(
+            "no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line "
+            "or a 'drive [mm]' column",
+            path,
+            column_line,
+        )
+    texts = {}
+    for key in ("lubricant", "surface", "note"):
+        if key in header:
+            texts[key] = _text_value(key, header[key][0], path, header[key][1])
+    truth = None
+    if "truth" in header:
+        t_text, t_line = header["truth"]
+        try:
+            truth = json.loads(t_text)
+        except (ValueError, RecursionError) as exc:
+            raise RecordError(f"truth: not valid JSON ({str(exc)[:80]})", path, t_line) from None
+        if not isinstance(truth, dict):
+            raise RecordError("truth: must be a JSON object {...}", path, t_line)
+    extra = {}
+    for key, (value, line) in header.items():
+        if key not in KNOWN_KEYS:
+            extra[key] = _text_value(key, value, path, line)
+    # data
+    data, rows = _parse_data(lines, i + 1, columns, path)
+    if data.shape[0] < 2:
+        raise RecordError(
+            f"{data.shape[0]} data row(s); a record needs at least two samples",
+            path,
+            rows[-1] if rows else column_line,
+        )
+    with np.errstate(over="ignore", invalid="ignore"):
+        data = data * np.array(factors)
+    if not np.all(np.isfinite(data)):
+        r, c = np.argwhere(~np.isfinite(data))[0]
+        raise RecordError(
+            f"column {columns[c]!r} overflows after unit conversion", path, rows[r]
+        )
+    j = columns.index("time")
+    time = data[:, j]
+    steps = np.diff(time)
+    bad = np.flatnonzero(~(steps > 0))
+    if bad.size:
+        r = int(bad[0])
+        raise RecordError(
+            f"time does not increase: {time[r + 1]!r} s after {time[r]!r} s "
+            f"(line {rows[r]}); sort the rows and remove duplicates",
+            path,
+            rows[r + 1],
+        )
+    dev, r, dt = time_step_deviation(time)
+    if not dev <= TIME_STEP_RTOL:
+        msg = (
+            f"time is uneven: the step to this line is {steps[r]:.6g} s against the mean "
+            f"step {dt:.6g} s (relative deviation {dev:.3g}, tolerance {TIME_STEP_RTOL:g}); "
+        )
+        cells = [lines[rows[r] - 1].split(",")[j], lines[rows[r + 1] - 1].split(",")[j]]
+        resolution = max(_decimals(c) for c in cells) * factors[j]
+        if abs(steps[r] - dt) <= 1.01 * resolution:
+            msg += "the time stamps are rounded too coarsely: write them with more digits"
+        else:
+            msg += "resample the run to a uniform step (or split it at the gap)"
+        raise RecordError(msg, path, rows[r + 1])
+    k = stiffness
+    if "deflection" in col:
+        deflection = data[:, columns.index("deflection")]
+    else:
+        deflection = data[:, columns.index("force")] / k
+    drive = data[:, columns.index("drive")] if "drive" in col else None
+    channels = {
+        name: data[:, c] for c, name in enumerate(columns) if name not in RESERVED_COLUMNS
+    }
+    channel_units = {name: col[name] for name in channels}
+    try:
+        return Record(
+            time=time,
+            deflection=deflection,
+            stiffness=stiffness,
+            weight=weight,
+            drive_speed=drive_speed,
+            drive=drive,
+            drive_program=program,
+            lubricant=texts.get("lubricant"),
+            surface=texts.get("surface"),
+            note=texts.get("note"),
+            channels=channels,
+            channel_units=channel_units,
+            truth=truth,
+            source=None if source is None else str(source),
+            extra_header=extra,
+        )
+    except RecordError as exc:
+        raise RecordError(exc.reason, path) from None
+
+
+def read_record(path, *, max_bytes: int = MAX_FILE_BYTES) -> Record:
+    """Read one record file (format in this module's docstring); raises `RecordError`."""
+    path = Path(path)
+    text = _decode(_read_bytes(path, max_bytes), path)
+    return parse_record(text, source=path)
+
+
+# ---------------------------------------------------------------------------- writing
+
+
+def _encode(values: np.ndarray, f: float) -> np.ndarray:
+    """Values to write in a unit of factor f, chosen so that reading (y * f) gives them back
+    exactly whenever some float y does; otherwise within one unit in the last place."""
+    values = np.asarray(values, dtype=np.float64)
+    if f == 1.0:
+        return values
+    y = values / f
+    for direction in (np.inf, -np.inf):
+        cand = np.nextafter(y, direction)
+        ok = (y * f != values) & (cand * f == values)
+        y = np.where(ok, cand, y)
+    return y
+
+
+def _fmt(x: float) -> str:
+    return repr(float(x))
+
+
+def format_record(
+    record: Record,
+    deflection_unit: str = "mm",
+    time_unit: str = "s",
+    *,
+    force_unit: str | None = None,
+    drive_unit: str = "mm",
+    channel_units: Mapping[str, str] | str | None = None,
+) -> str:
+    """The text of a record file. See `write_record`."""
+    if not isinstance(record, Record):
+        raise TypeError(f"format_record needs a Record, got {type(record).__name__}")
+    try:
+        f_time = factor(time_unit, "time")
+        f_defl = factor(deflection_unit, "length")
+        f_drive = factor(drive_unit, "length")
+        f_force = None if force_unit is None else factor(force_unit, "force")
+    except UnitError as exc:
+        raise RecordError(f"write_record: {exc}") from None
+    if channel_units is None:
+        ch_units = {n: INTERNAL_UNIT[unit_dimension(u)] for n, u in record.channel_units.items()}
+    elif channel_units == "original":
+        ch_units = dict(record.channel_units)
+    else:
+        ch_units = {n: INTERNAL_UNIT[unit_dimension(u)] for n, u in record.channel_units.items()}
+        for n, u in dict(channel_units).items():
+            if n not in ch_units:
+                raise RecordError(f"write_record: no channel {n!r}")
+            if unit_dimension(u) != unit_dimension(record.channel_units[n]):
+                raise RecordError(
+                    f"write_record: channel {n!r} unit {u!r} is not a "
+                    f"{unit_dimension(record.channel_units[n])} unit"
+                )
+            ch_units[n] = u
+    out = [f"# stickslip-record: {FORMAT_VERSION}"]
+    out.append(f"# stiffness: {_fmt(record.stiffness)} kgf/mm")
+    out.append(f"# slider_weight: {_fmt(record.weight)} kgf")
+    if record.drive_speed is not None:
+        out.append(f"# drive_speed: {_fmt(record.drive_speed)} mm/s")
+    if record.drive_program is not None:
+        segs = "; ".join(f"{_fmt(s)} s {_fmt(v)} mm/s" for s, v in record.drive_program)
+        out.append(f"# drive_program: {segs}")
+    for key in ("lubricant", "surface", "note"):
+        value = getattr(record, key)
+        if value is not None:
+            out.append(f"# {key}: {value}")
+    if record.truth is not None:
+        out.append(f"# truth: {json.dumps(record.truth)}")
+    for key, value in record.extra_header.items():
+        out.append(f"# {key}: {value}")
+    names = ["time"]
+    cols = [_encode(record.time, f_time)]
+    heads = [f"time [{time_unit}]"]
+    if f_force is None:
+        cols.append(_encode(record.deflection, f_defl))
+        heads.append(f"deflection [{deflection_unit}]")
+    else:
+        cols.append(record.force / f_force)
+        heads.append(f"force [{force_unit}]")
+    names.append("x")
+    if record.drive is not None:
+        cols.append(_encode(record.drive, f_drive))
+        heads.append(f"drive [{drive_unit}]")
+    for n, values in record.channels.items():
+        u = ch_units[n]
+        cols.append(_encode(values, _channel_factor(u)))
+        heads.append(f"{n} [{u}]")
+    out.append(",".join(heads))
+    table = np.column_stack(cols)
+    out.extend(",".join(map(repr, row)) for row in table.tolist())
+    return "\n".join(out) + "\n"
+
+
+def write_record(
+    record: Record,
+    path,
+    deflection_unit: str = "mm",
+    time_unit: str = "s",
+    *,
+    force_unit: str | None = None,
+    drive_unit: str = "mm",
+    channel_units: Mapping[str, str] | str | None = None,
+) -> Path:
+    """Write `record` to `path` (UTF-8 CSV, format in this module's docstring).
+
+    Header quantities are written in internal units (kgf/mm, kgf, mm/s) and every
+    number with `repr` precision, so reading the file gives the record back exactly
+    (`read_record(p) == record`). Columns are written in `deflection_unit`, `time_unit`,
+    `drive_unit` and, per channel, `channel_units` (default: the internal unit of each
+    channel's dimension; `"original"`: the units in `record.channel_units`; or a dict
+    of some of them); in other units than mm and s a value comes back exactly whenever
+    a float exists that does so, else within one unit in the last place. With
+    `force_unit` a `force` column k x replaces the deflection (read back as F/k, within
+    rounding). Returns the path.
+    """
+    text = format_record(
+        record,
+        deflection_unit,
+        time_unit,
+        force_unit=force_unit,
+        drive_unit=drive_unit,
+        channel_units=channel_units,
+    )
+    path = Path(path)
+    with open(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(text)
+    return path
+
+
+# ---------------------------------------------------------------------------- campaigns
+
+
+def _expand(spec) -> list[Path]:
+    if isinstance(spec, (str, os.PathLike)):
+        p = Path(spec)
+        if p.is_dir():
+            files = sorted(q for q in p.glob("*.csv") if q.is_file())
+            if not files:
+                raise RecordError("directory has no *.csv record files", p)
+            return files
+        if p.exists():
+            return [p]
+        if any(ch in str(spec) for ch in "*?["):
+            files = sorted(Path(q) for q in _glob.glob(str(spec)) if Path(q).is_file())
+            if not files:
+                raise RecordError("no file matches this pattern", spec)
+            return files
+        raise RecordError("no such file or directory; check the path", spec)
+    if isinstance(spec, Iterable):
+        out = []
+        for item in spec:
+            if not isinstance(item, (str, os.PathLike)):
+                raise RecordError(f"campaign entries must be paths, got {item!r}")
+            out.extend(_expand(item))
+        return out
+    raise RecordError(f"a campaign is a path, a glob or a list of them, got {spec!r}")
+
+
+def read_campaign(spec, *, max_bytes: int = MAX_FILE_BYTES) -> list[Record]:
+    """Read a campaign: a file, a directory (its *.csv, sorted), a glob, or a list of these.
+
+    Files are returned in the order given (sorted within a directory or glob); a file
+    named twice is an error. Raises `RecordError` for the first bad file.
+    """
+    files = _expand(spec)
+    if not files:
+        raise RecordError("the campaign is empty; give at least one record file")
+    seen = {}
+    for f in files:
+        key = os.path.realpath(f)
+        if key in seen:
+            raise RecordError(f"named twice in the campaign (also as {seen[key]})", f)
+        seen[key] = str(f)
+    return [read_record(f, max_bytes=max_bytes) for f in files]
+
+
+def check_campaign(
+    records, *, same: Iterable[str] = ("lubricant", "surface"), strict: bool = True
+) -> list[str]:
+    """Problems with fitting `records` together: a field of `same` that differs between them.
+
+    A field missing (None) in some records but given in others is a problem too. Returns
+    the list of messages (empty when fine); with `strict` raises `RecordError` instead
+    when there is any.
+    """
+    records = list(records)
+    problems = []
+    for field in same:
+        groups: dict[object, list[str]] = {}
+        for i, r in enumerate(records):
+            value = getattr(r, field)
+            groups.setdefault(value, []).append(r.name or f"record {i}")
+        if len(groups) > 1:
+            parts = "; ".join(
+                f"{'not given' if v is None else repr(v)} in {', '.join(n)}"
+                for v, n in groups.items()
+            )
+            problems.append(
+                f"the campaign mixes {field}s ({parts}); fit records of one {field} together"
+            )
+    if strict and problems:
+        raise RecordError(" | ".join(problems))
+    return problems
