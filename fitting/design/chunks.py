@@ -1,0 +1,117 @@
+r"""Stream a large batch through a jitted kernel in fixed-size, sharded chunks.
+
+`map_chunks(kernel, batch, shape)` evaluates ``kernel(chunk, shared)`` on chunks of
+``chunk_size`` points. The batch leaves are NumPy arrays that only need to
+*broadcast* to `shape` (an outer grid of W, k and v costs no memory: rows of a chunk
+are gathered from the broadcast views by flat index), so a map can be far larger
+than memory as long as the consumer of the chunks keeps up (write them to disk, or
+reduce them). Every chunk has the same padded shape, so the kernel compiles once;
+chunk ``i + 1`` is dispatched before chunk ``i`` is copied back, so device work and
+host transfers overlap. Chunks are split over all devices by
+`fitting.design.sharding`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterator
+
+import equinox as eqx
+import jax
+import numpy as np
+
+from .sharding import batch_mesh, pad_batch, padded_size, replicate, shard_batch, to_host
+
+
+def gather_rows(batch, shape: tuple[int, ...], start: int, stop: int):
+    """Rows `start:stop` of the flattened broadcast of every leaf of `batch` to `shape`."""
+    idx = np.unravel_index(np.arange(start, stop), shape) if shape else ()
+
+    def take(x):
+        x = np.broadcast_to(np.asarray(x), shape)
+        return x[idx] if shape else np.broadcast_to(x, (stop - start,))
+
+    return jax.tree_util.tree_map(take, batch)
+
+
+def _progress(total: int, enabled: bool, desc: str):
+    if not enabled:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=desc, unit="pt", unit_scale=True, leave=False)
+
+
+def map_chunks(
+    kernel: Callable,
+    batch,
+    shape: tuple[int, ...],
+    *,
+    shared=None,
+    chunk_size: int = 65_536,
+    mesh=None,
+    progress: bool = False,
+    desc: str = "design map",
+) -> Iterator[tuple[int, int, object]]:
+    """Yield ``(start, stop, result)`` for consecutive chunks of the flattened batch.
+
+    `kernel(chunk, shared)` must be vmapped over the leading axis of `chunk` and return
+    a pytree of arrays with that leading axis; it is wrapped in `eqx.filter_jit`
+    (pass the same kernel object to reuse its compilation). `result` holds NumPy
+    arrays of ``stop - start`` rows. `mesh` defaults to all devices
+    (`sharding.batch_mesh`); `chunk_size` is rounded up to a multiple of the device count.
+    """
+    shape = tuple(int(s) for s in shape)
+    total = math.prod(shape)
+    if total == 0:
+        return
+    if chunk_size < 1:
+        raise ValueError(f"chunk_size must be >= 1, got {chunk_size}")
+    mesh = batch_mesh() if mesh is None else mesh
+    size = padded_size(min(chunk_size, total), mesh.size)
+    fn = _jitted(kernel)
+    shared_dev = replicate(shared, mesh) if shared is not None else None
+    bar = _progress(total, progress, desc)
+
+    def dispatch(start):
+        stop = min(start + size, total)
+        rows = pad_batch(gather_rows(batch, shape, start, stop), size)
+        return start, stop, fn(shard_batch(rows, mesh), shared_dev)
+
+    pending = dispatch(0)
+    try:
+        while pending is not None:
+            start, stop, out = pending
+            pending = dispatch(stop) if stop < total else None
+            host = jax.tree_util.tree_map(lambda x: to_host(x)[: stop - start], out)
+            if bar is not None:
+                bar.update(stop - start)
+            yield start, stop, host
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+_JIT_CACHE: dict = {}
+
+
+def _jitted(kernel):
+    fn = _JIT_CACHE.get(kernel)
+    if fn is None:
+        fn = _JIT_CACHE[kernel] = eqx.filter_jit(kernel)
+    return fn
+
+
+def collect(chunks: Iterator[tuple[int, int, object]], shape: tuple[int, ...]):
+    """Assemble the chunks of `map_chunks` into one pytree of NumPy arrays of `shape`."""
+    total = math.prod(shape)
+    out = None
+    for start, stop, res in chunks:
+        if out is None:
+            out = jax.tree_util.tree_map(
+                lambda x: np.empty((total,) + x.shape[1:], dtype=x.dtype), res
+            )
+        jax.tree_util.tree_map(lambda o, x: o.__setitem__(slice(start, stop), x), out, res)
+    if out is None:
+        raise ValueError("empty map: every axis needs at least one point")
+    return jax.tree_util.tree_map(lambda o: o.reshape(tuple(shape) + o.shape[1:]), out)

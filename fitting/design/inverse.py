@@ -1,0 +1,154 @@
+r"""Inverse design through the steady analysis: the stiffest-free / heaviest-allowed drive.
+
+Corrected eq (12) gives the critical speed $v_c(W, k)$ (mm/s), which falls
+monotonically with the stiffness $k$ and rises with the weight $W$; eqs (5)-(7) give
+the stick-slip amplitude $a(W, k, v)$ (mm), which falls with $k$ and rises with $W$
+wherever $v < v_c$. At a feed rate $v$:
+
+- `minimum_stiffness(friction, W, v)`: the smallest $k$ with $v_c(W, k) \le v$ (smooth
+  sliding at the feed); with ``amplitude_tolerance=tol`` the smallest $k$ for which
+  either the sliding is smooth or $a \le$ tol.
+- `maximum_weight(friction, k, v)`: the largest $W$ with $v_c \le v$, or with
+  ``amplitude_tolerance`` the largest $W$ with smooth sliding or $a \le$ tol.
+
+Both solve $\log v_c = \log v$ (or $\log a = \log \mathrm{tol}$) in $\log k$ / $\log W$
+with `optimistix.Newton`, whose derivative is the derivative of the steady analysis
+(itself through the implicit function theorem of the eq (6) root find); the answer
+is differentiable in the friction parameters, W, k and v in turn.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import optimistix as optx
+from jaxtyping import Array, Bool, Float
+
+from stickslip_jax import Friction, critical_speed, slip_time, steady_state
+
+_LOG_MIN, _LOG_MAX = jnp.log(1e-6), jnp.log(1e9)
+_EDGE = 1e-9
+
+
+class InverseDesign(eqx.Module):
+    r"""Answer of an inverse design at one feed rate.
+
+    `value`: the stiffness (kgf/mm) or weight (kgf) found; `critical_speed` v_c (mm/s)
+    and `amplitude` a (mm, 0 if smooth) at that design and the feed rate;
+    `limited_by_amplitude`: True when the amplitude tolerance, not smooth sliding,
+    set the answer; `result`: optimistix result code of the Newton solves.
+    """
+
+    value: Float[Array, ""]
+    critical_speed: Float[Array, ""]
+    amplitude: Float[Array, ""]
+    limited_by_amplitude: Bool[Array, ""]
+    result: optx.RESULTS
+
+
+def _newton(fn, u0, args, lower, upper, rtol):
+    solver = optx.Newton(rtol=rtol, atol=rtol)
+    return optx.root_find(fn, solver, u0, args=args, max_steps=100, throw=False,
+                          options=dict(lower=lower, upper=upper))
+
+
+def _log_vc_k(u, args):
+    friction, weight, log_v = args
+    return jnp.log(critical_speed(friction, weight, jnp.exp(u))) - log_v
+
+
+def _log_vc_w(u, args):
+    friction, stiffness, log_v = args
+    return jnp.log(critical_speed(friction, jnp.exp(u), stiffness)) - log_v
+
+
+def _log_a_k(u, args):
+    friction, weight, speed, log_tol = args
+    return jnp.log(steady_state(friction, weight, jnp.exp(u), speed).amplitude) - log_tol
+
+
+def _log_a_w(u, args):
+    friction, stiffness, speed, log_tol = args
+    return jnp.log(steady_state(friction, jnp.exp(u), stiffness, speed).amplitude) - log_tol
+
+
+def _check(friction, x, name):
+    if not isinstance(friction, Friction):
+        raise ValueError(f"friction must be a Friction, got {type(friction)}")
+    x = jnp.asarray(x, dtype=float)
+    if x.ndim:
+        raise ValueError(f"{name} must be a scalar; use jax.vmap for many designs")
+    return eqx.error_if(x, ~(x > 0), f"{name} must be positive")
+
+
+def _answer(friction, weight, stiffness, feed, by_amp, results):
+    s = steady_state(friction, weight, stiffness, feed)
+    result = results[0]
+    for r in results[1:]:
+        result = optx.RESULTS.where(result == optx.RESULTS.successful, r, result)
+    return s.critical_speed, s.amplitude, by_amp, result
+
+
+@eqx.filter_jit
+def minimum_stiffness(
+    friction: Friction,
+    weight,
+    feed,
+    amplitude_tolerance=None,
+    rtol: float = 1e-12,
+) -> InverseDesign:
+    r"""Smallest stiffness k (kgf/mm) that stops stick-slip at feed `feed` (mm/s) for a
+    slider of `weight` W (kgf), or that keeps its amplitude under `amplitude_tolerance`
+    (mm). Corrected eq (12) and eqs (5)-(7).
+    """
+    weight = _check(friction, weight, "weight W")
+    feed = _check(friction, feed, "feed rate v")
+    log_v = jnp.log(feed)
+    sol_c = _newton(_log_vc_k, jnp.log(100.0), (friction, weight, log_v), _LOG_MIN, _LOG_MAX, rtol)
+    u_c = sol_c.value
+    if amplitude_tolerance is None:
+        k = jnp.exp(u_c)
+        vc, amp, by_amp, res = _answer(friction, weight, k, feed, jnp.asarray(False), [sol_c.result])
+        return InverseDesign(k, vc, amp, by_amp, res)
+    tol = _check(friction, amplitude_tolerance, "amplitude_tolerance")
+    # Just below k_c the stick time equals the slip time, eq (5): a = v T0 / 2.
+    a_edge = 0.5 * feed * slip_time(weight, jnp.exp(u_c))
+    by_amp = tol >= a_edge
+    sol_a = _newton(_log_a_k, u_c - _EDGE, (friction, weight, feed, jnp.log(tol)),
+                    _LOG_MIN, u_c - _EDGE, rtol)
+    k = jnp.exp(jnp.where(by_amp, sol_a.value, u_c))
+    res_a = optx.RESULTS.where(by_amp, sol_a.result, optx.RESULTS.successful)
+    vc, amp, by_amp, res = _answer(friction, weight, k, feed, by_amp, [sol_c.result, res_a])
+    return InverseDesign(k, vc, amp, by_amp, res)
+
+
+@eqx.filter_jit
+def maximum_weight(
+    friction: Friction,
+    stiffness,
+    feed,
+    amplitude_tolerance=None,
+    rtol: float = 1e-12,
+) -> InverseDesign:
+    r"""Largest slider weight W (kgf) that slides smoothly at feed `feed` (mm/s) on a
+    drive of `stiffness` k (kgf/mm), or whose stick-slip amplitude stays under
+    `amplitude_tolerance` (mm). Corrected eq (12) and eqs (5)-(7).
+    """
+    stiffness = _check(friction, stiffness, "stiffness k")
+    feed = _check(friction, feed, "feed rate v")
+    log_v = jnp.log(feed)
+    sol_c = _newton(_log_vc_w, jnp.log(30.0), (friction, stiffness, log_v), _LOG_MIN, _LOG_MAX, rtol)
+    u_c = sol_c.value
+    if amplitude_tolerance is None:
+        w = jnp.exp(u_c)
+        vc, amp, by_amp, res = _answer(friction, w, stiffness, feed, jnp.asarray(False), [sol_c.result])
+        return InverseDesign(w, vc, amp, by_amp, res)
+    tol = _check(friction, amplitude_tolerance, "amplitude_tolerance")
+    a_edge = 0.5 * feed * slip_time(jnp.exp(u_c), stiffness)
+    by_amp = tol >= a_edge
+    sol_a = _newton(_log_a_w, u_c + _EDGE, (friction, stiffness, feed, jnp.log(tol)),
+                    u_c + _EDGE, _LOG_MAX, rtol)
+    w = jnp.exp(jnp.where(by_amp, sol_a.value, u_c))
+    res_a = optx.RESULTS.where(by_amp, sol_a.result, optx.RESULTS.successful)
+    vc, amp, by_amp, res = _answer(friction, w, stiffness, feed, by_amp, [sol_c.result, res_a])
+    return InverseDesign(w, vc, amp, by_amp, res)

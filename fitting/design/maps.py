@@ -1,0 +1,168 @@
+r"""Design maps: steady stick-slip (chapter 5) over grids or samples of W, k, v and friction.
+
+`design_map(friction, weight, stiffness, speed)` evaluates `stickslip_jax.steady_state`
+(eqs 5-7 and corrected eq 12) at every point of the *broadcast* of its arguments:
+W (kgf), k (kgf/mm), v (mm/s) and every leaf of `friction` (a `Friction` whose
+parameters may be arrays: a grid of parameters or a posterior sample). For example
+``design_map(f, W[:, None], k[None, :], v)`` is a W x k map at one speed, and a
+friction sample with leaves of shape ``(S, 1)`` against ``W`` of shape ``(G,)`` gives
+an ``(S, G)`` map. The points stream through `chunks.map_chunks` (jit + vmap, fixed
+chunk size, sharded over all devices, optional progress bar); `iter_design_map` yields
+the chunks for maps that do not fit in memory.
+
+``method="exact"`` takes amplitude, frequency and stick time from the exact
+event-driven time-domain simulator instead (`fitting.design.exact`), after a few
+cycles, when the limit cycle is reached.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, Bool, Float
+
+from stickslip_jax import Friction, steady_state
+
+from .chunks import collect, map_chunks
+
+
+class DesignMap(eqx.Module):
+    r"""Stick-slip characteristics at every design point (arrays of the map's shape).
+
+    `amplitude` a (mm, eq 5; 0 where sliding is smooth), `amplitude_ratio` ak/W,
+    `frequency` f (Hz), `frequency_ratio` f/f0, `stick_time` T1 (s), `slip_time` T2 (s),
+    `natural_frequency` f0 (Hz), `critical_speed` v_c (mm/s, corrected eq 12),
+    `stick_slip` (bool), `converged` (the stick-time solve, or the simulation, succeeded).
+    """
+
+    amplitude: Float[Array, "..."]
+    amplitude_ratio: Float[Array, "..."]
+    frequency: Float[Array, "..."]
+    frequency_ratio: Float[Array, "..."]
+    stick_time: Float[Array, "..."]
+    slip_time: Float[Array, "..."]
+    natural_frequency: Float[Array, "..."]
+    critical_speed: Float[Array, "..."]
+    stick_slip: Bool[Array, "..."]
+    converged: Bool[Array, "..."]
+
+
+class DesignPoints(eqx.Module):
+    """Design points: `friction` (array leaves), W (kgf), k (kgf/mm), v (mm/s), all
+    broadcastable to `shape`. Leaves are NumPy arrays, not yet broadcast."""
+
+    friction: Friction
+    weight: np.ndarray
+    stiffness: np.ndarray
+    speed: np.ndarray
+    shape: tuple[int, ...] = eqx.field(static=True)
+
+
+def design_points(friction: Friction, weight, stiffness, speed) -> DesignPoints:
+    """Check and broadcast the arguments of a map (W kgf, k kgf/mm, v mm/s)."""
+    if not isinstance(friction, Friction):
+        raise ValueError(f"friction must be a stickslip_jax.Friction, got {type(friction)}")
+    friction = jax.tree_util.tree_map(lambda x: np.asarray(x, dtype=float), friction)
+    w, k, v = (np.asarray(x, dtype=float) for x in (weight, stiffness, speed))
+    shapes = [np.shape(x) for x in jax.tree_util.tree_leaves(friction)] + [w.shape, k.shape, v.shape]
+    try:
+        shape = np.broadcast_shapes(*shapes)
+    except ValueError as exc:
+        raise ValueError(f"design-map arguments do not broadcast together: {shapes}") from exc
+    for name, x in (("weight W", w), ("stiffness k", k), ("drive speed v", v)):
+        if not np.all(np.isfinite(x) & (x > 0)):
+            raise ValueError(f"{name} must be finite and positive everywhere")
+    return DesignPoints(friction, w, k, v, tuple(int(s) for s in shape))
+
+
+def outer(*axes):
+    """1-D axes reshaped to broadcast as an outer grid: ``outer(W, k, v)`` -> W x k x v."""
+    n = len(axes)
+    return tuple(
+        np.asarray(a, dtype=float).reshape([-1 if i == j else 1 for j in range(n)])
+        for i, a in enumerate(axes)
+    )
+
+
+def steady_kernel(points: DesignPoints, shared=None) -> DesignMap:
+    """`steady_state` vmapped over a chunk of design points (leaves of shape (n,))."""
+    s = jax.vmap(steady_state)(points.friction, points.weight, points.stiffness, points.speed)
+    return DesignMap(
+        amplitude=s.amplitude,
+        amplitude_ratio=s.amplitude_ratio,
+        frequency=s.frequency,
+        frequency_ratio=s.frequency_ratio,
+        stick_time=s.stick_time,
+        slip_time=s.slip_time,
+        natural_frequency=s.natural_frequency,
+        critical_speed=s.critical_speed,
+        stick_slip=s.stick_slip,
+        converged=jnp.asarray(s.result._value == optx.RESULTS.successful._value),
+    )
+
+
+def _kernel(method: str):
+    if method == "steady":
+        return steady_kernel
+    if method == "exact":
+        from .exact import exact_kernel
+
+        return exact_kernel
+    raise ValueError(f"method must be 'steady' or 'exact', got {method!r}")
+
+
+def iter_design_map(
+    friction: Friction,
+    weight,
+    stiffness,
+    speed,
+    *,
+    method: str = "steady",
+    chunk_size: int = 65_536,
+    mesh=None,
+    progress: bool = False,
+):
+    """Yield ``(start, stop, DesignMap)`` chunks of the flattened map (NumPy leaves).
+
+    Use it to stream maps larger than memory to disk or into a reduction; the map's
+    shape is ``design_points(...).shape``.
+    """
+    points = design_points(friction, weight, stiffness, speed)
+    batch = DesignPoints(points.friction, points.weight, points.stiffness, points.speed, ())
+    yield from map_chunks(
+        _kernel(method), batch, points.shape, chunk_size=chunk_size, mesh=mesh,
+        progress=progress, desc=f"{method} map",
+    )
+
+
+def design_map(
+    friction: Friction,
+    weight,
+    stiffness,
+    speed,
+    *,
+    method: str = "steady",
+    chunk_size: int = 65_536,
+    mesh=None,
+    progress: bool = False,
+) -> DesignMap:
+    r"""Stick-slip characteristics over the broadcast of friction parameters, W, k and v.
+
+    Units in: W kgf, k kgf/mm, v mm/s; out as in `DesignMap`. `method` is ``"steady"``
+    (eqs 5-7, 12; fast) or ``"exact"`` (limit cycle of the event-driven simulator).
+    Runs in chunks of `chunk_size` points, sharded over every device of `mesh`
+    (default: all devices JAX sees); `progress=True` shows a tqdm bar.
+    """
+    points = design_points(friction, weight, stiffness, speed)
+    if math.prod(points.shape) == 0:
+        raise ValueError("empty design map: every axis needs at least one point")
+    return collect(
+        iter_design_map(friction, weight, stiffness, speed, method=method,
+                        chunk_size=chunk_size, mesh=mesh, progress=progress),
+        points.shape,
+    )
