@@ -727,7 +727,7 @@ def parse_record(text: str, source=None) -> Record:
         raise RecordError(
             "no column row after the header; add e.g. 'time [s],deflection [mm]' and the data",
             path,
-            len(lines),
+            max(j + 1 for j, ln in enumerate(lines) if ln.strip()),
         )
     column_line = i + 1
     columns, units = [], []
