@@ -97,7 +97,7 @@ KNOWN_KEYS = (
     "truth",
 )
 
-_NUM = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_NUM = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
 _NUMBER = re.compile(_NUM)
 _QUANTITY = re.compile(rf"\s*({_NUM})\s*(.*?)\s*")
 _SEGMENT = re.compile(rf"\s*({_NUM})\s*([^\s\d.+-]\S*)\s+({_NUM})\s*(\S+)\s*")
@@ -665,7 +665,10 @@ def _decimals(text: str) -> float:
     t = text.strip().lower()
     mant, _, exp = t.partition("e")
     d = len(mant.partition(".")[2])
-    return 10.0 ** (int(exp or 0) - d)
+    try:
+        return 10.0 ** (int(exp or 0) - d)
+    except (OverflowError, ValueError):
+        return math.inf
 
 
 def parse_record(text: str, source=None) -> Record:
