@@ -1,0 +1,145 @@
+r"""Drives: the displacement $u(t)$ (mm) of the driving point of Fig 5 against time (s).
+
+Every drive is a piecewise-linear $u(t)$ given by `knots()`: knot times $t_i$ (s),
+positions $u_i$ (mm) and the speed $s_i$ (mm/s) that holds on $[t_i, t_{i+1})$; the
+last speed continues after the last knot and the first one extends backwards before
+the first knot. The exact simulator uses the knots (a constant drive speed makes the
+slip a closed form); the smoothed simulator calls `position(t)` and `speed(t)`.
+
+- `ConstantSpeed(speed)`: $u = v t$, the paper's experiments.
+- `SpeedProgram(start_times, speeds)`: piecewise-constant speed; velocity steps and
+  slide-hold-slide tests (speed 0 during a hold). $u(\text{start\_times}[0]) = 0$.
+- `MeasuredDrive(times, positions)`: a measured $u(t)$ (for example a record's
+  `drive` column), linearly interpolated; held constant after the last sample.
+- `drive_from_record(record)`: the drive of a record (its `drive` column, its
+  `drive_program`, or its constant `drive_speed`).
+"""
+
+from __future__ import annotations
+
+import abc
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+
+def _as_float(x):
+    return jnp.asarray(x, dtype=float)
+
+
+class AbstractDrive(eqx.Module):
+    """A drive displacement u(t) in mm, piecewise linear in t (s); speeds in mm/s."""
+
+    @abc.abstractmethod
+    def knots(self) -> tuple[Float[Array, " K"], Float[Array, " K"], Float[Array, " K"]]:
+        """(times s, positions mm, speeds mm/s): speed `speeds[i]` holds from `times[i]`."""
+
+    def _segment(self, t):
+        times, positions, speeds = self.knots()
+        t = jnp.asarray(t, dtype=float)
+        i = jnp.clip(jnp.searchsorted(times, t, side="right") - 1, 0, times.shape[0] - 1)
+        return times[i], positions[i], speeds[i]
+
+    def position(self, t: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
+        """Drive displacement u(t) in mm at time t in s."""
+        t0, u0, s = self._segment(t)
+        return u0 + s * (jnp.asarray(t, dtype=float) - t0)
+
+    def speed(self, t: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
+        """Drive speed du/dt in mm/s at time t in s (right-continuous at the knots)."""
+        return self._segment(t)[2]
+
+
+class ConstantSpeed(AbstractDrive):
+    """Constant drive speed `speed` (mm/s, stored as field `v`): u(t) = v * t."""
+
+    v: Float[Array, ""] = eqx.field(converter=_as_float)
+
+    def __init__(self, speed):
+        self.v = speed
+
+    def __check_init__(self):
+        if jnp.ndim(self.v) != 0:
+            raise ValueError("ConstantSpeed: speed must be a scalar (mm/s)")
+
+    def knots(self):
+        z = jnp.zeros((1,))
+        return z, z, jnp.reshape(self.v, (1,))
+
+
+class SpeedProgram(AbstractDrive):
+    """Piecewise-constant speed: `speeds[i]` (mm/s, >= 0) from `start_times[i]` (s) on.
+
+    `start_times` must increase strictly. Example, slide-hold-slide at 10 um/s with a
+    30 s hold: `SpeedProgram([0, 20, 50], [0.01, 0.0, 0.01])`.
+    """
+
+    start_times: Float[Array, " K"] = eqx.field(converter=_as_float)
+    speeds: Float[Array, " K"] = eqx.field(converter=_as_float)
+
+    def __check_init__(self):
+        if self.start_times.ndim != 1 or self.speeds.shape != self.start_times.shape:
+            raise ValueError(
+                "SpeedProgram: start_times and speeds must be 1-D arrays of the same length"
+            )
+        if self.start_times.shape[0] < 1:
+            raise ValueError("SpeedProgram: needs at least one (start_time, speed) pair")
+        if _concrete(self.start_times) and np.any(np.diff(np.asarray(self.start_times)) <= 0):
+            raise ValueError("SpeedProgram: start_times must increase strictly")
+
+    def knots(self):
+        dt = jnp.diff(self.start_times)
+        pos = jnp.concatenate([jnp.zeros((1,)), jnp.cumsum(self.speeds[:-1] * dt)])
+        return self.start_times, pos, self.speeds
+
+
+class MeasuredDrive(AbstractDrive):
+    """A measured drive displacement: `positions` (mm) at `times` (s), linear between.
+
+    Held at the last position after the last time; before the first time the first
+    segment's speed extends backwards.
+    """
+
+    times: Float[Array, " N"] = eqx.field(converter=_as_float)
+    positions: Float[Array, " N"] = eqx.field(converter=_as_float)
+
+    def __check_init__(self):
+        if self.times.ndim != 1 or self.positions.shape != self.times.shape:
+            raise ValueError("MeasuredDrive: times and positions must be 1-D, same length")
+        if self.times.shape[0] < 2:
+            raise ValueError("MeasuredDrive: needs at least two samples")
+        if _concrete(self.times) and np.any(np.diff(np.asarray(self.times)) <= 0):
+            raise ValueError("MeasuredDrive: times must increase strictly")
+
+    def knots(self):
+        s = jnp.diff(self.positions) / jnp.diff(self.times)
+        return self.times, self.positions, jnp.concatenate([s, jnp.zeros((1,))])
+
+
+def _concrete(x) -> bool:
+    try:
+        np.asarray(x)
+        return True
+    except Exception:  # a tracer
+        return False
+
+
+def drive_from_record(record) -> AbstractDrive:
+    """The drive of a `stickslip_jax.records.Record`.
+
+    Uses, in this order, the record's measured `drive` column (mm), its
+    `drive_program` ((start s, speed mm/s), ...) or its constant `drive_speed` (mm/s).
+    """
+    drive = getattr(record, "drive", None)
+    if drive is not None:
+        return MeasuredDrive(record.time, drive)
+    program = getattr(record, "drive_program", None)
+    if program:
+        starts, speeds = zip(*program)
+        return SpeedProgram(starts, speeds)
+    speed = getattr(record, "drive_speed", None)
+    if speed is None:
+        raise ValueError("record has neither a drive column, a drive_program nor a drive_speed")
+    return ConstantSpeed(speed)

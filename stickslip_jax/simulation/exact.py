@@ -1,0 +1,378 @@
+r"""Exact event-driven simulation of the paper's stick-slip model (chapters 2-5, Fig 6).
+
+The spring deflection is $x = u(t) - y + x_0$ ($u$ drive displacement, $y$ slider
+displacement, both mm). Two phases alternate:
+
+- **stick** (slider at rest, $\dot y = 0$): $x$ follows the drive,
+  $x(t) = x_s + u(t) - u(t_s)$, while $k x < \mu_0(T_1) W$ with $T_1 = t - t_s$ the time
+  since the stick began (eq 1 or any static law). Breakaway is the first root of
+  $r(t) = k x(t) - W \mu_0(t - t_s)$, found knot segment by knot segment of the
+  piecewise-linear drive with a safeguarded Newton iteration started at the right end
+  of the bracket (for a concave $\mu_0$, $r$ is convex on a segment so the iteration is
+  monotone and the root unique).
+- **slip**: eq (2) with constant mean kinetic friction $\mu_m W$ (eq 3),
+  $M\ddot y = k x - \mu_m W$, i.e. eq (10) $M\ddot x + k x = \mu_m W$ while the drive speed
+  $v$ is constant, whose closed form is
+  $x = c + (x_0 - c)\cos\omega_0\tau + \frac{v - \dot y_0}{\omega_0}\sin\omega_0\tau$,
+  $c = \mu_m W/k$. The slip ends when $\dot y = v - \dot x$ returns to zero,
+  $\omega_0\tau^* = \psi + \arccos(-v/R)$ (mod $2\pi$), $R = \sqrt{\omega_0^2 (x_0 - c)^2 +
+  (\dot y_0 - v)^2}$, $\psi = \operatorname{atan2}(\omega_0(x_0 - c), \dot y_0 - v)$. For a slip that
+  starts from rest this is $\omega_0 T_2 = 2\pi - 2\arctan(\omega_0 (x_2 - c)/v)$ and it ends at
+  exactly $x_1 = 2c - x_2$ (so eq (5) holds for every cycle at constant speed).
+  A knot of the drive inside a slip is an event: the closed form restarts there.
+
+The $T_2$ in eq (3) is either `slip_time="paper"`: $\pi/\omega_0$ (eq 7), or
+`"self_consistent"`: the actual slip duration (a scalar root solve; with a speed
+change inside the slip the duration is predicted at the speed at breakaway).
+
+If a slip ends with $k x_1 > \mu_0(0) W$ the slider cannot stick: the next stick lasts
+$T_1 = 0$, it slips on with $\mu_0(0) = \mu_d$ (flag `restick_failed`, trace flag
+`steady_sliding`); that slip ends at $2\mu_d W/k - x_1 < \mu_d W/k$, so the event loop
+always moves forward. A slip that can never end (the drive outruns the slider after a
+speed increase) also sets `steady_sliding`.
+
+Events run in a `lax.scan` of static length `max_events` (unused steps are masked),
+so the simulator is jit/vmap/grad compatible. Event times are differentiated by the
+implicit function theorem (one Newton step with live parameters at the stopped root);
+gradients are exact between bifurcations (a change in the number of cycles).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+from ..drives import AbstractDrive
+from ..slideway import Slideway
+from .trace import Cycles, SimulationResult, Trace
+
+SLIP_TIME_MODES = ("paper", "self_consistent")
+_TWO_PI = 2.0 * jnp.pi
+
+
+def _newton_root(fun, dfun, lo, hi, max_iter=80):
+    """Root of `fun` in [lo, hi] with fun(lo) < 0 <= fun(hi): Newton from `hi`, bisection
+    whenever a step leaves the bracket. Values only (call under stop_gradient)."""
+
+    def cond(c):
+        lo, hi, x, dx, i = c
+        return (i < max_iter) & (jnp.abs(dx) > 4e-16 * jnp.maximum(jnp.abs(x), 1.0))
+
+    def body(c):
+        lo, hi, x, _, i = c
+        f = fun(x)
+        fp = dfun(x)
+        lo = jnp.where(f < 0, x, lo)
+        hi = jnp.where(f < 0, hi, x)
+        newton = x - f / jnp.where(fp != 0, fp, 1.0)
+        ok = (fp != 0) & (newton > lo) & (newton < hi)
+        x_new = jnp.where(ok, newton, 0.5 * (lo + hi))
+        x_new = jnp.where(f == 0, x, x_new)
+        return lo, hi, x_new, x_new - x, i + 1
+
+    init = (lo, hi, hi, jnp.asarray(jnp.inf), 0)
+    return jax.lax.while_loop(cond, body, init)[2]
+
+
+def _bisect(fun, lo, hi, iters=64):
+    """Root of an increasing `fun` on [lo, hi] by bisection (values only)."""
+
+    def body(_, c):
+        lo, hi = c
+        mid = 0.5 * (lo + hi)
+        neg = fun(mid) < 0
+        return jnp.where(neg, mid, lo), jnp.where(neg, hi, mid)
+
+    lo, hi = jax.lax.fori_loop(0, iters, body, (lo, hi))
+    return 0.5 * (lo + hi)
+
+
+def _implicit(root_value, fun, dfun):
+    """Attach implicit-function-theorem gradients to a root found with stopped values."""
+    r = jax.lax.stop_gradient(root_value)
+    d = jax.lax.stop_gradient(dfun(r))
+    return r - fun(r) / jnp.where(d != 0, d, 1.0)
+
+
+def _slip_state(x0, yd0, c, v, omega, tau):
+    """Closed form of eq (10) from (x0 mm, yd0 mm/s) after tau s: returns (x, ydot)."""
+    cs, sn = jnp.cos(omega * tau), jnp.sin(omega * tau)
+    x = c + (x0 - c) * cs + (v - yd0) / omega * sn
+    yd = v + omega * (x0 - c) * sn - (v - yd0) * cs
+    return x, yd
+
+
+def _slip_duration_from_rest(d, v, omega):
+    r"""Slip that starts at rest with x2 - c = d (mm): $T_2 = (2\pi - 2\arctan(\omega d/v))/\omega$."""
+    return (_TWO_PI - 2.0 * jnp.arctan2(omega * d, v)) / omega
+
+
+class _State(eqx.Module):
+    t: Array
+    x: Array
+    yd: Array
+    sticking: Array
+    t_stick: Array
+    c: Array  # slip equilibrium mu_m W / k (mm)
+    done: Array
+    steady: Array
+    slip_start: Array
+
+
+def simulate_exact(
+    slideway: Slideway,
+    drive: AbstractDrive,
+    ts: Float[ArrayLike, " N"],
+    *,
+    slip_time: str = "paper",
+    initial_deflection: Float[ArrayLike, ""] = 0.0,
+    initial_stick_time: Float[ArrayLike, ""] = 0.0,
+    start_time: Float[ArrayLike, ""] | None = None,
+    mask: ArrayLike | None = None,
+    max_events: int = 64,
+) -> Trace:
+    r"""Simulate the paper's stick-slip model exactly (events in closed form) on times `ts`.
+
+    - `slideway`: friction laws, weight W (kgf), stiffness k (kgf/mm).
+    - `drive`: any `AbstractDrive` (u(t) in mm, piecewise linear).
+    - `ts` (s): sample times, non-decreasing; the simulation runs from `start_time`
+      (default `ts[0]`) to `max(ts)`.
+    - `slip_time`: "paper" ($T_2 = \pi/\omega_0$ in eq 3, eq 7) or "self_consistent".
+    - `initial_deflection` (mm) and `initial_stick_time` (s): the slider starts at rest,
+      having stuck for `initial_stick_time` already.
+    - `mask`: optional bool array like `ts` (False on padding), copied into the trace.
+    - `max_events` (static): stick and slip phases (plus drive knots crossed during
+      slips) simulated; about 2 per cycle at constant speed. Running out gives
+      `result = max_events_reached`.
+
+    Returns a `Trace` (deflection in mm, slider velocity in mm/s, `Cycles`).
+    jit-compatible (wrap in `eqx.filter_jit`), `vmap` over records of padded `ts`
+    (see `pad_times`), differentiable between bifurcations.
+    """
+    if not isinstance(slideway, Slideway):
+        raise ValueError(f"slideway must be a Slideway, got {type(slideway)}")
+    if not isinstance(drive, AbstractDrive):
+        raise ValueError(f"drive must be an AbstractDrive, got {type(drive)}")
+    if slip_time not in SLIP_TIME_MODES:
+        raise ValueError(f"slip_time must be one of {SLIP_TIME_MODES}, got {slip_time!r}")
+    if not isinstance(max_events, int) or max_events < 2:
+        raise ValueError("max_events must be a Python int >= 2")
+    ts = jnp.asarray(ts, dtype=float)
+    if ts.ndim != 1 or ts.shape[0] < 1:
+        raise ValueError("ts must be a non-empty 1-D array of times (s); vmap for batches")
+    mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
+
+    friction = slideway.friction
+    static = friction.static
+    W, k = slideway.weight, slideway.stiffness
+    W = eqx.error_if(W, ~(W > 0), "slider weight W must be positive")
+    k = eqx.error_if(k, ~(k > 0), "stiffness k must be positive")
+    omega = jnp.sqrt(9806.65 * k / W)
+    kt, ku, ks = drive.knots()
+    t_end = jnp.max(ts)
+    t_start = ts[0] if start_time is None else jnp.asarray(start_time, dtype=float)
+    bounds = jnp.concatenate([kt, t_end[None]])
+    mu_restick = static(jnp.asarray(0.0))
+
+    def u_at(t):
+        i = jnp.clip(jnp.searchsorted(kt, t, side="right") - 1, 0, kt.shape[0] - 1)
+        return ku[i] + ks[i] * (t - kt[i]), ks[i]
+
+    def mu0_and_slope(T):
+        return jax.jvp(static, (T,), (jnp.ones_like(T),))
+
+    def model_t2(x_b, v_b, mu0):
+        if slip_time == "paper":
+            return jnp.pi / omega
+
+        p = (x_b, v_b, mu0, friction, W, k, omega)
+
+        def g(T2, p=p):
+            x_b, v_b, mu0, friction, W, k, omega = p
+            mum = friction.kinetic(mu0, friction.mu_d, T2)
+            return T2 - _slip_duration_from_rest(x_b - mum * W / k, v_b, omega)
+
+        def dg(T2):
+            return jax.jvp(g, (T2,), (jnp.ones_like(T2),))[1]
+
+        p_sg = jax.lax.stop_gradient(p)
+        root = _bisect(lambda T2: g(T2, p_sg), *jax.lax.stop_gradient((jnp.pi / omega,
+                                                                      _TWO_PI / omega)))
+        return _implicit(root, g, dg)
+
+    def stick_step(s: _State):
+        u_t, v_t = u_at(s.t)
+        x_b_all = s.x + jax.vmap(lambda b: u_at(b)[0])(bounds) - u_t
+        r_b = k * x_b_all - W * static(jnp.maximum(bounds - s.t_stick, 0.0))
+        valid_b = (bounds > s.t) & (bounds <= t_end)
+        r_start = k * s.x - W * static(s.t - s.t_stick)
+        immediate = r_start >= 0
+        hit = valid_b & (r_b >= 0)
+        found = jnp.any(hit)
+        j = jnp.argmax(hit)
+        hi = bounds[j]
+        lo = jnp.maximum(s.t, jnp.max(jnp.where(valid_b & (bounds < hi), bounds, -jnp.inf)))
+        u_lo, v_seg = u_at(lo)
+        x_lo = s.x + u_lo - u_t
+        hi_safe = jnp.where(found, hi, s.t + 1.0)
+        lo_safe = jnp.where(found, lo, s.t)
+        p = (x_lo, lo_safe, v_seg, s.t_stick, k, W, static)
+
+        def fun(tp, p=p):
+            x_lo, t_lo, v_seg, t_stick, k, W, static = p
+            return k * (x_lo + v_seg * (tp - t_lo)) - W * static(tp - t_stick)
+
+        def dfun(tp, p=p):
+            x_lo, t_lo, v_seg, t_stick, k, W, static = p
+            slope = jax.jvp(static, (tp - t_stick,), (jnp.ones_like(tp),))[1]
+            return k * v_seg - W * slope
+
+        p_sg = jax.lax.stop_gradient(p)
+        root = _newton_root(
+            lambda tp: fun(tp, p_sg), lambda tp: dfun(tp, p_sg),
+            jax.lax.stop_gradient(lo_safe), jax.lax.stop_gradient(hi_safe),
+        )
+        t_b = _implicit(root, fun, dfun)
+        t_b = jnp.where(immediate, s.t, jnp.where(found, t_b, t_end))
+        x_b = jnp.where(immediate, s.x, x_lo + v_seg * (t_b - lo_safe))
+        v_b = jnp.where(immediate, v_t, v_seg)
+        breaks = immediate | found
+        T1 = t_b - s.t_stick
+        mu0 = static(T1)
+        T2 = model_t2(x_b, v_b, mu0)
+        mum = friction.kinetic(mu0, friction.mu_d, T2)
+        new = _State(
+            t=t_b,
+            x=x_b,
+            yd=jnp.zeros_like(s.yd),
+            sticking=~breaks,
+            t_stick=s.t_stick,
+            c=jnp.where(breaks, mum * W / k, s.c),
+            done=~breaks,
+            steady=s.steady,
+            slip_start=jnp.where(breaks, t_b, s.slip_start),
+        )
+        info = dict(
+            is_break=breaks, t_b=t_b, x2=x_b, T1=T1, mu0=mu0, mum=mum, T2model=T2,
+            is_end=jnp.asarray(False), t_stop=t_b, x1=x_b, restick=jnp.asarray(False),
+        )
+        return new, info, u_t, v_t
+
+    def slip_step(s: _State):
+        u_t, v = u_at(s.t)
+        later = kt > s.t
+        t_next = jnp.min(jnp.where(later, kt, jnp.inf))
+        A = omega * (s.x - s.c)
+        B = s.yd - v
+        R2 = A * A + B * B
+        R = jnp.sqrt(jnp.where(R2 > 0, R2, 1.0))
+        stops = (R2 > 0) & (R > v)
+        R_safe = jnp.where(stops, R, 2.0 * v + 1.0)
+        theta = jnp.mod(jnp.arctan2(A, B) + jnp.arccos(-v / R_safe), _TWO_PI)
+        t_stop = s.t + theta / omega
+        stop_here = stops & (t_stop <= t_next) & (t_stop <= t_end)
+        t_new = jnp.where(stop_here, t_stop, jnp.minimum(t_next, t_end))
+        x_new, yd_new = _slip_state(s.x, s.yd, s.c, v, omega, t_new - s.t)
+        yd_new = jnp.where(stop_here, 0.0, yd_new)
+        restick = stop_here & (k * x_new > W * mu_restick)
+        never = ~stops & ~(t_next < t_end)
+        new = _State(
+            t=t_new,
+            x=x_new,
+            yd=yd_new,
+            sticking=stop_here,
+            t_stick=jnp.where(stop_here, t_new, s.t_stick),
+            c=s.c,
+            done=~stop_here & (t_new >= t_end),
+            steady=s.steady | restick | never,
+            slip_start=s.slip_start,
+        )
+        info = dict(
+            is_break=jnp.asarray(False), t_b=s.slip_start, x2=s.x, T1=jnp.zeros_like(s.t),
+            mu0=jnp.zeros_like(s.t), mum=s.c * k / W, T2model=jnp.zeros_like(s.t),
+            is_end=stop_here, t_stop=t_new, x1=x_new, restick=restick,
+        )
+        return new, info, u_t, v
+
+    def step(s: _State, _):
+        sn_stick, info_stick, u_t, v_t = stick_step(s)
+        sn_slip, info_slip, _, v_slip = slip_step(s)
+        pick = lambda a, b: jnp.where(s.sticking, a, b)  # noqa: E731
+        sn = jax.tree_util.tree_map(pick, sn_stick, sn_slip)
+        info = {key: pick(info_stick[key], info_slip[key]) for key in info_stick}
+        active = ~s.done
+        sn = jax.tree_util.tree_map(lambda a, b: jnp.where(active, a, b), sn, s)
+        info["is_break"] = info["is_break"] & active
+        info["is_end"] = info["is_end"] & active
+        info["restick"] = info["restick"] & active
+        row = dict(
+            t=jnp.where(active, s.t, jnp.inf), x=s.x, yd=s.yd, sticking=s.sticking, c=s.c,
+            v=jnp.where(s.sticking, v_t, v_slip), u=u_t, active=active,
+        )
+        return sn, (row, info)
+
+    zero = jnp.zeros(())
+    x0 = jnp.asarray(initial_deflection, dtype=float) + zero
+    init = _State(
+        t=t_start + zero, x=x0, yd=zero, sticking=jnp.asarray(True),
+        t_stick=t_start - jnp.asarray(initial_stick_time, dtype=float), c=zero,
+        done=t_start >= t_end, steady=jnp.asarray(False), slip_start=t_start + zero,
+    )
+    final, (rows, info) = jax.lax.scan(step, init, None, length=max_events)
+
+    # Render x(t) on the sample times: closed form of the phase each sample falls in.
+    idx = jnp.clip(jnp.searchsorted(rows["t"], ts, side="right") - 1, 0, max_events - 1)
+    pick = lambda a: a[idx]  # noqa: E731
+    t_i, x_i, yd_i, st_i, c_i, v_i, u_i = (pick(rows[n]) for n in
+                                            ("t", "x", "yd", "sticking", "c", "v", "u"))
+    tau = jnp.maximum(ts - jnp.where(jnp.isfinite(t_i), t_i, ts), 0.0)
+    u_s = jax.vmap(lambda t: u_at(t)[0])(ts)
+    x_stick = x_i + u_s - u_i
+    x_slip, yd_slip = _slip_state(x_i, yd_i, c_i, v_i, omega, tau)
+    deflection = jnp.where(st_i, x_stick, x_slip)
+    velocity = jnp.where(st_i, 0.0, yd_slip)
+
+    cycles = _cycle_table(info, max_events)
+    result = SimulationResult.where(
+        final.done, SimulationResult.successful, SimulationResult.max_events_reached
+    )
+    return Trace(
+        time=ts, deflection=deflection, slider_velocity=velocity, sticking=st_i, mask=mask,
+        cycles=cycles, steady_sliding=final.steady, result=result,
+        num_events=jnp.sum(rows["active"]).astype(int),
+    )
+
+
+def _cycle_table(info, max_events: int) -> Cycles:
+    """Scatter the per-event records into one row per cycle (breakaway + slip end)."""
+    n = max_events // 2 + 1
+    is_break, is_end = info["is_break"], info["is_end"]
+    cid = jnp.cumsum(is_break.astype(int)) - 1
+    drop = jnp.full_like(cid, n)
+    bid = jnp.where(is_break, cid, drop)
+    eid = jnp.where(is_end & (cid >= 0), cid, drop)
+    z = jnp.zeros((n,))
+
+    def put(ids, v, base=z):
+        return base.at[ids].set(v, mode="drop")
+
+    broke = put(bid, jnp.ones_like(cid, float)) > 0
+    ended = put(eid, jnp.ones_like(cid, float)) > 0
+    t_b = put(bid, info["t_b"])
+    t_stop = put(eid, info["t_stop"])
+    valid = broke & ended
+    v = lambda a: jnp.where(valid, a, 0.0)  # noqa: E731
+    return Cycles(
+        breakaway_time=v(t_b),
+        peak=v(put(bid, info["x2"])),
+        trough=v(put(eid, info["x1"])),
+        stick_time=v(put(bid, info["T1"])),
+        slip_time=v(t_stop - t_b),
+        model_slip_time=v(put(bid, info["T2model"])),
+        mu_0=v(put(bid, info["mu0"])),
+        mu_m=v(put(bid, info["mum"])),
+        restick_failed=valid & (put(eid, info["restick"].astype(float)) > 0),
+        valid=valid,
+    )
