@@ -97,12 +97,22 @@ def steady_state(
     Python-float values do not trigger recompilation.
     """
     return _steady_state(
-        friction,
+        _strong_floats(friction),
         jnp.asarray(weight, dtype=float),
         jnp.asarray(stiffness, dtype=float),
         jnp.asarray(speed, dtype=float),
         rtol,
         max_steps,
+    )
+
+
+def _strong_floats(tree):
+    """Floating leaves (Python floats, weak-typed arrays) as float64 arrays: one compilation."""
+    return jax.tree_util.tree_map(
+        lambda x: jnp.asarray(x, dtype=float)
+        if isinstance(x, float) or eqx.is_inexact_array(x)
+        else x,
+        tree,
     )
 
 
@@ -165,7 +175,7 @@ def steady_map(friction: Friction, weight, stiffness, speed) -> SteadyState:
         jnp.asarray(weight, float), jnp.asarray(stiffness, float), jnp.asarray(speed, float)
     )
     shape = w.shape
-    out = _vmapped_steady(friction, w.ravel(), k.ravel(), v.ravel())
+    out = _vmapped_steady(_strong_floats(friction), w.ravel(), k.ravel(), v.ravel())
     return jax.tree_util.tree_map(lambda x: x.reshape(shape) if hasattr(x, "reshape") else x, out)
 
 

@@ -320,4 +320,8 @@ def test_no_recompilation_for_new_values(monkeypatch):
     monkeypatch.setattr(steady, "critical_speed", counting)
     for i, W in enumerate((11.3, 20.0, 36.0, 41.5, 53.2)):
         ss.steady_state(fr, W, 86.9 + i, 0.01 * (i + 1))
+        # new friction values, as Python floats or weak-typed arrays, do not retrace either
+        g = 0.3 + 0.1 * i
+        f = eqx.tree_at(lambda f: f.static.gamma, fr, g if i % 2 else jnp.asarray(g))
+        ss.steady_state(f, W, 86.9, 0.01)
     assert len(traces) <= 1
