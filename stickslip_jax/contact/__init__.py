@@ -19,7 +19,9 @@ from .boundary import (
     static_coefficient,
     static_limit,
 )
+from .bridge import KatoFit, default_stick_times, fit_kato
 from .microsqueeze import Kinematics, MicrosqueezeSolution, MicrosqueezeStatic, microsqueeze_curve
+from .profile import SurfaceEstimate, estimate_surface, synthetic_profile
 from .surfaces import (
     MODEL_APPARENT_AREA,
     MODEL_CONTACT_PRESSURE,
@@ -36,12 +38,18 @@ __all__ = [
     "MODEL_SLIDER_WEIGHT",
     "BoundaryContact",
     "FilmEstimate",
+    "KatoFit",
+    "SurfaceEstimate",
     "Kinematics",
     "MicrosqueezeSolution",
     "MicrosqueezeStatic",
     "Surface",
     "SurfacePair",
     "approach_for",
+    "default_stick_times",
+    "estimate_surface",
+    "fit_kato",
+    "synthetic_profile",
     "film_from_mu_s",
     "final_approach",
     "load_shares",
