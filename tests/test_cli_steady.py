@@ -1,0 +1,89 @@
+"""`stickslip steady` (stickslip_jax.commands.steady) in-process and as the console script."""
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import stickslip_jax as ss
+from stickslip_jax.cli import main
+from stickslip_jax.units import from_mm_per_min
+
+BASE = ["steady", "--lubricant", "A", "--weight", "36", "--stiffness", "86.9"]
+
+
+def test_table_with_units(capsys):
+    assert main(BASE + ["--speed", "0.1", "1", "10"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert "W = 36 kgf" in out[0] and "k = 86.9 kgf/mm" in out[0] and "Hz" in out[0]
+    for unit in ("v [mm/min]", "T1 [s]", "a [mm]", "ak/W [-]", "f [Hz]", "v_c [mm/min]"):
+        assert unit in out[1]
+    assert len(out) == 5
+    row = out[3].split()  # 1 mm/min
+    assert row[0] == "1" and row[1] == "yes"
+    r = ss.steady_state(ss.lubricant("A"), 36.0, 86.9, from_mm_per_min(1.0))
+    assert float(row[2]) == pytest.approx(float(r.stick_time), rel=1e-4)
+    assert float(row[4]) == pytest.approx(float(r.amplitude), rel=1e-4)
+    assert float(row[-1]) == pytest.approx(48.911, abs=1e-3)
+
+
+def test_json_and_units_on_arguments(capsys):
+    argv = ["steady", "--lubricant", "C", "--weight", "353.04 N", "--stiffness", "852.2 N/mm",
+            "--speed", "1", "100 um/s", "--json"]
+    assert main(argv) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["lubricant"] == "C" and doc["table"] == 6
+    assert doc["weight_kgf"] == pytest.approx(36.0, rel=1e-4)
+    assert doc["stiffness_kgf_mm"] == pytest.approx(86.9, rel=1e-4)
+    speeds = [r["speed_mm_min"] for r in doc["results"]]
+    assert speeds == pytest.approx([1.0, 6.0])
+    assert [r["stick_slip"] for r in doc["results"]] == [True, False]  # v_c(C) ~ 4.3 mm/min
+    assert doc["results"][1]["amplitude_mm"] == 0.0
+    ref = ss.steady_state(ss.lubricant("C"), doc["weight_kgf"], doc["stiffness_kgf_mm"], 1 / 60)
+    assert doc["results"][0]["stick_time_s"] == pytest.approx(float(ref.stick_time), rel=1e-12)
+
+
+def test_help(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["steady", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    for flag in ("--lubricant", "--weight", "--stiffness", "--speed", "--json", "mm/min"):
+        assert flag in out
+
+
+@pytest.mark.parametrize(
+    "args, names",
+    [
+        (["--lubricant", "Z", "--weight", "36", "--stiffness", "86.9", "--speed", "1"], "--lubricant"),
+        (["--weight", "0", "--stiffness", "86.9", "--speed", "1"], "--weight"),
+        (["--weight", "36", "--stiffness", "-2", "--speed", "1"], "--stiffness"),
+        (["--weight", "36", "--stiffness", "86.9", "--speed", "1", "-5"], "--speed"),
+        (["--weight", "36", "--stiffness", "86.9", "--speed", "1.2.3"], "--speed"),
+        (["--weight", "thirty", "--stiffness", "86.9", "--speed", "1"], "--weight"),
+        (["--weight", "36 kgf/mm", "--stiffness", "86.9", "--speed", "1"], "--weight"),
+    ],
+)
+def test_user_errors_one_line_exit_2(capsys, args, names):
+    try:
+        code = main(["steady"] + args)
+    except SystemExit as exc:  # argparse type errors exit from parse_args
+        code = exc.code
+    assert code == 2
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert len(err) == 1 and names in err[0] and "error" in err[0], captured.err
+    assert captured.out == ""
+
+
+def test_console_script_subprocess():
+    """The README's main command, through the installed console script (one process)."""
+    exe = Path(sys.executable).with_name("stickslip")
+    cmd = [str(exe)] if exe.exists() else [shutil.which("stickslip")]
+    ok = subprocess.run(cmd + BASE + ["--speed", "0.1", "1", "10", "--json"],
+                        capture_output=True, text=True, timeout=300)
+    assert ok.returncode == 0, ok.stderr
+    assert [r["stick_slip"] for r in json.loads(ok.stdout)["results"]] == [True, True, True]
