@@ -1,0 +1,179 @@
+r"""Stick and slip phases detected in a measured record, and its figure (trace + phase plane).
+
+Phase rule (`classify_phases`). In the stick phase the slider rests, so the spring
+deflection rises with the drive, $\dot x = \dot u$; in the slip phase the slider
+overtakes the drive and $x$ falls fast, $\dot x < 0$:
+
+1. $\dot x$ and $\dot u$ are the slopes of least-squares straight lines through
+   `window` samples centred on each sample (default: the odd number of samples
+   nearest a quarter of the natural slip time $T_2 = \pi/\omega_0$, at least 3),
+   which averages the measurement noise without smearing a slip; within half a
+   window of the ends, the slope of the first (last) full window.
+2. The noise $\sigma$ of $\dot x - \dot u$ is its scaled median absolute deviation
+   $1.4826\,\mathrm{median}|r - \mathrm{median}(r)|$, $r = \dot x - \dot u$ (the stick
+   samples, assumed the majority, set it).
+3. The threshold is $\theta = \max(5\sigma, 0.05 \max|r|, 10^{-9}\max(|\dot x|, |\dot u|))$
+   (the last term only matters for noiseless traces). A sample is **stick** when
+   $|\dot x - \dot u| \le \theta$ (rising at the drive speed), **slip** when
+   $\dot x < -\theta$ (falling fast), and **other** otherwise: the turning points at
+   the ends of a slip, and steady sliding ($x$ constant while the drive moves).
+
+The phase plane is that of the paper's Figs 34/35: the deflection $x$ (mm) against
+$\dot x/\omega_0$ (mm), $\omega_0 = \sqrt{g k / W}$, on equal axes, so a slip under
+constant kinetic friction is a half circle about $\mu_m W/k$.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .records import Record
+
+STICK, SLIP, UNCLASSIFIED = 0, 1, -1
+"""Phase labels of `PhaseSplit.labels` (UNCLASSIFIED is shown as "other")."""
+
+ROUNDOFF = 1e-9
+"""Smallest threshold relative to the largest rate (for noiseless, e.g. synthetic, traces)."""
+
+MAD_SCALE = 1.4826
+"""Median absolute deviation to standard deviation for Gaussian noise."""
+
+
+def default_window(record: Record) -> int:
+    """Odd number of samples nearest a quarter of T2 = pi/omega0 (at least 3, at most n)."""
+    quarter = math.pi / record.omega0 / 4 / record.sample_interval
+    w = max(3, 2 * int(round((quarter - 1) / 2)) + 1)
+    n = record.n_samples
+    return min(w, n if n % 2 else n - 1) if n >= 3 else 2
+
+
+def _slope(y: np.ndarray, time: np.ndarray, w: int) -> np.ndarray:
+    dt = (time[-1] - time[0]) / (time.shape[0] - 1)
+    rate = np.gradient(y, time)
+    if w < 3 or w > y.shape[0]:
+        return rate
+    if w % 2 == 0:
+        raise ValueError(f"window must be odd, got {w}")
+    j = np.arange(w) - (w - 1) / 2
+    kernel = j / (np.sum(j**2) * dt)
+    h = (w - 1) // 2
+    rate[h:-h] = np.convolve(y, kernel[::-1], mode="valid")
+    rate[:h] = rate[h]  # at the ends: the slope of the first (last) full window
+    rate[-h:] = rate[-h - 1]
+    return rate
+
+
+def deflection_rate(record: Record, window: int | None = None) -> np.ndarray:
+    """dx/dt in mm/s: slope of a least-squares line through `window` samples about each one.
+
+    At the ends, where the window does not fit, the one-sided differences of `np.gradient`.
+    """
+    w = default_window(record) if window is None else int(window)
+    return _slope(record.deflection, record.time, w)
+
+
+@dataclasses.dataclass(frozen=True)
+class PhaseSplit:
+    """Stick/slip labels of every sample of a record (see the module docstring for the rule)."""
+
+    labels: np.ndarray  # int8: STICK, SLIP or UNCLASSIFIED per sample
+    rate: np.ndarray  # dx/dt, mm/s
+    drive_rate: np.ndarray  # du/dt (same slope fit), mm/s
+    threshold: float  # theta, mm/s
+    noise: float  # sigma of dx/dt - du/dt, mm/s
+    window: int  # samples in the slope fit
+
+    def runs(self, label: int) -> list[tuple[int, int]]:
+        """(first, last + 1) sample indices of each run of `label`."""
+        m = np.concatenate([[False], self.labels == label, [False]])
+        edges = np.flatnonzero(np.diff(m.astype(np.int8)))
+        return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
+
+    @property
+    def n_slips(self) -> int:
+        """Number of slip phases."""
+        return len(self.runs(SLIP))
+
+    @property
+    def stick_fraction(self) -> float:
+        """Fraction of samples in stick."""
+        return float(np.mean(self.labels == STICK))
+
+
+def classify_phases(
+    record: Record, window: int | None = None, k_sigma: float = 5.0, fraction: float = 0.05
+) -> PhaseSplit:
+    """Label each sample of `record` stick, slip or unclassified (rule in the module docstring)."""
+    w = default_window(record) if window is None else int(window)
+    rate = deflection_rate(record, w)
+    drive_rate = _slope(record.drive_position(), record.time, w)
+    r = rate - drive_rate
+    noise = MAD_SCALE * float(np.median(np.abs(r - np.median(r))))
+    roundoff = ROUNDOFF * max(float(np.max(np.abs(rate))), float(np.max(np.abs(drive_rate))))
+    threshold = max(k_sigma * noise, fraction * float(np.max(np.abs(r))), roundoff)
+    labels = np.full(r.shape, UNCLASSIFIED, dtype=np.int8)
+    labels[np.abs(r) <= threshold] = STICK
+    labels[rate < -threshold] = SLIP
+    return PhaseSplit(labels, rate, drive_rate, threshold, noise, w)
+
+
+MAX_SHADED = 2000
+"""Most slip phases shaded individually in the trace (more are shown only by colour)."""
+
+
+def plot_record(record: Record, phases: PhaseSplit | None = None):
+    """A matplotlib Figure: (a) x(t) with the phases marked, (b) the phase plane x vs xdot/omega0.
+
+    Uses the Agg canvas directly (no pyplot, no display needed).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    phases = classify_phases(record) if phases is None else phases
+    t, x = record.time, record.deflection
+    fig = Figure(figsize=(11, 4.6), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax, ph = fig.subplots(1, 2, width_ratios=[1.7, 1])
+    colours = {STICK: "tab:blue", SLIP: "tab:red", UNCLASSIFIED: "0.6"}
+    names = {STICK: "stick", SLIP: "slip", UNCLASSIFIED: "other"}
+    ax.plot(t, x, color="0.75", lw=0.6, zorder=1)
+    slips = phases.runs(SLIP)
+    if len(slips) <= MAX_SHADED:
+        for a, b in slips:
+            ax.axvspan(t[a], t[min(b, len(t) - 1)], color="tab:red", alpha=0.12, lw=0, zorder=0)
+    for label in (STICK, SLIP, UNCLASSIFIED):
+        mask = phases.labels == label
+        if mask.any():
+            n = int(mask.sum())
+            ax.plot(np.where(mask, t, np.nan), np.where(mask, x, np.nan), color=colours[label],
+                    lw=1.0, label=f"{names[label]} ({100 * n / len(t):.0f} % of samples)")
+            ph.plot(np.where(mask, phases.rate / record.omega0, np.nan), np.where(mask, x, np.nan),
+                    color=colours[label], lw=0.8, label=names[label])
+    ax.set_xlabel("time t [s]")
+    ax.set_ylabel("spring deflection x [mm]")
+    v = record.nominal_drive_speed * 60
+    title = (f"{record.name or 'record'}: W = {record.weight:g} kgf, k = {record.stiffness:g} "
+             f"kgf/mm, v = {v:.4g} mm/min ({record.drive_source})")
+    if record.lubricant:
+        title += f", lubricant {record.lubricant}"
+    ax.set_title(title, fontsize=9)
+    ax.legend(loc="upper right", fontsize=8, title=f"{phases.n_slips} slips", title_fontsize=8)
+    ph.set_xlabel(r"$\dot x/\omega_0$ [mm],  $\omega_0$ = " + f"{record.omega0:.4g} rad/s")
+    ph.set_ylabel("x [mm]")
+    ph.set_title("phase plane (Figs 34/35)", fontsize=9)
+    ph.set_aspect("equal", adjustable="datalim")
+    ph.axvline(0.0, color="0.8", lw=0.6, zorder=0)
+    ph.legend(loc="best", fontsize=8)
+    return fig
+
+
+def save_record_plot(record: Record, out, phases: PhaseSplit | None = None, dpi: int = 120) -> Path:
+    """Save `plot_record(record)` as a PNG at `out`; returns the path."""
+    out = Path(out)
+    fig = plot_record(record, phases)
+    fig.savefig(out, dpi=dpi, format="png")
+    return out
