@@ -72,6 +72,11 @@ def lag_response(
     if u.ndim != 1 or u.shape != ts.shape or u.shape[0] < 2:
         raise ValueError(f"lag_response: u and ts must be 1-D of equal length >= 2, got "
                          f"{u.shape} and {ts.shape}")
+    return _lag_response(lag, u, ts, jnp.asarray(time_scale, dtype=float), periodic)
+
+
+@eqx.filter_jit
+def _lag_response(lag, u, ts, time_scale, periodic):
     taus = lag.time_constants * time_scale
 
     def one(tau, w):
@@ -128,6 +133,7 @@ def plane_tilt(plane: TiltPlane, arm, filtered) -> Float[Array, "..."]:
     return plane.compliance * arm * filtered
 
 
+@eqx.filter_jit
 def tilt_history(
     model: PitchingModel,
     ts: Float[Array, " n"],
