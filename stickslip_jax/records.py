@@ -876,9 +876,12 @@ def parse_record(text: str, source=None) -> Record:
             f"step {dt:.6g} s (relative deviation {dev:.3g}, tolerance {TIME_STEP_RTOL:g}); "
         )
         cells = [lines[rows[r] - 1].split(",")[j], lines[rows[r + 1] - 1].split(",")[j]]
-        resolution = max(_decimals(c) for c in cells) * factors[j]
-        if abs(steps[r] - dt) <= 1.01 * resolution:
-            msg += "the time stamps are rounded too coarsely: write them with more digits"
+        rounding = 0.5 * sum(_decimals(c) for c in cells) * factors[j]  # of a written step
+        if abs(steps[r] - dt) <= 1.01 * rounding:
+            msg += (
+                "this is within the rounding of the written digits: if the time stamps "
+                "were rounded, write them with more digits, else resample uniformly"
+            )
         else:
             msg += "resample the run to a uniform step (or split it at the gap)"
         raise RecordError(msg, path, rows[r + 1])

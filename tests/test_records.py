@@ -296,7 +296,8 @@ def test_uneven_time_says_how_uneven(tmp_path):
 def test_coarsely_rounded_times_get_a_digits_hint(tmp_path):
     rows = "\n".join(f"{t:.4f},0.1" for t in np.arange(20) / 3000)  # 3 kHz, 4 decimals
     p = write(tmp_path, EXAMPLE.split("time [s]")[0] + "time [s],deflection [mm]\n" + rows)
-    with pytest.raises(RecordError, match="rounded too coarsely: write them with more digits"):
+    with pytest.raises(RecordError, match="within the rounding of the written digits: if the time stamps were rounded, "
+                       "write them with more digits"):
         read_record(p)
 
 
