@@ -12,6 +12,24 @@
 """
 
 from .chunks import collect, map_chunks
+from .experiment import (
+    Campaign,
+    LaplaceFit,
+    Noise,
+    Plan,
+    candidate_grid,
+    even_design,
+    fisher_information,
+    friction_of,
+    greedy_design,
+    laplace_fit,
+    log_params,
+    observables,
+    posterior_sd,
+    prior_precision,
+    record_information,
+    simulate_observations,
+)
 from .inverse import InverseDesign, maximum_weight, minimum_stiffness
 from .maps import DesignMap, DesignPoints, design_map, design_points, iter_design_map, outer
 from .posterior import (
@@ -27,6 +45,22 @@ from .sharding import batch_mesh, pad_batch, replicate, shard_batch, to_host
 from .uncertainty import UncertainMap, propagate
 
 __all__ = [
+    "Campaign",
+    "LaplaceFit",
+    "Noise",
+    "Plan",
+    "candidate_grid",
+    "even_design",
+    "fisher_information",
+    "friction_of",
+    "greedy_design",
+    "laplace_fit",
+    "log_params",
+    "observables",
+    "posterior_sd",
+    "prior_precision",
+    "record_information",
+    "simulate_observations",
     "PARAMETERS",
     "DesignMap",
     "DesignPoints",

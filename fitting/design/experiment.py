@@ -1,0 +1,261 @@
+r"""Experiment design: Fisher information of the friction parameters and D-optimal records.
+
+A planned record is a design point (W kgf, k kgf/mm, v mm/s). From the steady analysis
+(eqs 1, 3, 5-7) it yields the observables, per record (averaged over its cycles):
+
+- stick-slip ($v < v_c$): $\log a$ (eq 5), $\log T_1$ (eq 6), $\mu_0$ (eq 1) and
+  $\mu_m$ (eq 3), with noise `Noise.log_amplitude`, `Noise.log_stick_time` (relative
+  errors) and `Noise.mu_0`, `Noise.mu_m` (absolute);
+- smooth sliding: only the kinetic friction, $\mu_m = \mu_d$, with noise `Noise.mu_m`.
+
+The parameters are $u = \log(\mu_s, \mu_d, \gamma, m, \delta, n)$ (order `PARAMETERS`),
+so posterior standard deviations of $u$ are relative uncertainties. The Fisher
+information of a record is $J^T \Sigma^{-1} J$ with $J = \partial y / \partial u$ from
+`jax.jacfwd` through the steady analysis (implicit function theorem of the eq (6) root
+find). `greedy_design` adds, one at a time, the candidate record that most increases
+$\log\det$ of the posterior precision (prior + records): greedy D-optimal design.
+`laplace_fit` fits the observables by Levenberg-Marquardt (optimistix) with a Gaussian
+prior in $u$ and returns the Laplace (Gauss-Newton) posterior covariance.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, Float
+
+from stickslip_jax import Friction, KatoKinetic, KatoStatic, steady_state
+
+from .posterior import PARAMETERS, friction_params
+
+N_OBS = 4
+
+
+class Noise(eqx.Module):
+    """Standard deviations of one record's observables: relative for a and T1, absolute
+    for mu_0 and mu_m (dimensionless)."""
+
+    log_amplitude: float = 0.05
+    log_stick_time: float = 0.05
+    mu_0: float = 0.01
+    mu_m: float = 0.01
+
+    def sigma(self):
+        return jnp.array([self.log_amplitude, self.log_stick_time, self.mu_0, self.mu_m])
+
+
+class Campaign(eqx.Module):
+    """Design points of a campaign: W (kgf), k (kgf/mm), v (mm/s), arrays of shape (N,)."""
+
+    weight: Float[Array, " N"]
+    stiffness: Float[Array, " N"]
+    speed: Float[Array, " N"]
+
+    def __check_init__(self):
+        shapes = {jnp.shape(self.weight), jnp.shape(self.stiffness), jnp.shape(self.speed)}
+        if len(shapes) != 1 or len(next(iter(shapes))) != 1:
+            raise ValueError(f"Campaign needs W, k and v of one shape (N,), got {shapes}")
+
+    def __len__(self):
+        return int(np.shape(self.weight)[0])
+
+    def take(self, idx) -> Campaign:
+        idx = np.asarray(idx)
+        return Campaign(*(np.asarray(x)[idx] for x in (self.weight, self.stiffness, self.speed)))
+
+    def concat(self, other: Campaign) -> Campaign:
+        return Campaign(*(np.concatenate([np.asarray(a), np.asarray(b)])
+                          for a, b in zip((self.weight, self.stiffness, self.speed),
+                                          (other.weight, other.stiffness, other.speed))))
+
+
+def log_params(friction: Friction) -> np.ndarray:
+    """$u = \\log$ of the six eq (1) + eq (3) parameters, in the order of `PARAMETERS`."""
+    p = friction_params(friction)
+    return np.log(np.array([p[k] for k in PARAMETERS], dtype=float))
+
+
+def friction_of(u: Float[Array, " 6"]) -> Friction:
+    """Eq (1) + eq (3) `Friction` from $u = \\log$ parameters (order `PARAMETERS`)."""
+    p = jnp.exp(u)
+    return Friction(KatoStatic(mu_s=p[0], mu_d=p[1], gamma=p[2], m=p[3]),
+                    KatoKinetic(delta=p[4], n=p[5]))
+
+
+def observables(u, weight, stiffness, speed):
+    r"""Observables of one record and their mask: ``(y, mask)`` with
+    $y = (\log a, \log T_1, \mu_0, \mu_m)$ and `mask` 1 where the entry is observed."""
+    s = steady_state(friction_of(u), weight, stiffness, speed)
+    stick = s.stick_slip
+    safe_a = jnp.where(stick, s.amplitude, 1.0)
+    safe_t = jnp.where(stick, s.stick_time, 1.0)
+    y = jnp.stack([jnp.log(safe_a), jnp.log(safe_t), s.mu_0, s.mu_m])
+    on = stick.astype(float)
+    return y, jnp.stack([on, on, on, jnp.ones_like(on)])
+
+
+@eqx.filter_jit
+def record_information(u, campaign: Campaign, noise: Noise = Noise()):
+    """Fisher information (N, 6, 6) of each record of `campaign` about $u$."""
+
+    def one(w, k, v):
+        jac = jax.jacfwd(lambda uu: observables(uu, w, k, v)[0])(u)
+        mask = observables(u, w, k, v)[1]
+        wts = mask / noise.sigma() ** 2
+        return jac.T @ (wts[:, None] * jac)
+
+    return jax.vmap(one)(campaign.weight, campaign.stiffness, campaign.speed)
+
+
+def fisher_information(u, campaign: Campaign, noise: Noise = Noise()):
+    """Total Fisher information (6, 6) of a campaign about $u$ (sum over its records)."""
+    return jnp.sum(record_information(u, campaign, noise), axis=0)
+
+
+def prior_precision(prior_sd) -> np.ndarray:
+    """Diagonal Gaussian prior precision in $u$ from standard deviations of $\\log$ parameters."""
+    sd = np.broadcast_to(np.asarray(prior_sd, dtype=float), (len(PARAMETERS),))
+    if not np.all(sd > 0):
+        raise ValueError("prior standard deviations must be positive")
+    return np.diag(1.0 / sd**2)
+
+
+def posterior_sd(precision) -> np.ndarray:
+    """Standard deviations of $u$ (relative uncertainties) from a precision matrix."""
+    return np.sqrt(np.diag(np.linalg.inv(np.asarray(precision))))
+
+
+class Plan(eqx.Module):
+    """Result of `greedy_design`: the chosen records (indices into the candidates, in
+    order of choice), their `Campaign`, the criterion after each choice (`log_det`:
+    log det of the precision for "D", minus the covariance trace for "A"), and the
+    posterior sd of $u$ before and after."""
+
+    indices: np.ndarray
+    campaign: Campaign
+    log_det: np.ndarray
+    sd_before: np.ndarray
+    sd_after: np.ndarray
+
+
+def greedy_design(
+    u,
+    candidates: Campaign,
+    budget: int,
+    *,
+    noise: Noise = Noise(),
+    prior_sd=1.0,
+    existing: Campaign | None = None,
+    repeats: bool = True,
+    criterion: str = "D",
+) -> Plan:
+    """Choose `budget` records from `candidates`, each maximising log det of the
+    posterior precision (prior + `existing` records + records chosen so far).
+
+    `u`: the parameter estimate ($\\log$, `log_params`) at which the information is
+    evaluated; `prior_sd`: sd of $\\log$ parameters (scalar or 6); `repeats`: allow a
+    candidate to be chosen more than once (a repeated record); `criterion`: ``"D"``
+    (maximise log det of the precision) or ``"A"`` (minimise the trace of the
+    posterior covariance, i.e. the mean posterior variance).
+    """
+    if criterion not in ("D", "A"):
+        raise ValueError(f"criterion must be 'D' or 'A', got {criterion!r}")
+    if budget < 1:
+        raise ValueError(f"budget must be >= 1, got {budget}")
+    if not repeats and budget > len(candidates):
+        raise ValueError(f"budget {budget} exceeds the {len(candidates)} candidates")
+    u = jnp.asarray(u, dtype=float)
+    info = np.asarray(record_information(u, candidates, noise))
+    prec = prior_precision(prior_sd)
+    if existing is not None and len(existing):
+        prec = prec + np.asarray(fisher_information(u, existing, noise))
+    sd_before = posterior_sd(prec)
+    chosen, log_dets = [], []
+    available = np.ones(len(candidates), bool)
+    for _ in range(budget):
+        if criterion == "D":
+            _, ld = np.linalg.slogdet(prec[None] + info)
+        else:
+            ld = -np.trace(np.linalg.inv(prec[None] + info), axis1=1, axis2=2)
+        ld = np.where(available, ld, -np.inf)
+        i = int(np.argmax(ld))
+        chosen.append(i)
+        log_dets.append(float(ld[i]))
+        prec = prec + info[i]
+        if not repeats:
+            available[i] = False
+    idx = np.asarray(chosen)
+    return Plan(idx, candidates.take(idx), np.asarray(log_dets), sd_before, posterior_sd(prec))
+
+
+def even_design(candidates: Campaign, budget: int) -> Campaign:
+    """The comparison campaign: `budget` speeds evenly spaced in log over the candidates'
+    speed range, cycling through the candidates' distinct (W, k) pairs."""
+    w, k, v = (np.asarray(x) for x in (candidates.weight, candidates.stiffness, candidates.speed))
+    pairs = sorted({(a, b) for a, b in zip(w, k)})
+    speeds = np.geomspace(v.min(), v.max(), budget)
+    pw = np.array([pairs[i % len(pairs)][0] for i in range(budget)])
+    pk = np.array([pairs[i % len(pairs)][1] for i in range(budget)])
+    return Campaign(pw, pk, speeds)
+
+
+def candidate_grid(weights, stiffnesses, speeds) -> Campaign:
+    """Every combination of the given W (kgf), k (kgf/mm) and v (mm/s) as a `Campaign`."""
+    w, k, v = np.meshgrid(np.asarray(weights, float), np.asarray(stiffnesses, float),
+                          np.asarray(speeds, float), indexing="ij")
+    return Campaign(w.ravel(), k.ravel(), v.ravel())
+
+
+@eqx.filter_jit
+def simulate_observations(u, campaign: Campaign, noise: Noise, key):
+    """Synthetic observations (N, 4) and masks of a campaign at truth $u$, with Gaussian noise."""
+    y, mask = jax.vmap(observables, in_axes=(None, 0, 0, 0))(
+        u, campaign.weight, campaign.stiffness, campaign.speed)
+    eps = jax.random.normal(key, y.shape) * noise.sigma()
+    return y + eps * mask, mask
+
+
+class LaplaceFit(eqx.Module):
+    """Maximum a posteriori $u$ (`value`), its Laplace covariance and sd, and the result code."""
+
+    value: Float[Array, " 6"]
+    covariance: Float[Array, "6 6"]
+    sd: Float[Array, " 6"]
+    result: optx.RESULTS
+
+
+@eqx.filter_jit
+def laplace_fit(y, mask, campaign: Campaign, noise: Noise, prior_mean, prior_sd=1.0,
+                max_steps: int = 200) -> LaplaceFit:
+    """Fit $u$ to observations `y` (N, 4) by Levenberg-Marquardt with a Gaussian prior
+    (mean `prior_mean`, sd `prior_sd` in $u$); Laplace covariance from the Gauss-Newton
+    Hessian at the optimum."""
+    prior_mean = jnp.asarray(prior_mean, dtype=float)
+    psd = jnp.broadcast_to(jnp.asarray(prior_sd, dtype=float), prior_mean.shape)
+    sigma = noise.sigma()
+
+    def residuals(u, _):
+        pred, _m = jax.vmap(observables, in_axes=(None, 0, 0, 0))(
+            u, campaign.weight, campaign.stiffness, campaign.speed)
+        r = (pred - y) / sigma * mask
+        return jnp.concatenate([r.ravel(), (u - prior_mean) / psd])
+
+    # The search runs in z with u = mean + L tanh(z / L): trial steps of the optimiser
+    # stay within L = min(3 sd, 2) of the prior mean, where the steady analysis and
+    # its derivatives are finite (far outside, e.g. m ~ 100, T1^m overflows).
+    bound = jnp.minimum(3.0 * psd, 2.0)
+
+    def to_u(z):
+        return prior_mean + bound * jnp.tanh(z / bound)
+
+    sol = optx.least_squares(lambda z, a: residuals(to_u(z), a),
+                             optx.LevenbergMarquardt(rtol=1e-10, atol=1e-10),
+                             jnp.zeros_like(prior_mean), max_steps=max_steps, throw=False,
+                             options=dict(jac="bwd"))
+    u_hat = to_u(sol.value)
+    jac = jax.jacfwd(residuals)(u_hat, None)
+    cov = jnp.linalg.inv(jac.T @ jac)
+    return LaplaceFit(u_hat, cov, jnp.sqrt(jnp.diag(cov)), sol.result)
