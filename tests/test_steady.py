@@ -101,6 +101,20 @@ def test_eq6_eq12_match_brentq(grid, name):
         assert bool(jnp.all(jnp.isfinite(leaf)))
 
 
+@pytest.mark.parametrize("m, n", [(1.3, 0.6), (0.15, 1.4)])
+def test_eq6_off_table_exponents_match_brentq(m, n):
+    """Exponents outside Table 6 (m > 1 makes eq (6) non-monotone near T1 = 0): Newton
+    from above still finds the stick time T1 >= T0 that brentq brackets."""
+    fr = eqx.tree_at(lambda f: (f.static.m, f.kinetic.n), ss.lubricant("A"), (m, n))
+    p = (0.56, 0.21, 0.38, m, 67.0, n)  # lubricant A, Table 6, with m and n replaced
+    vc = ref_vc(36.0, 86.9, p)
+    v = vc * np.asarray([1e-4, 0.3, 0.999])
+    res = ss.steady_map(fr, 36.0, 86.9, v)
+    assert bool(jnp.all(res.stick_slip)) and bool(jnp.all(res.result == optx.RESULTS.successful))
+    for i in range(3):
+        assert float(res.stick_time[i]) == pytest.approx(ref_t1(36.0, 86.9, v[i], p), rel=1e-8)
+
+
 def test_critical_speed_lubricant_a_near_49_mm_per_min():
     vc = float(mm_per_min(ss.critical_speed(ss.lubricant("A"), 36.0, 86.9)))
     assert vc == pytest.approx(49.0, abs=0.5)  # NOTES.md item 3: "about 49 mm/min"
