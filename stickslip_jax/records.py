@@ -67,7 +67,9 @@ __all__ = [
     "Record",
     "RecordError",
     "check_campaign",
+    "format_drive_program",
     "format_record",
+    "parse_drive_program",
     "parse_record",
     "read_campaign",
     "read_record",
@@ -594,6 +596,24 @@ def _parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...
         raise RecordError(f"{exc.reason}; {hint}", path, line) from None
 
 
+def parse_drive_program(text: str) -> tuple[tuple[float, float], ...]:
+    """Parse `"0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min"` into ((start s, speed mm/s), ...).
+
+    The syntax of the `drive_program` header (also for a command-line option); raises
+    `RecordError` (a `ValueError`) saying what to fix.
+    """
+    return _parse_program(str(text), None, None)
+
+
+def format_drive_program(program, speed_unit: str = "mm/s", time_unit: str = "s") -> str:
+    """The `drive_program` text of ((start s, speed mm/s), ...), numbers with repr precision."""
+    segs = _check_program(program)
+    ft, fv = factor(time_unit, "time"), factor(speed_unit, "speed")
+    return "; ".join(
+        f"{_fmt(_encode(s, ft))} {time_unit} {_fmt(_encode(v, fv))} {speed_unit}" for s, v in segs
+    )
+
+
 def _text_value(key, value, path, line):
     if value == "":
         raise RecordError(f"{key}: empty value; give a value or delete the line", path, line)
@@ -985,8 +1005,7 @@ def format_record(
     if record.drive_speed is not None:
         out.append(f"# drive_speed: {_fmt(record.drive_speed)} mm/s")
     if record.drive_program is not None:
-        segs = "; ".join(f"{_fmt(s)} s {_fmt(v)} mm/s" for s, v in record.drive_program)
-        out.append(f"# drive_program: {segs}")
+        out.append(f"# drive_program: {format_drive_program(record.drive_program)}")
     for key in ("lubricant", "surface", "note"):
         value = getattr(record, key)
         if value is not None:

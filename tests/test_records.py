@@ -12,7 +12,9 @@ from stickslip_jax.records import (
     Record,
     RecordError,
     check_campaign,
+    format_drive_program,
     format_record,
+    parse_drive_program,
     parse_record,
     read_campaign,
     read_record,
@@ -415,3 +417,14 @@ def test_truth_json_round_trip(tmp_path):
     line = [ln for ln in text.splitlines() if ln.startswith("# truth:")][0]
     assert json.loads(line.split(":", 1)[1]) == truth
     assert parse_record(text).truth == truth
+
+
+def test_drive_program_text_helpers():
+    program = parse_drive_program("0 s 1 mm/min; 30 s 0 mm/min; 1 min 2 um/s")
+    assert program == ((0.0, 1 / 60), (30.0, 0.0), (60.0, 0.002))
+    assert parse_drive_program(format_drive_program(program)) == program
+    assert format_drive_program(((0.0, 1 / 60),), "mm/min") == "0.0 s 1.0 mm/min"
+    with pytest.raises(RecordError, match="^drive_program: cannot read segment '30'"):
+        parse_drive_program("0 s 1 mm/min; 30")
+    with pytest.raises(ValueError, match="negative"):
+        parse_drive_program("0 s -1 mm/min")
