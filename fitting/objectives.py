@@ -1,0 +1,181 @@
+r"""Objectives: whitened residual vectors whose sum of squares is $-2\log$ likelihood.
+
+**Features objective** (`feature_residuals`). The measurements of a record are its
+stick plateaus (the slider at rest; each level averages many samples, standard error
+$\sigma/\sqrt{N}$) and its slip times (see `fitting.features`). With the measured stick
+times $T_{1,j}$, the model predicts for every complete cycle $j$ (gauge offset $c$):
+
+- breakaway level $L_0(T_1) = c + (W/k)\,\mu_0(T_1)$, eq (1) (section 3.1);
+- slip-end level $L_1(T_1) = c + (W/k)\,(2\mu_m - \mu_0)$, eq (5) with eq (3)
+  $\mu_m = \mu_d + (\mu_0 - \mu_d)e^{-\delta T_2^n}$ and $T_2 = \pi/\omega_0$ (eq 7,
+  `slip_time="paper"`) or the actual slip duration
+  $\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$ (`"self_consistent"`).
+
+Two kinds of residual, each built from independent noise so that no measurement is
+counted twice (restart per cycle: nothing accumulates from cycle to cycle):
+
+1. *level*: the plateau after slip $j$, $x_{1,j}$, against the mean of its available
+   predictions, $L_1(T_{1,j})$ (end of slip $j$) and $L_0(T_{1,j+1}) - \Delta u_{j+1}$
+   (the breakaway of cycle $j+1$ minus the drive travel during that stick); divided by the
+   plateau's standard error.
+2. *stick* (eq 6 cycle by cycle): the stick climbs from $x_{1,j}$ to $x_{2,j+1}$ with the
+   drive, $L_0(T_{1,j+1}) - L_1(T_{1,j}) = \Delta u_{j+1}$; divided by the propagated
+   timing error of the stick times ("effective variance" weights, held fixed in the
+   derivative).
+
+With `offset_from_start`, a record that starts with the spring relaxed adds the residual
+(deflection at the first sample - c) / its standard error, which pins the gauge offset.
+
+Units: levels in mm, times in s, W in kgf, k in kgf/mm.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Bool, Float
+
+from .features import RecordFeatures
+from .params import CampaignParams
+
+__all__ = ["FeatureData", "feature_data", "feature_residuals", "SLIP_TIME_MODES"]
+
+SLIP_TIME_MODES = ("paper", "self_consistent")
+
+
+class FeatureData(eqx.Module):
+    """Cycle features of a campaign as padded arrays [R records, C cycles] (mm, s)."""
+
+    weight: Float[Array, " R"]
+    stiffness: Float[Array, " R"]
+    omega0: Float[Array, " R"]
+    t1: Float[Array, "R C"]
+    t1_next: Float[Array, "R C"]
+    t1_sd: Float[Array, "R C"]
+    t1_next_sd: Float[Array, "R C"]
+    trough: Float[Array, "R C"]
+    trough_sd: Float[Array, "R C"]
+    climb_next: Float[Array, "R C"]
+    has_end: Bool[Array, "R C"]
+    has_next: Bool[Array, "R C"]
+    start_level: Float[Array, " R"]
+    start_sd: Float[Array, " R"]
+    use_start: Bool[Array, " R"]
+
+    @property
+    def n_records(self) -> int:
+        return int(self.weight.shape[0])
+
+    def n_residuals(self) -> int:
+        """Number of residuals that carry data (the rest of the padded vector is zero)."""
+        level = np.asarray(self.has_end | self.has_next).sum()
+        stick = np.asarray(self.has_end & self.has_next).sum()
+        return int(level + stick + np.asarray(self.use_start).sum())
+
+
+def feature_data(features: list[RecordFeatures], *, offset_from_start: bool = False) -> FeatureData:
+    """Stack the features of a campaign's records (see `FeatureData`).
+
+    Raises ValueError when a record has no usable stick-slip.
+    """
+    bad = [f"{f.name} ({f.message})" for f in features if not f.stick_slip]
+    if bad:
+        raise ValueError("records without usable stick-slip: " + "; ".join(bad))
+    C = max(len(f.peak) for f in features)
+    R = len(features)
+
+    def arr(fill=0.0, dtype=float):
+        return np.full((R, C), fill, dtype=dtype)
+
+    t1, t1n, t1sd, t1nsd = arr(1.0), arr(1.0), arr(1.0), arr(1.0)
+    tr, trsd, climb = arr(), arr(1.0), arr()
+    has_end, has_next = arr(False, bool), arr(False, bool)
+    start, start_sd, use_start = np.zeros(R), np.ones(R), np.zeros(R, bool)
+    for r, f in enumerate(features):
+        c = len(f.peak)
+        comp = np.asarray(f.complete, bool)
+        t1[r, :c] = np.where(comp, f.stick_time, 1.0)
+        t1sd[r, :c] = np.where(comp, f.stick_time_sd, 1.0)
+        has_end[r, :c] = comp
+        tr[r, :c] = f.trough
+        trsd[r, :c] = f.trough_sd
+        nxt = np.zeros(c, bool)
+        nxt[:-1] = comp[1:]
+        has_next[r, :c] = nxt
+        t1n[r, : c - 1] = np.where(comp[1:], f.stick_time[1:], 1.0)
+        t1nsd[r, : c - 1] = np.where(comp[1:], f.stick_time_sd[1:], 1.0)
+        climb[r, : c - 1] = f.peak[1:] - f.trough[:-1]
+        if offset_from_start:
+            if not math.isfinite(f.start_level):
+                raise ValueError(
+                    f"{f.name}: the record does not start in a stick, so its gauge offset "
+                    "cannot be read from the first sample; drop --offset start"
+                )
+            start[r], start_sd[r], use_start[r] = f.start_level, f.start_level_sd, True
+    j = jnp.asarray
+    return FeatureData(
+        weight=j([f.weight for f in features]), stiffness=j([f.stiffness for f in features]),
+        omega0=j([f.omega0 for f in features]),
+        t1=j(t1), t1_next=j(t1n), t1_sd=j(t1sd), t1_next_sd=j(t1nsd), trough=j(tr),
+        trough_sd=j(trsd), climb_next=j(climb), has_end=j(has_end), has_next=j(has_next),
+        start_level=j(start), start_sd=j(start_sd), use_start=j(use_start),
+    )
+
+
+def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time):
+    """L0, L1 (mm) at stick time t1 for one record (eqs 1, 3, 5, 7)."""
+    mu0 = friction.static(t1)
+    t2 = jnp.pi / omega0
+    if slip_time == "self_consistent":
+        speed = climb_hint / t1
+        for _ in range(4):
+            mum = friction.kinetic(mu0, friction.mu_d, t2)
+            amp = jnp.maximum((mu0 - mum) * scale, 1e-12)
+            t2 = (jnp.pi + 2.0 * jnp.arctan(speed / (omega0 * amp))) / omega0
+    mum = friction.kinetic(mu0, friction.mu_d, t2)
+    return offset + scale * mu0, offset + scale * (2.0 * mum - mu0)
+
+
+def feature_residuals(
+    params: CampaignParams, data: FeatureData, slip_time: str = "paper"
+) -> Float[Array, " N"]:
+    """Whitened residuals of the features objective (module doc); padded entries are 0.
+
+    Shape: (2 R C + R,), fixed by the data, so one compilation serves every parameter
+    value. `slip_time` selects the $T_2$ of eq (3): "paper" (eq 7) or "self_consistent".
+    """
+    if slip_time not in SLIP_TIME_MODES:
+        raise ValueError(f"slip_time must be one of {SLIP_TIME_MODES}, got {slip_time!r}")
+    friction = params.friction.friction()
+    scale = data.weight / data.stiffness
+
+    def one(scale, offset, omega0, t1, t1n, t1sd, t1nsd, x1, x1sd, climb, he, hn):
+        def lv(t):
+            return _levels(friction, scale, offset, omega0, t, climb, slip_time)
+
+        (l0, l1), (dl0, dl1) = jax.jvp(lambda t: lv(t), (t1,), (jnp.ones_like(t1),))
+        (l0n, l1n), (dl0n, _) = jax.jvp(lambda t: lv(t), (t1n,), (jnp.ones_like(t1n),))
+        pred_end = jnp.where(he, l1, 0.0)
+        pred_next = jnp.where(hn, l0n - climb, 0.0)
+        count = he.astype(float) + hn.astype(float)
+        pred = (pred_end + pred_next) / jnp.maximum(count, 1.0)
+        level = jnp.where(count > 0, (x1 - pred) / x1sd, 0.0)
+        speed = climb / t1n
+        sd = jnp.sqrt(((dl0n - speed) * t1nsd) ** 2 + (dl1 * t1sd) ** 2)
+        sd = jax.lax.stop_gradient(jnp.maximum(sd, 1e-12))
+        stick = jnp.where(he & hn, (l0n - l1 - climb) / sd, 0.0)
+        del l0, dl0, l1n
+        return level, stick
+
+    args = (
+        data.t1, data.t1_next, data.t1_sd, data.t1_next_sd, data.trough, data.trough_sd,
+        data.climb_next, data.has_end, data.has_next,
+    )
+    per_cycle = jax.vmap(one, in_axes=(None, None, None) + (0,) * 9)
+    level, stick = jax.vmap(per_cycle)(scale, params.offset, data.omega0, *args)
+    start = jnp.where(data.use_start, (data.start_level - params.offset) / data.start_sd, 0.0)
+    return jnp.concatenate([level.ravel(), stick.ravel(), start])

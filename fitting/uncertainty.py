@@ -1,0 +1,195 @@
+r"""Laplace (Gauss-Newton) uncertainty and identifiability of a campaign fit.
+
+At the least-squares optimum the whitened residuals $r(\theta)$ give the Fisher
+information $F = J^\top J$, $J = \partial r/\partial\theta$, and the Laplace
+covariance $F^{-1}$, scaled by $\max(1, \chi^2/\mathrm{dof})$ so that a model or
+noise estimate that does not fit does not shrink the intervals. The coordinates
+$\theta$ are the **logarithms** of the natural parameters ($\log\mu_s, \log\mu_d,
+\log\gamma, \ldots$) and the free gauge offsets, so eigenvalues and standard errors
+are relative: a standard error of 0.1 in $\log\gamma$ is about 10 % of $\gamma$.
+Intervals are log-normal, $p\,e^{\pm z\,\mathrm{se}}$: positive, like the parameters.
+
+Identifiability is judged two ways and reported in plain language:
+- by the numbers: a parameter whose relative standard error exceeds
+  `max_relative_se` (default 0.5, a 95 % interval wider than a factor 2.7 either
+  way), and pairs with |correlation| > 0.95; the eigenvalues of the friction block of
+  $F$ (offsets marginalised) with the direction of the weakest one;
+- by the design: one slip time $T_2 = \pi/\omega_0$ for all records (a single $k/W$)
+  leaves only $\delta T_2^n$ determined, so $n$ (and $\delta$ apart from it) cannot be
+  found; stick times within a factor 1.5 of each other (one speed) leave the rise of
+  $\mu_0(T_1)$, that is $\gamma$ and $m$, undetermined.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.flatten_util import ravel_pytree
+
+from .fit import FitResult
+from .objectives import feature_residuals
+from .params import NAMES, UNITS, CampaignParams, EmpiricalFriction
+
+__all__ = ["Uncertainty", "laplace", "Z95"]
+
+Z95 = 1.959963984540054
+
+
+@dataclasses.dataclass(frozen=True)
+class Uncertainty:
+    """Laplace uncertainty of the friction parameters (NAMES order).
+
+    `value`, `stderr` (natural units), `log_se` (relative), `ci95` (low, high),
+    `free` (fitted, not fixed), `corr` (6x6 correlation in log coordinates, NaN for
+    fixed), `fisher_eigenvalues` (friction block, offsets marginalised, ascending),
+    `weakest_direction` ({name: weight}), `identifiable` ({name: bool}),
+    `warnings` (plain-language lines), `scale` (the chi2/dof factor applied).
+    """
+
+    value: np.ndarray
+    stderr: np.ndarray
+    log_se: np.ndarray
+    ci95: np.ndarray
+    free: np.ndarray
+    corr: np.ndarray
+    cov_log: np.ndarray
+    fisher_eigenvalues: np.ndarray
+    weakest_direction: dict
+    identifiable: dict
+    warnings: list
+    scale: float
+
+    def table(self) -> list[dict]:
+        rows = []
+        for i, n in enumerate(NAMES):
+            ok = bool(self.identifiable[n])
+            rows.append(dict(
+                name=n, unit=UNITS[n], value=float(self.value[i]),
+                stderr=float(self.stderr[i]) if (ok and self.free[i]) else None,
+                ci95=[float(self.ci95[i, 0]), float(self.ci95[i, 1])]
+                if (ok and self.free[i]) else None,
+                fixed=not bool(self.free[i]), identifiable=ok,
+            ))
+        return rows
+
+
+def _from_logs(logs, template: EmpiricalFriction) -> EmpiricalFriction:
+    """EmpiricalFriction from log natural values (mu_s > mu_d assumed near the optimum)."""
+    l_mus, l_mud, l_g, l_m, l_d, l_n = (logs[i] for i in range(6))
+    gap = jnp.maximum(jnp.exp(l_mus) - jnp.exp(l_mud), 1e-300)
+    return EmpiricalFriction(l_mud, jnp.log(gap), l_g, l_m, l_d, l_n)
+
+
+def fisher_log(fit: FitResult):
+    """(F, names, free mask): Fisher information in (log friction, free offsets) coordinates."""
+    p = fit.params
+    logs0 = p.friction.log_values()
+    spec_fr = fit.spec.friction
+    leaf = ("log_gap", "log_mu_d", "log_gamma", "log_m", "log_delta", "log_n")
+    free = np.array([bool(getattr(spec_fr, lf)) for lf in leaf])
+    idx = np.flatnonzero(free)
+    fit_offsets = bool(fit.spec.offset)
+    off0 = p.offset
+
+    def residuals(theta):
+        logs = logs0.at[idx].set(theta[: idx.size])
+        off = theta[idx.size:] if fit_offsets else off0
+        params = CampaignParams(_from_logs(logs, p.friction), off)
+        return feature_residuals(params, fit.data, fit.slip_time)
+
+    theta0 = jnp.concatenate([logs0[idx], off0 if fit_offsets else jnp.zeros(0)])
+    J = jax.jacfwd(residuals)(theta0)
+    return np.asarray(J.T @ J), free, idx
+
+
+def _design_warnings(fit: FitResult) -> tuple[set, list]:
+    flagged, msgs = set(), []
+    feats = fit.features
+    t2 = np.array([math.pi / f.omega0 for f in feats])
+    if t2.max() / t2.min() < 1.05:
+        flagged |= {"n", "delta"}
+        msgs.append(
+            f"n, delta: every record has the same slip time T2 = {t2.mean():.4g} s (one k/W), "
+            "so only delta*T2^n is determined; use springs or weights with different k/W, "
+            "or fix n (--fix n=1)."
+        )
+    t1 = np.concatenate([f.stick_time[f.complete] for f in feats])
+    if t1.size and t1.max() / t1.min() < 1.5:
+        flagged |= {"gamma", "m"}
+        msgs.append(
+            f"gamma, m: all stick times lie within {t1.min():.3g}-{t1.max():.3g} s (one drive "
+            "speed), so the rise of mu_0 with stick time (eq 1) cannot be resolved; "
+            "add drive speeds an order of magnitude apart."
+        )
+    return flagged, msgs
+
+
+def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
+    """Laplace covariance, intervals and identifiability report of a fit (module doc)."""
+    F, free, idx = fisher_log(fit)
+    k = idx.size
+    cov = np.linalg.pinv(F, rcond=1e-13, hermitian=True)
+    scale = max(1.0, fit.reduced_chi2)
+    cov *= scale
+    cov_log = np.full((6, 6), np.nan)
+    cov_log[np.ix_(idx, idx)] = cov[:k, :k]
+    value = np.asarray(fit.params.friction.values())
+    log_se = np.zeros(6)
+    log_se[idx] = np.sqrt(np.maximum(np.diag(cov[:k, :k]), 0.0))
+    stderr = value * log_se
+    ci95 = np.stack([value * np.exp(-Z95 * log_se), value * np.exp(Z95 * log_se)], axis=1)
+    sd = np.sqrt(np.diag(cov_log))
+    corr = cov_log / np.outer(sd, sd)
+    # friction block of F with offsets marginalised (Schur complement)
+    Fff = F[:k, :k]
+    if F.shape[0] > k:
+        Foo, Ffo = F[k:, k:], F[:k, k:]
+        Fff = Fff - Ffo @ np.linalg.pinv(Foo, hermitian=True) @ Ffo.T
+    eig, vec = np.linalg.eigh(Fff / scale)
+    weakest = {NAMES[i]: float(w) for i, w in zip(idx, vec[:, 0])} if k else {}
+    flagged, warnings = _design_warnings(fit)
+    identifiable = {}
+    for i, n in enumerate(NAMES):
+        bad_num = bool(free[i]) and not (log_se[i] <= max_relative_se)
+        identifiable[n] = not (bad_num or (n in flagged and free[i]))
+        if bad_num and n not in flagged:
+            warnings.append(
+                f"{n}: not identifiable from this campaign (relative standard error "
+                f"{log_se[i]:.2g} > {max_relative_se}); its value is only a placeholder."
+            )
+    for a in range(6):
+        for b in range(a + 1, 6):
+            if free[a] and free[b] and abs(corr[a, b]) > 0.95:
+                warnings.append(
+                    f"{NAMES[a]} and {NAMES[b]} are strongly correlated (r = {corr[a, b]:+.3f}): "
+                    "the campaign determines a combination of them better than either."
+                )
+    if not fit.converged:
+        warnings.append("the optimiser did not report convergence; treat the values with care.")
+    if fit.reduced_chi2 > 2.0:
+        warnings.append(
+            f"chi2/dof = {fit.reduced_chi2:.3g}: the model does not fit the records to their noise "
+            "level; the intervals are widened by that factor's square root."
+        )
+    return Uncertainty(
+        value=value, stderr=stderr, log_se=log_se, ci95=ci95, free=free, corr=corr,
+        cov_log=cov_log, fisher_eigenvalues=eig, weakest_direction=weakest,
+        identifiable=identifiable, warnings=warnings, scale=scale,
+    )
+
+
+def filter_free(fit: FitResult):
+    """(free, static) partition of the fitted params by their spec (helper)."""
+    return eqx.partition(fit.params, fit.spec)
+
+
+def flat_free(fit: FitResult):
+    """Flat vector of the free leaves and the function that rebuilds the params."""
+    free, static = filter_free(fit)
+    flat, unravel = ravel_pytree(free)
+    return flat, lambda v: eqx.combine(unravel(v), static)
