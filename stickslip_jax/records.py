@@ -367,7 +367,10 @@ class Record:
 
     @property
     def nominal_drive_speed(self) -> float:
-        """drive_speed if given, else the largest program speed, else the mean measured speed (mm/s)."""
+        """Nominal drive speed v in mm/s.
+
+        drive_speed if given, else the largest program speed, else the mean measured speed.
+        """
         if self.drive_speed is not None:
             return self.drive_speed
         if self.drive_program is not None:

@@ -138,7 +138,8 @@ def test_cli_plot_writes_png_next_to_record(tmp_path, noisy, capsys):
 @pytest.mark.parametrize(
     "content, extra, words",
     [
-        ("# stickslip-record: 1\n# stiffness: 86.9\ntime [s],deflection [mm]\n0,0\n", [], ["bad.csv: line 2", "no unit"]),
+        ("# stickslip-record: 1\n# stiffness: 86.9\ntime [s],deflection [mm]\n0,0\n", [],
+         ["bad.csv: line 2", "no unit"]),
         (None, [], ["no such file"]),
         ("ok", ["--out", "fig.jpg"], ["--out", ".png"]),
         ("ok", ["--out", "nodir/fig.png"], ["--out", "does not exist"]),

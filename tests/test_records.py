@@ -298,7 +298,8 @@ def test_uneven_time_says_how_uneven(tmp_path):
 def test_coarsely_rounded_times_get_a_digits_hint(tmp_path):
     rows = "\n".join(f"{t:.4f},0.1" for t in np.arange(20) / 3000)  # 3 kHz, 4 decimals
     p = write(tmp_path, EXAMPLE.split("time [s]")[0] + "time [s],deflection [mm]\n" + rows)
-    with pytest.raises(RecordError, match="within the rounding of the written digits: if the time stamps were rounded, "
+    with pytest.raises(RecordError, match="within the rounding of the written digits: if the "
+                       "time stamps were rounded, "
                        "write them with more digits"):
         read_record(p)
 
@@ -379,7 +380,8 @@ def test_campaign_from_directory_glob_and_list(tmp_path):
     recs = read_campaign(d)
     assert [r.name for r in recs] == ["run0", "run1", "run2"]
     assert [r.name for r in read_campaign(str(d / "run[01].csv"))] == ["run0", "run1"]
-    assert [r.name for r in read_campaign([d / "run2.csv", str(d / "run0.csv")])] == ["run2", "run0"]
+    listed = read_campaign([d / "run2.csv", str(d / "run0.csv")])
+    assert [r.name for r in listed] == ["run2", "run0"]
     with pytest.raises(RecordError, match="named twice"):
         read_campaign([d, d / "run1.csv"])
     with pytest.raises(RecordError, match="no file matches"):
