@@ -1,0 +1,1 @@
+"""`stickslip` subcommands of the fitting package (fit, mcmc, design, plan, discover, pitch)."""

@@ -1,0 +1,240 @@
+"""`stickslip design`: maps of stick-slip amplitude and critical speed over W, k and v."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from stickslip_jax.lubricants import lubricant, lubricants
+from stickslip_jax.units import UnitError, parse_quantity
+
+NAME = "design"
+HELP = ("design map of stick-slip amplitude and critical speed over grids of W, k, v "
+        "(steady analysis, or the exact simulator with --exact; a posterior with --posterior)")
+
+DIMENSIONS = {"weight": ("force", "kgf"), "stiffness": ("stiffness", "kgf/mm"),
+              "speed": ("speed", "mm/min")}
+
+
+def parse_grid(text: str, dimension: str, default_unit: str, arg: str) -> np.ndarray:
+    """``"36"``, ``"10:60:50"``, ``"0.01:50:30:log"``, each optionally followed by a unit
+    (``"0.5:20:10 um/s"``) -> 1-D array in internal units (linear or log spacing)."""
+    text = str(text).strip()
+    parts = text.split(None, 1)
+    spec, unit = parts[0], (parts[1] if len(parts) > 1 else default_unit)
+    fields = spec.split(":")
+    try:
+        if len(fields) == 1:
+            values = [parse_quantity(f"{fields[0]} {unit}", dimension)]
+        elif len(fields) in (3, 4):
+            if len(fields) == 4 and fields[3] not in ("lin", "log"):
+                raise ValueError(f"spacing must be 'lin' or 'log', got {fields[3]!r}")
+            count = int(fields[2])
+            if count < 1:
+                raise ValueError("count must be >= 1")
+            lo = parse_quantity(f"{fields[0]} {unit}", dimension)
+            hi = parse_quantity(f"{fields[1]} {unit}", dimension)
+            if len(fields) == 4 and fields[3] == "log":
+                if lo <= 0 or hi <= 0:
+                    raise ValueError("a log grid needs positive ends")
+                values = np.geomspace(lo, hi, count)
+            else:
+                values = np.linspace(lo, hi, count)
+        else:
+            raise ValueError("use VALUE or START:STOP:COUNT[:log] with an optional unit")
+    except (UnitError, ValueError) as exc:
+        raise ValueError(f"{arg}: cannot read {text!r} ({exc}); "
+                         f"e.g. '10:60:50' or '0.1:100:30:log {default_unit}'") from None
+    values = np.asarray(values, dtype=float)
+    if not np.all(np.isfinite(values) & (values > 0)):
+        raise ValueError(f"{arg}: values must be finite and positive, got {text!r}")
+    return values
+
+
+def add_arguments(p):
+    p.add_argument("--lubricant", default="A", help="paper lubricant (Table 6: A, C)")
+    p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
+                   help="table of eq (1) parameters (default 6; 4 and 9 borrow delta, n of A)")
+    p.add_argument("--weight", required=True,
+                   help="slider weight W: VALUE or START:STOP:COUNT[:log] [unit] (default kgf)")
+    p.add_argument("--stiffness", required=True,
+                   help="drive stiffness k: VALUE or START:STOP:COUNT[:log] [unit] (default kgf/mm)")
+    p.add_argument("--speed", required=True,
+                   help="drive speed v: VALUE or START:STOP:COUNT[:log] [unit] (default mm/min)")
+    p.add_argument("--posterior", metavar="FILE",
+                   help="posterior sample (CSV/JSON with mu_s, mu_d, gamma, m, delta, n) to "
+                        "propagate instead of the lubricant: probability of stick-slip, v_c band")
+    p.add_argument("--level", type=float, default=0.9, help="credible level of the v_c band")
+    p.add_argument("--exact", action="store_true",
+                   help="amplitude and frequency from the exact time-domain simulator")
+    p.add_argument("--out", metavar="PNG", help="write the map figure here")
+    p.add_argument("--json", action="store_true", help="print the map as JSON")
+    p.add_argument("--chunk-size", type=int, default=65_536, help="points per device batch")
+    p.add_argument("--progress", action="store_true", help="show a progress bar")
+
+
+def _axes(args):
+    axes = {}
+    for name, (dim, unit) in DIMENSIONS.items():
+        axes[name] = parse_grid(getattr(args, name), dim, unit, f"--{name}")
+    return axes
+
+
+def compute(args):
+    """The map as a dict of NumPy arrays (internal units) plus its axes."""
+    from fitting.design import design_map, load_samples, outer, propagate
+
+    if args.lubricant not in lubricants(args.table):
+        raise ValueError(f"--lubricant: unknown lubricant {args.lubricant!r}; "
+                         f"Table {args.table} has {', '.join(lubricants(args.table))}")
+    if args.chunk_size < 1:
+        raise ValueError("--chunk-size: must be >= 1")
+    if not 0 < args.level < 1:
+        raise ValueError("--level: must be between 0 and 1, e.g. 0.9")
+    axes = _axes(args)
+    w, k, v = outer(axes["weight"], axes["stiffness"], axes["speed"])
+    out = {"axes": axes}
+    if args.posterior:
+        if args.exact:
+            raise ValueError("--exact: not available with --posterior (steady analysis only)")
+        if not Path(args.posterior).exists():
+            raise ValueError(f"--posterior: no such file {args.posterior!r}")
+        sample = load_samples(args.posterior)
+        u = propagate(sample, w, k, v, level=args.level, chunk_size=args.chunk_size * 4,
+                      progress=args.progress)
+        out.update(probability=u.probability, critical_speed_band=u.critical_speed,
+                   critical_speed=u.critical_speed[..., 1], amplitude=u.amplitude[..., 1],
+                   amplitude_band=u.amplitude, stick_slip=u.probability >= 0.5)
+        return out
+    friction = lubricant(args.lubricant, table=args.table)
+    m = design_map(friction, w, k, v, method="exact" if args.exact else "steady",
+                   chunk_size=args.chunk_size, progress=args.progress)
+    out.update(amplitude=m.amplitude, amplitude_ratio=m.amplitude_ratio, frequency=m.frequency,
+               frequency_ratio=m.frequency_ratio, stick_time=m.stick_time,
+               critical_speed=m.critical_speed, stick_slip=m.stick_slip, converged=m.converged)
+    return out
+
+
+def to_json(args, res) -> dict:
+    axes = res["axes"]
+    doc = {
+        "source": {"posterior": args.posterior} if args.posterior
+        else {"lubricant": args.lubricant, "table": args.table},
+        "method": "exact" if args.exact else "steady",
+        "axes": {"weight_kgf": axes["weight"].tolist(),
+                 "stiffness_kgf_mm": axes["stiffness"].tolist(),
+                 "speed_mm_min": (axes["speed"] * 60.0).tolist()},
+        "shape": list(res["amplitude"].shape),
+        "index_order": ["weight", "stiffness", "speed"],
+        "amplitude_mm": res["amplitude"].tolist(),
+        "critical_speed_mm_min": (res["critical_speed"] * 60.0).tolist(),
+        "stick_slip": res["stick_slip"].tolist(),
+    }
+    if args.posterior:
+        doc["level"] = args.level
+        doc["probability_stick_slip"] = res["probability"].tolist()
+        doc["critical_speed_band_mm_min"] = (res["critical_speed_band"] * 60.0).tolist()
+        doc["amplitude_band_mm"] = res["amplitude_band"].tolist()
+    else:
+        doc.update(
+            amplitude_ratio=res["amplitude_ratio"].tolist(),
+            frequency_hz=res["frequency"].tolist(),
+            frequency_ratio=res["frequency_ratio"].tolist(),
+            stick_time_s=res["stick_time"].tolist(),
+            converged=res["converged"].tolist(),
+        )
+    return doc
+
+
+LABELS = {"weight": "W [kgf]", "stiffness": "k [kgf/mm]", "speed": "v [mm/min]"}
+
+
+def plot(args, res, path):
+    """Amplitude and v_c maps (2 grid axes) or curves (1 grid axis), boundary drawn."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    axes = res["axes"]
+    grid = [n for n in ("weight", "stiffness", "speed") if axes[n].size > 1]
+    if len(grid) == 0 or len(grid) > 2:
+        raise ValueError("--out: a figure needs one or two of --weight/--stiffness/--speed "
+                         f"as START:STOP:COUNT grids, got {len(grid)}")
+    scale = {"weight": 1.0, "stiffness": 1.0, "speed": 60.0}
+    squeeze = tuple(i for i, n in enumerate(("weight", "stiffness", "speed")) if n not in grid)
+    panels = [("amplitude", "amplitude a [mm]", 1.0), ("critical_speed", "v_c [mm/min]", 60.0)]
+    if args.posterior:
+        panels.append(("probability", "P(stick-slip)", 1.0))
+    fig, axs = plt.subplots(1, len(panels), figsize=(5.2 * len(panels), 4.2), squeeze=False)
+    # A smooth field whose zero level is the stick-slip boundary.
+    if args.posterior:
+        edge = res["probability"] - 0.5
+    elif args.exact:
+        edge = res["stick_slip"].astype(float) - 0.5
+    else:
+        edge = np.log(res["critical_speed"] / np.broadcast_to(
+            axes["speed"][None, None, :], res["critical_speed"].shape))
+    edge = np.squeeze(edge, axis=squeeze)
+    crosses = edge.min() < 0 < edge.max()
+    title = (f"posterior {Path(args.posterior).name}" if args.posterior
+             else f"lubricant {args.lubricant} (Table {args.table})")
+    for ax, (key, label, s) in zip(axs[0], panels):
+        z = np.squeeze(res[key], axis=squeeze) * s
+        if len(grid) == 2:
+            x = axes[grid[1]] * scale[grid[1]]
+            y = axes[grid[0]] * scale[grid[0]]
+            mesh = ax.pcolormesh(x, y, z, shading="auto", cmap="viridis")
+            fig.colorbar(mesh, ax=ax, label=label)
+            if crosses:
+                ax.contour(x, y, edge, levels=[0.0], colors="w", linewidths=1.5)
+            ax.set_xlabel(LABELS[grid[1]])
+            ax.set_ylabel(LABELS[grid[0]])
+            if "speed" in grid:
+                ax.set_xscale("log") if grid[1] == "speed" else ax.set_yscale("log")
+        else:
+            x = axes[grid[0]] * scale[grid[0]]
+            ax.plot(x, z, "-")
+            if crosses:
+                i = int(np.argmax(np.sign(edge) != np.sign(edge[0])))
+                # interpolate the zero crossing of the boundary field between samples
+                f = edge[i - 1] / (edge[i - 1] - edge[i])
+                xb = x[i - 1] * (x[i] / x[i - 1]) ** f if grid[0] == "speed" else \
+                    x[i - 1] + f * (x[i] - x[i - 1])
+                ax.axvline(xb, color="k", ls="--", lw=1, label="stick-slip boundary")
+                ax.legend()
+            ax.set_xlabel(LABELS[grid[0]])
+            ax.set_ylabel(label)
+            if grid[0] == "speed":
+                ax.set_xscale("log")
+        ax.set_title(f"{label.split(' [')[0]}: {title}", fontsize=9)
+    fixed = ", ".join(f"{LABELS[n].split(' ')[0]} = {float(axes[n][0]) * scale[n]:g} "
+                      f"{LABELS[n].split(' ')[1][1:-1]}"
+                      for n in ("weight", "stiffness", "speed") if n not in grid)
+    fig.suptitle(f"{'exact simulator' if args.exact else 'steady analysis'}"
+                 f"{'; ' + fixed if fixed else ''}; white/dashed: stick-slip boundary", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+def run(args) -> int:
+    res = compute(args)
+    if args.out:
+        plot(args, res, args.out)
+    if args.json:
+        print(json.dumps(to_json(args, res)))
+        return 0
+    amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]
+    print(f"design map {'x'.join(str(s) for s in amp.shape)} (W x k x v), "
+          f"{'exact simulator' if args.exact else 'steady analysis'}")
+    print(f"  stick-slip at {np.mean(stick) * 100:.1f} % of points")
+    print(f"  amplitude a: {amp.min():.4g} .. {amp.max():.4g} mm")
+    print(f"  critical speed v_c: {vc.min():.4g} .. {vc.max():.4g} mm/min")
+    if args.posterior:
+        print(f"  P(stick-slip): {res['probability'].min():.3g} .. {res['probability'].max():.3g}")
+    if args.out:
+        print(f"  figure: {args.out}")
+    return 0
