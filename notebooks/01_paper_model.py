@@ -74,7 +74,8 @@ axes[0].legend()
 save(fig, "fig16_17_static_laws")
 for lub in ("A", "C"):
     f = ss.static_law("kato", lub)
-    print(f"lubricant {lub}: mu_0(0.1 s) = {float(f(0.1)):.3f}, mu_0(100 s) = {float(f(100.0)):.3f}")
+    print(f"lubricant {lub}: mu_0(0.1 s) = {float(f(0.1)):.3f}, "
+          f"mu_0(100 s) = {float(f(100.0)):.3f}")
 
 # %% [markdown]
 # ## Amplitude and frequency against drive speed (Figs 32, 33 and the frequency curves)
@@ -110,7 +111,8 @@ save(fig, "fig32_33_amplitude_frequency")
 
 r = ss.steady_map(LUBS["A"], W2, K2, from_mm_per_min(jnp.asarray([0.01, 1.0, 10.0])))
 print("lubricant A, W = 36 kgf, k = 86.9 kgf/mm: v [mm/min] = 0.01, 1, 10 ->",
-      "ak/W =", np.round(np.asarray(r.amplitude_ratio), 4), " f/f0 =", np.round(np.asarray(r.frequency_ratio), 5))
+      "ak/W =", np.round(np.asarray(r.amplitude_ratio), 4),
+      " f/f0 =", np.round(np.asarray(r.frequency_ratio), 5))
 
 # %% [markdown]
 # ## Slip phase plane, eq (11) (Fig 34 style)
@@ -143,7 +145,8 @@ k_range = jnp.linspace(10.0, 200.0, N)
 fig, ax = plt.subplots(figsize=(5, 4))
 for lub, fr in LUBS.items():
     f0 = np.asarray(ss.natural_angular_frequency(W2, k_range)) / (2 * np.pi)
-    vc = mm_per_min(np.asarray(jax.vmap(ss.critical_speed, in_axes=(None, None, 0))(fr, W2, k_range)))
+    vc_fn = jax.vmap(ss.critical_speed, in_axes=(None, None, 0))
+    vc = mm_per_min(np.asarray(vc_fn(fr, W2, k_range)))
     ax.loglog(f0, vc, label=f"lubricant {lub}")
     for W, K in CONDITIONS:  # the Table 1 systems
         ax.plot(float(ss.natural_angular_frequency(W, K)) / (2 * np.pi),
@@ -180,7 +183,8 @@ for ax, (label, where, values, offset) in zip(axes, sweeps):
     ax.set_xlabel(label)
     ax.grid(alpha=0.3)
     trend = "rises" if vc[-1] > vc[0] else "falls"
-    print(f"v_c {trend} with {label}: {mm_per_min(float(vc[0])):.3g} -> {mm_per_min(float(vc[-1])):.3g} mm/min")
+    lo, hi = mm_per_min(float(vc[0])), mm_per_min(float(vc[-1]))
+    print(f"v_c {trend} with {label}: {lo:.3g} -> {hi:.3g} mm/min")
 axes[0].set_ylabel("$v_c$ [mm/min]")
 save(fig, "fig37_41_vc_parameters")
 print("figures in", FIGDIR)

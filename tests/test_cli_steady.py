@@ -58,7 +58,8 @@ def test_help(capsys):
 @pytest.mark.parametrize(
     "args, names",
     [
-        (["--lubricant", "Z", "--weight", "36", "--stiffness", "86.9", "--speed", "1"], "--lubricant"),
+        (["--lubricant", "Z", "--weight", "36", "--stiffness", "86.9", "--speed", "1"],
+         "--lubricant"),
         (["--weight", "0", "--stiffness", "86.9", "--speed", "1"], "--weight"),
         (["--weight", "36", "--stiffness", "-2", "--speed", "1"], "--stiffness"),
         (["--weight", "36", "--stiffness", "86.9", "--speed", "1", "-5"], "--speed"),

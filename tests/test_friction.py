@@ -59,10 +59,6 @@ def test_kato_asymptote_and_monotone():
     assert mu[-1] == pytest.approx(0.56, abs=1e-6)
 
 
-def _static_at(law, params, t):
-    return eqx.combine(params, law[1])(t)
-
-
 @pytest.mark.parametrize("law", LAWS)
 def test_static_gradients_finite_at_zero_stick_time(law):
     """jit(grad) wrt every parameter and T1, at T1 = 0 and nearby: no NaN or inf."""

@@ -95,7 +95,8 @@ def test_eq6_eq12_match_brentq(grid, name):
         assert float(res.amplitude_ratio[i]) == pytest.approx(a_ref * k[i] / W[i], rel=1e-8)
         f0 = math.sqrt(G * k[i] / W[i]) / (2 * math.pi)
         assert float(res.frequency[i]) == pytest.approx(1 / (t1 + ref_t0(W[i], k[i])), rel=1e-8)
-        assert float(res.frequency_ratio[i]) == pytest.approx(float(res.frequency[i]) / f0, rel=1e-12)
+        f_ratio = float(res.frequency[i]) / f0
+        assert float(res.frequency_ratio[i]) == pytest.approx(f_ratio, rel=1e-12)
     assert n_stick > 40 and n_stick < len(W)  # both regimes are exercised
     for leaf in jax.tree_util.tree_leaves(res):
         assert bool(jnp.all(jnp.isfinite(leaf)))
@@ -172,7 +173,9 @@ def test_frequency_ratio_tends_to_one_at_vc_lubricant_a():
     fr = ss.lubricant("A")
     vc = ss.critical_speed(fr, 36.0, 86.9)
     x = jnp.asarray([[1e-4, 1e-2, 0.5], [0.9, 0.99, 1 - 1e-6]])
-    r = np.concatenate([np.asarray(ss.steady_map(fr, 36.0, 86.9, vc * xi).frequency_ratio) for xi in x])
+    r = np.concatenate(
+        [np.asarray(ss.steady_map(fr, 36.0, 86.9, vc * xi).frequency_ratio) for xi in x]
+    )
     assert np.all(np.diff(r) > 0) and np.all(r < 1)
     assert r[-1] == pytest.approx(1.0, abs=1e-4)
     assert r[0] < 0.01  # far below v_c, f << f0 (T1 >> T2)
@@ -183,7 +186,8 @@ def test_vc_falls_as_natural_frequency_rises_fig36():
         fr = ss.lubricant(name)
         ws, ks = np.meshgrid(np.linspace(5, 60, 7), np.linspace(20, 140, 7))
         f0 = np.sqrt(G * ks / ws) / (2 * np.pi)
-        vc = np.asarray(jax.vmap(ss.critical_speed, in_axes=(None, 0, 0))(fr, ws.ravel(), ks.ravel()))
+        vc_fn = jax.vmap(ss.critical_speed, in_axes=(None, 0, 0))
+        vc = np.asarray(vc_fn(fr, ws.ravel(), ks.ravel()))
         order = np.argsort(f0.ravel())
         assert np.all(np.diff(vc[order]) < 0), name  # v_c depends on W, k only through f0
         assert float(ss.critical_speed(fr, 53.2, 27.3)) > float(ss.critical_speed(fr, 11.3, 128.5))
@@ -254,7 +258,7 @@ GRAD_POINTS = [  # (lubricant, W kgf, k kgf/mm, v mm/min)
 ]
 
 
-@pytest.mark.parametrize("point", GRAD_POINTS, ids=[f"{p[0]}-{p[1]}-{p[2]}-{p[3]}" for p in GRAD_POINTS])
+@pytest.mark.parametrize("point", GRAD_POINTS, ids=["-".join(map(str, p)) for p in GRAD_POINTS])
 def test_gradients_match_central_differences(grad_fns, point):
     """d(a, T1, v_c)/d(every friction parameter, W, k, v) vs central finite differences."""
     jac, fun = grad_fns
@@ -295,7 +299,9 @@ def test_jit_vmap_grad_together():
 
     g_fr, g_v = dadv(vs)
     h = 1e-6 * vs
-    fd = (ss.steady_map(fr, 36.0, 86.9, vs + h).amplitude - ss.steady_map(fr, 36.0, 86.9, vs - h).amplitude) / (2 * h)
+    up = ss.steady_map(fr, 36.0, 86.9, vs + h).amplitude
+    down = ss.steady_map(fr, 36.0, 86.9, vs - h).amplitude
+    fd = (up - down) / (2 * h)
     np.testing.assert_allclose(np.asarray(g_v[:4]), np.asarray(fd[:4]), rtol=1e-5)
     assert np.all(np.asarray(g_v[:4]) < 0) and float(g_v[4]) == 0.0
     assert g_fr.static.gamma.shape == (5,)
