@@ -1,0 +1,181 @@
+"""`stickslip plan`: propose the next records that most reduce the friction-parameter uncertainty."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from stickslip_jax.lubricants import lubricant, lubricants
+
+from .design import parse_grid
+
+NAME = "plan"
+HELP = ("propose the next records (W, k, v) that best identify mu_s, mu_d, gamma, m, delta, n "
+        "(greedy D-optimal design from the Fisher information of the steady analysis)")
+
+PRIOR_HELP = """Sources (one or more): a paper lubricant name (A, C: its parameters are the
+estimate); a prior JSON {"mean": {"mu_s": .., ..., "n": ..}, "sd": {...}} with sd the
+standard deviation of log(parameter) (a relative error; a number applies to all); a
+posterior sample (CSV/JSON with columns mu_s, mu_d, gamma, m, delta, n: its log-mean is
+the estimate and its log-sd the prior); and record files (# stickslip-record) already
+measured, whose conditions count as existing records."""
+
+
+def add_arguments(p):
+    p.add_argument("sources", nargs="+", metavar="RECORDS-OR-PRIOR", help=PRIOR_HELP)
+    p.add_argument("--budget", type=int, default=4, help="number of records to propose")
+    p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
+                   help="table of a lubricant name's eq (1) parameters")
+    p.add_argument("--weights", default="11.3,36.0,53.2",
+                   help="candidate slider weights: comma list or START:STOP:COUNT (kgf)")
+    p.add_argument("--stiffnesses", default="27.3,86.9,128.5",
+                   help="candidate stiffnesses: comma list or START:STOP:COUNT (kgf/mm)")
+    p.add_argument("--speeds", default="0.0022:92:12:log",
+                   help="candidate drive speeds: comma list or START:STOP:COUNT[:log] [unit] "
+                        "(default mm/min)")
+    p.add_argument("--prior-sd", type=float, default=0.5,
+                   help="sd of log(parameter) of the prior when the source gives none")
+    p.add_argument("--noise", type=float, nargs=4, default=(0.05, 0.05, 0.01, 0.01),
+                   metavar=("LOG_A", "LOG_T1", "MU_0", "MU_M"),
+                   help="noise sd per record: relative for a and T1, absolute for mu_0, mu_m")
+    p.add_argument("--criterion", choices=("D", "A"), default="D",
+                   help="D: maximise det of the information; A: minimise the mean variance")
+    p.add_argument("--no-repeats", action="store_true", help="never propose the same record twice")
+    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+
+
+def _values(text, dim, unit, arg):
+    if "," in text:
+        return np.concatenate([parse_grid(t, dim, unit, arg) for t in text.split(",")])
+    return parse_grid(text, dim, unit, arg)
+
+
+def _sd_vector(sd, params, source):
+    if isinstance(sd, (int, float)):
+        return np.full(len(params), float(sd))
+    if isinstance(sd, dict):
+        missing = [p for p in params if p not in sd]
+        if missing:
+            raise ValueError(f"{source}: prior 'sd' lacks {', '.join(missing)}")
+        return np.array([float(sd[p]) for p in params])
+    raise ValueError(f"{source}: prior 'sd' must be a number or an object by parameter")
+
+
+def read_sources(args):
+    """(estimate u, prior sd of u, existing Campaign or None, description)."""
+    from fitting.design import PARAMETERS, Campaign, load_samples, log_params
+
+    estimate = sd = None
+    desc = []
+    records = []
+    for src in args.sources:
+        path = Path(src)
+        if not path.exists():
+            if src in lubricants(args.table):
+                if estimate is not None:
+                    raise ValueError("RECORDS-OR-PRIOR: give only one lubricant, prior or sample")
+                estimate = log_params(lubricant(src, table=args.table))
+                desc.append(f"lubricant {src} (Table {args.table})")
+                continue
+            raise ValueError(f"RECORDS-OR-PRIOR: {src!r} is neither a file nor a lubricant "
+                             f"({', '.join(lubricants(args.table))})")
+        head = path.read_text(errors="replace")[:200].lstrip()
+        if head.startswith("# stickslip-record"):
+            from stickslip_jax.records import read_record
+
+            records.append(read_record(path))
+            continue
+        if estimate is not None:
+            raise ValueError("RECORDS-OR-PRIOR: give only one lubricant, prior or sample")
+        obj = None
+        if path.suffix.lower() == ".json":
+            try:
+                obj = json.loads(path.read_text())
+            except json.JSONDecodeError as exc:
+                raise ValueError(f"{path}: invalid JSON ({exc})") from None
+        if isinstance(obj, dict) and "mean" in obj:
+            mean = obj["mean"]
+            missing = [p for p in PARAMETERS if p not in mean]
+            if missing:
+                raise ValueError(f"{path}: prior 'mean' lacks {', '.join(missing)}")
+            vals = np.array([float(mean[p]) for p in PARAMETERS])
+            if not np.all(vals > 0):
+                raise ValueError(f"{path}: prior means must be positive")
+            estimate = np.log(vals)
+            if "sd" in obj:
+                sd = _sd_vector(obj["sd"], PARAMETERS, path)
+            desc.append(f"prior {path.name}")
+        else:
+            sample = load_samples(path)
+            from fitting.design import friction_params
+
+            p = friction_params(sample)
+            logs = np.log(np.column_stack([p[k] for k in PARAMETERS]))
+            estimate = logs.mean(axis=0)
+            sd = logs.std(axis=0, ddof=1) if logs.shape[0] > 1 else None
+            desc.append(f"posterior sample {path.name} ({logs.shape[0]} draws)")
+    if estimate is None:
+        raise ValueError("RECORDS-OR-PRIOR: give a lubricant name, a prior JSON or a "
+                         "posterior sample for the parameter estimate (records alone are not enough)")
+    if sd is None:
+        if not args.prior_sd > 0:
+            raise ValueError("--prior-sd: must be positive")
+        sd = np.full(len(PARAMETERS), args.prior_sd)
+    if not np.all(np.isfinite(sd) & (sd > 0)):
+        raise ValueError("prior sd must be finite and positive for every parameter")
+    existing = None
+    if records:
+        existing = Campaign(np.array([r.weight for r in records]),
+                            np.array([r.stiffness for r in records]),
+                            np.array([r.nominal_drive_speed for r in records]))
+        desc.append(f"{len(records)} existing record(s)")
+    return estimate, sd, existing, "; ".join(desc)
+
+
+def run(args) -> int:
+    from fitting.design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
+
+    if args.budget < 1:
+        raise ValueError("--budget: must be >= 1")
+    if not all(x > 0 for x in args.noise):
+        raise ValueError("--noise: every noise level must be positive")
+    u, sd, existing, desc = read_sources(args)
+    cands = candidate_grid(_values(args.weights, "force", "kgf", "--weights"),
+                           _values(args.stiffnesses, "stiffness", "kgf/mm", "--stiffnesses"),
+                           _values(args.speeds, "speed", "mm/min", "--speeds"))
+    if args.no_repeats and args.budget > len(cands):
+        raise ValueError(f"--budget: {args.budget} exceeds the {len(cands)} candidates")
+    noise = Noise(*args.noise)
+    plan = greedy_design(u, cands, args.budget, noise=noise, prior_sd=sd, existing=existing,
+                         repeats=not args.no_repeats, criterion=args.criterion)
+    rows = []
+    for i in range(args.budget):
+        w, k, v = (float(np.asarray(x)[i]) for x in
+                   (plan.campaign.weight, plan.campaign.stiffness, plan.campaign.speed))
+        _, mask = observables(u, w, k, v)
+        rows.append({"weight_kgf": w, "stiffness_kgf_mm": k, "speed_mm_min": v * 60.0,
+                     "stick_slip_expected": bool(np.asarray(mask)[0] > 0)})
+    doc = {
+        "source": desc,
+        "criterion": args.criterion,
+        "estimate": {p: float(np.exp(x)) for p, x in zip(PARAMETERS, u)},
+        "relative_sd_before": dict(zip(PARAMETERS, map(float, plan.sd_before))),
+        "relative_sd_after": dict(zip(PARAMETERS, map(float, plan.sd_after))),
+        "records": rows,
+    }
+    if args.json:
+        print(json.dumps(doc, indent=2))
+        return 0
+    print(f"plan from {desc}: {args.budget} record(s), {args.criterion}-optimal, "
+          f"{len(cands)} candidates")
+    print(f"{'#':>3} {'W [kgf]':>9} {'k [kgf/mm]':>11} {'v [mm/min]':>11}  regime")
+    for i, r in enumerate(rows, 1):
+        regime = "stick-slip" if r["stick_slip_expected"] else "smooth"
+        print(f"{i:>3} {r['weight_kgf']:>9.4g} {r['stiffness_kgf_mm']:>11.4g} "
+              f"{r['speed_mm_min']:>11.4g}  {regime}")
+    print("relative sd of the parameters (sd of log), before -> after:")
+    for p, b, a in zip(PARAMETERS, plan.sd_before, plan.sd_after):
+        print(f"  {p:>6}: {b:.3g} -> {a:.3g}")
+    return 0
