@@ -105,8 +105,10 @@ def approach_for(pair: SurfacePair, contact: BoundaryContact, mu, t_b) -> Scalar
     t_b = jnp.asarray(t_b, dtype=float)
     below = target < c * t_b**3
     a = _cubic_root(contact.C1 - c, c, t_b, jnp.maximum(target, c * t_b**3))
-    # report how far below a = 0 the request lies (in the film-only branch), not NaN
-    return jnp.where(below, -jnp.cbrt(jnp.maximum(c * t_b**3 - target, 0.0) / c), a)
+    # report how far below a = 0 the request lies (film-only branch); double-where keeps
+    # the gradient of cbrt finite when the deficit is 0
+    deficit = jnp.where(below, c * t_b**3 - target, 1.0)
+    return jnp.where(below, -jnp.cbrt(deficit / c), a)
 
 
 class FilmEstimate(eqx.Module):

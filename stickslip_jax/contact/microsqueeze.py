@@ -126,8 +126,8 @@ class MicrosqueezeStatic(AbstractStaticFriction):
         t_b = np.asarray(self.t_b)
         if not np.all(np.isfinite(t_b)) or np.any(t_b < 0):
             raise ValueError(f"MicrosqueezeStatic: t_b must be finite and >= 0, got {t_b}")
-        kin = self.kinematics(check=False)
-        mu_0_at_contact = np.asarray(static_coefficient(self.pair, self.contact, 0.0, self.t_b))
+        kin = _unchecked_kinematics(self)
+        mu_0_at_contact = np.asarray(_mu_at_contact(self))
         if np.any(np.asarray(kin.a_d) < 0):
             raise ValueError(
                 f"MicrosqueezeStatic: mu_d = {np.asarray(self.mu_d)} is below mu_0(a=0) = "
@@ -141,7 +141,7 @@ class MicrosqueezeStatic(AbstractStaticFriction):
         if np.any(np.asarray(kin.a_s) <= np.asarray(kin.a_d)):
             raise ValueError(
                 f"MicrosqueezeStatic: mu_d = {np.asarray(self.mu_d)} must be below the static limit "
-                f"mu_0(a_s) = {np.asarray(static_coefficient(self.pair, self.contact, kin.a_s, self.t_b))}"
+                f"mu_0(a_s) = {np.asarray(_mu_at(self, kin.a_s))}"
             )
 
     # ------------------------------------------------------------------ constructors
@@ -228,7 +228,9 @@ class MicrosqueezeStatic(AbstractStaticFriction):
         return kin, s[1:], t, self.dt_ds(s[1:], kin)
 
     def __call__(self, stick_time: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
-        T1 = jnp.asarray(stick_time, dtype=float)
+        return _evaluate(self, jnp.asarray(stick_time, dtype=float))
+
+    def _evaluate(self, T1):
         kin, s, t, dtds = self.table()
         x, y = jnp.log(t), jnp.log(s)
         slope = t / (s * dtds)  # d log s / d log t
@@ -249,6 +251,27 @@ class MicrosqueezeStatic(AbstractStaticFriction):
         s_of_t = jnp.where(T_safe >= t[-1], s[-1], s_of_t)
         mu = self.mu_at(s_of_t, kin)
         return jnp.where(positive, mu, self.mu_d)
+
+
+@eqx.filter_jit
+def _evaluate(law: MicrosqueezeStatic, T1):
+    # jitted so that eager calls compile once; inlined when called inside an outer jit
+    return law._evaluate(T1)
+
+
+@eqx.filter_jit
+def _unchecked_kinematics(law: MicrosqueezeStatic) -> Kinematics:
+    return law.kinematics(check=False)
+
+
+@eqx.filter_jit
+def _mu_at_contact(law: MicrosqueezeStatic):
+    return static_coefficient(law.pair, law.contact, 0.0, law.t_b)
+
+
+@eqx.filter_jit
+def _mu_at(law: MicrosqueezeStatic, a):
+    return static_coefficient(law.pair, law.contact, a, law.t_b)
 
 
 class MicrosqueezeSolution(eqx.Module):
@@ -276,6 +299,7 @@ def microsqueeze_curve(
     rtol: float = 1e-10,
     atol: float = 1e-12,
     max_steps: int = 4096,
+    adjoint: diffrax.AbstractAdjoint | None = None,
 ) -> MicrosqueezeSolution:
     r"""$\mu_0(T_1)$ of the microsqueeze model by integrating eq (28) with diffrax.
 
@@ -283,7 +307,9 @@ def microsqueeze_curve(
     `rtol`/`atol` on s) from $t_0 = 10^{-8}\,dt/ds(0)$ (where $s = 10^{-8}$, the motion
     is linear before it) and saves at the requested stick times (s; any order,
     $T_1 = 0$ gives $\mu_d$). Differentiable through the solve with respect to every
-    field of `law`. A solver failure is reported in `result`, not hidden.
+    field of `law` (reverse mode by default; pass `adjoint=diffrax.ForwardMode()` for
+    `jax.jacfwd`, cheaper to compile for a few parameters). A solver failure is
+    reported in `result`, not hidden.
     """
     T1 = jnp.atleast_1d(jnp.asarray(stick_time, dtype=float))
     kin = law.kinematics()
@@ -307,6 +333,7 @@ def microsqueeze_curve(
         stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol),
         max_steps=max_steps,
         throw=False,
+        adjoint=diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
     )
     s_sorted = jnp.where(Ts < t0, Ts / rate0, sol.ys)
     s_out = jnp.empty_like(s_sorted).at[order].set(s_sorted)
