@@ -1,0 +1,212 @@
+"""`stickslip fit RECORDS...`: friction parameters of a campaign, with errors and diagnostics.
+
+Prints a table (value, unit, standard error, 95 % interval; truth and error when the
+records carry the truth they were made from), the identifiability warnings, and the
+fit quality; `--json OUT` writes the same as JSON, `--plot OUT.png` the diagnostic
+figure. Units: mu dimensionless, gamma s^-m, delta s^-n; internal kgf, mm, s.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+
+NAME = "fit"
+HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"
+
+
+def add_arguments(parser):
+    parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
+    parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
+                        help="static-friction law: eq (1) (default) or the microsqueeze law")
+    parser.add_argument("--offset", choices=("zero", "start"), default="zero",
+                        help="gauge offset: trust the zero (default), or read it from the first "
+                        "sample of records that start with the spring relaxed")
+    parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper",
+                        help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
+    parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
+                        help="hold a parameter fixed, e.g. --fix n=1 (repeatable)")
+    parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
+    parser.add_argument("--plot", metavar="OUT.png", help="save the diagnostic figure")
+
+
+def parse_fix(items) -> dict[str, float]:
+    from ..params import NAMES
+
+    out = {}
+    for item in items:
+        name, _, value = item.partition("=")
+        name = name.strip()
+        if name not in NAMES or not value:
+            raise ValueError(f"--fix: expected NAME=VALUE with NAME in {', '.join(NAMES)}, "
+                             f"got {item!r}")
+        try:
+            v = float(value)
+        except ValueError:
+            raise ValueError(f"--fix {name}: {value!r} is not a number") from None
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"--fix {name}: the value must be positive and finite, got {v}")
+        out[name] = v
+    return out
+
+
+def load_campaign(specs, *, min_records: int = 2):
+    """Read and check a campaign: >= `min_records` records, one lubricant, all with stick-slip.
+
+    Returns (records, features). Raises ValueError with one line naming what to fix.
+    """
+    from stickslip_jax.records import check_campaign, read_campaign
+
+    from ..features import record_features
+
+    records = read_campaign(list(specs))
+    if len(records) < min_records:
+        raise ValueError(
+            f"a campaign needs at least {min_records} records (got {len(records)}): one run "
+            "cannot separate the six friction parameters; give records at several speeds"
+        )
+    check_campaign(records, same=("lubricant",))
+    features = [record_features(r) for r in records]
+    bad = [f"{f.name}: {f.message}" for f in features if not f.stick_slip]
+    if bad:
+        raise ValueError(
+            "no usable stick-slip in " + " | ".join(bad) + " (remove these records)"
+        )
+    return records, features
+
+
+def find_truth(records) -> dict[str, float] | None:
+    """The friction parameters the records were made from, if all carry the same truth."""
+    from ..params import NAMES
+
+    def dig(d):
+        if not isinstance(d, dict):
+            return None
+        if all(n in d for n in NAMES):
+            try:
+                return {n: float(d[n]) for n in NAMES}
+            except (TypeError, ValueError):
+                return None
+        for v in d.values():
+            got = dig(v)
+            if got:
+                return got
+        return None
+
+    truths = [dig(r.truth) for r in records]
+    if not truths or any(t is None for t in truths) or any(t != truths[0] for t in truths):
+        return None
+    return truths[0]
+
+
+def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
+    """The JSON-ready result of a fit (the `--json` contract)."""
+    rows = unc.table()
+    truth = find_truth(records)
+    params = {}
+    for row in rows:
+        entry = {"value": row["value"], "stderr": row["stderr"], "ci95": row["ci95"],
+                 "unit": row["unit"], "identifiable": row["identifiable"], "fixed": row["fixed"]}
+        if truth is not None:
+            t = truth[row["name"]]
+            entry["truth"] = t
+            entry["relative_error"] = (row["value"] - t) / t
+            if row["ci95"] is not None:
+                entry["truth_in_ci95"] = bool(row["ci95"][0] <= t <= row["ci95"][1])
+        params[row["name"]] = entry
+    res = np.asarray(fit.residuals())
+    level_sd = np.asarray(fit.data.trough_sd)
+    R, C = level_sd.shape
+    levels = res[: R * C].reshape(R, C) * level_sd
+    mask = np.asarray(fit.data.has_end | fit.data.has_next)
+    rms = float(np.sqrt(np.mean(levels[mask] ** 2))) if mask.any() else float("nan")
+    out = {
+        "model": model,
+        "parameters": params,
+        "records": [
+            {"name": f.name, "weight_kgf": f.weight, "stiffness_kgf_per_mm": f.stiffness,
+             "drive_speed_mm_per_min": f.drive_speed * 60.0, "cycles": int(len(f.peak)),
+             "complete_cycles": f.n_complete, "noise_mm": f.noise,
+             "gauge_offset_mm": float(np.asarray(fit.params.offset)[i])}
+            for i, f in enumerate(fit.features)
+        ],
+        "residual_rms_mm": rms,
+        "chi2": fit.chi2,
+        "dof": fit.dof,
+        "reduced_chi2": fit.reduced_chi2,
+        "converged": fit.converged,
+        "objective": "cycle features (plateau levels and eq (6) per cycle)",
+        "slip_time": fit.slip_time,
+        "covariance_scale": unc.scale,
+        "identifiability": {
+            "not_identifiable": [n for n, ok in unc.identifiable.items() if not ok],
+            "fisher_eigenvalues_log": [float(x) for x in unc.fisher_eigenvalues],
+            "weakest_direction": unc.weakest_direction,
+            "correlation": [[None if not np.isfinite(x) else float(x) for x in row]
+                            for row in unc.corr],
+            "warnings": list(unc.warnings),
+        },
+        "truth_available": truth is not None,
+    }
+    if extra:
+        out.update(extra)
+    return out
+
+
+def format_table(report) -> str:
+    truth = report["truth_available"]
+    head = f"{'parameter':<10}{'value':>12}{'unit':>7}{'std err':>12}{'95 % interval':>26}"
+    if truth:
+        head += f"{'truth':>12}{'error':>9}"
+    lines = [head, "-" * len(head)]
+    for name, p in report["parameters"].items():
+        if p["fixed"]:
+            se, ci = "fixed", ""
+        elif not p["identifiable"]:
+            se, ci = "not identifiable", ""
+        else:
+            se = f"{p['stderr']:.3g}"
+            ci = f"[{p['ci95'][0]:.5g}, {p['ci95'][1]:.5g}]"
+        line = f"{name:<10}{p['value']:>12.5g}{p['unit']:>7}{se:>12}{ci:>26}"
+        if len(se) > 12:
+            line = f"{name:<10}{p['value']:>12.5g}{p['unit']:>7}  {se:<36}"
+        if truth:
+            line += f"{p['truth']:>12.5g}{100 * p['relative_error']:>8.2f}%"
+        lines.append(line)
+    lines.append("")
+    lines.append(
+        f"{len(report['records'])} records, "
+        f"{sum(r['complete_cycles'] for r in report['records'])} complete cycles; "
+        f"residual rms {report['residual_rms_mm'] * 1e3:.3g} um; chi2/dof = "
+        f"{report['reduced_chi2']:.3g}; converged: {report['converged']}"
+    )
+    for w in report["identifiability"]["warnings"]:
+        lines.append("warning: " + w)
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    from ..fit import fit_features
+    from ..uncertainty import laplace
+
+    if args.model == "microsqueeze":
+        raise ValueError("--model microsqueeze: not available yet in this version; "
+                         "use --model empirical")
+    fixed = parse_fix(args.fix)
+    records, features = load_campaign(args.records)
+    fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time)
+    unc = laplace(fit)
+    report = build_report(fit, unc, records, model=args.model)
+    print(format_table(report))
+    if args.json:
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump(report, fh, indent=2)
+        print(f"wrote {args.json}")
+    if args.plot:
+        from ..plots import fit_figure
+
+        fit_figure(fit, unc, records, args.plot)
+        print(f"wrote {args.plot}")
+    return 0
