@@ -274,8 +274,11 @@ def extract_cycles(
             continue
         # Slip from rest with the drive moving at v: omega0 T2 = pi + 2 atan(v/(omega0 a))
         # (closed form of eqs 10-11 with the drive), symmetric about t_c.
+        # Refine t_c on the deflection itself: x = c - R sin(omega0 (t - t_c)) about the
+        # centre of the slip, c = (x2 + x1)/2 (eq 5), R^2 = a^2 + (v/omega0)^2.
+        xs = x[seg_lo:seg_hi]
         slip = t2
-        for _ in range(3):
+        for _ in range(4):
             t_b, t_e = t_c - 0.5 * slip, t_c + 0.5 * slip
             u_b, u_e = np.interp([t_b, t_e], t, u)
             x2 = float(u_b - y_pre)
@@ -285,6 +288,14 @@ def extract_cycles(
             if not amp > 0:
                 break
             slip = (math.pi + 2.0 * math.atan(v_slip / (omega0 * amp))) / omega0
+            radius = math.hypot(amp, v_slip / omega0)
+            s = (0.5 * (x2 + x1) - xs) / radius
+            near = (np.abs(s) < 0.75) & (np.abs(ts - t_c) < 0.3 * slip)
+            if np.count_nonzero(near) >= 2:
+                w = 1.0 - s[near] ** 2
+                t_c = float(np.sum(w * (ts[near] - np.arcsin(s[near]) / omega0)) / np.sum(w))
+                slope = radius * omega0
+                n_mid = float(np.sum(w))
         tc_sd = sigma / max(abs(slope), 1e-300) / math.sqrt(n_mid)
         rows.append(dict(
             breakaway_time=t_b, end_time=t_e,

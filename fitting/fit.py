@@ -126,6 +126,7 @@ def fit_features(
     rtol: float = 1e-10,
     atol: float = 1e-10,
     max_steps: int = 400,
+    pad_cycles: int = 0,
 ) -> FitResult:
     """Fit mu_s, mu_d, gamma, m, delta, n jointly to the cycle features of a campaign.
 
@@ -134,11 +135,12 @@ def fit_features(
       spring relaxed: its first plateau gives the offset, fitted as a nuisance).
     - `slip_time`: $T_2$ in eq (3), "paper" ($\\pi/\\omega_0$) or "self_consistent".
     - `starts`: starting `EmpiricalFriction`s (default `initial_guesses`).
+    - `pad_cycles`: pad the cycle axis (campaigns of other lengths reuse the compilation).
     """
     if offset not in ("zero", "start"):
         raise ValueError(f"--offset must be 'zero' or 'start', got {offset!r}")
     fixed = dict(fixed or {})
-    data = feature_data(features, offset_from_start=(offset == "start"))
+    data = feature_data(features, offset_from_start=(offset == "start"), pad_cycles=pad_cycles)
     R = data.n_records
     offsets0 = (np.asarray(data.start_level) if offset == "start" else np.zeros(R))
     starts = initial_guesses(features, offsets0) if starts is None else list(starts)

@@ -77,15 +77,19 @@ class FeatureData(eqx.Module):
         return int(level + stick + np.asarray(self.use_start).sum())
 
 
-def feature_data(features: list[RecordFeatures], *, offset_from_start: bool = False) -> FeatureData:
+def feature_data(
+    features: list[RecordFeatures], *, offset_from_start: bool = False, pad_cycles: int = 0
+) -> FeatureData:
     """Stack the features of a campaign's records (see `FeatureData`).
 
-    Raises ValueError when a record has no usable stick-slip.
+    `pad_cycles`: pad the cycle axis to at least this length (one compilation for
+    campaigns of different lengths). Raises ValueError when a record has no usable
+    stick-slip.
     """
     bad = [f"{f.name} ({f.message})" for f in features if not f.stick_slip]
     if bad:
         raise ValueError("records without usable stick-slip: " + "; ".join(bad))
-    C = max(len(f.peak) for f in features)
+    C = max(max(len(f.peak) for f in features), int(pad_cycles))
     R = len(features)
 
     def arr(fill=0.0, dtype=float):

@@ -58,12 +58,14 @@ def synthetic_campaign(
     from_rest: bool = False,
     slip_time: str = "paper",
     max_samples: int | None = None,
+    pad_to: int = 0,
 ) -> list[Record]:
     """Records of every (W, k) in `conditions` at speeds `speed_fractions` x v_c(W, k).
 
     Each record lasts about `cycles` stick-slip cycles (eq 6 steady state) at
     `sample_rate` Hz (at most `max_samples` samples); `noise` in mm; `seed` for the
-    noise. Units: W kgf, k kgf/mm, speeds mm/s inside the records.
+    noise; `pad_to`: simulate on at least this many (padded) samples so that campaigns
+    of other parameters reuse one compilation. Units: W kgf, k kgf/mm, speeds mm/s.
     """
     rng = np.random.default_rng(seed)
     plan = []
@@ -82,7 +84,8 @@ def synthetic_campaign(
                 n = min(n, max_samples)
             plan.append((w, k, v, x0, n, duration))
     times = [np.arange(p[4]) / sample_rate for p in plan]
-    ts, mask = pad_times(times)
+    ts, mask = pad_times(times + [np.zeros(max(int(pad_to), 1))])
+    ts, mask = ts[:-1], mask[:-1]
     max_events = 4 * cycles + 16 + (0 if not from_rest else 4)
     f = lambda i: jnp.asarray([p[i] for p in plan])  # noqa: E731
     trace = _simulate_batch(friction, f(0), f(1), f(2), f(3), ts, mask, max_events, slip_time)
