@@ -3,8 +3,9 @@ r"""Tilt of the slider from any spring-force history: the exact discrete-time la
 The lag of `LinearLag` is a linear ODE; with the input taken piecewise linear between
 samples (first-order hold) each mode advances exactly by
 $\theta_{k+1} = a\,\theta_k + (1-b)\,u_{k+1} + (b-a)\,u_k$, with $x = \Delta t/\tau$,
-$a = e^{-x}$, $b = (1-e^{-x})/x$. The recurrence is linear, so it runs as a
-`lax.associative_scan` (parallel, no Python loop); uneven sampling is fine.
+$a = e^{-x}$, $b = (1-e^{-x})/x$. The recurrence runs as one `lax.scan` (a
+`lax.associative_scan` would be parallel but compiles several times slower inside the
+fits, for no gain on CPU); uneven sampling is fine.
 
 Everything here is linear in the force: the response to a stick ramp followed by a drop
 is the sum of the rise $\varepsilon_u$ and the recovery $\varepsilon_d$ of section 6.3.
@@ -33,21 +34,19 @@ def _step_coefficients(dt, tau):
     return a, b
 
 
-def _combine(left, right):
-    a1, c1 = left
-    a2, c2 = right
-    return a1 * a2, a2 * c1 + c2
-
-
 def _mode_response(u, ts, tau, initial):
     """One first-order mode of static gain 1 driven by u (shape (n,)), from `initial`."""
     dt = jnp.diff(ts)
     a, b = _step_coefficients(dt, tau)
     c = (1.0 - b) * u[1:] + (b - a) * u[:-1]
-    a_all = jnp.concatenate([jnp.zeros(1), a])
-    c_all = jnp.concatenate([jnp.reshape(initial, (1,)), c])
-    _, theta = jax.lax.associative_scan(_combine, (a_all, c_all))
-    return theta
+    initial = jnp.asarray(initial, dtype=u.dtype)
+
+    def step(theta, ac):
+        theta = ac[0] * theta + ac[1]
+        return theta, theta
+
+    _, theta = jax.lax.scan(step, initial, (a, c))
+    return jnp.concatenate([initial[None], theta])
 
 
 def lag_response(

@@ -1,0 +1,399 @@
+r"""Identify the pitching/yawing model (chapter 6) from records with `pitch_N`/`yaw_N` channels.
+
+What is fitted (per plane, each only if some record carries that plane's channels):
+
+| parameter | unit | stored as |
+|---|---|---|
+| `compliance_pitch`, `compliance_yaw` $c$ | rad/(kgf mm) | log c |
+| `neutral_height` $h_{Mv}$, `neutral_offset` $l_{Mh}$ | mm | value |
+| `tau_pitch`, `tau_yaw` (squeeze lag at the model's viscosity) | s | log tau |
+
+The displacement of point i of record r is
+$\delta_{ri}(t) = c\,(h_r - h_{Mv})\,(s_i - s_{pivot})\,\tilde F_\tau(t)$ (pitch; yaw alike
+with the offset $l_r$), with $\tilde F_\tau$ the record's spring force through the lag.
+A single drive height cannot separate $c$ from $h_{Mv}$ (only their product with the arm
+is seen), so the neutral point is fitted only when the records span at least two drive
+heights (two offsets for $l_{Mh}$); otherwise it stays at the template's value and is
+reported as fixed.
+
+Procedure: (1) a deterministic start: for each time constant on a log grid the gains
+$g_r = c(h_r - h_{Mv})$ follow by linear least squares, and a straight line through
+$(h_r, g_r)$ gives $c$ (slope) and $h_{Mv}$ (zero crossing); the best grid point starts
+(2) Levenberg-Marquardt (optimistix) on all free parameters, jitted as a whole; (3) the
+Gauss-Newton covariance $s^2 (J^T J)^{-1}$ with $s^2$ = RSS/(N - p) (or the given noise),
+mapped to natural units; 95 % intervals are $\pm 1.96$ sd in the stored coordinates
+(so asymmetric for log-stored parameters).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jax.flatten_util import ravel_pytree
+from jaxtyping import Array, Bool, Float
+
+from stickslip_jax import pitching as pt
+from stickslip_jax.units import UnitError, parse_quantity
+
+__all__ = [
+    "PitchFit",
+    "PitchParams",
+    "PitchRun",
+    "fit_pitching",
+    "pitch_run",
+    "record_drive_point",
+]
+
+Z95 = 1.959963984540054
+
+NAMES = ("compliance_pitch", "neutral_height", "tau_pitch",
+         "compliance_yaw", "neutral_offset", "tau_yaw")
+UNITS = {"compliance_pitch": "rad/(kgf*mm)", "compliance_yaw": "rad/(kgf*mm)",
+         "neutral_height": "mm", "neutral_offset": "mm", "tau_pitch": "s", "tau_yaw": "s"}
+_LOG = {"compliance_pitch", "compliance_yaw", "tau_pitch", "tau_yaw"}
+
+
+class PitchRun(eqx.Module):
+    """One record prepared for the fit: `time` (s), `force` $F = kx$ (kgf), the `drive`
+    point (mm), `displacement` (mm, shape (n, points) in the model's point order) and
+    `observed` (bool per point: the record carries that channel)."""
+
+    time: Float[Array, " n"]
+    force: Float[Array, " n"]
+    drive: pt.DrivePoint
+    displacement: Float[Array, "n points"]
+    observed: Bool[Array, " points"]
+
+
+def _header_length(record, key):
+    text = getattr(record, "extra_header", {}).get(key)
+    if text is None:
+        return None
+    try:
+        return parse_quantity(text, "length")
+    except (UnitError, ValueError) as exc:
+        raise ValueError(f"record header {key}: {exc}") from None
+
+
+def record_drive_point(record, height=None, offset=None) -> pt.DrivePoint:
+    """Drive point (mm) of a record: `height`/`offset` if given, else the record's header
+    keys `drive_height` and `drive_offset` (e.g. `# drive_height: 45 mm`); the offset
+    defaults to 0 (through the centre of gravity)."""
+    h = height if height is not None else _header_length(record, "drive_height")
+    if h is None:
+        raise ValueError(
+            "drive height unknown: give --height (mm) or a '# drive_height: 45 mm' header line"
+        )
+    o = offset if offset is not None else _header_length(record, "drive_offset")
+    return pt.DrivePoint(height=float(h), offset=0.0 if o is None else float(o))
+
+
+def pitch_run(record, model: pt.PitchingModel, height=None, offset=None) -> PitchRun:
+    """A `PitchRun` from a `stickslip_jax.records.Record`: force k x (kgf), the channels
+    named like the model's points (`pitch_1` ... `yaw_5`, internal unit mm)."""
+    names = model.points.names
+    n = record.time.shape[0]
+    disp = np.zeros((n, len(names)))
+    observed = np.zeros(len(names), dtype=bool)
+    for i, name in enumerate(names):
+        if name in record.channels:
+            disp[:, i] = record.channels[name]
+            observed[i] = True
+    return PitchRun(
+        time=jnp.asarray(record.time, dtype=float),
+        force=jnp.asarray(record.stiffness * np.asarray(record.deflection), dtype=float),
+        drive=record_drive_point(record, height, offset),
+        displacement=jnp.asarray(disp),
+        observed=jnp.asarray(observed),
+    )
+
+
+class PitchParams(eqx.Module):
+    """The fitted parameters in stored (unconstrained) coordinates; see the module table."""
+
+    log_compliance_pitch: Float[Array, ""]
+    neutral_height: Float[Array, ""]
+    log_tau_pitch: Float[Array, ""]
+    log_compliance_yaw: Float[Array, ""]
+    neutral_offset: Float[Array, ""]
+    log_tau_yaw: Float[Array, ""]
+
+    @classmethod
+    def from_model(cls, model: pt.PitchingModel) -> PitchParams:
+        return cls(
+            jnp.log(model.pitch.compliance), model.pitch.neutral,
+            jnp.log(model.pitch.lag.time_constants[0]),
+            jnp.log(model.yaw.compliance), model.yaw.neutral,
+            jnp.log(model.yaw.lag.time_constants[0]),
+        )
+
+    def into(self, model: pt.PitchingModel) -> pt.PitchingModel:
+        """`model` with these values (single-mode lags; time constants at the reference
+        viscosity, i.e. the fitted value divided by the model's viscosity ratio)."""
+        ratio = model.viscosity_ratio
+        return eqx.tree_at(
+            lambda m: (m.pitch.compliance, m.pitch.neutral, m.pitch.lag.time_constants,
+                       m.yaw.compliance, m.yaw.neutral, m.yaw.lag.time_constants),
+            model,
+            (jnp.exp(self.log_compliance_pitch), self.neutral_height,
+             jnp.exp(self.log_tau_pitch)[None] / ratio,
+             jnp.exp(self.log_compliance_yaw), self.neutral_offset,
+             jnp.exp(self.log_tau_yaw)[None] / ratio),
+        )
+
+    def natural(self) -> dict[str, float]:
+        return {name: float(jnp.exp(v) if name in _LOG else v)
+                for name, v in zip(NAMES, self._leaves())}
+
+    def _leaves(self):
+        return (self.log_compliance_pitch, self.neutral_height, self.log_tau_pitch,
+                self.log_compliance_yaw, self.neutral_offset, self.log_tau_yaw)
+
+
+class _Batch(eqx.Module):
+    """Runs padded to one length and stacked (one compiled residual for any number of runs):
+    padding samples repeat the last force and carry `mask` False."""
+
+    time: Float[Array, "r n"]
+    force: Float[Array, "r n"]
+    height: Float[Array, " r"]
+    offset: Float[Array, " r"]
+    displacement: Float[Array, "r n points"]
+    mask: Bool[Array, "r n points"]
+
+
+def _stack(runs) -> _Batch:
+    n = max(r.time.shape[0] for r in runs)
+    cols = {k: [] for k in ("time", "force", "height", "offset", "displacement", "mask")}
+    for r in runs:
+        t = np.asarray(r.time, dtype=float)
+        k = n - t.shape[0]
+        dt = t[-1] - t[-2]
+        cols["time"].append(np.concatenate([t, t[-1] + dt * np.arange(1, k + 1)]))
+        f = np.asarray(r.force, dtype=float)
+        cols["force"].append(np.concatenate([f, np.full(k, f[-1])]))
+        cols["height"].append(float(r.drive.height))
+        cols["offset"].append(float(r.drive.offset))
+        d = np.asarray(r.displacement, dtype=float)
+        cols["displacement"].append(np.concatenate([d, np.zeros((k, d.shape[1]))]))
+        m = np.zeros(d.shape[:1] + d.shape[1:], dtype=bool) | np.asarray(r.observed)[None, :]
+        cols["mask"].append(np.concatenate([m, np.zeros((k, d.shape[1]), dtype=bool)]))
+    return _Batch(**{k: jnp.asarray(np.stack(v)) for k, v in cols.items()})
+
+
+def _predict(model: pt.PitchingModel, batch: _Batch):
+    def one(t, f, h, o):
+        return pt.tilt_history(model, t, f, pt.DrivePoint(h, o)).displacement
+
+    return jax.vmap(one)(batch.time, batch.force, batch.height, batch.offset)
+
+
+def _residuals(free, static, template, batch: _Batch, scale):
+    model = eqx.combine(free, static).into(template)
+    r = jnp.where(batch.mask, _predict(model, batch) - batch.displacement, 0.0)
+    return r.ravel() / scale
+
+
+@dataclasses.dataclass(frozen=True)
+class PitchFit:
+    """Result of `fit_pitching`.
+
+    - `model`: the fitted `PitchingModel`;
+    - `parameters`: name -> {"value", "stderr", "ci95": (lo, hi), "unit", "free"}
+      (stderr and interval are None for fixed parameters);
+    - `residual_rms_mm`: RMS of the observed residuals (mm); `sigma_mm`: the noise level
+      used for the covariance (mm); `n_data`, `n_free`;
+    - `covariance`: in stored coordinates, ordered like `free_names`;
+    - `result`: optimistix result code; `notes`: plain-language remarks (what was fixed).
+    """
+
+    model: pt.PitchingModel
+    parameters: dict
+    residual_rms_mm: float
+    sigma_mm: float
+    n_data: int
+    n_free: int
+    free_names: tuple
+    covariance: np.ndarray
+    result: optx.RESULTS
+    notes: tuple
+
+    @property
+    def successful(self) -> bool:
+        return self.result == optx.RESULTS.successful
+
+
+def _plane_start(template, runs, plane, taus):
+    """Grid over tau; per-run linear gains; a line through (position, gain)."""
+    idx = [i for i, p in enumerate(template.points.planes) if p == plane]
+    tp = template.plane(plane)
+    lever = np.asarray(template.points.positions)[idx] - float(tp.pivot)
+    best = None
+    for tau in taus:
+        lag = pt.first_order(tau)
+        gains, positions, sse = [], [], 0.0
+        for run in runs:
+            obs = np.asarray(run.observed)[idx]
+            if not obs.any():
+                continue
+            ft = np.asarray(pt.lag_response(lag, run.force, run.time))
+            basis = ft[:, None] * lever[None, obs]
+            y = np.asarray(run.displacement)[:, idx][:, obs]
+            g = float(np.sum(basis * y) / np.sum(basis * basis))
+            sse += float(np.sum((y - g * basis) ** 2))
+            gains.append(g)
+            positions.append(float(run.drive.height if plane == pt.PITCH else run.drive.offset))
+        if best is None or sse < best[0]:
+            best = (sse, tau, gains, positions)
+    _, tau, gains, positions = best
+    positions, gains = np.asarray(positions), np.asarray(gains)
+    if np.ptp(positions) > 0:
+        slope, icpt = np.polyfit(positions, gains, 1)
+        if not slope > 0:
+            raise ValueError(
+                f"{plane}: the tilt does not grow with the drive "
+                f"{'height' if plane == pt.PITCH else 'offset'} (slope {slope:.3g}); check the "
+                "sign convention of the channels and the drive positions"
+            )
+        return slope, -icpt / slope, tau, True
+    neutral = float(tp.neutral)
+    arm = positions[0] - neutral
+    if arm == 0:
+        raise ValueError(f"{plane}: the only drive position equals the neutral point; "
+                         "the compliance cannot be seen")
+    c = gains[0] / arm
+    if not c > 0:
+        raise ValueError(f"{plane}: fitted compliance is not positive ({c:.3g}); check signs")
+    return c, neutral, tau, False
+
+
+def fit_pitching(
+    runs,
+    template: pt.PitchingModel | None = None,
+    noise=None,
+    taus=None,
+    rtol: float = 1e-10,
+    atol: float = 1e-10,
+    max_steps: int = 200,
+) -> PitchFit:
+    """Fit compliance, neutral point and squeeze time constant of each observed plane to
+    `runs` (`PitchRun`s, see `pitch_run`), starting from the grid start described in the
+    module docstring. `template`: geometry and viscosity (default `pt.default_model()`);
+    `noise`: displacement noise sd in mm (default: estimated from the residuals);
+    `taus`: the start grid of time constants (s)."""
+    runs = tuple(runs)
+    if not runs:
+        raise ValueError("fit_pitching needs at least one record")
+    template = pt.default_model() if template is None else template
+    taus = np.geomspace(0.01, 300.0, 15) if taus is None else np.asarray(taus)
+    init = PitchParams.from_model(template)
+    leaves = dict(zip(NAMES, init._leaves()))
+    free_flags = {n: False for n in NAMES}
+    notes = []
+    for plane, c_name, n_name, t_name in (
+        (pt.PITCH, "compliance_pitch", "neutral_height", "tau_pitch"),
+        (pt.YAW, "compliance_yaw", "neutral_offset", "tau_yaw"),
+    ):
+        idx = [i for i, p in enumerate(template.points.planes) if p == plane]
+        if not any(bool(np.asarray(r.observed)[idx].any()) for r in runs):
+            notes.append(f"no {plane} channels: {plane} parameters fixed at the template values")
+            continue
+        c, neutral, tau, neutral_free = _plane_start(template, runs, plane, taus)
+        leaves[c_name] = jnp.log(c)
+        leaves[n_name] = jnp.asarray(neutral, dtype=float)
+        leaves[t_name] = jnp.log(tau)
+        free_flags[c_name] = free_flags[t_name] = True
+        free_flags[n_name] = neutral_free
+        if not neutral_free:
+            notes.append(f"{n_name} fixed at {float(neutral):g} mm: the records have a single "
+                         f"drive {'height' if plane == pt.PITCH else 'offset'}, so it cannot be "
+                         "separated from the compliance")
+    params = PitchParams(*(jnp.asarray(leaves[n], dtype=float) for n in NAMES))
+    spec = PitchParams(*(free_flags[n] for n in NAMES))
+    free, static = eqx.partition(params, spec)
+    free_names = tuple(n for n in NAMES if free_flags[n])
+    if not free_names:
+        raise ValueError("no record carries pitch_N or yaw_N channels; nothing to fit")
+
+    n_data = int(sum(int(np.asarray(r.observed).sum()) * r.time.shape[0] for r in runs))
+    batch = _stack(runs)
+    scale0 = jnp.asarray(_data_scale(runs))
+    sol = _solve(free, static, template, batch, scale0, rtol, atol, max_steps)
+    free_hat = sol.value
+    fitted = eqx.combine(free_hat, static)
+    res = np.asarray(_residuals_jit(free_hat, static, template, batch, jnp.asarray(1.0)))
+    rms = float(np.sqrt(np.sum(res**2) / n_data))
+    dof = max(n_data - len(free_names), 1)
+    sigma = float(np.sqrt(np.sum(res**2) / dof)) if noise is None else float(noise)
+    jac = np.asarray(_jacobian(free_hat, static, template, batch))
+    cov = sigma**2 * np.linalg.pinv(jac.T @ jac)
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    stored = dict(zip(NAMES, fitted._leaves()))
+    parameters = {}
+    k = 0
+    for name in NAMES:
+        u = float(stored[name])
+        log = name in _LOG
+        value = float(np.exp(u)) if log else u
+        entry = {"value": value, "unit": UNITS[name], "free": free_flags[name],
+                 "stderr": None, "ci95": None}
+        if free_flags[name]:
+            s = float(sd[k])
+            k += 1
+            lo, hi = u - Z95 * s, u + Z95 * s
+            entry["stderr"] = value * s if log else s
+            entry["ci95"] = (float(np.exp(lo)), float(np.exp(hi))) if log else (lo, hi)
+        parameters[name] = entry
+    return PitchFit(
+        model=fitted.into(template),
+        parameters=parameters,
+        residual_rms_mm=rms,
+        sigma_mm=sigma,
+        n_data=n_data,
+        n_free=len(free_names),
+        free_names=free_names,
+        covariance=cov,
+        result=sol.result,
+        notes=tuple(notes),
+    )
+
+
+def _data_scale(runs):
+    vals = [np.asarray(r.displacement)[:, np.asarray(r.observed)] for r in runs]
+    s = float(np.sqrt(np.mean(np.concatenate([v.ravel() for v in vals]) ** 2)))
+    return s if s > 0 else 1.0
+
+
+@eqx.filter_jit
+def _solve(free, static, template, runs, scale, rtol, atol, max_steps):
+    solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
+    return optx.least_squares(
+        lambda f, _: _residuals(f, static, template, runs, scale),
+        solver, free, max_steps=max_steps, throw=False,
+    )
+
+
+@eqx.filter_jit
+def _residuals_jit(free, static, template, runs, scale):
+    return _residuals(free, static, template, runs, scale)
+
+
+@eqx.filter_jit
+def _jacobian(free, static, template, runs):
+    """Jacobian of the residuals (mm) against the free leaves, columns in field order."""
+    flat, unravel = ravel_pytree(free)
+    return jax.jacfwd(lambda x: _residuals(unravel(x), static, template, runs, 1.0))(flat)
+
+
+_CHANNEL = re.compile(r"(pitch|yaw)_(\d+)$")
+
+
+def channel_names(record) -> list[str]:
+    """The `pitch_N`/`yaw_N` channels a record carries."""
+    return [n for n in record.channels if _CHANNEL.match(n)]
