@@ -18,6 +18,7 @@ from .metrics import (
     cycle_tilt,
     steady_tilt,
     tilt_against_speed,
+    window_summary,
 )
 from .model import (
     ETA_A,
@@ -76,4 +77,5 @@ __all__ = [
     "tilt_against_speed",
     "tilt_history",
     "variation_map",
+    "window_summary",
 ]

@@ -197,3 +197,21 @@ def critical_pitch_speed(
     )
     v_p = jnp.where(bracketed, jnp.exp(sol.value), jnp.where(g_lo <= 0, jnp.exp(lo), v_0))
     return CriticalSpeeds(v_p=v_p, v_0=v_0, bracketed=bracketed, result=sol.result)
+
+
+def window_summary(values, ts, start=None) -> PlaneSummary:
+    r"""`peak` (signed extreme), time-`mean` and `variation` (peak-to-peak) of a sampled tilt
+    or displacement history `values` (shape (n,) or (n, points)) over the samples with
+    `ts >= start` (s; default: the second half of the record, to leave the start-up
+    transient out). The variation over a window of whole steady cycles is the per-cycle
+    $\Delta\varepsilon$. Units follow `values`."""
+    values = jnp.asarray(values, dtype=float)
+    ts = jnp.asarray(ts, dtype=float)
+    start = 0.5 * (ts[0] + ts[-1]) if start is None else jnp.asarray(start, dtype=float)
+    keep = (ts >= start).reshape((-1,) + (1,) * (values.ndim - 1))
+    hi = jnp.max(jnp.where(keep, values, -jnp.inf), axis=0)
+    lo = jnp.min(jnp.where(keep, values, jnp.inf), axis=0)
+    peak = jnp.where(jnp.abs(hi) >= jnp.abs(lo), hi, lo)
+    w = jnp.where(keep, 1.0, 0.0)
+    mean = jnp.sum(w * values, axis=0) / jnp.sum(w, axis=0)
+    return PlaneSummary(peak=peak, mean=mean, variation=hi - lo)
