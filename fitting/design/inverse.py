@@ -20,6 +20,7 @@ is differentiable in the friction parameters, W, k and v in turn.
 from __future__ import annotations
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import optimistix as optx
 from jaxtyping import Array, Bool, Float
@@ -89,7 +90,6 @@ def _answer(friction, weight, stiffness, feed, by_amp, results):
     return s.critical_speed, s.amplitude, by_amp, result
 
 
-@eqx.filter_jit
 def minimum_stiffness(
     friction: Friction,
     weight,
@@ -101,6 +101,22 @@ def minimum_stiffness(
     slider of `weight` W (kgf), or that keeps its amplitude under `amplitude_tolerance`
     (mm). Corrected eq (12) and eqs (5)-(7).
     """
+    return _minimum_stiffness(_leaves(friction), _arr(weight), _arr(feed), _arr(amplitude_tolerance),
+                              rtol)
+
+
+def _leaves(friction):
+    return jax.tree_util.tree_map(
+        lambda x: jnp.asarray(x, dtype=float) if isinstance(x, (int, float)) else x, friction)
+
+
+def _arr(x):
+    # arrays, not Python floats, so that new values do not recompile
+    return None if x is None else jnp.asarray(x, dtype=float)
+
+
+@eqx.filter_jit
+def _minimum_stiffness(friction, weight, feed, amplitude_tolerance, rtol):
     weight = _check(friction, weight, "weight W")
     feed = _check(friction, feed, "feed rate v")
     log_v = jnp.log(feed)
@@ -122,7 +138,6 @@ def minimum_stiffness(
     return InverseDesign(k, vc, amp, by_amp, res)
 
 
-@eqx.filter_jit
 def maximum_weight(
     friction: Friction,
     stiffness,
@@ -134,6 +149,12 @@ def maximum_weight(
     drive of `stiffness` k (kgf/mm), or whose stick-slip amplitude stays under
     `amplitude_tolerance` (mm). Corrected eq (12) and eqs (5)-(7).
     """
+    return _maximum_weight(_leaves(friction), _arr(stiffness), _arr(feed), _arr(amplitude_tolerance),
+                           rtol)
+
+
+@eqx.filter_jit
+def _maximum_weight(friction, stiffness, feed, amplitude_tolerance, rtol):
     stiffness = _check(friction, stiffness, "stiffness k")
     feed = _check(friction, feed, "feed rate v")
     log_v = jnp.log(feed)
