@@ -1,0 +1,105 @@
+"""`stickslip design` and `stickslip plan` (fitting.commands.design, .plan), in-process."""
+
+import json
+
+import numpy as np
+import pytest
+
+import stickslip_jax as ss
+from fitting.commands.design import parse_grid
+from fitting.design import design_map, friction_from_params, friction_params, outer, save_samples
+from stickslip_jax.cli import main
+
+GRID = ["--weight", "10:60:4", "--stiffness", "20:150:3", "--speed", "40"]
+
+
+def test_parse_grid_units_and_spacing():
+    np.testing.assert_allclose(parse_grid("10:60:6", "force", "kgf", "--weight"),
+                               np.linspace(10, 60, 6))
+    np.testing.assert_allclose(parse_grid("1:100:3:log", "speed", "mm/min", "--speed"),
+                               np.array([1, 10, 100]) / 60)
+    np.testing.assert_allclose(parse_grid("100 um/s", "speed", "mm/min", "--speed"), [0.1])
+    for bad in ("1:2", "a:2:3", "1:2:0", "0:10:3:log", "-5", "1:2:3:cubic"):
+        with pytest.raises(ValueError, match="--speed"):
+            parse_grid(bad, "speed", "mm/min", "--speed")
+
+
+def test_design_json_matches_design_map(capsys, tmp_path):
+    png = tmp_path / "map.png"
+    assert main(["design", "--lubricant", "A", *GRID, "--json", "--out", str(png)]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["shape"] == [4, 3, 1] and doc["index_order"] == ["weight", "stiffness", "speed"]
+    assert doc["axes"]["speed_mm_min"] == pytest.approx([40.0])
+    w, k, v = outer(np.linspace(10, 60, 4), np.linspace(20, 150, 3), [40.0 / 60])
+    m = design_map(ss.lubricant("A"), w, k, v)
+    np.testing.assert_allclose(doc["amplitude_mm"], m.amplitude, rtol=1e-12)
+    np.testing.assert_allclose(doc["critical_speed_mm_min"], m.critical_speed * 60, rtol=1e-12)
+    assert doc["stick_slip"] == m.stick_slip.tolist()
+    assert 0 < np.mean(doc["stick_slip"]) < 1
+    assert png.stat().st_size > 10_000
+
+
+def test_design_posterior_and_line_plot(capsys, tmp_path):
+    rng = np.random.default_rng(0)
+    p = friction_params(ss.lubricant("A"))
+    sample = friction_from_params({n: x * np.exp(0.05 * rng.standard_normal(8)) for n, x in p.items()})
+    save_samples(sample, tmp_path / "post.csv")
+    png = tmp_path / "line.png"
+    argv = ["design", "--posterior", str(tmp_path / "post.csv"), "--weight", "36",
+            "--stiffness", "86.9", "--speed", "1:100:12:log", "--json", "--out", str(png)]
+    assert main(argv) == 0
+    doc = json.loads(capsys.readouterr().out)
+    prob = np.asarray(doc["probability_stick_slip"]).ravel()
+    assert prob[0] == 1.0 and prob[-1] == 0.0 and np.all(np.diff(prob) <= 0)
+    band = np.asarray(doc["critical_speed_band_mm_min"])[0, 0, 0]
+    assert band[0] < band[1] < band[2] and 30 < band[1] < 70
+    assert png.exists()
+
+
+@pytest.mark.parametrize("argv, needle", [
+    (["--lubricant", "Z", *GRID], "--lubricant"),
+    (["--weight", "10:60", "--stiffness", "86.9", "--speed", "1"], "--weight"),
+    (["--weight", "10:60:3", "--stiffness", "20:90:3", "--speed", "1:9:3", "--out", "x.png"],
+     "--out"),
+    (["--posterior", "missing.csv", *GRID], "--posterior"),
+])
+def test_design_errors_are_one_line(capsys, argv, needle):
+    assert main(["design", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and needle in err[0]
+
+
+def test_plan_from_lubricant_prior_sample_and_records(capsys, tmp_path):
+    assert main(["plan", "A", "--budget", "2", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert len(doc["records"]) == 2
+    assert all(doc["relative_sd_after"][p] < doc["relative_sd_before"][p]
+               for p in doc["relative_sd_before"])
+    first = doc["records"][0]
+    # a prior JSON with the same mean and sd gives the same plan
+    p = {k: float(v) for k, v in friction_params(ss.lubricant("A")).items()}
+    (tmp_path / "prior.json").write_text(json.dumps({"mean": p, "sd": 0.5}))
+    assert main(["plan", str(tmp_path / "prior.json"), "--budget", "2", "--json"]) == 0
+    doc2 = json.loads(capsys.readouterr().out)
+    assert doc2["records"] == doc["records"]
+    # an existing record at the first proposal's conditions changes the next proposal
+    from stickslip_jax.records import Record, write_record
+
+    t = np.linspace(0.0, 1.0, 11)
+    rec = Record(time=t, deflection=np.zeros_like(t), stiffness=first["stiffness_kgf_mm"],
+                 weight=first["weight_kgf"], drive_speed=first["speed_mm_min"] / 60)
+    write_record(rec, tmp_path / "r1.csv")
+    assert main(["plan", "A", str(tmp_path / "r1.csv"), "--budget", "1", "--json"]) == 0
+    doc3 = json.loads(capsys.readouterr().out)
+    assert "1 existing record" in doc3["source"]
+    assert doc3["relative_sd_before"]["mu_s"] < doc["relative_sd_before"]["mu_s"]
+    # a posterior sample as the source, and the table output
+    rng = np.random.default_rng(1)
+    sample = friction_from_params({k: v * np.exp(0.1 * rng.standard_normal(30)) for k, v in p.items()})
+    save_samples(sample, tmp_path / "s.csv")
+    assert main(["plan", str(tmp_path / "s.csv"), "--budget", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "posterior sample s.csv (30 draws)" in out and "v [mm/min]" in out
+    assert main(["plan", "nothing-here", "--budget", "2"]) == 2
+    assert main(["plan", str(tmp_path / "r1.csv")]) == 2  # records alone: no estimate
+    assert "estimate" in capsys.readouterr().err
