@@ -34,7 +34,7 @@ Two solvers share that integrand:
   per call is fixed and small, it is jit/vmap/grad safe for scalar or array $T_1$, and
   because the table is rebuilt from the fields at each call, `eqx.tree_at` on `h_e`,
   `Q`, ... is always consistent (no stale cache). It agrees with the diffrax solution
-  to about 1e-8 in $\mu_0$ (tests/test_microsqueeze.py).
+  to better than 2e-5 in $\mu_0$ (tests/test_microsqueeze.py; 6e-6 for lubricant D).
 """
 
 from __future__ import annotations
