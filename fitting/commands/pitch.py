@@ -1,0 +1,161 @@
+"""`stickslip pitch`: pitching and yawing of the slider from a record's spring force (chapter 6).
+
+    stickslip pitch RECORD [RECORD ...] --height H [H ...] [--offset L [L ...]]
+                    [--viscosity ETA] [--fit] [--json OUT.json] [--plot OUT.png]
+
+For each record the model of `stickslip_jax.pitching` turns the spring force k x into the
+tilt at the drive point (height H above the slide surface, offset L from the centre of
+gravity, mm unless a unit is given) and prints, per measuring point, the tilt eps'
+(signed extreme), the mean and the variation d_eps over the second half of the record,
+in um; for channels the record carries (`pitch_N`, `yaw_N`) the measured values too.
+With `--fit` the compliances, neutral points and squeeze time constants are identified
+from those channels first (`fitting.pitch_fit`) and printed with 95 % intervals.
+Without `--fit` the model is the illustrative `default_model()` at the given viscosity.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from stickslip_jax import pitching as pt
+from stickslip_jax.commands._args import quantity
+from stickslip_jax.records import read_record
+from stickslip_jax.units import from_internal
+
+from ..pitch_fit import fit_pitching, pitch_run
+
+NAME = "pitch"
+HELP = "pitching/yawing (chapter 6) of the slider from records: tilt, its variation, fit"
+
+
+def add_arguments(p):
+    p.add_argument("records", nargs="+", metavar="RECORD", help="record CSV file(s)")
+    p.add_argument("--height", type=quantity("length", "mm", positive=False), nargs="+",
+                   help="drive height h above the slide surface (mm; one, or one per record); "
+                   "default: the record's '# drive_height:' header")
+    p.add_argument("--offset", type=quantity("length", "mm", positive=False), nargs="+",
+                   help="drive offset l from the centre of gravity (mm; one, or one per record); "
+                   "default: the '# drive_offset:' header, else 0")
+    p.add_argument("--viscosity", type=quantity("viscosity", "Pa*s"), default=None,
+                   help="lubricant viscosity (Pa*s unless a unit is given; default lubricant "
+                   "A, 0.216 Pa*s)")
+    p.add_argument("--fit", action="store_true",
+                   help="identify compliance, neutral points and time constants from the "
+                   "records' pitch_N/yaw_N channels first")
+    p.add_argument("--json", metavar="OUT.json", help="also write the results as JSON")
+    p.add_argument("--plot", metavar="OUT.png", help="save force and displacement traces")
+
+
+def _per_record(values, n, flag):
+    if values is None:
+        return [None] * n
+    if len(values) == 1:
+        return list(values) * n
+    if len(values) != n:
+        raise ValueError(f"{flag}: give one value or one per record ({n}), got {len(values)}")
+    return list(values)
+
+
+def _um(x):
+    return float(from_internal(float(x), "um", "length"))
+
+
+def run(args) -> int:
+    paths = [Path(p) for p in args.records]
+    for p in paths:
+        if not p.is_file():
+            raise ValueError(f"RECORD: no such file {str(p)!r}")
+    records = [read_record(p) for p in paths]
+    heights = _per_record(args.height, len(records), "--height")
+    offsets = _per_record(args.offset, len(records), "--offset")
+    model = pt.default_model()
+    if args.viscosity is not None:
+        model = model.with_viscosity(args.viscosity)
+    runs = [pitch_run(r, model, h, o) for r, h, o in zip(records, heights, offsets)]
+    out = {"model": "fitted" if args.fit else "default", "records": [], "units": {
+        "displacement": "um", "height": "mm", "offset": "mm", "viscosity": "Pa*s"}}
+    out["viscosity_pa_s"] = float(from_internal(float(model.viscosity), "Pa*s", "viscosity"))
+    if args.fit:
+        fit = fit_pitching(runs, template=model)
+        model = fit.model
+        out["parameters"] = fit.parameters
+        out["residual_rms_um"] = _um(fit.residual_rms_mm)
+        out["notes"] = list(fit.notes)
+        print(f"fit of {len(runs)} record(s): residual RMS {_um(fit.residual_rms_mm):.4g} um, "
+              f"{'converged' if fit.successful else 'NOT converged'}")
+        print(f"{'parameter':>18} {'value':>12} {'stderr':>11} {'95% interval':>27}  unit")
+        for name, p in fit.parameters.items():
+            if p["free"]:
+                lo, hi = p["ci95"]
+                print(f"{name:>18} {p['value']:12.5g} {p['stderr']:11.3g} "
+                      f"[{lo:11.5g}, {hi:11.5g}]  {p['unit']}")
+            else:
+                print(f"{name:>18} {p['value']:12.5g} {'fixed':>11} {'':>27}  {p['unit']}")
+        for note in fit.notes:
+            print(f"note: {note}")
+    names = model.points.names
+    traces = []
+    for path, rec, run_ in zip(paths, records, runs):
+        tr = pt.tilt_history(model, run_.time, run_.force, run_.drive)
+        traces.append(tr)
+        pred = pt.window_summary(tr.displacement, run_.time)
+        meas = pt.window_summary(run_.displacement, run_.time)
+        observed = np.asarray(run_.observed)
+        h, o = float(run_.drive.height), float(run_.drive.offset)
+        print(f"\n{path.name}: h = {h:g} mm, l = {o:g} mm "
+              f"(arms h-h_Mv = {h - float(model.pitch.neutral):.4g} mm, "
+              f"l-l_Mh = {o - float(model.yaw.neutral):.4g} mm)")
+        print(f"{'point':>8} {'eps_model':>10} {'mean':>9} {'d_eps':>9} "
+              f"{'eps_meas':>10} {'d_eps_meas':>11}   [um]")
+        rows = []
+        for i, name in enumerate(names):
+            row = {"point": name, "eps_prime": _um(pred.peak[i]), "mean": _um(pred.mean[i]),
+                   "d_eps": _um(pred.variation[i])}
+            line = (f"{name:>8} {row['eps_prime']:10.4g} {row['mean']:9.4g} "
+                    f"{row['d_eps']:9.4g}")
+            if observed[i]:
+                row["measured_eps_prime"] = _um(meas.peak[i])
+                row["measured_d_eps"] = _um(meas.variation[i])
+                line += f" {row['measured_eps_prime']:10.4g} {row['measured_d_eps']:11.4g}"
+            print(line)
+            rows.append(row)
+        out["records"].append({"file": str(path), "height_mm": h, "offset_mm": o,
+                               "points": rows})
+    if args.json:
+        Path(args.json).write_text(json.dumps(out, indent=2))
+    if args.plot:
+        _plot(args.plot, paths, runs, traces, names)
+    return 0
+
+
+def _plot(out, paths, runs, traces, names):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(3, len(runs), figsize=(4.5 * len(runs), 8), squeeze=False,
+                             sharex="col")
+    for j, (path, run_, tr) in enumerate(zip(paths, runs, traces)):
+        t = np.asarray(run_.time)
+        axes[0, j].plot(t, np.asarray(run_.force), "k", lw=0.8)
+        axes[0, j].set_ylabel("spring force F = kx [kgf]")
+        axes[0, j].set_title(path.name, fontsize=9)
+        for i, name in enumerate(names):
+            ax = axes[1 if name.startswith("pitch") else 2, j]
+            (line,) = ax.plot(t, 1e3 * np.asarray(tr.displacement[:, i]), lw=1.0, label=name)
+            if bool(run_.observed[i]):
+                ax.plot(t, 1e3 * np.asarray(run_.displacement[:, i]), ".", ms=1.5,
+                        color=line.get_color())
+        axes[1, j].set_ylabel("vertical displacement [um]")
+        axes[2, j].set_ylabel("horizontal displacement [um]")
+        axes[2, j].set_xlabel("time [s]")
+        for ax in axes[1:, j]:
+            ax.legend(fontsize=7)
+    fig.suptitle("pitching (points 1-3) and yawing (4-5): model lines, measured dots")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
