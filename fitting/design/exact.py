@@ -2,7 +2,7 @@ r"""Design-map kernel from the exact event-driven simulator (`simulate_exact`).
 
 Each design point (friction, W kgf, k kgf/mm, v mm/s) is simulated from rest at zero
 deflection under a constant drive speed for `N_CYCLES` stick-slip cycles (the event
-budget, `max_events = 2 N_CYCLES + 2`, ends the run; the horizon is an upper bound on
+budget, `max_events = 2 N_CYCLES`, ends the run; the horizon is an upper bound on
 the time they take: the first climb to $\mu_0 W/k$ plus, per cycle, a climb of at most
 $2(\mu_0(\infty) - \mu_d)W/k$ and a slip of at most $2\pi/\omega_0$). The map takes the
 *last* complete cycle as the limit cycle: amplitude $(x_2 - x_1)/2$ (eq 5), stick time
@@ -22,7 +22,7 @@ from stickslip_jax.simulation import simulate_exact
 
 from .maps import DesignMap, DesignPoints
 
-N_CYCLES = 6
+N_CYCLES = 8
 
 
 def _last(values, valid):
@@ -40,7 +40,7 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
     horizon = (mu_inf * scale + n_cycles * 2.0 * (mu_inf - friction.mu_d) * scale) / speed
     horizon = horizon + n_cycles * 2.0 * t2 + 4.0 * t2
     ts = jnp.stack([jnp.zeros_like(horizon), horizon])
-    trace = simulate_exact(slideway, ConstantSpeed(speed), ts, max_events=2 * n_cycles + 2)
+    trace = simulate_exact(slideway, ConstantSpeed(speed), ts, max_events=2 * n_cycles)
     cyc = trace.cycles
     valid = cyc.valid
     n_valid = jnp.sum(valid)

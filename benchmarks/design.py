@@ -1,0 +1,144 @@
+"""Benchmark: design maps (fitting.design) with the steady analysis and the exact simulator.
+
+1. A 1,000,000-point steady map (`design_map`, eqs 5-7 and 12) over random W, k, v and
+   friction parameters (lubricant A's parameters, each perturbed per point: a map over a
+   posterior-like sample), timed after compilation, points/s.
+2. A 10,000-point map with the exact event-driven simulator (`method="exact"`: eight
+   stick-slip cycles per point (N_CYCLES), the last one taken as the limit cycle), after
+   compilation, points/s.
+3. The same model with a SciPy event-driven baseline written here (closed-form stick,
+   `brentq` for the breakaway, `solve_ivp` (DOP853) with a stop event for each slip),
+   over a subset of the same points, run in this process: points/s, the speed ratio
+   and the agreement of the limit-cycle amplitudes.
+
+    python benchmarks/design.py            # full size
+    python benchmarks/design.py --small    # smoke run (10^4 steady, 500 exact, 10 SciPy)
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import jax
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+
+import stickslip_jax as ss
+from fitting.design import design_map, friction_from_params, friction_params
+from fitting.design.exact import N_CYCLES
+from stickslip_jax.units import G_MM_S2, from_mm_per_min
+
+
+def points(n, seed=0, spread=0.1):
+    """n random design points: W 10-60 kgf, k 20-150 kgf/mm, v 0.01-60 mm/min (log), and
+    lubricant A's parameters times exp(spread * N(0, 1))."""
+    rng = np.random.default_rng(seed)
+    w = rng.uniform(10.0, 60.0, n)
+    k = rng.uniform(20.0, 150.0, n)
+    v = from_mm_per_min(10 ** rng.uniform(-2.0, math.log10(60.0), n))
+    p = friction_params(ss.lubricant("A"))
+    p = {name: x * np.exp(spread * rng.standard_normal(n)) for name, x in p.items()}
+    return friction_from_params(p), w, k, v
+
+
+def scipy_limit_cycle(p, W, k, v, n_cycles=N_CYCLES):
+    """Amplitude (mm) of the last of `n_cycles` cycles of the paper's model, SciPy events.
+
+    Start at rest with x = 0. Stick: x = x_s + v tau until k x = W mu_0(tau) (eq 1),
+    solved with brentq. Slip: M y'' = k (x_b + v t - y) - mu_m W (eq 2 with eq 3 at
+    T2 = pi/omega0), integrated by solve_ivp until the slider velocity returns to 0.
+    Returns 0 if the slider cannot restick (the trough is above mu_d W/k).
+    """
+    mu_s, mu_d, gamma, m, delta, n = (p[q] for q in ("mu_s", "mu_d", "gamma", "m", "delta", "n"))
+    M = W / G_MM_S2
+    omega = math.sqrt(k / M)
+    t2 = math.pi / omega
+    x_s, amp = 0.0, 0.0
+
+    def mu0(tau):
+        return mu_d + (mu_s - mu_d) * -math.expm1(-gamma * tau**m) if tau > 0 else mu_d
+
+    for _ in range(n_cycles):
+        if k * x_s >= mu_d * W:
+            return 0.0
+        hi = (mu_s * W / k - x_s) / v + 1e-12
+        tau = brentq(lambda t, x_s=x_s: k * (x_s + v * t) - W * mu0(t), 0.0, hi,
+                     xtol=1e-14, rtol=1e-14)
+        x_b = x_s + v * tau
+        m0 = mu0(tau)
+        mum = mu_d + (m0 - mu_d) * math.exp(-delta * t2**n)
+
+        def rhs(t, z, x_b=x_b, mum=mum):
+            return [z[1], (k * (x_b + v * t - z[0]) - mum * W) / M]
+
+        def stop(t, z):
+            return z[1]
+
+        stop.terminal, stop.direction = True, -1
+        sol = solve_ivp(rhs, (0.0, 4 * t2), [0.0, 0.0], method="DOP853", rtol=1e-10,
+                        atol=1e-13, events=stop, first_step=t2 * 1e-3)
+        t_end = sol.t_events[0][0]
+        y_end = sol.y_events[0][0][0]
+        x_s = x_b + v * t_end - y_end
+        amp = 0.5 * (x_b - x_s)
+    return amp
+
+
+def timed(fn, repeat):
+    best = math.inf
+    out = None
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t)
+    return best, out
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--small", action="store_true", help="quick smoke run")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--chunk-size", type=int, default=262_144)
+    args = ap.parse_args(argv)
+    n_steady, n_exact, n_scipy = (10_000, 500, 10) if args.small else (1_000_000, 10_000, 200)
+    print(f"devices: {jax.devices()}")
+
+    f, w, k, v = points(n_steady)
+    chunk = min(args.chunk_size, n_steady)
+    design_map(f, w, k, v, chunk_size=chunk)  # compile
+    t_steady, m = timed(lambda: design_map(f, w, k, v, chunk_size=chunk), args.repeat)
+
+    fe, we, ke, ve = points(n_exact, seed=1)
+    chunk_e = min(args.chunk_size, n_exact)
+    design_map(fe, we, ke, ve, method="exact", chunk_size=chunk_e)  # compile
+    t_exact, mx = timed(lambda: design_map(fe, we, ke, ve, method="exact", chunk_size=chunk_e),
+                        args.repeat)
+
+    params = friction_params(fe)
+    t = time.perf_counter()
+    ref = np.array([scipy_limit_cycle({q: float(x[i]) for q, x in params.items()},
+                                      we[i], ke[i], ve[i]) for i in range(n_scipy)])
+    t_scipy = time.perf_counter() - t
+    sub = mx.amplitude[:n_scipy]
+    both = (ref > 0) & (sub > 0)
+    rel = np.max(np.abs(sub[both] - ref[both]) / ref[both]) if both.any() else float("nan")
+    agree = np.mean((ref > 0) == (sub > 0))
+
+    rate_s, rate_e, rate_ref = n_steady / t_steady, n_exact / t_exact, n_scipy / t_scipy
+    print(f"{'map':<36}{'points':>10}{'time [s]':>11}{'points/s':>12}")
+    print(f"{'steady (jit+vmap, chunked)':<36}{n_steady:>10}{t_steady:>11.3f}{rate_s:>12.4g}")
+    print(f"{'exact simulator (jit+vmap)':<36}{n_exact:>10}{t_exact:>11.3f}{rate_e:>12.4g}")
+    print(f"{'SciPy event-driven baseline':<36}{n_scipy:>10}{t_scipy:>11.3f}{rate_ref:>12.4g}")
+    print(f"exact map / SciPy speed ratio: {rate_e / rate_ref:.0f}x")
+    print(f"stick-slip in {np.mean(m.stick_slip) * 100:.1f} % (steady), "
+          f"{np.mean(mx.stick_slip) * 100:.1f} % (exact) of the points; all converged: "
+          f"{bool(m.converged.all())}, {bool(mx.converged.all())}")
+    print(f"SciPy vs exact map on {n_scipy} points: same regime {agree * 100:.0f} %, "
+          f"max relative amplitude difference {rel:.2e}")
+
+
+if __name__ == "__main__":
+    main()
