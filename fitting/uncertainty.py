@@ -17,7 +17,7 @@ Identifiability is judged two ways and reported in plain language:
 - by the design: one slip time $T_2 = \pi/\omega_0$ for all records (a single $k/W$)
   leaves only $\delta T_2^n$ determined, so $n$ (and $\delta$ apart from it) cannot be
   found; stick times within a factor 1.5 of each other (one speed) leave the rise of
-  $\mu_0(T_1)$, that is $\gamma$ and $m$, undetermined.
+  $\mu_0(T_1)$, that is $\mu_s$, $\gamma$ and $m$, undetermined.
 """
 
 from __future__ import annotations
@@ -107,11 +107,11 @@ def fisher_log(fit: FitResult):
     return np.asarray(J.T @ J), free, idx
 
 
-def _design_warnings(fit: FitResult) -> tuple[set, list]:
+def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
     flagged, msgs = set(), []
     feats = fit.features
     t2 = np.array([math.pi / f.omega0 for f in feats])
-    if t2.max() / t2.min() < 1.05:
+    if t2.max() / t2.min() < 1.05 and free[NAMES.index("n")]:
         flagged |= {"n", "delta"}
         msgs.append(
             f"n, delta: every record has the same slip time T2 = {t2.mean():.4g} s (one k/W), "
@@ -120,9 +120,9 @@ def _design_warnings(fit: FitResult) -> tuple[set, list]:
         )
     t1 = np.concatenate([f.stick_time[f.complete] for f in feats])
     if t1.size and t1.max() / t1.min() < 1.5:
-        flagged |= {"gamma", "m"}
+        flagged |= {"mu_s", "gamma", "m"}
         msgs.append(
-            f"gamma, m: all stick times lie within {t1.min():.3g}-{t1.max():.3g} s (one drive "
+            f"mu_s, gamma, m: all stick times lie within {t1.min():.3g}-{t1.max():.3g} s (one drive "
             "speed), so the rise of mu_0 with stick time (eq 1) cannot be resolved; "
             "add drive speeds an order of magnitude apart."
         )
@@ -152,7 +152,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
         Fff = Fff - Ffo @ np.linalg.pinv(Foo, hermitian=True) @ Ffo.T
     eig, vec = np.linalg.eigh(Fff / scale)
     weakest = {NAMES[i]: float(w) for i, w in zip(idx, vec[:, 0])} if k else {}
-    flagged, warnings = _design_warnings(fit)
+    flagged, warnings = _design_warnings(fit, free)
     identifiable = {}
     for i, n in enumerate(NAMES):
         bad_num = bool(free[i]) and not (log_se[i] <= max_relative_se)
