@@ -90,6 +90,7 @@ def feature_data(
     if bad:
         raise ValueError("records without usable stick-slip: " + "; ".join(bad))
     C = max(max(len(f.peak) for f in features), int(pad_cycles))
+    C = -(-C // 8) * 8  # bucket to a multiple of 8: similar campaigns share one compilation
     R = len(features)
 
     def arr(fill=0.0, dtype=float):

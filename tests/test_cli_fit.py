@@ -1,0 +1,85 @@
+"""`stickslip fit` end to end on record files, and its one-line errors for bad input."""
+
+import json
+
+import pytest
+
+import stickslip_jax as ss
+from fitting.synthetic import synthetic_campaign
+from stickslip_jax.cli import main
+from stickslip_jax.records import write_record
+
+
+@pytest.fixture(scope="module")
+def campaign_dir(tmp_path_factory):
+    d = tmp_path_factory.mktemp("campaign")
+    recs = synthetic_campaign(ss.lubricant("A"), speed_fractions=(0.05, 0.3), cycles=4, seed=2,
+                              pad_to=40_000)
+    paths = []
+    for r in recs:
+        p = d / f"{r.name}.csv"
+        write_record(r, p)
+        paths.append(str(p))
+    return d, paths
+
+
+def test_fit_prints_table_and_writes_json(campaign_dir, tmp_path, capsys):
+    _, paths = campaign_dir
+    out = tmp_path / "fit.json"
+    assert main(["fit", *paths, "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    for name in ("mu_s", "mu_d", "gamma", "delta", "95 % interval", "truth"):
+        assert name in text
+    rep = json.loads(out.read_text())
+    assert rep["model"] == "empirical" and len(rep["records"]) == 6
+    for name, p in rep["parameters"].items():
+        assert {"value", "stderr", "ci95", "unit"} <= set(p)
+        assert p["truth_in_ci95"], name
+    assert rep["parameters"]["gamma"]["unit"] == "s^-m"
+    assert rep["residual_rms_mm"] < 1e-3
+
+
+def _err(capsys):
+    err = capsys.readouterr().err.strip()
+    assert "Traceback" not in err and len(err.splitlines()) == 1
+    return err
+
+
+def test_single_record_is_refused(campaign_dir, capsys):
+    _, paths = campaign_dir
+    assert main(["fit", paths[0]]) == 2
+    assert "at least 2 records" in _err(capsys)
+
+
+def test_record_without_stick_slip(campaign_dir, tmp_path, capsys):
+    _, paths = campaign_dir
+    flat = tmp_path / "flat.csv"
+    lines = ["# stickslip-record: 1", "# drive_speed: 60 mm/min", "# stiffness: 86.9 kgf/mm",
+             "# slider_weight: 36 kgf", "# lubricant: A", "time [s],deflection [mm]"]
+    lines += [f"{i * 1e-3:.3f},0.087" for i in range(3000)]
+    flat.write_text("\n".join(lines) + "\n")
+    assert main(["fit", paths[0], str(flat)]) == 2
+    err = _err(capsys)
+    assert "flat" in err and "no stick-slip" in err
+
+
+def test_mixed_lubricants(campaign_dir, tmp_path, capsys):
+    _, paths = campaign_dir
+    other = tmp_path / "other.csv"
+    other.write_text(open(paths[1]).read().replace("# lubricant: A", "# lubricant: C"))
+    assert main(["fit", paths[0], str(other)]) == 2
+    assert "mixes lubricants" in _err(capsys)
+
+
+def test_conflicting_units(campaign_dir, tmp_path, capsys):
+    _, paths = campaign_dir
+    bad = tmp_path / "bad.csv"
+    bad.write_text(open(paths[1]).read().replace("deflection [mm]", "deflection [kgf]"))
+    assert main(["fit", paths[0], str(bad)]) == 2
+    assert "bad.csv" in _err(capsys)
+
+
+def test_bad_fix_and_model(campaign_dir, capsys):
+    _, paths = campaign_dir
+    assert main(["fit", *paths[:2], "--fix", "nu=1"]) == 2
+    assert "--fix" in _err(capsys)
