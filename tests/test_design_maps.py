@@ -158,13 +158,19 @@ def test_sample_files_round_trip(tmp_path, sample):
         {"parameters": list(PARAMETERS),
          "samples": np.column_stack([p[k] for k in PARAMETERS]).tolist()},
         {"posterior": {k: v.tolist() for k, v in p.items()}, "note": "extra keys ignored"},
+        # fitting.mcmc layout: a matrix of the sampled parameters, the rest held fixed
+        {"names": ["mu_s", "mu_d", "gamma", "m"],
+         "samples": np.column_stack([p[k] for k in ("mu_s", "mu_d", "gamma", "m")]).tolist(),
+         "fixed": {"delta": 67.0, "n": 1.0}},
     ]
     for i, obj in enumerate(layouts):
         path = tmp_path / f"s{i}.json"
         path.write_text(json.dumps(obj))
         got = friction_params(load_samples(path))
         for k in PARAMETERS:
-            np.testing.assert_array_equal(got[k], p[k])
+            expect = np.full(40, {"delta": 67.0, "n": 1.0}[k]) if "fixed" in obj and k in (
+                "delta", "n") else p[k]
+            np.testing.assert_array_equal(got[k], expect)
     bad = tmp_path / "bad.csv"
     bad.write_text("mu_s,mu_d\n0.5,0.2\n")
     with pytest.raises(ValueError, match="lacks"):

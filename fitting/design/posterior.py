@@ -9,8 +9,11 @@ rest dimensionless. Files read by `load_samples`:
 - JSON, any of
   ``{"samples": {"mu_s": [...], ..., "n": [...]}}`` (columns),
   ``{"samples": [{"mu_s": ..., ...}, ...]}`` (rows),
-  ``{"parameters": ["mu_s", ...], "samples": [[...], ...]}`` (a matrix, one draw per row),
+  ``{"parameters": ["mu_s", ...], "samples": [[...], ...]}`` (a matrix, one draw per row;
+  ``"names"`` is accepted for ``"parameters"``, the layout of `fitting.mcmc.McmcResult`),
   or the same objects without the ``"samples"`` wrapper / under ``"posterior"``.
+  Parameters that were held fixed (not sampled) come from an optional
+  ``"fixed": {"delta": 67, "n": 1}`` object next to the samples.
 """
 
 from __future__ import annotations
@@ -59,7 +62,13 @@ def sample_size(sample: Friction) -> int:
     return next(iter(shapes))[0]
 
 
-def _from_columns(cols: Mapping[str, object], source: str) -> Friction:
+def _from_columns(cols: Mapping[str, object], source: str, fixed=None) -> Friction:
+    cols = dict(cols)
+    if fixed:
+        sizes = [np.size(cols[p]) for p in PARAMETERS if p in cols]
+        for p, value in fixed.items():
+            if p in PARAMETERS and p not in cols:
+                cols[p] = np.full(sizes[0] if sizes else 1, float(value))
     missing = [p for p in PARAMETERS if p not in cols]
     if missing:
         raise ValueError(f"{source}: sample lacks column(s) {', '.join(missing)}; need {PARAMETERS}")
@@ -75,20 +84,29 @@ def _from_columns(cols: Mapping[str, object], source: str) -> Friction:
 
 def samples_from_json(obj, source: str = "JSON") -> Friction:
     """A sample from a parsed JSON object in one of the layouts of the module docstring."""
+    return _from_json(obj, source, None)
+
+
+def _from_json(obj, source, fixed):
     if isinstance(obj, Mapping):
+        fixed = obj.get("fixed", fixed)
+        if fixed is not None and not isinstance(fixed, Mapping):
+            raise ValueError(f"{source}: 'fixed' must be an object of parameter values")
+        names = obj.get("parameters", obj.get("names"))
         for key in ("samples", "posterior", "draws"):
             if key in obj:
                 inner = obj[key]
-                if isinstance(inner, Mapping) or "parameters" not in obj:
-                    return samples_from_json(inner, source)
-                names = list(obj["parameters"])
+                if isinstance(inner, Mapping) or names is None:
+                    return _from_json(inner, source, fixed)
+                names = list(names)
                 mat = np.asarray(inner, dtype=float)
                 if mat.ndim != 2 or mat.shape[1] != len(names):
                     raise ValueError(f"{source}: samples must be a (draws, {len(names)}) matrix")
-                return _from_columns({n: mat[:, i] for i, n in enumerate(names)}, source)
-        return _from_columns(obj, source)
+                return _from_columns({n: mat[:, i] for i, n in enumerate(names)}, source, fixed)
+        return _from_columns({k: v for k, v in obj.items() if k in PARAMETERS}, source, fixed)
     if isinstance(obj, list) and obj and isinstance(obj[0], Mapping):
-        return _from_columns({p: [row[p] for row in obj if p in row] for p in PARAMETERS}, source)
+        return _from_columns({p: [row[p] for row in obj if p in row] for p in PARAMETERS
+                              if any(p in row for row in obj)}, source, fixed)
     raise ValueError(f"{source}: not a sample (see fitting.design.posterior for the layouts)")
 
 
