@@ -1,0 +1,74 @@
+"""`stickslip mcmc RECORDS...`: posterior of the friction parameters with emcee.
+
+Fits first (as `stickslip fit`), then samples around the optimum; prints the posterior
+median, standard deviation, 95 % interval, autocorrelation time and effective sample
+size of every parameter, the prior used, and a warning when the chain is too short.
+"""
+
+from __future__ import annotations
+
+import json
+
+NAME = "mcmc"
+HELP = "sample the posterior of the friction parameters (emcee) for a campaign of records"
+
+
+def add_arguments(parser):
+    parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
+    parser.add_argument("--walkers", type=int, default=32, help="ensemble size (default 32)")
+    parser.add_argument("--steps", type=int, default=3000, help="steps per walker (default 3000)")
+    parser.add_argument("--burn", type=int, default=None, help="steps discarded (default steps/4)")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--offset", choices=("zero", "start"), default="zero")
+    parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper")
+    parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE")
+    parser.add_argument("--json", metavar="OUT", help="write the summary as JSON")
+    parser.add_argument("--corner", metavar="OUT.png", help="save a corner plot")
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+
+def run(args) -> int:
+    from ..fit import fit_features
+    from ..mcmc import run_mcmc
+    from ..params import UNITS
+    from .fit import find_truth, load_campaign, parse_fix
+
+    fixed = parse_fix(args.fix)
+    records, features = load_campaign(args.records)
+    fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time)
+    res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
+                   progress=not args.no_progress)
+    summary = res.summary()
+    truth = find_truth(records)
+    head = (f"{'parameter':<10}{'median':>12}{'unit':>7}{'sd':>11}{'95 % interval':>26}"
+            f"{'tau':>8}{'ESS':>8}" + (f"{'truth':>10}" if truth else ""))
+    print(head)
+    print("-" * len(head))
+    for name, s in summary.items():
+        ci = f"[{s['ci95'][0]:.5g}, {s['ci95'][1]:.5g}]"
+        line = (f"{name:<10}{s['median']:>12.5g}{UNITS[name]:>7}{s['sd']:>11.3g}{ci:>26}"
+                f"{s['tau_steps']:>8.1f}{s['ess']:>8.0f}")
+        if truth:
+            line += f"{truth[name]:>10.4g}"
+        print(line)
+    print(f"\nprior: {res.prior}")
+    print(f"{res.walkers} walkers x {res.steps} steps (burn-in {res.burn}); "
+          f"acceptance {res.acceptance:.2f}")
+    for w in res.warnings:
+        print("warning: " + w)
+    if args.json:
+        out = {"model": "empirical", "parameters": {
+            n: dict(s, unit=UNITS[n], **({"truth": truth[n]} if truth else {}))
+            for n, s in summary.items()},
+            "prior": res.prior, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
+            "acceptance": res.acceptance, "warnings": res.warnings,
+            "records": [f.name for f in features]}
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump(out, fh, indent=2)
+        print(f"wrote {args.json}")
+    if args.corner:
+        from ..plots import corner_plot
+
+        corner_plot(res.samples, res.names, args.corner, truth=truth)
+        print(f"wrote {args.corner}")
+    return 0

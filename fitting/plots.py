@@ -1,0 +1,140 @@
+r"""Figures of a fit: traces with the fitted model, $\mu_0(T_1)$ and $\mu_m(T_2)$ with bands, corner plot.
+
+All with matplotlib only (the corner plot is a small grid of histograms and
+scatter plots rather than a new dependency). Units on the axes: s, um, mu
+dimensionless.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["corner_plot", "fit_figure", "friction_curves"]
+
+
+def _plt():
+    import matplotlib
+
+    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
+        matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def friction_curves(fit, unc, n_draws: int = 200, seed: int = 0):
+    r"""(T1 grid, mu_0 median, low, high) of eq (1) with a 95 % band from the Laplace covariance."""
+    import jax.numpy as jnp
+
+    from .uncertainty import _from_logs
+
+    t1 = np.concatenate([f.stick_time[f.complete] for f in fit.features])
+    grid = np.geomspace(max(t1.min() / 3, 1e-3), t1.max() * 3, 100)
+    logs0 = np.asarray(fit.params.friction.log_values())
+    cov = np.nan_to_num(unc.cov_log)
+    rng = np.random.default_rng(seed)
+    draws = rng.multivariate_normal(logs0, cov, size=n_draws, check_valid="ignore")
+    curves = []
+    for d in draws:
+        if d[0] <= d[1]:
+            continue
+        fr = _from_logs(jnp.asarray(d), fit.params.friction).friction()
+        curves.append(np.asarray(fr.static(jnp.asarray(grid))))
+    fr0 = fit.params.friction.friction()
+    best = np.asarray(fr0.static(jnp.asarray(grid)))
+    curves = np.array(curves) if curves else best[None]
+    lo, hi = np.percentile(curves, [2.5, 97.5], axis=0)
+    return grid, best, lo, hi
+
+
+def fit_figure(fit, unc, records, path, max_traces: int = 4):
+    """Save the diagnostic figure: traces with fitted levels, mu_0 vs T1, mu_m vs T2."""
+    import jax.numpy as jnp
+
+    plt = _plt()
+    n = min(max_traces, len(records))
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8))
+    ax = axes[0, 0]
+    offset = np.asarray(fit.params.offset)
+    fr = fit.params.friction.friction()
+    for i in range(n):
+        r, f = records[i], fit.features[i]
+        ax.plot(r.time, (r.deflection - offset[i]) * 1e3, lw=0.6, label=f.name)
+        mu0 = np.asarray(fr.static(jnp.asarray(np.where(f.complete, f.stick_time, 1.0))))
+        x2 = np.where(f.complete, mu0 * f.weight / f.stiffness, np.nan)
+        ax.plot(f.breakaway_time, x2 * 1e3, "k^", ms=4)
+    ax.plot([], [], "k^", label="fitted breakaway level (eq 1)")
+    ax.set(xlabel="time t [s]", ylabel="deflection x [um]", title="records and fitted model")
+    ax.legend(fontsize=7)
+
+    ax = axes[0, 1]
+    grid, best, lo, hi = friction_curves(fit, unc)
+    ax.fill_between(grid, lo, hi, alpha=0.3, label="95 % band")
+    ax.plot(grid, best, "k-", label="fitted eq (1)")
+    for i, f in enumerate(fit.features):
+        c = f.complete
+        ax.plot(f.stick_time[c], f.stiffness * (f.peak[c] - offset[i]) / f.weight, ".", ms=4)
+    ax.set(xscale="log", xlabel="stick time T1 [s]", ylabel="mu_0", title="static friction")
+    ax.legend(fontsize=7)
+
+    ax = axes[1, 0]
+    for i, f in enumerate(fit.features):
+        c = f.complete
+        mum = f.stiffness * (0.5 * (f.peak[c] + f.trough[c]) - offset[i]) / f.weight
+        t2 = np.full(mum.shape, np.pi / f.omega0)
+        ax.plot(t2, mum, ".", ms=4)
+        mu0 = np.asarray(fr.static(jnp.asarray(f.stick_time[c])))
+        pred = np.asarray(fr.kinetic(jnp.asarray(mu0), fr.mu_d, jnp.asarray(t2)))
+        ax.plot(t2, pred, "kx", ms=6)
+    ax.plot([], [], "kx", label="fitted eq (3)")
+    ax.set(xlabel="slip time T2 [s]", ylabel="mu_m", title="mean kinetic friction (eq 5)")
+    ax.legend(fontsize=7)
+
+    ax = axes[1, 1]
+    ax.axis("off")
+    lines = [f"{r['name']:>6} = {r['value']:.4g} " + (
+        f"± {r['stderr']:.2g}" if r["stderr"] is not None else
+        ("(fixed)" if r["fixed"] else "(not identifiable)")) for r in unc.table()]
+    lines.append(f"chi2/dof = {fit.reduced_chi2:.3g}")
+    ax.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def corner_plot(samples, names, path, truth: dict | None = None, bins: int = 30):
+    """Corner plot of posterior samples (N, d): histograms on the diagonal, pairs below."""
+    plt = _plt()
+    samples = np.asarray(samples)
+    d = samples.shape[1]
+    fig, axes = plt.subplots(d, d, figsize=(1.9 * d + 1, 1.9 * d + 1), squeeze=False)
+    for i in range(d):
+        for j in range(d):
+            ax = axes[i, j]
+            if j > i:
+                ax.axis("off")
+                continue
+            if i == j:
+                ax.hist(samples[:, i], bins=bins, histtype="step", color="k")
+                if truth and names[i] in truth:
+                    ax.axvline(truth[names[i]], color="tab:red")
+                ax.set_yticks([])
+            else:
+                ax.plot(samples[:, j], samples[:, i], ",", alpha=0.3, color="k")
+                if truth and names[i] in truth and names[j] in truth:
+                    ax.plot(truth[names[j]], truth[names[i]], "s", color="tab:red", ms=4)
+            if i == d - 1:
+                ax.set_xlabel(names[j])
+            else:
+                ax.set_xticklabels([])
+            if j == 0 and i > 0:
+                ax.set_ylabel(names[i])
+            elif j > 0:
+                ax.set_yticklabels([])
+            ax.tick_params(labelsize=6)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+

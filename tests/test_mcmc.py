@@ -1,0 +1,82 @@
+"""emcee posterior (fitting.mcmc): agrees with the Laplace intervals, diagnostics, CLI, plots."""
+
+import json
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import stickslip_jax as ss
+from fitting.features import record_features
+from fitting.fit import fit_features
+from fitting.mcmc import log_posterior, run_mcmc
+from fitting.synthetic import synthetic_campaign, truth_values
+from fitting.uncertainty import laplace
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    recs = synthetic_campaign(ss.lubricant("A"), speed_fractions=(0.05, 0.3), cycles=4, seed=2,
+                              pad_to=40_000)
+    fit = fit_features([record_features(r) for r in recs])
+    return recs, fit
+
+
+def test_vectorised_log_posterior(fitted):
+    _, fit = fitted
+    logp, theta0, names, n_off = log_posterior(fit)
+    assert names == ["mu_s", "mu_d", "gamma", "m", "delta", "n"] and n_off == 0
+    batch = jnp.stack([jnp.asarray(theta0), jnp.asarray(theta0) + 0.01])
+    lp = np.asarray(logp(batch))
+    assert lp.shape == (2,) and lp[0] > lp[1]
+    assert lp[0] == pytest.approx(-0.5 * fit.chi2 / max(1.0, fit.reduced_chi2))
+    outside = jnp.asarray(theta0).at[3].set(jnp.log(50.0))[None]  # m = 50: outside the prior
+    assert np.asarray(logp(outside))[0] == -np.inf
+
+
+def test_posterior_matches_laplace_and_contains_truth(fitted):
+    _, fit = fitted
+    res = run_mcmc(fit, walkers=24, steps=800, seed=1)
+    unc = laplace(fit)
+    truth = truth_values(ss.lubricant("A"))
+    summ = res.summary()
+    for i, n in enumerate(res.names):
+        s = summ[n]
+        assert s["ci95"][0] <= truth[n] <= s["ci95"][1], n
+        # posterior sd within a factor 2 of the Laplace standard error
+        assert 0.5 < s["sd"] / unc.stderr[i] < 2.0, (n, s["sd"], unc.stderr[i])
+        assert s["ess"] > 0 and s["tau_steps"] > 0
+    assert 0.1 < res.acceptance < 0.9
+    assert "log-uniform" in res.prior
+
+
+def test_short_chain_warns(fitted):
+    _, fit = fitted
+    res = run_mcmc(fit, walkers=16, steps=40, seed=0)
+    assert any("too short" in w for w in res.warnings)
+    with pytest.raises(ValueError, match="--walkers"):
+        run_mcmc(fit, walkers=4, steps=40)
+
+
+def test_cli_mcmc_and_plots(fitted, tmp_path, capsys):
+    from fitting.plots import fit_figure
+    from stickslip_jax.cli import main
+    from stickslip_jax.records import write_record
+
+    recs, fit = fitted
+    paths = []
+    for r in recs:
+        write_record(r, tmp_path / f"{r.name}.csv")
+        paths.append(str(tmp_path / f"{r.name}.csv"))
+    out, corner = tmp_path / "m.json", tmp_path / "corner.png"
+    rc = main(["mcmc", *paths, "--walkers", "16", "--steps", "60", "--no-progress",
+               "--json", str(out), "--corner", str(corner)])
+    assert rc == 0
+    text = capsys.readouterr().out
+    assert "prior:" in text and "ESS" in text and "too short" in text
+    rep = json.loads(out.read_text())
+    assert set(rep["parameters"]) == {"mu_s", "mu_d", "gamma", "m", "delta", "n"}
+    assert corner.stat().st_size > 10_000
+    png = tmp_path / "fit.png"
+    fit_figure(fit, laplace(fit), recs, png)
+    assert png.stat().st_size > 10_000
