@@ -180,7 +180,8 @@ fig, ax = plt.subplots(1, 2, figsize=(10, 4))
 for name in ("V", "C2", "F"):
     s = pt.tilt_against_speed(model, friction, W, K, speeds, D[name])
     ax[0].semilogx(speeds_mm_min, UM * s.points.peak[:, 3], label=f"{name} point 4")
-    ax[0].semilogx(speeds_mm_min, UM * s.points.variation[:, 3], ":", label=rf"{name} $\Delta\varepsilon$")
+    ax[0].semilogx(speeds_mm_min, UM * s.points.variation[:, 3], ":",
+                   label=rf"{name} $\Delta\varepsilon$")
 ax[0].set(xlabel="v [mm/min]", ylabel="yaw displacement [um]")
 ax[0].legend(fontsize=7)
 offsets = jnp.linspace(-40.0, 40.0, 9)
@@ -204,13 +205,15 @@ fig, ax = plt.subplots(1, 2, figsize=(10, 4))
 for name, d in (("C1", D["C1"]), ("C1*", best.drive)):
     s = pt.tilt_against_speed(model, friction, W, K, speeds, d)
     ax[0].semilogx(speeds_mm_min, UM * np.abs(s.points.peak[:, 0]), label=f"{name} pitch (pt 1)")
-    ax[0].semilogx(speeds_mm_min, UM * np.abs(s.points.peak[:, 3]), "--", label=f"{name} yaw (pt 4)")
+    ax[0].semilogx(speeds_mm_min, UM * np.abs(s.points.peak[:, 3]), "--",
+                   label=f"{name} yaw (pt 4)")
 ax[0].set(xlabel="v [mm/min]", ylabel=r"$|\varepsilon'|$ [um]")
 ax[0].legend(fontsize=7)
 hmap = pt.variation_map(model, friction, W, K, speeds, heights)
 im = ax[1].pcolormesh(np.asarray(heights), speeds_mm_min, UM * np.asarray(hmap.variation),
                       shading="auto")
 ax[1].set_yscale("log")
-ax[1].set(xlabel="drive height h [mm]", ylabel="v [mm/min]", title=r"$\Delta\varepsilon$ point 1 [um]")
+ax[1].set(xlabel="drive height h [mm]", ylabel="v [mm/min]",
+          title=r"$\Delta\varepsilon$ point 1 [um]")
 fig.colorbar(im, ax=ax[1])
 save(fig, "fig63_design")
