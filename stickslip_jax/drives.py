@@ -137,7 +137,9 @@ def drive_from_record(record) -> AbstractDrive:
         return MeasuredDrive(record.time, drive)
     program = getattr(record, "drive_program", None)
     if program:
-        starts, speeds = zip(*program)
+        starts, speeds = (list(v) for v in zip(*program))
+        if starts[0] > 0:  # records: the drive rests before the first start, u(0) = 0
+            starts, speeds = [0.0, *starts], [0.0, *speeds]
         return SpeedProgram(starts, speeds)
     speed = getattr(record, "drive_speed", None)
     if speed is None:

@@ -1,0 +1,81 @@
+"""`stickslip simulate`: a synthetic record (exact or smoothed simulator) with its truth."""
+
+from __future__ import annotations
+
+import argparse
+
+from ..drives import ConstantSpeed, SpeedProgram
+from ..lubricants import lubricant, lubricants
+from ..slideway import Slideway
+from ._args import quantity
+
+NAME = "simulate"
+HELP = ("simulate a run of the slideway (paper's model) and write it as a record CSV "
+        "with a '# truth:' header")
+
+
+def add_arguments(p):
+    p.add_argument("--lubricant", default="A", help="paper lubricant of Table 6 (A or C)")
+    p.add_argument("--weight", type=quantity("force", "kgf"), required=True,
+                   help="slider weight W (kgf, or with unit: '353 N')")
+    p.add_argument("--stiffness", type=quantity("stiffness", "kgf/mm"), required=True,
+                   help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
+    p.add_argument("--speed", type=quantity("speed", "mm/min"),
+                   help="constant drive speed v (mm/min unless a unit is given)")
+    p.add_argument("--drive-program", default=None,
+                   help="piecewise-constant drive instead of --speed: "
+                        "'0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min'")
+    p.add_argument("--duration", type=quantity("time", "s"), required=True,
+                   help="record length (s)")
+    p.add_argument("--sample-rate", type=float, default=1000.0, help="samples per second")
+    p.add_argument("--noise", type=quantity("length", "mm", positive=False), default=0.0,
+                   help="white-noise standard deviation of the deflection (mm, or '0.5um')")
+    p.add_argument("--seed", type=int, default=0, help="random seed of the noise")
+    p.add_argument("--smooth", type=float, default=None, metavar="EPS",
+                   help="use the smoothed simulator with smoothing EPS (e.g. 1e-3) "
+                        "instead of the exact one")
+    p.add_argument("--max-events", type=int, default=None,
+                   help="event budget of the exact simulator (default: from the steady T1)")
+    p.add_argument("--out", required=True, help="output CSV path")
+
+
+def run(args) -> int:
+    from ..records import parse_drive_program, write_record
+    from ..simulation.synthetic import synthetic_record
+
+    if args.lubricant not in lubricants(6):
+        raise ValueError(f"--lubricant: unknown lubricant {args.lubricant!r}; "
+                         f"Table 6 has {', '.join(lubricants(6))}")
+    if (args.speed is None) == (args.drive_program is None):
+        raise ValueError("--speed / --drive-program: give exactly one of them")
+    if not args.sample_rate > 0 or args.sample_rate != args.sample_rate:
+        raise ValueError("--sample-rate: must be a positive number of samples per second")
+    if args.noise < 0:
+        raise ValueError("--noise: must be >= 0")
+    if args.smooth is not None and not 0 < args.smooth < 1:
+        raise ValueError("--smooth: smoothing must be between 0 and 1 (e.g. 1e-3)")
+    if args.duration * args.sample_rate > 5e6:
+        raise ValueError("--duration * --sample-rate: more than 5e6 samples; shorten the run")
+    if args.speed is not None:
+        drive = ConstantSpeed(args.speed)
+    else:
+        try:
+            program = parse_drive_program(args.drive_program)
+        except (ValueError, argparse.ArgumentTypeError) as exc:
+            raise ValueError(f"--drive-program: {exc}") from None
+        starts, speeds = (list(v) for v in zip(*program))
+        if starts[0] > 0:
+            starts, speeds = [0.0, *starts], [0.0, *speeds]
+        drive = SpeedProgram(starts, speeds)
+    slideway = Slideway(lubricant(args.lubricant), args.weight, args.stiffness)
+    record = synthetic_record(
+        slideway, drive, args.duration, args.sample_rate, noise_std=args.noise,
+        seed=args.seed, smoothing=args.smooth, max_events=args.max_events,
+        lubricant=args.lubricant,
+    )
+    path = write_record(record, args.out)
+    truth = record.truth
+    print(f"wrote {path}: {record.time.size} samples, {truth['cycles']} cycles, "
+          f"simulator {truth['simulator']['name']}"
+          + (", steady sliding" if truth["steady_sliding"] else ""))
+    return 0
