@@ -8,7 +8,9 @@ $2(\mu_0(\infty) - \mu_d)W/k$ and a slip of at most $2\pi/\omega_0$). The map ta
 *last* complete cycle as the limit cycle: amplitude $(x_2 - x_1)/2$ (eq 5), stick time
 $T_1$, actual slip time $T_2$, frequency $1/(T_1 + T_2)$. Stick-slip means the run
 still sticks in its last cycle ($T_1 > 0$, no `steady_sliding`); the critical speed
-column is corrected eq (12), as in the steady map.
+column is corrected eq (12), as in the steady map. `converged` means the run slid
+steadily, or its last two cycles' amplitudes agree within `LIMIT_CYCLE_RTOL` (the limit
+cycle is reached).
 """
 
 from __future__ import annotations
@@ -25,10 +27,14 @@ from .maps import DesignMap, DesignPoints
 N_CYCLES = 8
 
 
-def _last(values, valid):
-    """Value at the last True entry of `valid` (0 if none)."""
-    idx = jnp.maximum(jnp.max(jnp.where(valid, jnp.arange(valid.shape[0]), -1)), 0)
-    return jnp.where(jnp.any(valid), values[idx], 0.0)
+LIMIT_CYCLE_RTOL = 1e-3
+
+
+def _last(values, valid, back: int = 0):
+    """Value at the last (`back` = 0) or an earlier True entry of `valid` (0 if none)."""
+    last = jnp.max(jnp.where(valid, jnp.arange(valid.shape[0]), -1))
+    idx = jnp.maximum(last - back, 0)
+    return jnp.where(last - back >= 0, values[idx], 0.0)
 
 
 def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
@@ -47,6 +53,7 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
     t1 = _last(cyc.stick_time, valid)
     t2_actual = _last(cyc.slip_time, valid)
     amp = _last(cyc.amplitude(), valid)
+    settled = jnp.abs(amp - _last(cyc.amplitude(), valid, 1)) <= LIMIT_CYCLE_RTOL * amp
     stick = (n_valid >= 2) & (t1 > 0) & ~trace.steady_sliding
     zero = jnp.zeros_like(amp)
     f0 = 1.0 / (2.0 * t2)
@@ -62,7 +69,7 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
         natural_frequency=f0,
         critical_speed=critical_speed(friction, weight, stiffness),
         stick_slip=stick,
-        converged=(n_valid >= 2) | trace.steady_sliding,
+        converged=((n_valid >= 2) & settled) | trace.steady_sliding,
     )
 
 
