@@ -83,3 +83,19 @@ def test_bad_fix_and_model(campaign_dir, capsys):
     _, paths = campaign_dir
     assert main(["fit", *paths[:2], "--fix", "nu=1"]) == 2
     assert "--fix" in _err(capsys)
+
+
+def test_truth_in_stickslip_simulate_layout():
+    from fitting.commands.fit import find_truth
+    from stickslip_jax.records import Record
+
+    truth = {"friction": {"static": {"law": "KatoStatic", "mu_s": 0.56, "mu_d": 0.21,
+                                     "gamma": 0.38, "m": 0.4},
+                          "kinetic": {"law": "KatoKinetic", "delta": 67.0, "n": 1.0},
+                          "weight_kgf": 36.0}}
+    import numpy as np
+
+    rec = Record(time=np.arange(3.0), deflection=np.zeros(3), stiffness=1.0, weight=1.0,
+                 drive_speed=1.0, truth=truth)
+    assert find_truth([rec, rec]) == {"mu_s": 0.56, "mu_d": 0.21, "gamma": 0.38, "m": 0.4,
+                                      "delta": 67.0, "n": 1.0}

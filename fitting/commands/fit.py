@@ -84,6 +84,8 @@ def find_truth(records) -> dict[str, float] | None:
     def dig(d):
         if not isinstance(d, dict):
             return None
+        if isinstance(d.get("static"), dict) and isinstance(d.get("kinetic"), dict):
+            d = {**d, **d["static"], **d["kinetic"]}  # stickslip simulate's layout
         if all(n in d for n in NAMES):
             try:
                 return {n: float(d[n]) for n in NAMES}
