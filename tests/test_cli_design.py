@@ -100,6 +100,15 @@ def test_plan_from_lubricant_prior_sample_and_records(capsys, tmp_path):
     assert main(["plan", str(tmp_path / "s.csv"), "--budget", "2"]) == 0
     out = capsys.readouterr().out
     assert "posterior sample s.csv (30 draws)" in out and "v [mm/min]" in out
+    # the summary JSON of `stickslip mcmc --json` is a prior for plan, not a sample
+    summary = {"model": "empirical", "parameters": {
+        k: {"median": v, "mean": v, "sd": 0.5 * v, "ci95": [0.5 * v, 1.5 * v]} for k, v in p.items()}}
+    (tmp_path / "mcmc.json").write_text(json.dumps(summary))
+    assert main(["plan", str(tmp_path / "mcmc.json"), "--budget", "2", "--json"]) == 0
+    doc4 = json.loads(capsys.readouterr().out)
+    assert doc4["records"] == doc["records"]  # same estimate and relative sd 0.5
+    assert main(["design", "--posterior", str(tmp_path / "mcmc.json"), *GRID]) == 2
+    assert "without draws" in capsys.readouterr().err
     assert main(["plan", "nothing-here", "--budget", "2"]) == 2
     assert main(["plan", str(tmp_path / "r1.csv")]) == 2  # records alone: no estimate
     assert "estimate" in capsys.readouterr().err

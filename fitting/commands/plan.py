@@ -16,7 +16,8 @@ HELP = ("propose the next records (W, k, v) that best identify mu_s, mu_d, gamma
         "(greedy D-optimal design from the Fisher information of the steady analysis)")
 
 PRIOR_HELP = """Sources (one or more): a paper lubricant name (A, C: its parameters are the
-estimate); a prior JSON {"mean": {"mu_s": .., ..., "n": ..}, "sd": {...}} with sd the
+estimate); the JSON summary of `stickslip mcmc --json` (median and sd per parameter); a
+prior JSON {"mean": {"mu_s": .., ..., "n": ..}, "sd": {...}} with sd the
 standard deviation of log(parameter) (a relative error; a number applies to all); a
 posterior sample (CSV/JSON with columns mu_s, mu_d, gamma, m, delta, n: its log-mean is
 the estimate and its log-sd the prior); and record files (# stickslip-record) already
@@ -66,6 +67,7 @@ def _sd_vector(sd, params, source):
 def read_sources(args):
     """(estimate u, prior sd of u, existing Campaign or None, description)."""
     from fitting.design import PARAMETERS, Campaign, load_samples, log_params
+    from fitting.design.posterior import summary_from_json
 
     estimate = sd = None
     desc = []
@@ -95,7 +97,20 @@ def read_sources(args):
                 obj = json.loads(path.read_text())
             except json.JSONDecodeError as exc:
                 raise ValueError(f"{path}: invalid JSON ({exc})") from None
-        if isinstance(obj, dict) and "mean" in obj:
+        summary = summary_from_json(obj) if obj is not None else None
+        if summary is not None and "samples" not in obj:
+            missing = [p for p in PARAMETERS if p not in summary]
+            if missing:
+                raise ValueError(f"{path}: the posterior summary lacks {', '.join(missing)} "
+                                 "(held fixed in the fit?); write a prior JSON with all six")
+            med = np.array([summary[p][0] for p in PARAMETERS])
+            if not np.all(med > 0):
+                raise ValueError(f"{path}: posterior medians must be positive")
+            estimate = np.log(med)
+            # sd of log(parameter) ~ sd / median (a relative error)
+            sd = np.maximum(np.array([summary[p][1] for p in PARAMETERS]) / med, 1e-6)
+            desc.append(f"posterior summary {path.name}")
+        elif isinstance(obj, dict) and "mean" in obj:
             mean = obj["mean"]
             missing = [p for p in PARAMETERS if p not in mean]
             if missing:

@@ -87,7 +87,23 @@ def samples_from_json(obj, source: str = "JSON") -> Friction:
     return _from_json(obj, source, None)
 
 
+def summary_from_json(obj) -> dict[str, tuple[float, float]] | None:
+    """``{name: (median, sd)}`` from a posterior *summary* such as `stickslip mcmc --json`
+    writes (``{"parameters": {"mu_s": {"median": .., "sd": ..}, ...}}``), else None."""
+    params = obj.get("parameters") if isinstance(obj, Mapping) else None
+    if not isinstance(params, Mapping) or not params:
+        return None
+    if not all(isinstance(v, Mapping) and "median" in v and "sd" in v for v in params.values()):
+        return None
+    return {str(k): (float(v["median"]), float(v["sd"])) for k, v in params.items()}
+
+
 def _from_json(obj, source, fixed):
+    if isinstance(obj, Mapping) and "samples" not in obj and summary_from_json(obj):
+        raise ValueError(
+            f"{source}: a posterior summary (median, sd per parameter) without draws; "
+            "propagation needs the draws (a 'samples' matrix, see fitting.design.posterior); "
+            "`stickslip plan` accepts this summary as a prior")
     if isinstance(obj, Mapping):
         fixed = obj.get("fixed", fixed)
         if fixed is not None and not isinstance(fixed, Mapping):
