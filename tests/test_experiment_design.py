@@ -4,6 +4,7 @@ chosen records identify the friction parameters better than an even spread."""
 
 import jax
 import numpy as np
+import optimistix as optx
 import pytest
 
 import stickslip_jax as ss
@@ -17,7 +18,9 @@ from fitting.design import (
     laplace_fit,
     log_params,
     observables,
+    posterior_sd,
     record_information,
+    sequential_campaign,
     simulate_observations,
 )
 from stickslip_jax.units import from_mm_per_min
@@ -61,6 +64,13 @@ def test_fisher_information_matches_finite_differences(truth):
     # the third record slides smoothly (500 mm/min > v_c): only mu_m = mu_d is observed
     assert np.asarray(observables(truth, 53.2, 128.5, from_mm_per_min(500.0))[1]).tolist() == [0, 0, 0, 1]
     np.testing.assert_allclose(fisher_information(truth, camp, noise), info.sum(0), rtol=1e-12)
+    # below v_c but the slider cannot restick (exp(-delta T2^n) > 1/2 for W = 11.3, k = 128.5):
+    # the record slides smoothly, as the exact simulator does
+    s = ss.steady_state(ss.lubricant("A"), 11.3, 128.5, from_mm_per_min(0.01))
+    assert bool(s.stick_slip)
+    y, mask = observables(truth, 11.3, 128.5, from_mm_per_min(0.01))
+    assert np.asarray(mask).tolist() == [0, 0, 0, 1]
+    np.testing.assert_allclose(y[3], 0.21, rtol=1e-12)  # mu_d of lubricant A
 
 
 def test_greedy_choice_maximises_log_det(guess, candidates):
@@ -78,21 +88,41 @@ def test_greedy_choice_maximises_log_det(guess, candidates):
 
 
 def test_d_optimal_campaign_beats_even_spread(truth, guess, candidates):
+    # Sequential D-optimal design, as `stickslip plan` is used: a pilot of 3 evenly
+    # spread records, then 3 records chosen one at a time at the current fit. Compared
+    # with an even spread of the same 6 records on the same synthetic truth.
     noise = Noise()
-    chosen = greedy_design(guess, candidates, BUDGET, noise=noise, prior_sd=PRIOR_SD).campaign
     even = even_design(candidates, BUDGET)
-    assert len(chosen) == len(even) == BUDGET
+    pilot = even_design(candidates, 3)
     sds = {"chosen": [], "even": []}
-    errors = {"chosen": [], "even": []}
     for rep in range(3):
-        key = jax.random.PRNGKey(rep)
-        for name, camp in (("chosen", chosen), ("even", even)):
-            y, mask = simulate_observations(truth, camp, noise, key)
-            fit = laplace_fit(y, mask, camp, noise, guess, PRIOR_SD)
-            assert np.all(np.isfinite(np.asarray(fit.sd)))
-            sds[name].append(float(np.mean(fit.sd)))
-            errors[name].append(float(np.sqrt(np.mean((np.asarray(fit.value) - truth) ** 2))))
+        key = jax.random.PRNGKey(100 + rep)
+        camp, fit = sequential_campaign(truth, guess, candidates, pilot, BUDGET - 3, key,
+                                        noise=noise, prior_sd=PRIOR_SD)
+        assert len(camp) == BUDGET
+        y, mask = simulate_observations(truth, even, noise, key)
+        fit_even = laplace_fit(y, mask, even, noise, guess, PRIOR_SD)
+        for name, f in (("chosen", fit), ("even", fit_even)):
+            assert f.result == optx.RESULTS.successful
+            assert np.all(np.isfinite(np.asarray(f.sd)))
+            sds[name].append(float(np.mean(f.sd)))
     # mean posterior sd (over the six parameters, relative units) is smaller in every
     # noise realisation
     assert all(c < e for c, e in zip(sds["chosen"], sds["even"])), sds
     assert np.mean(sds["chosen"]) < 0.95 * np.mean(sds["even"]), sds
+
+
+def test_one_shot_plan_is_only_as_good_as_its_estimate(truth, guess, candidates):
+    # The local design's weakness, documented: predicted at the truth, the D-optimal
+    # campaign planned at the truth beats the even spread, the one planned at a 10 %-off
+    # estimate does not (records near regime boundaries are misjudged).
+    prec0 = np.eye(6) / PRIOR_SD**2
+
+    def predicted(camp):
+        return np.mean(posterior_sd(prec0 + np.asarray(fisher_information(truth, camp))))
+
+    even = predicted(even_design(candidates, BUDGET))
+    oracle = predicted(greedy_design(truth, candidates, BUDGET, prior_sd=PRIOR_SD).campaign)
+    rough = predicted(greedy_design(guess, candidates, BUDGET, prior_sd=PRIOR_SD).campaign)
+    assert oracle < 0.85 * even
+    assert rough > oracle

@@ -28,6 +28,7 @@ from .experiment import (
     posterior_sd,
     prior_precision,
     record_information,
+    sequential_campaign,
     simulate_observations,
 )
 from .inverse import InverseDesign, maximum_weight, minimum_stiffness
@@ -60,6 +61,7 @@ __all__ = [
     "posterior_sd",
     "prior_precision",
     "record_information",
+    "sequential_campaign",
     "simulate_observations",
     "PARAMETERS",
     "DesignMap",
