@@ -15,7 +15,8 @@ NAME = "plan"
 HELP = ("propose the next records (W, k, v) that best identify mu_s, mu_d, gamma, m, delta, n "
         "(greedy D-optimal design from the Fisher information of the steady analysis)")
 
-PRIOR_HELP = """Sources (one or more): a paper lubricant name (A, C: its parameters are the
+PRIOR_HELP = """Plan a few records at a time and re-plan after fitting them: the
+design is computed at the current estimate. Sources (one or more): a paper lubricant name (A, C: its parameters are the
 estimate); the JSON summary of `stickslip mcmc --json` (median and sd per parameter); a
 prior JSON {"mean": {"mu_s": .., ..., "n": ..}, "sd": {...}} with sd the
 standard deviation of log(parameter) (a relative error; a number applies to all); a
@@ -193,4 +194,6 @@ def run(args) -> int:
     print("relative sd of the parameters (sd of log), before -> after:")
     for p, b, a in zip(PARAMETERS, plan.sd_before, plan.sd_after):
         print(f"  {p:>6}: {b:.3g} -> {a:.3g}")
+    print("note: the design is local to the estimate; record one or two proposals, re-fit, "
+          "and plan again (see fitting.design.sequential_campaign)")
     return 0
