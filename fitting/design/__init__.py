@@ -7,8 +7,12 @@
   a from a posterior sample (`uncertainty`, samples read by `posterior.load_samples`).
 - `minimum_stiffness`, `maximum_weight`: inverse design by Newton through the steady
   analysis (`inverse`).
-- `fisher_information`, `greedy_design`: D-optimal choice of the next records
+- `fisher_information`, `greedy_design`: D-optimal choice of the next records,
+  `laplace_fit` and `sequential_campaign` to check a plan on synthetic data
   (`experiment`).
+
+`method="exact"` maps use `exact.exact_kernel` (the limit cycle of
+`stickslip_jax.simulation.simulate_exact`). Units: kgf, mm, s; speeds mm/s.
 """
 
 from .chunks import collect, map_chunks
