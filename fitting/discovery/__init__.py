@@ -1,0 +1,19 @@
+r"""Missing-physics discovery: which effect does the paper's model leave out?
+
+- `effects`: the candidate-effect library (parts of the smoothed simulator).
+- `model`: campaign traces, the all-effects model and its one compiled
+  residual/Jacobian function (`Problem`).
+- `lm`: Levenberg-Marquardt on a `Problem`.
+- `residuals`: residual analysis and the misspecification test.
+- `ranking`: score test of every candidate at the base fit (no refit).
+- `selection`: refit the best few, choose by BIC or answer "none".
+- `learned`: a learned (MLP) friction correction and a sparse regression naming its
+  variables, for when no candidate explains the residuals.
+- `synthetic`: campaigns with a hidden effect, for tests and benchmarks.
+- `workflow`: `discover(records) -> DiscoveryResult`.
+"""
+
+from .effects import CANDIDATES, EffectSet
+from .workflow import DiscoveryResult, discover
+
+__all__ = ["CANDIDATES", "DiscoveryResult", "EffectSet", "discover"]

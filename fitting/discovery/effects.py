@@ -1,0 +1,374 @@
+r"""The candidate-effect library: physics the paper's model leaves out, as simulator parts.
+
+Every effect is a part of the smoothed simulator (`stickslip_jax.simulation.parts`)
+with one or two parameters that are **zero when the effect is absent**, a short
+`NAME` and an `EXPLANATION` for an engineer. Units are internal (kgf, mm, s).
+
+| name | part | parameters (zero = absent) |
+|---|---|---|
+| `viscous_damping` | force $-c\,\dot y$ | `c` kgf*s/mm |
+| `stribeck` | force $+N b \tanh(\dot y / v_s)$ | `b` (-), $v_s$ fixed (mm/s) |
+| `drive_periodic_error` | drive $u + e(u)$, $e = a_s \sin(2\pi u/\lambda) + a_c(\cos(2\pi u/\lambda) - 1)$ | `a_sin`, `a_cos` mm; pitch $\lambda$ fixed |
+| `sensor_lowpass` | gauge reads a first-order low-pass of $x$ | `time_constant` s |
+| `friction_drift` | $\mu_s$, $\mu_d$ (so $\mu_0$, $\mu_m$) shift by $r\,t$ | `rate` 1/s |
+| `gauge_drift` | gauge zero drifts, reads $x + r t$ | `rate` mm/s |
+| `load_coupling` | normal load $N = W + \kappa k x$ (drive moment, ch. 6) | `kappa` (-) |
+| `rate_state` | extra kinetic friction $b\,e^{-s/L}$ decaying with slip distance $s$ | `b` (-), $L$ fixed mm |
+
+`EffectSet` holds one instance of every effect; `EffectSet.zeros()` is the paper's
+model, and `EffectSet.smooth_model(slideway)` assembles the `SmoothModel` in which all
+effects are present (inactive ones at zero), so that a single compiled residual
+function serves the base model and every candidate. `EffectGauge` composes the three
+effects that act on what the gauge reads (low-pass, gauge drift, and the drive error,
+which changes the true spring deflection to $x + e(u)$).
+
+Each effect also has `SCALES`: a typical detectable size of each parameter, used to
+make the fitted coordinates O(1) (the fit works with `value / scale`).
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import equinox as eqx
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+from stickslip_jax.simulation.parts import (
+    AbstractForceTerm,
+    AbstractLoadCoupling,
+    AbstractMeasurement,
+)
+from stickslip_jax.simulation.smooth import SmoothModel
+from stickslip_jax.slideway import Slideway
+
+__all__ = [
+    "CANDIDATES",
+    "DrivePeriodicError",
+    "EffectGauge",
+    "EffectSet",
+    "FrictionDrift",
+    "GaugeDrift",
+    "LoadCoupling",
+    "RateState",
+    "SensorLowpass",
+    "Stribeck",
+    "ViscousDamping",
+    "effect_class",
+]
+
+Scalar = Float[Array, ""]
+
+
+def _f(x):
+    return jnp.asarray(x, dtype=float)
+
+
+class _Effect:
+    """Mixin: a library entry. `PARAMS` names the zero-when-absent fields, `UNITS` their
+    units, `SCALES` their typical sizes (fit coordinates are value / scale)."""
+
+    NAME: ClassVar[str]
+    EXPLANATION: ClassVar[str]
+    PARAMS: ClassVar[tuple[str, ...]]
+    UNITS: ClassVar[tuple[str, ...]]
+    SCALES: ClassVar[tuple[float, ...]]
+
+    def values(self) -> dict[str, float]:
+        return {p: float(getattr(self, p)) for p in self.PARAMS}
+
+
+class ViscousDamping(AbstractForceTerm, _Effect):
+    r"""Viscous force $-c\,\dot y$ on the slider (kgf), c in kgf*s/mm."""
+
+    NAME: ClassVar[str] = "viscous_damping"
+    EXPLANATION: ClassVar[str] = (
+        "A force proportional to the slider velocity (a viscous oil film or a damper) "
+        "resists the slip, so slips are slower and smaller than dry friction predicts.")
+    PARAMS: ClassVar[tuple[str, ...]] = ("c",)
+    UNITS: ClassVar[tuple[str, ...]] = ("kgf*s/mm",)
+    SCALES: ClassVar[tuple[float, ...]] = (0.05,)
+
+    c: Scalar = eqx.field(converter=_f, default=0.0)
+
+    def force(self, t, core, own, ctx):
+        return -self.c * core.ydot
+
+
+class Stribeck(AbstractForceTerm, _Effect):
+    r"""Kinetic friction changing with slip velocity: $\Delta\mu = -b\tanh(\dot y/v_s)$.
+
+    Force $+N b \tanh(\dot y / v_s)$ (kgf); `b` > 0: friction falls with speed (Stribeck
+    curve), `b` < 0: it rises (viscous-like); `v_s` (mm/s) fixed.
+    """
+
+    NAME: ClassVar[str] = "stribeck"
+    EXPLANATION: ClassVar[str] = (
+        "The kinetic friction coefficient changes with slip velocity (falling friction, "
+        "the Stribeck curve), so the slip accelerates or brakes as it speeds up.")
+    PARAMS: ClassVar[tuple[str, ...]] = ("b",)
+    UNITS: ClassVar[tuple[str, ...]] = ("-",)
+    SCALES: ClassVar[tuple[float, ...]] = (0.01,)
+
+    b: Scalar = eqx.field(converter=_f, default=0.0)
+    v_s: float = eqx.field(static=True, default=1.0)
+
+    def force(self, t, core, own, ctx):
+        return ctx.normal_load * self.b * jnp.tanh(core.ydot / self.v_s)
+
+
+class DrivePeriodicError(AbstractForceTerm, _Effect):
+    r"""Drive position error periodic in the drive position (lead screw or gear).
+
+    The true drive displacement is $u + e(u)$ with
+    $e(u) = a_s\sin(2\pi u/\lambda) + a_c(\cos(2\pi u/\lambda) - 1)$ (mm, $e(0) = 0$), so the
+    spring pulls with $k(x + e)$: the part adds the force $k\,e(u)$ (kgf) and
+    `EffectGauge` adds $e(u)$ to the deflection the gauge reads. `pitch` $\lambda$ (mm)
+    is fixed (the screw lead or gear pitch).
+    """
+
+    NAME: ClassVar[str] = "drive_periodic_error"
+    EXPLANATION: ClassVar[str] = (
+        "The drive does not advance uniformly: its position error repeats every screw "
+        "or gear pitch, so the spring is loaded faster and slower in turn.")
+    PARAMS: ClassVar[tuple[str, ...]] = ("a_sin", "a_cos")
+    UNITS: ClassVar[tuple[str, ...]] = ("mm", "mm")
+    SCALES: ClassVar[tuple[float, ...]] = (1e-3, 1e-3)
+
+    a_sin: Scalar = eqx.field(converter=_f, default=0.0)
+    a_cos: Scalar = eqx.field(converter=_f, default=0.0)
+    pitch: float = eqx.field(static=True, default=0.05)
+
+    def error(self, u):
+        """Drive position error e(u) in mm at nominal drive position u (mm)."""
+        ph = 2.0 * jnp.pi * u / self.pitch
+        return self.a_sin * jnp.sin(ph) + self.a_cos * (jnp.cos(ph) - 1.0)
+
+    def error_rate(self, u, udot):
+        """de/dt (mm/s) for drive position u (mm) and speed udot (mm/s)."""
+        ph = 2.0 * jnp.pi * u / self.pitch
+        w = 2.0 * jnp.pi / self.pitch
+        return (self.a_sin * jnp.cos(ph) - self.a_cos * jnp.sin(ph)) * w * udot
+
+    def force(self, t, core, own, ctx):
+        return ctx.stiffness * self.error(ctx.drive_position)
+
+
+class SensorLowpass(AbstractMeasurement, _Effect):
+    r"""First-order low-pass recording chain: reads $z$ with $\tau\dot z = x - z$.
+
+    State $e = x - z$ (mm): $\dot e = \dot x - e/\tau_{eff}$, reading $x - e$.
+    $\tau_{eff} = \tau_{min} + \tfrac12(\tau + \sqrt{\tau^2 + \tau_{min}^2})$ (s) is a smooth,
+    positive version of the fitted `time_constant` $\tau$ (so a negative trial value
+    cannot make the filter unstable); $\tau_{min}$ = 10 us is far below any sample
+    interval, so $\tau = 0$ reads $x$ to within $10^{-5}\,\dot x$.
+    """
+
+    NAME: ClassVar[str] = "sensor_lowpass"
+    EXPLANATION: ClassVar[str] = (
+        "The recording chain (strain-gauge amplifier and oscillograph) is a low-pass "
+        "filter: the fast slips are recorded late and rounded.")
+    PARAMS: ClassVar[tuple[str, ...]] = ("time_constant",)
+    UNITS: ClassVar[tuple[str, ...]] = ("s",)
+    SCALES: ClassVar[tuple[float, ...]] = (5e-4,)
+    TAU_MIN: ClassVar[float] = 1e-5
+    num_states: ClassVar[int] = 1
+
+    time_constant: Scalar = eqx.field(converter=_f, default=0.0)
+    noise_std: Scalar = eqx.field(converter=_f, default=0.0)
+
+    def effective_time_constant(self):
+        tau, tmin = self.time_constant, self.TAU_MIN
+        return tmin + 0.5 * (tau + jnp.sqrt(tau * tau + tmin * tmin))
+
+    def init_state(self, ctx):
+        # the filter lags a steady ramp at drive speed by tau * v
+        return jnp.reshape(self.effective_time_constant() * ctx.drive_speed, (1,))
+
+    def lag_derivative(self, signal_rate, own):
+        return signal_rate - own / self.effective_time_constant()
+
+    def state_derivative(self, t, core, own, ctx):
+        return self.lag_derivative(ctx.drive_speed - core.ydot, own)
+
+    def observe(self, t, core, own, ctx):
+        return core.x - own[0]
+
+
+class FrictionDrift(AbstractForceTerm, _Effect):
+    r"""All friction coefficients shift by $r\,t$ during a record ($t$ from its start).
+
+    Shifting $\mu_s$ and $\mu_d$ together shifts $\mu_0$ and $\mu_m$ (eqs 1, 3) by the same
+    amount, i.e. an extra friction force $-N\,r\,t\,\mathrm{sign}(\dot y)$ (kgf), with the
+    simulator's smoothed sign (so it also raises the force the stick can hold).
+    """
+
+    NAME: ClassVar[str] = "friction_drift"
+    EXPLANATION: ClassVar[str] = (
+        "The friction level changes slowly during a record (warming up, running in), "
+        "so peaks and troughs climb or sink from cycle to cycle.")
+    PARAMS: ClassVar[tuple[str, ...]] = ("rate",)
+    UNITS: ClassVar[tuple[str, ...]] = ("1/s",)
+    SCALES: ClassVar[tuple[float, ...]] = (2e-3,)
+
+    rate: Scalar = eqx.field(converter=_f, default=0.0)
+
+    def force(self, t, core, own, ctx):
+        return -ctx.normal_load * self.rate * t * ctx.sign(core.ydot)
+
+
+class GaugeDrift(AbstractMeasurement, _Effect):
+    """The gauge zero drifts linearly: reads x + rate * t (mm, t in s from the record start)."""
+
+    NAME: ClassVar[str] = "gauge_drift"
+    EXPLANATION: ClassVar[str] = (
+        "The strain-gauge zero drifts during a record (temperature of the bridge), so "
+        "the whole trace tilts while the slider's motion is unchanged.")
+    PARAMS: ClassVar[tuple[str, ...]] = ("rate",)
+    UNITS: ClassVar[tuple[str, ...]] = ("mm/s",)
+    SCALES: ClassVar[tuple[float, ...]] = (1e-3,)
+
+    rate: Scalar = eqx.field(converter=_f, default=0.0)
+    noise_std: Scalar = eqx.field(converter=_f, default=0.0)
+
+    def observe(self, t, core, own, ctx):
+        return core.x + self.rate * t
+
+
+class LoadCoupling(AbstractLoadCoupling, _Effect):
+    r"""Normal load changed by the drive moment (chapter 6): $N = W + \kappa\,k x$ (kgf).
+
+    The spring force $kx$ acts above the friction plane; its moment tilts the slider
+    and loads the slideway by a fraction $\kappa$ of the spring force.
+    """
+
+    NAME: ClassVar[str] = "load_coupling"
+    EXPLANATION: ClassVar[str] = (
+        "The drive force acts above the sliding surface; its moment presses the slider "
+        "down (or lifts it), so the normal load and the friction grow with the spring force.")
+    PARAMS: ClassVar[tuple[str, ...]] = ("kappa",)
+    UNITS: ClassVar[tuple[str, ...]] = ("-",)
+    SCALES: ClassVar[tuple[float, ...]] = (0.1,)
+
+    kappa: Scalar = eqx.field(converter=_f, default=0.0)
+
+    def normal_load(self, t, core, own, ctx):
+        return ctx.weight + self.kappa * ctx.stiffness * core.x
+
+
+class RateState(AbstractForceTerm, _Effect):
+    r"""Kinetic friction that evolves with slip distance: $\Delta\mu = b\,e^{-s/L}$.
+
+    State $s$ = slip distance since breakaway (mm): $\dot s = |\dot y|\,(1 - w) - s\,w/t_r$
+    with $w = \exp(-(\dot y/(4\varepsilon))^8)$ the simulator's stick weight and
+    $t_r = \pi/(40\,\omega_0)$, so $s$ resets while the slider sticks. Force
+    $-N\,b\,e^{-s/L}\,(1-w)\,\mathrm{sign}(\dot y)$ (kgf); `L` (mm) fixed.
+    """
+
+    NAME: ClassVar[str] = "rate_state"
+    EXPLANATION: ClassVar[str] = (
+        "Kinetic friction relaxes over a characteristic slip distance (rate-and-state "
+        "friction) instead of being set by the slip time, so each slip starts stiffer.")
+    PARAMS: ClassVar[tuple[str, ...]] = ("b",)
+    UNITS: ClassVar[tuple[str, ...]] = ("-",)
+    SCALES: ClassVar[tuple[float, ...]] = (0.01,)
+    num_states: ClassVar[int] = 1
+
+    b: Scalar = eqx.field(converter=_f, default=0.0)
+    length: float = eqx.field(static=True, default=0.005)
+
+    def _weight(self, core, ctx):
+        # clipped so that wild Newton iterates give 0 with finite tangents, not 0 * inf
+        q2 = jnp.minimum((core.ydot / (4.0 * ctx.eps)) ** 2, 9.0)
+        return jnp.exp(-(q2 ** 4))
+
+    def state_derivative(self, t, core, own, ctx):
+        w = self._weight(core, ctx)
+        t_r = jnp.pi / ctx.omega0 / 40.0
+        speed = jnp.sqrt(core.ydot * core.ydot + ctx.eps * ctx.eps) - ctx.eps
+        return jnp.reshape(speed * (1.0 - w) - own[0] * w / t_r, (1,))
+
+    def force(self, t, core, own, ctx):
+        w = self._weight(core, ctx)
+        decay = jnp.exp(-jnp.maximum(own[0], 0.0) / self.length)
+        return -ctx.normal_load * self.b * decay * (1.0 - w) * ctx.sign(core.ydot)
+
+
+class EffectGauge(AbstractMeasurement):
+    r"""What the gauge reads with the measurement-side effects together (mm):
+    low-pass of the true deflection $x + e(u)$ (drive error), plus the gauge drift."""
+
+    lowpass: SensorLowpass = SensorLowpass()
+    drift: GaugeDrift = GaugeDrift()
+    drive_error: DrivePeriodicError = DrivePeriodicError()
+    noise_std: Scalar = eqx.field(converter=_f, default=0.0)
+    num_states: ClassVar[int] = 1
+
+    def init_state(self, ctx):
+        return self.lowpass.init_state(ctx)
+
+    def state_derivative(self, t, core, own, ctx):
+        rate = (ctx.drive_speed - core.ydot
+                + self.drive_error.error_rate(ctx.drive_position, ctx.drive_speed))
+        return self.lowpass.lag_derivative(rate, own)
+
+    def observe(self, t, core, own, ctx):
+        true_x = core.x + self.drive_error.error(ctx.drive_position)
+        return true_x - own[0] + self.drift.rate * t
+
+
+class EffectSet(eqx.Module):
+    """One instance of every library effect (all zero = the paper's model)."""
+
+    viscous_damping: ViscousDamping = ViscousDamping()
+    stribeck: Stribeck = Stribeck()
+    drive_periodic_error: DrivePeriodicError = DrivePeriodicError()
+    sensor_lowpass: SensorLowpass = SensorLowpass()
+    friction_drift: FrictionDrift = FrictionDrift()
+    gauge_drift: GaugeDrift = GaugeDrift()
+    load_coupling: LoadCoupling = LoadCoupling()
+    rate_state: RateState = RateState()
+
+    @classmethod
+    def zeros(cls, *, stribeck_speed: float = 1.0, drive_pitch: float = 0.05,
+              rate_state_length: float = 0.005) -> EffectSet:
+        """The paper's model; the fixed shape settings (mm/s, mm, mm) of three effects."""
+        return cls(stribeck=Stribeck(v_s=stribeck_speed),
+                   drive_periodic_error=DrivePeriodicError(pitch=drive_pitch),
+                   rate_state=RateState(length=rate_state_length))
+
+    def with_effect(self, name: str, **values) -> EffectSet:
+        """A copy with effect `name`'s parameters set (natural units)."""
+        part = getattr(self, effect_field(name))
+        bad = [k for k in values if k not in part.PARAMS]
+        if bad:
+            raise ValueError(f"{name} has parameters {part.PARAMS}, not {bad}")
+        for k, v in values.items():
+            part = eqx.tree_at(lambda p: getattr(p, k), part, _f(v))
+        return eqx.tree_at(lambda s: getattr(s, effect_field(name)), self, part)
+
+    def extra_force_terms(self) -> tuple:
+        return (self.viscous_damping, self.stribeck, self.drive_periodic_error,
+                self.friction_drift, self.rate_state)
+
+    def smooth_model(self, slideway: Slideway, extra_force_terms: tuple = ()) -> SmoothModel:
+        """The `SmoothModel` with every effect of the set (plus `extra_force_terms`)."""
+        gauge = EffectGauge(lowpass=self.sensor_lowpass, drift=self.gauge_drift,
+                            drive_error=self.drive_periodic_error)
+        return SmoothModel(slideway, force_terms=self.extra_force_terms() + tuple(extra_force_terms),
+                           load=self.load_coupling, measurement=gauge)
+
+
+CANDIDATES: tuple[str, ...] = tuple(f for f in EffectSet.__dataclass_fields__)
+"""Names of the library effects, in a fixed order."""
+
+
+def effect_field(name: str) -> str:
+    if name not in CANDIDATES:
+        raise ValueError(f"unknown effect {name!r}; choose from {', '.join(CANDIDATES)}")
+    return name
+
+
+def effect_class(name: str):
+    """The part class of effect `name`."""
+    return type(getattr(EffectSet(), effect_field(name)))

@@ -1,0 +1,256 @@
+r"""Beyond the library: a learned friction correction (universal differential equation)
+and a sparse regression that names the variables it depends on.
+
+When no candidate explains the residuals, the slider's equation of motion gets an
+extra term learned from the data,
+
+$$M\ddot y = k x - F_{fric} + N\,\mu_{ref}\,g_\phi\!\left(\frac{x}{x_s}, \frac{\dot y}{v_s},
+\frac{t}{t_s}\right),$$
+
+with $g_\phi$ a small `equinox.nn.MLP` (3 inputs, `width` tanh units, 1 output),
+$\mu_{ref} = 0.01$, and the scales $x_s$ (largest deflection, mm), $v_s$ (slip-velocity
+scale $\omega_0 x_s$, mm/s) and $t_s$ (longest record, s). It is a force term of the
+smoothed simulator (`LearnedForce`), fitted through the ODE jointly with the friction
+parameters and the initial deflections by the same Levenberg-Marquardt as every
+other model (Jacobians in forward mode through the solver). The output layer starts
+at zero, so the fit starts at the base model.
+
+**Which variables?** The learned force, evaluated along the fitted trajectories, is
+regressed on a library of physically meaningful features (`FEATURES`: powers of the
+deflection, the slider velocity and its sign, time, and their products with the sign
+of the velocity) by sequentially thresholded least squares (STLSQ, as in SINDy): fit,
+zero the coefficients whose standardised size is below `threshold` of the largest,
+refit on the rest, repeat. The surviving features are the answer (`named_terms`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax.flatten_util import ravel_pytree
+
+from stickslip_jax.simulation.parts import AbstractForceTerm
+
+from .lm import LMResult, levenberg_marquardt
+from .model import (
+    CampaignTraces,
+    DiscoveryParams,
+    Problem,
+    Settings,
+    _combine_friction,
+    effects_from_vector,
+    simulate_campaign,
+    simulate_record,
+)
+
+__all__ = ["FEATURES", "LearnedCorrection", "LearnedForce", "fit_learned_correction",
+           "stlsq"]
+
+MU_REF = 0.01
+
+
+class LearnedForce(AbstractForceTerm):
+    r"""Force $N \mu_{ref}\, g_\phi(x/x_s, \dot y/v_s, t/t_s)$ in kgf (module docstring)."""
+
+    mlp: eqx.nn.MLP
+    x_scale: float = eqx.field(static=True, default=0.1)
+    v_scale: float = eqx.field(static=True, default=10.0)
+    t_scale: float = eqx.field(static=True, default=1.0)
+
+    def inputs(self, x, ydot, t):
+        return jnp.stack([x / self.x_scale, ydot / self.v_scale, t / self.t_scale])
+
+    def coefficient(self, x, ydot, t):
+        """The learned friction-coefficient correction (dimensionless)."""
+        return MU_REF * self.mlp(self.inputs(x, ydot, t))[0]
+
+    def force(self, t, core, own, ctx):
+        return ctx.normal_load * self.coefficient(core.x, core.ydot, t)
+
+
+def make_learned_force(traces: CampaignTraces, *, width: int = 8, seed: int = 0) -> LearnedForce:
+    """An MLP force with zero output layer and scales from the campaign."""
+    data = np.asarray(traces.data)[np.asarray(traces.mask)]
+    x_s = float(np.max(np.abs(data)))
+    omega = float(np.median(np.sqrt(9806.65 * np.asarray(traces.stiffness)
+                                    / np.asarray(traces.weight))))
+    t_s = float(np.max(np.asarray(traces.time)))
+    mlp = eqx.nn.MLP(3, 1, width, 1, activation=jnp.tanh, key=jax.random.PRNGKey(seed))
+    last = mlp.layers[-1]
+    mlp = eqx.tree_at(lambda m: (m.layers[-1].weight, m.layers[-1].bias), mlp,
+                      (jnp.zeros_like(last.weight), jnp.zeros_like(last.bias)))
+    return LearnedForce(mlp, x_scale=x_s, v_scale=omega * x_s, t_scale=t_s)
+
+
+@eqx.filter_jit
+def _evaluate_learned(z_base, z_nn, dx0, eff_vec, friction_static, effects_template,
+                      force_template, traces, settings, sigma, free_names):
+    nb, nn = z_base.shape[0], z_nn.shape[0]
+    params0, static = eqx.partition(force_template, eqx.is_inexact_array)
+    _, unravel = ravel_pytree(params0)
+    eff = effects_from_vector(effects_template, eff_vec)
+
+    def one(args):
+        w, k, v, x0g, dxr, t, m, d = args
+
+        def f(q):
+            fr = _combine_friction(q[:nb], friction_static, free_names)
+            term = eqx.combine(unravel(q[nb:nb + nn]), static)
+            model, ok = simulate_record(fr.friction(), eff, w, k, v, x0g + q[-1], t, m,
+                                        settings, (term,))
+            r = jnp.where(m, (model - d) / sigma, 0.0)
+            return r, (r, ok)
+
+        q0 = jnp.concatenate([z_base, z_nn, dxr[None]])
+        J, (r, ok) = jax.jacfwd(f, has_aux=True)(q0)
+        return r, J, ok
+
+    return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed, traces.x0_guess,
+                             dx0, traces.time, traces.mask, traces.data))
+
+
+@dataclasses.dataclass
+class LearnedProblem:
+    """`Problem` with an MLP force instead of the effect slots (same `evaluate` contract)."""
+
+    base: Problem
+    force0: LearnedForce
+    eff_vec: np.ndarray
+
+    def __post_init__(self):
+        params0, self._static = eqx.partition(self.force0, eqx.is_inexact_array)
+        flat, self._unravel = ravel_pytree(params0)
+        self.nn0 = np.asarray(flat)
+        self.n_base = self.base.n_base
+        self.n_nn = self.nn0.shape[0]
+
+    @property
+    def n_params(self):
+        return self.n_base + self.n_nn + self.base.traces.n_records
+
+    def active(self):
+        return np.ones(self.n_params, bool)
+
+    def z0_from(self, base_z):
+        nb, ns = self.base.n_base, self.base.n_slots
+        return np.concatenate([base_z[:nb], self.nn0, base_z[nb + ns:]])
+
+    def evaluate(self, z):
+        nb, nn = self.n_base, self.n_nn
+        b = self.base
+        r, J, ok = _evaluate_learned(
+            jnp.asarray(z[:nb]), jnp.asarray(z[nb:nb + nn]), jnp.asarray(z[nb + nn:]),
+            jnp.asarray(self.eff_vec), b.friction0, b.effects0, self.force0, b.traces,
+            b.settings, jnp.asarray(b.sigma), b.free_names)
+        r, J, ok = np.asarray(r), np.asarray(J), np.asarray(ok)
+        m = np.asarray(b.traces.mask)
+        R = b.traces.n_records
+        rows = [J[i][m[i]] for i in range(R)]
+        Jfull = np.zeros((sum(x.shape[0] for x in rows), self.n_params))
+        o = 0
+        for i, block in enumerate(rows):
+            n = block.shape[0]
+            Jfull[o:o + n, : nb + nn] = block[:, : nb + nn]
+            Jfull[o:o + n, nb + nn + i] = block[:, -1]
+            o += n
+        return np.concatenate([r[i][m[i]] for i in range(R)]), Jfull, bool(np.all(ok))
+
+    def force(self, z) -> LearnedForce:
+        nb, nn = self.n_base, self.n_nn
+        return eqx.combine(self._unravel(jnp.asarray(z[nb:nb + nn])), self._static)
+
+    def params(self, z) -> DiscoveryParams:
+        nb, nn = self.n_base, self.n_nn
+        b = self.base
+        fr = _combine_friction(jnp.asarray(z[:nb]), b.friction0, b.free_names)
+        eff = effects_from_vector(b.effects0, jnp.asarray(self.eff_vec))
+        return DiscoveryParams(fr, eff, b.traces.x0_guess + jnp.asarray(z[nb + nn:]))
+
+
+FEATURES = ("1", "x", "x^2", "x^3", "v", "sign(v)", "v|v|", "t", "t sign(v)", "x sign(v)")
+"""Sparse-regression library: x deflection, v slider velocity, t time in the record."""
+
+
+def feature_matrix(x, v, t, v_eps):
+    """Columns of `FEATURES` at samples x (mm), v (mm/s), t (s); sign smoothed over v_eps."""
+    s = np.tanh(v / v_eps)
+    return np.stack([np.ones_like(x), x, x ** 2, x ** 3, v, s, v * np.abs(v), t, t * s, x * s],
+                    axis=1)
+
+
+def stlsq(A, y, *, threshold: float = 0.1, iterations: int = 10):
+    """Sequentially thresholded least squares on standardised columns.
+
+    Returns (coefficients in the original units, active mask). A column is dropped when
+    its standardised coefficient is below `threshold` times the largest one.
+    """
+    scale = A.std(axis=0)
+    scale[scale == 0] = 1.0
+    scale[0] = 1.0  # the constant column
+    As = A / scale
+    active = np.ones(A.shape[1], bool)
+    coef = np.zeros(A.shape[1])
+    for _ in range(iterations):
+        coef[:] = 0.0
+        coef[active] = np.linalg.lstsq(As[:, active], y, rcond=None)[0]
+        size = np.abs(coef) * np.where(np.arange(A.shape[1]) == 0, 0.0, 1.0)
+        keep = size >= threshold * max(size.max(), 1e-300)
+        keep[0] = True
+        if np.array_equal(keep, active):
+            break
+        active = keep
+    return coef / scale, active
+
+
+@dataclasses.dataclass
+class LearnedCorrection:
+    """The fitted learned correction: fit, gaps (mm), named terms and their coefficients."""
+
+    fit: LMResult
+    problem: LearnedProblem
+    gap_before: float
+    gap_after: float
+    named_terms: list
+    coefficients: dict
+    explained_variance: float
+
+    def to_json(self) -> dict:
+        return {"gap_before": self.gap_before, "gap_after": self.gap_after,
+                "depends_on": self.named_terms, "coefficients": self.coefficients,
+                "sparse_fit_r2": self.explained_variance,
+                "n_parameters": int(self.problem.n_nn)}
+
+
+def fit_learned_correction(base: Problem, base_fit: LMResult, *, width: int = 6,
+                           max_evals: int = 20, threshold: float = 0.1, seed: int = 0
+                           ) -> LearnedCorrection:
+    """Fit the MLP friction correction (module docstring) from the base fit, then STLSQ."""
+    force0 = make_learned_force(base.traces, width=width, seed=seed)
+    eff_vec = np.asarray(base.eff0)
+    lp = LearnedProblem(base, force0, eff_vec)
+    fit = levenberg_marquardt(lp, lp.z0_from(base_fit.z), max_evals=max_evals)
+    N, sigma = fit.n_data, float(base.sigma)
+    term = lp.force(fit.z)
+    params = lp.params(fit.z)
+    model, ok, vel, _ = simulate_campaign(params, base.traces, base.settings, (term,), full=True)
+    m = np.asarray(base.traces.mask)
+    x = np.asarray(model)[m]
+    v = np.asarray(vel)[m]
+    t = np.asarray(base.traces.time)[m]
+    g = np.asarray(jax.vmap(term.coefficient)(jnp.asarray(x), jnp.asarray(v), jnp.asarray(t)))
+    v_eps = 0.05 * max(float(np.max(np.abs(v))), 1e-9)
+    A = feature_matrix(x, v, t, v_eps)
+    coef, active = stlsq(A, g, threshold=threshold)
+    pred = A @ coef
+    r2 = 1.0 - float(np.var(g - pred)) / max(float(np.var(g)), 1e-300)
+    named = [FEATURES[i] for i in range(1, len(FEATURES)) if active[i]]
+    return LearnedCorrection(
+        fit=fit, problem=lp, gap_before=math.sqrt(base_fit.rss / base_fit.n_data) * sigma,
+        gap_after=math.sqrt(fit.rss / N) * sigma, named_terms=named,
+        coefficients={FEATURES[i]: float(coef[i]) for i in range(len(FEATURES)) if active[i]},
+        explained_variance=r2)

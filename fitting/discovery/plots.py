@@ -1,0 +1,67 @@
+"""Figures of a discovery result: residual RMS by phase before/after, and the traces."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .model import simulate_campaign
+from .residuals import PHASES
+
+__all__ = ["plot_discovery"]
+
+
+def plot_discovery(result, path, *, records: int = 3):
+    """Save a PNG: residual RMS by phase (um) before/after, and `records` traces with
+    the base and final fits and their residuals (um against s)."""
+    import matplotlib
+
+    matplotlib.use("Agg", force=False)
+    import matplotlib.pyplot as plt
+
+    tr = result.base_problem.traces
+    m = np.asarray(tr.mask)
+    t = np.asarray(tr.time)
+    d = np.asarray(tr.data)
+    base, _ = simulate_campaign(result.base_problem.params(result.base_fit.z), tr,
+                                result.base_problem.settings)
+    final, _ = simulate_campaign(result.final_problem.params(result.final_fit.z), tr,
+                                 result.final_problem.settings)
+    base, final = np.asarray(base), np.asarray(final)
+    R = tr.n_records
+    pick = sorted({0, R // 2, R - 1})[:records]
+    fig, axes = plt.subplots(1 + len(pick), 2, figsize=(11, 2.6 * (1 + len(pick))))
+    ax = axes[0, 0]
+    x = np.arange(len(PHASES))
+    rb = [result.residuals_before.phases[p]["rms"] * 1e3 for p in PHASES]
+    ra = [result.residuals_after.phases[p]["rms"] * 1e3 for p in PHASES]
+    ax.bar(x - 0.2, rb, 0.4, label="base model")
+    ax.bar(x + 0.2, ra, 0.4, label=f"with {result.effect}")
+    ax.axhline(result.noise * 1e3, color="k", ls="--", lw=1, label="noise")
+    ax.set_xticks(x, PHASES)
+    ax.set_ylabel("residual RMS (um)")
+    ax.legend(fontsize=8)
+    ax.set_title(f"effect: {result.effect} ({result.confidence})")
+    ax = axes[0, 1]
+    names = [c["name"] for c in result.candidates]
+    ax.barh(names, [max(c["score"], 1e-3) for c in result.candidates])
+    ax.set_xscale("log")
+    ax.set_xlabel("score statistic (chi-square)")
+    for row, i in enumerate(pick, start=1):
+        mi = m[i]
+        a = axes[row, 0]
+        a.plot(t[i][mi], d[i][mi], ".", ms=2, color="0.5", label="record")
+        a.plot(t[i][mi], base[i][mi], lw=1, label="base fit")
+        a.plot(t[i][mi], final[i][mi], lw=1, ls="--", label="final fit")
+        a.set_ylabel("deflection (mm)")
+        a.legend(fontsize=7)
+        b = axes[row, 1]
+        b.plot(t[i][mi], (d[i][mi] - base[i][mi]) * 1e3, lw=0.8, label="base residual")
+        b.plot(t[i][mi], (d[i][mi] - final[i][mi]) * 1e3, lw=0.8, label="final residual")
+        b.set_ylabel("residual (um)")
+        b.legend(fontsize=7)
+    axes[-1, 0].set_xlabel("time (s)")
+    axes[-1, 1].set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path

@@ -1,0 +1,93 @@
+r"""Refit the best-ranked candidates and choose by BIC, or answer "none".
+
+For each of the `top` candidates of the score test, the model with that effect is
+refitted (Levenberg-Marquardt from the base optimum, whose first damped step is the score
+test's Gauss-Newton step). With $N$ samples, $\mathrm{RSS}$ the whitened residual sum of squares and $d$
+the candidate's number of parameters, the Gaussian likelihood with the noise level
+profiled out gives
+
+$$\Delta\mathrm{BIC} = N \ln(\mathrm{RSS}_c / \mathrm{RSS}_0) + d \ln N,$$
+
+and the likelihood-ratio statistic $\Lambda = N\ln(\mathrm{RSS}_0/\mathrm{RSS}_c)$
+($\chi^2_d$ under "no effect", reported with its p-value). The candidate with the lowest
+$\Delta\mathrm{BIC}$ is named only if $\Delta\mathrm{BIC} < -$`threshold`; otherwise the
+answer is "none". Naming an effect that is not there is the worst failure, so the
+threshold (default 10, i.e. $\Lambda > 18.6$ for one parameter on 5000 samples) was
+chosen on campaigns with no hidden effect (tests; README).
+
+Confidence is "high" when the named effect also leaves residuals that pass the
+misspecification test (p >= `p_explained`) and beats the runner-up by at least
+`margin` in BIC; otherwise "low".
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import scipy.stats
+
+from .lm import LMResult, levenberg_marquardt
+from .model import Problem
+from .ranking import CandidateScore
+
+__all__ = ["Refit", "refit_candidates", "choose"]
+
+
+@dataclasses.dataclass
+class Refit:
+    """A candidate refitted: name, problem, fit (LMResult), delta_bic, lr, lr_p_value."""
+
+    name: str
+    problem: Problem
+    fit: LMResult
+    delta_bic: float
+    lr: float
+    lr_p_value: float
+    dof: int
+
+
+def refit_candidates(base_problem: Problem, base_fit: LMResult, scores: list[CandidateScore],
+                     *, top: int = 3, max_evals: int = 12) -> list[Refit]:
+    """Refit the `top` candidates by score; sorted by delta BIC (best first)."""
+    N = base_fit.n_data
+    out = []
+    for sc in scores[:top]:
+        pc = dataclasses.replace(base_problem, effect=sc.name)
+        # start at the base optimum (effect zero): the first damped step is the score
+        # test's Gauss-Newton step
+        fit = levenberg_marquardt(pc, base_fit.z, max_evals=max_evals)
+        rss0, rss = base_fit.rss, min(fit.rss, base_fit.rss)
+        lr = N * math.log(rss0 / rss)
+        dbic = -lr + sc.dof * math.log(N)
+        out.append(Refit(sc.name, pc, fit, dbic, lr, float(scipy.stats.chi2.sf(lr, sc.dof)),
+                         sc.dof))
+    return sorted(out, key=lambda c: c.delta_bic)
+
+
+def choose(refits: list[Refit], *, threshold: float = 10.0) -> Refit | None:
+    """The best refit if its delta BIC is below -threshold, else None ("none")."""
+    if not refits:
+        return None
+    best = refits[0]
+    return best if best.delta_bic < -threshold else None
+
+
+def effect_estimate(refit: Refit) -> dict:
+    """{param: {"value", "stderr", "unit"}} of the chosen effect (Gauss-Newton covariance)."""
+    from .effects import EffectSet
+
+    pc, fit = refit.problem, refit.fit
+    act = pc.active()
+    cov = fit.covariance(act)
+    idx = np.flatnonzero(act)
+    part = getattr(EffectSet(), refit.name)
+    out = {}
+    for j, p in enumerate(part.PARAMS):
+        col = pc.n_base + j
+        k = int(np.flatnonzero(idx == col)[0])
+        out[p] = {"value": float(fit.z[col] * part.SCALES[j]),
+                  "stderr": float(math.sqrt(max(cov[k, k], 0.0)) * part.SCALES[j]),
+                  "unit": part.UNITS[j]}
+    return out

@@ -1,0 +1,263 @@
+r"""The missing-physics workflow: fit the base model, find the disagreement, name the
+missing effect, add it and show the gap shrink.
+
+```python
+from stickslip_jax.records import read_campaign
+from fitting.discovery import discover
+
+result = discover(read_campaign("records/*.csv"))
+result.effect, result.explanation, result.gap_before, result.gap_after
+result.to_json()          # the `stickslip discover --json` contract
+```
+
+Steps (each timed in `result.timings`):
+
+1. `prepare`: records -> padded traces (`model.campaign_traces`); a features-first
+   starting point for the friction (`fitting.fit.fit_features` on the records with at
+   least two complete cycles).
+2. `base_fit`: the paper's model (all effects zero) fitted to the full traces by
+   Levenberg-Marquardt (`lm`), friction + one initial deflection per record.
+3. `residuals_before`: `residuals.analyse_residuals` (phases, bins, spectrum,
+   misspecification test).
+4. `ranking`: score test of every library effect (`ranking.score_candidates`).
+5. `refit`: the `top` candidates refitted; BIC choice or "none" (`selection`).
+6. `residuals_after`: the analysis again with the chosen effect.
+7. `learned` (only when `learn` is set and the base residuals fail the
+   misspecification test while no candidate explains them): the learned correction
+   (`learned.fit_learned_correction`) and its sparse regression.
+
+Gaps are residual RMS in mm (the noise level is `noise`, estimated from the data).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+
+import numpy as np
+
+from ..params import NAMES, EmpiricalFriction
+from .effects import CANDIDATES, EffectSet
+from .lm import LMResult, levenberg_marquardt
+from .model import Problem, Settings, campaign_traces, simulate_campaign
+from .ranking import score_candidates
+from .residuals import analyse_residuals
+from .selection import choose, effect_estimate, refit_candidates
+
+__all__ = ["DiscoveryResult", "discover", "initial_friction"]
+
+
+def initial_friction(records) -> EmpiricalFriction:
+    """Features-first starting friction (fitting.fit on records with >= 2 complete cycles).
+
+    Where the campaign cannot separate mu_s from gamma (a degenerate features fit,
+    mu_s > 1.5), mu_s is set to 1.5 and gamma chosen to keep mu_0 at the median stick time.
+    """
+    from ..features import record_features
+    from ..fit import fit_features
+
+    feats = [record_features(r) for r in records]
+    good = [f for f in feats if f.stick_slip and f.n_complete >= 2]
+    if len(good) < 2:
+        raise ValueError("discovery needs at least two records with two or more complete "
+                         "stick-slip cycles (record longer or slower)")
+    fit = fit_features(good)
+    v = fit.values
+    if not (v["mu_s"] < 1.5 and 1e-3 < v["gamma"] < 1e3 and 0.05 < v["m"] < 3.0):
+        t1 = float(np.nanmedian(np.concatenate([f.stick_time for f in good])))
+        m = min(max(v["m"], 0.1), 2.0)
+        mu0 = float(fit.params.friction.friction().static(t1))
+        mu_s = max(1.5, mu0 + 0.1)
+        gamma = -math.log((mu_s - mu0) / (mu_s - v["mu_d"])) / t1 ** m
+        v = dict(v, mu_s=mu_s, gamma=gamma, m=m)
+    return EmpiricalFriction.from_values(**v)
+
+
+@dataclasses.dataclass
+class DiscoveryResult:
+    """Outcome of `discover` (see `to_json` for the CLI contract). Gaps in mm."""
+
+    effect: str
+    explanation: str
+    confidence: str
+    gap_before: float
+    gap_after: float
+    noise: float
+    criterion: str
+    candidates: list
+    parameters_before: dict
+    parameters_after: dict
+    effect_size: dict
+    test_before: dict
+    test_after: dict
+    residuals_before: object
+    residuals_after: object
+    timings: dict
+    base_fit: LMResult
+    final_fit: LMResult
+    base_problem: Problem
+    final_problem: Problem
+    learned: object = None
+
+    def to_json(self) -> dict:
+        out = {
+            "effect": self.effect, "explanation": self.explanation,
+            "confidence": self.confidence,
+            "gap_before": self.gap_before, "gap_after": self.gap_after,
+            "gap_unit": "mm", "noise": self.noise, "criterion": self.criterion,
+            "candidates": self.candidates,
+            "parameters_before": self.parameters_before,
+            "parameters_after": self.parameters_after,
+            "effect_size": self.effect_size,
+            "misspecification_before": self.test_before,
+            "misspecification_after": self.test_after,
+            "residuals_by_phase_before": self.residuals_before.phases,
+            "residuals_by_phase_after": self.residuals_after.phases,
+            "timings_s": self.timings,
+        }
+        if self.learned is not None:
+            out["learned_correction"] = self.learned.to_json()
+        return out
+
+
+def _friction_values(problem: Problem, z) -> dict:
+    v = np.asarray(problem.params(z).friction.values())
+    return {n: float(x) for n, x in zip(NAMES, v)}
+
+
+def _analyse(problem: Problem, z, sigma):
+    p = problem.params(z)
+    model, ok, vel, stk = simulate_campaign(p, problem.traces, problem.settings, full=True)
+    d, m = np.asarray(problem.traces.data), np.asarray(problem.traces.mask)
+    model = np.asarray(model)
+    res = [d[i][m[i]] - model[i][m[i]] for i in range(problem.traces.n_records)]
+    return analyse_residuals(res, problem.traces, vel, stk, sigma=sigma), res
+
+
+def discover(
+    records,
+    *,
+    candidates=CANDIDATES,
+    top: int = 3,
+    threshold: float = 10.0,
+    p_explained: float = 1e-3,
+    margin: float = 10.0,
+    learn: bool = False,
+    crop: str = "none",
+    settings: Settings = Settings(),
+    effects: EffectSet | None = None,
+    max_evals: int = 25,
+    refit_evals: int = 12,
+    fixed: tuple[str, ...] = (),
+) -> DiscoveryResult:
+    """Run the workflow (module docstring) on `records` (a campaign of `Record`s).
+
+    `candidates`: library names to consider; `top`: how many to refit; `threshold`:
+    BIC margin needed to name an effect; `p_explained`, `margin`: for "high" confidence;
+    `learn`: fit the learned correction when nothing explains the residuals; `crop`:
+    see `model.campaign_traces`; `effects`: fixed shape settings (`EffectSet.zeros`);
+    `fixed`: friction parameters held at their features-fit value.
+    """
+    timings = {}
+    t = time.perf_counter()
+    traces = campaign_traces(records, crop=crop)
+    friction0 = initial_friction(records)
+    effects = EffectSet.zeros() if effects is None else effects
+    base = Problem(traces, friction0, effects, settings=settings, fixed=tuple(fixed))
+    timings["prepare"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    base_fit = levenberg_marquardt(base, base.z0(), max_evals=max_evals)
+    timings["base_fit"] = time.perf_counter() - t
+    sigma = float(traces.noise)
+    N = base_fit.n_data
+
+    t = time.perf_counter()
+    rep_before, _ = _analyse(base, base_fit.z, sigma)
+    timings["residuals_before"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    scores = score_candidates(base, base_fit.z, base_fit.rss, candidates)
+    timings["ranking"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    refits = refit_candidates(base, base_fit, scores, top=top, max_evals=refit_evals)
+    chosen = choose(refits, threshold=threshold)
+    timings["refit"] = time.perf_counter() - t
+
+    by_name = {r.name: r for r in refits}
+    cand_json = []
+    for sc in scores:
+        rf = by_name.get(sc.name)
+        cand_json.append({
+            "name": sc.name, "score": sc.statistic, "score_p_value": sc.p_value,
+            "dof": sc.dof, "predicted_size": sc.predicted,
+            "delta_criterion": rf.delta_bic if rf else None,
+            "lr_p_value": rf.lr_p_value if rf else None,
+            "explanation": getattr(effects, sc.name).EXPLANATION,
+        })
+
+    gap_before = math.sqrt(base_fit.rss / N) * sigma
+    params_before = _friction_values(base, base_fit.z)
+    t = time.perf_counter()
+    if chosen is not None:
+        final_problem, final_fit = chosen.problem, chosen.fit
+        rep_after, _ = _analyse(final_problem, final_fit.z, sigma)
+        size = effect_estimate(chosen)
+        runner = refits[1].delta_bic if len(refits) > 1 else 0.0
+        explained = rep_after.p_value >= p_explained
+        confident = explained and (runner - chosen.delta_bic) >= margin
+        confidence = "high" if confident else "low"
+        part = getattr(effects, chosen.name)
+        sizes = ", ".join(f"{p} = {v['value']:.3g} +- {v['stderr']:.2g} {v['unit']}"
+                          for p, v in size.items())
+        explanation = (f"{part.EXPLANATION} Adding {chosen.name} ({sizes}) lowers BIC by "
+                       f"{-chosen.delta_bic:.1f} and the residual RMS from "
+                       f"{gap_before * 1e3:.3g} um to "
+                       f"{math.sqrt(final_fit.rss / N) * sigma * 1e3:.3g} um "
+                       f"(noise {sigma * 1e3:.3g} um)")
+        if not explained:
+            explanation += ("; the residuals still fail the misspecification test "
+                            f"(p = {rep_after.p_value:.2g}), so something else is missing too")
+        effect = chosen.name
+    else:
+        final_problem, final_fit, rep_after = base, base_fit, rep_before
+        size, confidence = {}, "high" if rep_before.p_value >= p_explained else "low"
+        effect = "none"
+        if rep_before.p_value >= p_explained:
+            explanation = ("The paper's model explains the records to the noise level "
+                           f"(misspecification test p = {rep_before.p_value:.2g}); no library "
+                           "effect improves BIC enough.")
+        else:
+            explanation = ("The residuals are more than noise (misspecification test p = "
+                           f"{rep_before.p_value:.2g}, worst in the {rep_before.worst_phase()} "
+                           "phase) but no library effect explains them.")
+    timings["residuals_after"] = time.perf_counter() - t
+    gap_after = math.sqrt(final_fit.rss / N) * sigma
+    params_after = _friction_values(final_problem, final_fit.z)
+    if size:
+        params_after.update({f"{effect}.{p}": v["value"] for p, v in size.items()})
+
+    learned = None
+    if learn and effect == "none" and rep_before.p_value < p_explained:
+        from .learned import fit_learned_correction
+
+        t = time.perf_counter()
+        learned = fit_learned_correction(base, base_fit)
+        timings["learned"] = time.perf_counter() - t
+        explanation += (" A learned correction lowers the residual RMS to "
+                        f"{learned.gap_after * 1e3:.3g} um; it depends mostly on "
+                        f"{', '.join(learned.named_terms) or 'nothing identifiable'}.")
+    timings["total"] = sum(timings.values())
+    return DiscoveryResult(
+        effect=effect, explanation=explanation, confidence=confidence,
+        gap_before=gap_before, gap_after=gap_after, noise=sigma,
+        criterion="BIC (Gaussian likelihood, noise profiled); delta_criterion = "
+                  "BIC(with effect) - BIC(base), named if < -%g" % threshold,
+        candidates=cand_json, parameters_before=params_before, parameters_after=params_after,
+        effect_size=size, test_before=rep_before.test, test_after=rep_after.test,
+        residuals_before=rep_before, residuals_after=rep_after, timings=timings,
+        base_fit=base_fit, final_fit=final_fit, base_problem=base, final_problem=final_problem,
+        learned=learned,
+    )
