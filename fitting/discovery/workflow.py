@@ -142,12 +142,12 @@ def discover(
     top: int = 3,
     threshold: float = 10.0,
     p_explained: float = 1e-3,
-    margin: float = 10.0,
+    margin: float = 20.0,
     learn: bool = False,
     crop: str = "none",
     settings: Settings = Settings(),
     effects: EffectSet | None = None,
-    max_evals: int = 25,
+    max_evals: int = 40,
     refit_evals: int = 12,
     fixed: tuple[str, ...] = (),
 ) -> DiscoveryResult:
@@ -184,6 +184,15 @@ def discover(
     t = time.perf_counter()
     refits = refit_candidates(base, base_fit, scores, top=top, max_evals=refit_evals)
     chosen = choose(refits, threshold=threshold)
+    if chosen is not None and not chosen.fit.converged:
+        # polish the chosen model (the ranking refits are short)
+        more = levenberg_marquardt(chosen.problem, chosen.fit.z, max_evals=max_evals,
+                                   first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok))
+        lr = N * math.log(base_fit.rss / min(more.rss, base_fit.rss))
+        chosen = dataclasses.replace(chosen, fit=more, lr=lr,
+                                     delta_bic=-lr + chosen.dof * math.log(N))
+        refits = sorted([chosen] + [r for r in refits if r.name != chosen.name],
+                        key=lambda c: c.delta_bic)
     timings["refit"] = time.perf_counter() - t
 
     by_name = {r.name: r for r in refits}
