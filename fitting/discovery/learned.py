@@ -143,10 +143,14 @@ class LearnedProblem:
     def evaluate(self, z):
         nb, nn = self.n_base, self.n_nn
         b = self.base
-        r, J, ok = _evaluate_learned(
-            jnp.asarray(z[:nb]), jnp.asarray(z[nb:nb + nn]), jnp.asarray(z[nb + nn:]),
-            jnp.asarray(self.eff_vec), b.friction0, b.effects0, self.force0, b.traces,
-            b.settings, jnp.asarray(b.sigma), b.free_names)
+        try:
+            r, J, ok = _evaluate_learned(
+                jnp.asarray(z[:nb]), jnp.asarray(z[nb:nb + nn]), jnp.asarray(z[nb + nn:]),
+                jnp.asarray(self.eff_vec), b.friction0, b.effects0, self.force0, b.traces,
+                b.settings, jnp.asarray(b.sigma), b.free_names)
+        except eqx.EquinoxRuntimeError:
+            # a wild trial point (a diverging implicit stage): reject it, never crash
+            return np.full(1, np.inf), np.full((1, self.n_params), np.nan), False
         r, J, ok = np.asarray(r), np.asarray(J), np.asarray(ok)
         m = np.asarray(b.traces.mask)
         R = b.traces.n_records

@@ -58,7 +58,10 @@ def levenberg_marquardt(problem, z0, *, active=None, max_evals: int = 25, chi2_t
     z = np.asarray(z0, float).copy()
     r, J, ok = problem.evaluate(z) if first is None else first
     n_evals = 0 if first is not None else 1
-    cost = float(r @ r) if ok else np.inf
+    if not ok or not np.all(np.isfinite(r)):
+        raise ValueError("the simulator failed at the starting point of the fit; check the "
+                         "records (stick-slip present, constant drive speed) and the start")
+    cost = float(r @ r)
     lam = 1e-3
     converged = False
     history = [cost]

@@ -260,10 +260,16 @@ def effect_dimension(effect: str) -> int:
     return sum(1 for n, _ in EFFECT_PARAMS if n == effect)
 
 
+TRACE_COUNT = {"evaluate": 0}
+"""How many times the residual/Jacobian function was traced (tests check it is once
+per campaign shape, whatever the candidate)."""
+
+
 @eqx.filter_jit
 def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, traces,
               settings, sigma, free_names):
     """Whitened residuals [R, N] and per-record Jacobians [R, N, nb + ns + 1]."""
+    TRACE_COUNT["evaluate"] += 1
     nb = z_base.shape[0]
 
     def one(args):
@@ -347,9 +353,13 @@ class Problem:
 
     def evaluate(self, z):
         zb, zs, dx0 = self.split(z)
-        r, J, ok = _evaluate(zb, zs, dx0, self.S, self.eff0, self.friction0, self.effects0,
-                             self.traces, self.settings, jnp.asarray(self.sigma),
-                             self.free_names)
+        try:
+            r, J, ok = _evaluate(zb, zs, dx0, self.S, self.eff0, self.friction0, self.effects0,
+                                 self.traces, self.settings, jnp.asarray(self.sigma),
+                                 self.free_names)
+        except eqx.EquinoxRuntimeError:
+            # a wild trial point (a diverging implicit stage): reject it, never crash
+            return np.full(1, np.inf), np.full((1, self.n_params), np.nan), False
         r, J, ok = np.asarray(r), np.asarray(J), np.asarray(ok)
         R = self.traces.n_records
         nb, ns = self.n_base, self.n_slots

@@ -64,7 +64,7 @@ def hidden_effect_campaign(
     hidden_name: str | None = None,
     conditions=CONDITIONS,
     speed_fractions=SPEED_FRACTIONS,
-    cycles: int = 3,
+    cycles: int = 4,
     noise: float = 5e-4,
     sample_rate: float = 500.0,
     seed: int = 0,
