@@ -286,3 +286,15 @@ def test_bad_structure_raises():
         simulate_exact(sw, ConstantSpeed(0.1), jnp.linspace(0, 1, 5), slip_time="bogus")
     with pytest.raises(ValueError, match="drive"):
         simulate_exact(sw, 0.1, jnp.linspace(0, 1, 5))
+
+
+def test_series_cos_sin_matches_numpy_and_unsorted_times_are_rejected(setup_36):
+    from stickslip_jax.simulation.exact import _cos_sin
+
+    phi = np.linspace(-1.0, 2 * np.pi + 1.0, 20001)
+    c, s = _cos_sin(jnp.asarray(phi))
+    np.testing.assert_allclose(np.asarray(c), np.cos(phi), rtol=0, atol=2e-15)
+    np.testing.assert_allclose(np.asarray(s), np.sin(phi), rtol=0, atol=2e-15)
+    sw, _, _ = setup_36
+    with pytest.raises(Exception, match="non-decreasing"):
+        simulate_exact(sw, ConstantSpeed(0.1), jnp.asarray([0.0, 2.0, 1.0]), max_events=4)
