@@ -16,8 +16,8 @@ threshold (default 10, i.e. $\Lambda > 18.6$ for one parameter on 5000 samples) 
 chosen on campaigns with no hidden effect (tests; README).
 
 Confidence is "high" when the named effect also leaves residuals that pass the
-misspecification test (p >= `p_explained`) and beats the runner-up by at least
-`margin` in BIC; otherwise "low".
+misspecification test (p >= `p_explained`), beats the runner-up by at least `margin`
+in BIC, and was also first in the score-test ranking; otherwise "low".
 """
 
 from __future__ import annotations

@@ -220,7 +220,9 @@ def discover(
         size = effect_estimate(chosen)
         runner = refits[1].delta_bic if len(refits) > 1 else 0.0
         explained = rep_after.p_value >= p_explained
-        confident = explained and (runner - chosen.delta_bic) >= margin
+        # the cheap ranking and the refits must agree on the winner
+        agree = scores[0].name == chosen.name
+        confident = explained and agree and (runner - chosen.delta_bic) >= margin
         confidence = "high" if confident else "low"
         part = getattr(effects, chosen.name)
         sizes = ", ".join(f"{p} = {v['value']:.3g} +- {v['stderr']:.2g} {v['unit']}"
