@@ -1,19 +1,25 @@
 """Benchmark: a campaign of 12 records (3 W/k pairs of Table 1 x 4 drive speeds below
 v_c, 6 cycles each, 1 kHz) simulated by
 
-- the exact event-driven simulator (jit + vmap over padded records),
+- the exact event-driven simulator, jit + vmap over the records padded to the longest
+  (`pad_times`: 2.9x the real samples here, since the records at 2 mm/min are 44 times
+  longer than those at 30 mm/min) and, second row, the same with records of similar
+  length padded together (one vmap per drive speed, all inside one jit),
 - the smoothed diffrax simulator (jit + vmap, default smoothing, rtol 1e-8),
 - a SciPy baseline: event-driven, brentq for the breakaway, solve_ivp (DOP853,
   rtol 1e-10) with a terminal event for the end of each slip, same process.
 
-Prints wall times (best of `--repeat` after a warm-up/compile run), the ratios and the
-smoothed simulator's worst limit-cycle amplitude error against the exact one.
+Prints wall times (best of `--repeat`, after a warm-up/compile run, the simulators'
+repeats interleaved so that they see the same machine load; JAX results are waited
+for with `block_until_ready`), the ratios, the load average, and the smoothed
+simulator's worst limit-cycle amplitude error against the exact one.
 `--small`: 2 records, 3 cycles (smoke run).
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import equinox as eqx
@@ -100,14 +106,18 @@ def scipy_baseline(fr, W, k, v, ts):
     return out
 
 
-def best_time(fn, repeat):
-    fn()  # warm-up (compiles)
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
+def best_times(fns, repeat):
+    """Best wall time of each function over `repeat` interleaved rounds, after one
+    warm-up (compile) call each."""
+    for fn in fns.values():
         fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
+    times = {name: [] for name in fns}
+    for _ in range(repeat):
+        for name, fn in fns.items():
+            t0 = time.perf_counter()
+            fn()
+            times[name].append(time.perf_counter() - t0)
+    return {name: min(t) for name, t in times.items()}
 
 
 def last_cycle_amplitude(x, ts, t_from):
@@ -118,7 +128,7 @@ def last_cycle_amplitude(x, ts, t_from):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--small", action="store_true", help="2 records, 3 cycles")
-    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--repeat", type=int, default=7)
     args = ap.parse_args()
     fr, recs = campaign(args.small)
     ts_b, mask = pad_times([r[3] for r in recs])
@@ -126,11 +136,20 @@ def main():
     ks = jnp.asarray([r[1] for r in recs])
     vs = jnp.asarray([r[2] for r in recs])
 
-    @eqx.filter_jit
-    def exact(fr, Ws, ks, vs, ts, mask):
+    def exact_batch(fr, Ws, ks, vs, ts, mask):
         return jax.vmap(lambda W, k, v, t, mk: simulate_exact(
             Slideway(fr, W, k), ConstantSpeed(v), t, mask=mk, max_events=32))(
                 Ws, ks, vs, ts, mask)
+
+    exact = eqx.filter_jit(exact_batch)
+    # records of the same drive speed have similar lengths: pad them together
+    groups = []
+    for vm in sorted({r[2] for r in recs}):
+        sel = [i for i, r in enumerate(recs) if r[2] == vm]
+        t_g, m_g = pad_times([recs[i][3] for i in sel])
+        groups.append((Ws[jnp.asarray(sel)], ks[jnp.asarray(sel)], vs[jnp.asarray(sel)], t_g,
+                       m_g))
+    exact_grouped = eqx.filter_jit(lambda fr, groups: [exact_batch(fr, *g) for g in groups])
 
     @eqx.filter_jit
     def smooth(fr, Ws, ks, vs, ts, mask):
@@ -141,16 +160,25 @@ def main():
     def run_exact():
         return jax.block_until_ready(exact(fr, Ws, ks, vs, ts_b, mask))
 
+    def run_grouped():
+        return jax.block_until_ready(exact_grouped(fr, groups))
+
     def run_smooth():
         return jax.block_until_ready(smooth(fr, Ws, ks, vs, ts_b, mask))
 
     def run_scipy():
         return [scipy_baseline(fr, W, k, v, t) for W, k, v, t in recs]
 
-    t_exact = best_time(run_exact, args.repeat)
-    t_smooth = best_time(run_smooth, max(1, args.repeat // 2))
-    t_scipy = best_time(run_scipy, 1)
+    best = best_times({"exact": run_exact, "grouped": run_grouped, "scipy": run_scipy},
+                      args.repeat)
+    t_exact, t_grouped, t_scipy = best["exact"], best["grouped"], best["scipy"]
+    t_smooth = best_times({"smooth": run_smooth}, max(1, args.repeat // 3))["smooth"]
     ex, sm, sp = run_exact(), run_smooth(), run_scipy()
+    gr = run_grouped()
+    n_max = max(r[3].size for r in recs)
+    gr_x = np.concatenate([np.pad(np.asarray(g.deflection),
+                                  ((0, 0), (0, n_max - g.deflection.shape[1]))) for g in gr])
+    order = [i for vm in sorted({r[2] for r in recs}) for i, r in enumerate(recs) if r[2] == vm]
 
     amp_err, sp_err = [], []
     for i, (W, k, v, t) in enumerate(recs):
@@ -165,17 +193,26 @@ def main():
     ok = bool(jnp.all(ex.result == SimulationResult.successful)) and bool(
         jnp.all(sm.result == SimulationResult.successful))
     samples = sum(r[3].size for r in recs)
-    print(f"campaign: {len(recs)} records, {samples} samples at 1 kHz, lubricant A; "
-          f"all simulations successful: {ok}")
-    print(f"{'simulator':<34}{'time [s]':>12}{'vs exact':>12}{'SciPy / it':>12}")
-    for name, t in (("exact (jit+vmap)", t_exact), (
-            f"smoothed (eta={DEFAULT_SMOOTHING:g}, Kvaerno5, rtol 1e-8)", t_smooth),
-            ("SciPy event-driven (DOP853 1e-10)", t_scipy)):
-        print(f"{name:<34}{t:>12.4g}{t / t_exact:>12.3g}{t_scipy / t:>12.3g}")
+    grouped_dx = max(float(np.max(np.abs(gr_x[j, :recs[i][3].size]
+                                          - np.asarray(ex.deflection[i, :recs[i][3].size]))))
+                     for j, i in enumerate(order))
+    print(f"campaign: {len(recs)} records, {samples} samples at 1 kHz ({ts_b.size} padded), "
+          f"lubricant A; all simulations successful: {ok}")
+    print(f"load average (1, 5, 15 min): {', '.join(f'{x:.2f}' for x in os.getloadavg())} "
+          f"on {os.cpu_count()} CPUs")
+    print(f"{'simulator':<44}{'time [s]':>12}{'vs exact':>10}{'SciPy / it':>12}")
+    for name, t in (("exact (jit+vmap, padded to longest)", t_exact),
+                    ("exact (jit+vmap, padded per speed)", t_grouped),
+                    (f"smoothed (eta={DEFAULT_SMOOTHING:g}, Kvaerno5, rtol 1e-8)", t_smooth),
+                    ("SciPy event-driven (DOP853 1e-10)", t_scipy)):
+        print(f"{name:<44}{t:>12.4g}{t / t_exact:>10.3g}{t_scipy / t:>12.3g}")
     print(f"smoothed amplitude error vs exact: max {max(amp_err):.3%}, "
           f"mean {np.mean(amp_err):.3%}")
-    print(f"exact vs SciPy max |x difference|: {max(sp_err):.2e} mm")
-    print(f"targets: exact >= 50x faster than SciPy: {t_scipy / t_exact >= 50}; "
+    print(f"exact vs SciPy max |x difference|: {max(sp_err):.2e} mm; "
+          f"grouped vs padded: {grouped_dx:.1e} mm")
+    best_exact = min(t_exact, t_grouped)
+    print(f"targets: exact >= 50x faster than SciPy: {t_scipy / best_exact >= 50} "
+          f"({t_scipy / t_exact:.3g}x padded to longest, {t_scipy / t_grouped:.3g}x per speed); "
           f"smoothed within 1 % at <= 20x exact cost: "
           f"{max(amp_err) < 0.01 and t_smooth / t_exact <= 20}")
 

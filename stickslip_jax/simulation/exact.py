@@ -187,7 +187,8 @@ def simulate_exact(
       having stuck for `initial_stick_time` already.
     - `mask`: optional bool array like `ts` (False on padding), copied into the trace.
     - `max_events` (static): stick and slip phases simulated, 2 per cycle at constant
-      speed (a drive knot crossed during a slip costs 2 more). Running out gives
+      speed (a drive knot crossed during a slip costs 2 more; an odd budget is rounded
+      up). Running out gives
       `result = max_events_reached`.
 
     Returns a `Trace` (deflection in mm, slider velocity in mm/s, `Cycles`).
@@ -367,8 +368,16 @@ def simulate_exact(
         # an inactive row before the end (the stick half of a step that starts in a
         # slip) keeps the current time, so the row times stay sorted for rendering
         t = jnp.where(active, s.t, jnp.where(s.done, jnp.inf, s.t))
-        return dict(t=t, x=s.x, yd=s.yd, sticking=s.sticking, c=s.c, v=v_t, u=u_t,
-                    active=active)
+        # closed-form coefficients of the phase for rendering (see below)
+        st, z = s.sticking, jnp.zeros_like(s.x)
+        coef = jnp.stack([
+            jnp.where(jnp.isfinite(t), t, t_end),
+            jnp.where(st, s.x - u_t, s.c),
+            jnp.where(st, z, s.x - s.c),
+            jnp.where(st, z, (v_t - s.yd) / omega),
+            jnp.where(st, z, v_t),
+        ])
+        return dict(t=t, active=active, coef=coef)
 
     def step(s: _State, _):
         # one cycle per step: the stick (if the slider rests), then the slip
@@ -401,22 +410,14 @@ def simulate_exact(
     # Render x(t) on the sample times: closed form of the phase each sample falls in.
     # Each phase row becomes x = P + G u(t) + Q cos + S sin, ydot = V + omega (Q sin - S cos)
     # with tau = t - t_row (G = 1 while sticking), gathered as one table row per sample.
-    st = rows["sticking"]
-    zero_r = jnp.zeros_like(rows["x"])
-    table = jnp.stack([
-        jnp.where(jnp.isfinite(rows["t"]), rows["t"], t_end),
-        jnp.where(st, rows["x"] - rows["u"], rows["c"]),
-        jnp.where(st, zero_r, rows["x"] - rows["c"]),
-        jnp.where(st, zero_r, (rows["v"] - rows["yd"]) / omega),
-        jnp.where(st, zero_r, rows["v"]),
-        st.astype(float),
-    ], axis=1)
-    idx = jax.lax.optimization_barrier(jnp.clip(_count_at_or_before(rows["t"], ts) - 1, 0, n_rows - 1))
-    t_i, P, Q, S, V, G = (table[idx][:, j] for j in range(6))
+    idx = jnp.clip(_count_at_or_before(rows["t"], ts) - 1, 0, n_rows - 1)
+    # rows alternate stick (even) and slip (odd) halves; a sample never falls in an
+    # inactive stick half (it starts with the slip row that follows it)
+    st_i = (idx % 2) == 0
+    t_i, P, Q, S, V = (rows["coef"][idx][:, j] for j in range(5))
     cs, sn = _cos_sin(omega * jnp.maximum(ts - t_i, 0.0))
-    deflection = P + G * u_at(ts)[0] + Q * cs + S * sn
+    deflection = P + jnp.where(st_i, u_at(ts)[0], 0.0) + Q * cs + S * sn
     velocity = V + omega * (Q * sn - S * cs)
-    st_i = G > 0.5
 
     cycles = _cycle_table(info, max_events)
     result = SimulationResult.where(
