@@ -17,7 +17,8 @@ counted twice (restart per cycle: nothing accumulates from cycle to cycle):
 1. *level*: the plateau after slip $j$, $x_{1,j}$, against the mean of its available
    predictions, $L_1(T_{1,j})$ (end of slip $j$) and $L_0(T_{1,j+1}) - \Delta u_{j+1}$
    (the breakaway of cycle $j+1$ minus the drive travel during that stick); divided by the
-   plateau's standard error.
+   plateau's standard error combined with the timing errors of the slips (which move
+   $u(t_e)$ and the predicted levels through $T_1$).
 2. *stick* (eq 6 cycle by cycle): the stick climbs from $x_{1,j}$ to $x_{2,j+1}$ with the
    drive, $L_0(T_{1,j+1}) - L_1(T_{1,j}) = \Delta u_{j+1}$; divided by the propagated
    timing error of the stick times ("effective variance" weights, held fixed in the
@@ -168,8 +169,13 @@ def feature_residuals(
         pred_next = jnp.where(hn, l0n - climb, 0.0)
         count = he.astype(float) + hn.astype(float)
         pred = (pred_end + pred_next) / jnp.maximum(count, 1.0)
-        level = jnp.where(count > 0, (x1 - pred) / x1sd, 0.0)
         speed = climb / t1n
+        # timing errors move x1 = u(t_e) - Y by v sd(t_e) and the predictions through T1
+        var_pred = (jnp.where(he, (dl1 * t1sd) ** 2, 0.0)
+                    + jnp.where(hn, ((dl0n - speed) * t1nsd) ** 2, 0.0)) / jnp.maximum(count, 1.0) ** 2
+        level_sd = jnp.sqrt(x1sd**2 + 0.5 * (speed * t1nsd) ** 2 + var_pred)
+        level_sd = jax.lax.stop_gradient(level_sd)
+        level = jnp.where(count > 0, (x1 - pred) / level_sd, 0.0)
         sd = jnp.sqrt(((dl0n - speed) * t1nsd) ** 2 + (dl1 * t1sd) ** 2)
         sd = jax.lax.stop_gradient(jnp.maximum(sd, 1e-12))
         stick = jnp.where(he & hn, (l0n - l1 - climb) / sd, 0.0)
