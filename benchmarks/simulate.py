@@ -9,10 +9,11 @@ v_c, 6 cycles each, 1 kHz) simulated by
 - a SciPy baseline: event-driven, brentq for the breakaway, solve_ivp (DOP853,
   rtol 1e-10) with a terminal event for the end of each slip, same process.
 
-Prints wall times (best of `--repeat`, after a warm-up/compile run, the simulators'
-repeats interleaved so that they see the same machine load; JAX results are waited
-for with `block_until_ready`), the ratios, the load average, and the smoothed
-simulator's worst limit-cycle amplitude error against the exact one.
+Prints wall times (best single call, after a warm-up/compile call, over `--repeat`
+rounds of 5 back-to-back calls of each simulator in turn, so that all see the same
+machine load; JAX results are waited for with `block_until_ready`), the ratios, the
+load average, and the smoothed simulator's worst limit-cycle amplitude error against
+the exact one.
 `--small`: 2 records, 3 cycles (smoke run).
 """
 
@@ -106,17 +107,20 @@ def scipy_baseline(fr, W, k, v, ts):
     return out
 
 
-def best_times(fns, repeat):
-    """Best wall time of each function over `repeat` interleaved rounds, after one
-    warm-up (compile) call each."""
+def best_times(fns, repeat, burst=5):
+    """Best wall time of one call of each function: after a warm-up (compile) call each,
+    `repeat` rounds in which every function runs `burst` times back to back (so caches
+    and thread pools are as warm as in a fitting loop, and all of them see the same
+    machine load); the best single call counts."""
     for fn in fns.values():
         fn()
     times = {name: [] for name in fns}
     for _ in range(repeat):
         for name, fn in fns.items():
-            t0 = time.perf_counter()
-            fn()
-            times[name].append(time.perf_counter() - t0)
+            for _ in range(burst):
+                t0 = time.perf_counter()
+                fn()
+                times[name].append(time.perf_counter() - t0)
     return {name: min(t) for name, t in times.items()}
 
 
@@ -128,7 +132,7 @@ def last_cycle_amplitude(x, ts, t_from):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--small", action="store_true", help="2 records, 3 cycles")
-    ap.add_argument("--repeat", type=int, default=7)
+    ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
     fr, recs = campaign(args.small)
     ts_b, mask = pad_times([r[3] for r in recs])
@@ -170,9 +174,9 @@ def main():
         return [scipy_baseline(fr, W, k, v, t) for W, k, v, t in recs]
 
     best = best_times({"exact": run_exact, "grouped": run_grouped, "scipy": run_scipy},
-                      args.repeat)
+                      args.repeat, burst=5)
     t_exact, t_grouped, t_scipy = best["exact"], best["grouped"], best["scipy"]
-    t_smooth = best_times({"smooth": run_smooth}, max(1, args.repeat // 3))["smooth"]
+    t_smooth = best_times({"smooth": run_smooth}, 1, burst=max(1, args.repeat // 3))["smooth"]
     ex, sm, sp = run_exact(), run_smooth(), run_scipy()
     gr = run_grouped()
     n_max = max(r[3].size for r in recs)

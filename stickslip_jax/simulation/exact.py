@@ -91,9 +91,13 @@ def _newton_root(fun, dfun, lo, hi, max_iter=80, active=True):
 
 def _count_at_or_before(edges, ts):
     """For sorted `edges` and sorted `ts`: how many edges are <= each t, i.e.
-    `searchsorted(edges, ts, side="right")`, by placing the edges among the samples
-    and a cumulative count (O(N + E log N), no per-sample search)."""
-    pos = jnp.searchsorted(ts, edges, side="left")
+    `searchsorted(edges, ts, side="right")`. The edges are placed among the samples
+    (E binary searches); then each sample index is compared with all E positions (one
+    fused pass, E <= 64) or, for many edges, counted by a cumulative sum."""
+    pos = jnp.searchsorted(ts, edges, side="left").astype(jnp.int32)
+    if edges.shape[0] <= 64:
+        j = jnp.arange(ts.shape[0], dtype=jnp.int32)
+        return jnp.searchsorted(pos, j, side="right", method="compare_all")
     counts = jnp.zeros(ts.shape, jnp.int32).at[pos].add(1, mode="drop")
     return jax.lax.associative_scan(jnp.add, counts)
 
