@@ -76,6 +76,31 @@ def test_cli_mcmc_and_plots(fitted, tmp_path, capsys):
     assert "prior:" in text and "ESS" in text and "too short" in text
     rep = json.loads(out.read_text())
     assert set(rep["parameters"]) == {"mu_s", "mu_d", "gamma", "m", "delta", "n"}
+    # the posterior draws travel in the JSON: `stickslip design --posterior` reads them
+    draws = np.asarray(rep["samples"])
+    assert rep["names"] == list(rep["parameters"]) and draws.shape == (16 * 45, 6)
+    assert rep["fixed"] == {}
+    for i, n in enumerate(rep["names"]):
+        assert np.median(draws[:, i]) == pytest.approx(rep["parameters"][n]["median"], rel=0.02)
+    assert main(["design", "--posterior", str(out), "--weight", "36", "--stiffness", "86.9",
+                 "--speed", "1:100:6:log", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    prob = np.asarray(doc["probability_stick_slip"]).ravel()
+    assert prob[0] == 1.0 and prob[-1] == 0.0  # 1 mm/min sticks; 100 mm/min > v_c = 49
+    band = np.asarray(doc["critical_speed_band_mm_min"]).ravel()
+    assert 40 < band[1] < 60
+    # a fixed parameter goes into "fixed"; --draws thins the matrix
+    out2 = tmp_path / "m2.json"
+    assert main(["mcmc", *paths, "--walkers", "16", "--steps", "20", "--no-progress",
+                 "--fix", "n=1", "--draws", "50", "--json", str(out2)]) == 0
+    rep2 = json.loads(out2.read_text())
+    assert rep2["fixed"] == {"n": 1.0} and "n" not in rep2["names"]
+    assert 25 <= len(rep2["samples"]) <= 50 and len(rep2["samples"][0]) == 5
+    from fitting.design.posterior import load_samples
+
+    sample = load_samples(out2)
+    assert np.all(np.asarray(sample.kinetic.n) == 1.0)
+    capsys.readouterr()
     assert corner.stat().st_size > 10_000
     png = tmp_path / "fit.png"
     fit_figure(fit, laplace(fit), recs, png)

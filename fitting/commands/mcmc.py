@@ -3,6 +3,10 @@
 Fits first (as `stickslip fit`), then samples around the optimum; prints the posterior
 median, standard deviation, 95 % interval, autocorrelation time and effective sample
 size of every parameter, the prior used, and a warning when the chain is too short.
+`--json OUT` writes the summary ("parameters", "prior", ...) and the posterior draws
+("names", "samples": a (draws, parameters) matrix thinned to at most `--draws` rows,
+"fixed": the values of parameters held fixed), which `stickslip design --posterior OUT`
+and `stickslip plan OUT` read.
 """
 
 from __future__ import annotations
@@ -22,9 +26,22 @@ def add_arguments(parser):
     parser.add_argument("--offset", choices=("zero", "start"), default="zero")
     parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper")
     parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE")
-    parser.add_argument("--json", metavar="OUT", help="write the summary as JSON")
+    parser.add_argument("--json", metavar="OUT",
+                        help="write the summary and (thinned) posterior draws as JSON; "
+                        "`stickslip design --posterior OUT` reads the draws")
+    parser.add_argument("--draws", type=int, default=2000,
+                        help="at most this many draws in --json (evenly thinned; default 2000)")
     parser.add_argument("--corner", metavar="OUT.png", help="save a corner plot")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+
+
+def thinned_draws(samples, max_draws: int):
+    """At most `max_draws` rows of the flat chain, evenly spaced (natural units)."""
+    import numpy as np
+
+    samples = np.asarray(samples)
+    step = max(1, -(-samples.shape[0] // int(max_draws)))
+    return samples[::step]
 
 
 def run(args) -> int:
@@ -34,6 +51,8 @@ def run(args) -> int:
     from .fit import find_truth, load_campaign, parse_fix
 
     fixed = parse_fix(args.fix)
+    if args.draws < 1:
+        raise ValueError(f"--draws: need at least 1 draw, got {args.draws}")
     records, features = load_campaign(args.records)
     fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time)
     res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
@@ -62,7 +81,10 @@ def run(args) -> int:
             for n, s in summary.items()},
             "prior": res.prior, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
             "acceptance": res.acceptance, "warnings": res.warnings,
-            "records": [f.name for f in features]}
+            "records": [f.name for f in features],
+            # the draws, in the layout of fitting.design.posterior.load_samples
+            "names": list(res.names), "samples": thinned_draws(res.samples, args.draws).tolist(),
+            "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(out, fh, indent=2)
         print(f"wrote {args.json}")
