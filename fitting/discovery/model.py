@@ -189,15 +189,19 @@ def campaign_traces(records, *, crop: str = "none", max_samples: int | None = No
 
 def simulate_record(friction, effects: EffectSet, weight, stiffness, speed, x0, ts, mask,
                     settings: Settings, extra_force_terms: tuple = (),
-                    adjoint=None):
-    """Model reading (mm) of one record on `ts` (s) and the solver success flag."""
+                    adjoint=None, full: bool = False):
+    """Model reading (mm) of one record on `ts` (s) and the solver success flag; with
+    `full`, also the slider velocity (mm/s) and the sticking flags."""
     sw = ss.Slideway(friction, weight, stiffness)
     model = effects.smooth_model(sw, extra_force_terms)
     tr = simulate_smooth(model, ConstantSpeed(speed), ts, smoothing=settings.smoothing,
                          rtol=settings.rtol, atol=settings.atol, max_steps=settings.max_steps,
                          initial_deflection=x0, mask=mask, solver=settings.make_solver(),
                          adjoint=dfx.ForwardMode() if adjoint is None else adjoint)
-    return tr.deflection, tr.result == ss.simulation.SimulationResult.successful
+    ok = tr.result == ss.simulation.SimulationResult.successful
+    if full:
+        return tr.deflection, ok, tr.slider_velocity, tr.sticking
+    return tr.deflection, ok
 
 
 @eqx.filter_jit
@@ -268,7 +272,8 @@ per campaign shape, whatever the candidate)."""
 @eqx.filter_jit
 def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, traces,
               settings, sigma, free_names):
-    """Whitened residuals [R, N] and per-record Jacobians [R, N, nb + ns + 1]."""
+    """Whitened residuals [R, N], per-record Jacobians [R, N, nb + ns + 1], success flags
+    [R], and the model's slider velocity [R, N] (mm/s) and sticking flags [R, N]."""
     TRACE_COUNT["evaluate"] += 1
     nb = z_base.shape[0]
 
@@ -279,13 +284,14 @@ def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, 
             zb, zs, dx = q[:nb], q[nb:-1], q[-1]
             fr = _combine_friction(zb, friction_static, free_names)
             eff = effects_from_vector(effects_template, eff0 + S @ zs)
-            model, ok = simulate_record(fr.friction(), eff, w, k, v, x0g + dx, t, m, settings)
+            model, ok, vel, stk = simulate_record(fr.friction(), eff, w, k, v, x0g + dx, t, m,
+                                                  settings, full=True)
             r = jnp.where(m, (model - d) / sigma, 0.0)
-            return r, (r, ok)
+            return r, (r, ok, vel, stk)
 
         q0 = jnp.concatenate([z_base, z_slots, dxr[None]])
-        J, (r, ok) = jax.jacfwd(f, has_aux=True)(q0)
-        return r, J, ok
+        J, (r, ok, vel, stk) = jax.jacfwd(f, has_aux=True)(q0)
+        return r, J, ok, vel, stk
 
     return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed, traces.x0_guess,
                              dx0, traces.time, traces.mask, traces.data))
@@ -327,6 +333,7 @@ class Problem:
         if bad:
             raise ValueError(f"unknown friction parameter(s) {bad}; choose from {NAMES}")
         self.free_names = tuple(n for n in NAMES if n not in self.fixed)
+        self._trajectories = {}  # z bytes -> (model, velocity, sticking) [R, N] of evaluate
 
     @property
     def n_base(self) -> int:
@@ -354,13 +361,18 @@ class Problem:
     def evaluate(self, z):
         zb, zs, dx0 = self.split(z)
         try:
-            r, J, ok = _evaluate(zb, zs, dx0, self.S, self.eff0, self.friction0, self.effects0,
-                                 self.traces, self.settings, jnp.asarray(self.sigma),
-                                 self.free_names)
+            r, J, ok, vel, stk = _evaluate(zb, zs, dx0, self.S, self.eff0, self.friction0,
+                                           self.effects0, self.traces, self.settings,
+                                           jnp.asarray(self.sigma), self.free_names)
         except eqx.EquinoxRuntimeError:
             # a wild trial point (a diverging implicit stage): reject it, never crash
             return np.full(1, np.inf), np.full((1, self.n_params), np.nan), False
         r, J, ok = np.asarray(r), np.asarray(J), np.asarray(ok)
+        model = np.asarray(self.traces.data) + r * self.sigma
+        if len(self._trajectories) >= 8:  # the latest few: LM's accepted point is among them
+            self._trajectories.pop(next(iter(self._trajectories)))
+        self._trajectories[np.asarray(z, float).tobytes()] = (model, np.asarray(vel),
+                                                              np.asarray(stk))
         R = self.traces.n_records
         nb, ns = self.n_base, self.n_slots
         m = self._mask
@@ -381,10 +393,19 @@ class Problem:
         eff = effects_from_vector(self.effects0, self.eff0 + self.S @ zs)
         return DiscoveryParams(fr, eff, self.traces.x0_guess + dx0)
 
+    def trajectories(self, z):
+        """(model reading [R, N] mm, slider velocity [R, N] mm/s, sticking [R, N]) at z,
+        from the latest evaluations when z was one of them (no new compilation: the
+        same compiled function as `evaluate`)."""
+        key = np.asarray(z, float).tobytes()
+        if key not in self._trajectories:
+            _, _, ok = self.evaluate(np.asarray(z, float))
+            if key not in self._trajectories:
+                raise ValueError("the simulator failed at these parameters")
+        return self._trajectories[key]
+
     def record_residuals(self, z) -> list[np.ndarray]:
         """Unwhitened residuals data - model (mm) per record (masked samples only)."""
-        p = self.params(z)
-        model, _ = simulate_campaign(p, self.traces, self.settings)
+        model, _, _ = self.trajectories(z)
         d, m = np.asarray(self.traces.data), self._mask
-        model = np.asarray(model)
         return [d[i][m[i]] - model[i][m[i]] for i in range(self.traces.n_records)]

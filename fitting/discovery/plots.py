@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import simulate_campaign
 from .residuals import PHASES
 
 __all__ = ["plot_discovery"]
@@ -22,11 +21,9 @@ def plot_discovery(result, path, *, records: int = 3):
     m = np.asarray(tr.mask)
     t = np.asarray(tr.time)
     d = np.asarray(tr.data)
-    base, _ = simulate_campaign(result.base_problem.params(result.base_fit.z), tr,
-                                result.base_problem.settings)
-    final, _ = simulate_campaign(result.final_problem.params(result.final_fit.z), tr,
-                                 result.final_problem.settings)
-    base, final = np.asarray(base), np.asarray(final)
+    # the fitted models' traces (kept from the fits: no new simulation or compilation)
+    base = result.base_problem.trajectories(result.base_fit.z)[0]
+    final = result.final_problem.trajectories(result.final_fit.z)[0]
     R = tr.n_records
     pick = sorted({0, R // 2, R - 1})[:records]
     fig, axes = plt.subplots(1 + len(pick), 2, figsize=(11, 2.6 * (1 + len(pick))))

@@ -40,7 +40,7 @@ import numpy as np
 from ..params import NAMES, EmpiricalFriction
 from .effects import CANDIDATES, EffectSet
 from .lm import LMResult, levenberg_marquardt
-from .model import Problem, Settings, campaign_traces, simulate_campaign
+from .model import Problem, Settings, campaign_traces
 from .ranking import score_candidates
 from .residuals import analyse_residuals
 from .selection import choose, effect_estimate, refit_candidates
@@ -131,10 +131,8 @@ def _friction_values(problem: Problem, z) -> dict:
 
 
 def _analyse(problem: Problem, z, sigma):
-    p = problem.params(z)
-    model, ok, vel, stk = simulate_campaign(p, problem.traces, problem.settings, full=True)
+    model, vel, stk = problem.trajectories(z)
     d, m = np.asarray(problem.traces.data), np.asarray(problem.traces.mask)
-    model = np.asarray(model)
     res = [d[i][m[i]] - model[i][m[i]] for i in range(problem.traces.n_records)]
     return analyse_residuals(res, problem.traces, vel, stk, sigma=sigma), res
 
