@@ -44,8 +44,9 @@ print(len(records), "records; hidden effect:", records[0].truth["effect"],
 # ## Run the workflow
 
 # %%
-result = discover(records, top=2 if small else 3)
+result = discover(records, top=2 if small else 3, max_evals=30 if small else 80)
 print("effect:", result.effect, "| confidence:", result.confidence)
+print(f"base fit: {result.base_fit.n_evals} evaluations, converged: {result.base_fit.converged}")
 print(result.explanation)
 print(f"gap {result.gap_before * 1e3:.3f} um -> {result.gap_after * 1e3:.3f} um "
       f"(noise {result.noise * 1e3:.3f} um)")

@@ -46,7 +46,7 @@ def _log_error(values, truth):
 def damped():
     recs = hidden_effect_campaign(FRICTION_A, effect="gauge_drift", values={"rate": 4e-3},
                                   seed=3, **TINY)
-    return recs, discover(recs, top=2)
+    return recs, discover(recs, top=2, max_evals=40)
 
 
 def test_tiny_campaign_names_gauge_drift(damped):
@@ -71,7 +71,8 @@ def test_tiny_campaign_without_effect_answers_none_through_the_cli(tmp_path, dam
         files.append(str(path))
     out = tmp_path / "d.json"
     before = dmodel.TRACE_COUNT["evaluate"]
-    assert main(["discover", *files, "--crop", "none", "--top", "2", "--json", str(out)]) == 0
+    assert main(["discover", *files, "--crop", "none", "--top", "2", "--max-evals", "40",
+                 "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
     assert doc["effect"] == "none"
     for key in ("explanation", "gap_before", "gap_after", "criterion", "candidates",
@@ -80,9 +81,26 @@ def test_tiny_campaign_without_effect_answers_none_through_the_cli(tmp_path, dam
     assert {c["name"] for c in doc["candidates"]} == set(CANDIDATES)
     assert all({"name", "score", "delta_criterion"} <= set(c) for c in doc["candidates"])
     assert doc["gap_after"] < 1.2 * doc["noise"]
+    assert set(doc["base_fit"]) >= {"converged", "evaluations", "criterion"}
+    assert doc["base_fit"]["evaluations"] <= 40 and doc["indistinguishable_from"] == []
     # the records read back have the damped campaign's shapes: no new compilation,
     # although the base model and eight candidates were evaluated
     assert dmodel.TRACE_COUNT["evaluate"] == before
+
+
+def test_direction_cosine_is_the_smallest_principal_angle():
+    from fitting.discovery.ranking import CandidateScore, direction_cosine
+
+    rng = np.random.default_rng(0)
+    a = rng.normal(size=(200, 1))
+    b = np.concatenate([a + 0.1 * rng.normal(size=(200, 1)), rng.normal(size=(200, 1))], 1)
+    ca = CandidateScore("a", 1.0, 1, 0.5, {}, a)
+    cb = CandidateScore("b", 1.0, 2, 0.5, {}, 3.0 * b)  # scale-free
+    cos = direction_cosine(ca, cb)
+    ref = abs(float(a[:, 0] @ b[:, 0])) / np.linalg.norm(a) / np.linalg.norm(b[:, 0])
+    assert ref - 1e-12 <= cos <= 1.0  # the best pair is at least as close as column 0
+    assert cos > 0.99
+    assert direction_cosine(ca, CandidateScore("c", 1.0, 1, 0.5, {}, rng.normal(size=(200, 1)))) < 0.3
 
 
 def test_bad_input_is_one_clear_error():

@@ -33,6 +33,9 @@ def add_arguments(parser):
     parser.add_argument("--crop", choices=("slip_end", "none"), default="slip_end",
                         help="start each record at its first slip end (default) or use it "
                         "whole (it must start just after a slip)")
+    parser.add_argument("--max-evals", type=int, default=80,
+                        help="evaluation budget of the base fit (default 80; it stops earlier "
+                        "when converged)")
     parser.add_argument("--learn", action="store_true",
                         help="fit a learned (MLP) correction when no effect explains the data")
 
@@ -45,13 +48,16 @@ def run(args) -> int:
 
     if args.top < 1:
         raise ValueError(f"--top: must be at least 1, got {args.top}")
+    if args.max_evals < 2:
+        raise ValueError(f"--max-evals: must be at least 2, got {args.max_evals}")
     if not args.threshold >= 0:
         raise ValueError(f"--threshold: must be >= 0, got {args.threshold}")
     records = read_campaign(args.records)
     if len(records) < 2:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
     result = discover(records, candidates=tuple(args.only or CANDIDATES), top=args.top,
-                      threshold=args.threshold, crop=args.crop, learn=args.learn)
+                      threshold=args.threshold, crop=args.crop, learn=args.learn,
+                      max_evals=args.max_evals)
     print(f"effect: {result.effect} (confidence {result.confidence})")
     print(result.explanation)
     print(f"gap (residual RMS): {result.gap_before * 1e3:.3f} um -> "

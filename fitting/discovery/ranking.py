@@ -27,7 +27,7 @@ import scipy.stats
 from .effects import CANDIDATES, EffectSet
 from .model import Problem
 
-__all__ = ["CandidateScore", "score_candidates", "efficient_score"]
+__all__ = ["CandidateScore", "direction_cosine", "efficient_score", "score_candidates"]
 
 
 @dataclasses.dataclass
@@ -39,10 +39,21 @@ class CandidateScore:
     dof: int
     p_value: float
     predicted: dict
+    direction: np.ndarray | None = None  # efficient-score direction J_c^perp [N, dof]
+
+
+def direction_cosine(a: CandidateScore, b: CandidateScore) -> float:
+    """Largest |cosine| between the efficient-score directions of two candidates (the
+    cosine of the smallest principal angle of their column spaces): near 1, the two
+    effects change the traces in the same way once the base parameters have adjusted."""
+    qa, _ = np.linalg.qr(a.direction)
+    qb, _ = np.linalg.qr(b.direction)
+    return float(np.linalg.svd(qa.T @ qb, compute_uv=False)[0])
 
 
 def efficient_score(r, J, base_cols, cand_cols):
-    """(S * s^2, Gauss-Newton step of the candidate coordinates) from r, J (see module doc)."""
+    """(S * s^2, Gauss-Newton step of the candidate coordinates, J_c^perp) from r, J
+    (see module doc)."""
     Jb, Jc = J[:, base_cols], J[:, cand_cols]
     scale = np.linalg.norm(Jb, axis=0)
     scale[scale == 0] = 1.0
@@ -51,7 +62,7 @@ def efficient_score(r, J, base_cols, cand_cols):
     U = Jp.T @ r
     info = Jp.T @ Jp
     step = -np.linalg.lstsq(info, U, rcond=1e-12)[0]
-    return float(-U @ step), step
+    return float(-U @ step), step, Jp
 
 
 def score_candidates(base_problem: Problem, base_z: np.ndarray, base_rss: float,
@@ -65,11 +76,11 @@ def score_candidates(base_problem: Problem, base_z: np.ndarray, base_rss: float,
         nb, ns = pc.n_base, pc.n_slots
         cand = [nb + j for j in range(ns) if act[nb + j]]
         base = [i for i in range(J.shape[1]) if act[i] and i not in cand]
-        s_raw, step = efficient_score(r, J, base, cand)
+        s_raw, step, Jp = efficient_score(r, J, base, cand)
         s2 = base_rss / r.shape[0]
         stat = s_raw / s2
         part = getattr(EffectSet(), name)
         pred = {p: float(step[j] * part.SCALES[j]) for j, p in enumerate(part.PARAMS)}
         out.append(CandidateScore(name, stat, len(cand), float(scipy.stats.chi2.sf(stat, len(cand))),
-                                  pred))
+                                  pred, Jp))
     return sorted(out, key=lambda c: -c.statistic)
