@@ -1,7 +1,7 @@
 r"""Posterior sampling of the friction parameters with emcee (affine-invariant ensemble).
 
-The log-posterior is the features objective of `fitting.objectives` as a Gaussian
-likelihood, $\log L = -\tfrac12 \sum r^2 / s$ ($s = \max(1, \chi^2/\mathrm{dof})$ at
+The log-posterior is the fit's objective (`fitting.combined`: features, trace or
+both) as a Gaussian likelihood, $\log L = -\tfrac12 \sum r^2 / s$ ($s = \max(1, \chi^2/\mathrm{dof})$ at
 the optimum, the same widening as the Laplace intervals), plus the **prior**: uniform
 in the logarithm of each free parameter inside `PRIOR_BOUNDS` (a scale-free prior
 for positive quantities), with $\mu_s > \mu_d$; gauge offsets (when fitted) flat.
@@ -26,7 +26,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from .fit import FitResult
-from .objectives import feature_residuals
 from .params import NAMES, CampaignParams
 from .uncertainty import _from_logs, laplace
 
@@ -61,19 +60,23 @@ def log_posterior(fit: FitResult):
     lo = jnp.log(jnp.asarray([PRIOR_BOUNDS[n][0] for n in NAMES]))
     hi = jnp.log(jnp.asarray([PRIOR_BOUNDS[n][1] for n in NAMES]))
     scale = max(1.0, fit.reduced_chi2)
-    data, mode = fit.data, fit.slip_time
 
-    def one(theta):
+    def one(theta, objective):
         logs = logs0.at[idx].set(theta[:k])
         off = theta[k:] if fit_off else p.offset
         inside = jnp.all((logs >= lo) & (logs <= hi)) & (logs[0] > logs[1])
         safe = jnp.where(inside, logs, logs0)
         params = CampaignParams(_from_logs(safe, p.friction), off)
-        r = feature_residuals(params, data, mode)
+        r = objective.residuals(params)
         ll = -0.5 * jnp.sum(r * r) / scale
         return jnp.where(inside & jnp.isfinite(ll), ll, -jnp.inf)
 
-    logp = jax.jit(jax.vmap(one))
+    batched = jax.jit(jax.vmap(one, in_axes=(0, None)))
+    objective = fit.objective
+
+    def logp(theta):
+        return batched(theta, objective)
+
     theta0 = np.concatenate([np.asarray(logs0)[free], np.asarray(p.offset) if fit_off else []])
     names = [n for n, f in zip(NAMES, free) if f]
     return logp, theta0, names, (p.offset.size if fit_off else 0)

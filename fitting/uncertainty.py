@@ -32,7 +32,6 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 
 from .fit import FitResult
-from .objectives import feature_residuals
 from .params import NAMES, UNITS, CampaignParams, EmpiricalFriction
 
 __all__ = ["Uncertainty", "laplace", "Z95"]
@@ -100,10 +99,10 @@ def fisher_log(fit: FitResult):
         logs = logs0.at[idx].set(theta[: idx.size])
         off = theta[idx.size:] if fit_offsets else off0
         params = CampaignParams(_from_logs(logs, p.friction), off)
-        return feature_residuals(params, fit.data, fit.slip_time)
+        return fit.residuals_at(params)
 
     theta0 = jnp.concatenate([logs0[idx], off0 if fit_offsets else jnp.zeros(0)])
-    J = jax.jacfwd(residuals)(theta0)
+    J = eqx.filter_jit(jax.jacfwd(residuals))(theta0)
     return np.asarray(J.T @ J), free, idx
 
 
@@ -171,6 +170,14 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
                 )
     if not fit.converged:
         warnings.append("the optimiser did not report convergence; treat the values with care.")
+    if fit.objective is not None and fit.objective.kind == "both":
+        warnings.append(
+            "objective 'both': the features and the trace are read from the same samples, but "
+            "their residuals are combined as if independent, so these intervals are too narrow; "
+            "take intervals from --objective trace or features.")
+    if fit.trace_failures:
+        warnings.append(f"{fit.trace_failures} cycle simulation(s) of the trace objective did not "
+                        "succeed at the optimum (see trace_window_failures).")
     if fit.reduced_chi2 > 2.0:
         warnings.append(
             f"chi2/dof = {fit.reduced_chi2:.3g}: the model does not fit the records to their noise "

@@ -26,6 +26,10 @@ def add_arguments(parser):
                         "sample of records that start with the spring relaxed")
     parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper",
                         help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
+    parser.add_argument("--objective", choices=("features", "trace", "both"), default="features",
+                        help="fit the cycle features (default, fast), every sample of the "
+                        "traces through the exact simulator restarted per cycle, or both "
+                        "(weights 1/2 each); trace and both start from the features fit")
     parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                         help="hold a parameter fixed, e.g. --fix n=1 (repeatable)")
     parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
@@ -118,7 +122,9 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
             if row["ci95"] is not None:
                 entry["truth_in_ci95"] = bool(row["ci95"][0] <= t <= row["ci95"][1])
         params[row["name"]] = entry
-    res = np.asarray(fit.residuals())
+    from ..objectives import feature_residuals
+
+    res = np.asarray(feature_residuals(fit.params, fit.data, fit.slip_time))
     level_sd = np.asarray(fit.data.trough_sd)
     R, C = level_sd.shape
     levels = res[: R * C].reshape(R, C) * level_sd
@@ -139,7 +145,7 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
         "dof": fit.dof,
         "reduced_chi2": fit.reduced_chi2,
         "converged": fit.converged,
-        "objective": "cycle features (plateau levels and eq (6) per cycle)",
+        "objective": fit.objective.describe(),
         "slip_time": fit.slip_time,
         "covariance_scale": unc.scale,
         "identifiability": {
@@ -152,6 +158,15 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
         },
         "truth_available": truth is not None,
     }
+    if fit.objective.kind != "features":
+        from ..trace_objective import trace_residuals
+
+        td = fit.objective.trace
+        rt = np.asarray(trace_residuals(fit.params, td, fit.slip_time)).reshape(td.mask.shape)
+        rt = rt * np.asarray(td.sigma)[:, None]
+        out["trace_residual_rms_mm"] = float(np.sqrt(np.mean(rt[np.asarray(td.mask)] ** 2)))
+        out["trace_samples"] = td.n_residuals()
+        out["trace_window_failures"] = fit.trace_failures
     if extra:
         out.update(extra)
     return out
@@ -184,6 +199,13 @@ def format_table(report) -> str:
         f"residual rms {report['residual_rms_mm'] * 1e3:.3g} um; chi2/dof = "
         f"{report['reduced_chi2']:.3g}; converged: {report['converged']}"
     )
+    if "trace_residual_rms_mm" in report:
+        lines.append(
+            f"objective: {report['objective']}; {report['trace_samples']} samples, trace "
+            f"residual rms {report['trace_residual_rms_mm'] * 1e3:.3g} um"
+            + (f"; {report['trace_window_failures']} cycle simulations failed"
+               if report["trace_window_failures"] else "")
+        )
     for w in report["identifiability"]["warnings"]:
         lines.append("warning: " + w)
     return "\n".join(lines)
@@ -198,7 +220,8 @@ def run(args) -> int:
                          "use --model empirical")
     fixed = parse_fix(args.fix)
     records, features = load_campaign(args.records)
-    fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time)
+    fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time,
+                       objective=args.objective, records=records)
     unc = laplace(fit)
     report = build_report(fit, unc, records, model=args.model)
     print(format_table(report))

@@ -1,0 +1,122 @@
+"""Trace objective (fitting.trace_objective, fitting.combined): the exact simulator restarted per
+cycle against every sample; recovery, gradients, the combined objective, bad input."""
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import stickslip_jax as ss
+from fitting.features import record_features
+from fitting.fit import fit_features
+from fitting.params import NAMES, CampaignParams, EmpiricalFriction
+from fitting.synthetic import synthetic_campaign, truth_values
+from fitting.trace_objective import trace_data, trace_residuals, trace_simulation
+from fitting.uncertainty import laplace
+
+
+@pytest.fixture(scope="module")
+def campaign():
+    fr = ss.lubricant("A")
+    recs = synthetic_campaign(fr, speed_fractions=(0.05, 0.3), cycles=4, seed=11, pad_to=40_000)
+    feats = [record_features(r) for r in recs]
+    return fr, recs, feats
+
+
+@pytest.fixture(scope="module")
+def trace_fit(campaign):
+    _, recs, feats = campaign
+    return fit_features(feats, objective="trace", records=recs, pad_cycles=8)
+
+
+def test_residuals_at_truth_are_unit_normal(campaign):
+    fr, recs, feats = campaign
+    data = trace_data(recs, feats)
+    assert data.time.shape[1] % 256 == 0 and data.time.shape[0] % 8 == 0
+    params = CampaignParams(EmpiricalFriction.from_friction(fr), jnp.zeros(len(recs)))
+    r = np.asarray(jax.jit(trace_residuals)(params, data))
+    m = np.asarray(data.mask).ravel()
+    assert np.all(r[~m] == 0)
+    # one window per complete cycle, most of the samples used
+    assert data.n_residuals() > 0.6 * sum(rec.n_samples for rec in recs)
+    assert 0.9 < np.std(r[m]) < 1.1 and abs(np.mean(r[m])) < 0.1
+    assert np.max(np.abs(r[m])) < 6.0  # no phase drift: restarted every cycle
+
+
+def test_trace_fit_recovers_truth_within_intervals(campaign, trace_fit):
+    fr, _, _ = campaign
+    fit = trace_fit
+    unc = laplace(fit)
+    truth = truth_values(fr)
+    assert fit.converged and fit.trace_failures == 0 and fit.objective.kind == "trace"
+    assert 0.8 < fit.reduced_chi2 < 1.3
+    for i, n in enumerate(NAMES):
+        lo, hi = unc.ci95[i]
+        assert lo <= truth[n] <= hi, (n, unc.value[i], (lo, hi), truth[n])
+    for n in ("mu_s", "mu_d"):
+        assert fit.values[n] == pytest.approx(truth[n], rel=0.02)
+
+
+def test_trace_jacobian_matches_finite_differences(trace_fit):
+    """Forward-mode derivatives of the restarted simulations (what LM uses) vs central FD."""
+    fit = trace_fit
+    data = fit.objective.trace
+    free, static = eqx.partition(fit.params, fit.spec)
+    flat, unravel = jax.flatten_util.ravel_pytree(free)
+    mask = np.asarray(data.mask).ravel()
+
+    def sim(v):
+        return trace_simulation(eqx.combine(unravel(v), static), data).deflection.ravel()
+
+    f = jax.jit(sim)
+    J = np.asarray(jax.jit(jax.jacfwd(sim))(flat))[mask]
+    h = 1e-6
+    for j in range(flat.size):
+        e = jnp.zeros_like(flat).at[j].set(h)
+        fd = ((np.asarray(f(flat + e)) - np.asarray(f(flat - e))) / (2 * h))[mask]
+        # on the bulk of the samples (a sample within h of a phase boundary sees the kink)
+        err = np.abs(J[:, j] - fd)
+        assert np.quantile(err, 0.999) < 1e-5 * np.abs(fd).max() + 1e-10, j
+        assert np.abs(fd).max() > 0
+
+
+def test_combined_objective_from_the_cli(campaign, tmp_path, capsys):
+    """`stickslip fit --objective both`: features and trace residuals weighted 1/2 each."""
+    import json
+
+    from stickslip_jax.cli import main
+    from stickslip_jax.records import write_record
+
+    fr, recs, feats = campaign
+    paths = []
+    for r in recs:
+        write_record(r, tmp_path / f"{r.name}.csv")
+        paths.append(str(tmp_path / f"{r.name}.csv"))
+    out = tmp_path / "both.json"
+    assert main(["fit", *paths, "--objective", "both", "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "full trace" in text and "trace residual rms" in text
+    rep = json.loads(out.read_text())
+    truth = truth_values(fr)
+    assert rep["converged"] and rep["trace_window_failures"] == 0
+    n_f = sum(2 * r["complete_cycles"] - 1 for r in rep["records"])  # about: levels + sticks
+    assert rep["dof"] == pytest.approx(0.5 * n_f + 0.5 * rep["trace_samples"], rel=0.05)
+    assert 0.8 < rep["reduced_chi2"] < 1.3
+    assert 0.4e-3 < rep["trace_residual_rms_mm"] < 0.6e-3  # the 0.5 um noise
+    for n in ("mu_s", "mu_d", "delta"):
+        assert rep["parameters"][n]["value"] == pytest.approx(truth[n], rel=0.02)
+    assert any("objective 'both'" in w for w in rep["identifiability"]["warnings"])
+
+
+def test_bad_inputs(campaign):
+    _, recs, feats = campaign
+    with pytest.raises(ValueError, match="needs the records"):
+        fit_features(feats, objective="trace")
+    with pytest.raises(ValueError, match="--objective"):
+        fit_features(feats, objective="samples")
+    prog = dataclasses.replace(recs[0], drive_program=((0.0, recs[0].drive_speed),))
+    with pytest.raises(ValueError, match="constant drive speed"):
+        trace_data([prog], feats[:1])
