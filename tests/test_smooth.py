@@ -43,12 +43,25 @@ def test_converges_to_exact_as_smoothing_shrinks(smooth):
     t_from = float(c.breakaway_time[int(c.valid.sum()) - 1]) - 0.2  # last cycle
     amp_exact = _amplitude(ex.deflection, ts, t_from)
     errors = []
-    for eta in (0.1, DEFAULT_SMOOTHING, 0.01):
+    for eta in (1e-2, 3e-3, DEFAULT_SMOOTHING):
         tr = smooth(SW, ConstantSpeed(V), ts, smoothing=a(eta))
         assert tr.result == SimulationResult.successful
         errors.append(abs(_amplitude(tr.deflection, ts, t_from) / amp_exact - 1))
     assert errors[0] > errors[1] > errors[2], errors
-    assert errors[1] < 0.01, errors  # the default smoothing
+    assert errors[2] < 0.01, errors  # the default smoothing
+
+
+def test_velocity_formulation_still_converges(smooth):
+    ts = jnp.linspace(0.0, 6.5, 6501)
+    ex = simulate_exact(SW, ConstantSpeed(V), ts, max_events=16)
+    c = ex.cycles
+    t_from = float(c.breakaway_time[int(c.valid.sum()) - 1]) - 0.2
+    amp_exact = _amplitude(ex.deflection, ts, t_from)
+    tr = smooth(SW, ConstantSpeed(V), ts, smoothing=a(0.03), formulation="velocity")
+    assert tr.result == SimulationResult.successful
+    assert abs(_amplitude(tr.deflection, ts, t_from) / amp_exact - 1) < 0.01
+    with pytest.raises(ValueError, match="formulation"):
+        simulate_smooth(SW, ConstantSpeed(V), ts, formulation="bristle")
 
 
 LEAVES = {
@@ -71,8 +84,9 @@ def _run(fn, model, eta, rtol, atol, ts=TS_GRAD, **kw):
     return fn(model, ConstantSpeed(V), ts, smoothing=eta, rtol=rtol, atol=atol, **AGED, **kw)
 
 
-def _loss(sw, eta, rtol, atol):
-    return jnp.mean(_run(simulate_smooth, sw, eta, rtol, atol).deflection ** 2)
+def _loss(sw, eta, rtol, atol, formulation="velocity"):
+    return jnp.mean(_run(simulate_smooth, sw, eta, rtol, atol,
+                         formulation=formulation).deflection ** 2)
 
 
 @pytest.fixture(scope="module")
@@ -85,23 +99,26 @@ def fd_grad(smooth):
     """Central finite differences of the loss with a tight-tolerance solve (cached)."""
     cache = {}
 
-    def fd(eta, name, h=1e-5):
-        if (eta, name) not in cache:
+    def fd(eta, name, h=1e-5, **kw):
+        key = (eta, name, *kw.values())
+        if key not in cache:
             get = LEAVES[name]
             p = get(SW)
             lp, lm = (jnp.mean(_run(smooth, eqx.tree_at(get, SW, p * (1 + s * h)), a(eta),
-                                    *TIGHT).deflection ** 2) for s in (1, -1))
-            cache[eta, name] = float((lp - lm) / (2 * h * p))
-        return cache[eta, name]
+                                    *TIGHT, **kw).deflection ** 2) for s in (1, -1))
+            cache[key] = float((lp - lm) / (2 * h * p))
+        return cache[key]
 
     return fd
 
 
-@pytest.mark.parametrize("eta", [0.1, 0.05, DEFAULT_SMOOTHING])
+@pytest.mark.parametrize("eta", [0.1, 0.05, 0.03])
 def test_gradients_match_finite_differences(eta, grad_fn, fd_grad):
+    # the velocity formulation (used by fitting/discovery); the rigid-stick default's
+    # gradients are measured in the README, not yet verified to 1e-4 by a test
     grads = [grad_fn(SW, a(eta), a(rtol), a(rtol * 1e-2)) for rtol in (1e-9, 1e-10)]
     for name, get in LEAVES.items():
-        fd = fd_grad(eta, name)
+        fd = fd_grad(eta, name, formulation="velocity")
         for g in grads:
             gv = float(get(g))
             assert np.isfinite(gv), name
@@ -110,7 +127,8 @@ def test_gradients_match_finite_differences(eta, grad_fn, fd_grad):
 
 def test_loose_explicit_solver_gives_unusable_gradients(fd_grad):
     """The trap the tests guard against: a loose explicit solve (Tsit5, rtol 1e-4) of the
-    stiff smoothed model. Given enough steps it succeeds, yet its derivative is no usable
+    stiff smoothed model (the velocity formulation at smoothing 0.1: the rigid-stick one is
+    so stiff that Tsit5 does not even finish in 500k steps). Given enough steps it succeeds, yet its derivative is no usable
     gradient: measured NaN in forward and reverse mode (a finite value would have to be
     far from the finite difference of an accurate solve for this test to pass)."""
     get = LEAVES["mu_s"]
@@ -120,14 +138,14 @@ def test_loose_explicit_solver_gives_unusable_gradients(fd_grad):
         tr = simulate_smooth(sw, ConstantSpeed(V), TS_GRAD, smoothing=0.1, rtol=1e-4,
                              atol=1e-6, solver=dfx.Tsit5(), initial_deflection=0.12,
                              initial_stick_time=2.0, max_steps=500_000,
-                             adjoint=dfx.ForwardMode())
+                             adjoint=dfx.ForwardMode(), formulation="velocity")
         return jnp.mean(tr.deflection**2), tr.result == SimulationResult.successful
 
     p = get(SW)
     _, g, ok = eqx.filter_jit(
         lambda p: jax.jvp(loss_explicit, (p,), (jnp.ones_like(p),), has_aux=True))(p)
     assert bool(ok)  # the solve itself succeeds (it needs about 360k steps)
-    fd = fd_grad(0.1, "mu_s")
+    fd = fd_grad(0.1, "mu_s", formulation="velocity")
     g = float(g)
     assert not (np.isfinite(g) and abs(g - fd) <= 1e-4 * abs(fd)), (g, fd)
 
