@@ -6,7 +6,12 @@ about 0.5 M samples) made by the exact simulator. Timed in one process:
 2. `scipy.optimize.least_squares` (trust-region reflective, 2-point finite differences)
    on the same residual function (jitted, so SciPy pays only for its finite differences
    and iterations) from the same starting points, one after the other;
-3. emcee effective samples per second (minimum over parameters), after compilation.
+3. the trace objective (every sample through the exact simulator, restarted per cycle):
+   our fit (`objective="trace"`, LM from the features optimum, jitted, forward-mode
+   Jacobian), including compilation and again, against `scipy.optimize.least_squares`
+   (2-point finite differences) on the same jitted trace residuals from the same start;
+   and the combined objective ("both");
+4. emcee effective samples per second (minimum over parameters), after compilation.
 
 Usage: python benchmarks/fit.py [--small]
 """
@@ -74,6 +79,34 @@ def main():
     t_scipy = time.perf_counter() - t0
     scipy_chi2 = 2 * best.cost
 
+    # trace objective: ours vs SciPy finite differences on the same residuals
+    from fitting.trace_objective import trace_data, trace_residuals
+
+    t0 = time.perf_counter()
+    tfit = fit_features(feats, objective="trace", records=recs)
+    t_tr_first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    tfit = fit_features(feats, objective="trace", records=recs)
+    t_tr_again = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    bfit = fit_features(feats, objective="both", records=recs)
+    t_both_first = time.perf_counter() - t0
+    tdata = trace_data(recs, feats)
+    free0, tstatic = eqx.partition(fit.params, fit.spec)  # start: the features optimum
+    tflat0, tunravel = ravel_pytree(free0)
+    tres = jax.jit(lambda v: trace_residuals(eqx.combine(tunravel(v), tstatic), tdata))
+    t0 = time.perf_counter()
+    tres(tflat0).block_until_ready()
+    t_tr_compile = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    tres(tflat0).block_until_ready()
+    t_tr_eval = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    tout = least_squares(lambda v: np.asarray(tres(jnp.asarray(v))), np.asarray(tflat0),
+                         method="trf", jac="2-point", x_scale="jac", xtol=1e-8, ftol=1e-8,
+                         max_nfev=2000)
+    t_tr_scipy = time.perf_counter() - t0
+
     steps = 400 if args.small else 6000
     run_mcmc(fit, walkers=32, steps=20)  # compile
     t0 = time.perf_counter()
@@ -92,6 +125,20 @@ def main():
           f"compiled: {t_scipy / t_fit_again:.0f}x")
     print(f"chi2: ours {fit.chi2:.3f}, SciPy {scipy_chi2:.3f}")
     print("recovered:", ", ".join(f"{k}={v:.4g} (truth {truth[k]:g})" for k, v in fit.values.items()))
+    print(f"trace objective: {tdata.n_residuals()} samples in {int(np.asarray(tdata.mask).any(1).sum())} "
+          f"cycle windows (padded to {tdata.time.shape[0]} x {tdata.time.shape[1]})")
+    print(f"{'optimistix LM, trace, incl. features fit + compilation':<56}{t_tr_first:>10.2f}")
+    print(f"{'optimistix LM, trace, compiled (features fit included)':<56}{t_tr_again:>10.2f}")
+    print(f"{'optimistix LM, both, incl. compilation':<56}{t_both_first:>10.2f}")
+    print(f"{'SciPy least_squares FD on the trace (after its':<56}{t_tr_scipy:>10.2f}  "
+          f"({tout.nfev} evaluations of {t_tr_eval * 1e3:.0f} ms;")
+    print(f"{'   residual compiled in ' + f'{t_tr_compile:.1f} s)':<56}")
+    print(f"ratio SciPy / ours, trace (ours incl. compilation): {t_tr_scipy / t_tr_first:.2f}x; "
+          f"(SciPy + its compilation) / ours: {(t_tr_scipy + t_tr_compile) / t_tr_first:.2f}x; "
+          f"compiled: {t_tr_scipy / t_tr_again:.1f}x")
+    print(f"trace chi2: ours {tfit.chi2:.2f} (converged {tfit.converged}), SciPy "
+          f"{2 * tout.cost:.2f} (status {tout.status}); both: chi2/dof {bfit.reduced_chi2:.3f}")
+    print("trace fit:", ", ".join(f"{k}={v:.4g}" for k, v in tfit.values.items()))
     ess = mc.ess.min()
     print(f"emcee: 32 walkers x {steps} steps in {t_mc:.1f} s; min ESS {ess:.0f} "
           f"({ess / t_mc:.1f} effective samples/s; max tau {mc.tau.max():.0f} steps)")

@@ -175,9 +175,13 @@ def trace_residuals(params: CampaignParams, data: TraceData,
     return jnp.where(data.mask, r, 0.0).ravel()
 
 
+@eqx.filter_jit
+def _window_ok(params, data, slip_time):
+    return trace_simulation(params, data, slip_time).result == SimulationResult.successful
+
+
 def window_failures(params: CampaignParams, data: TraceData, slip_time: str = "paper") -> int:
     """Number of real windows whose simulation did not report success (e.g. too many events)."""
-    trace = trace_simulation(params, data, slip_time)
-    ok = np.asarray(trace.result == SimulationResult.successful)
+    ok = np.asarray(_window_ok(params, data, slip_time))
     real = np.asarray(data.mask).any(axis=1)
     return int(np.count_nonzero(real & ~ok))
