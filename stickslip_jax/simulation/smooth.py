@@ -22,15 +22,24 @@ $$\dot\tau = \sigma - (1-\sigma)\,\tau/t_r,\qquad \dot q = \sigma\,(\mu_0(\tau) 
   $T_0 = \pi/\omega_0$) so that the next stick starts afresh.
 - $T_2$ in eq (3) is $\pi/\omega_0$ (eq 7, `slip_time="paper"`) or a given value in s.
 
+**Two formulations.** The equations above are `formulation="velocity"`. The default
+`formulation="rigid_stick"` (`rigid_stick_friction`) switches in the force instead: the
+slider sticks while $|F_a| = |k x + \sum_i F_i| < N\mu_0(\tau)$ *and* it rests
+($e^{-r^2}$), with friction $= F_a$ plus a term pinning $\dot y$ to 0, so the stick is
+rigid (no creep); the switch $\tfrac12[1+\tanh z]$ has width $\eta$ times the friction drop
+$N(\mu_0 - \mu_m)$; the stick clock $\tau$ runs while $\sigma(r) = e^{-(r/4)^8} \approx 1$
+(it stops only once the slider moves), and the memory holds the last stick time
+($\tau$ itself while sticking, frozen while slipping, relaxing to the new $\tau$ in
+$t_r/10$ after a restick).
+
 **Smoothing scale.** One dimensionless number `smoothing` $=\eta$ sets the velocity
-scale $\varepsilon = \eta\, v_{ref}$ (mm/s), $v_{ref}$ the largest drive speed. The creep
-shortens the stick ramp by a fraction of order $\eta$ and the breakaway is late by
-about $\sqrt{2M\varepsilon/(k v)}$, so the amplitude converges to the exact simulator's as
-$\eta \to 0$ (the tests check it at three scales). Default $\eta = 0.03$: limit-cycle
-amplitude within 1 % of the exact simulator and gradients that match finite
-differences to 1e-4 at rtol 1e-9 and 1e-10; sharper smoothing (down to 1e-4) is more
-accurate in value, but its gradients drift from finite differences (0.1 % at
-$\eta = 10^{-3}$, rtol 1e-10), so use it for forward simulation only.
+scale $\varepsilon = \eta\, v_{ref}$ (mm/s), $v_{ref}$ the largest drive speed, and (rigid
+stick) the relative width of the force switch. Rigid stick, default $\eta = 10^{-3}$:
+limit-cycle amplitude within 0.15 % of the exact simulator on the benchmark campaign,
+error linear in $\eta$ (1.3 % at $\eta = 10^{-2}$, 30 mm/min). Velocity formulation: the
+breakaway is late by about $\sqrt{2\eta}/\omega_0$, 5 % amplitude error near $v_c$ at
+$\eta = 0.03$; its gradients match finite differences to 1e-4 for $\eta \ge 0.03$ at
+rtol 1e-9 and 1e-10 (tests). Rigid-stick gradients at $\eta = 10^{-3}$ need rtol 1e-10.
 
 The ODE is stiff (relaxation rate $\sim g\mu_0/\varepsilon$ while sticking), so the
 default solver is the L-stable implicit `diffrax.Kvaerno5` with a PID step-size
