@@ -49,7 +49,7 @@ class LMResult:
 def levenberg_marquardt(problem, z0, *, active=None, max_evals: int = 25, chi2_tol: float = 0.05,
                         first=None, geodesic: bool = False, alpha: float = 0.75,
                         h: float = 0.1) -> LMResult:
-    """Minimise ||r(z)||^2 over the `active` coordinates of z starting at `z0`.
+    r"""Minimise ||r(z)||^2 over the `active` coordinates of z starting at `z0`.
 
     Converged when a full Gauss-Newton step would lower the cost (a chi-square) by less
     than `chi2_tol`; otherwise stops after `max_evals` evaluations (every evaluation
