@@ -35,7 +35,7 @@ from .combined import CampaignObjective
 from .features import RecordFeatures, record_features
 from .objectives import FeatureData, feature_data
 from .trace_objective import trace_data, window_failures
-from .params import NAMES, CampaignParams, EmpiricalFriction, free_spec
+from .params import NAMES, CampaignParams, EmpiricalFriction, free_spec, names_of
 
 __all__ = ["FitResult", "fit_features", "fit_records", "initial_guesses"]
 
@@ -73,7 +73,7 @@ class FitResult:
     @property
     def values(self) -> dict[str, float]:
         v = np.asarray(self.params.friction.values())
-        return {n: float(x) for n, x in zip(NAMES, v)}
+        return {n: float(x) for n, x in zip(names_of(self.params.friction), v)}
 
     @property
     def reduced_chi2(self) -> float:
@@ -253,6 +253,8 @@ def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps) -> 
 
 
 def _with_fixed(s: EmpiricalFriction, fixed: dict[str, float]) -> EmpiricalFriction:
+    if hasattr(s, "with_values"):  # other friction-parameter modules (microsqueeze)
+        return s.with_values(**fixed)
     v = dict(zip(NAMES, np.asarray(s.values()).tolist()))
     v.update({k: float(x) for k, x in fixed.items()})
     if v["mu_s"] <= v["mu_d"]:

@@ -121,7 +121,7 @@ class EmpiricalFriction(eqx.Module):
 class CampaignParams(eqx.Module):
     """Everything a campaign fit estimates: friction + one gauge offset (mm) per record."""
 
-    friction: EmpiricalFriction
+    friction: EmpiricalFriction  # or another friction-parameter module (names_of)
     offset: Float[Array, " R"] = eqx.field(converter=_f)
 
 
@@ -135,12 +135,24 @@ def free_spec(params: CampaignParams, *, fixed=(), offsets: bool = False) -> Cam
     `fixed`: names from `NAMES` held at their current value (mu_s fixed means the gap
     mu_s - mu_d is fixed). `offsets`: fit the per-record gauge offsets.
     """
-    bad = [n for n in fixed if n not in NAMES]
+    names, leaf = names_of(params.friction), getattr(params.friction, "LEAVES", _LEAF)
+    bad = [n for n in fixed if n not in names]
     if bad:
-        raise ValueError(f"unknown parameter(s) {bad}; choose from {', '.join(NAMES)}")
+        raise ValueError(f"unknown parameter(s) {bad}; choose from {', '.join(names)}")
     spec = jax.tree_util.tree_map(lambda _: False, params)
-    leaves = lambda p: [getattr(p.friction, _LEAF[n]) for n in NAMES] + [p.offset]  # noqa: E731
-    return eqx.tree_at(leaves, spec, [n not in fixed for n in NAMES] + [bool(offsets)])
+    leaves = lambda p: [getattr(p.friction, leaf[n]) for n in names] + [p.offset]  # noqa: E731
+    return eqx.tree_at(leaves, spec, [n not in fixed for n in names] + [bool(offsets)])
+
+
+def names_of(friction) -> tuple[str, ...]:
+    """Reporting names of a friction-parameter module (`NAMES` for `EmpiricalFriction`;
+    other models, e.g. `fitting.microsqueeze_params.MicrosqueezeFriction`, carry their own)."""
+    return tuple(getattr(friction, "NAMES", NAMES))
+
+
+def units_of(friction) -> dict[str, str]:
+    """Units of `names_of(friction)`."""
+    return dict(getattr(friction, "UNITS", UNITS))
 
 
 def leaf_name(name: str) -> str:

@@ -42,6 +42,14 @@ def _simulate_batch(friction, weights, stiffs, speeds, x0s, ts, mask, max_events
 
 
 def truth_values(friction) -> dict[str, float]:
+    """Natural parameters of `friction`: eq (1)+(3) names, or the microsqueeze model's."""
+    from stickslip_jax.contact import MicrosqueezeStatic
+
+    if isinstance(friction.static, MicrosqueezeStatic):
+        from .microsqueeze_params import MICROSQUEEZE_NAMES, MicrosqueezeFriction
+
+        p = MicrosqueezeFriction.from_friction(friction)
+        return dict(zip(MICROSQUEEZE_NAMES, np.asarray(p.values()).tolist()))
     return dict(zip(NAMES, np.asarray(EmpiricalFriction.from_friction(friction).values()).tolist()))
 
 

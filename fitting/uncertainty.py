@@ -32,11 +32,12 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 
 from .fit import FitResult
-from .params import NAMES, UNITS, CampaignParams, EmpiricalFriction
+from .params import _LEAF, UNITS, CampaignParams, EmpiricalFriction, names_of, units_of
 
 __all__ = ["Uncertainty", "laplace", "Z95"]
 
 Z95 = 1.959963984540054
+_EMPIRICAL_LEAVES = _LEAF
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,13 +63,16 @@ class Uncertainty:
     identifiable: dict
     warnings: list
     scale: float
+    units: dict | None = None
 
     def table(self) -> list[dict]:
         rows = []
-        for i, n in enumerate(NAMES):
+        names = list(self.identifiable)
+        units = self.units or UNITS
+        for i, n in enumerate(names):
             ok = bool(self.identifiable[n])
             rows.append(dict(
-                name=n, unit=UNITS[n], value=float(self.value[i]),
+                name=n, unit=units[n], value=float(self.value[i]),
                 stderr=float(self.stderr[i]) if (ok and self.free[i]) else None,
                 ci95=[float(self.ci95[i, 0]), float(self.ci95[i, 1])]
                 if (ok and self.free[i]) else None,
@@ -78,7 +82,10 @@ class Uncertainty:
 
 
 def _from_logs(logs, template: EmpiricalFriction) -> EmpiricalFriction:
-    """EmpiricalFriction from log natural values (mu_s > mu_d assumed near the optimum)."""
+    """EmpiricalFriction from log natural values (mu_s > mu_d assumed near the optimum);
+    other friction-parameter modules convert with their own `from_log_values`."""
+    if hasattr(template, "from_log_values"):
+        return template.from_log_values(logs)
     l_mus, l_mud, l_g, l_m, l_d, l_n = (logs[i] for i in range(6))
     gap = jnp.maximum(jnp.exp(l_mus) - jnp.exp(l_mud), 1e-300)
     return EmpiricalFriction(l_mud, jnp.log(gap), l_g, l_m, l_d, l_n)
@@ -89,7 +96,7 @@ def fisher_log(fit: FitResult):
     p = fit.params
     logs0 = p.friction.log_values()
     spec_fr = fit.spec.friction
-    leaf = ("log_gap", "log_mu_d", "log_gamma", "log_m", "log_delta", "log_n")
+    leaf = tuple(getattr(p.friction, "LEAVES", _EMPIRICAL_LEAVES)[n] for n in names_of(p.friction))
     free = np.array([bool(getattr(spec_fr, lf)) for lf in leaf])
     idx = np.flatnonzero(free)
     fit_offsets = bool(fit.spec.offset)
@@ -109,8 +116,10 @@ def fisher_log(fit: FitResult):
 def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
     flagged, msgs = set(), []
     feats = fit.features
+    names = names_of(fit.params.friction)
+    shape = tuple(getattr(fit.params.friction, "SHAPE_NAMES", ("mu_s", "gamma", "m")))
     t2 = np.array([math.pi / f.omega0 for f in feats])
-    if t2.max() / t2.min() < 1.05 and free[NAMES.index("n")]:
+    if t2.max() / t2.min() < 1.05 and free[names.index("n")]:
         flagged |= {"n", "delta"}
         msgs.append(
             f"n, delta: every record has the same slip time T2 = {t2.mean():.4g} s (one k/W), "
@@ -119,9 +128,9 @@ def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
         )
     t1 = np.concatenate([f.stick_time[f.complete] for f in feats])
     if t1.size and t1.max() / t1.min() < 1.5:
-        flagged |= {"mu_s", "gamma", "m"}
+        flagged |= set(shape)
         msgs.append(
-            f"mu_s, gamma, m: all stick times lie within {t1.min():.3g}-{t1.max():.3g} s (one drive "
+            f"{', '.join(shape)}: all stick times lie within {t1.min():.3g}-{t1.max():.3g} s (one drive "
             "speed), so the rise of mu_0 with stick time (eq 1) cannot be resolved; "
             "add drive speeds an order of magnitude apart."
         )
@@ -135,6 +144,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
     cov = np.linalg.pinv(F, rcond=1e-13, hermitian=True)
     scale = max(1.0, fit.reduced_chi2)
     cov *= scale
+    names = names_of(fit.params.friction)
     cov_log = np.full((6, 6), np.nan)
     cov_log[np.ix_(idx, idx)] = cov[:k, :k]
     value = np.asarray(fit.params.friction.values())
@@ -150,10 +160,10 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
         Foo, Ffo = F[k:, k:], F[:k, k:]
         Fff = Fff - Ffo @ np.linalg.pinv(Foo, hermitian=True) @ Ffo.T
     eig, vec = np.linalg.eigh(Fff / scale)
-    weakest = {NAMES[i]: float(w) for i, w in zip(idx, vec[:, 0])} if k else {}
+    weakest = {names[i]: float(w) for i, w in zip(idx, vec[:, 0])} if k else {}
     flagged, warnings = _design_warnings(fit, free)
     identifiable = {}
-    for i, n in enumerate(NAMES):
+    for i, n in enumerate(names):
         bad_num = bool(free[i]) and not (log_se[i] <= max_relative_se)
         identifiable[n] = not (bad_num or (n in flagged and free[i]))
         if bad_num and n not in flagged:
@@ -165,7 +175,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
         for b in range(a + 1, 6):
             if free[a] and free[b] and abs(corr[a, b]) > 0.95:
                 warnings.append(
-                    f"{NAMES[a]} and {NAMES[b]} are strongly correlated (r = {corr[a, b]:+.3f}): "
+                    f"{names[a]} and {names[b]} are strongly correlated (r = {corr[a, b]:+.3f}): "
                     "the campaign determines a combination of them better than either."
                 )
     if not fit.converged:
@@ -187,6 +197,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
         value=value, stderr=stderr, log_se=log_se, ci95=ci95, free=free, corr=corr,
         cov_log=cov_log, fisher_eigenvalues=eig, weakest_direction=weakest,
         identifiable=identifiable, warnings=warnings, scale=scale,
+        units=units_of(fit.params.friction),
     )
 
 
