@@ -4,6 +4,8 @@ Prints a table (value, unit, standard error, 95 % interval; truth and error when
 records carry the truth they were made from), the identifiability warnings, and the
 fit quality; `--json OUT` writes the same as JSON, `--plot OUT.png` the diagnostic
 figure. Units: mu dimensionless, gamma s^-m, delta s^-n; internal kgf, mm, s.
+`--model microsqueeze` fits h_e (mm) and Q (mm^4) in place of gamma and m, with the
+viscosity `--eta` and the surface pair `--surface` given (`fitting.microsqueeze_fit`).
 """
 
 from __future__ import annotations
@@ -32,13 +34,21 @@ def add_arguments(parser):
                         "(weights 1/2 each); trace and both start from the features fit")
     parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                         help="hold a parameter fixed, e.g. --fix n=1 (repeatable)")
+    from stickslip_jax.commands._args import quantity
+
+    parser.add_argument("--eta", type=quantity("viscosity", "kgf*s/mm^2"), default=None,
+                        help="--model microsqueeze: lubricant viscosity with unit, e.g. "
+                        "'0.216 Pa*s' (default: the records' lubricant in Table 11, else A)")
+    parser.add_argument("--surface", default="S1G1",
+                        help="--model microsqueeze: surface pair of Table 10 (default S1G1)")
     parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
     parser.add_argument("--plot", metavar="OUT.png", help="save the diagnostic figure")
 
 
-def parse_fix(items) -> dict[str, float]:
+def parse_fix(items, names=None) -> dict[str, float]:
     from ..params import NAMES
 
+    NAMES = tuple(names or NAMES)  # noqa: N806
     out = {}
     for item in items:
         name, _, value = item.partition("=")
@@ -81,9 +91,11 @@ def load_campaign(specs, *, min_records: int = 2):
     return records, features
 
 
-def find_truth(records) -> dict[str, float] | None:
+def find_truth(records, names=None) -> dict[str, float] | None:
     """The friction parameters the records were made from, if all carry the same truth."""
     from ..params import NAMES
+
+    NAMES = tuple(names or NAMES)  # noqa: N806
 
     def dig(d):
         if not isinstance(d, dict):
@@ -110,7 +122,9 @@ def find_truth(records) -> dict[str, float] | None:
 def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
     """The JSON-ready result of a fit (the `--json` contract)."""
     rows = unc.table()
-    truth = find_truth(records)
+    from ..params import names_of
+
+    truth = find_truth(records, names_of(fit.params.friction))
     params = {}
     for row in rows:
         entry = {"value": row["value"], "stderr": row["stderr"], "ci95": row["ci95"],
@@ -215,15 +229,34 @@ def run(args) -> int:
     from ..fit import fit_features
     from ..uncertainty import laplace
 
+    extra = None
     if args.model == "microsqueeze":
-        raise ValueError("--model microsqueeze: not available yet in this version; "
-                         "use --model empirical")
-    fixed = parse_fix(args.fix)
-    records, features = load_campaign(args.records)
-    fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time,
-                       objective=args.objective, records=records)
+        from ..microsqueeze_fit import default_eta, fit_microsqueeze
+        from ..microsqueeze_params import MICROSQUEEZE_NAMES
+        from stickslip_jax.contact import surface_pair
+
+        if args.objective != "features":
+            raise ValueError("--objective: --model microsqueeze supports only 'features'")
+        fixed = parse_fix(args.fix, MICROSQUEEZE_NAMES)
+        try:
+            pair = surface_pair(args.surface)
+        except (KeyError, ValueError) as err:
+            raise ValueError(f"--surface: unknown surface pair {args.surface!r} ({err})") from None
+        records, features = load_campaign(args.records)
+        eta = args.eta if args.eta is not None else default_eta(records[0].lubricant)
+        fit = fit_microsqueeze(features, eta=eta, pair=pair, fixed=fixed, offset=args.offset,
+                               slip_time=args.slip_time)
+        extra = {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
+                           "surface": args.surface}}
+    else:
+        if args.eta is not None:
+            raise ValueError("--eta: only used with --model microsqueeze")
+        fixed = parse_fix(args.fix)
+        records, features = load_campaign(args.records)
+        fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time,
+                           objective=args.objective, records=records)
     unc = laplace(fit)
-    report = build_report(fit, unc, records, model=args.model)
+    report = build_report(fit, unc, records, model=args.model, extra=extra)
     print(format_table(report))
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
