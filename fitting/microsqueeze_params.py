@@ -159,6 +159,8 @@ class MicrosqueezeFriction(eqx.Module):
     def from_log_values(self, logs) -> MicrosqueezeFriction:
         """Same eta, pair, contact at log natural values (near the optimum: no clipping)."""
         mu_s, mu_d, h_e = jnp.exp(logs[0]), jnp.exp(logs[1]), jnp.exp(logs[2])
+        c = self.contact
+        mu_s = jnp.clip(mu_s, c.C3 * (1 + 1e-6), c.C1 * (1 - 1e-6))  # no raise off the region
         t_b = film_from_mu_s(self.pair, self.contact, mu_s).t_b
         a_d = approach_for(self.pair, self.contact, mu_d, t_b)
         gap = jnp.maximum(mu_s - mu_d, _TINY)
