@@ -83,6 +83,7 @@ def test_trace_jacobian_matches_finite_differences(trace_fit):
         assert np.abs(fd).max() > 0
 
 
+@pytest.mark.slow  # ~60 s of compilation on 2 cores; the trace fit itself is checked above
 def test_combined_objective_from_the_cli(campaign, tmp_path, capsys):
     """`stickslip fit --objective both`: features and trace residuals weighted 1/2 each."""
     import json
