@@ -78,12 +78,8 @@ def synthetic_campaign(
     rng = np.random.default_rng(seed)
     plan = []
     for w, k in conditions:
-        vc = float(ss.critical_speed(friction, w, k))
         for frac in speed_fractions:
-            v = frac * vc
-            st = ss.steady_state(friction, w, k, v)
-            t1, t2 = float(st.stick_time), float(st.slip_time)
-            x1 = (2.0 * float(st.mu_m) - float(st.mu_0)) * w / k
+            v, st, t1, t2, x1 = steady_operating_point(friction, w, k, frac)
             x0 = 0.0 if from_rest else x1 - 1e-9
             lead = float(st.mu_0) * w / (k * v) if from_rest else 0.0
             duration = lead + cycles * (t1 + t2) + 0.5 * t1
@@ -108,3 +104,16 @@ def synthetic_campaign(
             lubricant=lubricant, truth=truth, source=f"{name}.csv",
         ))
     return records
+
+
+def steady_operating_point(friction, weight, stiffness, speed_fraction):
+    """Drive speed `speed_fraction` x v_c (mm/s) and its eq (6) steady cycle.
+
+    Returns `(v, steady_state, T1 s, T2 s, x1 mm)`, x1 = (2 mu_m - mu_0) W/k being the
+    deflection at the end of a steady slip (eq 5). W in kgf, k in kgf/mm.
+    """
+    v = speed_fraction * float(ss.critical_speed(friction, weight, stiffness))
+    st = ss.steady_state(friction, weight, stiffness, v)
+    t1, t2 = float(st.stick_time), float(st.slip_time)
+    x1 = (2.0 * float(st.mu_m) - float(st.mu_0)) * weight / stiffness
+    return v, st, t1, t2, x1

@@ -20,12 +20,11 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-import stickslip_jax as ss
 from stickslip_jax.records import Record
 from stickslip_jax.simulation import pad_times
 from stickslip_jax.simulation.parts import AbstractForceTerm
 
-from ..synthetic import truth_values
+from ..synthetic import steady_operating_point, truth_values
 from .effects import EffectSet
 from .model import CampaignTraces, DiscoveryParams, Settings, simulate_campaign
 
@@ -43,12 +42,8 @@ GENERATION = Settings(rtol=1e-7, atol=1e-9, max_steps=16384)
 def _plan(friction, conditions, speed_fractions, cycles, sample_rate):
     plan = []
     for w, k in conditions:
-        vc = float(ss.critical_speed(friction, w, k))
         for frac in speed_fractions:
-            v = frac * vc
-            st = ss.steady_state(friction, w, k, v)
-            t1, t2 = float(st.stick_time), float(st.slip_time)
-            x1 = (2.0 * float(st.mu_m) - float(st.mu_0)) * w / k
+            v, _, t1, t2, x1 = steady_operating_point(friction, w, k, frac)
             n = int(math.ceil((cycles * (t1 + t2) + 0.3 * t1) * sample_rate)) + 1
             plan.append((w, k, v, x1, n))
     return plan
