@@ -16,6 +16,13 @@ Levenberg-Marquardt fit minimises:
   intervals are not shrunk by counting the data twice.
 
 `dof()` is the weighted number of residuals with data ($w_f N_f + w_t N_t$).
+
+`residual_cycles(objective, features)` labels every residual with the stick phase
+whose samples it reads, (record, cycle $j$) = the stick after slip $j$ (and the slip
+that ends it): the level and eq (6) residuals of cycle $j$ and the trace window that
+starts at the end of slip $j$. Residuals of different stick phases share no samples
+(only the timing of the slip between neighbours), which is what the cluster-robust
+(sandwich) covariance of `fitting.uncertainty` needs for the combined objective.
 """
 
 from __future__ import annotations
@@ -24,11 +31,12 @@ import math
 
 import equinox as eqx
 import jax.numpy as jnp
+import numpy as np
 
 from .objectives import SLIP_TIME_MODES, FeatureData, feature_residuals
 from .trace_objective import TraceData, trace_residuals
 
-__all__ = ["OBJECTIVES", "CampaignObjective"]
+__all__ = ["OBJECTIVES", "CampaignObjective", "residual_cycles"]
 
 OBJECTIVES = ("features", "trace", "both")
 
@@ -80,3 +88,38 @@ class CampaignObjective(eqx.Module):
             return "full trace (exact simulator restarted at every slip end)"
         return (f"cycle features (weight {self.weight_features:g}) + full trace "
                 f"(weight {self.weight_trace:g})")
+
+
+def residual_cycles(objective: CampaignObjective, features) -> tuple[np.ndarray, np.ndarray]:
+    """(record, cycle) of every entry of `objective.residuals(...)` (module doc); -1 for both
+    on padding. The gauge-offset residual of `--offset start` (first plateau) gets cycle -2.
+
+    `features`: the campaign's `RecordFeatures` (their slip-end times place the trace windows).
+    """
+    fd = objective.features
+    R, C = fd.t1.shape
+    has = np.asarray(fd.has_end | fd.has_next)
+    rec_lv = np.where(has, np.arange(R)[:, None], -1)
+    cyc_lv = np.where(has, np.arange(C)[None, :], -1)
+    both = np.asarray(fd.has_end & fd.has_next)
+    rec_st = np.where(both, np.arange(R)[:, None], -1)
+    cyc_st = np.where(both, np.arange(C)[None, :], -1)
+    use = np.asarray(fd.use_start)
+    rec_f = np.concatenate([rec_lv.ravel(), rec_st.ravel(), np.where(use, np.arange(R), -1)])
+    cyc_f = np.concatenate([cyc_lv.ravel(), cyc_st.ravel(), np.where(use, -2, -1)])
+    if objective.kind == "features":
+        return rec_f, cyc_f
+    td = objective.trace
+    N, L = td.mask.shape
+    mask = np.asarray(td.mask)
+    rec_w = np.asarray(td.record).astype(int)
+    cyc_w = np.full(N, -1)
+    for w in range(N):
+        if mask[w].any():
+            ends = np.asarray(features[rec_w[w]].end_time, float)
+            cyc_w[w] = int(np.nanargmin(np.abs(ends - float(td.start_time[w]))))
+    rec_t = np.where(mask, rec_w[:, None], -1).ravel()
+    cyc_t = np.where(mask, cyc_w[:, None], -1).ravel()
+    if objective.kind == "trace":
+        return rec_t, cyc_t
+    return np.concatenate([rec_f, rec_t]), np.concatenate([cyc_f, cyc_t])

@@ -5,6 +5,10 @@ both) as a Gaussian likelihood, $\log L = -\tfrac12 \sum r^2 / s$ ($s = \max(1, 
 the optimum, the same widening as the Laplace intervals), plus the **prior**: uniform
 in the logarithm of each free parameter inside `PRIOR_BOUNDS` (a scale-free prior
 for positive quantities), with $\mu_s > \mu_d$; gauge offsets (when fitted) flat.
+The microsqueeze model (`fitting.microsqueeze_params`: h_e, Q in place of gamma, m)
+adds its physical region to the support: $C_3 < \mu_s < C_1$, $\mu_d$ above the
+film-only friction and $h_e > t_b + a_d$ (`MicrosqueezeFriction.physical`; a point
+outside has zero prior density).
 
 It is written for emcee's `vectorize=True`: one call evaluates the whole ensemble,
 a `jax.vmap` of the residuals inside one `jax.jit`, over a flat (walkers, dim) array
@@ -21,12 +25,13 @@ from __future__ import annotations
 import dataclasses
 
 import emcee
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from .fit import FitResult
-from .params import NAMES, CampaignParams
+from .params import _LEAF, CampaignParams, names_of, units_of
 from .uncertainty import _from_logs, laplace
 
 __all__ = ["PRIOR_BOUNDS", "McmcResult", "log_posterior", "run_mcmc", "prior_text"]
@@ -34,51 +39,73 @@ __all__ = ["PRIOR_BOUNDS", "McmcResult", "log_posterior", "run_mcmc", "prior_tex
 PRIOR_BOUNDS = {
     "mu_s": (1e-3, 2.0), "mu_d": (1e-3, 2.0), "gamma": (1e-4, 1e3), "m": (0.02, 5.0),
     "delta": (1e-3, 1e5), "n": (0.02, 5.0),
+    "h_e": (1e-5, 1e-1), "Q": (1e-8, 1e10),
 }
-"""Support of the log-uniform prior of each parameter (natural units)."""
+"""Support of the log-uniform prior of each parameter (natural units: h_e mm, Q mm^4)."""
 
 
-def prior_text(free_names) -> str:
-    parts = [f"log-uniform {n} in [{PRIOR_BOUNDS[n][0]:g}, {PRIOR_BOUNDS[n][1]:g}]"
+def prior_text(free_names, units=None) -> str:
+    """The prior in words (units in brackets when given: {name: unit})."""
+    units = units or {}
+
+    def unit(n):
+        u = units.get(n, "-")
+        return "" if u == "-" else f" {u}"
+
+    parts = [f"log-uniform {n} in [{PRIOR_BOUNDS[n][0]:g}, {PRIOR_BOUNDS[n][1]:g}]{unit(n)}"
              for n in free_names]
-    return "; ".join(parts) + "; mu_s > mu_d; gauge offsets flat"
+    text = "; ".join(parts) + "; mu_s > mu_d"
+    if "h_e" in units:
+        text += "; microsqueeze physical region (C3 < mu_s < C1, h_e > t_b + a_d)"
+    return text + "; gauge offsets flat"
+
+
+@eqx.filter_jit
+def _batched_log_posterior(theta, logs0, idx, lo, hi, template, offset0, objective, scale,
+                           fit_off: bool):
+    """log posterior of every row of theta (walkers, dim); module level so that it compiles
+    once per campaign layout (see `log_posterior`)."""
+    k = idx.size
+
+    def one(th):
+        logs = logs0.at[idx].set(th[:k])
+        off = th[k:] if fit_off else offset0
+        inside = jnp.all((logs >= lo) & (logs <= hi)) & (logs[0] > logs[1])
+        safe = jnp.where(inside, logs, logs0)
+        friction = _from_logs(safe, template)
+        if hasattr(friction, "physical"):  # the model's physical region (microsqueeze)
+            inside = inside & friction.physical() & jnp.all(
+                jnp.abs(friction.log_values() - safe) < 1e-7)
+        r = objective.residuals(CampaignParams(friction, off))
+        ll = -0.5 * jnp.sum(r * r) / scale
+        return jnp.where(inside & jnp.isfinite(ll), ll, -jnp.inf)
+
+    return jax.vmap(one)(theta)
 
 
 def log_posterior(fit: FitResult):
     """(logp, theta0, free_names, n_offsets): jitted vectorised log-posterior of a fit.
 
     `logp(theta)` takes (walkers, dim) and returns (walkers,); theta = (log of the free
-    friction parameters in NAMES order, free gauge offsets in mm).
+    friction parameters in the model's NAMES order, free gauge offsets in mm).
     """
     p = fit.params
+    all_names = names_of(p.friction)
+    leaves = getattr(p.friction, "LEAVES", _LEAF)
     logs0 = p.friction.log_values()
-    leaf = ("log_gap", "log_mu_d", "log_gamma", "log_m", "log_delta", "log_n")
-    free = np.array([bool(getattr(fit.spec.friction, lf)) for lf in leaf])
+    free = np.array([bool(getattr(fit.spec.friction, leaves[n])) for n in all_names])
     idx = jnp.asarray(np.flatnonzero(free))
-    k = int(free.sum())
     fit_off = bool(fit.spec.offset)
-    lo = jnp.log(jnp.asarray([PRIOR_BOUNDS[n][0] for n in NAMES]))
-    hi = jnp.log(jnp.asarray([PRIOR_BOUNDS[n][1] for n in NAMES]))
-    scale = max(1.0, fit.reduced_chi2)
-
-    def one(theta, objective):
-        logs = logs0.at[idx].set(theta[:k])
-        off = theta[k:] if fit_off else p.offset
-        inside = jnp.all((logs >= lo) & (logs <= hi)) & (logs[0] > logs[1])
-        safe = jnp.where(inside, logs, logs0)
-        params = CampaignParams(_from_logs(safe, p.friction), off)
-        r = objective.residuals(params)
-        ll = -0.5 * jnp.sum(r * r) / scale
-        return jnp.where(inside & jnp.isfinite(ll), ll, -jnp.inf)
-
-    batched = jax.jit(jax.vmap(one, in_axes=(0, None)))
-    objective = fit.objective
+    lo = jnp.log(jnp.asarray([PRIOR_BOUNDS[n][0] for n in all_names]))
+    hi = jnp.log(jnp.asarray([PRIOR_BOUNDS[n][1] for n in all_names]))
+    scale = jnp.asarray(max(1.0, fit.reduced_chi2))  # an array: no recompilation per value
+    args = (logs0, idx, lo, hi, p.friction, p.offset, fit.objective, scale)
 
     def logp(theta):
-        return batched(theta, objective)
+        return _batched_log_posterior(theta, *args, fit_off)
 
     theta0 = np.concatenate([np.asarray(logs0)[free], np.asarray(p.offset) if fit_off else []])
-    names = [n for n, f in zip(NAMES, free) if f]
+    names = [n for n, f in zip(all_names, free) if f]
     return logp, theta0, names, (p.offset.size if fit_off else 0)
 
 
@@ -96,6 +123,7 @@ class McmcResult:
     burn: int
     prior: str
     warnings: list
+    units: dict | None = None
 
     def summary(self) -> dict:
         out = {}
@@ -158,5 +186,6 @@ def run_mcmc(
     return McmcResult(
         names=names, samples=values, tau=tau[: len(names)], ess=ess[: len(names)],
         acceptance=float(np.mean(sampler.acceptance_fraction)), walkers=walkers, steps=steps,
-        burn=burn, prior=prior_text(names), warnings=warnings,
+        burn=burn, prior=prior_text(names, units_of(fit.params.friction)), warnings=warnings,
+        units=units_of(fit.params.friction),
     )

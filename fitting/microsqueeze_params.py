@@ -24,7 +24,8 @@ of raising. At any physical point the clipping is inactive.
 
 The class offers the interface the generic fit code uses: `NAMES`, `UNITS`, `LEAVES`,
 `SHAPE_NAMES` (the parameters of the rise of $\mu_0$ with $T_1$), `values()`,
-`log_values()`, `from_log_values(logs)`, `with_values(**values)`, `friction()`.
+`log_values()`, `from_log_values(logs)`, `with_values(**values)`, `friction()`, and
+`physical()` (no clipping needed: the support of the MCMC prior).
 """
 
 from __future__ import annotations
@@ -131,6 +132,19 @@ class MicrosqueezeFriction(eqx.Module):
         mu_d = jnp.clip(mu_d, mu_0_contact * (1 + 1e-6), mu_s * (1 - 1e-6))
         a_d = approach_for(self.pair, c, mu_d, t_b)
         return mu_s, mu_d, t_b, a_d
+
+    def physical(self):
+        r"""True (a traced bool) when the point needs no clipping: $C_3 < \mu_s < C_1$,
+        $\mu_d$ above the film-only friction $\mu_0(a=0)$, a margin $h_e - t_b - a_d$ of at
+        least $10^{-9}(t_b + a_d)$ and $|\log Q| \le 200$ (the support of the MCMC prior)."""
+        c = self.contact
+        mu_d = jnp.exp(self.log_mu_d)
+        mu_s = mu_d + jnp.exp(self.log_gap)
+        ok_s = (mu_s > c.C3 * (1 + 1e-6)) & (mu_s < c.C1 * (1 - 1e-6))
+        _, mu_d_c, t_b, a_d = self._parts()
+        ok_d = mu_d == mu_d_c
+        ok_h = jnp.exp(self.log_margin) >= 1e-9 * (t_b + a_d)
+        return ok_s & ok_d & ok_h & (jnp.abs(self.log_Q) <= 200.0)
 
     def static_law(self) -> MicrosqueezeStatic:
         mu_s, mu_d, t_b, a_d = self._parts()

@@ -64,6 +64,7 @@ class Uncertainty:
     warnings: list
     scale: float
     units: dict | None = None
+    covariance: str = "fisher"
 
     def table(self) -> list[dict]:
         rows = []
@@ -91,8 +92,24 @@ def _from_logs(logs, template: EmpiricalFriction) -> EmpiricalFriction:
     return EmpiricalFriction(l_mud, jnp.log(gap), l_g, l_m, l_d, l_n)
 
 
-def fisher_log(fit: FitResult):
-    """(F, names, free mask): Fisher information in (log friction, free offsets) coordinates."""
+@eqx.filter_jit
+def _jacobian_log(theta0, logs0, idx, template, offset0, objective, fit_offsets: bool):
+    """(J, r): residuals and their Jacobian in (log friction, free offsets) coordinates.
+
+    Module level and jitted on its arguments, so fits of one campaign layout share it."""
+    k = idx.size
+
+    def residuals(theta):
+        logs = logs0.at[idx].set(theta[:k])
+        off = theta[k:] if fit_offsets else offset0
+        return objective.residuals(CampaignParams(_from_logs(logs, template), off))
+
+    return jax.jacfwd(residuals)(theta0), residuals(theta0)
+
+
+def jacobian_log(fit: FitResult):
+    """(J, r, free mask, idx) at the optimum: whitened residuals r and J = dr/dtheta,
+    theta = (log of the free friction parameters, free gauge offsets in mm)."""
     p = fit.params
     logs0 = p.friction.log_values()
     spec_fr = fit.spec.friction
@@ -101,16 +118,50 @@ def fisher_log(fit: FitResult):
     idx = np.flatnonzero(free)
     fit_offsets = bool(fit.spec.offset)
     off0 = p.offset
-
-    def residuals(theta):
-        logs = logs0.at[idx].set(theta[: idx.size])
-        off = theta[idx.size:] if fit_offsets else off0
-        params = CampaignParams(_from_logs(logs, p.friction), off)
-        return fit.residuals_at(params)
-
     theta0 = jnp.concatenate([logs0[idx], off0 if fit_offsets else jnp.zeros(0)])
-    J = eqx.filter_jit(jax.jacfwd(residuals))(theta0)
-    return np.asarray(J.T @ J), free, idx
+    J, r = _jacobian_log(theta0, logs0, jnp.asarray(idx), p.friction, off0, fit.objective,
+                         fit_offsets)
+    return np.asarray(J), np.asarray(r), free, idx
+
+
+def fisher_log(fit: FitResult):
+    """(F, names, free mask): Fisher information in (log friction, free offsets) coordinates."""
+    J, _, free, idx = jacobian_log(fit)
+    return J.T @ J, free, idx
+
+
+def sandwich_covariance(J, r, record, cycle, *, lag: int = 1) -> np.ndarray:
+    r"""Cluster-robust covariance $H^{-1} M H^{-1}$ of a least-squares estimate.
+
+    $H = J^\top J$; $M = \frac{G}{G-1}\sum_{c,c'} g_c g_{c'}^\top$ over clusters $c$
+    (the (record, cycle) labels of `fitting.combined.residual_cycles`, $G$ of them)
+    with $g_c = \sum_{i \in c} J_i r_i$ and $c'$ = $c$ or a neighbour of the same record
+    within `lag` cycles (the slip between two stick phases times both); M is clipped to
+    be positive semi-definite. Entries labelled record -1 (padding) are left out.
+    """
+    J, r = np.asarray(J), np.asarray(r)
+    record, cycle = np.asarray(record), np.asarray(cycle)
+    keep = record >= 0
+    keys = np.stack([record[keep], cycle[keep]], axis=1)
+    uniq, inv = np.unique(keys, axis=0, return_inverse=True)
+    inv = np.asarray(inv).ravel()
+    g = np.zeros((uniq.shape[0], J.shape[1]))
+    np.add.at(g, inv, J[keep] * r[keep, None])
+    M = g.T @ g
+    for d in range(1, int(lag) + 1):
+        pos = {(int(a), int(b)): i for i, (a, b) in enumerate(uniq)}
+        pairs = [(i, pos[(int(a), int(b) + d)]) for i, (a, b) in enumerate(uniq)
+                 if b >= 0 and (int(a), int(b) + d) in pos]
+        if pairs:
+            a_idx, b_idx = (np.asarray(x) for x in zip(*pairs))
+            cross = g[a_idx].T @ g[b_idx]
+            M = M + cross + cross.T
+    G = uniq.shape[0]
+    M *= G / max(G - 1, 1)
+    w, V = np.linalg.eigh(0.5 * (M + M.T))
+    M = (V * np.maximum(w, 0.0)) @ V.T
+    Hinv = np.linalg.pinv(J.T @ J, rcond=1e-13, hermitian=True)
+    return Hinv @ M @ Hinv
 
 
 def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
@@ -137,13 +188,35 @@ def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
     return flagged, msgs
 
 
-def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
-    """Laplace covariance, intervals and identifiability report of a fit (module doc)."""
-    F, free, idx = fisher_log(fit)
+COVARIANCES = ("auto", "fisher", "sandwich")
+
+
+def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "auto",
+            lag: int = 1) -> Uncertainty:
+    """Laplace covariance, intervals and identifiability report of a fit (module doc).
+
+    `covariance`: "fisher" ($F^{-1}$ scaled by max(1, chi2/dof)), "sandwich" (cluster-robust
+    per stick phase, `sandwich_covariance` with `lag`), or "auto": the sandwich for the
+    combined objective ("both", whose two parts read the same samples), else fisher.
+    """
+    if covariance not in COVARIANCES:
+        raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
+    if covariance == "auto":
+        both = fit.objective is not None and fit.objective.kind == "both"
+        covariance = "sandwich" if both else "fisher"
+    J, r, free, idx = jacobian_log(fit)
+    F = J.T @ J
     k = idx.size
-    cov = np.linalg.pinv(F, rcond=1e-13, hermitian=True)
-    scale = max(1.0, fit.reduced_chi2)
-    cov *= scale
+    if covariance == "sandwich":
+        from .combined import residual_cycles
+
+        rec, cyc = residual_cycles(fit.objective, fit.features)
+        cov = sandwich_covariance(J, r, rec, cyc, lag=lag)
+        scale = 1.0
+    else:
+        cov = np.linalg.pinv(F, rcond=1e-13, hermitian=True)
+        scale = max(1.0, fit.reduced_chi2)
+        cov *= scale
     names = names_of(fit.params.friction)
     cov_log = np.full((6, 6), np.nan)
     cov_log[np.ix_(idx, idx)] = cov[:k, :k]
@@ -159,6 +232,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
     if F.shape[0] > k:
         Foo, Ffo = F[k:, k:], F[:k, k:]
         Fff = Fff - Ffo @ np.linalg.pinv(Foo, hermitian=True) @ Ffo.T
+    if covariance == "sandwich":  # the information the robust covariance implies
+        Fff = np.linalg.pinv(cov[:k, :k], rcond=1e-13, hermitian=True)
     eig, vec = np.linalg.eigh(Fff / scale)
     weakest = {names[i]: float(w) for i, w in zip(idx, vec[:, 0])} if k else {}
     flagged, warnings = _design_warnings(fit, free)
@@ -197,7 +272,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5) -> Uncertainty:
         value=value, stderr=stderr, log_se=log_se, ci95=ci95, free=free, corr=corr,
         cov_log=cov_log, fisher_eigenvalues=eig, weakest_direction=weakest,
         identifiable=identifiable, warnings=warnings, scale=scale,
-        units=units_of(fit.params.friction),
+        units=units_of(fit.params.friction), covariance=covariance,
     )
 
 

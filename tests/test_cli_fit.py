@@ -85,6 +85,59 @@ def test_bad_fix_and_model(campaign_dir, capsys):
     assert "--fix" in _err(capsys)
 
 
+# every bad campaign gets one clear line (exit 2, no traceback) from both commands and
+# both models: the campaign is checked before any fitting, so these runs are fast
+COMMANDS = {
+    "fit": ["fit"],
+    "fit-microsqueeze": ["fit", "--model", "microsqueeze"],
+    "mcmc": ["mcmc", "--no-progress", "--steps", "20"],
+    "mcmc-microsqueeze": ["mcmc", "--model", "microsqueeze", "--no-progress", "--steps", "20"],
+}
+
+
+def _bad_campaigns(paths, tmp_path):
+    flat = tmp_path / "flat.csv"
+    lines = ["# stickslip-record: 1", "# drive_speed: 60 mm/min", "# stiffness: 86.9 kgf/mm",
+             "# slider_weight: 36 kgf", "# lubricant: A", "time [s],deflection [mm]"]
+    flat.write_text("\n".join(lines + [f"{i * 1e-3:.3f},0.087" for i in range(3000)]) + "\n")
+    flat2 = tmp_path / "flat2.csv"
+    flat2.write_text(flat.read_text().replace("60 mm/min", "30 mm/min"))
+    text = open(paths[1]).read()
+    other = tmp_path / "lubC.csv"
+    other.write_text(text.replace("# lubricant: A", "# lubricant: C"))
+    units = tmp_path / "units.csv"
+    units.write_text(text.replace("kgf/mm", "kgf/s"))
+    return {
+        "single record": ([paths[0]], "at least 2 records"),
+        "no stick-slip": ([paths[0], str(flat)], "no usable stick-slip in flat"),
+        "all without stick-slip": ([str(flat), str(flat2)], "flat2"),
+        "a file named twice": ([paths[0], paths[0]], "named twice"),
+        "mixed lubricants": ([paths[0], str(other)], "mixes lubricants"),
+        "conflicting units": ([paths[0], str(units)], "units.csv"),
+        "missing file": ([paths[0], str(tmp_path / "nope.csv")], "no such file"),
+    }
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_bad_campaigns_give_one_line(command, campaign_dir, tmp_path, capsys):
+    _, paths = campaign_dir
+    for case, (files, expected) in _bad_campaigns(paths, tmp_path).items():
+        assert main([*COMMANDS[command], *files]) == 2, case
+        err = _err(capsys)
+        assert expected in err, (case, err)
+
+
+def test_mcmc_option_errors(campaign_dir, capsys):
+    _, paths = campaign_dir
+    for args, expected in ((["--steps", "5"], "--steps"), (["--draws", "0"], "--draws"),
+                           (["--burn", "50", "--steps", "40"], "--burn"),
+                           (["--eta", "0.2 Pa*s"], "--eta"),
+                           (["--model", "microsqueeze", "--surface", "XX"], "--surface"),
+                           (["--model", "microsqueeze", "--fix", "gamma=1"], "--fix")):
+        assert main(["mcmc", *paths, "--no-progress", *args]) == 2, args
+        assert expected in _err(capsys), args
+
+
 def test_truth_in_stickslip_simulate_layout():
     from fitting.commands.fit import find_truth
     from stickslip_jax.records import Record

@@ -32,6 +32,13 @@ def add_arguments(parser):
                         help="fit the cycle features (default, fast), every sample of the "
                         "traces through the exact simulator restarted per cycle, or both "
                         "(weights 1/2 each); trace and both start from the features fit")
+    add_model_arguments(parser)
+    parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
+    parser.add_argument("--plot", metavar="OUT.png", help="save the diagnostic figure")
+
+
+def add_model_arguments(parser):
+    """--fix, --eta, --surface: shared by `stickslip fit` and `stickslip mcmc`."""
     parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                         help="hold a parameter fixed, e.g. --fix n=1 (repeatable)")
     from stickslip_jax.commands._args import quantity
@@ -41,8 +48,42 @@ def add_arguments(parser):
                         "'0.216 Pa*s' (default: the records' lubricant in Table 11, else A)")
     parser.add_argument("--surface", default="S1G1",
                         help="--model microsqueeze: surface pair of Table 10 (default S1G1)")
-    parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
-    parser.add_argument("--plot", metavar="OUT.png", help="save the diagnostic figure")
+
+
+def fit_from_args(args, *, objective: str = "features"):
+    """Read the campaign of `args.records` and fit `args.model` to it.
+
+    Returns (fit, records, extra): `extra` is None or the given quantities of the
+    microsqueeze model ({"given": {"eta": ..., "surface": ...}}). Every user error is a
+    ValueError naming the option or file to fix (checked before any fitting).
+    """
+    from ..fit import fit_features
+
+    if args.model == "microsqueeze":
+        from ..microsqueeze_fit import default_eta, fit_microsqueeze
+        from ..microsqueeze_params import MICROSQUEEZE_NAMES
+        from stickslip_jax.contact import surface_pair
+
+        if objective != "features":
+            raise ValueError("--objective: --model microsqueeze supports only 'features'")
+        fixed = parse_fix(args.fix, MICROSQUEEZE_NAMES)
+        try:
+            pair = surface_pair(args.surface)
+        except (KeyError, ValueError) as err:
+            raise ValueError(f"--surface: unknown surface pair {args.surface!r} ({err})") from None
+        records, features = load_campaign(args.records)
+        eta = args.eta if args.eta is not None else default_eta(records[0].lubricant)
+        fit = fit_microsqueeze(features, eta=eta, pair=pair, fixed=fixed, offset=args.offset,
+                               slip_time=args.slip_time)
+        return fit, records, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
+                                        "surface": args.surface}}
+    if args.eta is not None:
+        raise ValueError("--eta: only used with --model microsqueeze")
+    fixed = parse_fix(args.fix)
+    records, features = load_campaign(args.records)
+    fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time,
+                       objective=objective, records=records)
+    return fit, records, None
 
 
 def parse_fix(items, names=None) -> dict[str, float]:
@@ -161,6 +202,7 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
         "converged": fit.converged,
         "objective": fit.objective.describe(),
         "slip_time": fit.slip_time,
+        "covariance": unc.covariance,
         "covariance_scale": unc.scale,
         "identifiability": {
             "not_identifiable": [n for n, ok in unc.identifiable.items() if not ok],
@@ -226,35 +268,9 @@ def format_table(report) -> str:
 
 
 def run(args) -> int:
-    from ..fit import fit_features
     from ..uncertainty import laplace
 
-    extra = None
-    if args.model == "microsqueeze":
-        from ..microsqueeze_fit import default_eta, fit_microsqueeze
-        from ..microsqueeze_params import MICROSQUEEZE_NAMES
-        from stickslip_jax.contact import surface_pair
-
-        if args.objective != "features":
-            raise ValueError("--objective: --model microsqueeze supports only 'features'")
-        fixed = parse_fix(args.fix, MICROSQUEEZE_NAMES)
-        try:
-            pair = surface_pair(args.surface)
-        except (KeyError, ValueError) as err:
-            raise ValueError(f"--surface: unknown surface pair {args.surface!r} ({err})") from None
-        records, features = load_campaign(args.records)
-        eta = args.eta if args.eta is not None else default_eta(records[0].lubricant)
-        fit = fit_microsqueeze(features, eta=eta, pair=pair, fixed=fixed, offset=args.offset,
-                               slip_time=args.slip_time)
-        extra = {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
-                           "surface": args.surface}}
-    else:
-        if args.eta is not None:
-            raise ValueError("--eta: only used with --model microsqueeze")
-        fixed = parse_fix(args.fix)
-        records, features = load_campaign(args.records)
-        fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time,
-                           objective=args.objective, records=records)
+    fit, records, extra = fit_from_args(args, objective=args.objective)
     unc = laplace(fit)
     report = build_report(fit, unc, records, model=args.model, extra=extra)
     print(format_table(report))

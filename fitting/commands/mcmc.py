@@ -1,6 +1,8 @@
 """`stickslip mcmc RECORDS...`: posterior of the friction parameters with emcee.
 
-Fits first (as `stickslip fit`), then samples around the optimum; prints the posterior
+Fits first (as `stickslip fit`, either model: `--model microsqueeze` samples h_e and Q
+in place of gamma and m, with `--eta` and `--surface` given), then samples around the
+optimum; prints the posterior
 median, standard deviation, 95 % interval, autocorrelation time and effective sample
 size of every parameter, the prior used, and a warning when the chain is too short.
 `--json OUT` writes the summary ("parameters", "prior", ...) and the posterior draws
@@ -19,13 +21,17 @@ HELP = "sample the posterior of the friction parameters (emcee) for a campaign o
 
 def add_arguments(parser):
     parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
+    parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
+                        help="static-friction law: eq (1) (default) or the microsqueeze law")
     parser.add_argument("--walkers", type=int, default=32, help="ensemble size (default 32)")
     parser.add_argument("--steps", type=int, default=3000, help="steps per walker (default 3000)")
     parser.add_argument("--burn", type=int, default=None, help="steps discarded (default steps/4)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--offset", choices=("zero", "start"), default="zero")
     parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper")
-    parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE")
+    from .fit import add_model_arguments
+
+    add_model_arguments(parser)
     parser.add_argument("--json", metavar="OUT",
                         help="write the summary and (thinned) posterior draws as JSON; "
                         "`stickslip design --posterior OUT` reads the draws")
@@ -45,46 +51,52 @@ def thinned_draws(samples, max_draws: int):
 
 
 def run(args) -> int:
-    from ..fit import fit_features
     from ..mcmc import run_mcmc
-    from ..params import UNITS
-    from .fit import find_truth, load_campaign, parse_fix
+    from .fit import fit_from_args, find_truth
 
-    fixed = parse_fix(args.fix)
     if args.draws < 1:
         raise ValueError(f"--draws: need at least 1 draw, got {args.draws}")
-    records, features = load_campaign(args.records)
-    fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time)
+    if args.steps < 10:
+        raise ValueError(f"--steps: need at least 10 steps, got {args.steps}")
+    if args.burn is not None and not 0 <= args.burn < args.steps:
+        raise ValueError(f"--burn: must lie in [0, --steps), got {args.burn}")
+    fit, records, extra = fit_from_args(args)
     res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
                    progress=not args.no_progress)
     summary = res.summary()
-    truth = find_truth(records)
+    units = res.units
+    truth = find_truth(records, list(fit.values))
     head = (f"{'parameter':<10}{'median':>12}{'unit':>7}{'sd':>11}{'95 % interval':>26}"
             f"{'tau':>8}{'ESS':>8}" + (f"{'truth':>10}" if truth else ""))
     print(head)
     print("-" * len(head))
     for name, s in summary.items():
         ci = f"[{s['ci95'][0]:.5g}, {s['ci95'][1]:.5g}]"
-        line = (f"{name:<10}{s['median']:>12.5g}{UNITS[name]:>7}{s['sd']:>11.3g}{ci:>26}"
+        line = (f"{name:<10}{s['median']:>12.5g}{units[name]:>7}{s['sd']:>11.3g}{ci:>26}"
                 f"{s['tau_steps']:>8.1f}{s['ess']:>8.0f}")
         if truth:
             line += f"{truth[name]:>10.4g}"
         print(line)
     print(f"\nprior: {res.prior}")
+    if extra:
+        g = extra["given"]
+        print(f"given: eta = {g['eta']['value']:.4g} {g['eta']['unit']}, surface {g['surface']}")
     print(f"{res.walkers} walkers x {res.steps} steps (burn-in {res.burn}); "
           f"acceptance {res.acceptance:.2f}")
     for w in res.warnings:
         print("warning: " + w)
     if args.json:
-        out = {"model": "empirical", "parameters": {
-            n: dict(s, unit=UNITS[n], **({"truth": truth[n]} if truth else {}))
+        out = {"model": args.model, "parameters": {
+            n: dict(s, unit=units[n], **({"truth": truth[n]} if truth else {}))
             for n, s in summary.items()},
             "prior": res.prior, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
             "acceptance": res.acceptance, "warnings": res.warnings,
-            "records": [f.name for f in features],
+            "records": [f.name for f in fit.features],
             # the draws, in the layout of fitting.design.posterior.load_samples
             "names": list(res.names), "samples": thinned_draws(res.samples, args.draws).tolist(),
             "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
+        if extra:
+            out.update(extra)
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(out, fh, indent=2)
         print(f"wrote {args.json}")

@@ -1,0 +1,68 @@
+"""Cluster-robust (sandwich) covariance of fitting.uncertainty against independent references:
+the textbook heteroscedasticity-consistent formula written here, and the exact covariance of
+least squares with clustered and neighbour-correlated errors (Monte Carlo)."""
+
+import numpy as np
+import pytest
+
+from fitting.uncertainty import sandwich_covariance
+
+
+def test_singleton_clusters_reduce_to_the_hc_formula():
+    rng = np.random.default_rng(0)
+    J, r = rng.normal(size=(40, 3)), rng.normal(size=40)
+    rec, cyc = np.zeros(40, int), np.arange(40)
+    rec[-5:] = -1  # padding: left out
+    keep = rec >= 0
+    Jk, rk = J[keep], r[keep]
+    meat = sum(np.outer(j, j) * e * e for j, e in zip(Jk, rk)) * 35 / 34
+    Hinv = np.linalg.inv(J.T @ J)  # padding rows still count in H: they are zero in a fit
+    ref = Hinv @ meat @ Hinv
+    np.testing.assert_allclose(sandwich_covariance(J, r, rec, cyc, lag=0), ref, rtol=1e-10)
+
+
+def _clustered_design(rng, records=2, cycles=30, per=8):
+    n = records * cycles * per
+    rec = np.repeat(np.arange(records), cycles * per)
+    cyc = np.tile(np.repeat(np.arange(cycles), per), records)
+    # regressors that are partly constant within a cluster: the case where the naive
+    # covariance is most wrong
+    X = np.column_stack([np.ones(n), rng.normal(size=records * cycles)[rec * cycles + cyc]
+                         + 0.3 * rng.normal(size=n), rng.normal(size=n)])
+    return X, rec, cyc
+
+
+@pytest.mark.parametrize("neighbours", [False, True])
+def test_sandwich_recovers_the_covariance_of_least_squares(neighbours):
+    """Errors: a shared term per cluster (and, with `neighbours`, a term shared by clusters
+    c and c+1 of a record); lag=1 must recover the true covariance, lag=0 only without it."""
+    rng = np.random.default_rng(1)
+    X, rec, cyc = _clustered_design(rng)
+    n, p = X.shape
+    G = rec.max() + 1, cyc.max() + 1
+    A = np.zeros((n, G[0] * (G[1] + 1)))  # error = A @ z + 0.5 e, z standard normal
+    A[np.arange(n), rec * (G[1] + 1) + cyc] = 1.0
+    if neighbours:
+        A[np.arange(n), rec * (G[1] + 1) + cyc + 1] += 1.0
+    Sigma = A @ A.T + 0.25 * np.eye(n)
+    Hinv = np.linalg.inv(X.T @ X)
+    exact = Hinv @ X.T @ Sigma @ X @ Hinv
+    naive = Hinv * np.trace(Sigma) / n
+    est = {0: [], 1: []}
+    for _ in range(300):
+        err = A @ rng.normal(size=A.shape[1]) + 0.5 * rng.normal(size=n)
+        b = Hinv @ X.T @ err
+        r = err - X @ b  # residuals at the least-squares optimum (J = X up to sign)
+        for lag in (0, 1):
+            est[lag].append(np.diag(sandwich_covariance(-X, r, rec, cyc, lag=lag)))
+    ratio = {lag: np.mean(est[lag], axis=0) / np.diag(exact) for lag in (0, 1)}
+    # lag 1 is right in both cases, up to the downward bias of any cluster-robust estimate
+    # (the residuals are shrunk by the fit; measured 0.83-0.93 here with 60 clusters)
+    assert np.all((ratio[1] > 0.75) & (ratio[1] < 1.15)), ratio
+    if neighbours:
+        # ignoring the neighbours: the intercept (a regressor alike in neighbouring clusters,
+        # as the friction parameters are in neighbouring cycles) comes out far too narrow
+        assert ratio[0][0] < 0.7, ratio
+    else:
+        assert np.all(np.abs(ratio[0] - 1) < 0.15), ratio
+    assert np.diag(naive)[1] < 0.5 * np.diag(exact)[1]  # the case matters: F^-1 is far off
