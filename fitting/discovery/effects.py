@@ -23,7 +23,11 @@ effects that act on what the gauge reads (low-pass, gauge drift, and the drive e
 which changes the true spring deflection to $x + e(u)$).
 
 Each effect also has `SCALES`: a typical detectable size of each parameter, used to
-make the fitted coordinates O(1) (the fit works with `value / scale`).
+make the fitted coordinates O(1) (the fit works with `value / scale`), and `SIGNS`:
++1 where physics requires the parameter to be >= 0 (a passive damper dissipates,
+c >= 0; a recording chain is causal, time constant >= 0; rate-and-state friction is
+highest at breakaway and decays, b >= 0), 0 where either sign is physical. A fitted
+value of the wrong sign is never named (`selection`).
 """
 
 from __future__ import annotations
@@ -73,9 +77,18 @@ class _Effect:
     PARAMS: ClassVar[tuple[str, ...]]
     UNITS: ClassVar[tuple[str, ...]]
     SCALES: ClassVar[tuple[float, ...]]
+    SIGNS: ClassVar[tuple[int, ...]]
 
     def values(self) -> dict[str, float]:
         return {p: float(getattr(self, p)) for p in self.PARAMS}
+
+    @classmethod
+    def unphysical(cls, values: dict[str, float]) -> str | None:
+        """Why `values` ({param: natural value}) break a sign that physics requires, or
+        None when they are physical."""
+        bad = [f"{p} = {values[p]:.3g} < 0" for p, s in zip(cls.PARAMS, cls.SIGNS)
+               if s > 0 and values[p] < 0]
+        return "; ".join(bad) or None
 
 
 class ViscousDamping(AbstractForceTerm, _Effect):
@@ -88,6 +101,7 @@ class ViscousDamping(AbstractForceTerm, _Effect):
     PARAMS: ClassVar[tuple[str, ...]] = ("c",)
     UNITS: ClassVar[tuple[str, ...]] = ("kgf*s/mm",)
     SCALES: ClassVar[tuple[float, ...]] = (0.05,)
+    SIGNS: ClassVar[tuple[int, ...]] = (1,)
 
     c: Scalar = eqx.field(converter=_f, default=0.0)
 
@@ -109,6 +123,7 @@ class Stribeck(AbstractForceTerm, _Effect):
     PARAMS: ClassVar[tuple[str, ...]] = ("b",)
     UNITS: ClassVar[tuple[str, ...]] = ("-",)
     SCALES: ClassVar[tuple[float, ...]] = (0.01,)
+    SIGNS: ClassVar[tuple[int, ...]] = (0,)
 
     b: Scalar = eqx.field(converter=_f, default=0.0)
     v_s: float = eqx.field(static=True, default=1.0)
@@ -134,6 +149,7 @@ class DrivePeriodicError(AbstractForceTerm, _Effect):
     PARAMS: ClassVar[tuple[str, ...]] = ("a_sin", "a_cos")
     UNITS: ClassVar[tuple[str, ...]] = ("mm", "mm")
     SCALES: ClassVar[tuple[float, ...]] = (1e-3, 1e-3)
+    SIGNS: ClassVar[tuple[int, ...]] = (0, 0)
 
     a_sin: Scalar = eqx.field(converter=_f, default=0.0)
     a_cos: Scalar = eqx.field(converter=_f, default=0.0)
@@ -158,10 +174,14 @@ class SensorLowpass(AbstractMeasurement, _Effect):
     r"""First-order low-pass recording chain: reads $z$ with $\tau\dot z = x - z$.
 
     State $e = x - z$ (mm): $\dot e = \dot x - e/\tau_{eff}$, reading $x - e$.
-    $\tau_{eff} = \tau_{min} + \tfrac12(\tau + \sqrt{\tau^2 + \tau_{min}^2})$ (s) is a smooth,
-    positive version of the fitted `time_constant` $\tau$ (so a negative trial value
-    cannot make the filter unstable); $\tau_{min}$ = 10 us is far below any sample
-    interval, so $\tau = 0$ reads $x$ to within $10^{-5}\,\dot x$.
+    $\tau_{eff} = \tau_{min} + \tau$ for $\tau \ge 0$ and
+    $\tau_{min}/(1 - \tau/\tau_{min})$ for $\tau < 0$ (s): positive, so a negative
+    trial value of the fitted `time_constant` $\tau$ cannot make the filter unstable,
+    with value and slope continuous at 0 (slope 1), so the Jacobian at $\tau = 0$ (score
+    test, first refit step) is the physical one-sided slope. (A symmetric smooth floor,
+    $\tfrac12(\tau + \sqrt{\tau^2 + \tau_{min}^2})$, has slope 1/2 at 0: it halved that
+    Jacobian and doubled the predicted step.) $\tau_{min}$ = 10 us is far below any
+    sample interval, so $\tau = 0$ reads $x$ to within $10^{-5}\,\dot x$.
     """
 
     NAME: ClassVar[str] = "sensor_lowpass"
@@ -171,6 +191,7 @@ class SensorLowpass(AbstractMeasurement, _Effect):
     PARAMS: ClassVar[tuple[str, ...]] = ("time_constant",)
     UNITS: ClassVar[tuple[str, ...]] = ("s",)
     SCALES: ClassVar[tuple[float, ...]] = (5e-4,)
+    SIGNS: ClassVar[tuple[int, ...]] = (1,)
     TAU_MIN: ClassVar[float] = 1e-5
     num_states: ClassVar[int] = 1
 
@@ -179,7 +200,8 @@ class SensorLowpass(AbstractMeasurement, _Effect):
 
     def effective_time_constant(self):
         tau, tmin = self.time_constant, self.TAU_MIN
-        return tmin + 0.5 * (tau + jnp.sqrt(tau * tau + tmin * tmin))
+        neg = jnp.minimum(tau, 0.0)  # the safe branch: no 1/0 where tau >= tmin
+        return jnp.where(tau >= 0.0, tmin + tau, tmin / (1.0 - neg / tmin))
 
     def init_state(self, ctx):
         # the filter lags a steady ramp at drive speed by tau * v
@@ -210,6 +232,7 @@ class FrictionDrift(AbstractForceTerm, _Effect):
     PARAMS: ClassVar[tuple[str, ...]] = ("rate",)
     UNITS: ClassVar[tuple[str, ...]] = ("1/s",)
     SCALES: ClassVar[tuple[float, ...]] = (2e-3,)
+    SIGNS: ClassVar[tuple[int, ...]] = (0,)
 
     rate: Scalar = eqx.field(converter=_f, default=0.0)
 
@@ -227,6 +250,7 @@ class GaugeDrift(AbstractMeasurement, _Effect):
     PARAMS: ClassVar[tuple[str, ...]] = ("rate",)
     UNITS: ClassVar[tuple[str, ...]] = ("mm/s",)
     SCALES: ClassVar[tuple[float, ...]] = (1e-3,)
+    SIGNS: ClassVar[tuple[int, ...]] = (0,)
 
     rate: Scalar = eqx.field(converter=_f, default=0.0)
     noise_std: Scalar = eqx.field(converter=_f, default=0.0)
@@ -249,6 +273,7 @@ class LoadCoupling(AbstractLoadCoupling, _Effect):
     PARAMS: ClassVar[tuple[str, ...]] = ("kappa",)
     UNITS: ClassVar[tuple[str, ...]] = ("-",)
     SCALES: ClassVar[tuple[float, ...]] = (0.1,)
+    SIGNS: ClassVar[tuple[int, ...]] = (0,)
 
     kappa: Scalar = eqx.field(converter=_f, default=0.0)
 
@@ -272,6 +297,7 @@ class RateState(AbstractForceTerm, _Effect):
     PARAMS: ClassVar[tuple[str, ...]] = ("b",)
     UNITS: ClassVar[tuple[str, ...]] = ("-",)
     SCALES: ClassVar[tuple[float, ...]] = (0.01,)
+    SIGNS: ClassVar[tuple[int, ...]] = (1,)
     num_states: ClassVar[int] = 1
 
     b: Scalar = eqx.field(converter=_f, default=0.0)

@@ -67,7 +67,9 @@ class Settings:
     (forward mode through the solver) within a few % of central finite differences;
     at 1e-4 the traces are still right (0.003 um RMS against 1e-8) but the derivative
     of the discretised solution is not. `max_steps` per record,
-    `solver` one of kvaerno3/4/5.
+    `solver` one of kvaerno3/4/5. `formulation` is the smoothed simulator's
+    formulation, pinned here (not left to `simulate_smooth`'s default) so that the
+    discovery results cannot change when that default does.
     """
 
     smoothing: float = 1e-2
@@ -75,6 +77,7 @@ class Settings:
     atol: float = 1e-8
     max_steps: int = 8192
     solver: str = "kvaerno5"
+    formulation: str = "rigid_stick"
 
     def make_solver(self):
         """The implicit diffrax solver named by `solver` (full Newton stages)."""
@@ -197,7 +200,8 @@ def simulate_record(friction, effects: EffectSet, weight, stiffness, speed, x0, 
     tr = simulate_smooth(model, ConstantSpeed(speed), ts, smoothing=settings.smoothing,
                          rtol=settings.rtol, atol=settings.atol, max_steps=settings.max_steps,
                          initial_deflection=x0, mask=mask, solver=settings.make_solver(),
-                         adjoint=dfx.ForwardMode() if adjoint is None else adjoint)
+                         adjoint=dfx.ForwardMode() if adjoint is None else adjoint,
+                         formulation=settings.formulation)
     ok = tr.result == ss.simulation.SimulationResult.successful
     if full:
         return tr.deflection, ok, tr.slider_velocity, tr.sticking
@@ -221,7 +225,8 @@ def simulate_campaign(params: DiscoveryParams, traces: CampaignTraces, settings:
         tr = simulate_smooth(model, ConstantSpeed(v), t, smoothing=settings.smoothing,
                              rtol=settings.rtol, atol=settings.atol,
                              max_steps=settings.max_steps, initial_deflection=x0, mask=m,
-                             solver=settings.make_solver())
+                             solver=settings.make_solver(),
+                             formulation=settings.formulation)
         ok = tr.result == ss.simulation.SimulationResult.successful
         return tr.deflection, ok, tr.slider_velocity, tr.sticking
 

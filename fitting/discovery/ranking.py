@@ -15,6 +15,12 @@ the candidate is absent. It equals the drop of $-2\log L$ that one Gauss-Newton 
 in the candidate's direction would give, so it predicts the refit's gain; the step
 itself is the predicted size of the effect. One Jacobian evaluation per candidate,
 all with the same compiled function (`model.Problem`).
+
+**Physical signs.** For an effect whose parameter physics requires to be >= 0
+(`SIGNS` in effects.py), a predicted step of the wrong sign is no evidence for it: the
+likelihood's maximum over the physical half-line is at zero (the one-sided score test),
+so such a candidate is ranked with statistic 0 (`rank_statistic`; `unphysical` says
+why) and gets no refit slot; its two-sided `statistic` is still reported.
 """
 
 from __future__ import annotations
@@ -32,7 +38,9 @@ __all__ = ["CandidateScore", "direction_cosine", "efficient_score", "score_candi
 
 @dataclasses.dataclass
 class CandidateScore:
-    """name, statistic S, dof, p_value (chi-square), predicted size {param: natural value}."""
+    """name, statistic S, dof, p_value (chi-square), predicted size {param: natural value},
+    the efficient-score direction and `unphysical` (None, or why the predicted size breaks
+    a sign that physics requires)."""
 
     name: str
     statistic: float
@@ -40,6 +48,12 @@ class CandidateScore:
     p_value: float
     predicted: dict
     direction: np.ndarray | None = None  # efficient-score direction J_c^perp [N, dof]
+    unphysical: str | None = None  # why the predicted size breaks a required sign
+
+    @property
+    def rank_statistic(self) -> float:
+        """The statistic used for ranking: 0 when the predicted size is unphysical."""
+        return 0.0 if self.unphysical else self.statistic
 
 
 def direction_cosine(a: CandidateScore, b: CandidateScore) -> float:
@@ -67,7 +81,8 @@ def efficient_score(r, J, base_cols, cand_cols):
 
 def score_candidates(base_problem: Problem, base_z: np.ndarray, base_rss: float,
                      candidates=CANDIDATES) -> list[CandidateScore]:
-    """Score test of every candidate at the base fit `base_z` (sorted, largest first)."""
+    """Score test of every candidate at the base fit `base_z`, sorted by
+    `rank_statistic` (largest first; unphysical directions last)."""
     out = []
     for name in candidates:
         pc = dataclasses.replace(base_problem, effect=name)
@@ -82,5 +97,5 @@ def score_candidates(base_problem: Problem, base_z: np.ndarray, base_rss: float,
         part = getattr(EffectSet(), name)
         pred = {p: float(step[j] * part.SCALES[j]) for j, p in enumerate(part.PARAMS)}
         out.append(CandidateScore(name, stat, len(cand), float(scipy.stats.chi2.sf(stat, len(cand))),
-                                  pred, Jp))
-    return sorted(out, key=lambda c: -c.statistic)
+                                  pred, Jp, type(part).unphysical(pred)))
+    return sorted(out, key=lambda c: (-c.rank_statistic, -c.statistic))

@@ -15,6 +15,12 @@ answer is "none". Naming an effect that is not there is the worst failure, so th
 threshold (default 10, i.e. $\Lambda > 18.6$ for one parameter on 5000 samples) was
 chosen on campaigns with no hidden effect (tests; README).
 
+A refit whose fitted value breaks a sign that physics requires (`SIGNS` in
+effects.py: c >= 0 for viscous damping, ...) is not a physical explanation: the
+constrained maximum of the likelihood is then on the boundary, the effect at zero, i.e.
+the base model, so its $\Lambda$ is set to 0 and $\Delta\mathrm{BIC}$ to $d\ln N$
+(it cannot be named; `unphysical` says why).
+
 Confidence is "high" when the named effect also leaves residuals that pass the
 misspecification test (p >= `p_explained`), beats the runner-up by at least `margin`
 in BIC, and was also first in the score-test ranking; otherwise "low".
@@ -37,7 +43,8 @@ __all__ = ["Refit", "refit_candidates", "choose"]
 
 @dataclasses.dataclass
 class Refit:
-    """A candidate refitted: name, problem, fit (LMResult), delta_bic, lr, lr_p_value."""
+    """A candidate refitted: name, problem, fit (LMResult), delta_bic, lr, lr_p_value,
+    dof, and `unphysical` (None, or why the fitted size breaks a required sign)."""
 
     name: str
     problem: Problem
@@ -46,23 +53,31 @@ class Refit:
     lr: float
     lr_p_value: float
     dof: int
+    unphysical: str | None = None
 
 
 def refit_candidates(base_problem: Problem, base_fit: LMResult, scores: list[CandidateScore],
                      *, top: int = 3, max_evals: int = 12) -> list[Refit]:
-    """Refit the `top` candidates by score; sorted by delta BIC (best first)."""
+    """Refit the `top` candidates by score (those whose predicted size is physical);
+    sorted by delta BIC (best first)."""
+    from .effects import EffectSet
+
     N = base_fit.n_data
     out = []
-    for sc in scores[:top]:
+    for sc in [s for s in scores if not s.unphysical][:top]:
         pc = dataclasses.replace(base_problem, effect=sc.name)
         # start at the base optimum (effect zero): the first damped step is the score
         # test's Gauss-Newton step
         fit = levenberg_marquardt(pc, base_fit.z, max_evals=max_evals)
         rss0, rss = base_fit.rss, min(fit.rss, base_fit.rss)
-        lr = N * math.log(rss0 / rss)
+        part = getattr(EffectSet(), sc.name)
+        fitted = {p: float(fit.z[pc.n_base + j] * part.SCALES[j])
+                  for j, p in enumerate(part.PARAMS)}
+        bad = type(part).unphysical(fitted)
+        lr = 0.0 if bad else N * math.log(rss0 / rss)
         dbic = -lr + sc.dof * math.log(N)
         out.append(Refit(sc.name, pc, fit, dbic, lr, float(scipy.stats.chi2.sf(lr, sc.dof)),
-                         sc.dof))
+                         sc.dof, bad))
     return sorted(out, key=lambda c: c.delta_bic)
 
 

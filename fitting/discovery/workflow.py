@@ -221,11 +221,17 @@ def discover(
         # polish the chosen model (the ranking refits are short)
         more = levenberg_marquardt(chosen.problem, chosen.fit.z, max_evals=max_evals,
                                    first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok))
-        lr = N * math.log(base_fit.rss / min(more.rss, base_fit.rss))
-        chosen = dataclasses.replace(chosen, fit=more, lr=lr,
+        part = getattr(effects, chosen.name)
+        bad = type(part).unphysical(
+            {p: float(more.z[chosen.problem.n_base + j] * part.SCALES[j])
+             for j, p in enumerate(part.PARAMS)})
+        lr = 0.0 if bad else N * math.log(base_fit.rss / min(more.rss, base_fit.rss))
+        chosen = dataclasses.replace(chosen, fit=more, lr=lr, unphysical=bad,
                                      delta_bic=-lr + chosen.dof * math.log(N))
         refits = sorted([chosen] + [r for r in refits if r.name != chosen.name],
                         key=lambda c: c.delta_bic)
+        if bad:  # the polish crossed into an unphysical sign: not an explanation
+            chosen = choose(refits, threshold=threshold)
     timings["refit"] = time.perf_counter() - t
 
     by_name = {r.name: r for r in refits}
@@ -237,6 +243,7 @@ def discover(
             "dof": sc.dof, "predicted_size": sc.predicted,
             "delta_criterion": rf.delta_bic if rf else None,
             "lr_p_value": rf.lr_p_value if rf else None,
+            "unphysical": (rf.unphysical if rf else None) or sc.unphysical,
             "explanation": getattr(effects, sc.name).EXPLANATION,
         })
 
