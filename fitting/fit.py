@@ -8,9 +8,14 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
 - Parameters: `fitting.params.CampaignParams` (friction in unconstrained coordinates,
   one gauge offset per record); the free leaves are chosen with `eqx.partition`
   (`free_spec(fixed=..., offsets=...)`).
-- Solver: `optimistix.least_squares` with `LevenbergMarquardt`, the whole multi-start
-  run (a `vmap` over starting points) inside one `eqx.filter_jit`, so a campaign
-  compiles once.
+- Solver: `optimistix.least_squares` with Levenberg-Marquardt (optimistix's damped
+  Newton descent and trust region, `_LevenbergMarquardt`), the whole multi-start run (a
+  `lax.map` over starting points) inside one `eqx.filter_jit`, so a campaign compiles
+  once. The Jacobian is built once per step by forward mode (`_jacobian_once`) and the
+  damped steps come from the small normal equations.
+- Weights: the effective-variance standard errors depend on the parameters; each
+  Levenberg-Marquardt run holds them fixed (exact Jacobian, quadratic convergence) and
+  a few reweighting rounds reach the estimate (`_solve_rounds`).
 - Starts ("features first"): mu_d and mu_s from the measured per-cycle $\mu_m$ and
   $\mu_0$, and a grid over gamma, m and delta (n = 1, the paper's value), so that a poor
   guess does not end in a local minimum; the best converged start wins.
@@ -23,18 +28,21 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import math
+from collections.abc import Callable
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import lineax as lx
 import numpy as np
 import optimistix as optx
 import jax.flatten_util  # noqa: F401
 
 from .combined import CampaignObjective
 from .features import RecordFeatures, record_features
-from .objectives import FeatureData, feature_data
-from .trace_objective import trace_data, window_failures
+from .objectives import FeatureData, feature_data, feature_residuals
+from .trace_objective import failed_windows, trace_data, trace_residuals_and_flags
 from .params import NAMES, CampaignParams, EmpiricalFriction, free_spec, names_of
 
 __all__ = ["FitResult", "fit_features", "fit_records", "initial_guesses"]
@@ -48,7 +56,8 @@ class FitResult:
     - `data`: the `FeatureData` fitted; `features`: the per-record `RecordFeatures`.
     - `chi2`: sum of squared whitened residuals at the optimum; `dof`: residuals with
       data minus free parameters; `result`: optimistix result of the best start;
-      `converged`: that result is successful; `n_starts`, `n_steps`.
+      `converged`: that result is successful; `n_starts`, `n_steps` (Levenberg-Marquardt
+      steps of the best start, all reweighting rounds); `n_rounds` (reweighting rounds).
     - `slip_time`: the $T_2$ mode of eq (3) used.
     - `objective`: the `fitting.combined.CampaignObjective` minimised (features, trace
       or both); `trace_failures`: windows of the trace objective whose simulation did not
@@ -69,6 +78,7 @@ class FitResult:
     start_chi2: np.ndarray
     objective: CampaignObjective | None = None
     trace_failures: int = 0
+    n_rounds: int = 1
 
     @property
     def values(self) -> dict[str, float]:
@@ -109,26 +119,201 @@ def initial_guesses(features: list[RecordFeatures], offsets=None) -> list[Empiri
     return starts
 
 
+class _TrustRegion(optx.ClassicalTrustRegion):
+    """The classical trust-region update of Levenberg-Marquardt, except that a step whose
+    change of the loss is within rounding (`ROUNDING` of the loss) is accepted (and the
+    step size kept): at the optimum the predicted reductions fall below the rounding of a
+    sum over up to a million squared residuals, and the classical rule would reject steps
+    on the sign of rounding noise, shrinking the step size some twenty times before the
+    step vanishes."""
+
+    def step(self, first_step, y, y_eval, f_info, f_eval_info, state):
+        step_size, accept, result, new_state = super().step(
+            first_step, y, y_eval, f_info, f_eval_info, state)
+        flat = _flat(f_info.as_min(), f_eval_info.as_min()) & ~accept
+        new_state = eqx.tree_at(lambda s: s.step_size, new_state,
+                                jnp.where(flat, state.step_size, new_state.step_size))
+        return jnp.where(flat, state.step_size, step_size), accept | flat, result, new_state
+
+
+ROUNDING = 1e-10
+"""Relative change of the loss treated as no change (rounding of the sums of squares)."""
+
+
+def _flat(loss, loss_new):
+    return jnp.abs(loss_new - loss) <= ROUNDING * jnp.abs(loss)
+
+
+class _LevenbergMarquardt(optx.AbstractGaussNewton):
+    """`optimistix.LevenbergMarquardt` (the same damped Newton descent) with `_TrustRegion`,
+    which also ends the solve when the loss no longer changes beyond rounding."""
+
+    rtol: float
+    atol: float
+    norm: Callable
+    descent: optx.DampedNewtonDescent
+    search: _TrustRegion
+    verbose: Callable
+
+    def __init__(self, rtol, atol, norm, linear_solver):
+        self.rtol, self.atol, self.norm = rtol, atol, norm
+        self.descent = optx.DampedNewtonDescent(linear_solver=linear_solver)
+        self.search = _TrustRegion()
+        self.verbose = _quiet
+
+    def step(self, fn, y, args, options, state, tags):
+        # Also stop (successfully) once an accepted step changes the loss only within
+        # rounding: no further progress can be told from rounding noise. (Reads the
+        # Gauss-Newton state of optimistix 0.1: f_info, first_step, terminate.)
+        y_new, new_state, aux = super().step(fn, y, args, options, state, tags)
+        moved = new_state.num_accepted_steps > state.num_accepted_steps
+        flat = moved & ~state.first_step & _flat(state.f_info.as_min(), new_state.f_info.as_min())
+        return y_new, eqx.tree_at(lambda s: s.terminate, new_state, new_state.terminate | flat), aux
+
+
+def _quiet(**kwargs):
+    del kwargs
+
+
+_LINEAR_SOLVER = lx.Normal(lx.SVD())
+"""Damped Gauss-Newton steps from the normal equations (J^T J + lambda I, a small
+symmetric matrix; SVD, so a rank-deficient campaign gives the minimum-norm step).
+Householder QR of the tall Jacobian of a trace fit (hundreds of thousands of rows)
+cost about five times more per step."""
+
+
 def _stack(trees):
     return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *trees)
 
 
+def _residuals_and_aux(objective: CampaignObjective, params, ref, velocity):
+    """`objective.residuals(params)` with the effective-variance weights frozen at the
+    reference parameters `ref` (and, for the trace, the slider velocity `velocity`), plus
+    aux: the trace simulations' success flags (one per row; a single True for the
+    features objective) and their slider velocity at `params` (None for features)."""
+    wf, wt, slip = objective.weight_features, objective.weight_trace, objective.slip_time
+    if objective.kind == "features":
+        r = feature_residuals(params, objective.features, slip, weights_at=ref)
+        return r, (jnp.ones((1,), bool), None)
+    rt, ok, vel = trace_residuals_and_flags(params, objective.trace, slip, weights_at=ref,
+                                            slider_velocity=velocity)
+    if objective.kind == "trace":
+        return rt, (ok, vel)
+    rf = feature_residuals(params, objective.features, slip, weights_at=ref)
+    return jnp.concatenate([math.sqrt(wf) * rf, math.sqrt(wt) * rt]), (ok, vel)
+
+
+def _zero_tangent(x):
+    if jnp.issubdtype(x.dtype, jnp.inexact):
+        return jnp.zeros_like(x)
+    return np.zeros(x.shape, jax.dtypes.float0)
+
+
+def _jacobian_once(fun):
+    """`fun(v) -> (r, aux)` with a JVP rule that builds the Jacobian dr/dv once by forward
+    mode (one pass, a tangent per parameter) and returns `J @ dv` (aux: no derivative).
+
+    Optimistix linearises the residuals every step and applies the linear map (to form J
+    for its linear solve) and its transpose (gradient for the trust region): through the
+    simulator that means a tangent program and a transposed one, each compiled. With J
+    built here both are matrix products, and the compiled program holds the simulator
+    once, with its forward derivative."""
+
+    @jax.custom_jvp
+    def f(v):
+        return fun(v)
+
+    @f.defjvp
+    def f_jvp(primals, tangents):
+        (v,), (dv,) = primals, tangents
+
+        def push(t):
+            return jax.jvp(fun, (v,), (t,), has_aux=True)
+
+        r, jt, aux = jax.vmap(push, out_axes=(None, -1, None))(jnp.eye(v.size, dtype=v.dtype))
+        return (r, aux), (jt @ dv, jax.tree_util.tree_map(_zero_tangent, aux))
+
+    return f
+
+
 @eqx.filter_jit
-def _solve_starts(free_starts, static, objective, rtol, atol, max_steps):
-    def residuals(free, args):
-        static, objective = args
-        return objective.residuals(eqx.combine(free, static))
+def _solve_starts(free_starts, ref_starts, velocity, static, objective, rtol, atol, max_steps,
+                  norm, linear_solver):
+    """Levenberg-Marquardt from every start (leading axis of `free_starts`), each with the
+    weights frozen at its reference (`ref_starts`, `velocity`: same leading axis). One
+    compiled solve run start after start (`lax.map`: a `vmap` would turn the solver's loop
+    and branches into selects, about three times the compilation). Returns the optima,
+    their chi2, results, step counts, the trace simulations' success flags and slider
+    velocities at the optima."""
+    free0 = jax.tree_util.tree_map(lambda x: x[0], free_starts)
+    _, unravel = jax.flatten_util.ravel_pytree(free0)
+    flat_starts = jax.vmap(lambda f: jax.flatten_util.ravel_pytree(f)[0])(free_starts)
+    solver = _LevenbergMarquardt(rtol, atol, norm, linear_solver)
 
-    solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
+    def solve(args):
+        y0, ref_free, vel = args
+        ref = eqx.combine(ref_free, static)
 
-    def solve(y0):
-        sol = optx.least_squares(
-            residuals, solver, y0, args=(static, objective), max_steps=max_steps, throw=False
-        )
-        r = residuals(sol.value, (static, objective))
-        return sol.value, jnp.sum(r * r), sol.result, sol.stats["num_steps"]
+        def raw(v):
+            return _residuals_and_aux(objective, eqx.combine(unravel(v), static), ref, vel)
 
-    return jax.vmap(solve)(free_starts)
+        res = _jacobian_once(raw)
+
+        def residuals(v, _):
+            r, aux = res(v)
+            return r, (jnp.sum(r * r), aux)
+
+        sol = optx.least_squares(residuals, solver, y0, has_aux=True, max_steps=max_steps,
+                                 throw=False)
+        chi2, (ok, vel_opt) = sol.aux
+        return unravel(sol.value), chi2, sol.result, sol.stats["num_steps"], ok, vel_opt
+
+    return jax.lax.map(solve, (flat_starts, ref_starts, velocity))
+
+
+MAX_ROUNDS = 6
+"""Reweighting rounds at most (`_solve_rounds`)."""
+
+ROUND_TOL = 1e-6
+"""Rounds stop when the best start's optimum moves less than this (log parameters, mm)."""
+
+
+def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, linear_solver):
+    """Levenberg-Marquardt with effective-variance weights by iterative reweighting.
+
+    The standard errors of both objectives depend on the parameters (the timing errors
+    propagate through the slope of eq (1)). They are held fixed in the derivative, so the
+    estimate is the fixed point where the weights evaluated at the optimum give that same
+    optimum. Each round freezes the weights at the previous round's optimum (the first:
+    at the start, with the trace's slider velocity 0, i.e. every sample weighted as in a
+    stick) and runs Levenberg-Marquardt on that fixed least-squares problem, whose
+    Jacobian is then exact: it converges quadratically and its tolerances are reachable.
+    Two or three rounds reach the fixed point; all rounds reuse one compilation.
+    """
+    ref = free_starts
+    n_start = jax.tree_util.tree_leaves(free_starts)[0].shape[0]
+    if objective.kind == "features":
+        vel = None
+    else:
+        vel = jnp.zeros((n_start,) + objective.trace.mask.shape)
+    total = np.zeros(n_start, int)
+    for k in range(MAX_ROUNDS):
+        values, chi2s, results, steps, flags, vel_opt = _solve_starts(
+            free_starts, ref, vel, static, objective, rtol, atol, max_steps, norm,
+            linear_solver)
+        total += np.asarray(steps)
+        chi2s_np = np.asarray(chi2s)
+        ok = np.asarray(results == optx.RESULTS.successful)
+        score = np.where(np.isfinite(chi2s_np), chi2s_np, np.inf)
+        best = int(np.argmin(np.where(ok, score, score + 1e300)))
+        move = max(float(np.max(np.abs(np.asarray(a)[best] - np.asarray(b)[best])))
+                   for a, b in zip(jax.tree_util.tree_leaves(values),
+                                   jax.tree_util.tree_leaves(ref)))
+        free_starts = ref = values
+        vel = vel_opt
+        if k > 0 and move < ROUND_TOL:
+            break
+    return values, chi2s_np, results, total, flags, best, k + 1
 
 
 def fit_features(
@@ -176,9 +361,9 @@ def fit_features(
         obj = CampaignObjective(first.data, tdata, kind=objective,
                                 weight_features=float(weights[0]),
                                 weight_trace=float(weights[1]), slip_time=slip_time)
-        # the trace has kinks at the phase boundaries: LM converges linearly near the
-        # optimum, so its tolerances are not tighter than 1e-8 and its steps at most 100
-        # (convergence is then judged by the Gauss-Newton decrement, see _refine)
+        # hundreds of thousands of residuals: tolerances not tighter than 1e-8, measured
+        # as root mean squares (a step that moves the whitened residuals by 1e-8 RMS),
+        # steps at most 100 per round (see _refine for the fallback convergence test)
         return _refine(first, obj, max(rtol, 1e-8), max(atol, 1e-8), min(max_steps, 100))
     data = feature_data(features, offset_from_start=(offset == "start"), pad_cycles=pad_cycles)
     obj = CampaignObjective(data, None, kind="features", slip_time=slip_time)
@@ -191,13 +376,10 @@ def fit_features(
     spec = free_spec(params0[0], fixed=tuple(fixed), offsets=(offset == "start"))
     frees, statics = zip(*(eqx.partition(p, spec) for p in params0))
     free_stack = _stack(frees)
-    values, chi2s, results, steps = _solve_starts(
-        free_stack, statics[0], obj, rtol, atol, max_steps
+    values, chi2s, results, steps, _, best, rounds = _solve_rounds(
+        free_stack, statics[0], obj, rtol, atol, max_steps, optx.max_norm, _LINEAR_SOLVER
     )
-    chi2s = np.asarray(chi2s)
     ok = np.asarray(results == optx.RESULTS.successful)
-    score = np.where(np.isfinite(chi2s), chi2s, np.inf)
-    best = int(np.argmin(np.where(ok, score, score + 1e300)))
     free_best = jax.tree_util.tree_map(lambda x: x[best], values)
     params = eqx.combine(free_best, statics[0])
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free_best,
@@ -207,7 +389,7 @@ def fit_features(
         chi2=float(chi2s[best]), dof=data.n_residuals() - n_free,
         result=jax.tree_util.tree_map(lambda x: x[best], results), converged=bool(ok[best]), n_starts=len(starts),
         n_steps=int(np.asarray(steps)[best]), slip_time=slip_time, start_chi2=chi2s,
-        objective=obj,
+        objective=obj, n_rounds=rounds,
     )
 
 
@@ -228,19 +410,20 @@ def _gn_decrement(free, static, objective) -> float:
     return float(g @ np.linalg.pinv(F, rcond=1e-13, hermitian=True) @ g)
 
 
-def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps) -> FitResult:
-    """One Levenberg-Marquardt run of `obj` from the features fit's optimum."""
+def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps,
+            norm=optx.rms_norm) -> FitResult:
+    """Levenberg-Marquardt (with reweighting rounds) of `obj` from the features fit's optimum."""
     free, static = eqx.partition(first.params, first.spec)
-    values, chi2s, results, steps = _solve_starts(
-        _stack([free]), static, obj, rtol, atol, max_steps
+    values, chi2s, results, steps, flags, _, rounds = _solve_rounds(
+        _stack([free]), static, obj, rtol, atol, max_steps, norm, _LINEAR_SOLVER
     )
     free_opt = jax.tree_util.tree_map(lambda x: x[0], values)
     params = eqx.combine(free_opt, static)
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free, eqx.is_array)))
     result = jax.tree_util.tree_map(lambda x: x[0], results)
-    # At a minimum on a kink LM may keep rejecting steps without meeting its own
-    # tolerance; the fit has converged when the Gauss-Newton step would lower chi2 by
-    # less than 1e-3 (stationarity, measured in units of the noise).
+    # Should Levenberg-Marquardt stop without meeting its tolerances (step budget), the
+    # fit has still converged when the Gauss-Newton step would lower chi2 by less than
+    # 1e-3 (stationarity, measured in units of the noise).
     ok = bool(np.asarray(result == optx.RESULTS.successful)) or _gn_decrement(
         free_opt, static, obj) < 1e-3
     return dataclasses.replace(
@@ -248,7 +431,8 @@ def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps) -> 
         dof=int(round(obj.dof())) - n_free, result=result,
         converged=ok,
         n_steps=int(np.asarray(steps)[0]), start_chi2=np.asarray(chi2s), objective=obj,
-        trace_failures=window_failures(params, obj.trace, obj.slip_time),
+        n_rounds=rounds,
+        trace_failures=failed_windows(np.asarray(flags)[0], obj.trace),
     )
 
 

@@ -147,24 +147,34 @@ def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time):
 
 
 def feature_residuals(
-    params: CampaignParams, data: FeatureData, slip_time: str = "paper"
+    params: CampaignParams, data: FeatureData, slip_time: str = "paper",
+    weights_at: CampaignParams | None = None,
 ) -> Float[Array, " N"]:
     """Whitened residuals of the features objective (module doc); padded entries are 0.
 
     Shape: (2 R C + R,), fixed by the data, so one compilation serves every parameter
     value. `slip_time` selects the $T_2$ of eq (3): "paper" (eq 7) or "self_consistent".
+    `weights_at`: evaluate the effective-variance standard errors at these parameters
+    instead of at `params` (the fit freezes them for one Levenberg-Marquardt run, so that
+    its Jacobian is the exact derivative of what it minimises; see `fitting.fit`).
     """
     if slip_time not in SLIP_TIME_MODES:
         raise ValueError(f"slip_time must be one of {SLIP_TIME_MODES}, got {slip_time!r}")
-    friction = params.friction.friction()
+    ref = params if weights_at is None else weights_at
+    friction, friction_ref = params.friction.friction(), ref.friction.friction()
     scale = data.weight / data.stiffness
 
     def one(scale, offset, omega0, t1, t1n, t1sd, t1nsd, x1, x1sd, climb, he, hn):
-        def lv(t):
-            return _levels(friction, scale, offset, omega0, t, climb, slip_time)
+        def lv(fr, t):
+            return _levels(fr, scale, offset, omega0, t, climb, slip_time)
 
-        (l0, l1), (dl0, dl1) = jax.jvp(lambda t: lv(t), (t1,), (jnp.ones_like(t1),))
-        (l0n, l1n), (dl0n, _) = jax.jvp(lambda t: lv(t), (t1n,), (jnp.ones_like(t1n),))
+        def slope(t):  # d(L0, L1)/dT1 at the weights' parameters
+            return jax.jvp(lambda t: lv(friction_ref, t), (t,), (jnp.ones_like(t),))[1]
+
+        l0, l1 = lv(friction, t1)
+        l0n, l1n = lv(friction, t1n)
+        dl0, dl1 = slope(t1)
+        dl0n, _ = slope(t1n)
         pred_end = jnp.where(he, l1, 0.0)
         pred_next = jnp.where(hn, l0n - climb, 0.0)
         count = he.astype(float) + hn.astype(float)

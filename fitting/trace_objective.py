@@ -21,9 +21,16 @@ $t_{e,j-1}$): breakaway is where the stick line $k(x_1 + v T_1)$ meets $W\mu_0(T
 $\sigma_B^2 = [(k\,\mathrm{sd}\,x_1)^2 + (W\mu_0'\,\mathrm{sd}\,t_e)^2] / (k v - W\mu_0')^2$, large
 at slow speeds where the two cross at a shallow angle ("effective variance" weights,
 held fixed in the derivative like those of the features objective). So the sum of
-squares is about $-2\log$ likelihood. All windows of a campaign are padded to one length (a multiple of
-256 samples) and their number to a multiple of 8, and simulated in one `vmap`, so a
-campaign compiles once. Units: mm, s, kgf, kgf/mm, mm/s.
+squares is about $-2\log$ likelihood.
+
+Layout: the stick times of a campaign differ by orders of magnitude (a slow record's
+cycle holds tens of thousands of samples, a fast one's a hundred), so padding every
+window to the longest would simulate mostly padding. Each window is instead cut into
+rows of `CHUNK` samples; every row is simulated from its window's start (the events of
+a cycle are a few scalars, cheap to repeat) and rendered on its own samples only. The
+rows (their number rounded up to a multiple of 8) run in one `vmap`, so a campaign
+compiles once and the padding is at most one partial row per window.
+Units: mm, s, kgf, kgf/mm, mm/s.
 
 Only constant drive speeds (`drive_speed` records) are supported here; records with a
 drive program or a measured drive column are refused with a ValueError.
@@ -44,16 +51,19 @@ from stickslip_jax.simulation import SimulationResult, simulate_exact
 from .features import RecordFeatures
 from .params import CampaignParams
 
-__all__ = ["TraceData", "trace_data", "trace_residuals", "trace_simulation", "window_failures"]
+__all__ = ["CHUNK", "TraceData", "failed_windows", "trace_data", "trace_residuals",
+           "trace_residuals_and_flags", "trace_sd", "trace_simulation", "window_failures"]
 
 MAX_EVENTS = 6
 """Stick and slip phases simulated per window (stick, slip, and room for an early extra cycle)."""
 
 
 class TraceData(eqx.Module):
-    """Cycle windows of a campaign, padded to [N windows, L samples] (mm, s).
+    """Cycle windows of a campaign cut into rows of L samples, padded to [N rows, L] (mm, s).
 
-    Per window: `record` (index of its record: gauge offset), `weight` W (kgf),
+    Per row: `record` (index of its record: gauge offset), `window` (index of its cycle
+    window; a long window spans several rows, each simulated from the window's start),
+    `weight` W (kgf),
     `stiffness` k (kgf/mm), `speed` v (mm/s), `start_time` (s, the measured end of the
     previous slip), `start_level` (mm, the measured slip-end deflection there, offset
     included), `start_level_sd` (mm) and `start_time_sd` (s) their standard errors,
@@ -72,6 +82,7 @@ class TraceData(eqx.Module):
     start_time_sd: Float[Array, " N"]
     stick_time: Float[Array, " N"]
     sigma: Float[Array, " N"]
+    window: Int[Array, " N"]
     time: Float[Array, "N L"]
     deflection: Float[Array, "N L"]
     mask: Bool[Array, "N L"]
@@ -81,18 +92,29 @@ class TraceData(eqx.Module):
         return int(np.asarray(self.mask).sum())
 
 
+CHUNK = 512
+"""Samples per row of `TraceData`: every cycle window is cut into rows of this length."""
+
+
 def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
-               pad_windows: int = 0) -> TraceData:
-    """Cut every record into its complete cycles (module doc) and pad them into a `TraceData`.
+               pad_windows: int = 0, chunk: int = CHUNK) -> TraceData:
+    """Cut every record into its complete cycles (module doc), the cycles into rows of
+    `chunk` samples, and pad them into a `TraceData`.
 
     `records`: `stickslip_jax.records.Record`s with constant drive speeds; `features`:
-    their `RecordFeatures` (same order). `pad_length`, `pad_windows`: pad to at least
-    these sizes (campaigns of other sizes reuse the compilation). Raises ValueError for
-    a record without stick-slip or without a constant drive speed.
+    their `RecordFeatures` (same order). `chunk` (multiple of 256 after rounding up):
+    samples per row; a cycle window of n samples fills ceil(n / chunk) rows, each
+    simulated from the window's own start, so short and long cycles waste little
+    padding. `pad_length`: rows at least this long; `pad_windows`: at least this many
+    rows (campaigns of other sizes reuse the compilation). Raises ValueError for a
+    record without stick-slip or without a constant drive speed.
     """
     if len(records) != len(features):
         raise ValueError("trace_data: give one RecordFeatures per record")
+    L = max(int(chunk), int(pad_length), 1)
+    L = -(-L // 256) * 256
     rows = []
+    n_windows = 0
     for r, (rec, f) in enumerate(zip(records, features)):
         if not f.stick_slip:
             raise ValueError(f"{f.name}: no usable stick-slip ({f.message})")
@@ -107,29 +129,31 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
             if not f.complete[j]:
                 continue
             t_s, t_stop = float(f.end_time[j - 1]), float(f.end_time[j])
-            sel = (t >= t_s) & (t < t_stop)
-            if np.count_nonzero(sel) < 2:
+            sel = np.flatnonzero((t >= t_s) & (t < t_stop))
+            if sel.size < 2:
                 continue
-            rows.append((r, f.weight, f.stiffness, float(rec.drive_speed), t_s,
-                         float(f.trough[j - 1]), float(f.trough_sd[j - 1]),
-                         float(f.stick_time_sd[j]) / np.sqrt(2.0), float(f.stick_time[j]),
-                         sigma, t[sel], x[sel]))
+            head = (r, f.weight, f.stiffness, float(rec.drive_speed), t_s,
+                    float(f.trough[j - 1]), float(f.trough_sd[j - 1]),
+                    float(f.stick_time_sd[j]) / np.sqrt(2.0), float(f.stick_time[j]),
+                    sigma, n_windows)
+            for a in range(0, sel.size, L):
+                part = sel[a:a + L]
+                rows.append(head + (t[part], x[part]))
+            n_windows += 1
     if not rows:
         raise ValueError("trace objective: no complete stick-slip cycle in the campaign")
-    L = max(max(row[-2].size for row in rows), int(pad_length))
-    L = -(-L // 256) * 256
     N = max(len(rows), int(pad_windows))
     N = -(-N // 8) * 8
     time = np.zeros((N, L))
     defl = np.zeros((N, L))
     mask = np.zeros((N, L), bool)
-    cols = [[row[i] for row in rows] for i in range(10)]
+    cols = [[row[i] for row in rows] for i in range(11)]
     for i, row in enumerate(rows):
         n = row[-2].size
         time[i, :n], time[i, n:] = row[-2], row[-2][-1]
         defl[i, :n] = row[-1]
         mask[i, :n] = True
-    for i in range(len(rows), N):  # dummy windows: copies of the first, fully masked
+    for i in range(len(rows), N):  # dummy rows: copies of the first, fully masked
         time[i] = time[0]
         for c in cols:
             c.append(c[0])
@@ -138,7 +162,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         record=j(np.asarray(cols[0], np.int32)), weight=j(cols[1]), stiffness=j(cols[2]),
         speed=j(cols[3]), start_time=j(cols[4]), start_level=j(cols[5]),
         start_level_sd=j(cols[6]), start_time_sd=j(cols[7]), stick_time=j(cols[8]),
-        sigma=j(cols[9]),
+        sigma=j(cols[9]), window=j(np.asarray(cols[10], np.int32)),
         time=j(time), deflection=j(defl), mask=j(mask),
     )
 
@@ -158,21 +182,45 @@ def trace_simulation(params: CampaignParams, data: TraceData, slip_time: str = "
                          data.start_level - offset, data.time, data.mask)
 
 
-def trace_residuals(params: CampaignParams, data: TraceData,
-                    slip_time: str = "paper") -> Float[Array, " NL"]:
-    """Whitened sample residuals $(x - c - x_\\mathrm{sim})/\\sigma$, shape (N L,); padding gives 0."""
-    trace = trace_simulation(params, data, slip_time)
-    offset = params.offset[data.record]
+def trace_residuals(params: CampaignParams, data: TraceData, slip_time: str = "paper",
+                    weights_at: CampaignParams | None = None,
+                    slider_velocity=None) -> Float[Array, " NL"]:
+    """Whitened sample residuals $(x - c - x_\\mathrm{sim})/s$ (module doc), shape (N L,);
+    padding gives 0. `weights_at`, `slider_velocity`: see `trace_residuals_and_flags`."""
+    return trace_residuals_and_flags(params, data, slip_time, weights_at, slider_velocity)[0]
+
+
+def trace_sd(params: CampaignParams, data: TraceData, slider_velocity) -> Float[Array, "N L"]:
+    """The standard error $s_i$ (mm) of every sample (module doc) at `params`, given the
+    simulated slider velocity (mm/s, [N, L]; 0 while sticking)."""
     static = params.friction.friction().static
     _, slope = jax.jvp(static, (data.stick_time,), (jnp.ones_like(data.stick_time),))
     k, W = data.stiffness, data.weight
     gap = jnp.maximum(jnp.abs(k * data.speed - W * slope), 1e-3 * k * data.speed)
     sd_b = jnp.sqrt((k * data.start_level_sd) ** 2 + (W * slope * data.start_time_sd) ** 2) / gap
-    xdot = data.speed[:, None] - trace.slider_velocity
-    sd = jnp.sqrt(data.sigma[:, None] ** 2 + (xdot * sd_b[:, None]) ** 2)
+    xdot = data.speed[:, None] - slider_velocity
+    return jnp.sqrt(data.sigma[:, None] ** 2 + (xdot * sd_b[:, None]) ** 2)
+
+
+def trace_residuals_and_flags(params: CampaignParams, data: TraceData, slip_time: str = "paper",
+                              weights_at: CampaignParams | None = None, slider_velocity=None):
+    """`trace_residuals` and, from the same simulations, a bool per row (its simulation
+    succeeded, `SimulationResult.successful`) and the simulated slider velocity [N, L] (mm/s).
+
+    The standard errors $s_i$ are evaluated at `params` with the simulated velocity
+    (default), or at `weights_at` with `slider_velocity` (both given: the fit freezes the
+    weights for one Levenberg-Marquardt run, see `fitting.fit`); they are held fixed in
+    the derivative either way."""
+    trace = trace_simulation(params, data, slip_time)
+    offset = params.offset[data.record]
+    if weights_at is None:
+        sd = trace_sd(params, data, trace.slider_velocity)
+    else:
+        sd = trace_sd(weights_at, data, slider_velocity)
     sd = jax.lax.stop_gradient(sd)
     r = (data.deflection - offset[:, None] - trace.deflection) / sd
-    return jnp.where(data.mask, r, 0.0).ravel()
+    ok = trace.result == SimulationResult.successful
+    return jnp.where(data.mask, r, 0.0).ravel(), ok, trace.slider_velocity
 
 
 @eqx.filter_jit
@@ -181,7 +229,13 @@ def _window_ok(params, data, slip_time):
 
 
 def window_failures(params: CampaignParams, data: TraceData, slip_time: str = "paper") -> int:
-    """Number of real windows whose simulation did not report success (e.g. too many events)."""
-    ok = np.asarray(_window_ok(params, data, slip_time))
+    """Number of cycle windows with a row whose simulation did not report success (e.g. too
+    many events)."""
+    return failed_windows(np.asarray(_window_ok(params, data, slip_time)), data)
+
+
+def failed_windows(ok, data: TraceData) -> int:
+    """Cycle windows of `data` with a real row whose flag in `ok` (one bool per row, see
+    `trace_residuals_and_flags`) is False."""
     real = np.asarray(data.mask).any(axis=1)
-    return int(np.count_nonzero(real & ~ok))
+    return int(np.unique(np.asarray(data.window)[real & ~np.asarray(ok, bool)]).size)

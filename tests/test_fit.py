@@ -82,15 +82,13 @@ def test_fixed_parameter_stays_and_no_recompilation(campaign, monkeypatch):
     name, fr, feats, _, _ = campaign
     pad = {"A": 9, "C": 17}[name]  # buckets 16 and 24: a shape of its own, so it must trace
     calls = []
-    from fitting import combined as combined_module
-
-    real = combined_module.feature_residuals
+    real = fit_module.feature_residuals
 
     def counting(*a, **k):
         calls.append(1)
         return real(*a, **k)
 
-    monkeypatch.setattr(combined_module, "feature_residuals", counting)
+    monkeypatch.setattr(fit_module, "feature_residuals", counting)
     a = fit_features(feats, fixed={"n": 1.0}, pad_cycles=pad)
     traced = len(calls)
     assert traced > 0
