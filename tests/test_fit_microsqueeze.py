@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from fitting.features import record_features
+from fitting.mcmc import PRIOR_BOUNDS, log_posterior, run_mcmc
 from fitting.microsqueeze_fit import default_eta, fit_microsqueeze
 from fitting.microsqueeze_params import MICROSQUEEZE_NAMES, MicrosqueezeFriction
 from fitting.synthetic import synthetic_campaign
@@ -83,12 +84,17 @@ def test_recovery_within_intervals(fitted, records):
     assert fit.n_steps > 0
 
 
-def test_cli_microsqueeze(records, tmp_path, capsys):
-    paths = []
+@pytest.fixture(scope="module")
+def paths(records, tmp_path_factory):
+    d = tmp_path_factory.mktemp("ms_records")
+    out = []
     for r in records:
-        p = tmp_path / f"{r.name}.csv"
-        write_record(r, p)
-        paths.append(str(p))
+        write_record(r, d / f"{r.name}.csv")
+        out.append(str(d / f"{r.name}.csv"))
+    return out
+
+
+def test_cli_microsqueeze(paths, tmp_path, capsys):
     out = tmp_path / "ms.json"
     assert main(["fit", *paths, "--model", "microsqueeze", "--eta", "0.216 Pa*s",
                  "--surface", "S1G1", "--json", str(out)]) == 0
@@ -110,3 +116,53 @@ def test_cli_microsqueeze(records, tmp_path, capsys):
 def test_default_eta():
     assert default_eta("C") == pytest.approx(9.79e-8)
     assert default_eta(None) == default_eta("unknown") == pytest.approx(ETA_A)
+
+
+def test_mcmc_log_posterior_support(fitted):
+    """Vectorised log-posterior of the microsqueeze model: the fit's chi2 at the optimum,
+    zero density outside the prior or the law's physical region."""
+    fit, _ = fitted
+    logp, theta0, names, n_off = log_posterior(fit)
+    assert tuple(names) == MICROSQUEEZE_NAMES and n_off == 0
+    t0 = jnp.asarray(theta0)
+    rows = [t0, t0 + 1e-3,
+            t0.at[2].set(np.log(1e-4)),     # h_e = 0.1 um < t_b + a_d (about 0.8 um)
+            t0.at[0].set(np.log(1.5)),      # mu_s above C1 = 1: no film thickness solves eq (35)
+            t0.at[3].set(np.log(1e12))]     # Q outside the stated prior
+    lp = np.asarray(logp(jnp.stack(rows)))
+    scale = max(1.0, fit.reduced_chi2)
+    assert lp[0] == pytest.approx(-0.5 * fit.chi2 / scale, rel=1e-9)
+    assert np.isfinite(lp[1]) and lp[1] < lp[0]
+    assert np.all(lp[2:] == -np.inf), lp
+    assert PRIOR_BOUNDS["Q"][1] < 1e12
+
+
+def test_mcmc_microsqueeze(fitted, records):
+    fit, unc = fitted
+    res = run_mcmc(fit, walkers=12, steps=30, seed=1)
+    assert tuple(res.names) == MICROSQUEEZE_NAMES and res.samples.shape == (12 * 23, 6)
+    assert res.units["h_e"] == "mm" and res.units["Q"] == "mm^4"
+    assert "h_e in [1e-05, 0.1] mm" in res.prior and "Q in" in res.prior and "mm^4" in res.prior
+    assert any("too short" in w for w in res.warnings)
+    assert np.all(np.isfinite(res.tau)) and np.all(res.ess > 0)
+    # the walkers start in a ball around the optimum and stay in its neighbourhood
+    med = np.median(res.samples, axis=0)
+    np.testing.assert_allclose(med, unc.value, rtol=0.05)
+
+
+def test_cli_mcmc_microsqueeze(paths, tmp_path, capsys):
+    out, corner = tmp_path / "ms_mcmc.json", tmp_path / "corner.png"
+    assert main(["mcmc", *paths, "--model", "microsqueeze", "--eta", "0.216 Pa*s",
+                 "--walkers", "12", "--steps", "20", "--no-progress",
+                 "--json", str(out), "--corner", str(corner)]) == 0
+    text = capsys.readouterr().out
+    assert "h_e" in text and "mm^4" in text and "prior:" in text and "ESS" in text
+    assert "given: eta = 2.203e-08 kgf*s/mm^2, surface S1G1" in text  # 0.216 Pa*s
+    assert "too short" in text
+    rep = json.loads(out.read_text())
+    assert rep["model"] == "microsqueeze" and rep["names"] == list(MICROSQUEEZE_NAMES)
+    assert rep["fixed"] == {}
+    assert rep["parameters"]["Q"]["unit"] == "mm^4" and "truth" in rep["parameters"]["h_e"]
+    assert rep["given"]["surface"] == "S1G1" and "microsqueeze physical region" in rep["prior"]
+    assert np.asarray(rep["samples"]).shape == (12 * 15, 6)
+    assert corner.stat().st_size > 10_000

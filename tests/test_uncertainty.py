@@ -18,7 +18,13 @@ def test_singleton_clusters_reduce_to_the_hc_formula():
     meat = sum(np.outer(j, j) * e * e for j, e in zip(Jk, rk)) * 35 / 34
     Hinv = np.linalg.inv(J.T @ J)  # padding rows still count in H: they are zero in a fit
     ref = Hinv @ meat @ Hinv
-    np.testing.assert_allclose(sandwich_covariance(J, r, rec, cyc, lag=0), ref, rtol=1e-10)
+    got = sandwich_covariance(J, r, rec, cyc, lag=0, small_sample="none")
+    np.testing.assert_allclose(got, ref, rtol=1e-10)
+    # the jackknife scores: g_c / (1 - h_c) for one-row clusters, h_c the leverage
+    h = np.einsum("ij,jk,ik->i", Jk, Hinv, Jk)
+    meat = sum(np.outer(j, j) * (e / (1 - hh)) ** 2 for j, e, hh in zip(Jk, rk, h)) * 34 / 35
+    np.testing.assert_allclose(sandwich_covariance(J, r, rec, cyc, lag=0), Hinv @ meat @ Hinv,
+                               rtol=1e-8)
 
 
 def _clustered_design(rng, records=2, cycles=30, per=8):
@@ -48,17 +54,19 @@ def test_sandwich_recovers_the_covariance_of_least_squares(neighbours):
     Hinv = np.linalg.inv(X.T @ X)
     exact = Hinv @ X.T @ Sigma @ X @ Hinv
     naive = Hinv * np.trace(Sigma) / n
-    est = {0: [], 1: []}
+    est = {0: [], 1: [], "none": []}
     for _ in range(300):
         err = A @ rng.normal(size=A.shape[1]) + 0.5 * rng.normal(size=n)
         b = Hinv @ X.T @ err
         r = err - X @ b  # residuals at the least-squares optimum (J = X up to sign)
         for lag in (0, 1):
             est[lag].append(np.diag(sandwich_covariance(-X, r, rec, cyc, lag=lag)))
-    ratio = {lag: np.mean(est[lag], axis=0) / np.diag(exact) for lag in (0, 1)}
-    # lag 1 is right in both cases, up to the downward bias of any cluster-robust estimate
-    # (the residuals are shrunk by the fit; measured 0.83-0.93 here with 60 clusters)
-    assert np.all((ratio[1] > 0.75) & (ratio[1] < 1.15)), ratio
+        est["none"].append(np.diag(sandwich_covariance(-X, r, rec, cyc, small_sample="none")))
+    ratio = {k: np.mean(v, axis=0) / np.diag(exact) for k, v in est.items()}
+    # lag 1 is right in both cases; without the jackknife scores it is biased low (the
+    # residuals are shrunk by the fit)
+    assert np.all(np.abs(ratio[1] - 1) < 0.12), ratio
+    assert np.all(ratio["none"] < ratio[1]), ratio
     if neighbours:
         # ignoring the neighbours: the intercept (a regressor alike in neighbouring clusters,
         # as the friction parameters are in neighbouring cycles) comes out far too narrow
