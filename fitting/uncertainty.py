@@ -183,6 +183,30 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
     return Hinv @ M @ Hinv
 
 
+def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
+    flagged, msgs = set(), []
+    feats = fit.features
+    names = names_of(fit.params.friction)
+    shape = tuple(getattr(fit.params.friction, "SHAPE_NAMES", ("mu_s", "gamma", "m")))
+    t2 = np.array([math.pi / f.omega0 for f in feats])
+    if t2.max() / t2.min() < 1.05 and free[names.index("n")]:
+        flagged |= {"n", "delta"}
+        msgs.append(
+            f"n, delta: every record has the same slip time T2 = {t2.mean():.4g} s (one k/W), "
+            "so only delta*T2^n is determined; use springs or weights with different k/W, "
+            "or fix n (--fix n=1)."
+        )
+    t1 = np.concatenate([f.stick_time[f.complete] for f in feats])
+    if t1.size and t1.max() / t1.min() < 1.5:
+        flagged |= set(shape)
+        msgs.append(
+            f"{', '.join(shape)}: all stick times lie within {t1.min():.3g}-{t1.max():.3g} s (one drive "
+            "speed), so the rise of mu_0 with stick time (eq 1) cannot be resolved; "
+            "add drive speeds an order of magnitude apart."
+        )
+    return flagged, msgs
+
+
 COVARIANCES = ("auto", "fisher", "sandwich")
 
 
