@@ -372,13 +372,17 @@ def simulate_exact(
         # an inactive row before the end (the stick half of a step that starts in a
         # slip) keeps the current time, so the row times stay sorted for rendering
         t = jnp.where(active, s.t, jnp.where(s.done, jnp.inf, s.t))
-        # closed-form coefficients of the phase for rendering (see below)
+        # closed-form coefficients of the phase for rendering (see below): the slip's
+        # cos/sin of omega (t - t_row) are expanded by the angle-addition formulas so
+        # that the samples need cos/sin of omega t only (no per-sample row time)
         st, z = s.sticking, jnp.zeros_like(s.x)
+        Q = s.x - s.c
+        S = (v_t - s.yd) / omega
+        c_row, s_row = _cos_sin(omega * jnp.where(jnp.isfinite(t), t, t_end))
         coef = jnp.stack([
-            jnp.where(jnp.isfinite(t), t, t_end),
             jnp.where(st, s.x - u_t, s.c),
-            jnp.where(st, z, s.x - s.c),
-            jnp.where(st, z, (v_t - s.yd) / omega),
+            jnp.where(st, z, Q * c_row - S * s_row),
+            jnp.where(st, z, Q * s_row + S * c_row),
             jnp.where(st, z, v_t),
         ])
         return dict(t=t, active=active, coef=coef)
@@ -412,16 +416,16 @@ def simulate_exact(
     n_rows = 2 * n_steps
 
     # Render x(t) on the sample times: closed form of the phase each sample falls in.
-    # Each phase row becomes x = P + G u(t) + Q cos + S sin, ydot = V + omega (Q sin - S cos)
-    # with tau = t - t_row (G = 1 while sticking), gathered as one table row per sample.
+    # Each phase row becomes x = P + G u(t) + A cos(omega t) + B sin(omega t),
+    # ydot = V + omega (A sin - B cos) (G = 1 while sticking), one table row per sample.
     idx = jnp.clip(_count_at_or_before(rows["t"], ts) - 1, 0, n_rows - 1)
     # rows alternate stick (even) and slip (odd) halves; a sample never falls in an
     # inactive stick half (it starts with the slip row that follows it)
     st_i = (idx % 2) == 0
-    t_i, P, Q, S, V = (rows["coef"][idx][:, j] for j in range(5))
-    cs, sn = _cos_sin(omega * jnp.maximum(ts - t_i, 0.0))
-    deflection = P + jnp.where(st_i, u_at(ts)[0], 0.0) + Q * cs + S * sn
-    velocity = V + omega * (Q * sn - S * cs)
+    P, A, Bs, V = (rows["coef"][idx][:, j] for j in range(4))
+    cs, sn = _cos_sin(omega * ts)
+    deflection = P + jnp.where(st_i, u_at(ts)[0], 0.0) + A * cs + Bs * sn
+    velocity = V + omega * (A * sn - Bs * cs)
 
     cycles = _cycle_table(info, max_events)
     result = SimulationResult.where(
