@@ -31,7 +31,7 @@ def main(argv=None):
     sizes = {"viscous_damping": {"c": 0.01}, "stribeck": {"b": 0.005},
              "drive_periodic_error": {"a_sin": 4e-4, "a_cos": 2e-4},
              "sensor_lowpass": {"time_constant": 2e-3}, "friction_drift": {"rate": 1e-3},
-             "gauge_drift": {"rate": 2e-3}, "load_coupling": {"kappa": 0.02},
+             "gauge_drift": {"rate": 2e-3}, "load_coupling": {"kappa": 0.2},
              "rate_state": {"b": 0.005}}
     kw = {}
     if args.small:

@@ -33,6 +33,7 @@ class LMResult:
     seconds: float
     ok: bool
     history: list = dataclasses.field(default_factory=list)
+    lam: float = 1e-3  # the damping at the end (a later continuation starts there)
 
     @property
     def n_data(self) -> int:
@@ -48,12 +49,23 @@ class LMResult:
 
 def levenberg_marquardt(problem, z0, *, active=None, max_evals: int = 25, chi2_tol: float = 0.05,
                         first=None, geodesic: bool = False, alpha: float = 0.75,
-                        h: float = 0.1) -> LMResult:
+                        h: float = 0.1, lam0: float = 1e-3) -> LMResult:
     r"""Minimise ||r(z)||^2 over the `active` coordinates of z starting at `z0`.
 
     Converged when a full Gauss-Newton step would lower the cost (a chi-square) by less
     than `chi2_tol`; otherwise stops after `max_evals` evaluations (every evaluation
     counts, the geodesic probes too). `first`: an (r, J, ok) already evaluated at z0.
+
+    Damping: the step solves $(J^TJ + \lambda D)\delta = -J^Tr$, $D$ = diag($J^TJ$),
+    starting at $\lambda$ = `lam0`, divided by 5 after an accepted step (down to
+    1e-12), multiplied by 8 after a rejected one (and raised to at least 1e-3 at the
+    first rejection). A small `lam0` (0: the plain Gauss-Newton step) suits a start
+    at which the quadratic model is trusted, such as a candidate's refit from the base
+    optimum, whose Gauss-Newton step is the score test's: Marquardt's damping acts on
+    each column's own scale, so an effect nearly collinear with the base parameters
+    (load coupling against the friction level: its efficient part is ~1e-3 of its
+    column) would otherwise see its step damped away ($\lambda$ must fall below
+    (efficient / column norm)$^2$, ~1e-7, before it moves).
 
     `geodesic`: geodesic acceleration (Transtrum & Sethna 2012): the second directional
     derivative $r''_\delta \approx \tfrac{2}{h}[(r(z + h\delta) - r(z))/h - J\delta]$ along
@@ -73,7 +85,7 @@ def levenberg_marquardt(problem, z0, *, active=None, max_evals: int = 25, chi2_t
         raise ValueError("the simulator failed at the starting point of the fit; check the "
                          "records (stick-slip present, constant drive speed) and the start")
     cost = float(r @ r)
-    lam = 1e-3
+    lam = float(lam0)
     converged = False
     history = [cost]
     while n_evals < max_evals:
@@ -87,7 +99,7 @@ def levenberg_marquardt(problem, z0, *, active=None, max_evals: int = 25, chi2_t
             # chi-square drop that a full Gauss-Newton step would give: stationarity test
             predicted = float(g @ np.linalg.lstsq(A, g, rcond=1e-12)[0])
         except np.linalg.LinAlgError:
-            lam *= 10.0
+            lam = max(lam * 10.0, 1e-3)
             continue
         if predicted < chi2_tol:
             converged = True
@@ -111,11 +123,12 @@ def levenberg_marquardt(problem, z0, *, active=None, max_evals: int = 25, chi2_t
         history.append(cost_try)
         if cost_try < cost:
             z, r, J, ok, cost = z_try, r_try, J_try, ok_try, cost_try
-            lam = max(lam / 5.0, 1e-9)
+            lam = max(lam / 5.0, 1e-12)
         else:
-            lam *= 8.0
+            lam = max(lam * 8.0, 1e-3)
             if lam > 1e8:
                 converged = True  # no descent direction left: at a minimum to precision
                 break
     return LMResult(z=z, rss=cost, r=r, J=J, n_evals=n_evals, converged=converged,
-                    seconds=time.perf_counter() - t0, ok=bool(ok), history=history)
+                    seconds=time.perf_counter() - t0, ok=bool(ok), history=history,
+                    lam=lam)

@@ -19,7 +19,9 @@ with respect to a flat vector $z$ = [free friction coordinates (chosen with
 `eqx.partition`), `n_slots` effect slots, the R offsets of $x_0$]. Which effect
 parameters the slots drive is a selection matrix passed as *data*, so the base model
 (slots unused), every candidate and the score test all run the same compiled function.
-Effect slots are in units of each parameter's `SCALES` (O(1) coordinates).
+Effect slots are in units of each parameter's `SCALES` (O(1) coordinates). The friction
+coordinates of a fit are apparent coefficients, referred to W (`effects.LoadCoupling`;
+the same as the physical ones unless load coupling is present).
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.simulation.smooth import simulate_smooth
 
 from ..params import NAMES, EmpiricalFriction, leaf_name
-from .effects import CANDIDATES, EffectSet
+from .effects import CANDIDATES, EffectSet, load_referred_friction
 
 __all__ = [
     "EFFECT_PARAMS",
@@ -289,7 +291,9 @@ def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, 
             zb, zs, dx = q[:nb], q[nb:-1], q[-1]
             fr = _combine_friction(zb, friction_static, free_names)
             eff = effects_from_vector(effects_template, eff0 + S @ zs)
-            model, ok, vel, stk = simulate_record(fr.friction(), eff, w, k, v, x0g + dx, t, m,
+            # friction coordinates are apparent (referred to W): see effects.LoadCoupling
+            phys = load_referred_friction(fr.friction(), eff.load_coupling.kappa)
+            model, ok, vel, stk = simulate_record(phys, eff, w, k, v, x0g + dx, t, m,
                                                   settings, full=True)
             r = jnp.where(m, (model - d) / sigma, 0.0)
             return r, (r, ok, vel, stk)

@@ -1,8 +1,8 @@
 r"""Refit the best-ranked candidates and choose by BIC, or answer "none".
 
 For each of the `top` candidates of the score test, the model with that effect is
-refitted (Levenberg-Marquardt from the base optimum, whose first damped step is the score
-test's Gauss-Newton step). With $N$ samples, $\mathrm{RSS}$ the whitened residual sum of squares and $d$
+refitted (Levenberg-Marquardt from the base optimum, whose first, practically undamped
+step is the score test's Gauss-Newton step). With $N$ samples, $\mathrm{RSS}$ the whitened residual sum of squares and $d$
 the candidate's number of parameters, the Gaussian likelihood with the noise level
 profiled out gives
 
@@ -68,7 +68,8 @@ def refit_candidates(base_problem: Problem, base_fit: LMResult, scores: list[Can
         pc = dataclasses.replace(base_problem, effect=sc.name)
         # start at the base optimum (effect zero): the first damped step is the score
         # test's Gauss-Newton step
-        fit = levenberg_marquardt(pc, base_fit.z, max_evals=max_evals)
+        # undamped (lam0 1e-9): see `lm.levenberg_marquardt` on collinear effects
+        fit = levenberg_marquardt(pc, base_fit.z, max_evals=max_evals, lam0=1e-9)
         rss0, rss = base_fit.rss, min(fit.rss, base_fit.rss)
         part = getattr(EffectSet(), sc.name)
         fitted = {p: float(fit.z[pc.n_base + j] * part.SCALES[j])

@@ -134,8 +134,15 @@ class DiscoveryResult:
 
 
 def _friction_values(problem: Problem, z) -> dict:
-    v = np.asarray(problem.params(z).friction.values())
-    return {n: float(x) for n, x in zip(NAMES, v)}
+    """Fitted friction parameters; with load coupling, mu_s and mu_d converted from the
+    fit's apparent coefficients (against W) to physical ones (against N), the shape
+    parameters as fitted (`effects.LoadCoupling`)."""
+    params = problem.params(z)
+    v = {n: float(x) for n, x in zip(NAMES, np.asarray(params.friction.values()))}
+    kappa = float(params.effects.load_coupling.kappa)
+    for n in ("mu_s", "mu_d"):
+        v[n] = v[n] / (1.0 + kappa * v[n])
+    return v
 
 
 def _analyse(problem: Problem, z, sigma):
@@ -220,7 +227,8 @@ def discover(
     if chosen is not None and not chosen.fit.converged:
         # polish the chosen model (the ranking refits are short)
         more = levenberg_marquardt(chosen.problem, chosen.fit.z, max_evals=max_evals,
-                                   first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok))
+                                   first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok),
+                                   lam0=chosen.fit.lam)
         part = getattr(effects, chosen.name)
         bad = type(part).unphysical(
             {p: float(more.z[chosen.problem.n_base + j] * part.SCALES[j])
