@@ -11,9 +11,10 @@ Levenberg-Marquardt fit minimises:
   simulator restarted per cycle);
 - `"both"`: the two vectors concatenated, scaled by $\sqrt{w_f}$ and $\sqrt{w_t}$, so
   that the sum of squares is $w_f \chi^2_f + w_t \chi^2_t$. Both objectives read the
-  same samples, so the default weights are $w_f = w_t = 1/2$: if they carried the same
-  information the combined Fisher information would equal either one's, and the Laplace
-  intervals are not shrunk by counting the data twice.
+  same samples, so the default weights are $w_f = w_t = 1/2$ (if they carried the same
+  information the combined Fisher information would equal either one's); the intervals
+  come from the cluster-robust covariance of `fitting.uncertainty` (per stick phase,
+  see `residual_cycles`), which measures the overlap instead of assuming it.
 
 `dof()` is the weighted number of residuals with data ($w_f N_f + w_t N_t$).
 

@@ -9,6 +9,17 @@ $\theta$ are the **logarithms** of the natural parameters ($\log\mu_s, \log\mu_d
 are relative: a standard error of 0.1 in $\log\gamma$ is about 10 % of $\gamma$.
 Intervals are log-normal, $p\,e^{\pm z\,\mathrm{se}}$: positive, like the parameters.
 
+For the trace and combined objectives ("trace", "both") $F^{-1}$ is too narrow: the
+samples of one stick phase share the error of the measured restart state (slip-end
+level and time), and "both" reads every sample twice (features and trace). Their
+covariance is the cluster-robust sandwich $H^{-1} M H^{-1}$ (`sandwich_covariance`):
+the score of each stick phase (`fitting.combined.residual_cycles`) is one cluster,
+neighbouring phases of a record are allowed to correlate (lag 1), and jackknife
+(leave-one-cluster-out) scores remove the small-sample bias. Measured on campaigns
+drawn from a prior (tests/test_combined.py, slow; 18 of 20 counted, two features fits
+ended in a local minimum with chi2/dof 25 and 1769): 90 % intervals covered the truth
+in 92 % ("both") and 88 % ("trace") of 108 cases, against 55 % and 62 % with $F^{-1}$.
+
 Identifiability is judged two ways and reported in plain language:
 - by the numbers: a parameter whose relative standard error exceeds
   `max_relative_se` (default 0.5, a 95 % interval wider than a factor 2.7 either
@@ -215,14 +226,14 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     """Laplace covariance, intervals and identifiability report of a fit (module doc).
 
     `covariance`: "fisher" ($F^{-1}$ scaled by max(1, chi2/dof)), "sandwich" (cluster-robust
-    per stick phase, `sandwich_covariance` with `lag`), or "auto": the sandwich for the
-    combined objective ("both", whose two parts read the same samples), else fisher.
+    per stick phase, `sandwich_covariance` with `lag` and `small_sample`), or "auto":
+    the sandwich for the trace and combined objectives (module doc), fisher for features.
     """
     if covariance not in COVARIANCES:
         raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
     if covariance == "auto":
-        both = fit.objective is not None and fit.objective.kind == "both"
-        covariance = "sandwich" if both else "fisher"
+        traced = fit.objective is not None and fit.objective.kind in ("trace", "both")
+        covariance = "sandwich" if traced else "fisher"
     J, r, free, idx = jacobian_log(fit)
     F = J.T @ J
     k = idx.size
@@ -274,11 +285,12 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
                 )
     if not fit.converged:
         warnings.append("the optimiser did not report convergence; treat the values with care.")
-    if fit.objective is not None and fit.objective.kind == "both":
+    if covariance == "fisher" and fit.objective is not None and fit.objective.kind != "features":
         warnings.append(
-            "objective 'both': the features and the trace are read from the same samples, but "
-            "their residuals are combined as if independent, so these intervals are too narrow; "
-            "take intervals from --objective trace or features.")
+            f"objective '{fit.objective.kind}' with the Fisher covariance: samples of one stick "
+            "phase share the error of its restart state (and 'both' reads them twice), so "
+            "these intervals are too narrow (90 % intervals covered 55-62 % in a calibration); "
+            "use the default robust covariance.")
     if fit.trace_failures:
         warnings.append(f"{fit.trace_failures} cycle simulation(s) of the trace objective did not "
                         "succeed at the optimum (see trace_window_failures).")

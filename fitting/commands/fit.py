@@ -31,7 +31,8 @@ def add_arguments(parser):
     parser.add_argument("--objective", choices=("features", "trace", "both"), default="features",
                         help="fit the cycle features (default, fast), every sample of the "
                         "traces through the exact simulator restarted per cycle, or both "
-                        "(weights 1/2 each); trace and both start from the features fit")
+                        "(weights 1/2 each); trace and both start from the features fit, and "
+                        "their intervals use a cluster-robust covariance (per stick phase)")
     add_model_arguments(parser)
     parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
     parser.add_argument("--plot", metavar="OUT.png", help="save the diagnostic figure")
