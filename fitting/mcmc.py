@@ -157,6 +157,8 @@ def run_mcmc(
     if steps < 10:
         raise ValueError(f"--steps: need at least 10 steps, got {steps}")
     burn = steps // 4 if burn is None else int(burn)
+    if not 0 <= burn < steps:
+        raise ValueError(f"--burn: must lie in [0, --steps), got {burn}")
     unc = laplace(fit)
     rng = np.random.default_rng(seed)
     sd = np.sqrt(np.clip(np.diag(unc.cov_log)[unc.free], 1e-14, 1e-2))
