@@ -236,9 +236,8 @@ def _jacobian_once(fun):
     return f
 
 
-@eqx.filter_jit
-def _solve_starts(free_starts, ref_starts, velocity, static, objective, rtol, atol, max_steps,
-                  norm, linear_solver):
+def _solve_starts_impl(free_starts, ref_starts, velocity, static, objective, rtol, atol,
+                       max_steps, norm, linear_solver):
     """Levenberg-Marquardt from every start (leading axis of `free_starts`), each with the
     weights frozen at its reference (`ref_starts`, `velocity`: same leading axis). One
     compiled solve run start after start (`lax.map`: a `vmap` would turn the solver's loop
@@ -269,6 +268,9 @@ def _solve_starts(free_starts, ref_starts, velocity, static, objective, rtol, at
         return unravel(sol.value), chi2, sol.result, sol.stats["num_steps"], ok, vel_opt
 
     return jax.lax.map(solve, (flat_starts, ref_starts, velocity))
+
+
+_solve_starts = eqx.filter_jit(_solve_starts_impl)
 
 
 MAX_ROUNDS = 6

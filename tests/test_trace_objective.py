@@ -11,10 +11,10 @@ import pytest
 
 import stickslip_jax as ss
 from fitting.features import record_features
-from fitting.fit import fit_features
+from fitting.fit import MAX_ROUNDS, fit_features
 from fitting.params import NAMES, CampaignParams, EmpiricalFriction
 from fitting.synthetic import synthetic_campaign, truth_values
-from fitting.trace_objective import trace_data, trace_residuals, trace_simulation
+from fitting.trace_objective import CHUNK, trace_data, trace_residuals, trace_simulation
 from fitting.uncertainty import laplace
 
 
@@ -35,15 +35,26 @@ def trace_fit(campaign):
 def test_residuals_at_truth_are_unit_normal(campaign):
     fr, recs, feats = campaign
     data = trace_data(recs, feats)
-    assert data.time.shape[1] % 256 == 0 and data.time.shape[0] % 8 == 0
+    assert data.time.shape[1] == CHUNK and data.time.shape[0] % 8 == 0
     params = CampaignParams(EmpiricalFriction.from_friction(fr), jnp.zeros(len(recs)))
-    r = np.asarray(jax.jit(trace_residuals)(params, data))
+    res = jax.jit(trace_residuals)
+    r = np.asarray(res(params, data))
     m = np.asarray(data.mask).ravel()
     assert np.all(r[~m] == 0)
     # one window per complete cycle, most of the samples used
     assert data.n_residuals() > 0.6 * sum(rec.n_samples for rec in recs)
     assert 0.9 < np.std(r[m]) < 1.1 and abs(np.mean(r[m])) < 0.1
     assert np.max(np.abs(r[m])) < 6.0  # no phase drift: restarted every cycle
+    # rows of CHUNK samples: stick times differ by ~10x here, yet little padding
+    assert data.mask.size < 1.5 * data.n_residuals()
+    # the same windows unchunked (one row each, padded to the longest): same residuals
+    longest = int(np.bincount(np.asarray(data.window), weights=np.asarray(data.mask).sum(1)).max())
+    whole = trace_data(recs, feats, chunk=longest)
+    assert whole.mask.shape[0] < data.mask.shape[0] and whole.mask.shape[1] >= longest
+    assert whole.mask.size > 2 * data.mask.size  # what padding to the longest cost
+    r_whole = np.asarray(res(params, whole))
+    np.testing.assert_allclose(np.sort(r_whole[np.asarray(whole.mask).ravel()]), np.sort(r[m]),
+                               rtol=1e-9, atol=1e-9)
 
 
 def test_trace_fit_recovers_truth_within_intervals(campaign, trace_fit):
@@ -53,6 +64,11 @@ def test_trace_fit_recovers_truth_within_intervals(campaign, trace_fit):
     truth = truth_values(fr)
     assert fit.converged and fit.trace_failures == 0 and fit.objective.kind == "trace"
     assert 0.8 < fit.reduced_chi2 < 1.3
+    # reweighting rounds reached their fixed point: the reported chi2 is the objective's
+    # (weights at the optimum), and each round's LM stopped in a few steps
+    assert fit.n_rounds < MAX_ROUNDS and fit.n_steps <= 6 * fit.n_rounds
+    chi2 = float(np.sum(np.asarray(eqx.filter_jit(fit.objective.residuals)(fit.params)) ** 2))
+    assert chi2 == pytest.approx(fit.chi2, rel=1e-6)
     for i, n in enumerate(NAMES):
         lo, hi = unc.ci95[i]
         assert lo <= truth[n] <= hi, (n, unc.value[i], (lo, hi), truth[n])
@@ -68,17 +84,21 @@ def test_trace_jacobian_matches_finite_differences(trace_fit):
     flat, unravel = jax.flatten_util.ravel_pytree(free)
     mask = np.asarray(data.mask).ravel()
 
-    def sim(v):
-        return trace_simulation(eqx.combine(unravel(v), static), data).deflection.ravel()
+    @jax.jit
+    def push(v, t, data):  # one compilation: values and directional derivatives
+        def sim(v):
+            return trace_simulation(eqx.combine(unravel(v), static), data).deflection.ravel()
 
-    f = jax.jit(sim)
-    J = np.asarray(jax.jit(jax.jacfwd(sim))(flat))[mask]
+        return jax.jvp(sim, (v,), (t,))
+
     h = 1e-6
     for j in range(flat.size):
-        e = jnp.zeros_like(flat).at[j].set(h)
-        fd = ((np.asarray(f(flat + e)) - np.asarray(f(flat - e))) / (2 * h))[mask]
+        e = jnp.zeros_like(flat).at[j].set(1.0)
+        J_j = np.asarray(push(flat, e, data)[1])[mask]
+        fd = ((np.asarray(push(flat + h * e, e, data)[0])
+               - np.asarray(push(flat - h * e, e, data)[0])) / (2 * h))[mask]
         # on the bulk of the samples (a sample within h of a phase boundary sees the kink)
-        err = np.abs(J[:, j] - fd)
+        err = np.abs(J_j - fd)
         assert np.quantile(err, 0.999) < 1e-5 * np.abs(fd).max() + 1e-10, j
         assert np.abs(fd).max() > 0
 
