@@ -346,7 +346,8 @@ def fit_features(
     - `objective`: "features" (default), "trace" or "both" (`fitting.combined`); the
       last two need `records` (the `Record`s the features came from) and start from the
       features fit's optimum ("features first"); `weights` = (w_features, w_trace) for
-      "both"; `pad_length`, `pad_windows` pad the trace windows (`trace_data`).
+      "both"; `pad_length`, `pad_windows`: trace rows at least this long, at least this
+      many (`trace_data`).
     """
     if offset not in ("zero", "start"):
         raise ValueError(f"--offset must be 'zero' or 'start', got {offset!r}")
