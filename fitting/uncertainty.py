@@ -18,7 +18,7 @@ neighbouring phases of a record are allowed to correlate (lag 1), and jackknife
 (leave-one-cluster-out) scores remove the small-sample bias. Measured on campaigns
 drawn from a prior (tests/test_combined.py, slow; 18 of 20 counted, two features fits
 ended in a local minimum with chi2/dof 25 and 1769): 90 % intervals covered the truth
-in 92 % ("both") and 88 % ("trace") of 108 cases, against 55 % and 62 % with $F^{-1}$.
+in 92 % ("both") and 89 % ("trace") of 108 cases, against 55 % and 62 % with $F^{-1}$.
 
 Identifiability is judged two ways and reported in plain language:
 - by the numbers: a parameter whose relative standard error exceeds
