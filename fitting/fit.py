@@ -209,28 +209,53 @@ def _zero_tangent(x):
     return np.zeros(x.shape, jax.dtypes.float0)
 
 
-def _jacobian_once(fun):
-    """`fun(v) -> (r, aux)` with a JVP rule that builds the Jacobian dr/dv once by forward
-    mode (one pass, a tangent per parameter) and returns `J @ dv` (aux: no derivative).
+def _residual_fn(template, static, objective, ref_free, vel):
+    """v (flat free parameters) -> (whitened residuals, aux) with weights frozen at `ref_free`."""
+    _, unravel = jax.flatten_util.ravel_pytree(template)
+    ref = eqx.combine(ref_free, static)
+
+    def fun(v):
+        return _residuals_and_aux(objective, eqx.combine(unravel(v), static), ref, vel)
+
+    return fun
+
+
+@eqx.filter_jit
+def _residuals_jacobian(v, template, static, objective, ref_free, vel):
+    """Residuals, their Jacobian [N, P] by forward mode (a tangent per parameter) and aux.
+
+    Jitted on its own (inlined in the solve) so that its trace is cached: optimistix
+    traces the solver step twice, and tracing the simulator's derivative is the costly
+    part of building the program."""
+    fun = _residual_fn(template, static, objective, ref_free, vel)
+
+    def push(t):
+        return jax.jvp(fun, (v,), (t,), has_aux=True)
+
+    return jax.vmap(push, out_axes=(None, -1, None))(jnp.eye(v.size, dtype=v.dtype))
+
+
+def _jacobian_once(value_and_jacobian):
+    """`v -> (r, aux)` from `value_and_jacobian(v) -> (r, J, aux)` (J built once by forward
+    mode), with a JVP rule that returns `J @ dv` (aux: no derivative).
 
     Optimistix linearises the residuals every step and applies the linear map (to form J
     for its linear solve) and its transpose (gradient for the trust region): through the
     simulator that means a tangent program and a transposed one, each compiled. With J
     built here both are matrix products, and the compiled program holds the simulator
-    once, with its forward derivative."""
+    once, with its forward derivative. The primal is only traced for its shapes (the
+    solver evaluates the residuals through their linearisation), so it reuses the
+    cached trace of `value_and_jacobian`."""
 
     @jax.custom_jvp
     def f(v):
-        return fun(v)
+        r, _, aux = value_and_jacobian(v)
+        return r, aux
 
     @f.defjvp
     def f_jvp(primals, tangents):
         (v,), (dv,) = primals, tangents
-
-        def push(t):
-            return jax.jvp(fun, (v,), (t,), has_aux=True)
-
-        r, jt, aux = jax.vmap(push, out_axes=(None, -1, None))(jnp.eye(v.size, dtype=v.dtype))
+        r, jt, aux = value_and_jacobian(v)
         return (r, aux), (jt @ dv, jax.tree_util.tree_map(_zero_tangent, aux))
 
     return f
@@ -251,12 +276,8 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, static, objective, rto
 
     def solve(args):
         y0, ref_free, vel = args
-        ref = eqx.combine(ref_free, static)
-
-        def raw(v):
-            return _residuals_and_aux(objective, eqx.combine(unravel(v), static), ref, vel)
-
-        res = _jacobian_once(raw)
+        data = (free0, static, objective, ref_free, vel)
+        res = _jacobian_once(lambda v: _residuals_jacobian(v, *data))
 
         def residuals(v, _):
             r, aux = res(v)
