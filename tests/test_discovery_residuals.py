@@ -36,12 +36,18 @@ def test_stlsq_names_the_true_terms():
     x = rng.uniform(0, 0.1, 2000)
     v = rng.normal(0, 3, 2000)
     t = rng.uniform(0, 1, 2000)
-    A = feature_matrix(x, v, t, 0.1)
+    kw = rng.choice([2.4, 3.2, 5.6], 2000)  # k/W of three records (1/mm)
+    A = feature_matrix(x, v, t, 0.1, kw)
     y = 2.0 * x ** 3 / 0.1 ** 3 * 1e-3 + 1e-3 * t + rng.normal(0, 1e-6, 2000)
     coef, active = stlsq(A, y, threshold=0.1)
     named = {FEATURES[i] for i in range(1, len(FEATURES)) if active[i]}
     assert named == {"x^3", "t"}
     assert coef[FEATURES.index("x^3")] * 0.1 ** 3 == pytest_approx(2e-3, 0.05)
+    # a hardening spring per unit weight, k beta x^3 / W, is the k x^3/W column
+    y = 3.0 * kw * x ** 3 + rng.normal(0, 1e-7, 2000)
+    coef, active = stlsq(A, y, threshold=0.1)
+    assert {FEATURES[i] for i in range(1, len(FEATURES)) if active[i]} == {"k x^3/W"}
+    assert coef[FEATURES.index("k x^3/W")] == pytest_approx(3.0, 0.02)
 
 
 def pytest_approx(value, rel):

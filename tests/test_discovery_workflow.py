@@ -49,7 +49,7 @@ def _log_error(values, truth):
 def damped():
     recs = hidden_effect_campaign(FRICTION_A, effect="gauge_drift", values={"rate": 4e-3},
                                   seed=3, **TINY)
-    return recs, discover(recs, top=2, max_evals=40)
+    return recs, discover(recs, top=2, max_evals=20)
 
 
 def test_tiny_campaign_names_gauge_drift(damped):
@@ -74,7 +74,7 @@ def test_tiny_campaign_without_effect_answers_none_through_the_cli(tmp_path, dam
         files.append(str(path))
     out = tmp_path / "d.json"
     before = dmodel.TRACE_COUNT["evaluate"]
-    assert main(["discover", *files, "--crop", "none", "--top", "2", "--max-evals", "40",
+    assert main(["discover", *files, "--crop", "none", "--top", "2", "--max-evals", "20",
                  "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
     assert doc["effect"] == "none"
@@ -85,7 +85,7 @@ def test_tiny_campaign_without_effect_answers_none_through_the_cli(tmp_path, dam
     assert all({"name", "score", "delta_criterion"} <= set(c) for c in doc["candidates"])
     assert doc["gap_after"] < 1.2 * doc["noise"]
     assert set(doc["base_fit"]) >= {"converged", "evaluations", "criterion"}
-    assert doc["base_fit"]["evaluations"] <= 40 and doc["indistinguishable_from"] == []
+    assert doc["base_fit"]["evaluations"] <= 20 and doc["indistinguishable_from"] == []
     # the records read back have the damped campaign's shapes: no new compilation,
     # although the base model and eight candidates were evaluated
     assert dmodel.TRACE_COUNT["evaluate"] == before
@@ -139,6 +139,11 @@ def test_effect_outside_the_library_is_not_named_confidently_and_is_learned():
                                   hidden_name="hardening_spring", seed=31)
     res = discover(recs, learn=True)
     assert res.effect == "none" or res.confidence == "low", res.candidates
+    if res.effect != "none":  # never a physically impossible size (such as c < 0)
+        from fitting.discovery.effects import effect_class
+
+        size = {p: v["value"] for p, v in res.effect_size.items()}
+        assert effect_class(res.effect).unphysical(size) is None
     if res.test_after["p_value"] < 1e-3:  # residuals still unexplained
         assert res.learned is not None
         assert res.learned.gap_after < 0.9 * res.learned.gap_before

@@ -4,12 +4,17 @@ and a sparse regression that names the variables it depends on.
 When no candidate explains the residuals, the slider's equation of motion gets an
 extra term learned from the data,
 
-$$M\ddot y = k x - F_{fric} + N\,\mu_{ref}\,g_\phi\!\left(\frac{x}{x_s}, \frac{\dot y}{v_s},
-\frac{t}{t_s}\right),$$
+$$M\ddot y = k x - F_{fric} + N\,\mu_{ref}\,g_\phi\!\left(\frac{x}{x_s}, \frac{k x}{W f_s},
+\frac{\dot y}{v_s}, \frac{t}{t_s}\right),$$
 
-with $g_\phi$ a small `equinox.nn.MLP` (3 inputs, `width` tanh units, 1 output),
-$\mu_{ref} = 0.01$, and the scales $x_s$ (largest deflection, mm), $v_s$ (slip-velocity
-scale $\omega_0 x_s$, mm/s) and $t_s$ (longest record, s). It is a force term of the
+with $g_\phi$ a small `equinox.nn.MLP` (4 inputs, `width` tanh units, 1 output),
+$\mu_{ref} = 0.01$, and the scales $x_s$ (largest deflection, mm), $f_s$ (largest
+spring force per weight $k x/W$ of the campaign), $v_s$ (slip-velocity scale
+$\omega_0 x_s$, mm/s) and $t_s$ (longest record, s). The spring force per weight is
+an input because records differ in $k/W$: a force law of the spring (a hardening
+spring, $k\beta x^3$) is, per unit normal load, a function of $x$ *and* $k/W$, which
+$x$ alone cannot give across a campaign (measured on the hardening campaign: with
+inputs $x, \dot y, t$ only, the gap fell from 1.53 to 1.21 um, noise 0.51). It is a force term of the
 smoothed simulator (`LearnedForce`), fitted through the ODE jointly with the friction
 parameters and the initial deflections by the same Levenberg-Marquardt as every
 other model (Jacobians in forward mode through the solver). The output layer starts
@@ -17,8 +22,9 @@ at zero, so the fit starts at the base model.
 
 **Which variables?** The learned force, evaluated along the fitted trajectories, is
 regressed on a library of physically meaningful features (`FEATURES`: powers of the
-deflection, the slider velocity and its sign, time, and their products with the sign
-of the velocity) by sequentially thresholded least squares (STLSQ, as in SINDy): fit,
+deflection, the spring force per weight $kx/W$ and its cube-law analogue $kx^3/W$,
+the slider velocity and its sign, time, and their products with the sign of the
+velocity) by sequentially thresholded least squares (STLSQ, as in SINDy): fit,
 zero the coefficients whose standardised size is below `threshold` of the largest,
 refit on the rest, repeat. The surviving features are the answer (`named_terms`).
 """
@@ -55,22 +61,26 @@ MU_REF = 0.01
 
 
 class LearnedForce(AbstractForceTerm):
-    r"""Force $N \mu_{ref}\, g_\phi(x/x_s, \dot y/v_s, t/t_s)$ in kgf (module docstring)."""
+    r"""Force $N \mu_{ref}\, g_\phi(x/x_s, kx/(W f_s), \dot y/v_s, t/t_s)$ in kgf
+    (module docstring); x mm, ydot mm/s, t s, k/W in 1/mm."""
 
     mlp: eqx.nn.MLP
     x_scale: float = eqx.field(static=True, default=0.1)
+    f_scale: float = eqx.field(static=True, default=0.5)
     v_scale: float = eqx.field(static=True, default=10.0)
     t_scale: float = eqx.field(static=True, default=1.0)
 
-    def inputs(self, x, ydot, t):
-        return jnp.stack([x / self.x_scale, ydot / self.v_scale, t / self.t_scale])
+    def inputs(self, x, ydot, t, k_over_w):
+        return jnp.stack([x / self.x_scale, k_over_w * x / self.f_scale, ydot / self.v_scale,
+                          t / self.t_scale])
 
-    def coefficient(self, x, ydot, t):
+    def coefficient(self, x, ydot, t, k_over_w):
         """The learned friction-coefficient correction (dimensionless)."""
-        return MU_REF * self.mlp(self.inputs(x, ydot, t))[0]
+        return MU_REF * self.mlp(self.inputs(x, ydot, t, k_over_w))[0]
 
     def force(self, t, core, own, ctx):
-        return ctx.normal_load * self.coefficient(core.x, core.ydot, t)
+        return ctx.normal_load * self.coefficient(core.x, core.ydot, t,
+                                                  ctx.stiffness / ctx.weight)
 
 
 def make_learned_force(traces: CampaignTraces, *, width: int = 8, seed: int = 0) -> LearnedForce:
@@ -80,11 +90,13 @@ def make_learned_force(traces: CampaignTraces, *, width: int = 8, seed: int = 0)
     omega = float(np.median(np.sqrt(9806.65 * np.asarray(traces.stiffness)
                                     / np.asarray(traces.weight))))
     t_s = float(np.max(np.asarray(traces.time)))
-    mlp = eqx.nn.MLP(3, 1, width, 1, activation=jnp.tanh, key=jax.random.PRNGKey(seed))
+    kw = np.asarray(traces.stiffness) / np.asarray(traces.weight)
+    f_s = float(np.max(np.abs(np.asarray(traces.data)) * kw[:, None]))
+    mlp = eqx.nn.MLP(4, 1, width, 1, activation=jnp.tanh, key=jax.random.PRNGKey(seed))
     last = mlp.layers[-1]
     mlp = eqx.tree_at(lambda m: (m.layers[-1].weight, m.layers[-1].bias), mlp,
                       (jnp.zeros_like(last.weight), jnp.zeros_like(last.bias)))
-    return LearnedForce(mlp, x_scale=x_s, v_scale=omega * x_s, t_scale=t_s)
+    return LearnedForce(mlp, x_scale=x_s, f_scale=f_s, v_scale=omega * x_s, t_scale=t_s)
 
 
 @eqx.filter_jit
@@ -176,15 +188,19 @@ class LearnedProblem:
         return DiscoveryParams(fr, eff, b.traces.x0_guess + jnp.asarray(z[nb + nn:]))
 
 
-FEATURES = ("1", "x", "x^2", "x^3", "v", "sign(v)", "v|v|", "t", "t sign(v)", "x sign(v)")
-"""Sparse-regression library: x deflection, v slider velocity, t time in the record."""
+FEATURES = ("1", "x", "x^2", "x^3", "k x/W", "k x^3/W", "v", "sign(v)", "v|v|", "t",
+            "t sign(v)", "x sign(v)")
+"""Sparse-regression library: x deflection, k/W stiffness per weight, v slider velocity,
+t time in the record."""
 
 
-def feature_matrix(x, v, t, v_eps):
-    """Columns of `FEATURES` at samples x (mm), v (mm/s), t (s); sign smoothed over v_eps."""
+def feature_matrix(x, v, t, v_eps, k_over_w):
+    """Columns of `FEATURES` at samples x (mm), v (mm/s), t (s), k/W (1/mm); sign
+    smoothed over v_eps (mm/s)."""
     s = np.tanh(v / v_eps)
-    return np.stack([np.ones_like(x), x, x ** 2, x ** 3, v, s, v * np.abs(v), t, t * s, x * s],
-                    axis=1)
+    kw = np.broadcast_to(np.asarray(k_over_w, float), np.shape(x))
+    return np.stack([np.ones_like(x), x, x ** 2, x ** 3, kw * x, kw * x ** 3, v, s,
+                     v * np.abs(v), t, t * s, x * s], axis=1)
 
 
 def stlsq(A, y, *, threshold: float = 0.1, iterations: int = 10):
@@ -246,9 +262,12 @@ def fit_learned_correction(base: Problem, base_fit: LMResult, *, width: int = 6,
     x = np.asarray(model)[m]
     v = np.asarray(vel)[m]
     t = np.asarray(base.traces.time)[m]
-    g = np.asarray(jax.vmap(term.coefficient)(jnp.asarray(x), jnp.asarray(v), jnp.asarray(t)))
+    kw = np.broadcast_to((np.asarray(base.traces.stiffness)
+                          / np.asarray(base.traces.weight))[:, None], m.shape)[m]
+    g = np.asarray(jax.vmap(term.coefficient)(jnp.asarray(x), jnp.asarray(v), jnp.asarray(t),
+                                              jnp.asarray(kw)))
     v_eps = 0.05 * max(float(np.max(np.abs(v))), 1e-9)
-    A = feature_matrix(x, v, t, v_eps)
+    A = feature_matrix(x, v, t, v_eps, kw)
     coef, active = stlsq(A, g, threshold=threshold)
     pred = A @ coef
     r2 = 1.0 - float(np.var(g - pred)) / max(float(np.var(g)), 1e-300)

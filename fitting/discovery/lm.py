@@ -49,17 +49,27 @@ class LMResult:
 
 def levenberg_marquardt(problem, z0, *, active=None, max_evals: int = 25, chi2_tol: float = 0.05,
                         first=None, geodesic: bool = False, alpha: float = 0.75,
-                        h: float = 0.1, lam0: float = 1e-3) -> LMResult:
+                        h: float = 0.1, lam0: float = 1e-3, stall_evals: int = 4,
+                        stall_tol: float = 0.5, nielsen: bool = True) -> LMResult:
     r"""Minimise ||r(z)||^2 over the `active` coordinates of z starting at `z0`.
 
     Converged when a full Gauss-Newton step would lower the cost (a chi-square) by less
-    than `chi2_tol`; otherwise stops after `max_evals` evaluations (every evaluation
-    counts, the geodesic probes too). `first`: an (r, J, ok) already evaluated at z0.
+    than `chi2_tol`, or when the last `stall_evals` evaluations lowered it by less than
+    `stall_tol` together (the solver's tolerance noise moves a 12-record chi-square by
+    ~1 between nearby points, below which steps are not worth their cost; measured:
+    polishes ran their whole budget at that floor); otherwise stops after `max_evals`
+    evaluations (every evaluation counts, the geodesic probes too). `first`: an
+    (r, J, ok) already evaluated at z0.
 
     Damping: the step solves $(J^TJ + \lambda D)\delta = -J^Tr$, $D$ = diag($J^TJ$),
-    starting at $\lambda$ = `lam0`, divided by 5 after an accepted step (down to
-    1e-12), multiplied by 8 after a rejected one (and raised to at least 1e-3 at the
-    first rejection). A small `lam0` (0: the plain Gauss-Newton step) suits a start
+    starting at $\lambda$ = `lam0`. `nielsen` (default): Nielsen's update, after an
+    accepted step $\lambda \leftarrow \lambda\max(1/3, 1 - (2\rho - 1)^3)$ with $\rho$ the
+    ratio of the actual to the predicted decrease, after a rejected one
+    $\lambda \leftarrow \lambda\nu$, $\nu \leftarrow 2\nu$ ($\nu$ = 2 again after an
+    accepted step); measured on the hardening-spring campaign's base fit (12 records,
+    a curved valley): chi-square 50948 after 40 evaluations, against 59895 after 80
+    with the fixed factors (divide by 5, multiply by 8), which it still offers. In both,
+    $\lambda$ is at least 1e-12, and at least 1e-3 after a rejection. A small `lam0` (0: the plain Gauss-Newton step) suits a start
     at which the quadratic model is trusted, such as a candidate's refit from the base
     optimum, whose Gauss-Newton step is the score test's: Marquardt's damping acts on
     each column's own scale, so an effect nearly collinear with the base parameters
@@ -88,6 +98,8 @@ def levenberg_marquardt(problem, z0, *, active=None, max_evals: int = 25, chi2_t
     lam = float(lam0)
     converged = False
     history = [cost]
+    best = [cost]  # the best chi-square after each evaluation
+    nu = 2.0
     while n_evals < max_evals:
         Ja = J[:, active]
         A = Ja.T @ Ja
@@ -122,13 +134,27 @@ def levenberg_marquardt(problem, z0, *, active=None, max_evals: int = 25, chi2_t
         cost_try = float(r_try @ r_try) if ok_try and np.all(np.isfinite(r_try)) else np.inf
         history.append(cost_try)
         if cost_try < cost:
+            if nielsen:
+                # gain ratio: actual / predicted decrease of the damped step's model
+                pred = float(-(2.0 * g @ step + step @ (A @ step)))
+                rho = (cost - cost_try) / pred if pred > 0 else 0.0
+                lam = max(lam * max(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3), 1e-12)
+                nu = 2.0
+            else:
+                lam = max(lam / 5.0, 1e-12)
             z, r, J, ok, cost = z_try, r_try, J_try, ok_try, cost_try
-            lam = max(lam / 5.0, 1e-12)
+        elif nielsen:
+            lam = max(lam * nu, 1e-3) if lam < 1e-3 else lam * nu
+            nu *= 2.0
         else:
             lam = max(lam * 8.0, 1e-3)
             if lam > 1e8:
                 converged = True  # no descent direction left: at a minimum to precision
                 break
+        best.append(cost)
+        if len(best) > stall_evals and best[-stall_evals - 1] - cost < stall_tol:
+            converged = True  # stalled at the solver's noise floor
+            break
     return LMResult(z=z, rss=cost, r=r, J=J, n_evals=n_evals, converged=converged,
                     seconds=time.perf_counter() - t0, ok=bool(ok), history=history,
                     lam=lam)
