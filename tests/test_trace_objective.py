@@ -132,6 +132,27 @@ def test_combined_objective_from_the_cli(campaign, tmp_path, capsys):
     assert any("objective 'both'" in w for w in rep["identifiability"]["warnings"])
 
 
+def test_fit_residuals_are_the_objectives(trace_fit):
+    """The fit's residuals with the weights frozen at the point itself (and its simulated slider
+    velocity) are `CampaignObjective.residuals`, for the trace and the combined objective."""
+    from fitting import fit as fit_module
+    from fitting.combined import CampaignObjective
+
+    fit = trace_fit
+    both = CampaignObjective(fit.data, fit.objective.trace, kind="both", weight_features=0.3,
+                             weight_trace=0.7)
+
+    @eqx.filter_jit
+    def pair(obj, params):
+        vel = trace_simulation(params, obj.trace).slider_velocity
+        r, (ok, _) = fit_module._residuals_and_aux(obj, params, params, vel)
+        return r, obj.residuals(params), ok
+
+    r, expected, ok = pair(both, fit.params)
+    assert np.asarray(ok).all() and r.shape == expected.shape
+    np.testing.assert_allclose(np.asarray(r), np.asarray(expected), rtol=1e-12, atol=1e-12)
+
+
 def test_bad_inputs(campaign):
     _, recs, feats = campaign
     with pytest.raises(ValueError, match="needs the records"):
