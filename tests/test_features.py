@@ -24,8 +24,10 @@ def clean_and_noisy():
     from stickslip_jax.drives import ConstantSpeed
     from stickslip_jax.simulation import simulate_exact
 
-    tr = simulate_exact(ss.Slideway(fr, W, K), ConstantSpeed(clean.drive_speed), clean.time,
-                        max_events=64)
+    import equinox as eqx
+
+    tr = eqx.filter_jit(simulate_exact)(ss.Slideway(fr, W, K), ConstantSpeed(clean.drive_speed),
+                                        clean.time, max_events=64)
     valid = np.asarray(tr.cycles.valid)
     ref = {name: np.asarray(getattr(tr.cycles, name))[valid]
            for name in ("peak", "trough", "stick_time", "breakaway_time", "slip_time")}
