@@ -13,11 +13,13 @@ rounds because the machine is shared):
    (trust-region reflective, 2-point finite differences, `x_scale="jac"`) on the same
    jitted residual function from the same 12 starts, with the same reweighting rounds
    (effective-variance weights frozen per round at the previous optimum) and tolerances
-   (1e-10 on the step, the loss change and the gradient);
+   of the same size (SciPy xtol = ftol = gtol = 1e-10; ours rtol = atol = 1e-10 on the
+   step and on the change of every residual; the criteria differ, the optima agree);
 2. the trace fit (every sample through the exact simulator, restarted per cycle): ours
    (`objective="trace"`: features fit first, then LM on the trace) and SciPy on the same
    jitted trace residuals from the same start (our features optimum), same rounds,
-   tolerances 1e-8; plus the combined objective ("both"), ours only;
+   tolerances 1e-8 (ours: root mean square of the step and of the residual change);
+   plus the combined objective ("both"), ours only;
 3. emcee (`fitting.mcmc.run_mcmc`, 32 walkers): minimum effective sample size over the
    parameters per second, after compilation.
 
