@@ -49,6 +49,8 @@ matches finite differences when the tolerances resolve the switching layers (tes
 
 from __future__ import annotations
 
+import math
+
 import diffrax as dfx
 import equinox as eqx
 import jax
@@ -68,10 +70,11 @@ from .parts import (
     Core,
     IdealGauge,
 )
+from .exact import _count_at_or_before
 from .trace import Cycles, SimulationResult, Trace
 
 
-FORMULATIONS = ("rigid_stick", "velocity")
+FORMULATIONS = ("rigid_stick", "velocity", "latch")
 DEFAULT_SMOOTHING = 1e-3
 """Default smoothing of the rigid-stick formulation: the sharpest whose gradients the tests
 verify (limit-cycle amplitude within 0.2 % of the exact simulator on the benchmark)."""
@@ -115,6 +118,12 @@ def default_solver(rtol: float = 1e-8, atol: float = 1e-10):
     return dfx.Kvaerno5(root_finder=optx.Newton(rtol=rtol, atol=atol))
 
 
+def explicit_solver():
+    """Tsit5 (5th-order explicit Runge-Kutta), the default of `formulation="latch"`,
+    whose equations are not stiff (module docstring)."""
+    return dfx.Tsit5()
+
+
 def smoothing_velocity(drive: AbstractDrive, smoothing):
     """The velocity scale eps = smoothing * (largest drive speed), mm/s."""
     _, _, speeds = drive.knots()
@@ -147,6 +156,68 @@ def rigid_stick_friction(applied, r, N, mu0, mu_slip, drop, smoothing):
     sig = 0.5 * (1.0 + jnp.tanh(z)) * jnp.exp(-r * r)
     f = sig * (applied + N * mu0 * r) + (1.0 - sig) * N * mu_slip * jnp.tanh(8.0 * r)
     return sig, f
+
+
+def slip_weight(r):
+    r"""$s_w = 1 - e^{-r^2}$ for $r = \dot y/\varepsilon > 0$, 0 for $r \le 0$ (latch formulation):
+    the weight of the kinetic friction that brakes a moving slider.
+
+    Flat at $r = 0$ ($s_w \approx r^2$), so a slip that comes to rest decays algebraically,
+    $\dot y \sim \varepsilon^2/(C t)$, with a Jacobian of order $1/t$ (not $1/\varepsilon$).
+    """
+    rp = jnp.maximum(r, 0.0)
+    return -jnp.expm1(-rp * rp)
+
+
+def drive_weight(r):
+    r"""$s_a = e^{-1/r^2}$ for $r > 0$, 0 for $r \le 0$ (latch formulation): the weight with which
+    a *positive* net force accelerates a slider that already moves.
+
+    Flat to all orders at $r = 0$, so the tiny velocity left by the algebraic decay of the
+    last slip ($r \ll 1$) cannot run away while the slider sticks; only the breakaway
+    switch $s_F$ starts a slip.
+    """
+    rp = jnp.maximum(r, 0.0)
+    safe = jnp.where(rp > 0, rp, 1.0)
+    return jnp.where(rp > 0, jnp.exp(-1.0 / (safe * safe)), 0.0)
+
+
+LATCH_ONSET = 10.0
+"""Latch formulation: a resting slider's creep must reach `LATCH_ONSET` * eps before the
+slip takes over (`drive_weight(r / LATCH_ONSET)`)."""
+
+
+def latch_shift(M, k, v, force_drop):
+    r"""Offset of the latch's breakaway switch, $\tfrac12\ln(2 K M k v^2 / (N D)^2)$ with
+    $K$ = `LATCH_ONSET`, M (kgf s^2/mm), k (kgf/mm), drive speed v (mm/s), force drop $N D$
+    (kgf).
+
+    Before the breakaway the switch tail $s_F \approx e^{2z}$ lets the slider creep:
+    $\dot y \approx \int s_F\,(N D/M)\,dt = \tfrac12 (N D/M)\,\Delta t\,e^{2z}$ with
+    $\Delta t = \eta N D/(k v)$ the time the applied force takes to cross one switch width.
+    The slip takes over once $\dot y \approx K\varepsilon = K\eta v$, i.e. at
+    $e^{2z} = 2K M k v^2/(N D)^2$, which for slow drives is deep in the tail (z near -4 at
+    3 mm/min): without the offset the breakaway would come early by about 4 switch widths.
+    """
+    return 0.5 * jnp.log(2.0 * LATCH_ONSET * M * k * v * v / (force_drop * force_drop))
+
+
+def latch_acceleration(applied, r, N, mu0, mu_slip, drop, smoothing, shift=0.0):
+    r"""Weight of slipping $s_w$ and the slider's net force (kgf) of the latch formulation
+    (module docstring).
+
+    $M\ddot y = s_w(r)\,\min(F, 0) + [s_a(r) + (1 - s_a(r))\,s_F]\,\max(F, 0)$ with the net
+    force of eq (2) $F = F_a - N\mu_{sl}$ (kinetic friction of eq 3) and the breakaway switch
+    $s_F = \tfrac12[1 + \tanh((F_a - N\mu_0)/(\eta N D))]$: a moving slider feels $F$;
+    one at rest moves only once the applied force $F_a$ (kgf) exceeds the breakaway force
+    $N\mu_0(\tau)$ (switch width $\eta$ times the friction drop $N D$), and only forward.
+    """
+    s_w = slip_weight(r)
+    s_a = drive_weight(r / LATCH_ONSET)
+    s_f = 0.5 * (1.0 + jnp.tanh((applied - N * mu0) / (smoothing * N * drop) + shift))
+    net = applied - N * mu_slip
+    force = s_w * jnp.minimum(net, 0.0) + (s_a + (1.0 - s_a) * s_f) * jnp.maximum(net, 0.0)
+    return s_w, force
 
 
 def simulate_smooth(
@@ -199,7 +270,9 @@ def simulate_smooth(
     if ts.ndim != 1 or ts.shape[0] < 2:
         raise ValueError("ts must be a 1-D array of at least two times (s); vmap for batches")
     mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
-    solver = default_solver(rtol, atol) if solver is None else solver
+    latch = formulation == "latch"
+    if solver is None:
+        solver = explicit_solver() if latch else default_solver(rtol, atol)
 
     sw = model.slideway
     friction, static = sw.friction, sw.friction.static
@@ -210,6 +283,7 @@ def simulate_smooth(
     t0, t1 = ts[0], jnp.max(ts)
     T2 = jnp.pi / omega if isinstance(slip_time, str) else jnp.asarray(slip_time, float)
     t_r = jnp.pi / omega / 40.0
+    t_r_latch = jnp.pi / omega / 20.0  # latch: tau resets by e^-20 or more in a slip
     t_reset = t_r / 10.0
     eps = smoothing_velocity(drive, smoothing)
     parts = model.parts()
@@ -226,10 +300,10 @@ def simulate_smooth(
             drive_speed=drive.speed(t), eps=eps, normal_load=W,
         )
 
-    rigid = formulation == "rigid_stick"
+    rigid = formulation in ("rigid_stick", "latch")
 
     def make_core(cv):
-        # rigid_stick keeps the stick time of the last stick (s) as its 4th state and hands
+        # rigid_stick and latch keep the stick time of the last stick (s) as its 4th state and hands
         # the parts mu_0 of it; "velocity" keeps mu_0 itself
         return Core(cv[0], cv[1], cv[2], static(cv[3]) if rigid else cv[3])
 
@@ -249,12 +323,29 @@ def simulate_smooth(
         r = core.ydot / eps
         extra = sum((f.force(t, core, o, ctx) for f, o in zip(model.force_terms, own)),
                     jnp.zeros(()))
-        if formulation == "velocity":
+        if latch:
+            applied = k * core.x + extra
+            drop = _drop_scale(mu0)
+            v_d = jnp.maximum(jnp.abs(ctx.drive_speed), eps)
+            shift = latch_shift(M, k, v_d, N * drop)
+            s_w, f_net = latch_acceleration(applied, r, N, mu0, mu_sl, drop, smoothing,
+                                            shift)
+            ydd = f_net / M
+            # the clock stops and the memory freezes only once the slip is under way
+            # (r > 2), so they do not feed back into the breakaway itself
+            rest = stick_weight(r)
+            # the memory runs with tau while the slider rests and is frozen while it slips;
+            # after a restick it catches up with the new tau algebraically (rate
+            # 4 / (tau + t_r), so the Jacobian stays O(1/t): not stiff)
+            d_memory = rest * (1.0 + 4.0 * (tau - memory) / (tau + t_r_latch))
+            d_tau = rest - (1.0 - rest) * tau / t_r_latch
+        elif formulation == "velocity":
             sig = stick_weight(r)
             f_fric = N * friction_curve(r, mu0, mu_sl)
             ydd = (k * core.x - f_fric + extra) / M
             d_memory = sig * (mu0 - memory) / t_r
             rest = sig
+            d_tau = rest - (1.0 - rest) * tau / t_r
         else:
             applied = k * core.x + extra
             sig, f_fric = rigid_stick_friction(applied, r, N, mu0, mu_sl,
@@ -264,10 +355,11 @@ def simulate_smooth(
             # while slipping; after a restick it relaxes to the new tau in t_r / 10
             rest = stick_weight(r)  # the slider rests (flat for r < 2): the stick clock runs
             d_memory = rest * (1.0 + (tau - memory) / t_reset)
+            d_tau = rest - (1.0 - rest) * tau / t_r
         d_core = jnp.stack([
             ctx.drive_speed - core.ydot,
             ydd,
-            rest - (1.0 - rest) * tau / t_r,
+            d_tau,
             d_memory,
         ])
         d_own = tuple(p.state_derivative(t, core, o, ctx) for p, o in zip(parts, own))
@@ -280,14 +372,32 @@ def simulate_smooth(
     y0 = (core0, tuple(p.init_state(ctx0) for p in parts))
 
     kt, _, _ = drive.knots()
-    pid = dfx.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.4)
-    controller = dfx.ClipStepSizeController(pid, jump_ts=kt) if kt.shape[0] <= 256 else pid
+    if latch:
+        # the error norm leaves out the stick clock and the memory: their resets (during a
+        # slip, after a restick) are stable for the steps the slider's motion allows and
+        # end at the same values however coarsely they are followed, so resolving them to
+        # rtol would only cost steps (module docstring)
+        def norm(err):
+            core_err, own_err = err
+            return optx.rms_norm((core_err[:2], own_err))
+    else:
+        norm = optx.rms_norm
+    pid = dfx.PIDController(rtol=rtol, atol=atol, pcoeff=0.3, icoeff=0.4, norm=norm)
+    # a drive with one knot (constant speed) has no jump inside the run
+    clip = kt.shape[0] <= 256 and not (latch and kt.shape[0] == 1)
+    controller = dfx.ClipStepSizeController(pid, jump_ts=kt) if clip else pid
     sol = dfx.diffeqsolve(
         dfx.ODETerm(vector_field), solver, t0=t0, t1=t1, dt0=dt0, y0=y0,
-        saveat=dfx.SaveAt(ts=ts), stepsize_controller=controller, max_steps=max_steps,
+        saveat=dfx.SaveAt(steps=True) if latch else dfx.SaveAt(ts=ts),
+        stepsize_controller=controller, max_steps=max_steps,
         adjoint=dfx.RecursiveCheckpointAdjoint() if adjoint is None else adjoint, throw=False,
     )
-    core_ts, own_ts = sol.ys
+    if latch:
+        # the latch takes few, long steps: evaluating the solver's own interpolant at all
+        # sample times at once is much cheaper than SaveAt(ts) (a loop over the samples)
+        core_ts, own_ts = _hermite_at(vector_field, t0, y0, sol, ts)
+    else:
+        core_ts, own_ts = sol.ys
 
     def observe(t, cv, ov):
         core = make_core(cv)
@@ -310,6 +420,62 @@ def simulate_smooth(
     )
 
 
+def _hermite_at(vector_field, t0, y0, sol, ts):
+    """The solution at the times `ts` (sorted) from the accepted steps (`SaveAt(steps=True)`):
+    on each step the cubic Hermite polynomial of the states and their derivatives at both
+    ends (4th-order accurate, like the solver's own interpolant), all samples at once: one
+    binary search of each sample among the step times, one row gather of the step's
+    coefficients, Horner's rule."""
+    n = jnp.asarray(sol.stats["num_accepted_steps"])
+    leaves, treedef = jax.tree_util.tree_flatten(sol.ys)
+    leaves0 = jax.tree_util.tree_leaves(y0)
+    sizes = [int(math.prod(l.shape[1:])) for l in leaves]
+    flat = jnp.concatenate(
+        [jnp.concatenate([l0.reshape(1, -1), l.reshape(l.shape[0], -1)]) for l0, l in
+         zip(leaves0, leaves)], axis=1)  # [S + 1, C]
+    times = jnp.concatenate([jnp.reshape(t0, (1,)), sol.ts])
+    # the unused tail of the buffers (inf) repeats the last accepted step
+    rows = jnp.arange(times.shape[0])
+    times = jnp.where(rows <= n, times, times[n])
+    flat = jnp.where((rows <= n)[:, None], flat, flat[n])
+
+    def unflat(v):
+        parts, i = [], 0
+        for l, size in zip(leaves, sizes):
+            parts.append(v[i:i + size].reshape(l.shape[1:]))
+            i += size
+        return jax.tree_util.tree_unflatten(treedef, parts)
+
+    def deriv(t, v):
+        d = vector_field(t, unflat(v), None)
+        return jnp.concatenate([jnp.reshape(x, (-1,)) for x in jax.tree_util.tree_leaves(d)])
+
+    dflat = jax.vmap(deriv)(times, flat)
+    h = times[1:] - times[:-1]
+    h_safe = jnp.where(h > 0, h, 1.0)[:, None]
+    hd0, hd1 = h[:, None] * dflat[:-1], h[:, None] * dflat[1:]
+    dy = flat[1:] - flat[:-1]
+    # coefficients of the powers of (t - t_step) (cubic Hermite), one [S, 4] table per
+    # component so that a component nobody reads is never gathered; each table is
+    # materialised once by a scatter (XLA would otherwise fuse the table, vector field
+    # included, into the gather and recompute it for every sample)
+    coef = jnp.stack([flat[:-1], dflat[:-1], (3.0 * dy - 2.0 * hd0 - hd1) / h_safe ** 2,
+                      (hd0 + hd1 - 2.0 * dy) / h_safe ** 3], axis=-1)  # [S, C, 4]
+    rows = jnp.arange(coef.shape[0])
+
+    def materialise(a):
+        return jnp.zeros_like(a).at[rows].set(a)
+
+    start = materialise(times[:-1])
+    idx = jnp.clip(_count_at_or_before(times, ts) - 1, 0, jnp.maximum(n - 1, 0))
+    dt = ts - start[idx]
+    cols = []
+    for j in range(flat.shape[1]):
+        c = materialise(coef[:, j, :])[idx]
+        cols.append(((c[:, 3] * dt + c[:, 2]) * dt + c[:, 1]) * dt + c[:, 0])
+    return jax.vmap(unflat)(jnp.stack(cols, axis=1))
+
+
 def cycles_from_samples(time, deflection, sticking, mask, friction, slip_time, *,
                         max_cycles: int = 64, t_start=None) -> Cycles:
     r"""Per-cycle table estimated from sampled x(t) (mm) and a sticking mask.
@@ -323,21 +489,23 @@ def cycles_from_samples(time, deflection, sticking, mask, friction, slip_time, *
     s, m = sticking, mask
     brk = s[:-1] & ~s[1:] & m[1:]
     end = ~s[:-1] & s[1:] & m[1:]
-    cid = jnp.cumsum(brk.astype(int)) - 1
-    drop = jnp.full_like(cid, max_cycles)
-    bid = jnp.where(brk, cid, drop)
-    eid = jnp.where(end & (cid >= 0), cid, drop)
+    # cycle c runs from the (c+1)-th breakaway to the next; its slip end is the last end
+    # in that range (counts and binary searches, no scatter over the samples)
+    n_brk = jax.lax.associative_scan(jnp.add, brk.astype(jnp.int32))
+    n_end = jax.lax.associative_scan(jnp.add, end.astype(jnp.int32))
+    c = jnp.arange(max_cycles, dtype=jnp.int32)
+    last = brk.shape[0] - 1
+    i_b = jnp.minimum(jnp.searchsorted(n_brk, c + 1, side="left"), last)
+    i_next = jnp.searchsorted(n_brk, c + 2, side="left")  # next breakaway (or the end)
+    broke = c < n_brk[-1]
+    ends_before_next = n_end[jnp.clip(i_next - 1, 0, last)]
+    ended = broke & (ends_before_next > n_end[i_b])
+    i_e = jnp.minimum(jnp.searchsorted(n_end, ends_before_next, side="left"), last)
     z = jnp.zeros((max_cycles,))
-
-    def put(ids, v):
-        return z.at[ids].set(v, mode="drop")
-
-    t_b = put(bid, time[:-1])
-    peak = put(bid, jnp.maximum(deflection[:-1], deflection[1:]))
-    t_e = put(eid, time[1:])
-    trough = put(eid, jnp.minimum(deflection[:-1], deflection[1:]))
-    broke = put(bid, jnp.ones_like(time[:-1])) > 0
-    ended = put(eid, jnp.ones_like(time[:-1])) > 0
+    t_b = jnp.where(broke, time[i_b], z)
+    peak = jnp.where(broke, jnp.maximum(deflection[i_b], deflection[i_b + 1]), z)
+    t_e = jnp.where(ended, time[i_e + 1], z)
+    trough = jnp.where(ended, jnp.minimum(deflection[i_e], deflection[i_e + 1]), z)
     valid = broke & ended
     t_first = time[0] if t_start is None else t_start
     prev_end = jnp.concatenate([jnp.asarray(t_first)[None], t_e[:-1]])
