@@ -132,18 +132,49 @@ def feature_data(
     )
 
 
-def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time):
-    """L0, L1 (mm) at stick time t1 for one record (eqs 1, 3, 5, 7)."""
-    mu0 = friction.static(t1)
-    t2 = jnp.pi / omega0
-    if slip_time == "self_consistent":
-        speed = climb_hint / t1
-        for _ in range(4):
-            mum = friction.kinetic(mu0, friction.mu_d, t2)
-            amp = jnp.maximum((mu0 - mum) * scale, 1e-12)
-            t2 = (jnp.pi + 2.0 * jnp.arctan(speed / (omega0 * amp))) / omega0
-    mum = friction.kinetic(mu0, friction.mu_d, t2)
-    return offset + scale * mu0, offset + scale * (2.0 * mum - mu0)
+def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time, speed=None):
+    r"""L0, L1 (mm) at stick time t1 for one record (eqs 1, 3, 5, 7), with re-slip.
+
+    `t1` is the measured stick time (from the end of the previous slip's first half
+    cosine to the breakaway) and L1 the slip-end level as `fitting.features` measures
+    it (the stick line after the slip extrapolated back to that end). A slip that ends
+    above the zero-stick breakaway level, $k x_1 > \mu_0(0) W = \mu_d W$, cannot
+    restick: the slider slips on from rest with $\mu_d$ (as `simulate_exact` does) for
+    $\omega_0 T_2' = 2\pi - 2\arctan(\omega_0 e / v)$, $e = x_1 - \mu_d W/k$, and ends at
+    $x_1' = 2\mu_d W/k - x_1$. The measured level is then $x_1' - v T_2'$ and the true
+    stick time $T_1 - T_2'$ (the re-slip of the previous cycle of the same limit cycle,
+    solved by a short fixed-point iteration). `speed`: drive speed v (mm/s; None: no
+    re-slip modelled)."""
+
+    def single(t):
+        mu0 = friction.static(t)
+        t2 = jnp.pi / omega0
+        if slip_time == "self_consistent":
+            speed_sc = climb_hint / t
+            for _ in range(4):
+                mum = friction.kinetic(mu0, friction.mu_d, t2)
+                amp = jnp.maximum((mu0 - mum) * scale, 1e-12)
+                t2 = (jnp.pi + 2.0 * jnp.arctan(speed_sc / (omega0 * amp))) / omega0
+        mum = friction.kinetic(mu0, friction.mu_d, t2)
+        return mu0, mum
+
+    mu0, mum = single(t1)
+    if speed is None:
+        return offset + scale * mu0, offset + scale * (2.0 * mum - mu0)
+
+    def reslip(mu0, mum):
+        e = scale * (2.0 * mum - mu0 - friction.mu_d)  # first slip's end above mu_d W/k
+        on = e > 0
+        t2r = (2.0 * jnp.pi - 2.0 * jnp.arctan2(omega0 * jnp.where(on, e, 0.0), speed)) / omega0
+        return on, e, jnp.where(on, t2r, 0.0)
+
+    for _ in range(3):
+        _, _, t2r = reslip(mu0, mum)
+        mu0, mum = single(jnp.maximum(t1 - t2r, 0.5 * t1))
+    on, e, t2r = reslip(mu0, mum)
+    l1_first = offset + scale * (2.0 * mum - mu0)
+    l1 = jnp.where(on, l1_first - 2.0 * e - speed * t2r, l1_first)
+    return offset + scale * mu0, l1
 
 
 def feature_residuals(
@@ -164,9 +195,13 @@ def feature_residuals(
     friction, friction_ref = params.friction.friction(), ref.friction.friction()
     scale = data.weight / data.stiffness
 
-    def one(scale, offset, omega0, t1, t1n, t1sd, t1nsd, x1, x1sd, climb, he, hn):
+    # drive speed of each record (climb over stick time, eq 6), for the re-slip
+    speeds = (jnp.sum(jnp.where(data.has_next, data.climb_next, 0.0), axis=1)
+              / jnp.maximum(jnp.sum(jnp.where(data.has_next, data.t1_next, 0.0), axis=1), 1e-300))
+
+    def one(scale, offset, omega0, v, t1, t1n, t1sd, t1nsd, x1, x1sd, climb, he, hn):
         def lv(fr, t):
-            return _levels(fr, scale, offset, omega0, t, climb, slip_time)
+            return _levels(fr, scale, offset, omega0, t, climb, slip_time, speed=v)
 
         def slope(t):  # d(L0, L1)/dT1 at the weights' parameters
             return jax.jvp(lambda t: lv(friction_ref, t), (t,), (jnp.ones_like(t),))[1]
@@ -196,7 +231,7 @@ def feature_residuals(
         data.t1, data.t1_next, data.t1_sd, data.t1_next_sd, data.trough, data.trough_sd,
         data.climb_next, data.has_end, data.has_next,
     )
-    per_cycle = jax.vmap(one, in_axes=(None, None, None) + (0,) * 9)
-    level, stick = jax.vmap(per_cycle)(scale, params.offset, data.omega0, *args)
+    per_cycle = jax.vmap(one, in_axes=(None, None, None, None) + (0,) * 9)
+    level, stick = jax.vmap(per_cycle)(scale, params.offset, data.omega0, speeds, *args)
     start = jnp.where(data.use_start, (data.start_level - params.offset) / data.start_sd, 0.0)
     return jnp.concatenate([level.ravel(), stick.ravel(), start])
