@@ -114,8 +114,8 @@ def fd_grad(smooth):
 
 @pytest.mark.parametrize("eta", [0.1, 0.05, 0.03])
 def test_gradients_match_finite_differences(eta, grad_fn, fd_grad):
-    # the velocity formulation (used by fitting/discovery); the rigid-stick default's
-    # gradients are measured in the README, not yet verified to 1e-4 by a test
+    # the velocity formulation; the rigid-stick default is tested below, the latch
+    # formulation in test_smooth_latch.py
     grads = [grad_fn(SW, a(eta), a(rtol), a(rtol * 1e-2)) for rtol in (1e-9, 1e-10)]
     for name, get in LEAVES.items():
         fd = fd_grad(eta, name, formulation="velocity")
@@ -123,6 +123,19 @@ def test_gradients_match_finite_differences(eta, grad_fn, fd_grad):
             gv = float(get(g))
             assert np.isfinite(gv), name
             assert abs(gv - fd) <= 1e-4 * abs(fd), (eta, name, gv, fd)
+
+
+def test_rigid_stick_gradients_match_finite_differences(fd_grad):
+    """The default formulation at the default smoothing (1e-3), gradients at rtol 1e-10
+    (the tolerance its gradients need, README) against the tight finite differences."""
+    grad_rigid = eqx.filter_jit(eqx.filter_grad(
+        lambda sw, eta, rtol, atol: _loss(sw, eta, rtol, atol, formulation="rigid_stick")))
+    g = grad_rigid(SW, a(DEFAULT_SMOOTHING), *TIGHT)
+    for name, get in LEAVES.items():
+        fd = fd_grad(DEFAULT_SMOOTHING, name, formulation="rigid_stick")
+        gv = float(get(g))
+        assert np.isfinite(gv), name
+        assert abs(gv - fd) <= 1e-4 * abs(fd), (name, gv, fd)
 
 
 def test_loose_explicit_solver_gives_unusable_gradients(fd_grad):

@@ -45,6 +45,33 @@ The ODE is stiff (relaxation rate $\sim g\mu_0/\varepsilon$ while sticking), so 
 default solver is the L-stable implicit `diffrax.Kvaerno5` with a PID step-size
 controller; gradients are taken through the solver (discretise-then-optimise), which
 matches finite differences when the tolerances resolve the switching layers (tests).
+
+**Latch formulation** (`formulation="latch"`, opt-in): the same physics as an ODE that
+is *not* stiff, solved by the explicit `diffrax.Tsit5`. With $F = F_a - N\mu_{sl}$ the
+net force of eq (2) (kinetic friction of eq 3) and $r = \dot y/\varepsilon$:
+$$M\ddot y = s_w(r)\min(F, 0) + [s_a(r/K) + (1 - s_a(r/K))\,s_F]\max(F, 0),$$
+$s_w = 1 - e^{-r^2}$ ($r > 0$, else 0; `slip_weight`), $s_a = e^{-1/r^2}$ ($r > 0$, else 0;
+`drive_weight`), $K$ = `LATCH_ONSET` = 10, and the breakaway switch
+$s_F = \tfrac12[1 + \tanh((F_a - N\mu_0(\tau))/(\eta N D) + z_0)]$ (`latch_acceleration`).
+A slip that ends decays algebraically ($s_w \approx r^2$: $\dot y \sim \varepsilon^2/(Ct)$,
+Jacobian $O(1/t)$ instead of $O(1/\varepsilon)$); a resting slider stays at rest (no
+creep, $s_a$ is flat to all orders at 0) until $F_a$ reaches $N\mu_0(\tau)$; slips run
+forward only. The switch tail lets the slider creep just before the breakaway; the offset
+$z_0$ (`latch_shift`, from the drive speed, M, k and the friction drop) places the onset of
+the slip at $F_a = N\mu_0$ to first order. The clock $\tau$ and the memory stop once the
+slider moves ($\sigma(r) = e^{-(r/4)^8}$), $\tau$ resets in a slip at rate $20/T_0$, the
+memory catches up with $\tau$ after a restick at rate $4/(\tau + T_0/20)$ (algebraic, not
+stiff); the step-size controller's error norm leaves out these two states (their resets
+end at the same values however coarsely they are followed), but not x, $\dot y$ and the
+parts' states. The samples are rendered from the accepted steps by cubic Hermite
+interpolation (`SaveAt(steps=True)`, the vector field at the step ends), so the cost of a
+run grows with `max_steps` (its step buffer): size it to the need (about 130-150 steps per
+stick-slip cycle at rtol 1e-8). Parts with fast states of their own (a sensor low-pass of
+10 us) make any formulation stiff: pass an implicit `solver` for them.
+Measured (tests, README): amplitude error vs exact linear in $\eta$ (1.2 %, 0.10 %, 0.008 %
+at $\eta$ = 1e-2, 1e-3, 1e-4 at 3 mm/min), the number of steps independent of $\eta$,
+gradients within 1e-4 of finite differences for $\eta$ = 1e-2 ... 1e-4 at rtol 1e-9 and
+1e-10.
 """
 
 from __future__ import annotations
@@ -243,10 +270,16 @@ def simulate_smooth(
     - `model`: a `SmoothModel`, or a `Slideway` (then no extra parts).
     - `drive`: any `AbstractDrive`; its knots are step-size jump points when there are
       at most 256 of them.
-    - `smoothing`: dimensionless $\eta$ (default `DEFAULT_SMOOTHING` = 0.03; gradients are
-      verified against finite differences for $\eta \ge$ 0.03 at rtol <= 1e-9); `slip_time`: "paper" or seconds.
-    - `rtol`, `atol` (mm, mm/s), `solver` (default Kvaerno5), `max_steps`, `adjoint`
-      (default `RecursiveCheckpointAdjoint`), `dt0` (s, default automatic).
+    - `smoothing`: dimensionless $\eta$ (default `DEFAULT_SMOOTHING` = 1e-3; gradients are
+      verified against finite differences: rigid stick at 1e-3 with rtol 1e-10, velocity
+      for $\eta \ge$ 0.03 at rtol <= 1e-9, latch for 1e-4 ... 1e-2 at rtol <= 1e-9);
+      `slip_time`: "paper" or seconds.
+    - `rtol`, `atol` (mm, mm/s), `solver` (default Kvaerno5; Tsit5 for "latch"),
+      `max_steps`, `adjoint` (default `RecursiveCheckpointAdjoint`), `dt0` (s, default
+      automatic).
+    - `formulation`: "rigid_stick" (default), "velocity" or "latch" (module docstring;
+      "latch" is not stiff and about 20-60 times cheaper, and its cost grows with
+      `max_steps`).
     - The slider starts at rest with `initial_deflection` (mm), stuck for
       `initial_stick_time` (s), at `ts[0]`.
 
