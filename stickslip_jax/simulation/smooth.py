@@ -233,11 +233,13 @@ def latch_acceleration(applied, r, N, mu0, mu_slip, drop, smoothing, shift=0.0):
     r"""Weight of slipping $s_w$ and the slider's net force (kgf) of the latch formulation
     (module docstring).
 
-    $M\ddot y = s_w(r)\,\min(F, 0) + [s_a(r) + (1 - s_a(r))\,s_F]\,\max(F, 0)$ with the net
-    force of eq (2) $F = F_a - N\mu_{sl}$ (kinetic friction of eq 3) and the breakaway switch
-    $s_F = \tfrac12[1 + \tanh((F_a - N\mu_0)/(\eta N D))]$: a moving slider feels $F$;
-    one at rest moves only once the applied force $F_a$ (kgf) exceeds the breakaway force
-    $N\mu_0(\tau)$ (switch width $\eta$ times the friction drop $N D$), and only forward.
+    $M\ddot y = s_w(r)\,\min(F, 0) + [s_a + (1 - s_a)\,s_F]\,\max(F, 0)$, $s_a = s_a(r/K)$
+    ($K$ = `LATCH_ONSET`), with the net force of eq (2) $F = F_a - N\mu_{sl}$ (kinetic
+    friction of eq 3) and the breakaway switch
+    $s_F = \tfrac12[1 + \tanh((F_a - N\mu_0)/(\eta N D) + z_0)]$ ($z_0$ = `shift`, see
+    `latch_shift`): a moving slider feels $F$; one at rest moves only once the applied force
+    $F_a$ (kgf) exceeds the breakaway force $N\mu_0(\tau)$ (switch width $\eta$ times the
+    friction drop $N D$, kgf), and only forward. `r` = slider velocity / eps.
     """
     s_w = slip_weight(r)
     s_a = drive_weight(r / LATCH_ONSET)
@@ -278,8 +280,8 @@ def simulate_smooth(
       `max_steps`, `adjoint` (default `RecursiveCheckpointAdjoint`), `dt0` (s, default
       automatic).
     - `formulation`: "rigid_stick" (default), "velocity" or "latch" (module docstring;
-      "latch" is not stiff and about 20-60 times cheaper, and its cost grows with
-      `max_steps`).
+      "latch" is not stiff and 45-60 times cheaper on the benchmark campaign; its
+      cost grows with `max_steps`, size that to the need).
     - The slider starts at rest with `initial_deflection` (mm), stuck for
       `initial_stick_time` (s), at `ts[0]`.
 
@@ -369,7 +371,7 @@ def simulate_smooth(
             rest = stick_weight(r)
             # the memory runs with tau while the slider rests and is frozen while it slips;
             # after a restick it catches up with the new tau algebraically (rate
-            # 4 / (tau + t_r), so the Jacobian stays O(1/t): not stiff)
+            # 4 / (tau + T0/20), so the Jacobian stays O(1/t): not stiff)
             d_memory = rest * (1.0 + 4.0 * (tau - memory) / (tau + t_r_latch))
             d_tau = rest - (1.0 - rest) * tau / t_r_latch
         elif formulation == "velocity":
