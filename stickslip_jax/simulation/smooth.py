@@ -306,6 +306,8 @@ def simulate_smooth(
         raise ValueError("ts must be a 1-D array of at least two times (s); vmap for batches")
     mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
     latch = formulation == "latch"
+    if latch:  # the rendering from the accepted steps needs sorted sample times
+        ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
     if solver is None:
         solver = explicit_solver() if latch else default_solver(rtol, atol)
 
