@@ -40,6 +40,21 @@ kappa = 0.2: its change is mostly a rescaling of the friction, which the base mo
 absorbs, and at 0.02 what is left is far below the noise."""
 
 
+def _report(name, recs, res):
+    """One line for the README (shown with `pytest -rA`)."""
+    truth = recs[0].truth["friction"]
+    size = {p: f"{v['value']:.3g} +- {v['stderr']:.1g}" for p, v in res.effect_size.items()}
+    print(f"{name}: answer {res.effect} ({res.confidence}) {size}; gap "
+          f"{res.gap_before * 1e3:.3f} -> {res.gap_after * 1e3:.3f} um (noise "
+          f"{res.noise * 1e3:.3f}); p {res.test_before['p_value']:.2g} -> "
+          f"{res.test_after['p_value']:.2g}; base-parameter error "
+          f"{_log_error(res.parameters_before, truth):.3f} -> "
+          f"{_log_error(res.parameters_after, truth):.3f}; steps "
+          f"{ {k: round(v) for k, v in res.timings.items()} }")
+    if res.learned is not None:
+        print("learned:", res.learned.to_json())
+
+
 def _log_error(values, truth):
     names = ("mu_s", "mu_d", "gamma", "m", "delta", "n")
     return float(np.sqrt(sum(math.log(values[n] / truth[n]) ** 2 for n in names)))
@@ -117,6 +132,7 @@ def test_bad_input_is_one_clear_error():
 def test_each_hidden_effect_is_named_and_closes_the_gap(name):
     recs = hidden_effect_campaign(FRICTION_A, effect=name, values=SIZES[name], seed=11)
     res = discover(recs)
+    _report(name, recs, res)
     assert res.effect == name, res.candidates
     assert res.gap_after < 1.2 * res.noise
     assert res.gap_after < res.gap_before
@@ -129,6 +145,7 @@ def test_each_hidden_effect_is_named_and_closes_the_gap(name):
 def test_no_hidden_effect_answers_none(lub):
     recs = hidden_effect_campaign(lubricant(lub[0], table=lub[1]), seed=21)
     res = discover(recs)
+    _report(f"none ({lub[0]})", recs, res)
     assert res.effect == "none", res.candidates
     assert res.test_before["p_value"] > 1e-3
 
@@ -138,6 +155,7 @@ def test_effect_outside_the_library_is_not_named_confidently_and_is_learned():
     recs = hidden_effect_campaign(FRICTION_A, extra_force_terms=(HardeningSpring(beta=3.0),),
                                   hidden_name="hardening_spring", seed=31)
     res = discover(recs, learn=True)
+    _report("hardening_spring", recs, res)
     assert res.effect == "none" or res.confidence == "low", res.candidates
     if res.effect != "none":  # never a physically impossible size (such as c < 0)
         from fitting.discovery.effects import effect_class
