@@ -101,8 +101,43 @@ def _count_at_or_before(edges, ts):
     if edges.shape[0] <= 64:
         j = jnp.arange(ts.shape[0], dtype=jnp.int32)
         return jnp.searchsorted(pos, j, side="right", method="compare_all")
-    counts = jnp.zeros(ts.shape, jnp.int32).at[pos].add(1, mode="drop")
+    return _count_positions(pos, ts.shape[0])
+
+
+def _count_positions(pos, n):
+    """For each sample index j < n: how many of the integer positions `pos` are <= j
+    (a scatter of ones and a cumulative sum)."""
+    counts = jnp.zeros((n,), jnp.int32).at[jnp.ravel(pos)].add(1, mode="drop")
     return jax.lax.associative_scan(jnp.add, counts)
+
+
+def _drive_at(knot_table, t):
+    """Drive position (mm) and speed (mm/s) at times t (any shape) from the knot table
+    [K, 3] (times s, positions mm, speeds mm/s) of `AbstractDrive.knots`."""
+    kt = knot_table[:, 0]
+    if kt.shape[0] == 1:
+        t_k, u_k, s_k = knot_table[0]
+        return u_k + s_k * (t - t_k), jnp.broadcast_to(s_k, jnp.shape(t))
+    method = "compare_all" if kt.shape[0] <= 16 else "scan"
+    i = jnp.clip(jnp.searchsorted(kt, t, side="right", method=method) - 1,
+                 0, kt.shape[0] - 1)
+    t_k, u_k, s_k = jnp.moveaxis(knot_table[i], -1, 0)
+    return u_k + s_k * (t - t_k), s_k
+
+
+def _render(ts, row, coef, omega, u):
+    """x(t) (mm), slider velocity (mm/s) and the sticking flag on the sample times `ts`
+    (s) from each sample's phase row `row` (an index into the coefficient table `coef`
+    [R, 4], stick rows at even indices), omega0 (1/s, scalar or per sample) and the drive
+    position `u` (mm) at `ts`. Each row is x = P + G u(t) + A cos(omega t) +
+    B sin(omega t), ydot = V + omega (A sin - B cos), G = 1 while sticking (the closed
+    forms of the stick and of eq (10))."""
+    sticking = (row % 2) == 0
+    P, A, Bs, V = (coef[row][:, j] for j in range(4))
+    cs, sn = _cos_sin(omega * ts)
+    deflection = P + jnp.where(sticking, u, 0.0) + A * cs + Bs * sn
+    velocity = V + omega * (A * sn - Bs * cs)
+    return deflection, velocity, sticking
 
 
 def _bisect(fun, lo, hi, iters=64):
@@ -200,8 +235,32 @@ def simulate_exact(
 
     Returns a `Trace` (deflection in mm, slider velocity in mm/s, `Cycles`).
     jit-compatible (wrap in `eqx.filter_jit`), `vmap` over records of padded `ts`
-    (see `pad_times`), differentiable between bifurcations.
+    (see `pad_times`), differentiable between bifurcations. For a campaign of records
+    of different lengths `simulate_exact_campaign` avoids rendering padding.
     """
+    _check_arguments(slideway, drive, slip_time, max_events)
+    ts = jnp.asarray(ts, dtype=float)
+    if ts.ndim != 1 or ts.shape[0] < 1:
+        raise ValueError("ts must be a non-empty 1-D array of times (s); vmap for batches")
+    mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
+    if ts.shape[0] > 1:
+        ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
+    t_start = ts[0] if start_time is None else jnp.asarray(start_time, dtype=float)
+    ev = _events(slideway, drive, t_start, jnp.max(ts), initial_deflection,
+                 initial_stick_time, slip_time=slip_time, max_events=max_events)
+    # each sample's phase row: how many phase starts are at or before it
+    n_rows = ev.row_time.shape[0]
+    row = jnp.clip(_count_at_or_before(ev.row_time, ts) - 1, 0, n_rows - 1)
+    u = _drive_at(ev.knot_table, ts)[0]
+    deflection, velocity, sticking = _render(ts, row, ev.coef, ev.omega, u)
+    return Trace(
+        time=ts, deflection=deflection, slider_velocity=velocity, sticking=sticking,
+        mask=mask, cycles=ev.cycles, steady_sliding=ev.steady_sliding, result=ev.result,
+        num_events=ev.num_events,
+    )
+
+
+def _check_arguments(slideway, drive, slip_time, max_events):
     if not isinstance(slideway, Slideway):
         raise ValueError(f"slideway must be a Slideway, got {type(slideway)}")
     if not isinstance(drive, AbstractDrive):
@@ -210,13 +269,27 @@ def simulate_exact(
         raise ValueError(f"slip_time must be one of {SLIP_TIME_MODES}, got {slip_time!r}")
     if not isinstance(max_events, int) or max_events < 2:
         raise ValueError("max_events must be a Python int >= 2")
-    ts = jnp.asarray(ts, dtype=float)
-    if ts.ndim != 1 or ts.shape[0] < 1:
-        raise ValueError("ts must be a non-empty 1-D array of times (s); vmap for batches")
-    mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
-    if ts.shape[0] > 1:
-        ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
 
+
+class _Events(eqx.Module):
+    """The event loop's output for one record: phase rows for rendering (start time s,
+    closed-form coefficients [R, 4], rows alternate stick/slip), the cycle table, flags."""
+
+    row_time: Array
+    coef: Array
+    knot_table: Array
+    omega: Array
+    cycles: Cycles
+    steady_sliding: Array
+    result: SimulationResult
+    num_events: Array
+
+
+def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_time, *,
+            slip_time, max_events) -> _Events:
+    """Run the stick/slip events of one record from `t_start` to `t_end` (s)."""
+    t_start = jnp.asarray(t_start, dtype=float)
+    t_end = jnp.asarray(t_end, dtype=float)
     friction = slideway.friction
     static = friction.static
     W, k = slideway.weight, slideway.stiffness
@@ -224,8 +297,6 @@ def simulate_exact(
     k = eqx.error_if(k, ~(k > 0), "stiffness k must be positive")
     omega = jnp.sqrt(9806.65 * k / W)
     kt, ku, ks = drive.knots()
-    t_end = jnp.max(ts)
-    t_start = ts[0] if start_time is None else jnp.asarray(start_time, dtype=float)
     bounds = jnp.concatenate([kt, t_end[None]])
     mu_restick = static(jnp.asarray(0.0))
 
@@ -235,14 +306,7 @@ def simulate_exact(
     knot_table = jnp.stack([kt, ku, ks], axis=1)
 
     def u_at(t):
-        """Drive position (mm) and speed (mm/s) at times t (any shape)."""
-        if kt.shape[0] == 1:
-            return ku[0] + ks[0] * (t - kt[0]), jnp.broadcast_to(ks[0], jnp.shape(t))
-        method = "compare_all" if kt.shape[0] <= 16 else "scan"
-        i = jnp.clip(jnp.searchsorted(kt, t, side="right", method=method) - 1,
-                     0, kt.shape[0] - 1)
-        t_k, u_k, s_k = jnp.moveaxis(knot_table[i], -1, 0)
-        return u_k + s_k * (t - t_k), s_k
+        return _drive_at(knot_table, t)
 
     def mu0_and_slope(T):
         return jax.jvp(static, (T,), (jnp.ones_like(T),))
@@ -416,27 +480,11 @@ def simulate_exact(
         *rows), jax.tree_util.tree_map(
         lambda a, b: jnp.stack([a, b], axis=1).reshape((2 * n_steps,) + a.shape[1:]),
         *info)
-    n_rows = 2 * n_steps
-
-    # Render x(t) on the sample times: closed form of the phase each sample falls in.
-    # Each phase row becomes x = P + G u(t) + A cos(omega t) + B sin(omega t),
-    # ydot = V + omega (A sin - B cos) (G = 1 while sticking), one table row per sample.
-    idx = jnp.clip(_count_at_or_before(rows["t"], ts) - 1, 0, n_rows - 1)
-    # rows alternate stick (even) and slip (odd) halves; a sample never falls in an
-    # inactive stick half (it starts with the slip row that follows it)
-    st_i = (idx % 2) == 0
-    P, A, Bs, V = (rows["coef"][idx][:, j] for j in range(4))
-    cs, sn = _cos_sin(omega * ts)
-    deflection = P + jnp.where(st_i, u_at(ts)[0], 0.0) + A * cs + Bs * sn
-    velocity = V + omega * (A * sn - Bs * cs)
-
-    cycles = _cycle_table(info, max_events)
-    result = SimulationResult.where(
-        final.done, SimulationResult.successful, SimulationResult.max_events_reached
-    )
-    return Trace(
-        time=ts, deflection=deflection, slider_velocity=velocity, sticking=st_i, mask=mask,
-        cycles=cycles, steady_sliding=final.steady, result=result,
+    return _Events(
+        row_time=rows["t"], coef=rows["coef"], knot_table=knot_table, omega=omega,
+        cycles=_cycle_table(info, max_events), steady_sliding=final.steady,
+        result=SimulationResult.where(
+            final.done, SimulationResult.successful, SimulationResult.max_events_reached),
         num_events=jnp.sum(rows["active"]).astype(int),
     )
 
