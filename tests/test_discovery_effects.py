@@ -23,7 +23,7 @@ V = 0.3 * float(ss.critical_speed(FR, W, K))
 
 
 def _run(model, ts):
-    return simulate_smooth(model, ConstantSpeed(V), ts, smoothing=1e-2, rtol=1e-6,
+    return simulate_smooth(model, ConstantSpeed(V), ts, smoothing=1e-2, rtol=1e-6, formulation="rigid_stick",
                            atol=1e-8, initial_deflection=0.05).deflection
 
 

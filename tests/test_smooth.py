@@ -1,6 +1,8 @@
 """Smoothed simulator: convergence to the exact one, gradients vs finite differences,
 parts plug in, vmap over padded records, reported failures."""
 
+import functools
+
 import diffrax as dfx
 import equinox as eqx
 import jax
@@ -27,7 +29,9 @@ a = jnp.asarray
 
 @pytest.fixture(scope="module")
 def smooth():
-    return eqx.filter_jit(simulate_smooth)
+    # this file tests the stiff formulations (rigid stick unless a test says otherwise);
+    # the latch default is tested in test_smooth_latch.py
+    return eqx.filter_jit(functools.partial(simulate_smooth, formulation="rigid_stick"))
 
 
 def _amplitude(x, ts, t_from):
@@ -180,7 +184,7 @@ def test_vmap_over_padded_records_and_failure_code(smooth):
 
     @eqx.filter_jit
     def batch(ts, mask):
-        return jax.vmap(lambda t, m: _run(simulate_smooth, SW, *std, ts=t, mask=m))(ts, mask)
+        return jax.vmap(lambda t, m: _run(smooth, SW, *std, ts=t, mask=m))(ts, mask)
 
     out = batch(ts, mask)
     assert out.deflection.shape == (2, 121)

@@ -22,17 +22,19 @@ trace.deflection, trace.slider_velocity, trace.cycles.amplitude()
   (`Cycles`: breakaway_time, peak, trough, stick_time, slip_time, model_slip_time,
   mu_0, mu_m, restick_failed, valid; `.amplitude()`), `steady_sliding`, `result`
   (`SimulationResult`), `num_events`; `.limit_cycle(last=2)`.
-- `simulate_smooth(model, drive, ts, *, smoothing=1e-3, formulation="rigid_stick",
+- `simulate_smooth(model, drive, ts, *, smoothing=1e-3, formulation="latch",
   slip_time="paper", rtol=1e-8,
   atol=1e-10, solver=None, max_steps=16384, initial_deflection=0.0,
   initial_stick_time=0.0, mask=None, adjoint=None, dt0=None) -> Trace`: the same physics
-  as one stiff smooth ODE in diffrax (smooth.py), `model` a `Slideway` or a
+  as one smooth ODE in diffrax (smooth.py; formulations "latch" (default, not stiff, Tsit5),
+  "rigid_stick" and "velocity" (stiff, Kvaerno5)), `model` a `Slideway` or a
   `SmoothModel(slideway, force_terms=(), load=ConstantLoad(), measurement=IdealGauge())`.
   Parts (parts.py): `AbstractForceTerm.force`, `AbstractLoadCoupling.normal_load`,
   `AbstractMeasurement.observe` (+ `noise_std`), optional own states via `num_states`,
   `init_state`, `state_derivative`; `Core`, `Context`; examples `ViscousDamping(c)`,
-  `ConstantLoad()`, `IdealGauge(offset, noise_std)`. For gradients use rtol <= 1e-10
-  (rigid-stick default) or the `formulation="velocity"` model with smoothing >= 0.03.
+  `ConstantLoad()`, `IdealGauge(offset, noise_std)`. Gradients are verified against
+  finite differences for "latch" at smoothing 1e-4...1e-2 and rtol <= 1e-9, "rigid_stick" at
+  1e-3 with rtol 1e-10, "velocity" at smoothing >= 0.03.
 - `synthetic_record(slideway, drive, duration, sample_rate, *, noise_std, seed,
   smoothing=None, ...) -> records.Record` with a `truth` dict (synthetic.py).
 - `pad_times(list_of_ts) -> (ts [B, N], mask [B, N])` to `vmap` records of different

@@ -77,8 +77,9 @@ def synthetic_record(
         trace = _exact(slideway, drive, ts, max_events=max_events)
         simulator = {"name": "exact", "slip_time": "paper", "max_events": max_events}
     else:
-        trace = _smooth(slideway, drive, ts, smoothing=jnp.asarray(smoothing))
-        simulator = {"name": "smooth", "smoothing": float(smoothing), "slip_time": "paper"}
+        trace = _smooth(slideway, drive, ts, smoothing=jnp.asarray(smoothing), formulation="latch")
+        simulator = {"name": "smooth", "formulation": "latch", "smoothing": float(smoothing),
+                     "slip_time": "paper"}
     if not bool(trace.result == SimulationResult.successful):
         raise ValueError(f"simulation failed: {trace.result}")
     x = np.asarray(trace.deflection)
