@@ -113,7 +113,8 @@ class DiscoveryResult:
             "base_fit": {"converged": self.base_fit.converged,
                          "evaluations": self.base_fit.n_evals,
                          "criterion": "converged when a full Gauss-Newton step would lower "
-                                      "chi-square by < 0.05"},
+                                      "chi-square by < 0.05, or the last 4 evaluations "
+                                      "lowered it by < 0.5 together"},
             "final_fit": {"converged": self.final_fit.converged,
                           "evaluations": self.final_fit.n_evals},
             "gap_before": self.gap_before, "gap_after": self.gap_after,
@@ -177,7 +178,8 @@ def discover(
     see `model.campaign_traces`; `effects`: fixed shape settings (`EffectSet.zeros`);
     `fixed`: friction parameters held at their features-fit value; `max_evals`: budget
     of the base fit and of the chosen model's polish (LM stops earlier at convergence:
-    a full Gauss-Newton step would lower chi-square by < 0.05); `refit_evals`: budget
+    a full Gauss-Newton step would lower chi-square by < 0.05, or 4 evaluations gained
+    < 0.5 together); `refit_evals`: budget
     of each ranking refit; `collinear`: see "disagreement" below.
 
     Disagreement: when the score test's winner (all statistics at the same converged
