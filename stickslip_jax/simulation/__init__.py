@@ -18,6 +18,10 @@ trace.deflection, trace.slider_velocity, trace.cycles.amplitude()
   initial_deflection=0.0, initial_stick_time=0.0, start_time=None, mask=None,
   max_events=64) -> Trace`: the paper's model solved event by event in closed form
   (exact.py).
+- `simulate_exact_campaign(slideway, drive, ts, record_index, *, slip_time="paper",
+  initial_deflection=0.0, initial_stick_time=0.0, max_events=64) -> Trace`: B records of
+  different lengths without padding: `slideway`/`drive` batched over records (jax.vmap),
+  `ts`/`record_index` the flat concatenated samples [N]; flat x(t), per-record cycles.
 - `Trace`: `time`, `deflection`, `slider_velocity`, `sticking`, `mask`, `cycles`
   (`Cycles`: breakaway_time, peak, trough, stick_time, slip_time, model_slip_time,
   mu_0, mu_m, restick_failed, valid; `.amplitude()`), `steady_sliding`, `result`
@@ -41,7 +45,7 @@ trace.deflection, trace.slider_velocity, trace.cycles.amplitude()
   lengths.
 """
 
-from .exact import SLIP_TIME_MODES, simulate_exact
+from .exact import SLIP_TIME_MODES, simulate_exact, simulate_exact_campaign
 from .parts import (
     AbstractForceTerm,
     AbstractLoadCoupling,
@@ -78,4 +82,5 @@ __all__ = [
     "Trace",
     "pad_times",
     "simulate_exact",
+    "simulate_exact_campaign",
 ]

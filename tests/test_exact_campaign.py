@@ -1,0 +1,141 @@
+"""Unpadded campaign rendering of the exact simulator (`simulate_exact_campaign`): equals
+per-record `simulate_exact`, compiles once, gradients flow, bad input is rejected."""
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from stickslip_jax import Slideway, experimental_conditions, lubricant, steady_state
+from stickslip_jax.drives import ConstantSpeed, SpeedProgram
+from stickslip_jax.simulation import SimulationResult, simulate_exact, simulate_exact_campaign
+
+LUB_A = lubricant("A")
+TRACES = {"n": 0}
+
+
+def _campaign(fr, Ws, ks, vs, ts, rec):
+    TRACES["n"] += 1
+    sw, dr = jax.vmap(lambda W, k, v: (Slideway(fr, W, k), ConstantSpeed(v)))(Ws, ks, vs)
+    return simulate_exact_campaign(sw, dr, ts, rec, max_events=16)
+
+
+@pytest.fixture(scope="module")
+def campaign_fn():
+    return eqx.filter_jit(_campaign)
+
+
+@pytest.fixture(scope="module")
+def single_fn():
+    return eqx.filter_jit(simulate_exact)
+
+
+def _records(speed_factors, cycles=4.5, rate=400.0):
+    """Records of very different lengths: 2 W/k pairs x given fractions of v_c."""
+    recs = []
+    for W, k in experimental_conditions()[:2]:
+        vc = float(steady_state(LUB_A, W, k, 1.0).critical_speed)
+        for f in speed_factors:
+            v = f * vc
+            ss = steady_state(LUB_A, W, k, v)
+            dur = cycles * float(ss.stick_time + ss.slip_time)
+            recs.append((W, k, v, 0.01 + np.arange(int(dur * rate) + 1) / rate))
+    return recs
+
+
+def _flat(recs):
+    ts = jnp.asarray(np.concatenate([r[3] for r in recs]))
+    rec = jnp.asarray(np.concatenate([np.full(r[3].size, i) for i, r in enumerate(recs)]))
+    cols = [jnp.asarray([r[j] for r in recs]) for j in range(3)]
+    return cols, ts, rec
+
+
+def test_campaign_equals_per_record_and_compiles_once(campaign_fn, single_fn):
+    recs = _records((0.02, 0.1, 0.3))
+    (Ws, ks, vs), ts, rec = _flat(recs)
+    assert max(r[3].size for r in recs) > 4 * min(r[3].size for r in recs)
+    TRACES["n"] = 0
+    tr = campaign_fn(LUB_A, Ws, ks, vs, ts, rec)
+    assert tr.deflection.shape == ts.shape and tr.cycles.peak.shape[0] == len(recs)
+    off = 0
+    for i, (W, k, v, t) in enumerate(recs):
+        ref = single_fn(Slideway(LUB_A, W, k), ConstantSpeed(v), jnp.asarray(t),
+                        max_events=16)
+        sl = slice(off, off + t.size)
+        np.testing.assert_allclose(tr.deflection[sl], ref.deflection, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(tr.slider_velocity[sl], ref.slider_velocity, rtol=1e-9,
+                                   atol=1e-9)
+        np.testing.assert_array_equal(tr.sticking[sl], ref.sticking)
+        np.testing.assert_allclose(tr.cycles.peak[i], ref.cycles.peak, atol=1e-12)
+        np.testing.assert_array_equal(tr.cycles.valid[i], ref.cycles.valid)
+        assert ref.result == SimulationResult.successful
+        assert int(tr.num_events[i]) == int(ref.num_events)
+        assert int(np.sum(ref.cycles.valid)) >= 2  # the records really stick-slip
+        off += t.size
+    assert bool(jnp.all(tr.result == SimulationResult.successful))
+    # new values of the same shapes: no retrace
+    campaign_fn(LUB_A, Ws * 1.01, ks, vs * 0.9, ts + 0.5, rec)
+    assert TRACES["n"] == 1
+
+
+def test_speed_program_records(single_fn):
+    """Slide-hold-slide programs (several drive knots per record) render per record too."""
+    W, k = experimental_conditions()[0]
+    v = 0.05 * float(steady_state(LUB_A, W, k, 1.0).critical_speed)
+    t1 = float(steady_state(LUB_A, W, k, v).stick_time)
+    starts = jnp.asarray([[0.0, 2.5 * t1, 3.5 * t1], [0.0, 1.5 * t1, 4.0 * t1]])
+    speeds = jnp.asarray([[v, 0.0, v], [v, 0.0, 2 * v]])
+    tss = [np.linspace(0.0, 6.0 * t1, 1501), np.linspace(0.0, 8.0 * t1, 977)]
+    dr = jax.vmap(SpeedProgram)(starts, speeds)
+    sw = jax.vmap(lambda W, k: Slideway(LUB_A, W, k))(jnp.asarray([W, W]), jnp.asarray([k, k]))
+    ts = jnp.asarray(np.concatenate(tss))
+    rec = jnp.asarray(np.repeat([0, 1], [t.size for t in tss]))
+    tr = eqx.filter_jit(simulate_exact_campaign)(sw, dr, ts, rec, max_events=24)
+    off = 0
+    for i, t in enumerate(tss):
+        ref = single_fn(Slideway(LUB_A, W, k), SpeedProgram(starts[i], speeds[i]),
+                        jnp.asarray(t), max_events=24)
+        np.testing.assert_allclose(tr.deflection[off:off + t.size], ref.deflection, rtol=0,
+                                   atol=1e-12)
+        assert int(np.sum(ref.cycles.valid)) >= 2
+        off += t.size
+
+
+def test_gradient_matches_sum_of_per_record_gradients():
+    recs = _records((0.1,), cycles=2.5, rate=200.0)
+    (Ws, ks, vs), ts, rec = _flat(recs)
+
+    def loss_campaign(fr):
+        return jnp.sum(_campaign(fr, Ws, ks, vs, ts, rec).deflection ** 2)
+
+    def loss_single(fr):
+        return sum(jnp.sum(simulate_exact(Slideway(fr, W, k), ConstantSpeed(v), jnp.asarray(t),
+                                          max_events=16).deflection ** 2)
+                   for W, k, v, t in recs)
+
+    g1 = eqx.filter_jit(eqx.filter_grad(loss_campaign))(LUB_A)
+    g2 = eqx.filter_jit(eqx.filter_grad(loss_single))(LUB_A)
+    l1, l2 = jax.tree_util.tree_leaves(g1), jax.tree_util.tree_leaves(g2)
+    assert any(float(jnp.abs(a)) > 0 for a in l1)
+    for a, b in zip(l1, l2):
+        np.testing.assert_allclose(a, b, rtol=1e-8, atol=1e-12)
+
+
+def test_bad_input_is_rejected():
+    sw = Slideway(LUB_A, 36.0, 86.9)
+    ts = jnp.linspace(0.0, 1.0, 11)
+    with pytest.raises(ValueError, match="batched"):
+        simulate_exact_campaign(sw, ConstantSpeed(0.01), ts, jnp.zeros(11, int))
+    swb, drb = jax.vmap(lambda W: (Slideway(LUB_A, W, 86.9), ConstantSpeed(0.01)))(
+        jnp.asarray([36.0, 20.0]))
+    with pytest.raises(ValueError, match="integer"):
+        simulate_exact_campaign(swb, drb, ts, jnp.zeros(11))
+    rec = jnp.asarray([0] * 5 + [1] * 6)
+    bad = rec.at[2].set(1)
+    with pytest.raises(Exception, match="non-decreasing with values"):
+        simulate_exact_campaign(swb, drb, ts, bad)
+    with pytest.raises(Exception, match="at least one sample"):
+        simulate_exact_campaign(swb, drb, ts, jnp.zeros(11, int))
+    with pytest.raises(Exception, match="within each record"):
+        simulate_exact_campaign(swb, drb, ts.at[3].set(0.9), rec)
