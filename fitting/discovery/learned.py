@@ -247,9 +247,13 @@ class LearnedCorrection:
 
 
 def fit_learned_correction(base: Problem, base_fit: LMResult, *, width: int = 6,
-                           max_evals: int = 20, threshold: float = 0.1, seed: int = 0
+                           max_evals: int = 40, threshold: float = 0.1, seed: int = 0
                            ) -> LearnedCorrection:
-    """Fit the MLP friction correction (module docstring) from the base fit, then STLSQ."""
+    """Fit the MLP friction correction (module docstring) from the base fit, then STLSQ.
+
+    `max_evals` 40: on the hardening-spring campaign (12 records) the gap fell from 1.378
+    to 0.930 um after 20 evaluations and to 0.839 um after 40 (noise 0.506 um).
+    """
     force0 = make_learned_force(base.traces, width=width, seed=seed)
     eff_vec = np.asarray(base.eff0)
     lp = LearnedProblem(base, force0, eff_vec)
