@@ -25,7 +25,21 @@ from stickslip_jax.simulation import pad_times, simulate_exact
 
 from .params import NAMES, EmpiricalFriction
 
-__all__ = ["synthetic_campaign", "truth_values"]
+__all__ = ["draw_prior_friction", "synthetic_campaign", "truth_values"]
+
+def draw_prior_friction(rng: np.random.Generator) -> ss.Friction:
+    """Eq (1) + eq (3) parameters drawn from the calibration prior (NumPy `rng`):
+    mu_d ~ U(0.15, 0.25), mu_s - mu_d ~ U(0.15, 0.4), gamma log-uniform in [0.1, 1] s^-m,
+    m ~ U(0.3, 0.6), delta log-uniform in [30, 100] s^-n, n ~ U(0.8, 1.2)."""
+    mu_d = rng.uniform(0.15, 0.25)
+    return ss.Friction(
+        ss.KatoStatic(mu_s=mu_d + rng.uniform(0.15, 0.4), mu_d=mu_d,
+                      gamma=np.exp(rng.uniform(np.log(0.1), np.log(1.0))),
+                      m=rng.uniform(0.3, 0.6)),
+        ss.KatoKinetic(delta=np.exp(rng.uniform(np.log(30.0), np.log(100.0))),
+                       n=rng.uniform(0.8, 1.2)),
+    )
+
 
 SPREAD_CONDITIONS = ((36.0, 40.0), (36.0, 86.9), (36.0, 200.0))
 """(W kgf, k kgf/mm) pairs with three different k/W (slip times), so n is identifiable."""

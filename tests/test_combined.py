@@ -11,7 +11,7 @@ from fitting.combined import CampaignObjective, residual_cycles
 from fitting.features import record_features
 from fitting.fit import fit_features
 from fitting.params import NAMES
-from fitting.synthetic import synthetic_campaign, truth_values
+from fitting.synthetic import draw_prior_friction, synthetic_campaign, truth_values
 from fitting.trace_objective import trace_data
 from fitting.uncertainty import laplace
 
@@ -94,13 +94,7 @@ def test_both_interval_calibration(request):
     camps, draw = [], 0
     while len(camps) < BOTH_CAMPAIGNS:
         draw += 1
-        mu_d = rng.uniform(0.15, 0.25)
-        fr = ss.Friction(
-            ss.KatoStatic(mu_s=mu_d + rng.uniform(0.15, 0.4), mu_d=mu_d,
-                          gamma=np.exp(rng.uniform(np.log(0.1), np.log(1.0))),
-                          m=rng.uniform(0.3, 0.6)),
-            ss.KatoKinetic(delta=np.exp(rng.uniform(np.log(30.0), np.log(100.0))),
-                           n=rng.uniform(0.8, 1.2)))
+        fr = draw_prior_friction(rng)
         recs = synthetic_campaign(fr, speed_fractions=(0.05, 0.3), cycles=4,
                                   seed=499 + draw, pad_to=60_000)
         feats = [record_features(r) for r in recs]

@@ -12,6 +12,7 @@ from scipy.optimize import brentq
 from stickslip_jax import Slideway, experimental_conditions, lubricant, steady_state
 from stickslip_jax.drives import ConstantSpeed, SpeedProgram
 from stickslip_jax.simulation import SimulationResult, pad_times, simulate_exact
+from slideway_leaves import FRICTION_LEAVES
 
 G = 9806.65
 LUB_A = lubricant("A")
@@ -183,12 +184,7 @@ def _loss(sw, v, ts):
 
 
 LEAVES = {
-    "mu_s": lambda s: s.friction.static.mu_s,
-    "mu_d": lambda s: s.friction.static.mu_d,
-    "gamma": lambda s: s.friction.static.gamma,
-    "m": lambda s: s.friction.static.m,
-    "delta": lambda s: s.friction.kinetic.delta,
-    "n": lambda s: s.friction.kinetic.n,
+    **FRICTION_LEAVES,
     "weight": lambda s: s.weight,
     "stiffness": lambda s: s.stiffness,
 }

@@ -15,7 +15,7 @@ from fitting.features import record_features
 from fitting.fit import fit_features
 from fitting.objectives import feature_data, feature_residuals
 from fitting.params import NAMES, CampaignParams, EmpiricalFriction, free_spec
-from fitting.synthetic import synthetic_campaign, truth_values
+from fitting.synthetic import draw_prior_friction, synthetic_campaign, truth_values
 from fitting.uncertainty import laplace
 
 NEAR_C = dict(conditions=((36.0, 10.0), (36.0, 20.0), (36.0, 40.0)),
@@ -144,14 +144,7 @@ def test_interval_calibration_over_prior_draws(request):
     hits = {n: 0 for n in NAMES}
     z90 = 1.6448536269514722
     for i in range(CALIBRATION_CAMPAIGNS):
-        mu_d = rng.uniform(0.15, 0.25)
-        fr = ss.Friction(
-            ss.KatoStatic(mu_s=mu_d + rng.uniform(0.15, 0.4), mu_d=mu_d,
-                          gamma=np.exp(rng.uniform(np.log(0.1), np.log(1.0))),
-                          m=rng.uniform(0.3, 0.6)),
-            ss.KatoKinetic(delta=np.exp(rng.uniform(np.log(30.0), np.log(100.0))),
-                           n=rng.uniform(0.8, 1.2)),
-        )
+        fr = draw_prior_friction(rng)
         recs = synthetic_campaign(fr, seed=100 + i, pad_to=400_000,
                                   **dict(NEAR_C, sample_rate=1000.0))
         feats = [f for f in (record_features(r) for r in recs) if f.stick_slip]

@@ -21,6 +21,7 @@ from stickslip_jax.simulation import (
     simulate_exact,
     simulate_smooth,
 )
+from slideway_leaves import FRICTION_LEAVES
 
 SW = Slideway(lubricant("A"), 36.0, 86.9)
 V = 0.05  # mm/s (3 mm/min): stick time about 1.6 s
@@ -68,14 +69,7 @@ def test_velocity_formulation_still_converges(smooth):
         simulate_smooth(SW, ConstantSpeed(V), ts, formulation="bristle")
 
 
-LEAVES = {
-    "mu_s": lambda s: s.friction.static.mu_s,
-    "mu_d": lambda s: s.friction.static.mu_d,
-    "gamma": lambda s: s.friction.static.gamma,
-    "m": lambda s: s.friction.static.m,
-    "delta": lambda s: s.friction.kinetic.delta,
-    "n": lambda s: s.friction.kinetic.n,
-}
+LEAVES = FRICTION_LEAVES
 # One window for every short run (gradients, parts, vmap, failure code): the same shapes
 # and argument types everywhere, so one compiled forward solve serves them all.
 TS_GRAD = jnp.linspace(0.0, 1.2, 121)

@@ -19,6 +19,7 @@ from stickslip_jax.simulation import (
     simulate_exact,
     simulate_smooth,
 )
+from slideway_leaves import FRICTION_LEAVES
 
 SW = Slideway(lubricant("A"), 36.0, 86.9)
 V = 0.05  # mm/s (3 mm/min): stick time about 1.6 s
@@ -55,14 +56,7 @@ def test_latch_converges_to_exact_as_smoothing_shrinks(smooth):
     assert errors[2] < 1e-3, errors
 
 
-LEAVES = {
-    "mu_s": lambda s: s.friction.static.mu_s,
-    "mu_d": lambda s: s.friction.static.mu_d,
-    "gamma": lambda s: s.friction.static.gamma,
-    "m": lambda s: s.friction.static.m,
-    "delta": lambda s: s.friction.kinetic.delta,
-    "n": lambda s: s.friction.kinetic.n,
-}
+LEAVES = FRICTION_LEAVES
 TS_GRAD = jnp.linspace(0.0, 1.2, 121)
 # aged contact (stuck 2 s already): one breakaway and one slip inside the window
 AGED = dict(initial_deflection=a(0.12), initial_stick_time=a(2.0), max_steps=4096)
