@@ -10,8 +10,9 @@ v_c, 6 cycles each, 1 kHz) simulated by
 - the smoothed diffrax simulator (jit + vmap, default rigid-stick formulation and
   smoothing, rtol 1e-8 and 1e-6) and its opt-in `formulation="latch"` (not stiff,
   Tsit5, same smoothing, `max_steps` 2048: the longest record takes about 900 steps),
-- a SciPy baseline: event-driven, brentq for the breakaway, solve_ivp (DOP853,
-  rtol 1e-10) with a terminal event for the end of each slip, same process.
+- a SciPy baseline (`scipy_reference.scipy_record`): event-driven, brentq for the
+  breakaway, solve_ivp (DOP853, rtol 1e-10) with a terminal event for the end of each
+  slip, same process.
 
 Prints wall times (best single call, after a warm-up/compile call, over `--repeat`
 rounds of 5 back-to-back calls of each simulator in turn, so that all see the same
@@ -31,8 +32,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from stickslip_jax import Slideway, experimental_conditions, lubricant, steady_state
 from stickslip_jax.drives import ConstantSpeed
@@ -44,7 +43,10 @@ from stickslip_jax.simulation import (
     simulate_exact_campaign,
     simulate_smooth,
 )
-from stickslip_jax.units import G_MM_S2, from_mm_per_min
+from stickslip_jax.units import from_mm_per_min
+
+# benchmarks/ is on sys.path when run as `python benchmarks/simulate.py`
+from scipy_reference import scipy_record  # noqa: E402
 
 SPEEDS_MM_MIN = (2.0, 5.0, 12.0, 30.0)
 LATCH_MAX_STEPS = 2048
@@ -64,53 +66,6 @@ def campaign(small: bool):
             dur = (cycles + 0.5) * float(ss.stick_time + ss.slip_time)
             recs.append((W, k, v, np.arange(int(dur * 1000) + 1) / 1000.0))
     return fr, recs
-
-
-def scipy_baseline(fr, W, k, v, ts):
-    """Event-driven reference in NumPy/SciPy; returns x(ts) in mm."""
-    s, kin = fr.static, fr.kinetic
-    mu_s, mu_d, gam, m = (float(q) for q in (s.mu_s, s.mu_d, s.gamma, s.m))
-    delta, n = float(kin.delta), float(kin.n)
-    M, omega = W / G_MM_S2, np.sqrt(G_MM_S2 * k / W)
-    t2 = np.pi / omega
-
-    def mu0(T):
-        return mu_s - (mu_s - mu_d) * np.exp(-gam * max(T, 0.0) ** m)
-
-    out = np.empty_like(ts)
-    t, x, t_end = 0.0, 0.0, ts[-1]
-    while t < t_end:
-        def r(tt, t=t, x=x):
-            return k * (x + v * (tt - t)) - W * mu0(tt - t)
-
-        hi = t + 1e-3
-        while r(hi) < 0 and hi < t_end:
-            hi = t + 2 * (hi - t)
-        sel = (ts >= t)
-        if r(min(hi, t_end)) < 0:
-            out[sel] = x + v * (ts[sel] - t)
-            break
-        tb = brentq(r, t, hi, xtol=1e-13)
-        st = (ts >= t) & (ts < tb)
-        out[st] = x + v * (ts[st] - t)
-        xb = x + v * (tb - t)
-        mm = mu_d + (mu0(tb - t) - mu_d) * np.exp(-delta * t2**n)
-
-        def rhs(tt, z, xb=xb, tb=tb, mm=mm):  # z = (slip distance, slider speed)
-            return [z[1], (k * (xb + v * (tt - tb) - z[0]) - mm * W) / M]
-
-        def stop(tt, z):
-            return z[1]
-
-        stop.terminal, stop.direction = True, -1
-        sol = solve_ivp(rhs, (tb, t_end), [0.0, 0.0], method="DOP853", rtol=1e-10,
-                        atol=1e-13, events=stop, dense_output=True, first_step=1e-6)
-        te = sol.t_events[0][0] if sol.t_events[0].size else t_end
-        sl = (ts >= tb) & (ts <= te)
-        out[sl] = xb + v * (ts[sl] - tb) - sol.sol(ts[sl])[0]
-        x = xb + v * (te - tb) - sol.sol(te)[0]
-        t = te
-    return out
 
 
 def best_times(fns, repeat, burst=5):
@@ -202,7 +157,7 @@ def main():
                                             formulation="latch"))
 
     def run_scipy():
-        return [scipy_baseline(fr, W, k, v, t) for W, k, v, t in recs]
+        return [scipy_record(fr, W, k, v, t) for W, k, v, t in recs]
 
     best = best_times({"exact": run_exact, "grouped": run_grouped, "flat": run_flat,
                        "scipy": run_scipy,
