@@ -18,7 +18,10 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
   a few reweighting rounds reach the estimate (`_solve_rounds`).
 - Starts ("features first"): mu_d and mu_s from the measured per-cycle $\mu_m$ and
   $\mu_0$, and a grid over gamma, m and delta (n = 1, the paper's value), so that a poor
-  guess does not end in a local minimum; the best converged start wins.
+  guess does not end in a local minimum. Every start gets `SCREEN_ROUNDS` short rounds
+  (at most `SCREEN_STEPS` steps each: a start stuck on a plateau of the objective stops
+  there instead of spending the whole step budget); then only the best few are
+  polished to the tolerances, and the best converged start wins.
 - Objective (`objective=`): the cycle features (default), the full trace through the
   exact simulator restarted per cycle (`fitting.trace_objective`), or both
   (`fitting.combined`); the trace and combined fits start from the features optimum.
@@ -163,12 +166,15 @@ class _LevenbergMarquardt(optx.AbstractGaussNewton):
 
     def step(self, fn, y, args, options, state, tags):
         # Also stop (successfully) once an accepted step changes the loss only within
-        # rounding: no further progress can be told from rounding noise. (Reads the
-        # Gauss-Newton state of optimistix 0.1: f_info, first_step, terminate.)
+        # rounding: no further progress can be told from rounding noise; and after `args`
+        # steps when given (a traced step cap: screening, see `_solve_rounds`). (Reads the
+        # Gauss-Newton state of optimistix 0.1: f_info, first_step, terminate, num_steps.)
         y_new, new_state, aux = super().step(fn, y, args, options, state, tags)
         moved = new_state.num_accepted_steps > state.num_accepted_steps
-        flat = moved & ~state.first_step & _flat(state.f_info.as_min(), new_state.f_info.as_min())
-        return y_new, eqx.tree_at(lambda s: s.terminate, new_state, new_state.terminate | flat), aux
+        stop = moved & ~state.first_step & _flat(state.f_info.as_min(), new_state.f_info.as_min())
+        if args is not None:
+            stop = stop | (new_state.num_steps >= args)
+        return y_new, eqx.tree_at(lambda s: s.terminate, new_state, new_state.terminate | stop), aux
 
 
 def _quiet(**kwargs):
@@ -261,10 +267,12 @@ def _jacobian_once(value_and_jacobian):
     return f
 
 
-def _solve_starts_impl(free_starts, ref_starts, velocity, static, objective, rtol, atol,
+def _solve_starts_impl(free_starts, ref_starts, velocity, caps, static, objective, rtol, atol,
                        max_steps, norm, linear_solver):
     """Levenberg-Marquardt from every start (leading axis of `free_starts`), each with the
-    weights frozen at its reference (`ref_starts`, `velocity`: same leading axis). One
+    weights frozen at its reference (`ref_starts`, `velocity`: same leading axis) and
+    stopped after `caps` steps (int per start; a traced value, so screening rounds and
+    the polish of one start reuse the compilation). One
     compiled solve run start after start (`lax.map`: a `vmap` would turn the solver's loop
     and branches into selects, about three times the compilation). Returns the optima,
     their chi2, results, step counts, the trace simulations' success flags and slider
@@ -275,7 +283,7 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, static, objective, rto
     solver = _LevenbergMarquardt(rtol, atol, norm, linear_solver)
 
     def solve(args):
-        y0, ref_free, vel = args
+        y0, ref_free, vel, cap = args
         data = (free0, static, objective, ref_free, vel)
         res = _jacobian_once(lambda v: _residuals_jacobian(v, *data))
 
@@ -283,22 +291,31 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, static, objective, rto
             r, aux = res(v)
             return r, (jnp.sum(r * r), aux)
 
-        sol = optx.least_squares(residuals, solver, y0, has_aux=True, max_steps=max_steps,
-                                 throw=False)
+        sol = optx.least_squares(residuals, solver, y0, args=cap, has_aux=True,
+                                 max_steps=max_steps, throw=False)
         chi2, (ok, vel_opt) = sol.aux
         return unravel(sol.value), chi2, sol.result, sol.stats["num_steps"], ok, vel_opt
 
-    return jax.lax.map(solve, (flat_starts, ref_starts, velocity))
+    return jax.lax.map(solve, (flat_starts, ref_starts, velocity, caps))
 
 
 _solve_starts = eqx.filter_jit(_solve_starts_impl)
 
 
 MAX_ROUNDS = 6
-"""Reweighting rounds at most (`_solve_rounds`)."""
+"""Reweighting rounds at most (`_solve_rounds`), after the screening rounds."""
 
 ROUND_TOL = 1e-6
 """Rounds stop when the best start's optimum moves less than this (log parameters, mm)."""
+
+SCREEN_ROUNDS = 2
+"""Rounds run from every start (of several) before only the best few are polished."""
+
+SCREEN_STEPS = 30
+"""Levenberg-Marquardt steps per start in a screening round at most."""
+
+POLISH_STARTS = 4
+"""Starts (those with the lowest chi2 after screening) polished to the tolerances."""
 
 
 def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, linear_solver):
@@ -312,29 +329,42 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, l
     stick) and runs Levenberg-Marquardt on that fixed least-squares problem, whose
     Jacobian is then exact: it converges quadratically and its tolerances are reachable.
     Two or three rounds reach the fixed point; all rounds reuse one compilation.
+
+    With several starts, the first `SCREEN_ROUNDS` rounds run every start for at most
+    `SCREEN_STEPS` steps (a start stuck on a plateau of the objective stops there instead
+    of spending the whole step budget); the `POLISH_STARTS` starts with the lowest chi2
+    then continue with the full `max_steps` (the others are stopped after their first
+    step) until the best converged one moves less than `ROUND_TOL`.
     """
     ref = free_starts
     n_start = jax.tree_util.tree_leaves(free_starts)[0].shape[0]
+    screen = SCREEN_ROUNDS if n_start > 1 else 0
     if objective.kind == "features":
         vel = None
     else:
         vel = jnp.zeros((n_start,) + objective.trace.mask.shape)
     total = np.zeros(n_start, int)
-    for k in range(MAX_ROUNDS):
+    caps = np.full(n_start, SCREEN_STEPS if screen else max_steps + 1, np.int32)
+    polished = np.ones(n_start, bool)
+    for k in range(screen + MAX_ROUNDS):
         values, chi2s, results, steps, flags, vel_opt = _solve_starts(
-            free_starts, ref, vel, static, objective, rtol, atol, max_steps, norm,
-            linear_solver)
+            free_starts, ref, vel, jnp.asarray(caps), static, objective, rtol, atol,
+            max_steps, norm, linear_solver)
         total += np.asarray(steps)
         chi2s_np = np.asarray(chi2s)
         ok = np.asarray(results == optx.RESULTS.successful)
-        score = np.where(np.isfinite(chi2s_np), chi2s_np, np.inf)
+        score = np.where(np.isfinite(chi2s_np) & polished, chi2s_np, np.inf)
         best = int(np.argmin(np.where(ok, score, score + 1e300)))
         move = max(float(np.max(np.abs(np.asarray(a)[best] - np.asarray(b)[best])))
                    for a, b in zip(jax.tree_util.tree_leaves(values),
                                    jax.tree_util.tree_leaves(ref)))
         free_starts = ref = values
         vel = vel_opt
-        if k > 0 and move < ROUND_TOL:
+        if k + 1 == screen:
+            polished = np.zeros(n_start, bool)
+            polished[np.argsort(score, kind="stable")[:POLISH_STARTS]] = True
+            caps = np.where(polished, max_steps + 1, 0).astype(np.int32)
+        if k >= screen and k > 0 and move < ROUND_TOL:
             break
     return values, chi2s_np, results, total, flags, best, k + 1
 
