@@ -12,7 +12,7 @@ deflection $x_0$ and stick time 0.
   If $k x_s \ge W \mu_0(0) = W \mu_d$ the slider breaks away at once (re-slip).
 - Slip: eq (2) $M \ddot y = k x - \mu_m W$ with $x = x_b + v (t - t_b) - y$ and eq (3)
   $\mu_m = \mu_d + (\mu_0(T_1) - \mu_d) e^{-\delta T_2^n}$, $T_2 = \pi/\omega_0$ (eq 7),
-  integrated by `solve_ivp` (DOP853, rtol 1e-10) until the slider speed $\dot y$
+  integrated by `solve_ivp` (DOP853, rtol 1e-10; 1e-12 for the trace residuals) until the slider speed $\dot y$
   returns to zero (a terminal event). Then the next stick starts.
 
 Units: kgf, mm, s (speeds mm/s, stiffness kgf/mm, mass W/g with g = 9806.65 mm/s^2).
@@ -44,7 +44,15 @@ TRACE_MAX_SLIPS = 3
 """Slips simulated per cycle window, as `fitting.trace_objective` (its `MAX_EVENTS` = 6 stick
 and slip phases): after the last one the slip's motion is continued to the window's end."""
 
-__all__ = ["G_MM_S2", "TRACE_MAX_SLIPS", "ReferenceWindows", "friction_values",
+TRACE_RTOL, TRACE_ATOL = 1e-12, 1e-15
+"""solve_ivp tolerances of the trace residuals (relative, absolute mm). Finite-difference
+Jacobians (2-point steps of ~1.5e-8) need residuals far smoother than the records need:
+with rtol 1e-10 the integration noise stalled least_squares in the weakly determined
+delta, n direction (log delta 2e-4 from the optimum, reweighting rounds never settled);
+with 1e-12 it reaches the JAX fit's optimum to 1e-7 in fewer evaluations (measured on
+the benchmark campaign of benchmarks/fit.py)."""
+
+__all__ = ["G_MM_S2", "TRACE_ATOL", "TRACE_MAX_SLIPS", "TRACE_RTOL", "ReferenceWindows", "friction_values",
            "reference_windows", "scipy_record", "scipy_trace_residuals",
            "scipy_trace_simulation", "simulate_window", "values_from_free"]
 
@@ -198,11 +206,13 @@ def reference_windows(tdata) -> ReferenceWindows:
     )
 
 
-def scipy_trace_simulation(values, windows: ReferenceWindows, offsets=None):
+def scipy_trace_simulation(values, windows: ReferenceWindows, offsets=None, *,
+                           rtol=TRACE_RTOL, atol=TRACE_ATOL):
     """Deflection (mm, without the gauge offset) and slider velocity (mm/s), both [N, L]
     (0 on padding): every cycle window simulated once from its start (at rest, stick time
     0, deflection `start_level - offset`), at most `TRACE_MAX_SLIPS` slips.
-    `values`: (mu_s, mu_d, gamma, m, delta, n); `offsets`: per record (mm), default 0."""
+    `values`: (mu_s, mu_d, gamma, m, delta, n); `offsets`: per record (mm), default 0;
+    `rtol`, `atol`: solve_ivp tolerances (see `TRACE_RTOL`)."""
     N, L = windows.shape
     off = np.zeros(int(windows.record.max()) + 1) if offsets is None else np.asarray(offsets)
     x = np.zeros(N * L)
@@ -212,19 +222,20 @@ def scipy_trace_simulation(values, windows: ReferenceWindows, offsets=None):
             values, windows.weight[w], windows.stiffness[w], windows.speed[w], ts,
             t0=windows.start_time[w],
             x0=windows.start_level[w] - off[windows.window_record[w]],
-            max_slips=TRACE_MAX_SLIPS)
+            max_slips=TRACE_MAX_SLIPS, rtol=rtol, atol=atol)
         x[idx], yd[idx] = xw, ydw
     return x.reshape(N, L), yd.reshape(N, L)
 
 
-def scipy_trace_residuals(values, windows: ReferenceWindows, sd, offsets=None) -> np.ndarray:
+def scipy_trace_residuals(values, windows: ReferenceWindows, sd, offsets=None, *,
+                          rtol=TRACE_RTOL, atol=TRACE_ATOL) -> np.ndarray:
     """Whitened trace residuals $(x - c - x_\\mathrm{sim}) / s$, flat (N L,), 0 on padding
     (the layout of `fitting.trace_objective.trace_residuals`).
 
     `values`: (mu_s, mu_d, gamma, m, delta, n); `sd`: the standard errors s (mm, [N, L]),
     frozen (e.g. `trace_sd` at the previous optimum); `offsets`: gauge offsets per record
-    (mm), default 0."""
-    x_sim, _ = scipy_trace_simulation(values, windows, offsets)
+    (mm), default 0; `rtol`, `atol`: solve_ivp tolerances."""
+    x_sim, _ = scipy_trace_simulation(values, windows, offsets, rtol=rtol, atol=atol)
     off = np.zeros(int(windows.record.max()) + 1) if offsets is None else np.asarray(offsets)
     sd = np.asarray(sd, float)
     r = np.zeros(windows.shape)
