@@ -12,8 +12,8 @@ deflection $x_0$ and stick time 0.
   If $k x_s \ge W \mu_0(0) = W \mu_d$ the slider breaks away at once (re-slip).
 - Slip: eq (2) $M \ddot y = k x - \mu_m W$ with $x = x_b + v (t - t_b) - y$ and eq (3)
   $\mu_m = \mu_d + (\mu_0(T_1) - \mu_d) e^{-\delta T_2^n}$, $T_2 = \pi/\omega_0$ (eq 7),
-  integrated by `solve_ivp` (DOP853, rtol 1e-10; 1e-12 for the trace residuals) until the slider speed $\dot y$
-  returns to zero (a terminal event). Then the next stick starts.
+  integrated by `solve_ivp` (DOP853, rtol 1e-10; 1e-12 for the trace residuals) until
+  the slider speed $\dot y$ returns to zero (a terminal event). Then the next stick starts.
 
 Units: kgf, mm, s (speeds mm/s, stiffness kgf/mm, mass W/g with g = 9806.65 mm/s^2).
 
@@ -52,8 +52,8 @@ delta, n direction (log delta 2e-4 from the optimum, reweighting rounds never se
 with 1e-12 it reaches the JAX fit's optimum to 1e-7 in fewer evaluations (measured on
 the benchmark campaign of benchmarks/fit.py)."""
 
-__all__ = ["G_MM_S2", "TRACE_ATOL", "TRACE_MAX_SLIPS", "TRACE_RTOL", "ReferenceWindows", "friction_values",
-           "reference_windows", "scipy_record", "scipy_trace_residuals",
+__all__ = ["G_MM_S2", "TRACE_ATOL", "TRACE_MAX_SLIPS", "TRACE_RTOL", "ReferenceWindows",
+           "friction_values", "reference_windows", "scipy_record", "scipy_trace_residuals",
            "scipy_trace_simulation", "simulate_window", "values_from_free"]
 
 
