@@ -243,22 +243,29 @@ def _residuals_jacobian(v, template, static, objective, ref_free, vel):
     return jax.vmap(push, out_axes=(None, 0, None))(jnp.eye(v.size, dtype=v.dtype))
 
 
-def _jacobian_once(value_and_jacobian):
-    """`v -> (r, aux)` from `value_and_jacobian(v) -> (r, J^T, aux)` (J built once by
-    forward mode), with a JVP rule that returns `J @ dv` (aux: no derivative).
+@eqx.filter_jit
+def _residuals_value(v, template, static, objective, ref_free, vel):
+    """Residuals and aux only (the primal of `_jacobian_once`: traced for shapes)."""
+    return _residual_fn(template, static, objective, ref_free, vel)(v)
+
+
+def _jacobian_once(value, value_and_jacobian):
+    """`v -> (r, aux)` = `value(v)`, with a JVP rule that returns `J @ dv` from
+    `value_and_jacobian(v) -> (r, J^T, aux)` (J built once by forward mode; aux: no
+    derivative).
 
     Optimistix linearises the residuals every step and applies the linear map (to form J
     for its linear solve) and its transpose (gradient for the trust region): through the
     simulator that means a tangent program and a transposed one, each compiled. With J
     built here both are matrix products, and the compiled program holds the simulator
-    once, with its forward derivative. The primal is only traced for its shapes (the
-    solver evaluates the residuals through their linearisation), so it reuses the
-    cached trace of `value_and_jacobian`."""
+    once, with its forward derivative. The primal is only traced (for its shapes: the
+    solver evaluates the residuals through their linearisation), under another tracing
+    context than the JVP rule, so the two would not share a cached trace: `value`
+    without the derivative keeps that extra trace cheap."""
 
     @jax.custom_jvp
     def f(v):
-        r, _, aux = value_and_jacobian(v)
-        return r, aux
+        return value(v)
 
     @f.defjvp
     def f_jvp(primals, tangents):
@@ -287,7 +294,8 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, caps, static, objectiv
     def solve(args):
         y0, ref_free, vel, cap = args
         data = (free0, static, objective, ref_free, vel)
-        res = _jacobian_once(lambda v: _residuals_jacobian(v, *data))
+        res = _jacobian_once(lambda v: _residuals_value(v, *data),
+                             lambda v: _residuals_jacobian(v, *data))
 
         def residuals(v, _):
             r, aux = res(v)
