@@ -42,10 +42,16 @@ import numpy as np
 
 from stickslip_jax.units import G_MM_S2
 
-__all__ = ["RecordFeatures", "extract_cycles", "record_features"]
+__all__ = ["RESLIP_RATIO", "RecordFeatures", "extract_cycles", "record_features"]
 
 _RISE_10_90 = (math.pi - 2.0 * math.acos(0.8)) / math.pi
 """Fraction of a half cosine's duration between 10 % and 90 % of its rise."""
+
+
+RESLIP_RATIO = 1.3
+"""A slip measured this many times longer than a single slip of its size is a re-slip
+(`RecordFeatures.slipped_on`); single slips measure 0.9-1.17 (noise, synthetic
+campaigns), slips with a re-slip 1.4-2.3."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -103,6 +109,20 @@ class RecordFeatures:
     def amplitude(self) -> np.ndarray:
         r"""$a = (x_2 - x_1)/2$ per cycle in mm (eq 5)."""
         return 0.5 * (self.peak - self.trough)
+
+    @property
+    def slipped_on(self) -> np.ndarray:
+        r"""Per cycle: True where the slip lasted over `RESLIP_RATIO` times a single slip
+        of its amplitude $a$ at the drive speed $v$ (eq 11 with the drive:
+        $\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$), or could not be timed. Such a
+        slip ended above $\mu_d W/k$ and slipped on from rest (a re-slip, see
+        `fitting.objectives._levels`): one jump made of two slips, so its `end_time`
+        (the end of a single half cosine about the jump's middle) is not when the
+        slider came to rest."""
+        a = np.maximum(self.amplitude, 1e-300)
+        single = (math.pi + 2.0 * np.arctan(self.drive_speed / (self.omega0 * a))) / self.omega0
+        with np.errstate(invalid="ignore"):
+            return ~(np.asarray(self.slip_time) <= RESLIP_RATIO * single)
 
     @property
     def n_complete(self) -> int:

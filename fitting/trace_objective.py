@@ -32,6 +32,12 @@ rows (their number rounded up to a multiple of 8) run in one `vmap`, so a campai
 compiles once and the padding is at most one partial row per window.
 Units: mm, s, kgf, kgf/mm, mm/s.
 
+A window that starts after a slip with a re-slip (`RecordFeatures.slipped_on`) is left
+out (`reslip_windows` counts them): that jump is two slips, the slider comes to rest
+later than the measured slip end and above the measured level, so the restart state
+would be wrong (at the true parameters such windows gave residuals up to 29 standard
+errors). The cycles are still in the features objective, which models the re-slip.
+
 Only constant drive speeds (`drive_speed` records) are supported here; records with a
 drive program or a measured drive column are refused with a ValueError.
 """
@@ -51,8 +57,9 @@ from stickslip_jax.simulation import SimulationResult, simulate_exact
 from .features import RecordFeatures
 from .params import CampaignParams
 
-__all__ = ["CHUNK", "TraceData", "failed_windows", "trace_data", "trace_residuals",
-           "trace_residuals_and_flags", "trace_sd", "trace_simulation", "window_failures"]
+__all__ = ["CHUNK", "TraceData", "failed_windows", "reslip_windows", "trace_data",
+           "trace_residuals", "trace_residuals_and_flags", "trace_sd", "trace_simulation",
+           "window_failures"]
 
 MAX_EVENTS = 6
 """Stick and slip phases simulated per window (stick, slip, and room for an early extra cycle)."""
@@ -125,8 +132,9 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         t = np.asarray(rec.time, float)
         x = np.asarray(rec.deflection, float)
         sigma = max(float(f.noise), 1e-12)
+        after_reslip = f.slipped_on
         for j in range(1, len(f.peak)):
-            if not f.complete[j]:
+            if not f.complete[j] or after_reslip[j - 1]:
                 continue
             t_s, t_stop = float(f.end_time[j - 1]), float(f.end_time[j])
             sel = np.flatnonzero((t >= t_s) & (t < t_stop))
@@ -141,7 +149,11 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
                 rows.append(head + (t[part], x[part]))
             n_windows += 1
     if not rows:
-        raise ValueError("trace objective: no complete stick-slip cycle in the campaign")
+        raise ValueError(
+            "trace objective: no complete stick-slip cycle in the campaign"
+            + (f" ({reslip_windows(features)} cycles start after a re-slip, whose restart "
+               "state is not measured; use --objective features)"
+               if reslip_windows(features) else ""))
     N = max(len(rows), int(pad_windows))
     N = -(-N // 8) * 8
     time = np.zeros((N, L))
@@ -221,6 +233,13 @@ def trace_residuals_and_flags(params: CampaignParams, data: TraceData, slip_time
     r = (data.deflection - offset[:, None] - trace.deflection) / sd
     ok = trace.result == SimulationResult.successful
     return jnp.where(data.mask, r, 0.0).ravel(), ok, trace.slider_velocity
+
+
+def reslip_windows(features: list[RecordFeatures]) -> int:
+    """Complete cycles that `trace_data` leaves out because the slip before them had a
+    re-slip (module doc)."""
+    return sum(int(np.count_nonzero(np.asarray(f.complete[1:], bool) & f.slipped_on[:-1]))
+               for f in features if f.stick_slip)
 
 
 @eqx.filter_jit

@@ -14,7 +14,8 @@ from fitting.features import record_features
 from fitting.fit import MAX_ROUNDS, fit_features
 from fitting.params import NAMES, CampaignParams, EmpiricalFriction
 from fitting.synthetic import synthetic_campaign, truth_values
-from fitting.trace_objective import CHUNK, trace_data, trace_residuals, trace_simulation
+from fitting.trace_objective import (CHUNK, reslip_windows, trace_data, trace_residuals,
+                                     trace_simulation)
 from fitting.uncertainty import laplace
 
 
@@ -35,6 +36,7 @@ def trace_fit(campaign):
 def test_residuals_at_truth_are_unit_normal(campaign):
     fr, recs, feats = campaign
     data = trace_data(recs, feats)
+    assert reslip_windows(feats) == 0  # no re-slips here: every complete cycle is a window
     assert data.time.shape[1] == CHUNK and data.time.shape[0] % 8 == 0
     params = CampaignParams(EmpiricalFriction.from_friction(fr), jnp.zeros(len(recs)))
     res = jax.jit(trace_residuals)
@@ -55,6 +57,33 @@ def test_residuals_at_truth_are_unit_normal(campaign):
     r_whole = np.asarray(res(params, whole))
     np.testing.assert_allclose(np.sort(r_whole[np.asarray(whole.mask).ravel()]), np.sort(r[m]),
                                rtol=1e-9, atol=1e-9)
+
+
+def test_windows_after_a_reslip_are_left_out():
+    """A prior draw whose stiff-spring (k = 200 kgf/mm) slips end above mu_d W/k and slip
+    on: their measured slip ends are not where the slider rests (residuals up to 29
+    standard errors at the truth when those windows were kept). They are left out and
+    counted; every other window stays, and the residuals at the truth are unit normal."""
+    fr = ss.Friction(ss.KatoStatic(mu_s=0.5698, mu_d=0.2174, gamma=0.3446, m=0.5057),
+                     ss.KatoKinetic(delta=33.84, n=0.9216))
+    recs = synthetic_campaign(fr, speed_fractions=(0.05, 0.3), cycles=4, seed=525)
+    feats = [record_features(r) for r in recs]
+    stiff = [f.stiffness == 200.0 for f in feats]
+    assert all(f.slipped_on.all() for f, s in zip(feats, stiff) if s)
+    assert not any(f.slipped_on.any() for f, s in zip(feats, stiff) if not s)
+    dropped = sum(f.n_complete for f, s in zip(feats, stiff) if s)
+    assert reslip_windows(feats) == dropped > 0
+    data = trace_data(recs, feats)
+    rows = np.asarray(data.mask).any(axis=1)
+    assert np.unique(np.asarray(data.window)[rows]).size == sum(
+        f.n_complete for f, s in zip(feats, stiff) if not s)
+    r = np.asarray(trace_residuals(CampaignParams(EmpiricalFriction.from_friction(fr),
+                                                  jnp.zeros(len(recs))), data))
+    m = np.asarray(data.mask).ravel()
+    assert 0.9 < np.std(r[m]) < 1.1 and np.max(np.abs(r[m])) < 6.0
+    with pytest.raises(ValueError, match="re-slip"):  # only re-slipping records: said so
+        trace_data([rec for rec, s in zip(recs, stiff) if s],
+                   [f for f, s in zip(feats, stiff) if s])
 
 
 def test_trace_fit_recovers_truth_within_intervals(campaign, trace_fit):

@@ -216,7 +216,7 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
         "truth_available": truth is not None,
     }
     if fit.objective.kind != "features":
-        from ..trace_objective import trace_residuals
+        from ..trace_objective import reslip_windows, trace_residuals
 
         td = fit.objective.trace
         rt = np.asarray(trace_residuals(fit.params, td, fit.slip_time)).reshape(td.mask.shape)
@@ -224,6 +224,7 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
         out["trace_residual_rms_mm"] = float(np.sqrt(np.mean(rt[np.asarray(td.mask)] ** 2)))
         out["trace_samples"] = td.n_residuals()
         out["trace_window_failures"] = fit.trace_failures
+        out["trace_windows_after_reslip"] = reslip_windows(fit.features)
     if extra:
         out.update(extra)
     return out
@@ -262,6 +263,8 @@ def format_table(report) -> str:
             f"residual rms {report['trace_residual_rms_mm'] * 1e3:.3g} um"
             + (f"; {report['trace_window_failures']} cycle simulations failed"
                if report["trace_window_failures"] else "")
+            + (f"; {report['trace_windows_after_reslip']} cycles after a re-slip left out"
+               " of the trace (features only)" if report["trace_windows_after_reslip"] else "")
         )
     for w in report["identifiability"]["warnings"]:
         lines.append("warning: " + w)
