@@ -189,7 +189,13 @@ cost about five times more per step."""
 
 
 def _stack(trees):
-    return jax.tree_util.tree_map(lambda *xs: jnp.stack(xs), *trees)
+    # on the host: an eager jnp.stack would compile a small program per campaign layout
+    return jax.tree_util.tree_map(lambda *xs: jnp.asarray(np.stack(xs)), *trees)
+
+
+def _take(trees, i):
+    """Entry `i` of every stacked leaf (on the host, like `_stack`)."""
+    return jax.tree_util.tree_map(lambda x: jnp.asarray(np.asarray(x)[i]), trees)
 
 
 def _residuals_and_aux(objective: CampaignObjective, params, ref, velocity):
@@ -352,7 +358,7 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, l
     if objective.kind == "features":
         vel = None
     else:
-        vel = jnp.zeros((n_start,) + objective.trace.mask.shape)
+        vel = jnp.asarray(np.zeros((n_start,) + objective.trace.mask.shape))
     total = np.zeros(n_start, int)
     caps = np.full(n_start, SCREEN_STEPS if screen else max_steps + 1, np.int32)
     polished = np.ones(n_start, bool)
@@ -444,7 +450,7 @@ def fit_features(
         free_stack, statics[0], obj, rtol, atol, max_steps, optx.max_norm, _LINEAR_SOLVER
     )
     ok = np.asarray(results == optx.RESULTS.successful)
-    free_best = jax.tree_util.tree_map(lambda x: x[best], values)
+    free_best = _take(values, best)
     params = eqx.combine(free_best, statics[0])
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free_best,
                                                                               eqx.is_array)))
@@ -481,7 +487,7 @@ def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps,
     values, chi2s, results, steps, flags, _, rounds = _solve_rounds(
         _stack([free]), static, obj, rtol, atol, max_steps, norm, _LINEAR_SOLVER
     )
-    free_opt = jax.tree_util.tree_map(lambda x: x[0], values)
+    free_opt = _take(values, 0)
     params = eqx.combine(free_opt, static)
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free, eqx.is_array)))
     result = jax.tree_util.tree_map(lambda x: x[0], results)

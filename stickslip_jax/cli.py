@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import sys
 
 SUBCOMMANDS = (
@@ -73,5 +74,33 @@ def main(argv=None) -> int:
         return 2
 
 
+CACHE_ENV = "STICKSLIP_CACHE_DIR"
+"""Environment variable: where `stickslip` keeps compiled programs between runs
+(default ~/.cache/stickslip-jax, or under $XDG_CACHE_HOME); set it empty to turn the
+cache off."""
+
+
+def compilation_cache_dir() -> str | None:
+    """The persistent compilation cache directory of the `stickslip` command (None: off)."""
+    path = os.environ.get(CACHE_ENV)
+    if path is None:
+        base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+        path = os.path.join(base, "stickslip-jax")
+    return path or None
+
+
+def console_main() -> int:
+    """Entry point of the `stickslip` command: `main` with JAX's persistent compilation
+    cache on, so a later run on a campaign of the same layout (records, cycles and
+    samples are padded to buckets) loads the compiled fit instead of compiling it again."""
+    path = compilation_cache_dir()
+    if path:
+        import jax
+
+        jax.config.update("jax_compilation_cache_dir", path)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+    return main()
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(console_main())

@@ -1,0 +1,40 @@
+"""The `stickslip` command's persistent compilation cache (stickslip_jax.cli.console_main):
+where it lives, how to turn it off, and that a run fills it and a second run reads it."""
+
+import os
+import subprocess
+import sys
+
+from stickslip_jax.cli import CACHE_ENV, compilation_cache_dir
+
+SIMULATE = ["simulate", "--lubricant", "A", "--weight", "36", "--stiffness", "86.9",
+            "--speed", "3", "--duration", "5", "--sample-rate", "200", "--seed", "1"]
+
+
+def test_cache_directory_follows_the_environment(monkeypatch, tmp_path):
+    monkeypatch.delenv(CACHE_ENV, raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert compilation_cache_dir() == os.path.join(str(tmp_path), "stickslip-jax")
+    monkeypatch.setenv(CACHE_ENV, str(tmp_path / "mine"))
+    assert compilation_cache_dir() == str(tmp_path / "mine")
+    monkeypatch.setenv(CACHE_ENV, "")
+    assert compilation_cache_dir() is None
+
+
+def _run(tmp_path, cache, name):
+    env = dict(os.environ, **{CACHE_ENV: cache})
+    cmd = [sys.executable, "-c", "import sys; from stickslip_jax.cli import console_main; "
+           "sys.exit(console_main())"] + SIMULATE + ["--out", str(tmp_path / name)]
+    return subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+
+
+def test_a_run_fills_the_cache_and_the_next_reads_it(tmp_path):
+    cache = tmp_path / "cache"
+    first = _run(tmp_path, str(cache), "a.csv")
+    assert first.returncode == 0, first.stderr
+    entries = sorted(os.listdir(cache))
+    assert entries  # compiled programs were written
+    second = _run(tmp_path, str(cache), "b.csv")
+    assert second.returncode == 0, second.stderr
+    assert sorted(os.listdir(cache)) == entries  # same programs: read, not written again
+    assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
