@@ -92,13 +92,20 @@ def compilation_cache_dir() -> str | None:
 def console_main() -> int:
     """Entry point of the `stickslip` command: `main` with JAX's persistent compilation
     cache on, so a later run on a campaign of the same layout (records, cycles and
-    samples are padded to buckets) loads the compiled fit instead of compiling it again."""
+    samples are padded to buckets) loads the compiled fit instead of compiling it again.
+    Programs that compiled in under 0.2 s are not kept (JAX's
+    `JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS` overrides that)."""
     path = compilation_cache_dir()
     if path:
         import jax
+        from jax.experimental.compilation_cache import compilation_cache
 
         jax.config.update("jax_compilation_cache_dir", path)
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+        if "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
+            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+        # importing the package may already have compiled (and so settled the cache
+        # without a directory): start it again with the directory
+        compilation_cache.reset_cache()
     return main()
 
 

@@ -16,6 +16,8 @@ Above $v_c$ there is no stick-slip: `amplitude`, `stick_time`, `frequency` are 0
 
 from __future__ import annotations
 
+import math
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -25,7 +27,7 @@ from jaxtyping import Array, ArrayLike, Bool, Float
 from .friction import Friction
 from .units import G_MM_S2
 
-_LOG_T_START = jnp.log(1e12)
+_LOG_T_START = math.log(1e12)
 
 
 def natural_angular_frequency(weight, stiffness):

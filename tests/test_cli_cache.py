@@ -22,7 +22,8 @@ def test_cache_directory_follows_the_environment(monkeypatch, tmp_path):
 
 
 def _run(tmp_path, cache, name):
-    env = dict(os.environ, **{CACHE_ENV: cache})
+    # keep every program, however fast it compiled (the default keeps those over 0.2 s)
+    env = dict(os.environ, **{CACHE_ENV: cache, "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0"})
     cmd = [sys.executable, "-c", "import sys; from stickslip_jax.cli import console_main; "
            "sys.exit(console_main())"] + SIMULATE + ["--out", str(tmp_path / name)]
     return subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
