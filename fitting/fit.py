@@ -240,7 +240,8 @@ def _residuals_jacobian(v, template, static, objective, ref_free, vel):
     Jitted on its own (inlined in the solve) so that its trace is cached: optimistix
     traces the solver step twice, and tracing the simulator's derivative is the costly
     part of building the program. The tangent axis leads: with it last, each sample's
-    six tangents are interleaved and the trace Jacobian took 2.7x longer (measured)."""
+    six tangents are interleaved and the trace Jacobian took 1.45x longer (measured on
+    benchmarks/fit.py's campaign, data passed as arguments as in the solve)."""
     fun = _residual_fn(template, static, objective, ref_free, vel)
 
     def push(t):

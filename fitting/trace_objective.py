@@ -132,9 +132,9 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         t = np.asarray(rec.time, float)
         x = np.asarray(rec.deflection, float)
         sigma = max(float(f.noise), 1e-12)
-        after_reslip = f.slipped_on
+        dropped = _after_reslip(f)
         for j in range(1, len(f.peak)):
-            if not f.complete[j] or after_reslip[j - 1]:
+            if not f.complete[j] or dropped[j - 1]:
                 continue
             t_s, t_stop = float(f.end_time[j - 1]), float(f.end_time[j])
             sel = np.flatnonzero((t >= t_s) & (t < t_stop))
@@ -149,11 +149,11 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
                 rows.append(head + (t[part], x[part]))
             n_windows += 1
     if not rows:
+        n_reslip = reslip_windows(features)
         raise ValueError(
             "trace objective: no complete stick-slip cycle in the campaign"
-            + (f" ({reslip_windows(features)} cycles start after a re-slip, whose restart "
-               "state is not measured; use --objective features)"
-               if reslip_windows(features) else ""))
+            + (f" ({n_reslip} cycles start after a re-slip, whose restart state is not "
+               "measured; use --objective features)" if n_reslip else ""))
     N = max(len(rows), int(pad_windows))
     N = -(-N // 8) * 8
     time = np.zeros((N, L))
@@ -235,11 +235,15 @@ def trace_residuals_and_flags(params: CampaignParams, data: TraceData, slip_time
     return jnp.where(data.mask, r, 0.0).ravel(), ok, trace.slider_velocity
 
 
+def _after_reslip(f: RecordFeatures) -> np.ndarray:
+    """Per cycle j >= 1: complete, but the slip before it had a re-slip (left out)."""
+    return np.asarray(f.complete[1:], bool) & f.slipped_on[:-1]
+
+
 def reslip_windows(features: list[RecordFeatures]) -> int:
     """Complete cycles that `trace_data` leaves out because the slip before them had a
     re-slip (module doc)."""
-    return sum(int(np.count_nonzero(np.asarray(f.complete[1:], bool) & f.slipped_on[:-1]))
-               for f in features if f.stick_slip)
+    return sum(int(np.count_nonzero(_after_reslip(f))) for f in features if f.stick_slip)
 
 
 @eqx.filter_jit

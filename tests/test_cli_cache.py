@@ -24,9 +24,18 @@ def test_cache_directory_follows_the_environment(monkeypatch, tmp_path):
 def _run(tmp_path, cache, name):
     # keep every program, however fast it compiled (the default keeps those over 0.2 s)
     env = dict(os.environ, **{CACHE_ENV: cache, "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0"})
-    cmd = [sys.executable, "-c", "import sys; from stickslip_jax.cli import console_main; "
-           "sys.exit(console_main())"] + SIMULATE + ["--out", str(tmp_path / name)]
+    # the run prints how many compilations the persistent cache answered (JAX's event)
+    code = ("import sys, jax.monitoring as m; hits = []; "
+            "m.register_event_listener(lambda e, **k: hits.append(e) "
+            "if e == '/jax/compilation_cache/cache_hits' else None); "
+            "from stickslip_jax.cli import console_main; rc = console_main(); "
+            "print('cache hits', len(hits)); sys.exit(rc)")
+    cmd = [sys.executable, "-c", code] + SIMULATE + ["--out", str(tmp_path / name)]
     return subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=300)
+
+
+def _hits(run):
+    return int(run.stdout.rsplit("cache hits", 1)[1])
 
 
 def test_a_run_fills_the_cache_and_the_next_reads_it(tmp_path):
@@ -37,5 +46,6 @@ def test_a_run_fills_the_cache_and_the_next_reads_it(tmp_path):
     assert entries  # compiled programs were written
     second = _run(tmp_path, str(cache), "b.csv")
     assert second.returncode == 0, second.stderr
-    assert sorted(os.listdir(cache)) == entries  # same programs: read, not written again
+    assert _hits(second) > _hits(first)  # and read back (the first run repeats a few itself)
+    assert sorted(os.listdir(cache)) == entries  # same programs: nothing new written
     assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()

@@ -10,7 +10,6 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from stickslip_jax import Slideway, lubricant
 from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.simulation import (
     DEFAULT_SMOOTHING,
@@ -21,10 +20,8 @@ from stickslip_jax.simulation import (
     simulate_exact,
     simulate_smooth,
 )
-from slideway_leaves import FRICTION_LEAVES
+from slideway_leaves import FRICTION_LEAVES, SW, V, amplitude_after
 
-SW = Slideway(lubricant("A"), 36.0, 86.9)
-V = 0.05  # mm/s (3 mm/min): stick time about 1.6 s
 a = jnp.asarray
 
 
@@ -35,23 +32,17 @@ def smooth():
     return eqx.filter_jit(functools.partial(simulate_smooth, formulation="rigid_stick"))
 
 
-def _amplitude(x, ts, t_from):
-    sel = np.asarray(ts) >= t_from
-    x = np.asarray(x)[sel]
-    return 0.5 * (x.max() - x.min())
-
-
 def test_converges_to_exact_as_smoothing_shrinks(smooth):
     ts = jnp.linspace(0.0, 6.5, 6501)
     ex = simulate_exact(SW, ConstantSpeed(V), ts, max_events=16)
     c = ex.cycles
     t_from = float(c.breakaway_time[int(c.valid.sum()) - 1]) - 0.2  # last cycle
-    amp_exact = _amplitude(ex.deflection, ts, t_from)
+    amp_exact = amplitude_after(ex.deflection, ts, t_from)
     errors = []
     for eta in (1e-2, 3e-3, DEFAULT_SMOOTHING):
         tr = smooth(SW, ConstantSpeed(V), ts, smoothing=a(eta))
         assert tr.result == SimulationResult.successful
-        errors.append(abs(_amplitude(tr.deflection, ts, t_from) / amp_exact - 1))
+        errors.append(abs(amplitude_after(tr.deflection, ts, t_from) / amp_exact - 1))
     assert errors[0] > errors[1] > errors[2], errors
     assert errors[2] < 0.01, errors  # the default smoothing
 
@@ -61,10 +52,10 @@ def test_velocity_formulation_still_converges(smooth):
     ex = simulate_exact(SW, ConstantSpeed(V), ts, max_events=16)
     c = ex.cycles
     t_from = float(c.breakaway_time[int(c.valid.sum()) - 1]) - 0.2
-    amp_exact = _amplitude(ex.deflection, ts, t_from)
+    amp_exact = amplitude_after(ex.deflection, ts, t_from)
     tr = smooth(SW, ConstantSpeed(V), ts, smoothing=a(0.03), formulation="velocity")
     assert tr.result == SimulationResult.successful
-    assert abs(_amplitude(tr.deflection, ts, t_from) / amp_exact - 1) < 0.01
+    assert abs(amplitude_after(tr.deflection, ts, t_from) / amp_exact - 1) < 0.01
     with pytest.raises(ValueError, match="formulation"):
         simulate_smooth(SW, ConstantSpeed(V), ts, formulation="bristle")
 

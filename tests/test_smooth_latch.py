@@ -8,7 +8,6 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from stickslip_jax import Slideway, lubricant
 from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.simulation import (
     DEFAULT_SMOOTHING,
@@ -19,10 +18,8 @@ from stickslip_jax.simulation import (
     simulate_exact,
     simulate_smooth,
 )
-from slideway_leaves import FRICTION_LEAVES
+from slideway_leaves import FRICTION_LEAVES, SW, V, amplitude_after
 
-SW = Slideway(lubricant("A"), 36.0, 86.9)
-V = 0.05  # mm/s (3 mm/min): stick time about 1.6 s
 a = jnp.asarray
 LATCH = dict(formulation="latch")
 SHARPEST = 1e-4  # the sharpest smoothing whose gradients are verified here
@@ -33,24 +30,18 @@ def smooth():
     return eqx.filter_jit(simulate_smooth)
 
 
-def _amplitude(x, ts, t_from):
-    sel = np.asarray(ts) >= t_from
-    x = np.asarray(x)[sel]
-    return 0.5 * (x.max() - x.min())
-
-
 def test_latch_converges_to_exact_as_smoothing_shrinks(smooth):
     ts = jnp.linspace(0.0, 6.5, 6501)
     ex = simulate_exact(SW, ConstantSpeed(V), ts, max_events=16)
     c = ex.cycles
     t_from = float(c.breakaway_time[int(c.valid.sum()) - 1]) - 0.2  # last cycle
-    amp_exact = _amplitude(ex.deflection, ts, t_from)
+    amp_exact = amplitude_after(ex.deflection, ts, t_from)
     errors = []
     for eta in (1e-2, DEFAULT_SMOOTHING, SHARPEST):
         tr = smooth(SW, ConstantSpeed(V), ts, smoothing=a(eta), max_steps=4096, **LATCH)
         assert tr.result == SimulationResult.successful
         assert int(tr.num_events) < 1000  # about 130 steps per cycle, whatever eta
-        errors.append(abs(_amplitude(tr.deflection, ts, t_from) / amp_exact - 1))
+        errors.append(abs(amplitude_after(tr.deflection, ts, t_from) / amp_exact - 1))
     assert errors[0] > errors[1] > errors[2], errors
     assert errors[1] < 0.01, errors  # the default smoothing
     assert errors[2] < 1e-3, errors
