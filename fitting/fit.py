@@ -189,13 +189,14 @@ cost about five times more per step."""
 
 
 def _stack(trees):
-    # on the host: an eager jnp.stack would compile a small program per campaign layout
-    return jax.tree_util.tree_map(lambda *xs: jnp.asarray(np.stack(xs)), *trees)
+    # on the host: an eager jnp.stack (or jnp.asarray of a NumPy array) would compile a
+    # small program per campaign layout; device_put only copies
+    return jax.tree_util.tree_map(lambda *xs: jax.device_put(np.stack(xs)), *trees)
 
 
 def _take(trees, i):
     """Entry `i` of every stacked leaf (on the host, like `_stack`)."""
-    return jax.tree_util.tree_map(lambda x: jnp.asarray(np.asarray(x)[i]), trees)
+    return jax.tree_util.tree_map(lambda x: jax.device_put(np.asarray(x)[i]), trees)
 
 
 def _residuals_and_aux(objective: CampaignObjective, params, ref, velocity):
@@ -291,7 +292,8 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, caps, static, objectiv
     the polish of one start reuse the compilation). One
     compiled solve run start after start (`lax.map`: a `vmap` would turn the solver's loop
     and branches into selects, about three times the compilation). Returns the optima,
-    their chi2, results, step counts, the trace simulations' success flags and slider
+    their chi2, results (and whether each is successful), step counts, the trace
+    simulations' success flags and slider
     velocities at the optima."""
     free0 = jax.tree_util.tree_map(lambda x: x[0], free_starts)
     _, unravel = jax.flatten_util.ravel_pytree(free0)
@@ -311,7 +313,9 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, caps, static, objectiv
         sol = optx.least_squares(residuals, solver, y0, args=cap, has_aux=True,
                                  max_steps=max_steps, throw=False)
         chi2, (ok, vel_opt) = sol.aux
-        return unravel(sol.value), chi2, sol.result, sol.stats["num_steps"], ok, vel_opt
+        success = sol.result == optx.RESULTS.successful
+        return (unravel(sol.value), chi2, sol.result, success, sol.stats["num_steps"], ok,
+                vel_opt)
 
     return jax.lax.map(solve, (flat_starts, ref_starts, velocity, caps))
 
@@ -359,17 +363,17 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, l
     if objective.kind == "features":
         vel = None
     else:
-        vel = jnp.asarray(np.zeros((n_start,) + objective.trace.mask.shape))
+        vel = jax.device_put(np.zeros((n_start,) + objective.trace.mask.shape))
     total = np.zeros(n_start, int)
     caps = np.full(n_start, SCREEN_STEPS if screen else max_steps + 1, np.int32)
     polished = np.ones(n_start, bool)
     for k in range(screen + MAX_ROUNDS):
-        values, chi2s, results, steps, flags, vel_opt = _solve_starts(
-            free_starts, ref, vel, jnp.asarray(caps), static, objective, rtol, atol,
+        values, chi2s, results, success, steps, flags, vel_opt = _solve_starts(
+            free_starts, ref, vel, jax.device_put(caps), static, objective, rtol, atol,
             max_steps, norm, linear_solver)
         total += np.asarray(steps)
         chi2s_np = np.asarray(chi2s)
-        ok = np.asarray(results == optx.RESULTS.successful)
+        ok = np.asarray(success)
         score = np.where(np.isfinite(chi2s_np) & polished, chi2s_np, np.inf)
         best = int(np.argmin(np.where(ok, score, score + 1e300)))
         move = max(float(np.max(np.abs(np.asarray(a)[best] - np.asarray(b)[best])))
@@ -383,7 +387,7 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, l
             caps = np.where(polished, max_steps + 1, 0).astype(np.int32)
         if k >= screen and k > 0 and move < ROUND_TOL:
             break
-    return values, chi2s_np, results, total, flags, best, k + 1
+    return values, chi2s_np, _take(results, best), ok, total, flags, best, k + 1
 
 
 def fit_features(
@@ -443,14 +447,13 @@ def fit_features(
     starts = initial_guesses(features, offsets0) if starts is None else list(starts)
     if fixed:
         starts = [_with_fixed(s, fixed) for s in starts]
-    params0 = [CampaignParams(s, jnp.asarray(offsets0)) for s in starts]
+    params0 = [CampaignParams(s, jax.device_put(offsets0)) for s in starts]
     spec = free_spec(params0[0], fixed=tuple(fixed), offsets=(offset == "start"))
     frees, statics = zip(*(eqx.partition(p, spec) for p in params0))
     free_stack = _stack(frees)
-    values, chi2s, results, steps, _, best, rounds = _solve_rounds(
+    values, chi2s, result, ok, steps, _, best, rounds = _solve_rounds(
         free_stack, statics[0], obj, rtol, atol, max_steps, optx.max_norm, _LINEAR_SOLVER
     )
-    ok = np.asarray(results == optx.RESULTS.successful)
     free_best = _take(values, best)
     params = eqx.combine(free_best, statics[0])
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free_best,
@@ -458,7 +461,7 @@ def fit_features(
     return FitResult(
         params=params, spec=spec, data=data, features=list(features),
         chi2=float(chi2s[best]), dof=data.n_residuals() - n_free,
-        result=jax.tree_util.tree_map(lambda x: x[best], results), converged=bool(ok[best]), n_starts=len(starts),
+        result=result, converged=bool(ok[best]), n_starts=len(starts),
         n_steps=int(np.asarray(steps)[best]), slip_time=slip_time, start_chi2=chi2s,
         objective=obj, n_rounds=rounds,
     )
@@ -485,17 +488,16 @@ def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps,
             norm=optx.rms_norm) -> FitResult:
     """Levenberg-Marquardt (with reweighting rounds) of `obj` from the features fit's optimum."""
     free, static = eqx.partition(first.params, first.spec)
-    values, chi2s, results, steps, flags, _, rounds = _solve_rounds(
+    values, chi2s, result, ok, steps, flags, _, rounds = _solve_rounds(
         _stack([free]), static, obj, rtol, atol, max_steps, norm, _LINEAR_SOLVER
     )
     free_opt = _take(values, 0)
     params = eqx.combine(free_opt, static)
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free, eqx.is_array)))
-    result = jax.tree_util.tree_map(lambda x: x[0], results)
     # Should Levenberg-Marquardt stop without meeting its tolerances (step budget), the
     # fit has still converged when the Gauss-Newton step would lower chi2 by less than
     # 1e-3 (stationarity, measured in units of the noise).
-    ok = bool(np.asarray(result == optx.RESULTS.successful)) or _gn_decrement(
+    ok = bool(ok[0]) or _gn_decrement(
         free_opt, static, obj) < 1e-3
     return dataclasses.replace(
         first, params=params, chi2=float(np.asarray(chi2s)[0]),

@@ -73,9 +73,8 @@ class FeatureData(eqx.Module):
 
     def n_residuals(self) -> int:
         """Number of residuals that carry data (the rest of the padded vector is zero)."""
-        level = np.asarray(self.has_end | self.has_next).sum()
-        stick = np.asarray(self.has_end & self.has_next).sum()
-        return int(level + stick + np.asarray(self.use_start).sum())
+        end, nxt = np.asarray(self.has_end), np.asarray(self.has_next)
+        return int((end | nxt).sum() + (end & nxt).sum() + np.asarray(self.use_start).sum())
 
 
 def feature_data(
@@ -122,7 +121,9 @@ def feature_data(
                     "cannot be read from the first sample; drop --offset start"
                 )
             start[r], start_sd[r], use_start[r] = f.start_level, f.start_level_sd, True
-    j = jnp.asarray
+    def j(x):  # device_put: jnp.asarray would compile a small program per shape
+        return jax.device_put(np.asarray(x))
+
     return FeatureData(
         weight=j([f.weight for f in features]), stiffness=j([f.stiffness for f in features]),
         omega0=j([f.omega0 for f in features]),
@@ -206,10 +207,10 @@ def feature_residuals(
         def slope(t):  # d(L0, L1)/dT1 at the weights' parameters
             return jax.jvp(lambda t: lv(friction_ref, t), (t,), (jnp.ones_like(t),))[1]
 
-        l0, l1 = lv(friction, t1)
-        l0n, l1n = lv(friction, t1n)
-        dl0, dl1 = slope(t1)
-        dl0n, _ = slope(t1n)
+        # both stick times in one evaluation (half the program to trace and compile)
+        both = jnp.stack([t1, t1n])
+        (_, l0n), (l1, _) = lv(friction, both)
+        (_, dl0n), (dl1, _) = slope(both)
         pred_end = jnp.where(he, l1, 0.0)
         pred_next = jnp.where(hn, l0n - climb, 0.0)
         count = he.astype(float) + hn.astype(float)
@@ -224,7 +225,6 @@ def feature_residuals(
         sd = jnp.sqrt(((dl0n - speed) * t1nsd) ** 2 + (dl1 * t1sd) ** 2)
         sd = jax.lax.stop_gradient(jnp.maximum(sd, 1e-12))
         stick = jnp.where(he & hn, (l0n - l1 - climb) / sd, 0.0)
-        del l0, dl0, l1n
         return level, stick
 
     args = (

@@ -169,7 +169,9 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         time[i] = time[0]
         for c in cols:
             c.append(c[0])
-    j = jnp.asarray
+    def j(x):  # device_put: jnp.asarray would compile a small program per shape
+        return jax.device_put(np.asarray(x))
+
     return TraceData(
         record=j(np.asarray(cols[0], np.int32)), weight=j(cols[1]), stiffness=j(cols[2]),
         speed=j(cols[3]), start_time=j(cols[4]), start_level=j(cols[5]),
@@ -188,7 +190,8 @@ def trace_simulation(params: CampaignParams, data: TraceData, slip_time: str = "
     def one(w, k, v, t0, x0, ts, m):
         sw = ss.Slideway(friction, w, k)
         return simulate_exact(sw, ConstantSpeed(v), ts, initial_deflection=x0, start_time=t0,
-                              mask=m, max_events=MAX_EVENTS, slip_time=slip_time)
+                              mask=m, max_events=MAX_EVENTS, slip_time=slip_time,
+                              cycle_table=False)
 
     return jax.vmap(one)(data.weight, data.stiffness, data.speed, data.start_time,
                          data.start_level - offset, data.time, data.mask)

@@ -217,6 +217,7 @@ def simulate_exact(
     start_time: Float[ArrayLike, ""] | None = None,
     mask: ArrayLike | None = None,
     max_events: int = 64,
+    cycle_table: bool = True,
 ) -> Trace:
     r"""Simulate the paper's stick-slip model exactly (events in closed form) on times `ts`.
 
@@ -232,6 +233,9 @@ def simulate_exact(
       speed (a drive knot crossed during a slip costs 2 more; an odd budget is rounded
       up). Running out gives
       `result = max_events_reached`.
+    - `cycle_table` (static): False leaves out the per-cycle table (`Trace.cycles` is
+      None), which callers that need only the trace (the fits) then do not trace,
+      differentiate and compile.
 
     Returns a `Trace` (deflection in mm, slider velocity in mm/s, `Cycles`).
     jit-compatible (wrap in `eqx.filter_jit`), `vmap` over records of padded `ts`
@@ -247,7 +251,8 @@ def simulate_exact(
         ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
     t_start = ts[0] if start_time is None else jnp.asarray(start_time, dtype=float)
     ev = _events(slideway, drive, t_start, jnp.max(ts), initial_deflection,
-                 initial_stick_time, slip_time=slip_time, max_events=max_events)
+                 initial_stick_time, slip_time=slip_time, max_events=max_events,
+                 cycle_table=cycle_table)
     # each sample's phase row: how many phase starts are at or before it
     n_rows = ev.row_time.shape[0]
     row = jnp.clip(_count_at_or_before(ev.row_time, ts) - 1, 0, n_rows - 1)
@@ -279,14 +284,14 @@ class _Events(eqx.Module):
     coef: Array
     knot_table: Array
     omega: Array
-    cycles: Cycles
+    cycles: Cycles | None
     steady_sliding: Array
     result: SimulationResult
     num_events: Array
 
 
 def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_time, *,
-            slip_time, max_events) -> _Events:
+            slip_time, max_events, cycle_table=True) -> _Events:
     """Run the stick/slip events of one record from `t_start` to `t_end` (s)."""
     t_start = jnp.asarray(t_start, dtype=float)
     t_end = jnp.asarray(t_end, dtype=float)
@@ -445,7 +450,8 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         st, z = s.sticking, jnp.zeros_like(s.x)
         Q = s.x - s.c
         S = (v_t - s.yd) / omega
-        c_row, s_row = _cos_sin(omega * jnp.where(jnp.isfinite(t), t, t_end))
+        phase = omega * jnp.where(jnp.isfinite(t), t, t_end)
+        c_row, s_row = jnp.cos(phase), jnp.sin(phase)
         coef = jnp.stack([
             jnp.where(st, s.x - u_t, s.c),
             jnp.where(st, z, Q * c_row - S * s_row),
@@ -482,7 +488,8 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         *info)
     return _Events(
         row_time=rows["t"], coef=rows["coef"], knot_table=knot_table, omega=omega,
-        cycles=_cycle_table(info, max_events), steady_sliding=final.steady,
+        cycles=_cycle_table(info, max_events) if cycle_table else None,
+        steady_sliding=final.steady,
         result=SimulationResult.where(
             final.done, SimulationResult.successful, SimulationResult.max_events_reached),
         num_events=jnp.sum(rows["active"]).astype(int),

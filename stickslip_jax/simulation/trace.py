@@ -59,7 +59,8 @@ class Trace(eqx.Module):
     - `time` (s), `deflection` x (mm), `slider_velocity` $\dot y$ (mm/s), `sticking`
       (True while the slider rests; for the smoothed simulator: $\dot y$ below the
       smoothing scale), `mask` (False on padding samples of a batch).
-    - `cycles`: the per-cycle table (`Cycles`); the smoothed simulator estimates it from
+    - `cycles`: the per-cycle table (`Cycles`; None where the exact simulator was asked
+      for none, `cycle_table=False`); the smoothed simulator estimates it from
       the sampled trace (`valid` only for cycles it resolved).
     - `steady_sliding`: the slider stopped sticking (a slip ended above $\mu_d W/k$ or
       could not end), that is the run is not regular stick-slip.
@@ -72,7 +73,7 @@ class Trace(eqx.Module):
     slider_velocity: Float[Array, "... N"]
     sticking: Bool[Array, "... N"]
     mask: Bool[Array, "... N"]
-    cycles: Cycles
+    cycles: Cycles | None
     steady_sliding: Bool[Array, "..."]
     result: SimulationResult
     num_events: Int[Array, "..."]
