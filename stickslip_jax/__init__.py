@@ -2,16 +2,10 @@
 
 Implements Kato, Sato, Yamaguchi and Matsubayashi, "Stick-slip motion and
 characteristics of friction in machine tool slideway". Internal units: kgf, mm, s
-(see `stickslip_jax.units`). Importing the package enables `jax_enable_x64` and,
-unless `STICKSLIP_XLA_DEFAULTS=0`, sets XLA's CPU compiler options of
-`stickslip_jax._xla_flags` (faster compilation) if JAX has not started yet.
+(see `stickslip_jax.units`). Importing the package enables `jax_enable_x64`.
 """
 
-from ._xla_flags import set_default_xla_flags
-
-set_default_xla_flags()
-
-import jax  # noqa: E402
+import jax
 
 jax.config.update("jax_enable_x64", True)
 
