@@ -29,7 +29,8 @@ rounds because the machine is shared):
    parameters per second, after compilation.
 
 Two SciPy baselines. The strict one: SciPy's residual functions are jitted JAX (the
-same model and residuals, so the comparison is optimiser + derivatives); their
+same model and residuals, compiled with the XLA options of our solves,
+`fitting.fit.COMPILER_OPTIONS`, so the comparison is optimiser + derivatives); their
 compilation is reported separately and included in the "SciPy incl. compilation"
 figures. The SciPy-native one (trace part): what a SciPy user would write, the model in
 NumPy/SciPy (it agrees with the exact simulator to about 1e-13 mm, see
@@ -43,6 +44,7 @@ Usage: python benchmarks/fit.py [--small] [--repeat N]
 import argparse
 import os
 import time
+from functools import partial
 
 import numpy as np
 
@@ -126,8 +128,11 @@ def main():
         return eqx.combine(unravel(v), static)
 
     # the data go in as arguments (closed-over arrays would be constant-folded by XLA)
+    # compiled with the options of our solves (fit_module.COMPILER_OPTIONS): the same
+    # machine code for the residuals on both sides
     fres_jit = jax.jit(lambda v, ref, data: feature_residuals(params_of(v), data,
-                                                              weights_at=params_of(ref)))
+                                                              weights_at=params_of(ref)),
+                       compiler_options=fit_module.COMPILER_OPTIONS)
 
     def fres(v, ref):
         return fres_jit(v, ref, data)
@@ -174,7 +179,7 @@ def main():
     tdata = trace_data(recs, feats)
     tstart = np.asarray(ravel_pytree(eqx.partition(fit.params, fit.spec)[0])[0])
 
-    @jax.jit
+    @partial(jax.jit, compiler_options=fit_module.COMPILER_OPTIONS)
     def tjit_data(v, ref, vel, tdata):
         r, _, vel_v = trace_residuals_and_flags(params_of(v), tdata, weights_at=params_of(ref),
                                                 slider_velocity=vel)
