@@ -330,6 +330,14 @@ time. (Ignored by other backends.)"""
 _solve_starts = eqx.filter_jit(_solve_starts_impl, compiler_options=COMPILER_OPTIONS)
 
 
+@eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
+def compiled(fn, *args):
+    """`fn(*args)` as one compiled program (with `COMPILER_OPTIONS`; the function and
+    non-array arguments are static): for evaluating an objective outside the solve
+    instead of dispatching its operations one by one."""
+    return fn(*args)
+
+
 MAX_ROUNDS = 6
 """Reweighting rounds at most (`_solve_rounds`), after the screening rounds."""
 
@@ -474,7 +482,7 @@ def fit_features(
     )
 
 
-@eqx.filter_jit
+@eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
 def _gn_terms(free, static, objective):
     flat, unravel = jax.flatten_util.ravel_pytree(free)
 

@@ -30,7 +30,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .fit import FitResult
+from .fit import COMPILER_OPTIONS, FitResult
 from .params import _LEAF, CampaignParams, names_of, units_of
 from .uncertainty import _from_logs, laplace
 
@@ -60,7 +60,7 @@ def prior_text(free_names, units=None) -> str:
     return text + "; gauge offsets flat"
 
 
-@eqx.filter_jit
+@eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
 def _batched_log_posterior(theta, logs0, idx, lo, hi, template, offset0, objective, scale,
                            fit_off: bool):
     """log posterior of every row of theta (walkers, dim); module level so that it compiles

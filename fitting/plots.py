@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["corner_plot", "fit_figure", "friction_curves"]
+__all__ = ["corner_plot", "fit_figure", "fitted_traces", "friction_curves"]
 
 
 def _plt():
@@ -22,11 +22,22 @@ def _plt():
     return plt
 
 
-def friction_curves(fit, unc, n_draws: int = 200, seed: int = 0):
-    r"""(T1 grid, mu_0 median, low, high) of eq (1) with a 95 % band from the Laplace covariance."""
-    import jax.numpy as jnp
+def _static_curves(logs, template, grid):
+    """mu_0 of eq (1) on `grid` (s) for every row of `logs` (log parameter values)."""
+    import jax
 
     from .uncertainty import _from_logs
+
+    return jax.vmap(lambda d: _from_logs(d, template).friction().static(grid))(logs)
+
+
+def friction_curves(fit, unc, n_draws: int = 200, seed: int = 0):
+    r"""(T1 grid (s), fitted mu_0, 2.5 % and 97.5 % points) of eq (1): a 95 % band from
+    `n_draws` draws of the Laplace covariance (in log parameters), evaluated in one
+    compiled call."""
+    import jax
+
+    from .fit import compiled
 
     t1 = np.concatenate([f.stick_time[f.complete] for f in fit.features])
     grid = np.geomspace(max(t1.min() / 3, 1e-3), t1.max() * 3, 100)
@@ -34,21 +45,50 @@ def friction_curves(fit, unc, n_draws: int = 200, seed: int = 0):
     cov = np.nan_to_num(unc.cov_log)
     rng = np.random.default_rng(seed)
     draws = rng.multivariate_normal(logs0, cov, size=n_draws, check_valid="ignore")
-    curves = []
-    for d in draws:
-        if d[0] <= d[1]:
-            continue
-        fr = _from_logs(jnp.asarray(d), fit.params.friction).friction()
-        curves.append(np.asarray(fr.static(jnp.asarray(grid))))
-    fr0 = fit.params.friction.friction()
-    best = np.asarray(fr0.static(jnp.asarray(grid)))
-    curves = np.array(curves) if curves else best[None]
+    draws = np.concatenate([logs0[None], draws[draws[:, 0] > draws[:, 1]]])
+    curves = np.asarray(compiled(_static_curves, jax.device_put(draws), fit.params.friction,
+                                 jax.device_put(grid)))
+    best, curves = curves[0], (curves[1:] if len(curves) > 1 else curves)
     lo, hi = np.percentile(curves, [2.5, 97.5], axis=0)
     return grid, best, lo, hi
 
 
+def fitted_traces(fit, records):
+    """The fitted model over `records` (the first ones of the fit): per record, (time s,
+    deflection mm without the gauge offset) of the exact simulator restarted at the
+    end of every slip, as the trace objective compares it (`fitting.trace_objective`),
+    NaN between the cycle windows. None where that is not possible (a drive program,
+    no complete cycle); the figure then shows the fitted levels only."""
+    import jax
+
+    from .fit import compiled
+    from .params import CampaignParams
+    from .trace_objective import trace_data, trace_simulation
+
+    n = len(records)
+    try:
+        data = trace_data(records, fit.features[:n])
+    except ValueError:
+        return None
+    params = CampaignParams(fit.params.friction, jax.device_put(np.asarray(fit.params.offset)[:n]))
+    sim = np.asarray(compiled(trace_simulation, params, data, fit.slip_time).deflection)
+    rec, win = np.asarray(data.record), np.asarray(data.window)
+    time, mask = np.asarray(data.time), np.asarray(data.mask)
+    out = []
+    for i in range(n):
+        t, x = [], []
+        for w in np.unique(win[(rec == i) & mask.any(axis=1)]):
+            rows = np.flatnonzero((win == w) & mask.any(axis=1))
+            t += [time[rows][mask[rows]], [np.nan]]
+            x += [sim[rows][mask[rows]], [np.nan]]
+        out.append((np.concatenate(t), np.concatenate(x)) if t else (np.array([]), np.array([])))
+    return out
+
+
 def fit_figure(fit, unc, records, path, max_traces: int = 4):
-    """Save the diagnostic figure: traces with fitted levels, mu_0 vs T1, mu_m vs T2."""
+    """Save the diagnostic figure: the first `max_traces` records with the fitted
+    simulation (`fitted_traces`) and breakaway levels over them, mu_0 against T1 with the
+    fitted eq (1) and its 95 % band, mu_m against T2 with the fitted eq (3)."""
     import jax.numpy as jnp
 
     plt = _plt()
@@ -57,12 +97,17 @@ def fit_figure(fit, unc, records, path, max_traces: int = 4):
     ax = axes[0, 0]
     offset = np.asarray(fit.params.offset)
     fr = fit.params.friction.friction()
+    simulated = fitted_traces(fit, records[:n])
     for i in range(n):
         r, f = records[i], fit.features[i]
         ax.plot(r.time, (r.deflection - offset[i]) * 1e3, lw=0.6, label=f.name)
+        if simulated is not None:
+            ax.plot(simulated[i][0], simulated[i][1] * 1e3, "k--", lw=0.6)
         mu0 = np.asarray(fr.static(jnp.asarray(np.where(f.complete, f.stick_time, 1.0))))
         x2 = np.where(f.complete, mu0 * f.weight / f.stiffness, np.nan)
         ax.plot(f.breakaway_time, x2 * 1e3, "k^", ms=4)
+    if simulated is not None:
+        ax.plot([], [], "k--", lw=0.6, label="fitted simulation, restarted every cycle")
     ax.plot([], [], "k^", label="fitted breakaway level (eq 1)")
     ax.set(xlabel="time t [s]", ylabel="deflection x [um]", title="records and fitted model")
     ax.legend(fontsize=7)

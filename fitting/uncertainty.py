@@ -42,7 +42,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-from .fit import FitResult
+from .fit import COMPILER_OPTIONS, FitResult
 from .params import _LEAF, UNITS, CampaignParams, EmpiricalFriction, names_of, units_of
 
 __all__ = ["Uncertainty", "laplace", "Z95"]
@@ -103,7 +103,7 @@ def _from_logs(logs, template: EmpiricalFriction) -> EmpiricalFriction:
     return EmpiricalFriction(l_mud, jnp.log(gap), l_g, l_m, l_d, l_n)
 
 
-@eqx.filter_jit
+@eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
 def _jacobian_log(theta0, logs0, idx, template, offset0, objective, fit_offsets: bool):
     """(J, r): residuals and their Jacobian in (log friction, free offsets) coordinates.
 

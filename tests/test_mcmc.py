@@ -105,3 +105,23 @@ def test_cli_mcmc_and_plots(fitted, tmp_path, capsys):
     png = tmp_path / "fit.png"
     fit_figure(fit, laplace(fit), recs, png)
     assert png.stat().st_size > 10_000
+
+
+def test_fitted_traces_follow_the_records(fitted):
+    # the figure's overlay: the restarted simulation at the fitted parameters lies on
+    # the record within its noise inside every window, NaN separates the windows
+    from fitting.plots import fitted_traces, friction_curves
+
+    recs, fit = fitted
+    sims = fitted_traces(fit, recs[:2])
+    assert sims is not None and len(sims) == 2
+    for rec, f, (t, x) in zip(recs, fit.features, sims):
+        gaps = np.isnan(t)
+        assert gaps.sum() == np.count_nonzero(f.complete[1:]) and np.isnan(x[gaps]).all()
+        idx = np.searchsorted(rec.time, t[~gaps])
+        np.testing.assert_array_equal(rec.time[idx], t[~gaps])
+        resid = rec.deflection[idx] - x[~gaps]
+        assert np.sqrt(np.mean(resid**2)) < 3 * f.noise
+    grid, best, lo, hi = friction_curves(fit, laplace(fit), n_draws=50)
+    assert np.all(lo <= best + 1e-12) and np.all(best <= hi + 1e-12) and np.all(hi > lo)
+    assert np.allclose(best, np.asarray(fit.params.friction.friction().static(grid)))

@@ -178,9 +178,10 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
             if row["ci95"] is not None:
                 entry["truth_in_ci95"] = bool(row["ci95"][0] <= t <= row["ci95"][1])
         params[row["name"]] = entry
+    from ..fit import compiled
     from ..objectives import feature_residuals
 
-    res = np.asarray(feature_residuals(fit.params, fit.data, fit.slip_time))
+    res = np.asarray(compiled(feature_residuals, fit.params, fit.data, fit.slip_time))
     level_sd = np.asarray(fit.data.trough_sd)
     R, C = level_sd.shape
     levels = res[: R * C].reshape(R, C) * level_sd
@@ -219,7 +220,8 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
         from ..trace_objective import reslip_windows, trace_residuals
 
         td = fit.objective.trace
-        rt = np.asarray(trace_residuals(fit.params, td, fit.slip_time)).reshape(td.mask.shape)
+        rt = np.asarray(compiled(trace_residuals, fit.params, td, fit.slip_time))
+        rt = rt.reshape(td.mask.shape)
         rt = rt * np.asarray(td.sigma)[:, None]
         out["trace_residual_rms_mm"] = float(np.sqrt(np.mean(rt[np.asarray(td.mask)] ** 2)))
         out["trace_samples"] = td.n_residuals()

@@ -13,7 +13,17 @@ r"""Missing-physics discovery: which effect does the paper's model leave out?
 - `workflow`: `discover(records) -> DiscoveryResult`.
 """
 
-from .effects import CANDIDATES, EffectSet
-from .workflow import DiscoveryResult, discover
+import importlib
 
 __all__ = ["CANDIDATES", "DiscoveryResult", "EffectSet", "discover"]
+
+_HOME = {"CANDIDATES": "effects", "EffectSet": "effects", "DiscoveryResult": "workflow",
+         "discover": "workflow"}
+
+
+def __getattr__(name):
+    # imported on first use: the workflow pulls in scipy.stats (about 0.6 s), which every
+    # `stickslip` command would otherwise pay while building its argument parser
+    if name in _HOME:
+        return getattr(importlib.import_module(f".{_HOME[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
