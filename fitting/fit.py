@@ -29,6 +29,7 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
 
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
 import itertools
 import math
@@ -354,6 +355,31 @@ POLISH_STARTS = 4
 """Starts (those with the lowest chi2 after screening) polished to the tolerances."""
 
 
+def _first_round(free_starts, static, objective, rtol, atol, max_steps, norm, linear_solver):
+    """The arguments of `_solve_starts` in the first round of `_solve_rounds`: weights at
+    the starts, the trace's slider velocity 0, step caps for screening (several starts)
+    or the full budget."""
+    n_start = jax.tree_util.tree_leaves(free_starts)[0].shape[0]
+    vel = None
+    if objective.kind != "features":
+        vel = jax.device_put(np.zeros((n_start,) + objective.trace.mask.shape))
+    caps = np.full(n_start, SCREEN_STEPS if n_start > 1 and SCREEN_ROUNDS else max_steps + 1,
+                   np.int32)
+    return (free_starts, free_starts, vel, jax.device_put(caps), static, objective, rtol,
+            atol, max_steps, norm, linear_solver)
+
+
+def _compile_together(calls):
+    """Compile the solves `calls` (argument tuples of `_solve_starts`) ahead of use: traced
+    one after another (Python), then compiled by XLA in parallel threads (XLA releases the
+    GIL). Later calls with arguments of the same structure reuse the programs. For the
+    trace fit, whose features and trace programs would otherwise compile one after the
+    other: 0.5-0.6 s less on 2 cores (benchmarks/fit.py)."""
+    lowered = [_solve_starts.lower(*args) for args in calls]
+    with concurrent.futures.ThreadPoolExecutor(len(lowered)) as pool:
+        list(pool.map(lambda low: low.compile(), lowered))
+
+
 def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, linear_solver):
     """Levenberg-Marquardt with effective-variance weights by iterative reweighting.
 
@@ -375,12 +401,10 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, l
     ref = free_starts
     n_start = jax.tree_util.tree_leaves(free_starts)[0].shape[0]
     screen = SCREEN_ROUNDS if n_start > 1 else 0
-    if objective.kind == "features":
-        vel = None
-    else:
-        vel = jax.device_put(np.zeros((n_start,) + objective.trace.mask.shape))
+    first = _first_round(free_starts, static, objective, rtol, atol, max_steps, norm,
+                         linear_solver)
+    vel, caps = first[2], np.asarray(first[3])
     total = np.zeros(n_start, int)
-    caps = np.full(n_start, SCREEN_STEPS if screen else max_steps + 1, np.int32)
     polished = np.ones(n_start, bool)
     for k in range(screen + MAX_ROUNDS):
         values, chi2s, results, success, steps, flags, vel_opt = _solve_starts(
@@ -444,17 +468,49 @@ def fit_features(
     if objective != "features":
         if records is None:
             raise ValueError(f"objective {objective!r} needs the records (records=...)")
-        first = fit_features(features, fixed=fixed, offset=offset, slip_time=slip_time,
-                             starts=starts, rtol=rtol, atol=atol, max_steps=max_steps,
-                             pad_cycles=pad_cycles)
         tdata = trace_data(records, features, pad_length=pad_length, pad_windows=pad_windows)
-        obj = CampaignObjective(first.data, tdata, kind=objective,
-                                weight_features=float(weights[0]),
-                                weight_trace=float(weights[1]), slip_time=slip_time)
         # hundreds of thousands of residuals: tolerances not tighter than 1e-8, measured
         # as root mean squares (a step that moves the whitened residuals by 1e-8 RMS),
         # steps at most 100 per round (see _refine for the fallback convergence test)
-        return _refine(first, obj, max(rtol, 1e-8), max(atol, 1e-8), min(max_steps, 100))
+        t_rtol, t_atol, t_steps = max(rtol, 1e-8), max(atol, 1e-8), min(max_steps, 100)
+
+        def objective_of(data):
+            return CampaignObjective(data, tdata, kind=objective,
+                                     weight_features=float(weights[0]),
+                                     weight_trace=float(weights[1]), slip_time=slip_time)
+
+        data, fobj, free_stack, static, _, _ = _features_problem(
+            features, fixed, offset, slip_time, starts, pad_cycles)
+        _compile_together([
+            _first_round(free_stack, static, fobj, rtol, atol, max_steps, optx.max_norm,
+                         _LINEAR_SOLVER),
+            _first_round(_stack([_take(free_stack, 0)]), static, objective_of(data), t_rtol,
+                         t_atol, t_steps, optx.rms_norm, _LINEAR_SOLVER)])
+        first = fit_features(features, fixed=fixed, offset=offset, slip_time=slip_time,
+                             starts=starts, rtol=rtol, atol=atol, max_steps=max_steps,
+                             pad_cycles=pad_cycles)
+        return _refine(first, objective_of(first.data), t_rtol, t_atol, t_steps)
+    data, obj, free_stack, static, spec, starts = _features_problem(
+        features, fixed, offset, slip_time, starts, pad_cycles)
+    values, chi2s, result, ok, steps, _, best, rounds = _solve_rounds(
+        free_stack, static, obj, rtol, atol, max_steps, optx.max_norm, _LINEAR_SOLVER
+    )
+    free_best = _take(values, best)
+    params = eqx.combine(free_best, static)
+    n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free_best,
+                                                                              eqx.is_array)))
+    return FitResult(
+        params=params, spec=spec, data=data, features=list(features),
+        chi2=float(chi2s[best]), dof=data.n_residuals() - n_free,
+        result=result, converged=bool(ok[best]), n_starts=len(starts),
+        n_steps=int(np.asarray(steps)[best]), slip_time=slip_time, start_chi2=chi2s,
+        objective=obj, n_rounds=rounds,
+    )
+
+
+def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles):
+    """The features fit's data, objective, stacked free starts, their static part, the
+    filter spec and the starting frictions (see `fit_features`)."""
     data = feature_data(features, offset_from_start=(offset == "start"), pad_cycles=pad_cycles)
     obj = CampaignObjective(data, None, kind="features", slip_time=slip_time)
     R = data.n_records
@@ -465,21 +521,7 @@ def fit_features(
     params0 = [CampaignParams(s, jax.device_put(offsets0)) for s in starts]
     spec = free_spec(params0[0], fixed=tuple(fixed), offsets=(offset == "start"))
     frees, statics = zip(*(eqx.partition(p, spec) for p in params0))
-    free_stack = _stack(frees)
-    values, chi2s, result, ok, steps, _, best, rounds = _solve_rounds(
-        free_stack, statics[0], obj, rtol, atol, max_steps, optx.max_norm, _LINEAR_SOLVER
-    )
-    free_best = _take(values, best)
-    params = eqx.combine(free_best, statics[0])
-    n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free_best,
-                                                                              eqx.is_array)))
-    return FitResult(
-        params=params, spec=spec, data=data, features=list(features),
-        chi2=float(chi2s[best]), dof=data.n_residuals() - n_free,
-        result=result, converged=bool(ok[best]), n_starts=len(starts),
-        n_steps=int(np.asarray(steps)[best]), slip_time=slip_time, start_chi2=chi2s,
-        objective=obj, n_rounds=rounds,
-    )
+    return data, obj, _stack(frees), statics[0], spec, starts
 
 
 @eqx.filter_jit(compiler_options=COMPILER_OPTIONS)

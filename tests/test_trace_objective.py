@@ -27,10 +27,37 @@ def campaign():
     return fr, recs, feats
 
 
+SOLVE_COMPILES = []
+
+
+def _count_solve_compiles(event, duration, fun_name="", **kwargs):
+    if event == "/jax/core/compile/backend_compile_duration" and "_solve_starts" in fun_name:
+        SOLVE_COMPILES.append(fun_name)
+
+
+jax.monitoring.register_event_duration_secs_listener(_count_solve_compiles)
+
+
 @pytest.fixture(scope="module")
-def trace_fit(campaign):
+def trace_fit_and_compiles(campaign):
+    """The trace fit and how many programs of the solve XLA compiled for it."""
     _, recs, feats = campaign
-    return fit_features(feats, objective="trace", records=recs, pad_cycles=8)
+    before = len(SOLVE_COMPILES)
+    fit = fit_features(feats, objective="trace", records=recs, pad_cycles=8)
+    return fit, len(SOLVE_COMPILES) - before
+
+
+@pytest.fixture(scope="module")
+def trace_fit(trace_fit_and_compiles):
+    return trace_fit_and_compiles[0]
+
+
+def test_trace_fit_compiles_two_programs(trace_fit_and_compiles):
+    # the features and trace solves are compiled together ahead of the fit
+    # (fitting.fit._compile_together); the fit itself must then compile nothing: had
+    # the arguments' structure differed, XLA would compile them again (4 programs)
+    _, compiled = trace_fit_and_compiles
+    assert compiled <= 2  # fewer where this process compiled the layout before
 
 
 def test_residuals_at_truth_are_unit_normal(campaign):
