@@ -34,6 +34,7 @@ import dataclasses
 import itertools
 import math
 from collections.abc import Callable
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -326,7 +327,7 @@ COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
 emitter instead of one MLIR kernel module each. Measured on benchmarks/fit.py's campaign
 (2 cores): the features solve compiles in 1.8 s instead of 2.3 s and runs in 66 instead
 of 94 ms; the trace solve's XLA compilation takes 1.2 instead of 2.4 s at the same run
-time. (Ignored by other backends.)"""
+time. (An option of XLA's CPU compiler.)"""
 
 _solve_starts = eqx.filter_jit(_solve_starts_impl, compiler_options=COMPILER_OPTIONS)
 
@@ -355,6 +356,11 @@ POLISH_STARTS = 4
 """Starts (those with the lowest chi2 after screening) polished to the tolerances."""
 
 
+def _screen_rounds(n_start: int) -> int:
+    """Screening rounds of `_solve_rounds` for `n_start` starts (none for a single start)."""
+    return SCREEN_ROUNDS if n_start > 1 else 0
+
+
 def _first_round(free_starts, static, objective, rtol, atol, max_steps, norm, linear_solver):
     """The arguments of `_solve_starts` in the first round of `_solve_rounds`: weights at
     the starts, the trace's slider velocity 0, step caps for screening (several starts)
@@ -363,7 +369,7 @@ def _first_round(free_starts, static, objective, rtol, atol, max_steps, norm, li
     vel = None
     if objective.kind != "features":
         vel = jax.device_put(np.zeros((n_start,) + objective.trace.mask.shape))
-    caps = np.full(n_start, SCREEN_STEPS if n_start > 1 and SCREEN_ROUNDS else max_steps + 1,
+    caps = np.full(n_start, SCREEN_STEPS if _screen_rounds(n_start) else max_steps + 1,
                    np.int32)
     return (free_starts, free_starts, vel, jax.device_put(caps), static, objective, rtol,
             atol, max_steps, norm, linear_solver)
@@ -374,7 +380,8 @@ def _compile_together(calls):
     one after another (Python), then compiled by XLA in parallel threads (XLA releases the
     GIL). Later calls with arguments of the same structure reuse the programs. For the
     trace fit, whose features and trace programs would otherwise compile one after the
-    other: 0.5-0.6 s less on 2 cores (benchmarks/fit.py)."""
+    other: the whole trace fit of benchmarks/fit.py's campaign took 4.7-4.9 s instead of
+    5.1-5.3 s including compilation (2 cores, four runs each)."""
     lowered = [_solve_starts.lower(*args) for args in calls]
     with concurrent.futures.ThreadPoolExecutor(len(lowered)) as pool:
         list(pool.map(lambda low: low.compile(), lowered))
@@ -400,10 +407,10 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, l
     """
     ref = free_starts
     n_start = jax.tree_util.tree_leaves(free_starts)[0].shape[0]
-    screen = SCREEN_ROUNDS if n_start > 1 else 0
-    first = _first_round(free_starts, static, objective, rtol, atol, max_steps, norm,
-                         linear_solver)
-    vel, caps = first[2], np.asarray(first[3])
+    screen = _screen_rounds(n_start)
+    _, _, vel, caps, *_ = _first_round(free_starts, static, objective, rtol, atol, max_steps,
+                                       norm, linear_solver)
+    caps = np.asarray(caps)
     total = np.zeros(n_start, int)
     polished = np.ones(n_start, bool)
     for k in range(screen + MAX_ROUNDS):
@@ -479,38 +486,53 @@ def fit_features(
                                      weight_features=float(weights[0]),
                                      weight_trace=float(weights[1]), slip_time=slip_time)
 
-        data, fobj, free_stack, static, _, _ = _features_problem(
-            features, fixed, offset, slip_time, starts, pad_cycles)
+        problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles)
         _compile_together([
-            _first_round(free_stack, static, fobj, rtol, atol, max_steps, optx.max_norm,
-                         _LINEAR_SOLVER),
-            _first_round(_stack([_take(free_stack, 0)]), static, objective_of(data), t_rtol,
-                         t_atol, t_steps, optx.rms_norm, _LINEAR_SOLVER)])
-        first = fit_features(features, fixed=fixed, offset=offset, slip_time=slip_time,
-                             starts=starts, rtol=rtol, atol=atol, max_steps=max_steps,
-                             pad_cycles=pad_cycles)
+            _first_round(problem.free_starts, problem.static, problem.objective, rtol, atol,
+                         max_steps, optx.max_norm, _LINEAR_SOLVER),
+            _first_round(_stack([_take(problem.free_starts, 0)]), problem.static,
+                         objective_of(problem.data), t_rtol, t_atol, t_steps, optx.rms_norm,
+                         _LINEAR_SOLVER)])
+        first = _fit_problem(problem, features, rtol, atol, max_steps)
         return _refine(first, objective_of(first.data), t_rtol, t_atol, t_steps)
-    data, obj, free_stack, static, spec, starts = _features_problem(
-        features, fixed, offset, slip_time, starts, pad_cycles)
+    problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles)
+    return _fit_problem(problem, features, rtol, atol, max_steps)
+
+
+class _FeaturesProblem(NamedTuple):
+    """A features fit set up (`_features_problem`): its data and objective, the stacked
+    free parts of the starts and their common static part, the filter spec, the starting
+    frictions."""
+
+    data: FeatureData
+    objective: CampaignObjective
+    free_starts: CampaignParams
+    static: CampaignParams
+    spec: CampaignParams
+    starts: list
+
+
+def _fit_problem(problem: _FeaturesProblem, features, rtol, atol, max_steps) -> FitResult:
+    """The multi-start features fit of `problem` (`fit_features` with objective "features")."""
     values, chi2s, result, ok, steps, _, best, rounds = _solve_rounds(
-        free_stack, static, obj, rtol, atol, max_steps, optx.max_norm, _LINEAR_SOLVER
+        problem.free_starts, problem.static, problem.objective, rtol, atol, max_steps,
+        optx.max_norm, _LINEAR_SOLVER
     )
     free_best = _take(values, best)
-    params = eqx.combine(free_best, static)
+    params = eqx.combine(free_best, problem.static)
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free_best,
                                                                               eqx.is_array)))
     return FitResult(
-        params=params, spec=spec, data=data, features=list(features),
-        chi2=float(chi2s[best]), dof=data.n_residuals() - n_free,
-        result=result, converged=bool(ok[best]), n_starts=len(starts),
-        n_steps=int(np.asarray(steps)[best]), slip_time=slip_time, start_chi2=chi2s,
-        objective=obj, n_rounds=rounds,
+        params=params, spec=problem.spec, data=problem.data, features=list(features),
+        chi2=float(chi2s[best]), dof=problem.data.n_residuals() - n_free,
+        result=result, converged=bool(ok[best]), n_starts=len(problem.starts),
+        n_steps=int(np.asarray(steps)[best]), slip_time=problem.objective.slip_time,
+        start_chi2=chi2s, objective=problem.objective, n_rounds=rounds,
     )
 
 
-def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles):
-    """The features fit's data, objective, stacked free starts, their static part, the
-    filter spec and the starting frictions (see `fit_features`)."""
+def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles) -> _FeaturesProblem:
+    """Set up the features fit of `fit_features` (data, objective, starts, spec)."""
     data = feature_data(features, offset_from_start=(offset == "start"), pad_cycles=pad_cycles)
     obj = CampaignObjective(data, None, kind="features", slip_time=slip_time)
     R = data.n_records
@@ -521,7 +543,7 @@ def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles):
     params0 = [CampaignParams(s, jax.device_put(offsets0)) for s in starts]
     spec = free_spec(params0[0], fixed=tuple(fixed), offsets=(offset == "start"))
     frees, statics = zip(*(eqx.partition(p, spec) for p in params0))
-    return data, obj, _stack(frees), statics[0], spec, starts
+    return _FeaturesProblem(data, obj, _stack(frees), statics[0], spec, starts)
 
 
 @eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
