@@ -24,18 +24,23 @@ rounds because the machine is shared):
    NumPy/SciPy model (`benchmarks/scipy_reference.py`: brentq for the breakaway,
    solve_ivp DOP853 rtol 1e-12 for each slip, every cycle window simulated once), same start,
    rounds and tolerances, the weights of each round from our `trace_sd` (outside the
-   residual function); plus the combined objective ("both"), ours only;
+   residual function); then the same again with the slips in closed form
+   (`slip="closed_form"`: NumPy, no ODE solver, brentq for the breakaway); plus the
+   combined objective ("both"), ours only;
 3. emcee (`fitting.mcmc.run_mcmc`, 32 walkers): minimum effective sample size over the
    parameters per second, after compilation.
 
-Two SciPy baselines. The strict one: SciPy's residual functions are jitted JAX (the
+Three SciPy baselines. The strict one: SciPy's residual functions are jitted JAX (the
 same model and residuals, compiled with the XLA options of our solves,
 `fitting.fit.COMPILER_OPTIONS`, so the comparison is optimiser + derivatives); their
 compilation is reported separately and included in the "SciPy incl. compilation"
-figures. The SciPy-native one (trace part): what a SciPy user would write, the model in
-NumPy/SciPy (it agrees with the exact simulator to about 1e-13 mm, see
+figures. The SciPy-native one (trace part): what a SciPy user would write for a general
+slip law, the model in NumPy/SciPy (it agrees with the exact simulator to about 1e-13 mm, see
 tests/test_scipy_reference.py); its whole trace fit is the strict SciPy features fit
-plus the SciPy-native trace part (the features residual is tiny). The chi2 and
+plus the SciPy-native trace part (the features residual is tiny). The SciPy
+closed-form one: the SciPy-native model with the slip's closed form instead of solve_ivp,
+a fast NumPy version of this model (the exact simulator uses the same closed form);
+its whole trace fit is again the strict features fit plus its trace part. The chi2 and
 parameters of the optima are printed so that it can be seen they solve the same problem.
 
 Usage: python benchmarks/fit.py [--small] [--repeat N]
@@ -219,22 +224,29 @@ def main():
         raise ValueError("the SciPy-native trace fit expects the 6 friction parameters free")
     windows = reference_windows(tdata)  # converted to NumPy once
 
-    def native_sd(v, velocity=None):  # once per round: JAX allowed
-        if velocity is None:
-            velocity = scipy_trace_simulation(values_from_free(v), windows)[1]
-        return np.asarray(trace_sd(params_of(jnp.asarray(v)), tdata, jnp.asarray(velocity)))
+    def native_fit(slip):
+        """SciPy least_squares on the NumPy/SciPy model with slips by `slip` ("ode" or
+        "closed_form"): (time, evaluation time, (optimum, chi2, evaluations, rounds),
+        largest relative parameter difference to ours)."""
+        def native_sd(v, velocity=None):  # once per round: JAX allowed
+            if velocity is None:
+                velocity = scipy_trace_simulation(values_from_free(v), windows, slip=slip)[1]
+            return np.asarray(trace_sd(params_of(jnp.asarray(v)), tdata,
+                                       jnp.asarray(velocity)))
 
-    def native_res(v, ref, sd):  # NumPy/SciPy only
-        return scipy_trace_residuals(values_from_free(v), windows, sd)
+        def native_res(v, ref, sd):  # NumPy/SciPy only
+            return scipy_trace_residuals(values_from_free(v), windows, sd, slip=slip)
 
-    nat_sd0 = native_sd(tstart, np.zeros(tdata.mask.shape))
-    t_nat_eval, _ = best_of(lambda: native_res(tstart, tstart, nat_sd0), 3)
-    t_nat, (nat_y, nat_chi2, nat_n, nat_rounds) = best_of(
-        lambda: scipy_rounds(native_res, native_sd, tstart, tstart,
-                             native_sd(tstart, np.zeros(tdata.mask.shape)), 1e-8,
-                             fit_module.MAX_ROUNDS, fit_module.ROUND_TOL), R)
-    nat_dev = float(np.max(np.abs(values_from_free(nat_y)
+        sd0 = native_sd(tstart, np.zeros(tdata.mask.shape))
+        t_eval, _ = best_of(lambda: native_res(tstart, tstart, sd0), 3)
+        t, out = best_of(lambda: scipy_rounds(native_res, native_sd, tstart, tstart, sd0, 1e-8,
+                                              fit_module.MAX_ROUNDS, fit_module.ROUND_TOL), R)
+        dev = float(np.max(np.abs(values_from_free(out[0])
                                   / np.asarray(tfit.params.friction.values()) - 1)))
+        return t, t_eval, out, dev
+
+    t_nat, t_nat_eval, (_, nat_chi2, nat_n, nat_rounds), nat_dev = native_fit("ode")
+    t_cf, t_cf_eval, (_, cf_chi2, cf_n, cf_rounds), cf_dev = native_fit("closed_form")
     # our trace part alone: the whole trace fit minus the features fit it starts with
     t_tr_only_first = t_tr_first - t_fit_first
     t_tr_only_again = t_tr_again - t_fit_again
@@ -258,6 +270,7 @@ def main():
         ("trace part, SciPy FD from the same start", t_sp_tr),
         ("   its residual's compilation", t_sp_tr_compile),
         ("trace part, SciPy-native (NumPy/SciPy model), same start", t_nat),
+        ("trace part, SciPy closed-form (NumPy model), same start", t_cf),
         ("both objectives, ours: incl. compilation", t_both_first),
     ]
     for name, t in rows:
@@ -277,6 +290,9 @@ def main():
     print(f"trace, SciPy-native: {nat_n} residual evaluations in {nat_rounds} rounds, one "
           f"evaluation {t_nat_eval * 1e3:.0f} ms, chi2 {nat_chi2:.3f}; largest parameter "
           f"difference to ours {nat_dev:.1e}")
+    print(f"trace, SciPy closed-form: {cf_n} residual evaluations in {cf_rounds} rounds, one "
+          f"evaluation {t_cf_eval * 1e3:.0f} ms, chi2 {cf_chi2:.3f}; largest parameter "
+          f"difference to ours {cf_dev:.1e}")
     whole_ours, whole_ours_c = t_tr_first, t_tr_again
     whole_sp = t_sp_feat + t_sp_tr
     whole_sp_c = whole_sp + t_sp_feat_compile + t_sp_tr_compile
@@ -294,6 +310,11 @@ def main():
     print(f"  whole trace fit vs SciPy-native (SciPy FD features + SciPy-native trace): "
           f"compiled {(t_sp_feat + t_nat) / whole_ours_c:.1f}x, incl. our compilation "
           f"{(t_sp_feat + t_nat) / whole_ours:.1f}x")
+    print(f"  trace part vs SciPy closed-form: compiled {t_cf / t_tr_only_again:.1f}x, incl. our "
+          f"compilation {t_cf / t_tr_only_first:.1f}x")
+    print(f"  whole trace fit vs SciPy closed-form (SciPy FD features + closed-form trace): "
+          f"compiled {(t_sp_feat + t_cf) / whole_ours_c:.1f}x, incl. our compilation "
+          f"{(t_sp_feat + t_cf) / whole_ours:.1f}x")
     print(f"target: a converged 6-parameter fit in < 30 s incl. compilation: features "
           f"{t_fit_first:.1f} s, trace {t_tr_first:.1f} s; >= 10x faster than SciPy FD: "
           "see the ratios")

@@ -13,7 +13,14 @@ deflection $x_0$ and stick time 0.
 - Slip: eq (2) $M \ddot y = k x - \mu_m W$ with $x = x_b + v (t - t_b) - y$ and eq (3)
   $\mu_m = \mu_d + (\mu_0(T_1) - \mu_d) e^{-\delta T_2^n}$, $T_2 = \pi/\omega_0$ (eq 7),
   integrated by `solve_ivp` (DOP853, rtol 1e-10; 1e-12 for the trace residuals) until
-  the slider speed $\dot y$ returns to zero (a terminal event). Then the next stick starts.
+  the slider speed $\dot y$ returns to zero (a terminal event), or (`slip="closed_form"`)
+  evaluated from its closed-form solution and closed-form end time in NumPy. Then the
+  next stick starts.
+
+Two SciPy baselines, then: "ode" is what a SciPy user writes for a slip law in general
+(any friction during the slip); "closed_form" is the fastest honest NumPy version of
+this particular model (constant $\mu_m$ during the slip, as the paper and
+`simulate_exact` use), with no ODE solver.
 
 Units: kgf, mm, s (speeds mm/s, stiffness kgf/mm, mass W/g with g = 9806.65 mm/s^2).
 
@@ -78,8 +85,8 @@ def values_from_free(v) -> np.ndarray:
 
 
 def simulate_window(values, W, k, v, ts, *, t0=0.0, x0=0.0, max_slips=None,
-                    rtol=1e-10, atol=1e-13):
-    """Deflection x (mm) and slider velocity (mm/s, 0 while sticking) at the sorted times
+                    rtol=1e-10, atol=1e-13, slip="ode"):
+    r"""Deflection x (mm) and slider velocity (mm/s, 0 while sticking) at the sorted times
     `ts` (s) of the model in the module doc, started at rest at `t0` (s) with deflection
     `x0` (mm) and stick time 0, up to `max(ts)`.
 
@@ -87,7 +94,14 @@ def simulate_window(values, W, k, v, ts, *, t0=0.0, x0=0.0, max_slips=None,
     `max_slips`: simulate at most this many slips; the last one is then integrated to
     `max(ts)` without its end event (what `simulate_exact` renders when its event
     budget runs out). Samples before `t0` get the first stick's line.
+    `slip`: "ode" integrates eq (2) with solve_ivp (`rtol`, `atol`); "closed_form" uses
+    its solution from rest, $x = c + (x_b - c)\cos\omega_0\tau + (v/\omega_0)\sin\omega_0\tau$
+    with $c = \mu_m W / k$, ending at $\omega_0\tau^* = 2\pi - 2\arctan(\omega_0 (x_b - c)/v)$
+    (NumPy, vectorised over the samples of the slip; what a user who has read the
+    paper's chapter 3 would write).
     """
+    if slip not in ("ode", "closed_form"):
+        raise ValueError(f"slip must be 'ode' or 'closed_form', not {slip!r}")
     mu_s, mu_d, gam, m, delta, n = (float(q) for q in values)
     W, k, v = float(W), float(k), float(v)
     ts = np.asarray(ts, float)
@@ -128,6 +142,24 @@ def simulate_window(values, W, k, v, ts, *, t0=0.0, x0=0.0, max_slips=None,
             x[i:] = xb
             return x, yd
 
+        last = max_slips is not None and slips >= max_slips
+        if slip == "closed_form":
+            c = mum * W / k
+            z0 = xb - c  # >= 0: k x_b = W mu_0 >= W mu_m
+            te = tb + (2 * math.pi - 2 * math.atan(omega * z0 / v)) / omega
+            ended = not last and te <= t_end
+            j = int(np.searchsorted(ts, te, side="right")) if ended else ts.size
+            if j > i:
+                cs, sn = np.cos(omega * (ts[i:j] - tb)), np.sin(omega * (ts[i:j] - tb))
+                x[i:j] = c + z0 * cs + (v / omega) * sn
+                yd[i:j] = v * (1.0 - cs) + omega * z0 * sn
+            i = j
+            if not ended or i >= ts.size:
+                return x, yd
+            th = omega * (te - tb)
+            t, xs = te, c + z0 * math.cos(th) + (v / omega) * math.sin(th)
+            continue
+
         def rhs(tt, z, xb=xb, tb=tb, mum=mum):  # z = (slip distance mm, slider speed mm/s)
             return [z[1], (k * (xb + v * (tt - tb) - z[0]) - mum * W) / M]
 
@@ -135,7 +167,6 @@ def simulate_window(values, W, k, v, ts, *, t0=0.0, x0=0.0, max_slips=None,
             return z[1]
 
         stop.terminal, stop.direction = True, -1
-        last = max_slips is not None and slips >= max_slips
         sol = solve_ivp(rhs, (tb, t_end), [0.0, 0.0], method="DOP853", rtol=rtol, atol=atol,
                         events=None if last else stop, dense_output=True, first_step=1e-6)
         ended = not last and sol.t_events[0].size > 0
@@ -152,10 +183,11 @@ def simulate_window(values, W, k, v, ts, *, t0=0.0, x0=0.0, max_slips=None,
         t, xs = te, x_e
 
 
-def scipy_record(friction, W, k, v, ts):
-    """One record of the model from rest (x = 0 at t = 0), x(ts) in mm: the SciPy baseline of
-    `benchmarks/simulate.py`. `friction`: eq (1) + eq (3) `stickslip_jax.Friction`."""
-    return simulate_window(friction_values(friction), W, k, v, ts)[0]
+def scipy_record(friction, W, k, v, ts, slip="ode"):
+    """One record of the model from rest (x = 0 at t = 0), x(ts) in mm: the SciPy baselines of
+    `benchmarks/simulate.py`. `friction`: eq (1) + eq (3) `stickslip_jax.Friction`; `slip`:
+    see `simulate_window`."""
+    return simulate_window(friction_values(friction), W, k, v, ts, slip=slip)[0]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -207,12 +239,12 @@ def reference_windows(tdata) -> ReferenceWindows:
 
 
 def scipy_trace_simulation(values, windows: ReferenceWindows, offsets=None, *,
-                           rtol=TRACE_RTOL, atol=TRACE_ATOL):
+                           rtol=TRACE_RTOL, atol=TRACE_ATOL, slip="ode"):
     """Deflection (mm, without the gauge offset) and slider velocity (mm/s), both [N, L]
     (0 on padding): every cycle window simulated once from its start (at rest, stick time
     0, deflection `start_level - offset`), at most `TRACE_MAX_SLIPS` slips.
     `values`: (mu_s, mu_d, gamma, m, delta, n); `offsets`: per record (mm), default 0;
-    `rtol`, `atol`: solve_ivp tolerances (see `TRACE_RTOL`)."""
+    `rtol`, `atol`: solve_ivp tolerances (see `TRACE_RTOL`); `slip`: see `simulate_window`."""
     N, L = windows.shape
     off = np.zeros(int(windows.record.max()) + 1) if offsets is None else np.asarray(offsets)
     x = np.zeros(N * L)
@@ -222,20 +254,21 @@ def scipy_trace_simulation(values, windows: ReferenceWindows, offsets=None, *,
             values, windows.weight[w], windows.stiffness[w], windows.speed[w], ts,
             t0=windows.start_time[w],
             x0=windows.start_level[w] - off[windows.window_record[w]],
-            max_slips=TRACE_MAX_SLIPS, rtol=rtol, atol=atol)
+            max_slips=TRACE_MAX_SLIPS, rtol=rtol, atol=atol, slip=slip)
         x[idx], yd[idx] = xw, ydw
     return x.reshape(N, L), yd.reshape(N, L)
 
 
 def scipy_trace_residuals(values, windows: ReferenceWindows, sd, offsets=None, *,
-                          rtol=TRACE_RTOL, atol=TRACE_ATOL) -> np.ndarray:
+                          rtol=TRACE_RTOL, atol=TRACE_ATOL, slip="ode") -> np.ndarray:
     """Whitened trace residuals $(x - c - x_\\mathrm{sim}) / s$, flat (N L,), 0 on padding
     (the layout of `fitting.trace_objective.trace_residuals`).
 
     `values`: (mu_s, mu_d, gamma, m, delta, n); `sd`: the standard errors s (mm, [N, L]),
     frozen (e.g. `trace_sd` at the previous optimum); `offsets`: gauge offsets per record
-    (mm), default 0; `rtol`, `atol`: solve_ivp tolerances."""
-    x_sim, _ = scipy_trace_simulation(values, windows, offsets, rtol=rtol, atol=atol)
+    (mm), default 0; `rtol`, `atol`: solve_ivp tolerances; `slip`: see `simulate_window`."""
+    x_sim, _ = scipy_trace_simulation(values, windows, offsets, rtol=rtol, atol=atol,
+                                      slip=slip)
     off = np.zeros(int(windows.record.max()) + 1) if offsets is None else np.asarray(offsets)
     sd = np.asarray(sd, float)
     r = np.zeros(windows.shape)

@@ -12,7 +12,8 @@ v_c, 6 cycles each, 1 kHz) simulated by
   Tsit5, same smoothing, `max_steps` 2048: the longest record takes about 900 steps),
 - a SciPy baseline (`scipy_reference.scipy_record`): event-driven, brentq for the
   breakaway, solve_ivp (DOP853, rtol 1e-10) with a terminal event for the end of each
-  slip, same process.
+  slip, same process (the baseline the target names), and the same in NumPy with the
+  slip's closed form (`slip="closed_form"`, no ODE solver) for comparison.
 
 Prints wall times (best single call, after a warm-up/compile call, over `--repeat`
 rounds of 5 back-to-back calls of each simulator in turn, so that all see the same
@@ -159,8 +160,11 @@ def main():
     def run_scipy():
         return [scipy_record(fr, W, k, v, t) for W, k, v, t in recs]
 
+    def run_scipy_cf():
+        return [scipy_record(fr, W, k, v, t, slip="closed_form") for W, k, v, t in recs]
+
     best = best_times({"exact": run_exact, "grouped": run_grouped, "flat": run_flat,
-                       "scipy": run_scipy,
+                       "scipy": run_scipy, "scipy_cf": run_scipy_cf,
                        "latch": run_latch, "latch_loose": run_latch_loose},
                       args.repeat, burst=5)
     t_exact, t_grouped, t_scipy = best["exact"], best["grouped"], best["scipy"]
@@ -170,6 +174,7 @@ def main():
                          burst=max(1, args.repeat // 3))
     t_smooth, t_loose = best_sm["smooth"], best_sm["loose"]
     ex, sm, sp, sl = run_exact(), run_smooth(), run_scipy(), run_smooth_loose()
+    sp_cf = run_scipy_cf()
     la, ll = run_latch(), run_latch_loose()
     gr = run_grouped()
     fl = run_flat()
@@ -179,6 +184,7 @@ def main():
     order = [i for vm in sorted({r[2] for r in recs}) for i, r in enumerate(recs) if r[2] == vm]
 
     amp_err, sp_err, loose_err, latch_err, latch_loose_err = [], [], [], [], []
+    cf_err = []
     for i, (W, k, v, t) in enumerate(recs):
         n = t.size
         c = ex.cycles
@@ -193,6 +199,7 @@ def main():
             a_l = last_cycle_amplitude(np.asarray(tr.deflection[i, :n]), t, t_from)
             errs.append(abs(a_l / a_ex - 1))
         sp_err.append(float(np.max(np.abs(np.asarray(ex.deflection[i, :n]) - sp[i]))))
+        cf_err.append(float(np.max(np.abs(np.asarray(ex.deflection[i, :n]) - sp_cf[i]))))
     ok = bool(jnp.all(ex.result == SimulationResult.successful)) and bool(
         jnp.all(sm.result == SimulationResult.successful)) and all(
         bool(jnp.all(tr.result == SimulationResult.successful)) for tr in (sl, la, ll))
@@ -217,7 +224,8 @@ def main():
                     (f"smoothed rigid_stick (eta={DEFAULT_SMOOTHING:g}, Kvaerno5, 1e-6)", t_loose),
                     (f"smoothed latch, default (eta={DEFAULT_SMOOTHING:g}, Tsit5, 1e-8)", t_latch),
                     (f"smoothed latch, default (eta={DEFAULT_SMOOTHING:g}, Tsit5, 1e-6)", t_latch_loose),
-                    ("SciPy event-driven (DOP853 1e-10)", t_scipy)):
+                    ("SciPy event-driven (DOP853 1e-10)", t_scipy),
+                    ("NumPy event-driven, closed-form slips (brentq)", best["scipy_cf"])):
         print(f"{name:<52}{t:>12.4g}{t / t_exact:>10.3g}{t_scipy / t:>12.3g}")
     print(f"smoothed rigid_stick amplitude error vs exact: max {max(amp_err):.3%}, "
           f"mean {np.mean(amp_err):.3%} (rtol 1e-6: max {max(loose_err):.3%}); per record: "
@@ -228,12 +236,14 @@ def main():
                                      for r, e in zip(recs, latch_err)))
     print("  (amplitudes from 1 kHz samples: the sampled extremes of the two traces carry up "
           "to about 1 % sampling error at 30 mm/min)")
-    print(f"exact vs SciPy max |x difference|: {max(sp_err):.2e} mm; "
+    print(f"exact vs SciPy max |x difference|: {max(sp_err):.2e} mm (closed-form NumPy: "
+          f"{max(cf_err):.2e} mm); "
           f"grouped vs padded: {grouped_dx:.1e} mm; flat vs padded: {flat_dx:.1e} mm")
     best_exact = min(t_exact, t_grouped, t_flat)
     print(f"targets: exact >= 50x faster than SciPy: {t_scipy / best_exact >= 50} "
           f"(best exact row {t_scipy / best_exact:.3g}x; {t_scipy / t_exact:.3g}x padded to "
-          f"longest, {t_scipy / t_grouped:.3g}x per speed, {t_scipy / t_flat:.3g}x flat); "
+          f"longest, {t_scipy / t_grouped:.3g}x per speed, {t_scipy / t_flat:.3g}x flat; "
+          f"against the closed-form NumPy row {best['scipy_cf'] / best_exact:.3g}x); "
           f"smoothed within 1 % at <= 20x exact cost: "
           f"{max(amp_err) < 0.01 and min(t_smooth, t_loose) / t_exact <= 20} (rigid stick), "
           f"{max(latch_err) < 0.01 and t_latch / t_exact <= 20} (latch, rtol 1e-8: "

@@ -125,3 +125,39 @@ def test_trace_residuals_match_the_jax_objective(campaign):
         assert r_np.shape == r_jax.shape and np.all(r_np[~m] == 0)
         assert np.max(np.abs(r_np[m])) > 1.0  # real residuals, not zeros
         assert np.max(np.abs(r_np - np.asarray(r_jax))) < 1e-8  # measured: 2e-10
+
+
+def test_closed_form_slip_matches_the_ode_and_the_exact_simulator():
+    """`slip="closed_form"` (the NumPy baseline without an ODE solver): a record with
+    re-slips, a window started above mu_d W / k, and the event budget, as the ODE version
+    and simulate_exact (1e-9 mm; slider velocity 1e-6 mm/s)."""
+    W, k = 36.0, 200.0
+    v = 0.3 * float(ss.critical_speed(RESLIP, W, k))
+    ts = np.arange(0.0, 2.0, 1e-3)
+    vals = friction_values(RESLIP)
+    for kw, max_events in (({}, 40), ({"max_slips": 2}, 4)):
+        tr = _exact(RESLIP, W, k, v, ts, 0.0, 0.0, max_events=max_events)
+        x, yd = simulate_window(vals, W, k, v, ts, slip="closed_form", **kw)
+        if not kw:
+            assert np.array_equal(scipy_record(RESLIP, W, k, v, ts, slip="closed_form"), x)
+        x_ode, _ = simulate_window(vals, W, k, v, ts, **kw)
+        assert np.max(np.abs(x - np.asarray(tr.deflection))) < 1e-9
+        assert np.max(np.abs(yd - np.asarray(tr.slider_velocity))) < 1e-6
+        assert np.max(np.abs(x - x_ode)) < 1e-9
+    t0, x0 = 0.5, 1.05 * RESLIP.mu_d * W / k
+    xw, _ = simulate_window(vals, W, k, v, ts[ts >= t0], t0=t0, x0=x0, slip="closed_form")
+    tr = _exact(RESLIP, W, k, v, ts[ts >= t0], x0, t0)
+    assert np.max(np.abs(xw - np.asarray(tr.deflection))) < 1e-9
+    with pytest.raises(ValueError, match="slip must be"):
+        simulate_window(vals, W, k, v, ts, slip="euler")
+
+
+def test_closed_form_trace_residuals_match_the_jax_objective(campaign):
+    recs, tdata, truth = campaign
+    windows = reference_windows(tdata)
+    r_jax, _, vel = jax.jit(trace_residuals_and_flags)(truth, tdata)
+    sd = np.asarray(trace_sd(truth, tdata, vel))
+    r_np = scipy_trace_residuals(friction_values(RESLIP), windows, sd, slip="closed_form")
+    m = np.asarray(tdata.mask).ravel()
+    assert np.max(np.abs(r_np[m])) > 1.0
+    assert np.max(np.abs(r_np - np.asarray(r_jax))) < 1e-8
