@@ -378,13 +378,16 @@ def _first_round(free_starts, static, objective, rtol, atol, max_steps, norm, li
 def _compile_together(calls):
     """Compile the solves `calls` (argument tuples of `_solve_starts`) ahead of use: traced
     one after another (Python), then compiled by XLA in parallel threads (XLA releases the
-    GIL). Later calls with arguments of the same structure reuse the programs. For the
+    GIL). Returns one future per call: once it is done, calls with arguments of the same
+    structure reuse its program (wait for it first, or the call compiles again). For the
     trace fit, whose features and trace programs would otherwise compile one after the
     other: the whole trace fit of benchmarks/fit.py's campaign took 4.7-4.9 s instead of
     5.1-5.3 s including compilation (2 cores, four runs each)."""
     lowered = [_solve_starts.lower(*args) for args in calls]
-    with concurrent.futures.ThreadPoolExecutor(len(lowered)) as pool:
-        list(pool.map(lambda low: low.compile(), lowered))
+    pool = concurrent.futures.ThreadPoolExecutor(len(lowered))
+    futures = [pool.submit(low.compile) for low in lowered]
+    pool.shutdown(wait=False)
+    return futures
 
 
 def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, linear_solver):
@@ -487,13 +490,15 @@ def fit_features(
                                      weight_trace=float(weights[1]), slip_time=slip_time)
 
         problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles)
-        _compile_together([
+        features_ready, trace_ready = _compile_together([
             _first_round(problem.free_starts, problem.static, problem.objective, rtol, atol,
                          max_steps, optx.max_norm, _LINEAR_SOLVER),
             _first_round(_stack([_take(problem.free_starts, 0)]), problem.static,
                          objective_of(problem.data), t_rtol, t_atol, t_steps, optx.rms_norm,
                          _LINEAR_SOLVER)])
-        first = _fit_problem(problem, features, rtol, atol, max_steps)
+        features_ready.result()
+        first = _fit_problem(problem, features, rtol, atol, max_steps)  # trace still compiling
+        trace_ready.result()
         return _refine(first, objective_of(first.data), t_rtol, t_atol, t_steps)
     problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles)
     return _fit_problem(problem, features, rtol, atol, max_steps)
