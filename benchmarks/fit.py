@@ -315,9 +315,17 @@ def main():
     print(f"  whole trace fit vs SciPy closed-form (SciPy FD features + closed-form trace): "
           f"compiled {(t_sp_feat + t_cf) / whole_ours_c:.1f}x, incl. our compilation "
           f"{(t_sp_feat + t_cf) / whole_ours:.1f}x")
-    print(f"target: a converged 6-parameter fit in < 30 s incl. compilation: features "
-          f"{t_fit_first:.1f} s, trace {t_tr_first:.1f} s; >= 10x faster than SciPy FD: "
-          "see the ratios")
+    print(f"target: a converged 6-parameter fit in < 30 s incl. compilation: "
+          f"{max(t_fit_first, t_tr_first) < 30} (features {t_fit_first:.1f} s, trace "
+          f"{t_tr_first:.1f} s)")
+    print(">= 10x faster than the SciPy FD fit (whole trace fit), met (compiled / incl. our "
+          "compilation) against:")
+    for name, t_sp, t_sp_c in (
+            ("SciPy-native (solve_ivp slips)", t_sp_feat + t_nat, t_sp_feat + t_nat),
+            ("SciPy closed-form (NumPy slips)", t_sp_feat + t_cf, t_sp_feat + t_cf),
+            ("SciPy strict (our compiled residuals)", whole_sp, whole_sp_c)):
+        print(f"  {name:<40} {t_sp / whole_ours_c >= 10} / {t_sp_c / whole_ours >= 10}"
+              f"  ({t_sp / whole_ours_c:.1f}x / {t_sp_c / whole_ours:.1f}x)")
     print("recovered (features):", ", ".join(f"{k}={v:.4g} (truth {truth[k]:g})"
                                             for k, v in fit.values.items()))
     print("recovered (trace):   ", ", ".join(f"{k}={v:.4g}" for k, v in tfit.values.items()))

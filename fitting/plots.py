@@ -123,16 +123,28 @@ def fit_figure(fit, unc, records, path, max_traces: int = 4):
     ax.legend(fontsize=7)
 
     ax = axes[1, 0]
+    mu0_all, t2_all = [], []
     for i, f in enumerate(fit.features):
         c = f.complete
         mum = f.stiffness * (0.5 * (f.peak[c] + f.trough[c]) - offset[i]) / f.weight
         t2 = np.full(mum.shape, np.pi / f.omega0)
-        ax.plot(t2, mum, ".", ms=4)
+        ax.plot(t2, mum, ".", ms=5)
         mu0 = np.asarray(fr.static(jnp.asarray(f.stick_time[c])))
         pred = np.asarray(fr.kinetic(jnp.asarray(mu0), fr.mu_d, jnp.asarray(t2)))
-        ax.plot(t2, pred, "kx", ms=6)
-    ax.plot([], [], "kx", label="fitted eq (3)")
-    ax.set(xlabel="slip time T2 [s]", ylabel="mu_m", title="mean kinetic friction (eq 5)")
+        ax.plot(t2, pred, "ko", ms=7, mfc="none", mew=0.7)
+        mu0_all.append(mu0)
+        t2_all.append(t2)
+    mu0_all, t2_all = np.concatenate(mu0_all), np.concatenate(t2_all)
+    if mu0_all.size:
+        t2_grid = np.geomspace(0.7 * t2_all.min(), 1.4 * t2_all.max(), 100)
+        for mu0, style in ((mu0_all.max(), "k-"), (mu0_all.min(), "k:")):
+            curve = fr.kinetic(jnp.full_like(t2_grid, mu0), fr.mu_d, jnp.asarray(t2_grid))
+            ax.plot(t2_grid, np.asarray(curve), style, lw=0.8,
+                    label=f"fitted eq (3) at mu_0 = {mu0:.3g}")
+    ax.plot([], [], ".", color="0.4", label="measured per cycle (eq 5)")
+    ax.plot([], [], "ko", mfc="none", mew=0.7, label="fitted eq (3) at each cycle's mu_0")
+    ax.set(xlabel="slip time T2 = pi/omega0 [s]", ylabel="mu_m",
+           title="mean kinetic friction (eq 5)")
     ax.legend(fontsize=7)
 
     ax = axes[1, 1]
