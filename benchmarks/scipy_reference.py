@@ -18,7 +18,7 @@ deflection $x_0$ and stick time 0.
   next stick starts.
 
 Two SciPy baselines, then: "ode" is what a SciPy user writes for a slip law in general
-(any friction during the slip); "closed_form" is the fastest honest NumPy version of
+(any friction during the slip); "closed_form" is a plain NumPy version of
 this particular model (constant $\mu_m$ during the slip, as the paper and
 `simulate_exact` use), with no ODE solver.
 
