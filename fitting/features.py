@@ -17,7 +17,9 @@ How the features are measured (robust to noise, partial cycles and gauge offsets
    from the second differences of $x$ (median absolute deviation).
 2. Each stick plateau level $Y_j$ is the (5-sigma clipped) mean of $y$ over the stick,
    away from the slips, so $x_2$ and $x_1$ average thousands of samples instead of
-   picking the noisiest sample at a peak.
+   picking the noisiest sample at a peak. A plateau starts only where $y$ has settled
+   (half-period blocks within 2 standard errors of its level): a slow re-slip keeps
+   the slider moving after its fall of $x$ is lost in the noise.
 3. A slip with constant friction is half a cosine (eq 11), symmetric about the time
    $t_c$ at which $y$ crosses the middle of its jump. $t_c$ comes from a line fit
    over the middle half of the jump; the breakaway is $t_b = t_c - T_2/2$ and the slip
@@ -148,6 +150,27 @@ def _clipped_mean(y: np.ndarray, sigma: float) -> tuple[float, int]:
     return float(np.mean(y)), int(y.size)
 
 
+def _settled_start(y: np.ndarray, lo: int, hi: int, sigma: float, block: int, reach: int,
+                   floor: float) -> int:
+    """First index of y[lo:hi] from which the slider has come to rest (y level).
+
+    A slip that ends with a re-slip keeps the slider moving slowly for up to a natural
+    period after the fall of x is lost in the noise, so a plateau that starts where the
+    fall detector stops would average part of that motion in. Blocks of `block` samples,
+    stepped by half a block up to `reach` samples in, are dropped while their mean is
+    more than 2 standard errors from the level of the plateau's second half (a
+    block of pure noise is dropped 5 % of the time, which costs samples, not accuracy)."""
+    mid = (lo + hi) // 2
+    if mid - lo < 2 * block:
+        return lo
+    level, _ = _clipped_mean(y[mid:hi], sigma)
+    limit = max(2.0 * sigma / math.sqrt(block), floor)
+    stop = min(lo + reach, mid - block)
+    while lo <= stop and abs(float(np.mean(y[lo:lo + block])) - level) > limit:
+        lo += max(1, block // 2)
+    return lo
+
+
 def _runs(flag: np.ndarray) -> list[tuple[int, int]]:
     """(start, stop) index pairs (stop exclusive) of the True runs of a bool array."""
     if flag.size == 0:
@@ -251,6 +274,8 @@ def extract_cycles(
         a, b = bounds[2 * j], bounds[2 * j + 1]
         lo = a + (margin if j > 0 else 0)
         hi = b - (margin if j < len(events) else 0)
+        if j > 0:
+            lo = _settled_start(y, lo, hi, sigma, block=margin, reach=4 * h, floor=floor)
         if hi - lo >= 3:
             level, count = _clipped_mean(y[lo:hi], sigma)
             # a stick keeps y flat: a plateau that drifts by more than the noise allows
