@@ -177,7 +177,10 @@ def _reslip_shift(omega0, v, x2, c, x1_end, t2r):
         near = jnp.abs(sv) < 0.75
         w = jnp.where(near, 1.0 - sv**2, 0.0)
         est = t - jnp.arcsin(jnp.where(near, sv, 0.0)) / omega0
-        shift = jnp.sum(w * est, -1) / jnp.maximum(jnp.sum(w, -1), 1e-300) - centre
+        total = jnp.sum(w, -1)
+        some = total > 0  # no point near the centre: the features keep t_c (as here)
+        shift = jnp.where(some, jnp.sum(w * est, -1) / jnp.where(some, total, 1.0) - centre,
+                          shift)
     t_c = centre + shift
     return t_c - 0.5 * slip, t_c + 0.5 * slip - t2a
 
