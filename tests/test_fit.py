@@ -45,6 +45,7 @@ def test_recovery_within_intervals(campaign):
     truth = truth_values(fr)
     assert fit.converged and fit.n_rounds < fit_module.MAX_ROUNDS
     assert 0.5 < fit.reduced_chi2 < 2.5
+    assert not fit.data.reslip  # soft springs: no slip slips on, none modelled
     for i, n in enumerate(NAMES):
         lo, hi = unc.ci95[i]
         assert lo <= truth[n] <= hi, (name, n, unc.value[i], (lo, hi), truth[n])
@@ -175,7 +176,7 @@ def test_reslip_levels_follow_the_measured_timing():
     """Noise-free stiff-spring records whose every slip has a re-slip: the features time
     such a double slip late (its centre fit assumes one half cosine), and the model's
     measured levels (`fitting.objectives._reslip_shift`) follow: peak and trough within
-    2.5e-6 mm (measured 1.4e-6 mm at 1 kHz sampling; without the timing shift 5e-6 and
+    3e-6 mm (measured 2.0e-6 mm at 1 kHz sampling; without the timing shift 5.4e-6 and
     1.9e-5 mm)."""
     from fitting.objectives import _levels
 
@@ -191,8 +192,8 @@ def test_reslip_levels_follow_the_measured_timing():
         l0, l1 = _levels(friction, f.weight / f.stiffness, 0.0, f.omega0,
                          jnp.asarray(np.where(c, f.stick_time, 1.0)), None, "paper",
                          speed=rec.drive_speed)
-        assert np.max(np.abs(f.peak - np.asarray(l0))[c]) < 2.5e-6
-        assert np.max(np.abs(f.trough - np.asarray(l1))[c]) < 2.5e-6
+        assert np.max(np.abs(f.peak - np.asarray(l0))[c]) < 3e-6
+        assert np.max(np.abs(f.trough - np.asarray(l1))[c]) < 3e-6
 
 
 def test_noisy_reslip_levels_are_unbiased():
@@ -240,7 +241,11 @@ def test_reslip_campaign_is_fitted():
     assert any(reslip) and not all(reslip)  # the campaign exercises both kinds of cycle
     feats = [record_features(r) for r in recs]
     fit = fit_features(feats, pad_cycles=8)
+    assert fit.data.reslip  # detected from the measured slip times
     assert fit.converged and fit.reduced_chi2 < 1.3
+    no_reslip = feature_data(feats, pad_cycles=8, reslip=False)
+    r = np.asarray(jax.jit(feature_residuals)(fit.params, no_reslip))
+    assert r @ r > 100 * fit.reduced_chi2 * no_reslip.n_residuals()
     truth = truth_values(fr)
     for name in ("mu_s", "mu_d"):
         assert fit.values[name] == pytest.approx(truth[name], rel=0.02)
