@@ -70,7 +70,10 @@ def refit_candidates(base_problem: Problem, base_fit: LMResult, scores: list[Can
         # test's Gauss-Newton step
         # undamped (lam0 1e-9): see `lm.levenberg_marquardt` on collinear effects
         fit = levenberg_marquardt(pc, base_fit.z, max_evals=max_evals, lam0=1e-9)
-        if fit.rss > base_fit.rss - 1.0 and sc.statistic > 10.0 * sc.dof:
+        # little progress (under a tenth of the drop the score test predicts: a damped
+        # crawl of 6750 -> 6749 on the stribeck campaign after the features program
+        # changed its rounding) although the score is large: backtrack
+        if base_fit.rss - fit.rss < 0.1 * sc.statistic and sc.statistic > 10.0 * sc.dof:
             fit = _backtracked_refit(pc, base_fit, fit, max_evals)
         rss0, rss = base_fit.rss, min(fit.rss, base_fit.rss)
         part = getattr(EffectSet(), sc.name)
@@ -85,7 +88,7 @@ def refit_candidates(base_problem: Problem, base_fit: LMResult, scores: list[Can
 
 
 def _backtracked_refit(pc, base_fit: LMResult, fit: LMResult, max_evals: int) -> LMResult:
-    """A refit that made no progress although the score test predicts a large drop: its
+    """A refit that made little progress although the score test predicts a large drop: its
     Gauss-Newton step overshoots (the model is quadratic only over a few per cent of it,
     e.g. stribeck against the friction law's valley) and Marquardt's damping turns the
     step away from it. Try fractions of that step, and continue from the best one that
