@@ -455,6 +455,7 @@ def fit_features(
     weights: tuple[float, float] = (0.5, 0.5),
     pad_length: int = 0,
     pad_windows: int = 0,
+    reslip: bool | None = None,
 ) -> FitResult:
     """Fit mu_s, mu_d, gamma, m, delta, n jointly to the cycle features of a campaign.
 
@@ -464,6 +465,7 @@ def fit_features(
     - `slip_time`: $T_2$ in eq (3), "paper" ($\\pi/\\omega_0$) or "self_consistent".
     - `starts`: starting `EmpiricalFriction`s (default `initial_guesses`).
     - `pad_cycles`: pad the cycle axis (campaigns of other lengths reuse the compilation).
+    - `reslip`: model re-slips (`fitting.objectives.feature_data`; None: detected).
     - `objective`: "features" (default), "trace" or "both" (`fitting.combined`); the
       last two need `records` (the `Record`s the features came from) and start from the
       features fit's optimum ("features first"); `weights` = (w_features, w_trace) for
@@ -489,7 +491,8 @@ def fit_features(
                                      weight_features=float(weights[0]),
                                      weight_trace=float(weights[1]), slip_time=slip_time)
 
-        problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles)
+        problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
+                                    reslip)
         features_ready, trace_ready = _compile_together([
             _first_round(problem.free_starts, problem.static, problem.objective, rtol, atol,
                          max_steps, optx.max_norm, _LINEAR_SOLVER),
@@ -500,7 +503,7 @@ def fit_features(
         first = _fit_problem(problem, features, rtol, atol, max_steps)  # trace still compiling
         trace_ready.result()
         return _refine(first, objective_of(first.data), t_rtol, t_atol, t_steps)
-    problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles)
+    problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles, reslip)
     return _fit_problem(problem, features, rtol, atol, max_steps)
 
 
@@ -536,9 +539,11 @@ def _fit_problem(problem: _FeaturesProblem, features, rtol, atol, max_steps) -> 
     )
 
 
-def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles) -> _FeaturesProblem:
+def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
+                      reslip=None) -> _FeaturesProblem:
     """Set up the features fit of `fit_features` (data, objective, starts, spec)."""
-    data = feature_data(features, offset_from_start=(offset == "start"), pad_cycles=pad_cycles)
+    data = feature_data(features, offset_from_start=(offset == "start"), pad_cycles=pad_cycles,
+                        reslip=reslip)
     obj = CampaignObjective(data, None, kind="features", slip_time=slip_time)
     R = data.n_records
     offsets0 = (np.asarray(data.start_level) if offset == "start" else np.zeros(R))
