@@ -67,7 +67,10 @@ class RecordFeatures:
     `noise` is the estimated noise standard deviation of the deflection (mm);
     `start_level` the deflection at the first sample if the record starts in a stick
     (from the first plateau; NaN otherwise). `stick_slip` False means no usable
-    stick-slip, with the reason in `message`.
+    stick-slip, with the reason in `message`. `spikes`: samples replaced as impulsive
+    outliers (Hampel filter); `left_out`: cycles not used, counted by reason (a stick
+    too short or not flat, a jump below the threshold, a slip not timed); `drive_note`:
+    the drive error found in the sticks and corrected, if any.
     """
 
     name: str
@@ -91,6 +94,9 @@ class RecordFeatures:
     complete: np.ndarray
     start_level: float = float("nan")
     start_level_sd: float = float("nan")
+    spikes: int = 0
+    left_out: dict = dataclasses.field(default_factory=dict)
+    drive_note: str | None = None
 
     @property
     def model_slip_time(self) -> float:
@@ -132,12 +138,60 @@ class RecordFeatures:
 
 
 def _robust_sigma(x: np.ndarray) -> float:
-    """Noise standard deviation of x from the MAD of its second differences (white noise)."""
+    """Noise standard deviation of x from its second differences (white noise).
+
+    1.4826 x the median absolute deviation, refined by the RMS of the second differences
+    within 6 of those deviations: impulsive spikes and the slips fall outside, and a
+    logger that quantises finer than the noise cannot make the estimate collapse to 0
+    (the MAD of mostly-zero differences is 0; the clipped RMS is not). Returns 0 only
+    for a record that is exactly linear."""
     if x.size < 5:
         return 0.0
     d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
-    mad = np.median(np.abs(d2 - np.median(d2)))
-    return float(1.4826 * mad / math.sqrt(6.0))
+    mad = 1.4826 * float(np.median(np.abs(d2 - np.median(d2))))
+    step = np.abs(np.diff(x))
+    step = step[step > 1e-12 * max(1.0, float(np.max(np.abs(x))))]
+    quantum = float(np.min(step)) if step.size else 0.0
+    if mad > 2.0 * quantum:  # quantisation well below the noise: the MAD is exact
+        return float(mad / math.sqrt(6.0))
+    cut = 6.0 * max(mad, quantum)
+    if cut <= 0.0:
+        return 0.0
+    inner = d2[np.abs(d2) <= cut]
+    rms = float(np.sqrt(np.mean(inner**2))) if inner.size else mad
+    return float(max(mad, rms) / math.sqrt(6.0))
+
+
+def _despike(x: np.ndarray, sigma: float, half: int = 3, k: float = 6.0) -> tuple[np.ndarray, int]:
+    """Hampel filter: samples more than `k` sigma from the median of their 2 `half` + 1
+    neighbours are replaced by that median (impulsive spikes of a logger or a cable).
+    A running median keeps monotone edges, so slips (rises and falls over several
+    samples) pass unchanged. Returns (x, number of samples replaced)."""
+    if sigma <= 0 or x.size < 2 * half + 1:
+        return x, 0
+    pad = np.pad(x, half, mode="edge")
+    med = np.median(np.lib.stride_tricks.sliding_window_view(pad, 2 * half + 1), axis=1)
+    bad = np.abs(x - med) > k * sigma
+    if not bad.any():
+        return x, 0
+    out = x.copy()
+    out[bad] = med[bad]
+    return out, int(np.count_nonzero(bad))
+
+
+def _moving_mean(x: np.ndarray, w: int) -> np.ndarray:
+    """Mean of x over w consecutive samples (length len(x) - w + 1)."""
+    if w <= 1:
+        return x
+    c = np.concatenate([[0.0], np.cumsum(x)])
+    return (c[w:] - c[:-w]) / w
+
+
+def detection_z(n_tests: float, false_rate: float = 0.01) -> float:
+    """Threshold in standard deviations of the fall statistic for about `false_rate`
+    false slips per record of `n_tests` independent fall measurements (Gaussian tail,
+    union bound: P(max > z) ~ n_tests * exp(-z^2/2)), never below 4.5."""
+    return max(4.5, math.sqrt(2.0 * math.log(max(n_tests, 1.0) / false_rate)))
 
 
 def _clipped_mean(y: np.ndarray, sigma: float) -> tuple[float, int]:
@@ -169,6 +223,152 @@ def _settled_start(y: np.ndarray, lo: int, hi: int, sigma: float, block: int, re
     while lo <= stop and abs(float(np.mean(y[lo:lo + block])) - level) > limit:
         lo += max(1, block // 2)
     return lo
+
+
+def _creep_end(t: np.ndarray, y: np.ndarray, lo: int, hi: int, sigma: float, block: int,
+               floor: float) -> int:
+    """Last index (exclusive) of a stick before the slider starts to creep.
+
+    Creep before breakaway moves the slider forward (y rises) while x is still far from
+    its peak. Only when the last block of `block` samples lies more than 5 standard
+    errors above the line fitted to the stick's first two thirds (about 3e-7 false
+    alarms per stick) are blocks dropped from the end, half a block at a time, while
+    their mean lies more than 3 standard errors above that line; at most the last third
+    of the stick is dropped."""
+    count = hi - lo
+    if count < 6 * block:
+        return hi
+    ref = lo + (2 * count) // 3
+    tm = float(np.mean(t[lo:ref]))
+    slope, icpt = np.polyfit(t[lo:ref] - tm, y[lo:ref], 1)
+    limit = max(3.0 * sigma / math.sqrt(block), floor)
+    last = slice(hi - block, hi)
+    if float(np.mean(y[last] - (icpt + slope * (t[last] - tm)))) <= 5.0 / 3.0 * limit:
+        return hi
+    while hi - block >= ref:
+        seg = slice(hi - block, hi)
+        if float(np.mean(y[seg] - (icpt + slope * (t[seg] - tm)))) <= limit:
+            break
+        hi -= max(1, block // 2)
+    return hi
+
+
+@dataclasses.dataclass(frozen=True)
+class _Plateau:
+    """The slider's position y during one stick: its level (5-sigma clipped mean) and
+    whether the stick is `flat`: the robust spread about the level within 3 sigma and
+    the drift of y across the stick (a fitted line) within 3 sigma at both ends.
+    `creep`: how far the slider had crept at the stick's end (mm; see `_creep_end`)."""
+
+    level: float
+    count: int
+    lo: int
+    hi: int
+    sigma: float
+    flat: bool
+    creep: float = 0.0
+    creep_sd: float = 0.0
+
+    @property
+    def sd(self) -> float:
+        return self.sigma / math.sqrt(self.count)
+
+    @property
+    def end_level(self) -> float:
+        """y where the stick ends (at the breakaway): the level plus the creep."""
+        return self.level + self.creep
+
+    @property
+    def end_sd(self) -> float:
+        return math.hypot(self.sd, self.creep_sd)
+
+
+def _plateau(t: np.ndarray, y: np.ndarray, lo: int, hi: int, sigma: float,
+             floor: float) -> _Plateau:
+    ts, ys = t[lo:hi], y[lo:hi]
+    level, count = _clipped_mean(ys, sigma)
+    resid = ys - level
+    spread = 1.4826 * float(np.median(np.abs(resid - np.median(resid))))
+    tm = float(np.mean(ts))
+    sxx = float(np.sum((ts - tm) ** 2))
+    drift = 0.0
+    if sxx > 0:
+        slope = float(np.sum((ts - tm) * resid) / sxx)
+        drift = abs(slope) * 0.5 * float(ts[-1] - ts[0])
+    flat = spread <= 3.0 * sigma + floor and drift <= 3.0 * sigma + floor
+    return _Plateau(level, count, lo, hi, max(sigma, floor), flat)
+
+
+def _drive_error(t: np.ndarray, u: np.ndarray, y: np.ndarray, plateaus, sigma: float,
+                 min_pitch: float) -> tuple[np.ndarray | None, str | None]:
+    r"""The drive's error e(t) (mm) estimated from the sticks, or (None, None).
+
+    During a stick y = u - x is constant when u is the true drive; with a drive that is
+    not u = v t (a speed a little off, a slow drift, a lead-screw periodic error) the
+    nominal y = Y_j - e(t). Fitted over every stick with one level per stick:
+    e(t) = c_1 t + c_2 t^2 (speed error and drift) + a lead-screw error of pitch p with
+    its second harmonic, sum_k a_k sin(2 pi k u/p) + b_k cos(2 pi k u/p), p scanned on a
+    log grid from `min_pitch` to the record's travel. Each part is kept only when it
+    lowers chi^2 by more than 40 (a drive that is exact is left alone). Returns the
+    correction to add to u and a one-line description."""
+    sel = [p for p in plateaus if p is not None and p.hi - p.lo >= 8]
+    if len(sel) < 3 or sigma <= 0:
+        return None, None
+    idx = np.concatenate([np.arange(p.lo, p.hi) for p in sel])
+    grp = np.concatenate([np.full(p.hi - p.lo, j) for j, p in enumerate(sel)])
+    if idx.size > 60000:  # every k-th sample: the fit needs shape, not all the noise
+        k = -(-idx.size // 60000)
+        idx, grp = idx[::k], grp[::k]
+        scale = float(k)
+    else:
+        scale = 1.0
+    counts = np.bincount(grp).astype(float)
+
+    def within(col):  # remove each stick's mean (its level is free)
+        return col - (np.bincount(grp, col) / counts)[grp]
+
+    span = float(t[-1] - t[0]) or 1.0
+    tn = (t - t[0]) / span
+    yw = within(y[idx])
+    poly = np.stack([tn, tn**2], axis=1)
+
+    def rss(cols):
+        a = np.stack([within(c[idx]) for c in cols.T], axis=1)
+        coef, *_ = np.linalg.lstsq(a, yw, rcond=None)
+        r = yw - a @ coef
+        return float(r @ r), coef
+
+    base = float(yw @ yw)
+    rss_poly, _ = rss(poly)
+    travel = float(u[-1] - u[0])
+    best = (rss_poly, None)
+    if travel > 2.0 * min_pitch:
+        for pitch in np.geomspace(min_pitch, travel, 120):
+            q = 2.0 * np.pi * u / pitch
+            cols = np.column_stack([poly, np.sin(q), np.cos(q), np.sin(2 * q), np.cos(2 * q)])
+            r, _ = rss(cols)
+            if r < best[0]:
+                best = (r, pitch)
+    var = sigma**2 / scale
+    use_poly = (base - rss_poly) / var > 40.0
+    use_screw = best[1] is not None and (rss_poly - best[0]) / var > 40.0
+    if not (use_poly or use_screw):
+        return None, None
+    cols = poly
+    if use_screw:
+        q = 2.0 * np.pi * u / best[1]
+        cols = np.column_stack([poly, np.sin(q), np.cos(q), np.sin(2 * q), np.cos(2 * q)])
+    _, coef = rss(cols)
+    fitted = cols @ coef  # the part of y that is the drive's error, -e(t)
+    fitted = fitted - fitted[0]
+    what = []
+    if use_poly or use_screw:
+        rate = (fitted[-1] - fitted[0]) / span
+        what.append(f"speed off by {-rate * 60:.3g} mm/min on average")
+    if use_screw:
+        amp = float(np.hypot(coef[2], coef[3]))
+        what.append(f"periodic error {amp * 1e3:.3g} um at pitch {best[1]:.4g} mm")
+    return -fitted, "drive corrected from the sticks: " + ", ".join(what)
 
 
 def _runs(flag: np.ndarray) -> list[tuple[int, int]]:
@@ -208,8 +408,10 @@ def extract_cycles(
     stiffness: float,
     drive,
     name: str = "record",
-    threshold: float = 8.0,
+    threshold: float | None = None,
     min_cycles: int = 2,
+    correct_drive: bool = True,
+    _note: str | None = None,
 ) -> RecordFeatures:
     r"""Find the stick-slip cycles of one record and measure their features.
 
@@ -217,9 +419,14 @@ def extract_cycles(
     - `weight` W (kgf), `stiffness` k (kgf/mm).
     - `drive`: the drive displacement u (mm) at `time` (array), or a constant drive
       speed v (mm/s, a number: u = v t).
-    - `threshold`: a slip is a fall of x larger than `threshold` noise standard
-      deviations (of a difference of two samples) within half a natural period.
+    - `threshold`: a slip is a fall of x (averaged over a quarter natural period) larger
+      than `threshold` standard deviations of that fall within half a natural period;
+      None (default): set by the record's length for about 0.01 false slips per record
+      (`detection_z`), so slips of about 5 noise standard deviations are found.
     - `min_cycles`: fewer complete cycles than this is reported as no usable stick-slip.
+    - `correct_drive`: estimate the drive's error from the sticks (`_drive_error`: speed
+      off, slow drift, lead-screw periodic error) and extract again with the corrected
+      drive when the sticks show one (`RecordFeatures.drive_note` says what was found).
 
     Returns `RecordFeatures`; never raises for a record without stick-slip.
     """
@@ -241,24 +448,32 @@ def extract_cycles(
     dt = float((t[-1] - t[0]) / (t.size - 1))
     n = t.size
     sigma = _robust_sigma(x)
+    x, n_spikes = _despike(x, sigma)
+    drive_note = _note
     y = u - x
 
     h = max(1, int(round(0.5 * t2 / dt)))
     if n <= h + 2:
         return _empty(name, weight, stiffness, speed, omega0, sigma, n,
                       "record shorter than one slip; no stick-slip can be seen")
-    fall = x[:-h] - x[h:]  # > 0 while x drops (a slip)
+    # The fall of x over half a natural period, each end averaged over w samples: its
+    # noise is sigma sqrt(2/w); the threshold grows with the record's length so that a
+    # record of pure noise shows about 0.01 false slips (`detection_z`).
+    w = max(1, h // 2)
+    xs = _moving_mean(x, w)
+    fall = xs[:-h] - xs[h:]  # > 0 while x drops (a slip)
     # A floor on the threshold keeps a noise-free record from counting rounding as slips.
     floor = 1e-9 * max(1.0, float(np.max(np.abs(x))))
-    thr = max(threshold * sigma * math.sqrt(2.0), floor)
+    z = detection_z(n / h) if threshold is None else float(threshold)
+    thr = max(z * sigma * math.sqrt(2.0 / w), floor)
     runs = _runs(fall > thr)
     # merge runs separated by less than one slip length, and widen to cover the slip
     events: list[list[int]] = []
     for a, b in runs:
         if events and a - events[-1][1] <= 2 * h:
-            events[-1][1] = b + h
+            events[-1][1] = b + h + w - 1
         else:
-            events.append([a, b + h])
+            events.append([a, b + h + w - 1])
     if not events:
         return _empty(
             name, weight, stiffness, speed, omega0, sigma, n,
@@ -269,34 +484,49 @@ def extract_cycles(
     margin = max(2, h // 2)
     # plateaus (sticks) between events: [0, ev0.start), [ev0.stop, ev1.start), ...
     bounds = [0] + [v for ev in events for v in ev] + [n]
-    plateaus = []
+    plateaus: list[_Plateau | None] = []
+    left_out: dict[str, int] = {}
     for j in range(len(events) + 1):
         a, b = bounds[2 * j], bounds[2 * j + 1]
         lo = a + (margin if j > 0 else 0)
         hi = b - (margin if j < len(events) else 0)
         if j > 0:
             lo = _settled_start(y, lo, hi, sigma, block=margin, reach=4 * h, floor=floor)
-        if hi - lo >= 3:
-            level, count = _clipped_mean(y[lo:hi], sigma)
-            # a stick keeps y flat: a plateau that drifts by more than the noise allows
-            # (the slider creeps or the trace is not stick-slip there) is not used
-            spread = float(np.std(y[lo:hi] - level))
-            flat = spread <= 3.0 * sigma + floor
-            plateaus.append((level, count, lo, hi) if flat else None)
-        else:
-            plateaus.append(None)
+        end = hi
+        if j < len(events):
+            hi = _creep_end(t, y, lo, hi, sigma, block=max(margin, 4), floor=floor)
+        p = _plateau(t, y, lo, hi, sigma, floor) if hi - lo >= 3 else None
+        if p is not None and hi < end:  # crept: the level just before the slip
+            tail = slice(end - max(margin, 4), end)
+            excess = float(np.mean(y[tail])) - p.level
+            p = dataclasses.replace(p, creep=max(excess, 0.0),
+                                    creep_sd=sigma / math.sqrt(end - tail.start))
+        plateaus.append(p)
+    if correct_drive and drive_note is None:
+        fix, drive_note = _drive_error(t, u, y, plateaus, sigma, min_pitch=4.0 * speed * t2)
+        if fix is not None:
+            return extract_cycles(
+                t, x, weight=weight, stiffness=stiffness, drive=u + fix, name=name,
+                threshold=threshold, min_cycles=min_cycles, correct_drive=False,
+                _note=drive_note)
 
     rows = []
     prev_end = None
     for j, (a, b) in enumerate(events):
         before, after = plateaus[j], plateaus[j + 1]
-        if before is None or after is None:
+        if before is None or after is None or not (before.flat and after.flat):
+            if j > 0 or before is not None:  # the record's first, partial stick is no cycle
+                why = "stick too short" if before is None or after is None else (
+                    "stick not flat (drive error, creep or no stick)")
+                left_out[why] = left_out.get(why, 0) + 1
             prev_end = None
             continue
-        y_pre, n_pre, _, _ = before
-        y_post, n_post, _, _ = after
+        n_pre, n_post = before.count, after.count
+        y_pre, y_post = before.level, after.level  # refined at t_b, t_e below
         jump = y_post - y_pre
         if not jump > thr:
+            left_out["jump below the detection threshold"] = left_out.get(
+                "jump below the detection threshold", 0) + 1
             prev_end = None
             continue
         seg_lo = max(0, a - h)
@@ -315,16 +545,18 @@ def extract_cycles(
         t10 = _crossing(ts, ys, y_pre + 0.1 * jump)
         t90 = _crossing(ts, ys, y_pre + 0.9 * jump)
         if not (math.isfinite(t_c) and t[0] <= t_c <= t[-1]):
+            left_out["slip not timed"] = left_out.get("slip not timed", 0) + 1
             prev_end = None
             continue
         # Slip from rest with the drive moving at v: omega0 T2 = pi + 2 atan(v/(omega0 a))
         # (closed form of eqs 10-11 with the drive), symmetric about t_c.
         # Refine t_c on the deflection itself: x = c - R sin(omega0 (t - t_c)) about the
         # centre of the slip, c = (x2 + x1)/2 (eq 5), R^2 = a^2 + (v/omega0)^2.
-        xs = x[seg_lo:seg_hi]
+        xs_seg = x[seg_lo:seg_hi]
         slip = t2
         for _ in range(4):
             t_b, t_e = t_c - 0.5 * slip, t_c + 0.5 * slip
+            y_pre, y_post = before.end_level, after.level
             u_b, u_e = np.interp([t_b, t_e], t, u)
             x2 = float(u_b - y_pre)
             x1 = float(u_e - y_post)
@@ -334,44 +566,52 @@ def extract_cycles(
                 break
             slip = (math.pi + 2.0 * math.atan(v_slip / (omega0 * amp))) / omega0
             radius = math.hypot(amp, v_slip / omega0)
-            s = (0.5 * (x2 + x1) - xs) / radius
-            near = (np.abs(s) < 0.75) & (np.abs(ts - t_c) < 0.3 * slip)
+            s_ = (0.5 * (x2 + x1) - xs_seg) / radius
+            near = (np.abs(s_) < 0.75) & (np.abs(ts - t_c) < 0.3 * slip)
             if np.count_nonzero(near) >= 2:
-                w = 1.0 - s[near] ** 2
-                t_c = float(np.sum(w * (ts[near] - np.arcsin(s[near]) / omega0)) / np.sum(w))
+                wgt = 1.0 - s_[near] ** 2
+                t_c = float(np.sum(wgt * (ts[near] - np.arcsin(s_[near]) / omega0))
+                            / np.sum(wgt))
                 slope = radius * omega0
-                n_mid = float(np.sum(w))
+                n_mid = float(np.sum(wgt))
         tc_sd = sigma / max(abs(slope), 1e-300) / math.sqrt(n_mid)
         rows.append(dict(
             breakaway_time=t_b, end_time=t_e,
             stick_time=(t_b - prev_end) if prev_end is not None else float("nan"),
             slip_time=(t90 - t10) / _RISE_10_90 if math.isfinite(t90 - t10) else float("nan"),
             peak=x2, trough=x1,
-            peak_sd=sigma / math.sqrt(n_pre), trough_sd=sigma / math.sqrt(n_post),
+            peak_sd=before.end_sd, trough_sd=after.sd,
             stick_time_sd=math.sqrt(2.0) * tc_sd,
             complete=prev_end is not None,
         ))
         prev_end = t_e
     first = plateaus[0]
     start_level = start_sd = float("nan")
-    if first is not None and first[2] == 0:
-        start_level = float(u[0] - first[0])
-        start_sd = sigma / math.sqrt(first[1])
+    if first is not None and first.lo == 0 and first.flat:
+        start_level = float(u[0] - first.level)
+        start_sd = first.sd
     cols = {k: np.array([r[k] for r in rows], dtype=bool if k == "complete" else float)
             for k in (rows[0] if rows else {})}
     if not rows:
-        return _empty(name, weight, stiffness, speed, omega0, sigma, n,
-                      "no complete stick-slip cycle: every slip is cut off by the record's ends")
+        why = "; ".join(f"{c} {k}" for k, c in left_out.items())
+        return dataclasses.replace(
+            _empty(name, weight, stiffness, speed, omega0, sigma, n,
+                   "no complete stick-slip cycle: " + (
+                       f"{len(events)} slips found, cycles left out: {why}" if why else
+                       "every slip is cut off by the record's ends")),
+            spikes=n_spikes, left_out=left_out, drive_note=drive_note)
     feats = RecordFeatures(
         name=name, weight=weight, stiffness=stiffness, drive_speed=speed, omega0=omega0,
         noise=sigma, n_samples=n, stick_slip=True, message=None,
-        start_level=start_level, start_level_sd=start_sd, **cols,
+        start_level=start_level, start_level_sd=start_sd, spikes=n_spikes,
+        left_out=left_out, drive_note=drive_note, **cols,
     )
     if feats.n_complete < min_cycles:
+        why = "; ".join(f"{c} {k}" for k, c in left_out.items())
         return dataclasses.replace(
             feats, stick_slip=False,
             message=f"only {feats.n_complete} complete stick-slip cycle(s) (need {min_cycles}); "
-            "record longer",
+            + (f"cycles left out: {why}" if why else "record longer"),
         )
     return feats
 

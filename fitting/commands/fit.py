@@ -15,6 +15,8 @@ import math
 
 import numpy as np
 
+from ..campaign import find_truth, load_campaign  # noqa: F401  (find_truth: also for mcmc)
+
 NAME = "fit"
 HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"
 
@@ -33,6 +35,9 @@ def add_arguments(parser):
                         "traces through the exact simulator restarted per cycle, or both "
                         "(weights 1/2 each); trace and both start from the features fit, and "
                         "their intervals use a cluster-robust covariance (per stick phase)")
+    parser.add_argument("--strict", action="store_true",
+                        help="refuse the campaign when any record has no usable stick-slip "
+                        "(default: fit the records that have it, list the others)")
     add_model_arguments(parser)
     parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
     parser.add_argument("--plot", metavar="OUT.png", help="save the diagnostic figure")
@@ -52,9 +57,10 @@ def add_model_arguments(parser):
 
 
 def fit_from_args(args, *, objective: str = "features"):
-    """Read the campaign of `args.records` and fit `args.model` to it.
+    """Read the campaign of `args.records`, screen it and fit `args.model` to the records
+    with usable stick-slip (`fitting.campaign`; all of them with `args.strict`).
 
-    Returns (fit, records, extra): `extra` is None or the given quantities of the
+    Returns (fit, campaign, extra): `extra` is None or the given quantities of the
     microsqueeze model ({"given": {"eta": ..., "surface": ...}}). Every user error is a
     ValueError naming the option or file to fix (checked before any fitting).
     """
@@ -72,19 +78,19 @@ def fit_from_args(args, *, objective: str = "features"):
             pair = surface_pair(args.surface)
         except (KeyError, ValueError) as err:
             raise ValueError(f"--surface: unknown surface pair {args.surface!r} ({err})") from None
-        records, features = load_campaign(args.records)
-        eta = args.eta if args.eta is not None else default_eta(records[0].lubricant)
-        fit = fit_microsqueeze(features, eta=eta, pair=pair, fixed=fixed, offset=args.offset,
-                               slip_time=args.slip_time)
-        return fit, records, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
+        campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
+        eta = args.eta if args.eta is not None else default_eta(campaign.records[0].lubricant)
+        fit = fit_microsqueeze(campaign.features, eta=eta, pair=pair, fixed=fixed,
+                               offset=args.offset, slip_time=args.slip_time)
+        return fit, campaign, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
                                         "surface": args.surface}}
     if args.eta is not None:
         raise ValueError("--eta: only used with --model microsqueeze")
     fixed = parse_fix(args.fix)
-    records, features = load_campaign(args.records)
-    fit = fit_features(features, fixed=fixed, offset=args.offset, slip_time=args.slip_time,
-                       objective=objective, records=records)
-    return fit, records, None
+    campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
+    fit = fit_features(campaign.features, fixed=fixed, offset=args.offset,
+                       slip_time=args.slip_time, objective=objective, records=campaign.records)
+    return fit, campaign, None
 
 
 def parse_fix(items, names=None) -> dict[str, float]:
@@ -108,61 +114,19 @@ def parse_fix(items, names=None) -> dict[str, float]:
     return out
 
 
-def load_campaign(specs, *, min_records: int = 2):
-    """Read and check a campaign: >= `min_records` records, one lubricant, all with stick-slip.
+def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
+    """The JSON-ready result of a fit (the `--json` contract).
 
-    Returns (records, features). Raises ValueError with one line naming what to fix.
-    """
-    from stickslip_jax.records import check_campaign, read_campaign
+    `records` lists every record given, in order: the used ones with their fitted gauge
+    offset, the others with `status` and `reason` (`fitting.campaign`);
+    `steady_records` compares records without stick-slip with the fitted boundary."""
+    from ..campaign import Campaign, boundary_check
 
-    from ..features import record_features
+    if not isinstance(campaign, Campaign):  # a plain list of records: all used
+        from ..campaign import screen_records
 
-    records = read_campaign(list(specs))
-    if len(records) < min_records:
-        raise ValueError(
-            f"a campaign needs at least {min_records} records (got {len(records)}): one run "
-            "cannot separate the six friction parameters; give records at several speeds"
-        )
-    check_campaign(records, same=("lubricant",))
-    features = [record_features(r) for r in records]
-    bad = [f"{f.name}: {f.message}" for f in features if not f.stick_slip]
-    if bad:
-        raise ValueError(
-            "no usable stick-slip in " + " | ".join(bad) + " (remove these records)"
-        )
-    return records, features
-
-
-def find_truth(records, names=None) -> dict[str, float] | None:
-    """The friction parameters the records were made from, if all carry the same truth."""
-    from ..params import NAMES
-
-    NAMES = tuple(names or NAMES)  # noqa: N806
-
-    def dig(d):
-        if not isinstance(d, dict):
-            return None
-        if isinstance(d.get("static"), dict) and isinstance(d.get("kinetic"), dict):
-            d = {**d, **d["static"], **d["kinetic"]}  # stickslip simulate's layout
-        if all(n in d for n in NAMES):
-            try:
-                return {n: float(d[n]) for n in NAMES}
-            except (TypeError, ValueError):
-                return None
-        for v in d.values():
-            got = dig(v)
-            if got:
-                return got
-        return None
-
-    truths = [dig(r.truth) for r in records]
-    if not truths or any(t is None for t in truths) or any(t != truths[0] for t in truths):
-        return None
-    return truths[0]
-
-
-def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
-    """The JSON-ready result of a fit (the `--json` contract)."""
+        campaign = screen_records(list(campaign), min_records=1)
+    records = campaign.records
     rows = unc.table()
     from ..params import names_of
 
@@ -190,13 +154,9 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
     out = {
         "model": model,
         "parameters": params,
-        "records": [
-            {"name": f.name, "weight_kgf": f.weight, "stiffness_kgf_per_mm": f.stiffness,
-             "drive_speed_mm_per_min": f.drive_speed * 60.0, "cycles": int(len(f.peak)),
-             "complete_cycles": f.n_complete, "noise_mm": f.noise,
-             "gauge_offset_mm": float(np.asarray(fit.params.offset)[i])}
-            for i, f in enumerate(fit.features)
-        ],
+        "records": _record_rows(fit, campaign),
+        "records_not_used": sum(s.status != "used" for s in campaign.screening),
+        "steady_records": boundary_check(fit.params.friction.friction(), campaign),
         "residual_rms_mm": rms,
         "chi2": fit.chi2,
         "dof": fit.dof,
@@ -232,6 +192,18 @@ def build_report(fit, unc, records, *, model="empirical", extra=None) -> dict:
     return out
 
 
+def _record_rows(fit, campaign) -> list[dict]:
+    offsets = np.asarray(fit.params.offset)
+    used = {f.name: i for i, f in enumerate(fit.features)}
+    rows = []
+    for s in campaign.screening:
+        row = s.to_json()
+        if s.status == "used" and s.name in used:
+            row["gauge_offset_mm"] = float(offsets[used[s.name]])
+        rows.append(row)
+    return rows
+
+
 def format_table(report) -> str:
     truth = report["truth_available"]
     head = f"{'parameter':<10}{'value':>12}{'unit':>7}{'std err':>12}{'95 % interval':>26}"
@@ -253,9 +225,10 @@ def format_table(report) -> str:
             line += f"{p['truth']:>12.5g}{100 * p['relative_error']:>8.2f}%"
         lines.append(line)
     lines.append("")
+    used = [r for r in report["records"] if r.get("status", "used") == "used"]
     lines.append(
-        f"{len(report['records'])} records, "
-        f"{sum(r['complete_cycles'] for r in report['records'])} complete cycles; "
+        f"{len(used)} records, "
+        f"{sum(r['complete_cycles'] for r in used)} complete cycles; "
         f"residual rms {report['residual_rms_mm'] * 1e3:.3g} um; chi2/dof = "
         f"{report['reduced_chi2']:.3g}; converged: {report['converged']}"
     )
@@ -270,15 +243,22 @@ def format_table(report) -> str:
         )
     for w in report["identifiability"]["warnings"]:
         lines.append("warning: " + w)
+    for r in report["records"]:
+        if r.get("status", "used") != "used":
+            lines.append(f"warning: {r['name']}: {r['status'].replace('_', ' ')}, not fitted "
+                         f"({r['reason']})")
+    for s in report.get("steady_records", []):
+        lines.append(("warning: " if s["misfit"] else "note: ") + s["message"])
     return "\n".join(lines)
 
 
 def run(args) -> int:
     from ..uncertainty import laplace
 
-    fit, records, extra = fit_from_args(args, objective=args.objective)
+    fit, campaign, extra = fit_from_args(args, objective=args.objective)
+    records = campaign.records
     unc = laplace(fit)
-    report = build_report(fit, unc, records, model=args.model, extra=extra)
+    report = build_report(fit, unc, campaign, model=args.model, extra=extra)
     print(format_table(report))
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:

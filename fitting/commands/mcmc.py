@@ -29,6 +29,9 @@ def add_arguments(parser):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--offset", choices=("zero", "start"), default="zero")
     parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper")
+    parser.add_argument("--strict", action="store_true",
+                        help="refuse the campaign when any record has no usable stick-slip "
+                        "(default: sample with the records that have it, list the others)")
     from .fit import add_model_arguments
 
     add_model_arguments(parser)
@@ -60,7 +63,10 @@ def run(args) -> int:
         raise ValueError(f"--steps: need at least 10 steps, got {args.steps}")
     if args.burn is not None and not 0 <= args.burn < args.steps:
         raise ValueError(f"--burn: must lie in [0, --steps), got {args.burn}")
-    fit, records, extra = fit_from_args(args)
+    fit, campaign, extra = fit_from_args(args)
+    records = campaign.records
+    for w in campaign.warnings:
+        print("warning: " + w)
     res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
                    progress=not args.no_progress)
     summary = res.summary()
@@ -92,6 +98,7 @@ def run(args) -> int:
             "prior": res.prior, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
             "acceptance": res.acceptance, "warnings": res.warnings,
             "records": [f.name for f in fit.features],
+            "records_screened": [s.to_json() for s in campaign.screening],
             # the draws, in the layout of fitting.design.posterior.load_samples
             "names": list(res.names), "samples": thinned_draws(res.samples, args.draws).tolist(),
             "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}

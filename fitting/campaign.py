@@ -1,0 +1,185 @@
+r"""A campaign of records, screened record by record before any fitting.
+
+A campaign is not all-or-nothing: every record is read, its cycles extracted
+(`fitting.features`), and it gets a status:
+
+- `used`: at least `min_cycles` complete stick-slip cycles; fitted;
+- `no_stick_slip`: no slip found at all (steady sliding, or stick-slip too small for the
+  noise): information about the stick-slip boundary, not an error;
+- `set_aside`: slips were found but too few complete cycles passed the checks (the
+  reason names what failed, e.g. sticks that are not flat).
+
+The fit goes on with the used records (at least `min_records` of them); `strict=True`
+refuses a campaign with any record not used (the behaviour before screening). Records
+the user gave are never changed: screening only reads them. Units: kgf, mm, s.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from stickslip_jax.records import Record, check_campaign, read_campaign
+
+from .features import RecordFeatures, record_features
+
+__all__ = ["USED", "NO_STICK_SLIP", "SET_ASIDE", "Campaign", "RecordStatus", "find_truth",
+           "load_campaign", "screen_records"]
+
+USED = "used"
+NO_STICK_SLIP = "no_stick_slip"
+SET_ASIDE = "set_aside"
+
+
+@dataclasses.dataclass(frozen=True)
+class RecordStatus:
+    """The screening of one record: `status` (USED, NO_STICK_SLIP or SET_ASIDE), the
+    `reason` when not used, the slips found (`cycles`) and complete cycles, the cycles
+    left out by reason, spikes replaced, the noise (mm) and the run's W (kgf), k (kgf/mm),
+    v (mm/s)."""
+
+    name: str
+    status: str
+    reason: str | None
+    cycles: int
+    complete_cycles: int
+    left_out: dict
+    spikes: int
+    noise: float
+    weight: float
+    stiffness: float
+    drive_speed: float
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "status": self.status, "reason": self.reason,
+                "cycles": self.cycles, "complete_cycles": self.complete_cycles,
+                "cycles_left_out": dict(self.left_out), "spikes_replaced": self.spikes,
+                "noise_mm": self.noise, "weight_kgf": self.weight,
+                "stiffness_kgf_per_mm": self.stiffness,
+                "drive_speed_mm_per_min": self.drive_speed * 60.0}
+
+
+@dataclasses.dataclass(frozen=True)
+class Campaign:
+    """Screened campaign: `records`/`features` of the used records (same order), the
+    `screening` of every record in the order given, and the records not used."""
+
+    records: list[Record]
+    features: list[RecordFeatures]
+    screening: list[RecordStatus]
+    not_used: list[tuple[Record, RecordFeatures]]
+
+    @property
+    def warnings(self) -> list[str]:
+        return [f"{s.name}: {s.status.replace('_', ' ')} ({s.reason}); not fitted"
+                for s in self.screening if s.status != USED]
+
+
+def _status(f: RecordFeatures) -> RecordStatus:
+    if f.stick_slip:
+        status, reason = USED, None
+    elif len(f.peak) == 0 and f.message and f.message.startswith("no stick-slip"):
+        status, reason = NO_STICK_SLIP, f.message
+    else:
+        status, reason = SET_ASIDE, f.message
+    return RecordStatus(
+        name=f.name, status=status, reason=reason, cycles=int(len(f.peak)),
+        complete_cycles=f.n_complete if f.stick_slip else 0, left_out=dict(f.left_out),
+        spikes=int(f.spikes), noise=float(f.noise), weight=f.weight, stiffness=f.stiffness,
+        drive_speed=f.drive_speed)
+
+
+def screen_records(records: list[Record], *, min_records: int = 2,
+                   strict: bool = False) -> Campaign:
+    """Extract every record's cycles and keep the records with usable stick-slip.
+
+    Raises ValueError (one line naming the records) when fewer than `min_records`
+    remain, or, with `strict`, when any record is not used."""
+    features = [record_features(r) for r in records]
+    screening = [_status(f) for f in features]
+    used = [i for i, s in enumerate(screening) if s.status == USED]
+    bad = [f"{s.name}: {s.reason}" for s in screening if s.status != USED]
+    if strict and bad:
+        raise ValueError("no usable stick-slip in " + " | ".join(bad)
+                         + " (remove these records, or leave out --strict to fit the rest)")
+    if len(used) < min_records:
+        raise ValueError(
+            f"only {len(used)} of {len(records)} records have usable stick-slip (a fit needs "
+            f"{min_records}): " + (" | ".join(bad) if bad else "")
+        )
+    return Campaign(
+        records=[records[i] for i in used], features=[features[i] for i in used],
+        screening=screening,
+        not_used=[(records[i], features[i]) for i in range(len(records)) if i not in used])
+
+
+def load_campaign(specs, *, min_records: int = 2, strict: bool = False) -> Campaign:
+    """Read record files, directories or globs, check they form one campaign (one
+    lubricant) and screen them (`screen_records`). Raises ValueError naming what to fix."""
+    records = read_campaign(list(specs))
+    if len(records) < min_records:
+        raise ValueError(
+            f"a campaign needs at least {min_records} records (got {len(records)}): one run "
+            "cannot separate the six friction parameters; give records at several speeds"
+        )
+    check_campaign(records, same=("lubricant",))
+    return screen_records(records, min_records=min_records, strict=strict)
+
+
+def find_truth(records, names=None) -> dict[str, float] | None:
+    """The friction parameters the records were made from, if all carry the same truth."""
+    from .params import NAMES
+
+    NAMES = tuple(names or NAMES)  # noqa: N806
+
+    def dig(d):
+        if not isinstance(d, dict):
+            return None
+        if isinstance(d.get("static"), dict) and isinstance(d.get("kinetic"), dict):
+            d = {**d, **d["static"], **d["kinetic"]}  # stickslip simulate's layout
+        if all(n in d for n in NAMES):
+            try:
+                return {n: float(d[n]) for n in NAMES}
+            except (TypeError, ValueError):
+                return None
+        for v in d.values():
+            got = dig(v)
+            if got:
+                return got
+        return None
+
+    truths = [dig(r.truth) for r in records]
+    if not truths or any(t is None for t in truths) or any(t != truths[0] for t in truths):
+        return None
+    return truths[0]
+
+
+def boundary_check(friction, campaign: Campaign) -> list[dict]:
+    r"""Records without stick-slip against the fitted model's stick-slip boundary.
+
+    For every record with status NO_STICK_SLIP: eq (6)'s steady amplitude $a$ of the
+    fitted `friction` (a `stickslip_jax.friction.Friction`) at the record's W, k, v and
+    eq (12)'s critical speed $v_c$. A record sliding steadily where the model predicts
+    a peak-to-peak swing 2a larger than the detection threshold of its noise (five
+    standard deviations) is a misfit ("misfit": True): the model is missing something
+    there, or the drive speed in the file is wrong. Units in the result: um, mm/min."""
+    from stickslip_jax.steady import steady_state
+
+    out = []
+    for rec, f in campaign.not_used:
+        if _status(f).status != NO_STICK_SLIP:
+            continue
+        st = steady_state(friction, f.weight, f.stiffness, f.drive_speed)
+        amp = float(st.amplitude) if bool(st.stick_slip) else 0.0
+        visible = 2.0 * amp > 5.0 * float(f.noise)
+        v_c = float(st.critical_speed) * 60.0
+        if visible:
+            text = (f"{f.name}: slides steadily, but the fitted model predicts stick-slip of "
+                    f"amplitude {amp * 1e3:.3g} um (eq 6; v = {f.drive_speed * 60:.4g} mm/min "
+                    f"is below eq (12)'s v_c = {v_c:.4g} mm/min): a misfit of the model")
+        else:
+            text = (f"{f.name}: slides steadily, consistent with the fitted model (eq 6 "
+                    f"amplitude {amp * 1e3:.3g} um, eq (12) v_c = {v_c:.4g} mm/min)")
+        out.append({"name": f.name, "predicted_amplitude_um": amp * 1e3,
+                    "critical_speed_mm_per_min": v_c, "misfit": bool(visible),
+                    "message": text})
+    return out
