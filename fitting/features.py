@@ -502,13 +502,20 @@ def extract_cycles(
             p = dataclasses.replace(p, creep=max(excess, 0.0),
                                     creep_sd=sigma / math.sqrt(end - tail.start))
         plateaus.append(p)
-    if correct_drive and drive_note is None:
-        fix, drive_note = _drive_error(t, u, y, plateaus, sigma, min_pitch=4.0 * speed * t2)
+    wavy = sum(1 for p in plateaus[1:-1] if p is not None and not p.flat)
+    if correct_drive and wavy:
+        # Sticks that are not flat: try a drive error estimated from all of them, and keep
+        # it only when it gives more usable cycles (records with flat sticks are untouched).
+        fix, note = _drive_error(t, u, y, plateaus, sigma,
+                                 min_pitch=max(4.0 * speed * t2, 0.1))
         if fix is not None:
-            return extract_cycles(
-                t, x, weight=weight, stiffness=stiffness, drive=u + fix, name=name,
-                threshold=threshold, min_cycles=min_cycles, correct_drive=False,
-                _note=drive_note)
+            kw = dict(weight=weight, stiffness=stiffness, name=name, threshold=threshold,
+                      min_cycles=min_cycles, correct_drive=False)
+            plain = extract_cycles(t, x, drive=u, **kw)
+            fixed = extract_cycles(t, x, drive=u + fix, _note=note, **kw)
+            plain = dataclasses.replace(plain, spikes=n_spikes)
+            fixed = dataclasses.replace(fixed, spikes=n_spikes)
+            return fixed if fixed.n_complete > plain.n_complete else plain
 
     rows = []
     prev_end = None

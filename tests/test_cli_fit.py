@@ -109,7 +109,7 @@ def _bad_campaigns(paths, tmp_path):
     units.write_text(text.replace("kgf/mm", "kgf/s"))
     return {
         "single record": ([paths[0]], "at least 2 records"),
-        "no stick-slip": ([paths[0], str(flat)], "no usable stick-slip in flat"),
+        "no stick-slip": ([paths[0], str(flat)], "only 1 of 2 records have usable stick-slip"),
         "all without stick-slip": ([str(flat), str(flat2)], "flat2"),
         "a file named twice": ([paths[0], paths[0]], "named twice"),
         "mixed lubricants": ([paths[0], str(other)], "mixes lubricants"),
