@@ -1,0 +1,156 @@
+"""Records we did not make: cycle extraction and campaign fits on the independent SciPy
+generator (`tests/independent_records.py`, no code shared with stickslip_jax.simulation),
+with each instrument / drive imperfection alone and all together.
+
+Measured rates are asserted as the issue states them: >= 90 % of the true slips found,
+<= 1 false slip per record; a campaign with records without usable stick-slip exits 0,
+lists them, and recovers mu_s and mu_d within 2 % with 95 % intervals containing them.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import independent_records as ir
+from fitting.campaign import NO_STICK_SLIP, SET_ASIDE, USED, screen_records
+from fitting.features import extract_cycles
+from stickslip_jax.cli import main
+from stickslip_jax.records import read_record
+
+I = ir.Imperfections  # noqa: E741
+
+IMPERFECTIONS = {
+    "clean": I(),
+    "spikes": I(spike_rate=0.002, spike_mm=0.05),
+    "glitch_10mm": I(spike_rate=0.0005, spike_mm=10.0),
+    "quantised_1um": I(quantum_mm=0.001),
+    "quantised_5um": I(quantum_mm=0.005, noise_mm=0.001),
+    "screw_10um_pitch_1mm": I(screw_amp_mm=0.010, screw_pitch_mm=1.0),
+    "screw_10um_pitch_3mm": I(screw_amp_mm=0.010, screw_pitch_mm=3.0),
+    "speed_drift_5pc": I(speed_drift=0.05),
+    "sensor_1st_30Hz": I(sensor_order=1, sensor_hz=30.0),
+    "sensor_2nd_30Hz": I(sensor_order=2, sensor_hz=30.0, sensor_zeta=0.3),
+    "creep": I(creep_mm=0.005, creep_tau_s=0.2),
+    "irregular_slips": I(mu_s_jitter=0.05),
+    "all_together": I(noise_mm=0.001, spike_rate=0.001, spike_mm=0.03, quantum_mm=0.001,
+                      screw_amp_mm=0.006, screw_pitch_mm=2.0, speed_drift=0.03,
+                      sensor_order=1, sensor_hz=60.0, creep_mm=0.002, creep_tau_s=0.1,
+                      mu_s_jitter=0.02),
+}
+RUNS = ((27.3, 5.0, 40.0, 500.0), (86.9, 5.0, 20.0, 1000.0))  # k kgf/mm, v mm/min, s, Hz
+W = 36.0
+
+
+def _rates(imp, seed=3):
+    found = total = false = 0
+    for k, v, duration, rate in RUNS:
+        tr = ir.simulate(ir.LUBRICANT_A, weight=W, stiffness=k, speed_mm_min=v,
+                         duration=duration, rate_hz=rate, imp=imp, seed=seed)
+        f = extract_cycles(tr.time, tr.deflection, weight=W, stiffness=k, drive=v / 60.0)
+        t2 = np.pi / np.sqrt(9806.65 * k / W)
+        lag = 1.0 / (2 * np.pi * imp.sensor_hz) if imp.sensor_order else 0.0
+        tol = 2.0 * t2 + lag + 2.0 / rate
+        det = f.breakaway_time
+        found += sum(bool(np.any(np.abs(det - b) < tol)) for b in tr.breakaways)
+        total += len(tr.breakaways)
+        false = max(false, sum(not np.any(np.abs(tr.breakaways - d) < tol) for d in det))
+    return found, total, false
+
+
+@pytest.mark.parametrize("name", list(IMPERFECTIONS))
+def test_cycles_found_under_imperfection(name):
+    """Slips used as cycles (not only detected): >= 90 % of the true ones, <= 1 false per
+    record. Measured with seed 3: every case 100 %, 0 false."""
+    found, total, false = _rates(IMPERFECTIONS[name])
+    assert total >= 20
+    assert found >= 0.9 * total, (name, found, total)
+    assert false <= 1, (name, false)
+
+
+def test_pure_noise_has_no_slips():
+    """Steady sliding with noise, spikes and quantisation: no slip in 20 records of 20 k
+    samples (the length-aware threshold, `fitting.features.detection_z`)."""
+    rng = np.random.default_rng(0)
+    t = np.arange(20_000) * 1e-3
+    slips = 0
+    for _ in range(20):
+        x = 0.087 + 5e-4 * rng.standard_normal(t.size)
+        x[rng.random(t.size) < 1e-3] += 0.02
+        x = np.round(x / 1e-3) * 1e-3 if rng.random() < 0.5 else x
+        f = extract_cycles(t, x, weight=W, stiffness=86.9, drive=1.0)
+        slips += len(f.peak)
+    assert slips == 0
+
+
+def test_small_slips_of_five_noise_sd_are_found():
+    """A drop of 5 noise standard deviations, repeated: every one found."""
+    rng = np.random.default_rng(1)
+    k = 86.9
+    t = np.arange(30_000) * 1e-3
+    period, drop = 1.0, 2.5e-3  # a saw tooth: x rises with the drive, drops 2.5 um a period
+    x = 0.1 + (drop / period) * np.mod(t, period)
+    noise = drop / 5.0
+    f = extract_cycles(t, x + noise * rng.standard_normal(t.size), weight=W, stiffness=k,
+                       drive=drop / period)
+    assert len(f.peak) >= 0.9 * 29
+    assert abs(f.noise - noise) < 0.1 * noise
+
+
+def _campaign(tmp_path, seed=0):
+    F = ir.LUBRICANT_A
+    runs = [(27.3, 5, 30, 500), (27.3, 12, 15, 500), (86.9, 2, 40, 500), (86.9, 5, 20, 1000),
+            (86.9, 12, 10, 1000), (128.5, 4, 20, 1000), (128.5, 9, 10, 1000)]
+    imps = [I(spike_rate=0.001, spike_mm=0.02), I(quantum_mm=0.001),
+            I(screw_amp_mm=0.006, screw_pitch_mm=2.0), I(speed_drift=0.03),
+            I(sensor_order=1, sensor_hz=60), I(), I(noise_mm=0.001)]
+    paths = []
+    for i, ((k, v, T, fs), imp) in enumerate(zip(runs, imps)):
+        tr = ir.simulate(F, weight=W, stiffness=k, speed_mm_min=v, duration=T, rate_hz=fs,
+                         imp=imp, seed=100 * seed + i)
+        paths.append(tmp_path / f"A_k{k}_v{v}.csv")
+        ir.write_record(paths[-1], tr, friction=F, weight=W, stiffness=k, speed_mm_min=v)
+    tr = ir.simulate(F, weight=W, stiffness=86.9, speed_mm_min=200, duration=3, rate_hz=1000,
+                     steady=True, imp=I(), seed=100 * seed + 50)
+    paths.append(tmp_path / "A_k86.9_v200_steady.csv")
+    ir.write_record(paths[-1], tr, friction=F, weight=W, stiffness=86.9, speed_mm_min=200)
+    tr = ir.simulate(F, weight=W, stiffness=27.3, speed_mm_min=5, duration=6, rate_hz=500,
+                     seed=100 * seed + 51)
+    paths.append(tmp_path / "A_k27.3_v5_short.csv")
+    ir.write_record(paths[-1], tr, friction=F, weight=W, stiffness=27.3, speed_mm_min=5)
+    return [str(p) for p in paths]
+
+
+def test_screening_sets_records_aside(tmp_path):
+    paths = _campaign(tmp_path)
+    camp = screen_records([read_record(p) for p in paths])
+    status = {s.name: s.status for s in camp.screening}
+    assert status["A_k86.9_v200_steady"] in (NO_STICK_SLIP, SET_ASIDE)
+    assert status["A_k27.3_v5_short"] in (NO_STICK_SLIP, SET_ASIDE)
+    assert sum(s == USED for s in status.values()) == 7
+    with pytest.raises(ValueError, match="--strict"):
+        screen_records([read_record(p) for p in paths], strict=True)
+
+
+def test_fit_goes_on_with_the_good_records(tmp_path, capsys):
+    """`stickslip fit` on a mixed independent campaign: exit 0, the two records without
+    usable stick-slip listed (printed and in the JSON), mu_s and mu_d within 2 % with 95 %
+    intervals containing the truth; the input files unchanged."""
+    paths = _campaign(tmp_path)
+    before = {p: open(p, "rb").read() for p in paths}
+    out = tmp_path / "fit.json"
+    assert main(["fit", *paths, "--json", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "A_k86.9_v200_steady" in text and "A_k27.3_v5_short" in text
+    rep = json.loads(out.read_text())
+    rows = {r["name"]: r for r in rep["records"]}
+    assert len(rows) == 9 and rep["records_not_used"] == 2
+    assert rows["A_k27.3_v5_short"]["status"] != "used" and rows["A_k27.3_v5_short"]["reason"]
+    for name in ("mu_s", "mu_d"):
+        p = rep["parameters"][name]
+        assert abs(p["relative_error"]) < 0.02, (name, p)
+        assert p["truth_in_ci95"], (name, p)
+    assert all(open(p, "rb").read() == before[p] for p in paths)
+    assert main(["fit", *paths, "--strict"]) == 2
