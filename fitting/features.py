@@ -482,6 +482,14 @@ def extract_cycles(
         else:
             events.append([a, b + h + w - 1])
     if not events:
+        whole = _plateau(t, y, 0, n, sigma, floor)
+        rise = float(u[-1] - u[0])
+        if whole.flat and rise > 10.0 * sigma:
+            return _empty(
+                name, weight, stiffness, speed, omega0, sigma, n,
+                "no slip yet: the slider stuck for the whole record (the deflection follows "
+                f"the drive, rising {rise * 1e3:.3g} um); the record ends before the first "
+                "breakaway: record longer")
         return _empty(
             name, weight, stiffness, speed, omega0, sigma, n,
             "no stick-slip: the deflection never falls by more than "

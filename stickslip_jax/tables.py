@@ -1,4 +1,8 @@
-"""The paper's tables (Tables 1-4 and 6-12) shipped as CSV in `data/paper/`.
+"""The paper's tables (Tables 1-4 and 6-12) shipped as CSV with the package.
+
+The CSV files are package data (`stickslip_jax/paper_tables/`, read through
+`importlib.resources`, so a normal non-editable install finds them); `data/paper/` in
+the repository is a link to that folder. `$STICKSLIP_DATA/paper` overrides it.
 
 Each CSV starts with `#` comment lines (table number and notes), then a header row
 whose columns carry their unit in brackets, e.g. `stiffness [kgf/mm]`. Values are in
@@ -25,12 +29,15 @@ from pathlib import Path
 _HEADER = re.compile(r"^\s*([A-Za-z0-9_]+)\s*(?:\[(.*)\])?\s*$")
 
 
-def data_dir() -> Path:
-    """Directory of the shipped data (`data/` at the repository root, or $STICKSLIP_DATA)."""
+def paper_dir() -> Path:
+    """Folder of the paper's table CSVs: `$STICKSLIP_DATA/paper` when that variable is
+    set, else the package data `stickslip_jax/paper_tables` (importlib.resources)."""
     env = os.environ.get("STICKSLIP_DATA")
     if env:
-        return Path(env)
-    return Path(__file__).resolve().parent.parent / "data"
+        return Path(env) / "paper"
+    from importlib.resources import files
+
+    return Path(str(files("stickslip_jax") / "paper_tables"))
 
 
 class MissingRowError(KeyError, ValueError):
@@ -77,8 +84,8 @@ def _convert(cell: str):
 
 
 def load_table(number: int) -> PaperTable:
-    """Load Table `number` (1-4, 6-12) from `data/paper/tableNN_*.csv`."""
-    folder = data_dir() / "paper"
+    """Load Table `number` (1-4, 6-12) from `tableNN_*.csv` in `paper_dir()`."""
+    folder = paper_dir()
     matches = sorted(folder.glob(f"table{number:02d}_*.csv"))
     if not matches:
         raise ValueError(f"no CSV for Table {number} in {folder}")

@@ -154,3 +154,31 @@ def test_fit_goes_on_with_the_good_records(tmp_path, capsys):
         assert p["truth_in_ci95"], (name, p)
     assert all(open(p, "rb").read() == before[p] for p in paths)
     assert main(["fit", *paths, "--strict"]) == 2
+
+
+def _steady_file(path, speed_mm_min, seed):
+    rng = np.random.default_rng(seed)
+    lines = ["# stickslip-record: 1", f"# drive_speed: {speed_mm_min} mm/min",
+             "# stiffness: 86.9 kgf/mm", "# slider_weight: 36 kgf", "# lubricant: A",
+             "time [s],deflection [mm]"]
+    x = 0.21 * 36 / 86.9 + 5e-4 * rng.standard_normal(3000)
+    path.write_text("\n".join(lines + [f"{i * 1e-3:.3f},{float(v)!r}" for i, v in enumerate(x)]) + "\n")
+    return read_record(str(path))
+
+
+def test_steady_records_against_the_boundary(tmp_path):
+    """A record sliding steadily at 2 mm/min, far below lubricant A's eq (12) v_c of
+    48.9 mm/min at W 36 kgf, k 86.9 kgf/mm, is a misfit of the model; at 200 mm/min it is
+    consistent with it."""
+    import stickslip_jax as ss
+    from fitting.campaign import boundary_check
+
+    good = _campaign(tmp_path)[:2]
+    recs = [read_record(p) for p in good]
+    recs += [_steady_file(tmp_path / "slow.csv", 2.0, 1), _steady_file(tmp_path / "fast.csv",
+                                                                        200.0, 2)]
+    camp = screen_records(recs)
+    got = {c["name"]: c for c in boundary_check(ss.lubricant("A"), camp)}
+    assert got["slow"]["misfit"] and got["slow"]["predicted_amplitude_um"] > 10
+    assert not got["fast"]["misfit"]
+    assert got["fast"]["critical_speed_mm_per_min"] == pytest.approx(48.9, rel=0.01)
