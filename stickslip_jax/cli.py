@@ -46,12 +46,23 @@ def _load():
     return modules
 
 
+def _version() -> str:
+    """The installed distribution's version (importlib.metadata), or 'unknown'."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("stickslip-jax")
+    except PackageNotFoundError:
+        return "unknown (not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="stickslip",
         description="Stick-slip on machine-tool slideways (Kato et al.): analysis, simulation, "
         "identification and design. Units: kgf, mm, s unless an argument says otherwise.",
     )
+    parser.add_argument("--version", action="version", version=f"stickslip {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for mod in _load():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
