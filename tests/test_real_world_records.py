@@ -182,3 +182,13 @@ def test_steady_records_against_the_boundary(tmp_path):
     assert got["slow"]["misfit"] and got["slow"]["predicted_amplitude_um"] > 10
     assert not got["fast"]["misfit"]
     assert got["fast"]["critical_speed_mm_per_min"] == pytest.approx(48.9, rel=0.01)
+
+
+def test_discover_screens_the_campaign(tmp_path, capsys):
+    """`stickslip discover` screens like `fit`: with one usable record of two it stops
+    before any fitting with a line naming the other record."""
+    good = _campaign(tmp_path)[0]
+    _steady_file(tmp_path / "flat.csv", 60.0, 3)
+    assert main(["discover", good, str(tmp_path / "flat.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "only 1 of 2 records" in err and "flat" in err

@@ -22,6 +22,9 @@ def add_arguments(parser):
     from fitting.discovery.effects import CANDIDATES
 
     parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
+    parser.add_argument("--strict", action="store_true",
+                        help="refuse the campaign when any record has no usable stick-slip "
+                        "(default: run on the records that have it, list the others)")
     parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
     parser.add_argument("--plot", metavar="OUT.png", help="save residuals and traces")
     parser.add_argument("--top", type=int, default=3,
@@ -41,6 +44,8 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
+    import sys
+
     from stickslip_jax.records import read_campaign
 
     from fitting.discovery import discover
@@ -52,9 +57,15 @@ def run(args) -> int:
         raise ValueError(f"--max-evals: must be at least 2, got {args.max_evals}")
     if not args.threshold >= 0:
         raise ValueError(f"--threshold: must be >= 0, got {args.threshold}")
+    from ..campaign import screen_records
+
     records = read_campaign(args.records)
     if len(records) < 2:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
+    campaign = screen_records(records, strict=args.strict)
+    for w in campaign.warnings:
+        print("warning: " + w, file=sys.stderr)
+    records = campaign.records
     result = discover(records, candidates=tuple(args.only or CANDIDATES), top=args.top,
                       threshold=args.threshold, crop=args.crop, learn=args.learn,
                       max_evals=args.max_evals)
@@ -72,7 +83,9 @@ def run(args) -> int:
         print(f"{k:22s} {'-' if b is None else format(b, '.5g'):>12s} {v:12.5g}")
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump(result.to_json(), fh, indent=2)
+            json.dump({**result.to_json(),
+                       "records_screened": [x.to_json() for x in campaign.screening]},
+                      fh, indent=2)
     if args.plot:
         from fitting.discovery.plots import plot_discovery
 
