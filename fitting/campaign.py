@@ -48,6 +48,7 @@ class RecordStatus:
     weight: float
     stiffness: float
     drive_speed: float
+    notes: tuple[str, ...] = ()
 
     def to_json(self) -> dict:
         return {"name": self.name, "status": self.status, "reason": self.reason,
@@ -55,7 +56,8 @@ class RecordStatus:
                 "cycles_left_out": dict(self.left_out), "spikes_replaced": self.spikes,
                 "noise_mm": self.noise, "weight_kgf": self.weight,
                 "stiffness_kgf_per_mm": self.stiffness,
-                "drive_speed_mm_per_min": self.drive_speed * 60.0}
+                "drive_speed_mm_per_min": self.drive_speed * 60.0,
+                "notes": list(self.notes)}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -73,8 +75,22 @@ class Campaign:
         return [f"{s.name}: {s.status.replace('_', ' ')} ({s.reason}); not fitted"
                 for s in self.screening if s.status != USED]
 
+    @property
+    def notes(self) -> list[str]:
+        """What reading and cycle extraction did to each record (resampling, dialect,
+        drive correction, spikes replaced, cycles left out)."""
+        out = []
+        for s in self.screening:
+            out += [f"{s.name}: {n}" for n in s.notes]
+            if s.spikes:
+                out.append(f"{s.name}: {s.spikes} impulsive spike samples replaced")
+            if s.status == USED and s.left_out:
+                why = ", ".join(f"{c} {k}" for k, c in s.left_out.items())
+                out.append(f"{s.name}: cycles left out: {why}")
+        return out
 
-def _status(f: RecordFeatures) -> RecordStatus:
+
+def _status(f: RecordFeatures, record: Record | None = None) -> RecordStatus:
     if f.stick_slip:
         status, reason = USED, None
     elif len(f.peak) == 0 and f.message and f.message.startswith("no stick-slip"):
@@ -85,7 +101,9 @@ def _status(f: RecordFeatures) -> RecordStatus:
         name=f.name, status=status, reason=reason, cycles=int(len(f.peak)),
         complete_cycles=f.n_complete if f.stick_slip else 0, left_out=dict(f.left_out),
         spikes=int(f.spikes), noise=float(f.noise), weight=f.weight, stiffness=f.stiffness,
-        drive_speed=f.drive_speed)
+        drive_speed=f.drive_speed,
+        notes=tuple(record.notes if record is not None else ())
+        + ((f.drive_note,) if f.drive_note else ()))
 
 
 def screen_records(records: list[Record], *, min_records: int = 2,
@@ -95,7 +113,7 @@ def screen_records(records: list[Record], *, min_records: int = 2,
     Raises ValueError (one line naming the records) when fewer than `min_records`
     remain, or, with `strict`, when any record is not used."""
     features = [record_features(r) for r in records]
-    screening = [_status(f) for f in features]
+    screening = [_status(f, r) for f, r in zip(features, records)]
     used = [i for i, s in enumerate(screening) if s.status == USED]
     bad = [f"{s.name}: {s.reason}" for s in screening if s.status != USED]
     if strict and bad:

@@ -76,6 +76,15 @@ __all__ = [
     "write_record",
 ]
 
+JITTER_RTOL = 0.05
+"""Time steps within this relative deviation of the mean step (and beyond
+`TIME_STEP_RTOL`) are a logger's clock jitter: the record is resampled to a uniform step
+with a note. Larger deviations (gaps, coarse rounding) are refused with the reason."""
+
+EPOCH_SECONDS = 1e6
+"""A first time stamp above this (s) is a logger's epoch time: time then counts from the
+first sample (float64 keeps about 0.2 us of a 1.7e9 s stamp)."""
+
 FORMAT_VERSION = "1"
 """The version in a record's first line, `# stickslip-record: 1`."""
 
@@ -147,8 +156,23 @@ def _unit_choices(dimension: str) -> str:
     return ", ".join(u for u in UNITS[dimension] if u)
 
 
+def channel_dimension(unit: str) -> str:
+    """The dimension of an extra column's unit; a unit `stickslip_jax.units` does not know
+    (`degC`, `%RH`, `V`, ...) is kept as written: dimension `"raw:<unit>"`, factor 1."""
+    try:
+        return unit_dimension(unit)
+    except UnitError:
+        return "raw:" + unit.strip()
+
+
 def _channel_factor(unit: str) -> float:
-    return factor(unit, unit_dimension(unit))
+    dim = channel_dimension(unit)
+    return 1.0 if dim.startswith("raw:") else factor(unit, dim)
+
+
+def _internal_channel_unit(unit: str) -> str:
+    dim = channel_dimension(unit)
+    return unit.strip() if dim.startswith("raw:") else INTERNAL_UNIT[dim]
 
 
 # ---------------------------------------------------------------------------- record
@@ -217,6 +241,8 @@ class Record:
       unit each had in the file (its dimension picks the internal unit on writing).
     - `truth`: dict from a `# truth: {json}` header (synthetic records) or None.
     - `source`: the file it was read from; `extra_header`: other header keys, raw text.
+    - `notes`: what reading did to the file's content (resampled a jittered clock, time
+      counted from the first epoch stamp, delimiter and decimal comma); not compared.
 
     Arrays are read-only copies. Equality (`==`) compares the content in internal
     units; `source` and the file units of `channel_units` (not their dimensions) are
@@ -238,6 +264,7 @@ class Record:
     truth: dict | None = None
     source: str | None = None
     extra_header: dict[str, str] = dataclasses.field(default_factory=dict)
+    notes: tuple[str, ...] = ()
 
     def __post_init__(self):
         def put(name, value):
@@ -297,10 +324,6 @@ class Record:
             unit = self.channel_units[name]
             if not isinstance(unit, str) or "[" in unit or "]" in unit or "," in unit:
                 raise RecordError(f"channel {name!r}: unit {unit!r} is not a unit")
-            try:
-                unit_dimension(unit)
-            except UnitError as exc:
-                raise RecordError(f"channel {name!r}: {exc}") from None
             channels[name] = _array(f"channel {name}", values, n)
             units[name] = unit.strip()
         put("channels", channels)
@@ -426,7 +449,7 @@ class Record:
             and self.channels.keys() == other.channels.keys()
             and all(same(v, other.channels[k]) for k, v in self.channels.items())
             and all(
-                unit_dimension(u) == unit_dimension(other.channel_units[k])
+                channel_dimension(u) == channel_dimension(other.channel_units[k])
                 for k, u in self.channel_units.items()
             )
             and self.truth == other.truth
@@ -520,6 +543,33 @@ def _decode(data: bytes, path) -> str:
             data.count(b"\n", 0, exc.start) + 1,
         ) from None
     return text
+
+
+def _normalise_dialect(lines: list[str], notes: list[str]) -> list[str]:
+    """The column row and data rows in the format's dialect: `,` between cells, `.` as
+    decimal point, no quotes. Detected from the column row: `;` or tab separated files
+    (where a `,` in the numbers is a decimal comma) and quoted cells are rewritten, with
+    a note; a comma-separated file is left as it is (its errors stay precise)."""
+    head = lines[0] if lines else ""
+    delim = "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
+    sample = [ln for ln in lines[1:50] if ln.strip() and not ln.lstrip().startswith("#")]
+    quoted = any('"' in ln for ln in sample) or '"' in head
+    if delim == "," and not quoted:
+        return lines
+    comma = delim != "," and any("," in ln for ln in sample)
+    out = []
+    for ln in lines:
+        if quoted:
+            ln = ln.replace('"', "")
+        if comma:
+            ln = ln.replace(",", ".")
+        if delim != ",":
+            ln = ln.replace(delim, ",")
+        out.append(ln)
+    name = {";": "';'", "\t": "tabs", ",": "','"}[delim]
+    notes.append(f"cells separated by {name}" + (" with decimal commas" if comma else "")
+                 + (", quotes removed" if quoted else ""))
+    return out
 
 
 def _lines(text: str, path) -> list[str]:
@@ -756,6 +806,8 @@ def parse_record(text: str, source=None) -> Record:
             max(j + 1 for j, ln in enumerate(lines) if ln.strip()),
         )
     column_line = i + 1
+    notes: list[str] = []
+    lines = lines[:i] + _normalise_dialect(lines[i:], notes)
     columns, units = [], []
     for cell in lines[i].split(","):
         cm = _COLUMN.fullmatch(cell)
@@ -892,7 +944,20 @@ def parse_record(text: str, source=None) -> Record:
             path,
             rows[r + 1],
         )
+    if time[0] > EPOCH_SECONDS:  # logger epoch stamps: count from the first sample
+        notes.append(f"time counted from the first time stamp ({time[0]!r} s)")
+        time = time - time[0]
+        data[:, j] = time
     dev, r, dt = time_step_deviation(time)
+    if TIME_STEP_RTOL < dev <= JITTER_RTOL:  # a logger's clock jitter: resample uniformly
+        grid = time[0] + dt * np.arange(time.size)
+        grid[-1] = time[-1]
+        data = np.column_stack([grid if c == j else np.interp(grid, time, data[:, c])
+                                for c in range(data.shape[1])])
+        notes.append(f"time stamps jitter by up to {100 * dev:.3g} % of the {dt:.6g} s step: "
+                     "resampled to a uniform step (linear interpolation)")
+        time = data[:, j]
+        dev, r, dt = time_step_deviation(time)
     if not dev <= TIME_STEP_RTOL:
         msg = (
             f"time is uneven: the step to this line is {steps[r]:.6g} s against the mean "
@@ -935,6 +1000,7 @@ def parse_record(text: str, source=None) -> Record:
             truth=truth,
             source=None if source is None else str(source),
             extra_header=extra,
+            notes=tuple(notes),
         )
     except RecordError as exc:
         raise RecordError(exc.reason, path) from None
@@ -988,18 +1054,18 @@ def format_record(
     except UnitError as exc:
         raise RecordError(f"write_record: {exc}") from None
     if channel_units is None:
-        ch_units = {n: INTERNAL_UNIT[unit_dimension(u)] for n, u in record.channel_units.items()}
+        ch_units = {n: _internal_channel_unit(u) for n, u in record.channel_units.items()}
     elif channel_units == "original":
         ch_units = dict(record.channel_units)
     else:
-        ch_units = {n: INTERNAL_UNIT[unit_dimension(u)] for n, u in record.channel_units.items()}
+        ch_units = {n: _internal_channel_unit(u) for n, u in record.channel_units.items()}
         for n, u in dict(channel_units).items():
             if n not in ch_units:
                 raise RecordError(f"write_record: no channel {n!r}")
-            if unit_dimension(u) != unit_dimension(record.channel_units[n]):
+            if channel_dimension(u) != channel_dimension(record.channel_units[n]):
                 raise RecordError(
                     f"write_record: channel {n!r} unit {u!r} is not a "
-                    f"{unit_dimension(record.channel_units[n])} unit"
+                    f"{channel_dimension(record.channel_units[n])} unit"
                 )
             ch_units[n] = u
     out = [f"# stickslip-record: {FORMAT_VERSION}"]

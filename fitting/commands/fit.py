@@ -260,6 +260,8 @@ def run(args) -> int:
     unc = laplace(fit)
     report = build_report(fit, unc, campaign, model=args.model, extra=extra)
     print(format_table(report))
+    for n in campaign.notes:
+        print("note: " + n)
     if args.json:
         with open(args.json, "w", encoding="utf-8") as fh:
             json.dump(report, fh, indent=2)
