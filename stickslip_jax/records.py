@@ -573,14 +573,16 @@ def _normalise_dialect(lines: list[str], notes: list[str]) -> list[str]:
 
 
 def _lines(text: str, path) -> list[str]:
-    lines = text.split("\n")
-    for i, line in enumerate(lines):
-        if "\r" in line.rstrip("\r"):
-            raise RecordError(
-                "bare carriage return inside a line; use \\n (or \\r\\n) line ends", path, i + 1
-            )
-        lines[i] = line.rstrip("\r")
-    return lines
+    if "\r" in text:  # \r\n line ends are fine; a bare \r inside a line is not
+        lines = text.split("\n")
+        for i, line in enumerate(lines):
+            if "\r" in line.rstrip("\r"):
+                raise RecordError(
+                    "bare carriage return inside a line; use \\n (or \\r\\n) line ends",
+                    path, i + 1)
+            lines[i] = line.rstrip("\r")
+        return lines
+    return text.split("\n")
 
 
 def _quantity(text: str, dimension: str, key: str, path, line: int) -> float:
@@ -687,6 +689,31 @@ def _cell_problem(cell: str, column: str) -> str:
 
 
 def _parse_data(lines, start, columns, path):
+    """The data rows as an (n, ncol) float64 array and their 1-based line numbers.
+
+    Fast path: NumPy's C parser (`numpy.loadtxt`, correctly rounded like `float`) over
+    all rows at once; when it fails, or finds a count of cells, a non-finite value or a
+    line it should not accept, the checked row-by-row parser below reads the file again
+    and says which line is wrong and how to fix it."""
+    stop = len(lines)
+    while stop > start and not lines[stop - 1].strip():
+        stop -= 1
+    body = lines[start:stop]
+    try:
+        data = np.loadtxt(body, delimiter=",", comments=None, dtype=np.float64, ndmin=2)
+    except ValueError:
+        data = None
+    if data is not None and data.shape[1:] == (len(columns),) and bool(np.isfinite(data).all()):
+        if data.shape[0] == len(body):  # no blank line inside: row k is line start + 1 + k
+            return data, range(start + 1, start + 1 + len(body))
+        rows = [start + 1 + k for k, ln in enumerate(body) if ln.strip()]
+        if data.shape[0] == len(rows):
+            return data, rows
+    return _parse_data_checked(lines, start, columns, path)
+
+
+def _parse_data_checked(lines, start, columns, path):
+    """Row-by-row parser with precise errors (the format's grammar, `_NUM`)."""
     ncol = len(columns)
     cell = rf"\s*{_NUM}\s*"
     row_re = re.compile(cell + (rf",{cell}" * (ncol - 1)))
