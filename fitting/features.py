@@ -309,7 +309,9 @@ def _drive_error(t: np.ndarray, u: np.ndarray, y: np.ndarray, plateaus, sigma: f
     e(t) = c_1 t + c_2 t^2 (speed error and drift) + a lead-screw error of pitch p with
     its second harmonic, sum_k a_k sin(2 pi k u/p) + b_k cos(2 pi k u/p), p scanned on a
     log grid from `min_pitch` to the record's travel. Each part is kept only when it
-    lowers chi^2 by more than 40 (a drive that is exact is left alone). Returns the
+    lowers chi^2 by more than 40 (a drive that is exact is left alone), explains most of
+    the sticks' excess variance, and stays within physical bounds (speed within 10 % of
+    nominal over the record, periodic error up to 20 um). Returns the
     correction to add to u and a one-line description."""
     sel = [p for p in plateaus if p is not None and p.hi - p.lo >= 8]
     if len(sel) < 3 or sigma <= 0:
@@ -368,6 +370,12 @@ def _drive_error(t: np.ndarray, u: np.ndarray, y: np.ndarray, plateaus, sigma: f
     _, coef = rss(cols)
     fitted = cols @ coef  # the part of y that is the drive's error, -e(t)
     fitted = fitted - fitted[0]
+    # physical bounds: a drive off its nominal speed by over 10 % (a wrong header, or a
+    # slider that slides) or a periodic error over 20 um is not corrected here
+    if abs(fitted[-1] - fitted[0]) > 0.1 * travel:
+        return None, None
+    if use_screw and float(np.hypot(coef[2], coef[3])) > 0.02:
+        return None, None
     what = []
     if use_poly or use_screw:
         rate = (fitted[-1] - fitted[0]) / span

@@ -265,7 +265,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     stderr = value * log_se
     ci95 = np.stack([value * np.exp(-Z95 * log_se), value * np.exp(Z95 * log_se)], axis=1)
     sd = np.sqrt(np.diag(cov_log))
-    corr = cov_log / np.outer(sd, sd)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov_log / np.outer(sd, sd)
     # friction block of F with offsets marginalised (Schur complement)
     Fff = F[:k, :k]
     if F.shape[0] > k:
@@ -279,8 +280,16 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     identifiable = {}
     for i, n in enumerate(names):
         bad_num = bool(free[i]) and not (log_se[i] <= max_relative_se)
-        identifiable[n] = not (bad_num or (n in flagged and free[i]))
-        if bad_num and n not in flagged:
+        # a standard error of exactly 0: the data do not move the fit in that direction at
+        # all (e.g. eq (1) saturated, exp(-gamma T1^m) = 0 at every stick): the
+        # pseudo-inverse dropped it; not a perfectly determined value
+        flat = bool(free[i]) and not (log_se[i] > 0)
+        identifiable[n] = not (bad_num or flat or (n in flagged and free[i]))
+        if flat and n not in flagged:
+            warnings.append(
+                f"{n}: not identifiable from this campaign (the residuals do not change with "
+                "it at the fitted point); its value is only a placeholder.")
+        elif bad_num and n not in flagged:
             warnings.append(
                 f"{n}: not identifiable from this campaign (relative standard error "
                 f"{log_se[i]:.2g} > {max_relative_se}); its value is only a placeholder."
