@@ -20,6 +20,8 @@ functions of this module.
 
 from __future__ import annotations
 
+import functools
+import math
 import re
 
 G_MM_S2 = 9806.65
@@ -81,16 +83,58 @@ def _normalise(unit: str) -> str:
 
 
 def factor(unit: str, dimension: str) -> float:
-    """Factor that converts a value in `unit` to the internal unit of `dimension`."""
+    """Factor that converts a value in `unit` to the internal unit of `dimension`.
+
+    The units of `UNITS` first (exact, no dependency); any other unit through pint's
+    registry, checked against the dimension (`852 N/um`, `40 in/min`, `10 lbf`, `2 mN`,
+    `5 um/min`, `0.216 Pa s`: what labs write). Raises `UnitError`."""
     if dimension not in UNITS:
         raise UnitError(f"unknown dimension {dimension!r}; expected one of {sorted(UNITS)}")
     table = UNITS[dimension]
     u = _normalise(unit)
-    if u not in table:
+    if u in table:
+        return table[u]
+    got = _pint_factor(unit.strip(), dimension)
+    if got is None:
         raise UnitError(
-            f"unknown {dimension} unit {unit!r}; use one of: {', '.join(k for k in table if k)}"
+            f"unknown {dimension} unit {unit!r}; use one of: {', '.join(k for k in table if k)} "
+            "(or any unit of that dimension that pint knows, e.g. 'N/um', 'in/min', 'lbf')"
         )
-    return table[u]
+    return got
+
+
+_PINT_INTERNAL = {
+    "time": "s", "length": "mm", "force": "kgf", "speed": "mm/s", "stiffness": "kgf/mm",
+    "mass": "kgf*s**2/mm", "viscosity": "kgf*s/mm**2", "pressure": "kgf/mm**2",
+    "dimensionless": "dimensionless",
+}
+
+
+@functools.lru_cache(maxsize=256)
+def _pint_factor(unit: str, dimension: str) -> float | None:
+    """pint's conversion factor of `unit` to the internal unit of `dimension`, or None
+    (pint missing, unit unknown, another dimension, or an offset unit such as degC)."""
+    if not unit or dimension not in _PINT_INTERNAL:
+        return None
+    try:
+        import pint
+    except ImportError:  # pragma: no cover (pint is a dependency)
+        return None
+    try:
+        ureg = _registry()
+        q = ureg.Quantity(1.0, ureg.parse_units(unit.replace("^", "**")))
+        value = float(q.to(_PINT_INTERNAL[dimension]).magnitude)
+    except (pint.errors.PintError, AttributeError, TypeError, ValueError, KeyError,
+            AssertionError):
+        return None
+    return value if math.isfinite(value) and value > 0 else None
+
+
+@functools.lru_cache(maxsize=1)
+def _registry():
+    import pint
+
+    return pint.UnitRegistry()
 
 
 def to_internal(value, unit: str, dimension: str):

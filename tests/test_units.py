@@ -5,6 +5,7 @@ import math
 import pytest
 
 from stickslip_jax import units
+from stickslip_jax.units import UnitError, parse_quantity
 
 
 def test_viscosity_of_lubricant_a_in_pa_s():
@@ -50,7 +51,7 @@ def test_round_trip_every_unit():
     "text, dimension, default",
     [
         ("abc", "speed", "mm/min"),
-        ("1.5 furlongs/fortnight", "speed", "mm/min"),
+        ("1.5 wibbles/fortnight", "speed", "mm/min"),
         ("1.5", "speed", None),  # bare number without a default unit
         ("2 kgf/mm", "speed", "mm/min"),  # wrong kind of unit
         ("", "force", "kgf"),
@@ -67,3 +68,21 @@ def test_unknown_dimension():
     with pytest.raises(units.UnitError, match="unknown dimension"):
         units.factor("mm", "colour")
     assert math.isclose(units.factor(" kgf ", "force"), 1.0)
+
+
+@pytest.mark.parametrize("text, dimension, expected", [
+    ("852 N/um", "stiffness", 852e3 / 9.80665),
+    ("40 in/min", "speed", 40 * 25.4 / 60),
+    ("10 lbf", "force", 4.4482216152605 * 10 / 9.80665),
+    ("2 mN", "force", 2e-3 / 9.80665),
+    ("5 um/min", "speed", 5e-3 / 60),
+    ("0.216 Pa s", "viscosity", 0.216 / 9.80665 * 1e-6),
+])
+def test_lab_units_through_pint(text, dimension, expected):
+    """Units the table does not list go through pint, checked against the dimension."""
+    assert parse_quantity(text, dimension) == pytest.approx(expected, rel=1e-9)
+
+
+def test_pint_refuses_the_wrong_dimension():
+    with pytest.raises(UnitError, match="unknown speed unit"):
+        parse_quantity("3 lbf", "speed")
