@@ -232,7 +232,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     `covariance`: "fisher" ($F^{-1}$ scaled by max(1, chi2/dof)), "sandwich" (cluster-robust
     per stick phase, `sandwich_covariance` with `lag` and `small_sample`), or "auto":
     the sandwich for the trace and combined objectives (module doc), fisher for features
-    unless chi2/dof > `SANDWICH_CHI2` (records the model does not describe to their noise:
+    unless chi2/dof > `SANDWICH_CHI2` or some record's errors were scaled to its scatter
+    (`fitting.fit.RECORD_CHI2`) (records the model does not describe to their noise:
     drive or sensor imperfections, creep; the residuals are then correlated within each
     stick phase and a scaled Fisher matrix undercovers: on an independent SciPy
     campaign with such imperfections, chi2/dof 426, its 95 % interval missed mu_s).
@@ -241,7 +242,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
     if covariance == "auto":
         traced = fit.objective is not None and fit.objective.kind in ("trace", "both")
-        misfit = fit.objective is not None and fit.reduced_chi2 > SANDWICH_CHI2
+        misfit = fit.objective is not None and (fit.reduced_chi2 > SANDWICH_CHI2
+                                                or fit.record_scale is not None)
         covariance = "sandwich" if traced or misfit else "fisher"
     J, r, free, idx = jacobian_log(fit)
     F = J.T @ J

@@ -196,10 +196,16 @@ def _record_rows(fit, campaign) -> list[dict]:
     offsets = np.asarray(fit.params.offset)
     used = {f.name: i for i, f in enumerate(fit.features)}
     rows = []
+    chi = fit.record_chi2
+    scale = fit.record_scale
     for s in campaign.screening:
         row = s.to_json()
         if s.status == "used" and s.name in used:
-            row["gauge_offset_mm"] = float(offsets[used[s.name]])
+            i = used[s.name]
+            row["gauge_offset_mm"] = float(offsets[i])
+            if chi is not None:
+                row["features_chi2_per_residual"] = float(chi[i])
+                row["error_scale"] = float(scale[i]) if scale is not None else 1.0
         rows.append(row)
     return rows
 
@@ -247,6 +253,12 @@ def format_table(report) -> str:
         if r.get("status", "used") != "used":
             lines.append(f"warning: {r['name']}: {r['status'].replace('_', ' ')}, not fitted "
                          f"({r['reason']})")
+    scaled = [r for r in used if r.get("error_scale", 1.0) > 1.0]
+    if scaled:
+        lines.append(
+            "warning: the model describes these records worse than their noise; their "
+            "feature errors were scaled to their scatter (chi2/n before scaling): "
+            + ", ".join(f"{r['name']} ({r['features_chi2_per_residual']:.3g})" for r in scaled))
     for s in report.get("steady_records", []):
         lines.append(("warning: " if s["misfit"] else "note: ") + s["message"])
     return "\n".join(lines)
