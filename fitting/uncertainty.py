@@ -153,12 +153,16 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
     low when a few clusters carry most of the information about a parameter;
     `small_sample="jackknife"` (default) undoes that with the leave-one-cluster-out
     scores $\tilde g_c = (I - A_c H^{-1})^{-1} g_c$, $A_c = J_c^\top J_c$, times
-    $(G-1)/G$ (the "CR3" estimator); `"none"` uses $\tilde g_c = g_c$ times $G/(G-1)$.
+    $(G-1)/G$ (the "CR3" estimator); `"cr2"` (Bell-McCaffrey) scales each cluster's
+    residuals by $(I - P_{cc})^{-1/2}$, $P_{cc} = J_c H^{-1} J_c^\top$ (between CR1 and CR3;
+    the usual choice with few, large clusters); `"none"` uses $\tilde g_c = g_c$ times
+    $G/(G-1)$.
     M is clipped to be positive semi-definite; entries labelled record -1 (padding) are
     left out.
     """
-    if small_sample not in ("jackknife", "none"):
-        raise ValueError(f"small_sample must be 'jackknife' or 'none', got {small_sample!r}")
+    if small_sample not in ("jackknife", "cr2", "none"):
+        raise ValueError(
+            f"small_sample must be 'jackknife', 'cr2' or 'none', got {small_sample!r}")
     J, r = np.asarray(J), np.asarray(r)
     record, cycle = np.asarray(record), np.asarray(cycle)
     keep = record >= 0
@@ -177,6 +181,17 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
         g = np.stack([np.linalg.lstsq(eye - A[c] @ Hinv, g[c], rcond=1e-12)[0]
                       for c in range(G)]) if G else g
         factor = (G - 1) / max(G, 1)
+    elif small_sample == "cr2":  # Bell-McCaffrey: residuals scaled by (I - P_cc)^(-1/2)
+        Jk, rk = J[keep], r[keep]
+        g = np.zeros((G, p))
+        for c in range(G):
+            sel = inv == c
+            Jc = Jk[sel]
+            P = Jc @ Hinv @ Jc.T
+            w, V = np.linalg.eigh(np.eye(Jc.shape[0]) - 0.5 * (P + P.T))
+            root = (V / np.sqrt(np.maximum(w, 1e-12))) @ V.T
+            g[c] = Jc.T @ (root @ rk[sel])
+        factor = 1.0
     else:
         factor = G / max(G - 1, 1)
     M = g.T @ g
@@ -218,7 +233,33 @@ def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
     return flagged, msgs
 
 
-COVARIANCES = ("auto", "fisher", "sandwich")
+COVARIANCES = ("auto", "fisher", "sandwich", "two_level")
+
+
+def _two_level(cov_stick, J, r, record) -> np.ndarray:
+    r"""Covariance for records the model does not describe to their noise: per parameter
+    the larger variance of the stick-phase sandwich (`cov_stick`) and the record-level
+    sandwich (one cluster per record, Bell-McCaffrey "cr2") widened by
+    $(t_{0.975, G-1}/z_{0.975})^2$ for G records (few clusters), with the stick-phase
+    correlations. A record-level systematic error (a drive or sensor imperfection left in
+    the features) shows only between records. Measured on 24 independent campaigns
+    (tests/test_real_world_coverage.py): 90 % coverage of mu_s / mu_d 0.62 / 0.71 with the
+    stick-phase sandwich alone, 0.79 / 0.83 with the record-level CR2 alone, 0.83 / 0.92
+    with both (the larger), 1.00 / 0.96 with the record-level jackknife (CR3)."""
+    from scipy.stats import t as t_dist
+
+    keep = record >= 0
+    G = int(np.unique(record[keep]).size)
+    cov_rec = sandwich_covariance(J, r, record, np.where(keep, 0, -1), lag=0,
+                                  small_sample="cr2")
+    cov_rec = cov_rec * (float(t_dist.ppf(0.975, max(G - 1, 1))) / Z95) ** 2
+    d_stick, d_rec = np.diag(cov_stick), np.diag(cov_rec)
+    sd = np.sqrt(np.maximum(np.maximum(d_stick, d_rec), 0.0))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s0 = np.sqrt(np.maximum(d_stick, 0.0))
+        corr = np.where(np.outer(s0, s0) > 0, cov_stick / np.outer(s0, s0), 0.0)
+    np.fill_diagonal(corr, 1.0)
+    return corr * np.outer(sd, sd)
 
 
 SANDWICH_CHI2 = 4.0
@@ -244,15 +285,19 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         traced = fit.objective is not None and fit.objective.kind in ("trace", "both")
         misfit = fit.objective is not None and (fit.reduced_chi2 > SANDWICH_CHI2
                                                 or fit.record_scale is not None)
-        covariance = "sandwich" if traced or misfit else "fisher"
+        covariance = ("sandwich" if traced else
+                      "two_level" if misfit and len(fit.features) >= 3 else
+                      "sandwich" if misfit else "fisher")
     J, r, free, idx = jacobian_log(fit)
     F = J.T @ J
     k = idx.size
-    if covariance == "sandwich":
+    if covariance in ("sandwich", "two_level"):
         from .combined import residual_cycles
 
         rec, cyc = residual_cycles(fit.objective, fit.features)
         cov = sandwich_covariance(J, r, rec, cyc, lag=lag, small_sample=small_sample)
+        if covariance == "two_level":
+            cov = _two_level(cov, J, r, rec)
         scale = 1.0
     else:
         cov = np.linalg.pinv(F, rcond=1e-13, hermitian=True)
