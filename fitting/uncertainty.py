@@ -262,6 +262,11 @@ def _two_level(cov_stick, J, r, record) -> np.ndarray:
     return corr * np.outer(sd, sd)
 
 
+PHYSICAL_RANGE = {"mu_s": (1e-3, 3.0), "mu_d": (1e-3, 3.0), "gamma": (1e-4, 1e4),
+                  "m": (0.02, 5.0), "delta": (1e-3, 1e5), "n": (0.02, 5.0)}
+"""Plausible values of the empirical law's parameters (units of `fitting.params.UNITS`):
+a fit outside them is reported as not identifiable, never with an interval."""
+
 SANDWICH_CHI2 = 4.0
 """Above this chi2/dof the features fit's intervals use the cluster-robust covariance."""
 
@@ -285,9 +290,11 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         traced = fit.objective is not None and fit.objective.kind in ("trace", "both")
         misfit = fit.objective is not None and (fit.reduced_chi2 > SANDWICH_CHI2
                                                 or fit.record_scale is not None)
+        # with fewer than 3 records the between-record scatter cannot be estimated and a
+        # stick-phase sandwich of a badly described pair collapses: Fisher at the
+        # per-record scaled errors then
         covariance = ("sandwich" if traced else
-                      "two_level" if misfit and len(fit.features) >= 3 else
-                      "sandwich" if misfit else "fisher")
+                      "two_level" if misfit and len(fit.features) >= 3 else "fisher")
     J, r, free, idx = jacobian_log(fit)
     F = J.T @ J
     k = idx.size
@@ -331,7 +338,14 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         # all (e.g. eq (1) saturated, exp(-gamma T1^m) = 0 at every stick): the
         # pseudo-inverse dropped it; not a perfectly determined value
         flat = bool(free[i]) and not (log_se[i] > 0)
-        identifiable[n] = not (bad_num or flat or (n in flagged and free[i]))
+        lo_hi = PHYSICAL_RANGE.get(n)
+        wild = bool(free[i]) and lo_hi is not None and not lo_hi[0] <= value[i] <= lo_hi[1]
+        if wild:
+            warnings.append(
+                f"{n} = {value[i]:.4g} lies outside the physical range {lo_hi[0]:g}-{lo_hi[1]:g}: "
+                "the campaign does not determine it (or the model does not describe the "
+                "records); not identifiable.")
+        identifiable[n] = not (bad_num or flat or wild or (n in flagged and free[i]))
         if flat and n not in flagged:
             warnings.append(
                 f"{n}: not identifiable from this campaign (the residuals do not change with "
@@ -341,6 +355,17 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
                 f"{n}: not identifiable from this campaign (relative standard error "
                 f"{log_se[i]:.2g} > {max_relative_se}); its value is only a placeholder."
             )
+    # a parameter tied (|r| > 0.999) to one the campaign does not determine is not
+    # determined either (the pseudo-inverse gives it the other's sliver of variance)
+    for a in range(6):
+        if free[a] and identifiable[names[a]]:
+            tied = [names[b] for b in range(6) if b != a and free[b]
+                    and not identifiable[names[b]] and abs(corr[a, b]) > 0.999]
+            if tied:
+                identifiable[names[a]] = False
+                warnings.append(f"{names[a]}: determined only together with {', '.join(tied)} "
+                                "(|r| > 0.999), which this campaign does not determine; "
+                                "not identifiable.")
     for a in range(6):
         for b in range(a + 1, 6):
             if free[a] and free[b] and abs(corr[a, b]) > 0.95:
