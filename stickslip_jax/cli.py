@@ -17,6 +17,7 @@ SUBCOMMANDS = (
     "stickslip_jax.commands.steady",
     "stickslip_jax.commands.simulate",
     "stickslip_jax.commands.plot",
+    "stickslip_jax.commands.import_raw",
     "fitting.commands.fit",
     "fitting.commands.mcmc",
     "fitting.commands.design",

@@ -59,6 +59,7 @@ from pathlib import Path
 import numpy as np
 
 from .units import G_MM_S2, INTERNAL_UNIT, UNITS, UnitError, factor
+from .units import parse_quantity as _parse_quantity_text
 
 __all__ = [
     "FORMAT_VERSION",
@@ -422,6 +423,64 @@ class Record:
         if self.drive_program is not None:
             return program_speed(self.drive_program, t)
         return np.full_like(t, self.drive_speed, dtype=np.float64)
+
+    @classmethod
+    def from_arrays(cls, time, deflection=None, *, force=None, stiffness, weight=None,
+                    mass=None, drive_speed=None, drive=None, time_unit: str = "s",
+                    deflection_unit: str = "mm", force_unit: str = "kgf",
+                    drive_unit: str = "mm", **fields) -> Record:
+        """A record from arrays, for Python users: quantities are numbers in internal units
+        (kgf, mm, s) or strings with a unit (`stiffness="852 N/um"`, `mass="30.7 g"`,
+        `drive_speed="42 um/s"`); the array units are named by `time_unit`,
+        `deflection_unit` (or `force_unit` for `force=`, read as x = F/k) and
+        `drive_unit`. Time stamps whose steps jitter within `JITTER_RTOL` are resampled
+        to a uniform step (the note in `Record.notes`). Other `fields` (`lubricant`,
+        `note`, `channels`, ...) pass through. Raises `RecordError`."""
+
+        def q(value, dimension, name):
+            if value is None:
+                return None
+            if isinstance(value, str):
+                try:
+                    return _parse_quantity_text(value, dimension)
+                except UnitError as exc:
+                    raise RecordError(f"{name}: {exc}") from None
+            return float(value)
+
+        try:
+            t = np.asarray(time, dtype=np.float64) * factor(time_unit, "time")
+            k = q(stiffness, "stiffness", "stiffness")
+            if (deflection is None) == (force is None):
+                raise RecordError("give exactly one of deflection= and force=")
+            x = (np.asarray(deflection, np.float64) * factor(deflection_unit, "length")
+                 if deflection is not None else
+                 np.asarray(force, np.float64) * factor(force_unit, "force") / k)
+            u = None if drive is None else np.asarray(drive, np.float64) * factor(drive_unit,
+                                                                                  "length")
+        except UnitError as exc:
+            raise RecordError(str(exc)) from None
+        if (weight is None) == (mass is None):
+            raise RecordError("give exactly one of weight= and mass=")
+        w = q(weight, "force", "weight") if weight is not None else (
+            float(mass) * G_MM_S2 if not isinstance(mass, str) else
+            q(mass, "mass", "mass") * G_MM_S2)
+        notes = list(fields.pop("notes", ()))
+        if t.ndim == 1 and t.size and t[0] > EPOCH_SECONDS:
+            notes.append(f"time counted from the first time stamp ({float(t[0])!r} s)")
+            t = t - t[0]
+        if t.ndim == 1 and t.size > 2 and np.all(np.diff(t) > 0):
+            dev, _, dt = time_step_deviation(t)
+            if TIME_STEP_RTOL < dev <= JITTER_RTOL:
+                grid = t[0] + dt * np.arange(t.size)
+                grid[-1] = t[-1]
+                x = np.interp(grid, t, x)
+                u = None if u is None else np.interp(grid, t, u)
+                notes.append(f"time stamps jitter by up to {100 * dev:.3g} % of the step: "
+                             "resampled to a uniform step (linear interpolation)")
+                t = grid
+        return cls(time=t, deflection=x, stiffness=k, weight=w,
+                   drive_speed=q(drive_speed, "speed", "drive_speed"), drive=u,
+                   notes=tuple(notes), **fields)
 
     def replace(self, **changes) -> Record:
         """A copy with some fields changed (validated again)."""
@@ -972,7 +1031,7 @@ def parse_record(text: str, source=None) -> Record:
             rows[r + 1],
         )
     if time[0] > EPOCH_SECONDS:  # logger epoch stamps: count from the first sample
-        notes.append(f"time counted from the first time stamp ({time[0]!r} s)")
+        notes.append(f"time counted from the first time stamp ({float(time[0])!r} s)")
         time = time - time[0]
         data[:, j] = time
     dev, r, dt = time_step_deviation(time)
