@@ -238,6 +238,10 @@ def format_table(report) -> str:
         f"residual rms {report['residual_rms_mm'] * 1e3:.3g} um; chi2/dof = "
         f"{report['reduced_chi2']:.3g}; converged: {report['converged']}"
     )
+    worst = max((r.get("features_chi2_per_residual", 0.0) for r in used), default=0.0)
+    if any(r.get("error_scale", 1.0) > 1.0 for r in used):
+        lines[-1] += (f" (after scaling record errors to their scatter; before, chi2/n up to "
+                      f"{worst:.3g}: the model does not describe the records to their noise)")
     if "trace_residual_rms_mm" in report:
         lines.append(
             f"objective: {report['objective']}; {report['trace_samples']} samples, trace "
