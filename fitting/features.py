@@ -70,7 +70,10 @@ class RecordFeatures:
     stick-slip, with the reason in `message`. `spikes`: samples replaced as impulsive
     outliers (Hampel filter); `left_out`: cycles not used, counted by reason (a stick
     too short or not flat, a jump below the threshold, a slip not timed); `drive_note`:
-    the drive error found in the sticks and corrected, if any.
+    the drive error found in the sticks and corrected, if any; `deflection_used`: the
+    deflection (mm, at the record's times) as the features saw it (spikes replaced);
+    `drive_fix`: the correction added to the nominal drive (mm, at the record's times)
+    or None.
     """
 
     name: str
@@ -97,6 +100,8 @@ class RecordFeatures:
     spikes: int = 0
     left_out: dict = dataclasses.field(default_factory=dict)
     drive_note: str | None = None
+    deflection_used: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    drive_fix: np.ndarray | None = dataclasses.field(default=None, repr=False)
 
     @property
     def model_slip_time(self) -> float:
@@ -535,8 +540,9 @@ def extract_cycles(
                       min_cycles=min_cycles, correct_drive=False)
             plain = extract_cycles(t, x, drive=u, **kw)
             fixed = extract_cycles(t, x, drive=u + fix, _note=note, **kw)
-            plain = dataclasses.replace(plain, spikes=n_spikes)
-            fixed = dataclasses.replace(fixed, spikes=n_spikes)
+            plain = dataclasses.replace(plain, spikes=n_spikes, deflection_used=x)
+            fixed = dataclasses.replace(fixed, spikes=n_spikes, deflection_used=x,
+                                        drive_fix=fix)
             return fixed if fixed.n_complete >= plain.n_complete else plain
 
     rows = []
@@ -633,7 +639,7 @@ def extract_cycles(
         name=name, weight=weight, stiffness=stiffness, drive_speed=speed, omega0=omega0,
         noise=sigma, n_samples=n, stick_slip=True, message=None,
         start_level=start_level, start_level_sd=start_sd, spikes=n_spikes,
-        left_out=left_out, drive_note=drive_note, **cols,
+        left_out=left_out, drive_note=drive_note, deflection_used=x, **cols,
     )
     if feats.n_complete < min_cycles:
         why = "; ".join(f"{c} {k}" for k, c in left_out.items())

@@ -130,7 +130,12 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
                 f"{f.name}: the trace objective needs a constant drive speed (drive_speed); "
                 "this record has a drive program or a drive column; use --objective features")
         t = np.asarray(rec.time, float)
-        x = np.asarray(rec.deflection, float)
+        # the deflection as the features saw it (spikes replaced); a drive error the
+        # features corrected is taken out window by window below (the trace model drives
+        # at u = v t from the window's measured start)
+        x = np.asarray(rec.deflection if f.deflection_used is None else f.deflection_used,
+                       float)
+        fix = None if f.drive_fix is None else np.asarray(f.drive_fix, float)
         sigma = max(float(f.noise), 1e-12)
         dropped = _after_reslip(f)
         for j in range(1, len(f.peak)):
@@ -144,9 +149,10 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
                     float(f.trough[j - 1]), float(f.trough_sd[j - 1]),
                     float(f.stick_time_sd[j]) / np.sqrt(2.0), float(f.stick_time[j]),
                     sigma, n_windows)
+            xw = x[sel] if fix is None else x[sel] - (fix[sel] - np.interp(t_s, t, fix))
             for a in range(0, sel.size, L):
                 part = sel[a:a + L]
-                rows.append(head + (t[part], x[part]))
+                rows.append(head + (t[part], xw[a:a + L]))
             n_windows += 1
     if not rows:
         n_reslip = reslip_windows(features)
