@@ -510,10 +510,11 @@ def extract_cycles(
     # merge runs separated by less than one slip length, and widen to cover the slip
     events: list[list[int]] = []
     for a, b in runs:
+        a = a + w - 1  # the averaging window lets the fall start w - 1 samples early
         if events and a - events[-1][1] <= 2 * h:
-            events[-1][1] = b + h + w - 1
+            events[-1][1] = b + h
         else:
-            events.append([a, b + h + w - 1])
+            events.append([a, b + h])
     if not events:
         whole = _plateau(t, y, 0, n, sigma, floor)
         rise = float(u[-1] - u[0])
