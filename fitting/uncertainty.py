@@ -317,7 +317,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     log_se = np.zeros(6)
     log_se[idx] = np.sqrt(np.maximum(np.diag(cov[:k, :k]), 0.0))
     stderr = value * log_se
-    ci95 = np.stack([value * np.exp(-Z95 * log_se), value * np.exp(Z95 * log_se)], axis=1)
+    with np.errstate(over="ignore"):
+        ci95 = np.stack([value * np.exp(-Z95 * log_se), value * np.exp(Z95 * log_se)], axis=1)
     sd = np.sqrt(np.diag(cov_log))
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov_log / np.outer(sd, sd)

@@ -87,8 +87,9 @@ for s in boundary_check(fit.params.friction.friction(), campaign):
 #   scatter, so each record's errors are scaled to its own scatter and the intervals
 #   come from the robust (two-level) covariance.
 # - Two records with one drive speed each cannot separate the rise of mu_0 with stick
-#   time (gamma, m) or the kinetic law's T2 dependence (delta, n): the fit reports them
-#   as not identifiable instead of giving numbers.
+#   time (gamma, m) or the kinetic law's T2 dependence (delta, n), and with the records'
+#   scatter not even mu_s and mu_d on their own: the fit reports what it cannot
+#   determine as not identifiable instead of giving numbers.
 # - The slips last about 1.4-2.6 x pi/omega_0 (the paper's slip is half a natural
 #   period): a velocity-dependent friction during the slip that eq (3) does not have.
 
