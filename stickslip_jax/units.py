@@ -124,8 +124,9 @@ def _pint_factor(unit: str, dimension: str) -> float | None:
         ureg = _registry()
         q = ureg.Quantity(1.0, ureg.parse_units(unit.replace("^", "**")))
         value = float(q.to(_PINT_INTERNAL[dimension]).magnitude)
-    except (pint.errors.PintError, AttributeError, TypeError, ValueError, KeyError,
-            AssertionError):
+    except Exception:  # noqa: BLE001  pint's parser raises many kinds on junk text
+        # (PintError, TokenError, SyntaxError, ...): any of them means "not a unit pint
+        # knows of this dimension", which the caller reports with the units it accepts
         return None
     return value if math.isfinite(value) and value > 0 else None
 
