@@ -245,7 +245,8 @@ def _two_level(cov_stick, J, r, record) -> np.ndarray:
     the features) shows only between records. Measured on 24 independent campaigns
     (tests/test_real_world_coverage.py): 90 % coverage of mu_s / mu_d 0.62 / 0.71 with the
     stick-phase sandwich alone, 0.79 / 0.83 with the record-level CR2 alone, 0.83 / 0.92
-    with both (the larger), 1.00 / 0.96 with the record-level jackknife (CR3)."""
+    with both (the larger; 0.91 / 0.92 with the final cycle extraction), 1.00 / 0.96
+    with the record-level jackknife (CR3)."""
     from scipy.stats import t as t_dist
 
     keep = record >= 0
