@@ -401,10 +401,8 @@ def _drive_error(t: np.ndarray, u: np.ndarray, y: np.ndarray, plateaus, sigma: f
         return None, None
     if use_screw and float(np.hypot(coef[2], coef[3])) > 0.02:
         return None, None
-    what = []
-    if use_poly or use_screw:
-        rate = (fitted[-1] - fitted[0]) / span
-        what.append(f"speed off by {-rate * 60:.3g} mm/min on average")
+    rate = (fitted[-1] - fitted[0]) / span
+    what = [f"speed off by {-rate * 60:.3g} mm/min on average"]
     if use_screw:
         amp = float(np.hypot(coef[2], coef[3]))
         what.append(f"periodic error {amp * 1e3:.3g} um at pitch {best[1]:.4g} mm")

@@ -218,6 +218,15 @@ def _text(name, value):
     return value
 
 
+def _uniform_grid(time: np.ndarray, dev: float, dt: float) -> tuple[np.ndarray, str]:
+    """The uniform grid (mean step `dt`, same ends) that a jittered clock is resampled to,
+    and the note saying so (`JITTER_RTOL`)."""
+    grid = time[0] + dt * np.arange(time.size)
+    grid[-1] = time[-1]
+    return grid, (f"time stamps jitter by up to {100 * dev:.3g} % of the {dt:.6g} s step: "
+                  "resampled to a uniform step (linear interpolation)")
+
+
 def time_step_deviation(time: np.ndarray) -> tuple[float, int, float]:
     """(max relative deviation |dt_i - dt|/dt, index i of the worst step, mean step dt)."""
     dt = (time[-1] - time[0]) / (time.shape[0] - 1)
@@ -471,12 +480,10 @@ class Record:
         if t.ndim == 1 and t.size > 2 and np.all(np.diff(t) > 0):
             dev, _, dt = time_step_deviation(t)
             if TIME_STEP_RTOL < dev <= JITTER_RTOL:
-                grid = t[0] + dt * np.arange(t.size)
-                grid[-1] = t[-1]
+                grid, note = _uniform_grid(t, dev, dt)
                 x = np.interp(grid, t, x)
                 u = None if u is None else np.interp(grid, t, u)
-                notes.append(f"time stamps jitter by up to {100 * dev:.3g} % of the step: "
-                             "resampled to a uniform step (linear interpolation)")
+                notes.append(note)
                 t = grid
         return cls(time=t, deflection=x, stiffness=k, weight=w,
                    drive_speed=q(drive_speed, "speed", "drive_speed"), drive=u,
@@ -1036,12 +1043,10 @@ def parse_record(text: str, source=None) -> Record:
         data[:, j] = time
     dev, r, dt = time_step_deviation(time)
     if TIME_STEP_RTOL < dev <= JITTER_RTOL:  # a logger's clock jitter: resample uniformly
-        grid = time[0] + dt * np.arange(time.size)
-        grid[-1] = time[-1]
+        grid, note = _uniform_grid(time, dev, dt)
         data = np.column_stack([grid if c == j else np.interp(grid, time, data[:, c])
                                 for c in range(data.shape[1])])
-        notes.append(f"time stamps jitter by up to {100 * dev:.3g} % of the {dt:.6g} s step: "
-                     "resampled to a uniform step (linear interpolation)")
+        notes.append(note)
         time = data[:, j]
         dev, r, dt = time_step_deviation(time)
     if not dev <= TIME_STEP_RTOL:
