@@ -104,7 +104,7 @@ CHUNK = 512
 
 
 def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
-               pad_windows: int = 0, chunk: int = CHUNK) -> TraceData:
+               pad_windows: int = 0, chunk: int = CHUNK, drive_fix: bool = True) -> TraceData:
     """Cut every record into its complete cycles (module doc), the cycles into rows of
     `chunk` samples, and pad them into a `TraceData`.
 
@@ -113,7 +113,9 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     samples per row; a cycle window of n samples fills ceil(n / chunk) rows, each
     simulated from the window's own start, so short and long cycles waste little
     padding. `pad_length`: rows at least this long; `pad_windows`: at least this many
-    rows (campaigns of other sizes reuse the compilation). Raises ValueError for a
+    rows (campaigns of other sizes reuse the compilation). `drive_fix`: take out the drive
+    error the features found (`RecordFeatures.drive_fix`; False keeps it in the data, for
+    a model that has its own drive error, `fitting.discovery.cycle_model`). Raises ValueError for a
     record without stick-slip or without a constant drive speed.
     """
     if len(records) != len(features):
@@ -135,7 +137,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         # at u = v t from the window's measured start)
         x = np.asarray(rec.deflection if f.deflection_used is None else f.deflection_used,
                        float)
-        fix = None if f.drive_fix is None else np.asarray(f.drive_fix, float)
+        fix = None if f.drive_fix is None or not drive_fix else np.asarray(f.drive_fix, float)
         sigma = max(float(f.noise), 1e-12)
         dropped = _after_reslip(f)
         for j in range(1, len(f.peak)):

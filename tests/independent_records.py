@@ -68,6 +68,23 @@ class Imperfections:
 
 
 @dataclasses.dataclass(frozen=True)
+class Physics:
+    """Physics the paper's model leaves out, in forms of our own choosing (not the
+    package's): viscous damping as a damping *ratio* zeta (force 2 zeta m omega_0 ydot);
+    a Stribeck curve as a rational drop of the kinetic friction with slip speed,
+    mu_m - b q / (1 + q), q = (ydot/v_s)^2 (mu_m at rest, b lower at speed); friction drift as linear rates of mu_s and mu_d per
+    second (from the record's start); a hardening spring F = k x (1 + h x^2 / x_ref^2),
+    x_ref = mu_s W / k (outside the package's library)."""
+
+    damping_ratio: float = 0.0
+    stribeck_b: float = 0.0
+    stribeck_vs: float = 10.0  # mm/s
+    drift_mu_s: float = 0.0  # 1/s
+    drift_mu_d: float = 0.0  # 1/s
+    hardening: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
 class Truth:
     time: np.ndarray
     deflection: np.ndarray  # measured (with every imperfection)
@@ -90,8 +107,10 @@ def _drive(speed, duration, imp: Imperfections, phase):
 
 
 def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, rate_hz,
-             imp: Imperfections = Imperfections(), seed=0, steady=False) -> Truth:
-    """One record. `steady=True` draws steady sliding at mu_d with a decaying transient."""
+             imp: Imperfections = Imperfections(), seed=0, steady=False,
+             physics: Physics = Physics()) -> Truth:
+    """One record. `steady=True` draws steady sliding at mu_d with a decaying transient;
+    `physics`: effects the paper's model leaves out (`Physics`)."""
     rng = np.random.default_rng(seed)
     W, k, v = float(weight), float(stiffness), speed_mm_min / 60.0
     mass = W / G
@@ -110,14 +129,21 @@ def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, r
     else:
         y, ts = 0.0, 0.0  # slider at rest, stick started at t = 0
         jitter = lambda: 1.0 + imp.mu_s_jitter * rng.standard_normal()  # noqa: E731
+        ph = physics
+        x_ref = friction.mu_s * W / k
+
+        def spring(x):
+            return k * x * (1.0 + ph.hardening * (x / x_ref) ** 2)
+
         while ts < duration:
-            f = friction
+            f = dataclasses.replace(friction, mu_s=friction.mu_s + ph.drift_mu_s * ts,
+                                    mu_d=friction.mu_d + ph.drift_mu_d * ts)
             mu_s = f.mu_s * jitter()
 
-            def margin(t, ts=ts, y=y, mu_s=mu_s):
+            def margin(t, ts=ts, y=y, mu_s=mu_s, f=f):
                 T1 = max(t - ts, 0.0)
                 mu0 = mu_s - (mu_s - f.mu_d) * math.exp(-f.gamma * T1 ** f.m)
-                return k * (float(u(t)) - y) - W * mu0
+                return spring(float(u(t)) - y) - W * mu0
 
             grid = ts + np.geomspace(1e-6, 2.0 * duration, 4000)
             vals = np.array([margin(t) for t in grid])
@@ -139,8 +165,11 @@ def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, r
             breaks.append(tb)
             t0 = tb
             while True:  # slip (again, if the slider stops above mu_d W)
-                def rhs(t, s):
-                    return [s[1], (k * (float(u(t)) - s[0]) - mum * W) / mass]
+                def rhs(t, s, mum=mum):
+                    q = (s[1] / ph.stribeck_vs) ** 2
+                    fr = mum - ph.stribeck_b * q / (1.0 + q)
+                    return [s[1], (spring(float(u(t)) - s[0]) - fr * W
+                                   - 2.0 * ph.damping_ratio * mass * w0 * s[1]) / mass]
 
                 def stop(t, s):
                     return s[1]
@@ -154,7 +183,7 @@ def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, r
                     y_hi[sl] = sol.sol(t_hi[sl])[0]
                 y = float(sol.sol(te)[0])
                 t0 = te
-                if k * (float(u(te)) - y) <= f.mu_d * W * (1 + 1e-9) or te > duration:
+                if spring(float(u(te)) - y) <= f.mu_d * W * (1 + 1e-9) or te > duration:
                     break
                 mum = f.mu_d  # slipping on from rest at the kinetic level
             ends.append(t0)

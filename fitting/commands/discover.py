@@ -1,8 +1,11 @@
 """`stickslip discover RECORDS...`: which effect is the paper's model missing?
 
-Fits the paper's model to the full traces, analyses the residuals, ranks the library
-of candidate effects by a score test, refits the best few and names the one that
-lowers BIC enough, or answers "none" (`fitting.discovery.workflow`). Prints the answer,
+Default (`--base cycle`): the per-cycle model of `stickslip fit --objective trace`
+(every cycle restarted at its measured slip end), a robust score test of every effect
+family, refits of the significant ones, and a named effect, "none" or "unexplained"
+(`fitting.discovery.cycle_workflow`). `--base smooth`: the earlier workflow on the
+smoothed simulator over whole records (`fitting.discovery.workflow`: BIC choice).
+Progress lines go to stderr (`--quiet` turns them off). Prints the answer,
 the gap (residual RMS) before and after, the candidate table and the parameters
 before and after. `--json OUT` writes {"effect", "explanation", "gap_before",
 "gap_after", "criterion", "candidates": [{"name", "score", "delta_criterion"}...],
@@ -12,14 +15,15 @@ residuals by phase before and after and the traces.
 
 from __future__ import annotations
 
-import json
-
 NAME = "discover"
 HELP = "find the physical effect the paper's model is missing in a campaign of records"
 
 
 def add_arguments(parser):
+    from fitting.discovery.cycle_effects import FAMILIES
     from fitting.discovery.effects import CANDIDATES
+
+    CHOICES = tuple(dict.fromkeys(tuple(CANDIDATES) + tuple(f.name for f in FAMILIES)))
 
     parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
     parser.add_argument("--strict", action="store_true",
@@ -27,11 +31,18 @@ def add_arguments(parser):
                         "(default: run on the records that have it, list the others)")
     parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
     parser.add_argument("--plot", metavar="OUT.png", help="save residuals and traces")
+    parser.add_argument("--base", choices=("cycle", "smooth"), default="cycle",
+                        help="the base model: per-cycle exact model (default; seconds) or "
+                        "the smoothed simulator over whole records (minutes)")
+    parser.add_argument("--alpha", type=float, default=0.01,
+                        help="false-alarm rate of the cycle base's test over all effect "
+                        "families (default 0.01)")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     parser.add_argument("--top", type=int, default=3,
                         help="how many candidates to refit after the score test (default 3)")
     parser.add_argument("--threshold", type=float, default=10.0,
                         help="BIC drop needed to name an effect (default 10)")
-    parser.add_argument("--only", action="append", choices=CANDIDATES, default=None,
+    parser.add_argument("--only", action="append", choices=CHOICES, default=None,
                         metavar="EFFECT", help="consider only these effects (repeatable)")
     parser.add_argument("--crop", choices=("slip_end", "none"), default="slip_end",
                         help="start each record at its first slip end (default) or use it "
@@ -57,11 +68,19 @@ def run(args) -> int:
         raise ValueError(f"--max-evals: must be at least 2, got {args.max_evals}")
     if not args.threshold >= 0:
         raise ValueError(f"--threshold: must be >= 0, got {args.threshold}")
+    if not 0 < args.alpha < 1:
+        raise ValueError(f"--alpha: must be between 0 and 1, got {args.alpha}")
+    from stickslip_jax.commands._output import check_outputs, save_figure, write_json
+
     from ..campaign import screen_records
 
     records = read_campaign(args.records)
+    check_outputs({"--json": args.json, "--plot": args.plot},
+                  [r.source for r in records if r.source])
     if len(records) < 2:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
+    if args.base == "cycle":
+        return _run_cycle(args, records, check_outputs, save_figure, write_json)
     campaign = screen_records(records, strict=args.strict)
     for w in campaign.warnings:
         print("warning: " + w, file=sys.stderr)
@@ -82,12 +101,58 @@ def run(args) -> int:
         b = result.parameters_before.get(k)
         print(f"{k:22s} {'-' if b is None else format(b, '.5g'):>12s} {v:12.5g}")
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump({**result.to_json(),
-                       "records_screened": [x.to_json() for x in campaign.screening]},
-                      fh, indent=2)
+        write_json(args.json, {**result.to_json(),
+                               "records_screened": [x.to_json() for x in campaign.screening]})
     if args.plot:
         from fitting.discovery.plots import plot_discovery
 
         plot_discovery(result, args.plot)
+    return 0
+
+
+def _run_cycle(args, records, check_outputs, save_figure, write_json) -> int:
+    import sys
+
+    from fitting.discovery.cycle_effects import FAMILIES
+    from fitting.discovery.cycle_workflow import discover_cycles
+
+    names = {f.name for f in FAMILIES}
+    only = args.only or None
+    if only:
+        bad = [n for n in only if n not in names]
+        if bad:
+            raise ValueError(f"--only: {', '.join(bad)} exist only with --base smooth; the "
+                             f"cycle base has {', '.join(sorted(names))}")
+
+    def progress(line):
+        print(line, file=sys.stderr, flush=True)
+
+    result = discover_cycles(records, candidates=tuple(only) if only else None, top=args.top,
+                             alpha=args.alpha, max_evals=args.max_evals, strict=args.strict,
+                             progress=None if args.quiet else progress)
+    for s in result.campaign.screening:
+        if s.status != "used":
+            print(f"warning: {s.name}: {s.status.replace('_', ' ')} ({s.reason}); not used",
+                  file=sys.stderr)
+    print(f"effect: {result.effect} (confidence {result.confidence})")
+    print(result.explanation)
+    print(f"gap (residual RMS): {result.gap_before * 1e3:.3f} um -> "
+          f"{result.gap_after * 1e3:.3f} um; noise {result.noise * 1e3:.3f} um")
+    print(f"{'family':22s} {'shape':18s} {'F':>8s} {'p':>9s} {'chi2 drop':>10s}")
+    for c in result.candidates:
+        d = "-" if c["chi2_drop"] is None else f"{c['chi2_drop']:.1f}"
+        if c["unphysical"]:
+            d += " unphysical"
+        print(f"{c['name']:22s} {c['shape']:18s} {c['score']:8.2f} {c['score_p_value']:9.2g} "
+              f"{d:>10s}")
+    print(f"{'parameter':22s} {'before':>12s} {'after':>12s}")
+    for k, v in result.parameters_after.items():
+        b = result.parameters_before.get(k)
+        print(f"{k:22s} {'-' if b is None else format(b, '.5g'):>12s} {v:12.5g}")
+    if args.json:
+        write_json(args.json, result.to_json())
+    if args.plot:
+        from fitting.discovery.plots import plot_cycle_discovery
+
+        save_figure(plot_cycle_discovery(result), args.plot, dpi=120)
     return 0

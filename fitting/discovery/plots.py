@@ -6,7 +6,7 @@ import numpy as np
 
 from .residuals import PHASES
 
-__all__ = ["plot_discovery"]
+__all__ = ["plot_cycle_discovery", "plot_discovery"]
 
 
 def plot_discovery(result, path, *, records: int = 3):
@@ -62,3 +62,60 @@ def plot_discovery(result, path, *, records: int = 3):
     fig.savefig(path, dpi=110)
     plt.close(fig)
     return path
+
+
+def plot_cycle_discovery(result, *, records: int = 3):
+    """Figure of a per-cycle discovery (`cycle_workflow.CycleDiscovery`): residual RMS by
+    phase before and after (um), and for up to `records` records the measured deflection
+    with the base and final models (mm against s) and their residuals (um). Returns the
+    `matplotlib.figure.Figure` (the backend is left as it is)."""
+    from matplotlib.figure import Figure
+
+    model = result.model
+    data = model.data
+    mask = np.asarray(data.mask)
+    t = np.asarray(data.time)[mask]
+    x = np.asarray(data.deflection)[mask]
+    rec = np.broadcast_to(np.asarray(data.record)[:, None], mask.shape)[mask]
+    sd = np.asarray(model.sd)[mask]
+    r0 = model.residuals(result.z_before)[0] * sd
+    r1 = model.residuals(result.z_after, result.shape, result.sensor)[0] * sd
+    G = model.n_records
+    pick = sorted({0, G // 2, G - 1})[:records]
+    fig = Figure(figsize=(11, 2.6 * (1 + len(pick))), layout="constrained")
+    axes = fig.subplots(1 + len(pick), 2, squeeze=False)
+    ax = axes[0, 0]
+    names = list(result.phases_before)
+    pos = np.arange(len(names))
+    ax.bar(pos - 0.2, [1e3 * (result.phases_before[n]["rms"] or 0) for n in names], 0.4,
+           label="paper's model")
+    ax.bar(pos + 0.2, [1e3 * (result.phases_after[n]["rms"] or 0) for n in names], 0.4,
+           label=f"with {result.effect}")
+    ax.axhline(result.noise * 1e3, color="k", lw=0.8, ls="--", label="noise")
+    ax.set_xticks(pos, names)
+    ax.set_ylabel("residual RMS (um)")
+    ax.legend(fontsize=8)
+    axes[0, 1].axis("off")
+    axes[0, 1].text(0, 0.5, f"effect: {result.effect} ({result.confidence})\n"
+                    f"gap {result.gap_before * 1e3:.3g} -> {result.gap_after * 1e3:.3g} um "
+                    f"(noise {result.noise * 1e3:.3g} um)", fontsize=10, va="center")
+    for row, g in enumerate(pick, start=1):
+        sel = rec == g
+        order = np.argsort(t[sel])
+        tt = t[sel][order]
+        ax = axes[row, 0]
+        ax.plot(tt, x[sel][order], ".", ms=1, color="0.5", label="record")
+        ax.plot(tt, (x - r0)[sel][order], lw=0.8, label="paper's model")
+        ax.plot(tt, (x - r1)[sel][order], lw=0.8, label=f"with {result.effect}")
+        ax.set_ylabel("deflection (mm)")
+        ax.set_title(result.campaign.records[g].note or f"record {g}", fontsize=9)
+        ax = axes[row, 1]
+        ax.plot(tt, 1e3 * r0[sel][order], lw=0.5, label="before")
+        ax.plot(tt, 1e3 * r1[sel][order], lw=0.5, label="after")
+        ax.set_ylabel("residual (um)")
+        if row == 1:
+            axes[row, 0].legend(fontsize=7)
+            ax.legend(fontsize=7)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)")
+    return fig

@@ -1,0 +1,159 @@
+r"""Effect families of the per-cycle discovery model (`cycle_model`).
+
+Every family has parameters that are **zero when the effect is absent** and, where the
+physics has a shape the data must choose, a small grid of **shapes** (scanned by the
+score test, `cycle_workflow`): the effect forms of a real slideway will not be ours
+exactly, so a family is a set of forms, not one formula. Units are internal (kgf, mm, s).
+
+| name | enters the per-cycle model as | parameters | shapes scanned |
+|---|---|---|---|
+| `viscous_damping` | slip force $-c\,\dot y$ | c kgf s/mm | - |
+| `stribeck` | slip friction $+b\,e^{-(\dot y/v_s)^p}$ (falls with slip speed) | b (-) | $v_s$ 3, 10, 30 mm/s; p 1, 2 |
+| `rate_state` | slip friction $+b\,e^{-y/L}$ (weakens with slip distance) | b (-) | L 0.01, 0.03, 0.1 mm |
+| `drive_periodic_error` | drive $u + \sum_{h=1,2} a_h \sin(2\pi h u/\lambda) + b_h\cos(\dots)$, per record | 4 per record, mm | $\lambda$ 1-10 mm |
+| `drive_speed_drift` | drive speed $v(1 + s\,(t - t_\mathrm{mid}))$ | s 1/s | - |
+| `sensor_lowpass` | gauge reads $x$ through a low-pass of mean delay $\tau$ | $\tau$ s | order 1, 2 (gamma kernel) |
+| `friction_drift` | $\mu_s$, $\mu_d$ shift by $r_s t$, $r_d t$ | $r_s$, $r_d$ 1/s | - |
+| `gauge_drift` | gauge zero drifts: reads $x + r t$ | r mm/s | - |
+| `load_coupling` | normal load $N = W + \kappa k x$ (drive moment, ch. 6) | $\kappa$ (-) | - |
+
+`SCALES`: a typical detectable size (fit coordinate = value / scale). `SIGNS`: +1 where
+physics requires >= 0 (a passive damper dissipates; a sensor is causal; a Stribeck
+curve and slip weakening lower friction as the slip goes on), 0 for either sign.
+`BOUND`: the largest physical magnitude (natural units, per parameter; a fit beyond it
+is reported as unphysical and never named), with the reason in `BOUND_NOTE`. The drive
+error is bounded on the error itself, not its coefficients (a record that travels less
+than a pitch sees a piece of the sine, which large coefficients of opposite sign draw):
+`drive_error_range` is at most `DRIVE_ERROR_MAX` over every record.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+__all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "Family", "Shape", "drive_error", "drive_error_range",
+           "family"]
+
+DRIVE_ERROR_MAX = 0.05
+"""mm: a drive error larger than 50 um over a record is a broken drive, not an effect."""
+
+
+def drive_error(coef, t, speed, pitch) -> np.ndarray:
+    """The drive error (mm) of `drive_periodic_error` at times t (s) of a record driven
+    at `speed` (mm/s): coef = (a1_sin, a1_cos, a2_sin, a2_cos) mm, `pitch` mm."""
+    ph = 2.0 * np.pi * speed * np.asarray(t, float) / pitch
+    a = np.asarray(coef, float)
+    return a[0] * np.sin(ph) + a[1] * np.cos(ph) + a[2] * np.sin(2 * ph) + a[3] * np.cos(2 * ph)
+
+
+def drive_error_range(coef, t, speed, pitch) -> float:
+    """Peak-to-peak of `drive_error` over the times t (mm)."""
+    e = drive_error(coef, t, speed, pitch)
+    return float(e.max() - e.min())
+
+
+@dataclasses.dataclass(frozen=True)
+class Shape:
+    """Shape settings of the model (traced values, so one compilation serves every
+    shape): Stribeck speed scale `vs` (mm/s) and exponent `p`, slip-weakening length
+    `length` (mm), screw pitch `pitch` (mm), sensor kernel `order` (1: first-order
+    low-pass, 2: critically damped second order)."""
+
+    vs: float = 10.0
+    p: float = 1.0
+    length: float = 0.03
+    pitch: float = 5.0
+    order: int = 1
+
+    def label(self, fam: "Family") -> str:
+        keys = {"stribeck": ("vs", "p"), "rate_state": ("length",),
+                "drive_periodic_error": ("pitch",), "sensor_lowpass": ("order",)}
+        return ", ".join(f"{k} = {getattr(self, k):g}" for k in keys.get(fam.name, ()))
+
+
+@dataclasses.dataclass(frozen=True)
+class Family:
+    name: str
+    explanation: str
+    params: tuple[str, ...]
+    units: tuple[str, ...]
+    scales: tuple[float, ...]
+    signs: tuple[int, ...]
+    bound: tuple[float, ...]
+    bound_note: str
+    shapes: tuple[Shape, ...] = (Shape(),)
+    per_record: bool = False
+
+    def n_params(self, n_records: int) -> int:
+        return len(self.params) * (n_records if self.per_record else 1)
+
+    def unphysical(self, values: np.ndarray) -> str | None:
+        """Why fitted natural `values` (flat, per record repeated) are not physical, or None."""
+        k = len(self.params)
+        v = np.asarray(values, float).reshape(-1, k)
+        bad = []
+        for j, p in enumerate(self.params):
+            if self.signs[j] > 0 and np.any(v[:, j] < 0):
+                bad.append(f"{p} = {v[:, j].min():.3g} < 0")
+            if np.any(np.abs(v[:, j]) > self.bound[j]):
+                bad.append(f"|{p}| = {np.abs(v[:, j]).max():.3g} > {self.bound[j]:g} "
+                           f"({self.bound_note})")
+        return "; ".join(bad) or None
+
+
+FAMILIES: tuple[Family, ...] = (
+    Family("viscous_damping",
+           "A force proportional to the slider velocity (a viscous oil film or a damper) "
+           "resists the slip, so slips are slower and smaller than dry friction predicts.",
+           ("c",), ("kgf*s/mm",), (0.01,), (1,), (1.0,),
+           "a damping ratio above about 1 would stop stick-slip altogether"),
+    Family("stribeck",
+           "Kinetic friction falls with slip speed (a Stribeck curve): the slip starts "
+           "against higher friction than it ends with.",
+           ("b",), ("-",), (0.01,), (1,), (0.5,), "a friction step larger than mu itself",
+           shapes=tuple(Shape(vs=vs, p=p) for vs in (3.0, 10.0, 30.0) for p in (1.0, 2.0))),
+    Family("rate_state",
+           "Friction weakens over a short slip distance (rate-and-state / slip weakening): "
+           "extra friction at the start of each slip that decays with the distance slid.",
+           ("b",), ("-",), (0.01,), (1,), (0.5,), "a friction step larger than mu itself",
+           shapes=tuple(Shape(length=L) for L in (0.01, 0.03, 0.1))),
+    Family("drive_periodic_error",
+           "The drive is not u = v t: a periodic error of the lead screw (first and second "
+           "harmonic of its pitch) moves the spring's far end back and forth.",
+           ("a1_sin", "a1_cos", "a2_sin", "a2_cos"), ("mm",) * 4, (1e-3,) * 4, (0,) * 4,
+           (math.inf,) * 4, "",
+           shapes=tuple(Shape(pitch=p) for p in (1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0,
+                                                 8.0, 10.0)),
+           per_record=True),
+    Family("drive_speed_drift",
+           "The drive speed drifts slowly during a record (a motor or belt warming up).",
+           ("s",), ("1/s",), (1e-4,), (0,), (0.01,), "more than 1 % speed change per second"),
+    Family("sensor_lowpass",
+           "The gauge or its amplifier is a low-pass filter: the record lags and rounds the "
+           "fast slips.",
+           ("tau",), ("s",), (1e-3,), (1,), (0.05,),
+           "a gauge slower than 50 ms cannot show slips at all",
+           shapes=(Shape(order=1), Shape(order=2))),
+    Family("friction_drift",
+           "The friction level drifts with time (temperature, wear, lubricant spreading).",
+           ("r_s", "r_d"), ("1/s", "1/s"), (1e-4, 1e-4), (0, 0), (0.01, 0.01),
+           "friction changing by more than 0.01 per second"),
+    Family("gauge_drift",
+           "The gauge zero drifts (thermal drift of the sensor or amplifier).",
+           ("r",), ("mm/s",), (1e-5,), (0,), (1e-3,), "more than 1 um/s of zero drift"),
+    Family("load_coupling",
+           "The normal load changes with the spring force (a drive moment pitching the "
+           "slider, ch. 6): friction grows with the deflection.",
+           ("kappa",), ("-",), (0.01,), (0,), (1.0,), "kappa mu above 1 lifts the slider"),
+)
+
+
+def family(name: str) -> Family:
+    for f in FAMILIES:
+        if f.name == name:
+            return f
+    raise ValueError(f"unknown effect {name!r}; choose from "
+                     f"{', '.join(f.name for f in FAMILIES)}")

@@ -1,0 +1,385 @@
+r"""The per-cycle model with effects: the discovery base (`cycle_workflow`).
+
+Same windows as the trace objective (`fitting.trace_objective`): cycle $j$ of a record
+runs from the measured end of slip $j-1$ to the measured end of slip $j$, the slider at
+rest at the measured slip-end level. Nothing accumulates from cycle to cycle, so a long
+record's slips cannot drift away from the data. With every effect at zero this is the
+paper's model (chapters 2-5) and equals `trace_objective.trace_simulation` (tested);
+the effects of `cycle_effects` enter as parts of it:
+
+- **stick** (closed form): the deflection follows the drive,
+  $x(t) = x_0 + u(t) - u(t_0)$, with the drive $u$ of the drive effects (screw error,
+  speed drift); breakaway where $k x = N \mu_0(T_1)$ (eq 1) with $N = W + \kappa k x$
+  (load coupling) and $\mu_s$, $\mu_d$ shifted by friction drift; found by a bracketed
+  Newton iteration whose last step carries the derivative (implicit function theorem);
+- **slip** (RK4, fixed step, `N_STEPS` over 2.5 $\pi/\omega_0$):
+  $m\ddot y = k x - N(\mu_m + b_S e^{-(\dot y/v_s)^p} + b_R e^{-y/L}) - c\dot y$,
+  $x = x_b + \dot u(t_b)(t - t_b) - y$, $\mu_m$ from eq (3) with $T_2 = \pi/\omega_0$ (eq 7);
+  the slider stops where $\dot y$ first returns to 0 (interpolated), and sticks again;
+- **measurement**: the gauge reads $c_r + (K * x)(t) + r_g (t - t_\mathrm{mid})$ with gauge
+  drift $r_g$ and a low-pass kernel $K$ of mean delay $\tau$ (order 1: $e^{-s/\tau}/\tau$,
+  order 2, critically damped: $4 s e^{-2s/\tau}/\tau^2$). Write $x = L - D$ with the stick
+  line $L(t) = x_0 + u(t) - u(t_0)$ and the slip displacement $D$ (0 before breakaway, $y$
+  during the slip, $y_\mathrm{stop}$ after). $K * L = L(t - \tau)$ (exact for a steady
+  drive); $K * D$ is a discrete convolution on the RK4 grid with the kernel's bin
+  masses (its CDF at the bin edges), interpolated like the slip. For the score test
+  (first derivative at $\tau = 0$, the same for every kernel of mean $\tau$) the model
+  is evaluated at $t - \tau$ (`sensor=False`: a pure delay).
+
+Between the RK4 nodes the slip is a cubic Hermite interpolant (error ~(h omega_0)^4).
+Residuals are whitened by the trace objective's standard errors (`trace_sd`, effective
+variance at the base parameters, held fixed). Units: mm, s, kgf, kgf/mm, mm/s.
+
+Coordinates `z`: the 6 `EmpiricalFriction` logs, one gauge offset per record (mm), then
+the effect parameters divided by their `SCALES`, family by family in `FAMILIES` order
+(per-record families: record-major). `CycleModel.evaluate` gives residuals and the
+Jacobian of any set of coordinates (forward mode, `BLOCK` columns per compiled call).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from stickslip_jax._math import safe_power
+from stickslip_jax.units import G_MM_S2
+
+from ..params import CampaignParams, EmpiricalFriction
+from ..trace_objective import TraceData, trace_sd
+from .cycle_effects import FAMILIES, Family, Shape
+
+__all__ = ["BLOCK", "CycleModel", "N_STEPS", "kernel_cdf"]
+
+N_STEPS = 128
+"""RK4 steps per slip (over 2.5 pi/omega_0: room for slips lengthened by the effects)."""
+BLOCK = 8
+"""Jacobian columns per compiled forward-mode call."""
+NEWTON = 40
+"""Bracketed Newton iterations for the breakaway time."""
+
+
+def kernel_cdf(s, tau, order):
+    """Fraction of the sensor kernel's weight at delays below s (s, tau in s; order 1 or
+    2; module doc): 1 - e^{-s/tau}, or 1 - (1 + 2 s/tau) e^{-2 s/tau}."""
+    tau = jnp.maximum(tau, 1e-9)
+    a = jnp.where(order == 1, 1.0, 2.0) * s / tau
+    return 1.0 - jnp.where(order == 1, 1.0, 1.0 + a) * jnp.exp(-a)
+
+
+def _hermite(y0, y1, m0, m1, f):
+    f2, f3 = f * f, f * f * f
+    return ((2 * f3 - 3 * f2 + 1) * y0 + (f3 - 2 * f2 + f) * m0 + (-2 * f3 + 3 * f2) * y1
+            + (f3 - f2) * m1)
+
+
+def _hermite_slope(y0, y1, m0, m1, f):
+    f2 = f * f
+    return ((6 * f2 - 6 * f) * y0 + (3 * f2 - 4 * f + 1) * m0 + (-6 * f2 + 6 * f) * y1
+            + (3 * f2 - 2 * f) * m1)
+
+
+class _Eff(eqx.Module):
+    """Natural effect values of one row (its record's drive coefficients gathered)."""
+
+    c: jax.Array
+    b_st: jax.Array
+    b_rs: jax.Array
+    drive: jax.Array  # [4]
+    s: jax.Array
+    tau: jax.Array
+    r_s: jax.Array
+    r_d: jax.Array
+    r_g: jax.Array
+    kappa: jax.Array
+
+
+def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, ts):
+    """One row: (model deflection as read by the gauge, without offset [L]; slider
+    velocity [L]; ok). `sensor` (static): the kernel convolution (module doc)."""
+    vs, p, length, pitch, order = shape[0], shape[1], shape[2], shape[3], shape[4]
+    mass = W / G_MM_S2
+    omega = jnp.sqrt(k / mass)
+    T2 = jnp.pi / omega
+    static = friction.static
+    mu_s, mu_d = static.mu_s, static.mu_d
+    drift = t0 - tref
+    d_s, d_d = eff.r_s * drift, eff.r_d * drift
+
+    def mu0(T):  # eq (1) with mu_s, mu_d shifted by friction drift
+        base = static(T)
+        return base + d_d + (d_s - d_d) * (base - mu_d) / (mu_s - mu_d)
+
+    def u(t):  # drive (mm), arbitrary origin
+        dt = t - tref
+        ph = 2.0 * jnp.pi * v * t / pitch
+        a = eff.drive
+        return (v * dt + 0.5 * v * eff.s * dt * dt + a[0] * jnp.sin(ph) + a[1] * jnp.cos(ph)
+                + a[2] * jnp.sin(2 * ph) + a[3] * jnp.cos(2 * ph))
+
+    u0 = u(t0)
+
+    def g(T):
+        x = x0 + u(t0 + T) - u0
+        return k * x - (W + eff.kappa * k * x) * mu0(T)
+
+    def g_and_slope(T):
+        return jax.jvp(g, (T,), (jnp.ones_like(T),))
+
+    hi0 = 4.0 * T1m + 1.0
+    lo0 = jnp.zeros_like(T1m)
+    found = g(hi0) > 0
+
+    def newton(_, state):
+        T, lo, hi = state
+        gv, gd = g_and_slope(T)
+        lo = jnp.where(gv < 0, T, lo)
+        hi = jnp.where(gv < 0, hi, T)
+        step = T - gv / jnp.where(gd > 0, gd, 1.0)
+        inside = (gd > 0) & (step > lo) & (step < hi)
+        return jnp.where(inside, step, 0.5 * (lo + hi)), lo, hi
+
+    T, _, _ = jax.lax.fori_loop(
+        0, NEWTON, newton,
+        (jnp.clip(T1m, 1e-6, hi0 * 0.999), lo0, hi0))
+    T = jax.lax.stop_gradient(jnp.maximum(T, 1e-9))
+    gv, gd = g_and_slope(T)
+    T = jnp.maximum(T - gv / jnp.where(gd > 0, gd, 1.0), 1e-9)  # carries dT/dtheta
+    t_b = t0 + T
+    x_b = x0 + u(t_b) - u0
+    mu_0 = mu0(T)
+    mu_m = friction.kinetic(mu_0, mu_d + d_d, T2)  # eq (3), T2 = pi / omega0 (eq 7)
+    vdrive = jax.jvp(u, (t_b,), (jnp.ones_like(t_b),))[1]
+    h = 2.5 * T2 / N_STEPS
+
+    def rhs(tau, y, yd):
+        x = x_b + vdrive * tau - y
+        N = W + eff.kappa * k * x
+        speed = jnp.abs(yd) / vs
+        mu = (mu_m + eff.b_st * jnp.exp(-safe_power(speed, p))
+              + eff.b_rs * jnp.exp(-y / length))
+        return (k * x - N * mu - eff.c * yd) / mass
+
+    def rk4(state, i):
+        y, yd = state
+        tau = i * h
+        k1y, k1v = yd, rhs(tau, y, yd)
+        k2y, k2v = yd + 0.5 * h * k1v, rhs(tau + 0.5 * h, y + 0.5 * h * k1y, yd + 0.5 * h * k1v)
+        k3y, k3v = yd + 0.5 * h * k2v, rhs(tau + 0.5 * h, y + 0.5 * h * k2y, yd + 0.5 * h * k2v)
+        k4y, k4v = yd + h * k3v, rhs(tau + h, y + h * k3y, yd + h * k3v)
+        new = (y + h / 6 * (k1y + 2 * k2y + 2 * k3y + k4y),
+               yd + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v))
+        return new, new
+
+    zero = jnp.zeros_like(x_b)
+    _, (Y, YD) = jax.lax.scan(rk4, (zero, zero), jnp.arange(N_STEPS, dtype=float))
+    Y = jnp.concatenate([zero[None], Y])
+    YD = jnp.concatenate([zero[None], YD])
+    stopped = YD[1:] <= 0
+    stops = jnp.any(stopped)
+    i = jnp.where(stops, jnp.argmax(stopped) + 1, N_STEPS)
+    yd_a, yd_b = YD[i - 1], YD[i]
+    frac = jnp.where(stops, yd_a / jnp.where(yd_a - yd_b > 0, yd_a - yd_b, 1.0), 1.0)
+    frac = jnp.clip(frac, 0.0, 1.0)
+    t_stop = t_b + (i - 1 + frac) * h
+    y_stop = _hermite(Y[i - 1], Y[i], YD[i - 1] * h, YD[i] * h, frac)
+    x_stop = x_b + u(t_stop) - u(t_b) - y_stop
+
+    def render(t):
+        t = jnp.maximum(t, t0)
+        tau = (t - t_b) / h
+        j = jnp.clip(jnp.floor(tau), 0, N_STEPS - 1).astype(jnp.int32)
+        f = jnp.clip(tau - j, 0.0, 1.0)
+        y0, y1, m0, m1 = Y[j], Y[j + 1], YD[j] * h, YD[j + 1] * h
+        y = _hermite(y0, y1, m0, m1, f)
+        yd = _hermite_slope(y0, y1, m0, m1, f) / h
+        ut = u(t)
+        x = jnp.where(t < t_b, x0 + ut - u0,
+                      jnp.where(t < t_stop, x_b + ut - u(t_b) - y, x_stop + ut - u(t_stop)))
+        yd = jnp.where((t >= t_b) & (t < t_stop), yd, 0.0)
+        return x, yd
+
+    if sensor:
+        tau = jnp.maximum(eff.tau, 1e-7)
+        n = jnp.arange(N_STEPS + 1)
+        moving = n * h < t_stop - t_b
+        D = jnp.where(moving, Y, y_stop)
+        Dd = jnp.where(moving, YD, 0.0)
+        cdf = kernel_cdf(jnp.maximum((jnp.arange(N_STEPS + 2) - 0.5) * h, 0.0), tau, order)
+        w = jnp.diff(cdf)
+        lag = n[:, None] - n[None, :]
+        K = jnp.where(lag >= 0, w[jnp.clip(lag, 0, N_STEPS)], 0.0)
+        F, Fd = K @ D, K @ Dd
+        s_ = (ts - t_b) / h
+        j = jnp.clip(jnp.floor(s_), 0, N_STEPS - 1).astype(jnp.int32)
+        f = jnp.clip(s_ - j, 0.0, 1.0)
+        Fv = _hermite(F[j], F[j + 1], Fd[j] * h, Fd[j + 1] * h, f)
+        Fv = jnp.where(ts < t_b, 0.0, jnp.where(s_ > N_STEPS, F[N_STEPS], Fv))
+        x = x0 + u(ts - tau) - u0 - Fv
+        yd = render(ts)[1]
+    else:
+        x, yd = render(ts - eff.tau)
+    read = x + eff.r_g * (ts - tref)
+    ok = found & stops & jnp.all(jnp.isfinite(read))
+    return read, yd, ok
+
+
+class _Layout(eqx.Module):
+    """Where each family's parameters live in the full coordinate vector (static)."""
+
+    n_records: int = eqx.field(static=True)
+    starts: tuple = eqx.field(static=True)  # ((family name, first index), ...)
+
+    def first(self, name: str) -> int:
+        return dict(self.starts)[name]
+
+    @property
+    def n_base(self) -> int:
+        return 6 + self.n_records
+
+    @property
+    def size(self) -> int:
+        return self.n_base + sum(f.n_params(self.n_records) for f in FAMILIES)
+
+    def cols(self, fam: Family) -> np.ndarray:
+        a = self.first(fam.name)
+        return np.arange(a, a + fam.n_params(self.n_records))
+
+
+def _layout(n_records: int) -> _Layout:
+    start, a = [], 6 + n_records
+    for f in FAMILIES:
+        start.append((f.name, a))
+        a += f.n_params(n_records)
+    return _Layout(n_records, tuple(start))
+
+
+def _effects_of(layout: _Layout, theta, record):
+    """Natural effect values for one row (`record`: its record index)."""
+    def one(name, j=0):
+        return theta[layout.first(name) - layout.n_base + j]
+
+    a = layout.first("drive_periodic_error") - layout.n_base
+    drive = jax.lax.dynamic_slice(theta, (a + 4 * record,), (4,))
+    return _Eff(c=one("viscous_damping"), b_st=one("stribeck"), b_rs=one("rate_state"),
+                drive=drive, s=one("drive_speed_drift"), tau=one("sensor_lowpass"),
+                r_s=one("friction_drift"), r_d=one("friction_drift", 1),
+                r_g=one("gauge_drift"), kappa=one("load_coupling"))
+
+
+def _model(z, scales, shape, sensor, data: TraceData, tref, layout: _Layout):
+    """(gauge reading incl. offset [N, L], slider velocity [N, L], ok [N])."""
+    nat = z * scales
+    fr = EmpiricalFriction(*[nat[i] for i in range(6)]).friction()
+    offset = nat[6:layout.n_base]
+    theta = nat[layout.n_base:]
+
+    def one(rec, W, k, v, t0, x0, T1m, ts):
+        eff = _effects_of(layout, theta, rec)
+        return _row(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], ts)
+
+    x0 = data.start_level - offset[data.record]
+    read, yd, ok = jax.vmap(one)(data.record, data.weight, data.stiffness, data.speed,
+                                 data.start_time, x0, data.stick_time, data.time)
+    return read + offset[data.record][:, None], yd, ok
+
+
+@eqx.filter_jit
+def _value(z, scales, shape, sensor, data, tref, sd, layout):
+    read, yd, ok = _model(z, scales, shape, sensor, data, tref, layout)
+    r = jnp.where(data.mask, (data.deflection - read) / sd, 0.0)
+    return r, yd, ok
+
+
+@eqx.filter_jit
+def _value_and_block(z, T, scales, shape, sensor, data, tref, sd, layout):
+    def f(zz):
+        read, _, ok = _model(zz, scales, shape, sensor, data, tref, layout)
+        return jnp.where(data.mask, (data.deflection - read) / sd, 0.0), ok
+
+    def col(t):
+        return jax.jvp(lambda zz: f(zz)[0], (z,), (t,))[1]
+
+    r, ok = f(z)
+    return r, jax.vmap(col, in_axes=1, out_axes=-1)(T), ok
+
+
+class CycleModel:
+    """The per-cycle model of one campaign (module doc): residuals and Jacobians.
+
+    `data`: the `TraceData` windows (built without the features' drive correction, so
+    that a drive error stays in the data for the drive effects to explain); `tref`: per
+    record the middle of its time span (s: the origin of every drift); `sd`: per-sample
+    standard errors [N, L] (mm). `evaluate(z, cols, shape, order)`: whitened residuals
+    (flat, padded samples removed), their Jacobian with respect to z[cols], and whether
+    every row's breakaway and slip end were found.
+    """
+
+    def __init__(self, data: TraceData, tref: np.ndarray, sd, n_records: int):
+        self.data = data
+        self.tref = jax.device_put(np.asarray(tref, float))
+        self.sd = jax.device_put(np.asarray(sd, float))
+        self.layout = _layout(n_records)
+        self.scales = np.ones(self.layout.size)
+        for f in FAMILIES:
+            reps = n_records if f.per_record else 1
+            self.scales[self.layout.cols(f)] = np.tile(f.scales, reps)
+        self._scales = jax.device_put(self.scales)
+        self.mask = np.asarray(data.mask).ravel()
+        self.n_records = n_records
+
+    @property
+    def n_base(self) -> int:
+        return self.layout.n_base
+
+    def cols(self, fam: Family) -> np.ndarray:
+        return self.layout.cols(fam)
+
+    @staticmethod
+    def _shape(shape: Shape):
+        return jnp.asarray([shape.vs, shape.p, shape.length, shape.pitch, shape.order])
+
+    def z0(self, friction: EmpiricalFriction, offsets) -> np.ndarray:
+        z = np.zeros(self.layout.size)
+        z[:6] = [float(x) for x in (friction.log_mu_d, friction.log_gap, friction.log_gamma,
+                                    friction.log_m, friction.log_delta, friction.log_n)]
+        z[6:self.n_base] = np.asarray(offsets, float)
+        return z
+
+    def residuals(self, z, shape: Shape = Shape(), sensor: bool = False):
+        """(whitened residuals flat [n], slider velocity [N, L], ok [N]); `sensor`: the
+        kernel convolution (else a pure delay by tau, module doc)."""
+        r, yd, ok = _value(jnp.asarray(z), self._scales, self._shape(shape), bool(sensor),
+                           self.data, self.tref, self.sd, self.layout)
+        return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
+
+    def evaluate(self, z, cols, shape: Shape = Shape(), sensor: bool = False):
+        """(r [n], J [n, len(cols)], ok) at z (module doc)."""
+        cols = np.asarray(cols, int)
+        sh = self._shape(shape)
+        zj = jnp.asarray(z)
+        blocks, r, ok = [], None, True
+        for a in range(0, max(len(cols), 1), BLOCK):
+            T = np.zeros((self.layout.size, BLOCK))
+            part = cols[a:a + BLOCK]
+            T[part, np.arange(len(part))] = 1.0
+            r_, J_, ok_ = _value_and_block(zj, jax.device_put(T), self._scales, sh,
+                                           bool(sensor), self.data, self.tref, self.sd,
+                                           self.layout)
+            J_ = np.asarray(J_).reshape(-1, BLOCK)[self.mask]
+            blocks.append(J_[:, :len(part)])
+            r, ok = r_, ok and bool(np.all(np.asarray(ok_)[np.asarray(self.data.mask).any(1)]))
+        r = np.asarray(r).ravel()[self.mask]
+        return r, np.concatenate(blocks, axis=1), ok
+
+
+def standard_errors(params: CampaignParams, data: TraceData, slider_velocity):
+    """Per-sample standard errors (mm) of the trace objective at `params` (`trace_sd`)."""
+    return np.asarray(trace_sd(params, data, jnp.asarray(slider_velocity)))
+
+
+def record_midpoints(records) -> np.ndarray:
+    """Middle of every record's time span (s): the origin of the drift effects."""
+    return np.array([0.5 * (float(r.time[0]) + float(r.time[-1])) for r in records])
+

@@ -1,0 +1,461 @@
+r"""Discovery on the per-cycle model: which effect is the paper's model missing?
+
+```python
+from stickslip_jax.records import read_campaign
+from fitting.discovery.cycle_workflow import discover_cycles
+
+result = discover_cycles(read_campaign("records/*.csv"))
+result.effect, result.confidence, result.gap_before, result.gap_after
+```
+
+Stages (each timed in `result.timings`, reported to `progress` as it finishes):
+
+1. `prepare`: screening (`fitting.campaign.screen_records`: records without usable
+   stick-slip are set aside and listed), the features fit (start), the cycle windows
+   (`fitting.trace_objective.trace_data`, the drive error left in the data).
+2. `base_fit`: the paper's model on every window (`cycle_model`, all effects zero):
+   the objective of `stickslip fit --objective trace`, fitted by Levenberg-Marquardt
+   (friction + one gauge offset per record), weights refreshed once at the optimum.
+3. `ranking`: a **robust score test** of every family and shape (`cycle_effects`) from
+   one Jacobian block each at the base fit: the efficient score (the family's columns
+   with the base parameters projected out) is summed per cycle window, $g_w$, and
+   Hotelling's $T^2$ tests that the window contributions have mean zero,
+   $F = \frac{n - p}{p(n-1)} T^2 \sim F(p, n - p)$ ($n$ windows, $p$ parameters). The
+   windows are the independent units: residuals within a window share the errors of its
+   measured restart state, so a per-sample test would raise false alarms on clean data.
+   A family is significant when its best shape's p-value is below
+   `alpha` / (number of family-shape tests) (Bonferroni).
+4. `refit`: the `top` significant families, each refitted from the score step with its
+   best shape (the sensor with both kernel orders). A fit beyond a family's physical
+   bounds or signs is reported as unphysical and never named.
+5. `decision`: the physical refit with the largest chi-square drop is named. Others
+   whose drop is at least `joint` of the winner's and whose efficient-score directions
+   are nearly parallel (cosine > `collinear`) are named with it
+   (`indistinguishable_from`). Confidence is "high" when the winner explains the gap
+   (residual RMS after within 15 % of the noise) and stands clear of the runner-up;
+   when the base model leaves a gap that no family explains (less than half of the
+   excess chi-square removed) the answer is "unexplained" with the residual pattern.
+
+Gaps are residual RMS in mm; `noise` is the campaign's noise level (RMS of the records'
+robust noise estimates, `RecordFeatures.noise`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+
+import numpy as np
+import scipy.stats
+
+from ..campaign import Campaign, screen_records
+from ..fit import fit_features
+from ..params import NAMES, CampaignParams, EmpiricalFriction
+from ..trace_objective import trace_data
+from .cycle_effects import DRIVE_ERROR_MAX, FAMILIES, Family, Shape, drive_error_range, family
+from .cycle_model import CycleModel, record_midpoints, standard_errors
+from .lm import LMResult, levenberg_marquardt
+
+__all__ = ["MISFIT", "CycleDiscovery", "discover_cycles"]
+
+MISFIT = 1.5
+"""Base chi2/n above which every family is refitted (`discover_cycles`, stage 4)."""
+SMALL_EXCESS = 0.05
+"""Excess chi2/n of the base fit below which no unexplained residual is reported."""
+
+
+@dataclasses.dataclass
+class _Sub:
+    """The model with only `cols` of the full coordinates free (for `levenberg_marquardt`)."""
+
+    model: CycleModel
+    z_full: np.ndarray
+    cols: np.ndarray
+    shape: Shape = Shape()
+    sensor: bool = False
+
+    def full(self, z):
+        out = self.z_full.copy()
+        out[self.cols] = z
+        return out
+
+    def active(self):
+        return np.ones(len(self.cols), bool)
+
+    def evaluate(self, z):
+        return self.model.evaluate(self.full(z), self.cols, self.shape, self.sensor)
+
+
+@dataclasses.dataclass
+class _Score:
+    family: Family
+    shape: Shape
+    statistic: float  # F statistic (Hotelling T^2, small-sample corrected)
+    p_value: float
+    dof: int
+    step: np.ndarray  # Gauss-Newton step of the family's coordinates (scaled)
+    direction: np.ndarray  # efficient-score columns (for collinearity)
+    chi2_predicted: float  # chi-square drop the Gauss-Newton step predicts
+
+
+@dataclasses.dataclass
+class _Refit:
+    family: Family
+    shape: Shape
+    fit: LMResult
+    drop: float  # chi-square drop against the base fit
+    values: np.ndarray  # natural values of the family's parameters
+    stderr: np.ndarray
+    unphysical: str | None
+    sensor: bool
+
+
+@dataclasses.dataclass
+class CycleDiscovery:
+    """Outcome of `discover_cycles`; `to_json` is the `stickslip discover --json` contract
+    (the keys of the whole-record workflow, plus `base`, `records`, `phases`)."""
+
+    effect: str
+    explanation: str
+    confidence: str
+    gap_before: float
+    gap_after: float
+    noise: float
+    criterion: str
+    candidates: list
+    parameters_before: dict
+    parameters_after: dict
+    effect_size: dict
+    indistinguishable_from: list
+    phases_before: dict
+    phases_after: dict
+    timings: dict
+    base_fit: LMResult
+    final_fit: LMResult
+    campaign: Campaign
+    model: CycleModel
+    z_before: np.ndarray
+    z_after: np.ndarray
+    shape: Shape
+    sensor: bool
+
+    def to_json(self) -> dict:
+        return {
+            "effect": self.effect, "explanation": self.explanation,
+            "confidence": self.confidence,
+            "indistinguishable_from": self.indistinguishable_from,
+            "base": "cycle",
+            "base_fit": {"converged": self.base_fit.converged,
+                         "evaluations": self.base_fit.n_evals},
+            "final_fit": {"converged": self.final_fit.converged,
+                          "evaluations": self.final_fit.n_evals},
+            "gap_before": self.gap_before, "gap_after": self.gap_after, "gap_unit": "mm",
+            "noise": self.noise, "criterion": self.criterion,
+            "candidates": self.candidates,
+            "parameters_before": self.parameters_before,
+            "parameters_after": self.parameters_after,
+            "effect_size": self.effect_size,
+            "residuals_by_phase_before": self.phases_before,
+            "residuals_by_phase_after": self.phases_after,
+            "records": [s.to_json() for s in self.campaign.screening],
+            "timings_s": self.timings,
+        }
+
+
+def _efficient(r, Jb, Jc):
+    """Columns of Jc with the base columns Jb projected out."""
+    scale = np.linalg.norm(Jb, axis=0)
+    scale[scale == 0] = 1.0
+    Q, _ = np.linalg.qr(Jb / scale)
+    return Jc - Q @ (Q.T @ Jc)
+
+
+def _hotelling(Jp, r, window, n_windows):
+    """(F, p-value, dof, Gauss-Newton step, predicted chi-square drop) of the efficient
+    score Jp^T r with window-level contributions (module doc)."""
+    p = Jp.shape[1]
+    g = np.zeros((n_windows, p))
+    np.add.at(g, window, Jp * r[:, None])
+    n = int(np.count_nonzero(np.any(g != 0, axis=1)))
+    info = Jp.T @ Jp
+    U = Jp.T @ r
+    step = np.linalg.lstsq(info, U, rcond=1e-12)[0]  # r = data - model: model += J step
+    predicted = float(U @ step)
+    if n <= p + 1:
+        return float("nan"), float("nan"), p, step, predicted
+    gbar = g.sum(axis=0) / n
+    cov = np.cov(g[np.any(g != 0, axis=1)].T).reshape(p, p)
+    t2 = n * float(gbar @ np.linalg.lstsq(cov, gbar, rcond=1e-10)[0])
+    F = (n - p) / (p * (n - 1)) * t2
+    return F, float(scipy.stats.f.sf(F, p, n - p)), p, step, predicted
+
+
+def _phases(r_mm, slipping):
+    """Residual RMS (mm) and count by phase."""
+    out = {}
+    for name, sel in (("stick", ~slipping), ("slip", slipping)):
+        out[name] = {"rms": float(np.sqrt(np.mean(r_mm[sel] ** 2))) if sel.any() else None,
+                     "samples": int(sel.sum())}
+    return out
+
+
+def _friction_values(z) -> dict:
+    fr = EmpiricalFriction(*[float(x) for x in z[:6]])
+    return {n: float(v) for n, v in zip(NAMES, np.asarray(fr.values()))}
+
+
+def discover_cycles(
+    records,
+    *,
+    candidates: tuple[str, ...] | None = None,
+    top: int = 3,
+    alpha: float = 0.01,
+    collinear: float = 0.9,
+    joint: float = 0.8,
+    max_evals: int = 30,
+    refit_evals: int = 15,
+    strict: bool = False,
+    progress=None,
+) -> CycleDiscovery:
+    """Run the workflow (module doc) on `records` (a campaign of `Record`s).
+
+    `candidates`: family names (default all of `cycle_effects.FAMILIES`); `top`: how
+    many significant families to refit; `alpha`: false-alarm rate of the whole test
+    (Bonferroni over the family-shape tests); `collinear`, `joint`: when two families
+    are named together; `max_evals`, `refit_evals`: Levenberg-Marquardt budgets of the
+    base fit and of each refit; `strict`: refuse the campaign when a record has no
+    usable stick-slip; `progress`: called with one line per finished stage.
+    """
+    fams = [family(n) for n in candidates] if candidates else list(FAMILIES)
+    timings = {}
+    clock = [time.perf_counter()]
+
+    def stage(name, line):
+        now = time.perf_counter()
+        timings[name] = now - clock[0]
+        clock[0] = now
+        if progress is not None:
+            progress(f"{name}: {line} ({timings[name]:.1f} s)")
+
+    campaign = screen_records(list(records), strict=strict)
+    recs, feats = campaign.records, campaign.features
+    start = fit_features(feats)
+    data = trace_data(recs, feats, drive_fix=False)
+    G = len(recs)
+    window = np.broadcast_to(np.asarray(data.window)[:, None], data.mask.shape)
+    window = np.asarray(window).ravel()[np.asarray(data.mask).ravel()]
+    n_windows = int(window.max()) + 1
+    # weights (effective variance) at the start, refreshed once at the base optimum
+    model = CycleModel(data, record_midpoints(recs),
+                       np.ones(np.asarray(data.mask).shape), G)
+    z_start = model.z0(start.params.friction, np.asarray(start.params.offset))
+    _, yd, _ = model.residuals(z_start)
+    model = CycleModel(data, model.tref, standard_errors(start.params, data, yd), G)
+    stage("prepare", f"{G} records used, {len(campaign.not_used)} set aside, "
+                     f"{n_windows} cycle windows, {model.mask.sum()} samples")
+
+    base_cols = np.arange(model.n_base)
+    sub = _Sub(model, z_start, base_cols)
+    fit0 = levenberg_marquardt(sub, z_start[base_cols], max_evals=max_evals)
+    z_base = sub.full(fit0.z)
+    params = CampaignParams(EmpiricalFriction(*[float(x) for x in z_base[:6]]),
+                            z_base[6:model.n_base])
+    _, yd, _ = model.residuals(z_base)
+    model = CycleModel(data, model.tref, standard_errors(params, data, yd), G)
+    sub = _Sub(model, z_base, base_cols)
+    base_fit = levenberg_marquardt(sub, z_base[base_cols], max_evals=max_evals)
+    z_base = sub.full(base_fit.z)
+    r0, Jb = base_fit.r, base_fit.J
+    sd = np.asarray(model.sd).ravel()[model.mask]
+    noise = float(np.sqrt(np.mean(np.asarray(data.sigma)[np.asarray(data.mask).any(1)] ** 2)))
+    gap_before = float(np.sqrt(np.mean((r0 * sd) ** 2)))
+    slipping = np.asarray(yd).ravel()[model.mask] > 0
+    n = r0.size
+    stage("base_fit", f"gap {gap_before * 1e3:.3g} um, noise {noise * 1e3:.3g} um, "
+                      f"chi2/n {base_fit.rss / n:.3f}, {base_fit.n_evals} evaluations")
+
+    n_tests = sum(len(f.shapes) for f in fams)
+    level = alpha / n_tests
+    scores: list[_Score] = []
+    for f in fams:
+        cols = model.cols(f)
+        if f.per_record:  # the score test uses the first harmonic only (dof 2 per record)
+            cols = cols.reshape(G, -1)[:, :2].ravel()
+        best = None
+        for shape in f.shapes:
+            _, Jc, _ = model.evaluate(z_base, cols, shape, 1)
+            Jp = _efficient(r0, Jb, Jc)
+            F, p, dof, step, pred = _hotelling(Jp, r0, window, n_windows)
+            sc = _Score(f, shape, F, p, dof, step, Jp, pred)
+            key = (np.nan_to_num(p, nan=1.0), -pred)
+            if best is None or key < (np.nan_to_num(best.p_value, nan=1.0), -best.chi2_predicted):
+                best = sc
+        scores.append(best)
+    scores.sort(key=lambda s: (np.nan_to_num(s.p_value, nan=1.0), -s.chi2_predicted))
+    significant = [s for s in scores if s.p_value < level]
+    stage("ranking", f"{len(significant)} of {len(fams)} families significant "
+                     f"(p < {level:.2g}); best {scores[0].family.name} "
+                     f"p = {scores[0].p_value:.2g}")
+
+    # a base fit far from the data (chi2/n > MISFIT): the first-order score test is
+    # unreliable (the base parameters have bent to absorb the effect), so every family is
+    # refitted, the largest predicted drops first
+    misfit = base_fit.rss / n > MISFIT
+    to_refit = (sorted(scores, key=lambda s: -s.chi2_predicted) if misfit
+                else significant[:top])
+    refits: list[_Refit] = []
+    for sc in to_refit:
+        f = sc.family
+        cols = np.concatenate([base_cols, model.cols(f)])
+        options = ([(sc.shape, False)] if f.name != "sensor_lowpass" else
+                   [(Shape(order=o), True) for o in (1, 2)])
+        best = None
+        for shape, sensor in options:
+            z1 = z_base.copy()
+            step_cols = model.cols(f)
+            if f.per_record:
+                step_cols = step_cols.reshape(G, -1)[:, :2].ravel()
+            if not misfit:  # from the score step (the undamped Gauss-Newton step)
+                z1[step_cols] += sc.step
+            s1 = _Sub(model, z1, cols, shape, sensor)
+            try:
+                fit = levenberg_marquardt(s1, z1[cols], max_evals=refit_evals,
+                                          lam0=1e-3 if misfit else 1e-6)
+            except ValueError:  # the score step left the simulator's domain
+                s1 = _Sub(model, z_base, cols, shape, sensor)
+                fit = levenberg_marquardt(s1, z_base[cols], max_evals=refit_evals)
+            if best is None or fit.rss < best[0].rss:
+                best = (fit, shape, sensor, s1)
+        fit, shape, sensor, s1 = best
+        k = len(model.cols(f))
+        vals = fit.z[-k:] * model.scales[model.cols(f)]
+        try:
+            cov = np.linalg.pinv(fit.J.T @ fit.J) * max(fit.rss / (n - len(cols)), 1.0)
+            se = np.sqrt(np.clip(np.diag(cov)[-k:], 0, None)) * model.scales[model.cols(f)]
+        except np.linalg.LinAlgError:
+            se = np.full(k, np.nan)
+        bad = f.unphysical(vals)
+        if f.per_record and f.name == "drive_periodic_error":
+            span = max(drive_error_range(vals.reshape(G, -1)[g], recs[g].time,
+                                         recs[g].drive_speed, shape.pitch) for g in range(G))
+            if span > DRIVE_ERROR_MAX:
+                bad = (f"drive error {span * 1e3:.3g} um peak to peak > "
+                       f"{DRIVE_ERROR_MAX * 1e3:g} um (a broken drive, not an effect)")
+        refits.append(_Refit(f, shape, fit, base_fit.rss - fit.rss, vals, se, bad, sensor))
+    stage("refit", ", ".join(f"{rf.family.name} chi2 -{rf.drop:.0f}"
+                             + (" (unphysical)" if rf.unphysical else "")
+                             for rf in refits) or "nothing to refit")
+
+    physical = sorted([rf for rf in refits if not rf.unphysical and rf.drop > 0],
+                      key=lambda rf: -rf.drop)
+    excess = max(base_fit.rss - n, 0.0)
+    chosen = physical[0] if physical else None
+    rivals = []
+    if chosen is not None:
+        d0 = next(s for s in scores if s.family is chosen.family).direction
+        for rf in physical[1:]:
+            d1 = next(s for s in scores if s.family is rf.family).direction
+            qa, _ = np.linalg.qr(d0)
+            qb, _ = np.linalg.qr(d1)
+            cos = float(np.linalg.svd(qa.T @ qb, compute_uv=False)[0])
+            if rf.drop >= joint * chosen.drop and cos > collinear:
+                rivals.append({"name": rf.family.name, "direction_cosine": cos,
+                               "chi2_drop": rf.drop})
+    if chosen is not None:
+        z_after = _Sub(model, z_base, np.concatenate(
+            [base_cols, model.cols(chosen.family)])).full(chosen.fit.z)
+        r1 = chosen.fit.r
+        final_fit, shape, sensor = chosen.fit, chosen.shape, chosen.sensor
+    else:
+        z_after, r1, final_fit, shape, sensor = z_base, r0, base_fit, Shape(), False
+    gap_after = float(np.sqrt(np.mean((r1 * sd) ** 2)))
+    # the excess chi-square over the samples' count is the misfit to explain; below
+    # SMALL_EXCESS * n it is within what the weights' approximations leave on clean data
+    explains = chosen is not None and (excess <= SMALL_EXCESS * n
+                                       or chosen.drop >= 0.5 * excess)
+    unexplained = excess > SMALL_EXCESS * n and not explains
+    if chosen is None:
+        effect, confidence = ("unexplained", "low") if unexplained else ("none", "high")
+    elif unexplained:
+        effect, confidence = "unexplained", "low"
+    else:
+        effect = chosen.family.name
+        runner = physical[1].drop if len(physical) > 1 else 0.0
+        clear = chosen.drop >= 1.5 * runner or rivals
+        confidence = ("high" if (chosen.drop >= 0.5 * excess and clear
+                                 and gap_after <= 1.15 * noise) else "low")
+
+    size = {}
+    if chosen is not None:
+        f = chosen.family
+        names = ([f"{p}[{i}]" for i in range(G) for p in f.params] if f.per_record
+                 else list(f.params))
+        units = [u for _ in range(G if f.per_record else 1) for u in f.units]
+        size = {nm: {"value": float(v), "stderr": float(s), "unit": u}
+                for nm, v, s, u in zip(names, chosen.values, chosen.stderr, units)}
+    phases_before = _phases(r0 * sd, slipping)
+    phases_after = _phases(r1 * sd, slipping)
+    pattern = max(phases_before, key=lambda k: phases_before[k]["rms"] or 0.0)
+    explanation = _explain(effect, chosen, rivals, gap_before, gap_after, noise, pattern,
+                           phases_before)
+    cand_json = []
+    by_family = {rf.family.name: rf for rf in refits}
+    for sc in scores:
+        rf = by_family.get(sc.family.name)
+        cand_json.append({
+            "name": sc.family.name, "shape": sc.shape.label(sc.family),
+            "score": sc.statistic, "score_p_value": sc.p_value, "dof": sc.dof,
+            "chi2_drop_predicted": sc.chi2_predicted,
+            "delta_criterion": (-rf.drop if rf else None),
+            "chi2_drop": (rf.drop if rf else None),
+            "unphysical": rf.unphysical if rf else None,
+            "explanation": sc.family.explanation})
+    params_before = _friction_values(z_base)
+    params_after = _friction_values(z_after)
+    if chosen is not None:
+        params_after.update({f"{chosen.family.name}.{k}": v["value"] for k, v in size.items()})
+    stage("decision", f"{effect} ({confidence}); gap {gap_before * 1e3:.3g} -> "
+                      f"{gap_after * 1e3:.3g} um")
+    timings["total"] = sum(timings.values())
+    return CycleDiscovery(
+        effect=effect, explanation=explanation, confidence=confidence,
+        gap_before=gap_before, gap_after=gap_after, noise=noise,
+        criterion=(f"robust score test (Hotelling T^2 over {n_windows} cycle windows), "
+                   f"significant at p < {level:.2g} (alpha {alpha:g} over {n_tests} "
+                   "family-shape tests); delta_criterion = -(chi-square drop of the refit)"),
+        candidates=cand_json, parameters_before=params_before, parameters_after=params_after,
+        effect_size=size, indistinguishable_from=rivals, phases_before=phases_before,
+        phases_after=phases_after, timings=timings, base_fit=base_fit, final_fit=final_fit,
+        campaign=campaign, model=model, z_before=z_base, z_after=z_after, shape=shape,
+        sensor=sensor)
+
+
+def _explain(effect, chosen, rivals, gap_before, gap_after, noise, pattern, phases) -> str:
+    um = 1e3
+    if effect == "none":
+        return ("The paper's model explains the records to the noise level: no effect "
+                f"family passes the robust score test (gap {gap_before * um:.3g} um, noise "
+                f"{noise * um:.3g} um).")
+    if effect == "unexplained":
+        text = ("Unexplained residual: the paper's model leaves a gap of "
+                f"{gap_before * um:.3g} um (noise {noise * um:.3g} um), largest in the "
+                f"{pattern} phase (RMS {phases[pattern]['rms'] * um:.3g} um), that no library "
+                "family explains")
+        if chosen is not None:
+            text += (f"; the best, {chosen.family.name}, only lowers it to "
+                     f"{gap_after * um:.3g} um")
+        return text + "."
+    f = chosen.family
+    sizes = ", ".join(f"{p} = {v:.3g} +- {s:.2g} {u}" for p, v, s, u in
+                      zip(f.params, chosen.values, chosen.stderr, f.units))
+    text = (f"{f.explanation} Adding {f.name} ({chosen.shape.label(f) or 'no shape'}"
+            f"{'; ' + sizes if not f.per_record else ''}) lowers chi-square by "
+            f"{chosen.drop:.0f} and the residual RMS from {gap_before * um:.3g} um to "
+            f"{gap_after * um:.3g} um (noise {noise * um:.3g} um).")
+    if rivals:
+        text += (" " + ", ".join(r["name"] for r in rivals) + " changes the traces almost "
+                 "the same way here (cosine " + ", ".join(f"{r['direction_cosine']:.2f}"
+                                                          for r in rivals)
+                 + "): these records cannot tell them apart.")
+    return text
+

@@ -1,0 +1,103 @@
+"""Output files of the commands: checked before any work, written atomically, never over an input.
+
+- `check_outputs(outputs, inputs)`: every output path is writable (its folder exists and
+  is a folder, the path is not a folder), differs from every input file (same file by
+  `os.path.samefile` or by resolved path) and from the other outputs; raises ValueError
+  naming the option and the fix. Call it before the work starts.
+- `write_text(path, text)`, `write_json(path, obj)`, `save_figure(fig, path)`: write to a
+  temporary file in the target folder and rename it over the target, so a full disk or
+  an interrupt leaves the previous file (or none), never half a file. `path` "-" writes
+  JSON/text to stdout.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import tempfile
+
+__all__ = ["check_outputs", "save_figure", "strict_json", "write_json", "write_text"]
+
+
+def _same(a: str, b: str) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def check_outputs(outputs: dict[str, str | None], inputs=()) -> None:
+    """`outputs`: {option name (e.g. "--json"): path or None}; `inputs`: paths of the
+    files the command reads. Raises ValueError (module doc)."""
+    seen = {}
+    for option, path in outputs.items():
+        if path is None or path == "-":
+            continue
+        if path == "":
+            raise ValueError(f"{option}: empty file name; give a path such as result.json")
+        if os.path.isdir(path):
+            raise ValueError(f"{option}: {path} is a folder; give a file name inside it")
+        folder = os.path.dirname(os.path.abspath(path))
+        if not os.path.isdir(folder):
+            raise ValueError(f"{option}: the folder {os.path.dirname(path) or '.'} does not "
+                             "exist; create it first")
+        if not os.access(folder, os.W_OK):
+            raise ValueError(f"{option}: cannot write in {folder} (permission denied)")
+        for src in inputs:
+            if os.path.exists(path) and _same(path, str(src)):
+                raise ValueError(f"{option}: {path} is one of the input records; it would be "
+                                 "overwritten. Choose another output name")
+        for other, p in seen.items():
+            if _same(p, path) if os.path.exists(p) else os.path.realpath(p) == os.path.realpath(path):
+                raise ValueError(f"{option} and {other} name the same file {path}")
+        seen[option] = path
+
+
+def strict_json(obj):
+    """`obj` with every NaN or infinity replaced by None (strict JSON has neither)."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: strict_json(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [strict_json(v) for v in obj]
+    return obj
+
+
+def write_text(path: str, text: str) -> None:
+    """Write `text` to `path` atomically (module doc); "-" prints it."""
+    if path == "-":
+        sys.stdout.write(text)
+        return
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".stickslip-", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def write_json(path: str, obj) -> None:
+    """Strict JSON (`strict_json`), indented, atomically."""
+    write_text(path, json.dumps(strict_json(obj), indent=2, allow_nan=False) + "\n")
+
+
+def save_figure(fig, path: str, **kwargs) -> None:
+    """`fig.savefig` to a temporary file in the target folder, renamed over `path`."""
+    folder = os.path.dirname(os.path.abspath(path))
+    ext = os.path.splitext(path)[1] or ".png"
+    fd, tmp = tempfile.mkstemp(prefix=".stickslip-", suffix=ext, dir=folder)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, **kwargs)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise

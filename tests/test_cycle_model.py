@@ -1,0 +1,137 @@
+"""The per-cycle discovery model (`fitting.discovery.cycle_model`): with every effect at
+zero it is the exact simulator restarted in every window (the trace objective); its
+Jacobian matches finite differences; the sensor kernels are normalised."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import independent_records as ir
+from fitting.discovery.cycle_effects import FAMILIES, Shape, family
+from fitting.discovery.cycle_model import CycleModel, kernel_cdf, record_midpoints
+
+
+@pytest.fixture(scope="module")
+def setup():
+    from stickslip_jax.records import Record
+
+    from fitting.campaign import screen_records
+    from fitting.fit import fit_features
+    from fitting.trace_objective import trace_data, trace_sd, trace_simulation
+
+    recs = []
+    for i, (W, k, v, T) in enumerate(((36.0, 86.9, 5.0, 12.0), (20.0, 27.3, 10.0, 12.0),
+                                      (36.0, 86.9, 10.0, 6.0))):
+        tr = ir.simulate(ir.LUBRICANT_A, weight=W, stiffness=k, speed_mm_min=v, duration=T,
+                         rate_hz=1000.0, seed=i)
+        recs.append(Record(time=tr.time, deflection=tr.deflection, stiffness=k, weight=W,
+                           drive_speed=v / 60.0, note=str(i)))
+    c = screen_records(recs)
+    fit = fit_features(c.features)
+    data = trace_data(c.records, c.features, drive_fix=False)
+    sim = trace_simulation(fit.params, data)
+    sd = trace_sd(fit.params, data, sim.slider_velocity)
+    model = CycleModel(data, record_midpoints(c.records), sd, len(c.records))
+    z = model.z0(fit.params.friction, np.asarray(fit.params.offset))
+    return model, z, fit, data, sim, np.asarray(sd)
+
+
+def test_base_equals_exact_trace(setup):
+    model, z, fit, data, sim, sd = setup
+    r, _, ok = model.residuals(z)
+    off = np.asarray(fit.params.offset)[np.asarray(data.record)][:, None]
+    exact = ((np.asarray(data.deflection) - off - np.asarray(sim.deflection)) / sd)
+    exact = exact.ravel()[model.mask]
+    assert ok[np.asarray(data.mask).any(1)].all()
+    # in standard errors of the samples: RK4 + Hermite against the closed-form slip
+    assert np.max(np.abs(r - exact)) < 1e-3
+
+
+@pytest.mark.parametrize("name", ["viscous_damping", "stribeck", "drive_speed_drift",
+                                  "friction_drift", "load_coupling", "gauge_drift"])
+def test_jacobian_matches_finite_differences(setup, name):
+    model, z, *_ = setup
+    cols = model.cols(family(name))[:1]
+    cols = np.concatenate([[0, 3], cols])
+    shape = Shape()
+    z1 = z.copy()
+    z1[cols[-1]] = 0.5  # away from zero: the derivative of a present effect
+    r, J, ok = model.evaluate(z1, cols, shape)
+    for j, c in enumerate(cols):
+        h = 1e-5
+        zp, zm = z1.copy(), z1.copy()
+        zp[c] += h
+        zm[c] -= h
+        fd = (model.residuals(zp, shape)[0] - model.residuals(zm, shape)[0]) / (2 * h)
+        scale = max(np.abs(fd).max(), 1e-9)
+        # samples next to an event may sit on either side of it in the two evaluations
+        close = np.abs(J[:, j] - fd) <= 1e-4 * scale
+        assert close.mean() > 0.999, (name, c, close.mean())
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_sensor_kernel_has_mean_tau(order):
+    s = np.linspace(0, 0.2, 200001)
+    cdf = np.asarray(kernel_cdf(s, 0.01, order))
+    assert cdf[0] == 0 and abs(cdf[-1] - 1) < 1e-7
+    mean = np.sum(1 - cdf) * (s[1] - s[0])  # E[s] = integral of the survival function
+    assert abs(mean - 0.01) < 1e-5
+
+
+def test_sensor_filter_matches_a_delay_for_small_tau(setup):
+    """The convolved model at a small tau changes the trace like the pure delay by tau
+    (the first derivative the score test uses), for both kernel orders."""
+    model, z, *_ = setup
+    col = model.cols(family("sensor_lowpass"))
+    r0 = model.residuals(z)[0]
+    z1 = z.copy()
+    z1[col] = 0.2  # 200 us
+    delay = model.residuals(z1)[0] - r0
+    for order in (1, 2):
+        conv = model.residuals(z1, Shape(order=order), sensor=True)[0] - r0
+        assert np.corrcoef(delay, conv)[0, 1] > 0.98
+
+
+def test_sensor_filter_equals_scipy_lfilter(setup):
+    """Against a first-order filter run by SciPy on the model's own noise-free trace,
+    sampled 20x finer (away from window starts, where the filter's history is unknown)."""
+    from scipy import signal
+
+    model, z, *_ = setup
+    data = model.data
+    mask = np.asarray(data.mask)
+    row = int(np.argmax(mask.sum(1)))
+    col = model.cols(family("sensor_lowpass"))
+    tau = 3e-3
+    z1 = z.copy()
+    z1[col] = tau / 1e-3
+    sd = np.asarray(model.sd)[row][mask[row]]
+    x = np.asarray(data.deflection)[row][mask[row]]
+    conv = x - model.residuals(z1, Shape(order=1), sensor=True)[0][
+        _row_slice(model, row)] * sd
+    plain = x - model.residuals(z)[0][_row_slice(model, row)] * sd
+    t = np.asarray(data.time)[row][mask[row]]
+    fine = np.linspace(t[0], t[-1], 20 * t.size)
+    xf = np.interp(fine, t, plain)
+    dt = fine[1] - fine[0]
+    b, a = signal.bilinear([1.0], [tau, 1.0], fs=1 / dt)
+    yf = signal.lfilter(b, a, xf, zi=signal.lfilter_zi(b, a) * xf[0])[0]
+    ref = np.interp(t, fine, yf)
+    keep = t > t[0] + 10 * tau
+    assert np.max(np.abs(conv - ref)[keep]) < 2e-4  # mm; the slip is ~0.3 mm
+
+
+def _row_slice(model, row):
+    mask = np.asarray(model.data.mask)
+    start = int(mask[:row].sum())
+    return slice(start, start + int(mask[row].sum()))
+
+
+def test_unphysical_values_are_named():
+    f = family("viscous_damping")
+    assert f.unphysical(np.array([-0.01])) and "c" in f.unphysical(np.array([-0.01]))
+    assert f.unphysical(np.array([0.01])) is None
+    assert "lifts" in family("load_coupling").unphysical(np.array([2.0]))
+    assert {f.name for f in FAMILIES} >= {"viscous_damping", "stribeck", "sensor_lowpass",
+                                          "drive_periodic_error", "friction_drift"}
