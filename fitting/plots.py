@@ -7,6 +7,8 @@ dimensionless.
 
 from __future__ import annotations
 
+from stickslip_jax.commands._output import save_figure
+
 import numpy as np
 
 __all__ = ["corner_plot", "fit_figure", "fitted_traces", "friction_curves"]
@@ -155,7 +157,7 @@ def fit_figure(fit, unc, records, path, max_traces: int = 4):
     lines.append(f"chi2/dof = {fit.reduced_chi2:.3g}")
     ax.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -191,7 +193,7 @@ def corner_plot(samples, names, path, truth: dict | None = None, bins: int = 30)
                 ax.set_yticklabels([])
             ax.tick_params(labelsize=6)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
 

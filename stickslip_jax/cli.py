@@ -84,6 +84,10 @@ def main(argv=None) -> int:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"stickslip {args.command}: error: {msg}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # outputs are written atomically: an interrupt leaves no partial file
+        print(f"stickslip {args.command}: interrupted", file=sys.stderr)
+        return 130
 
 
 CACHE_ENV = "STICKSLIP_CACHE_DIR"

@@ -174,6 +174,8 @@ def plot_record(record: Record, phases: PhaseSplit | None = None):
 def save_record_plot(record: Record, out, phases: PhaseSplit | None = None, dpi: int = 120) -> Path:
     """Save `plot_record(record)` as a PNG at `out`; returns the path."""
     out = Path(out)
+    from .commands._output import save_figure
+
     fig = plot_record(record, phases)
-    fig.savefig(out, dpi=dpi, format="png")
+    save_figure(fig, str(out), dpi=dpi, format="png")
     return out

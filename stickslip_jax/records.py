@@ -1227,13 +1227,19 @@ def write_record(
         drive_unit=drive_unit,
         channel_units=channel_units,
     )
+    from .commands._output import write_text
+
     path = Path(path)
-    with open(path, "w", encoding="utf-8", newline="\n") as fh:
-        fh.write(text)
+    write_text(str(path), text)  # atomic: a full disk leaves no half-written record
     return path
 
 
 # ---------------------------------------------------------------------------- campaigns
+
+
+def record_paths(spec) -> list[Path]:
+    """The record files a campaign spec names (files, folders, globs; `read_campaign`)."""
+    return _expand(spec)
 
 
 def _expand(spec) -> list[Path]:

@@ -216,7 +216,9 @@ def plot(args, res, path):
     fig.suptitle(f"{'exact simulator' if args.exact else 'steady analysis'}"
                  f"{'; ' + fixed if fixed else ''}; white/dashed: stick-slip boundary", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    from stickslip_jax.commands._output import save_figure
+
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
 
 

@@ -10,7 +10,6 @@ viscosity `--eta` and the surface pair `--surface` given (`fitting.microsqueeze_
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -269,8 +268,12 @@ def format_table(report) -> str:
 
 
 def run(args) -> int:
+    from stickslip_jax.commands._output import check_outputs, write_json
+    from stickslip_jax.records import record_paths
+
     from ..uncertainty import laplace
 
+    check_outputs({"--json": args.json, "--plot": args.plot}, record_paths(args.records))
     fit, campaign, extra = fit_from_args(args, objective=args.objective)
     records = campaign.records
     unc = laplace(fit)
@@ -279,8 +282,7 @@ def run(args) -> int:
     for n in campaign.notes:
         print("note: " + n)
     if args.json:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump(report, fh, indent=2)
+        write_json(args.json, report)
         print(f"wrote {args.json}")
     if args.plot:
         from ..plots import fit_figure

@@ -13,7 +13,6 @@ and `stickslip plan OUT` read.
 
 from __future__ import annotations
 
-import json
 
 NAME = "mcmc"
 HELP = "sample the posterior of the friction parameters (emcee) for a campaign of records"
@@ -63,6 +62,10 @@ def run(args) -> int:
         raise ValueError(f"--steps: need at least 10 steps, got {args.steps}")
     if args.burn is not None and not 0 <= args.burn < args.steps:
         raise ValueError(f"--burn: must lie in [0, --steps), got {args.burn}")
+    from stickslip_jax.commands._output import check_outputs, write_json
+    from stickslip_jax.records import record_paths
+
+    check_outputs({"--json": args.json, "--corner": args.corner}, record_paths(args.records))
     fit, campaign, extra = fit_from_args(args)
     records = campaign.records
     for w in campaign.warnings:
@@ -104,8 +107,7 @@ def run(args) -> int:
             "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
         if extra:
             out.update(extra)
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump(out, fh, indent=2)
+        write_json(args.json, out)
         print(f"wrote {args.json}")
     if args.corner:
         from ..plots import corner_plot

@@ -15,7 +15,6 @@ Without `--fit` the model is the illustrative `default_model()` at the given vis
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -64,10 +63,13 @@ def _um(x):
 
 
 def run(args) -> int:
+    from stickslip_jax.commands._output import check_outputs, write_json
+
     paths = [Path(p) for p in args.records]
     for p in paths:
         if not p.is_file():
             raise ValueError(f"RECORD: no such file {str(p)!r}")
+    check_outputs({"--json": args.json, "--plot": args.plot}, paths)
     records = [read_record(p) for p in paths]
     heights = _per_record(args.height, len(records), "--height")
     offsets = _per_record(args.offset, len(records), "--offset")
@@ -125,7 +127,7 @@ def run(args) -> int:
         out["records"].append({"file": str(path), "height_mm": h, "offset_mm": o,
                                "points": rows})
     if args.json:
-        Path(args.json).write_text(json.dumps(out, indent=2))
+        write_json(args.json, out)
     if args.plot:
         _plot(args.plot, paths, runs, traces, names)
     return 0
@@ -157,5 +159,7 @@ def _plot(out, paths, runs, traces, names):
             ax.legend(fontsize=7)
     fig.suptitle("pitching (points 1-3) and yawing (4-5): model lines, measured dots")
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    from stickslip_jax.commands._output import save_figure
+
+    save_figure(fig, out, dpi=110)
     plt.close(fig)

@@ -24,6 +24,9 @@ def run(args) -> int:
         raise ValueError(f"--out: {out} must end in .png")
     if not out.parent.is_dir():
         raise ValueError(f"--out: directory {out.parent} does not exist; create it first")
+    from ._output import check_outputs
+
+    check_outputs({"--out": str(out)}, [args.record])
     record = read_record(args.record)
     phases = classify_phases(record)
     try:

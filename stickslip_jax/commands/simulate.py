@@ -41,6 +41,11 @@ def add_arguments(p):
 
 def run(args) -> int:
     from ..records import parse_drive_program, write_record
+    from ._output import check_outputs
+
+    check_outputs({"--out": args.out})
+    if not 0 <= args.seed < 2**63:
+        raise ValueError(f"--seed: must be between 0 and 2**63 - 1, got {args.seed}")
     from ..simulation.synthetic import synthetic_record
 
     if args.lubricant not in lubricants(6):

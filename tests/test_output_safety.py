@@ -1,0 +1,110 @@
+"""Nothing the user gave us is overwritten or lost (issue: output safety).
+
+Every output path is checked before any work starts (an input record, a folder, a
+missing folder, two options naming one file), and files are written atomically (a
+failure while writing leaves the previous file, and no temporary file)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from stickslip_jax.cli import main
+from stickslip_jax.commands import _output
+
+EXAMPLES = sorted(Path(__file__).resolve().parents[1].joinpath("data", "examples").glob("*.csv"))
+
+
+def _hash(p) -> str:
+    return hashlib.sha256(Path(p).read_bytes()).hexdigest()
+
+
+@pytest.fixture
+def camp(tmp_path):
+    out = []
+    for p in EXAMPLES[:3]:
+        q = tmp_path / p.name
+        q.write_bytes(p.read_bytes())
+        out.append(q)
+    return out
+
+
+@pytest.mark.parametrize("command,option", [("fit", "--json"), ("fit", "--plot"),
+                                            ("mcmc", "--json"), ("mcmc", "--corner"),
+                                            ("discover", "--json"), ("discover", "--plot")])
+def test_output_naming_an_input_is_refused(camp, command, option, capsys):
+    before = [_hash(p) for p in camp]
+    code = main([command, *map(str, camp), option, str(camp[1])])
+    err = capsys.readouterr().err
+    assert code == 2 and "input record" in err and option in err
+    assert [_hash(p) for p in camp] == before
+
+
+def test_pitch_output_naming_an_input_is_refused(camp, capsys):
+    before = _hash(camp[0])
+    assert main(["pitch", str(camp[0]), "--json", str(camp[0])]) == 2
+    assert "input record" in capsys.readouterr().err and _hash(camp[0]) == before
+
+
+def test_plot_of_a_record_named_png_keeps_the_record(tmp_path, capsys):
+    rec = tmp_path / "run.png"
+    rec.write_bytes(EXAMPLES[0].read_bytes())
+    before = _hash(rec)
+    assert main(["plot", str(rec)]) == 2
+    assert "input record" in capsys.readouterr().err and _hash(rec) == before
+
+
+@pytest.mark.parametrize("target", ["folder", "missing/out.json", ""])
+def test_bad_output_paths_are_one_line_errors(camp, tmp_path, target, capsys):
+    path = {"folder": str(tmp_path), "missing/out.json": str(tmp_path / "missing" / "o.json"),
+            "": ""}[target]
+    assert main(["fit", *map(str, camp), "--json", path]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--json" in err[0]
+
+
+@pytest.mark.parametrize("out", ["folder", "", "missing/x.csv"])
+def test_simulate_bad_out_is_one_line(tmp_path, out, capsys):
+    path = {"folder": str(tmp_path), "": "", "missing/x.csv": str(tmp_path / "no" / "x.csv")}[out]
+    code = main(["simulate", "--lubricant", "A", "--weight", "36", "--stiffness", "86.9",
+                 "--speed", "10", "--duration", "1", "--out", path])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--out" in err[0]
+
+
+def test_simulate_huge_seed_is_one_line(tmp_path, capsys):
+    code = main(["simulate", "--lubricant", "A", "--weight", "36", "--stiffness", "86.9",
+                 "--speed", "10", "--duration", "1", "--seed", "99999999999999999999999",
+                 "--out", str(tmp_path / "x.csv")])
+    assert code == 2 and "--seed" in capsys.readouterr().err
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_two_options_naming_one_file_are_refused(camp, tmp_path, capsys):
+    same = str(tmp_path / "out.json")
+    assert main(["fit", *map(str, camp), "--json", same, "--plot", same]) == 2
+    assert "same file" in capsys.readouterr().err
+
+
+def test_failed_write_keeps_the_previous_file(tmp_path, monkeypatch):
+    target = tmp_path / "result.json"
+    target.write_text('{"previous": true}')
+
+    def boom(*a, **k):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(os, "replace", boom)
+    with pytest.raises(OSError):
+        _output.write_json(str(target), {"new": 1})
+    assert json.loads(target.read_text()) == {"previous": True}
+    assert [p.name for p in tmp_path.iterdir()] == ["result.json"]  # no temporary left
+
+
+def test_json_is_strict():
+    text = json.dumps(_output.strict_json({"a": float("nan"), "b": [1.0, float("inf")]}),
+                      allow_nan=False)
+    assert json.loads(text) == {"a": None, "b": [1.0, None]}
