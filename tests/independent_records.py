@@ -235,3 +235,29 @@ def write_record(path, truth: Truth, *, friction: Friction, weight, stiffness, s
     body = "\n".join(",".join(repr(float(c)) for c in row) for row in zip(*data))
     with open(path, "w", encoding="utf-8") as fh:
         fh.write("\n".join(lines) + "\n" + body + "\n")
+
+
+RUNS = ((36.0, 86.9), (20.0, 27.3), (11.3, 128.5))
+"""(W kgf, k kgf/mm) of a discovery campaign (3 x 4 speeds, as the issue describes)."""
+
+
+def campaign(friction: Friction = LUBRICANT_A, *, physics: Physics = Physics(),
+             imp: Imperfections = Imperfections(), seed: int = 0, cycles: float = 6.0,
+             rate_hz: float = 1000.0, runs=RUNS, speeds=(2.0, 5.0, 10.0, 20.0)):
+    """Records (the package's `Record`, the input format only) of a campaign: every
+    (W, k) of `runs` at every speed (mm/min), about `cycles` cycles each (at least 3 s,
+    at most 300 s). The fastest runs of the stiff, light slider sit near the boundary
+    of stick-slip (marginal or re-stick-failing records, as in a real campaign)."""
+    from stickslip_jax.records import Record
+
+    out, i = [], 0
+    for W, k in runs:
+        for v in speeds:
+            amp = 2.0 * (friction.mu_s - friction.mu_d) * W / k  # slip size, mm
+            T = min(max(cycles * amp / (v / 60.0) * 0.8, 3.0), 300.0)
+            tr = simulate(friction, weight=W, stiffness=k, speed_mm_min=v, duration=T,
+                          rate_hz=rate_hz, imp=imp, seed=1000 * seed + i, physics=physics)
+            out.append(Record(time=tr.time, deflection=tr.deflection, stiffness=k, weight=W,
+                              drive_speed=v / 60.0, note=f"W{W:g} k{k:g} v{v:g}"))
+            i += 1
+    return out

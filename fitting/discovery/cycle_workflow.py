@@ -162,29 +162,34 @@ class CycleDiscovery:
         }
 
 
-def _efficient(r, Jb, Jc):
-    """Columns of Jc with the base columns Jb projected out."""
+def _basis(Jb):
+    """Orthonormal basis of the base columns (scaled first: their sizes differ a lot)."""
     scale = np.linalg.norm(Jb, axis=0)
     scale[scale == 0] = 1.0
-    Q, _ = np.linalg.qr(Jb / scale)
+    return np.linalg.qr(Jb / scale)[0]
+
+
+def _efficient(Q, Jc):
+    """Columns of Jc with the base columns (orthonormal basis Q) projected out."""
     return Jc - Q @ (Q.T @ Jc)
 
 
-def _hotelling(Jp, r, window, n_windows):
+def _hotelling(Jp, r, starts):
     """(F, p-value, dof, Gauss-Newton step, predicted chi-square drop) of the efficient
-    score Jp^T r with window-level contributions (module doc)."""
+    score Jp^T r with window-level contributions (module doc); `starts`: index of the
+    first sample of every window (samples are stored window by window)."""
     p = Jp.shape[1]
-    g = np.zeros((n_windows, p))
-    np.add.at(g, window, Jp * r[:, None])
-    n = int(np.count_nonzero(np.any(g != 0, axis=1)))
+    g = np.add.reduceat(Jp * r[:, None], starts, axis=0)
+    g = g[np.any(g != 0, axis=1)]
+    n = g.shape[0]
     info = Jp.T @ Jp
     U = Jp.T @ r
     step = np.linalg.lstsq(info, U, rcond=1e-12)[0]  # r = data - model: model += J step
     predicted = float(U @ step)
     if n <= p + 1:
         return float("nan"), float("nan"), p, step, predicted
-    gbar = g.sum(axis=0) / n
-    cov = np.cov(g[np.any(g != 0, axis=1)].T).reshape(p, p)
+    gbar = g.mean(axis=0)
+    cov = np.cov(g.T).reshape(p, p)
     t2 = n * float(gbar @ np.linalg.lstsq(cov, gbar, rcond=1e-10)[0])
     F = (n - p) / (p * (n - 1)) * t2
     return F, float(scipy.stats.f.sf(F, p, n - p)), p, step, predicted
@@ -244,7 +249,10 @@ def discover_cycles(
     G = len(recs)
     window = np.broadcast_to(np.asarray(data.window)[:, None], data.mask.shape)
     window = np.asarray(window).ravel()[np.asarray(data.mask).ravel()]
-    n_windows = int(window.max()) + 1
+    if np.any(np.diff(window) < 0):
+        raise RuntimeError("trace_data rows are not in window order")
+    starts = np.flatnonzero(np.r_[True, np.diff(window) != 0])
+    n_windows = starts.size
     # weights (effective variance) at the start, refreshed once at the base optimum
     model = CycleModel(data, record_midpoints(recs),
                        np.ones(np.asarray(data.mask).shape), G)
@@ -274,6 +282,7 @@ def discover_cycles(
     stage("base_fit", f"gap {gap_before * 1e3:.3g} um, noise {noise * 1e3:.3g} um, "
                       f"chi2/n {base_fit.rss / n:.3f}, {base_fit.n_evals} evaluations")
 
+    Qb = _basis(Jb)
     n_tests = sum(len(f.shapes) for f in fams)
     level = alpha / n_tests
     scores: list[_Score] = []
@@ -283,9 +292,9 @@ def discover_cycles(
             cols = cols.reshape(G, -1)[:, :2].ravel()
         best = None
         for shape in f.shapes:
-            _, Jc, _ = model.evaluate(z_base, cols, shape, 1)
-            Jp = _efficient(r0, Jb, Jc)
-            F, p, dof, step, pred = _hotelling(Jp, r0, window, n_windows)
+            _, Jc, _ = model.evaluate(z_base, cols, shape)
+            Jp = _efficient(Qb, Jc)
+            F, p, dof, step, pred = _hotelling(Jp, r0, starts)
             sc = _Score(f, shape, F, p, dof, step, Jp, pred)
             key = (np.nan_to_num(p, nan=1.0), -pred)
             if best is None or key < (np.nan_to_num(best.p_value, nan=1.0), -best.chi2_predicted):
