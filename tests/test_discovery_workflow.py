@@ -89,8 +89,8 @@ def test_tiny_campaign_without_effect_answers_none_through_the_cli(tmp_path, dam
         files.append(str(path))
     out = tmp_path / "d.json"
     before = dmodel.TRACE_COUNT["evaluate"]
-    assert main(["discover", *files, "--crop", "none", "--top", "2", "--max-evals", "20",
-                 "--json", str(out)]) == 0
+    assert main(["discover", *files, "--base", "smooth", "--crop", "none", "--top", "2",
+                 "--max-evals", "20", "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
     assert doc["effect"] == "none"
     for key in ("explanation", "gap_before", "gap_after", "criterion", "candidates",

@@ -41,17 +41,18 @@ def add_arguments(parser):
     parser.add_argument("--top", type=int, default=3,
                         help="how many candidates to refit after the score test (default 3)")
     parser.add_argument("--threshold", type=float, default=10.0,
-                        help="BIC drop needed to name an effect (default 10)")
+                        help="--base smooth: BIC drop needed to name an effect (default 10)")
     parser.add_argument("--only", action="append", choices=CHOICES, default=None,
                         metavar="EFFECT", help="consider only these effects (repeatable)")
     parser.add_argument("--crop", choices=("slip_end", "none"), default="slip_end",
-                        help="start each record at its first slip end (default) or use it "
-                        "whole (it must start just after a slip)")
+                        help="--base smooth: start each record at its first slip end "
+                        "(default) or use it whole (it must start just after a slip)")
     parser.add_argument("--max-evals", type=int, default=80,
                         help="evaluation budget of the base fit (default 80; it stops earlier "
                         "when converged)")
     parser.add_argument("--learn", action="store_true",
-                        help="fit a learned (MLP) correction when no effect explains the data")
+                        help="--base smooth: fit a learned (MLP) correction when no effect "
+                        "explains the data")
 
 
 def run(args) -> int:
@@ -116,6 +117,9 @@ def _run_cycle(args, records, check_outputs, save_figure, write_json) -> int:
     from fitting.discovery.cycle_effects import FAMILIES
     from fitting.discovery.cycle_workflow import discover_cycles
 
+    if args.learn:
+        raise ValueError("--learn: the learned correction exists only with --base smooth "
+                         "(not yet for the per-cycle base)")
     names = {f.name for f in FAMILIES}
     only = args.only or None
     if only:

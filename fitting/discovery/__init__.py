@@ -1,5 +1,15 @@
 r"""Missing-physics discovery: which effect does the paper's model leave out?
 
+The default (`stickslip discover`) works on the per-cycle model of the trace objective:
+
+- `cycle_effects`: effect families with scanned shapes and physical bounds.
+- `cycle_model`: the per-cycle model with every effect (`CycleModel`: residuals and
+  forward-mode Jacobian blocks); equal to the trace objective at zero effects.
+- `cycle_workflow`: `discover_cycles(records) -> CycleDiscovery` (robust score test,
+  refits, decision, "unexplained").
+
+The whole-record workflow on the smoothed simulator (`--base smooth`):
+
 - `effects`: the candidate-effect library (parts of the smoothed simulator).
 - `model`: campaign traces, the all-effects model and its one compiled
   residual/Jacobian function (`Problem`).

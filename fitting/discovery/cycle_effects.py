@@ -13,7 +13,7 @@ exactly, so a family is a set of forms, not one formula. Units are internal (kgf
 | `drive_periodic_error` | drive $u + \sum_{h=1,2} a_h \sin(2\pi h u/\lambda) + b_h\cos(\dots)$, per record | 4 per record, mm | $\lambda$ 1-10 mm |
 | `drive_speed_drift` | drive speed $v(1 + s\,(t - t_\mathrm{mid}))$ | s 1/s | - |
 | `sensor_lowpass` | gauge reads $x$ through a low-pass of mean delay $\tau$ | $\tau$ s | order 1, 2 (gamma kernel) |
-| `friction_drift` | $\mu_s$, $\mu_d$ shift by $r_s t$, $r_d t$ | $r_s$, $r_d$ 1/s | - |
+| `friction_drift` | $\mu_s$, $\mu_d$ shift by $r_s t$, $r_d t$ (t from the record's start) | $r_s$, $r_d$ 1/s | - |
 | `gauge_drift` | gauge zero drifts: reads $x + r t$ | r mm/s | - |
 | `load_coupling` | normal load $N = W + \kappa k x$ (drive moment, ch. 6) | $\kappa$ (-) | - |
 
@@ -124,7 +124,7 @@ FAMILIES: tuple[Family, ...] = (
            "The drive is not u = v t: a periodic error of the lead screw (first and second "
            "harmonic of its pitch) moves the spring's far end back and forth.",
            ("a1_sin", "a1_cos", "a2_sin", "a2_cos"), ("mm",) * 4, (1e-3,) * 4, (0,) * 4,
-           (math.inf,) * 4, "",
+           (DRIVE_ERROR_MAX,) * 4, "a screw error above 50 um is a broken drive, not an effect",
            shapes=tuple(Shape(pitch=p) for p in (1.0, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0,
                                                  8.0, 10.0)),
            per_record=True),

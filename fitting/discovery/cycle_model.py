@@ -22,9 +22,11 @@ the effects of `cycle_effects` enter as parts of it:
   line $L(t) = x_0 + u(t) - u(t_0)$ and the slip displacement $D$ (0 before breakaway, $y$
   during the slip, $y_\mathrm{stop}$ after). $K * L = L(t - \tau)$ (exact for a steady
   drive); $K * D$ is a discrete convolution on the RK4 grid with the kernel's bin
-  masses (its CDF at the bin edges), interpolated like the slip. For the score test
-  (first derivative at $\tau = 0$, the same for every kernel of mean $\tau$) the model
-  is evaluated at $t - \tau$ (`sensor=False`: a pure delay).
+  masses (its CDF at the bin edges), interpolated like the slip. The window's measured
+  restart state is itself a reading, so the slider's clock starts $\tau$ earlier
+  ($t_0 - \tau$): a pure delay is then invisible in the per-cycle model, and what the
+  sensor changes is the shape of the slips (second order in $\tau$; the score test
+  probes it with a secant, `cycle_workflow`). With `sensor=False` the parameter is ignored.
 
 Between the RK4 nodes the slip is a cubic Hermite interpolant (error ~(h omega_0)^4).
 Residuals are whitened by the trace objective's standard errors (`trace_sd`, effective
@@ -95,16 +97,20 @@ class _Eff(eqx.Module):
     kappa: jax.Array
 
 
-def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, ts):
+def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, ts):
     """One row: (model deflection as read by the gauge, without offset [L]; slider
     velocity [L]; ok). `sensor` (static): the kernel convolution (module doc)."""
     vs, p, length, pitch, order = shape[0], shape[1], shape[2], shape[3], shape[4]
+    if sensor:
+        # the measured restart state is a reading: the slider's own clock is tau earlier
+        tau = jnp.maximum(eff.tau, 1e-7)
+        t0 = t0 - tau
     mass = W / G_MM_S2
     omega = jnp.sqrt(k / mass)
     T2 = jnp.pi / omega
     static = friction.static
     mu_s, mu_d = static.mu_s, static.mu_d
-    drift = t0 - tref
+    drift = t0 - tstart  # friction drifts from the record's start
     d_s, d_d = eff.r_s * drift, eff.r_d * drift
 
     def mu0(T):  # eq (1) with mu_s, mu_d shifted by friction drift
@@ -201,7 +207,6 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, ts):
         return x, yd
 
     if sensor:
-        tau = jnp.maximum(eff.tau, 1e-7)
         n = jnp.arange(N_STEPS + 1)
         moving = n * h < t_stop - t_b
         D = jnp.where(moving, Y, y_stop)
@@ -219,7 +224,7 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, ts):
         x = x0 + u(ts - tau) - u0 - Fv
         yd = render(ts)[1]
     else:
-        x, yd = render(ts - eff.tau)
+        x, yd = render(ts)
     read = x + eff.r_g * (ts - tref)
     ok = found & stops & jnp.all(jnp.isfinite(read))
     return read, yd, ok
@@ -269,6 +274,7 @@ def _effects_of(layout: _Layout, theta, record):
 
 
 def _model(z, scales, shape, sensor, data: TraceData, tref, layout: _Layout):
+    tref, tstart = tref[0], tref[1]
     """(gauge reading incl. offset [N, L], slider velocity [N, L], ok [N])."""
     nat = z * scales
     fr = EmpiricalFriction(*[nat[i] for i in range(6)]).friction()
@@ -277,7 +283,7 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, layout: _Layout):
 
     def one(rec, W, k, v, t0, x0, T1m, ts):
         eff = _effects_of(layout, theta, rec)
-        return _row(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], ts)
+        return _row(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], tstart[rec], ts)
 
     x0 = data.start_level - offset[data.record]
     read, yd, ok = jax.vmap(one)(data.record, data.weight, data.stiffness, data.speed,
@@ -309,8 +315,8 @@ class CycleModel:
     """The per-cycle model of one campaign (module doc): residuals and Jacobians.
 
     `data`: the `TraceData` windows (built without the features' drive correction, so
-    that a drive error stays in the data for the drive effects to explain); `tref`: per
-    record the middle of its time span (s: the origin of every drift); `sd`: per-sample
+    that a drive error stays in the data for the drive effects to explain); `tref`:
+    `record_midpoints` (the origins of the drifts); `sd`: per-sample
     standard errors [N, L] (mm). `evaluate(z, cols, shape, order)`: whitened residuals
     (flat, padded samples removed), their Jacobian with respect to z[cols], and whether
     every row's breakaway and slip end were found.
@@ -380,6 +386,8 @@ def standard_errors(params: CampaignParams, data: TraceData, slider_velocity):
 
 
 def record_midpoints(records) -> np.ndarray:
-    """Middle of every record's time span (s): the origin of the drift effects."""
-    return np.array([0.5 * (float(r.time[0]) + float(r.time[-1])) for r in records])
+    """[2, R]: the middle of every record's time span (s: the origin of the drive speed
+    drift and the gauge drift) and its start (s: the origin of the friction drift)."""
+    return np.array([[0.5 * (float(r.time[0]) + float(r.time[-1])) for r in records],
+                     [float(r.time[0]) for r in records]])
 

@@ -1,0 +1,123 @@
+"""Rates of the per-cycle discovery on campaigns from the independent generator (slow).
+
+One hidden effect per campaign, in forms that differ from the library's (a damping
+ratio; a rational Stribeck drop; a lead-screw error with a second harmonic; a
+second-order sensor; a drift of mu_s and mu_d), at two sizes, alternating lubricants
+A and C; clean campaigns for the false-alarm rate; two effects outside the library (a
+hardening spring, creep before breakaway). Every campaign includes records near the
+stick-slip boundary (the fast runs of the light, stiff slider).
+
+`python tests/test_cycle_discovery_rates.py [N_CLEAN]` prints the table (rates, power by
+effect and size, gap after / noise, time per campaign); the slow test asserts the
+issue's targets: named (alone or jointly with its indistinguishable partner) in >= 80 %
+of the effect campaigns, gap after within 15 % of the noise when named, false alarms
+<= 5 % on clean campaigns, outside effects never named with "high" confidence.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import time
+
+import pytest
+
+sys.path.insert(0, os.path.dirname(__file__))
+import independent_records as ir  # noqa: E402
+
+P, I = ir.Physics, ir.Imperfections  # noqa: E741
+EFFECTS = {
+    "viscous_damping": ({"viscous_damping"},
+                        (("physics", P(damping_ratio=0.05)), ("physics", P(damping_ratio=0.2)))),
+    "stribeck": ({"stribeck", "rate_state"},
+                 (("physics", P(stribeck_b=0.004)), ("physics", P(stribeck_b=0.015)))),
+    "drive_periodic_error": ({"drive_periodic_error"},
+                             (("imp", I(screw_amp_mm=0.0005)), ("imp", I(screw_amp_mm=0.002)))),
+    "sensor_lowpass": ({"sensor_lowpass"},
+                       (("imp", I(sensor_order=2, sensor_hz=120.0)),
+                        ("imp", I(sensor_order=2, sensor_hz=40.0)))),
+    "friction_drift": ({"friction_drift"},
+                       (("physics", P(drift_mu_s=-2e-5, drift_mu_d=-1e-5)),
+                        ("physics", P(drift_mu_s=-1e-4, drift_mu_d=-5e-5)))),
+}
+OUTSIDE = {"hardening_spring": ("physics", P(hardening=0.1)),
+           "stick_creep": ("imp", I(creep_mm=0.003))}
+LUBES = (ir.LUBRICANT_A, ir.LUBRICANT_C)
+DESIGN = dict(cycles=4.0)
+
+
+def run_one(kind, seed, lube, **kw):
+    from fitting.discovery.cycle_workflow import discover_cycles
+
+    recs = ir.campaign(lube, seed=seed, **DESIGN, **kw)
+    t = time.perf_counter()
+    res = discover_cycles(recs)
+    named = {res.effect} | {r["name"] for r in res.indistinguishable_from}
+    return dict(kind=kind, effect=res.effect, named=named, confidence=res.confidence,
+                gap_before=res.gap_before / res.noise, gap_after=res.gap_after / res.noise,
+                seconds=time.perf_counter() - t,
+                samples=int(res.model.mask.sum()))
+
+
+def campaigns(n_clean: int):
+    out = []
+    for i, (name, (_, sizes)) in enumerate(EFFECTS.items()):
+        for j, (arg, value) in enumerate(sizes):
+            out.append((f"{name}/{'small' if j == 0 else 'large'}", 100 + 2 * i + j,
+                        LUBES[(i + j) % 2], {arg: value}))
+    for i, (name, (arg, value)) in enumerate(OUTSIDE.items()):
+        out.append((f"outside/{name}", 200 + i, LUBES[i % 2], {arg: value}))
+    for i in range(n_clean):
+        out.append(("clean", 300 + i, LUBES[i % 2], {}))
+    return out
+
+
+def summarise(rows):
+    eff = [r for r in rows if r["kind"].split("/")[0] in EFFECTS]
+    found = [r for r in eff if r["named"] & EFFECTS[r["kind"].split("/")[0]][0]]
+    clean = [r for r in rows if r["kind"] == "clean"]
+    alarms = [r for r in clean if r["effect"] != "none"]
+    outside = [r for r in rows if r["kind"].startswith("outside")]
+    return dict(found=len(found) / max(len(eff), 1), n_effect=len(eff),
+                false_alarms=len(alarms) / max(len(clean), 1), n_clean=len(clean),
+                found_gap_ok=all(r["gap_after"] <= 1.15 for r in found),
+                outside_high=[r["kind"] for r in outside
+                              if r["confidence"] == "high" and r["effect"] not in ("none",)],
+                found_rows=found)
+
+
+def table(rows) -> str:
+    lines = [f"{'campaign':34s} {'answer':22s} {'conf':5s} {'gap/noise':>16s} {'s':>6s}"]
+    for r in rows:
+        lines.append(f"{r['kind']:34s} {'+'.join(sorted(r['named'])):22s} "
+                     f"{r['confidence']:5s} {r['gap_before']:7.2f}->{r['gap_after']:5.2f} "
+                     f"{r['seconds']:6.1f}")
+    s = summarise(rows)
+    lines.append(f"named {100 * s['found']:.0f} % of {s['n_effect']} effect campaigns; "
+                 f"false alarms {100 * s['false_alarms']:.0f} % of {s['n_clean']} clean; "
+                 f"outside effects named with high confidence: {s['outside_high'] or 'none'}")
+    return "\n".join(lines)
+
+
+@pytest.mark.slow
+def test_discovery_rates_on_independent_campaigns():
+    n_clean = int(os.environ.get("STICKSLIP_RATES_CLEAN", "20"))
+    rows = [run_one(k, s, lube, **kw) for k, s, lube, kw in campaigns(n_clean)]
+    print("\n" + table(rows))
+    s = summarise(rows)
+    assert s["false_alarms"] <= 0.05
+    assert not s["outside_high"]
+    assert s["found"] >= 0.8
+    assert s["found_gap_ok"]
+
+
+if __name__ == "__main__":
+    n = int(sys.argv[1]) if len(sys.argv) > 1 else 20
+    rows = []
+    for k, s, lube, kw in campaigns(n):
+        rows.append(run_one(k, s, lube, **kw))
+        r = rows[-1]
+        print(f"{r['kind']:34s} {'+'.join(sorted(r['named'])):22s} {r['confidence']:5s} "
+              f"{r['gap_before']:7.2f}->{r['gap_after']:5.2f} {r['seconds']:6.1f} s "
+              f"{r['samples']} samples", flush=True)
+    print(table(rows))
