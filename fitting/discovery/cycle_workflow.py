@@ -577,6 +577,9 @@ def _explain(effect, chosen, rivals, gap_before, gap_after, noise, pattern, phas
             f"{'; ' + sizes if not f.per_record else ''}) lowers chi-square by "
             f"{chosen.drop:.0f} and the residual RMS from {gap_before * um:.3g} um to "
             f"{gap_after * um:.3g} um (noise {noise * um:.3g} um).")
+    if gap_after > 1.15 * noise:
+        text += (f" The residual is still {gap_after / noise:.2g} x the noise: something "
+                 "else is missing too.")
     if rivals:
         text += (" " + ", ".join(r["name"] for r in rivals) + " changes the traces almost "
                  "the same way here (cosine " + ", ".join(f"{r['direction_cosine']:.2f}"
