@@ -426,19 +426,15 @@ def discover_cycles(
                 prior = np.full(cols.size, np.inf)
                 prior[-model.cols(f).size:] = DRIVE_PRIOR / f.scales[0]
             s1 = _Sub(model, z1, cols, shape, sensor, prior)
-            budget = refit_evals if len(options) == 1 else max(refit_evals // 2, 4)
-            first = s1.evaluate(z1[cols])
-            if (not first[2] or not np.all(np.isfinite(first[0]))
-                    or float(first[0] @ first[0]) > base_fit.rss + 0.5 * abs(sc.chi2_predicted)):
-                # the score step overshoots far (a curved direction): start at the base
-                z1 = z_base.copy()
-                s1 = _Sub(model, z1, cols, shape, sensor, prior)
-                first = s1.evaluate(z1[cols])
-            # from a bent base the Gauss-Newton step overshoots: start damped and
-            # allow more rejected trials before calling it stalled
-            fit = levenberg_marquardt(s1, z1[cols], max_evals=budget, first=first,
-                                      lam0=1.0 if misfit else 1e-6,
-                                      stall_evals=8 if misfit else 4)
+            try:
+                # from a bent base the Gauss-Newton step overshoots: start damped and
+                # allow more rejected trials before calling it stalled
+                fit = levenberg_marquardt(s1, z1[cols], max_evals=refit_evals,
+                                          lam0=1.0 if misfit else 1e-6,
+                                          stall_evals=8 if misfit else 4)
+            except ValueError:  # the score step left the simulator's domain
+                s1 = _Sub(model, z_base, cols, shape, sensor, prior)
+                fit = levenberg_marquardt(s1, z_base[cols], max_evals=refit_evals)
             if best is None or fit.rss < best[0].rss:
                 best = (fit, shape, sensor, s1)
         fit, shape, sensor, s1 = best
