@@ -7,7 +7,7 @@ dimensionless.
 
 from __future__ import annotations
 
-from stickslip_jax.commands._output import save_figure
+from stickslip_jax.output import save_figure
 
 import numpy as np
 

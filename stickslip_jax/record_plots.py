@@ -174,7 +174,7 @@ def plot_record(record: Record, phases: PhaseSplit | None = None):
 def save_record_plot(record: Record, out, phases: PhaseSplit | None = None, dpi: int = 120) -> Path:
     """Save `plot_record(record)` as a PNG at `out`; returns the path."""
     out = Path(out)
-    from .commands._output import save_figure
+    from .output import save_figure
 
     fig = plot_record(record, phases)
     save_figure(fig, str(out), dpi=dpi, format="png")

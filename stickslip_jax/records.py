@@ -1227,7 +1227,7 @@ def write_record(
         drive_unit=drive_unit,
         channel_units=channel_units,
     )
-    from .commands._output import write_text
+    from .output import write_text
 
     path = Path(path)
     write_text(str(path), text)  # atomic: a full disk leaves no half-written record

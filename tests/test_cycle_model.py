@@ -9,7 +9,7 @@ import pytest
 
 import independent_records as ir
 from fitting.discovery.cycle_effects import FAMILIES, Shape, family
-from fitting.discovery.cycle_model import CycleModel, kernel_cdf, record_midpoints
+from fitting.discovery.cycle_model import CycleModel, kernel_cdf, drift_origins
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +32,7 @@ def setup():
     data = trace_data(c.records, c.features, drive_fix=False)
     sim = trace_simulation(fit.params, data)
     sd = trace_sd(fit.params, data, sim.slider_velocity)
-    model = CycleModel(data, record_midpoints(c.records), sd, len(c.records))
+    model = CycleModel(data, drift_origins(c.records), sd, len(c.records))
     z = model.z0(fit.params.friction, np.asarray(fit.params.offset))
     return model, z, fit, data, sim, np.asarray(sd)
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from stickslip_jax.cli import main
-from stickslip_jax.commands import _output
+from stickslip_jax import output as _output
 
 EXAMPLES = sorted(Path(__file__).resolve().parents[1].joinpath("data", "examples").glob("*.csv"))
 

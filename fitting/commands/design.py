@@ -216,7 +216,7 @@ def plot(args, res, path):
     fig.suptitle(f"{'exact simulator' if args.exact else 'steady analysis'}"
                  f"{'; ' + fixed if fixed else ''}; white/dashed: stick-slip boundary", fontsize=10)
     fig.tight_layout()
-    from stickslip_jax.commands._output import save_figure
+    from stickslip_jax.output import save_figure
 
     save_figure(fig, path, dpi=120)
     plt.close(fig)

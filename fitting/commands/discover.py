@@ -71,7 +71,7 @@ def run(args) -> int:
         raise ValueError(f"--threshold: must be >= 0, got {args.threshold}")
     if not 0 < args.alpha < 1:
         raise ValueError(f"--alpha: must be between 0 and 1, got {args.alpha}")
-    from stickslip_jax.commands._output import check_outputs, save_figure, write_json
+    from stickslip_jax.output import check_outputs, write_json
 
     from ..campaign import screen_records
 
@@ -81,7 +81,7 @@ def run(args) -> int:
     if len(records) < 2:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
     if args.base == "cycle":
-        return _run_cycle(args, records, check_outputs, save_figure, write_json)
+        return _run_cycle(args, records)
     campaign = screen_records(records, strict=args.strict)
     for w in campaign.warnings:
         print("warning: " + w, file=sys.stderr)
@@ -111,8 +111,10 @@ def run(args) -> int:
     return 0
 
 
-def _run_cycle(args, records, check_outputs, save_figure, write_json) -> int:
+def _run_cycle(args, records) -> int:
     import sys
+
+    from stickslip_jax.output import save_figure, write_json
 
     from fitting.discovery.cycle_effects import FAMILIES
     from fitting.discovery.cycle_workflow import discover_cycles

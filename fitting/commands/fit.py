@@ -268,7 +268,7 @@ def format_table(report) -> str:
 
 
 def run(args) -> int:
-    from stickslip_jax.commands._output import check_outputs, write_json
+    from stickslip_jax.output import check_outputs, write_json
     from stickslip_jax.records import record_paths
 
     from ..uncertainty import laplace

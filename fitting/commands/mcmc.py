@@ -62,7 +62,7 @@ def run(args) -> int:
         raise ValueError(f"--steps: need at least 10 steps, got {args.steps}")
     if args.burn is not None and not 0 <= args.burn < args.steps:
         raise ValueError(f"--burn: must lie in [0, --steps), got {args.burn}")
-    from stickslip_jax.commands._output import check_outputs, write_json
+    from stickslip_jax.output import check_outputs, write_json
     from stickslip_jax.records import record_paths
 
     check_outputs({"--json": args.json, "--corner": args.corner}, record_paths(args.records))

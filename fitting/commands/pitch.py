@@ -63,7 +63,7 @@ def _um(x):
 
 
 def run(args) -> int:
-    from stickslip_jax.commands._output import check_outputs, write_json
+    from stickslip_jax.output import check_outputs, write_json
 
     paths = [Path(p) for p in args.records]
     for p in paths:
@@ -159,7 +159,7 @@ def _plot(out, paths, runs, traces, names):
             ax.legend(fontsize=7)
     fig.suptitle("pitching (points 1-3) and yawing (4-5): model lines, measured dots")
     fig.tight_layout()
-    from stickslip_jax.commands._output import save_figure
+    from stickslip_jax.output import save_figure
 
     save_figure(fig, out, dpi=110)
     plt.close(fig)

@@ -30,8 +30,8 @@ than a pitch sees a piece of the sine, which large coefficients of opposite sign
 from __future__ import annotations
 
 import dataclasses
-import math
 
+import jax.numpy as jnp
 import numpy as np
 
 __all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "Family", "Shape", "drive_error", "drive_error_range",
@@ -41,17 +41,18 @@ DRIVE_ERROR_MAX = 0.05
 """mm: a drive error larger than 50 um over a record is a broken drive, not an effect."""
 
 
-def drive_error(coef, t, speed, pitch) -> np.ndarray:
+def drive_error(coef, t, speed, pitch):
     """The drive error (mm) of `drive_periodic_error` at times t (s) of a record driven
-    at `speed` (mm/s): coef = (a1_sin, a1_cos, a2_sin, a2_cos) mm, `pitch` mm."""
-    ph = 2.0 * np.pi * speed * np.asarray(t, float) / pitch
-    a = np.asarray(coef, float)
-    return a[0] * np.sin(ph) + a[1] * np.cos(ph) + a[2] * np.sin(2 * ph) + a[3] * np.cos(2 * ph)
+    at `speed` (mm/s): coef = (a1_sin, a1_cos, a2_sin, a2_cos) mm, `pitch` mm. JAX
+    (traced inside `cycle_model`) or NumPy input alike."""
+    ph = 2.0 * jnp.pi * speed * t / pitch
+    return (coef[0] * jnp.sin(ph) + coef[1] * jnp.cos(ph) + coef[2] * jnp.sin(2 * ph)
+            + coef[3] * jnp.cos(2 * ph))
 
 
 def drive_error_range(coef, t, speed, pitch) -> float:
     """Peak-to-peak of `drive_error` over the times t (mm)."""
-    e = drive_error(coef, t, speed, pitch)
+    e = np.asarray(drive_error(np.asarray(coef, float), np.asarray(t, float), speed, pitch))
     return float(e.max() - e.min())
 
 

@@ -48,9 +48,9 @@ import numpy as np
 from stickslip_jax._math import safe_power
 from stickslip_jax.units import G_MM_S2
 
-from ..params import CampaignParams, EmpiricalFriction
-from ..trace_objective import TraceData, trace_sd
-from .cycle_effects import FAMILIES, Family, Shape
+from ..params import EmpiricalFriction
+from ..trace_objective import TraceData
+from .cycle_effects import FAMILIES, Family, Shape, drive_error
 
 __all__ = ["BLOCK", "CycleModel", "N_STEPS", "kernel_cdf"]
 
@@ -117,12 +117,9 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
         base = static(T)
         return base + d_d + (d_s - d_d) * (base - mu_d) / (mu_s - mu_d)
 
-    def u(t):  # drive (mm), arbitrary origin
+    def u(t):  # drive (mm), arbitrary origin: speed drift and screw error
         dt = t - tref
-        ph = 2.0 * jnp.pi * v * t / pitch
-        a = eff.drive
-        return (v * dt + 0.5 * v * eff.s * dt * dt + a[0] * jnp.sin(ph) + a[1] * jnp.cos(ph)
-                + a[2] * jnp.sin(2 * ph) + a[3] * jnp.cos(2 * ph))
+        return v * dt + 0.5 * v * eff.s * dt * dt + drive_error(eff.drive, t, v, pitch)
 
     u0 = u(t0)
 
@@ -305,10 +302,11 @@ def _value_and_block(z, T, scales, shape, sensor, data, tref, sd, layout):
         return jnp.where(data.mask, (data.deflection - read) / sd, 0.0), ok
 
     def col(t):
-        return jax.jvp(lambda zz: f(zz)[0], (z,), (t,))[1]
+        return jax.jvp(f, (z,), (t,), has_aux=True)
 
-    r, ok = f(z)
-    return r, jax.vmap(col, in_axes=1, out_axes=-1)(T), ok
+    # the primal does not depend on the tangent: computed once, not per column
+    r, J, ok = jax.vmap(col, in_axes=1, out_axes=(None, -1, None))(T)
+    return r, J, ok
 
 
 class CycleModel:
@@ -316,7 +314,7 @@ class CycleModel:
 
     `data`: the `TraceData` windows (built without the features' drive correction, so
     that a drive error stays in the data for the drive effects to explain); `tref`:
-    `record_midpoints` (the origins of the drifts); `sd`: per-sample
+    `drift_origins` (the origins of the drifts); `sd`: per-sample
     standard errors [N, L] (mm). `evaluate(z, cols, shape, order)`: whitened residuals
     (flat, padded samples removed), their Jacobian with respect to z[cols], and whether
     every row's breakaway and slip end were found.
@@ -380,12 +378,7 @@ class CycleModel:
         return r, np.concatenate(blocks, axis=1), ok
 
 
-def standard_errors(params: CampaignParams, data: TraceData, slider_velocity):
-    """Per-sample standard errors (mm) of the trace objective at `params` (`trace_sd`)."""
-    return np.asarray(trace_sd(params, data, jnp.asarray(slider_velocity)))
-
-
-def record_midpoints(records) -> np.ndarray:
+def drift_origins(records) -> np.ndarray:
     """[2, R]: the middle of every record's time span (s: the origin of the drive speed
     drift and the gauge drift) and its start (s: the origin of the friction drift)."""
     return np.array([[0.5 * (float(r.time[0]) + float(r.time[-1])) for r in records],

@@ -46,7 +46,6 @@ robust noise estimates, `RecordFeatures.noise`).
 from __future__ import annotations
 
 import dataclasses
-import os
 import time
 
 import numpy as np
@@ -55,10 +54,11 @@ import scipy.stats
 from ..campaign import Campaign, screen_records
 from ..fit import fit_features
 from ..params import NAMES, CampaignParams, EmpiricalFriction
-from ..trace_objective import trace_data
+from ..trace_objective import trace_data, trace_sd
 from .cycle_effects import DRIVE_ERROR_MAX, FAMILIES, Family, Shape, drive_error_range, family
-from .cycle_model import CycleModel, record_midpoints, standard_errors
+from .cycle_model import CycleModel, drift_origins
 from .lm import LMResult, levenberg_marquardt
+from .scores import base_basis, principal_cosine, project_out
 
 __all__ = ["MISFIT", "CycleDiscovery", "discover_cycles"]
 
@@ -192,18 +192,6 @@ class CycleDiscovery:
         }
 
 
-def _basis(Jb):
-    """Orthonormal basis of the base columns (scaled first: their sizes differ a lot)."""
-    scale = np.linalg.norm(Jb, axis=0)
-    scale[scale == 0] = 1.0
-    return np.linalg.qr(Jb / scale)[0]
-
-
-def _efficient(Q, Jc):
-    """Columns of Jc with the base columns (orthonormal basis Q) projected out."""
-    return Jc - Q @ (Q.T @ Jc)
-
-
 def _hotelling(Jp, r, starts):
     """(F, p-value, dof, Gauss-Newton step, predicted chi-square drop) of the efficient
     score Jp^T r with window-level contributions (module doc); `starts`: index of the
@@ -236,9 +224,6 @@ def _one_screw(coef, recs, pitch) -> str | None:
                 f"{1e3 * DRIVE_ERROR_MAX:g} um (a broken drive, not an effect)")
     travel = np.array([r.drive_speed * (float(r.time[-1]) - float(r.time[0])) for r in recs])
     a = amp[travel >= pitch]
-    if os.environ.get("STICKSLIP_DEBUG_SCREW"):
-        print("screw amplitudes (um):", " ".join(f"{1e3 * x:.2f}" for x in amp), "travel/pitch:",
-              " ".join(f"{x:.2f}" for x in travel / pitch))
     if a.size < 2 or a.max() <= SCREW_SPREAD * max(a.min(), 1e-12):
         return None
     return (f"the screw error's amplitude differs {a.max() / a.min():.3g}-fold between "
@@ -305,11 +290,11 @@ def discover_cycles(
     starts = np.flatnonzero(np.r_[True, np.diff(window) != 0])
     n_windows = starts.size
     # weights (effective variance) at the start, refreshed once at the base optimum
-    model = CycleModel(data, record_midpoints(recs),
+    model = CycleModel(data, drift_origins(recs),
                        np.ones(np.asarray(data.mask).shape), G)
     z_start = model.z0(start.params.friction, np.asarray(start.params.offset))
     _, yd, _ = model.residuals(z_start)
-    model = CycleModel(data, model.tref, standard_errors(start.params, data, yd), G)
+    model = CycleModel(data, model.tref, np.asarray(trace_sd(start.params, data, yd)), G)
     stage("prepare", f"{G} records used, {len(campaign.not_used)} set aside, "
                      f"{n_windows} cycle windows, {model.mask.sum()} samples")
 
@@ -320,7 +305,7 @@ def discover_cycles(
     params = CampaignParams(EmpiricalFriction(*[float(x) for x in z_base[:6]]),
                             z_base[6:model.n_base])
     _, yd, _ = model.residuals(z_base)
-    sd_base = standard_errors(params, data, yd)
+    sd_base = np.asarray(trace_sd(params, data, yd))
     model = CycleModel(data, model.tref, sd_base, G)
     sub = _Sub(model, z_base, base_cols)
     base_fit = levenberg_marquardt(sub, z_base[base_cols], max_evals=max_evals)
@@ -358,7 +343,7 @@ def discover_cycles(
                       + (f"; {len(scaled)} record(s) described worse than their noise, "
                          "weighed by their scatter" if scaled else ""))
 
-    Qb = _basis(Jb)
+    Qb = base_basis(Jb)
     n_tests = sum(len(f.shapes) for f in fams)
     level = alpha / n_tests
     scores: list[_Score] = []
@@ -377,7 +362,7 @@ def discover_cycles(
                       / SENSOR_PROBE)[:, None]
             else:
                 _, Jc, _ = model.evaluate(z_base, cols, shape)
-            Jp = _efficient(Qb, Jc)
+            Jp = project_out(Qb, Jc)
             F, p, dof, step, pred = _hotelling(Jp, r0, starts)
             sc = _Score(f, shape, F, p, dof, step, Jp, pred)
             # the shape that would explain most (its predicted chi-square drop)
@@ -466,17 +451,12 @@ def discover_cycles(
     rivals, lookalikes = [], []
     if chosen is not None:
         d0 = next(s for s in scores if s.family is chosen.family).direction
-        qa, _ = np.linalg.qr(d0)
-
-        def cosine(sc):
-            qb, _ = np.linalg.qr(sc.direction)
-            return float(np.linalg.svd(qa.T @ qb, compute_uv=False)[0])
 
         by_fam = {rf.family.name: rf for rf in physical}
         for sc in significant:
             if sc.family is chosen.family:
                 continue
-            cos = cosine(sc)
+            cos = principal_cosine(d0, sc.direction)
             rf = by_fam.get(sc.family.name)
             if rf is not None and rf.drop >= joint * chosen.drop and cos > collinear:
                 rivals.append({"name": rf.family.name, "direction_cosine": cos,

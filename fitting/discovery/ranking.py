@@ -32,6 +32,7 @@ import scipy.stats
 
 from .effects import CANDIDATES, EffectSet
 from .model import Problem
+from .scores import base_basis, principal_cosine, project_out
 
 __all__ = ["CandidateScore", "direction_cosine", "efficient_score", "score_candidates"]
 
@@ -60,19 +61,13 @@ def direction_cosine(a: CandidateScore, b: CandidateScore) -> float:
     """Largest |cosine| between the efficient-score directions of two candidates (the
     cosine of the smallest principal angle of their column spaces): near 1, the two
     effects change the traces in the same way once the base parameters have adjusted."""
-    qa, _ = np.linalg.qr(a.direction)
-    qb, _ = np.linalg.qr(b.direction)
-    return float(np.linalg.svd(qa.T @ qb, compute_uv=False)[0])
+    return principal_cosine(a.direction, b.direction)
 
 
 def efficient_score(r, J, base_cols, cand_cols):
     """(S * s^2, Gauss-Newton step of the candidate coordinates, J_c^perp) from r, J
     (see module doc)."""
-    Jb, Jc = J[:, base_cols], J[:, cand_cols]
-    scale = np.linalg.norm(Jb, axis=0)
-    scale[scale == 0] = 1.0
-    Q, _ = np.linalg.qr(Jb / scale)
-    Jp = Jc - Q @ (Q.T @ Jc)
+    Jp = project_out(base_basis(J[:, base_cols]), J[:, cand_cols])
     U = Jp.T @ r
     info = Jp.T @ Jp
     step = -np.linalg.lstsq(info, U, rcond=1e-12)[0]

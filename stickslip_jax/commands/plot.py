@@ -24,7 +24,7 @@ def run(args) -> int:
         raise ValueError(f"--out: {out} must end in .png")
     if not out.parent.is_dir():
         raise ValueError(f"--out: directory {out.parent} does not exist; create it first")
-    from ._output import check_outputs
+    from ..output import check_outputs
 
     check_outputs({"--out": str(out)}, [args.record])
     record = read_record(args.record)

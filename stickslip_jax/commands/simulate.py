@@ -41,7 +41,7 @@ def add_arguments(p):
 
 def run(args) -> int:
     from ..records import parse_drive_program, write_record
-    from ._output import check_outputs
+    from ..output import check_outputs
 
     check_outputs({"--out": args.out})
     if not 0 <= args.seed < 2**63:

@@ -22,6 +22,7 @@ __all__ = ["check_outputs", "save_figure", "strict_json", "write_json", "write_t
 
 
 def _same(a: str, b: str) -> bool:
+    """The same file (both exist), else the same resolved path."""
     try:
         return os.path.samefile(a, b)
     except OSError:
@@ -46,11 +47,11 @@ def check_outputs(outputs: dict[str, str | None], inputs=()) -> None:
         if not os.access(folder, os.W_OK):
             raise ValueError(f"{option}: cannot write in {folder} (permission denied)")
         for src in inputs:
-            if os.path.exists(path) and _same(path, str(src)):
+            if _same(path, str(src)):
                 raise ValueError(f"{option}: {path} is one of the input records; it would be "
                                  "overwritten. Choose another output name")
         for other, p in seen.items():
-            if _same(p, path) if os.path.exists(p) else os.path.realpath(p) == os.path.realpath(path):
+            if _same(p, path):
                 raise ValueError(f"{option} and {other} name the same file {path}")
         seen[option] = path
 
