@@ -84,6 +84,10 @@ def main(argv=None) -> int:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"stickslip {args.command}: error: {msg}", file=sys.stderr)
         return 2
+    except BrokenPipeError:
+        # stdout closed early (`stickslip fit ... | head`): not an error of ours
+        sys.stderr.close()
+        return 141
     except KeyboardInterrupt:
         # outputs are written atomically: an interrupt leaves no partial file
         print(f"stickslip {args.command}: interrupted", file=sys.stderr)

@@ -67,6 +67,18 @@ def strict_json(obj):
     return obj
 
 
+def _mode(path: str) -> int:
+    """Permissions for a new output: the replaced file's, else what `open` would give
+    (0o666 less the umask); `tempfile.mkstemp` itself creates files readable by the
+    owner only."""
+    try:
+        return os.stat(path).st_mode & 0o7777
+    except OSError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
 def write_text(path: str, text: str) -> None:
     """Write `text` to `path` atomically (module doc); "-" prints it."""
     if path == "-":
@@ -77,6 +89,7 @@ def write_text(path: str, text: str) -> None:
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
+        os.chmod(tmp, _mode(path))
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
@@ -97,6 +110,7 @@ def save_figure(fig, path: str, **kwargs) -> None:
     os.close(fd)
     try:
         fig.savefig(tmp, **kwargs)
+        os.chmod(tmp, _mode(path))
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -108,3 +108,20 @@ def test_json_is_strict():
     text = json.dumps(_output.strict_json({"a": float("nan"), "b": [1.0, float("inf")]}),
                       allow_nan=False)
     assert json.loads(text) == {"a": None, "b": [1.0, None]}
+
+
+def test_outputs_get_the_usual_permissions(tmp_path):
+    """Atomic writes go through a private temporary file; the output must still get the
+    permissions a plain `open` gives (or keep those of the file it replaces)."""
+    umask = os.umask(0o022)
+    try:
+        new = tmp_path / "new.json"
+        _output.write_json(str(new), {"a": 1})
+        assert new.stat().st_mode & 0o777 == 0o644
+        old = tmp_path / "old.json"
+        old.write_text("{}")
+        old.chmod(0o640)
+        _output.write_json(str(old), {"a": 2})
+        assert old.stat().st_mode & 0o777 == 0o640
+    finally:
+        os.umask(umask)
