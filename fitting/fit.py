@@ -48,7 +48,7 @@ from .combined import CampaignObjective
 from .features import RecordFeatures, record_features
 from .objectives import FeatureData, feature_data, feature_residuals
 from .trace_objective import failed_windows, trace_data, trace_residuals_and_flags
-from .params import NAMES, CampaignParams, EmpiricalFriction, free_spec, names_of
+from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_spec
 
 __all__ = ["FitResult", "fit_features", "fit_records", "initial_guesses"]
 
@@ -92,8 +92,7 @@ class FitResult:
 
     @property
     def values(self) -> dict[str, float]:
-        v = np.asarray(self.params.friction.values())
-        return {n: float(x) for n, x in zip(names_of(self.params.friction), v)}
+        return self.params.friction.named_values()
 
     @property
     def reduced_chi2(self) -> float:
@@ -656,14 +655,18 @@ def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps,
     )
 
 
-def _with_fixed(s: EmpiricalFriction, fixed: dict[str, float]) -> EmpiricalFriction:
-    if hasattr(s, "with_values"):  # other friction-parameter modules (microsqueeze)
-        return s.with_values(**fixed)
-    v = dict(zip(NAMES, np.asarray(s.values()).tolist()))
+def _with_fixed(s: AbstractFrictionParams, fixed: dict[str, float]) -> AbstractFrictionParams:
+    """Start `s` with the `fixed` values; a free mu_s or mu_d that the fixed one would put
+    on the wrong side of the other moves (mu_s = 1.5 mu_d). ValueError when the fixed
+    values themselves are outside the law's domain."""
+    v = s.named_values()
     v.update({k: float(x) for k, x in fixed.items()})
     if v["mu_s"] <= v["mu_d"]:
-        v["mu_s"] = v["mu_d"] * 1.5
-    return EmpiricalFriction.from_values(**v)
+        if "mu_d" not in fixed:
+            v["mu_d"] = v["mu_s"] / 1.5
+        elif "mu_s" not in fixed:
+            v["mu_s"] = v["mu_d"] * 1.5
+    return s.with_values(**v)
 
 
 def fit_records(records, **kwargs) -> FitResult:

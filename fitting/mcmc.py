@@ -31,32 +31,29 @@ import jax.numpy as jnp
 import numpy as np
 
 from .fit import COMPILER_OPTIONS, FitResult
-from .params import _LEAF, CampaignParams, names_of, units_of
-from .uncertainty import _from_logs, laplace
+from .microsqueeze_params import MicrosqueezeFriction
+from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_mask
+from .uncertainty import laplace
 
 __all__ = ["PRIOR_BOUNDS", "McmcResult", "log_posterior", "run_mcmc", "prior_text"]
 
-PRIOR_BOUNDS = {
-    "mu_s": (1e-3, 2.0), "mu_d": (1e-3, 2.0), "gamma": (1e-4, 1e3), "m": (0.02, 5.0),
-    "delta": (1e-3, 1e5), "n": (0.02, 5.0),
-    "h_e": (1e-5, 1e-1), "Q": (1e-8, 1e10),
-}
-"""Support of the log-uniform prior of each parameter (natural units: h_e mm, Q mm^4)."""
+PRIOR_BOUNDS = {**EmpiricalFriction.PRIOR_BOUNDS, **MicrosqueezeFriction.PRIOR_BOUNDS}
+"""Support of the log-uniform prior of each parameter of both laws (natural units: h_e
+mm, Q mm^4); each law's own is its `PRIOR_BOUNDS` class variable."""
 
 
-def prior_text(free_names, units=None) -> str:
-    """The prior in words (units in brackets when given: {name: unit})."""
-    units = units or {}
+def prior_text(friction: AbstractFrictionParams, free_names) -> str:
+    """The prior of the law `friction` belongs to, in words, for `free_names`."""
+    bounds, units = friction.PRIOR_BOUNDS, friction.UNITS
 
     def unit(n):
-        u = units.get(n, "-")
-        return "" if u == "-" else f" {u}"
+        return "" if units[n] == "-" else f" {units[n]}"
 
-    parts = [f"log-uniform {n} in [{PRIOR_BOUNDS[n][0]:g}, {PRIOR_BOUNDS[n][1]:g}]{unit(n)}"
+    parts = [f"log-uniform {n} in [{bounds[n][0]:g}, {bounds[n][1]:g}]{unit(n)}"
              for n in free_names]
     text = "; ".join(parts) + "; mu_s > mu_d"
-    if "h_e" in units:
-        text += "; microsqueeze physical region (C3 < mu_s < C1, h_e > t_b + a_d)"
+    if friction.REGION:
+        text += f"; {friction.MODEL} physical region ({friction.REGION})"
     return text + "; gauge offsets flat"
 
 
@@ -72,10 +69,10 @@ def _batched_log_posterior(theta, logs0, idx, lo, hi, template, offset0, objecti
         off = th[k:] if fit_off else offset0
         inside = jnp.all((logs >= lo) & (logs <= hi)) & (logs[0] > logs[1])
         safe = jnp.where(inside, logs, logs0)
-        friction = _from_logs(safe, template)
-        if hasattr(friction, "physical"):  # the model's physical region (microsqueeze)
-            inside = inside & friction.physical() & jnp.all(
-                jnp.abs(friction.log_values() - safe) < 1e-7)
+        friction = template.from_log_values(safe)
+        # the law's physical region (microsqueeze: no clipping, the logs round-trip)
+        inside = inside & friction.physical() & jnp.all(
+            jnp.abs(friction.log_values() - safe) < 1e-7)
         r = objective.residuals(CampaignParams(friction, off))
         ll = -0.5 * jnp.sum(r * r) / scale
         return jnp.where(inside & jnp.isfinite(ll), ll, -jnp.inf)
@@ -90,14 +87,14 @@ def log_posterior(fit: FitResult):
     friction parameters in the model's NAMES order, free gauge offsets in mm).
     """
     p = fit.params
-    all_names = names_of(p.friction)
-    leaves = getattr(p.friction, "LEAVES", _LEAF)
+    all_names = p.friction.NAMES
     logs0 = p.friction.log_values()
-    free = np.array([bool(getattr(fit.spec.friction, leaves[n])) for n in all_names])
+    free = free_mask(fit.spec)
     idx = jnp.asarray(np.flatnonzero(free))
     fit_off = bool(fit.spec.offset)
-    lo = jnp.log(jnp.asarray([PRIOR_BOUNDS[n][0] for n in all_names]))
-    hi = jnp.log(jnp.asarray([PRIOR_BOUNDS[n][1] for n in all_names]))
+    bounds = p.friction.PRIOR_BOUNDS
+    lo = jnp.log(jnp.asarray([bounds[n][0] for n in all_names]))
+    hi = jnp.log(jnp.asarray([bounds[n][1] for n in all_names]))
     scale = jnp.asarray(max(1.0, fit.reduced_chi2))  # an array: no recompilation per value
     args = (logs0, idx, lo, hi, p.friction, p.offset, fit.objective, scale)
 
@@ -188,6 +185,6 @@ def run_mcmc(
     return McmcResult(
         names=names, samples=values, tau=tau[: len(names)], ess=ess[: len(names)],
         acceptance=float(np.mean(sampler.acceptance_fraction)), walkers=walkers, steps=steps,
-        burn=burn, prior=prior_text(names, units_of(fit.params.friction)), warnings=warnings,
-        units=units_of(fit.params.friction),
+        burn=burn, prior=prior_text(fit.params.friction, names), warnings=warnings,
+        units=dict(fit.params.friction.UNITS),
     )

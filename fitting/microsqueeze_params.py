@@ -22,13 +22,14 @@ $10^{-9}(t_b + a_d)$, $|\log Q| > 200$) are clipped onto them inside
 `friction()` (zero gradient there, so Levenberg-Marquardt rejects such steps) instead
 of raising. At any physical point the clipping is inactive.
 
-The class offers the interface the generic fit code uses: `NAMES`, `UNITS`, `LEAVES`,
-`SHAPE_NAMES` (the parameters of the rise of $\mu_0$ with $T_1$), `values()`,
-`log_values()`, `from_log_values(logs)`, `with_values(**values)`, `friction()`, and
-`physical()` (no clipping needed: the support of the MCMC prior).
+A final subclass of `fitting.params.AbstractFrictionParams`: the generic fit,
+uncertainty and sampler code read its class variables and methods (`physical()`: no
+clipping needed, the support of the MCMC prior).
 """
 
 from __future__ import annotations
+
+from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -38,6 +39,8 @@ from jaxtyping import Array, Float
 from stickslip_jax.contact import BoundaryContact, MicrosqueezeStatic, SurfacePair, surface_pair
 from stickslip_jax.contact.boundary import approach_for, film_from_mu_s
 from stickslip_jax.friction import Friction, KatoKinetic
+
+from .params import PRIOR_BOUNDS, AbstractFrictionParams
 
 __all__ = ["MICROSQUEEZE_NAMES", "MICROSQUEEZE_UNITS", "MicrosqueezeFriction"]
 
@@ -51,7 +54,7 @@ def _f(x):
     return jnp.asarray(x, dtype=float)
 
 
-class MicrosqueezeFriction(eqx.Module):
+class MicrosqueezeFriction(AbstractFrictionParams):
     r"""Microsqueeze static law + eq (3) kinetic law in unconstrained coordinates.
 
     Fitted leaves: `log_mu_d`, `log_gap`, `log_margin` (mm), `log_Q` (mm^4),
@@ -69,11 +72,17 @@ class MicrosqueezeFriction(eqx.Module):
     pair: SurfacePair
     contact: BoundaryContact
 
-    NAMES = MICROSQUEEZE_NAMES
-    UNITS = MICROSQUEEZE_UNITS
-    LEAVES = {"mu_s": "log_gap", "mu_d": "log_mu_d", "h_e": "log_margin", "Q": "log_Q",
-              "delta": "log_delta", "n": "log_n"}
-    SHAPE_NAMES = ("mu_s", "h_e", "Q")
+    MODEL: ClassVar[str] = "microsqueeze"
+    NAMES: ClassVar[tuple[str, ...]] = MICROSQUEEZE_NAMES
+    UNITS: ClassVar[dict[str, str]] = MICROSQUEEZE_UNITS
+    LEAVES: ClassVar[dict[str, str]] = {
+        "mu_s": "log_gap", "mu_d": "log_mu_d", "h_e": "log_margin", "Q": "log_Q",
+        "delta": "log_delta", "n": "log_n"}
+    SHAPE_NAMES: ClassVar[tuple[str, ...]] = ("mu_s", "h_e", "Q")
+    PRIOR_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {
+        **{k: PRIOR_BOUNDS[k] for k in ("mu_s", "mu_d", "delta", "n")},
+        "h_e": (1e-5, 1e-1), "Q": (1e-8, 1e10)}
+    REGION: ClassVar[str] = "C3 < mu_s < C1, h_e > t_b + a_d"
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -112,12 +121,16 @@ class MicrosqueezeFriction(eqx.Module):
                                contact=s.contact)
 
     def with_values(self, **values) -> MicrosqueezeFriction:
-        """Same eta, pair, contact; natural values updated (missing ones kept)."""
-        v = dict(zip(self.NAMES, np.asarray(self.values()).tolist()))
+        """Same eta, pair, contact; natural values updated (missing ones kept);
+        ValueError outside the law's domain."""
+        unknown = sorted(set(values) - set(self.NAMES))
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; choose from "
+                             f"{', '.join(self.NAMES)}")
+        v = self.named_values()
         v.update({k: float(x) for k, x in values.items()})
-        if v["mu_s"] <= v["mu_d"]:
-            v["mu_s"] = v["mu_d"] * 1.5
-        return type(self).from_values(**v, eta=self.eta, pair=self.pair, contact=self.contact)
+        return MicrosqueezeFriction.from_values(**v, eta=self.eta, pair=self.pair,
+                                                contact=self.contact)
 
     # ------------------------------------------------------------------ law
     def _parts(self):
@@ -166,9 +179,6 @@ class MicrosqueezeFriction(eqx.Module):
             mu_d + jnp.exp(self.log_gap), mu_d, t_b + a_d + jnp.exp(self.log_margin),
             jnp.exp(self.log_Q), jnp.exp(self.log_delta), jnp.exp(self.log_n),
         ])
-
-    def log_values(self) -> Float[Array, "6"]:
-        return jnp.log(self.values())
 
     def from_log_values(self, logs) -> MicrosqueezeFriction:
         """Same eta, pair, contact at log natural values (near the optimum: no clipping)."""

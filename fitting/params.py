@@ -18,9 +18,20 @@ sampler work in unconstrained coordinates:
 `CampaignParams` adds one gauge offset per record (mm, a nuisance). Which leaves are
 fitted is chosen with a boolean filter spec and `eqx.partition` (`free_spec`), never
 with string-keyed dicts; names appear only at the reporting edge (`NAMES`, `UNITS`).
+
+Every friction law that can be fitted is a final subclass of `AbstractFrictionParams`
+(this module's `EmpiricalFriction`; `fitting.microsqueeze_params.MicrosqueezeFriction`):
+names, units, the leaf storing each parameter, the parameters of the rise of
+$\mu_0(T_1)$, the support of the MCMC prior, and the conversions the fit, the
+uncertainty and the sampler need. Generic code reads those and never probes a class
+for what it offers. A new law goes here: subclass, fill the class variables, implement
+the abstract methods.
 """
 
 from __future__ import annotations
+
+import abc
+from typing import ClassVar
 
 import equinox as eqx
 import jax
@@ -31,6 +42,7 @@ from jaxtyping import Array, Float
 from stickslip_jax.friction import Friction, KatoKinetic, KatoStatic
 
 __all__ = [
+    "AbstractFrictionParams",
     "NAMES",
     "UNITS",
     "CampaignParams",
@@ -45,17 +57,78 @@ NAMES = ("mu_s", "mu_d", "gamma", "m", "delta", "n")
 UNITS = {"mu_s": "-", "mu_d": "-", "gamma": "s^-m", "m": "-", "delta": "s^-n", "n": "-"}
 """Unit of each parameter (internal units; dimensionless shown as -)."""
 
-_LEAF = {
-    "mu_s": "log_gap", "mu_d": "log_mu_d", "gamma": "log_gamma",
-    "m": "log_m", "delta": "log_delta", "n": "log_n",
+PRIOR_BOUNDS = {
+    "mu_s": (1e-3, 2.0), "mu_d": (1e-3, 2.0), "gamma": (1e-4, 1e3), "m": (0.02, 5.0),
+    "delta": (1e-3, 1e5), "n": (0.02, 5.0),
 }
+"""Support of the log-uniform MCMC prior of each parameter of eqs (1), (3) (natural
+units: gamma s^-m, delta s^-n)."""
 
 
 def _f(x):
     return jnp.asarray(x, dtype=float)
 
 
-class EmpiricalFriction(eqx.Module):
+class AbstractFrictionParams(eqx.Module):
+    """A fittable friction law in unconstrained coordinates (abstract).
+
+    Class variables every final subclass sets:
+    - `MODEL`: the law's name in reports and JSON ("empirical", "microsqueeze");
+    - `NAMES`: the natural parameters in reporting order (`values()` order);
+    - `UNITS`: {name: unit} in the internal units (dimensionless shown as -);
+    - `LEAVES`: {name: the field that stores it} (what `free_spec` fixes);
+    - `SHAPE_NAMES`: the parameters of the rise of mu_0 with stick time (eq (1) or its
+      microsqueeze counterpart): undetermined when every record has one drive speed;
+    - `PRIOR_BOUNDS`: {name: (low, high)}, the support of the log-uniform MCMC prior;
+    - `REGION`: the law's physical region beyond those bounds, in words ("" if none).
+    """
+
+    MODEL: ClassVar[str]
+    NAMES: ClassVar[tuple[str, ...]]
+    UNITS: ClassVar[dict[str, str]]
+    LEAVES: ClassVar[dict[str, str]]
+    SHAPE_NAMES: ClassVar[tuple[str, ...]]
+    PRIOR_BOUNDS: ClassVar[dict[str, tuple[float, float]]]
+    REGION: ClassVar[str]
+
+    @abc.abstractmethod
+    def friction(self) -> Friction:
+        """The `stickslip_jax.Friction` (static and kinetic law) these parameters give."""
+
+    @abc.abstractmethod
+    def values(self) -> Float[Array, " P"]:
+        """Natural parameters in `NAMES` order."""
+
+    @abc.abstractmethod
+    def from_log_values(self, logs) -> AbstractFrictionParams:
+        """The same law (and given constants) at log natural values in `NAMES` order
+        (traceable; near an optimum no constraint is active)."""
+
+    @abc.abstractmethod
+    def with_values(self, **values) -> AbstractFrictionParams:
+        """The same law with some natural values replaced; ValueError (naming the
+        parameter and its domain) unless the result is a valid parameter set."""
+
+    @abc.abstractmethod
+    def physical(self):
+        """True (a traced bool) where no coordinate had to be clipped onto the law's
+        physical region: the support of the MCMC prior besides `PRIOR_BOUNDS`."""
+
+    def log_values(self) -> Float[Array, " P"]:
+        """log of the natural parameters: the coordinates of relative uncertainty."""
+        return jnp.log(self.values())
+
+    def leaves(self, names=None) -> list:
+        """The stored leaves of `names` (default all of `NAMES`), for `eqx.tree_at`; on
+        a filter spec of this class, its booleans."""
+        return [getattr(self, self.LEAVES[n]) for n in (self.NAMES if names is None else names)]
+
+    def named_values(self) -> dict[str, float]:
+        """{name: natural value} (reporting edge only)."""
+        return {n: float(x) for n, x in zip(self.NAMES, np.asarray(self.values()))}
+
+
+class EmpiricalFriction(AbstractFrictionParams):
     r"""Eq (1) + eq (3) friction in unconstrained coordinates (all logs, see module doc).
 
     `friction()` builds the `stickslip_jax.Friction` (KatoStatic + KatoKinetic);
@@ -69,6 +142,17 @@ class EmpiricalFriction(eqx.Module):
     log_m: Float[Array, ""] = eqx.field(converter=_f)
     log_delta: Float[Array, ""] = eqx.field(converter=_f)
     log_n: Float[Array, ""] = eqx.field(converter=_f)
+
+    MODEL: ClassVar[str] = "empirical"
+    NAMES: ClassVar[tuple[str, ...]] = NAMES
+    UNITS: ClassVar[dict[str, str]] = UNITS
+    LEAVES: ClassVar[dict[str, str]] = {
+        "mu_s": "log_gap", "mu_d": "log_mu_d", "gamma": "log_gamma",
+        "m": "log_m", "delta": "log_delta", "n": "log_n",
+    }
+    SHAPE_NAMES: ClassVar[tuple[str, ...]] = ("mu_s", "gamma", "m")
+    PRIOR_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = PRIOR_BOUNDS
+    REGION: ClassVar[str] = ""
 
     @classmethod
     def from_values(cls, mu_s, mu_d, gamma, m, delta, n) -> EmpiricalFriction:
@@ -113,15 +197,30 @@ class EmpiricalFriction(eqx.Module):
             jnp.exp(self.log_delta), jnp.exp(self.log_n),
         ])
 
-    def log_values(self) -> Float[Array, "6"]:
-        """log of the natural parameters: the coordinates of relative uncertainty."""
-        return jnp.log(self.values())
+    def from_log_values(self, logs) -> EmpiricalFriction:
+        """From log natural values (mu_s > mu_d assumed: the gap is floored at 1e-300)."""
+        l_mus, l_mud, l_g, l_m, l_d, l_n = (logs[i] for i in range(6))
+        gap = jnp.maximum(jnp.exp(l_mus) - jnp.exp(l_mud), 1e-300)
+        return EmpiricalFriction(l_mud, jnp.log(gap), l_g, l_m, l_d, l_n)
+
+    def with_values(self, **values) -> EmpiricalFriction:
+        """Natural values replaced (the others kept); ValueError outside the domain."""
+        unknown = sorted(set(values) - set(self.NAMES))
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; choose from "
+                             f"{', '.join(self.NAMES)}")
+        v = self.named_values()
+        v.update({k: float(x) for k, x in values.items()})
+        return EmpiricalFriction.from_values(**v)
+
+    def physical(self):
+        return jnp.asarray(True)
 
 
 class CampaignParams(eqx.Module):
     """Everything a campaign fit estimates: friction + one gauge offset (mm) per record."""
 
-    friction: EmpiricalFriction  # or another friction-parameter module (names_of)
+    friction: AbstractFrictionParams
     offset: Float[Array, " R"] = eqx.field(converter=_f)
 
 
@@ -135,32 +234,15 @@ def free_spec(params: CampaignParams, *, fixed=(), offsets: bool = False) -> Cam
     `fixed`: names from `NAMES` held at their current value (mu_s fixed means the gap
     mu_s - mu_d is fixed). `offsets`: fit the per-record gauge offsets.
     """
-    names, leaf = names_of(params.friction), getattr(params.friction, "LEAVES", _LEAF)
+    names = params.friction.NAMES
     bad = [n for n in fixed if n not in names]
     if bad:
         raise ValueError(f"unknown parameter(s) {bad}; choose from {', '.join(names)}")
     spec = jax.tree_util.tree_map(lambda _: False, params)
-    leaves = lambda p: [getattr(p.friction, leaf[n]) for n in names] + [p.offset]  # noqa: E731
+    leaves = lambda p: p.friction.leaves() + [p.offset]  # noqa: E731
     return eqx.tree_at(leaves, spec, [n not in fixed for n in names] + [bool(offsets)])
 
 
-def names_of(friction) -> tuple[str, ...]:
-    """Reporting names of a friction-parameter module (`NAMES` for `EmpiricalFriction`;
-    other models, e.g. `fitting.microsqueeze_params.MicrosqueezeFriction`, carry their own)."""
-    return tuple(getattr(friction, "NAMES", NAMES))
-
-
-def units_of(friction) -> dict[str, str]:
-    """Units of `names_of(friction)`."""
-    return dict(getattr(friction, "UNITS", UNITS))
-
-
-def leaf_name(name: str) -> str:
-    """The `EmpiricalFriction` field that stores parameter `name`."""
-    return _LEAF[name]
-
-
-def as_numpy_values(params: CampaignParams) -> dict[str, float]:
-    """Natural values as a {name: float} dict (reporting edge only)."""
-    v = np.asarray(params.friction.values())
-    return {n: float(x) for n, x in zip(NAMES, v)}
+def free_mask(spec: CampaignParams) -> np.ndarray:
+    """Which friction parameters (`NAMES` order) a filter spec frees."""
+    return np.array([bool(b) for b in spec.friction.leaves()])

@@ -28,9 +28,7 @@ def _static_curves(logs, template, grid):
     """mu_0 of eq (1) on `grid` (s) for every row of `logs` (log parameter values)."""
     import jax
 
-    from .uncertainty import _from_logs
-
-    return jax.vmap(lambda d: _from_logs(d, template).friction().static(grid))(logs)
+    return jax.vmap(lambda d: template.from_log_values(d).friction().static(grid))(logs)
 
 
 def friction_curves(fit, unc, n_draws: int = 200, seed: int = 0):

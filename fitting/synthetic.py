@@ -23,7 +23,7 @@ from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.records import Record
 from stickslip_jax.simulation import pad_times, simulate_exact
 
-from .params import NAMES, EmpiricalFriction
+from .params import EmpiricalFriction
 
 __all__ = ["draw_prior_friction", "synthetic_campaign", "truth_values"]
 
@@ -60,11 +60,10 @@ def truth_values(friction) -> dict[str, float]:
     from stickslip_jax.contact import MicrosqueezeStatic
 
     if isinstance(friction.static, MicrosqueezeStatic):
-        from .microsqueeze_params import MICROSQUEEZE_NAMES, MicrosqueezeFriction
+        from .microsqueeze_params import MicrosqueezeFriction
 
-        p = MicrosqueezeFriction.from_friction(friction)
-        return dict(zip(MICROSQUEEZE_NAMES, np.asarray(p.values()).tolist()))
-    return dict(zip(NAMES, np.asarray(EmpiricalFriction.from_friction(friction).values()).tolist()))
+        return MicrosqueezeFriction.from_friction(friction).named_values()
+    return EmpiricalFriction.from_friction(friction).named_values()
 
 
 def synthetic_campaign(

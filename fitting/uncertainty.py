@@ -43,12 +43,11 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 
 from .fit import COMPILER_OPTIONS, FitResult
-from .params import _LEAF, UNITS, CampaignParams, EmpiricalFriction, names_of, units_of
+from .params import CampaignParams, free_mask
 
 __all__ = ["Uncertainty", "laplace", "Z95"]
 
 Z95 = 1.959963984540054
-_EMPIRICAL_LEAVES = _LEAF
 
 
 @dataclasses.dataclass(frozen=True)
@@ -80,7 +79,7 @@ class Uncertainty:
     def table(self) -> list[dict]:
         rows = []
         names = list(self.identifiable)
-        units = self.units or UNITS
+        units = self.units
         for i, n in enumerate(names):
             ok = bool(self.identifiable[n])
             rows.append(dict(
@@ -93,16 +92,6 @@ class Uncertainty:
         return rows
 
 
-def _from_logs(logs, template: EmpiricalFriction) -> EmpiricalFriction:
-    """EmpiricalFriction from log natural values (mu_s > mu_d assumed near the optimum);
-    other friction-parameter modules convert with their own `from_log_values`."""
-    if hasattr(template, "from_log_values"):
-        return template.from_log_values(logs)
-    l_mus, l_mud, l_g, l_m, l_d, l_n = (logs[i] for i in range(6))
-    gap = jnp.maximum(jnp.exp(l_mus) - jnp.exp(l_mud), 1e-300)
-    return EmpiricalFriction(l_mud, jnp.log(gap), l_g, l_m, l_d, l_n)
-
-
 @eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
 def _jacobian_log(theta0, logs0, idx, template, offset0, objective, fit_offsets: bool):
     """(J, r): residuals and their Jacobian in (log friction, free offsets) coordinates.
@@ -113,7 +102,7 @@ def _jacobian_log(theta0, logs0, idx, template, offset0, objective, fit_offsets:
     def residuals(theta):
         logs = logs0.at[idx].set(theta[:k])
         off = theta[k:] if fit_offsets else offset0
-        return objective.residuals(CampaignParams(_from_logs(logs, template), off))
+        return objective.residuals(CampaignParams(template.from_log_values(logs), off))
 
     return jax.jacfwd(residuals)(theta0), residuals(theta0)
 
@@ -123,9 +112,7 @@ def jacobian_log(fit: FitResult):
     theta = (log of the free friction parameters, free gauge offsets in mm)."""
     p = fit.params
     logs0 = p.friction.log_values()
-    spec_fr = fit.spec.friction
-    leaf = tuple(getattr(p.friction, "LEAVES", _EMPIRICAL_LEAVES)[n] for n in names_of(p.friction))
-    free = np.array([bool(getattr(spec_fr, lf)) for lf in leaf])
+    free = free_mask(fit.spec)
     idx = np.flatnonzero(free)
     fit_offsets = bool(fit.spec.offset)
     off0 = p.offset
@@ -212,8 +199,8 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
 def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
     flagged, msgs = set(), []
     feats = fit.features
-    names = names_of(fit.params.friction)
-    shape = tuple(getattr(fit.params.friction, "SHAPE_NAMES", ("mu_s", "gamma", "m")))
+    names = fit.params.friction.NAMES
+    shape = fit.params.friction.SHAPE_NAMES
     t2 = np.array([math.pi / f.omega0 for f in feats])
     if t2.max() / t2.min() < 1.05 and free[names.index("n")]:
         flagged |= {"n", "delta"}
@@ -311,7 +298,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         cov = np.linalg.pinv(F, rcond=1e-13, hermitian=True)
         scale = max(1.0, fit.reduced_chi2)
         cov *= scale
-    names = names_of(fit.params.friction)
+    names = fit.params.friction.NAMES
     cov_log = np.full((6, 6), np.nan)
     cov_log[np.ix_(idx, idx)] = cov[:k, :k]
     value = np.asarray(fit.params.friction.values())
@@ -397,7 +384,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         value=value, stderr=stderr, log_se=log_se, ci95=ci95, free=free, corr=corr,
         cov_log=cov_log, fisher_eigenvalues=eig, weakest_direction=weakest,
         identifiable=identifiable, warnings=warnings, scale=scale,
-        units=units_of(fit.params.friction), covariance=covariance,
+        units=dict(fit.params.friction.UNITS), covariance=covariance,
     )
 
 

@@ -127,9 +127,8 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
         campaign = screen_records(list(campaign), min_records=1)
     records = campaign.records
     rows = unc.table()
-    from ..params import names_of
 
-    truth = find_truth(records, names_of(fit.params.friction))
+    truth = find_truth(records, fit.params.friction.NAMES)
     params = {}
     for row in rows:
         entry = {"value": row["value"], "stderr": row["stderr"], "ci95": row["ci95"],

@@ -53,7 +53,7 @@ import scipy.stats
 
 from ..campaign import Campaign, screen_records
 from ..fit import fit_features
-from ..params import NAMES, CampaignParams, EmpiricalFriction
+from ..params import CampaignParams, EmpiricalFriction
 from ..trace_objective import trace_data, trace_sd
 from .cycle_effects import DRIVE_ERROR_MAX, FAMILIES, Family, Shape, drive_error_range, family
 from .cycle_model import CycleModel, drift_origins
@@ -241,8 +241,7 @@ def _phases(r_mm, slipping):
 
 
 def _friction_values(z) -> dict:
-    fr = EmpiricalFriction(*[float(x) for x in z[:6]])
-    return {n: float(v) for n, v in zip(NAMES, np.asarray(fr.values()))}
+    return EmpiricalFriction(*[float(x) for x in z[:6]]).named_values()
 
 
 def discover_cycles(

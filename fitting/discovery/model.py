@@ -40,7 +40,7 @@ import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.simulation.smooth import simulate_smooth
 
-from ..params import NAMES, EmpiricalFriction, leaf_name
+from ..params import NAMES, EmpiricalFriction
 from .effects import CANDIDATES, EffectSet, load_referred_friction
 
 __all__ = [
@@ -309,7 +309,7 @@ def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, 
 def _combine_friction(z_base, friction_static: EmpiricalFriction, free_names
                       ) -> EmpiricalFriction:
     """Friction with the leaves of `free_names` (log coordinates) taken from z_base."""
-    return eqx.tree_at(lambda f: [getattr(f, leaf_name(n)) for n in free_names],
+    return eqx.tree_at(lambda f: f.leaves(free_names),
                        friction_static, [z_base[i] for i in range(len(free_names))])
 
 
@@ -353,7 +353,7 @@ class Problem:
         return self.n_base + self.n_slots + self.traces.n_records
 
     def z0(self) -> np.ndarray:
-        fb = [float(getattr(self.friction0, leaf_name(n))) for n in self.free_names]
+        fb = [float(x) for x in self.friction0.leaves(self.free_names)]
         return np.concatenate([fb, np.zeros(self.n_slots), np.zeros(self.traces.n_records)])
 
     def active(self) -> np.ndarray:

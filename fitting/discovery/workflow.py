@@ -37,7 +37,7 @@ import time
 
 import numpy as np
 
-from ..params import NAMES, EmpiricalFriction
+from ..params import EmpiricalFriction
 from .effects import CANDIDATES, EffectSet
 from .lm import LMResult, levenberg_marquardt
 from .model import Problem, Settings, campaign_traces
@@ -143,7 +143,7 @@ def _friction_values(problem: Problem, z) -> dict:
     fit's apparent coefficients (against W) to physical ones (against N), the shape
     parameters as fitted (`effects.LoadCoupling`)."""
     params = problem.params(z)
-    v = {n: float(x) for n, x in zip(NAMES, np.asarray(params.friction.values()))}
+    v = params.friction.named_values()
     kappa = float(params.effects.load_coupling.kappa)
     for n in ("mu_s", "mu_d"):
         v[n] = v[n] / (1.0 + kappa * v[n])
