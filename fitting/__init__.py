@@ -1,7 +1,78 @@
-"""fitting: parameter identification, design studies and the missing-physics workflow for stickslip_jax.
+r"""fitting: parameter identification, design studies and the missing-physics workflow
+for stickslip_jax.
 
-Gradient fitting (optimistix) and MCMC (emcee) of friction parameters from measured
-stick-slip records. Importing it enables `jax_enable_x64` through `stickslip_jax`.
+Data flow, one way (each arrow a module boundary):
+
+1. records -> `campaign.load_campaign` (screening: used / set aside / no stick-slip)
+   -> `features.record_features` (cycle extraction with quality flags);
+2. -> objective: `objectives` (cycle features), `trace_objective` (every sample, exact
+   simulator restarted per cycle), `combined` (the weighted sum of both);
+3. -> solve: `fit.fit_features` / `fit.fit_records` (Levenberg-Marquardt with
+   multi-start and reweighting; one result type `FitResult` with a result code);
+4. -> uncertainty: `uncertainty.laplace` (Fisher or cluster sandwich), or the
+   posterior by `mcmc.run_mcmc` (emcee at the edge, on the same objective);
+5. -> report: `commands/` (argument parsing, tables, JSON); `plots` (figures).
+
+Where new things go:
+- a new friction law to fit: a final subclass of `params.AbstractFrictionParams`
+  (names, units, leaves, prior support; `from_log_values`, `with_values`, `physical`);
+- a new objective: a module beside `objectives` / `trace_objective`, with residuals of
+  `params.CampaignParams` whitened by their standard errors;
+- a new effect for discovery: a family in `discovery.cycle_effects` and its term in
+  `discovery.cycle_model`;
+- a new subcommand: a module in `commands/` (NAME, HELP, add_arguments, run) and an
+  entry point in the `stickslip.commands` group of pyproject.toml.
+
+Design studies live in `design` (steady maps, exact cycle maps, experiment planning),
+pitching fits in `pitch_fit`. Importing this package enables `jax_enable_x64` (through
+`stickslip_jax`): every computation here is in float64.
 """
 
+import importlib
+
 import stickslip_jax  # noqa: F401  (enables x64)
+
+__all__ = [
+    "AbstractFrictionParams",
+    "Campaign",
+    "CampaignParams",
+    "EmpiricalFriction",
+    "FitResult",
+    "McmcResult",
+    "MicrosqueezeFriction",
+    "RecordFeatures",
+    "Uncertainty",
+    "discover_cycles",
+    "fit_features",
+    "fit_microsqueeze",
+    "fit_records",
+    "free_spec",
+    "laplace",
+    "load_campaign",
+    "record_features",
+    "run_mcmc",
+]
+
+_HOME = {
+    "AbstractFrictionParams": "params", "CampaignParams": "params",
+    "EmpiricalFriction": "params", "free_spec": "params",
+    "MicrosqueezeFriction": "microsqueeze_params", "fit_microsqueeze": "microsqueeze_fit",
+    "Campaign": "campaign", "load_campaign": "campaign",
+    "RecordFeatures": "features", "record_features": "features",
+    "FitResult": "fit", "fit_features": "fit", "fit_records": "fit",
+    "Uncertainty": "uncertainty", "laplace": "uncertainty",
+    "McmcResult": "mcmc", "run_mcmc": "mcmc",
+    "discover_cycles": "discovery.cycle_workflow",
+}
+
+
+def __getattr__(name):
+    # imported on first use: building the `stickslip` parser imports this package, and
+    # the fit modules pull in the simulators
+    if name in _HOME:
+        return getattr(importlib.import_module(f".{_HOME[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -575,7 +575,6 @@ def extract_cycles(
                 left_out[why] = left_out.get(why, 0) + 1
             prev_end = None
             continue
-        n_pre, n_post = before.count, after.count
         y_pre, y_post = before.level, after.level  # refined at t_b, t_e below
         jump = y_post - y_pre
         if not jump > thr:

@@ -106,7 +106,7 @@ class FitResult:
         return self.objective.residuals(params)
 
 
-def _mu_levels(features, offsets):
+def mu_levels(features, offsets):
     mu0, mum = [], []
     for f, c in zip(features, offsets):
         mu0.append(f.stiffness * (f.peak - c) / f.weight)
@@ -117,7 +117,7 @@ def _mu_levels(features, offsets):
 def initial_guesses(features: list[RecordFeatures], offsets=None) -> list[EmpiricalFriction]:
     """Starting points: mu_d, mu_s from the measured mu_m, mu_0; a grid in gamma, m, delta."""
     offsets = np.zeros(len(features)) if offsets is None else np.asarray(offsets)
-    mu0, mum = _mu_levels(features, offsets)
+    mu0, mum = mu_levels(features, offsets)
     mu_d = max(0.9 * float(np.min(mum)), 1e-3)
     top = float(np.max(mu0))
     mu_s = max(top + 0.2 * (top - mu_d), mu_d * 1.05 + 1e-3)

@@ -27,7 +27,7 @@ from stickslip_jax.contact.boundary import approach_for, film_from_mu_s, final_a
 from stickslip_jax.tables import load_table
 
 from .features import RecordFeatures
-from .fit import FitResult, _mu_levels, fit_features
+from .fit import FitResult, mu_levels, fit_features
 from .microsqueeze_params import MicrosqueezeFriction
 
 __all__ = ["default_eta", "fit_microsqueeze", "microsqueeze_starts"]
@@ -58,7 +58,7 @@ def microsqueeze_starts(
     pair = surface_pair(pair) if isinstance(pair, str) else pair
     contact = BoundaryContact() if contact is None else contact
     offsets = np.zeros(len(features)) if offsets is None else np.asarray(offsets)
-    mu0, mum = _mu_levels(features, offsets)
+    mu0, mum = mu_levels(features, offsets)
     c1, c3 = float(contact.C1), float(contact.C3)
     top = float(np.max(mu0))
     mu_s = min(max(top + 0.2 * (top - float(np.min(mum))), 1.05 * c3), 0.99 * c1)

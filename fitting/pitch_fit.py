@@ -149,9 +149,9 @@ class PitchParams(eqx.Module):
 
     def natural(self) -> dict[str, float]:
         return {name: float(jnp.exp(v) if name in _LOG else v)
-                for name, v in zip(NAMES, self._leaves())}
+                for name, v in zip(NAMES, self.leaves())}
 
-    def _leaves(self):
+    def leaves(self):
         return (self.log_compliance_pitch, self.neutral_height, self.log_tau_pitch,
                 self.log_compliance_yaw, self.neutral_offset, self.log_tau_yaw)
 
@@ -293,7 +293,7 @@ def fit_pitching(
     template = pt.default_model() if template is None else template
     taus = np.geomspace(0.01, 300.0, 15) if taus is None else np.asarray(taus)
     init = PitchParams.from_model(template)
-    leaves = dict(zip(NAMES, init._leaves()))
+    leaves = dict(zip(NAMES, init.leaves()))
     free_flags = {n: False for n in NAMES}
     notes = []
     for plane, c_name, n_name, t_name in (
@@ -334,7 +334,7 @@ def fit_pitching(
     jac = np.asarray(_jacobian(free_hat, static, template, batch))
     cov = sigma**2 * np.linalg.pinv(jac.T @ jac)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    stored = dict(zip(NAMES, fitted._leaves()))
+    stored = dict(zip(NAMES, fitted.leaves()))
     parameters = {}
     k = 0
     for name in NAMES:

@@ -1,6 +1,29 @@
-"""Numerical helpers shared by the physics modules (NaN-safe powers and logs)."""
+"""Numerical helpers shared by the physics modules (NaN-safe powers and logs, float
+conversion and construction-time checks of concrete values)."""
 
+import jax
 import jax.numpy as jnp
+import numpy as np
+
+
+def as_float(x):
+    """`x` as a float array (the converter of every physical field)."""
+    return jnp.asarray(x, dtype=float)
+
+
+def is_concrete(*xs) -> bool:
+    """True when no argument is a tracer (checks on values can run)."""
+    return not any(isinstance(x, jax.core.Tracer) for x in xs)
+
+
+def check_positive(owner: str, **values):
+    """ValueError naming the offending field when a concrete value is not finite and > 0."""
+    if not is_concrete(*values.values()):
+        return
+    for name, v in values.items():
+        arr = np.asarray(v)
+        if not np.all(np.isfinite(arr)) or np.any(arr <= 0):
+            raise ValueError(f"{owner}: {name} must be finite and > 0, got {arr}")
 
 
 def safe_power(t, p):

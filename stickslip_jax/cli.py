@@ -1,9 +1,12 @@
 """The `stickslip` command line: one subcommand per module.
 
 Each subcommand lives in its own module exposing `NAME`, `HELP`,
-`add_arguments(parser)` and `run(args) -> int`. Modules that are not installed yet
-are skipped, so subcommands can be added without editing this file's logic.
-Errors a user can fix are printed as one line on stderr with exit code 2.
+`add_arguments(parser)` and `run(args) -> int`. The model package's own subcommands
+are listed here (`SUBCOMMANDS`); other packages add theirs through the entry-point group
+`stickslip.commands` (`COMMAND_GROUP`: the identification package `fitting` registers
+fit, mcmc, design, plan, discover and pitch in pyproject.toml), so this layer never
+names the layers built on it. Errors a user can fix are printed as one line on stderr
+with exit code 2.
 """
 
 from __future__ import annotations
@@ -18,13 +21,11 @@ SUBCOMMANDS = (
     "stickslip_jax.commands.simulate",
     "stickslip_jax.commands.plot",
     "stickslip_jax.commands.import_raw",
-    "fitting.commands.fit",
-    "fitting.commands.mcmc",
-    "fitting.commands.design",
-    "fitting.commands.plan",
-    "fitting.commands.discover",
-    "fitting.commands.pitch",
 )
+"""The model package's subcommands (modules)."""
+
+COMMAND_GROUP = "stickslip.commands"
+"""Entry-point group through which other packages register subcommand modules."""
 
 
 class UsageError(Exception):
@@ -36,15 +37,20 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"{self.prog}: error: {message}\n")
 
 
+def registered() -> list[str]:
+    """Module names of every subcommand: `SUBCOMMANDS`, then the `COMMAND_GROUP` entry
+    points of the installed distributions (in their declared order)."""
+    from importlib.metadata import entry_points
+
+    names = list(SUBCOMMANDS)
+    for ep in entry_points(group=COMMAND_GROUP):
+        if ep.value not in names:
+            names.append(ep.value)
+    return names
+
+
 def _load():
-    modules = []
-    for name in SUBCOMMANDS:
-        try:
-            modules.append(importlib.import_module(name))
-        except ModuleNotFoundError as exc:
-            if exc.name is None or not name.startswith(exc.name):
-                raise
-    return modules
+    return [importlib.import_module(name) for name in registered()]
 
 
 def _version() -> str:
@@ -68,18 +74,18 @@ def build_parser() -> argparse.ArgumentParser:
     for mod in _load():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
         mod.add_arguments(p)
-        p.set_defaults(_run=mod.run)
+        p.set_defaults(run_command=mod.run)
     return parser
 
 
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    if not getattr(args, "_run", None):
+    if not getattr(args, "run_command", None):
         parser.print_help()
         return 2
     try:
-        return int(args._run(args) or 0)
+        return int(args.run_command(args) or 0)
     except (UsageError, ValueError, FileNotFoundError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"stickslip {args.command}: error: {msg}", file=sys.stderr)

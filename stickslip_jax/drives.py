@@ -23,10 +23,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
-
-
-def _as_float(x):
-    return jnp.asarray(x, dtype=float)
+from ._math import as_float
 
 
 class AbstractDrive(eqx.Module):
@@ -55,7 +52,7 @@ class AbstractDrive(eqx.Module):
 class ConstantSpeed(AbstractDrive):
     """Constant drive speed `speed` (mm/s, stored as field `v`): u(t) = v * t."""
 
-    v: Float[Array, ""] = eqx.field(converter=_as_float)
+    v: Float[Array, ""] = eqx.field(converter=as_float)
 
     def __init__(self, speed):
         self.v = speed
@@ -76,8 +73,8 @@ class SpeedProgram(AbstractDrive):
     30 s hold: `SpeedProgram([0, 20, 50], [0.01, 0.0, 0.01])`.
     """
 
-    start_times: Float[Array, " K"] = eqx.field(converter=_as_float)
-    speeds: Float[Array, " K"] = eqx.field(converter=_as_float)
+    start_times: Float[Array, " K"] = eqx.field(converter=as_float)
+    speeds: Float[Array, " K"] = eqx.field(converter=as_float)
 
     def __check_init__(self):
         if self.start_times.ndim != 1 or self.speeds.shape != self.start_times.shape:
@@ -102,8 +99,8 @@ class MeasuredDrive(AbstractDrive):
     segment's speed extends backwards.
     """
 
-    times: Float[Array, " N"] = eqx.field(converter=_as_float)
-    positions: Float[Array, " N"] = eqx.field(converter=_as_float)
+    times: Float[Array, " N"] = eqx.field(converter=as_float)
+    positions: Float[Array, " N"] = eqx.field(converter=as_float)
 
     def __check_init__(self):
         if self.times.ndim != 1 or self.positions.shape != self.times.shape:

@@ -8,10 +8,7 @@ from jaxtyping import Array, Float
 
 from .friction import Friction
 from .units import G_MM_S2
-
-
-def _as_float(x):
-    return jnp.asarray(x, dtype=float)
+from ._math import as_float
 
 
 class Slideway(eqx.Module):
@@ -22,8 +19,8 @@ class Slideway(eqx.Module):
     """
 
     friction: Friction
-    weight: Float[Array, ""] = eqx.field(converter=_as_float)
-    stiffness: Float[Array, ""] = eqx.field(converter=_as_float)
+    weight: Float[Array, ""] = eqx.field(converter=as_float)
+    stiffness: Float[Array, ""] = eqx.field(converter=as_float)
 
     def __check_init__(self):
         if not isinstance(self.friction, Friction):

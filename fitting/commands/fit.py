@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ..campaign import find_truth, load_campaign  # noqa: F401  (find_truth: also for mcmc)
+from ..campaign import find_truth, load_campaign
 
 NAME = "fit"
 HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"

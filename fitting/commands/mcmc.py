@@ -54,7 +54,8 @@ def thinned_draws(samples, max_draws: int):
 
 def run(args) -> int:
     from ..mcmc import run_mcmc
-    from .fit import fit_from_args, find_truth
+    from ..campaign import find_truth
+    from .fit import fit_from_args
 
     if args.draws < 1:
         raise ValueError(f"--draws: need at least 1 draw, got {args.draws}")

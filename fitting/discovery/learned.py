@@ -47,8 +47,7 @@ from .model import (
     CampaignTraces,
     DiscoveryParams,
     Problem,
-    Settings,
-    _combine_friction,
+    combine_friction,
     effects_from_vector,
     simulate_campaign,
     simulate_record,
@@ -111,7 +110,7 @@ def _evaluate_learned(z_base, z_nn, dx0, eff_vec, friction_static, effects_templ
         w, k, v, x0g, dxr, t, m, d = args
 
         def f(q):
-            fr = _combine_friction(q[:nb], friction_static, free_names)
+            fr = combine_friction(q[:nb], friction_static, free_names)
             term = eqx.combine(unravel(q[nb:nb + nn]), static)
             model, ok = simulate_record(fr.friction(), eff, w, k, v, x0g + q[-1], t, m,
                                         settings, (term,))
@@ -183,7 +182,7 @@ class LearnedProblem:
     def params(self, z) -> DiscoveryParams:
         nb, nn = self.n_base, self.n_nn
         b = self.base
-        fr = _combine_friction(jnp.asarray(z[:nb]), b.friction0, b.free_names)
+        fr = combine_friction(jnp.asarray(z[:nb]), b.friction0, b.free_names)
         eff = effects_from_vector(b.effects0, jnp.asarray(self.eff_vec))
         return DiscoveryParams(fr, eff, b.traces.x0_guess + jnp.asarray(z[nb + nn:]))
 

@@ -289,7 +289,7 @@ def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, 
 
         def f(q):
             zb, zs, dx = q[:nb], q[nb:-1], q[-1]
-            fr = _combine_friction(zb, friction_static, free_names)
+            fr = combine_friction(zb, friction_static, free_names)
             eff = effects_from_vector(effects_template, eff0 + S @ zs)
             # friction coordinates are apparent (referred to W): see effects.LoadCoupling
             phys = load_referred_friction(fr.friction(), eff.load_coupling.kappa)
@@ -306,7 +306,7 @@ def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, 
                              dx0, traces.time, traces.mask, traces.data))
 
 
-def _combine_friction(z_base, friction_static: EmpiricalFriction, free_names
+def combine_friction(z_base, friction_static: EmpiricalFriction, free_names
                       ) -> EmpiricalFriction:
     """Friction with the leaves of `free_names` (log coordinates) taken from z_base."""
     return eqx.tree_at(lambda f: f.leaves(free_names),
@@ -398,7 +398,7 @@ class Problem:
 
     def params(self, z) -> DiscoveryParams:
         zb, zs, dx0 = self.split(z)
-        fr = _combine_friction(zb, self.friction0, self.free_names)
+        fr = combine_friction(zb, self.friction0, self.free_names)
         eff = effects_from_vector(self.effects0, self.eff0 + self.S @ zs)
         return DiscoveryParams(fr, eff, self.traces.x0_guess + dx0)
 

@@ -18,9 +18,10 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import Array, Float
 
-from .surfaces import MODEL_SLIDER_WEIGHT, SurfacePair, _as_float, _check_positive, _is_concrete
+from .surfaces import MODEL_SLIDER_WEIGHT, SurfacePair
+from .._math import as_float, is_concrete, check_positive
 
 Scalar = Float[Array, ""]
 
@@ -33,15 +34,15 @@ class BoundaryContact(eqx.Module):
     (default 1), `C3` = $S_b/p_b$ (default 0.075). All may be changed by the user.
     """
 
-    W: Scalar = eqx.field(converter=_as_float, default=MODEL_SLIDER_WEIGHT)
-    p_m: Scalar = eqx.field(converter=_as_float, default=200.0)
-    C1: Scalar = eqx.field(converter=_as_float, default=1.0)
-    C2: Scalar = eqx.field(converter=_as_float, default=1.0)
-    C3: Scalar = eqx.field(converter=_as_float, default=0.075)
+    W: Scalar = eqx.field(converter=as_float, default=MODEL_SLIDER_WEIGHT)
+    p_m: Scalar = eqx.field(converter=as_float, default=200.0)
+    C1: Scalar = eqx.field(converter=as_float, default=1.0)
+    C2: Scalar = eqx.field(converter=as_float, default=1.0)
+    C3: Scalar = eqx.field(converter=as_float, default=0.075)
 
     def __check_init__(self):
-        _check_positive("BoundaryContact", W=self.W, p_m=self.p_m, C1=self.C1, C2=self.C2, C3=self.C3)
-        if _is_concrete(self.C1, self.C3) and np.any(np.asarray(self.C2 * self.C3) >= np.asarray(self.C1)):
+        check_positive("BoundaryContact", W=self.W, p_m=self.p_m, C1=self.C1, C2=self.C2, C3=self.C3)
+        if is_concrete(self.C1, self.C3) and np.any(np.asarray(self.C2 * self.C3) >= np.asarray(self.C1)):
             raise ValueError(
                 "BoundaryContact: the film must be weaker in shear than the metal, "
                 f"C2*C3 = S_b/p_m < C1 = S_m/p_m; got C2*C3 = {self.C2 * self.C3}, C1 = {self.C1}"
@@ -130,7 +131,7 @@ def film_from_mu_s(pair: SurfacePair, contact: BoundaryContact, mu_s) -> FilmEst
     Lengths in mm; Table 11 lists the result for lubricants A-G on S1G1.
     """
     mu_s = jnp.asarray(mu_s, dtype=float)
-    if _is_concrete(mu_s, contact.C1, contact.C3):
+    if is_concrete(mu_s, contact.C1, contact.C3):
         bad = (np.asarray(mu_s) <= np.asarray(contact.C3)) | (np.asarray(mu_s) >= np.asarray(contact.C1))
         if np.any(bad):
             raise ValueError(

@@ -49,7 +49,8 @@ from jaxtyping import Array, ArrayLike, Float
 from ..friction import AbstractStaticFriction
 from ..tables import load_table
 from .boundary import BoundaryContact, approach_for, film_from_mu_s, final_approach, static_coefficient
-from .surfaces import SurfacePair, _as_float, _is_concrete, surface_pair
+from .surfaces import SurfacePair, surface_pair
+from .._math import as_float, is_concrete
 
 Scalar = Float[Array, ""]
 
@@ -107,17 +108,17 @@ class MicrosqueezeStatic(AbstractStaticFriction):
 
     pair: SurfacePair
     contact: BoundaryContact
-    t_b: Scalar = eqx.field(converter=_as_float)
-    eta: Scalar = eqx.field(converter=_as_float)
-    h_e: Scalar = eqx.field(converter=_as_float)
-    Q: Scalar = eqx.field(converter=_as_float)
-    mu_d: Scalar = eqx.field(converter=_as_float)
+    t_b: Scalar = eqx.field(converter=as_float)
+    eta: Scalar = eqx.field(converter=as_float)
+    h_e: Scalar = eqx.field(converter=as_float)
+    Q: Scalar = eqx.field(converter=as_float)
+    mu_d: Scalar = eqx.field(converter=as_float)
     n_small: int = eqx.field(static=True, default=32)
     n_large: int = eqx.field(static=True, default=96)
 
     def __check_init__(self):
         values = (self.t_b, self.eta, self.h_e, self.Q, self.mu_d)
-        if not _is_concrete(*values) or not _is_concrete(*jax.tree_util.tree_leaves((self.pair, self.contact))):
+        if not is_concrete(*values) or not is_concrete(*jax.tree_util.tree_leaves((self.pair, self.contact))):
             return
         for name in ("eta", "Q", "h_e"):
             v = np.asarray(getattr(self, name))

@@ -25,12 +25,11 @@ slideway) in contact over the apparent area $A_0$ (mm$^2$) gives
 from __future__ import annotations
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
-import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ..tables import load_table
+from .._math import as_float, check_positive
 
 Scalar = Float[Array, ""]
 
@@ -44,24 +43,6 @@ MODEL_APPARENT_AREA = MODEL_SLIDER_WEIGHT / MODEL_CONTACT_PRESSURE
 UNIT_LENGTH = 1.0
 
 
-def _as_float(x):
-    return jnp.asarray(x, dtype=float)
-
-
-def _is_concrete(*xs) -> bool:
-    return not any(isinstance(x, jax.core.Tracer) for x in xs)
-
-
-def _check_positive(owner: str, **values):
-    """ValueError naming the offending field when a concrete value is not finite and > 0."""
-    if not _is_concrete(*values.values()):
-        return
-    for name, v in values.items():
-        arr = np.asarray(v)
-        if not np.all(np.isfinite(arr)) or np.any(arr <= 0):
-            raise ValueError(f"{owner}: {name} must be finite and > 0, got {arr}")
-
-
 class Surface(eqx.Module):
     r"""One rough surface (Table 10): the linear-distribution asperity model of eq (29).
 
@@ -70,13 +51,13 @@ class Surface(eqx.Module):
     Every field may be a JAX array (batched surfaces under `vmap`).
     """
 
-    H_max: Scalar = eqx.field(converter=_as_float)
-    R: Scalar = eqx.field(converter=_as_float)
-    z: Scalar = eqx.field(converter=_as_float)
-    D: Scalar = eqx.field(converter=_as_float)
+    H_max: Scalar = eqx.field(converter=as_float)
+    R: Scalar = eqx.field(converter=as_float)
+    z: Scalar = eqx.field(converter=as_float)
+    D: Scalar = eqx.field(converter=as_float)
 
     def __check_init__(self):
-        _check_positive("Surface", H_max=self.H_max, R=self.R, z=self.z, D=self.D)
+        check_positive("Surface", H_max=self.H_max, R=self.R, z=self.z, D=self.D)
 
     def xi(self, unit_length: float = UNIT_LENGTH) -> Scalar:
         r"""Coefficient of surface topography $\xi = D (R/H_{max}) z L_u$ (section 7.4),
@@ -104,10 +85,10 @@ class SurfacePair(eqx.Module):
 
     slider: Surface
     slideway: Surface
-    A_0: Scalar = eqx.field(converter=_as_float, default=MODEL_APPARENT_AREA)
+    A_0: Scalar = eqx.field(converter=as_float, default=MODEL_APPARENT_AREA)
 
     def __check_init__(self):
-        _check_positive("SurfacePair", A_0=self.A_0)
+        check_positive("SurfacePair", A_0=self.A_0)
 
     @property
     def R_e(self) -> Scalar:

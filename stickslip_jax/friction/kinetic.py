@@ -8,8 +8,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._math import safe_power
-from .static import AbstractStaticFriction, Scalar, _as_float
+from .._math import as_float, safe_power
+from .static import AbstractStaticFriction, Scalar
 
 
 class AbstractKineticFriction(eqx.Module):
@@ -32,8 +32,8 @@ class KatoKinetic(AbstractKineticFriction):
     law (the paper's assumption). Table 6 gives `delta`, `n` for lubricants A and C.
     """
 
-    delta: Scalar = eqx.field(converter=_as_float)
-    n: Scalar = eqx.field(converter=_as_float)
+    delta: Scalar = eqx.field(converter=as_float)
+    n: Scalar = eqx.field(converter=as_float)
 
     def __call__(self, mu_0, mu_d, slip_time):
         t2 = jnp.asarray(slip_time, dtype=float)

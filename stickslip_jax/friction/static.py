@@ -14,13 +14,9 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._math import one_minus_exp_neg, safe_power
+from .._math import as_float, one_minus_exp_neg, safe_power
 
 Scalar = Float[Array, ""]
-
-
-def _as_float(x):
-    return jnp.asarray(x, dtype=float)
 
 
 class AbstractStaticFriction(eqx.Module):
@@ -49,10 +45,10 @@ class KatoStatic(AbstractStaticFriction):
     Parameter sets: Table 4, Table 6 (chapters 2-5) and Table 9 (chapter 7).
     """
 
-    mu_s: Scalar = eqx.field(converter=_as_float)
-    mu_d: Scalar = eqx.field(converter=_as_float)
-    gamma: Scalar = eqx.field(converter=_as_float)
-    m: Scalar = eqx.field(converter=_as_float)
+    mu_s: Scalar = eqx.field(converter=as_float)
+    mu_d: Scalar = eqx.field(converter=as_float)
+    gamma: Scalar = eqx.field(converter=as_float)
+    m: Scalar = eqx.field(converter=as_float)
 
     def __init__(self, mu_s, mu_d, gamma, m):
         # Explicit so that positional order is (mu_s, mu_d, gamma, m) as in eq (1); the
@@ -71,9 +67,9 @@ class KatoStatic(AbstractStaticFriction):
 class HoweStatic(AbstractStaticFriction):
     r"""Howe et al. (Table 3): $\mu_0 = \mu_d + (\mu_s - \mu_d)(1 - e^{-C T})$; `C` in 1/s."""
 
-    mu_s: Scalar = eqx.field(converter=_as_float)
-    mu_d: Scalar = eqx.field(converter=_as_float)
-    C: Scalar = eqx.field(converter=_as_float)
+    mu_s: Scalar = eqx.field(converter=as_float)
+    mu_d: Scalar = eqx.field(converter=as_float)
+    C: Scalar = eqx.field(converter=as_float)
 
     def __init__(self, mu_s, mu_d, C):
         # Explicit so that positional order is (mu_s, mu_d, C) as in Table 3.
@@ -90,9 +86,9 @@ class HoweStatic(AbstractStaticFriction):
 class DerjaguinStatic(AbstractStaticFriction):
     r"""Derjaguin (Table 3): $\mu_0 = \mu_d + C_1 T / (C_2 + T)$; `C1` dimensionless, `C2` in s."""
 
-    mu_d: Scalar = eqx.field(converter=_as_float)
-    C1: Scalar = eqx.field(converter=_as_float)
-    C2: Scalar = eqx.field(converter=_as_float)
+    mu_d: Scalar = eqx.field(converter=as_float)
+    C1: Scalar = eqx.field(converter=as_float)
+    C2: Scalar = eqx.field(converter=as_float)
 
     def __call__(self, stick_time):
         t = jnp.maximum(jnp.asarray(stick_time, dtype=float), 0.0)
@@ -108,9 +104,9 @@ class PowerLawStatic(AbstractStaticFriction):
     `C1` in s$^{-C_2}$, `C2` dimensionless. Unbounded as $T \to \infty$.
     """
 
-    mu_d: Scalar = eqx.field(converter=_as_float)
-    C1: Scalar = eqx.field(converter=_as_float)
-    C2: Scalar = eqx.field(converter=_as_float)
+    mu_d: Scalar = eqx.field(converter=as_float)
+    C1: Scalar = eqx.field(converter=as_float)
+    C2: Scalar = eqx.field(converter=as_float)
 
     def __call__(self, stick_time):
         t = jnp.asarray(stick_time, dtype=float)
@@ -122,9 +118,9 @@ class OkamuraStatic(AbstractStaticFriction):
     $\mu_0 = \mu_s / \{(\mu_s/\mu_d - 1)/\sqrt{C T + 1} + 1\}$; `C` in 1/s.
     """
 
-    mu_s: Scalar = eqx.field(converter=_as_float)
-    mu_d: Scalar = eqx.field(converter=_as_float)
-    C: Scalar = eqx.field(converter=_as_float)
+    mu_s: Scalar = eqx.field(converter=as_float)
+    mu_d: Scalar = eqx.field(converter=as_float)
+    C: Scalar = eqx.field(converter=as_float)
 
     def __init__(self, mu_s, mu_d, C):
         # Explicit so that positional order is (mu_s, mu_d, C) as in Table 3.

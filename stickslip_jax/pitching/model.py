@@ -25,13 +25,10 @@ from __future__ import annotations
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
+from .._math import as_float
 
 ETA_A = 2.2e-8
 """Viscosity of the paper's lubricant A in kgf*s/mm^2 (NOTES.md: 0.216 Pa*s, ~195 cSt)."""
-
-
-def _as_float(x):
-    return jnp.asarray(x, dtype=float)
 
 
 def _as_vector(x):
@@ -85,10 +82,10 @@ class TiltPlane(eqx.Module):
     - `pivot`: `s` position (mm) of the axis the slider turns about.
     """
 
-    compliance: Float[Array, ""] = eqx.field(converter=_as_float)
-    neutral: Float[Array, ""] = eqx.field(converter=_as_float)
+    compliance: Float[Array, ""] = eqx.field(converter=as_float)
+    neutral: Float[Array, ""] = eqx.field(converter=as_float)
     lag: LinearLag
-    pivot: Float[Array, ""] = eqx.field(converter=_as_float, default=0.0)
+    pivot: Float[Array, ""] = eqx.field(converter=as_float, default=0.0)
 
     def __check_init__(self):
         if not isinstance(self.lag, LinearLag):
@@ -103,8 +100,8 @@ class DrivePoint(eqx.Module):
     """Where the spring force acts: `height` h above the slide surface and `offset` l
     sideways from the centre of gravity, both in mm (Fig 42: C1, C2, C3, V, F, C1*)."""
 
-    height: Float[Array, "..."] = eqx.field(converter=_as_float)
-    offset: Float[Array, "..."] = eqx.field(converter=_as_float, default=0.0)
+    height: Float[Array, "..."] = eqx.field(converter=as_float)
+    offset: Float[Array, "..."] = eqx.field(converter=as_float, default=0.0)
 
 
 PITCH = "pitch"
@@ -176,8 +173,8 @@ class PitchingModel(eqx.Module):
     pitch: TiltPlane
     yaw: TiltPlane
     points: MeasuringPoints
-    viscosity: Float[Array, ""] = eqx.field(converter=_as_float, default=ETA_A)
-    reference_viscosity: Float[Array, ""] = eqx.field(converter=_as_float, default=ETA_A)
+    viscosity: Float[Array, ""] = eqx.field(converter=as_float, default=ETA_A)
+    reference_viscosity: Float[Array, ""] = eqx.field(converter=as_float, default=ETA_A)
 
     def __check_init__(self):
         for name in ("pitch", "yaw"):
@@ -197,7 +194,7 @@ class PitchingModel(eqx.Module):
 
     def with_viscosity(self, viscosity) -> PitchingModel:
         """The same slider with another lubricant viscosity (kgf s/mm^2)."""
-        return eqx.tree_at(lambda m: m.viscosity, self, _as_float(viscosity))
+        return eqx.tree_at(lambda m: m.viscosity, self, as_float(viscosity))
 
 
 def default_model(viscosity: float = ETA_A) -> PitchingModel:

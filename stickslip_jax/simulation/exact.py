@@ -92,7 +92,7 @@ def _newton_root(fun, dfun, lo, hi, max_iter=80, active=True):
     return jax.lax.while_loop(cond, body, init)[2]
 
 
-def _count_at_or_before(edges, ts):
+def count_at_or_before(edges, ts):
     """For sorted `edges` and sorted `ts`: how many edges are <= each t, i.e.
     `searchsorted(edges, ts, side="right")`. The edges are placed among the samples
     (E binary searches); then each sample index is compared with all E positions (one
@@ -255,7 +255,7 @@ def simulate_exact(
                  cycle_table=cycle_table)
     # each sample's phase row: how many phase starts are at or before it
     n_rows = ev.row_time.shape[0]
-    row = jnp.clip(_count_at_or_before(ev.row_time, ts) - 1, 0, n_rows - 1)
+    row = jnp.clip(count_at_or_before(ev.row_time, ts) - 1, 0, n_rows - 1)
     u = _drive_at(ev.knot_table, ts)[0]
     deflection, velocity, sticking = _render(ts, row, ev.coef, ev.omega, u)
     return Trace(

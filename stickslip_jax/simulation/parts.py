@@ -34,12 +34,9 @@ from typing import ClassVar
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
+from .._math import as_float
 
 Scalar = Float[Array, ""]
-
-
-def _as_float(x):
-    return jnp.asarray(x, dtype=float)
 
 
 class Core(eqx.Module):
@@ -123,7 +120,7 @@ class ConstantLoad(AbstractLoadCoupling):
 class ViscousDamping(AbstractForceTerm):
     r"""Linear viscous force $-c\,\dot y$; `c` in kgf*s/mm (0 = absent)."""
 
-    c: Scalar = eqx.field(converter=_as_float, default=0.0)
+    c: Scalar = eqx.field(converter=as_float, default=0.0)
 
     def force(self, t, core, own, ctx):
         return -self.c * core.ydot
@@ -133,8 +130,8 @@ class IdealGauge(AbstractMeasurement):
     """The gauge reads the deflection plus a constant `offset` (mm); white noise
     `noise_std` (mm) is added only by synthetic records, not by the simulator."""
 
-    offset: Scalar = eqx.field(converter=_as_float, default=0.0)
-    noise_std: Scalar = eqx.field(converter=_as_float, default=0.0)
+    offset: Scalar = eqx.field(converter=as_float, default=0.0)
+    noise_std: Scalar = eqx.field(converter=as_float, default=0.0)
 
     def observe(self, t, core, own, ctx):
         return core.x + self.offset

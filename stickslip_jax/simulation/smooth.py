@@ -84,7 +84,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import optimistix as optx
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import ArrayLike, Float
 
 from ..drives import AbstractDrive
 from ..slideway import Slideway
@@ -98,7 +98,7 @@ from .parts import (
     Core,
     IdealGauge,
 )
-from .exact import _count_at_or_before
+from .exact import count_at_or_before
 from .trace import Cycles, SimulationResult, Trace
 
 
@@ -505,7 +505,7 @@ def _hermite_at(vector_field, t0, y0, sol, ts):
         return jnp.zeros_like(a).at[rows].set(a)
 
     start = materialise(times[:-1])
-    idx = jnp.clip(_count_at_or_before(times, ts) - 1, 0, jnp.maximum(n - 1, 0))
+    idx = jnp.clip(count_at_or_before(times, ts) - 1, 0, jnp.maximum(n - 1, 0))
     dt = ts - start[idx]
     cols = []
     for j in range(flat.shape[1]):

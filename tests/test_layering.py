@@ -1,0 +1,95 @@
+"""The package's layering (issue 16): data flow one way, no private names across
+modules, subcommands registered from the fitting side, no probing of parameter classes.
+
+Read from the source with `ast`, so these fail the moment a shortcut comes back."""
+
+from __future__ import annotations
+
+import ast
+import pathlib
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+PACKAGES = ("stickslip_jax", "fitting")
+
+
+def _modules(*packages):
+    for pkg in packages:
+        for path in sorted((ROOT / pkg).rglob("*.py")):
+            yield path, ast.parse(path.read_text(), filename=str(path))
+
+
+def _imports(tree):
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.module != "__future__":
+            yield node, node.module or "", [a.name for a in node.names], node.level
+        elif isinstance(node, ast.Import):
+            yield node, None, [a.name for a in node.names], 0
+
+
+def test_no_private_name_imported_across_modules():
+    bad = []
+    for path, tree in _modules(*PACKAGES):
+        for node, module, names, _ in _imports(tree):
+            if module is None:
+                continue
+            for n in names:
+                if n.startswith("_") and not n.startswith("__"):
+                    bad.append(f"{path.relative_to(ROOT)}:{node.lineno}: {module}.{n}")
+    assert not bad, "private names imported from other modules:\n" + "\n".join(bad)
+
+
+def test_model_package_never_imports_fitting():
+    bad = []
+    for path, tree in _modules("stickslip_jax"):
+        for node, module, names, level in _imports(tree):
+            mods = names if module is None else [module]
+            if level == 0 and any(m == "fitting" or m.startswith("fitting.") for m in mods):
+                bad.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+        text = path.read_text()
+        assert '"fitting.' not in text, f"{path.relative_to(ROOT)} names a fitting module"
+    assert not bad, "stickslip_jax imports the fitting package:\n" + "\n".join(bad)
+
+
+def test_no_probing_of_parameter_classes():
+    """Generic code reads the friction-parameter family's class variables; hasattr on
+    parameters (the old way to tell the laws apart) must not come back."""
+    bad = []
+    for path, tree in _modules("fitting"):
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
+                    and node.func.id == "hasattr":
+                bad.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not bad, "hasattr probing in fitting/:\n" + "\n".join(bad)
+
+
+def test_fitting_commands_registered_by_entry_points():
+    from stickslip_jax import cli
+
+    names = cli.registered()
+    assert not any(n.startswith("fitting.") for n in cli.SUBCOMMANDS)
+    for cmd in ("fit", "mcmc", "design", "plan", "discover", "pitch"):
+        assert f"fitting.commands.{cmd}" in names, (
+            f"{cmd}: not registered (entry point group {cli.COMMAND_GROUP}; reinstall "
+            "the package after editing pyproject.toml)")
+
+
+@pytest.mark.parametrize("law", ["EmpiricalFriction", "MicrosqueezeFriction"])
+def test_parameter_laws_are_final_subclasses(law):
+    import fitting.microsqueeze_params as msp
+    import fitting.params as params
+
+    cls = getattr(params, law, None) or getattr(msp, law)
+    assert issubclass(cls, params.AbstractFrictionParams)
+    for var in ("MODEL", "NAMES", "UNITS", "LEAVES", "SHAPE_NAMES", "PRIOR_BOUNDS", "REGION"):
+        assert hasattr(cls, var), f"{law}.{var} missing"
+    assert set(cls.LEAVES) == set(cls.NAMES) == set(cls.UNITS)
+    assert set(cls.NAMES) <= set(cls.PRIOR_BOUNDS)
+
+
+def test_public_api_resolves():
+    import fitting
+
+    for name in fitting.__all__:
+        assert getattr(fitting, name) is not None, name

@@ -1,0 +1,60 @@
+"""The friction-parameter family (fitting.params, fitting.microsqueeze_params)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fitting.microsqueeze_params import MicrosqueezeFriction
+from fitting.params import CampaignParams, EmpiricalFriction, free_mask, free_spec
+
+A = dict(mu_s=0.56, mu_d=0.21, gamma=0.38, m=0.4, delta=67.0, n=1.0)
+
+
+def _laws():
+    emp = EmpiricalFriction.from_values(**A)
+    micro = MicrosqueezeFriction.from_values(0.4, 0.2, 0.01, 1.0, 50.0, 1.0, eta=2.2e-8)
+    return emp, micro
+
+
+@pytest.mark.parametrize("i", [0, 1])
+def test_log_values_round_trip(i):
+    p = _laws()[i]
+    back = p.from_log_values(p.log_values())
+    np.testing.assert_allclose(np.asarray(back.values()), np.asarray(p.values()), rtol=1e-9)
+    assert type(back) is type(p)
+    assert list(p.named_values()) == list(p.NAMES)
+
+
+@pytest.mark.parametrize("i", [0, 1])
+def test_with_values_checks_the_domain(i):
+    p = _laws()[i]
+    q = p.with_values(delta=12.5)
+    assert q.named_values()["delta"] == pytest.approx(12.5)
+    assert q.named_values()["mu_s"] == pytest.approx(p.named_values()["mu_s"])
+    with pytest.raises(ValueError, match="unknown parameter"):
+        p.with_values(bogus=1.0)
+    with pytest.raises(ValueError, match="mu_s > mu_d"):
+        p.with_values(mu_d=0.9)
+    with pytest.raises(ValueError, match="positive"):
+        p.with_values(n=-1.0)
+
+
+def test_free_spec_and_mask():
+    emp, _ = _laws()
+    params = CampaignParams(emp, np.zeros(3))
+    spec = free_spec(params, fixed=("n", "mu_s"), offsets=True)
+    assert free_mask(spec).tolist() == [False, True, True, True, True, False]
+    assert bool(spec.offset)
+    with pytest.raises(ValueError, match="unknown parameter"):
+        free_spec(params, fixed=("h_e",))
+
+
+def test_physical_region():
+    emp, micro = _laws()
+    assert bool(emp.physical()) and bool(micro.physical())
+    # a margin far below the floor: the microsqueeze law clips, outside its region
+    import equinox as eqx
+
+    off = eqx.tree_at(lambda f: f.log_margin, micro, micro.log_margin - 80.0)
+    assert not bool(off.physical())
