@@ -8,11 +8,12 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
 - Parameters: `fitting.params.CampaignParams` (friction in unconstrained coordinates,
   one gauge offset per record); the free leaves are chosen with `eqx.partition`
   (`free_spec(fixed=..., offsets=...)`).
-- Solver: `optimistix.least_squares` with Levenberg-Marquardt (optimistix's damped
-  Newton descent and trust region, `_LevenbergMarquardt`), the whole multi-start run (a
+- Solver: `optimistix.least_squares` with the project's one Levenberg-Marquardt
+  (`stickslip_jax.lsq.LevenbergMarquardt`: Marquardt scaling, Nielsen damping, the
+  Jacobian once per evaluated point by forward mode), the whole multi-start run (a
   `lax.map` over starting points) inside one `eqx.filter_jit`, so a campaign compiles
-  once. The Jacobian is built once per step by forward mode (`_jacobian_once`) and the
-  damped steps come from the small normal equations.
+  once. It stops when the Gauss-Newton step would lower chi2 by less than
+  `atol + rtol * chi2`.
 - Weights: the effective-variance standard errors depend on the parameters; each
   Levenberg-Marquardt run holds them fixed (exact Jacobian, quadratic convergence) and
   a few reweighting rounds reach the estimate (`_solve_rounds`).
@@ -33,16 +34,16 @@ import concurrent.futures
 import dataclasses
 import itertools
 import math
-from collections.abc import Callable
 from typing import NamedTuple
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import lineax as lx
 import numpy as np
 import optimistix as optx
 import jax.flatten_util  # noqa: F401
+
+from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_decrease
 
 from .combined import CampaignObjective
 from .features import RecordFeatures, record_features
@@ -128,72 +129,6 @@ def initial_guesses(features: list[RecordFeatures], offsets=None) -> list[Empiri
     return starts
 
 
-class _TrustRegion(optx.ClassicalTrustRegion):
-    """The classical trust-region update of Levenberg-Marquardt, except that a step whose
-    change of the loss is within rounding (`ROUNDING` of the loss) is accepted (and the
-    step size kept): at the optimum the predicted reductions fall below the rounding of a
-    sum over up to a million squared residuals, and the classical rule would reject steps
-    on the sign of rounding noise, shrinking the step size some twenty times before the
-    step vanishes."""
-
-    def step(self, first_step, y, y_eval, f_info, f_eval_info, state):
-        step_size, accept, result, new_state = super().step(
-            first_step, y, y_eval, f_info, f_eval_info, state)
-        flat = _flat(f_info.as_min(), f_eval_info.as_min()) & ~accept
-        new_state = eqx.tree_at(lambda s: s.step_size, new_state,
-                                jnp.where(flat, state.step_size, new_state.step_size))
-        return jnp.where(flat, state.step_size, step_size), accept | flat, result, new_state
-
-
-ROUNDING = 1e-10
-"""Relative change of the loss treated as no change (rounding of the sums of squares)."""
-
-
-def _flat(loss, loss_new):
-    return jnp.abs(loss_new - loss) <= ROUNDING * jnp.abs(loss)
-
-
-class _LevenbergMarquardt(optx.AbstractGaussNewton):
-    """`optimistix.LevenbergMarquardt` (the same damped Newton descent) with `_TrustRegion`,
-    which also ends the solve when the loss no longer changes beyond rounding."""
-
-    rtol: float
-    atol: float
-    norm: Callable
-    descent: optx.DampedNewtonDescent
-    search: _TrustRegion
-    verbose: Callable
-
-    def __init__(self, rtol, atol, norm, linear_solver):
-        self.rtol, self.atol, self.norm = rtol, atol, norm
-        self.descent = optx.DampedNewtonDescent(linear_solver=linear_solver)
-        self.search = _TrustRegion()
-        self.verbose = _quiet
-
-    def step(self, fn, y, args, options, state, tags):
-        # Also stop (successfully) once an accepted step changes the loss only within
-        # rounding: no further progress can be told from rounding noise; and after `args`
-        # steps when given (a traced step cap: screening, see `_solve_rounds`). (Reads the
-        # Gauss-Newton state of optimistix 0.1: f_info, first_step, terminate, num_steps.)
-        y_new, new_state, aux = super().step(fn, y, args, options, state, tags)
-        moved = new_state.num_accepted_steps > state.num_accepted_steps
-        stop = moved & ~state.first_step & _flat(state.f_info.as_min(), new_state.f_info.as_min())
-        if args is not None:
-            stop = stop | (new_state.num_steps >= args)
-        return y_new, eqx.tree_at(lambda s: s.terminate, new_state, new_state.terminate | stop), aux
-
-
-def _quiet(**kwargs):
-    del kwargs
-
-
-_LINEAR_SOLVER = lx.Normal(lx.SVD())
-"""Damped Gauss-Newton steps from the normal equations (J^T J + lambda I, a small
-symmetric matrix; SVD, so a rank-deficient campaign gives the minimum-norm step).
-Householder QR of the tall Jacobian of a trace fit (hundreds of thousands of rows)
-cost about five times more per step."""
-
-
 def _stack(trees):
     # on the host: an eager jnp.stack (or jnp.asarray of a NumPy array) would compile a
     # small program per campaign layout; device_put only copies
@@ -222,12 +157,6 @@ def _residuals_and_aux(objective: CampaignObjective, params, ref, velocity):
     return jnp.concatenate([math.sqrt(wf) * rf, math.sqrt(wt) * rt]), (ok, vel)
 
 
-def _zero_tangent(x):
-    if jnp.issubdtype(x.dtype, jnp.inexact):
-        return jnp.zeros_like(x)
-    return np.zeros(x.shape, jax.dtypes.float0)
-
-
 def _residual_fn(template, static, objective, ref_free, vel):
     """v (flat free parameters) -> (whitened residuals, aux) with weights frozen at `ref_free`."""
     _, unravel = jax.flatten_util.ravel_pytree(template)
@@ -239,63 +168,12 @@ def _residual_fn(template, static, objective, ref_free, vel):
     return fun
 
 
-@eqx.filter_jit
-def _residuals_jacobian(v, template, static, objective, ref_free, vel):
-    """Residuals, their transposed Jacobian [P, N] by forward mode (a tangent per
-    parameter) and aux.
-
-    Jitted on its own (inlined in the solve) so that its trace is cached: optimistix
-    traces the solver step twice, and tracing the simulator's derivative is the costly
-    part of building the program. The tangent axis leads: with it last, each sample's
-    six tangents are interleaved and the trace Jacobian took 1.45x longer (measured on
-    benchmarks/fit.py's campaign, data passed as arguments as in the solve)."""
-    fun = _residual_fn(template, static, objective, ref_free, vel)
-
-    def push(t):
-        return jax.jvp(fun, (v,), (t,), has_aux=True)
-
-    return jax.vmap(push, out_axes=(None, 0, None))(jnp.eye(v.size, dtype=v.dtype))
-
-
-@eqx.filter_jit
-def _residuals_value(v, template, static, objective, ref_free, vel):
-    """Residuals and aux only (the primal of `_jacobian_once`: traced for shapes)."""
-    return _residual_fn(template, static, objective, ref_free, vel)(v)
-
-
-def _jacobian_once(value, value_and_jacobian):
-    """`v -> (r, aux)` = `value(v)`, with a JVP rule that returns `J @ dv` from
-    `value_and_jacobian(v) -> (r, J^T, aux)` (J built once by forward mode; aux: no
-    derivative).
-
-    Optimistix linearises the residuals every step and applies the linear map (to form J
-    for its linear solve) and its transpose (gradient for the trust region): through the
-    simulator that means a tangent program and a transposed one, each compiled. With J
-    built here both are matrix products, and the compiled program holds the simulator
-    once, with its forward derivative. The primal is only traced (for its shapes: the
-    solver evaluates the residuals through their linearisation), under another tracing
-    context than the JVP rule, so the two would not share a cached trace: `value`
-    without the derivative keeps that extra trace cheap."""
-
-    @jax.custom_jvp
-    def f(v):
-        return value(v)
-
-    @f.defjvp
-    def f_jvp(primals, tangents):
-        (v,), (dv,) = primals, tangents
-        r, jac_t, aux = value_and_jacobian(v)
-        return (r, aux), (dv @ jac_t, jax.tree_util.tree_map(_zero_tangent, aux))
-
-    return f
-
-
-def _solve_starts_impl(free_starts, ref_starts, velocity, caps, static, objective, rtol, atol,
-                       max_steps, norm, linear_solver):
+def _solve_starts_impl(free_starts, ref_starts, velocity, caps, lams, static, objective, rtol,
+                       atol, max_steps):
     """Levenberg-Marquardt from every start (leading axis of `free_starts`), each with the
     weights frozen at its reference (`ref_starts`, `velocity`: same leading axis) and
     stopped after `caps` steps (int per start; a traced value, so screening rounds and
-    the polish of one start reuse the compilation). One
+    the polish of one start reuse the compilation), with initial damping `lams`. One
     compiled solve run start after start (`lax.map`: a `vmap` would turn the solver's loop
     and branches into selects, about three times the compilation). Returns the optima,
     their chi2, results (and whether each is successful), step counts, the trace
@@ -304,26 +182,24 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, caps, static, objectiv
     free0 = jax.tree_util.tree_map(lambda x: x[0], free_starts)
     _, unravel = jax.flatten_util.ravel_pytree(free0)
     flat_starts = jax.vmap(lambda f: jax.flatten_util.ravel_pytree(f)[0])(free_starts)
-    solver = _LevenbergMarquardt(rtol, atol, norm, linear_solver)
 
     def solve(args):
-        y0, ref_free, vel, cap = args
-        data = (free0, static, objective, ref_free, vel)
-        res = _jacobian_once(lambda v: _residuals_value(v, *data),
-                             lambda v: _residuals_jacobian(v, *data))
+        y0, ref_free, vel, cap, lam0 = args
+        res = _residual_fn(free0, static, objective, ref_free, vel)
 
         def residuals(v, _):
             r, aux = res(v)
             return r, (jnp.sum(r * r), aux)
 
-        sol = optx.least_squares(residuals, solver, y0, args=cap, has_aux=True,
-                                 max_steps=max_steps, throw=False)
+        solver = LevenbergMarquardt(rtol=rtol, atol=atol, cap=cap, lam0=lam0)
+        sol = optx.least_squares(residuals, solver, y0, has_aux=True, max_steps=max_steps,
+                                 throw=False)
         chi2, (ok, vel_opt) = sol.aux
         success = sol.result == optx.RESULTS.successful
         return (unravel(sol.value), chi2, sol.result, success, sol.stats["num_steps"], ok,
                 vel_opt)
 
-    return jax.lax.map(solve, (flat_starts, ref_starts, velocity, caps))
+    return jax.lax.map(solve, (flat_starts, ref_starts, velocity, caps, lams))
 
 
 COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
@@ -359,13 +235,22 @@ SCREEN_STEPS = 30
 POLISH_STARTS = 4
 """Starts (those with the lowest chi2 after screening) polished to the tolerances."""
 
+LAMBDA_START = 1e-3
+"""Initial Levenberg-Marquardt damping (relative to Marquardt's scaling) from the grid
+of starts."""
+
+LAMBDA_NEAR = 1e-6
+"""Initial damping from a previous optimum (a later reweighting round, the trace fit from
+the features optimum): the quadratic model is trusted there, and a larger damping would
+hold back the weakly determined directions (gamma against m) for several steps."""
+
 
 def _screen_rounds(n_start: int) -> int:
     """Screening rounds of `_solve_rounds` for `n_start` starts (none for a single start)."""
     return SCREEN_ROUNDS if n_start > 1 else 0
 
 
-def _first_round(free_starts, static, objective, rtol, atol, max_steps, norm, linear_solver):
+def _first_round(free_starts, static, objective, rtol, atol, max_steps):
     """The arguments of `_solve_starts` in the first round of `_solve_rounds`: weights at
     the starts, the trace's slider velocity 0, step caps for screening (several starts)
     or the full budget."""
@@ -375,8 +260,9 @@ def _first_round(free_starts, static, objective, rtol, atol, max_steps, norm, li
         vel = jax.device_put(np.zeros((n_start,) + objective.trace.mask.shape))
     caps = np.full(n_start, SCREEN_STEPS if _screen_rounds(n_start) else max_steps + 1,
                    np.int32)
-    return (free_starts, free_starts, vel, jax.device_put(caps), static, objective, rtol,
-            atol, max_steps, norm, linear_solver)
+    lams = np.full(n_start, LAMBDA_START if _screen_rounds(n_start) else LAMBDA_NEAR)
+    return (free_starts, free_starts, vel, jax.device_put(caps), jax.device_put(lams), static,
+            objective, rtol, atol, max_steps)
 
 
 def _compile_together(calls):
@@ -394,7 +280,7 @@ def _compile_together(calls):
     return futures
 
 
-def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, linear_solver):
+def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps):
     """Levenberg-Marquardt with effective-variance weights by iterative reweighting.
 
     The standard errors of both objectives depend on the parameters (the timing errors
@@ -415,15 +301,15 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, l
     ref = free_starts
     n_start = jax.tree_util.tree_leaves(free_starts)[0].shape[0]
     screen = _screen_rounds(n_start)
-    _, _, vel, caps, *_ = _first_round(free_starts, static, objective, rtol, atol, max_steps,
-                                       norm, linear_solver)
+    _, _, vel, caps, lams, *_ = _first_round(free_starts, static, objective, rtol, atol,
+                                             max_steps)
     caps = np.asarray(caps)
     total = np.zeros(n_start, int)
     polished = np.ones(n_start, bool)
     for k in range(screen + MAX_ROUNDS):
         values, chi2s, results, success, steps, flags, vel_opt = _solve_starts(
-            free_starts, ref, vel, jax.device_put(caps), static, objective, rtol, atol,
-            max_steps, norm, linear_solver)
+            free_starts, ref, vel, jax.device_put(caps), lams, static, objective, rtol, atol,
+            max_steps)
         total += np.asarray(steps)
         chi2s_np = np.asarray(chi2s)
         ok = np.asarray(success)
@@ -434,6 +320,7 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps, norm, l
                                    jax.tree_util.tree_leaves(ref)))
         free_starts = ref = values
         vel = vel_opt
+        lams = jax.device_put(np.full(n_start, LAMBDA_NEAR))
         if k + 1 == screen:
             polished = np.zeros(n_start, bool)
             polished[np.argsort(score, kind="stable")[:POLISH_STARTS]] = True
@@ -499,10 +386,9 @@ def fit_features(
                                     reslip)
         features_ready, trace_ready = _compile_together([
             _first_round(problem.free_starts, problem.static, problem.objective, rtol, atol,
-                         max_steps, optx.max_norm, _LINEAR_SOLVER),
+                         max_steps),
             _first_round(_stack([_take(problem.free_starts, 0)]), problem.static,
-                         objective_of(problem.data), t_rtol, t_atol, t_steps, optx.rms_norm,
-                         _LINEAR_SOLVER)])
+                         objective_of(problem.data), t_rtol, t_atol, t_steps)])
         features_ready.result()
         first = _fit_problem(problem, features, rtol, atol, max_steps)  # trace still compiling
         trace_ready.result()
@@ -580,9 +466,7 @@ class _FeaturesProblem(NamedTuple):
 def _fit_problem(problem: _FeaturesProblem, features, rtol, atol, max_steps) -> FitResult:
     """The multi-start features fit of `problem` (`fit_features` with objective "features")."""
     values, chi2s, result, ok, steps, _, best, rounds = _solve_rounds(
-        problem.free_starts, problem.static, problem.objective, rtol, atol, max_steps,
-        optx.max_norm, _LINEAR_SOLVER
-    )
+        problem.free_starts, problem.static, problem.objective, rtol, atol, max_steps)
     free_best = _take(values, best)
     params = eqx.combine(free_best, problem.static)
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free_best,
@@ -626,17 +510,15 @@ def _gn_terms(free, static, objective):
 
 def _gn_decrement(free, static, objective) -> float:
     """Predicted chi2 decrease of a Gauss-Newton step, g^T (J^T J)^+ g (g = J^T r)."""
-    g, F = (np.asarray(x) for x in _gn_terms(free, static, objective))
-    return float(g @ np.linalg.pinv(F, rcond=1e-13, hermitian=True) @ g)
+    g, F = _gn_terms(free, static, objective)
+    return float(gauss_newton_decrease(F, g))
 
 
-def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps,
-            norm=optx.rms_norm) -> FitResult:
+def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps) -> FitResult:
     """Levenberg-Marquardt (with reweighting rounds) of `obj` from the features fit's optimum."""
     free, static = eqx.partition(first.params, first.spec)
     values, chi2s, result, ok, steps, flags, _, rounds = _solve_rounds(
-        _stack([free]), static, obj, rtol, atol, max_steps, norm, _LINEAR_SOLVER
-    )
+        _stack([free]), static, obj, rtol, atol, max_steps)
     free_opt = _take(values, 0)
     params = eqx.combine(free_opt, static)
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free, eqx.is_array)))

@@ -10,6 +10,15 @@ adds its physical region to the support: $C_3 < \mu_s < C_1$, $\mu_d$ above the
 film-only friction and $h_e > t_b + a_d$ (`MicrosqueezeFriction.physical`; a point
 outside has zero prior density).
 
+For the trace and combined objectives (and features fits the model does not describe
+to their noise) the samples of one stick phase share errors, and a likelihood that
+treats them as independent is too narrow, as the Fisher intervals are (see
+`fitting.uncertainty`). There the likelihood is tempered: $s$ is multiplied by the
+largest ratio, over the free friction parameters, of the cluster-robust (sandwich)
+variance to the scaled Fisher variance (`likelihood_scale`, reported), so that no
+parameter's posterior is narrower than its robust Laplace interval. The sampler then
+draws from the same objective the fit minimised (`stickslip mcmc --objective trace`).
+
 It is written for emcee's `vectorize=True`: one call evaluates the whole ensemble,
 a `jax.vmap` of the residuals inside one `jax.jit`, over a flat (walkers, dim) array
 of (log parameters, offsets); the flattening happens only here, at the sampler
@@ -35,7 +44,8 @@ from .microsqueeze_params import MicrosqueezeFriction
 from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_mask
 from .uncertainty import laplace
 
-__all__ = ["PRIOR_BOUNDS", "McmcResult", "log_posterior", "run_mcmc", "prior_text"]
+__all__ = ["PRIOR_BOUNDS", "McmcResult", "likelihood_scale", "log_posterior", "run_mcmc",
+           "prior_text"]
 
 PRIOR_BOUNDS = {**EmpiricalFriction.PRIOR_BOUNDS, **MicrosqueezeFriction.PRIOR_BOUNDS}
 """Support of the log-uniform prior of each parameter of both laws (natural units: h_e
@@ -80,11 +90,28 @@ def _batched_log_posterior(theta, logs0, idx, lo, hi, template, offset0, objecti
     return jax.vmap(one)(theta)
 
 
-def log_posterior(fit: FitResult):
+def likelihood_scale(fit: FitResult) -> float:
+    """The factor s dividing chi2 in the log-likelihood (module doc): max(1, chi2/dof),
+    times the largest robust-to-Fisher variance ratio of the free friction parameters
+    when the fit's Laplace covariance is not Fisher's."""
+    base = max(1.0, fit.reduced_chi2)
+    robust = laplace(fit)
+    if robust.covariance == "fisher":
+        return base
+    fisher = laplace(fit, covariance="fisher")
+    free = robust.free
+    ratio = np.diag(robust.cov_log)[free] / np.diag(fisher.cov_log)[free]
+    ratio = ratio[np.isfinite(ratio)]
+    return base * max(1.0, float(ratio.max()) if ratio.size else 1.0)
+
+
+def log_posterior(fit: FitResult, scale: float | None = None):
     """(logp, theta0, free_names, n_offsets): jitted vectorised log-posterior of a fit.
 
     `logp(theta)` takes (walkers, dim) and returns (walkers,); theta = (log of the free
-    friction parameters in the model's NAMES order, free gauge offsets in mm).
+    friction parameters in the model's NAMES order, free gauge offsets in mm). `scale`:
+    the likelihood's chi2 divisor (default `max(1, chi2/dof)`; `run_mcmc` passes
+    `likelihood_scale(fit)`).
     """
     p = fit.params
     all_names = p.friction.NAMES
@@ -95,7 +122,8 @@ def log_posterior(fit: FitResult):
     bounds = p.friction.PRIOR_BOUNDS
     lo = jnp.log(jnp.asarray([bounds[n][0] for n in all_names]))
     hi = jnp.log(jnp.asarray([bounds[n][1] for n in all_names]))
-    scale = jnp.asarray(max(1.0, fit.reduced_chi2))  # an array: no recompilation per value
+    scale = max(1.0, fit.reduced_chi2) if scale is None else float(scale)
+    scale = jnp.asarray(scale)  # an array: no recompilation per value
     args = (logs0, idx, lo, hi, p.friction, p.offset, fit.objective, scale)
 
     def logp(theta):
@@ -121,6 +149,7 @@ class McmcResult:
     prior: str
     warnings: list
     units: dict | None = None
+    likelihood_scale: float = 1.0
 
     def summary(self) -> dict:
         out = {}
@@ -146,7 +175,8 @@ def run_mcmc(
 
     `burn` steps (default steps // 4) are discarded; `progress` shows emcee's bar.
     """
-    logp, theta0, names, n_off = log_posterior(fit)
+    scale = likelihood_scale(fit)
+    logp, theta0, names, n_off = log_posterior(fit, scale)
     dim = theta0.size
     if walkers < 2 * dim:
         raise ValueError(f"--walkers: need at least {2 * dim} walkers (twice the {dim} "
@@ -186,5 +216,5 @@ def run_mcmc(
         names=names, samples=values, tau=tau[: len(names)], ess=ess[: len(names)],
         acceptance=float(np.mean(sampler.acceptance_fraction)), walkers=walkers, steps=steps,
         burn=burn, prior=prior_text(fit.params.friction, names), warnings=warnings,
-        units=dict(fit.params.friction.UNITS),
+        units=dict(fit.params.friction.UNITS), likelihood_scale=scale,
     )

@@ -224,7 +224,7 @@ class CampaignParams(eqx.Module):
     offset: Float[Array, " R"] = eqx.field(converter=_f)
 
 
-def natural_values(params: CampaignParams) -> Float[Array, "6"]:
+def natural_values(params: CampaignParams) -> Float[Array, " P"]:
     return params.friction.values()
 
 

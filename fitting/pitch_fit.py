@@ -38,6 +38,7 @@ import optimistix as optx
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Bool, Float
 
+from stickslip_jax.lsq import LevenbergMarquardt
 from stickslip_jax import pitching as pt
 from stickslip_jax.units import UnitError, parse_quantity
 
@@ -372,7 +373,7 @@ def _data_scale(runs):
 
 @eqx.filter_jit
 def _solve(free, static, template, runs, scale, rtol, atol, max_steps):
-    solver = optx.LevenbergMarquardt(rtol=rtol, atol=atol)
+    solver = LevenbergMarquardt(rtol=rtol, atol=atol)
     return optx.least_squares(
         lambda f, _: _residuals(f, static, template, runs, scale),
         solver, free, max_steps=max_steps, throw=False,

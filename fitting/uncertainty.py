@@ -55,7 +55,7 @@ class Uncertainty:
     """Laplace uncertainty of the friction parameters (NAMES order).
 
     `value`, `stderr` (natural units), `log_se` (relative), `ci95` (low, high),
-    `free` (fitted, not fixed), `corr` (6x6 correlation in log coordinates, NaN for
+    `free` (fitted, not fixed), `corr` (P x P correlation in log coordinates, NaN for
     fixed), `fisher_eigenvalues` (friction block, offsets marginalised, ascending),
     `weakest_direction` ({name: weight}), `identifiable` ({name: bool}),
     `warnings` (plain-language lines), `scale` (the chi2/dof factor applied).
@@ -299,10 +299,11 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         scale = max(1.0, fit.reduced_chi2)
         cov *= scale
     names = fit.params.friction.NAMES
-    cov_log = np.full((6, 6), np.nan)
+    P = len(names)
+    cov_log = np.full((P, P), np.nan)
     cov_log[np.ix_(idx, idx)] = cov[:k, :k]
     value = np.asarray(fit.params.friction.values())
-    log_se = np.zeros(6)
+    log_se = np.zeros(P)
     log_se[idx] = np.sqrt(np.maximum(np.diag(cov[:k, :k]), 0.0))
     stderr = value * log_se
     with np.errstate(over="ignore"):
@@ -346,17 +347,17 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
             )
     # a parameter tied (|r| > 0.999) to one the campaign does not determine is not
     # determined either (the pseudo-inverse gives it the other's sliver of variance)
-    for a in range(6):
+    for a in range(P):
         if free[a] and identifiable[names[a]]:
-            tied = [names[b] for b in range(6) if b != a and free[b]
+            tied = [names[b] for b in range(P) if b != a and free[b]
                     and not identifiable[names[b]] and abs(corr[a, b]) > 0.999]
             if tied:
                 identifiable[names[a]] = False
                 warnings.append(f"{names[a]}: determined only together with {', '.join(tied)} "
                                 "(|r| > 0.999), which this campaign does not determine; "
                                 "not identifiable.")
-    for a in range(6):
-        for b in range(a + 1, 6):
+    for a in range(P):
+        for b in range(a + 1, P):
             if free[a] and free[b] and abs(corr[a, b]) > 0.95:
                 warnings.append(
                     f"{names[a]} and {names[b]} are strongly correlated (r = {corr[a, b]:+.3f}): "

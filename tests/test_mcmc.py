@@ -125,3 +125,41 @@ def test_fitted_traces_follow_the_records(fitted):
     grid, best, lo, hi = friction_curves(fit, laplace(fit), n_draws=50)
     assert np.all(lo <= best + 1e-12) and np.all(best <= hi + 1e-12) and np.all(hi > lo)
     assert np.allclose(best, np.asarray(fit.params.friction.friction().static(grid)))
+
+
+def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, capsys):
+    """`stickslip mcmc --objective trace`: the sampler draws from the trace objective the
+    fit minimised, tempered so that no parameter's posterior is narrower than its
+    cluster-robust Laplace interval (module doc of fitting.mcmc)."""
+    from fitting.mcmc import likelihood_scale
+    from stickslip_jax.cli import main
+    from stickslip_jax.records import write_record
+
+    recs, ffit = fitted
+    tfit = fit_features(ffit.features, objective="trace", records=recs)
+    scale = likelihood_scale(tfit)
+    robust, fisher = laplace(tfit), laplace(tfit, covariance="fisher")
+    assert robust.covariance == "sandwich"
+    ratio = np.nanmax(np.diag(robust.cov_log) / np.diag(fisher.cov_log))
+    assert scale == pytest.approx(max(1.0, tfit.reduced_chi2) * max(1.0, ratio), rel=1e-9)
+    logp, theta0, _, _ = log_posterior(tfit, scale)
+    assert float(np.asarray(logp(jnp.asarray(theta0)[None]))[0]) == pytest.approx(
+        -0.5 * tfit.chi2 / scale, rel=1e-6)
+    # the CLI: the objective and the tempering travel in the JSON
+    paths = []
+    for r in recs:
+        write_record(r, tmp_path / f"{r.name}.csv")
+        paths.append(str(tmp_path / f"{r.name}.csv"))
+    out = tmp_path / "t.json"
+    assert main(["mcmc", *paths, "--objective", "trace", "--walkers", "16", "--steps", "400",
+                 "--no-progress", "--json", str(out)]) == 0
+    assert "likelihood: trace objective" in capsys.readouterr().out
+    rep = json.loads(out.read_text())
+    assert rep["objective"] == "trace" and rep["likelihood_scale"] == pytest.approx(scale,
+                                                                                    rel=1e-6)
+    truth = truth_values(ss.lubricant("A"))
+    for i, n in enumerate(rep["names"]):
+        s = rep["parameters"][n]
+        assert s["ci95"][0] <= truth[n] <= s["ci95"][1], n
+        # no narrower than the robust interval (a short chain: a loose factor)
+        assert s["sd"] > 0.5 * robust.stderr[i], (n, s["sd"], robust.stderr[i])

@@ -28,6 +28,10 @@ def add_arguments(parser):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--offset", choices=("zero", "start"), default="zero")
     parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper")
+    parser.add_argument("--objective", choices=("features", "trace", "both"), default="features",
+                        help="the likelihood: the cycle features (default), every sample of "
+                        "the traces (exact simulator restarted per cycle), or both; trace and "
+                        "both are tempered to the cluster-robust intervals")
     parser.add_argument("--strict", action="store_true",
                         help="refuse the campaign when any record has no usable stick-slip "
                         "(default: sample with the records that have it, list the others)")
@@ -67,7 +71,7 @@ def run(args) -> int:
     from stickslip_jax.records import record_paths
 
     check_outputs({"--json": args.json, "--corner": args.corner}, record_paths(args.records))
-    fit, campaign, extra = fit_from_args(args)
+    fit, campaign, extra = fit_from_args(args, objective=args.objective)
     records = campaign.records
     for w in campaign.warnings:
         print("warning: " + w)
@@ -91,6 +95,8 @@ def run(args) -> int:
     if extra:
         g = extra["given"]
         print(f"given: eta = {g['eta']['value']:.4g} {g['eta']['unit']}, surface {g['surface']}")
+    print(f"likelihood: {args.objective} objective, chi2 divided by "
+          f"{res.likelihood_scale:.3g}")
     print(f"{res.walkers} walkers x {res.steps} steps (burn-in {res.burn}); "
           f"acceptance {res.acceptance:.2f}")
     for w in res.warnings:
@@ -99,7 +105,8 @@ def run(args) -> int:
         out = {"model": args.model, "parameters": {
             n: dict(s, unit=units[n], **({"truth": truth[n]} if truth else {}))
             for n, s in summary.items()},
-            "prior": res.prior, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
+            "prior": res.prior, "objective": args.objective,
+            "likelihood_scale": res.likelihood_scale, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
             "acceptance": res.acceptance, "warnings": res.warnings,
             "records": [f.name for f in fit.features],
             "records_screened": [s.to_json() for s in campaign.screening],

@@ -38,6 +38,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
+from stickslip_jax.lsq import LevenbergMarquardt
 from stickslip_jax import Friction, KatoKinetic, KatoStatic, steady_state
 
 from .posterior import PARAMETERS, friction_params
@@ -266,7 +267,7 @@ def laplace_fit(y, mask, campaign: Campaign, noise: Noise, prior_mean, prior_sd=
         return prior_mean + bound * jnp.tanh(z / bound)
 
     sol = optx.least_squares(lambda z, a: residuals(to_u(z), a),
-                             optx.LevenbergMarquardt(rtol=1e-10, atol=1e-10),
+                             LevenbergMarquardt(rtol=1e-10, atol=1e-10),
                              jnp.zeros_like(prior_mean), max_steps=max_steps, throw=False,
                              options=dict(jac="bwd"))
     u_hat = to_u(sol.value)

@@ -51,13 +51,14 @@ import time
 import numpy as np
 import scipy.stats
 
+from stickslip_jax.lsq import HostResult, solve_host
+
 from ..campaign import Campaign, screen_records
 from ..fit import fit_features
 from ..params import CampaignParams, EmpiricalFriction
 from ..trace_objective import trace_data, trace_sd
 from .cycle_effects import DRIVE_ERROR_MAX, FAMILIES, Family, Shape, drive_error_range, family
 from .cycle_model import CycleModel, drift_origins
-from .lm import LMResult, levenberg_marquardt
 from .scores import base_basis, principal_cosine, project_out
 
 __all__ = ["MISFIT", "CycleDiscovery", "discover_cycles"]
@@ -84,7 +85,7 @@ SMALL_EXCESS = 0.05
 
 @dataclasses.dataclass
 class _Sub:
-    """The model with only `cols` of the full coordinates free (for `levenberg_marquardt`)."""
+    """The model with only `cols` of the full coordinates free (for `stickslip_jax.lsq.solve_host`)."""
 
     model: CycleModel
     z_full: np.ndarray
@@ -127,7 +128,7 @@ class _Score:
 class _Refit:
     family: Family
     shape: Shape
-    fit: LMResult
+    fit: HostResult
     drop: float  # chi-square drop against the base fit
     values: np.ndarray  # natural values of the family's parameters
     stderr: np.ndarray
@@ -155,8 +156,8 @@ class CycleDiscovery:
     phases_before: dict
     phases_after: dict
     timings: dict
-    base_fit: LMResult
-    final_fit: LMResult
+    base_fit: HostResult
+    final_fit: HostResult
     campaign: Campaign
     model: CycleModel
     z_before: np.ndarray
@@ -299,7 +300,7 @@ def discover_cycles(
 
     base_cols = np.arange(model.n_base)
     sub = _Sub(model, z_start, base_cols)
-    fit0 = levenberg_marquardt(sub, z_start[base_cols], max_evals=max_evals)
+    fit0 = solve_host(sub.evaluate, z_start[base_cols], max_evals=max_evals)
     z_base = sub.full(fit0.z)
     params = CampaignParams(EmpiricalFriction(*[float(x) for x in z_base[:6]]),
                             z_base[6:model.n_base])
@@ -307,7 +308,7 @@ def discover_cycles(
     sd_base = np.asarray(trace_sd(params, data, yd))
     model = CycleModel(data, model.tref, sd_base, G)
     sub = _Sub(model, z_base, base_cols)
-    base_fit = levenberg_marquardt(sub, z_base[base_cols], max_evals=max_evals)
+    base_fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
     z_base = sub.full(base_fit.z)
     # a record the paper's model describes much worse than the others (a marginal or
     # irregular record) weighs by its own scatter, as in `fitting.fit` (RECORD_CHI2):
@@ -326,7 +327,7 @@ def discover_cycles(
         sd_base = np.asarray(sd_base) * factor[np.asarray(data.record)][:, None]
         model = CycleModel(data, model.tref, sd_base, G)
         sub = _Sub(model, z_base, base_cols)
-        base_fit = levenberg_marquardt(sub, z_base[base_cols], max_evals=max_evals)
+        base_fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
         z_base = sub.full(base_fit.z)
     scaled_notes = [f"{recs[g].note or recs[g].source or f'record {g}'}: chi2/n {c:.3g} "
                     f"(campaign median {median_chi2:.3g}); weighed by its own scatter"
@@ -413,12 +414,12 @@ def discover_cycles(
             try:
                 # from a bent base the Gauss-Newton step overshoots: start damped and
                 # allow more rejected trials before calling it stalled
-                fit = levenberg_marquardt(s1, z1[cols], max_evals=refit_evals,
+                fit = solve_host(s1.evaluate, z1[cols], max_evals=refit_evals,
                                           lam0=1.0 if misfit else 1e-6,
                                           stall_evals=8 if misfit else 4)
             except ValueError:  # the score step left the simulator's domain
                 s1 = _Sub(model, z_base, cols, shape, sensor, prior)
-                fit = levenberg_marquardt(s1, z_base[cols], max_evals=refit_evals)
+                fit = solve_host(s1.evaluate, z_base[cols], max_evals=refit_evals)
             if best is None or fit.rss < best[0].rss:
                 best = (fit, shape, sensor, s1)
         fit, shape, sensor, s1 = best

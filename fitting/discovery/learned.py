@@ -42,7 +42,8 @@ from jax.flatten_util import ravel_pytree
 
 from stickslip_jax.simulation.parts import AbstractForceTerm
 
-from .lm import LMResult, levenberg_marquardt
+from stickslip_jax.lsq import HostResult, solve_host
+
 from .model import (
     CampaignTraces,
     DiscoveryParams,
@@ -230,7 +231,7 @@ def stlsq(A, y, *, threshold: float = 0.1, iterations: int = 10):
 class LearnedCorrection:
     """The fitted learned correction: fit, gaps (mm), named terms and their coefficients."""
 
-    fit: LMResult
+    fit: HostResult
     problem: LearnedProblem
     gap_before: float
     gap_after: float
@@ -245,7 +246,7 @@ class LearnedCorrection:
                 "n_parameters": int(self.problem.n_nn)}
 
 
-def fit_learned_correction(base: Problem, base_fit: LMResult, *, width: int = 6,
+def fit_learned_correction(base: Problem, base_fit: HostResult, *, width: int = 6,
                            max_evals: int = 40, threshold: float = 0.1, seed: int = 0
                            ) -> LearnedCorrection:
     """Fit the MLP friction correction (module docstring) from the base fit, then STLSQ.
@@ -256,7 +257,7 @@ def fit_learned_correction(base: Problem, base_fit: LMResult, *, width: int = 6,
     force0 = make_learned_force(base.traces, width=width, seed=seed)
     eff_vec = np.asarray(base.eff0)
     lp = LearnedProblem(base, force0, eff_vec)
-    fit = levenberg_marquardt(lp, lp.z0_from(base_fit.z), max_evals=max_evals)
+    fit = solve_host(lp.evaluate, lp.z0_from(base_fit.z), max_evals=max_evals)
     N, sigma = fit.n_data, float(base.sigma)
     term = lp.force(fit.z)
     params = lp.params(fit.z)

@@ -34,7 +34,8 @@ import math
 import numpy as np
 import scipy.stats
 
-from .lm import LMResult, levenberg_marquardt
+from stickslip_jax.lsq import HostResult, solve_host
+
 from .model import Problem
 from .ranking import CandidateScore
 
@@ -43,12 +44,12 @@ __all__ = ["Refit", "refit_candidates", "choose"]
 
 @dataclasses.dataclass
 class Refit:
-    """A candidate refitted: name, problem, fit (LMResult), delta_bic, lr, lr_p_value,
+    """A candidate refitted: name, problem, fit (HostResult), delta_bic, lr, lr_p_value,
     dof, and `unphysical` (None, or why the fitted size breaks a required sign)."""
 
     name: str
     problem: Problem
-    fit: LMResult
+    fit: HostResult
     delta_bic: float
     lr: float
     lr_p_value: float
@@ -56,7 +57,7 @@ class Refit:
     unphysical: str | None = None
 
 
-def refit_candidates(base_problem: Problem, base_fit: LMResult, scores: list[CandidateScore],
+def refit_candidates(base_problem: Problem, base_fit: HostResult, scores: list[CandidateScore],
                      *, top: int = 3, max_evals: int = 12) -> list[Refit]:
     """Refit the `top` candidates by score (those whose predicted size is physical);
     sorted by delta BIC (best first)."""
@@ -68,8 +69,12 @@ def refit_candidates(base_problem: Problem, base_fit: LMResult, scores: list[Can
         pc = dataclasses.replace(base_problem, effect=sc.name)
         # start at the base optimum (effect zero): the first damped step is the score
         # test's Gauss-Newton step
-        # undamped (lam0 1e-9): see `lm.levenberg_marquardt` on collinear effects
-        fit = levenberg_marquardt(pc, base_fit.z, max_evals=max_evals, lam0=1e-9)
+        # undamped (lam0 1e-9): Marquardt's damping acts on each column's own scale, so
+        # an effect nearly collinear with the base parameters (load coupling against the
+        # friction level: its efficient part is ~1e-3 of its column) would otherwise see
+        # its step damped away
+        fit = solve_host(pc.evaluate, base_fit.z, active=pc.active(), max_evals=max_evals,
+                         lam0=1e-9)
         # little progress (under a tenth of the drop the score test predicts: a damped
         # crawl of 6750 -> 6749 on the stribeck campaign after the features program
         # changed its rounding) although the score is large: backtrack
@@ -87,7 +92,7 @@ def refit_candidates(base_problem: Problem, base_fit: LMResult, scores: list[Can
     return sorted(out, key=lambda c: c.delta_bic)
 
 
-def _backtracked_refit(pc, base_fit: LMResult, fit: LMResult, max_evals: int) -> LMResult:
+def _backtracked_refit(pc, base_fit: HostResult, fit: HostResult, max_evals: int) -> HostResult:
     """A refit that made little progress although the score test predicts a large drop: its
     Gauss-Newton step overshoots (the model is quadratic only over a few per cent of it,
     e.g. stribeck against the friction law's valley) and Marquardt's damping turns the
@@ -108,7 +113,8 @@ def _backtracked_refit(pc, base_fit: LMResult, fit: LMResult, max_evals: int) ->
             best = (cost, z, (r_t, J_t, ok_t))
     if best is None:
         return fit
-    more = levenberg_marquardt(pc, best[1], max_evals=max_evals, first=best[2])
+    more = solve_host(pc.evaluate, best[1], active=pc.active(), max_evals=max_evals,
+                      first=best[2])
     return more if more.rss < fit.rss else fit
 
 

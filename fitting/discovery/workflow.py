@@ -16,7 +16,7 @@ Steps (each timed in `result.timings`):
    starting point for the friction (`fitting.fit.fit_features` on the records with at
    least two complete cycles).
 2. `base_fit`: the paper's model (all effects zero) fitted to the full traces by
-   Levenberg-Marquardt (`lm`), friction + one initial deflection per record.
+   Levenberg-Marquardt (`stickslip_jax.lsq.solve_host`), friction + one initial deflection per record.
 3. `residuals_before`: `residuals.analyse_residuals` (phases, bins, spectrum,
    misspecification test).
 4. `ranking`: score test of every library effect (`ranking.score_candidates`).
@@ -37,9 +37,10 @@ import time
 
 import numpy as np
 
+from stickslip_jax.lsq import HostResult, solve_host
+
 from ..params import EmpiricalFriction
 from .effects import CANDIDATES, EffectSet
-from .lm import LMResult, levenberg_marquardt
 from .model import Problem, Settings, campaign_traces
 from .ranking import direction_cosine, score_candidates
 from .residuals import analyse_residuals
@@ -102,8 +103,8 @@ class DiscoveryResult:
     residuals_before: object
     residuals_after: object
     timings: dict
-    base_fit: LMResult
-    final_fit: LMResult
+    base_fit: HostResult
+    final_fit: HostResult
     base_problem: Problem
     final_problem: Problem
     learned: object = None
@@ -205,7 +206,7 @@ def discover(
     timings["prepare"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    base_fit = levenberg_marquardt(base, base.z0(), max_evals=max_evals)
+    base_fit = solve_host(base.evaluate, base.z0(), active=base.active(), max_evals=max_evals)
     timings["base_fit"] = time.perf_counter() - t
     sigma = float(traces.noise)
     N = base_fit.n_data
@@ -232,9 +233,10 @@ def discover(
             chosen = first
     if chosen is not None and not chosen.fit.converged:
         # polish the chosen model (the ranking refits are short)
-        more = levenberg_marquardt(chosen.problem, chosen.fit.z, max_evals=max_evals,
-                                   first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok),
-                                   lam0=chosen.fit.lam)
+        more = solve_host(chosen.problem.evaluate, chosen.fit.z,
+                          active=chosen.problem.active(), max_evals=max_evals,
+                          first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok),
+                          lam0=chosen.fit.lam)
         part = getattr(effects, chosen.name)
         bad = type(part).unphysical(
             {p: float(more.z[chosen.problem.n_base + j] * part.SCALES[j])

@@ -17,6 +17,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from ..friction import AbstractStaticFriction, KatoStatic
+from ..lsq import LevenbergMarquardt
 
 Scalar = Float[Array, ""]
 
@@ -70,7 +71,7 @@ def fit_kato(
     gamma0 = jnp.log(2.0) / T_half**m0
     p0 = jnp.stack([mu_inf if fix_mu_s else mu_end, jnp.log(gamma0), jnp.log(m0)])
     sol = optx.least_squares(
-        residual, optx.LevenbergMarquardt(rtol=rtol, atol=atol), p0, max_steps=max_steps, throw=False
+        residual, LevenbergMarquardt(rtol=rtol, atol=atol), p0, max_steps=max_steps, throw=False
     )
     fitted = model(sol.value)
     rms = jnp.sqrt(jnp.mean(residual(sol.value, None) ** 2))

@@ -1,0 +1,119 @@
+"""The one least-squares solver (stickslip_jax.lsq): both drivers against SciPy's
+MINPACK Levenberg-Marquardt, its stopping rules, caps, masks and the shared update."""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+import pytest
+from scipy.optimize import least_squares
+
+from stickslip_jax.lsq import (LevenbergMarquardt, damped_step, gauss_newton_decrease,
+                               nielsen_update, solve_host)
+
+T = np.linspace(0.0, 3.0, 200)
+TRUE = np.array([1.0, 1.3, 2.0, 1.2])
+SIGMA = 1e-3
+Y = TRUE[2] * np.exp(-TRUE[0] * T) + TRUE[3] * np.exp(-TRUE[1] * T) + SIGMA * \
+    np.random.default_rng(0).normal(size=T.size)
+Z0 = np.array([0.5, 2.5, 1.0, 1.0])
+
+
+def residuals(z, _=None):
+    """Nearly collinear sum of two exponentials, whitened (sigma 1e-3)."""
+    xp = jnp if isinstance(z, jax.Array) else np
+    return (z[2] * xp.exp(-z[0] * T) + z[3] * xp.exp(-z[1] * T) - Y) / SIGMA
+
+
+def evaluate(z):
+    e0, e1 = np.exp(-z[0] * T), np.exp(-z[1] * T)
+    J = np.stack([-z[2] * T * e0, -z[3] * T * e1, e0, e1], axis=1) / SIGMA
+    return residuals(z), J, True
+
+
+def canonical(z):
+    """The model is symmetric under swapping the two exponentials: order by rate."""
+    z = np.asarray(z)
+    return z if z[0] <= z[1] else z[[1, 0, 3, 2]]
+
+
+@pytest.fixture(scope="module")
+def scipy_ref():
+    return least_squares(residuals, Z0, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15)
+
+
+def test_host_driver_reaches_scipy_minimum(scipy_ref):
+    fit = solve_host(evaluate, Z0, max_evals=400, stall_tol=0.0, chi2_tol=1e-10)
+    assert fit.converged
+    assert fit.rss == pytest.approx(2 * scipy_ref.cost, rel=1e-9)
+    np.testing.assert_allclose(canonical(fit.z), canonical(scipy_ref.x), rtol=1e-6)
+    # the default stop at the noise floor (< 0.5 gained over 4 evaluations) ends earlier,
+    # within a few chi-square units of the minimum
+    early = solve_host(evaluate, Z0, max_evals=400)
+    assert early.converged and early.n_evals < fit.n_evals
+    assert early.rss < 2 * scipy_ref.cost + 5.0
+
+
+def test_host_driver_respects_active_mask():
+    active = np.array([True, True, False, True])
+    fit = solve_host(evaluate, Z0, active=active, max_evals=200, stall_tol=0.0)
+    assert fit.z[2] == Z0[2]
+    # the best fit with z2 held: every free gradient component vanishes
+    r, J, _ = evaluate(fit.z)
+    g = J.T @ r
+    assert np.all(np.abs(g[active]) < 1e-3 * np.abs(J.T @ evaluate(Z0)[0])[active])
+
+
+@pytest.mark.parametrize("jac", ["fwd", "bwd"])
+def test_optimistix_solver_reaches_scipy_minimum(scipy_ref, jac):
+    solver = LevenbergMarquardt(rtol=1e-12, atol=1e-10)
+    sol = optx.least_squares(residuals, solver, jnp.asarray(Z0), max_steps=400, throw=False,
+                             options={"jac": jac})
+    assert sol.result == optx.RESULTS.successful
+    np.testing.assert_allclose(canonical(sol.value), canonical(scipy_ref.x), rtol=1e-6)
+    r = np.asarray(residuals(sol.value))
+    assert float(r @ r) == pytest.approx(2 * scipy_ref.cost, rel=1e-9)
+
+
+def test_optimistix_solver_cap_and_budget():
+    capped = optx.least_squares(residuals, LevenbergMarquardt(rtol=1e-12, atol=0.0,
+                                                              cap=jnp.asarray(3)),
+                                jnp.asarray(Z0), max_steps=400, throw=False)
+    assert int(capped.stats["num_steps"]) == 3
+    out = optx.least_squares(residuals, LevenbergMarquardt(rtol=0.0, atol=0.0, rounding=0.0),
+                             jnp.asarray(Z0), max_steps=5, throw=False)
+    assert out.result == optx.RESULTS.nonlinear_max_steps_reached  # reported, not silent
+
+
+def test_damped_step_is_the_marquardt_step():
+    rng = np.random.default_rng(1)
+    J = rng.normal(size=(30, 4)) * np.array([1.0, 10.0, 0.1, 3.0])
+    r = rng.normal(size=30)
+    A, g = J.T @ J, J.T @ r
+    lam = 0.3
+    step, pred = (np.asarray(x) for x in damped_step(jnp.asarray(A), jnp.asarray(g), lam))
+    direct = -np.linalg.solve(A + lam * np.diag(np.diag(A)), g)
+    np.testing.assert_allclose(step, direct, rtol=1e-10)
+    new = r + J @ step
+    assert pred == pytest.approx(r @ r - new @ new, rel=1e-10)  # the linear model's decrease
+    # lam = 0 is Gauss-Newton: the decrease is the full g^T A^-1 g
+    gn, _ = damped_step(jnp.asarray(A), jnp.asarray(g), 0.0)
+    assert float(gauss_newton_decrease(jnp.asarray(A), jnp.asarray(g))) == pytest.approx(
+        float(-g @ np.asarray(gn)), rel=1e-10)
+
+
+def test_rank_deficient_problem_gives_a_finite_minimum_norm_step():
+    J = np.array([[1.0, 1.0], [2.0, 2.0], [3.0, 3.0]])  # two identical columns
+    r = np.array([1.0, 0.5, -0.2])
+    step, _ = damped_step(jnp.asarray(J.T @ J), jnp.asarray(J.T @ r), 0.0)
+    step = np.asarray(step)
+    assert np.all(np.isfinite(step)) and step[0] == pytest.approx(step[1])
+
+
+def test_nielsen_update():
+    lam, nu = nielsen_update(1e-2, 2.0, True, 1.0)  # perfect model: divide by 3
+    assert float(lam) == pytest.approx(1e-2 / 3) and float(nu) == 2.0
+    lam, nu = nielsen_update(1e-5, 4.0, False, 0.0)  # rejected: at least 1e-3, nu doubles
+    assert float(lam) == pytest.approx(1e-3) and float(nu) == 8.0
