@@ -1,22 +1,32 @@
-r"""The objective of a campaign fit: features, trace, or a weighted combination of both.
+r"""The objective of a campaign fit: an `eqx.Module` whose `residuals(params)` are the
+whitened residuals the Levenberg-Marquardt fit minimises (sum of squares = -2 log
+likelihood up to a constant).
 
-`CampaignObjective(kind, features, trace, weight_features, weight_trace, slip_time)`
-is an `eqx.Module` (data arrays as leaves, the choices static), and
-`objective.residuals(params)` the whitened residual vector whose sum of squares the
-Levenberg-Marquardt fit minimises:
+`AbstractObjective` with final subclasses:
 
-- `"features"`: `fitting.objectives.feature_residuals` (plateau levels and eq (6) per
-  cycle; robust, fast);
-- `"trace"`: `fitting.trace_objective.trace_residuals` (every sample against the exact
-  simulator restarted per cycle);
-- `"both"`: the two vectors concatenated, scaled by $\sqrt{w_f}$ and $\sqrt{w_t}$, so
-  that the sum of squares is $w_f \chi^2_f + w_t \chi^2_t$. Both objectives read the
-  same samples, so the default weights are $w_f = w_t = 1/2$ (if they carried the same
-  information the combined Fisher information would equal either one's); the intervals
-  come from the cluster-robust covariance of `fitting.uncertainty` (per stick phase,
-  see `residual_cycles`), which measures the overlap instead of assuming it.
+- `FeaturesObjective`: `fitting.objectives.feature_residuals` (plateau levels and eq (6)
+  per cycle; robust, fast);
+- `TraceObjective`: `fitting.trace_objective.trace_residuals` (every sample against the
+  exact simulator restarted per cycle);
+- `WeightedSum`: terms concatenated, each scaled by $\sqrt{w}$, so that the sum of
+  squares is $\sum w \chi^2$ (`--objective both` is the features and the trace with
+  weights 1/2 each: both read the same samples, so if they carried the same information
+  the combined Fisher information would equal either one's; the intervals come from the
+  cluster-robust covariance of `fitting.uncertainty`, which measures the overlap instead
+  of assuming it).
 
-`dof()` is the weighted number of residuals with data ($w_f N_f + w_t N_t$).
+Every objective offers the same interface, so the solver, the uncertainty, the sampler
+and the report never ask which one they have:
+`residuals_and_aux(params, weights_at, slider_velocity)` (the effective-variance weights
+frozen at `weights_at`, the trace's slider velocity given; aux: the simulations' success
+flags and the slider velocity at `params`), `velocity_shape()` (None when no trace),
+`dof()` (weighted number of residuals with data), `blocks()` (named lengths of the
+residual vector, in order), `clusters(features)` (the stick phase each residual reads,
+for the robust covariance), `robust` (True: samples of one stick phase share errors, so
+the default covariance is the cluster sandwich), `describe()` and `kind` (the name on the
+command line and in JSON: "features", "trace", "both").
+`make_objective(kind, features, trace, weights=..., slip_time=...)` builds one by name;
+`CampaignObjective` is the old name of that factory.
 
 `residual_cycles(objective, features)` labels every residual with the stick phase
 whose samples it reads, (record, cycle $j$) = the stick after slip $j$ (and the slip
@@ -28,99 +38,258 @@ starts at the end of slip $j$. Residuals of different stick phases share no samp
 
 from __future__ import annotations
 
+import abc
 import math
+from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
 from .objectives import SLIP_TIME_MODES, FeatureData, feature_residuals
-from .trace_objective import TraceData, trace_residuals
+from .trace_objective import TraceData, trace_residuals_and_flags
 
-__all__ = ["OBJECTIVES", "CampaignObjective", "residual_cycles"]
+__all__ = ["OBJECTIVES", "AbstractObjective", "CampaignObjective", "FeaturesObjective",
+           "TraceObjective", "WeightedSum", "make_objective", "residual_cycles"]
 
 OBJECTIVES = ("features", "trace", "both")
+"""Objective names of the command line (`--objective`)."""
 
 
-class CampaignObjective(eqx.Module):
-    """What a fit minimises (module doc). `trace` may be None for kind "features"."""
+def _check_slip_time(slip_time):
+    if slip_time not in SLIP_TIME_MODES:
+        raise ValueError(f"slip_time must be one of {SLIP_TIME_MODES}, got {slip_time!r}")
 
-    features: FeatureData
-    trace: TraceData | None
-    kind: str = eqx.field(static=True, default="features")
-    weight_features: float = eqx.field(static=True, default=0.5)
-    weight_trace: float = eqx.field(static=True, default=0.5)
-    slip_time: str = eqx.field(static=True, default="paper")
 
-    def __check_init__(self):
-        if self.kind not in OBJECTIVES:
-            raise ValueError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {self.kind!r}")
-        if self.slip_time not in SLIP_TIME_MODES:
-            raise ValueError(f"slip_time must be one of {SLIP_TIME_MODES}, got {self.slip_time!r}")
-        if self.kind != "features" and self.trace is None:
-            raise ValueError(f"objective {self.kind!r} needs the records' traces (TraceData)")
-        if self.kind == "both" and not (self.weight_features > 0 and self.weight_trace > 0):
-            raise ValueError("--weights: both weights must be positive")
+class AbstractObjective(eqx.Module):
+    """What a fit minimises (module doc)."""
+
+    kind: ClassVar[str]
+    robust: ClassVar[bool]
+
+    @abc.abstractmethod
+    def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
+        """(whitened residuals, (success flags, slider velocity at `params` or None))."""
+
+    @abc.abstractmethod
+    def velocity_shape(self) -> tuple[int, ...] | None:
+        """Shape of the slider velocity the residuals take (None: they take none)."""
+
+    @abc.abstractmethod
+    def dof(self) -> float:
+        """Weighted number of residuals that carry data."""
+
+    @abc.abstractmethod
+    def blocks(self) -> dict[str, int]:
+        """Named blocks of the residual vector and their lengths, in order."""
+
+    @abc.abstractmethod
+    def clusters(self, features) -> tuple[np.ndarray, np.ndarray]:
+        """(record, cycle) of every residual (`residual_cycles`)."""
+
+    @abc.abstractmethod
+    def describe(self) -> str:
+        """One line for reports."""
+
+    @abc.abstractmethod
+    def trace_data(self) -> TraceData | None:
+        """The trace data the residuals read (None: none)."""
 
     def residuals(self, params):
         """Whitened residuals (sum of squares = -2 log likelihood up to a constant)."""
-        if self.kind == "features":
-            return feature_residuals(params, self.features, self.slip_time)
-        rt = trace_residuals(params, self.trace, self.slip_time)
-        if self.kind == "trace":
-            return rt
-        rf = feature_residuals(params, self.features, self.slip_time)
-        return jnp.concatenate([math.sqrt(self.weight_features) * rf,
-                                math.sqrt(self.weight_trace) * rt])
+        return self.residuals_and_aux(params)[0]
+
+
+class FeaturesObjective(AbstractObjective):
+    """The cycle features: plateau levels and eq (6) per cycle (`fitting.objectives`)."""
+
+    features: FeatureData
+    slip_time: str = eqx.field(static=True, default="paper")
+    kind: ClassVar[str] = "features"
+    robust: ClassVar[bool] = False
+
+    def __check_init__(self):
+        _check_slip_time(self.slip_time)
+
+    def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
+        r = feature_residuals(params, self.features, self.slip_time, weights_at=weights_at)
+        return r, (jnp.ones((1,), bool), None)
+
+    def velocity_shape(self):
+        return None
 
     def dof(self) -> float:
-        """Weighted number of residuals that carry data."""
-        if self.kind == "features":
-            return float(self.features.n_residuals())
-        if self.kind == "trace":
-            return float(self.trace.n_residuals())
-        return (self.weight_features * self.features.n_residuals()
-                + self.weight_trace * self.trace.n_residuals())
+        return float(self.features.n_residuals())
+
+    def blocks(self) -> dict[str, int]:
+        fd = self.features
+        R, C = fd.t1.shape
+        return {"features": 2 * R * C + R}
+
+    def clusters(self, features):
+        fd = self.features
+        R, C = fd.t1.shape
+        has = np.asarray(fd.has_end | fd.has_next)
+        both = np.asarray(fd.has_end & fd.has_next)
+        use = np.asarray(fd.use_start)
+        rec = np.concatenate([np.where(has, np.arange(R)[:, None], -1).ravel(),
+                              np.where(both, np.arange(R)[:, None], -1).ravel(),
+                              np.where(use, np.arange(R), -1)])
+        cyc = np.concatenate([np.where(has, np.arange(C)[None, :], -1).ravel(),
+                              np.where(both, np.arange(C)[None, :], -1).ravel(),
+                              np.where(use, -2, -1)])
+        return rec, cyc
 
     def describe(self) -> str:
-        if self.kind == "features":
-            return "cycle features (plateau levels and eq (6) per cycle)"
-        if self.kind == "trace":
-            return "full trace (exact simulator restarted at every slip end)"
-        return (f"cycle features (weight {self.weight_features:g}) + full trace "
-                f"(weight {self.weight_trace:g})")
+        return "cycle features (plateau levels and eq (6) per cycle)"
+
+    def trace_data(self):
+        return None
 
 
-def residual_cycles(objective: CampaignObjective, features) -> tuple[np.ndarray, np.ndarray]:
+class TraceObjective(AbstractObjective):
+    """Every sample against the exact simulator restarted at every measured slip end
+    (`fitting.trace_objective`)."""
+
+    trace: TraceData
+    slip_time: str = eqx.field(static=True, default="paper")
+    kind: ClassVar[str] = "trace"
+    robust: ClassVar[bool] = True
+
+    def __check_init__(self):
+        _check_slip_time(self.slip_time)
+
+    def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
+        r, ok, vel = trace_residuals_and_flags(params, self.trace, self.slip_time,
+                                               weights_at=weights_at,
+                                               slider_velocity=slider_velocity)
+        return r, (ok, vel)
+
+    def velocity_shape(self):
+        return tuple(self.trace.mask.shape)
+
+    def dof(self) -> float:
+        return float(self.trace.n_residuals())
+
+    def blocks(self) -> dict[str, int]:
+        return {"trace": int(np.prod(self.trace.mask.shape))}
+
+    def clusters(self, features):
+        td = self.trace
+        N, _ = td.mask.shape
+        mask = np.asarray(td.mask)
+        rec_w = np.asarray(td.record).astype(int)
+        cyc_w = np.full(N, -1)
+        for w in range(N):
+            if mask[w].any():
+                ends = np.asarray(features[rec_w[w]].end_time, float)
+                cyc_w[w] = int(np.nanargmin(np.abs(ends - float(td.start_time[w]))))
+        return (np.where(mask, rec_w[:, None], -1).ravel(),
+                np.where(mask, cyc_w[:, None], -1).ravel())
+
+    def describe(self) -> str:
+        return "full trace (exact simulator restarted at every slip end)"
+
+    def trace_data(self):
+        return self.trace
+
+
+class WeightedSum(AbstractObjective):
+    """Terms concatenated, each scaled by the square root of its weight (module doc); at
+    most one term reads a trace (the slider velocity is that term's)."""
+
+    terms: tuple[AbstractObjective, ...]
+    weights: tuple[float, ...] = eqx.field(static=True)
+    robust: ClassVar[bool] = True
+
+    def __check_init__(self):
+        if len(self.terms) != len(self.weights) or not self.terms:
+            raise ValueError("WeightedSum: one weight per term, at least one term")
+        if not all(w > 0 for w in self.weights):
+            raise ValueError(f"--weights: every weight must be positive, got {self.weights}")
+        if sum(t.velocity_shape() is not None for t in self.terms) > 1:
+            raise ValueError("WeightedSum: at most one term may read a trace")
+
+    @property
+    def kind(self) -> str:
+        kinds = [t.kind for t in self.terms]
+        return "both" if kinds == ["features", "trace"] else "+".join(kinds)
+
+    @property
+    def slip_time(self) -> str:
+        return self.terms[0].slip_time
+
+    def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
+        rs, oks, vel_out = [], [], None
+        for t, w in zip(self.terms, self.weights):
+            v_in = slider_velocity if t.velocity_shape() is not None else None
+            r, (ok, vel) = t.residuals_and_aux(params, weights_at, v_in)
+            rs.append(math.sqrt(w) * r)
+            if t.velocity_shape() is not None:
+                oks.append(ok)
+                vel_out = vel
+        ok = jnp.concatenate(oks) if oks else jnp.ones((1,), bool)
+        return jnp.concatenate(rs), (ok, vel_out)
+
+    def velocity_shape(self):
+        shapes = [t.velocity_shape() for t in self.terms if t.velocity_shape() is not None]
+        return shapes[0] if shapes else None
+
+    def dof(self) -> float:
+        return float(sum(w * t.dof() for t, w in zip(self.terms, self.weights)))
+
+    def blocks(self) -> dict[str, int]:
+        out = {}
+        for t in self.terms:
+            out.update(t.blocks())
+        return out
+
+    def clusters(self, features):
+        parts = [t.clusters(features) for t in self.terms]
+        return (np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts]))
+
+    def describe(self) -> str:
+        return " + ".join(f"{t.describe().split(' (')[0]} (weight {w:g})"
+                          for t, w in zip(self.terms, self.weights))
+
+    def trace_data(self):
+        for t in self.terms:
+            if t.trace_data() is not None:
+                return t.trace_data()
+        return None
+
+    def weight_of(self, kind: str) -> float:
+        """The weight of the term named `kind` (0 when there is none)."""
+        return float(sum(w for t, w in zip(self.terms, self.weights) if t.kind == kind))
+
+
+def make_objective(kind: str, features: FeatureData, trace: TraceData | None = None, *,
+                   weights: tuple[float, float] = (0.5, 0.5),
+                   slip_time: str = "paper") -> AbstractObjective:
+    """The objective named `kind` ("features", "trace" or "both"; `OBJECTIVES`)."""
+    if kind not in OBJECTIVES:
+        raise ValueError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {kind!r}")
+    if kind == "features":
+        return FeaturesObjective(features, slip_time)
+    if trace is None:
+        raise ValueError(f"objective {kind!r} needs the records' traces (TraceData)")
+    if kind == "trace":
+        return TraceObjective(trace, slip_time)
+    return WeightedSum((FeaturesObjective(features, slip_time), TraceObjective(trace, slip_time)),
+                       (float(weights[0]), float(weights[1])))
+
+
+def CampaignObjective(features, trace=None, kind: str = "features", weight_features: float = 0.5,
+                      weight_trace: float = 0.5, slip_time: str = "paper") -> AbstractObjective:
+    """Old name of `make_objective` (kept for existing code)."""
+    return make_objective(kind, features, trace, weights=(weight_features, weight_trace),
+                          slip_time=slip_time)
+
+
+def residual_cycles(objective: AbstractObjective, features) -> tuple[np.ndarray, np.ndarray]:
     """(record, cycle) of every entry of `objective.residuals(...)` (module doc); -1 for both
     on padding. The gauge-offset residual of `--offset start` (first plateau) gets cycle -2.
 
     `features`: the campaign's `RecordFeatures` (their slip-end times place the trace windows).
     """
-    fd = objective.features
-    R, C = fd.t1.shape
-    has = np.asarray(fd.has_end | fd.has_next)
-    rec_lv = np.where(has, np.arange(R)[:, None], -1)
-    cyc_lv = np.where(has, np.arange(C)[None, :], -1)
-    both = np.asarray(fd.has_end & fd.has_next)
-    rec_st = np.where(both, np.arange(R)[:, None], -1)
-    cyc_st = np.where(both, np.arange(C)[None, :], -1)
-    use = np.asarray(fd.use_start)
-    rec_f = np.concatenate([rec_lv.ravel(), rec_st.ravel(), np.where(use, np.arange(R), -1)])
-    cyc_f = np.concatenate([cyc_lv.ravel(), cyc_st.ravel(), np.where(use, -2, -1)])
-    if objective.kind == "features":
-        return rec_f, cyc_f
-    td = objective.trace
-    N, L = td.mask.shape
-    mask = np.asarray(td.mask)
-    rec_w = np.asarray(td.record).astype(int)
-    cyc_w = np.full(N, -1)
-    for w in range(N):
-        if mask[w].any():
-            ends = np.asarray(features[rec_w[w]].end_time, float)
-            cyc_w[w] = int(np.nanargmin(np.abs(ends - float(td.start_time[w]))))
-    rec_t = np.where(mask, rec_w[:, None], -1).ravel()
-    cyc_t = np.where(mask, cyc_w[:, None], -1).ravel()
-    if objective.kind == "trace":
-        return rec_t, cyc_t
-    return np.concatenate([rec_f, rec_t]), np.concatenate([cyc_f, cyc_t])
+    return objective.clusters(features)

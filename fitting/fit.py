@@ -33,7 +33,6 @@ from __future__ import annotations
 import concurrent.futures
 import dataclasses
 import itertools
-import math
 from typing import NamedTuple
 
 import equinox as eqx
@@ -45,10 +44,10 @@ import jax.flatten_util  # noqa: F401
 
 from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_decrease
 
-from .combined import CampaignObjective
+from .combined import AbstractObjective, FeaturesObjective, make_objective
 from .features import RecordFeatures, record_features
 from .objectives import FeatureData, feature_data, feature_residuals
-from .trace_objective import failed_windows, trace_data, trace_residuals_and_flags
+from .trace_objective import failed_windows, trace_data
 from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_spec
 
 __all__ = ["FitResult", "fit_features", "fit_records", "initial_guesses"]
@@ -65,7 +64,7 @@ class FitResult:
       `converged`: that result is successful; `n_starts`, `n_steps` (Levenberg-Marquardt
       steps of the best start, all reweighting rounds); `n_rounds` (reweighting rounds).
     - `slip_time`: the $T_2$ mode of eq (3) used.
-    - `objective`: the `fitting.combined.CampaignObjective` minimised (features, trace
+    - `objective`: the `fitting.combined.AbstractObjective` minimised (features, trace
       or both); `trace_failures`: windows of the trace objective whose simulation did not
       succeed at the optimum (0 when all ran).
     - `record_chi2`: chi2/n of each record's features residuals before any rescaling
@@ -85,7 +84,7 @@ class FitResult:
     n_steps: int
     slip_time: str
     start_chi2: np.ndarray
-    objective: CampaignObjective | None = None
+    objective: AbstractObjective | None = None
     trace_failures: int = 0
     n_rounds: int = 1
     record_chi2: np.ndarray | None = None
@@ -140,30 +139,13 @@ def _take(trees, i):
     return jax.tree_util.tree_map(lambda x: jax.device_put(np.asarray(x)[i]), trees)
 
 
-def _residuals_and_aux(objective: CampaignObjective, params, ref, velocity):
-    """`objective.residuals(params)` with the effective-variance weights frozen at the
-    reference parameters `ref` (and, for the trace, the slider velocity `velocity`), plus
-    aux: the trace simulations' success flags (one per row; a single True for the
-    features objective) and their slider velocity at `params` (None for features)."""
-    wf, wt, slip = objective.weight_features, objective.weight_trace, objective.slip_time
-    if objective.kind == "features":
-        r = feature_residuals(params, objective.features, slip, weights_at=ref)
-        return r, (jnp.ones((1,), bool), None)
-    rt, ok, vel = trace_residuals_and_flags(params, objective.trace, slip, weights_at=ref,
-                                            slider_velocity=velocity)
-    if objective.kind == "trace":
-        return rt, (ok, vel)
-    rf = feature_residuals(params, objective.features, slip, weights_at=ref)
-    return jnp.concatenate([math.sqrt(wf) * rf, math.sqrt(wt) * rt]), (ok, vel)
-
-
 def _residual_fn(template, static, objective, ref_free, vel):
     """v (flat free parameters) -> (whitened residuals, aux) with weights frozen at `ref_free`."""
     _, unravel = jax.flatten_util.ravel_pytree(template)
     ref = eqx.combine(ref_free, static)
 
     def fun(v):
-        return _residuals_and_aux(objective, eqx.combine(unravel(v), static), ref, vel)
+        return objective.residuals_and_aux(eqx.combine(unravel(v), static), ref, vel)
 
     return fun
 
@@ -256,8 +238,8 @@ def _first_round(free_starts, static, objective, rtol, atol, max_steps):
     or the full budget."""
     n_start = jax.tree_util.tree_leaves(free_starts)[0].shape[0]
     vel = None
-    if objective.kind != "features":
-        vel = jax.device_put(np.zeros((n_start,) + objective.trace.mask.shape))
+    if objective.velocity_shape() is not None:
+        vel = jax.device_put(np.zeros((n_start,) + objective.velocity_shape()))
     caps = np.full(n_start, SCREEN_STEPS if _screen_rounds(n_start) else max_steps + 1,
                    np.int32)
     lams = np.full(n_start, LAMBDA_START if _screen_rounds(n_start) else LAMBDA_NEAR)
@@ -378,9 +360,7 @@ def fit_features(
         t_rtol, t_atol, t_steps = max(rtol, 1e-8), max(atol, 1e-8), min(max_steps, 100)
 
         def objective_of(data):
-            return CampaignObjective(data, tdata, kind=objective,
-                                     weight_features=float(weights[0]),
-                                     weight_trace=float(weights[1]), slip_time=slip_time)
+            return make_objective(objective, data, tdata, weights=weights, slip_time=slip_time)
 
         problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
                                     reslip)
@@ -409,10 +389,8 @@ see tests/test_real_world_coverage.py)."""
 
 def _record_chi2(fit: FitResult) -> np.ndarray:
     """chi2/n of each record's features residuals at the fit's optimum."""
-    from .combined import residual_cycles
-
     r = np.asarray(compiled(feature_residuals, fit.params, fit.data, fit.slip_time))
-    rec, _ = residual_cycles(fit.objective, fit.features)
+    rec, _ = FeaturesObjective(fit.data, fit.slip_time).clusters(fit.features)
     out = np.ones(len(fit.features))
     for i in range(len(fit.features)):
         sel = rec[: r.size] == i
@@ -456,7 +434,7 @@ class _FeaturesProblem(NamedTuple):
     frictions."""
 
     data: FeatureData
-    objective: CampaignObjective
+    objective: AbstractObjective
     free_starts: CampaignParams
     static: CampaignParams
     spec: CampaignParams
@@ -485,7 +463,7 @@ def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
     """Set up the features fit of `fit_features` (data, objective, starts, spec)."""
     data = feature_data(features, offset_from_start=(offset == "start"), pad_cycles=pad_cycles,
                         reslip=reslip)
-    obj = CampaignObjective(data, None, kind="features", slip_time=slip_time)
+    obj = FeaturesObjective(data, slip_time)
     R = data.n_records
     offsets0 = (np.asarray(data.start_level) if offset == "start" else np.zeros(R))
     starts = initial_guesses(features, offsets0) if starts is None else list(starts)
@@ -514,7 +492,7 @@ def _gn_decrement(free, static, objective) -> float:
     return float(gauss_newton_decrease(F, g))
 
 
-def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps) -> FitResult:
+def _refine(first: FitResult, obj: AbstractObjective, rtol, atol, max_steps) -> FitResult:
     """Levenberg-Marquardt (with reweighting rounds) of `obj` from the features fit's optimum."""
     free, static = eqx.partition(first.params, first.spec)
     values, chi2s, result, ok, steps, flags, _, rounds = _solve_rounds(
@@ -533,7 +511,7 @@ def _refine(first: FitResult, obj: CampaignObjective, rtol, atol, max_steps) -> 
         converged=ok,
         n_steps=int(np.asarray(steps)[0]), start_chi2=np.asarray(chi2s), objective=obj,
         n_rounds=rounds,
-        trace_failures=failed_windows(np.asarray(flags)[0], obj.trace),
+        trace_failures=failed_windows(np.asarray(flags)[0], obj.trace_data()),
     )
 
 

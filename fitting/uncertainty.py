@@ -275,7 +275,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     if covariance not in COVARIANCES:
         raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
     if covariance == "auto":
-        traced = fit.objective is not None and fit.objective.kind in ("trace", "both")
+        traced = fit.objective is not None and fit.objective.robust
         misfit = fit.objective is not None and (fit.reduced_chi2 > SANDWICH_CHI2
                                                 or fit.record_scale is not None)
         # with fewer than 3 records the between-record scatter cannot be estimated and a
@@ -365,7 +365,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
                 )
     if not fit.converged:
         warnings.append("the optimiser did not report convergence; treat the values with care.")
-    if covariance == "fisher" and fit.objective is not None and fit.objective.kind != "features":
+    if covariance == "fisher" and fit.objective is not None and fit.objective.robust:
         warnings.append(
             f"objective '{fit.objective.kind}' with the Fisher covariance: samples of one stick "
             "phase share the error of its restart state (and 'both' reads them twice), so "

@@ -193,18 +193,19 @@ def test_combined_objective_from_the_cli(campaign, tmp_path, capsys):
 
 def test_fit_residuals_are_the_objectives(trace_fit):
     """The fit's residuals with the weights frozen at the point itself (and its simulated slider
-    velocity) are `CampaignObjective.residuals`, for the trace and the combined objective."""
-    from fitting import fit as fit_module
-    from fitting.combined import CampaignObjective
+    velocity) are the objective's `residuals`, for the trace and the combined objective."""
+    from fitting.combined import make_objective
 
     fit = trace_fit
-    both = CampaignObjective(fit.data, fit.objective.trace, kind="both", weight_features=0.3,
-                             weight_trace=0.7)
+    both = make_objective("both", fit.data, fit.objective.trace, weights=(0.3, 0.7))
+    assert both.kind == "both" and both.weight_of("trace") == 0.7
+    assert list(both.blocks()) == ["features", "trace"]
+    assert sum(both.blocks().values()) == both.residuals(fit.params).size
 
     @eqx.filter_jit
     def pair(obj, params):
-        vel = trace_simulation(params, obj.trace).slider_velocity
-        r, (ok, _) = fit_module._residuals_and_aux(obj, params, params, vel)
+        vel = trace_simulation(params, obj.trace_data()).slider_velocity
+        r, (ok, _) = obj.residuals_and_aux(params, params, vel)
         return r, obj.residuals(params), ok
 
     r, expected, ok = pair(both, fit.params)

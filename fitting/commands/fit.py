@@ -174,10 +174,10 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
         },
         "truth_available": truth is not None,
     }
-    if fit.objective.kind != "features":
+    td = fit.objective.trace_data()
+    if td is not None:
         from ..trace_objective import reslip_windows, trace_residuals
 
-        td = fit.objective.trace
         rt = np.asarray(compiled(trace_residuals, fit.params, td, fit.slip_time))
         rt = rt.reshape(td.mask.shape)
         rt = rt * np.asarray(td.sigma)[:, None]
