@@ -90,10 +90,8 @@ def fit_microsqueeze(
 
     `eta` (kgf s/mm^2), `pair` (name in Table 10 or a `SurfacePair`) and `contact` are
     given; `fixed`, `offset` and the other keywords as in `fitting.fit.fit_features`
-    (objective "features"). Raises ValueError for a trace objective (not supported).
+    (`objective` "features", "trace" or "both", the last two with `records`).
     """
-    if kwargs.get("objective", "features") != "features":
-        raise ValueError("--model microsqueeze: only --objective features is supported")
     if not (np.isfinite(eta) and eta > 0):
         raise ValueError(f"--eta: the viscosity must be positive and finite, got {eta}")
     from .objectives import feature_data

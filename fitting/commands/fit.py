@@ -70,8 +70,6 @@ def fit_from_args(args, *, objective: str = "features"):
         from ..microsqueeze_params import MICROSQUEEZE_NAMES
         from stickslip_jax.contact import surface_pair
 
-        if objective != "features":
-            raise ValueError("--objective: --model microsqueeze supports only 'features'")
         fixed = parse_fix(args.fix, MICROSQUEEZE_NAMES)
         try:
             pair = surface_pair(args.surface)
@@ -80,7 +78,8 @@ def fit_from_args(args, *, objective: str = "features"):
         campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
         eta = args.eta if args.eta is not None else default_eta(campaign.records[0].lubricant)
         fit = fit_microsqueeze(campaign.features, eta=eta, pair=pair, fixed=fixed,
-                               offset=args.offset, slip_time=args.slip_time)
+                               offset=args.offset, slip_time=args.slip_time,
+                               objective=objective, records=campaign.records)
         return fit, campaign, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
                                         "surface": args.surface}}
     if args.eta is not None:
