@@ -38,7 +38,7 @@ import optimistix as optx
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Bool, Float
 
-from stickslip_jax.lsq import LevenbergMarquardt
+from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_covariance
 from stickslip_jax import pitching as pt
 from stickslip_jax.units import UnitError, parse_quantity
 
@@ -333,7 +333,7 @@ def fit_pitching(
     dof = max(n_data - len(free_names), 1)
     sigma = float(np.sqrt(np.sum(res**2) / dof)) if noise is None else float(noise)
     jac = np.asarray(_jacobian(free_hat, static, template, batch))
-    cov = sigma**2 * np.linalg.pinv(jac.T @ jac)
+    cov = gauss_newton_covariance(jac, sigma**2)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     stored = dict(zip(NAMES, fitted.leaves()))
     parameters = {}

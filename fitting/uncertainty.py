@@ -43,6 +43,8 @@ import numpy as np
 from jax.flatten_util import ravel_pytree
 
 from .fit import COMPILER_OPTIONS, FitResult
+from stickslip_jax.lsq import gauss_newton_covariance
+
 from .params import CampaignParams, free_mask
 
 __all__ = ["Uncertainty", "laplace", "Z95"]
@@ -159,7 +161,7 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
     G, p = uniq.shape[0], J.shape[1]
     g = np.zeros((G, p))
     np.add.at(g, inv, J[keep] * r[keep, None])
-    Hinv = np.linalg.pinv(J.T @ J, rcond=1e-13, hermitian=True)
+    Hinv = gauss_newton_covariance(J)
     if small_sample == "jackknife":
         A = np.zeros((G, p, p))
         Jk = J[keep]
@@ -295,9 +297,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
             cov = _two_level(cov, J, r, rec)
         scale = 1.0
     else:
-        cov = np.linalg.pinv(F, rcond=1e-13, hermitian=True)
         scale = max(1.0, fit.reduced_chi2)
-        cov *= scale
+        cov = gauss_newton_covariance(J, scale)
     names = fit.params.friction.NAMES
     P = len(names)
     cov_log = np.full((P, P), np.nan)

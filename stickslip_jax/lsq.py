@@ -53,6 +53,7 @@ from jaxtyping import Array, Bool, Float, Int
 
 __all__ = [
     "LAMBDA_MAX",
+    "gauss_newton_covariance",
     "HostResult",
     "LevenbergMarquardt",
     "damped_step",
@@ -121,6 +122,18 @@ def nielsen_update(lam, nu, accept, rho):
     lam_rej = jnp.where(lam < LAMBDA_AFTER_REJECT, jnp.maximum(lam * nu, LAMBDA_AFTER_REJECT),
                         lam * nu)
     return jnp.where(accept, lam_acc, lam_rej), jnp.where(accept, 2.0, 2.0 * nu)
+
+
+def gauss_newton_covariance(J, scale: float = 1.0, rcond: float = 1e-13) -> np.ndarray:
+    r"""The Gauss-Newton (Laplace) covariance $s\,(J^TJ)^+$ of least-squares estimates
+    ($J$: [N, P] Jacobian of the residuals; pseudo-inverse, singular values below
+    `rcond` of the largest dropped: an undetermined direction gets no variance from
+    round-off). `scale` $s$: 1 for whitened residuals with trusted errors,
+    max(1, chi2/dof) to widen for a misfit, sigma^2 for unwhitened residuals. The one
+    covariance of the project's fits; the cluster-robust alternative is
+    `fitting.uncertainty.sandwich_covariance`."""
+    J = np.asarray(J, float)
+    return np.linalg.pinv(J.T @ J, rcond=rcond, hermitian=True) * float(scale)
 
 
 def _flat(cost, cost_new, rounding):
@@ -272,9 +285,8 @@ class HostResult:
     def covariance(self, active: np.ndarray) -> np.ndarray:
         r"""Gauss-Newton covariance of the active coordinates, $(J^TJ)^{-1}$ scaled by the
         reduced chi-square (so it holds whatever the true noise level)."""
-        J = self.J[:, active]
         scale = self.rss / max(self.n_data - int(active.sum()), 1)
-        return np.linalg.pinv(J.T @ J) * scale
+        return gauss_newton_covariance(self.J[:, active], scale)
 
 
 def solve_host(evaluate, z0, *, active=None, max_evals: int = 25, chi2_tol: float = 0.05,

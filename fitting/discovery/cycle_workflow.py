@@ -51,7 +51,7 @@ import time
 import numpy as np
 import scipy.stats
 
-from stickslip_jax.lsq import HostResult, solve_host
+from stickslip_jax.lsq import HostResult, gauss_newton_covariance, solve_host
 
 from ..campaign import Campaign, screen_records
 from ..fit import fit_features
@@ -426,7 +426,7 @@ def discover_cycles(
         k = len(model.cols(f))
         vals = fit.z[-k:] * model.scales[model.cols(f)]
         try:
-            cov = np.linalg.pinv(fit.J.T @ fit.J) * max(fit.rss / (n - len(cols)), 1.0)
+            cov = gauss_newton_covariance(fit.J, max(fit.rss / (n - len(cols)), 1.0))
             se = np.sqrt(np.clip(np.diag(cov)[-k:], 0, None)) * model.scales[model.cols(f)]
         except np.linalg.LinAlgError:
             se = np.full(k, np.nan)
