@@ -123,14 +123,8 @@ class MicrosqueezeFriction(AbstractFrictionParams):
     def with_values(self, **values) -> MicrosqueezeFriction:
         """Same eta, pair, contact; natural values updated (missing ones kept);
         ValueError outside the law's domain."""
-        unknown = sorted(set(values) - set(self.NAMES))
-        if unknown:
-            raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; choose from "
-                             f"{', '.join(self.NAMES)}")
-        v = self.named_values()
-        v.update({k: float(x) for k, x in values.items()})
-        return MicrosqueezeFriction.from_values(**v, eta=self.eta, pair=self.pair,
-                                                contact=self.contact)
+        return MicrosqueezeFriction.from_values(**self.merged_values(values), eta=self.eta,
+                                                pair=self.pair, contact=self.contact)
 
     # ------------------------------------------------------------------ law
     def _parts(self):

@@ -127,6 +127,17 @@ class AbstractFrictionParams(eqx.Module):
         """{name: natural value} (reporting edge only)."""
         return {n: float(x) for n, x in zip(self.NAMES, np.asarray(self.values()))}
 
+    def merged_values(self, values: dict) -> dict[str, float]:
+        """`named_values()` with `values` replacing some; ValueError naming any unknown
+        parameter (for `with_values`)."""
+        unknown = sorted(set(values) - set(self.NAMES))
+        if unknown:
+            raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; choose from "
+                             f"{', '.join(self.NAMES)}")
+        v = self.named_values()
+        v.update({k: float(x) for k, x in values.items()})
+        return v
+
 
 class EmpiricalFriction(AbstractFrictionParams):
     r"""Eq (1) + eq (3) friction in unconstrained coordinates (all logs, see module doc).
@@ -205,13 +216,7 @@ class EmpiricalFriction(AbstractFrictionParams):
 
     def with_values(self, **values) -> EmpiricalFriction:
         """Natural values replaced (the others kept); ValueError outside the domain."""
-        unknown = sorted(set(values) - set(self.NAMES))
-        if unknown:
-            raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; choose from "
-                             f"{', '.join(self.NAMES)}")
-        v = self.named_values()
-        v.update({k: float(x) for k, x in values.items()})
-        return EmpiricalFriction.from_values(**v)
+        return EmpiricalFriction.from_values(**self.merged_values(values))
 
     def physical(self):
         return jnp.asarray(True)
