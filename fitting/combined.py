@@ -99,6 +99,18 @@ class AbstractObjective(eqx.Module):
         """Whitened residuals (sum of squares = -2 log likelihood up to a constant)."""
         return self.residuals_and_aux(params)[0]
 
+    def split(self, r) -> dict[str, np.ndarray]:
+        """The residual vector `r` cut into its named `blocks()` (for reports: no hand
+        slicing by position)."""
+        r = np.asarray(r)
+        out, start = {}, 0
+        for name, n in self.blocks().items():
+            out[name] = r[start: start + n]
+            start += n
+        if start != r.size:
+            raise ValueError(f"residual vector of {r.size} entries, blocks of {start}")
+        return out
+
 
 class FeaturesObjective(AbstractObjective):
     """The cycle features: plateau levels and eq (6) per cycle (`fitting.objectives`)."""
@@ -122,9 +134,11 @@ class FeaturesObjective(AbstractObjective):
         return float(self.features.n_residuals())
 
     def blocks(self) -> dict[str, int]:
+        """"levels" (the plateau levels of every cycle, [R, C]), "stick_times" (eq (6)
+        per cycle, [R, C]) and "start_levels" (the first plateau, [R])."""
         fd = self.features
         R, C = fd.t1.shape
-        return {"features": 2 * R * C + R}
+        return {"levels": R * C, "stick_times": R * C, "start_levels": R}
 
     def clusters(self, features):
         fd = self.features

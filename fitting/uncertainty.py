@@ -46,6 +46,7 @@ from .fit import COMPILER_OPTIONS, FitResult
 from stickslip_jax.lsq import gauss_newton_covariance
 
 from .params import CampaignParams, free_mask
+from .report import ParameterEstimate
 
 __all__ = ["Uncertainty", "laplace", "Z95"]
 
@@ -78,20 +79,24 @@ class Uncertainty:
     units: dict | None = None
     covariance: str = "fisher"
 
-    def table(self) -> list[dict]:
+    def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
+        """One typed row per parameter (`fitting.report.ParameterEstimate`), with the
+        truth when given ({name: value})."""
         rows = []
-        names = list(self.identifiable)
-        units = self.units
-        for i, n in enumerate(names):
+        for i, n in enumerate(self.identifiable):
             ok = bool(self.identifiable[n])
-            rows.append(dict(
-                name=n, unit=units[n], value=float(self.value[i]),
-                stderr=float(self.stderr[i]) if (ok and self.free[i]) else None,
-                ci95=[float(self.ci95[i, 0]), float(self.ci95[i, 1])]
-                if (ok and self.free[i]) else None,
-                fixed=not bool(self.free[i]), identifiable=ok,
-            ))
+            shown = ok and bool(self.free[i])
+            rows.append(ParameterEstimate(
+                name=n, unit=self.units[n], value=float(self.value[i]),
+                stderr=float(self.stderr[i]) if shown else None,
+                ci95=(float(self.ci95[i, 0]), float(self.ci95[i, 1])) if shown else None,
+                fixed=not bool(self.free[i]), identifiable=ok).with_truth(truth))
         return rows
+
+    def table(self) -> list[dict]:
+        """`estimates()` as dicts (name, unit, value, stderr, ci95, fixed, identifiable)."""
+        return [dict(name=e.name, **{k: v for k, v in e.to_json().items()})
+                for e in self.estimates()]
 
 
 @eqx.filter_jit(compiler_options=COMPILER_OPTIONS)

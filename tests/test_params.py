@@ -58,3 +58,14 @@ def test_physical_region():
 
     off = eqx.tree_at(lambda f: f.log_margin, micro, micro.log_margin - 80.0)
     assert not bool(off.physical())
+
+
+def test_parameter_estimate_row():
+    from fitting.report import ParameterEstimate
+
+    e = ParameterEstimate("mu_s", "-", 0.55, 0.01, (0.53, 0.57)).with_truth({"mu_s": 0.56})
+    assert e.truth_in_ci95 and e.relative_error == pytest.approx(-1 / 56)
+    j = e.to_json()
+    assert j["ci95"] == [0.53, 0.57] and j["truth"] == 0.56 and j["truth_in_ci95"]
+    fixed = ParameterEstimate("n", "-", 1.0, None, None, fixed=True)
+    assert fixed.truth_in_ci95 is None and "truth" not in fixed.to_json()

@@ -199,8 +199,10 @@ def test_fit_residuals_are_the_objectives(trace_fit):
     fit = trace_fit
     both = make_objective("both", fit.data, fit.objective.trace, weights=(0.3, 0.7))
     assert both.kind == "both" and both.weight_of("trace") == 0.7
-    assert list(both.blocks()) == ["features", "trace"]
+    assert list(both.blocks()) == ["levels", "stick_times", "start_levels", "trace"]
     assert sum(both.blocks().values()) == both.residuals(fit.params).size
+    parts = both.split(both.residuals(fit.params))
+    assert parts["trace"].size == int(np.prod(fit.objective.trace.mask.shape))
 
     @eqx.filter_jit
     def pair(obj, params):

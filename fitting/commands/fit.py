@@ -125,27 +125,15 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
 
         campaign = screen_records(list(campaign), min_records=1)
     records = campaign.records
-    rows = unc.table()
-
     truth = find_truth(records, fit.params.friction.NAMES)
-    params = {}
-    for row in rows:
-        entry = {"value": row["value"], "stderr": row["stderr"], "ci95": row["ci95"],
-                 "unit": row["unit"], "identifiable": row["identifiable"], "fixed": row["fixed"]}
-        if truth is not None:
-            t = truth[row["name"]]
-            entry["truth"] = t
-            entry["relative_error"] = (row["value"] - t) / t
-            if row["ci95"] is not None:
-                entry["truth_in_ci95"] = bool(row["ci95"][0] <= t <= row["ci95"][1])
-        params[row["name"]] = entry
+    params = {e.name: e.to_json() for e in unc.estimates(truth)}
+    from ..combined import FeaturesObjective
     from ..fit import compiled
     from ..objectives import feature_residuals
 
-    res = np.asarray(compiled(feature_residuals, fit.params, fit.data, fit.slip_time))
+    res = compiled(feature_residuals, fit.params, fit.data, fit.slip_time)
     level_sd = np.asarray(fit.data.trough_sd)
-    R, C = level_sd.shape
-    levels = res[: R * C].reshape(R, C) * level_sd
+    levels = FeaturesObjective(fit.data).split(res)["levels"].reshape(level_sd.shape) * level_sd
     mask = np.asarray(fit.data.has_end | fit.data.has_next)
     rms = float(np.sqrt(np.mean(levels[mask] ** 2))) if mask.any() else float("nan")
     out = {
