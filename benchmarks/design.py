@@ -1,4 +1,4 @@
-"""Benchmark: design maps (fitting.design) with the steady analysis and the exact simulator.
+"""Benchmark: design maps (stickslip_fitting.design) with the steady analysis and the exact simulator.
 
 1. A 1,000,000-point steady map (`design_map`, eqs 5-7 and 12) over random W, k, v and
    friction parameters (lubricant A's parameters, each perturbed per point: a map over a
@@ -27,8 +27,8 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
 import stickslip_jax as ss
-from fitting.design import design_map, friction_from_params, friction_params
-from fitting.design.exact import N_CYCLES
+from stickslip_fitting.design import design_map, friction_from_params, friction_params
+from stickslip_fitting.design.exact import N_CYCLES
 from stickslip_jax.units import G_MM_S2, from_mm_per_min
 
 

@@ -12,7 +12,7 @@ in the same process afterwards (warm). Target: total under 60 s on 2 cores.
 `--base smooth`, the whole-record workflow:
 Builds a synthetic campaign (lubricant A, 3 (W, k) x 4 speeds, 3 cycles per record,
 500 Hz, noise 0.5 um) with a hidden effect (default viscous damping, c = 0.01
-kgf*s/mm), runs `fitting.discovery.discover` and prints the time of every step
+kgf*s/mm), runs `stickslip_fitting.discovery.discover` and prints the time of every step
 (compilation included: the first evaluation of the compiled residual/Jacobian function
 happens in `base_fit`). The baseline in the same process is one evaluation of the
 campaign's residuals and Jacobian after compilation, so the table also reads as
@@ -33,9 +33,9 @@ def cycle(args):
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
     import independent_records as ir
 
-    from fitting.campaign import screen_records
-    from fitting.discovery.cycle_workflow import discover_cycles
-    from fitting.fit import fit_features
+    from stickslip_fitting.campaign import screen_records
+    from stickslip_fitting.discovery.cycle_workflow import discover_cycles
+    from stickslip_fitting.fit import fit_features
 
     t = time.perf_counter()
     kw = dict(runs=ir.RUNS[:2], speeds=(5.0, 10.0)) if args.small else {}
@@ -71,8 +71,8 @@ def main(argv=None):
     if args.base == "cycle":
         return cycle(args)
 
-    from fitting.discovery import discover
-    from fitting.discovery.synthetic import hidden_effect_campaign
+    from stickslip_fitting.discovery import discover
+    from stickslip_fitting.discovery.synthetic import hidden_effect_campaign
     from stickslip_jax.lubricants import lubricant
 
     sizes = {"viscous_damping": {"c": 0.01}, "stribeck": {"b": 0.005},

@@ -1,7 +1,7 @@
 r"""A campaign of records, screened record by record before any fitting.
 
 A campaign is not all-or-nothing: every record is read, its cycles extracted
-(`fitting.features`), and it gets a status:
+(`stickslip_fitting.features`), and it gets a status:
 
 - `used`: at least `min_cycles` complete stick-slip cycles; fitted;
 - `no_stick_slip`: no slip found at all (steady sliding, or stick-slip too small for the

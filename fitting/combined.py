@@ -4,15 +4,15 @@ likelihood up to a constant).
 
 `AbstractObjective` with final subclasses:
 
-- `FeaturesObjective`: `fitting.objectives.feature_residuals` (plateau levels and eq (6)
+- `FeaturesObjective`: `stickslip_fitting.objectives.feature_residuals` (plateau levels and eq (6)
   per cycle; robust, fast);
-- `TraceObjective`: `fitting.trace_objective.trace_residuals` (every sample against the
+- `TraceObjective`: `stickslip_fitting.trace_objective.trace_residuals` (every sample against the
   exact simulator restarted per cycle);
 - `WeightedSum`: terms concatenated, each scaled by $\sqrt{w}$, so that the sum of
   squares is $\sum w \chi^2$ (`--objective both` is the features and the trace with
   weights 1/2 each: both read the same samples, so if they carried the same information
   the combined Fisher information would equal either one's; the intervals come from the
-  cluster-robust covariance of `fitting.uncertainty`, which measures the overlap instead
+  cluster-robust covariance of `stickslip_fitting.uncertainty`, which measures the overlap instead
   of assuming it).
 
 Every objective offers the same interface, so the solver, the uncertainty, the sampler
@@ -33,7 +33,7 @@ whose samples it reads, (record, cycle $j$) = the stick after slip $j$ (and the 
 that ends it): the level and eq (6) residuals of cycle $j$ and the trace window that
 starts at the end of slip $j$. Residuals of different stick phases share no samples
 (only the timing of the slip between neighbours), which is what the cluster-robust
-(sandwich) covariance of `fitting.uncertainty` needs for the combined objective.
+(sandwich) covariance of `stickslip_fitting.uncertainty` needs for the combined objective.
 """
 
 from __future__ import annotations
@@ -113,7 +113,7 @@ class AbstractObjective(eqx.Module):
 
 
 class FeaturesObjective(AbstractObjective):
-    """The cycle features: plateau levels and eq (6) per cycle (`fitting.objectives`)."""
+    """The cycle features: plateau levels and eq (6) per cycle (`stickslip_fitting.objectives`)."""
 
     features: FeatureData
     slip_time: str = eqx.field(static=True, default="paper")
@@ -163,7 +163,7 @@ class FeaturesObjective(AbstractObjective):
 
 class TraceObjective(AbstractObjective):
     """Every sample against the exact simulator restarted at every measured slip end
-    (`fitting.trace_objective`)."""
+    (`stickslip_fitting.trace_objective`)."""
 
     trace: TraceData
     slip_time: str = eqx.field(static=True, default="paper")

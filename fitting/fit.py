@@ -2,10 +2,10 @@ r"""Joint least-squares fit of the friction parameters to a campaign of records.
 
 One verb, `fit_features(features, ...)` (or `fit_records(records, ...)`), returns a
 `FitResult`. The residuals are the whitened features objective of
-`fitting.objectives` (its sum of squares is $-2\log$ likelihood up to a constant), so
+`stickslip_fitting.objectives` (its sum of squares is $-2\log$ likelihood up to a constant), so
 the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
 
-- Parameters: `fitting.params.CampaignParams` (friction in unconstrained coordinates,
+- Parameters: `stickslip_fitting.params.CampaignParams` (friction in unconstrained coordinates,
   one gauge offset per record); the free leaves are chosen with `eqx.partition`
   (`free_spec(fixed=..., offsets=...)`).
 - Solver: `optimistix.least_squares` with the project's one Levenberg-Marquardt
@@ -24,8 +24,8 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
   there instead of spending the whole step budget); then only the best few are
   polished to the tolerances, and the best converged start wins.
 - Objective (`objective=`): the cycle features (default), the full trace through the
-  exact simulator restarted per cycle (`fitting.trace_objective`), or both
-  (`fitting.combined`); the trace and combined fits start from the features optimum.
+  exact simulator restarted per cycle (`stickslip_fitting.trace_objective`), or both
+  (`stickslip_fitting.combined`); the trace and combined fits start from the features optimum.
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ class FitResult:
       `converged`: that result is successful; `n_starts`, `n_steps` (Levenberg-Marquardt
       steps of the best start, all reweighting rounds); `n_rounds` (reweighting rounds).
     - `slip_time`: the $T_2$ mode of eq (3) used.
-    - `objective`: the `fitting.combined.AbstractObjective` minimised (features, trace
+    - `objective`: the `stickslip_fitting.combined.AbstractObjective` minimised (features, trace
       or both); `trace_failures`: windows of the trace objective whose simulation did not
       succeed at the optimum (0 when all ran).
     - `record_chi2`: chi2/n of each record's features residuals before any rescaling
@@ -338,8 +338,8 @@ def fit_features(
     - `slip_time`: $T_2$ in eq (3), "paper" ($\\pi/\\omega_0$) or "self_consistent".
     - `starts`: starting `EmpiricalFriction`s (default `initial_guesses`).
     - `pad_cycles`: pad the cycle axis (campaigns of other lengths reuse the compilation).
-    - `reslip`: model re-slips (`fitting.objectives.feature_data`; None: detected).
-    - `objective`: "features" (default), "trace" or "both" (`fitting.combined`); the
+    - `reslip`: model re-slips (`stickslip_fitting.objectives.feature_data`; None: detected).
+    - `objective`: "features" (default), "trace" or "both" (`stickslip_fitting.combined`); the
       last two need `records` (the `Record`s the features came from) and start from the
       features fit's optimum ("features first"); `weights` = (w_features, w_trace) for
       "both"; `pad_length`, `pad_windows`: trace rows at least this long, at least this

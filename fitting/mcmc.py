@@ -1,11 +1,11 @@
 r"""Posterior sampling of the friction parameters with emcee (affine-invariant ensemble).
 
-The log-posterior is the fit's objective (`fitting.combined`: features, trace or
+The log-posterior is the fit's objective (`stickslip_fitting.combined`: features, trace or
 both) as a Gaussian likelihood, $\log L = -\tfrac12 \sum r^2 / s$ ($s = \max(1, \chi^2/\mathrm{dof})$ at
 the optimum, the same widening as the Laplace intervals), plus the **prior**: uniform
 in the logarithm of each free parameter inside `PRIOR_BOUNDS` (a scale-free prior
 for positive quantities), with $\mu_s > \mu_d$; gauge offsets (when fitted) flat.
-The microsqueeze model (`fitting.microsqueeze_params`: h_e, Q in place of gamma, m)
+The microsqueeze model (`stickslip_fitting.microsqueeze_params`: h_e, Q in place of gamma, m)
 adds its physical region to the support: $C_3 < \mu_s < C_1$, $\mu_d$ above the
 film-only friction and $h_e > t_b + a_d$ (`MicrosqueezeFriction.physical`; a point
 outside has zero prior density).
@@ -13,7 +13,7 @@ outside has zero prior density).
 For the trace and combined objectives (and features fits the model does not describe
 to their noise) the samples of one stick phase share errors, and a likelihood that
 treats them as independent is too narrow, as the Fisher intervals are (see
-`fitting.uncertainty`). There the likelihood is tempered: $s$ is multiplied by the
+`stickslip_fitting.uncertainty`). There the likelihood is tempered: $s$ is multiplied by the
 largest ratio, over the free friction parameters, of the cluster-robust (sandwich)
 variance to the scaled Fisher variance (`likelihood_scale`, reported), so that no
 parameter's posterior is narrower than its robust Laplace interval. The sampler then

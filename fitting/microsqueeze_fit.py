@@ -1,10 +1,10 @@
 r"""Campaign fit of the microsqueeze model: mu_s, mu_d, h_e, Q, delta, n.
 
 `fit_microsqueeze(features, eta=..., pair="S1G1")` runs the same jitted multi-start
-Levenberg-Marquardt fit as the empirical model (`fitting.fit.fit_features`, features
+Levenberg-Marquardt fit as the empirical model (`stickslip_fitting.fit.fit_features`, features
 objective: $\mu_0$ per cycle against `MicrosqueezeStatic`$(T_1)$, $\mu_m$ by eq (3)),
-with `fitting.microsqueeze_params.MicrosqueezeFriction` in place of
-`EmpiricalFriction`; `fitting.uncertainty.laplace` then gives the Gauss-Newton
+with `stickslip_fitting.microsqueeze_params.MicrosqueezeFriction` in place of
+`EmpiricalFriction`; `stickslip_fitting.uncertainty.laplace` then gives the Gauss-Newton
 intervals of h_e (mm) and Q (mm$^4$) like those of gamma and m.
 
 Starts ("features first"): mu_d, mu_s from the measured per-cycle $\mu_m$, $\mu_0$ (as
@@ -89,7 +89,7 @@ def fit_microsqueeze(
     """Fit mu_s, mu_d, h_e (mm), Q (mm^4), delta, n to a campaign's cycle features.
 
     `eta` (kgf s/mm^2), `pair` (name in Table 10 or a `SurfacePair`) and `contact` are
-    given; `fixed`, `offset` and the other keywords as in `fitting.fit.fit_features`
+    given; `fixed`, `offset` and the other keywords as in `stickslip_fitting.fit.fit_features`
     (`objective` "features", "trace" or "both", the last two with `records`).
     """
     if not (np.isfinite(eta) and eta > 0):

@@ -22,7 +22,7 @@ $10^{-9}(t_b + a_d)$, $|\log Q| > 200$) are clipped onto them inside
 `friction()` (zero gradient there, so Levenberg-Marquardt rejects such steps) instead
 of raising. At any physical point the clipping is inactive.
 
-A final subclass of `fitting.params.AbstractFrictionParams`: the generic fit,
+A final subclass of `stickslip_fitting.params.AbstractFrictionParams`: the generic fit,
 uncertainty and sampler code read its class variables and methods (`physical()`: no
 clipping needed, the support of the MCMC prior).
 """

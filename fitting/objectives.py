@@ -2,7 +2,7 @@ r"""Objectives: whitened residual vectors whose sum of squares is $-2\log$ likel
 
 **Features objective** (`feature_residuals`). The measurements of a record are its
 stick plateaus (the slider at rest; each level averages many samples, standard error
-$\sigma/\sqrt{N}$) and its slip times (see `fitting.features`). With the measured stick
+$\sigma/\sqrt{N}$) and its slip times (see `stickslip_fitting.features`). With the measured stick
 times $T_{1,j}$, the model predicts for every complete cycle $j$ (gauge offset $c$):
 
 - breakaway level $L_0(T_1) = c + (W/k)\,\mu_0(T_1)$, eq (1) (section 3.1);
@@ -147,7 +147,7 @@ def feature_data(
 
 
 SHIFT_ITERATIONS = 1
-"""Iterations of the timing refinement of `fitting.features` mirrored by `_reslip_shift`
+"""Iterations of the timing refinement of `stickslip_fitting.features` mirrored by `_reslip_shift`
 (1, 2 and 8 agree to 3e-7 mm in the levels; each costs compilation)."""
 
 
@@ -170,7 +170,7 @@ _CENTRE_FIT_GAIN = _centre_fit_gain()
 
 
 def _reslip_shift(omega0, v, x2, c, x1_end, t2r):
-    r"""Where `fitting.features` times a slip with a re-slip (s, from the true breakaway).
+    r"""Where `stickslip_fitting.features` times a slip with a re-slip (s, from the true breakaway).
 
     The features take every slip for one half cosine symmetric about its centre $t_c$
     (eq 11 with the drive) and refine $t_c$ by fitting
@@ -209,7 +209,7 @@ def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time, speed=No
     r"""L0, L1 (mm) at stick time t1 for one record (eqs 1, 3, 5, 7), with re-slip.
 
     `t1` is the measured stick time (from the end of the previous slip's first half
-    cosine to the breakaway) and L1 the slip-end level as `fitting.features` measures
+    cosine to the breakaway) and L1 the slip-end level as `stickslip_fitting.features` measures
     it (the stick line after the slip extrapolated back to that end). A slip that ends
     above the zero-stick breakaway level, $k x_1 > \mu_0(0) W = \mu_d W$, cannot
     restick: the slider slips on from rest with $\mu_d$ (as `simulate_exact` does) for
@@ -266,7 +266,7 @@ def feature_residuals(
     value. `slip_time` selects the $T_2$ of eq (3): "paper" (eq 7) or "self_consistent".
     `weights_at`: evaluate the effective-variance standard errors at these parameters
     instead of at `params` (the fit freezes them for one Levenberg-Marquardt run, so that
-    its Jacobian is the exact derivative of what it minimises; see `fitting.fit`).
+    its Jacobian is the exact derivative of what it minimises; see `stickslip_fitting.fit`).
     """
     if slip_time not in SLIP_TIME_MODES:
         raise ValueError(f"slip_time must be one of {SLIP_TIME_MODES}, got {slip_time!r}")

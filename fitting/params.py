@@ -20,7 +20,7 @@ fitted is chosen with a boolean filter spec and `eqx.partition` (`free_spec`), n
 with string-keyed dicts; names appear only at the reporting edge (`NAMES`, `UNITS`).
 
 Every friction law that can be fitted is a final subclass of `AbstractFrictionParams`
-(this module's `EmpiricalFriction`; `fitting.microsqueeze_params.MicrosqueezeFriction`):
+(this module's `EmpiricalFriction`; `stickslip_fitting.microsqueeze_params.MicrosqueezeFriction`):
 names, units, the leaf storing each parameter, the parameters of the rise of
 $\mu_0(T_1)$, the support of the MCMC prior, and the conversions the fit, the
 uncertainty and the sampler need. Generic code reads those and never probes a class

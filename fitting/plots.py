@@ -56,7 +56,7 @@ def friction_curves(fit, unc, n_draws: int = 200, seed: int = 0):
 def fitted_traces(fit, records):
     """The fitted model over `records` (the first ones of the fit): per record, (time s,
     deflection mm without the gauge offset) of the exact simulator restarted at the
-    end of every slip, as the trace objective compares it (`fitting.trace_objective`),
+    end of every slip, as the trace objective compares it (`stickslip_fitting.trace_objective`),
     NaN between the cycle windows. None where that is not possible (a drive program,
     no complete cycle); the figure then shows the fitted levels only."""
     import jax

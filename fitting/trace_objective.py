@@ -4,7 +4,7 @@ A small error in a stick time shifts every later slip, so a record simulated fro
 start drifts out of phase with the measurement and the residuals stop carrying
 information. Here the simulation is **restarted at the end of every slip**: cycle $j$
 of a record is the window from the measured end of slip $j-1$ ($t_{e,j-1}$, from
-`fitting.features`) to the end of slip $j$. In it the exact simulator
+`stickslip_fitting.features`) to the end of slip $j$. In it the exact simulator
 (`stickslip_jax.simulation.simulate_exact`, chapters 2-5: stick while
 $k x < \mu_0(T_1) W$ (eq 1), slip with $\mu_m$ (eq 3) on eq (10)) starts at
 $t_{e,j-1}$ with the slider at rest, stick time 0 and the measured slip-end deflection
@@ -115,7 +115,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     padding. `pad_length`: rows at least this long; `pad_windows`: at least this many
     rows (campaigns of other sizes reuse the compilation). `drive_fix`: take out the drive
     error the features found (`RecordFeatures.drive_fix`; False keeps it in the data, for
-    a model that has its own drive error, `fitting.discovery.cycle_model`). Raises ValueError for a
+    a model that has its own drive error, `stickslip_fitting.discovery.cycle_model`). Raises ValueError for a
     record without stick-slip or without a constant drive speed.
     """
     if len(records) != len(features):
@@ -232,7 +232,7 @@ def trace_residuals_and_flags(params: CampaignParams, data: TraceData, slip_time
 
     The standard errors $s_i$ are evaluated at `params` with the simulated velocity
     (default), or at `weights_at` with `slider_velocity` (both given: the fit freezes the
-    weights for one Levenberg-Marquardt run, see `fitting.fit`); they are held fixed in
+    weights for one Levenberg-Marquardt run, see `stickslip_fitting.fit`); they are held fixed in
     the derivative either way."""
     trace = trace_simulation(params, data, slip_time)
     offset = params.offset[data.record]

@@ -13,7 +13,7 @@ For the trace and combined objectives ("trace", "both") $F^{-1}$ is too narrow: 
 samples of one stick phase share the error of the measured restart state (slip-end
 level and time), and "both" reads every sample twice (features and trace). Their
 covariance is the cluster-robust sandwich $H^{-1} M H^{-1}$ (`sandwich_covariance`):
-the score of each stick phase (`fitting.combined.residual_cycles`) is one cluster,
+the score of each stick phase (`stickslip_fitting.combined.residual_cycles`) is one cluster,
 neighbouring phases of a record are allowed to correlate (lag 1), and jackknife
 (leave-one-cluster-out) scores remove the small-sample bias. Measured on campaigns
 drawn from a prior (tests/test_combined.py, slow; 18 of 20 counted, two features fits
@@ -80,7 +80,7 @@ class Uncertainty:
     covariance: str = "fisher"
 
     def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
-        """One typed row per parameter (`fitting.report.ParameterEstimate`), with the
+        """One typed row per parameter (`stickslip_fitting.report.ParameterEstimate`), with the
         truth when given ({name: value})."""
         rows = []
         for i, n in enumerate(self.identifiable):
@@ -140,7 +140,7 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
     r"""Cluster-robust covariance $H^{-1} M H^{-1}$ of a least-squares estimate.
 
     $H = J^\top J$; $M = \sum_{c,c'} \tilde g_c \tilde g_{c'}^\top$ over clusters $c$
-    (the (record, cycle) labels of `fitting.combined.residual_cycles`, $G$ of them) and
+    (the (record, cycle) labels of `stickslip_fitting.combined.residual_cycles`, $G$ of them) and
     $c'$ = $c$ or a neighbour of the same record within `lag` cycles (the slip between
     two stick phases times both), with the cluster scores $g_c = \sum_{i \in c} J_i r_i$.
     The residuals at the optimum are shrunk by the fit, which biases the plain estimate
@@ -259,7 +259,7 @@ def _two_level(cov_stick, J, r, record) -> np.ndarray:
 
 PHYSICAL_RANGE = {"mu_s": (1e-3, 3.0), "mu_d": (1e-3, 3.0), "gamma": (1e-4, 1e4),
                   "m": (0.02, 5.0), "delta": (1e-3, 1e5), "n": (0.02, 5.0)}
-"""Plausible values of the empirical law's parameters (units of `fitting.params.UNITS`):
+"""Plausible values of the empirical law's parameters (units of `stickslip_fitting.params.UNITS`):
 a fit outside them is reported as not identifiable, never with an interval."""
 
 SANDWICH_CHI2 = 4.0
@@ -274,7 +274,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     per stick phase, `sandwich_covariance` with `lag` and `small_sample`), or "auto":
     the sandwich for the trace and combined objectives (module doc), fisher for features
     unless chi2/dof > `SANDWICH_CHI2` or some record's errors were scaled to its scatter
-    (`fitting.fit.RECORD_CHI2`) (records the model does not describe to their noise:
+    (`stickslip_fitting.fit.RECORD_CHI2`) (records the model does not describe to their noise:
     drive or sensor imperfections, creep; the residuals are then correlated within each
     stick phase and a scaled Fisher matrix undercovers: on an independent SciPy
     campaign with such imperfections, chi2/dof 426, its 95 % interval missed mu_s).

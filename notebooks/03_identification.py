@@ -11,12 +11,12 @@ import os
 from pathlib import Path
 
 import stickslip_jax as ss
-from fitting.features import record_features
-from fitting.fit import fit_features
-from fitting.mcmc import run_mcmc
-from fitting.plots import corner_plot, fit_figure
-from fitting.synthetic import synthetic_campaign, truth_values
-from fitting.uncertainty import laplace
+from stickslip_fitting.features import record_features
+from stickslip_fitting.fit import fit_features
+from stickslip_fitting.mcmc import run_mcmc
+from stickslip_fitting.plots import corner_plot, fit_figure
+from stickslip_fitting.synthetic import synthetic_campaign, truth_values
+from stickslip_fitting.uncertainty import laplace
 
 SMALL = os.environ.get("STICKSLIP_SMALL") == "1"
 FIG = Path(os.environ.get("STICKSLIP_FIGDIR", "notebooks/figures"))

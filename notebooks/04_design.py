@@ -17,7 +17,7 @@
 # A machine-tool designer asks: with this lubricant, how stiff must the drive be (or
 # how light the table) so that stick-slip disappears at my feed rate, and how large is
 # it where it remains? A tribologist asks: which speeds and springs should I record to
-# pin down the friction parameters? This notebook answers both with `fitting.design`:
+# pin down the friction parameters? This notebook answers both with `stickslip_fitting.design`:
 #
 # 1. the trends of the paper's Figs 10-13 (amplitude and frequency against speed for
 #    several weights and stiffnesses) as maps, with the stick-slip boundary v = v_c;
@@ -38,7 +38,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import stickslip_jax as ss
-from fitting.design import (
+from stickslip_fitting.design import (
     Noise,
     candidate_grid,
     design_map,
@@ -160,7 +160,7 @@ save(fig, "04_exact_vs_steady")
 # Here a synthetic "posterior" (lubricant A's parameters with 5 % log-normal scatter,
 # as `stickslip mcmc` would give after fitting a few records) is pushed through a
 # (W, k) map at a feed of 20 mm/min: the probability of stick-slip and the 90 % band of
-# v_c. `fitting.design.load_samples` reads the same sample from CSV or JSON.
+# v_c. `stickslip_fitting.design.load_samples` reads the same sample from CSV or JSON.
 
 # %%
 rng = np.random.default_rng(0)

@@ -14,7 +14,7 @@
 # # 05 Missing physics: what is the paper's model leaving out?
 #
 # A campaign of records is made with a hidden effect the paper's model does not have:
-# the strain-gauge zero drifts during each record. `fitting.discovery.discover` fits the
+# the strain-gauge zero drifts during each record. `stickslip_fitting.discovery.discover` fits the
 # paper's model to the full traces, looks at where the residuals disagree, ranks a
 # library of candidate effects by a score test, refits the best ones and names the
 # effect that lowers BIC enough, or answers "none".
@@ -25,9 +25,9 @@ import os
 
 import matplotlib.pyplot as plt
 
-from fitting.discovery import discover
-from fitting.discovery.plots import plot_discovery
-from fitting.discovery.synthetic import hidden_effect_campaign
+from stickslip_fitting.discovery import discover
+from stickslip_fitting.discovery.plots import plot_discovery
+from stickslip_fitting.discovery.synthetic import hidden_effect_campaign
 from stickslip_jax.lubricants import lubricant
 
 small = os.environ.get("STICKSLIP_SMALL") == "1"

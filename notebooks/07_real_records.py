@@ -30,9 +30,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from fitting.campaign import boundary_check, load_campaign
-from fitting.fit import fit_features
-from fitting.uncertainty import laplace
+from stickslip_fitting.campaign import boundary_check, load_campaign
+from stickslip_fitting.fit import fit_features
+from stickslip_fitting.uncertainty import laplace
 
 FIG = Path(os.environ.get("STICKSLIP_FIGDIR", "notebooks/figures"))
 FIG.mkdir(parents=True, exist_ok=True)

@@ -1,4 +1,4 @@
-"""`stickslip design` and `stickslip plan` (fitting.commands.design, .plan), in-process."""
+"""`stickslip design` and `stickslip plan` (stickslip_fitting.commands.design, .plan), in-process."""
 
 import json
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from fitting.commands.design import parse_grid
-from fitting.design import design_map, friction_from_params, friction_params, outer, save_samples
+from stickslip_fitting.commands.design import parse_grid
+from stickslip_fitting.design import design_map, friction_from_params, friction_params, outer, save_samples
 from stickslip_jax.cli import main
 
 GRID = ["--weight", "10:60:4", "--stiffness", "20:150:3", "--speed", "40"]

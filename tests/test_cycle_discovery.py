@@ -1,4 +1,4 @@
-"""Discovery on the per-cycle model (`fitting.discovery.cycle_workflow`) against the
+"""Discovery on the per-cycle model (`stickslip_fitting.discovery.cycle_workflow`) against the
 independent SciPy generator (`tests/independent_records.py`): a clean campaign gives
 "none", a campaign with strong viscous damping (a damping *ratio*, not our force law's
 coefficient) names `viscous_damping`; the command writes the JSON contract. The rates
@@ -11,7 +11,7 @@ import json
 import pytest
 
 import independent_records as ir
-from fitting.discovery.cycle_workflow import discover_cycles
+from stickslip_fitting.discovery.cycle_workflow import discover_cycles
 
 SMALL = dict(runs=((36.0, 86.9), (20.0, 27.3)), speeds=(5.0, 10.0), cycles=5.0)
 

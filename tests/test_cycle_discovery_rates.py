@@ -47,7 +47,7 @@ DESIGN = dict(cycles=4.0)
 
 
 def run_one(kind, seed, lube, **kw):
-    from fitting.discovery.cycle_workflow import discover_cycles
+    from stickslip_fitting.discovery.cycle_workflow import discover_cycles
 
     recs = ir.campaign(lube, seed=seed, **DESIGN, **kw)
     t = time.perf_counter()

@@ -1,4 +1,4 @@
-"""The per-cycle discovery model (`fitting.discovery.cycle_model`): with every effect at
+"""The per-cycle discovery model (`stickslip_fitting.discovery.cycle_model`): with every effect at
 zero it is the exact simulator restarted in every window (the trace objective); its
 Jacobian matches finite differences; the sensor kernels are normalised."""
 
@@ -8,17 +8,17 @@ import numpy as np
 import pytest
 
 import independent_records as ir
-from fitting.discovery.cycle_effects import FAMILIES, Shape, family
-from fitting.discovery.cycle_model import CycleModel, kernel_cdf, drift_origins
+from stickslip_fitting.discovery.cycle_effects import FAMILIES, Shape, family
+from stickslip_fitting.discovery.cycle_model import CycleModel, kernel_cdf, drift_origins
 
 
 @pytest.fixture(scope="module")
 def setup():
     from stickslip_jax.records import Record
 
-    from fitting.campaign import screen_records
-    from fitting.fit import fit_features
-    from fitting.trace_objective import trace_data, trace_sd, trace_simulation
+    from stickslip_fitting.campaign import screen_records
+    from stickslip_fitting.fit import fit_features
+    from stickslip_fitting.trace_objective import trace_data, trace_sd, trace_simulation
 
     recs = []
     for i, (W, k, v, T) in enumerate(((36.0, 86.9, 5.0, 12.0), (20.0, 27.3, 10.0, 12.0),

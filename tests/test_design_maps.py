@@ -1,4 +1,4 @@
-"""Design maps (fitting.design.maps, chunks, uncertainty, posterior): values against the
+"""Design maps (stickslip_fitting.design.maps, chunks, uncertainty, posterior): values against the
 single-point steady analysis, chunking, compile counts, posterior propagation, sample files."""
 
 import json
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from fitting.design import (
+from stickslip_fitting.design import (
     PARAMETERS,
     design_map,
     friction_from_params,
@@ -20,8 +20,8 @@ from fitting.design import (
     propagate,
     save_samples,
 )
-from fitting.design.chunks import _jitted
-from fitting.design.maps import steady_kernel
+from stickslip_fitting.design.chunks import _jitted
+from stickslip_fitting.design.maps import steady_kernel
 
 FIELDS = ("amplitude", "amplitude_ratio", "frequency", "frequency_ratio", "stick_time",
           "slip_time", "natural_frequency", "critical_speed")
@@ -158,7 +158,7 @@ def test_sample_files_round_trip(tmp_path, sample):
         {"parameters": list(PARAMETERS),
          "samples": np.column_stack([p[k] for k in PARAMETERS]).tolist()},
         {"posterior": {k: v.tolist() for k, v in p.items()}, "note": "extra keys ignored"},
-        # fitting.mcmc layout: a matrix of the sampled parameters, the rest held fixed
+        # stickslip_fitting.mcmc layout: a matrix of the sampled parameters, the rest held fixed
         {"names": ["mu_s", "mu_d", "gamma", "m"],
          "samples": np.column_stack([p[k] for k in ("mu_s", "mu_d", "gamma", "m")]).tolist(),
          "fixed": {"delta": 67.0, "n": 1.0}},

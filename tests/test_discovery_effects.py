@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from fitting.discovery.effects import CANDIDATES, EffectSet, effect_class
-from fitting.discovery.model import (
+from stickslip_fitting.discovery.effects import CANDIDATES, EffectSet, effect_class
+from stickslip_fitting.discovery.model import (
     EFFECT_PARAMS,
     effects_from_vector,
     effects_to_vector,
@@ -84,7 +84,7 @@ def test_vector_round_trip_and_slots():
 
 
 def test_physical_signs():
-    from fitting.discovery.effects import RateState, SensorLowpass, Stribeck, ViscousDamping
+    from stickslip_fitting.discovery.effects import RateState, SensorLowpass, Stribeck, ViscousDamping
 
     assert ViscousDamping.unphysical({"c": -0.006}) == "c = -0.006 < 0"
     assert ViscousDamping.unphysical({"c": 0.01}) is None
@@ -96,7 +96,7 @@ def test_physical_signs():
 
 
 def test_unphysical_score_direction_is_ranked_last():
-    from fitting.discovery.ranking import CandidateScore
+    from stickslip_fitting.discovery.ranking import CandidateScore
 
     good = CandidateScore("stribeck", 5.0, 1, 0.03, {"b": 1e-3})
     bad = CandidateScore("viscous_damping", 50.0, 1, 1e-12, {"c": -1e-3},
@@ -109,7 +109,7 @@ def test_unphysical_score_direction_is_ranked_last():
 def test_lowpass_time_constant_has_slope_one_at_zero():
     import jax
 
-    from fitting.discovery.effects import SensorLowpass
+    from stickslip_fitting.discovery.effects import SensorLowpass
 
     def tau_eff(t):
         return SensorLowpass(time_constant=t).effective_time_constant()
@@ -127,7 +127,7 @@ def test_lowpass_time_constant_has_slope_one_at_zero():
 
 
 def test_load_referred_friction_keeps_the_breakaway_and_slip_centre_forces():
-    from fitting.discovery.effects import load_referred_friction
+    from stickslip_fitting.discovery.effects import load_referred_friction
 
     kappa, T1, T2 = 0.2, jnp.asarray([0.01, 0.1, 1.0]), 0.02
     phys = load_referred_friction(FR, kappa)

@@ -3,8 +3,8 @@ structure; phases; the sparse regression of the learned correction."""
 
 import numpy as np
 
-from fitting.discovery.learned import FEATURES, feature_matrix, stlsq
-from fitting.discovery.residuals import misspecification_test, phase_labels
+from stickslip_fitting.discovery.learned import FEATURES, feature_matrix, stlsq
+from stickslip_fitting.discovery.residuals import misspecification_test, phase_labels
 
 
 def test_misspecification_test_is_calibrated_on_white_noise():

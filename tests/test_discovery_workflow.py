@@ -16,9 +16,9 @@ import math
 import numpy as np
 import pytest
 
-from fitting.discovery import CANDIDATES, discover
-from fitting.discovery import model as dmodel
-from fitting.discovery.synthetic import HardeningSpring, hidden_effect_campaign
+from stickslip_fitting.discovery import CANDIDATES, discover
+from stickslip_fitting.discovery import model as dmodel
+from stickslip_fitting.discovery.synthetic import HardeningSpring, hidden_effect_campaign
 from stickslip_jax.lubricants import lubricant
 
 TINY = dict(conditions=((36.0, 86.9), (12.4, 40.0)), speed_fractions=(0.26, 0.36), cycles=3)
@@ -107,7 +107,7 @@ def test_tiny_campaign_without_effect_answers_none_through_the_cli(tmp_path, dam
 
 
 def test_direction_cosine_is_the_smallest_principal_angle():
-    from fitting.discovery.ranking import CandidateScore, direction_cosine
+    from stickslip_fitting.discovery.ranking import CandidateScore, direction_cosine
 
     rng = np.random.default_rng(0)
     a = rng.normal(size=(200, 1))
@@ -158,7 +158,7 @@ def test_effect_outside_the_library_is_not_named_confidently_and_is_learned():
     _report("hardening_spring", recs, res)
     assert res.effect == "none" or res.confidence == "low", res.candidates
     if res.effect != "none":  # never a physically impossible size (such as c < 0)
-        from fitting.discovery.effects import effect_class
+        from stickslip_fitting.discovery.effects import effect_class
 
         size = {p: v["value"] for p, v in res.effect_size.items()}
         assert effect_class(res.effect).unphysical(size) is None

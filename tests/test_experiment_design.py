@@ -1,4 +1,4 @@
-"""Experiment design (fitting.design.experiment): Fisher information against finite
+"""Experiment design (stickslip_fitting.design.experiment): Fisher information against finite
 differences, the greedy D-optimal choice, and the synthetic-campaign comparison: the
 chosen records identify the friction parameters better than an even spread."""
 
@@ -8,7 +8,7 @@ import optimistix as optx
 import pytest
 
 import stickslip_jax as ss
-from fitting.design import (
+from stickslip_fitting.design import (
     Campaign,
     Noise,
     candidate_grid,

@@ -1,13 +1,13 @@
-"""Identifiability report (fitting.uncertainty): one speed, one k/W, and a well-designed campaign."""
+"""Identifiability report (stickslip_fitting.uncertainty): one speed, one k/W, and a well-designed campaign."""
 
 import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from fitting.features import record_features
-from fitting.fit import fit_features
-from fitting.uncertainty import laplace
-from fitting.synthetic import synthetic_campaign
+from stickslip_fitting.features import record_features
+from stickslip_fitting.fit import fit_features
+from stickslip_fitting.uncertainty import laplace
+from stickslip_fitting.synthetic import synthetic_campaign
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Inverse design (fitting.design.inverse): Newton through the steady analysis against a
+"""Inverse design (stickslip_fitting.design.inverse): Newton through the steady analysis against a
 brute-force grid, gradients against central finite differences, jit/vmap."""
 
 import equinox as eqx
@@ -9,8 +9,8 @@ import optimistix as optx
 import pytest
 
 import stickslip_jax as ss
-from fitting.design import maximum_weight, minimum_stiffness
-from fitting.design.inverse import _minimum_stiffness
+from stickslip_fitting.design import maximum_weight, minimum_stiffness
+from stickslip_fitting.design.inverse import _minimum_stiffness
 
 FEED = 10.0 / 60  # mm/s
 

@@ -45,10 +45,12 @@ def test_model_package_never_imports_fitting():
     for path, tree in _modules("stickslip_jax"):
         for node, module, names, level in _imports(tree):
             mods = names if module is None else [module]
-            if level == 0 and any(m == "fitting" or m.startswith("fitting.") for m in mods):
+            if level == 0 and any(m.split(".")[0] in ("fitting", "stickslip_fitting")
+                                  for m in mods):
                 bad.append(f"{path.relative_to(ROOT)}:{node.lineno}")
         text = path.read_text()
-        assert '"fitting.' not in text, f"{path.relative_to(ROOT)} names a fitting module"
+        assert '"stickslip_fitting.' not in text and '"fitting.' not in text, (
+            f"{path.relative_to(ROOT)} names a fitting module")
     assert not bad, "stickslip_jax imports the fitting package:\n" + "\n".join(bad)
 
 
@@ -64,21 +66,33 @@ def test_no_probing_of_parameter_classes():
     assert not bad, "hasattr probing in fitting/:\n" + "\n".join(bad)
 
 
+def test_installed_under_the_project_namespace():
+    """The folder is fitting/, the import name stickslip_fitting (a bare top-level
+    `fitting` in site-packages would clash with another distribution of that name)."""
+    import stickslip_fitting
+    import stickslip_fitting.fit as fit_module
+
+    assert pathlib.Path(stickslip_fitting.__file__).parent.name == "fitting"
+    assert fit_module.__name__ == "stickslip_fitting.fit"
+    text = (ROOT / "pyproject.toml").read_text()
+    assert 'stickslip_fitting = "fitting"' in text
+
+
 def test_fitting_commands_registered_by_entry_points():
     from stickslip_jax import cli
 
     names = cli.registered()
-    assert not any(n.startswith("fitting.") for n in cli.SUBCOMMANDS)
+    assert not any(n.startswith(("fitting.", "stickslip_fitting.")) for n in cli.SUBCOMMANDS)
     for cmd in ("fit", "mcmc", "design", "plan", "discover", "pitch"):
-        assert f"fitting.commands.{cmd}" in names, (
+        assert f"stickslip_fitting.commands.{cmd}" in names, (
             f"{cmd}: not registered (entry point group {cli.COMMAND_GROUP}; reinstall "
             "the package after editing pyproject.toml)")
 
 
 @pytest.mark.parametrize("law", ["EmpiricalFriction", "MicrosqueezeFriction"])
 def test_parameter_laws_are_final_subclasses(law):
-    import fitting.microsqueeze_params as msp
-    import fitting.params as params
+    import stickslip_fitting.microsqueeze_params as msp
+    import stickslip_fitting.params as params
 
     cls = getattr(params, law, None) or getattr(msp, law)
     assert issubclass(cls, params.AbstractFrictionParams)
@@ -89,7 +103,22 @@ def test_parameter_laws_are_final_subclasses(law):
 
 
 def test_public_api_resolves():
-    import fitting
+    import stickslip_fitting
 
-    for name in fitting.__all__:
-        assert getattr(fitting, name) is not None, name
+    for name in stickslip_fitting.__all__:
+        assert getattr(stickslip_fitting, name) is not None, name
+
+
+def test_every_package_is_installed():
+    """pyproject lists the packages by hand (the fitting/ folder is renamed on install):
+    a new subpackage must be added there, or a wheel would lack it."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    found = set()
+    for pkg, name in (("stickslip_jax", "stickslip_jax"), ("fitting", "stickslip_fitting")):
+        for init in (ROOT / pkg).rglob("__init__.py"):
+            rel = init.parent.relative_to(ROOT / pkg).parts
+            found.add(".".join((name, *rel)))
+    assert found == listed, f"not listed: {sorted(found - listed)}; gone: {sorted(listed - found)}"

@@ -1,4 +1,4 @@
-"""emcee posterior (fitting.mcmc): agrees with the Laplace intervals, diagnostics, CLI, plots."""
+"""emcee posterior (stickslip_fitting.mcmc): agrees with the Laplace intervals, diagnostics, CLI, plots."""
 
 import json
 
@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from fitting.features import record_features
-from fitting.fit import fit_features
-from fitting.mcmc import log_posterior, run_mcmc
-from fitting.synthetic import synthetic_campaign, truth_values
-from fitting.uncertainty import laplace
+from stickslip_fitting.features import record_features
+from stickslip_fitting.fit import fit_features
+from stickslip_fitting.mcmc import log_posterior, run_mcmc
+from stickslip_fitting.synthetic import synthetic_campaign, truth_values
+from stickslip_fitting.uncertainty import laplace
 
 
 @pytest.fixture(scope="module")
@@ -59,7 +59,7 @@ def test_short_chain_warns(fitted):
 
 
 def test_cli_mcmc_and_plots(fitted, tmp_path, capsys):
-    from fitting.plots import fit_figure
+    from stickslip_fitting.plots import fit_figure
     from stickslip_jax.cli import main
     from stickslip_jax.records import write_record
 
@@ -96,7 +96,7 @@ def test_cli_mcmc_and_plots(fitted, tmp_path, capsys):
     rep2 = json.loads(out2.read_text())
     assert rep2["fixed"] == {"n": 1.0} and "n" not in rep2["names"]
     assert 25 <= len(rep2["samples"]) <= 50 and len(rep2["samples"][0]) == 5
-    from fitting.design.posterior import load_samples
+    from stickslip_fitting.design.posterior import load_samples
 
     sample = load_samples(out2)
     assert np.all(np.asarray(sample.kinetic.n) == 1.0)
@@ -110,7 +110,7 @@ def test_cli_mcmc_and_plots(fitted, tmp_path, capsys):
 def test_fitted_traces_follow_the_records(fitted):
     # the figure's overlay: the restarted simulation at the fitted parameters lies on
     # the record within its noise inside every window, NaN separates the windows
-    from fitting.plots import fitted_traces, friction_curves
+    from stickslip_fitting.plots import fitted_traces, friction_curves
 
     recs, fit = fitted
     sims = fitted_traces(fit, recs[:2])
@@ -130,8 +130,8 @@ def test_fitted_traces_follow_the_records(fitted):
 def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, capsys):
     """`stickslip mcmc --objective trace`: the sampler draws from the trace objective the
     fit minimised, tempered so that no parameter's posterior is narrower than its
-    cluster-robust Laplace interval (module doc of fitting.mcmc)."""
-    from fitting.mcmc import likelihood_scale
+    cluster-robust Laplace interval (module doc of stickslip_fitting.mcmc)."""
+    from stickslip_fitting.mcmc import likelihood_scale
     from stickslip_jax.cli import main
     from stickslip_jax.records import write_record
 

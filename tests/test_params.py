@@ -1,12 +1,12 @@
-"""The friction-parameter family (fitting.params, fitting.microsqueeze_params)."""
+"""The friction-parameter family (stickslip_fitting.params, stickslip_fitting.microsqueeze_params)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from fitting.microsqueeze_params import MicrosqueezeFriction
-from fitting.params import CampaignParams, EmpiricalFriction, free_mask, free_spec
+from stickslip_fitting.microsqueeze_params import MicrosqueezeFriction
+from stickslip_fitting.params import CampaignParams, EmpiricalFriction, free_mask, free_spec
 
 A = dict(mu_s=0.56, mu_d=0.21, gamma=0.38, m=0.4, delta=67.0, n=1.0)
 
@@ -61,7 +61,7 @@ def test_physical_region():
 
 
 def test_parameter_estimate_row():
-    from fitting.report import ParameterEstimate
+    from stickslip_fitting.report import ParameterEstimate
 
     e = ParameterEstimate("mu_s", "-", 0.55, 0.01, (0.53, 0.57)).with_truth({"mu_s": 0.56})
     assert e.truth_in_ci95 and e.relative_error == pytest.approx(-1 / 56)

@@ -58,9 +58,9 @@ def interval90(value, ci95):
 
 @pytest.mark.slow
 def test_intervals_cover_on_independent_campaigns():
-    from fitting.campaign import screen_records
-    from fitting.fit import fit_features
-    from fitting.uncertainty import laplace
+    from stickslip_fitting.campaign import screen_records
+    from stickslip_fitting.fit import fit_features
+    from stickslip_fitting.uncertainty import laplace
 
     hits = {"mu_s": 0, "mu_d": 0}
     close = {"mu_s": 0, "mu_d": 0}

@@ -1,4 +1,4 @@
-"""Sharding of design maps over devices (fitting.design.sharding): 2 forced host devices
+"""Sharding of design maps over devices (stickslip_fitting.design.sharding): 2 forced host devices
 give results identical to one device. The 2-device run is a subprocess because
 XLA_FLAGS must be set before JAX starts."""
 
@@ -11,13 +11,13 @@ import jax
 import numpy as np
 import pytest
 
-from fitting.design.sharding import batch_mesh, pad_batch, padded_size, shard_batch
+from stickslip_fitting.design.sharding import batch_mesh, pad_batch, padded_size, shard_batch
 
 SCRIPT = textwrap.dedent(
     """
     import jax, numpy as np
     import stickslip_jax as ss
-    from fitting.design import batch_mesh, design_map, outer
+    from stickslip_fitting.design import batch_mesh, design_map, outer
     assert jax.device_count() == 2, jax.devices()
     f = ss.lubricant("A")
     w, k, v = outer(np.linspace(10, 60, 7), np.linspace(20, 150, 5), np.geomspace(0.01, 90, 3) / 60)
@@ -30,7 +30,7 @@ SCRIPT = textwrap.dedent(
         assert np.array_equal(a, b), (name, np.max(np.abs(a - b)))
     assert 0 < m2.stick_slip.mean() < 1
     # the chunk really is split: each device holds half of the rows
-    from fitting.design.sharding import shard_batch
+    from stickslip_fitting.design.sharding import shard_batch
     x = shard_batch(np.arange(8.0), both)
     assert sorted(len(s.data) for s in x.addressable_shards) == [4, 4]
     print("SHARDED-OK")

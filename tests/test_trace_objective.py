@@ -1,4 +1,4 @@
-"""Trace objective (fitting.trace_objective, fitting.combined): the exact simulator restarted per
+"""Trace objective (stickslip_fitting.trace_objective, stickslip_fitting.combined): the exact simulator restarted per
 cycle against every sample; recovery, gradients, the combined objective, bad input."""
 
 import dataclasses
@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from fitting.features import record_features
-from fitting.fit import MAX_ROUNDS, fit_features
-from fitting.params import NAMES, CampaignParams, EmpiricalFriction
-from fitting.synthetic import synthetic_campaign, truth_values
-from fitting.trace_objective import (CHUNK, reslip_windows, trace_data, trace_residuals,
+from stickslip_fitting.features import record_features
+from stickslip_fitting.fit import MAX_ROUNDS, fit_features
+from stickslip_fitting.params import NAMES, CampaignParams, EmpiricalFriction
+from stickslip_fitting.synthetic import synthetic_campaign, truth_values
+from stickslip_fitting.trace_objective import (CHUNK, reslip_windows, trace_data, trace_residuals,
                                      trace_simulation)
-from fitting.uncertainty import laplace
+from stickslip_fitting.uncertainty import laplace
 
 
 @pytest.fixture(scope="module")
@@ -54,7 +54,7 @@ def trace_fit(trace_fit_and_compiles):
 
 def test_trace_fit_compiles_two_programs(trace_fit_and_compiles):
     # the features and trace solves are compiled together ahead of the fit
-    # (fitting.fit._compile_together); the fit itself must then compile nothing: had
+    # (stickslip_fitting.fit._compile_together); the fit itself must then compile nothing: had
     # the arguments' structure differed, XLA would compile them again (4 programs)
     _, compiled = trace_fit_and_compiles
     assert compiled <= 2  # fewer where this process compiled the layout before
@@ -194,7 +194,7 @@ def test_combined_objective_from_the_cli(campaign, tmp_path, capsys):
 def test_fit_residuals_are_the_objectives(trace_fit):
     """The fit's residuals with the weights frozen at the point itself (and its simulated slider
     velocity) are the objective's `residuals`, for the trace and the combined objective."""
-    from fitting.combined import make_objective
+    from stickslip_fitting.combined import make_objective
 
     fit = trace_fit
     both = make_objective("both", fit.data, fit.objective.trace, weights=(0.3, 0.7))

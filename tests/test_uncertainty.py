@@ -1,11 +1,11 @@
-"""Cluster-robust (sandwich) covariance of fitting.uncertainty against independent references:
+"""Cluster-robust (sandwich) covariance of stickslip_fitting.uncertainty against independent references:
 the textbook heteroscedasticity-consistent formula written here, and the exact covariance of
 least squares with clustered and neighbour-correlated errors (Monte Carlo)."""
 
 import numpy as np
 import pytest
 
-from fitting.uncertainty import sandwich_covariance
+from stickslip_fitting.uncertainty import sandwich_covariance
 
 
 def test_singleton_clusters_reduce_to_the_hc_formula():

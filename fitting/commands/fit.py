@@ -5,7 +5,7 @@ records carry the truth they were made from), the identifiability warnings, and 
 fit quality; `--json OUT` writes the same as JSON, `--plot OUT.png` the diagnostic
 figure. Units: mu dimensionless, gamma s^-m, delta s^-n; internal kgf, mm, s.
 `--model microsqueeze` fits h_e (mm) and Q (mm^4) in place of gamma and m, with the
-viscosity `--eta` and the surface pair `--surface` given (`fitting.microsqueeze_fit`).
+viscosity `--eta` and the surface pair `--surface` given (`stickslip_fitting.microsqueeze_fit`).
 """
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def add_model_arguments(parser):
 
 def fit_from_args(args, *, objective: str = "features"):
     """Read the campaign of `args.records`, screen it and fit `args.model` to the records
-    with usable stick-slip (`fitting.campaign`; all of them with `args.strict`).
+    with usable stick-slip (`stickslip_fitting.campaign`; all of them with `args.strict`).
 
     Returns (fit, campaign, extra): `extra` is None or the given quantities of the
     microsqueeze model ({"given": {"eta": ..., "surface": ...}}). Every user error is a
@@ -116,7 +116,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     """The JSON-ready result of a fit (the `--json` contract).
 
     `records` lists every record given, in order: the used ones with their fitted gauge
-    offset, the others with `status` and `reason` (`fitting.campaign`);
+    offset, the others with `status` and `reason` (`stickslip_fitting.campaign`);
     `steady_records` compares records without stick-slip with the fitted boundary."""
     from ..campaign import Campaign, boundary_check
 

@@ -110,7 +110,7 @@ def run(args) -> int:
             "acceptance": res.acceptance, "warnings": res.warnings,
             "records": [f.name for f in fit.features],
             "records_screened": [s.to_json() for s in campaign.screening],
-            # the draws, in the layout of fitting.design.posterior.load_samples
+            # the draws, in the layout of stickslip_fitting.design.posterior.load_samples
             "names": list(res.names), "samples": thinned_draws(res.samples, args.draws).tolist(),
             "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
         if extra:

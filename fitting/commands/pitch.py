@@ -9,7 +9,7 @@ gravity, mm unless a unit is given) and prints, per measuring point, the tilt ep
 (signed extreme), the mean and the variation d_eps over the second half of the record,
 in um; for channels the record carries (`pitch_N`, `yaw_N`) the measured values too.
 With `--fit` the compliances, neutral points and squeeze time constants are identified
-from those channels first (`fitting.pitch_fit`) and printed with 95 % intervals.
+from those channels first (`stickslip_fitting.pitch_fit`) and printed with 95 % intervals.
 Without `--fit` the model is the illustrative `default_model()` at the given viscosity.
 """
 

@@ -67,8 +67,8 @@ def _sd_vector(sd, params, source):
 
 def read_sources(args):
     """(estimate u, prior sd of u, existing Campaign or None, description)."""
-    from fitting.design import PARAMETERS, Campaign, load_samples, log_params
-    from fitting.design.posterior import summary_from_json
+    from stickslip_fitting.design import PARAMETERS, Campaign, load_samples, log_params
+    from stickslip_fitting.design.posterior import summary_from_json
 
     estimate = sd = None
     desc = []
@@ -125,7 +125,7 @@ def read_sources(args):
             desc.append(f"prior {path.name}")
         else:
             sample = load_samples(path)
-            from fitting.design import friction_params
+            from stickslip_fitting.design import friction_params
 
             p = friction_params(sample)
             logs = np.log(np.column_stack([p[k] for k in PARAMETERS]))
@@ -151,7 +151,7 @@ def read_sources(args):
 
 
 def run(args) -> int:
-    from fitting.design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
+    from stickslip_fitting.design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
 
     if args.budget < 1:
         raise ValueError("--budget: must be >= 1")
@@ -195,5 +195,5 @@ def run(args) -> int:
     for p, b, a in zip(PARAMETERS, plan.sd_before, plan.sd_after):
         print(f"  {p:>6}: {b:.3g} -> {a:.3g}")
     print("note: the design is local to the estimate; record one or two proposals, re-fit, "
-          "and plan again (see fitting.design.sequential_campaign)")
+          "and plan again (see stickslip_fitting.design.sequential_campaign)")
     return 0

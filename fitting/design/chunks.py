@@ -8,7 +8,7 @@ than memory as long as the consumer of the chunks keeps up (write them to disk, 
 reduce them). Every chunk has the same padded shape, so the kernel compiles once;
 chunk ``i + 1`` is dispatched before chunk ``i`` is copied back, so device work and
 host transfers overlap. Chunks are split over all devices by
-`fitting.design.sharding`.
+`stickslip_fitting.design.sharding`.
 """
 
 from __future__ import annotations

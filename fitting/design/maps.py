@@ -11,7 +11,7 @@ chunk size, sharded over all devices, optional progress bar); `iter_design_map` 
 the chunks for maps that do not fit in memory.
 
 ``method="exact"`` takes amplitude, frequency and stick time from the exact
-event-driven time-domain simulator instead (`fitting.design.exact`), after a few
+event-driven time-domain simulator instead (`stickslip_fitting.design.exact`), after a few
 cycles, when the limit cycle is reached.
 """
 

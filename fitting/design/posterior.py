@@ -10,7 +10,7 @@ rest dimensionless. Files read by `load_samples`:
   ``{"samples": {"mu_s": [...], ..., "n": [...]}}`` (columns),
   ``{"samples": [{"mu_s": ..., ...}, ...]}`` (rows),
   ``{"parameters": ["mu_s", ...], "samples": [[...], ...]}`` (a matrix, one draw per row;
-  ``"names"`` is accepted for ``"parameters"``, the layout of `fitting.mcmc.McmcResult`),
+  ``"names"`` is accepted for ``"parameters"``, the layout of `stickslip_fitting.mcmc.McmcResult`),
   or the same objects without the ``"samples"`` wrapper / under ``"posterior"``.
   Parameters that were held fixed (not sampled) come from an optional
   ``"fixed": {"delta": 67, "n": 1}`` object next to the samples.
@@ -102,7 +102,7 @@ def _from_json(obj, source, fixed):
     if isinstance(obj, Mapping) and "samples" not in obj and summary_from_json(obj):
         raise ValueError(
             f"{source}: a posterior summary (median, sd per parameter) without draws; "
-            "propagation needs the draws (a 'samples' matrix, see fitting.design.posterior); "
+            "propagation needs the draws (a 'samples' matrix, see stickslip_fitting.design.posterior); "
             "`stickslip plan` accepts this summary as a prior")
     if isinstance(obj, Mapping):
         fixed = obj.get("fixed", fixed)
@@ -123,7 +123,7 @@ def _from_json(obj, source, fixed):
     if isinstance(obj, list) and obj and isinstance(obj[0], Mapping):
         return _from_columns({p: [row[p] for row in obj if p in row] for p in PARAMETERS
                               if any(p in row for row in obj)}, source, fixed)
-    raise ValueError(f"{source}: not a sample (see fitting.design.posterior for the layouts)")
+    raise ValueError(f"{source}: not a sample (see stickslip_fitting.design.posterior for the layouts)")
 
 
 def samples_from_csv(text: str, source: str = "CSV") -> Friction:

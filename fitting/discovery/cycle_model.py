@@ -1,6 +1,6 @@
 r"""The per-cycle model with effects: the discovery base (`cycle_workflow`).
 
-Same windows as the trace objective (`fitting.trace_objective`): cycle $j$ of a record
+Same windows as the trace objective (`stickslip_fitting.trace_objective`): cycle $j$ of a record
 runs from the measured end of slip $j-1$ to the measured end of slip $j$, the slider at
 rest at the measured slip-end level. Nothing accumulates from cycle to cycle, so a long
 record's slips cannot drift away from the data. With every effect at zero this is the

@@ -2,7 +2,7 @@ r"""Discovery on the per-cycle model: which effect is the paper's model missing?
 
 ```python
 from stickslip_jax.records import read_campaign
-from fitting.discovery.cycle_workflow import discover_cycles
+from stickslip_fitting.discovery.cycle_workflow import discover_cycles
 
 result = discover_cycles(read_campaign("records/*.csv"))
 result.effect, result.confidence, result.gap_before, result.gap_after
@@ -10,9 +10,9 @@ result.effect, result.confidence, result.gap_before, result.gap_after
 
 Stages (each timed in `result.timings`, reported to `progress` as it finishes):
 
-1. `prepare`: screening (`fitting.campaign.screen_records`: records without usable
+1. `prepare`: screening (`stickslip_fitting.campaign.screen_records`: records without usable
    stick-slip are set aside and listed), the features fit (start), the cycle windows
-   (`fitting.trace_objective.trace_data`, the drive error left in the data).
+   (`stickslip_fitting.trace_objective.trace_data`, the drive error left in the data).
 2. `base_fit`: the paper's model on every window (`cycle_model`, all effects zero):
    the objective of `stickslip fit --objective trace`, fitted by Levenberg-Marquardt
    (friction + one gauge offset per record), weights refreshed once at the optimum.
@@ -311,7 +311,7 @@ def discover_cycles(
     base_fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
     z_base = sub.full(base_fit.z)
     # a record the paper's model describes much worse than the others (a marginal or
-    # irregular record) weighs by its own scatter, as in `fitting.fit` (RECORD_CHI2):
+    # irregular record) weighs by its own scatter, as in `stickslip_fitting.fit` (RECORD_CHI2):
     # one such record must not make the whole campaign "unexplained"
     rec_of = np.broadcast_to(np.asarray(data.record)[:, None], data.mask.shape)
     rec_of = np.asarray(rec_of).ravel()[model.mask]

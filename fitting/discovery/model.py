@@ -4,13 +4,13 @@ A campaign enters as `CampaignTraces` (padded arrays [R records, N samples], mm 
 built from `stickslip_jax.records.Record`s by `campaign_traces`. Each record must start
 at the end of a slip (the slider just stuck, stick time 0): synthetic discovery
 records do, and `campaign_traces(..., crop="slip_end")` cuts a measured record at its
-first detected slip end (`fitting.features`).
+first detected slip end (`stickslip_fitting.features`).
 
 The model of record $r$ is `simulate_smooth` (Kvaerno5, `Settings`) of
 `EffectSet.smooth_model(Slideway(friction, W_r, k_r))` with the constant drive speed
 $v_r$, started at rest at the deflection $x_{0,r}$ (a per-record nuisance; its initial
 guess is a line fitted to the first samples). Parameters live in one typed pytree,
-`DiscoveryParams` (friction in the log coordinates of `fitting.params`, the
+`DiscoveryParams` (friction in the log coordinates of `stickslip_fitting.params`, the
 `EffectSet`, the $x_0$).
 
 **One compilation for every candidate.** `Problem.evaluate(z)` returns the whitened
@@ -117,7 +117,7 @@ class CampaignTraces(eqx.Module):
 
 
 class DiscoveryParams(eqx.Module):
-    """friction (log coordinates, `fitting.params.EmpiricalFriction`), effects, x0 [R] mm."""
+    """friction (log coordinates, `stickslip_fitting.params.EmpiricalFriction`), effects, x0 [R] mm."""
 
     friction: EmpiricalFriction
     effects: EffectSet

@@ -1,7 +1,7 @@
 r"""Synthetic discovery campaigns: smoothed-simulator records with a hidden effect and noise.
 
 `hidden_effect_campaign(friction, effect=NAME, values={param: value})` simulates a
-campaign with the parts of `fitting.discovery.effects` (and optionally any other
+campaign with the parts of `stickslip_fitting.discovery.effects` (and optionally any other
 force term, `extra_force_terms`, for effects outside the library), adds white
 Gaussian noise and returns `Record`s whose `truth` holds the friction, the effect and
 its values. Layout: every (W, k) of `conditions` at drive speeds `speed_fractions` x

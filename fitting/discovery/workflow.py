@@ -3,7 +3,7 @@ missing effect, add it and show the gap shrink.
 
 ```python
 from stickslip_jax.records import read_campaign
-from fitting.discovery import discover
+from stickslip_fitting.discovery import discover
 
 result = discover(read_campaign("records/*.csv"))
 result.effect, result.explanation, result.gap_before, result.gap_after
@@ -13,7 +13,7 @@ result.to_json()          # the `stickslip discover --json` contract
 Steps (each timed in `result.timings`):
 
 1. `prepare`: records -> padded traces (`model.campaign_traces`); a features-first
-   starting point for the friction (`fitting.fit.fit_features` on the records with at
+   starting point for the friction (`stickslip_fitting.fit.fit_features` on the records with at
    least two complete cycles).
 2. `base_fit`: the paper's model (all effects zero) fitted to the full traces by
    Levenberg-Marquardt (`stickslip_jax.lsq.solve_host`), friction + one initial deflection per record.
@@ -50,7 +50,7 @@ __all__ = ["DiscoveryResult", "discover", "initial_friction"]
 
 
 def initial_friction(records) -> EmpiricalFriction:
-    """Features-first starting friction (fitting.fit on records with >= 2 complete cycles).
+    """Features-first starting friction (stickslip_fitting.fit on records with >= 2 complete cycles).
 
     Where the campaign cannot separate mu_s from gamma (a degenerate features fit,
     mu_s > 1.5), mu_s is set to 1.5 and gamma chosen to keep mu_0 at the median stick time.
