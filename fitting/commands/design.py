@@ -84,7 +84,7 @@ def _axes(args):
 
 def compute(args):
     """The map as a dict of NumPy arrays (internal units) plus its axes."""
-    from stickslip_fitting.design import design_map, load_samples, outer, propagate
+    from ..design import design_map, load_samples, outer, propagate
 
     if args.lubricant not in lubricants(args.table):
         raise ValueError(f"--lubricant: unknown lubricant {args.lubricant!r}; "

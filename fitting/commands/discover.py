@@ -20,8 +20,8 @@ HELP = "find the physical effect the paper's model is missing in a campaign of r
 
 
 def add_arguments(parser):
-    from stickslip_fitting.discovery.cycle_effects import FAMILIES
-    from stickslip_fitting.discovery.effects import CANDIDATES
+    from ..discovery.cycle_effects import FAMILIES
+    from ..discovery.effects import CANDIDATES
 
     CHOICES = tuple(dict.fromkeys(tuple(CANDIDATES) + tuple(f.name for f in FAMILIES)))
 
@@ -60,8 +60,8 @@ def run(args) -> int:
 
     from stickslip_jax.records import read_campaign
 
-    from stickslip_fitting.discovery import discover
-    from stickslip_fitting.discovery.effects import CANDIDATES
+    from ..discovery import discover
+    from ..discovery.effects import CANDIDATES
 
     if args.top < 1:
         raise ValueError(f"--top: must be at least 1, got {args.top}")
@@ -105,7 +105,7 @@ def run(args) -> int:
         write_json(args.json, {**result.to_json(),
                                "records_screened": [x.to_json() for x in campaign.screening]})
     if args.plot:
-        from stickslip_fitting.discovery.plots import plot_discovery
+        from ..discovery.plots import plot_discovery
 
         plot_discovery(result, args.plot)
     return 0
@@ -116,8 +116,8 @@ def _run_cycle(args, records) -> int:
 
     from stickslip_jax.output import save_figure, write_json
 
-    from stickslip_fitting.discovery.cycle_effects import FAMILIES
-    from stickslip_fitting.discovery.cycle_workflow import discover_cycles
+    from ..discovery.cycle_effects import FAMILIES
+    from ..discovery.cycle_workflow import discover_cycles
 
     if args.learn:
         raise ValueError("--learn: the learned correction exists only with --base smooth "
@@ -158,7 +158,7 @@ def _run_cycle(args, records) -> int:
     if args.json:
         write_json(args.json, result.to_json())
     if args.plot:
-        from stickslip_fitting.discovery.plots import plot_cycle_discovery
+        from ..discovery.plots import plot_cycle_discovery
 
         save_figure(plot_cycle_discovery(result), args.plot, dpi=120)
     return 0

@@ -67,8 +67,8 @@ def _sd_vector(sd, params, source):
 
 def read_sources(args):
     """(estimate u, prior sd of u, existing Campaign or None, description)."""
-    from stickslip_fitting.design import PARAMETERS, Campaign, load_samples, log_params
-    from stickslip_fitting.design.posterior import summary_from_json
+    from ..design import PARAMETERS, Campaign, load_samples, log_params
+    from ..design.posterior import summary_from_json
 
     estimate = sd = None
     desc = []
@@ -125,7 +125,7 @@ def read_sources(args):
             desc.append(f"prior {path.name}")
         else:
             sample = load_samples(path)
-            from stickslip_fitting.design import friction_params
+            from ..design import friction_params
 
             p = friction_params(sample)
             logs = np.log(np.column_stack([p[k] for k in PARAMETERS]))
@@ -151,7 +151,7 @@ def read_sources(args):
 
 
 def run(args) -> int:
-    from stickslip_fitting.design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
+    from ..design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
 
     if args.budget < 1:
         raise ValueError("--budget: must be >= 1")
