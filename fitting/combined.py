@@ -47,7 +47,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .objectives import SLIP_TIME_MODES, FeatureData, feature_residuals
-from .trace_objective import TraceData, trace_residuals_and_flags
+from .trace_objective import TraceData, failed_windows, trace_residuals_and_flags
 
 __all__ = ["OBJECTIVES", "AbstractObjective", "CampaignObjective", "FeaturesObjective",
            "TraceObjective", "WeightedSum", "make_objective", "residual_cycles"]
@@ -94,6 +94,11 @@ class AbstractObjective(eqx.Module):
     @abc.abstractmethod
     def trace_data(self) -> TraceData | None:
         """The trace data the residuals read (None: none)."""
+
+    @abc.abstractmethod
+    def failures(self, ok) -> int:
+        """How many simulations failed, from the success flags of `residuals_and_aux`
+        (cycle windows of a trace, records of a whole-record simulation)."""
 
     def residuals(self, params):
         """Whitened residuals (sum of squares = -2 log likelihood up to a constant)."""
@@ -160,6 +165,9 @@ class FeaturesObjective(AbstractObjective):
     def trace_data(self):
         return None
 
+    def failures(self, ok) -> int:
+        return 0
+
 
 class TraceObjective(AbstractObjective):
     """Every sample against the exact simulator restarted at every measured slip end
@@ -206,6 +214,9 @@ class TraceObjective(AbstractObjective):
 
     def trace_data(self):
         return self.trace
+
+    def failures(self, ok) -> int:
+        return failed_windows(ok, self.trace)
 
 
 class WeightedSum(AbstractObjective):
@@ -271,6 +282,12 @@ class WeightedSum(AbstractObjective):
             if t.trace_data() is not None:
                 return t.trace_data()
         return None
+
+    def failures(self, ok) -> int:
+        for t in self.terms:  # the flags are those of the one term that reads a trace
+            if t.velocity_shape() is not None:
+                return t.failures(ok)
+        return 0
 
     def weight_of(self, kind: str) -> float:
         """The weight of the term named `kind` (0 when there is none)."""

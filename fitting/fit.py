@@ -47,7 +47,7 @@ from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_decrease
 from .combined import AbstractObjective, FeaturesObjective, make_objective
 from .features import RecordFeatures, record_features
 from .objectives import FeatureData, feature_data, feature_residuals
-from .trace_objective import failed_windows, trace_data
+from .trace_objective import trace_data
 from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_spec
 
 __all__ = ["FitResult", "fit_features", "fit_records", "initial_guesses"]
@@ -339,8 +339,9 @@ def fit_features(
     - `starts`: starting `EmpiricalFriction`s (default `initial_guesses`).
     - `pad_cycles`: pad the cycle axis (campaigns of other lengths reuse the compilation).
     - `reslip`: model re-slips (`stickslip_fitting.objectives.feature_data`; None: detected).
-    - `objective`: "features" (default), "trace" or "both" (`stickslip_fitting.combined`); the
-      last two need `records` (the `Record`s the features came from) and start from the
+    - `objective`: "features" (default), "trace", "both" (`stickslip_fitting.combined`) or
+      "smooth" (whole records, `stickslip_fitting.smooth_objective`); all but "features"
+      need `records` (the `Record`s the features came from) and start from the
       features fit's optimum ("features first"); `weights` = (w_features, w_trace) for
       "both"; `pad_length`, `pad_windows`: trace rows at least this long, at least this
       many (`trace_data`).
@@ -348,11 +349,20 @@ def fit_features(
     if offset not in ("zero", "start"):
         raise ValueError(f"--offset must be 'zero' or 'start', got {offset!r}")
     fixed = dict(fixed or {})
-    if objective not in ("features", "trace", "both"):
-        raise ValueError(f"--objective must be features, trace or both, got {objective!r}")
+    if objective not in ("features", "trace", "both", "smooth"):
+        raise ValueError(f"--objective must be features, trace, both or smooth, got "
+                         f"{objective!r}")
+    if objective != "features" and records is None:
+        raise ValueError(f"objective {objective!r} needs the records (records=...)")
+    if objective == "smooth":
+        from .smooth_objective import SmoothObjective, smooth_data
+
+        sobj = SmoothObjective(smooth_data(records, features), slip_time=slip_time)
+        problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
+                                    reslip)
+        first = _fit_problem(problem, features, rtol, atol, max_steps)
+        return _refine(first, sobj, max(rtol, 1e-8), max(atol, 1e-8), min(max_steps, 100))
     if objective != "features":
-        if records is None:
-            raise ValueError(f"objective {objective!r} needs the records (records=...)")
         tdata = trace_data(records, features, pad_length=pad_length, pad_windows=pad_windows)
         # hundreds of thousands of residuals: tolerances not tighter than 1e-8, measured
         # as root mean squares (a step that moves the whitened residuals by 1e-8 RMS),
@@ -511,7 +521,7 @@ def _refine(first: FitResult, obj: AbstractObjective, rtol, atol, max_steps) -> 
         converged=ok,
         n_steps=int(np.asarray(steps)[0]), start_chi2=np.asarray(chi2s), objective=obj,
         n_rounds=rounds,
-        trace_failures=failed_windows(np.asarray(flags)[0], obj.trace_data()),
+        trace_failures=obj.failures(np.asarray(flags)[0]),
     )
 
 

@@ -29,11 +29,14 @@ def add_arguments(parser):
                         "sample of records that start with the spring relaxed")
     parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper",
                         help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
-    parser.add_argument("--objective", choices=("features", "trace", "both"), default="features",
+    parser.add_argument("--objective", choices=("features", "trace", "both", "smooth"),
+                        default="features",
                         help="fit the cycle features (default, fast), every sample of the "
-                        "traces through the exact simulator restarted per cycle, or both "
-                        "(weights 1/2 each); trace and both start from the features fit, and "
-                        "their intervals use a cluster-robust covariance (per stick phase)")
+                        "traces through the exact simulator restarted per cycle, both "
+                        "(weights 1/2 each), or whole records through the smoothed simulator "
+                        "(slow; tests the timing of every slip); all but features start from "
+                        "the features fit, and their intervals use a cluster-robust "
+                        "covariance (per stick phase; per record for smooth)")
     parser.add_argument("--strict", action="store_true",
                         help="refuse the campaign when any record has no usable stick-slip "
                         "(default: fit the records that have it, list the others)")

@@ -28,10 +28,12 @@ def add_arguments(parser):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--offset", choices=("zero", "start"), default="zero")
     parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper")
-    parser.add_argument("--objective", choices=("features", "trace", "both"), default="features",
+    parser.add_argument("--objective", choices=("features", "trace", "both", "smooth"),
+                        default="features",
                         help="the likelihood: the cycle features (default), every sample of "
-                        "the traces (exact simulator restarted per cycle), or both; trace and "
-                        "both are tempered to the cluster-robust intervals")
+                        "the traces (exact simulator restarted per cycle), both, or whole "
+                        "records (smoothed simulator); all but features are tempered to the "
+                        "cluster-robust intervals")
     parser.add_argument("--strict", action="store_true",
                         help="refuse the campaign when any record has no usable stick-slip "
                         "(default: sample with the records that have it, list the others)")

@@ -1,0 +1,167 @@
+r"""The smoothed-simulator objective: every sample of whole records against the
+differentiable smoothed simulator (`stickslip_jax.simulation.simulate_smooth`), run once
+per record (`stickslip fit --objective smooth`).
+
+Each record is simulated from its first measured slip end $t_e$ (the slider at rest,
+stick time 0, deflection = the measured trough $x_1$ there minus the record's gauge
+offset) to its last sample, with a constant drive speed; the residuals are
+$(x_i - c - x_\mathrm{sim}(t_i)) / \sigma$ with $\sigma$ the record's robust noise
+estimate (mm) and $c$ its gauge offset (`CampaignParams.offset`). Unlike the trace
+objective (`fitting.trace_objective`, restarted at every measured slip end) the model
+runs freely over the record, so it tests what the trace objective cannot: whether the
+model reproduces the whole oscillogram, the timing of every slip included. A small
+error of the period accumulates over the cycles, so its residuals are correlated over a
+record: the robust covariance treats each record as one cluster.
+
+Settings (`SmoothObjective` fields): the simulator's `formulation` ("latch": not stiff,
+gradients verified against finite differences for smoothing 1e-4 ... 1e-2 at rtol <=
+1e-9), `smoothing` (dimensionless, default 1e-4: at 1e-3 the smoothed slips of a slow record
+drift from exact ones by several noise standard deviations), `rtol`/`atol` (mm, mm/s;
+default 1e-9, 1e-11),
+`max_steps`. Jacobians by forward mode through the solver (`diffrax.ForwardMode`).
+Cost: one simulation per record per parameter direction, so long records are slow;
+`max_samples` in `smooth_data` caps each record.
+"""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import diffrax as dfx
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Bool, Float
+
+import stickslip_jax as ss
+from stickslip_jax.drives import ConstantSpeed
+from stickslip_jax.simulation import pad_times, simulate_smooth
+
+from .combined import AbstractObjective
+
+__all__ = ["SmoothData", "SmoothObjective", "smooth_data"]
+
+
+class SmoothData(eqx.Module):
+    """Whole records for the smoothed objective (module doc): `time` [R, N] (s, from each
+    record's first slip end), `deflection` [R, N] (mm), `mask` [R, N] (False on padding);
+    per record `weight` (kgf), `stiffness` (kgf/mm), `speed` (mm/s), `start_level` (the
+    measured reading at the start, mm) and `sigma` (noise sd, mm)."""
+
+    time: Float[Array, "R N"]
+    deflection: Float[Array, "R N"]
+    mask: Bool[Array, "R N"]
+    weight: Float[Array, " R"]
+    stiffness: Float[Array, " R"]
+    speed: Float[Array, " R"]
+    start_level: Float[Array, " R"]
+    sigma: Float[Array, " R"]
+
+    def n_residuals(self) -> int:
+        return int(np.asarray(self.mask).sum())
+
+
+def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothData:
+    """`SmoothData` of `records` with their `RecordFeatures` (the first slip end and its
+    trough level start each simulation). ValueError naming the record when it has no
+    slip or no constant drive speed."""
+    if len(records) != len(features):
+        raise ValueError("smooth_data: one RecordFeatures per record")
+    times, xs, w, k, v, x1, sig = [], [], [], [], [], [], []
+    for rec, f in zip(records, features):
+        name = rec.name or "record"
+        if rec.drive is not None or rec.drive_program is not None or rec.drive_speed is None:
+            raise ValueError(f"{name}: --objective smooth needs a constant drive speed "
+                             "(no drive column or drive program)")
+        if not f.stick_slip or len(f.end_time) == 0 or not np.isfinite(f.trough[0]):
+            raise ValueError(f"{name}: --objective smooth needs a slip to start from "
+                             f"({f.message or 'no slip end found'})")
+        t_e = float(f.end_time[0])
+        keep = np.asarray(rec.time) >= t_e
+        t = np.asarray(rec.time, float)[keep] - t_e
+        x = np.asarray(rec.deflection, float)[keep]
+        if max_samples is not None:
+            t, x = t[:max_samples], x[:max_samples]
+        if t.size < 16:
+            raise ValueError(f"{name}: fewer than 16 samples after the first slip end")
+        times.append(t)
+        xs.append(x)
+        w.append(rec.weight)
+        k.append(rec.stiffness)
+        v.append(rec.drive_speed)
+        x1.append(float(f.trough[0]))
+        sig.append(max(float(f.noise), 1e-9))
+    ts, mask = pad_times(times)
+    data = np.zeros(ts.shape)
+    for i, x in enumerate(xs):
+        data[i, : x.size] = x
+        data[i, x.size:] = x[-1]
+
+    def arr(a):
+        return jnp.asarray(np.asarray(a, float))
+
+    return SmoothData(time=ts, deflection=arr(data), mask=mask, weight=arr(w),
+                      stiffness=arr(k), speed=arr(v), start_level=arr(x1), sigma=arr(sig))
+
+
+class SmoothObjective(AbstractObjective):
+    """Whole records against the smoothed simulator (module doc)."""
+
+    data: SmoothData
+    smoothing: float = eqx.field(static=True, default=1e-4)
+    rtol: float = eqx.field(static=True, default=1e-9)
+    atol: float = eqx.field(static=True, default=1e-11)
+    max_steps: int = eqx.field(static=True, default=16384)
+    formulation: str = eqx.field(static=True, default="latch")
+    slip_time: str = eqx.field(static=True, default="paper")
+    kind: ClassVar[str] = "smooth"
+    robust: ClassVar[bool] = True
+
+    def simulate(self, params):
+        """Model deflection [R, N] (mm, without the gauge offset) and success flags [R]."""
+        fr = params.friction.friction()
+        d = self.data
+        x0 = d.start_level - params.offset
+
+        def one(args):
+            w, k, v, x_start, t, m = args
+            tr = simulate_smooth(ss.Slideway(fr, w, k), ConstantSpeed(v), t,
+                                 smoothing=self.smoothing, slip_time=self.slip_time,
+                                 rtol=self.rtol, atol=self.atol, max_steps=self.max_steps,
+                                 initial_deflection=x_start, mask=m,
+                                 adjoint=dfx.ForwardMode(), formulation=self.formulation)
+            return tr.deflection, tr.result == ss.simulation.SimulationResult.successful
+
+        return jax.lax.map(one, (d.weight, d.stiffness, d.speed, x0, d.time, d.mask))
+
+    def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
+        x, ok = self.simulate(params)
+        d = self.data
+        r = (d.deflection - params.offset[:, None] - x) / d.sigma[:, None]
+        return jnp.where(d.mask, r, 0.0).ravel(), (ok, None)
+
+    def velocity_shape(self):
+        return None
+
+    def dof(self) -> float:
+        return float(self.data.n_residuals())
+
+    def blocks(self) -> dict[str, int]:
+        return {"smooth": int(np.prod(self.data.mask.shape))}
+
+    def clusters(self, features):
+        mask = np.asarray(self.data.mask)
+        R = mask.shape[0]
+        rec = np.where(mask, np.arange(R)[:, None], -1).ravel()
+        return rec, np.where(mask, 0, -1).ravel()
+
+    def describe(self) -> str:
+        return (f"whole records, smoothed simulator from the first slip end "
+                f"({self.formulation}, smoothing {self.smoothing:g})")
+
+    def trace_data(self):
+        return None
+
+    def failures(self, ok) -> int:
+        return int(np.count_nonzero(~np.asarray(ok, bool)))
