@@ -1,14 +1,16 @@
-r"""fitting: parameter identification, design studies and the missing-physics workflow
+r"""stickslip_fitting (the folder fitting/): parameter identification, design studies and the missing-physics workflow
 for stickslip_jax.
 
 Data flow, one way (each arrow a module boundary):
 
 1. records -> `campaign.load_campaign` (screening: used / set aside / no stick-slip)
    -> `features.record_features` (cycle extraction with quality flags);
-2. -> objective: `objectives` (cycle features), `trace_objective` (every sample, exact
-   simulator restarted per cycle), `combined` (the weighted sum of both);
-3. -> solve: `fit.fit_features` / `fit.fit_records` (Levenberg-Marquardt with
-   multi-start and reweighting; one result type `FitResult` with a result code);
+2. -> objective (`combined.AbstractObjective`): `objectives` (cycle features),
+   `trace_objective` (every sample, exact simulator restarted per cycle),
+   `smooth_objective` (whole records, smoothed simulator), `combined.WeightedSum`;
+3. -> solve: `fit.fit_features` / `fit.fit_records` (the one Levenberg-Marquardt of
+   `stickslip_jax.lsq`, with multi-start and reweighting; one result type `FitResult`
+   with a result code);
 4. -> uncertainty: `uncertainty.laplace` (Fisher or cluster sandwich), or the
    posterior by `mcmc.run_mcmc` (emcee at the edge, on the same objective);
 5. -> report: `commands/` (argument parsing, tables, JSON); `plots` (figures).
@@ -16,8 +18,9 @@ Data flow, one way (each arrow a module boundary):
 Where new things go:
 - a new friction law to fit: a final subclass of `params.AbstractFrictionParams`
   (names, units, leaves, prior support; `from_log_values`, `with_values`, `physical`);
-- a new objective: a module beside `objectives` / `trace_objective`, with residuals of
-  `params.CampaignParams` whitened by their standard errors;
+- a new objective: a final subclass of `combined.AbstractObjective` in a module beside
+  `trace_objective` / `smooth_objective`, with residuals of `params.CampaignParams`
+  whitened by their standard errors;
 - a new effect for discovery: a family in `discovery.cycle_effects` and its term in
   `discovery.cycle_model`;
 - a new subcommand: a module in `commands/` (NAME, HELP, add_arguments, run) and an
