@@ -478,7 +478,7 @@ def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
     offsets0 = (np.asarray(data.start_level) if offset == "start" else np.zeros(R))
     starts = initial_guesses(features, offsets0) if starts is None else list(starts)
     if fixed:
-        starts = [_with_fixed(s, fixed) for s in starts]
+        starts = [s.with_fixed(fixed) for s in starts]
     params0 = [CampaignParams(s, jax.device_put(offsets0)) for s in starts]
     spec = free_spec(params0[0], fixed=tuple(fixed), offsets=(offset == "start"))
     frees, statics = zip(*(eqx.partition(p, spec) for p in params0))
@@ -523,20 +523,6 @@ def _refine(first: FitResult, obj: AbstractObjective, rtol, atol, max_steps) -> 
         n_rounds=rounds,
         trace_failures=obj.failures(np.asarray(flags)[0]),
     )
-
-
-def _with_fixed(s: AbstractFrictionParams, fixed: dict[str, float]) -> AbstractFrictionParams:
-    """Start `s` with the `fixed` values; a free mu_s or mu_d that the fixed one would put
-    on the wrong side of the other moves (mu_s = 1.5 mu_d). ValueError when the fixed
-    values themselves are outside the law's domain."""
-    v = s.named_values()
-    v.update({k: float(x) for k, x in fixed.items()})
-    if v["mu_s"] <= v["mu_d"]:
-        if "mu_d" not in fixed:
-            v["mu_d"] = v["mu_s"] / 1.5
-        elif "mu_s" not in fixed:
-            v["mu_s"] = v["mu_d"] * 1.5
-    return s.with_values(**v)
 
 
 def fit_records(records, **kwargs) -> FitResult:

@@ -71,6 +71,7 @@ class MicrosqueezeFriction(AbstractFrictionParams):
     eta: Float[Array, ""] = eqx.field(converter=_f)
     pair: SurfacePair
     contact: BoundaryContact
+    fixed_mu_s: float | None = eqx.field(static=True, default=None)
 
     MODEL: ClassVar[str] = "microsqueeze"
     NAMES: ClassVar[tuple[str, ...]] = MICROSQUEEZE_NAMES
@@ -130,8 +131,7 @@ class MicrosqueezeFriction(AbstractFrictionParams):
     def _parts(self):
         """(mu_s, mu_d, t_b, a_d) with the trial point clipped onto the physical region."""
         c = self.contact
-        mu_d = jnp.exp(self.log_mu_d)
-        mu_s = mu_d + jnp.exp(self.log_gap)
+        mu_s, mu_d = self.static_levels()
         lo, hi = c.C3 * (1 + 1e-6), c.C1 * (1 - 1e-6)
         mu_s = jnp.clip(mu_s, lo, hi)
         t_b = film_from_mu_s(self.pair, c, mu_s).t_b
@@ -145,8 +145,7 @@ class MicrosqueezeFriction(AbstractFrictionParams):
         $\mu_d$ above the film-only friction $\mu_0(a=0)$, a margin $h_e - t_b - a_d$ of at
         least $10^{-9}(t_b + a_d)$ and $|\log Q| \le 200$ (the support of the MCMC prior)."""
         c = self.contact
-        mu_d = jnp.exp(self.log_mu_d)
-        mu_s = mu_d + jnp.exp(self.log_gap)
+        mu_s, mu_d = self.static_levels()
         ok_s = (mu_s > c.C3 * (1 + 1e-6)) & (mu_s < c.C1 * (1 - 1e-6))
         _, mu_d_c, t_b, a_d = self._parts()
         ok_d = mu_d == mu_d_c
@@ -167,10 +166,10 @@ class MicrosqueezeFriction(AbstractFrictionParams):
 
     def values(self) -> Float[Array, "6"]:
         """Natural parameters (mu_s, mu_d, h_e mm, Q mm^4, delta s^-n, n)."""
-        mu_d = jnp.exp(self.log_mu_d)
+        mu_s, mu_d = self.static_levels()
         _, _, t_b, a_d = self._parts()
         return jnp.stack([
-            mu_d + jnp.exp(self.log_gap), mu_d, t_b + a_d + jnp.exp(self.log_margin),
+            mu_s, mu_d, t_b + a_d + jnp.exp(self.log_margin),
             jnp.exp(self.log_Q), jnp.exp(self.log_delta), jnp.exp(self.log_n),
         ])
 
@@ -186,6 +185,6 @@ class MicrosqueezeFriction(AbstractFrictionParams):
         return MicrosqueezeFriction(
             log_mu_d=logs[1], log_gap=jnp.log(gap), log_margin=jnp.log(margin),
             log_Q=logs[3], log_delta=logs[4], log_n=logs[5], eta=self.eta, pair=self.pair,
-            contact=self.contact,
+            contact=self.contact, fixed_mu_s=self.fixed_mu_s,
         )
 

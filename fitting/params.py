@@ -31,6 +31,7 @@ the abstract methods.
 from __future__ import annotations
 
 import abc
+import dataclasses
 from typing import ClassVar
 
 import equinox as eqx
@@ -91,6 +92,10 @@ class AbstractFrictionParams(eqx.Module):
     PRIOR_BOUNDS: ClassVar[dict[str, tuple[float, float]]]
     REGION: ClassVar[str]
 
+    # Every subclass stores mu_d as the field `log_mu_d`, mu_s - mu_d as `log_gap`, and has
+    # the static field `fixed_mu_s: float | None = None` last (`static_levels`). (Not
+    # declared here: an abstract field would come before the subclass's own fields.)
+
     @abc.abstractmethod
     def friction(self) -> Friction:
         """The `stickslip_jax.Friction` (static and kinetic law) these parameters give."""
@@ -117,6 +122,35 @@ class AbstractFrictionParams(eqx.Module):
     def log_values(self) -> Float[Array, " P"]:
         """log of the natural parameters: the coordinates of relative uncertainty."""
         return jnp.log(self.values())
+
+    def static_levels(self):
+        r"""($\mu_s$, $\mu_d$): $\mu_d = e^{\text{log\_mu\_d}}$,
+        $\mu_s = \mu_d + e^{\text{log\_gap}}$; when `fixed_mu_s` is set (mu_s held fixed
+        with mu_d free, `with_fixed`) $\mu_s$ is that value and $\mu_d$ stays below it (a
+        trial point above is clipped: no gradient, so the fit rejects it)."""
+        mu_d = jnp.exp(self.log_mu_d)
+        if self.fixed_mu_s is None:
+            return mu_d + jnp.exp(self.log_gap), mu_d
+        mu_s = jnp.asarray(self.fixed_mu_s, dtype=float)
+        return mu_s, jnp.minimum(mu_d, mu_s * (1.0 - 1e-9))
+
+    def with_fixed(self, fixed: dict) -> AbstractFrictionParams:
+        """These parameters with the `fixed` ({name: value}) values, to be held there by
+        the fit (`free_spec`). A free mu_s or mu_d that a fixed one would put on the wrong
+        side of the other moves (mu_s = 1.5 mu_d). With mu_s fixed and mu_d free the law
+        is anchored at that mu_s (`fixed_mu_s`: the stored gap would otherwise move mu_s
+        with mu_d), so the fit honours every fixed value exactly. ValueError when the
+        fixed values are outside the law's domain (naming the parameter)."""
+        v = self.merged_values(fixed)
+        if v["mu_s"] <= v["mu_d"]:
+            if "mu_d" not in fixed:
+                v["mu_d"] = v["mu_s"] / 1.5
+            elif "mu_s" not in fixed:
+                v["mu_s"] = v["mu_d"] * 1.5
+        p = self.with_values(**v)
+        if "mu_s" in fixed and "mu_d" not in fixed:
+            p = dataclasses.replace(p, fixed_mu_s=float(v["mu_s"]))
+        return p
 
     def leaves(self, names=None) -> list:
         """The stored leaves of `names` (default all of `NAMES`), for `eqx.tree_at`; on
@@ -153,6 +187,7 @@ class EmpiricalFriction(AbstractFrictionParams):
     log_m: Float[Array, ""] = eqx.field(converter=_f)
     log_delta: Float[Array, ""] = eqx.field(converter=_f)
     log_n: Float[Array, ""] = eqx.field(converter=_f)
+    fixed_mu_s: float | None = eqx.field(static=True, default=None)
 
     MODEL: ClassVar[str] = "empirical"
     NAMES: ClassVar[tuple[str, ...]] = NAMES
@@ -193,18 +228,17 @@ class EmpiricalFriction(AbstractFrictionParams):
         return cls.from_values(s.mu_s, s.mu_d, s.gamma, s.m, k.delta, k.n)
 
     def friction(self) -> Friction:
-        mu_d = jnp.exp(self.log_mu_d)
+        mu_s, mu_d = self.static_levels()
         static = KatoStatic(
-            mu_s=mu_d + jnp.exp(self.log_gap), mu_d=mu_d,
-            gamma=jnp.exp(self.log_gamma), m=jnp.exp(self.log_m),
+            mu_s=mu_s, mu_d=mu_d, gamma=jnp.exp(self.log_gamma), m=jnp.exp(self.log_m),
         )
         return Friction(static, KatoKinetic(delta=jnp.exp(self.log_delta), n=jnp.exp(self.log_n)))
 
     def values(self) -> Float[Array, "6"]:
         """Natural parameters (mu_s, mu_d, gamma, m, delta, n)."""
-        mu_d = jnp.exp(self.log_mu_d)
+        mu_s, mu_d = self.static_levels()
         return jnp.stack([
-            mu_d + jnp.exp(self.log_gap), mu_d, jnp.exp(self.log_gamma), jnp.exp(self.log_m),
+            mu_s, mu_d, jnp.exp(self.log_gamma), jnp.exp(self.log_m),
             jnp.exp(self.log_delta), jnp.exp(self.log_n),
         ])
 
@@ -212,7 +246,8 @@ class EmpiricalFriction(AbstractFrictionParams):
         """From log natural values (mu_s > mu_d assumed: the gap is floored at 1e-300)."""
         l_mus, l_mud, l_g, l_m, l_d, l_n = (logs[i] for i in range(6))
         gap = jnp.maximum(jnp.exp(l_mus) - jnp.exp(l_mud), 1e-300)
-        return EmpiricalFriction(l_mud, jnp.log(gap), l_g, l_m, l_d, l_n)
+        return EmpiricalFriction(l_mud, jnp.log(gap), l_g, l_m, l_d, l_n,
+                                 fixed_mu_s=self.fixed_mu_s)
 
     def with_values(self, **values) -> EmpiricalFriction:
         """Natural values replaced (the others kept); ValueError outside the domain."""

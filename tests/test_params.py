@@ -69,3 +69,40 @@ def test_parameter_estimate_row():
     assert j["ci95"] == [0.53, 0.57] and j["truth"] == 0.56 and j["truth_in_ci95"]
     fixed = ParameterEstimate("n", "-", 1.0, None, None, fixed=True)
     assert fixed.truth_in_ci95 is None and "truth" not in fixed.to_json()
+
+
+@pytest.mark.parametrize("i", [0, 1])
+def test_fixed_mu_s_is_held_exactly(i):
+    """--fix mu_s with mu_d free: the law is anchored at mu_s (issue: the stored gap
+    moved mu_s with mu_d, so a fit printed 'mu_s 0.31722 fixed' for --fix mu_s=0.3)."""
+    import equinox as eqx
+
+    p = _laws()[i].with_fixed({"mu_s": 0.35})
+    assert p.fixed_mu_s == 0.35
+    params = CampaignParams(p, np.zeros(2))
+    spec = free_spec(params, fixed=("mu_s",))
+    assert free_mask(spec)[1] and not free_mask(spec)[0]
+    moved = eqx.tree_at(lambda q: q.friction.log_mu_d, params, params.friction.log_mu_d - 0.2)
+    assert float(moved.friction.values()[0]) == pytest.approx(0.35, abs=1e-15)
+    assert float(moved.friction.values()[1]) < float(params.friction.values()[1])
+    back = p.from_log_values(p.log_values())
+    assert back.fixed_mu_s == 0.35
+    # a fixed mu_s below the start's mu_d moves mu_d, never the fixed value
+    low = _laws()[i].with_fixed({"mu_s": 0.25})
+    assert low.named_values()["mu_s"] == pytest.approx(0.25)
+    assert low.named_values()["mu_d"] < 0.25
+    with pytest.raises(ValueError, match="mu_s > mu_d"):
+        _laws()[i].with_fixed({"mu_s": 0.2, "mu_d": 0.3})
+
+
+def test_fit_honours_fixed_values():
+    import stickslip_jax as ss
+    from stickslip_fitting.features import record_features
+    from stickslip_fitting.fit import fit_features
+    from stickslip_fitting.synthetic import synthetic_campaign
+
+    recs = synthetic_campaign(ss.lubricant("A"), speed_fractions=(0.05, 0.3), cycles=3,
+                              seed=4, pad_to=20_000)
+    fit = fit_features([record_features(r) for r in recs], fixed={"mu_s": 0.3, "n": 1.2})
+    assert fit.values["mu_s"] == 0.3 and fit.values["n"] == pytest.approx(1.2, rel=1e-15)
+    assert fit.values["mu_d"] < 0.3
