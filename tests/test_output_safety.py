@@ -125,3 +125,33 @@ def test_outputs_get_the_usual_permissions(tmp_path):
         assert old.stat().st_mode & 0o777 == 0o640
     finally:
         os.umask(umask)
+
+
+@pytest.mark.parametrize("fix, message", [
+    (["n=1", "n=2"], "given twice"),
+    (["n=1e308"], "outside the physical range 0.02-5"),
+    (["delta=1e-300"], "outside the physical range"),
+    (["mu_s=0.2", "mu_d=0.3"], "must exceed mu_d"),
+    (["mu_s=0.56", "mu_d=0.21", "gamma=0.38", "m=0.4", "delta=67", "n=1"], "nothing is left"),
+    (["h_e=0.001"], "expected NAME=VALUE"),
+])
+def test_fixed_values_are_checked_before_fitting(fix, message, capsys):
+    """Issue 21: duplicate, out-of-range, contradictory or all-fixed --fix values were
+    taken silently (or crashed); now one line naming the option, exit 2, before any fit."""
+    args = ["fit", *map(str, EXAMPLES)]
+    for f in fix:
+        args += ["--fix", f]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--fix" in err[0] and message in err[0], err
+
+
+def test_fixed_mu_s_is_reported_exactly_and_a_misfit_is_said(tmp_path, capsys):
+    """Issue 21: `--fix mu_s=0.3` printed 'mu_s 0.31722 fixed'; a fixed value that the
+    records contradict now says so instead of a quiet 'converged'."""
+    out = tmp_path / "f.json"
+    assert main(["fit", *map(str, EXAMPLES), "--fix", "mu_s=0.3", "--json", str(out)]) == 0
+    rep = json.loads(out.read_text())
+    assert rep["parameters"]["mu_s"]["value"] == 0.3 and rep["parameters"]["mu_s"]["fixed"]
+    assert any("incompatible" in w for w in rep["identifiability"]["warnings"])
+    assert "incompatible" in capsys.readouterr().out

@@ -70,10 +70,10 @@ def fit_from_args(args, *, objective: str = "features"):
 
     if args.model == "microsqueeze":
         from ..microsqueeze_fit import default_eta, fit_microsqueeze
-        from ..microsqueeze_params import MICROSQUEEZE_NAMES
+        from ..microsqueeze_params import MicrosqueezeFriction
         from stickslip_jax.contact import surface_pair
 
-        fixed = parse_fix(args.fix, MICROSQUEEZE_NAMES)
+        fixed = parse_fix(args.fix, MicrosqueezeFriction)
         try:
             pair = surface_pair(args.surface)
         except (KeyError, ValueError) as err:
@@ -94,16 +94,21 @@ def fit_from_args(args, *, objective: str = "features"):
     return fit, campaign, None
 
 
-def parse_fix(items, names=None) -> dict[str, float]:
-    from ..params import NAMES
+def parse_fix(items, law=None) -> dict[str, float]:
+    """{name: value} from `--fix NAME=VALUE` options, checked against the friction law
+    `law` (an `AbstractFrictionParams` subclass, default the empirical law): known names,
+    each at most once, values inside the law's physical range (its MCMC prior support),
+    mu_s > mu_d when both are given, and at least one parameter left to fit."""
+    from ..params import EmpiricalFriction
 
-    NAMES = tuple(names or NAMES)  # noqa: N806
+    law = EmpiricalFriction if law is None else law
+    names, bounds, units = law.NAMES, law.PRIOR_BOUNDS, law.UNITS
     out = {}
     for item in items:
         name, _, value = item.partition("=")
         name = name.strip()
-        if name not in NAMES or not value:
-            raise ValueError(f"--fix: expected NAME=VALUE with NAME in {', '.join(NAMES)}, "
+        if name not in names or not value:
+            raise ValueError(f"--fix: expected NAME=VALUE with NAME in {', '.join(names)}, "
                              f"got {item!r}")
         try:
             v = float(value)
@@ -111,8 +116,26 @@ def parse_fix(items, names=None) -> dict[str, float]:
             raise ValueError(f"--fix {name}: {value!r} is not a number") from None
         if not (math.isfinite(v) and v > 0):
             raise ValueError(f"--fix {name}: the value must be positive and finite, got {v}")
+        if name in out and out[name] != v:
+            raise ValueError(f"--fix {name}: given twice ({out[name]:g} and {v:g}); give it "
+                             "once")
+        lo, hi = bounds[name]
+        if not lo <= v <= hi:
+            unit = "" if units[name] == "-" else f" {units[name]}"
+            raise ValueError(f"--fix {name}={v:g} lies outside the physical range "
+                             f"{lo:g}-{hi:g}{unit} of {name}")
         out[name] = v
+    if "mu_s" in out and "mu_d" in out and not out["mu_s"] > out["mu_d"]:
+        raise ValueError(f"--fix: mu_s ({out['mu_s']:g}) must exceed mu_d ({out['mu_d']:g})")
+    if len(out) == len(names):
+        raise ValueError("--fix: every parameter is fixed, nothing is left to fit; leave at "
+                         "least one free")
     return out
+
+
+FIXED_MISFIT = 100.0
+"""With fixed values, a median record chi2/n (before any error scaling) above this means
+the fixed values do not describe the records: said in a warning."""
 
 
 def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
@@ -160,7 +183,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
             "weakest_direction": unc.weakest_direction,
             "correlation": [[None if not np.isfinite(x) else float(x) for x in row]
                             for row in unc.corr],
-            "warnings": list(unc.warnings),
+            "warnings": list(unc.warnings) + _fixed_misfit(fit, unc),
         },
         "truth_available": truth is not None,
     }
@@ -178,6 +201,20 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     if extra:
         out.update(extra)
     return out
+
+
+def _fixed_misfit(fit, unc) -> list[str]:
+    """A warning when fixed values leave the records far from the model (`FIXED_MISFIT`)."""
+    fixed = [f"{e.name}={e.value:g}" for e in unc.estimates() if e.fixed]
+    if not fixed or fit.record_chi2 is None:
+        return []
+    med = float(np.median(fit.record_chi2))
+    if med <= FIXED_MISFIT:
+        return []
+    return [f"with the fixed values ({', '.join(fixed)}) the model misses the records far "
+            f"beyond their noise (median record chi2/n {med:.3g} before scaling their errors): "
+            "the fixed values are incompatible with these records, and the other estimates "
+            "and their intervals are not meaningful."]
 
 
 def _record_rows(fit, campaign) -> list[dict]:
@@ -270,6 +307,7 @@ def run(args) -> int:
     print(format_table(report))
     for n in campaign.notes:
         print("note: " + n)
+
     if args.json:
         write_json(args.json, report)
         print(f"wrote {args.json}")
