@@ -97,6 +97,11 @@ def write_text(path: str, text: str) -> None:
         raise
 
 
+def dumps(obj, **kwargs) -> str:
+    """Strict JSON text of `obj` (NaN and infinities as null): what every command prints."""
+    return json.dumps(strict_json(obj), allow_nan=False, **kwargs)
+
+
 def write_json(path: str, obj) -> None:
     """Strict JSON (`strict_json`), indented, atomically."""
     write_text(path, json.dumps(strict_json(obj), indent=2, allow_nan=False) + "\n")

@@ -1272,18 +1272,30 @@ def read_campaign(spec, *, max_bytes: int = MAX_FILE_BYTES) -> list[Record]:
     """Read a campaign: a file, a directory (its *.csv, sorted), a glob, or a list of these.
 
     Files are returned in the order given (sorted within a directory or glob); a file
-    named twice is an error. Raises `RecordError` for the first bad file.
+    named twice, or two files with the same content (a copy under another name would
+    count its record twice), is an error. Raises `RecordError` for the first bad file.
     """
+    import hashlib
+
     files = _expand(spec)
     if not files:
         raise RecordError("the campaign is empty; give at least one record file")
-    seen = {}
+    seen, contents = {}, {}
     for f in files:
         key = os.path.realpath(f)
         if key in seen:
             raise RecordError(f"named twice in the campaign (also as {seen[key]})", f)
         seen[key] = str(f)
-    return [read_record(f, max_bytes=max_bytes) for f in files]
+    records = []
+    for f in files:
+        records.append(read_record(f, max_bytes=max_bytes))
+        with open(f, "rb") as fh:
+            digest = hashlib.sha256(fh.read()).hexdigest()
+        if digest in contents:
+            raise RecordError(f"the same content as {contents[digest]}: a copy would count "
+                              "its record twice; give each record once", f)
+        contents[digest] = str(f)
+    return records
 
 
 def check_campaign(

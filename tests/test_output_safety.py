@@ -155,3 +155,28 @@ def test_fixed_mu_s_is_reported_exactly_and_a_misfit_is_said(tmp_path, capsys):
     assert rep["parameters"]["mu_s"]["value"] == 0.3 and rep["parameters"]["mu_s"]["fixed"]
     assert any("incompatible" in w for w in rep["identifiability"]["warnings"])
     assert "incompatible" in capsys.readouterr().out
+
+
+def test_a_copy_under_another_name_is_refused(tmp_path, capsys):
+    """Issue 21: a byte-identical record under another name was counted twice."""
+    import shutil
+
+    for p in EXAMPLES[:3]:
+        shutil.copy(p, tmp_path / p.name)
+    shutil.copy(EXAMPLES[0], tmp_path / "copy.csv")
+    assert main(["fit", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "same content as" in err and "copy.csv" in err
+
+
+def test_printed_json_is_strict(capsys):
+    """Issue 21: `steady --stiffness 1e308 --json` printed Infinity/NaN tokens."""
+    assert main(["steady", "--weight", "36", "--stiffness", "1e308", "--speed", "5",
+                 "--json"]) == 0
+    text = capsys.readouterr().out
+
+    def refuse(token):
+        raise ValueError(token)
+
+    doc = json.loads(text, parse_constant=refuse)
+    assert doc["results"][0]["critical_speed_mm_min"] is None

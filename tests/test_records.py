@@ -375,7 +375,10 @@ def test_campaign_from_directory_glob_and_list(tmp_path):
     d = tmp_path / "campaign"
     d.mkdir()
     for i, lub in enumerate(["A", "A", "C"]):
-        write(d, EXAMPLE.replace("lubricant: A", f"lubricant: {lub}"), f"run{i}.csv")
+        # each run its own content (byte-identical files are refused: a copy)
+        text = EXAMPLE.replace("lubricant: A", f"lubricant: {lub}").replace(
+            "0.000,0.1203", f"0.000,0.120{3 + i}", 1)
+        write(d, text, f"run{i}.csv")
     (d / "notes.txt").write_text("not a record")
     recs = read_campaign(d)
     assert [r.name for r in recs] == ["run0", "run1", "run2"]
@@ -384,6 +387,9 @@ def test_campaign_from_directory_glob_and_list(tmp_path):
     assert [r.name for r in listed] == ["run2", "run0"]
     with pytest.raises(RecordError, match="named twice"):
         read_campaign([d, d / "run1.csv"])
+    (tmp_path / "copy.csv").write_bytes((d / "run0.csv").read_bytes())
+    with pytest.raises(RecordError, match="same content as .*run0.csv"):
+        read_campaign([d / "run0.csv", tmp_path / "copy.csv"])
     with pytest.raises(RecordError, match="no file matches"):
         read_campaign(str(d / "*.dat"))
     with pytest.raises(RecordError, match="no \\*.csv"):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -227,7 +226,9 @@ def run(args) -> int:
     if args.out:
         plot(args, res, args.out)
     if args.json:
-        print(json.dumps(to_json(args, res)))
+        from stickslip_jax.output import dumps
+
+        print(dumps(to_json(args, res)))
         return 0
     amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]
     print(f"design map {'x'.join(str(s) for s in amp.shape)} (W x k x v), "

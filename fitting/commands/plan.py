@@ -182,7 +182,9 @@ def run(args) -> int:
         "records": rows,
     }
     if args.json:
-        print(json.dumps(doc, indent=2))
+        from stickslip_jax.output import dumps
+
+        print(dumps(doc, indent=2))
         return 0
     print(f"plan from {desc}: {args.budget} record(s), {args.criterion}-optimal, "
           f"{len(cands)} candidates")

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 
 import jax.numpy as jnp
 
@@ -64,7 +63,9 @@ def run(args) -> int:
             "critical_speed_mm_min": float(mm_per_min(out.critical_speed[i])),
         })
     if args.json:
-        print(json.dumps({
+        from ..output import dumps
+
+        print(dumps({
             "lubricant": args.lubricant,
             "table": args.table,
             "weight_kgf": args.weight,
