@@ -180,3 +180,21 @@ def test_printed_json_is_strict(capsys):
 
     doc = json.loads(text, parse_constant=refuse)
     assert doc["results"][0]["critical_speed_mm_min"] is None
+
+
+def test_posterior_draws_outside_the_domain_are_refused(tmp_path, capsys):
+    """Issue 21: `design --posterior` accepted draws with mu_s < 0 or mu_s < mu_d and
+    reported v_c = -15.4 mm/min; `plan` proposed records from such a prior."""
+    names = ["mu_s", "mu_d", "gamma", "m", "delta", "n"]
+    good = [0.56, 0.21, 0.38, 0.4, 67.0, 1.0]
+    draws = [good, [0.15, 0.21, 0.38, 0.4, 67.0, 1.0], [-0.3, 0.21, 0.38, 0.4, 67.0, 1.0]]
+    post = tmp_path / "post.json"
+    post.write_text(json.dumps({"names": names, "samples": draws}))
+    assert main(["design", "--posterior", str(post), "--weight", "36", "--stiffness", "86.9",
+                 "--speed", "1:100:4:log", "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "2 of 3 draws" in err and "mu_s <= mu_d in 2" in err and "mu_s <= 0 in 1" in err
+    prior = tmp_path / "prior.json"
+    prior.write_text(json.dumps({"mean": dict(zip(names, [0.2, 0.3, 0.38, 0.4, 67.0, 1.0]))}))
+    assert main(["plan", str(prior)]) == 2
+    assert "mu_s <= mu_d" in capsys.readouterr().err

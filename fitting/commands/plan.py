@@ -68,7 +68,7 @@ def _sd_vector(sd, params, source):
 def read_sources(args):
     """(estimate u, prior sd of u, existing Campaign or None, description)."""
     from ..design import PARAMETERS, Campaign, load_samples, log_params
-    from ..design.posterior import summary_from_json
+    from ..design.posterior import check_domain, summary_from_json
 
     estimate = sd = None
     desc = []
@@ -105,8 +105,7 @@ def read_sources(args):
                 raise ValueError(f"{path}: the posterior summary lacks {', '.join(missing)} "
                                  "(held fixed in the fit?); write a prior JSON with all six")
             med = np.array([summary[p][0] for p in PARAMETERS])
-            if not np.all(med > 0):
-                raise ValueError(f"{path}: posterior medians must be positive")
+            check_domain(dict(zip(PARAMETERS, med)), f"{path} (posterior medians)")
             estimate = np.log(med)
             # sd of log(parameter) ~ sd / median (a relative error)
             sd = np.maximum(np.array([summary[p][1] for p in PARAMETERS]) / med, 1e-6)
@@ -117,8 +116,7 @@ def read_sources(args):
             if missing:
                 raise ValueError(f"{path}: prior 'mean' lacks {', '.join(missing)}")
             vals = np.array([float(mean[p]) for p in PARAMETERS])
-            if not np.all(vals > 0):
-                raise ValueError(f"{path}: prior means must be positive")
+            check_domain(dict(zip(PARAMETERS, vals)), f"{path} (prior means)")
             estimate = np.log(vals)
             if "sd" in obj:
                 sd = _sd_vector(obj["sd"], PARAMETERS, path)

@@ -79,7 +79,30 @@ def _from_columns(cols: Mapping[str, object], source: str, fixed=None) -> Fricti
     for p, a in arrays.items():
         if not np.all(np.isfinite(a)):
             raise ValueError(f"{source}: column {p} has non-finite draws")
+    check_domain(arrays, source)
     return friction_from_params(arrays)
+
+
+def check_domain(values: Mapping[str, np.ndarray], source: str) -> None:
+    """ValueError unless every draw lies in the model's domain: every parameter positive
+    and mu_s > mu_d (eqs 1, 3). Names how many draws fail which condition."""
+    arrays = {p: np.atleast_1d(np.asarray(values[p], float)) for p in PARAMETERS}
+    n = arrays["mu_s"].size
+    bad = np.zeros(n, bool)
+    parts = []
+    for p in PARAMETERS:
+        neg = arrays[p] <= 0
+        if neg.any():
+            parts.append(f"{p} <= 0 in {int(neg.sum())}")
+            bad |= neg
+    order = arrays["mu_s"] <= arrays["mu_d"]
+    if order.any():
+        parts.append(f"mu_s <= mu_d in {int(order.sum())}")
+        bad |= order
+    if parts:
+        raise ValueError(f"{source}: {int(bad.sum())} of {n} draws lie outside the model's "
+                         f"domain ({'; '.join(parts)}): every parameter must be positive and "
+                         "mu_s > mu_d")
 
 
 def samples_from_json(obj, source: str = "JSON") -> Friction:
