@@ -103,7 +103,8 @@ def _status(f: RecordFeatures, record: Record | None = None) -> RecordStatus:
         spikes=int(f.spikes), noise=float(f.noise), weight=f.weight, stiffness=f.stiffness,
         drive_speed=f.drive_speed,
         notes=tuple(record.notes if record is not None else ())
-        + ((f.drive_note,) if f.drive_note else ()))
+        + ((f.drive_note,) if f.drive_note else ())
+        + ((f.noise_note,) if f.noise_note else ()))
 
 
 def screen_records(records: list[Record], *, min_records: int = 2,

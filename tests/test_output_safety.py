@@ -198,3 +198,20 @@ def test_posterior_draws_outside_the_domain_are_refused(tmp_path, capsys):
     prior.write_text(json.dumps({"mean": dict(zip(names, [0.2, 0.3, 0.38, 0.4, 67.0, 1.0]))}))
     assert main(["plan", str(prior)]) == 2
     assert "mu_s <= mu_d" in capsys.readouterr().err
+
+
+def test_noise_free_record_gets_the_noise_floor():
+    """Issue 21: a noise-free record's noise estimate is floored (10 nm) and said so."""
+    import numpy as np
+
+    import stickslip_jax as ss
+    from stickslip_fitting.features import NOISE_FLOOR, record_features
+    from stickslip_fitting.synthetic import synthetic_campaign
+
+    rec = synthetic_campaign(ss.lubricant("A"), speed_fractions=(0.05,), cycles=3, seed=0,
+                             noise=0.0)[0]
+    f = record_features(rec)
+    assert f.noise == NOISE_FLOOR and f.stick_slip
+    assert "below the 10 nm floor" in f.noise_note
+    # plateau levels average many samples: their errors are the floor over sqrt(samples)
+    assert np.all(f.trough_sd[f.complete] > 1e-3 * NOISE_FLOOR)
