@@ -150,6 +150,7 @@ class McmcResult:
     warnings: list
     units: dict | None = None
     likelihood_scale: float = 1.0
+    interrupted: bool = False
 
     def summary(self) -> dict:
         out = {}
@@ -160,6 +161,38 @@ class McmcResult:
                       "ci95": [float(q[0]), float(q[2])], "tau_steps": float(self.tau[i]),
                       "ess": float(self.ess[i])}
         return out
+
+
+def _sample(sampler, p0, steps: int, progress: bool) -> bool:
+    """Run the sampler; a Ctrl-C (SIGINT) ends it after the current step instead of inside
+    the log-posterior (where emcee would print a traceback). Returns True when it was
+    interrupted. A second Ctrl-C stops at once. Off the main thread (no signal handler
+    possible) the interrupt goes through as usual."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        sampler.run_mcmc(p0, steps, progress=progress)
+        return False
+    stop = []
+
+    def on_sigint(signum, frame):
+        if stop:  # the second Ctrl-C: now
+            raise KeyboardInterrupt
+        stop.append(True)
+
+    previous = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        for _ in sampler.sample(p0, iterations=steps, progress=progress):
+            if stop:
+                break
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    return bool(stop)
+
+
+MIN_KEPT = 10
+"""Steps a chain interrupted by Ctrl-C must have to be kept (fewer: the interrupt goes on)."""
 
 
 def run_mcmc(
@@ -173,7 +206,9 @@ def run_mcmc(
 ) -> McmcResult:
     """Sample the posterior of a fit's free parameters with emcee (module doc).
 
-    `burn` steps (default steps // 4) are discarded; `progress` shows emcee's bar.
+    `burn` steps (default steps // 4) are discarded; `progress` shows emcee's bar. A
+    Ctrl-C (KeyboardInterrupt) during sampling keeps the chain so far (at least
+    `MIN_KEPT` steps; burn-in at most a quarter of it): the result says `interrupted`.
     """
     scale = likelihood_scale(fit)
     logp, theta0, names, n_off = log_posterior(fit, scale)
@@ -199,12 +234,22 @@ def run_mcmc(
 
     sampler = emcee.EnsembleSampler(walkers, dim, log_prob, vectorize=True)
     sampler.random_state = np.random.RandomState(seed).get_state()
-    sampler.run_mcmc(p0, steps, progress=progress)
+    interrupted = _sample(sampler, p0, steps, progress)
+    if interrupted:
+        # Ctrl-C: keep the chain so far (at least MIN_KEPT steps), say so
+        done = int(sampler.iteration)
+        if done < MIN_KEPT:
+            raise KeyboardInterrupt
+        steps = done
+        burn = min(burn, done // 4)
     chain = sampler.get_chain(discard=burn, flat=True)
     tau = np.asarray(sampler.get_autocorr_time(discard=burn, tol=0), dtype=float)
     kept = steps - burn
     ess = walkers * kept / np.maximum(tau, 1.0)
     warnings = []
+    if interrupted:
+        warnings.append(f"interrupted after {steps} steps: the posterior is from the chain so "
+                        "far (burn-in {burn})".replace("{burn}", str(burn)))
     if np.any(kept < 50 * tau):
         warnings.append(
             f"the chain is too short to trust: {kept} steps after burn-in, less than 50 "
@@ -216,5 +261,5 @@ def run_mcmc(
         names=names, samples=values, tau=tau[: len(names)], ess=ess[: len(names)],
         acceptance=float(np.mean(sampler.acceptance_fraction)), walkers=walkers, steps=steps,
         burn=burn, prior=prior_text(fit.params.friction, names), warnings=warnings,
-        units=dict(fit.params.friction.UNITS), likelihood_scale=scale,
+        units=dict(fit.params.friction.UNITS), likelihood_scale=scale, interrupted=interrupted,
     )

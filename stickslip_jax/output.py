@@ -97,6 +97,19 @@ def write_text(path: str, text: str) -> None:
         raise
 
 
+def check_memory(what: str, option: str, n_bytes: float, fraction: float = 0.5) -> None:
+    """ValueError naming `option` when `what` needs more than `fraction` of this machine's
+    memory (`n_bytes`, an estimate): refuse before allocating instead of failing later."""
+    try:
+        total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # pragma: no cover (not POSIX)
+        total = 16 * 2**30
+    if n_bytes > fraction * total:
+        raise ValueError(f"{option}: {what} needs about {n_bytes / 2**30:.3g} GiB, more than "
+                         f"{fraction:.0%} of this machine's {total / 2**30:.3g} GiB; use a "
+                         "smaller one")
+
+
 def dumps(obj, **kwargs) -> str:
     """Strict JSON text of `obj` (NaN and infinities as null): what every command prints."""
     return json.dumps(strict_json(obj), allow_nan=False, **kwargs)

@@ -215,3 +215,51 @@ def test_noise_free_record_gets_the_noise_floor():
     assert "below the 10 nm floor" in f.noise_note
     # plateau levels average many samples: their errors are the floor over sqrt(samples)
     assert np.all(f.trough_sd[f.complete] > 1e-3 * NOISE_FLOOR)
+
+
+def test_huge_design_grid_and_plan_budget_are_refused(capsys):
+    """Issue 21: a 3000^3 design grid died with ArrayMemoryError, `plan --budget 100000`
+    ran for minutes with no output; both are refused at once, naming the option."""
+    assert main(["design", "--weight", "10:60:3000", "--stiffness", "10:100:3000",
+                 "--speed", "1:100:3000", "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "--weight/--stiffness/--speed" in err and "GiB" in err
+    truth = str(EXAMPLES[0].parent / "truth.json")
+    assert main(["plan", truth, "--budget", "100000"]) == 2
+    assert "--budget" in capsys.readouterr().err
+
+
+def test_mcmc_seed_out_of_range_names_the_option(capsys):
+    assert main(["mcmc", *map(str, EXAMPLES), "--seed", "-1"]) == 2
+    assert "--seed" in capsys.readouterr().err
+
+
+def test_ctrl_c_during_mcmc_keeps_the_chain(tmp_path):
+    """Issue 21: Ctrl-C during `mcmc` printed a long traceback and lost the chain. Now: exit
+    130, one line, and the chain so far summarised and written (subprocess with SIGINT)."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "m.json"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "stickslip_jax.cli", "mcmc", *map(str, EXAMPLES), "--walkers",
+         "16", "--steps", "1000000", "--no-progress", "--json", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env=dict(os.environ, STICKSLIP_CACHE_DIR=""))
+    t0 = time.time()
+    line = ""
+    while "sampling:" not in line and time.time() - t0 < 240:
+        line = proc.stderr.readline()
+        if not line and proc.poll() is not None:
+            break
+    assert "sampling:" in line, proc.stderr.read()
+    time.sleep(8)  # compile the log-posterior and take some steps
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stderr[-2000:]
+    assert "Traceback" not in stderr and "interrupted" in stderr
+    rep = json.loads(out.read_text())
+    assert rep["interrupted"] and len(rep["samples"]) > 0
+    assert "interrupted after" in stdout

@@ -93,6 +93,13 @@ def compute(args):
     if not 0 < args.level < 1:
         raise ValueError("--level: must be between 0 and 1, e.g. 0.9")
     axes = _axes(args)
+    from stickslip_jax.output import check_memory
+
+    shape = tuple(axes[n].size for n in ("weight", "stiffness", "speed"))
+    n_points = float(np.prod(shape, dtype=float))
+    # about 16 float64 result arrays per grid point (and the axes broadcast to the grid)
+    check_memory(f"the grid of {' x '.join(map(str, shape))} = {n_points:.3g} points",
+                 "--weight/--stiffness/--speed", n_points * 16 * 8)
     w, k, v = outer(axes["weight"], axes["stiffness"], axes["speed"])
     out = {"axes": axes}
     if args.posterior:

@@ -25,7 +25,8 @@ def add_arguments(parser):
     parser.add_argument("--walkers", type=int, default=32, help="ensemble size (default 32)")
     parser.add_argument("--steps", type=int, default=3000, help="steps per walker (default 3000)")
     parser.add_argument("--burn", type=int, default=None, help="steps discarded (default steps/4)")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seed", type=int, default=0,
+                        help="random seed of the walkers' start and moves (0 to 2**32 - 1)")
     parser.add_argument("--offset", choices=("zero", "start"), default="zero")
     parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper")
     parser.add_argument("--objective", choices=("features", "trace", "both", "smooth"),
@@ -63,6 +64,8 @@ def run(args) -> int:
     from ..campaign import find_truth
     from .fit import fit_from_args
 
+    if not 0 <= args.seed < 2**32:
+        raise ValueError(f"--seed: must lie in 0 to 2**32 - 1, got {args.seed}")
     if args.draws < 1:
         raise ValueError(f"--draws: need at least 1 draw, got {args.draws}")
     if args.steps < 10:
@@ -77,6 +80,10 @@ def run(args) -> int:
     records = campaign.records
     for w in campaign.warnings:
         print("warning: " + w)
+    import sys
+
+    print(f"sampling: {args.walkers} walkers x {args.steps} steps (Ctrl-C stops and keeps the "
+          "chain so far)", file=sys.stderr, flush=True)
     res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
                    progress=not args.no_progress)
     summary = res.summary()
@@ -107,7 +114,7 @@ def run(args) -> int:
         out = {"model": args.model, "parameters": {
             n: dict(s, unit=units[n], **({"truth": truth[n]} if truth else {}))
             for n, s in summary.items()},
-            "prior": res.prior, "objective": args.objective,
+            "prior": res.prior, "objective": args.objective, "interrupted": res.interrupted,
             "likelihood_scale": res.likelihood_scale, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
             "acceptance": res.acceptance, "warnings": res.warnings,
             "records": [f.name for f in fit.features],
@@ -124,4 +131,8 @@ def run(args) -> int:
 
         corner_plot(res.samples, res.names, args.corner, truth=truth)
         print(f"wrote {args.corner}")
+    if res.interrupted:
+        print("stickslip mcmc: interrupted; the chain so far is summarised above"
+              + (f" and written to {args.json}" if args.json else ""), file=sys.stderr)
+        return 130
     return 0

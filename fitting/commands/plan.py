@@ -148,17 +148,27 @@ def read_sources(args):
     return estimate, sd, existing, "; ".join(desc)
 
 
+MAX_BUDGET = 1000
+"""Most records one plan proposes (the greedy design adds them one at a time)."""
+
+
 def run(args) -> int:
     from ..design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
 
-    if args.budget < 1:
-        raise ValueError("--budget: must be >= 1")
+    if not 1 <= args.budget <= MAX_BUDGET:
+        raise ValueError(f"--budget: must lie in 1-{MAX_BUDGET} records (a plan proposes "
+                         f"records one at a time), got {args.budget}")
     if not all(x > 0 for x in args.noise):
         raise ValueError("--noise: every noise level must be positive")
     u, sd, existing, desc = read_sources(args)
     cands = candidate_grid(_values(args.weights, "force", "kgf", "--weights"),
                            _values(args.stiffnesses, "stiffness", "kgf/mm", "--stiffnesses"),
                            _values(args.speeds, "speed", "mm/min", "--speeds"))
+    from stickslip_jax.output import check_memory
+
+    # the Fisher matrix of every candidate (6 x 6) and its observables, per greedy step
+    check_memory(f"{len(cands)} candidate records", "--weights/--stiffnesses/--speeds",
+                 float(len(cands)) * 64 * 8)
     if args.no_repeats and args.budget > len(cands):
         raise ValueError(f"--budget: {args.budget} exceeds the {len(cands)} candidates")
     noise = Noise(*args.noise)
