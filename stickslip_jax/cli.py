@@ -132,7 +132,11 @@ def console_main() -> int:
         # importing the package may already have compiled (and so settled the cache
         # without a directory): start it again with the directory
         compilation_cache.reset_cache()
-    return main()
+    try:
+        return main()
+    except KeyboardInterrupt:  # before a subcommand started (imports, parsing)
+        print("stickslip: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

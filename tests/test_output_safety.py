@@ -263,3 +263,30 @@ def test_ctrl_c_during_mcmc_keeps_the_chain(tmp_path):
     rep = json.loads(out.read_text())
     assert rep["interrupted"] and len(rep["samples"]) > 0
     assert "interrupted after" in stdout
+
+
+def test_ctrl_c_during_a_trace_fit_is_one_line(tmp_path):
+    """Issue 21: Ctrl-C during `fit --objective trace` printed a long traceback."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "f.json"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "stickslip_jax.cli", "fit", *map(str, EXAMPLES), "--objective",
+         "trace", "--json", str(out)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        text=True, env=dict(os.environ, STICKSLIP_CACHE_DIR=""))
+    t0 = time.time()
+    line = ""
+    while "fitting" not in line and time.time() - t0 < 120:
+        line = proc.stderr.readline()
+        if not line and proc.poll() is not None:
+            break
+    assert "fitting" in line, proc.stderr.read()
+    time.sleep(1.5)  # inside the fit (it takes several seconds with compilation)
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stderr[-2000:]
+    assert "Traceback" not in stderr and stderr.strip().splitlines()[-1].endswith("interrupted")
+    assert not out.exists()  # no partial output

@@ -300,6 +300,10 @@ def run(args) -> int:
     from ..uncertainty import laplace
 
     check_outputs({"--json": args.json, "--plot": args.plot}, record_paths(args.records))
+    import sys
+
+    print(f"stickslip fit: fitting (objective {args.objective}, model {args.model})...",
+          file=sys.stderr, flush=True)
     fit, campaign, extra = fit_from_args(args, objective=args.objective)
     records = campaign.records
     unc = laplace(fit)
