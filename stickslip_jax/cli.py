@@ -6,7 +6,8 @@ are listed here (`SUBCOMMANDS`); other packages add theirs through the entry-poi
 `stickslip.commands` (`COMMAND_GROUP`: the identification package `fitting` registers
 fit, mcmc, design, plan, discover and pitch in pyproject.toml), so this layer never
 names the layers built on it. Errors a user can fix are printed as one line on stderr
-with exit code 2.
+with exit code 2 (`stickslip --debug COMMAND ...` shows the full traceback instead); a
+command that ran but whose answer is unreliable (a fit that did not converge) exits 3.
 """
 
 from __future__ import annotations
@@ -70,6 +71,9 @@ def build_parser() -> argparse.ArgumentParser:
         "identification and design. Units: kgf, mm, s unless an argument says otherwise.",
     )
     parser.add_argument("--version", action="version", version=f"stickslip {_version()}")
+    parser.add_argument("--debug", action="store_true",
+                        help="show the full Python traceback of an error instead of one line "
+                        "(give it before the command: stickslip --debug fit ...)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for mod in _load():
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
@@ -87,6 +91,8 @@ def main(argv=None) -> int:
     try:
         return int(args.run_command(args) or 0)
     except (UsageError, ValueError, FileNotFoundError) as exc:
+        if args.debug:
+            raise
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"stickslip {args.command}: error: {msg}", file=sys.stderr)
         return 2

@@ -290,3 +290,29 @@ def test_ctrl_c_during_a_trace_fit_is_one_line(tmp_path):
     assert proc.returncode == 130, stderr[-2000:]
     assert "Traceback" not in stderr and stderr.strip().splitlines()[-1].endswith("interrupted")
     assert not out.exists()  # no partial output
+
+
+def test_debug_shows_the_traceback(tmp_path, capsys):
+    """Issue 20: every ValueError became one line with no way to see the traceback."""
+    missing = str(tmp_path / "nowhere.csv")
+    assert main(["fit", missing]) == 2
+    assert "Traceback" not in capsys.readouterr().err
+    with pytest.raises((ValueError, FileNotFoundError)):
+        main(["--debug", "fit", missing])
+
+
+def test_a_fit_that_did_not_converge_exits_3(monkeypatch, capsys):
+    """Issue 20: a fit that did not converge exited 0."""
+    import dataclasses
+
+    import stickslip_fitting.commands.fit as fit_command
+
+    real = fit_command.fit_from_args
+
+    def not_converged(args, **kwargs):
+        fit, campaign, extra = real(args, **kwargs)
+        return dataclasses.replace(fit, converged=False), campaign, extra
+
+    monkeypatch.setattr(fit_command, "fit_from_args", not_converged)
+    assert main(["fit", *map(str, EXAMPLES)]) == 3
+    assert "did not converge" in capsys.readouterr().err

@@ -320,4 +320,8 @@ def run(args) -> int:
 
         fit_figure(fit, unc, records, args.plot)
         print(f"wrote {args.plot}")
+    if not fit.converged:
+        print("stickslip fit: the fit did not converge (see the warnings): the values above "
+              "are not an optimum", file=sys.stderr)
+        return 3
     return 0
