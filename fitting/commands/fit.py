@@ -80,6 +80,7 @@ def fit_from_args(args, *, objective: str = "features"):
             raise ValueError(f"--surface: unknown surface pair {args.surface!r} ({err})") from None
         campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
         eta = args.eta if args.eta is not None else default_eta(campaign.records[0].lubricant)
+        _say_fitting(args, campaign, objective)
         fit = fit_microsqueeze(campaign.features, eta=eta, pair=pair, fixed=fixed,
                                offset=args.offset, slip_time=args.slip_time,
                                objective=objective, records=campaign.records)
@@ -89,9 +90,19 @@ def fit_from_args(args, *, objective: str = "features"):
         raise ValueError("--eta: only used with --model microsqueeze")
     fixed = parse_fix(args.fix)
     campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
+    _say_fitting(args, campaign, objective)
     fit = fit_features(campaign.features, fixed=fixed, offset=args.offset,
                        slip_time=args.slip_time, objective=objective, records=campaign.records)
     return fit, campaign, None
+
+
+def _say_fitting(args, campaign, objective) -> None:
+    """One progress line on stderr once the inputs are read and checked."""
+    import sys
+
+    n = sum(s.status == "used" for s in campaign.screening)
+    print(f"stickslip {getattr(args, 'command', 'fit')}: fitting {n} records (objective {objective}, model "
+          f"{args.model})...", file=sys.stderr, flush=True)
 
 
 def parse_fix(items, law=None) -> dict[str, float]:
@@ -302,8 +313,6 @@ def run(args) -> int:
     check_outputs({"--json": args.json, "--plot": args.plot}, record_paths(args.records))
     import sys
 
-    print(f"stickslip fit: fitting (objective {args.objective}, model {args.model})...",
-          file=sys.stderr, flush=True)
     fit, campaign, extra = fit_from_args(args, objective=args.objective)
     records = campaign.records
     unc = laplace(fit)
