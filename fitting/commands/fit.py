@@ -101,7 +101,8 @@ def _say_fitting(args, campaign, objective) -> None:
     import sys
 
     n = sum(s.status == "used" for s in campaign.screening)
-    print(f"stickslip {getattr(args, 'command', 'fit')}: fitting {n} records (objective {objective}, model "
+    command = getattr(args, "command", "fit")
+    print(f"stickslip {command}: fitting {n} records (objective {objective}, model "
           f"{args.model})...", file=sys.stderr, flush=True)
 
 
