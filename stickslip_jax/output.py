@@ -110,6 +110,16 @@ def check_memory(what: str, option: str, n_bytes: float, fraction: float = 0.5) 
                          "smaller one")
 
 
+SCHEMA_VERSION = 1
+"""Version of the JSON documents the commands write (the key "schema_version" of each):
+raised when a key changes meaning or goes away; new keys do not raise it."""
+
+
+def versioned(doc: dict) -> dict:
+    """`doc` with "schema_version" first (what every command's JSON carries)."""
+    return {"schema_version": SCHEMA_VERSION, **doc}
+
+
 def dumps(obj, **kwargs) -> str:
     """Strict JSON text of `obj` (NaN and infinities as null): what every command prints."""
     return json.dumps(strict_json(obj), allow_nan=False, **kwargs)

@@ -316,3 +316,16 @@ def test_a_fit_that_did_not_converge_exits_3(monkeypatch, capsys):
     monkeypatch.setattr(fit_command, "fit_from_args", not_converged)
     assert main(["fit", *map(str, EXAMPLES)]) == 3
     assert "did not converge" in capsys.readouterr().err
+
+
+def test_every_json_carries_the_schema_version(tmp_path, capsys):
+    """Issue 20: no output carried a schema version."""
+    from stickslip_jax.output import SCHEMA_VERSION
+
+    assert main(["steady", "--weight", "36", "--stiffness", "86.9", "--speed", "5",
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["schema_version"] == SCHEMA_VERSION
+    out = tmp_path / "f.json"
+    assert main(["fit", *map(str, EXAMPLES), "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert list(doc)[0] == "schema_version" and doc["schema_version"] == SCHEMA_VERSION

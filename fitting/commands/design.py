@@ -233,9 +233,9 @@ def run(args) -> int:
     if args.out:
         plot(args, res, args.out)
     if args.json:
-        from stickslip_jax.output import dumps
+        from stickslip_jax.output import dumps, versioned
 
-        print(dumps(to_json(args, res)))
+        print(dumps(versioned(to_json(args, res))))
         return 0
     amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]
     print(f"design map {'x'.join(str(s) for s in amp.shape)} (W x k x v), "

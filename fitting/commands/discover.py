@@ -71,7 +71,7 @@ def run(args) -> int:
         raise ValueError(f"--threshold: must be >= 0, got {args.threshold}")
     if not 0 < args.alpha < 1:
         raise ValueError(f"--alpha: must be between 0 and 1, got {args.alpha}")
-    from stickslip_jax.output import check_outputs, write_json
+    from stickslip_jax.output import check_outputs, versioned, write_json
 
     from ..campaign import screen_records
 
@@ -102,7 +102,7 @@ def run(args) -> int:
         b = result.parameters_before.get(k)
         print(f"{k:22s} {'-' if b is None else format(b, '.5g'):>12s} {v:12.5g}")
     if args.json:
-        write_json(args.json, {**result.to_json(),
+        write_json(args.json, {**versioned(result.to_json()),
                                "records_screened": [x.to_json() for x in campaign.screening]})
     if args.plot:
         from ..discovery.plots import plot_discovery
@@ -114,7 +114,7 @@ def run(args) -> int:
 def _run_cycle(args, records) -> int:
     import sys
 
-    from stickslip_jax.output import save_figure, write_json
+    from stickslip_jax.output import save_figure, versioned, write_json
 
     from ..discovery.cycle_effects import FAMILIES
     from ..discovery.cycle_workflow import discover_cycles
@@ -156,7 +156,7 @@ def _run_cycle(args, records) -> int:
         b = result.parameters_before.get(k)
         print(f"{k:22s} {'-' if b is None else format(b, '.5g'):>12s} {v:12.5g}")
     if args.json:
-        write_json(args.json, result.to_json())
+        write_json(args.json, versioned(result.to_json()))
     if args.plot:
         from ..discovery.plots import plot_cycle_discovery
 

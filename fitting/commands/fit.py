@@ -306,7 +306,7 @@ def format_table(report) -> str:
 
 
 def run(args) -> int:
-    from stickslip_jax.output import check_outputs, write_json
+    from stickslip_jax.output import check_outputs, versioned, write_json
     from stickslip_jax.records import record_paths
 
     from ..uncertainty import laplace
@@ -323,7 +323,7 @@ def run(args) -> int:
         print("note: " + n)
 
     if args.json:
-        write_json(args.json, report)
+        write_json(args.json, versioned(report))
         print(f"wrote {args.json}")
     if args.plot:
         from ..plots import fit_figure

@@ -72,7 +72,7 @@ def run(args) -> int:
         raise ValueError(f"--steps: need at least 10 steps, got {args.steps}")
     if args.burn is not None and not 0 <= args.burn < args.steps:
         raise ValueError(f"--burn: must lie in [0, --steps), got {args.burn}")
-    from stickslip_jax.output import check_outputs, write_json
+    from stickslip_jax.output import check_outputs, versioned, write_json
     from stickslip_jax.records import record_paths
 
     check_outputs({"--json": args.json, "--corner": args.corner}, record_paths(args.records))
@@ -124,7 +124,7 @@ def run(args) -> int:
             "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
         if extra:
             out.update(extra)
-        write_json(args.json, out)
+        write_json(args.json, versioned(out))
         print(f"wrote {args.json}")
     if args.corner:
         from ..plots import corner_plot

@@ -63,7 +63,7 @@ def _um(x):
 
 
 def run(args) -> int:
-    from stickslip_jax.output import check_outputs, write_json
+    from stickslip_jax.output import check_outputs, versioned, write_json
 
     paths = [Path(p) for p in args.records]
     for p in paths:
@@ -127,7 +127,7 @@ def run(args) -> int:
         out["records"].append({"file": str(path), "height_mm": h, "offset_mm": o,
                                "points": rows})
     if args.json:
-        write_json(args.json, out)
+        write_json(args.json, versioned(out))
     if args.plot:
         _plot(args.plot, paths, runs, traces, names)
     return 0

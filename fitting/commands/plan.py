@@ -190,9 +190,9 @@ def run(args) -> int:
         "records": rows,
     }
     if args.json:
-        from stickslip_jax.output import dumps
+        from stickslip_jax.output import dumps, versioned
 
-        print(dumps(doc, indent=2))
+        print(dumps(versioned(doc), indent=2))
         return 0
     print(f"plan from {desc}: {args.budget} record(s), {args.criterion}-optimal, "
           f"{len(cands)} candidates")

@@ -63,16 +63,16 @@ def run(args) -> int:
             "critical_speed_mm_min": float(mm_per_min(out.critical_speed[i])),
         })
     if args.json:
-        from ..output import dumps
+        from ..output import dumps, versioned
 
-        print(dumps({
+        print(dumps(versioned({
             "lubricant": args.lubricant,
             "table": args.table,
             "weight_kgf": args.weight,
             "stiffness_kgf_mm": args.stiffness,
             "natural_frequency_hz": float(out.natural_frequency[0]),
             "results": rows,
-        }, indent=2))
+        }), indent=2))
         return 0
     print(f"lubricant {args.lubricant} (Table {args.table}), W = {args.weight:g} kgf, "
           f"k = {args.stiffness:g} kgf/mm, f0 = {float(out.natural_frequency[0]):.4g} Hz")
