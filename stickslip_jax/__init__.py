@@ -23,7 +23,9 @@ from .friction import (  # noqa: E402
 )
 from .lubricants import experimental_conditions, lubricant, static_law  # noqa: E402
 from .steady import (  # noqa: E402
+    REGIMES,
     SteadyState,
+    restick_failure,
     critical_speed,
     natural_angular_frequency,
     slip_time,
@@ -57,4 +59,6 @@ __all__ = [
     "steady_map",
     "steady_state",
     "units",
+    "REGIMES",
+    "restick_failure",
 ]

@@ -58,8 +58,29 @@ def _log_residual(log_t1, args):
     return jnp.log(drop) + jnp.log(2.0 * weight / (stiffness * speed)) - log_t1
 
 
+STEADY_SLIDING, STICK_SLIP, RESTICK_FAILURE = 0, 1, 2
+"""Values of `SteadyState.regime`."""
+
+REGIMES = ("steady sliding", "stick-slip", "re-stick failure")
+"""Names of the regimes, indexed by `SteadyState.regime`."""
+
+
+def restick_failure(friction: Friction, mu_0, slip_time):
+    r"""True where a slip cannot end in a stick: with the mean kinetic friction $\mu_m$ of
+    eq (3) the deflection falls by $2(\mu_0 - \mu_m)W/k$ during the slip (eq 5), so the
+    spring force at its end is $k x_1 = W(2\mu_m - \mu_0)$; above $W\mu_d$ (the static
+    friction at $T_1 = 0$, eq 1) the slider slips again at once: double slips. That is
+    $\mu_m - \mu_d > \mu_0 - \mu_m$, for eq (3) $e^{-\delta T_2^n} > 1/2$; eq (6)'s
+    amplitude does not describe the motion there. `slip_time` $T_2$ in s."""
+    mu_m = friction.kinetic(mu_0, friction.mu_d, slip_time)
+    return (mu_m - friction.mu_d) > (mu_0 - mu_m)
+
+
 class SteadyState(eqx.Module):
-    """Steady stick-slip cycle (chapter 5). Units: s, mm, Hz, mm/s; ratios dimensionless."""
+    """Steady stick-slip cycle (chapter 5). Units: s, mm, Hz, mm/s; ratios dimensionless.
+    `regime`: `STEADY_SLIDING` (v >= v_c of eq 12), `STICK_SLIP`, or `RESTICK_FAILURE`
+    (a slip cannot end in a stick, `restick_failure`: the amplitude and stick time of
+    eqs 5-6 are then not the motion's)."""
 
     stick_time: Float[Array, "..."]
     slip_time: Float[Array, "..."]
@@ -73,6 +94,7 @@ class SteadyState(eqx.Module):
     mu_m: Float[Array, "..."]
     stick_slip: Bool[Array, "..."]
     result: optx.RESULTS
+    regime: Array
 
 
 def _check_positive(x, name):
@@ -155,6 +177,8 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps) -> Steady
     mu_0_out = jnp.where(stick, mu_0, friction.static(t2))
     mu_m_out = jnp.where(stick, mu_m, friction.mu_d + zero)
     result = optx.RESULTS.where(stick, sol.result, optx.RESULTS.successful)
+    fails = restick_failure(friction, mu_0, t2)
+    regime = jnp.where(stick, jnp.where(fails, RESTICK_FAILURE, STICK_SLIP), STEADY_SLIDING)
     return SteadyState(
         stick_time=t1,
         slip_time=t2,
@@ -168,6 +192,7 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps) -> Steady
         mu_m=mu_m_out,
         stick_slip=stick,
         result=result,
+        regime=regime,
     )
 
 

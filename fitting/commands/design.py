@@ -119,7 +119,8 @@ def compute(args):
                    chunk_size=args.chunk_size, progress=args.progress)
     out.update(amplitude=m.amplitude, amplitude_ratio=m.amplitude_ratio, frequency=m.frequency,
                frequency_ratio=m.frequency_ratio, stick_time=m.stick_time,
-               critical_speed=m.critical_speed, stick_slip=m.stick_slip, converged=m.converged)
+               critical_speed=m.critical_speed, stick_slip=m.stick_slip, converged=m.converged,
+               regime=m.regime)
     return out
 
 
@@ -138,6 +139,11 @@ def to_json(args, res) -> dict:
         "critical_speed_mm_min": (res["critical_speed"] * 60.0).tolist(),
         "stick_slip": res["stick_slip"].tolist(),
     }
+    if "regime" in res:
+        from stickslip_jax.steady import REGIMES
+
+        doc["regime"] = np.asarray(res["regime"]).tolist()
+        doc["regimes"] = list(REGIMES)  # the names of the codes in "regime"
     if args.posterior:
         doc["level"] = args.level
         doc["probability_stick_slip"] = res["probability"].tolist()
@@ -187,6 +193,9 @@ def plot(args, res, path):
     crosses = edge.min() < 0 < edge.max()
     title = (f"posterior {Path(args.posterior).name}" if args.posterior
              else f"lubricant {args.lubricant} (Table {args.table})")
+    # re-stick failure (double slips: eq (6)'s amplitude is not the motion's), hatched
+    double = (np.squeeze(np.asarray(res["regime"]) == 2, axis=squeeze) if "regime" in res
+              else None)
     for ax, (key, label, s) in zip(axs[0], panels):
         z = np.squeeze(res[key], axis=squeeze) * s
         if len(grid) == 2:
@@ -196,6 +205,11 @@ def plot(args, res, path):
             fig.colorbar(mesh, ax=ax, label=label)
             if crosses:
                 ax.contour(x, y, edge, levels=[0.0], colors="w", linewidths=1.5)
+            if double is not None and double.any():
+                ax.contourf(x, y, double.astype(float), levels=[0.5, 1.5], colors="none",
+                            hatches=["///"])
+                ax.plot([], [], " ", label="/// re-stick failure (double slips)")
+                ax.legend(loc="best", fontsize=7)
             ax.set_xlabel(LABELS[grid[1]])
             ax.set_ylabel(LABELS[grid[0]])
             if "speed" in grid:

@@ -21,6 +21,7 @@ import jax.numpy as jnp
 from stickslip_jax import Slideway, critical_speed, slip_time
 from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.simulation import simulate_exact
+from stickslip_jax.steady import RESTICK_FAILURE, STEADY_SLIDING, STICK_SLIP, restick_failure
 
 from .maps import DesignMap, DesignPoints
 
@@ -70,6 +71,8 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
         critical_speed=critical_speed(friction, weight, stiffness),
         stick_slip=stick,
         converged=((n_valid >= 2) & settled) | trace.steady_sliding,
+        regime=jnp.where(stick, jnp.where(restick_failure(friction, friction.static(t1), t2),
+                                          RESTICK_FAILURE, STICK_SLIP), STEADY_SLIDING),
     )
 
 

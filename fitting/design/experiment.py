@@ -40,6 +40,7 @@ from jaxtyping import Array, Float
 
 from stickslip_jax.lsq import LevenbergMarquardt
 from stickslip_jax import Friction, KatoKinetic, KatoStatic, steady_state
+from stickslip_jax.steady import STICK_SLIP
 
 from .posterior import PARAMETERS, friction_params
 
@@ -102,8 +103,7 @@ def observables(u, weight, stiffness, speed):
     $y = (\log a, \log T_1, \mu_0, \mu_m)$ and `mask` 1 where the entry is observed."""
     friction = friction_of(u)
     s = steady_state(friction, weight, stiffness, speed)
-    resticks = s.mu_m - friction.mu_d < s.mu_0 - s.mu_m
-    stick = s.stick_slip & resticks
+    stick = s.regime == STICK_SLIP  # stick-slip that ends each slip in a stick
     safe_a = jnp.where(stick, s.amplitude, 1.0)
     safe_t = jnp.where(stick, s.stick_time, 1.0)
     mu_m = jnp.where(stick, s.mu_m, friction.mu_d)

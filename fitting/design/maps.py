@@ -37,7 +37,9 @@ class DesignMap(eqx.Module):
     `amplitude` a (mm, eq 5; 0 where sliding is smooth), `amplitude_ratio` ak/W,
     `frequency` f (Hz), `frequency_ratio` f/f0, `stick_time` T1 (s), `slip_time` T2 (s),
     `natural_frequency` f0 (Hz), `critical_speed` v_c (mm/s, corrected eq 12),
-    `stick_slip` (bool), `converged` (the stick-time solve, or the simulation, succeeded).
+    `stick_slip` (bool), `converged` (the stick-time solve, or the simulation, succeeded),
+    `regime` (`stickslip_jax.steady.REGIMES`: 0 steady sliding, 1 stick-slip, 2 re-stick
+    failure, where eq (6)'s amplitude is not the motion's).
     """
 
     amplitude: Float[Array, "..."]
@@ -50,6 +52,7 @@ class DesignMap(eqx.Module):
     critical_speed: Float[Array, "..."]
     stick_slip: Bool[Array, "..."]
     converged: Bool[Array, "..."]
+    regime: Array
 
 
 class DesignPoints(eqx.Module):
@@ -103,6 +106,7 @@ def steady_kernel(points: DesignPoints, shared=None) -> DesignMap:
         critical_speed=s.critical_speed,
         stick_slip=s.stick_slip,
         converged=jnp.asarray(s.result._value == optx.RESULTS.successful._value),
+        regime=s.regime,
     )
 
 

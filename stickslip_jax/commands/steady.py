@@ -6,7 +6,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ..lubricants import lubricant, lubricants
-from ..steady import steady_map
+from ..steady import REGIMES, RESTICK_FAILURE, steady_map
 from ..units import mm_per_min
 from ._args import quantity
 
@@ -53,6 +53,7 @@ def run(args) -> int:
     for i, v in enumerate(args.speed):
         rows.append({
             "speed_mm_min": mm_per_min(v),
+            "regime": REGIMES[int(out.regime[i])],
             "stick_slip": bool(out.stick_slip[i]),
             "stick_time_s": float(out.stick_time[i]),
             "slip_time_s": float(out.slip_time[i]),
@@ -82,7 +83,17 @@ def run(args) -> int:
         cells = []
         for (key, _), w in zip(COLUMNS, widths):
             val = r[key]
-            cells.append(("yes" if val else "no").rjust(w) if isinstance(val, bool)
-                         else f"{val:.5g}".rjust(w))
+            if key == "stick_slip" and r["regime"] == REGIMES[RESTICK_FAILURE]:
+                cells.append("double".rjust(w))  # re-stick failure: see the note below
+            elif isinstance(val, bool):
+                cells.append(("yes" if val else "no").rjust(w))
+            elif isinstance(val, str):
+                cells.append(val.rjust(w))
+            else:
+                cells.append(("-" if val is None else f"{val:.5g}").rjust(w))
         print("  ".join(cells))
+    if any(int(r) == RESTICK_FAILURE for r in out.regime):
+        print("double: re-stick failure, a slip ends with the spring force above mu_d W (exp(-delta "
+              "T2^n) > 1/2), so the slider slips again at once (double slips); eqs (5)-(6) "
+              "do not describe that motion, its amplitude and T1 above are not the motion's")
     return 0
