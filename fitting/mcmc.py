@@ -42,6 +42,7 @@ import numpy as np
 from .fit import COMPILER_OPTIONS, FitResult
 from .microsqueeze_params import MicrosqueezeFriction
 from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_mask
+from .report import ParameterEstimate
 from .uncertainty import laplace
 
 __all__ = ["PRIOR_BOUNDS", "McmcResult", "likelihood_scale", "log_posterior", "run_mcmc",
@@ -151,6 +152,16 @@ class McmcResult:
     units: dict | None = None
     likelihood_scale: float = 1.0
     interrupted: bool = False
+
+    def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
+        """One typed row per sampled parameter (`stickslip_fitting.report`): the posterior
+        median as the value, its standard deviation as the standard error and the central
+        95 % interval; with the truth when given."""
+        summ = self.summary()
+        return [ParameterEstimate(name=n, unit=(self.units or {}).get(n, "-"),
+                                  value=s["median"], stderr=s["sd"],
+                                  ci95=(s["ci95"][0], s["ci95"][1])).with_truth(truth)
+                for n, s in summ.items()]
 
     def summary(self) -> dict:
         out = {}

@@ -106,3 +106,20 @@ def test_fit_honours_fixed_values():
     fit = fit_features([record_features(r) for r in recs], fixed={"mu_s": 0.3, "n": 1.2})
     assert fit.values["mu_s"] == 0.3 and fit.values["n"] == pytest.approx(1.2, rel=1e-15)
     assert fit.values["mu_d"] < 0.3
+
+
+def test_mcmc_rows_are_the_fit_rows():
+    """One typed parameter row for fit and mcmc reports (issue 16)."""
+    import numpy as np
+
+    from stickslip_fitting.mcmc import McmcResult
+    from stickslip_fitting.report import ParameterEstimate
+
+    rng = np.random.default_rng(0)
+    res = McmcResult(names=["mu_s", "n"], samples=rng.normal([0.5, 1.0], 0.01, (400, 2)),
+                     tau=np.ones(2), ess=np.full(2, 400.0), acceptance=0.3, walkers=8,
+                     steps=50, burn=0, prior="", warnings=[], units={"mu_s": "-", "n": "-"})
+    rows = res.estimates({"mu_s": 0.5, "n": 1.0})
+    assert all(isinstance(r, ParameterEstimate) for r in rows)
+    assert rows[0].value == pytest.approx(np.median(res.samples[:, 0]))
+    assert rows[0].truth_in_ci95 and set(rows[0].to_json()) >= {"value", "stderr", "ci95"}

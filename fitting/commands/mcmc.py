@@ -111,9 +111,10 @@ def run(args) -> int:
     for w in res.warnings:
         print("warning: " + w)
     if args.json:
+        # the fit's row keys (value = median, stderr = sd, ci95, truth_in_ci95, ...) and the
+        # sampler's own (median, mean, sd, tau_steps, ess)
         out = {"model": args.model, "parameters": {
-            n: dict(s, unit=units[n], **({"truth": truth[n]} if truth else {}))
-            for n, s in summary.items()},
+            e.name: {**e.to_json(), **summary[e.name]} for e in res.estimates(truth)},
             "prior": res.prior, "objective": args.objective, "interrupted": res.interrupted,
             "likelihood_scale": res.likelihood_scale, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
             "acceptance": res.acceptance, "warnings": res.warnings,
