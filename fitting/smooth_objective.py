@@ -36,7 +36,8 @@ from jaxtyping import Array, Bool, Float
 
 import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed
-from stickslip_jax.simulation import pad_times, simulate_smooth
+from stickslip_jax.simulation import simulate_smooth
+from stickslip_jax.simulation.trace import pad_series
 
 from .combined import AbstractObjective
 
@@ -92,11 +93,7 @@ def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothD
         v.append(rec.drive_speed)
         x1.append(float(f.trough[0]))
         sig.append(max(float(f.noise), 1e-9))
-    ts, mask = pad_times(times)
-    data = np.zeros(ts.shape)
-    for i, x in enumerate(xs):
-        data[i, : x.size] = x
-        data[i, x.size:] = x[-1]
+    ts, data, mask = pad_series(times, xs)
 
     def arr(a):
         return jnp.asarray(np.asarray(a, float))

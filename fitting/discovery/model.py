@@ -156,7 +156,7 @@ def campaign_traces(records, *, crop: str = "none", max_samples: int | None = No
     `crop`: "none" (each record starts at a slip end) or "slip_end" (cut at the first
     detected slip end). `max_samples` caps each record's length.
     """
-    from stickslip_jax.simulation import pad_times
+    from stickslip_jax.simulation.trace import pad_series
 
     if crop not in ("none", "slip_end"):
         raise ValueError(f"crop must be 'none' or 'slip_end', got {crop!r}")
@@ -181,11 +181,7 @@ def campaign_traces(records, *, crop: str = "none", max_samples: int | None = No
         k.append(rec.stiffness)
         v.append(rec.drive_speed)
         x0.append(_start_level(t, x, max(6, min(t.shape[0] // 40, 40))))
-    ts, mask = pad_times(times)
-    data = np.zeros(ts.shape)
-    for i, x in enumerate(xs):
-        data[i, : x.shape[0]] = x
-        data[i, x.shape[0]:] = x[-1]
+    ts, data, mask = pad_series(times, xs)
     noise = float(np.median([robust_noise(x) for x in xs]))
     f = lambda a: jnp.asarray(np.asarray(a, float))  # noqa: E731
     return CampaignTraces(time=f(ts), data=f(data), mask=jnp.asarray(mask), weight=f(w),

@@ -87,6 +87,18 @@ class Trace(eqx.Module):
         return float(amp.mean()), float(t1.mean())
 
 
+def pad_series(times_list, values_list):
+    """`pad_times` for records with their values: `(times [B, N], values [B, N],
+    mask [B, N])`, each record's values padded with its last value."""
+    ts, mask = pad_times(times_list)
+    data = np.zeros(ts.shape)
+    for i, x in enumerate(values_list):
+        x = np.asarray(x, dtype=float)
+        data[i, : x.size] = x
+        data[i, x.size:] = x[-1]
+    return ts, jnp.asarray(data), mask
+
+
 def pad_times(times_list, *, fill: str = "edge"):
     """Stack sample-time arrays of different lengths for `jax.vmap`.
 
