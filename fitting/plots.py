@@ -2,7 +2,9 @@ r"""Figures of a fit: traces with the fitted model, $\mu_0(T_1)$ and $\mu_m(T_2)
 
 All with matplotlib only (the corner plot is a small grid of histograms and
 scatter plots rather than a new dependency). Units on the axes: s, um, mu
-dimensionless.
+dimensionless. Following matplotlib's convention, every function returns its `Figure`
+and never switches the user's backend; given a `path` it also saves the figure there
+(atomically) and closes it, without one it leaves it open for Jupyter to show.
 """
 
 from __future__ import annotations
@@ -15,13 +17,19 @@ __all__ = ["corner_plot", "fit_figure", "fitted_traces", "friction_curves"]
 
 
 def _plt():
-    import matplotlib
-
-    if matplotlib.get_backend().lower() not in ("agg", "module://matplotlib_inline.backend_inline"):
-        matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    import matplotlib.pyplot as plt  # the user's backend, as it is
 
     return plt
+
+
+def _finish(fig, path, dpi):
+    """Save and close `fig` when a `path` is given; return the figure either way."""
+    if path is not None:
+        import matplotlib.pyplot as plt
+
+        save_figure(fig, str(path), dpi=dpi)
+        plt.close(fig)
+    return fig
 
 
 def _static_curves(logs, template, grid):
@@ -85,10 +93,11 @@ def fitted_traces(fit, records):
     return out
 
 
-def fit_figure(fit, unc, records, path, max_traces: int = 4):
-    """Save the diagnostic figure: the first `max_traces` records with the fitted
-    simulation (`fitted_traces`) and breakaway levels over them, mu_0 against T1 with the
-    fitted eq (1) and its 95 % band, mu_m against T2 with the fitted eq (3)."""
+def fit_figure(fit, unc, records, path=None, max_traces: int = 4):
+    """The diagnostic figure (returned; saved to `path` when given): the first
+    `max_traces` records with the fitted simulation (`fitted_traces`) and breakaway levels
+    over them, mu_0 against T1 with the fitted eq (1) and its 95 % band, mu_m against T2
+    with the fitted eq (3)."""
     import jax.numpy as jnp
 
     plt = _plt()
@@ -155,13 +164,12 @@ def fit_figure(fit, unc, records, path, max_traces: int = 4):
     lines.append(f"chi2/dof = {fit.reduced_chi2:.3g}")
     ax.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=10)
     fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
-    return path
+    return _finish(fig, path, 110)
 
 
-def corner_plot(samples, names, path, truth: dict | None = None, bins: int = 30):
-    """Corner plot of posterior samples (N, d): histograms on the diagonal, pairs below."""
+def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int = 30):
+    """Corner plot of posterior samples (N, d): histograms on the diagonal, pairs below
+    (returned; saved to `path` when given)."""
     plt = _plt()
     samples = np.asarray(samples)
     d = samples.shape[1]
@@ -191,7 +199,5 @@ def corner_plot(samples, names, path, truth: dict | None = None, bins: int = 30)
                 ax.set_yticklabels([])
             ax.tick_params(labelsize=6)
     fig.tight_layout()
-    save_figure(fig, path, dpi=100)
-    plt.close(fig)
-    return path
+    return _finish(fig, path, 100)
 

@@ -73,7 +73,7 @@ for k, v in result.parameters_after.items():
           f"{result.parameters_before.get(k, float('nan')):10.4g} after {v:10.4g}")
 
 # %%
-path = plot_discovery(result, os.path.join(figdir, "05_missing_physics.png"))
-plt.imshow(plt.imread(path))
-plt.axis("off")
+path = os.path.join(figdir, "05_missing_physics.png")
+fig = plot_discovery(result)  # the Figure, shown here
+fig.savefig(path, dpi=110)
 print("figure:", path)

@@ -127,6 +127,9 @@ def console_main() -> int:
     samples are padded to buckets) loads the compiled fit instead of compiling it again.
     Programs that compiled in under 0.2 s are not kept (JAX's
     `JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS` overrides that)."""
+    # the command writes figures to files: a non-interactive backend unless the user
+    # chose one (library plotting functions never switch it themselves)
+    os.environ.setdefault("MPLBACKEND", "Agg")
     path = compilation_cache_dir()
     if path:
         import jax

@@ -122,3 +122,21 @@ def test_every_package_is_installed():
             rel = init.parent.relative_to(ROOT / pkg).parts
             found.add(".".join((name, *rel)))
     assert found == listed, f"not listed: {sorted(found - listed)}; gone: {sorted(listed - found)}"
+
+
+def test_library_plots_keep_the_backend_and_return_the_figure():
+    """Issue 20: plotting functions switched the user's backend to Agg and returned no
+    Figure. Source check: no matplotlib.use in the library's plotting modules."""
+    for rel in ("fitting/plots.py", "fitting/discovery/plots.py"):
+        text = (ROOT / rel).read_text()
+        assert "matplotlib.use(" not in text, rel
+    import numpy as np
+    from matplotlib.figure import Figure
+
+    from stickslip_fitting.plots import corner_plot
+
+    fig = corner_plot(np.random.default_rng(0).normal(size=(200, 2)), ["a", "b"])
+    assert isinstance(fig, Figure)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)

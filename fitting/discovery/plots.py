@@ -9,13 +9,13 @@ from .residuals import PHASES
 __all__ = ["plot_cycle_discovery", "plot_discovery"]
 
 
-def plot_discovery(result, path, *, records: int = 3):
-    """Save a PNG: residual RMS by phase (um) before/after, and `records` traces with
-    the base and final fits and their residuals (um against s)."""
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
+def plot_discovery(result, path=None, *, records: int = 3):
+    """Residual RMS by phase (um) before/after, and `records` traces with the base and
+    final fits and their residuals (um against s). Returns the `Figure` (the user's
+    backend is never switched); with `path`, saves it there (atomically) and closes it."""
     import matplotlib.pyplot as plt
+
+    from stickslip_jax.output import save_figure
 
     tr = result.base_problem.traces
     m = np.asarray(tr.mask)
@@ -59,9 +59,10 @@ def plot_discovery(result, path, *, records: int = 3):
     axes[-1, 0].set_xlabel("time (s)")
     axes[-1, 1].set_xlabel("time (s)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    if path is not None:
+        save_figure(fig, str(path), dpi=110)
+        plt.close(fig)
+    return fig
 
 
 def plot_cycle_discovery(result, *, records: int = 3):
