@@ -113,6 +113,7 @@ def test_cli_microsqueeze(paths, tmp_path, capsys):
     assert len(err) == 2 and all("Traceback" not in e for e in err)
 
 
+@pytest.mark.slow  # 45 s: run in CI's slow phase (the default suite stays under 10 min)
 def test_trace_objective_with_the_microsqueeze_law(records, paths, tmp_path, truth_friction):
     """Every objective works with both friction laws: the trace fit of the microsqueeze law
     (from the features fit's optimum) recovers every parameter within its robust 95 %
