@@ -48,9 +48,9 @@ from .combined import AbstractObjective, FeaturesObjective, make_objective
 from .features import RecordFeatures, record_features
 from .objectives import FeatureData, feature_data, feature_residuals
 from .trace_objective import trace_data
-from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_spec
+from .params import CampaignParams, EmpiricalFriction, free_spec
 
-__all__ = ["FitResult", "fit_features", "fit_records", "initial_guesses"]
+__all__ = ["FitResult", "fit_features", "fit_objective", "fit_records", "initial_guesses"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -502,27 +502,47 @@ def _gn_decrement(free, static, objective) -> float:
     return float(gauss_newton_decrease(F, g))
 
 
+def fit_objective(objective: AbstractObjective, params: CampaignParams, free, *,
+                  rtol: float = 1e-8, atol: float = 1e-8, max_steps: int = 100,
+                  base: FitResult | None = None) -> FitResult:
+    """The fitting verb over any objective and a parameter pytree: Levenberg-Marquardt
+    (`stickslip_jax.lsq`, with the reweighting rounds of `_solve_rounds`) of `objective`
+    from `params`, moving only the leaves `free` selects: a function `params -> leaf or
+    tuple of leaves` (like `eqx.tree_at`'s `where`), or a boolean filter spec
+    (`free_spec`). For example, the friction level and shape with the rest held::
+
+        fit_objective(obj, params, lambda p: (p.friction.log_mu_d, p.friction.log_gap))
+
+    `base`: the `FitResult` this one refines (its features and data carry over to the
+    report; `fit_features` refines its features fit this way). Converged when the solver
+    met its tolerances, or when a Gauss-Newton step would lower chi2 by less than 1e-3
+    (stationarity in units of the noise) although the step budget ran out."""
+    if callable(free):
+        none = jax.tree_util.tree_map(lambda _: False, params)
+        spec = eqx.tree_at(free, none, replace_fn=lambda _: True)
+    else:
+        spec = free
+    part, static = eqx.partition(params, spec)
+    values, chi2s, result, ok, steps, flags, _, rounds = _solve_rounds(
+        _stack([part]), static, objective, rtol, atol, max_steps)
+    free_opt = _take(values, 0)
+    n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(part, eqx.is_array)))
+    converged = bool(ok[0]) or _gn_decrement(free_opt, static, objective) < 1e-3
+    fields = dict(
+        params=eqx.combine(free_opt, static), spec=spec, chi2=float(np.asarray(chi2s)[0]),
+        dof=int(round(objective.dof())) - n_free, result=result, converged=converged,
+        n_steps=int(np.asarray(steps)[0]), start_chi2=np.asarray(chi2s), objective=objective,
+        n_rounds=rounds, trace_failures=objective.failures(np.asarray(flags)[0]))
+    if base is not None:
+        return dataclasses.replace(base, **fields)
+    return FitResult(data=None, features=[], n_starts=1, slip_time=objective.slip_time,
+                     **fields)
+
+
 def _refine(first: FitResult, obj: AbstractObjective, rtol, atol, max_steps) -> FitResult:
     """Levenberg-Marquardt (with reweighting rounds) of `obj` from the features fit's optimum."""
-    free, static = eqx.partition(first.params, first.spec)
-    values, chi2s, result, ok, steps, flags, _, rounds = _solve_rounds(
-        _stack([free]), static, obj, rtol, atol, max_steps)
-    free_opt = _take(values, 0)
-    params = eqx.combine(free_opt, static)
-    n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free, eqx.is_array)))
-    # Should Levenberg-Marquardt stop without meeting its tolerances (step budget), the
-    # fit has still converged when the Gauss-Newton step would lower chi2 by less than
-    # 1e-3 (stationarity, measured in units of the noise).
-    ok = bool(ok[0]) or _gn_decrement(
-        free_opt, static, obj) < 1e-3
-    return dataclasses.replace(
-        first, params=params, chi2=float(np.asarray(chi2s)[0]),
-        dof=int(round(obj.dof())) - n_free, result=result,
-        converged=ok,
-        n_steps=int(np.asarray(steps)[0]), start_chi2=np.asarray(chi2s), objective=obj,
-        n_rounds=rounds,
-        trace_failures=obj.failures(np.asarray(flags)[0]),
-    )
+    return fit_objective(obj, first.params, first.spec, rtol=rtol, atol=atol,
+                         max_steps=max_steps, base=first)
 
 
 def fit_records(records, **kwargs) -> FitResult:

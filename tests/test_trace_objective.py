@@ -224,3 +224,18 @@ def test_bad_inputs(campaign):
     prog = dataclasses.replace(recs[0], drive_program=((0.0, recs[0].drive_speed),))
     with pytest.raises(ValueError, match="constant drive speed"):
         trace_data([prog], feats[:1])
+
+
+def test_fit_objective_moves_only_the_leaves_chosen(trace_fit):
+    """The one fitting verb over an objective and a parameter pytree: the free leaves are
+    chosen by a function, as `eqx.tree_at`'s `where` (issue 16)."""
+    from stickslip_fitting.fit import fit_objective
+
+    fit = trace_fit
+    start = eqx.tree_at(lambda p: p.friction.log_mu_d, fit.params,
+                        fit.params.friction.log_mu_d + 0.01)
+    out = fit_objective(fit.objective, start, lambda p: p.friction.log_mu_d)
+    assert out.converged and out.dof == fit.dof + sum(np.asarray(fit.spec.friction.leaves())) - 1
+    for name in ("log_gap", "log_gamma", "log_m", "log_delta", "log_n"):
+        assert float(getattr(out.params.friction, name)) == float(getattr(start.friction, name))
+    assert abs(float(out.params.friction.log_mu_d) - float(fit.params.friction.log_mu_d)) < 1e-3
