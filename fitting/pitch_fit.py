@@ -39,6 +39,8 @@ from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Bool, Float
 
 from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_covariance
+
+from .report import ParameterEstimate
 from stickslip_jax import pitching as pt
 from stickslip_jax.units import UnitError, parse_quantity
 
@@ -228,6 +230,13 @@ class PitchFit:
     @property
     def successful(self) -> bool:
         return self.result == optx.RESULTS.successful
+
+    def estimates(self) -> list[ParameterEstimate]:
+        """The parameters as the reports' typed rows (`stickslip_fitting.report`)."""
+        return [ParameterEstimate(
+            name=n, unit=p["unit"], value=p["value"], stderr=p["stderr"],
+            ci95=None if p["ci95"] is None else (float(p["ci95"][0]), float(p["ci95"][1])),
+            fixed=not p["free"]) for n, p in self.parameters.items()]
 
 
 def _plane_start(template, runs, plane, taus):

@@ -83,19 +83,21 @@ def run(args) -> int:
     if args.fit:
         fit = fit_pitching(runs, template=model)
         model = fit.model
-        out["parameters"] = fit.parameters
+        # the reports' typed rows (value, stderr, ci95, unit, fixed, ...) and "free"
+        out["parameters"] = {e.name: {**e.to_json(), "free": not e.fixed}
+                             for e in fit.estimates()}
         out["residual_rms_um"] = _um(fit.residual_rms_mm)
         out["notes"] = list(fit.notes)
         print(f"fit of {len(runs)} record(s): residual RMS {_um(fit.residual_rms_mm):.4g} um, "
               f"{'converged' if fit.successful else 'NOT converged'}")
         print(f"{'parameter':>18} {'value':>12} {'stderr':>11} {'95% interval':>27}  unit")
-        for name, p in fit.parameters.items():
-            if p["free"]:
-                lo, hi = p["ci95"]
-                print(f"{name:>18} {p['value']:12.5g} {p['stderr']:11.3g} "
-                      f"[{lo:11.5g}, {hi:11.5g}]  {p['unit']}")
+        for e in fit.estimates():
+            if not e.fixed:
+                lo, hi = e.ci95
+                print(f"{e.name:>18} {e.value:12.5g} {e.stderr:11.3g} "
+                      f"[{lo:11.5g}, {hi:11.5g}]  {e.unit}")
             else:
-                print(f"{name:>18} {p['value']:12.5g} {'fixed':>11} {'':>27}  {p['unit']}")
+                print(f"{e.name:>18} {e.value:12.5g} {'fixed':>11} {'':>27}  {e.unit}")
         for note in fit.notes:
             print(f"note: {note}")
     names = model.points.names
