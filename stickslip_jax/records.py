@@ -288,13 +288,14 @@ class Record:
         if not np.all(steps > 0):
             i = int(np.flatnonzero(~(steps > 0))[0])
             raise RecordError(
-                f"time must increase strictly: time[{i + 1}] = {time[i + 1]!r} s "
-                f"follows time[{i}] = {time[i]!r} s"
+                f"time must increase strictly: time[{i + 1}] = {float(time[i + 1]):.10g} s "
+                f"follows time[{i}] = {float(time[i]):.10g} s"
             )
         dev, i, dt = time_step_deviation(time)
         if not dev <= TIME_STEP_RTOL:
             raise RecordError(
-                f"time is uneven: step {i} is {steps[i]!r} s against the mean step {dt!r} s "
+                f"time is uneven: step {i} is {float(steps[i]):.10g} s against the mean step "
+                f"{float(dt):.10g} s "
                 f"(relative deviation {dev:.3g} > {TIME_STEP_RTOL:g}); resample uniformly"
             )
         put("time", time)
@@ -1032,7 +1033,7 @@ def parse_record(text: str, source=None) -> Record:
     if bad.size:
         r = int(bad[0])
         raise RecordError(
-            f"time does not increase: {time[r + 1]!r} s after {time[r]!r} s "
+            f"time does not increase: {float(time[r + 1]):.10g} s after {float(time[r]):.10g} s "
             f"(line {rows[r]}); sort the rows and remove duplicates",
             path,
             rows[r + 1],

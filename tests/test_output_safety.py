@@ -329,3 +329,16 @@ def test_every_json_carries_the_schema_version(tmp_path, capsys):
     assert main(["fit", *map(str, EXAMPLES), "--json", str(out)]) == 0
     doc = json.loads(out.read_text())
     assert list(doc)[0] == "schema_version" and doc["schema_version"] == SCHEMA_VERSION
+
+
+def test_times_in_messages_are_plain_numbers(tmp_path, capsys):
+    """Issue 21: times were shown as `np.float64(0.2) s`."""
+    text = (EXAMPLES[0].read_text().splitlines())
+    head = [ln for ln in text if ln.startswith("#") or not ln[:1].isdigit()]
+    rows = [ln for ln in text if ln[:1].isdigit()][:50]
+    rows[10], rows[11] = rows[11], rows[10]  # time goes back once
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(head + rows) + "\n")
+    assert main(["plot", str(bad), "--out", str(tmp_path / "p.png")]) == 2
+    err = capsys.readouterr().err
+    assert "time" in err and "np.float64" not in err
