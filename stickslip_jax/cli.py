@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import os
 import sys
 
@@ -82,8 +83,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+_NEGATIVE = re.compile(r"^-[0-9.][0-9.:eE+-]*(\s.*)?$")
+
+
+def _join_negative_values(argv: list[str]) -> list[str]:
+    """`--speed -10:60:5` -> `--speed=-10:60:5`: argparse would take a value that starts
+    with '-' (a negative number or grid) for an option and answer "expected one
+    argument"; joined, the command itself says what is wrong with the value."""
+    out, i = [], 0
+    while i < len(argv):
+        tok = argv[i]
+        if (tok.startswith("--") and "=" not in tok and i + 1 < len(argv)
+                and _NEGATIVE.match(argv[i + 1])):
+            out.append(f"{tok}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
 def main(argv=None) -> int:
     parser = build_parser()
+    argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
     args = parser.parse_args(argv)
     if not getattr(args, "run_command", None):
         parser.print_help()

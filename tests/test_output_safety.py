@@ -342,3 +342,11 @@ def test_times_in_messages_are_plain_numbers(tmp_path, capsys):
     assert main(["plot", str(bad), "--out", str(tmp_path / "p.png")]) == 2
     err = capsys.readouterr().err
     assert "time" in err and "np.float64" not in err
+
+
+def test_negative_grid_start_names_the_option(capsys):
+    """Issue 21: `--speed -10:60:5` gave argparse's 'expected one argument'."""
+    assert main(["design", "--weight", "36", "--stiffness", "86.9", "--speed", "-10:60:5",
+                 "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "--speed" in err and "positive" in err and "expected one argument" not in err
