@@ -848,13 +848,14 @@ def parse_record(text: str, source=None) -> Record:
     if "\x00" in text:
         raise RecordError("binary content (NUL character); a record is UTF-8 CSV text", path)
     lines = _lines(text, path)
-    m = _HEADER.fullmatch(lines[0].strip())
+    first = next(i for i, ln in enumerate(lines) if ln.strip())  # blank lines are ignored
+    m = _HEADER.fullmatch(lines[first].strip())
     if m is None or m.group(1) != "stickslip-record":
         raise RecordError(
             f"the first line must be '# stickslip-record: {FORMAT_VERSION}', "
-            f"got {lines[0][:60]!r}",
+            f"got {lines[first][:60]!r}",
             path,
-            1,
+            first + 1,
         )
     # header lines
     header: dict[str, tuple[str, int]] = {}

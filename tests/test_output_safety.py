@@ -350,3 +350,10 @@ def test_negative_grid_start_names_the_option(capsys):
                  "--json"]) == 2
     err = capsys.readouterr().err
     assert "--speed" in err and "positive" in err and "expected one argument" not in err
+
+
+def test_leading_blank_lines_are_ignored(tmp_path, capsys):
+    """Issue 21: a leading blank line was refused although blank lines are ignored."""
+    rec = tmp_path / "blank.csv"
+    rec.write_text("\n\n" + EXAMPLES[0].read_text())
+    assert main(["plot", str(rec), "--out", str(tmp_path / "p.png")]) == 0
