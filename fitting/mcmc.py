@@ -91,12 +91,13 @@ def _batched_log_posterior(theta, logs0, idx, lo, hi, template, offset0, objecti
     return jax.vmap(one)(theta)
 
 
-def likelihood_scale(fit: FitResult) -> float:
+def likelihood_scale(fit: FitResult, robust=None) -> float:
     """The factor s dividing chi2 in the log-likelihood (module doc): max(1, chi2/dof),
     times the largest robust-to-Fisher variance ratio of the free friction parameters
-    when the fit's Laplace covariance is not Fisher's."""
+    when the fit's Laplace covariance is not Fisher's. `robust`: `laplace(fit)` when
+    already computed."""
     base = max(1.0, fit.reduced_chi2)
-    robust = laplace(fit)
+    robust = laplace(fit) if robust is None else robust
     if robust.covariance == "fisher":
         return base
     fisher = laplace(fit, covariance="fisher")
@@ -221,7 +222,8 @@ def run_mcmc(
     Ctrl-C (KeyboardInterrupt) during sampling keeps the chain so far (at least
     `MIN_KEPT` steps; burn-in at most a quarter of it): the result says `interrupted`.
     """
-    scale = likelihood_scale(fit)
+    unc = laplace(fit)
+    scale = likelihood_scale(fit, unc)
     logp, theta0, names, n_off = log_posterior(fit, scale)
     dim = theta0.size
     if walkers < 2 * dim:
@@ -232,7 +234,6 @@ def run_mcmc(
     burn = steps // 4 if burn is None else int(burn)
     if not 0 <= burn < steps:
         raise ValueError(f"--burn: must lie in [0, --steps), got {burn}")
-    unc = laplace(fit)
     rng = np.random.default_rng(seed)
     sd = np.sqrt(np.clip(np.diag(unc.cov_log)[unc.free], 1e-14, 1e-2))
     sd = np.concatenate([sd, np.full(n_off, 1e-6)])
@@ -260,7 +261,7 @@ def run_mcmc(
     warnings = []
     if interrupted:
         warnings.append(f"interrupted after {steps} steps: the posterior is from the chain so "
-                        "far (burn-in {burn})".replace("{burn}", str(burn)))
+                        f"far (burn-in {burn})")
     if np.any(kept < 50 * tau):
         warnings.append(
             f"the chain is too short to trust: {kept} steps after burn-in, less than 50 "

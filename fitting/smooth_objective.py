@@ -92,7 +92,7 @@ def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothD
         k.append(rec.stiffness)
         v.append(rec.drive_speed)
         x1.append(float(f.trough[0]))
-        sig.append(max(float(f.noise), 1e-9))
+        sig.append(float(f.noise))  # floored at features.NOISE_FLOOR
     ts, data, mask = pad_series(times, xs)
 
     def arr(a):

@@ -84,11 +84,23 @@ def write_text(path: str, text: str) -> None:
     if path == "-":
         sys.stdout.write(text)
         return
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(prefix=".stickslip-", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+
+    def write(tmp):
+        with open(tmp, "w", encoding="utf-8") as fh:
             fh.write(text)
+
+    _replace(path, ".tmp", write)
+
+
+def _replace(path: str, suffix: str, write) -> None:
+    """`write(tmp)` to a temporary file in `path`'s folder, then rename it over `path`
+    with the usual permissions; on any failure (full disk, Ctrl-C) the temporary file is
+    removed and `path` is untouched."""
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".stickslip-", suffix=suffix, dir=folder)
+    os.close(fd)
+    try:
+        write(tmp)
         os.chmod(tmp, _mode(path))
         os.replace(tmp, path)
     except BaseException:
@@ -132,15 +144,4 @@ def write_json(path: str, obj) -> None:
 
 def save_figure(fig, path: str, **kwargs) -> None:
     """`fig.savefig` to a temporary file in the target folder, renamed over `path`."""
-    folder = os.path.dirname(os.path.abspath(path))
-    ext = os.path.splitext(path)[1] or ".png"
-    fd, tmp = tempfile.mkstemp(prefix=".stickslip-", suffix=ext, dir=folder)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, **kwargs)
-        os.chmod(tmp, _mode(path))
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    _replace(path, os.path.splitext(path)[1] or ".png", lambda tmp: fig.savefig(tmp, **kwargs))
