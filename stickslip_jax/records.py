@@ -179,6 +179,25 @@ def _internal_channel_unit(unit: str) -> str:
 # ---------------------------------------------------------------------------- record
 
 
+_LABEL = re.compile(r"^\s*(.*?)\s*(?:\[(.*)\]|\((.*)\))?\s*$", re.DOTALL)
+
+
+def _label(label) -> tuple[str, str | None]:
+    """(name, unit or None) of a column label: `"force [N]"`, `"Force (N)"`, `"force"`."""
+    m = _LABEL.match(str(label))
+    return m.group(1), ((m.group(2) or m.group(3) or "").strip() or None)
+
+
+def _resample(grid: np.ndarray, t: np.ndarray, values):
+    """`values` at `t` linearly interpolated to `grid`; anything that is not an array of
+    t's shape is passed on for `Record` to report."""
+    try:
+        a = np.asarray(values, dtype=np.float64)
+    except (TypeError, ValueError):
+        return values
+    return np.interp(grid, t, a) if a.shape == t.shape else values
+
+
 def _array(name, value, n=None):
     try:
         a = np.array(value, dtype=np.float64)
@@ -484,11 +503,167 @@ class Record:
                 grid, note = _uniform_grid(t, dev, dt)
                 x = np.interp(grid, t, x)
                 u = None if u is None else np.interp(grid, t, u)
+                if isinstance(fields.get("channels"), Mapping):
+                    fields["channels"] = {k: _resample(grid, t, v)
+                                          for k, v in fields["channels"].items()}
                 notes.append(note)
                 t = grid
         return cls(time=t, deflection=x, stiffness=k, weight=w,
                    drive_speed=q(drive_speed, "speed", "drive_speed"), drive=u,
                    notes=tuple(notes), **fields)
+
+    @classmethod
+    def from_dataframe(cls, df, *, time="time", deflection=None, force=None, drive=None,
+                       stiffness, weight=None, mass=None, drive_speed=None,
+                       time_unit: str | None = None, deflection_unit: str | None = None,
+                       force_unit: str | None = None, drive_unit: str | None = None,
+                       extra_columns="all", **fields) -> Record:
+        """A record from a pandas DataFrame: `from_arrays` with the columns chosen by label.
+
+        - `time`, `deflection` or `force` (x = F/k), `drive`: a column's full label
+          (`"force [N]"`) or its name, case-insensitive (`"force"` matches `Force [N]`,
+          `force (N)` and `force`); `time` may name the index. Without `deflection` and
+          `force`, the one column named either is taken; a column named `drive` is the
+          measured drive displacement unless `drive=` names another. `time=None`: the
+          index.
+        - Units: `time_unit`, `deflection_unit`, `force_unit`, `drive_unit` when given,
+          else the label's brackets or parentheses (`time [ms]`, `force (N)`); a unit is
+          never guessed. A datetime or timedelta time column (or index) counts seconds
+          from its first stamp.
+        - Conditions as in `from_arrays`: numbers in internal units or strings with a unit
+          (`stiffness="852 N/um"`, `mass="30.7 g"`, `drive_speed="40 in/min"`).
+        - `extra_columns`: `"all"` (default: every other column becomes a channel; one
+          that cannot, non-numeric or with a reserved or repeated name, is left out with a
+          note in `Record.notes`), a list of labels, or `{label: unit}`. A channel is named
+          by its label's name (other characters than letters, digits and `_` become `_`),
+          held in internal units, with its unit in `channel_units`: the label's, else `-`
+          (a pure number, with a note).
+
+        Needs pandas (`pip install pandas`); raises `RecordError`.
+
+            df = pd.read_csv("run.txt", sep=";", decimal=",")   # time [s], force [N], temp [degC]
+            rec = Record.from_dataframe(df, force="force", stiffness="852 N/um",
+                                        mass="30.7 g", drive_speed="40 in/min")
+        """
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError("Record.from_dataframe needs pandas: pip install pandas "
+                              "(or pass the columns' arrays to Record.from_arrays)") from None
+        if not isinstance(df, pd.DataFrame):
+            raise RecordError(f"from_dataframe needs a pandas DataFrame, got "
+                              f"{type(df).__name__}")
+        if "channels" in fields or "channel_units" in fields:
+            raise RecordError("from_dataframe makes the channels from the other columns; "
+                              "choose them with extra_columns= (a list, or {label: unit})")
+        labels = list(df.columns)
+        parsed = {i: _label(c) for i, c in enumerate(labels)}
+        listing = ", ".join(repr(str(c)) for c in labels)
+        notes = list(fields.pop("notes", ()))
+
+        def find(spec, what, *, index_ok=False, required=True):
+            if spec is None:
+                return None
+            hits = [i for i, c in enumerate(labels) if c == spec]
+            if not hits:
+                key = _label(spec)[0].lower()
+                hits = [i for i, (name, _) in parsed.items() if name.lower() == key]
+            if len(hits) == 1:
+                return hits[0]
+            if not hits and index_ok and df.index.name is not None and (
+                    df.index.name == spec
+                    or _label(df.index.name)[0].lower() == _label(spec)[0].lower()):
+                return "index"
+            if not hits and not required:
+                return None
+            raise RecordError(f"{what}={spec!r}: {'no' if not hits else 'more than one'} "
+                              f"column named so (columns: {listing})")
+
+        def series(j):
+            return pd.Series(df.index) if j == "index" else df.iloc[:, j]
+
+        def label_of(j):
+            return str(df.index.name) if j == "index" else str(labels[j])
+
+        def values(j, what, given_unit):
+            """(numbers, unit) of column `j` (or the index)."""
+            col, label = series(j), label_of(j)
+            if what == "time" and (pd.api.types.is_datetime64_any_dtype(col)
+                                   or pd.api.types.is_timedelta64_dtype(col)):
+                notes.append(f"time from the {label!r} stamps, counted from the first one")
+                return (col - col.iloc[0]).dt.total_seconds().to_numpy(np.float64), "s"
+            if not pd.api.types.is_numeric_dtype(col):
+                raise RecordError(f"column {label!r} ({what}) is not numeric (dtype "
+                                  f"{col.dtype}); convert it first, e.g. pd.to_numeric or "
+                                  "read_csv(..., decimal=',')")
+            unit = given_unit or (parsed[j][1] if j != "index" else _label(label)[1])
+            if unit is None:
+                raise RecordError(f"column {label!r} has no unit in its label: give "
+                                  f"{what}_unit=..., or name it '{_label(label)[0]} [unit]'")
+            return col.to_numpy(np.float64), unit
+
+        j_time = "index" if time is None else find(time, "time", index_ok=True)
+        if deflection is None and force is None:
+            found = [(k, i) for k in ("deflection", "force")
+                     if (i := find(k, k, required=False)) is not None]
+            if len(found) != 1:
+                raise RecordError("name the deflection= or the force= column (columns: "
+                                  f"{listing})")
+            (which, j_x), = found
+        elif deflection is not None and force is not None:
+            raise RecordError("give exactly one of deflection= and force=")
+        else:
+            which = "deflection" if deflection is not None else "force"
+            j_x = find(deflection if deflection is not None else force, which)
+        j_drive = find("drive" if drive is None else drive, "drive", required=drive is not None)
+        t, t_unit = values(j_time, "time", time_unit)
+        x, x_unit = values(j_x, which, deflection_unit if which == "deflection" else force_unit)
+        kw = {which: x, f"{which}_unit": x_unit}
+        if j_drive is not None:
+            kw["drive"], kw["drive_unit"] = values(j_drive, "drive", drive_unit)
+        used = {j for j in (j_time, j_x, j_drive) if j is not None}
+        channels, channel_units = {}, {}
+        if isinstance(extra_columns, str) and extra_columns == "all":
+            chosen, units, strict = [i for i in range(len(labels)) if i not in used], {}, False
+        elif isinstance(extra_columns, str):
+            raise RecordError(f"extra_columns must be 'all', a list of labels or "
+                              f"{{label: unit}}, got {extra_columns!r}")
+        else:
+            units = dict(extra_columns) if isinstance(extra_columns, Mapping) else {}
+            chosen = [find(c, "extra_columns") for c in extra_columns]
+            units = {j: units[c] for j, c in zip(chosen, extra_columns) if c in units}
+            strict = True
+        for j in chosen:
+            col, label = df.iloc[:, j], str(labels[j])
+            name = re.sub(r"[^A-Za-z0-9_]+", "_", parsed[j][0]).strip("_")
+            name = "_" + name if name[:1].isdigit() else name
+            problem = None
+            if not pd.api.types.is_numeric_dtype(col):
+                problem = f"is not numeric (dtype {col.dtype})"
+            elif not _NAME.fullmatch(name) or name in RESERVED_COLUMNS:
+                problem = f"gives the channel name {name!r}, which is reserved or empty"
+            elif name in channels:
+                problem = f"gives the channel name {name!r} a second time"
+            if problem is not None:
+                if strict:
+                    raise RecordError(f"extra column {label!r} {problem}; convert or rename "
+                                      "it, or leave it out of extra_columns")
+                notes.append(f"column {label!r} left out: it {problem}")
+                continue
+            unit = units.get(j) or parsed[j][1]
+            if unit is None:
+                unit = "-"
+                notes.append(f"column {label!r} has no unit: kept as a pure number")
+            try:
+                f = _channel_factor(unit)
+            except UnitError as exc:
+                raise RecordError(f"extra column {label!r}: {exc}") from None
+            channels[name] = col.to_numpy(np.float64) * f
+            channel_units[name] = unit
+        return cls.from_arrays(t, time_unit=t_unit, stiffness=stiffness, weight=weight,
+                               mass=mass, drive_speed=drive_speed, channels=channels,
+                               channel_units=channel_units, notes=tuple(notes), **kw,
+                               **fields)
 
     def replace(self, **changes) -> Record:
         """A copy with some fields changed (validated again)."""

@@ -16,6 +16,11 @@ Internally every quantity is in **kgf, mm, s** (the paper's system):
 The paper quotes drive speeds in mm/min; they are converted to mm/s on the way in
 and back on the way out. Only code at the edges (records, CLI, plots) calls the
 functions of this module.
+
+A kinematic viscosity (`cSt`, `mm^2/s`, `St`, `m^2/s`: what lubricant data sheets give)
+becomes the dynamic viscosity eta = nu rho only with the lubricant's density, written
+after `at`: `230 cSt at 870 kg/m^3` (= 0.2001 Pa*s) or `230 mm^2/s at 0.87 g/cm^3`.
+Without a density it is refused with that hint.
 """
 
 from __future__ import annotations
@@ -73,6 +78,19 @@ INTERNAL_UNIT = {
 }
 
 
+DEFAULT_UNIT = {
+    "time": "s",
+    "length": "mm",
+    "force": "kgf",
+    "speed": "mm/min",
+    "stiffness": "kgf/mm",
+    "viscosity": "Pa*s",
+}
+"""The unit of a bare number on the command line, one per quantity in every command
+(`stickslip_jax.commands._args.quantity`). Viscosity is in Pa*s, the SI unit labs use
+(`fit --eta` took kgf*s/mm^2 until issue 17; its bare numbers below 1e-5 are refused)."""
+
+
 class UnitError(ValueError):
     """A unit that is unknown, or of the wrong kind for the quantity."""
 
@@ -94,6 +112,12 @@ def factor(unit: str, dimension: str) -> float:
     u = _normalise(unit)
     if u in table:
         return table[u]
+    if dimension == "viscosity":
+        parts = _AT.split(unit.strip(), maxsplit=1)
+        if len(parts) == 2:
+            return _kinematic_factor(*parts)
+        if _pint_to(unit.strip(), "mm**2/s") is not None:
+            raise UnitError(_needs_density("230", unit.strip()))
     got = _pint_factor(unit.strip(), dimension)
     if got is None:
         raise UnitError(
@@ -110,20 +134,59 @@ _PINT_INTERNAL = {
 }
 
 
-@functools.lru_cache(maxsize=256)
 def _pint_factor(unit: str, dimension: str) -> float | None:
     """pint's conversion factor of `unit` to the internal unit of `dimension`, or None
     (pint missing, unit unknown, another dimension, or an offset unit such as degC)."""
-    if not unit or dimension not in _PINT_INTERNAL:
+    if dimension not in _PINT_INTERNAL:
+        return None
+    return _pint_to(unit, _PINT_INTERNAL[dimension])
+
+
+_AT = re.compile(r"\s+at\s+", re.IGNORECASE)
+"""The word that joins a kinematic viscosity to its density (`230 cSt at 870 kg/m^3`);
+spaces around it, so `atm` is not split."""
+
+_DENSITY = "kgf*s**2/mm**4"
+"""The internal unit of density (mass kgf*s^2/mm per mm^3), so that nu [mm^2/s] times
+rho is a viscosity in kgf*s/mm^2."""
+
+
+def _needs_density(number: str, unit: str) -> str:
+    return (f"kinematic viscosity needs a density: write '{number} {unit} at 870 kg/m^3' "
+            "(with the lubricant's density)")
+
+
+def _kinematic_factor(kinematic: str, density: str) -> float:
+    """Factor of a kinematic-viscosity unit at a density (`"cSt"`, `"870 kg/m^3"`) to the
+    internal dynamic viscosity kgf*s/mm^2: eta = nu rho."""
+    nu = _pint_to(kinematic.strip(), "mm**2/s") if kinematic.strip() else None
+    if nu is None:
+        raise UnitError(f"{kinematic.strip()!r} before 'at' is not a kinematic viscosity unit; "
+                        "use cSt, mm^2/s, St or m^2/s, e.g. '230 cSt at 870 kg/m^3'")
+    m = _QUANTITY.match(density)
+    rho = None if m is None or not m.group(2) else _pint_to(m.group(2), _DENSITY)
+    if rho is None:
+        raise UnitError(f"{density.strip()!r} after 'at' is not a density with its unit; "
+                        "e.g. '870 kg/m^3' or '0.87 g/cm^3'")
+    rho *= float(m.group(1))
+    if not (math.isfinite(rho) and rho > 0):
+        raise UnitError(f"the density must be positive and finite, got {density.strip()!r}")
+    return nu * rho
+
+
+@functools.lru_cache(maxsize=256)
+def _pint_to(unit: str, target: str) -> float | None:
+    """pint's factor from `unit` to the pint unit `target`, or None (see `_pint_factor`)."""
+    if not unit:
         return None
     try:
-        import pint
+        import pint  # noqa: F401
     except ImportError:  # pragma: no cover (pint is a dependency)
         return None
     try:
         ureg = _registry()
         q = ureg.Quantity(1.0, ureg.parse_units(unit.replace("^", "**")))
-        value = float(q.to(_PINT_INTERNAL[dimension]).magnitude)
+        value = float(q.to(target).magnitude)
     except Exception:  # noqa: BLE001  pint's parser raises many kinds on junk text
         # (PintError, TokenError, SyntaxError, ...): any of them means "not a unit pint
         # knows of this dimension", which the caller reports with the units it accepts
@@ -154,7 +217,8 @@ _QUANTITY = re.compile(r"^\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(.*?)
 def parse_quantity(text: str, dimension: str, default_unit: str | None = None) -> float:
     """Parse `"1.5 mm/min"` or `"0.5um"` into a float in the internal unit.
 
-    A bare number takes `default_unit`; without one, a bare number is an error.
+    A bare number takes `default_unit`; without one, a bare number is an error. A
+    viscosity may be kinematic with its density: `"230 cSt at 870 kg/m^3"`.
     """
     m = _QUANTITY.match(str(text))
     if m is None:
@@ -164,6 +228,9 @@ def parse_quantity(text: str, dimension: str, default_unit: str | None = None) -
         if default_unit is None:
             raise UnitError(f"{text!r} has no unit; expected a {dimension} unit")
         unit = default_unit
+    if (dimension == "viscosity" and not _AT.search(unit)
+            and _pint_to(unit.strip(), "mm**2/s") is not None):
+        raise UnitError(_needs_density(m.group(1), unit.strip()))
     return to_internal(value, unit, dimension)
 
 

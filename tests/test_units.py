@@ -86,3 +86,43 @@ def test_lab_units_through_pint(text, dimension, expected):
 def test_pint_refuses_the_wrong_dimension():
     with pytest.raises(UnitError, match="unknown speed unit"):
         parse_quantity("3 lbf", "speed")
+
+
+def test_kinematic_viscosity_at_a_density_against_a_hand_computation():
+    # eta = nu rho: 230 cSt = 230e-6 m^2/s, times 870 kg/m^3 = 0.2001 Pa*s
+    hand = 230e-6 * 870.0
+    for text in ("230 cSt at 870 kg/m^3", "230 mm^2/s at 0.87 g/cm^3", "2.3 St at 870 kg/m³",
+                 "2.3e-4 m^2/s AT 870 kg/m^3"):
+        eta = parse_quantity(text, "viscosity")
+        assert units.from_internal(eta, "Pa*s", "viscosity") == pytest.approx(hand, rel=1e-12)
+    assert hand == pytest.approx(0.2001, rel=1e-12)
+    # the same through a bare number with the kinematic unit as the default unit
+    assert parse_quantity("230", "viscosity", "cSt at 870 kg/m^3") == pytest.approx(
+        units.to_internal(0.2001, "Pa*s", "viscosity"), rel=1e-12)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("230 cSt", "kinematic viscosity needs a density: write '230 cSt at 870 kg/m^3'"),
+    ("46 mm^2/s", "kinematic viscosity needs a density: write '46 mm^2/s at 870 kg/m^3'"),
+    ("230 cSt at 870", "after 'at' is not a density"),
+    ("230 cSt at 870 kg", "after 'at' is not a density"),
+    ("230 Pa*s at 870 kg/m^3", "before 'at' is not a kinematic viscosity unit"),
+    ("230 cSt at -870 kg/m^3", "density must be positive"),
+])
+def test_kinematic_viscosity_errors(text, message):
+    with pytest.raises(UnitError) as err:
+        parse_quantity(text, "viscosity")
+    assert message in str(err.value)
+
+
+def test_kinematic_viscosity_without_density_is_refused_by_factor_too():
+    with pytest.raises(UnitError, match="kinematic viscosity needs a density"):
+        units.factor("cSt", "viscosity")
+    # 'at' only splits as a word: an 'atm' pressure is still a pressure
+    assert units.factor("atm", "pressure") == pytest.approx(101325 / (units.KGF_N * 1e6))
+
+
+def test_one_default_unit_per_quantity():
+    assert units.DEFAULT_UNIT["viscosity"] == "Pa*s"
+    for dimension, unit in units.DEFAULT_UNIT.items():
+        assert unit in units.UNITS[dimension], dimension

@@ -49,11 +49,12 @@ def add_model_arguments(parser):
     """--fix, --eta, --surface: shared by `stickslip fit` and `stickslip mcmc`."""
     parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                         help="hold a parameter fixed, e.g. --fix n=1 (repeatable)")
-    from stickslip_jax.commands._args import quantity
+    from stickslip_jax.commands._args import viscosity
 
-    parser.add_argument("--eta", type=quantity("viscosity", "kgf*s/mm^2"), default=None,
-                        help="--model microsqueeze: lubricant viscosity with unit, e.g. "
-                        "'0.216 Pa*s' (default: the records' lubricant in Table 11, else A)")
+    parser.add_argument("--eta", type=viscosity(), default=None,
+                        help="--model microsqueeze: lubricant viscosity, Pa*s unless a unit "
+                        "is given: '0.216', '216 cP', '2.2e-8 kgf*s/mm^2', '230 cSt at 870 "
+                        "kg/m^3' (default: the records' lubricant in Table 11, else A)")
     parser.add_argument("--surface", default="S1G1",
                         help="--model microsqueeze: surface pair of Table 10 (default S1G1)")
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from stickslip_jax import pitching as pt
-from stickslip_jax.commands._args import quantity
+from stickslip_jax.commands._args import quantity, viscosity
 from stickslip_jax.records import read_record
 from stickslip_jax.units import from_internal
 
@@ -38,9 +38,9 @@ def add_arguments(p):
     p.add_argument("--offset", type=quantity("length", "mm", positive=False), nargs="+",
                    help="drive offset l from the centre of gravity (mm; one, or one per record); "
                    "default: the '# drive_offset:' header, else 0")
-    p.add_argument("--viscosity", type=quantity("viscosity", "Pa*s"), default=None,
-                   help="lubricant viscosity (Pa*s unless a unit is given; default lubricant "
-                   "A, 0.216 Pa*s)")
+    p.add_argument("--viscosity", type=viscosity(), default=None,
+                   help="lubricant viscosity (Pa*s unless a unit is given, e.g. '216 cP' or "
+                   "'230 cSt at 870 kg/m^3'; default lubricant A, 0.216 Pa*s)")
     p.add_argument("--fit", action="store_true",
                    help="identify compliance, neutral points and time constants from the "
                    "records' pitch_N/yaw_N channels first")
