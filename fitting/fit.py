@@ -45,6 +45,7 @@ import jax.flatten_util  # noqa: F401
 from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_decrease
 
 from .combined import AbstractObjective, FeaturesObjective, make_objective
+from .losses import Gaussian, with_loss
 from .features import RecordFeatures, record_features
 from .objectives import FeatureData, feature_data, feature_residuals
 from .trace_objective import trace_data
@@ -329,6 +330,8 @@ def fit_features(
     pad_length: int = 0,
     pad_windows: int = 0,
     reslip: bool | None = None,
+    loss=None,
+    rescale_records: bool = True,
 ) -> FitResult:
     """Fit mu_s, mu_d, gamma, m, delta, n jointly to the cycle features of a campaign.
 
@@ -345,7 +348,28 @@ def fit_features(
       features fit's optimum ("features first"); `weights` = (w_features, w_trace) for
       "both"; `pad_length`, `pad_windows`: trace rows at least this long, at least this
       many (`trace_data`).
+    - `rescale_records`: scale the errors of records the model describes worse than
+      their noise to their scatter and refit (`RECORD_CHI2`; features objective).
+    - `loss`: a heavy-tailed likelihood (`stickslip_fitting.losses`: `Huber()`,
+      `StudentT()`; None or `Gaussian()`: least squares). The Gaussian fit is the start,
+      then the objective under the loss is fitted from it (`_robust_refit`).
     """
+    if loss is not None and not isinstance(loss, Gaussian):
+        kw = dict(fixed=fixed, offset=offset, slip_time=slip_time, starts=starts, rtol=rtol,
+                  atol=atol, max_steps=max_steps, pad_cycles=pad_cycles, records=records,
+                  weights=weights, pad_length=pad_length, pad_windows=pad_windows,
+                  reslip=reslip)
+        first = fit_features(features, objective="features", **kw)
+        before = 1.0 if first.record_scale is None else first.record_scale
+        scale = np.sqrt(np.maximum(_record_chi2(first, robust=True) * before**2, 1.0))
+        if np.any(scale > 1.0) and len(features) > 1:  # records at their robust scatter
+            first = fit_features(_rescaled(features, scale), objective=objective,
+                                 rescale_records=False, **kw)
+            first = dataclasses.replace(first, record_scale=scale,
+                                        record_chi2=_record_chi2(first) * scale**2)
+        elif objective != "features":
+            first = fit_features(features, objective=objective, **kw)
+        return _robust_refit(first, loss, rtol, atol, max_steps)
     if offset not in ("zero", "start"):
         raise ValueError(f"--offset must be 'zero' or 'start', got {offset!r}")
     fixed = dict(fixed or {})
@@ -383,9 +407,25 @@ def fit_features(
         first = _fit_problem(problem, features, rtol, atol, max_steps)  # trace still compiling
         trace_ready.result()
         return _refine(first, objective_of(first.data), t_rtol, t_atol, t_steps)
-    return _fit_rescaled(
-        lambda fs: _features_problem(fs, fixed, offset, slip_time, starts, pad_cycles, reslip),
-        features, rtol, atol, max_steps)
+    problem_of = lambda fs: _features_problem(fs, fixed, offset, slip_time, starts,  # noqa: E731
+                                              pad_cycles, reslip)
+    if not rescale_records:
+        fit = _fit_problem(problem_of(features), features, rtol, atol, max_steps)
+        return dataclasses.replace(fit, record_chi2=_record_chi2(fit))
+    return _fit_rescaled(problem_of, features, rtol, atol, max_steps)
+
+
+def _robust_refit(first: FitResult, loss, rtol, atol, max_steps) -> FitResult:
+    """The objective of `first` under the heavy-tailed `loss`, fitted from `first`'s
+    optimum (`fit_features(..., loss=...)`). A record the model describes worse than its
+    noise has its errors scaled to its *robust* scatter (the median absolute deviation
+    of its features residuals at the Gaussian optimum, not their root mean square as in
+    the Gaussian fit's `RECORD_CHI2`): the loss then discounts its irregular cycles, and
+    a record's single irregular slip does not cost the record's other cycles their
+    weight."""
+    obj = with_loss(first.objective, loss)
+    return fit_objective(obj, first.params, first.spec, rtol=max(rtol, 1e-8),
+                         atol=max(atol, 1e-8), max_steps=min(max_steps, 100), base=first)
 
 
 RECORD_CHI2 = 3.0
@@ -397,15 +437,18 @@ its actual scatter and cannot pull the others (measured on independent campaigns
 see tests/test_real_world_coverage.py)."""
 
 
-def _record_chi2(fit: FitResult) -> np.ndarray:
-    """chi2/n of each record's features residuals at the fit's optimum."""
+def _record_chi2(fit: FitResult, robust: bool = False) -> np.ndarray:
+    """chi2/n of each record's features residuals at the fit's optimum; `robust`: the
+    square of their normalised median absolute deviation instead (1.4826 median |r|:
+    a few irregular cycles do not raise it)."""
     r = np.asarray(compiled(feature_residuals, fit.params, fit.data, fit.slip_time))
     rec, _ = FeaturesObjective(fit.data, fit.slip_time).clusters(fit.features)
     out = np.ones(len(fit.features))
     for i in range(len(fit.features)):
         sel = rec[: r.size] == i
         if sel.any():
-            out[i] = float(np.mean(r[sel] ** 2))
+            out[i] = (float((1.4826 * np.median(np.abs(r[sel]))) ** 2) if robust
+                      else float(np.mean(r[sel] ** 2)))
     return out
 
 

@@ -45,6 +45,7 @@ from jax.flatten_util import ravel_pytree
 from .fit import COMPILER_OPTIONS, FitResult
 from stickslip_jax.lsq import gauss_newton_covariance
 
+from .losses import HeavyTailed
 from .params import CampaignParams, free_mask
 from .report import ParameterEstimate
 
@@ -278,6 +279,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     drive or sensor imperfections, creep; the residuals are then correlated within each
     stick phase and a scaled Fisher matrix undercovers: on an independent SciPy
     campaign with such imperfections, chi2/dof 426, its 95 % interval missed mu_s).
+    A fit under a heavy-tailed loss (`stickslip_fitting.losses.HeavyTailed`) gets the
+    two-level covariance with 3 records or more, the stick-phase sandwich otherwise.
     """
     if covariance not in COVARIANCES:
         raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
@@ -288,8 +291,12 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         # with fewer than 3 records the between-record scatter cannot be estimated and a
         # stick-phase sandwich of a badly described pair collapses: Fisher at the
         # per-record scaled errors then
-        covariance = ("sandwich" if traced else
-                      "two_level" if misfit and len(fit.features) >= 3 else "fisher")
+        # a heavy-tailed loss is chosen for records the model does not describe to their
+        # noise: the two-level covariance (measured, tests/test_real_world_coverage.py)
+        heavy = isinstance(fit.objective, HeavyTailed)
+        many = len(fit.features) >= 3
+        covariance = ("two_level" if heavy and many else "sandwich" if traced else
+                      "two_level" if misfit and many else "fisher")
     J, r, free, idx = jacobian_log(fit)
     F = J.T @ J
     k = idx.size

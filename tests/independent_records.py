@@ -9,7 +9,8 @@ the instrument and drive imperfections are written in forms the package does not
 - drive: lead-screw periodic error with a second harmonic, a slow linear drift of the
   speed (the drive is then *not* u = v t);
 - slider: creep before breakaway (an exponential pre-slide of `creep_mm` over
-  `creep_tau_s`), irregular slips (mu_s drawn per cycle, relative spread `mu_s_jitter`);
+  `creep_tau_s`), irregular slips (mu_s drawn per cycle, relative spread `mu_s_jitter`, Gaussian or
+  heavy-tailed Student-t with `mu_s_jitter_df` degrees of freedom: sporadic large slips);
 - measurement chain: first-order (time constant) or second-order (natural frequency and
   damping ratio) sensor dynamics, Gaussian noise, impulsive spikes, quantisation;
 - records without stick-slip: steady sliding with a decaying start-up transient.
@@ -65,6 +66,7 @@ class Imperfections:
     creep_mm: float = 0.0
     creep_tau_s: float = 0.05
     mu_s_jitter: float = 0.0
+    mu_s_jitter_df: float = 0.0  # > 0: the per-cycle spread is Student-t with these dof
 
 
 @dataclasses.dataclass(frozen=True)
@@ -128,7 +130,10 @@ def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, r
         x_hi = x_hi + (u(t_hi) - v * t_hi)  # the drive error shows while sliding
     else:
         y, ts = 0.0, 0.0  # slider at rest, stick started at t = 0
-        jitter = lambda: 1.0 + imp.mu_s_jitter * rng.standard_normal()  # noqa: E731
+        def jitter():
+            z = (rng.standard_t(imp.mu_s_jitter_df) if imp.mu_s_jitter_df
+                 else rng.standard_normal())
+            return 1.0 + imp.mu_s_jitter * z
         ph = physics
         x_ref = friction.mu_s * W / k
 
