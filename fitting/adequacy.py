@@ -1,0 +1,186 @@
+r"""How well the fitted model describes the records: chi2 per record and per phase, and
+what to do about it, in sentences.
+
+`adequacy(fit)` returns an `Adequacy`: one `PhaseRow` per (record, phase) with the
+number of residuals and their chi2/n **in the records' own errors** (before any scaling
+of a record's errors to its scatter, `stickslip_fitting.fit.RECORD_CHI2`, and before a
+heavy-tailed loss, `stickslip_fitting.losses`), the campaign's chi2/dof, a `verdict`
+("describes": no phase of a record beyond chi2/n `GOOD`; "misses": some beyond `BAD`;
+"marginal" between; beyond meaning also improbable under the noise, `LEVEL`) and plain sentences a user can act on.
+
+Phases (chi2/n of whitened residuals, so 1 is "to the noise"):
+
+- "levels": the plateau levels of every cycle (stick phase; eq (1) at the measured stick
+  time, eq (3) for the level after the slip);
+- "stick_times": eq (6), the stick time each cycle's levels imply against the measured one;
+- "start_level": the first plateau (`--offset start` only);
+- "trace_stick", "trace_slip": the trace objective's samples (trace and combined fits)
+  while the fitted slider sticks and while it slips.
+
+Which phase misses names the likely cause: scattered levels (irregular slips, a drive or
+gauge error), stick times off eq (6) (creep before breakaway, a drive speed error), a
+slip shape the model lacks (damping, Stribeck, sensor dynamics: `stickslip discover`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+__all__ = ["Adequacy", "BAD", "GOOD", "PhaseRow", "adequacy"]
+
+GOOD = 2.0
+"""chi2/n up to this: the model describes the phase to the record's noise."""
+
+BAD = 5.0
+"""chi2/n above this: the model misses the phase (the noise estimate is good to about
+10-20 %, so chi2/n of 2 can be the noise estimate's, 5 cannot)."""
+
+PHASE_HINT = {
+    "levels": "the plateau levels scatter more than eq (1) allows (irregular slips, a drive "
+              "or gauge error)",
+    "stick_times": "the stick times do not follow eq (6) (creep before breakaway, a drive "
+                   "speed error)",
+    "start_level": "the first plateau is not the gauge zero the model assumes",
+    "trace_stick": "the stick phase is not the straight ramp of the model (a drive error, "
+                   "creep, sensor dynamics)",
+    "trace_slip": "the slips' shape differs from the model's half cosine (damping, "
+                  "Stribeck, sensor dynamics): `stickslip discover` names the effect",
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class PhaseRow:
+    """chi2/n of one record's residuals in one phase (module doc), `n` residuals."""
+
+    record: str
+    phase: str
+    n: int
+    chi2_per_n: float
+
+    def to_json(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+@dataclasses.dataclass(frozen=True)
+class Adequacy:
+    """The model's adequacy (module doc)."""
+
+    reduced_chi2: float
+    rows: list[PhaseRow]
+    verdict: str
+    sentences: list[str]
+
+    def worst(self) -> PhaseRow | None:
+        return max(self.rows, key=lambda r: r.chi2_per_n, default=None)
+
+    def to_json(self) -> dict:
+        return {"reduced_chi2": self.reduced_chi2, "verdict": self.verdict,
+                "good_chi2_per_n": GOOD, "bad_chi2_per_n": BAD,
+                "rows": [r.to_json() for r in self.rows], "sentences": list(self.sentences)}
+
+
+def _features_rows(fit, names, scale) -> list[PhaseRow]:
+    from .combined import FeaturesObjective
+    from .fit import compiled
+    from .objectives import feature_residuals
+
+    r = np.asarray(compiled(feature_residuals, fit.params, fit.data, fit.slip_time))
+    obj = FeaturesObjective(fit.data, fit.slip_time)
+    rec, _ = obj.clusters(fit.features)
+    parts, recs = obj.split(r), obj.split(rec)
+    phase = {"levels": "levels", "stick_times": "stick_times", "start_levels": "start_level"}
+    rows = []
+    for i, name in enumerate(names):
+        for block, label in phase.items():
+            sel = recs[block] == i
+            if sel.any():
+                chi = float(np.mean(parts[block][sel] ** 2)) * scale[i] ** 2
+                rows.append(PhaseRow(name, label, int(sel.sum()), chi))
+    return rows
+
+
+def _trace_rows(fit, names, td) -> list[PhaseRow]:
+    from .fit import compiled
+    from .trace_objective import trace_residuals_and_flags
+
+    r, _, vel = compiled(trace_residuals_and_flags, fit.params, td, fit.slip_time)
+    r = np.asarray(r).reshape(td.mask.shape)
+    slip = np.asarray(vel) > 0
+    mask = np.asarray(td.mask)
+    rec = np.asarray(td.record)
+    rows = []
+    for i, name in enumerate(names):
+        for label, where in (("trace_stick", ~slip), ("trace_slip", slip)):
+            sel = mask & where & (rec == i)[:, None]
+            if sel.any():
+                rows.append(PhaseRow(name, label, int(sel.sum()), float(np.mean(r[sel] ** 2))))
+    return rows
+
+
+LEVEL = 0.01
+"""A phase counts as missed or marginal only when its chi2 is also improbable for its
+number of residuals under the noise (chi2 distribution, probability below `LEVEL` over
+the number of rows: a record with 4 cycles reaches chi2/n 3 by chance)."""
+
+
+def _beyond(row: PhaseRow, threshold: float, n_rows: int) -> bool:
+    from scipy.stats import chi2
+
+    return (row.chi2_per_n > threshold
+            and float(chi2.sf(row.chi2_per_n * row.n, row.n)) < LEVEL / max(n_rows, 1))
+
+
+def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
+               heavy_tailed: bool | None = None) -> tuple[str, list]:
+    bad = [r for r in rows if _beyond(r, BAD, len(rows))]
+    marginal = [r for r in rows if _beyond(r, GOOD, len(rows)) and r not in bad]
+    if not bad and not marginal:
+        return "describes", [f"The paper's model describes every record to its noise (no "
+                             f"phase of a record beyond chi2/n {GOOD:g} by more than chance; "
+                             f"chi2/dof {reduced_chi2:.3g})."]
+    out = []
+    missed = sorted({r.record for r in bad})
+    if bad:
+        frac = len(missed) / max(n_records, 1)
+        if frac > 0.5:
+            out.append(f"The paper's model does not describe these records: it misses "
+                       f"{len(missed)} of {n_records} beyond their noise. The intervals then "
+                       "follow the records' scatter (robust covariance); read the values as "
+                       "the model's best compromise, not as the slideway's friction law.")
+        else:
+            out.append(f"The model misses {len(missed)} of {n_records} records beyond their "
+                       f"noise ({', '.join(missed)}); the others it describes.")
+        for phase in PHASE_HINT:
+            hit = [r for r in bad if r.phase == phase]
+            if hit:
+                worst = max(hit, key=lambda r: r.chi2_per_n)
+                out.append(f"{phase.replace('_', ' ')}: chi2/n above {BAD:g} in {len(hit)} "
+                           f"record(s), worst {worst.record} ({worst.chi2_per_n:.3g}): "
+                           f"{PHASE_HINT[phase]}.")
+    if heavy_tailed is False and any(r.phase == "levels" for r in bad):
+        out.append("`--loss student-t` discounts irregular cycles instead of the whole "
+                   "record's weight.")
+    if marginal and not bad:
+        out.append(f"The model describes the records nearly to their noise (chi2/n up to "
+                   f"{max(r.chi2_per_n for r in marginal):.3g} in "
+                   f"{len({r.record for r in marginal})} record(s)); a noise estimate "
+                   "10-20 % low gives as much.")
+    return ("misses" if bad else "marginal"), out
+
+
+def adequacy(fit) -> Adequacy:
+    """The adequacy report of a `stickslip_fitting.fit.FitResult` (module doc)."""
+    from .losses import Gaussian, loss_of
+
+    names = [f.name or f"record {i}" for i, f in enumerate(fit.features)]
+    scale = (np.ones(len(names)) if fit.record_scale is None
+             else np.asarray(fit.record_scale, float))
+    rows = _features_rows(fit, names, scale)
+    td = fit.objective.trace_data() if fit.objective is not None else None
+    if td is not None:
+        rows += _trace_rows(fit, names, td)
+    heavy = fit.objective is not None and not isinstance(loss_of(fit.objective), Gaussian)
+    verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), heavy)
+    return Adequacy(fit.reduced_chi2, rows, verdict, sentences)

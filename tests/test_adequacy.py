@@ -1,0 +1,64 @@
+"""The adequacy report (`stickslip_fitting.adequacy`): silent on records the model
+describes, specific (record, phase, hint) on records it does not."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from stickslip_fitting.adequacy import BAD, PhaseRow, _sentences, adequacy
+
+
+@pytest.fixture(scope="module")
+def features():
+    from stickslip_jax.records import read_record
+    from stickslip_fitting.features import record_features
+
+    paths = sorted(Path(__file__).parents[1].glob("data/examples/A_W36_k*.csv"))
+    return [record_features(read_record(p)) for p in paths]
+
+
+def test_clean_campaign_is_described(features):
+    from stickslip_fitting.fit import fit_features
+
+    rep = adequacy(fit_features(features))
+    assert rep.verdict == "describes", rep.sentences
+    assert {r.phase for r in rep.rows} == {"levels", "stick_times"}
+    assert len({r.record for r in rep.rows}) == len(features)
+    assert rep.to_json()["verdict"] == "describes"
+
+
+def test_scattered_record_is_named_with_its_phase(features):
+    """One record's levels scattered by 20 noise standard deviations per cycle: that
+    record and phase are named, in the records' own errors (not the scaled ones)."""
+    from stickslip_fitting.fit import fit_features
+
+    rng = np.random.default_rng(3)
+    f = features[2]
+    bad = list(features)
+    bad[2] = dataclasses.replace(
+        f, peak=np.asarray(f.peak) + 20 * np.asarray(f.peak_sd) * rng.standard_normal(
+            np.size(f.peak)))
+    fit = fit_features(bad)
+    assert fit.record_scale is not None  # the fit scaled that record's errors
+    rep = adequacy(fit)
+    assert rep.verdict == "misses"
+    assert rep.worst().record == f.name  # (the levels enter eq (6) too: both phases miss)
+    levels = {r.record: r.chi2_per_n for r in rep.rows if r.phase == "levels"}
+    assert levels[f.name] > 50 and max(v for k, v in levels.items() if k != f.name) < BAD
+    text = " ".join(rep.sentences)
+    assert f.name in text and "plateau levels" in text and "--loss student-t" in text
+
+
+def test_sentences_need_more_than_chance():
+    # chi2/n of 6 over 3 residuals is not improbable enough among 40 rows; over 300 it is
+    few = [PhaseRow("a", "levels", 3, 6.0)] + [PhaseRow("b", "levels", 10, 1.0)] * 39
+    many = [PhaseRow("a", "levels", 300, 6.0)] + [PhaseRow("b", "levels", 10, 1.0)] * 39
+    assert _sentences(few, 1.1, 2)[0] == "describes"
+    verdict, text = _sentences(many, 1.1, 2)
+    assert verdict == "misses" and "1 of 2 records" in text[0]
+    assert _sentences([PhaseRow("a", "trace_slip", 500, 3.0)], 3.0, 1)[0] == "marginal"
+    assert BAD > 2
