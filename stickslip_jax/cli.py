@@ -110,8 +110,12 @@ def main(argv=None) -> int:
     if not getattr(args, "run_command", None):
         parser.print_help()
         return 2
+    from .output import json_owns_stdout
+
     try:
-        return int(args.run_command(args) or 0)
+        # `--json -`: stdout carries only the JSON document; the table goes to stderr
+        with json_owns_stdout(getattr(args, "json", None) == "-"):
+            return int(args.run_command(args) or 0)
     except (UsageError, ValueError, FileNotFoundError) as exc:
         if args.debug:
             raise

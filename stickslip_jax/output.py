@@ -8,17 +8,24 @@
   temporary file in the target folder and rename it over the target, so a full disk or
   an interrupt leaves the previous file (or none), never half a file. `path` "-" writes
   JSON/text to stdout.
+- `json_owns_stdout(active)`: while a command runs with `--json -` (`stickslip_jax.cli`
+  wraps every command in it), what the command prints goes to stderr and only the JSON
+  (`write_json("-", ...)`) reaches stdout, so `stickslip fit ... --json - | jq` reads one
+  document.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
 import sys
 import tempfile
 
-__all__ = ["check_outputs", "save_figure", "strict_json", "write_json", "write_text"]
+__all__ = [
+    "check_outputs", "json_owns_stdout", "save_figure", "strict_json", "write_json", "write_text",
+]
 
 
 def _same(a: str, b: str) -> bool:
@@ -79,10 +86,33 @@ def _mode(path: str) -> int:
         return 0o666 & ~umask
 
 
+_JSON_STDOUT = None
+"""The real stdout while `json_owns_stdout` moves the command's other output to stderr."""
+
+
+@contextlib.contextmanager
+def json_owns_stdout(active: bool):
+    """With `active` (the command's `--json` is "-"): inside, `print` goes to stderr and
+    `write_text("-", ...)` / `write_json("-", ...)` to the stdout of entry."""
+    global _JSON_STDOUT
+    if not active:
+        yield
+        return
+    previous, _JSON_STDOUT = _JSON_STDOUT, sys.stdout
+    try:
+        with contextlib.redirect_stdout(sys.stderr):
+            yield
+    finally:
+        _JSON_STDOUT = previous
+
+
 def write_text(path: str, text: str) -> None:
-    """Write `text` to `path` atomically (module doc); "-" prints it."""
+    """Write `text` to `path` atomically (module doc); "-" prints it (to the stdout that
+    `json_owns_stdout` kept, if any)."""
     if path == "-":
-        sys.stdout.write(text)
+        out = _JSON_STDOUT if _JSON_STDOUT is not None else sys.stdout
+        out.write(text)
+        out.flush()
         return
 
     def write(tmp):
@@ -137,9 +167,9 @@ def dumps(obj, **kwargs) -> str:
     return json.dumps(strict_json(obj), allow_nan=False, **kwargs)
 
 
-def write_json(path: str, obj) -> None:
-    """Strict JSON (`strict_json`), indented, atomically."""
-    write_text(path, json.dumps(strict_json(obj), indent=2, allow_nan=False) + "\n")
+def write_json(path: str, obj, indent: int | None = 2) -> None:
+    """Strict JSON (`strict_json`), indented by `indent` (None: one line), atomically."""
+    write_text(path, json.dumps(strict_json(obj), indent=indent, allow_nan=False) + "\n")
 
 
 def save_figure(fig, path: str, **kwargs) -> None:

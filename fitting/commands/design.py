@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import numpy as np
@@ -68,10 +69,24 @@ def add_arguments(p):
     p.add_argument("--level", type=float, default=0.9, help="credible level of the v_c band")
     p.add_argument("--exact", action="store_true",
                    help="amplitude and frequency from the exact time-domain simulator")
-    p.add_argument("--out", metavar="PNG", help="write the map figure here")
-    p.add_argument("--json", action="store_true", help="print the map as JSON")
+    from stickslip_jax.commands._args import add_json_option, add_plot_option
+
+    add_plot_option(p, "the map figure", hidden=("--out",))
+    add_json_option(p, "the map", bare=True)
     p.add_argument("--chunk-size", type=int, default=65_536, help="points per device batch")
-    p.add_argument("--progress", action="store_true", help="show a progress bar")
+    from stickslip_jax.commands._args import add_quiet_option
+
+    add_quiet_option(p)
+    # the old opt-in flag: the bar now shows by default on a terminal; --progress shows it
+    # off a terminal too
+    p.add_argument("--progress", action="store_true", help=argparse.SUPPRESS)
+
+
+def _progress(args) -> bool:
+    """Progress bar on stderr: on a terminal unless --quiet; always with --progress."""
+    import sys
+
+    return not args.quiet and (args.progress or sys.stderr.isatty())
 
 
 def _axes(args):
@@ -109,14 +124,14 @@ def compute(args):
             raise ValueError(f"--posterior: no such file {args.posterior!r}")
         sample = load_samples(args.posterior)
         u = propagate(sample, w, k, v, level=args.level, chunk_size=args.chunk_size * 4,
-                      progress=args.progress)
+                      progress=_progress(args))
         out.update(probability=u.probability, critical_speed_band=u.critical_speed,
                    critical_speed=u.critical_speed[..., 1], amplitude=u.amplitude[..., 1],
                    amplitude_band=u.amplitude, stick_slip=u.probability >= 0.5)
         return out
     friction = lubricant(args.lubricant, table=args.table)
     m = design_map(friction, w, k, v, method="exact" if args.exact else "steady",
-                   chunk_size=args.chunk_size, progress=args.progress)
+                   chunk_size=args.chunk_size, progress=_progress(args))
     out.update(amplitude=m.amplitude, amplitude_ratio=m.amplitude_ratio, frequency=m.frequency,
                frequency_ratio=m.frequency_ratio, stick_time=m.stick_time,
                critical_speed=m.critical_speed, stick_slip=m.stick_slip, converged=m.converged,
@@ -173,7 +188,8 @@ def plot(args, res, path):
     axes = res["axes"]
     grid = [n for n in ("weight", "stiffness", "speed") if axes[n].size > 1]
     if len(grid) == 0 or len(grid) > 2:
-        raise ValueError("--out: a figure needs one or two of --weight/--stiffness/--speed "
+        raise ValueError(f"{args.plot_option}: a figure needs one or two of "
+                         "--weight/--stiffness/--speed "
                          f"as START:STOP:COUNT grids, got {len(grid)}")
     scale = {"weight": 1.0, "stiffness": 1.0, "speed": 60.0}
     squeeze = tuple(i for i, n in enumerate(("weight", "stiffness", "speed")) if n not in grid)
@@ -243,14 +259,19 @@ def plot(args, res, path):
 
 
 def run(args) -> int:
-    res = compute(args)
-    if args.out:
-        plot(args, res, args.out)
-    if args.json:
-        from stickslip_jax.output import dumps, versioned
+    from stickslip_jax.output import check_outputs
 
-        print(dumps(versioned(to_json(args, res))))
-        return 0
+    check_outputs({"--json": args.json, args.plot_option: args.plot},
+                  [args.posterior] if args.posterior else [])
+    res = compute(args)
+    if args.plot:
+        plot(args, res, args.plot)
+    if args.json:
+        from stickslip_jax.output import versioned, write_json
+
+        write_json(args.json, versioned(to_json(args, res)), indent=None)
+        if args.json != "-":  # with "-" the summary below goes to stderr
+            print(f"wrote {args.json}")
     amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]
     print(f"design map {'x'.join(str(s) for s in amp.shape)} (W x k x v), "
           f"{'exact simulator' if args.exact else 'steady analysis'}")
@@ -259,6 +280,6 @@ def run(args) -> int:
     print(f"  critical speed v_c: {vc.min():.4g} .. {vc.max():.4g} mm/min")
     if args.posterior:
         print(f"  P(stick-slip): {res['probability'].min():.3g} .. {res['probability'].max():.3g}")
-    if args.out:
-        print(f"  figure: {args.out}")
+    if args.plot:
+        print(f"  figure: {args.plot}")
     return 0

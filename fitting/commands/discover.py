@@ -29,15 +29,17 @@ def add_arguments(parser):
     parser.add_argument("--strict", action="store_true",
                         help="refuse the campaign when any record has no usable stick-slip "
                         "(default: run on the records that have it, list the others)")
-    parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
-    parser.add_argument("--plot", metavar="OUT.png", help="save residuals and traces")
+    from stickslip_jax.commands._args import add_json_option, add_plot_option, add_quiet_option
+
+    add_json_option(parser, "the result")
+    add_plot_option(parser, "the residuals by phase before and after and the traces")
     parser.add_argument("--base", choices=("cycle", "smooth"), default="cycle",
                         help="the base model: per-cycle exact model (default; seconds) or "
                         "the smoothed simulator over whole records (minutes)")
     parser.add_argument("--alpha", type=float, default=0.01,
                         help="false-alarm rate of the cycle base's test over all effect "
                         "families (default 0.01)")
-    parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_quiet_option(parser)
     parser.add_argument("--top", type=int, default=3,
                         help="how many candidates to refit after the score test (default 3)")
     parser.add_argument("--threshold", type=float, default=10.0,

@@ -24,9 +24,7 @@ def add_arguments(parser):
     parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
     parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
                         help="static-friction law: eq (1) (default) or the microsqueeze law")
-    parser.add_argument("--offset", choices=("zero", "start"), default="zero",
-                        help="gauge offset: trust the zero (default), or read it from the first "
-                        "sample of records that start with the spring relaxed")
+    add_gauge_offset_argument(parser)
     parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper",
                         help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
     parser.add_argument("--objective", choices=("features", "trace", "both", "smooth"),
@@ -41,8 +39,24 @@ def add_arguments(parser):
                         help="refuse the campaign when any record has no usable stick-slip "
                         "(default: fit the records that have it, list the others)")
     add_model_arguments(parser)
-    parser.add_argument("--json", metavar="OUT", help="write the result as JSON")
-    parser.add_argument("--plot", metavar="OUT.png", help="save the diagnostic figure")
+    from stickslip_jax.commands._args import add_json_option, add_plot_option, add_quiet_option
+
+    add_json_option(parser, "the result")
+    add_plot_option(parser, "the diagnostic figure")
+    add_quiet_option(parser)
+
+
+def add_gauge_offset_argument(parser):
+    """--gauge-offset (old name --offset, hidden): shared by `stickslip fit` and `mcmc`."""
+    import argparse
+
+    parser.add_argument("--gauge-offset", dest="offset", choices=("zero", "start"),
+                        default="zero",
+                        help="gauge offset: trust the zero (default), or read it from the first "
+                        "sample of records that start with the spring relaxed")
+    # the old name (`stickslip pitch --drive-offset` is a length: one name per concept)
+    parser.add_argument("--offset", dest="offset", choices=("zero", "start"),
+                        default=argparse.SUPPRESS, help=argparse.SUPPRESS)
 
 
 def add_model_arguments(parser):
@@ -98,9 +112,11 @@ def fit_from_args(args, *, objective: str = "features"):
 
 
 def _say_fitting(args, campaign, objective) -> None:
-    """One progress line on stderr once the inputs are read and checked."""
+    """One progress line on stderr once the inputs are read and checked (not --quiet)."""
     import sys
 
+    if getattr(args, "quiet", False):
+        return
     n = sum(s.status == "used" for s in campaign.screening)
     command = getattr(args, "command", "fit")
     print(f"stickslip {command}: fitting {n} records (objective {objective}, model "
@@ -325,7 +341,8 @@ def run(args) -> int:
 
     if args.json:
         write_json(args.json, versioned(report))
-        print(f"wrote {args.json}")
+        if args.json != "-":
+            print(f"wrote {args.json}")
     if args.plot:
         from ..plots import fit_figure
 

@@ -27,8 +27,11 @@ def add_arguments(parser):
     parser.add_argument("--burn", type=int, default=None, help="steps discarded (default steps/4)")
     parser.add_argument("--seed", type=int, default=0,
                         help="random seed of the walkers' start and moves (0 to 2**32 - 1)")
-    parser.add_argument("--offset", choices=("zero", "start"), default="zero")
-    parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper")
+    from .fit import add_gauge_offset_argument
+
+    add_gauge_offset_argument(parser)
+    parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper",
+                        help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
     parser.add_argument("--objective", choices=("features", "trace", "both", "smooth"),
                         default="features",
                         help="the likelihood: the cycle features (default), every sample of "
@@ -41,13 +44,14 @@ def add_arguments(parser):
     from .fit import add_model_arguments
 
     add_model_arguments(parser)
-    parser.add_argument("--json", metavar="OUT",
-                        help="write the summary and (thinned) posterior draws as JSON; "
-                        "`stickslip design --posterior OUT` reads the draws")
+    from stickslip_jax.commands._args import add_json_option, add_plot_option, add_quiet_option
+
+    add_json_option(parser, "the summary and the (thinned) posterior draws (`stickslip "
+                    "design --posterior OUT` reads the draws)")
     parser.add_argument("--draws", type=int, default=2000,
                         help="at most this many draws in --json (evenly thinned; default 2000)")
-    parser.add_argument("--corner", metavar="OUT.png", help="save a corner plot")
-    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    add_plot_option(parser, "the corner plot of the posterior", aliases=("--corner",))
+    add_quiet_option(parser, hidden=("--no-progress",))
 
 
 def thinned_draws(samples, max_draws: int):
@@ -75,17 +79,18 @@ def run(args) -> int:
     from stickslip_jax.output import check_outputs, versioned, write_json
     from stickslip_jax.records import record_paths
 
-    check_outputs({"--json": args.json, "--corner": args.corner}, record_paths(args.records))
+    check_outputs({"--json": args.json, args.plot_option: args.plot}, record_paths(args.records))
     fit, campaign, extra = fit_from_args(args, objective=args.objective)
     records = campaign.records
     for w in campaign.warnings:
         print("warning: " + w)
     import sys
 
-    print(f"sampling: {args.walkers} walkers x {args.steps} steps (Ctrl-C stops and keeps the "
-          "chain so far)", file=sys.stderr, flush=True)
+    if not args.quiet:
+        print(f"sampling: {args.walkers} walkers x {args.steps} steps (Ctrl-C stops and keeps "
+              "the chain so far)", file=sys.stderr, flush=True)
     res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
-                   progress=not args.no_progress)
+                   progress=not args.quiet)
     summary = res.summary()
     units = res.units
     truth = find_truth(records, list(fit.values))
@@ -126,14 +131,16 @@ def run(args) -> int:
         if extra:
             out.update(extra)
         write_json(args.json, versioned(out))
-        print(f"wrote {args.json}")
-    if args.corner:
+        if args.json != "-":
+            print(f"wrote {args.json}")
+    if args.plot:
         from ..plots import corner_plot
 
-        corner_plot(res.samples, res.names, args.corner, truth=truth)
-        print(f"wrote {args.corner}")
+        corner_plot(res.samples, res.names, args.plot, truth=truth)
+        print(f"wrote {args.plot}")
     if res.interrupted:
         print("stickslip mcmc: interrupted; the chain so far is summarised above"
-              + (f" and written to {args.json}" if args.json else ""), file=sys.stderr)
+              + (f" and written to {args.json}" if args.json not in (None, "-") else ""),
+              file=sys.stderr)
         return 130
     return 0

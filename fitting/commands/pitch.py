@@ -1,6 +1,6 @@
 """`stickslip pitch`: pitching and yawing of the slider from a record's spring force (chapter 6).
 
-    stickslip pitch RECORD [RECORD ...] --height H [H ...] [--offset L [L ...]]
+    stickslip pitch RECORD [RECORD ...] --height H [H ...] [--drive-offset L [L ...]]
                     [--viscosity ETA] [--fit] [--json OUT.json] [--plot OUT.png]
 
 For each record the model of `stickslip_jax.pitching` turns the spring force k x into the
@@ -15,12 +15,18 @@ Without `--fit` the model is the illustrative `default_model()` at the given vis
 
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
 import numpy as np
 
 from stickslip_jax import pitching as pt
-from stickslip_jax.commands._args import quantity, viscosity
+from stickslip_jax.commands._args import (
+    add_json_option,
+    add_plot_option,
+    quantity,
+    viscosity,
+)
 from stickslip_jax.records import read_record
 from stickslip_jax.units import from_internal
 
@@ -35,17 +41,21 @@ def add_arguments(p):
     p.add_argument("--height", type=quantity("length", "mm", positive=False), nargs="+",
                    help="drive height h above the slide surface (mm; one, or one per record); "
                    "default: the record's '# drive_height:' header")
-    p.add_argument("--offset", type=quantity("length", "mm", positive=False), nargs="+",
+    p.add_argument("--drive-offset", dest="drive_offset",
+                   type=quantity("length", "mm", positive=False), nargs="+",
                    help="drive offset l from the centre of gravity (mm; one, or one per record); "
                    "default: the '# drive_offset:' header, else 0")
+    # the old name (`stickslip fit --gauge-offset` is a mode: one name per concept)
+    p.add_argument("--offset", dest="drive_offset", type=quantity("length", "mm", positive=False),
+                   nargs="+", default=argparse.SUPPRESS, help=argparse.SUPPRESS)
     p.add_argument("--viscosity", type=viscosity(), default=None,
                    help="lubricant viscosity (Pa*s unless a unit is given, e.g. '216 cP' or "
                    "'230 cSt at 870 kg/m^3'; default lubricant A, 0.216 Pa*s)")
     p.add_argument("--fit", action="store_true",
                    help="identify compliance, neutral points and time constants from the "
                    "records' pitch_N/yaw_N channels first")
-    p.add_argument("--json", metavar="OUT.json", help="also write the results as JSON")
-    p.add_argument("--plot", metavar="OUT.png", help="save force and displacement traces")
+    add_json_option(p, "the results")
+    add_plot_option(p, "the force and displacement traces")
 
 
 def _per_record(values, n, flag):
@@ -72,7 +82,7 @@ def run(args) -> int:
     check_outputs({"--json": args.json, "--plot": args.plot}, paths)
     records = [read_record(p) for p in paths]
     heights = _per_record(args.height, len(records), "--height")
-    offsets = _per_record(args.offset, len(records), "--offset")
+    offsets = _per_record(args.drive_offset, len(records), "--drive-offset")
     model = pt.default_model()
     if args.viscosity is not None:
         model = model.with_viscosity(args.viscosity)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
@@ -26,10 +27,12 @@ measured, whose conditions count as existing records."""
 
 
 def add_arguments(p):
-    p.add_argument("sources", nargs="+", metavar="RECORDS-OR-PRIOR", help=PRIOR_HELP)
+    # nargs="*": an old `plan --json SOURCE ...` (bare --json) parses SOURCE as --json's
+    # value; `_JsonOrOldSource` gives it back to the sources
+    p.add_argument("sources", nargs="*", metavar="RECORDS-OR-PRIOR", help=PRIOR_HELP)
     p.add_argument("--budget", type=int, default=4, help="number of records to propose")
     p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
-                   help="table of a lubricant name's eq (1) parameters")
+                   help="table of eq (1) parameters of a lubricant name (default 6)")
     p.add_argument("--weights", default="11.3,36.0,53.2",
                    help="candidate slider weights: comma list or START:STOP:COUNT (kgf)")
     p.add_argument("--stiffnesses", default="27.3,86.9,128.5",
@@ -45,7 +48,37 @@ def add_arguments(p):
     p.add_argument("--criterion", choices=("D", "A"), default="D",
                    help="D: maximise det of the information; A: minimise the mean variance")
     p.add_argument("--no-repeats", action="store_true", help="never propose the same record twice")
-    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    from stickslip_jax.commands._args import add_json_option, add_quiet_option
+
+    add_json_option(p, "the plan", bare=True, action=_JsonOrOldSource)
+    p.set_defaults(json_source=None)
+    add_quiet_option(p)
+
+
+class _JsonOrOldSource(argparse.Action):
+    """`--json OUT`, where `plan --json A ...` meant a bare --json and the source A before
+    --json took a file: a value that is a lubricant name or an existing input (a record,
+    a prior, a posterior; not an earlier plan) is kept as a source (`args.json_source`)
+    and --json becomes "-", so an old script neither fails nor overwrites its prior."""
+
+    def __call__(self, parser, namespace, value, option_string=None):
+        namespace.json_source = None
+        if value not in (None, "-") and _is_source(value):
+            namespace.json_source, value = value, "-"
+        namespace.json = value
+
+
+def _is_source(value: str) -> bool:
+    path = Path(value)
+    if not path.is_file():
+        from stickslip_jax.lubricants import lubricants
+
+        return any(value in lubricants(t) for t in (4, 6, 9))
+    try:
+        old = json.loads(path.read_text()) if path.suffix.lower() == ".json" else None
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        old = None
+    return not (isinstance(old, dict) and "criterion" in old and "relative_sd_after" in old)
 
 
 def _values(text, dim, unit, arg):
@@ -153,8 +186,18 @@ MAX_BUDGET = 1000
 
 
 def run(args) -> int:
+    import sys
+
+    from stickslip_jax.output import check_outputs
+
     from ..design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
 
+    if args.json_source is not None:  # `plan --json SOURCE ...`: the old bare --json
+        args.sources = [args.json_source, *args.sources]
+    if not args.sources:
+        raise ValueError("RECORDS-OR-PRIOR: give a lubricant name, a prior JSON or a "
+                         "posterior sample (and records already measured)")
+    check_outputs({"--json": args.json}, [s for s in args.sources if Path(s).exists()])
     if not 1 <= args.budget <= MAX_BUDGET:
         raise ValueError(f"--budget: must lie in 1-{MAX_BUDGET} records (a plan proposes "
                          f"records one at a time), got {args.budget}")
@@ -172,6 +215,9 @@ def run(args) -> int:
     if args.no_repeats and args.budget > len(cands):
         raise ValueError(f"--budget: {args.budget} exceeds the {len(cands)} candidates")
     noise = Noise(*args.noise)
+    if not args.quiet:
+        print(f"stickslip plan: choosing {args.budget} of {len(cands)} candidate records "
+              f"({args.criterion}-optimal)...", file=sys.stderr, flush=True)
     plan = greedy_design(u, cands, args.budget, noise=noise, prior_sd=sd, existing=existing,
                          repeats=not args.no_repeats, criterion=args.criterion)
     rows = []
@@ -190,10 +236,11 @@ def run(args) -> int:
         "records": rows,
     }
     if args.json:
-        from stickslip_jax.output import dumps, versioned
+        from stickslip_jax.output import versioned, write_json
 
-        print(dumps(versioned(doc), indent=2))
-        return 0
+        write_json(args.json, versioned(doc))
+        if args.json != "-":  # with "-" the table below goes to stderr
+            print(f"wrote {args.json}")
     print(f"plan from {desc}: {args.budget} record(s), {args.criterion}-optimal, "
           f"{len(cands)} candidates")
     print(f"{'#':>3} {'W [kgf]':>9} {'k [kgf/mm]':>11} {'v [mm/min]':>11}  regime")

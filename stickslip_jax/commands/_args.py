@@ -1,16 +1,21 @@
-"""Argument types shared by subcommands: quantities with units, positive numbers."""
+"""Argument types and options shared by subcommands: quantities with units, and the one
+grammar of output options (`--json OUT`, `--plot OUT.png`, `--quiet`).
+
+Nothing here imports JAX or pint at import time: `stickslip --help` builds every parser
+without them (the unit parser is imported when a value is read).
+"""
 
 from __future__ import annotations
 
 import argparse
-
-from ..units import UnitError, parse_quantity
 
 
 def quantity(dimension: str, default_unit: str, positive: bool = True):
     """argparse type: `"1.5"` (in `default_unit`) or `"1.5 mm/min"` -> internal unit."""
 
     def parse(text: str) -> float:
+        from ..units import UnitError, parse_quantity
+
         try:
             value = parse_quantity(text, dimension, default_unit)
         except UnitError as exc:
@@ -23,6 +28,52 @@ def quantity(dimension: str, default_unit: str, positive: bool = True):
 
     parse.__name__ = f"{dimension} ({default_unit})"
     return parse
+
+
+def add_json_option(parser, what: str, *, bare: bool = False, action=None) -> None:
+    """`--json OUT`: write `what` as JSON to the file OUT, or to stdout with `-` (the
+    command's table then goes to stderr: `stickslip_jax.output.json_owns_stdout`).
+    `bare`: a `--json` without a value means `--json -` (the commands that printed JSON
+    with a bare flag before OUT existed: steady, design, plan). `action`: an argparse
+    Action class in place of storing the value."""
+    extra = dict(nargs="?", const="-") if bare else {}
+    if action is not None:
+        extra["action"] = action
+    parser.add_argument(
+        "--json", metavar="OUT", **extra,
+        help=f"write {what} as JSON to the file OUT; '-' writes it to stdout (the table "
+        "then goes to stderr)" + ("; a bare --json is --json -" if bare else ""))
+
+
+class _StoreNamed(argparse.Action):
+    """Store the value and the option name the user typed (`args.<dest>_option`), so an
+    error names `--corner` when the user wrote `--corner`, not its other name `--plot`."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        setattr(namespace, f"{self.dest}_option", option_string)
+
+
+def add_plot_option(parser, what: str, *, aliases=(), hidden=()) -> None:
+    """`--plot OUT.png`: save the command's figure `what` (format from the extension);
+    `args.plot_option` is the name the user gave it. `aliases`: other visible names of the
+    option; `hidden`: old names still accepted but not shown in --help (deprecated)."""
+    parser.add_argument("--plot", *aliases, dest="plot", metavar="OUT.png", action=_StoreNamed,
+                        help=f"save {what} to OUT.png (the format follows the extension)")
+    for name in hidden:
+        parser.add_argument(name, dest="plot", metavar="OUT.png", action=_StoreNamed,
+                            default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    parser.set_defaults(plot_option="--plot")
+
+
+def add_quiet_option(parser, *, hidden=()) -> None:
+    """`--quiet`: no progress lines or bars on stderr (they are on by default).
+    `hidden`: old opt-out flags kept as deprecated aliases."""
+    parser.add_argument("--quiet", "-q", action="store_true",
+                        help="print no progress (stage lines, bars) on stderr")
+    for name in hidden:
+        parser.add_argument(name, dest="quiet", action="store_true",
+                            default=argparse.SUPPRESS, help=argparse.SUPPRESS)
 
 
 BARE_VISCOSITY_FLOOR = 1e-5

@@ -1,4 +1,5 @@
-"""`stickslip plot RECORD [--out PNG]`: the trace with stick/slip phases and its phase plane."""
+"""`stickslip plot RECORD [--plot OUT.png]`: the trace with stick/slip phases and its
+phase plane."""
 
 from __future__ import annotations
 
@@ -10,29 +11,31 @@ HELP = ("save a PNG of a record: deflection vs time with stick and slip phases m
 
 
 def add_arguments(p):
+    from ._args import add_plot_option
+
     p.add_argument("record", help="record file (CSV, see README 'Records')")
-    p.add_argument("--out", default=None,
-                   help="PNG to write (default: next to the record, NAME.png)")
+    add_plot_option(p, "the figure (default: next to the record, NAME.png)", hidden=("--out",))
 
 
 def run(args) -> int:
     from ..record_plots import classify_phases, save_record_plot
     from ..records import read_record
 
-    out = Path(args.out) if args.out else Path(args.record).with_suffix(".png")
+    flag = args.plot_option
+    out = Path(args.plot) if args.plot else Path(args.record).with_suffix(".png")
     if out.suffix.lower() != ".png":
-        raise ValueError(f"--out: {out} must end in .png")
+        raise ValueError(f"{flag}: {out} must end in .png")
     if not out.parent.is_dir():
-        raise ValueError(f"--out: directory {out.parent} does not exist; create it first")
+        raise ValueError(f"{flag}: directory {out.parent} does not exist; create it first")
     from ..output import check_outputs
 
-    check_outputs({"--out": str(out)}, [args.record])
+    check_outputs({flag: str(out)}, [args.record])
     record = read_record(args.record)
     phases = classify_phases(record)
     try:
         save_record_plot(record, out, phases)
     except OSError as exc:
-        raise ValueError(f"--out: cannot write {out}: {exc.strerror or exc}") from None
+        raise ValueError(f"{flag}: cannot write {out}: {exc.strerror or exc}") from None
     print(
         f"{out}: {record.n_samples} samples, {phases.n_slips} slips, "
         f"{100 * phases.stick_fraction:.0f} % of samples in stick "

@@ -8,7 +8,7 @@ import jax.numpy as jnp
 from ..lubricants import lubricant, lubricants
 from ..steady import REGIMES, RESTICK_FAILURE, steady_map
 from ..units import mm_per_min
-from ._args import quantity
+from ._args import add_json_option, quantity
 
 NAME = "steady"
 HELP = "steady stick-slip (eqs 5-7, 12) for a paper lubricant at given W, k and drive speeds"
@@ -24,7 +24,7 @@ def add_arguments(p):
                    help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
     p.add_argument("--speed", type=quantity("speed", "mm/min"), nargs="+", required=True,
                    help="drive speeds v (mm/min unless a unit is given, e.g. '10 um/s')")
-    p.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    add_json_option(p, "the results", bare=True)
 
 
 COLUMNS = (
@@ -41,6 +41,9 @@ COLUMNS = (
 
 
 def run(args) -> int:
+    from ..output import check_outputs
+
+    check_outputs({"--json": args.json})
     if args.lubricant not in lubricants(args.table):
         raise ValueError(
             f"--lubricant: unknown lubricant {args.lubricant!r}; "
@@ -64,17 +67,18 @@ def run(args) -> int:
             "critical_speed_mm_min": float(mm_per_min(out.critical_speed[i])),
         })
     if args.json:
-        from ..output import dumps, versioned
+        from ..output import versioned, write_json
 
-        print(dumps(versioned({
+        write_json(args.json, versioned({
             "lubricant": args.lubricant,
             "table": args.table,
             "weight_kgf": args.weight,
             "stiffness_kgf_mm": args.stiffness,
             "natural_frequency_hz": float(out.natural_frequency[0]),
             "results": rows,
-        }), indent=2))
-        return 0
+        }))
+        if args.json != "-":  # with "-" the table below goes to stderr
+            print(f"wrote {args.json}")
     print(f"lubricant {args.lubricant} (Table {args.table}), W = {args.weight:g} kgf, "
           f"k = {args.stiffness:g} kgf/mm, f0 = {float(out.natural_frequency[0]):.4g} Hz")
     widths = [max(len(h), 12) for _, h in COLUMNS]
