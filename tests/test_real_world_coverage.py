@@ -34,14 +34,14 @@ def draw(rng) -> ir.Friction:
                        delta=rng.uniform(55.0, 80.0), n=rng.uniform(0.85, 1.1))
 
 
-def campaign(seed):
+def campaign(seed, menu=MENU):
     from stickslip_jax.records import Record
 
     rng = np.random.default_rng(seed)
     fr = draw(rng)
     recs = []
     for i, (k, v, T, fs) in enumerate(RUNS):
-        imp = MENU[rng.integers(len(MENU))]
+        imp = menu[rng.integers(len(menu))]
         tr = ir.simulate(fr, weight=36.0, stiffness=k, speed_mm_min=v, duration=T,
                          rate_hz=fs, imp=imp, seed=1000 * seed + i)
         recs.append(Record(time=tr.time, deflection=tr.deflection, stiffness=k, weight=36.0,
@@ -56,37 +56,68 @@ def interval90(value, ci95):
     return (value * (lo / value) ** (Z90 / Z95), value * (hi / value) ** (Z90 / Z95))
 
 
-@pytest.mark.slow
-def test_intervals_cover_on_independent_campaigns():
+HEAVY_MENU = (I(mu_s_jitter=0.01, mu_s_jitter_df=2.0), I(mu_s_jitter=0.005, mu_s_jitter_df=1.5),
+              I(spike_rate=0.002, spike_mm=0.05), I())
+"""Records with heavy-tailed irregular slips (mu_s per cycle with a Student-t spread of 2
+and 1.5 degrees of freedom: now and then a slip far larger than the rest), spikes, or
+none."""
+
+
+def coverage(menu, loss=None, n_campaigns=N_CAMPAIGNS):
+    """Fit `n_campaigns` campaigns whose records draw their imperfection from `menu`;
+    returns (90 % coverage, campaigns with an interval, within 2 %, mean relative error)
+    per parameter (mu_s, mu_d)."""
     from stickslip_fitting.campaign import screen_records
     from stickslip_fitting.fit import fit_features
     from stickslip_fitting.uncertainty import laplace
 
-    hits = {"mu_s": 0, "mu_d": 0}
-    close = {"mu_s": 0, "mu_d": 0}
-    with_ci = {"mu_s": 0, "mu_d": 0}
-    done = 0
-    for seed in range(N_CAMPAIGNS):
-        fr, recs = campaign(seed)
+    names = ("mu_s", "mu_d")
+    hits, close, with_ci = (dict.fromkeys(names, 0) for _ in range(3))
+    errors = {k: [] for k in names}
+    for seed in range(n_campaigns):
+        fr, recs = campaign(seed, menu)
         camp = screen_records(recs)
-        fit = fit_features(camp.features, records=camp.records)
+        fit = fit_features(camp.features, records=camp.records, loss=loss)
         rows = {r["name"]: r for r in laplace(fit).table()}
-        done += 1
-        for name in hits:
+        for name in names:
             truth = getattr(fr, name)
             if rows[name]["ci95"] is not None:  # None: reported as not identifiable
                 with_ci[name] += 1
                 lo, hi = interval90(rows[name]["value"], rows[name]["ci95"])
                 hits[name] += lo <= truth <= hi
-            close[name] += abs(rows[name]["value"] / truth - 1) < 0.02
+            errors[name].append(abs(rows[name]["value"] / truth - 1))
+            close[name] += errors[name][-1] < 0.02
         print(f"campaign {seed}: chi2/dof {fit.reduced_chi2:.3g}, mu_s "
               f"{rows['mu_s']['value']:.4f} (truth {fr.mu_s:.4f}), mu_d "
               f"{rows['mu_d']['value']:.4f} (truth {fr.mu_d:.4f})")
     cover = {k: v / max(with_ci[k], 1) for k, v in hits.items()}
-    within = {k: v / done for k, v in close.items()}
-    print(f"{done} campaigns; with an interval {with_ci}; 90 % coverage {cover}; "
-          f"within 2 %: {within}")
-    for name in hits:
-        assert with_ci[name] >= 0.8 * done, (name, with_ci)
+    within = {k: v / n_campaigns for k, v in close.items()}
+    mean_error = {k: float(np.mean(v)) for k, v in errors.items()}
+    print(f"{n_campaigns} campaigns, loss {loss}: with an interval {with_ci}; 90 % coverage "
+          f"{cover}; within 2 %: {within}; mean |relative error| {mean_error}")
+    return cover, with_ci, within, mean_error
+
+
+@pytest.mark.slow
+def test_intervals_cover_on_independent_campaigns():
+    cover, with_ci, within, _ = coverage(MENU)
+    for name in cover:
+        assert with_ci[name] >= 0.8 * N_CAMPAIGNS, (name, with_ci)
         assert 0.80 <= cover[name] <= 0.97, (name, cover)
+    assert within["mu_d"] >= 0.9, within
+
+
+@pytest.mark.slow
+def test_student_t_loss_on_heavy_tailed_irregular_slips():
+    """Measured (24 campaigns, 2 cores, about 2 min each loss): Gaussian 90 % coverage
+    mu_s / mu_d 0.96 / 1.00, mean |error| 1.4 % / 0.05 %; Student-t (nu 4) 0.83 / 0.92,
+    0.62 % / 0.027 %; Huber 0.92 / 1.00, 0.91 % / 0.037 %."""
+    from stickslip_fitting.losses import StudentT
+
+    cover, with_ci, within, err_t = coverage(HEAVY_MENU, StudentT())
+    _, _, _, err_gauss = coverage(HEAVY_MENU)
+    for name in cover:
+        assert with_ci[name] >= 0.8 * N_CAMPAIGNS, (name, with_ci)
+        assert 0.80 <= cover[name] <= 0.97, (name, cover)
+        assert err_t[name] < err_gauss[name], (name, err_t, err_gauss)
     assert within["mu_d"] >= 0.9, within
