@@ -36,7 +36,9 @@ import math
 from typing import ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .combined import AbstractObjective
 
@@ -63,6 +65,33 @@ class AbstractLoss(eqx.Module):
 
     def describe(self) -> str:
         return f"{self.spec()} loss"
+
+    def psi(self, r):
+        """rho'(r), elementwise: the force a residual exerts on the fit."""
+        r = jnp.asarray(r, float)
+        return jax.vmap(jax.grad(self.rho))(r.ravel()).reshape(r.shape)
+
+    def curvature(self, r):
+        """rho''(r), elementwise: the residual's share of the loss's Hessian (negative
+        for Student-t beyond sqrt(nu), zero for Huber beyond c)."""
+        r = jnp.asarray(r, float)
+        return jax.vmap(jax.grad(jax.grad(self.rho)))(r.ravel()).reshape(r.shape)
+
+    def score_form(self, J, r):
+        """(J', r') of the M-estimator with Jacobian `J` (rows: residuals) and residuals
+        `r` of the *untransformed* objective, such that J'^T r' = sum_i psi(r_i) J_i (the
+        score) and J'^T J' = sum_i max(rho''(r_i), 0) J_i J_i^T (the Hessian of the loss,
+        the residuals' second derivatives left out): fed to a least-squares covariance
+        they give Huber's sandwich. The Gauss-Newton matrix of the transformed residuals
+        instead weights residual i by psi^2 / (2 rho), larger than rho'' (at one noise
+        standard deviation 0.90 against 0.60 for Student-t with nu 4), so intervals from it
+        are too narrow (measured: 90 % coverage 0.74 / 0.79 for mu_s / mu_d on 24
+        independent campaigns, tests/test_real_world_coverage.py)."""
+        J, r = np.asarray(J), np.asarray(r)
+        psi = np.asarray(self.psi(r))
+        w = np.maximum(np.asarray(self.curvature(r)), 1e-9 * float(self.curvature(0.0)))
+        root = np.sqrt(w)
+        return J * root[:, None], psi / root
 
 
 class Gaussian(AbstractLoss):

@@ -115,9 +115,10 @@ def _jacobian_log(theta0, logs0, idx, template, offset0, objective, fit_offsets:
     return jax.jacfwd(residuals)(theta0), residuals(theta0)
 
 
-def jacobian_log(fit: FitResult):
+def jacobian_log(fit: FitResult, objective=None):
     """(J, r, free mask, idx) at the optimum: whitened residuals r and J = dr/dtheta,
-    theta = (log of the free friction parameters, free gauge offsets in mm)."""
+    theta = (log of the free friction parameters, free gauge offsets in mm), of
+    `objective` (default the fit's)."""
     p = fit.params
     logs0 = p.friction.log_values()
     free = free_mask(fit.spec)
@@ -125,8 +126,8 @@ def jacobian_log(fit: FitResult):
     fit_offsets = bool(fit.spec.offset)
     off0 = p.offset
     theta0 = jnp.concatenate([logs0[idx], off0 if fit_offsets else jnp.zeros(0)])
-    J, r = _jacobian_log(theta0, logs0, jnp.asarray(idx), p.friction, off0, fit.objective,
-                         fit_offsets)
+    J, r = _jacobian_log(theta0, logs0, jnp.asarray(idx), p.friction, off0,
+                         fit.objective if objective is None else objective, fit_offsets)
     return np.asarray(J), np.asarray(r), free, idx
 
 
@@ -297,7 +298,11 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         many = len(fit.features) >= 3
         covariance = ("two_level" if heavy and many else "sandwich" if traced else
                       "two_level" if misfit and many else "fisher")
-    J, r, free, idx = jacobian_log(fit)
+    if isinstance(fit.objective, HeavyTailed):  # Huber's sandwich (`AbstractLoss.score_form`)
+        J, r, free, idx = jacobian_log(fit, fit.objective.inner)
+        J, r = fit.objective.loss.score_form(J, r)
+    else:
+        J, r, free, idx = jacobian_log(fit)
     F = J.T @ J
     k = idx.size
     if covariance in ("sandwich", "two_level"):

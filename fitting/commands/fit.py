@@ -14,10 +14,18 @@ import math
 
 import numpy as np
 
-from ..campaign import find_truth, load_campaign
-
 NAME = "fit"
 HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"
+
+
+def __getattr__(name):
+    # imported where used, so the parser is built without the fitting code; the old
+    # module-level names still resolve
+    if name in ("find_truth", "load_campaign"):
+        from .. import campaign
+
+        return getattr(campaign, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def add_arguments(parser):
@@ -63,6 +71,11 @@ def add_model_arguments(parser):
     """--fix, --eta, --surface: shared by `stickslip fit` and `stickslip mcmc`."""
     parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                         help="hold a parameter fixed, e.g. --fix n=1 (repeatable)")
+    parser.add_argument("--loss", default="gaussian", metavar="NAME[:PARAMETER]",
+                        help="likelihood of the residuals: gaussian (least squares, default), "
+                        "student-t[:NU] (heavy-tailed, nu 4 unless given) or huber[:C] "
+                        "(C 1.345 noise standard deviations unless given): for records with "
+                        "sporadic irregular slips or outliers the model does not describe")
     from stickslip_jax.commands._args import viscosity
 
     parser.add_argument("--eta", type=viscosity(), default=None,
@@ -81,8 +94,11 @@ def fit_from_args(args, *, objective: str = "features"):
     microsqueeze model ({"given": {"eta": ..., "surface": ...}}). Every user error is a
     ValueError naming the option or file to fix (checked before any fitting).
     """
+    from ..campaign import load_campaign
     from ..fit import fit_features
+    from ..losses import parse_loss
 
+    loss = parse_loss(args.loss)
     if args.model == "microsqueeze":
         from ..microsqueeze_fit import default_eta, fit_microsqueeze
         from ..microsqueeze_params import MicrosqueezeFriction
@@ -98,7 +114,7 @@ def fit_from_args(args, *, objective: str = "features"):
         _say_fitting(args, campaign, objective)
         fit = fit_microsqueeze(campaign.features, eta=eta, pair=pair, fixed=fixed,
                                offset=args.offset, slip_time=args.slip_time,
-                               objective=objective, records=campaign.records)
+                               objective=objective, records=campaign.records, loss=loss)
         return fit, campaign, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
                                         "surface": args.surface}}
     if args.eta is not None:
@@ -107,7 +123,8 @@ def fit_from_args(args, *, objective: str = "features"):
     campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
     _say_fitting(args, campaign, objective)
     fit = fit_features(campaign.features, fixed=fixed, offset=args.offset,
-                       slip_time=args.slip_time, objective=objective, records=campaign.records)
+                       slip_time=args.slip_time, objective=objective, records=campaign.records,
+                       loss=loss)
     return fit, campaign, None
 
 
@@ -119,7 +136,8 @@ def _say_fitting(args, campaign, objective) -> None:
         return
     n = sum(s.status == "used" for s in campaign.screening)
     command = getattr(args, "command", "fit")
-    print(f"stickslip {command}: fitting {n} records (objective {objective}, model "
+    loss = "" if args.loss == "gaussian" else f", loss {args.loss}"
+    print(f"stickslip {command}: fitting {n} records (objective {objective}{loss}, model "
           f"{args.model})...", file=sys.stderr, flush=True)
 
 
@@ -173,7 +191,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     `records` lists every record given, in order: the used ones with their fitted gauge
     offset, the others with `status` and `reason` (`stickslip_fitting.campaign`);
     `steady_records` compares records without stick-slip with the fitted boundary."""
-    from ..campaign import Campaign, boundary_check
+    from ..campaign import Campaign, boundary_check, find_truth
 
     if not isinstance(campaign, Campaign):  # a plain list of records: all used
         from ..campaign import screen_records
@@ -184,6 +202,8 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     params = {e.name: e.to_json() for e in unc.estimates(truth)}
     from ..combined import FeaturesObjective
     from ..fit import compiled
+    from ..adequacy import adequacy
+    from ..losses import loss_of
     from ..objectives import feature_residuals
 
     res = compiled(feature_residuals, fit.params, fit.data, fit.slip_time)
@@ -203,6 +223,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
         "reduced_chi2": fit.reduced_chi2,
         "converged": fit.converged,
         "objective": fit.objective.describe(),
+        "loss": loss_of(fit.objective).spec(),
         "slip_time": fit.slip_time,
         "covariance": unc.covariance,
         "covariance_scale": unc.scale,
@@ -215,6 +236,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
             "warnings": list(unc.warnings) + _fixed_misfit(fit, unc),
         },
         "truth_available": truth is not None,
+        "adequacy": adequacy(fit).to_json(),
     }
     td = fit.objective.trace_data()
     if td is not None:
@@ -305,6 +327,11 @@ def format_table(report) -> str:
             + (f"; {report['trace_windows_after_reslip']} cycles after a re-slip left out"
                " of the trace (features only)" if report["trace_windows_after_reslip"] else "")
         )
+    if report.get("loss", "gaussian") != "gaussian":
+        lines.append(f"likelihood: {report['loss']} loss (heavy-tailed; the intervals are "
+                     f"the M-estimator's sandwich, covariance {report['covariance']})")
+    for sentence in report.get("adequacy", {}).get("sentences", []):
+        lines.append("adequacy: " + sentence)
     for w in report["identifiability"]["warnings"]:
         lines.append("warning: " + w)
     for r in report["records"]:

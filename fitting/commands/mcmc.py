@@ -109,18 +109,23 @@ def run(args) -> int:
     if extra:
         g = extra["given"]
         print(f"given: eta = {g['eta']['value']:.4g} {g['eta']['unit']}, surface {g['surface']}")
-    print(f"likelihood: {args.objective} objective, chi2 divided by "
+    loss = "" if args.loss == "gaussian" else f" under the {args.loss} loss"
+    print(f"likelihood: {args.objective} objective{loss}, chi2 divided by "
           f"{res.likelihood_scale:.3g}")
     print(f"{res.walkers} walkers x {res.steps} steps (burn-in {res.burn}); "
           f"acceptance {res.acceptance:.2f}")
     for w in res.warnings:
         print("warning: " + w)
     if args.json:
+        from ..losses import loss_of
+
         # the fit's row keys (value = median, stderr = sd, ci95, truth_in_ci95, ...) and the
         # sampler's own (median, mean, sd, tau_steps, ess)
         out = {"model": args.model, "parameters": {
             e.name: {**e.to_json(), **summary[e.name]} for e in res.estimates(truth)},
-            "prior": res.prior, "objective": args.objective, "interrupted": res.interrupted,
+            "prior": res.prior, "objective": args.objective,
+            "loss": loss_of(fit.objective).spec(),
+            "interrupted": res.interrupted,
             "likelihood_scale": res.likelihood_scale, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
             "acceptance": res.acceptance, "warnings": res.warnings,
             "records": [f.name for f in fit.features],
