@@ -103,13 +103,18 @@ def _join_negative_values(argv: list[str]) -> list[str]:
     return out
 
 
-def main(argv=None) -> int:
+def main(argv=None, *, prepare=None) -> int:
+    """Parse `argv` and run the command; `prepare()`, if given, runs once the arguments
+    are parsed and a command will run (`console_main`: JAX's compilation cache), so
+    `--help` and usage errors never import JAX."""
     parser = build_parser()
     argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
     args = parser.parse_args(argv)
     if not getattr(args, "run_command", None):
         parser.print_help()
         return 2
+    if prepare is not None:
+        prepare()
     from .output import json_owns_stdout
 
     try:
@@ -147,6 +152,21 @@ def compilation_cache_dir() -> str | None:
     return path or None
 
 
+def _persistent_cache() -> None:
+    """JAX's persistent compilation cache in `compilation_cache_dir()` (if on)."""
+    path = compilation_cache_dir()
+    if path:
+        import jax
+        from jax.experimental.compilation_cache import compilation_cache
+
+        jax.config.update("jax_compilation_cache_dir", path)
+        if "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
+            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+        # an import may already have compiled (and so settled the cache without a
+        # directory): start it again with the directory
+        compilation_cache.reset_cache()
+
+
 def console_main() -> int:
     """Entry point of the `stickslip` command: `main` with JAX's persistent compilation
     cache on, so a later run on a campaign of the same layout (records, cycles and
@@ -156,19 +176,8 @@ def console_main() -> int:
     # the command writes figures to files: a non-interactive backend unless the user
     # chose one (library plotting functions never switch it themselves)
     os.environ.setdefault("MPLBACKEND", "Agg")
-    path = compilation_cache_dir()
-    if path:
-        import jax
-        from jax.experimental.compilation_cache import compilation_cache
-
-        jax.config.update("jax_compilation_cache_dir", path)
-        if "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
-            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
-        # importing the package may already have compiled (and so settled the cache
-        # without a directory): start it again with the directory
-        compilation_cache.reset_cache()
     try:
-        return main()
+        return main(prepare=_persistent_cache)
     except KeyboardInterrupt:  # before a subcommand started (imports, parsing)
         print("stickslip: interrupted", file=sys.stderr)
         return 130

@@ -36,7 +36,7 @@ DEPRECATED = {
     ("pitch", "--offset"): "--drive-offset",
     ("design", "--out"): "--plot",
     ("plot", "--out"): "--plot",
-    ("mcmc", "--no-progress"): "--quiet",
+    ("mcmc", "--no-progress"): None,  # hid the bar only; --quiet hides the lines too
     ("design", "--progress"): None,  # the old opt-in bar; now on by default on a terminal
 }
 """Old option names still accepted but hidden from --help: (command, old) -> new name
@@ -186,15 +186,16 @@ def test_old_figure_names_still_work():
 @pytest.mark.parametrize("name", sorted(COMMANDS))
 def test_quiet_option(name):
     has = "--quiet" in _visible(name)
-    assert has == (name in PROGRESS_COMMANDS), f"{name}: --quiet {'unexpected' if has else 'missing'}"
+    assert has == (name in PROGRESS_COMMANDS), \
+        f"{name}: --quiet {'unexpected' if has else 'missing'}"
     if has:
         assert _parse(name).quiet is False and _parse(name, "--quiet").quiet is True
         assert _parse(name, "-q").quiet is True
 
 
 def test_old_progress_flags_still_work():
-    assert _parse("mcmc", "--no-progress").quiet is True
-    assert _parse("mcmc").quiet is False
+    assert _parse("mcmc", "--no-progress").no_progress is True
+    assert _parse("mcmc").no_progress is False and _parse("mcmc").quiet is False
     assert _parse("design", "--progress").progress is True
 
 
@@ -273,3 +274,64 @@ def test_quiet_silences_progress(capsys):
     assert "choosing 1 of" in capsys.readouterr().err
     assert main(["plan", "A", "--budget", "1", "--quiet"]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_discover_effect_choices_match_the_discovery_code():
+    """`discover --only` lists its choices without importing the discovery code."""
+    from stickslip_fitting.commands.discover import EFFECTS
+    from stickslip_fitting.discovery.cycle_effects import FAMILIES
+    from stickslip_fitting.discovery.effects import CANDIDATES
+
+    assert EFFECTS == tuple(dict.fromkeys((*CANDIDATES, *(f.name for f in FAMILIES))))
+
+
+_HELP_EVERYWHERE = """
+import json, sys, time
+from stickslip_jax.cli import main
+times = {}
+for name in sys.argv[1:]:
+    t0 = time.perf_counter()
+    try:
+        main([name, "--help"])
+    except SystemExit:
+        pass
+    times[name] = time.perf_counter() - t0
+heavy = sorted(m for m in ("jax", "jaxlib", "equinox", "pint", "matplotlib", "scipy")
+               if m in sys.modules)
+print(json.dumps({"times": times, "heavy": heavy}))
+"""
+
+
+def test_help_is_built_without_jax():
+    """`stickslip SUB --help` imports neither JAX nor the model code (issue 20: the parser
+    took 2-3 s because JAX was imported to build it)."""
+    import subprocess
+    import sys
+    import time
+
+    t0 = time.perf_counter()
+    run = subprocess.run([sys.executable, "-c", _HELP_EVERYWHERE, *sorted(COMMANDS)],
+                         capture_output=True, text=True, timeout=120)
+    wall = time.perf_counter() - t0
+    assert run.returncode == 0, run.stderr
+    doc = json.loads(run.stdout.strip().splitlines()[-1])
+    assert doc["heavy"] == [], doc["heavy"]
+    # the first help includes the imports of the package and every command module
+    assert max(doc["times"].values()) < 1.0, doc["times"]
+    assert wall < 5.0, wall
+
+
+@pytest.mark.parametrize("jax_first", [False, True])
+def test_importing_the_package_still_enables_x64(jax_first):
+    """The package imports its names on first use; x64 is on whether JAX comes before
+    the package or after it."""
+    import subprocess
+    import sys
+
+    code = ("import jax; " if jax_first else "") + (
+        "import stickslip_jax as ss, jax.numpy as jnp; "
+        "print(jnp.zeros(1).dtype, type(ss.lubricant('A')).__name__, ss.simulation.__name__)")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["float64", "Friction", "stickslip_jax.simulation"]

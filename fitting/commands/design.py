@@ -7,9 +7,6 @@ from pathlib import Path
 
 import numpy as np
 
-from stickslip_jax.lubricants import lubricant, lubricants
-from stickslip_jax.units import UnitError, parse_quantity
-
 NAME = "design"
 HELP = ("design map of stick-slip amplitude and critical speed over grids of W, k, v "
         "(steady analysis, or the exact simulator with --exact; a posterior with --posterior)")
@@ -21,6 +18,8 @@ DIMENSIONS = {"weight": ("force", "kgf"), "stiffness": ("stiffness", "kgf/mm"),
 def parse_grid(text: str, dimension: str, default_unit: str, arg: str) -> np.ndarray:
     """``"36"``, ``"10:60:50"``, ``"0.01:50:30:log"``, each optionally followed by a unit
     (``"0.5:20:10 um/s"``) -> 1-D array in internal units (linear or log spacing)."""
+    from stickslip_jax.units import UnitError, parse_quantity
+
     text = str(text).strip()
     parts = text.split(None, 1)
     spec, unit = parts[0], (parts[1] if len(parts) > 1 else default_unit)
@@ -98,6 +97,8 @@ def _axes(args):
 
 def compute(args):
     """The map as a dict of NumPy arrays (internal units) plus its axes."""
+    from stickslip_jax.lubricants import lubricant, lubricants
+
     from ..design import design_map, load_samples, outer, propagate
 
     if args.lubricant not in lubricants(args.table):

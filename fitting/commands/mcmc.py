@@ -13,6 +13,8 @@ and `stickslip plan OUT` read.
 
 from __future__ import annotations
 
+import argparse
+
 
 NAME = "mcmc"
 HELP = "sample the posterior of the friction parameters (emcee) for a campaign of records"
@@ -51,7 +53,9 @@ def add_arguments(parser):
     parser.add_argument("--draws", type=int, default=2000,
                         help="at most this many draws in --json (evenly thinned; default 2000)")
     add_plot_option(parser, "the corner plot of the posterior", aliases=("--corner",))
-    add_quiet_option(parser, hidden=("--no-progress",))
+    add_quiet_option(parser)
+    # the old opt-out of the bar alone (the stage lines stay): hidden, --quiet is the flag
+    parser.add_argument("--no-progress", action="store_true", help=argparse.SUPPRESS)
 
 
 def thinned_draws(samples, max_draws: int):
@@ -90,7 +94,7 @@ def run(args) -> int:
         print(f"sampling: {args.walkers} walkers x {args.steps} steps (Ctrl-C stops and keeps "
               "the chain so far)", file=sys.stderr, flush=True)
     res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
-                   progress=not args.quiet)
+                   progress=not (args.quiet or args.no_progress))
     summary = res.summary()
     units = res.units
     truth = find_truth(records, list(fit.values))

@@ -20,17 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from stickslip_jax import pitching as pt
 from stickslip_jax.commands._args import (
     add_json_option,
     add_plot_option,
     quantity,
     viscosity,
 )
-from stickslip_jax.records import read_record
-from stickslip_jax.units import from_internal
-
-from ..pitch_fit import fit_pitching, pitch_run
 
 NAME = "pitch"
 HELP = "pitching/yawing (chapter 6) of the slider from records: tilt, its variation, fit"
@@ -69,11 +64,18 @@ def _per_record(values, n, flag):
 
 
 def _um(x):
+    from stickslip_jax.units import from_internal
+
     return float(from_internal(float(x), "um", "length"))
 
 
 def run(args) -> int:
+    from stickslip_jax import pitching as pt
     from stickslip_jax.output import check_outputs, versioned, write_json
+    from stickslip_jax.records import read_record
+    from stickslip_jax.units import from_internal
+
+    from ..pitch_fit import fit_pitching, pitch_run
 
     paths = [Path(p) for p in args.records]
     for p in paths:

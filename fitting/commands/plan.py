@@ -8,8 +8,6 @@ from pathlib import Path
 
 import numpy as np
 
-from stickslip_jax.lubricants import lubricant, lubricants
-
 from .design import parse_grid
 
 NAME = "plan"
@@ -100,6 +98,8 @@ def _sd_vector(sd, params, source):
 
 def read_sources(args):
     """(estimate u, prior sd of u, existing Campaign or None, description)."""
+    from stickslip_jax.lubricants import lubricant, lubricants
+
     from ..design import PARAMETERS, Campaign, load_samples, log_params
     from ..design.posterior import check_domain, summary_from_json
 

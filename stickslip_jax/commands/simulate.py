@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..drives import ConstantSpeed, SpeedProgram
-from ..lubricants import lubricant, lubricants
-from ..slideway import Slideway
 from ._args import quantity
 
 NAME = "simulate"
@@ -40,8 +37,11 @@ def add_arguments(p):
 
 
 def run(args) -> int:
-    from ..records import parse_drive_program, write_record
+    from ..drives import ConstantSpeed, SpeedProgram
+    from ..lubricants import lubricant, lubricants
     from ..output import check_outputs
+    from ..records import parse_drive_program, write_record
+    from ..slideway import Slideway
 
     check_outputs({"--out": args.out})
     if not 0 <= args.seed < 2**63:

@@ -2,12 +2,6 @@
 
 from __future__ import annotations
 
-
-import jax.numpy as jnp
-
-from ..lubricants import lubricant, lubricants
-from ..steady import REGIMES, RESTICK_FAILURE, steady_map
-from ..units import mm_per_min
 from ._args import add_json_option, quantity
 
 NAME = "steady"
@@ -41,7 +35,12 @@ COLUMNS = (
 
 
 def run(args) -> int:
+    import jax.numpy as jnp
+
+    from ..lubricants import lubricant, lubricants
     from ..output import check_outputs
+    from ..steady import REGIMES, RESTICK_FAILURE, steady_map
+    from ..units import mm_per_min
 
     check_outputs({"--json": args.json})
     if args.lubricant not in lubricants(args.table):
