@@ -25,10 +25,15 @@ slip shape the model lacks (damping, Stribeck, sensor dynamics: `stickslip disco
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
-__all__ = ["Adequacy", "BAD", "GOOD", "PhaseRow", "adequacy"]
+__all__ = ["Adequacy", "BAD", "GOOD", "PhaseRow", "TAIL_RATIO", "adequacy"]
+
+TAIL_RATIO = 2.0
+"""Root mean square over normalised median absolute deviation above which a phase's
+residuals are called heavy-tailed (1 for Gaussian residuals; at least 8 residuals)."""
 
 GOOD = 2.0
 """chi2/n up to this: the model describes the phase to the record's noise."""
@@ -58,6 +63,10 @@ class PhaseRow:
     phase: str
     n: int
     chi2_per_n: float
+    heavy_tailed: bool = False
+    """The residuals' root mean square is more than `TAIL_RATIO` times their normalised
+    median absolute deviation: a few residuals far out (irregular slips), not a
+    systematic misfit of every cycle."""
 
     def to_json(self) -> dict:
         return dataclasses.asdict(self)
@@ -96,8 +105,11 @@ def _features_rows(fit, names, scale) -> list[PhaseRow]:
         for block, label in phase.items():
             sel = recs[block] == i
             if sel.any():
-                chi = float(np.mean(parts[block][sel] ** 2)) * scale[i] ** 2
-                rows.append(PhaseRow(name, label, int(sel.sum()), chi))
+                x = parts[block][sel]
+                chi = float(np.mean(x**2)) * scale[i] ** 2
+                mad = 1.4826 * float(np.median(np.abs(x - np.median(x))))
+                heavy = x.size >= 8 and math.sqrt(float(np.mean(x**2))) > TAIL_RATIO * mad
+                rows.append(PhaseRow(name, label, int(sel.sum()), chi, bool(heavy)))
     return rows
 
 
@@ -159,9 +171,11 @@ def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
                 out.append(f"{phase.replace('_', ' ')}: chi2/n above {BAD:g} in {len(hit)} "
                            f"record(s), worst {worst.record} ({worst.chi2_per_n:.3g}): "
                            f"{PHASE_HINT[phase]}.")
-    if heavy_tailed is False and any(r.phase == "levels" for r in bad):
-        out.append("`--loss student-t` discounts irregular cycles instead of the whole "
-                   "record's weight.")
+    tails = sorted({r.record for r in bad if r.phase == "levels" and r.heavy_tailed})
+    if heavy_tailed is False and tails:
+        out.append(f"The levels of {', '.join(tails)} are heavy-tailed (a few cycles far "
+                   "out, irregular slips): `--loss student-t` discounts those cycles "
+                   "instead of the whole record's weight.")
     if marginal and not bad:
         out.append(f"The model describes the records nearly to their noise (chi2/n up to "
                    f"{max(r.chi2_per_n for r in marginal):.3g} in "

@@ -50,7 +50,27 @@ def test_scattered_record_is_named_with_its_phase(features):
     levels = {r.record: r.chi2_per_n for r in rep.rows if r.phase == "levels"}
     assert levels[f.name] > 50 and max(v for k, v in levels.items() if k != f.name) < BAD
     text = " ".join(rep.sentences)
-    assert f.name in text and "plateau levels" in text and "--loss student-t" in text
+    assert f.name in text and "plateau levels" in text
+    assert "--loss student-t" not in text  # a scatter of every cycle: not heavy-tailed
+
+
+def test_one_far_cycle_is_heavy_tailed_and_points_to_student_t(features):
+    from stickslip_fitting.fit import fit_features
+    from stickslip_fitting.losses import StudentT
+
+    i = max(range(len(features)), key=lambda i: np.size(features[i].peak))  # most cycles
+    f = features[i]
+    peak = np.array(f.peak, float)
+    peak[2] += 200 * float(f.peak_sd[2])
+    bad = list(features)
+    bad[i] = dataclasses.replace(f, peak=peak)
+    rep = adequacy(fit_features(bad))
+    row = [r for r in rep.rows if r.record == f.name and r.phase == "levels"][0]
+    assert row.heavy_tailed and rep.verdict == "misses"
+    assert "--loss student-t" in " ".join(rep.sentences)
+    # under that loss it is not suggested again
+    assert "--loss student-t" not in " ".join(adequacy(fit_features(bad, loss=StudentT()))
+                                               .sentences)
 
 
 def test_sentences_need_more_than_chance():
