@@ -268,6 +268,23 @@ SANDWICH_CHI2 = 4.0
 """Above this chi2/dof the features fit's intervals use the cluster-robust covariance."""
 
 
+NULL_SHARE = 1e-3
+"""A parameter whose unit vector has more than this squared share in the null space of
+the information (eigenvalues below `NULL_RCOND` times the largest) is not identifiable."""
+
+NULL_RCOND = 1e-10
+
+
+def _null_share(F) -> np.ndarray:
+    """Squared share of every coordinate in the null space of the information `F`."""
+    F = np.asarray(F)
+    if F.size == 0:
+        return np.zeros(0)
+    w, V = np.linalg.eigh(0.5 * (F + F.T))
+    null = w <= NULL_RCOND * max(float(w.max()), 0.0)
+    return np.sum(V[:, null] ** 2, axis=1)
+
+
 def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "auto",
             lag: int = 1, small_sample: str = "jackknife") -> Uncertainty:
     """Laplace covariance, intervals and identifiability report of a fit (module doc).
@@ -334,6 +351,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     if F.shape[0] > k:
         Foo, Ffo = F[k:, k:], F[:k, k:]
         Fff = Fff - Ffo @ np.linalg.pinv(Foo, hermitian=True) @ Ffo.T
+    null = _null_share(Fff)
     if covariance == "sandwich":  # the information the robust covariance implies
         Fff = np.linalg.pinv(cov[:k, :k], rcond=1e-13, hermitian=True)
     eig, vec = np.linalg.eigh(Fff / scale)
@@ -363,6 +381,18 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
                 f"{n}: not identifiable from this campaign (relative standard error "
                 f"{log_se[i]:.2g} > {max_relative_se}); its value is only a placeholder."
             )
+    # a parameter with a share in a direction the records do not see at all (a zero
+    # eigenvalue of the information: e.g. m = 0 makes mu_s and gamma one number) has no
+    # standard error, whatever the pseudo-inverse gives it
+    for j, a in enumerate(idx):
+        if identifiable[names[a]] and null[j] > NULL_SHARE:
+            identifiable[names[a]] = False
+            partners = [names[b] for jj, b in enumerate(idx) if b != a and null[jj] > NULL_SHARE]
+            warnings.append(
+                f"{names[a]}: the records do not determine it"
+                + (f" apart from {', '.join(partners)}" if partners else "")
+                + " (a direction of the parameters the residuals do not change along at "
+                "all); not identifiable.")
     # a parameter tied (|r| > 0.999) to one the campaign does not determine is not
     # determined either (the pseudo-inverse gives it the other's sliver of variance)
     for a in range(P):

@@ -74,3 +74,17 @@ def test_sandwich_recovers_the_covariance_of_least_squares(neighbours):
     else:
         assert np.all(np.abs(ratio[0] - 1) < 0.15), ratio
     assert np.diag(naive)[1] < 0.5 * np.diag(exact)[1]  # the case matters: F^-1 is far off
+
+
+def test_null_share_finds_parameters_in_an_unseen_direction():
+    """Information of three parameters where only a + b and c are seen: a and b each
+    have half their weight in the null direction, c none; a nearly singular matrix
+    (eigenvalue 1e-6 of 1) is not called null."""
+    from stickslip_fitting.uncertainty import NULL_SHARE, _null_share
+
+    J = np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 2.0], [1.0, 1.0, 0.0]])
+    share = _null_share(J.T @ J)
+    np.testing.assert_allclose(share, [0.5, 0.5, 0.0], atol=1e-12)
+    assert share[0] > NULL_SHARE and share[2] < NULL_SHARE
+    assert np.all(_null_share(np.diag([1.0, 1e-6, 0.5])) == 0.0)
+    assert _null_share(np.zeros((0, 0))).size == 0
