@@ -26,7 +26,9 @@ for the robust covariance), `robust` (True: samples of one stick phase share err
 the default covariance is the cluster sandwich), `describe()` and `kind` (the name on the
 command line and in JSON: "features", "trace", "both").
 `make_objective(kind, features, trace, weights=..., slip_time=...)` builds one by name;
-`CampaignObjective` is the old name of that factory.
+`CampaignObjective` is the old name of that factory. `slip_time` is a
+`stickslip_jax.modes.SlipTime` (its string works too: the field converts it once, when
+the objective is built).
 
 `residual_cycles(objective, features)` labels every residual with the stick phase
 whose samples it reads, (record, cycle $j$) = the stick after slip $j$ (and the slip
@@ -46,7 +48,9 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .objectives import SLIP_TIME_MODES, FeatureData, feature_residuals
+from stickslip_jax.modes import SlipTime
+
+from .objectives import FeatureData, feature_residuals
 from .trace_objective import TraceData, failed_windows, trace_residuals_and_flags
 
 __all__ = ["OBJECTIVES", "AbstractObjective", "CampaignObjective", "FeaturesObjective",
@@ -54,11 +58,6 @@ __all__ = ["OBJECTIVES", "AbstractObjective", "CampaignObjective", "FeaturesObje
 
 OBJECTIVES = ("features", "trace", "both")
 """Objective names of the command line (`--objective`)."""
-
-
-def _check_slip_time(slip_time):
-    if slip_time not in SLIP_TIME_MODES:
-        raise ValueError(f"slip_time must be one of {SLIP_TIME_MODES}, got {slip_time!r}")
 
 
 class AbstractObjective(eqx.Module):
@@ -121,12 +120,10 @@ class FeaturesObjective(AbstractObjective):
     """The cycle features: plateau levels and eq (6) per cycle (`stickslip_fitting.objectives`)."""
 
     features: FeatureData
-    slip_time: str = eqx.field(static=True, default="paper")
+    slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,
+                                    converter=SlipTime.parse)
     kind: ClassVar[str] = "features"
     robust: ClassVar[bool] = False
-
-    def __check_init__(self):
-        _check_slip_time(self.slip_time)
 
     def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
         r = feature_residuals(params, self.features, self.slip_time, weights_at=weights_at)
@@ -174,12 +171,10 @@ class TraceObjective(AbstractObjective):
     (`stickslip_fitting.trace_objective`)."""
 
     trace: TraceData
-    slip_time: str = eqx.field(static=True, default="paper")
+    slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,
+                                    converter=SlipTime.parse)
     kind: ClassVar[str] = "trace"
     robust: ClassVar[bool] = True
-
-    def __check_init__(self):
-        _check_slip_time(self.slip_time)
 
     def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
         r, ok, vel = trace_residuals_and_flags(params, self.trace, self.slip_time,
@@ -241,7 +236,7 @@ class WeightedSum(AbstractObjective):
         return "both" if kinds == ["features", "trace"] else "+".join(kinds)
 
     @property
-    def slip_time(self) -> str:
+    def slip_time(self) -> SlipTime:
         return self.terms[0].slip_time
 
     def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
@@ -296,7 +291,7 @@ class WeightedSum(AbstractObjective):
 
 def make_objective(kind: str, features: FeatureData, trace: TraceData | None = None, *,
                    weights: tuple[float, float] = (0.5, 0.5),
-                   slip_time: str = "paper") -> AbstractObjective:
+                   slip_time: SlipTime | str = SlipTime.PAPER) -> AbstractObjective:
     """The objective named `kind` ("features", "trace" or "both"; `OBJECTIVES`)."""
     if kind not in OBJECTIVES:
         raise ValueError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {kind!r}")
@@ -311,7 +306,8 @@ def make_objective(kind: str, features: FeatureData, trace: TraceData | None = N
 
 
 def CampaignObjective(features, trace=None, kind: str = "features", weight_features: float = 0.5,
-                      weight_trace: float = 0.5, slip_time: str = "paper") -> AbstractObjective:
+                      weight_trace: float = 0.5,
+                      slip_time: SlipTime | str = SlipTime.PAPER) -> AbstractObjective:
     """Old name of `make_objective` (kept for existing code)."""
     return make_objective(kind, features, trace, weights=(weight_features, weight_trace),
                           slip_time=slip_time)

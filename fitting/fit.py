@@ -43,6 +43,7 @@ import optimistix as optx
 import jax.flatten_util  # noqa: F401
 
 from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_decrease
+from stickslip_jax.modes import GaugeOffset, SlipTime
 
 from .combined import AbstractObjective, FeaturesObjective, make_objective
 from .losses import Gaussian, with_loss
@@ -64,7 +65,7 @@ class FitResult:
       data minus free parameters; `result`: optimistix result of the best start;
       `converged`: that result is successful; `n_starts`, `n_steps` (Levenberg-Marquardt
       steps of the best start, all reweighting rounds); `n_rounds` (reweighting rounds).
-    - `slip_time`: the $T_2$ mode of eq (3) used.
+    - `slip_time`: the $T_2$ mode of eq (3) used (`SlipTime`).
     - `objective`: the `stickslip_fitting.combined.AbstractObjective` minimised (features, trace
       or both); `trace_failures`: windows of the trace objective whose simulation did not
       succeed at the optimum (0 when all ran).
@@ -83,7 +84,7 @@ class FitResult:
     converged: bool
     n_starts: int
     n_steps: int
-    slip_time: str
+    slip_time: SlipTime
     start_chi2: np.ndarray
     objective: AbstractObjective | None = None
     trace_failures: int = 0
@@ -317,8 +318,8 @@ def fit_features(
     features: list[RecordFeatures],
     *,
     fixed: dict[str, float] | None = None,
-    offset: str = "zero",
-    slip_time: str = "paper",
+    offset: GaugeOffset | str = GaugeOffset.ZERO,
+    slip_time: SlipTime | str = SlipTime.PAPER,
     starts: list[EmpiricalFriction] | None = None,
     rtol: float = 1e-10,
     atol: float = 1e-10,
@@ -336,9 +337,11 @@ def fit_features(
     """Fit mu_s, mu_d, gamma, m, delta, n jointly to the cycle features of a campaign.
 
     - `fixed`: {name: value} held fixed (e.g. {"n": 1.0}).
-    - `offset`: "zero" (trust the gauge zero) or "start" (each record starts with the
-      spring relaxed: its first plateau gives the offset, fitted as a nuisance).
-    - `slip_time`: $T_2$ in eq (3), "paper" ($\\pi/\\omega_0$) or "self_consistent".
+    - `offset`: a `stickslip_jax.modes.GaugeOffset` or its value: "zero" (trust the gauge
+      zero) or "start" (each record starts with the spring relaxed: its first plateau
+      gives the offset, fitted as a nuisance).
+    - `slip_time`: $T_2$ in eq (3), a `SlipTime` or its value: "paper" ($\\pi/\\omega_0$)
+      or "self_consistent".
     - `starts`: starting `EmpiricalFriction`s (default `initial_guesses`).
     - `pad_cycles`: pad the cycle axis (campaigns of other lengths reuse the compilation).
     - `reslip`: model re-slips (`stickslip_fitting.objectives.feature_data`; None: detected).
@@ -354,14 +357,14 @@ def fit_features(
       `StudentT()`; None or `Gaussian()`: least squares). The Gaussian fit is the start,
       then the objective under the loss is fitted from it (`_robust_refit`).
     """
+    offset = GaugeOffset.parse(offset, "offset")
+    slip_time = SlipTime.parse(slip_time)
     if loss is not None and not isinstance(loss, Gaussian):
         kw = dict(fixed=fixed, offset=offset, slip_time=slip_time, starts=starts, rtol=rtol,
                   atol=atol, max_steps=max_steps, pad_cycles=pad_cycles, records=records,
                   weights=weights, pad_length=pad_length, pad_windows=pad_windows,
                   reslip=reslip)
         return _fit_heavy_tailed(features, loss, objective, kw)
-    if offset not in ("zero", "start"):
-        raise ValueError(f"--offset must be 'zero' or 'start', got {offset!r}")
     fixed = dict(fixed or {})
     if objective not in ("features", "trace", "both", "smooth"):
         raise ValueError(f"--objective must be features, trace, both or smooth, got "
@@ -428,10 +431,10 @@ def _fit_heavy_tailed(features, loss, objective: str, kw: dict) -> FitResult:
     feats = _rescaled(features, scale) if scaled else list(features)
     starts = kw["starts"]
     if starts is None:
-        data = feature_data(feats, offset_from_start=(kw["offset"] == "start"),
+        from_start = kw["offset"] == GaugeOffset.START
+        data = feature_data(feats, offset_from_start=from_start,
                             pad_cycles=kw["pad_cycles"], reslip=kw["reslip"])
-        starts = initial_guesses(feats, np.asarray(data.start_level) if kw["offset"] == "start"
-                                 else None)
+        starts = initial_guesses(feats, np.asarray(data.start_level) if from_start else None)
     problem = _features_problem(feats, dict(kw["fixed"] or {}), kw["offset"], kw["slip_time"],
                                 list(starts) + [gauss.params.friction], kw["pad_cycles"],
                                 kw["reslip"], loss=loss)
@@ -534,16 +537,16 @@ def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
                       reslip=None, loss=None) -> _FeaturesProblem:
     """Set up the features fit of `fit_features` (data, objective under `loss`, starts,
     spec)."""
-    data = feature_data(features, offset_from_start=(offset == "start"), pad_cycles=pad_cycles,
-                        reslip=reslip)
+    data = feature_data(features, offset_from_start=(offset == GaugeOffset.START),
+                        pad_cycles=pad_cycles, reslip=reslip)
     obj = with_loss(FeaturesObjective(data, slip_time), loss)
     R = data.n_records
-    offsets0 = (np.asarray(data.start_level) if offset == "start" else np.zeros(R))
+    offsets0 = (np.asarray(data.start_level) if offset == GaugeOffset.START else np.zeros(R))
     starts = initial_guesses(features, offsets0) if starts is None else list(starts)
     if fixed:
         starts = [s.with_fixed(fixed) for s in starts]
     params0 = [CampaignParams(s, jax.device_put(offsets0)) for s in starts]
-    spec = free_spec(params0[0], fixed=tuple(fixed), offsets=(offset == "start"))
+    spec = free_spec(params0[0], fixed=tuple(fixed), offsets=(offset == GaugeOffset.START))
     frees, statics = zip(*(eqx.partition(p, spec) for p in params0))
     return _FeaturesProblem(data, obj, _stack(frees), statics[0], spec, starts)
 

@@ -25,6 +25,7 @@ import numpy as np
 from stickslip_jax.contact import BoundaryContact, SurfacePair, surface_pair
 from stickslip_jax.contact.boundary import approach_for, film_from_mu_s, final_approach
 from stickslip_jax.tables import load_table
+from stickslip_jax.modes import GaugeOffset
 
 from .features import RecordFeatures
 from .fit import FitResult, mu_levels, fit_features
@@ -84,7 +85,7 @@ def microsqueeze_starts(
 def fit_microsqueeze(
     features: list[RecordFeatures], *, eta: float, pair: SurfacePair | str = "S1G1",
     contact: BoundaryContact | None = None, fixed: dict[str, float] | None = None,
-    offset: str = "zero", **kwargs,
+    offset: GaugeOffset | str = GaugeOffset.ZERO, **kwargs,
 ) -> FitResult:
     """Fit mu_s, mu_d, h_e (mm), Q (mm^4), delta, n to a campaign's cycle features.
 
@@ -96,8 +97,9 @@ def fit_microsqueeze(
         raise ValueError(f"--eta: the viscosity must be positive and finite, got {eta}")
     from .objectives import feature_data
 
+    offset = GaugeOffset.parse(offset, "offset")
     offsets0 = None
-    if offset == "start":
+    if offset == GaugeOffset.START:
         offsets0 = np.asarray(feature_data(features, offset_from_start=True).start_level)
     starts = microsqueeze_starts(features, eta=eta, pair=pair, contact=contact, offsets=offsets0)
     return fit_features(features, fixed=fixed, offset=offset, starts=starts, **kwargs)

@@ -36,6 +36,7 @@ from jaxtyping import Array, Bool, Float
 
 import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed
+from stickslip_jax.modes import SlipTime
 from stickslip_jax.simulation import simulate_smooth
 from stickslip_jax.simulation.trace import pad_series
 
@@ -111,7 +112,8 @@ class SmoothObjective(AbstractObjective):
     atol: float = eqx.field(static=True, default=1e-11)
     max_steps: int = eqx.field(static=True, default=16384)
     formulation: str = eqx.field(static=True, default="latch")
-    slip_time: str = eqx.field(static=True, default="paper")
+    slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,
+                                    converter=SlipTime.parse)
     kind: ClassVar[str] = "smooth"
     robust: ClassVar[bool] = True
 

@@ -20,6 +20,7 @@ import numpy as np
 
 import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed
+from stickslip_jax.modes import SlipTime
 from stickslip_jax.records import Record
 from stickslip_jax.simulation import pad_times, simulate_exact
 
@@ -77,7 +78,7 @@ def synthetic_campaign(
     seed: int = 0,
     lubricant: str = "A",
     from_rest: bool = False,
-    slip_time: str = "paper",
+    slip_time: SlipTime | str = SlipTime.PAPER,
     max_samples: int | None = None,
     pad_to: int = 0,
 ) -> list[Record]:
@@ -88,6 +89,7 @@ def synthetic_campaign(
     noise; `pad_to`: simulate on at least this many (padded) samples so that campaigns
     of other parameters reuse one compilation. Units: W kgf, k kgf/mm, speeds mm/s.
     """
+    slip_time = SlipTime.parse(slip_time)
     rng = np.random.default_rng(seed)
     plan = []
     for w, k in conditions:
@@ -107,7 +109,7 @@ def synthetic_campaign(
     f = lambda i: jnp.asarray([p[i] for p in plan])  # noqa: E731
     trace = _simulate_batch(friction, f(0), f(1), f(2), f(3), ts, mask, max_events, slip_time)
     truth = {"friction": truth_values(friction), "noise_mm": noise, "seed": seed,
-             "slip_time": slip_time, "simulator": "simulate_exact"}
+             "slip_time": slip_time.value, "simulator": "simulate_exact"}
     records = []
     for i, (w, k, v, _, n, _) in enumerate(plan):
         x = np.asarray(trace.deflection[i, :n]) + rng.normal(0.0, noise, n)

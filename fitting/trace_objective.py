@@ -52,6 +52,7 @@ from jaxtyping import Array, Bool, Float, Int
 
 import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed
+from stickslip_jax.modes import SlipTime
 from stickslip_jax.simulation import SimulationResult, simulate_exact
 
 from .features import RecordFeatures
@@ -189,7 +190,8 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     )
 
 
-def trace_simulation(params: CampaignParams, data: TraceData, slip_time: str = "paper"):
+def trace_simulation(params: CampaignParams, data: TraceData,
+                     slip_time: SlipTime | str = SlipTime.PAPER):
     """The exact simulator restarted in every window: a batched `Trace` [N, L] (deflection in mm,
     without the gauge offset)."""
     friction = params.friction.friction()
@@ -205,7 +207,8 @@ def trace_simulation(params: CampaignParams, data: TraceData, slip_time: str = "
                          data.start_level - offset, data.time, data.mask)
 
 
-def trace_residuals(params: CampaignParams, data: TraceData, slip_time: str = "paper",
+def trace_residuals(params: CampaignParams, data: TraceData,
+                    slip_time: SlipTime | str = SlipTime.PAPER,
                     weights_at: CampaignParams | None = None,
                     slider_velocity=None) -> Float[Array, " NL"]:
     """Whitened sample residuals $(x - c - x_\\mathrm{sim})/s$ (module doc), shape (N L,);
@@ -225,7 +228,8 @@ def trace_sd(params: CampaignParams, data: TraceData, slider_velocity) -> Float[
     return jnp.sqrt(data.sigma[:, None] ** 2 + (xdot * sd_b[:, None]) ** 2)
 
 
-def trace_residuals_and_flags(params: CampaignParams, data: TraceData, slip_time: str = "paper",
+def trace_residuals_and_flags(params: CampaignParams, data: TraceData,
+                              slip_time: SlipTime | str = SlipTime.PAPER,
                               weights_at: CampaignParams | None = None, slider_velocity=None):
     """`trace_residuals` and, from the same simulations, a bool per row (its simulation
     succeeded, `SimulationResult.successful`) and the simulated slider velocity [N, L] (mm/s).
@@ -262,7 +266,8 @@ def _window_ok(params, data, slip_time):
     return trace_simulation(params, data, slip_time).result == SimulationResult.successful
 
 
-def window_failures(params: CampaignParams, data: TraceData, slip_time: str = "paper") -> int:
+def window_failures(params: CampaignParams, data: TraceData,
+                    slip_time: SlipTime | str = SlipTime.PAPER) -> int:
     """Number of cycle windows with a row whose simulation did not report success (e.g. too
     many events)."""
     return failed_windows(np.asarray(_window_ok(params, data, slip_time)), data)

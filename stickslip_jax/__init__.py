@@ -32,6 +32,7 @@ _HOME = {
     "slip_time": "steady", "slip_trajectory": "steady", "steady_map": "steady",
     "steady_state": "steady",
     "Slideway": "slideway",
+    "GaugeOffset": "modes", "SlipTime": "modes",
     "load_table": "tables",
 }
 """Public name -> the module that defines it (imported on first use)."""
@@ -58,12 +59,14 @@ __all__ = [
     "AbstractStaticFriction",
     "DerjaguinStatic",
     "Friction",
+    "GaugeOffset",
     "HoweStatic",
     "KatoKinetic",
     "KatoStatic",
     "OkamuraStatic",
     "PowerLawStatic",
     "Slideway",
+    "SlipTime",
     "SteadyState",
     "critical_speed",
     "experimental_conditions",

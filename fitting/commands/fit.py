@@ -33,8 +33,7 @@ def add_arguments(parser):
     parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
                         help="static-friction law: eq (1) (default) or the microsqueeze law")
     add_gauge_offset_argument(parser)
-    parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper",
-                        help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
+    add_slip_time_argument(parser)
     parser.add_argument("--objective", choices=("features", "trace", "both", "smooth"),
                         default="features",
                         help="fit the cycle features (default, fast), every sample of the "
@@ -54,16 +53,27 @@ def add_arguments(parser):
     add_quiet_option(parser)
 
 
+def add_slip_time_argument(parser):
+    """--slip-time (`stickslip_jax.modes.SlipTime`'s values): shared by `fit` and `mcmc`."""
+    from stickslip_jax.modes import SlipTime
+
+    parser.add_argument("--slip-time", choices=SlipTime.choices(), default=SlipTime.PAPER.value,
+                        help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
+
+
 def add_gauge_offset_argument(parser):
-    """--gauge-offset (old name --offset, hidden): shared by `stickslip fit` and `mcmc`."""
+    """--gauge-offset (old name --offset, hidden; `stickslip_jax.modes.GaugeOffset`'s
+    values): shared by `stickslip fit` and `mcmc`."""
     import argparse
 
-    parser.add_argument("--gauge-offset", dest="offset", choices=("zero", "start"),
-                        default="zero",
+    from stickslip_jax.modes import GaugeOffset
+
+    parser.add_argument("--gauge-offset", dest="offset", choices=GaugeOffset.choices(),
+                        default=GaugeOffset.ZERO.value,
                         help="gauge offset: trust the zero (default), or read it from the first "
                         "sample of records that start with the spring relaxed")
     # the old name (`stickslip pitch --drive-offset` is a length: one name per concept)
-    parser.add_argument("--offset", dest="offset", choices=("zero", "start"),
+    parser.add_argument("--offset", dest="offset", choices=GaugeOffset.choices(),
                         default=argparse.SUPPRESS, help=argparse.SUPPRESS)
 
 
@@ -224,7 +234,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
         "converged": fit.converged,
         "objective": fit.objective.describe(),
         "loss": loss_of(fit.objective).spec(),
-        "slip_time": fit.slip_time,
+        "slip_time": str(fit.slip_time),
         "covariance": unc.covariance,
         "covariance_scale": unc.scale,
         "identifiability": {

@@ -29,11 +29,10 @@ def add_arguments(parser):
     parser.add_argument("--burn", type=int, default=None, help="steps discarded (default steps/4)")
     parser.add_argument("--seed", type=int, default=0,
                         help="random seed of the walkers' start and moves (0 to 2**32 - 1)")
-    from .fit import add_gauge_offset_argument
+    from .fit import add_gauge_offset_argument, add_slip_time_argument
 
     add_gauge_offset_argument(parser)
-    parser.add_argument("--slip-time", choices=("paper", "self_consistent"), default="paper",
-                        help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
+    add_slip_time_argument(parser)
     parser.add_argument("--objective", choices=("features", "trace", "both", "smooth"),
                         default="features",
                         help="the likelihood: the cycle features (default), every sample of "

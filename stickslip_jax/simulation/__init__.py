@@ -14,11 +14,12 @@ trace = simulate_exact(slideway, drive, ts)                        # eqx.filter_
 trace.deflection, trace.slider_velocity, trace.cycles.amplitude()
 ```
 
-- `simulate_exact(slideway, drive, ts, *, slip_time="paper"|"self_consistent",
+- `simulate_exact(slideway, drive, ts, *, slip_time=SlipTime.PAPER|SELF_CONSISTENT (or
+  "paper"|"self_consistent"; `stickslip_jax.modes.SlipTime`),
   initial_deflection=0.0, initial_stick_time=0.0, start_time=None, mask=None,
   max_events=64) -> Trace`: the paper's model solved event by event in closed form
   (exact.py).
-- `simulate_exact_campaign(slideway, drive, ts, record_index, *, slip_time="paper",
+- `simulate_exact_campaign(slideway, drive, ts, record_index, *, slip_time=SlipTime.PAPER,
   initial_deflection=0.0, initial_stick_time=0.0, max_events=64) -> Trace`: B records of
   different lengths without padding: `slideway`/`drive` batched over records (jax.vmap),
   `ts`/`record_index` the flat concatenated samples [N]; flat x(t), per-record cycles.
@@ -27,7 +28,7 @@ trace.deflection, trace.slider_velocity, trace.cycles.amplitude()
   mu_0, mu_m, restick_failed, valid; `.amplitude()`), `steady_sliding`, `result`
   (`SimulationResult`), `num_events`; `.limit_cycle(last=2)`.
 - `simulate_smooth(model, drive, ts, *, smoothing=1e-3, formulation="latch",
-  slip_time="paper", rtol=1e-8,
+  slip_time=SlipTime.PAPER, rtol=1e-8,
   atol=1e-10, solver=None, max_steps=16384, initial_deflection=0.0,
   initial_stick_time=0.0, mask=None, adjoint=None, dt0=None) -> Trace`: the same physics
   as one smooth ODE in diffrax (smooth.py; formulations "latch" (default, not stiff, Tsit5),
@@ -45,6 +46,7 @@ trace.deflection, trace.slider_velocity, trace.cycles.amplitude()
   lengths.
 """
 
+from ..modes import SlipTime
 from .exact import SLIP_TIME_MODES, simulate_exact, simulate_exact_campaign
 from .parts import (
     AbstractForceTerm,
@@ -78,6 +80,7 @@ __all__ = [
     "simulate_smooth",
     "synthetic_record",
     "SLIP_TIME_MODES",
+    "SlipTime",
     "SimulationResult",
     "Trace",
     "pad_times",

@@ -21,8 +21,9 @@ displacement, both mm). Two phases alternate:
   exactly $x_1 = 2c - x_2$ (so eq (5) holds for every cycle at constant speed).
   A knot of the drive inside a slip is an event: the closed form restarts there.
 
-The $T_2$ in eq (3) is either `slip_time="paper"`: $\pi/\omega_0$ (eq 7), or
-`"self_consistent"`: the actual slip duration (a scalar root solve; with a speed
+The $T_2$ in eq (3) is a `stickslip_jax.modes.SlipTime` (its string works too):
+`SlipTime.PAPER` ("paper"): $\pi/\omega_0$ (eq 7), or `SlipTime.SELF_CONSISTENT`
+("self_consistent"): the actual slip duration (a scalar root solve; with a speed
 change inside the slip the duration is predicted at the speed at breakaway).
 
 If a slip ends with $k x_1 > \mu_0(0) W$ the slider cannot stick: the next stick lasts
@@ -54,10 +55,12 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ..drives import AbstractDrive
+from ..modes import SlipTime
 from ..slideway import Slideway
 from .trace import Cycles, SimulationResult, Trace
 
-SLIP_TIME_MODES = ("paper", "self_consistent")
+SLIP_TIME_MODES = SlipTime.choices()
+"""The values of `SlipTime` (kept for callers that list the choices)."""
 _TWO_PI = 2.0 * jnp.pi
 
 
@@ -211,7 +214,7 @@ def simulate_exact(
     drive: AbstractDrive,
     ts: Float[ArrayLike, " N"],
     *,
-    slip_time: str = "paper",
+    slip_time: SlipTime | str = SlipTime.PAPER,
     initial_deflection: Float[ArrayLike, ""] = 0.0,
     initial_stick_time: Float[ArrayLike, ""] = 0.0,
     start_time: Float[ArrayLike, ""] | None = None,
@@ -225,7 +228,8 @@ def simulate_exact(
     - `drive`: any `AbstractDrive` (u(t) in mm, piecewise linear).
     - `ts` (s): sample times, non-decreasing (checked); the simulation runs from `start_time`
       (default `ts[0]`) to `max(ts)`.
-    - `slip_time`: "paper" ($T_2 = \pi/\omega_0$ in eq 3, eq 7) or "self_consistent".
+    - `slip_time`: a `SlipTime` or its value, "paper" ($T_2 = \pi/\omega_0$ in eq 3,
+      eq 7) or "self_consistent".
     - `initial_deflection` (mm) and `initial_stick_time` (s): the slider starts at rest,
       having stuck for `initial_stick_time` already.
     - `mask`: optional bool array like `ts` (False on padding), copied into the trace.
@@ -242,7 +246,7 @@ def simulate_exact(
     (see `pad_times`), differentiable between bifurcations. For a campaign of records
     of different lengths `simulate_exact_campaign` avoids rendering padding.
     """
-    _check_arguments(slideway, drive, slip_time, max_events)
+    slip_time = _check_arguments(slideway, drive, slip_time, max_events)
     ts = jnp.asarray(ts, dtype=float)
     if ts.ndim != 1 or ts.shape[0] < 1:
         raise ValueError("ts must be a non-empty 1-D array of times (s); vmap for batches")
@@ -265,15 +269,15 @@ def simulate_exact(
     )
 
 
-def _check_arguments(slideway, drive, slip_time, max_events):
+def _check_arguments(slideway, drive, slip_time, max_events) -> SlipTime:
+    """Check the arguments; return `slip_time` as a `SlipTime`."""
     if not isinstance(slideway, Slideway):
         raise ValueError(f"slideway must be a Slideway, got {type(slideway)}")
     if not isinstance(drive, AbstractDrive):
         raise ValueError(f"drive must be an AbstractDrive, got {type(drive)}")
-    if slip_time not in SLIP_TIME_MODES:
-        raise ValueError(f"slip_time must be one of {SLIP_TIME_MODES}, got {slip_time!r}")
     if not isinstance(max_events, int) or max_events < 2:
         raise ValueError("max_events must be a Python int >= 2")
+    return SlipTime.parse(slip_time)
 
 
 class _Events(eqx.Module):
@@ -317,7 +321,7 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         return jax.jvp(static, (T,), (jnp.ones_like(T),))
 
     def model_t2(x_b, v_b, mu0, active):
-        if slip_time == "paper":
+        if slip_time == SlipTime.PAPER:
             return jnp.pi / omega
 
         p = (x_b, v_b, mu0, friction, W, k, omega)
@@ -535,7 +539,7 @@ def simulate_exact_campaign(
     ts: Float[ArrayLike, " N"],
     record_index: ArrayLike,
     *,
-    slip_time: str = "paper",
+    slip_time: SlipTime | str = SlipTime.PAPER,
     initial_deflection: Float[ArrayLike, "..."] = 0.0,
     initial_stick_time: Float[ArrayLike, "..."] = 0.0,
     max_events: int = 64,
@@ -566,7 +570,7 @@ def simulate_exact_campaign(
     `steady_sliding`, `result` and `num_events` ([B]) are per record. jit-compatible:
     compiles once per (B, N, max_events); differentiable like `simulate_exact`.
     """
-    _check_arguments(slideway, drive, slip_time, max_events)
+    slip_time = _check_arguments(slideway, drive, slip_time, max_events)
     ts = jnp.asarray(ts, dtype=float)
     rec = jnp.asarray(record_index)
     if ts.ndim != 1 or ts.shape[0] < 1 or rec.shape != ts.shape:

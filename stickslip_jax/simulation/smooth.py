@@ -20,7 +20,8 @@ $$\dot\tau = \sigma - (1-\sigma)\,\tau/t_r,\qquad \dot q = \sigma\,(\mu_0(\tau) 
   constant mean kinetic friction $\mu_m N$ of eq (3), with the memory $q = \mu_0(T_1)$
   frozen ($\sigma = 0$), and $\tau$ decays to 0 (time constant $t_r = T_0/40$,
   $T_0 = \pi/\omega_0$) so that the next stick starts afresh.
-- $T_2$ in eq (3) is $\pi/\omega_0$ (eq 7, `slip_time="paper"`) or a given value in s.
+- $T_2$ in eq (3) is $\pi/\omega_0$ (eq 7, `slip_time=SlipTime.PAPER` or "paper") or a
+  given value in s.
 
 **Three formulations.** The default is `formulation="latch"` (below: not stiff, explicit
 solver, 10-15x the exact simulator's cost). The equations above are `formulation="velocity"`.
@@ -87,6 +88,7 @@ import optimistix as optx
 from jaxtyping import ArrayLike, Float
 
 from ..drives import AbstractDrive
+from ..modes import SlipTime
 from ..slideway import Slideway
 from ..units import G_MM_S2
 from .parts import (
@@ -256,7 +258,7 @@ def simulate_smooth(
     ts: Float[ArrayLike, " N"],
     *,
     smoothing: float = DEFAULT_SMOOTHING,
-    slip_time: str | float = "paper",
+    slip_time: SlipTime | str | float = SlipTime.PAPER,
     rtol: float = 1e-8,
     atol: float = 1e-10,
     solver: dfx.AbstractSolver | None = None,
@@ -276,7 +278,7 @@ def simulate_smooth(
     - `smoothing`: dimensionless $\eta$ (default `DEFAULT_SMOOTHING` = 1e-3; gradients are
       verified against finite differences: rigid stick at 1e-3 with rtol 1e-10, velocity
       for $\eta \ge$ 0.03 at rtol <= 1e-9, latch for 1e-4 ... 1e-2 at rtol <= 1e-9);
-      `slip_time`: "paper" or seconds.
+      `slip_time`: `SlipTime.PAPER` ("paper") or seconds.
     - `rtol`, `atol` (mm, mm/s), `solver` (default Kvaerno5; Tsit5 for "latch"),
       `max_steps`, `adjoint` (default `RecursiveCheckpointAdjoint`), `dt0` (s, default
       automatic).
@@ -297,9 +299,11 @@ def simulate_smooth(
         raise ValueError(f"model must be a SmoothModel or Slideway, got {type(model)}")
     if not isinstance(drive, AbstractDrive):
         raise ValueError(f"drive must be an AbstractDrive, got {type(drive)}")
-    if isinstance(slip_time, str) and slip_time != "paper":
-        raise ValueError('slip_time must be "paper" or a number of seconds '
-                         '(the smoothed simulator has no self-consistent mode)')
+    if isinstance(slip_time, str):
+        slip_time = SlipTime.parse(slip_time)
+        if slip_time != SlipTime.PAPER:
+            raise ValueError('slip_time must be "paper" or a number of seconds '
+                             '(the smoothed simulator has no self-consistent mode)')
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
     ts = jnp.asarray(ts, dtype=float)
@@ -319,7 +323,7 @@ def simulate_smooth(
     M = W / G_MM_S2
     omega = jnp.sqrt(G_MM_S2 * k / W)
     t0, t1 = ts[0], jnp.max(ts)
-    T2 = jnp.pi / omega if isinstance(slip_time, str) else jnp.asarray(slip_time, float)
+    T2 = jnp.pi / omega if isinstance(slip_time, SlipTime) else jnp.asarray(slip_time, float)
     t_r = jnp.pi / omega / 40.0
     t_r_latch = jnp.pi / omega / 20.0  # latch: tau resets by e^-20 or more in a slip
     t_reset = t_r / 10.0

@@ -15,6 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..drives import AbstractDrive, ConstantSpeed, SpeedProgram
+from ..modes import SlipTime
 from ..slideway import Slideway
 from .exact import simulate_exact
 from .smooth import simulate_smooth
@@ -75,11 +76,12 @@ def synthetic_record(
         if max_events is None:
             max_events = _event_budget(slideway, drive, duration)
         trace = _exact(slideway, drive, ts, max_events=max_events)
-        simulator = {"name": "exact", "slip_time": "paper", "max_events": max_events}
+        simulator = {"name": "exact", "slip_time": SlipTime.PAPER.value,
+                     "max_events": max_events}
     else:
         trace = _smooth(slideway, drive, ts, smoothing=jnp.asarray(smoothing), formulation="latch")
         simulator = {"name": "smooth", "formulation": "latch", "smoothing": float(smoothing),
-                     "slip_time": "paper"}
+                     "slip_time": SlipTime.PAPER.value}
     if not bool(trace.result == SimulationResult.successful):
         raise ValueError(f"simulation failed: {trace.result}")
     x = np.asarray(trace.deflection)

@@ -1,0 +1,76 @@
+r"""Mode options as small string-valued enums (no JAX import: the command parsers use them).
+
+A mode is a choice among a few named behaviours. Each is a `str`-valued `enum.Enum`, so
+the old string arguments keep working: `SlipTime("paper") is SlipTime.PAPER`,
+`SlipTime.PAPER == "paper"`, it hashes like its string (a jit cache or an equinox static
+field sees one value whichever form came in) and it prints, formats and JSON-encodes as
+its value. Functions validate a mode once where it enters (`SlipTime.parse(value)`, or
+`type=SlipTime` on the command line) and compare with the members inside.
+
+- `SlipTime`: the $T_2$ put into the mean kinetic friction, eq (3).
+- `GaugeOffset`: how the fits treat a record's gauge zero.
+
+```python
+SlipTime.parse("self_consistent")      # SlipTime.SELF_CONSISTENT
+SlipTime.parse("exact")                # ValueError: slip_time must be one of ...
+```
+"""
+
+from __future__ import annotations
+
+import enum
+import re
+
+__all__ = ["AbstractMode", "GaugeOffset", "SlipTime"]
+
+
+class AbstractMode(str, enum.Enum):
+    """Base of the string-valued modes: equal to, hashed, printed and formatted like its
+    value. Subclasses list the members."""
+
+    __hash__ = str.__hash__
+    __format__ = str.__format__
+
+    def __str__(self) -> str:
+        return self.value
+
+    @classmethod
+    def choices(cls) -> tuple[str, ...]:
+        """The values, in order (for `choices=` and error messages)."""
+        return tuple(m.value for m in cls)
+
+    @classmethod
+    def parse(cls, value, name: str | None = None):
+        """`value` (a member or its string) as a member; a ValueError naming the argument
+        (`name`, default the class name in snake case) and the choices otherwise."""
+        try:
+            return cls(value)
+        except ValueError:
+            name = name or re.sub(r"(?<!^)(?=[A-Z])", "_", cls.__name__).lower()
+            raise ValueError(f"{name} must be one of {cls.choices()}, got {value!r}") from None
+
+
+class SlipTime(AbstractMode):
+    r"""The slip time $T_2$ in eq (3), $\mu_m = \mu_d + (\mu_0 - \mu_d)(1 - e^{-\delta T_2^n})
+    /(\delta T_2^n)$ (units: s).
+
+    - `PAPER` ("paper"): $T_2 = \pi/\omega_0$, the paper's eq (7).
+    - `SELF_CONSISTENT` ("self_consistent"): the actual slip duration, which itself depends
+      on $\mu_m$ (a scalar root solve; only the exact simulator and the features
+      objective have it).
+    """
+
+    PAPER = "paper"
+    SELF_CONSISTENT = "self_consistent"
+
+
+class GaugeOffset(AbstractMode):
+    """How the fits treat a record's gauge zero (the deflection the gauge reads at rest).
+
+    - `ZERO` ("zero"): trust the gauge zero; no offset is fitted.
+    - `START` ("start"): each record starts with the spring relaxed; its first plateau
+      gives the offset, which is fitted as a nuisance parameter per record.
+    """
+
+    ZERO = "zero"
+    START = "start"
