@@ -5,12 +5,15 @@ Data flow, one way (each arrow a module boundary):
 
 1. records -> `campaign.load_campaign` (screening: used / set aside / no stick-slip)
    -> `features.record_features` (cycle extraction with quality flags);
-2. -> objective (`combined.AbstractObjective`): `objectives` (cycle features),
-   `trace_objective` (every sample, exact simulator restarted per cycle),
-   `smooth_objective` (whole records, smoothed simulator), `combined.WeightedSum`;
-3. -> solve: `fit.fit_features` / `fit.fit_records` (the one Levenberg-Marquardt of
-   `stickslip_jax.lsq`, with multi-start and reweighting; one result type `FitResult`
-   with a result code);
+2. -> objective (`solve.AbstractResiduals`; for campaigns `combined.AbstractObjective`):
+   `objectives` (cycle features), `trace_objective` (every sample, exact simulator
+   restarted per cycle), `smooth_objective` (whole records, smoothed simulator),
+   `combined.WeightedSum`; `pitch_fit.PitchObjective` (pitching channels) and
+   `design.experiment.SteadyObservables` (steady observables of a planned campaign);
+3. -> solve: `solve.least_squares(objective, params, free)` (the one Levenberg-Marquardt
+   of `stickslip_jax.lsq` over any parameter pytree); for campaigns `fit.fit_features` /
+   `fit.fit_records` / `fit.fit_objective` add multi-start and reweighting (one result
+   type `FitResult` with a result code);
 4. -> uncertainty: `uncertainty.laplace` (Fisher or cluster sandwich), or the
    posterior by `mcmc.run_mcmc` (emcee at the edge, on the same objective);
 5. -> report: `commands/` (argument parsing, tables, JSON); `plots` (figures).
@@ -20,7 +23,8 @@ Where new things go:
   (names, units, leaves, prior support; `from_log_values`, `with_values`, `physical`);
 - a new objective: a final subclass of `combined.AbstractObjective` in a module beside
   `trace_objective` / `smooth_objective`, with residuals of `params.CampaignParams`
-  whitened by their standard errors;
+  whitened by their standard errors (an objective over other parameters: a final
+  subclass of `solve.AbstractResiduals`, solved by `solve.least_squares`);
 - a new effect for discovery: a family in `discovery.cycle_effects` and its term in
   `discovery.cycle_model`;
 - a new subcommand: a module in `commands/` (NAME, HELP, add_arguments, run) and an
@@ -37,6 +41,7 @@ import stickslip_jax  # noqa: F401  (enables x64)
 
 __all__ = [
     "AbstractFrictionParams",
+    "AbstractResiduals",
     "Campaign",
     "CampaignParams",
     "EmpiricalFriction",
@@ -52,6 +57,7 @@ __all__ = [
     "fit_records",
     "free_spec",
     "laplace",
+    "least_squares",
     "load_campaign",
     "record_features",
     "run_mcmc",
@@ -67,6 +73,7 @@ _HOME = {
     "Uncertainty": "uncertainty", "laplace": "uncertainty",
     "McmcResult": "mcmc", "run_mcmc": "mcmc",
     "discover_cycles": "discovery.cycle_workflow",
+    "AbstractResiduals": "solve", "least_squares": "solve",
 }
 
 

@@ -16,7 +16,10 @@ likelihood up to a constant).
   of assuming it).
 
 Every objective offers the same interface, so the solver, the uncertainty, the sampler
-and the report never ask which one they have:
+and the report never ask which one they have. `AbstractObjective` extends the package's
+objective interface `stickslip_fitting.solve.AbstractResiduals` (`residuals(params)`,
+`blocks()`, `dof()`, `split(r)`; the pitching and steady-observables objectives are
+its other subclasses); the full interface:
 `residuals_and_aux(params, weights_at, slider_velocity)` (the effective-variance weights
 frozen at `weights_at`, the trace's slider velocity given; aux: the simulations' success
 flags and the slider velocity at `params`), `velocity_shape()` (None when no trace),
@@ -51,6 +54,7 @@ import numpy as np
 from stickslip_jax.modes import SlipTime
 
 from .objectives import FeatureData, feature_residuals
+from .solve import AbstractResiduals
 from .trace_objective import TraceData, failed_windows, trace_residuals_and_flags
 
 __all__ = ["OBJECTIVES", "AbstractObjective", "CampaignObjective", "FeaturesObjective",
@@ -60,8 +64,10 @@ OBJECTIVES = ("features", "trace", "both")
 """Objective names of the command line (`--objective`)."""
 
 
-class AbstractObjective(eqx.Module):
-    """What a fit minimises (module doc)."""
+class AbstractObjective(AbstractResiduals):
+    """What a campaign fit minimises (module doc): an `stickslip_fitting.solve.
+    AbstractResiduals` over `CampaignParams` with the flags, clusters and trace data the
+    campaign fit, its uncertainty and its report read."""
 
     kind: ClassVar[str]
     robust: ClassVar[bool]
@@ -73,14 +79,6 @@ class AbstractObjective(eqx.Module):
     @abc.abstractmethod
     def velocity_shape(self) -> tuple[int, ...] | None:
         """Shape of the slider velocity the residuals take (None: they take none)."""
-
-    @abc.abstractmethod
-    def dof(self) -> float:
-        """Weighted number of residuals that carry data."""
-
-    @abc.abstractmethod
-    def blocks(self) -> dict[str, int]:
-        """Named blocks of the residual vector and their lengths, in order."""
 
     @abc.abstractmethod
     def clusters(self, features) -> tuple[np.ndarray, np.ndarray]:
@@ -102,18 +100,6 @@ class AbstractObjective(eqx.Module):
     def residuals(self, params):
         """Whitened residuals (sum of squares = -2 log likelihood up to a constant)."""
         return self.residuals_and_aux(params)[0]
-
-    def split(self, r) -> dict[str, np.ndarray]:
-        """The residual vector `r` cut into its named `blocks()` (for reports: no hand
-        slicing by position)."""
-        r = np.asarray(r)
-        out, start = {}, 0
-        for name, n in self.blocks().items():
-            out[name] = r[start: start + n]
-            start += n
-        if start != r.size:
-            raise ValueError(f"residual vector of {r.size} entries, blocks of {start}")
-        return out
 
 
 class FeaturesObjective(AbstractObjective):

@@ -51,6 +51,7 @@ from .features import RecordFeatures, record_features
 from .objectives import FeatureData, feature_data, feature_residuals
 from .trace_objective import trace_data
 from .params import CampaignParams, EmpiricalFriction, free_spec
+from .solve import free_filter
 
 __all__ = ["FitResult", "fit_features", "fit_objective", "fit_records", "initial_guesses"]
 
@@ -583,11 +584,7 @@ def fit_objective(objective: AbstractObjective, params: CampaignParams, free, *,
     report; `fit_features` refines its features fit this way). Converged when the solver
     met its tolerances, or when a Gauss-Newton step would lower chi2 by less than 1e-3
     (stationarity in units of the noise) although the step budget ran out."""
-    if callable(free):
-        none = jax.tree_util.tree_map(lambda _: False, params)
-        spec = eqx.tree_at(free, none, replace_fn=lambda _: True)
-    else:
-        spec = free
+    spec = free_filter(params, free)
     part, static = eqx.partition(params, spec)
     values, chi2s, result, ok, steps, flags, _, rounds = _solve_rounds(
         _stack([part]), static, objective, rtol, atol, max_steps)

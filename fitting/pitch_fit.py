@@ -16,13 +16,18 @@ is seen), so the neutral point is fitted only when the records span at least two
 heights (two offsets for $l_{Mh}$); otherwise it stays at the template's value and is
 reported as fixed.
 
+The objective is `PitchObjective` (an `stickslip_fitting.solve.AbstractResiduals`): every
+observed channel sample of every record, padded records stacked into one batch, in
+units of the data's RMS (`scale`), over a `PitchParams` pytree.
+
 Procedure: (1) a deterministic start: for each time constant on a log grid the gains
 $g_r = c(h_r - h_{Mv})$ follow by linear least squares, and a straight line through
 $(h_r, g_r)$ gives $c$ (slope) and $h_{Mv}$ (zero crossing); the best grid point starts
-(2) Levenberg-Marquardt (optimistix) on all free parameters, jitted as a whole; (3) the
-Gauss-Newton covariance $s^2 (J^T J)^{-1}$ with $s^2$ = RSS/(N - p) (or the given noise),
-mapped to natural units; 95 % intervals are $\pm 1.96$ sd in the stored coordinates
-(so asymmetric for log-stored parameters).
+(2) Levenberg-Marquardt (`stickslip_fitting.solve.least_squares`, the project's one
+solver) on all free parameters, jitted as a whole; (3) the Gauss-Newton covariance
+$s^2 (J^T J)^{-1}$ (`stickslip_jax.lsq.gauss_newton_covariance`) with $s^2$ = RSS/(N - p)
+(or the given noise), mapped to natural units; 95 % intervals are $\pm 1.96$ sd in the
+stored coordinates (so asymmetric for log-stored parameters).
 """
 
 from __future__ import annotations
@@ -35,17 +40,18 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
-from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Bool, Float
 
-from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_covariance
+from stickslip_jax.lsq import gauss_newton_covariance
 
 from .report import ParameterEstimate
+from .solve import AbstractResiduals, jacobian, least_squares
 from stickslip_jax import pitching as pt
 from stickslip_jax.units import UnitError, parse_quantity
 
 __all__ = [
     "PitchFit",
+    "PitchObjective",
     "PitchParams",
     "PitchRun",
     "fit_pitching",
@@ -197,10 +203,27 @@ def _predict(model: pt.PitchingModel, batch: _Batch):
     return jax.vmap(one)(batch.time, batch.force, batch.height, batch.offset)
 
 
-def _residuals(free, static, template, batch: _Batch, scale):
-    model = eqx.combine(free, static).into(template)
-    r = jnp.where(batch.mask, _predict(model, batch) - batch.displacement, 0.0)
-    return r.ravel() / scale
+class PitchObjective(AbstractResiduals):
+    """The channel displacements of a batch of records against the pitching model with
+    `PitchParams` put into `template`; residuals (predicted - measured, 0 on padding and
+    unobserved channels) in units of `scale` (mm), record after record."""
+
+    template: pt.PitchingModel
+    batch: _Batch
+    scale: Float[Array, ""] | float = 1.0
+
+    def residuals(self, params: PitchParams) -> Float[Array, " N"]:
+        model = params.into(self.template)
+        b = self.batch
+        r = jnp.where(b.mask, _predict(model, b) - b.displacement, 0.0)
+        return r.ravel() / self.scale
+
+    def blocks(self) -> dict[str, int]:
+        n_runs, n, points = self.batch.displacement.shape
+        return {f"record {i}": n * points for i in range(n_runs)}
+
+    def dof(self) -> float:
+        return float(np.sum(np.asarray(self.batch.mask)))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -326,22 +349,21 @@ def fit_pitching(
                          "separated from the compliance")
     params = PitchParams(*(jnp.asarray(leaves[n], dtype=float) for n in NAMES))
     spec = PitchParams(*(free_flags[n] for n in NAMES))
-    free, static = eqx.partition(params, spec)
     free_names = tuple(n for n in NAMES if free_flags[n])
     if not free_names:
         raise ValueError("no record carries pitch_N or yaw_N channels; nothing to fit")
 
-    n_data = int(sum(int(np.asarray(r.observed).sum()) * r.time.shape[0] for r in runs))
-    batch = _stack(runs)
-    scale0 = jnp.asarray(_data_scale(runs))
-    sol = _solve(free, static, template, batch, scale0, rtol, atol, max_steps)
-    free_hat = sol.value
-    fitted = eqx.combine(free_hat, static)
-    res = np.asarray(_residuals_jit(free_hat, static, template, batch, jnp.asarray(1.0)))
+    objective = PitchObjective(template, _stack(runs), jnp.asarray(1.0))
+    n_data = int(objective.dof())
+    sol = least_squares(eqx.tree_at(lambda o: o.scale, objective,
+                                    jnp.asarray(_data_scale(runs))),
+                        params, spec, rtol=rtol, atol=atol, max_steps=max_steps)
+    fitted = sol.params
+    res = np.asarray(_residuals_jit(objective, fitted))
     rms = float(np.sqrt(np.sum(res**2) / n_data))
     dof = max(n_data - len(free_names), 1)
     sigma = float(np.sqrt(np.sum(res**2) / dof)) if noise is None else float(noise)
-    jac = np.asarray(_jacobian(free_hat, static, template, batch))
+    jac = np.asarray(jacobian(objective, fitted, spec))
     cov = gauss_newton_covariance(jac, sigma**2)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     stored = dict(zip(NAMES, fitted.leaves()))
@@ -381,24 +403,8 @@ def _data_scale(runs):
 
 
 @eqx.filter_jit
-def _solve(free, static, template, runs, scale, rtol, atol, max_steps):
-    solver = LevenbergMarquardt(rtol=rtol, atol=atol)
-    return optx.least_squares(
-        lambda f, _: _residuals(f, static, template, runs, scale),
-        solver, free, max_steps=max_steps, throw=False,
-    )
-
-
-@eqx.filter_jit
-def _residuals_jit(free, static, template, runs, scale):
-    return _residuals(free, static, template, runs, scale)
-
-
-@eqx.filter_jit
-def _jacobian(free, static, template, runs):
-    """Jacobian of the residuals (mm) against the free leaves, columns in field order."""
-    flat, unravel = ravel_pytree(free)
-    return jax.jacfwd(lambda x: _residuals(unravel(x), static, template, runs, 1.0))(flat)
+def _residuals_jit(objective, params):
+    return objective.residuals(params)
 
 
 _CHANNEL = re.compile(r"(pitch|yaw)_(\d+)$")

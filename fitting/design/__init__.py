@@ -8,8 +8,8 @@
 - `minimum_stiffness`, `maximum_weight`: inverse design by Newton through the steady
   analysis (`inverse`).
 - `fisher_information`, `greedy_design`: D-optimal choice of the next records,
-  `laplace_fit` and `sequential_campaign` to check a plan on synthetic data
-  (`experiment`).
+  `laplace_fit` (objective `SteadyObservables`) and `sequential_campaign` to check a
+  plan on synthetic data (`experiment`).
 
 `method="exact"` maps use `exact.exact_kernel` (the limit cycle of
 `stickslip_jax.simulation.simulate_exact`). Units: kgf, mm, s; speeds mm/s.
@@ -21,6 +21,8 @@ from .experiment import (
     LaplaceFit,
     Noise,
     Plan,
+    SteadyObservables,
+    TanhBounded,
     candidate_grid,
     even_design,
     fisher_information,
@@ -54,6 +56,8 @@ __all__ = [
     "LaplaceFit",
     "Noise",
     "Plan",
+    "SteadyObservables",
+    "TanhBounded",
     "candidate_grid",
     "even_design",
     "fisher_information",

@@ -18,8 +18,12 @@ information of a record is $J^T \Sigma^{-1} J$ with $J = \partial y / \partial u
 `jax.jacfwd` through the steady analysis (implicit function theorem of the eq (6) root
 find). `greedy_design` adds, one at a time, the candidate record that most increases
 $\log\det$ of the posterior precision (prior + records): greedy D-optimal design.
-`laplace_fit` fits the observables by Levenberg-Marquardt (optimistix) with a Gaussian
-prior in $u$ and returns the Laplace (Gauss-Newton) posterior covariance.
+`laplace_fit` fits the observables with a Gaussian prior in $u$ and returns the Laplace
+(Gauss-Newton) posterior covariance. Its objective is `SteadyObservables` (an
+`stickslip_fitting.solve.AbstractResiduals`: the whitened observables of every record,
+then the prior as residuals), searched through `TanhBounded` (a bounded coordinate
+around the prior mean) by `stickslip_fitting.solve.least_squares`, the project's one
+Levenberg-Marquardt.
 
 The design is local: the information is evaluated at an estimate of $u$, and the most
 informative records lie near the regime boundaries (v_c, resticking), where a rough
@@ -38,10 +42,10 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from stickslip_jax.lsq import LevenbergMarquardt
 from stickslip_jax import Friction, KatoKinetic, KatoStatic, steady_state
 from stickslip_jax.steady import STICK_SLIP
 
+from ..solve import AbstractResiduals, least_squares
 from .posterior import PARAMETERS, friction_params
 
 N_OBS = 4
@@ -233,6 +237,54 @@ def simulate_observations(u, campaign: Campaign, noise: Noise, key):
     return y + eps * mask, mask
 
 
+class SteadyObservables(AbstractResiduals):
+    r"""Observables `y` (N, 4) with their `mask` of the records of `campaign` against the
+    steady analysis at $u$ (`observables`), whitened by `noise`, then the Gaussian prior
+    $(u - \bar u)/\sigma_u$ as residuals (`prior_mean`, `prior_sd` in $u$)."""
+
+    y: Float[Array, "N 4"]
+    mask: Float[Array, "N 4"]
+    campaign: Campaign
+    noise: Noise
+    prior_mean: Float[Array, " 6"]
+    prior_sd: Float[Array, " 6"]
+
+    def residuals(self, u) -> Float[Array, " M"]:
+        c = self.campaign
+        pred, _m = jax.vmap(observables, in_axes=(None, 0, 0, 0))(
+            u, c.weight, c.stiffness, c.speed)
+        r = (pred - self.y) / self.noise.sigma() * self.mask
+        return jnp.concatenate([r.ravel(), (u - self.prior_mean) / self.prior_sd])
+
+    def blocks(self) -> dict[str, int]:
+        return {"observables": int(np.size(self.y)), "prior": int(np.size(self.prior_mean))}
+
+    def dof(self) -> float:
+        return float(np.sum(np.asarray(self.mask))) + float(np.size(self.prior_mean))
+
+
+class TanhBounded(AbstractResiduals):
+    r"""`inner` searched in $z$ with $u = c + L\tanh(z/L)$ (`centre` c, `bound` L): every
+    trial point of the solver stays within L of c (where, for the steady analysis, its
+    derivatives are finite). `to_params(z)` maps a solution back."""
+
+    inner: AbstractResiduals
+    centre: Float[Array, " P"]
+    bound: Float[Array, " P"]
+
+    def to_params(self, z):
+        return self.centre + self.bound * jnp.tanh(z / self.bound)
+
+    def residuals(self, z):
+        return self.inner.residuals(self.to_params(z))
+
+    def blocks(self) -> dict[str, int]:
+        return self.inner.blocks()
+
+    def dof(self) -> float:
+        return self.inner.dof()
+
+
 class LaplaceFit(eqx.Module):
     """Maximum a posteriori $u$ (`value`), its Laplace covariance and sd, and the result code."""
 
@@ -250,28 +302,15 @@ def laplace_fit(y, mask, campaign: Campaign, noise: Noise, prior_mean, prior_sd=
     Hessian at the optimum."""
     prior_mean = jnp.asarray(prior_mean, dtype=float)
     psd = jnp.broadcast_to(jnp.asarray(prior_sd, dtype=float), prior_mean.shape)
-    sigma = noise.sigma()
-
-    def residuals(u, _):
-        pred, _m = jax.vmap(observables, in_axes=(None, 0, 0, 0))(
-            u, campaign.weight, campaign.stiffness, campaign.speed)
-        r = (pred - y) / sigma * mask
-        return jnp.concatenate([r.ravel(), (u - prior_mean) / psd])
-
+    objective = SteadyObservables(y, mask, campaign, noise, prior_mean, psd)
     # The search runs in z with u = mean + L tanh(z / L): trial steps of the optimiser
     # stay within L = min(3 sd, 2) of the prior mean, where the steady analysis and
     # its derivatives are finite (far outside, e.g. m ~ 100, T1^m overflows).
-    bound = jnp.minimum(3.0 * psd, 2.0)
-
-    def to_u(z):
-        return prior_mean + bound * jnp.tanh(z / bound)
-
-    sol = optx.least_squares(lambda z, a: residuals(to_u(z), a),
-                             LevenbergMarquardt(rtol=1e-10, atol=1e-10),
-                             jnp.zeros_like(prior_mean), max_steps=max_steps, throw=False,
-                             options=dict(jac="bwd"))
-    u_hat = to_u(sol.value)
-    jac = jax.jacfwd(residuals)(u_hat, None)
+    bounded = TanhBounded(objective, prior_mean, jnp.minimum(3.0 * psd, 2.0))
+    sol = least_squares(bounded, jnp.zeros_like(prior_mean), rtol=1e-10, atol=1e-10,
+                        max_steps=max_steps, jac="bwd")
+    u_hat = bounded.to_params(sol.params)
+    jac = jax.jacfwd(objective.residuals)(u_hat)
     cov = jnp.linalg.inv(jac.T @ jac)
     return LaplaceFit(u_hat, cov, jnp.sqrt(jnp.diag(cov)), sol.result)
 
