@@ -261,19 +261,20 @@ def _settled_start(y: np.ndarray, lo: int, hi: int, sigma: float, block: int, re
 
 
 def _creep_end(t: np.ndarray, y: np.ndarray, lo: int, hi: int, sigma: float, block: int,
-               floor: float) -> int:
+               floor: float, keep: float = 2.0 / 3.0) -> int:
     """Last index (exclusive) of a stick before the slider starts to creep.
 
     Creep before breakaway moves the slider forward (y rises) while x is still far from
     its peak. Only when the last block of `block` samples lies more than 5 standard
-    errors above the line fitted to the stick's first two thirds (about 3e-7 false
-    alarms per stick) are blocks dropped from the end, half a block at a time, while
-    their mean lies more than 3 standard errors above that line; at most the last third
-    of the stick is dropped."""
+    errors above the line fitted to the stick's first `keep` (two thirds; about 3e-7
+    false alarms per stick) are blocks dropped from the end, half a block at a time,
+    while their mean lies more than 3 standard errors above that line; at most the rest
+    of the stick is dropped (a creep as long as the stick: `keep` 1/2 or 1/3, tried by
+    `extract_cycles` when the stick is not flat otherwise)."""
     count = hi - lo
     if count < 6 * block:
         return hi
-    ref = lo + (2 * count) // 3
+    ref = lo + int(keep * count)
     tm = float(np.mean(t[lo:ref]))
     slope, icpt = np.polyfit(t[lo:ref] - tm, y[lo:ref], 1)
     limit = max(3.0 * sigma / math.sqrt(block), floor)
@@ -334,6 +335,38 @@ def _plateau(t: np.ndarray, y: np.ndarray, lo: int, hi: int, sigma: float,
     return _Plateau(level, count, lo, hi, max(sigma, floor), flat)
 
 
+CREEP_SPEED = 0.5
+"""A stick whose slider creeps at more than this fraction of the drive speed is not a
+stick (`_creeping_plateau`)."""
+
+
+def _creeping_plateau(t: np.ndarray, y: np.ndarray, lo: int, hi: int, sigma: float,
+                      floor: float, speed: float) -> _Plateau | None:
+    """A stick the slider creeps through from its start (a creep time constant as long
+    as the stick: y rises nearly linearly), as a line: the level where the stick starts
+    (the slider's rest position after the slip) and the creep up to the stick's end.
+    Returned (flat) when y rises, slower than `CREEP_SPEED` times the drive, and the
+    samples scatter about the line within 3 sigma; None otherwise (a drive error whose
+    sign makes y fall, no stick at all)."""
+    if hi - lo < 8:
+        return None
+    ts, ys = t[lo:hi], y[lo:hi]
+    tm = float(np.mean(ts))
+    slope, icpt = np.polyfit(ts - tm, ys, 1)
+    resid = ys - (icpt + slope * (ts - tm))
+    spread = 1.4826 * float(np.median(np.abs(resid - np.median(resid))))
+    if not (0.0 < slope < CREEP_SPEED * speed and spread <= 3.0 * sigma + floor):
+        return None
+    n = hi - lo
+    sxx = float(np.sum((ts - tm) ** 2))
+    start = float(icpt + slope * (ts[0] - tm))
+    start_sd = sigma * math.sqrt(1.0 / n + (ts[0] - tm) ** 2 / sxx)
+    rise = float(slope * (ts[-1] - ts[0]))
+    level, count = start, max(1, int(round((sigma / max(start_sd, 1e-300)) ** 2)))
+    return _Plateau(level, count, lo, hi, max(sigma, floor), True, creep=rise,
+                    creep_sd=sigma * math.sqrt(1.0 / n + (ts[-1] - tm) ** 2 / sxx))
+
+
 def _drive_error(t: np.ndarray, u: np.ndarray, y: np.ndarray, plateaus, sigma: float,
                  min_pitch: float) -> tuple[np.ndarray | None, str | None]:
     r"""The drive's error e(t) (mm) estimated from the sticks, or (None, None).
@@ -361,7 +394,10 @@ def _drive_error(t: np.ndarray, u: np.ndarray, y: np.ndarray, plateaus, sigma: f
         scale = 1.0
     counts = np.bincount(grp).astype(float)
 
-    def within(col):  # remove each stick's mean (its level is free)
+    def within(col):  # remove each stick's mean (its level is free); 1-D or columns
+        col = np.asarray(col, float)
+        if col.ndim > 1:
+            return np.stack([within(c) for c in col.T], axis=1)
         return col - (np.bincount(grp, col) / counts)[grp]
 
     span = float(t[-1] - t[0]) or 1.0
@@ -380,12 +416,25 @@ def _drive_error(t: np.ndarray, u: np.ndarray, y: np.ndarray, plateaus, sigma: f
     travel = float(u[-1] - u[0])
     best = (rss_poly, None)
     if travel > 2.0 * min_pitch:
-        for pitch in np.geomspace(min_pitch, travel, 80):
-            q = 2.0 * np.pi * u / pitch
-            cols = np.column_stack([poly, np.sin(q), np.cos(q), np.sin(2 * q), np.cos(2 * q)])
-            r, _ = rss(cols)
-            if r < best[0]:
-                best = (r, pitch)
+        # all pitches at once, at the sampled sticks only: the screw columns with the
+        # stick means and the polynomial taken out, rss = |y_p|^2 - |Q^T y_p|^2 (Q: an
+        # orthonormal basis of those columns; the least squares of `rss` by projection)
+        Qp = np.linalg.qr(np.stack([within(c[idx]) for c in poly.T], axis=1))[0]
+        yp = yw - Qp @ (Qp.T @ yw)
+        pitches = np.geomspace(min_pitch, travel, 80)
+        q = (2.0 * np.pi / pitches)[:, None] * u[idx]
+        a = np.empty((pitches.size, 4, idx.size))
+        a[:, 0], a[:, 1] = np.sin(q), np.cos(q)
+        a[:, 2], a[:, 3] = 2.0 * a[:, 0] * a[:, 1], a[:, 1] ** 2 - a[:, 0] ** 2
+        cuts = np.flatnonzero(np.r_[True, np.diff(grp) != 0])  # grp is sorted
+        a -= np.repeat(np.add.reduceat(a, cuts, axis=2) / np.diff(np.r_[cuts, grp.size]),
+                       np.diff(np.r_[cuts, grp.size]), axis=2)
+        a -= (a @ Qp) @ Qp.T
+        proj = np.linalg.qr(a.transpose(0, 2, 1))[0].transpose(0, 2, 1) @ yp
+        scan = float(yp @ yp) - np.sum(proj**2, axis=1)
+        i = int(np.argmin(scan))
+        if scan[i] < best[0]:
+            best = (float(scan[i]), float(pitches[i]))
     var = sigma**2 / scale
     use_poly = (base - rss_poly) / var > 40.0
     use_screw = best[1] is not None and (rss_poly - best[0]) / var > 40.0
@@ -557,9 +606,17 @@ def extract_cycles(
         if j > 0:
             lo = _settled_start(y, lo, hi, sigma, block=margin, reach=4 * h, floor=floor)
         end = hi
-        if j < len(events):
-            hi = _creep_end(t, y, lo, hi, sigma, block=max(margin, 4), floor=floor)
-        p = _plateau(t, y, lo, hi, sigma, floor) if hi - lo >= 3 else None
+        p = None
+        for keep in ((2.0 / 3.0, 0.5, 1.0 / 3.0) if j < len(events) else (None,)):
+            if keep is not None:  # a long creep leaves only the stick's start flat
+                hi = _creep_end(t, y, lo, end, sigma, block=max(margin, 4), floor=floor,
+                                keep=keep)
+            p = _plateau(t, y, lo, hi, sigma, floor) if hi - lo >= 3 else None
+            if p is None or p.flat or hi == end:
+                break
+        if p is not None and not p.flat and j > 0 and j < len(events):
+            p = _creeping_plateau(t, y, lo, end, sigma, floor, speed) or p
+            hi = end if p.flat else hi
         if p is not None and hi < end:  # crept: the level just before the slip
             tail = slice(end - max(margin, 4), end)
             excess = float(np.mean(y[tail])) - p.level

@@ -44,9 +44,9 @@ RUNS = ((27.3, 5.0, 40.0, 500.0), (86.9, 5.0, 20.0, 1000.0))  # k kgf/mm, v mm/m
 W = 36.0
 
 
-def _rates(imp, seed=3):
+def _rates(imp, seed=3, runs=RUNS):
     found = total = false = 0
-    for k, v, duration, rate in RUNS:
+    for k, v, duration, rate in runs:
         tr = ir.simulate(ir.LUBRICANT_A, weight=W, stiffness=k, speed_mm_min=v,
                          duration=duration, rate_hz=rate, imp=imp, seed=seed)
         f = extract_cycles(tr.time, tr.deflection, weight=W, stiffness=k, drive=v / 60.0)
@@ -68,6 +68,18 @@ def test_cycles_found_under_imperfection(name):
     assert total >= 20
     assert found >= 0.9 * total, (name, found, total)
     assert false <= 1, (name, false)
+
+
+def test_creep_through_the_whole_stick_of_a_stiff_spring():
+    """k 128.5 kgf/mm at 4 mm/min: sticks of 0.39 s with a creep time constant of 0.2 s,
+    so the slider creeps from the stick's start (measured: 13 of 73 cycles complete
+    before the creeping-stick line model, 72 after). At 20 mm/min (85 ms sticks, about a
+    third of them creeping faster than half the drive) fewer are kept: a weak spot in the
+    README."""
+    found, total, false = _rates(IMPERFECTIONS["creep"], runs=((128.5, 4.0, 30.0, 1000.0),))
+    assert total >= 60
+    assert found >= 0.9 * total, (found, total)
+    assert false <= 1
 
 
 def test_pure_noise_has_no_slips():
