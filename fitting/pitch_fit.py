@@ -26,7 +26,8 @@ $(h_r, g_r)$ gives $c$ (slope) and $h_{Mv}$ (zero crossing); the best grid point
 (2) Levenberg-Marquardt (`stickslip_fitting.solve.least_squares`, the project's one
 solver) on all free parameters, jitted as a whole; (3) the Gauss-Newton covariance
 $s^2 (J^T J)^{-1}$ (`stickslip_jax.lsq.gauss_newton_covariance`) with $s^2$ = RSS/(N - p)
-(or the given noise), mapped to natural units; 95 % intervals are $\pm 1.96$ sd in the
+(or the given noise), mapped to natural units (`report.ParameterEstimate.from_log` and
+`from_normal`); 95 % intervals are $\pm 1.96$ sd in the
 stored coordinates (so asymmetric for log-stored parameters).
 """
 
@@ -58,8 +59,6 @@ __all__ = [
     "pitch_run",
     "record_drive_point",
 ]
-
-Z95 = 1.959963984540054
 
 NAMES = ("compliance_pitch", "neutral_height", "tau_pitch",
          "compliance_yaw", "neutral_offset", "tau_yaw")
@@ -368,20 +367,12 @@ def fit_pitching(
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     stored = dict(zip(NAMES, fitted.leaves()))
     parameters = {}
-    k = 0
+    sd_of = dict(zip(free_names, map(float, sd)))
     for name in NAMES:
-        u = float(stored[name])
-        log = name in _LOG
-        value = float(np.exp(u)) if log else u
-        entry = {"value": value, "unit": UNITS[name], "free": free_flags[name],
-                 "stderr": None, "ci95": None}
-        if free_flags[name]:
-            s = float(sd[k])
-            k += 1
-            lo, hi = u - Z95 * s, u + Z95 * s
-            entry["stderr"] = value * s if log else s
-            entry["ci95"] = (float(np.exp(lo)), float(np.exp(hi))) if log else (lo, hi)
-        parameters[name] = entry
+        row = (ParameterEstimate.from_log if name in _LOG else ParameterEstimate.from_normal)(
+            name, UNITS[name], float(stored[name]), sd_of.get(name))
+        parameters[name] = {"value": row.value, "unit": row.unit, "free": free_flags[name],
+                            "stderr": row.stderr, "ci95": row.ci95}
     return PitchFit(
         model=fitted.into(template),
         parameters=parameters,

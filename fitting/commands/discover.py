@@ -103,10 +103,7 @@ def run(args) -> int:
     for c in result.candidates:
         d = "-" if c["delta_criterion"] is None else f"{c['delta_criterion']:.1f}"
         print(f"{c['name']:22s} {c['score']:10.1f} {d:>10s}")
-    print(f"{'parameter':22s} {'before':>12s} {'after':>12s}")
-    for k, v in result.parameters_after.items():
-        b = result.parameters_before.get(k)
-        print(f"{k:22s} {'-' if b is None else format(b, '.5g'):>12s} {v:12.5g}")
+    _print_parameters(result)
     if args.json:
         write_json(args.json, {**versioned(result.to_json()),
                                "records_screened": [x.to_json() for x in campaign.screening]})
@@ -115,6 +112,16 @@ def run(args) -> int:
 
         plot_discovery(result, args.plot)
     return 0
+
+
+def _print_parameters(result) -> None:
+    """The parameter table, from the result's typed rows (`stickslip_fitting.report.
+    ParameterEstimate`): each parameter before and after (effect parameters after only)."""
+    before = {e.name: e.value for e in result.estimates_before}
+    print(f"{'parameter':22s} {'before':>12s} {'after':>12s}")
+    for e in result.estimates():
+        b = before.get(e.name)
+        print(f"{e.name:22s} {'-' if b is None else format(b, '.5g'):>12s} {e.value:12.5g}")
 
 
 def _run_cycle(args, records) -> int:
@@ -157,10 +164,7 @@ def _run_cycle(args, records) -> int:
             d += " unphysical"
         print(f"{c['name']:22s} {c['shape']:18s} {c['score']:8.2f} {c['score_p_value']:9.2g} "
               f"{d:>10s}")
-    print(f"{'parameter':22s} {'before':>12s} {'after':>12s}")
-    for k, v in result.parameters_after.items():
-        b = result.parameters_before.get(k)
-        print(f"{k:22s} {'-' if b is None else format(b, '.5g'):>12s} {v:12.5g}")
+    _print_parameters(result)
     if args.json:
         write_json(args.json, versioned(result.to_json()))
     if args.plot:

@@ -227,12 +227,19 @@ def run(args) -> int:
         _, mask = observables(u, w, k, v)
         rows.append({"weight_kgf": w, "stiffness_kgf_mm": k, "speed_mm_min": v * 60.0,
                      "stick_slip_expected": bool(np.asarray(mask)[0] > 0)})
+    # the parameter rows: the estimate (log coordinates) with its sd before and after
+    from ..params import UNITS
+    from ..report import ParameterEstimate
+
+    before, after = ([ParameterEstimate.from_log(p, UNITS[p], x, s)
+                      for p, x, s in zip(PARAMETERS, u, sds)]
+                     for sds in (plan.sd_before, plan.sd_after))
     doc = {
         "source": desc,
         "criterion": args.criterion,
-        "estimate": {p: float(np.exp(x)) for p, x in zip(PARAMETERS, u)},
-        "relative_sd_before": dict(zip(PARAMETERS, map(float, plan.sd_before))),
-        "relative_sd_after": dict(zip(PARAMETERS, map(float, plan.sd_after))),
+        "estimate": {e.name: e.value for e in before},
+        "relative_sd_before": {e.name: e.log_sd for e in before},
+        "relative_sd_after": {e.name: e.log_sd for e in after},
         "records": rows,
     }
     if args.json:
@@ -249,8 +256,8 @@ def run(args) -> int:
         print(f"{i:>3} {r['weight_kgf']:>9.4g} {r['stiffness_kgf_mm']:>11.4g} "
               f"{r['speed_mm_min']:>11.4g}  {regime}")
     print("relative sd of the parameters (sd of log), before -> after:")
-    for p, b, a in zip(PARAMETERS, plan.sd_before, plan.sd_after):
-        print(f"  {p:>6}: {b:.3g} -> {a:.3g}")
+    for b, a in zip(before, after):
+        print(f"  {b.name:>6}: {b.log_sd:.3g} -> {a.log_sd:.3g}")
     print("note: the design is local to the estimate; record one or two proposals, re-fit, "
           "and plan again (see stickslip_fitting.design.sequential_campaign)")
     return 0

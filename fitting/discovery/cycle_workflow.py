@@ -56,6 +56,7 @@ from stickslip_jax.lsq import HostResult, gauss_newton_covariance, solve_host
 from ..campaign import Campaign, screen_records
 from ..fit import fit_features
 from ..params import CampaignParams, EmpiricalFriction
+from ..report import DiscoveryEstimates, ParameterEstimate
 from ..trace_objective import trace_data, trace_sd
 from .cycle_effects import DRIVE_ERROR_MAX, FAMILIES, Family, Shape, drive_error_range, family
 from .cycle_model import CycleModel, drift_origins
@@ -137,9 +138,11 @@ class _Refit:
 
 
 @dataclasses.dataclass
-class CycleDiscovery:
+class CycleDiscovery(DiscoveryEstimates):
     """Outcome of `discover_cycles`; `to_json` is the `stickslip discover --json` contract
-    (the keys of the whole-record workflow, plus `base`, `records`, `phases`)."""
+    (the keys of the whole-record workflow, plus `base`, `records`, `phases`). The
+    parameter rows are `stickslip_fitting.report.ParameterEstimate`s (`DiscoveryEstimates`:
+    `parameters_before`, `parameters_after` and `effect_size` are derived from them)."""
 
     effect: str
     explanation: str
@@ -149,9 +152,9 @@ class CycleDiscovery:
     noise: float
     criterion: str
     candidates: list
-    parameters_before: dict
-    parameters_after: dict
-    effect_size: dict
+    estimates_before: list[ParameterEstimate]
+    estimates_after: list[ParameterEstimate]
+    effect_estimates: list[ParameterEstimate]
     indistinguishable_from: list
     phases_before: dict
     phases_after: dict
@@ -165,6 +168,7 @@ class CycleDiscovery:
     shape: Shape
     sensor: bool
     records_scaled: list = dataclasses.field(default_factory=list)
+    effect_of: str = ""
 
     def to_json(self) -> dict:
         return {
@@ -487,14 +491,14 @@ def discover_cycles(
         confidence = ("high" if (chosen.drop >= 0.5 * excess and clear
                                  and gap_after <= 1.15 * noise) else "low")
 
-    size = {}
+    effect_rows = []
     if chosen is not None:
         f = chosen.family
         names = ([f"{p}[{i}]" for i in range(G) for p in f.params] if f.per_record
                  else list(f.params))
         units = [u for _ in range(G if f.per_record else 1) for u in f.units]
-        size = {nm: {"value": float(v), "stderr": float(s), "unit": u}
-                for nm, v, s, u in zip(names, chosen.values, chosen.stderr, units)}
+        effect_rows = [ParameterEstimate.from_normal(nm, u, v, s)
+                       for nm, v, s, u in zip(names, chosen.values, chosen.stderr, units)]
     phases_before = _phases(r0 * sd, slipping)
     phases_after = _phases(r1 * sd, slipping)
     pattern = max(phases_before, key=lambda k: phases_before[k]["rms"] or 0.0)
@@ -515,10 +519,9 @@ def discover_cycles(
             "chi2_drop": (rf.drop if rf else None),
             "unphysical": rf.unphysical if rf else None,
             "explanation": sc.family.explanation})
-    params_before = _friction_values(z_base)
-    params_after = _friction_values(z_after)
-    if chosen is not None:
-        params_after.update({f"{chosen.family.name}.{k}": v["value"] for k, v in size.items()})
+    rows_before, rows_after = (DiscoveryEstimates.value_rows(_friction_values(z),
+                                                             EmpiricalFriction.UNITS)
+                               for z in (z_base, z_after))
     stage("decision", f"{effect} ({confidence}); gap {gap_before * 1e3:.3g} -> "
                       f"{gap_after * 1e3:.3g} um")
     timings["total"] = sum(timings.values())
@@ -528,8 +531,10 @@ def discover_cycles(
         criterion=(f"robust score test (Hotelling T^2 over {n_windows} cycle windows), "
                    f"significant at p < {level:.2g} (alpha {alpha:g} over {n_tests} "
                    "family-shape tests); delta_criterion = -(chi-square drop of the refit)"),
-        candidates=cand_json, parameters_before=params_before, parameters_after=params_after,
-        effect_size=size, indistinguishable_from=rivals, phases_before=phases_before,
+        candidates=cand_json, estimates_before=rows_before, estimates_after=rows_after,
+        effect_estimates=effect_rows,
+        effect_of=chosen.family.name if chosen is not None else "",
+        indistinguishable_from=rivals, phases_before=phases_before,
         phases_after=phases_after, timings=timings, base_fit=base_fit, final_fit=final_fit,
         campaign=campaign, model=model, z_before=z_base, z_after=z_after, shape=shape,
         sensor=sensor, records_scaled=scaled_notes)

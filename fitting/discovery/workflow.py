@@ -40,6 +40,7 @@ import numpy as np
 from stickslip_jax.lsq import HostResult, solve_host
 
 from ..params import EmpiricalFriction
+from ..report import DiscoveryEstimates, ParameterEstimate
 from .effects import CANDIDATES, EffectSet
 from .model import Problem, Settings, campaign_traces
 from .ranking import direction_cosine, score_candidates
@@ -84,8 +85,10 @@ def initial_friction(records) -> EmpiricalFriction:
 
 
 @dataclasses.dataclass
-class DiscoveryResult:
-    """Outcome of `discover` (see `to_json` for the CLI contract). Gaps in mm."""
+class DiscoveryResult(DiscoveryEstimates):
+    """Outcome of `discover` (see `to_json` for the CLI contract). Gaps in mm. The
+    parameter rows are `stickslip_fitting.report.ParameterEstimate`s (`DiscoveryEstimates`:
+    `parameters_before`, `parameters_after` and `effect_size` are derived from them)."""
 
     effect: str
     explanation: str
@@ -95,9 +98,9 @@ class DiscoveryResult:
     noise: float
     criterion: str
     candidates: list
-    parameters_before: dict
-    parameters_after: dict
-    effect_size: dict
+    estimates_before: list[ParameterEstimate]
+    estimates_after: list[ParameterEstimate]
+    effect_estimates: list[ParameterEstimate]
     test_before: dict
     test_after: dict
     residuals_before: object
@@ -109,6 +112,7 @@ class DiscoveryResult:
     final_problem: Problem
     learned: object = None
     indistinguishable_from: list = dataclasses.field(default_factory=list)
+    effect_of: str = ""
 
     def to_json(self) -> dict:
         out = {
@@ -311,8 +315,6 @@ def discover(
     timings["residuals_after"] = time.perf_counter() - t
     gap_after = math.sqrt(final_fit.rss / N) * sigma
     params_after = _friction_values(final_problem, final_fit.z)
-    if size:
-        params_after.update({f"{effect}.{p}": v["value"] for p, v in size.items()})
 
     learned = None
     if learn and rep_after.p_value < p_explained:
@@ -330,8 +332,13 @@ def discover(
         gap_before=gap_before, gap_after=gap_after, noise=sigma,
         criterion="BIC (Gaussian likelihood, noise profiled); delta_criterion = "
                   "BIC(with effect) - BIC(base), named if < -%g" % threshold,
-        candidates=cand_json, parameters_before=params_before, parameters_after=params_after,
-        effect_size=size, test_before=rep_before.test, test_after=rep_after.test,
+        candidates=cand_json,
+        estimates_before=DiscoveryEstimates.value_rows(params_before, EmpiricalFriction.UNITS),
+        estimates_after=DiscoveryEstimates.value_rows(params_after, EmpiricalFriction.UNITS),
+        effect_estimates=[ParameterEstimate.from_normal(p, v["unit"], v["value"], v["stderr"])
+                          for p, v in size.items()],
+        effect_of=effect if size else "",
+        test_before=rep_before.test, test_after=rep_after.test,
         residuals_before=rep_before, residuals_after=rep_after, timings=timings,
         base_fit=base_fit, final_fit=final_fit, base_problem=base, final_problem=final_problem,
         learned=learned, indistinguishable_from=rivals,
