@@ -43,6 +43,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from stickslip_jax import Friction, KatoKinetic, KatoStatic, steady_state
+from stickslip_jax.lsq import gauss_newton_covariance
 from stickslip_jax.steady import STICK_SLIP
 
 from ..solve import AbstractResiduals, least_squares
@@ -295,24 +296,32 @@ class LaplaceFit(eqx.Module):
 
 
 @eqx.filter_jit
+def _map_estimate(objective: SteadyObservables, max_steps: int):
+    """(u at the posterior mode, the Jacobian of the residuals there, the result code),
+    one compiled program."""
+    # The search runs in z with u = mean + L tanh(z / L): trial steps of the optimiser
+    # stay within L = min(3 sd, 2) of the prior mean, where the steady analysis and
+    # its derivatives are finite (far outside, e.g. m ~ 100, T1^m overflows).
+    bounded = TanhBounded(objective, objective.prior_mean,
+                          jnp.minimum(3.0 * objective.prior_sd, 2.0))
+    sol = least_squares(bounded, jnp.zeros_like(objective.prior_mean), rtol=1e-10,
+                        atol=1e-10, max_steps=max_steps, jac="bwd")
+    u_hat = bounded.to_params(sol.params)
+    return u_hat, jax.jacfwd(objective.residuals)(u_hat), sol.result
+
+
 def laplace_fit(y, mask, campaign: Campaign, noise: Noise, prior_mean, prior_sd=1.0,
                 max_steps: int = 200) -> LaplaceFit:
     """Fit $u$ to observations `y` (N, 4) by Levenberg-Marquardt with a Gaussian prior
     (mean `prior_mean`, sd `prior_sd` in $u$); Laplace covariance from the Gauss-Newton
-    Hessian at the optimum."""
+    Hessian at the optimum (`stickslip_jax.lsq.gauss_newton_covariance`, the project's one
+    covariance)."""
     prior_mean = jnp.asarray(prior_mean, dtype=float)
     psd = jnp.broadcast_to(jnp.asarray(prior_sd, dtype=float), prior_mean.shape)
     objective = SteadyObservables(y, mask, campaign, noise, prior_mean, psd)
-    # The search runs in z with u = mean + L tanh(z / L): trial steps of the optimiser
-    # stay within L = min(3 sd, 2) of the prior mean, where the steady analysis and
-    # its derivatives are finite (far outside, e.g. m ~ 100, T1^m overflows).
-    bounded = TanhBounded(objective, prior_mean, jnp.minimum(3.0 * psd, 2.0))
-    sol = least_squares(bounded, jnp.zeros_like(prior_mean), rtol=1e-10, atol=1e-10,
-                        max_steps=max_steps, jac="bwd")
-    u_hat = bounded.to_params(sol.params)
-    jac = jax.jacfwd(objective.residuals)(u_hat)
-    cov = jnp.linalg.inv(jac.T @ jac)
-    return LaplaceFit(u_hat, cov, jnp.sqrt(jnp.diag(cov)), sol.result)
+    u_hat, jac, result = _map_estimate(objective, max_steps)
+    cov = gauss_newton_covariance(jac)
+    return LaplaceFit(u_hat, cov, np.sqrt(np.diag(cov)), result)
 
 
 def sequential_campaign(
