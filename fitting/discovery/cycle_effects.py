@@ -46,8 +46,8 @@ def drive_error(coef, t, speed, pitch):
     at `speed` (mm/s): coef = (a1_sin, a1_cos, a2_sin, a2_cos) mm, `pitch` mm. JAX
     (traced inside `cycle_model`) or NumPy input alike."""
     ph = 2.0 * jnp.pi * speed * t / pitch
-    return (coef[0] * jnp.sin(ph) + coef[1] * jnp.cos(ph) + coef[2] * jnp.sin(2 * ph)
-            + coef[3] * jnp.cos(2 * ph))
+    s, c = jnp.sin(ph), jnp.cos(ph)  # the second harmonic by the double-angle formulas
+    return coef[0] * s + coef[1] * c + coef[2] * (2.0 * s * c) + coef[3] * (c * c - s * s)
 
 
 def drive_error_range(coef, t, speed, pitch) -> float:

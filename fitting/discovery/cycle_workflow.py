@@ -284,9 +284,12 @@ def discover_cycles(
 
     campaign = screen_records(list(records), strict=strict)
     recs, feats = campaign.records, campaign.features
-    start = fit_features(feats)
     data = trace_data(recs, feats, drive_fix=False)
     G = len(recs)
+    # the per-cycle model's programs compile in a background thread meanwhile
+    warm = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape),
+                      G).warm()
+    start = fit_features(feats)
     window = np.broadcast_to(np.asarray(data.window)[:, None], data.mask.shape)
     window = np.asarray(window).ravel()[np.asarray(data.mask).ravel()]
     if np.any(np.diff(window) < 0):
@@ -303,6 +306,7 @@ def discover_cycles(
                      f"{n_windows} cycle windows, {model.mask.sum()} samples")
 
     base_cols = np.arange(model.n_base)
+    warm["evaluate", False].result()
     sub = _Sub(model, z_start, base_cols)
     fit0 = solve_host(sub.evaluate, z_start[base_cols], max_evals=max_evals)
     z_base = sub.full(fit0.z)
@@ -351,10 +355,23 @@ def discover_cycles(
     n_tests = sum(len(f.shapes) for f in fams)
     level = alpha / n_tests
     scores: list[_Score] = []
-    for f in fams:
+
+    def score_cols(f):  # the score test uses the first harmonic only (dof 2 per record)
         cols = model.cols(f)
-        if f.per_record:  # the score test uses the first harmonic only (dof 2 per record)
-            cols = cols.reshape(G, -1)[:, :2].ravel()
+        return cols.reshape(G, -1)[:, :2].ravel() if f.per_record else cols
+
+    # the families without shapes share one Jacobian call (one tangent per column)
+    plain = [f for f in fams if f.shapes == (Shape(),) and f.name != "sensor_lowpass"]
+    warm["residuals", True].result()
+    plain_J = {}
+    if plain:
+        _, J_all, _ = model.evaluate(z_base, np.concatenate([score_cols(f) for f in plain]))
+        a = 0
+        for f in plain:
+            plain_J[f.name] = J_all[:, a:a + score_cols(f).size]
+            a += score_cols(f).size
+    for f in fams:
+        cols = score_cols(f)
         best = None
         for shape in f.shapes:
             if f.name == "sensor_lowpass":
@@ -364,6 +381,8 @@ def discover_cycles(
                 zp[cols] = SENSOR_PROBE
                 Jc = ((model.residuals(zp, shape, sensor=True)[0] - r0)
                       / SENSOR_PROBE)[:, None]
+            elif f.name in plain_J:
+                Jc = plain_J[f.name]
             else:
                 _, Jc, _ = model.evaluate(z_base, cols, shape)
             Jp = project_out(Qb, Jc)
@@ -394,6 +413,7 @@ def discover_cycles(
     to_refit = (sorted(scores, key=lambda s: -s.chi2_predicted) if misfit
                 else significant[:top])
     refits: list[_Refit] = []
+    warm["evaluate", True].result()
     for sc in to_refit:
         f = sc.family
         cols = np.concatenate([base_cols, model.cols(f)])
