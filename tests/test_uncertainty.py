@@ -87,4 +87,6 @@ def test_null_share_finds_parameters_in_an_unseen_direction():
     np.testing.assert_allclose(share, [0.5, 0.5, 0.0], atol=1e-12)
     assert share[0] > NULL_SHARE and share[2] < NULL_SHARE
     assert np.all(_null_share(np.diag([1.0, 1e-6, 0.5])) == 0.0)
+    # badly conditioned but determined (the microsqueeze law): no null direction
+    assert np.all(_null_share(np.diag([1.6e14, 3.8e11, 2.9e3])) == 0.0)
     assert _null_share(np.zeros((0, 0))).size == 0
