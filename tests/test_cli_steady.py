@@ -21,13 +21,31 @@ def test_table_with_units(capsys):
     assert "W = 36 kgf" in out[0] and "k = 86.9 kgf/mm" in out[0] and "Hz" in out[0]
     for unit in ("v [mm/min]", "T1 [s]", "a [mm]", "ak/W [-]", "f [Hz]", "v_c [mm/min]"):
         assert unit in out[1]
-    assert len(out) == 5
+    assert len(out) == 6 and "limit cycle" in out[5]
     row = out[3].split()  # 1 mm/min
     assert row[0] == "1" and row[1] == "yes"
     r = ss.steady_state(ss.lubricant("A"), 36.0, 86.9, from_mm_per_min(1.0))
     assert float(row[2]) == pytest.approx(float(r.stick_time), rel=1e-4)
     assert float(row[4]) == pytest.approx(float(r.amplitude), rel=1e-4)
-    assert float(row[-1]) == pytest.approx(48.911, abs=1e-3)
+    assert float(row[8]) == pytest.approx(48.911, abs=1e-3)
+    assert float(row[9]) == pytest.approx(float(r.amplitude), rel=1e-4)  # = eq (6) below v_c
+
+
+def test_limit_cycle_columns_above_v_c_and_tolerance(capsys):
+    argv = BASE + ["--speed", "52", "90", "--tolerance", "1 um", "--json", "-"]
+    assert main(argv) == 0
+    cap = capsys.readouterr()
+    doc = json.loads(cap.out)
+    r52, r90 = doc["results"]
+    assert not r52["stick_slip"] and r52["amplitude_mm"] == 0.0  # eq (12): none above v_c
+    # the time-domain limit cycle goes on (the exact simulator's 8.0 and 5.7 um)
+    assert r52["cycle_amplitude_mm"] == pytest.approx(8.010e-3, rel=1e-3)
+    assert r90["cycle_amplitude_mm"] == pytest.approx(5.664e-3, rel=1e-3)
+    assert r52["cycle_stick_time_s"] > r90["cycle_stick_time_s"] > 0
+    tol = doc["tolerance"]
+    assert tol["amplitude_mm"] == pytest.approx(1e-3)
+    assert tol["speed_mm_min"] == pytest.approx(1282.2, rel=1e-3)
+    assert "below 1 um above v = 1282.2 mm/min" in cap.err
 
 
 def test_json_and_units_on_arguments(capsys):

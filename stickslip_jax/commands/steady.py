@@ -18,6 +18,10 @@ def add_arguments(p):
                    help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
     p.add_argument("--speed", type=quantity("speed", "mm/min"), nargs="+", required=True,
                    help="drive speeds v (mm/min unless a unit is given, e.g. '10 um/s')")
+    p.add_argument("--tolerance", type=quantity("length", "mm"), default=None,
+                   help="also print the drive speed above which the time-domain limit "
+                   "cycle's amplitude stays below this (mm unless a unit is given, e.g. "
+                   "'1 um')")
     add_json_option(p, "the results", bare=True)
 
 
@@ -31,6 +35,8 @@ COLUMNS = (
     ("frequency_hz", "f [Hz]"),
     ("f_over_f0", "f/f0 [-]"),
     ("critical_speed_mm_min", "v_c [mm/min]"),
+    ("cycle_amplitude_mm", "a_cycle [mm]"),
+    ("cycle_stick_time_s", "T1_cycle [s]"),
 )
 
 
@@ -51,6 +57,11 @@ def run(args) -> int:
     friction = lubricant(args.lubricant, table=args.table)
     speeds = jnp.asarray(args.speed)
     out = steady_map(friction, args.weight, args.stiffness, speeds)
+    import jax
+
+    from ..limit_cycle import limit_cycle, tolerance_speed
+
+    cyc = jax.vmap(lambda v: limit_cycle(friction, args.weight, args.stiffness, v))(speeds)
     rows = []
     for i, v in enumerate(args.speed):
         rows.append({
@@ -64,7 +75,18 @@ def run(args) -> int:
             "frequency_hz": float(out.frequency[i]),
             "f_over_f0": float(out.frequency_ratio[i]),
             "critical_speed_mm_min": float(mm_per_min(out.critical_speed[i])),
+            # the time-domain model's limit cycle (fixed point of the one-cycle map)
+            "cycle_amplitude_mm": float(cyc.amplitude[i]),
+            "cycle_stick_time_s": float(cyc.stick_time[i]),
+            "cycle_slip_time_s": float(cyc.slip_time[i]),
+            "cycle_frequency_hz": float(cyc.frequency[i]),
         })
+    tol = None
+    if args.tolerance is not None:
+        if not args.tolerance > 0:
+            raise ValueError(f"--tolerance: must be positive, got {args.tolerance}")
+        v_tol, _ = tolerance_speed(friction, args.weight, args.stiffness, args.tolerance)
+        tol = {"amplitude_mm": args.tolerance, "speed_mm_min": float(mm_per_min(v_tol))}
     if args.json:
         from ..output import versioned, write_json
 
@@ -75,6 +97,7 @@ def run(args) -> int:
             "stiffness_kgf_mm": args.stiffness,
             "natural_frequency_hz": float(out.natural_frequency[0]),
             "results": rows,
+            "tolerance": tol,
         }))
         if args.json != "-":  # with "-" the table below goes to stderr
             print(f"wrote {args.json}")
@@ -95,6 +118,12 @@ def run(args) -> int:
             else:
                 cells.append(("-" if val is None else f"{val:.5g}").rjust(w))
         print("  ".join(cells))
+    print("a_cycle, T1_cycle: the limit cycle of the time-domain model (the exact "
+          "simulator's; eq (6) at every speed): above v_c of eq (12) it keeps a smaller "
+          "stick-slip, with no sharp end (stickslip_jax.limit_cycle)")
+    if tol is not None:
+        print(f"the limit cycle's amplitude stays below {tol['amplitude_mm'] * 1e3:.4g} um "
+              f"above v = {tol['speed_mm_min']:.5g} mm/min")
     if any(int(r) == RESTICK_FAILURE for r in out.regime):
         print("double: re-stick failure, a slip ends with the spring force above mu_d W (exp(-delta "
               "T2^n) > 1/2), so the slider slips again at once (double slips); eqs (5)-(6) "
