@@ -6,6 +6,8 @@ import json
 import equinox as eqx
 import jax
 import numpy as np
+
+from stickslip_jax.steady import RESTICK_FAILURE
 import pytest
 
 import stickslip_jax as ss
@@ -105,14 +107,17 @@ def test_exact_map_matches_steady_limit_cycle(lub_a):
                     np.array([0.01, 1.0]) / 60)
     st = design_map(lub_a, w, k, v, chunk_size=16)
     ex = design_map(lub_a, w, k, v, method="exact", chunk_size=18)
-    assert st.stick_slip.all() and ex.converged.all()
+    assert st.stick_slip.all()
     # A slip from rest ends at x1 = 2 mu_m W/k - x2; the slider resticks only if
-    # k x1 < mu_d W, i.e. exp(-delta T2^n) < 1/2. Below that the time-domain model
-    # slides on although eq (6) has a solution (W = 11.3, k = 128.5 for lubricant A).
+    # k x1 < mu_d W, i.e. exp(-delta T2^n) < 1/2. Otherwise it slips again at once and
+    # then sticks (re-stick failure, double slips: W = 11.3, k = 128.5 for lubricant A):
+    # still stick-slip, flagged by its regime, with another cycle than eq (6)'s.
     p = friction_params(lub_a)
     restick = np.exp(-p["delta"] * st.slip_time ** p["n"]) < 0.5
     assert not restick.all()
-    np.testing.assert_array_equal(ex.stick_slip, restick)
+    assert ex.stick_slip.all()
+    assert ex.converged[restick].all()  # (re-slip cycles settle slower than 8 cycles)
+    np.testing.assert_array_equal(np.asarray(ex.regime) == RESTICK_FAILURE, ~restick)
     np.testing.assert_allclose(ex.amplitude[restick], st.amplitude[restick], rtol=1e-5)
     np.testing.assert_allclose(ex.stick_time[restick], st.stick_time[restick], rtol=1e-5)
     np.testing.assert_allclose(ex.frequency[restick], st.frequency[restick], rtol=0.05)

@@ -52,6 +52,17 @@ def parse_grid(text: str, dimension: str, default_unit: str, arg: str) -> np.nda
     return values
 
 
+_METHOD_TITLE = {"steady": "steady analysis", "exact": "exact simulator",
+                 "cycle": "time-domain limit cycle"}
+
+
+def _method(args) -> str:
+    """The map's method: --method, or `exact` for the old --exact flag."""
+    if args.exact and args.method not in (None, "exact"):
+        raise ValueError(f"--exact and --method {args.method} disagree: give one of them")
+    return "exact" if args.exact else (args.method or "steady")
+
+
 def add_arguments(p):
     p.add_argument("--lubricant", default="A", help="paper lubricant (Table 6: A, C)")
     p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
@@ -66,8 +77,12 @@ def add_arguments(p):
                    help="posterior sample (CSV/JSON with mu_s, mu_d, gamma, m, delta, n) to "
                         "propagate instead of the lubricant: probability of stick-slip, v_c band")
     p.add_argument("--level", type=float, default=0.9, help="credible level of the v_c band")
+    p.add_argument("--method", choices=("steady", "exact", "cycle"), default=None,
+                   help="steady: eqs (5)-(7) and (12) (default); exact: the exact simulator "
+                   "run for 8 cycles; cycle: the time-domain limit cycle as the fixed point "
+                   "of the one-cycle map (exact, at every speed, fast)")
     p.add_argument("--exact", action="store_true",
-                   help="amplitude and frequency from the exact time-domain simulator")
+                   help="the same as --method exact (the old name)")
     from stickslip_jax.commands._args import add_json_option, add_plot_option
 
     add_plot_option(p, "the map figure", hidden=("--out",))
@@ -119,8 +134,9 @@ def compute(args):
     w, k, v = outer(axes["weight"], axes["stiffness"], axes["speed"])
     out = {"axes": axes}
     if args.posterior:
-        if args.exact:
-            raise ValueError("--exact: not available with --posterior (steady analysis only)")
+        if _method(args) != "steady":
+            raise ValueError(f"--method {_method(args)}: not available with --posterior "
+                             "(steady analysis only)")
         if not Path(args.posterior).exists():
             raise ValueError(f"--posterior: no such file {args.posterior!r}")
         sample = load_samples(args.posterior)
@@ -131,7 +147,7 @@ def compute(args):
                    amplitude_band=u.amplitude, stick_slip=u.probability >= 0.5)
         return out
     friction = lubricant(args.lubricant, table=args.table)
-    m = design_map(friction, w, k, v, method="exact" if args.exact else "steady",
+    m = design_map(friction, w, k, v, method=_method(args),
                    chunk_size=args.chunk_size, progress=_progress(args))
     out.update(amplitude=m.amplitude, amplitude_ratio=m.amplitude_ratio, frequency=m.frequency,
                frequency_ratio=m.frequency_ratio, stick_time=m.stick_time,
@@ -145,7 +161,7 @@ def to_json(args, res) -> dict:
     doc = {
         "source": {"posterior": args.posterior} if args.posterior
         else {"lubricant": args.lubricant, "table": args.table},
-        "method": "exact" if args.exact else "steady",
+        "method": _method(args),
         "axes": {"weight_kgf": axes["weight"].tolist(),
                  "stiffness_kgf_mm": axes["stiffness"].tolist(),
                  "speed_mm_min": (axes["speed"] * 60.0).tolist()},
@@ -201,7 +217,7 @@ def plot(args, res, path):
     # A smooth field whose zero level is the stick-slip boundary.
     if args.posterior:
         edge = res["probability"] - 0.5
-    elif args.exact:
+    elif _method(args) != "steady":
         edge = res["stick_slip"].astype(float) - 0.5
     else:
         edge = np.log(res["critical_speed"] / np.broadcast_to(
@@ -250,7 +266,7 @@ def plot(args, res, path):
     fixed = ", ".join(f"{LABELS[n].split(' ')[0]} = {float(axes[n][0]) * scale[n]:g} "
                       f"{LABELS[n].split(' ')[1][1:-1]}"
                       for n in ("weight", "stiffness", "speed") if n not in grid)
-    fig.suptitle(f"{'exact simulator' if args.exact else 'steady analysis'}"
+    fig.suptitle(f"{_METHOD_TITLE[_method(args)]}"
                  f"{'; ' + fixed if fixed else ''}; white/dashed: stick-slip boundary", fontsize=10)
     fig.tight_layout()
     from stickslip_jax.output import save_figure
@@ -275,7 +291,7 @@ def run(args) -> int:
             print(f"wrote {args.json}")
     amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]
     print(f"design map {'x'.join(str(s) for s in amp.shape)} (W x k x v), "
-          f"{'exact simulator' if args.exact else 'steady analysis'}")
+          f"{_METHOD_TITLE[_method(args)]}")
     print(f"  stick-slip at {np.mean(stick) * 100:.1f} % of points")
     print(f"  amplitude a: {amp.min():.4g} .. {amp.max():.4g} mm")
     print(f"  critical speed v_c: {vc.min():.4g} .. {vc.max():.4g} mm/min")

@@ -49,13 +49,28 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
     ts = jnp.stack([jnp.zeros_like(horizon), horizon])
     trace = simulate_exact(slideway, ConstantSpeed(speed), ts, max_events=2 * n_cycles)
     cyc = trace.cycles
-    valid = cyc.valid
+    # with re-slips (re-stick failure) every cycle is a stick, a slip and a slip again
+    # from rest (a "cycle" of T1 = 0): the last stick with the slip(s) that follow it
+    valid = cyc.valid & (cyc.stick_time > 0)
+    n = valid.shape[0]
+    reslip = cyc.valid & (cyc.stick_time == 0)
+    follow = jnp.concatenate([reslip[1:], jnp.zeros((1,), bool)])  # entry i+1 re-slips
+    follow_amp = jnp.concatenate([cyc.amplitude()[1:], jnp.zeros((1,))])
+    follow_t2 = jnp.concatenate([cyc.slip_time[1:], jnp.zeros((1,))])
+    amp_all = cyc.amplitude() + jnp.where(follow, follow_amp, 0.0)
+    t2_all = cyc.slip_time + jnp.where(follow, follow_t2, 0.0)
+    # a stick whose re-slip fell outside the event budget is not a whole cycle
+    last_idx = jnp.max(jnp.where(valid, jnp.arange(n), -1))
+    whole = valid & ~((jnp.arange(n) == last_idx) & jnp.any(reslip) & ~follow)
+    valid = whole
     n_valid = jnp.sum(valid)
     t1 = _last(cyc.stick_time, valid)
-    t2_actual = _last(cyc.slip_time, valid)
-    amp = _last(cyc.amplitude(), valid)
-    settled = jnp.abs(amp - _last(cyc.amplitude(), valid, 1)) <= LIMIT_CYCLE_RTOL * amp
-    stick = (n_valid >= 2) & (t1 > 0) & ~trace.steady_sliding
+    t2_actual = _last(t2_all, valid)
+    amp = _last(amp_all, valid)
+    settled = jnp.abs(amp - _last(amp_all, valid, 1)) <= LIMIT_CYCLE_RTOL * amp
+    # the simulator's `steady_sliding` flag also marks re-stick failures (re-slips)
+    sliding = trace.steady_sliding & ~jnp.any(cyc.valid & cyc.restick_failed)
+    stick = (n_valid >= 2) & (t1 > 0) & ~sliding
     zero = jnp.zeros_like(amp)
     f0 = 1.0 / (2.0 * t2)
     freq = jnp.where(stick, 1.0 / jnp.where(stick, t1 + t2_actual, 1.0), zero)
@@ -70,7 +85,7 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
         natural_frequency=f0,
         critical_speed=critical_speed(friction, weight, stiffness),
         stick_slip=stick,
-        converged=((n_valid >= 2) & settled) | trace.steady_sliding,
+        converged=((n_valid >= 2) & settled) | sliding,
         regime=jnp.where(stick, jnp.where(restick_failure(friction, friction.static(t1), t2),
                                           RESTICK_FAILURE, STICK_SLIP), STEADY_SLIDING),
     )

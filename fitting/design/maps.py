@@ -27,6 +27,8 @@ import optimistix as optx
 from jaxtyping import Array, Bool, Float
 
 from stickslip_jax import Friction, steady_state
+from stickslip_jax import slip_time as ss_slip_time
+from stickslip_jax.steady import STEADY_SLIDING
 
 from .chunks import collect, map_chunks
 
@@ -110,6 +112,39 @@ def steady_kernel(points: DesignPoints, shared=None) -> DesignMap:
     )
 
 
+def cycle_kernel(points: DesignPoints, shared=None) -> DesignMap:
+    """`stickslip_jax.limit_cycle.limit_cycle` (the one-cycle map's fixed point: the exact
+    simulator's settled cycle, at any speed, re-slips included) vmapped over a chunk of
+    design points. `stick_slip` is True wherever the fixed point exists (every speed for
+    eq (1) with m < 1: the undamped model has no sharp boundary; threshold `amplitude`
+    for a tolerance); `critical_speed` stays eq (12)'s for comparison."""
+    from stickslip_jax.limit_cycle import limit_cycle
+
+    c = jax.vmap(limit_cycle)(points.friction, points.weight, points.stiffness, points.speed)
+    ok = c.result._value == optx.RESULTS.successful._value
+    f0 = 1.0 / (2.0 * jax.vmap(ss_slip_time)(points.weight, points.stiffness))
+    zero = jnp.zeros_like(c.amplitude)
+    stick = ok & (c.stick_time > 0)
+    return DesignMap(
+        amplitude=jnp.where(stick, c.amplitude, zero),
+        amplitude_ratio=jnp.where(stick, c.amplitude * points.stiffness / points.weight, zero),
+        frequency=jnp.where(stick, c.frequency, zero),
+        frequency_ratio=jnp.where(stick, c.frequency / f0, zero),
+        stick_time=jnp.where(stick, c.stick_time, zero),
+        slip_time=c.slip_time,
+        natural_frequency=f0,
+        critical_speed=c.critical_speed,
+        stick_slip=stick,
+        converged=jnp.asarray(ok),
+        regime=jnp.where(stick, c.regime, STEADY_SLIDING),
+    )
+
+
+METHODS = ("steady", "exact", "cycle")
+"""Design-map kernels: eqs (5)-(7), (12) (`steady_kernel`), the exact simulator run to
+its limit cycle (`exact.exact_kernel`), the one-cycle map's fixed point (`cycle_kernel`)."""
+
+
 def _kernel(method: str):
     if method == "steady":
         return steady_kernel
@@ -117,7 +152,9 @@ def _kernel(method: str):
         from .exact import exact_kernel
 
         return exact_kernel
-    raise ValueError(f"method must be 'steady' or 'exact', got {method!r}")
+    if method == "cycle":
+        return cycle_kernel
+    raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
 
 
 def iter_design_map(
