@@ -64,6 +64,8 @@ def _method(args) -> str:
 
 
 def add_arguments(p):
+    from stickslip_jax.commands._args import quantity
+
     p.add_argument("--lubricant", default="A", help="paper lubricant (Table 6: A, C)")
     p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
                    help="table of eq (1) parameters (default 6; 4 and 9 borrow delta, n of A)")
@@ -83,6 +85,14 @@ def add_arguments(p):
                    "of the one-cycle map (exact, at every speed, fast)")
     p.add_argument("--exact", action="store_true",
                    help="the same as --method exact (the old name)")
+    p.add_argument("--max-amplitude", type=quantity("length", "mm"), default=None,
+                   metavar="AMP",
+                   help="design to a tolerance: the probability (over --posterior's draws, "
+                   "or 0/1 for the lubricant) that the time-domain limit cycle's amplitude "
+                   "stays at or below AMP (mm unless a unit is given, e.g. '1um') at every "
+                   "grid point, and per (W, v) the stiffness that meets it with --meet")
+    p.add_argument("--meet", type=float, default=0.95,
+                   help="with --max-amplitude: the probability to meet (default 0.95)")
     from stickslip_jax.commands._args import add_json_option, add_plot_option
 
     add_plot_option(p, "the map figure", hidden=("--out",))
@@ -281,12 +291,17 @@ def run(args) -> int:
     check_outputs({"--json": args.json, args.plot_option: args.plot},
                   [args.posterior] if args.posterior else [])
     res = compute(args)
+    if args.max_amplitude is not None:
+        res["tolerance"] = tolerance(args, res)
     if args.plot:
         plot(args, res, args.plot)
     if args.json:
         from stickslip_jax.output import versioned, write_json
 
-        write_json(args.json, versioned(to_json(args, res)), indent=None)
+        doc = to_json(args, res)
+        if "tolerance" in res:
+            doc["tolerance"] = res["tolerance"]
+        write_json(args.json, versioned(doc), indent=None)
         if args.json != "-":  # with "-" the summary below goes to stderr
             print(f"wrote {args.json}")
     amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]
@@ -297,6 +312,54 @@ def run(args) -> int:
     print(f"  critical speed v_c: {vc.min():.4g} .. {vc.max():.4g} mm/min")
     if args.posterior:
         print(f"  P(stick-slip): {res['probability'].min():.3g} .. {res['probability'].max():.3g}")
+    if "tolerance" in res:
+        t = res["tolerance"]
+        print(f"tolerance: limit-cycle amplitude <= {t['max_amplitude_mm'] * 1e3:.4g} um with "
+              f"probability >= {t['meet']:g} ({t['draws']} draw(s)):")
+        print(f"  {'W [kgf]':>9} {'v [mm/min]':>11} {'k needed [kgf/mm]':>18} {'P met':>7}")
+        for row in t["required_stiffness"]:
+            k = ("not found" if not row["converged"]
+                 else f"{row['stiffness_kgf_mm']:.5g}")
+            print(f"  {row['weight_kgf']:9.4g} {row['speed_mm_min']:11.4g} {k:>18} "
+                  f"{row['probability']:7.3f}")
+        ok = np.asarray(t["probability_met"]) >= t["meet"]
+        print(f"  grid points meeting it: {int(ok.sum())} of {ok.size}")
     if args.plot:
         print(f"  figure: {args.plot}")
     return 0
+
+
+def tolerance(args, res) -> dict:
+    """--max-amplitude: the meet probability on the grid and, per (W, v), the stiffness
+    that meets the tolerance (`stickslip_fitting.design.tolerance`)."""
+    import jax
+
+    from ..design import load_samples, outer
+    from ..design.tolerance import meet_probability, required_stiffness
+
+    if not 0 < args.meet < 1:
+        raise ValueError(f"--meet: must lie between 0 and 1, e.g. 0.95, got {args.meet}")
+    if not args.max_amplitude > 0:
+        raise ValueError(f"--max-amplitude: must be positive, got {args.max_amplitude}")
+    if args.posterior:
+        sample = load_samples(args.posterior)
+    else:
+        from stickslip_jax.lubricants import lubricant
+
+        sample = jax.tree_util.tree_map(lambda x: jax.numpy.asarray(x, float)[None],
+                                        lubricant(args.lubricant, table=args.table))
+    axes = res["axes"]
+    w, k, v = outer(axes["weight"], axes["stiffness"], axes["speed"])
+    prob = meet_probability(sample, w, k, v, args.max_amplitude)
+    rows = []
+    for wi in axes["weight"]:
+        for vi in axes["speed"]:
+            d = required_stiffness(sample, wi, vi, args.max_amplitude, meet=args.meet,
+                                   start=float(np.median(axes["stiffness"])))
+            rows.append({"weight_kgf": d.weight, "speed_mm_min": d.speed * 60.0,
+                         "stiffness_kgf_mm": d.stiffness if d.converged else None,
+                         "probability": d.probability, "converged": d.converged})
+    draws = int(np.size(jax.tree_util.tree_leaves(sample)[0]))
+    return {"max_amplitude_mm": float(args.max_amplitude), "meet": args.meet, "draws": draws,
+            "amplitude": "time-domain limit cycle (stickslip_jax.limit_cycle)",
+            "probability_met": prob.tolist(), "required_stiffness": rows}

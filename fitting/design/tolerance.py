@@ -1,0 +1,117 @@
+r"""Design to a tolerance: which springs keep the stick-slip amplitude below a bound, for
+every friction parameter set a posterior allows.
+
+The amplitude is the time-domain limit cycle's (`stickslip_jax.limit_cycle`: the fixed
+point of the one-cycle map, equal to the exact simulator's settled cycle, re-slips
+included), not eq (6)'s with eq (12)'s cut-off, which calls a small stick-slip above
+$v_c$ "none".
+
+- `meet_probability(sample, W, k, v, max_amplitude)`: over the posterior draws
+  (`posterior.load_samples`, a `Friction` with leaves of shape (S,)), the probability
+  that the amplitude stays at or below `max_amplitude` (mm), at every point of the
+  broadcast W (kgf), k (kgf/mm), v (mm/s).
+- `required_stiffness(sample, W, v, max_amplitude, meet=0.95)`: the inverse design, the
+  stiffness at which the `meet` quantile of the draws' amplitudes equals the tolerance
+  (Newton's method in log k on a smooth quantile of the draws, with gradients through the
+  fixed point by the implicit function theorem); a stiffer spring meets it with at least
+  that probability (the amplitude falls with k: about W/k times a friction drop that
+  shrinks with T1). Returns k (kgf/mm), the probability met there, and the solver result.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+
+from stickslip_jax import Friction
+from stickslip_jax.limit_cycle import limit_cycle
+
+from .uncertainty import sample_size
+
+__all__ = ["ToleranceDesign", "meet_probability", "required_stiffness"]
+
+
+def _amplitudes(sample: Friction, weight, stiffness, speed):
+    """Limit-cycle amplitude (mm) of every draw at one design point, shape (S,)."""
+    return jax.vmap(lambda f: limit_cycle(f, weight, stiffness, speed).amplitude)(sample)
+
+
+@eqx.filter_jit
+def _meet_grid(sample, w, k, v, max_amplitude):
+    def one(w, k, v):
+        return jnp.mean(_amplitudes(sample, w, k, v) <= max_amplitude)
+
+    return jax.vmap(one)(w, k, v)
+
+
+def meet_probability(sample: Friction, weight, stiffness, speed, max_amplitude: float):
+    """P(amplitude <= `max_amplitude`) over the draws at every broadcast point (module
+    doc); a NumPy array of the broadcast shape."""
+    if not max_amplitude > 0:
+        raise ValueError(f"--max-amplitude: must be positive, got {max_amplitude}")
+    sample_size(sample)
+    w, k, v = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (weight, stiffness, speed)))
+    for name, x in (("weight W", w), ("stiffness k", k), ("drive speed v", v)):
+        if not np.all(np.isfinite(x) & (x > 0)):
+            raise ValueError(f"{name} must be finite and positive everywhere")
+    p = _meet_grid(sample, jnp.asarray(w.ravel()), jnp.asarray(k.ravel()),
+                   jnp.asarray(v.ravel()), jnp.asarray(float(max_amplitude)))
+    return np.asarray(p).reshape(w.shape)
+
+
+@dataclasses.dataclass(frozen=True)
+class ToleranceDesign:
+    """`stiffness` k (kgf/mm) where the `meet` quantile of the amplitude equals the
+    tolerance, `probability` met there (fraction of draws), `converged`."""
+
+    weight: float
+    speed: float
+    max_amplitude: float
+    meet: float
+    stiffness: float
+    probability: float
+    converged: bool
+
+
+def _smooth_quantile(a, q):
+    """The q quantile of the draws (linear interpolation of the sorted values: piecewise
+    smooth in the draws, so Newton's method and its gradient see a slope)."""
+    return jnp.quantile(a, q)
+
+
+@eqx.filter_jit
+def _solve_stiffness(sample, weight, speed, max_amplitude, meet, k0):
+    def residual(log_k, args):
+        sample, w, v, tol, q = args
+        a = _amplitudes(sample, w, jnp.exp(log_k), v)
+        return jnp.log(_smooth_quantile(a, q)) - jnp.log(tol)
+
+    sol = optx.root_find(residual, optx.Newton(rtol=1e-10, atol=1e-10), jnp.log(k0),
+                         args=(sample, weight, speed, max_amplitude, meet), max_steps=100,
+                         throw=False)
+    k = jnp.exp(sol.value)
+    prob = jnp.mean(_amplitudes(sample, weight, k, speed) <= max_amplitude * (1 + 1e-9))
+    return k, prob, sol.result
+
+
+def required_stiffness(sample: Friction, weight: float, speed: float, max_amplitude: float, *,
+                       meet: float = 0.95, start: float = 100.0) -> ToleranceDesign:
+    """The inverse design of the module doc at one (W kgf, v mm/s); `start`: the first
+    stiffness tried (kgf/mm)."""
+    if not 0 < meet < 1:
+        raise ValueError(f"--meet: must lie between 0 and 1, e.g. 0.95, got {meet}")
+    if not max_amplitude > 0:
+        raise ValueError(f"--max-amplitude: must be positive, got {max_amplitude}")
+    sample_size(sample)
+    k, prob, result = _solve_stiffness(sample, jnp.asarray(float(weight)),
+                                       jnp.asarray(float(speed)),
+                                       jnp.asarray(float(max_amplitude)), jnp.asarray(meet),
+                                       jnp.asarray(float(start)))
+    return ToleranceDesign(float(weight), float(speed), float(max_amplitude), float(meet),
+                           float(k), float(prob),
+                           bool(result == optx.RESULTS.successful) and bool(np.isfinite(k)))
