@@ -7,7 +7,10 @@ campaign from the independent SciPy generator (`tests/independent_records.py`; l
 A, 3 (W, k) x 4 speeds, about 7 cycles per record at 2 kHz, noise 0.5 um; about 0.5 M
 samples, a damping ratio of 0.1 hidden), `discover_cycles` timed by stage, compilation
 included (a fresh process), against one `fit --objective trace` of the same campaign
-in the same process afterwards (warm). Target: total under 60 s on 2 cores.
+in the same process afterwards (warm). Target: total under 60 s on 2 cores. Measured
+(2 cores shared with other jobs, load 2-5): prepare 22.9-23.7 s, base fit 4.1-5.6,
+ranking 5.5-10.3, refit 12.6-13.2, total 45.3-52.9 s (was 113-206 s before the Jacobian
+compression, the FFT sensor kernel and the vectorised pitch scan of issue 18).
 
 `--base smooth`, the whole-record workflow:
 Builds a synthetic campaign (lubricant A, 3 (W, k) x 4 speeds, 3 cycles per record,
