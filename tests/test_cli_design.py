@@ -112,3 +112,24 @@ def test_plan_from_lubricant_prior_sample_and_records(capsys, tmp_path):
     assert main(["plan", "nothing-here", "--budget", "2"]) == 2
     assert main(["plan", str(tmp_path / "r1.csv")]) == 2  # records alone: no estimate
     assert "estimate" in capsys.readouterr().err
+
+
+def test_long_csv_matches_the_json_map(capsys, tmp_path):
+    """--csv: one row per grid point, the same numbers as the JSON map (pandas reads it)."""
+    pd = pytest.importorskip("pandas")
+    out_csv, out_json = tmp_path / "map.csv", tmp_path / "map.json"
+    assert main(["design", "--weight", "11.3:36:2", "--stiffness", "27.3:128.5:3",
+                 "--speed", "5:60:2", "--method", "cycle", "--max-amplitude", "10um",
+                 "--csv", str(out_csv), "--json", str(out_json), "--quiet"]) == 0
+    capsys.readouterr()
+    df = pd.read_csv(out_csv)
+    doc = json.loads(out_json.read_text())
+    assert len(df) == 2 * 3 * 2
+    assert list(df.columns[:3]) == ["weight_kgf", "stiffness_kgf_mm", "speed_mm_min"]
+    np.testing.assert_allclose(df["amplitude_mm"], np.ravel(doc["amplitude_mm"]), rtol=1e-9)
+    np.testing.assert_allclose(df["speed_mm_min"],
+                               np.tile(doc["axes"]["speed_mm_min"], 6), rtol=1e-9)
+    assert set(df["regime"]) <= {"stick-slip", "re-stick failure", "steady sliding"}
+    np.testing.assert_allclose(df["probability_met"],
+                               np.ravel(doc["tolerance"]["probability_met"]))
+    assert set(df["probability_met"]) <= {0.0, 1.0}  # one draw: the lubricant

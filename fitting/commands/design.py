@@ -97,6 +97,10 @@ def add_arguments(p):
 
     add_plot_option(p, "the map figure", hidden=("--out",))
     add_json_option(p, "the map", bare=True)
+    p.add_argument("--csv", metavar="OUT.csv",
+                   help="write the map as a long-format CSV: one row per (W, k, v) point "
+                   "with every quantity in its own column, units in the header (pandas, R, "
+                   "spreadsheets read it as is)")
     p.add_argument("--chunk-size", type=int, default=65_536, help="points per device batch")
     from stickslip_jax.commands._args import add_quiet_option
 
@@ -288,7 +292,7 @@ def plot(args, res, path):
 def run(args) -> int:
     from stickslip_jax.output import check_outputs
 
-    check_outputs({"--json": args.json, args.plot_option: args.plot},
+    check_outputs({"--json": args.json, args.plot_option: args.plot, "--csv": args.csv},
                   [args.posterior] if args.posterior else [])
     res = compute(args)
     if args.max_amplitude is not None:
@@ -304,6 +308,11 @@ def run(args) -> int:
         write_json(args.json, versioned(doc), indent=None)
         if args.json != "-":  # with "-" the summary below goes to stderr
             print(f"wrote {args.json}")
+    if args.csv:
+        from stickslip_jax.output import write_text
+
+        write_text(args.csv, long_csv(res))
+        print(f"wrote {args.csv}")
     amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]
     print(f"design map {'x'.join(str(s) for s in amp.shape)} (W x k x v), "
           f"{_METHOD_TITLE[_method(args)]}")
@@ -363,3 +372,43 @@ def tolerance(args, res) -> dict:
     return {"max_amplitude_mm": float(args.max_amplitude), "meet": args.meet, "draws": draws,
             "amplitude": "time-domain limit cycle (stickslip_jax.limit_cycle)",
             "probability_met": prob.tolist(), "required_stiffness": rows}
+
+
+CSV_COLUMNS = (  # (key in the map, column, factor from internal units)
+    ("amplitude", "amplitude_mm", 1.0),
+    ("amplitude_ratio", "amplitude_ratio", 1.0),
+    ("frequency", "frequency_hz", 1.0),
+    ("frequency_ratio", "frequency_ratio", 1.0),
+    ("stick_time", "stick_time_s", 1.0),
+    ("critical_speed", "critical_speed_mm_min", 60.0),
+    ("probability", "probability_stick_slip", 1.0),
+    ("stick_slip", "stick_slip", 1),
+    ("converged", "converged", 1),
+)
+
+
+def long_csv(res) -> str:
+    """The map as long-format CSV text: columns weight_kgf, stiffness_kgf_mm,
+    speed_mm_min, then every quantity the map has (`CSV_COLUMNS`), `regime` by name and,
+    with --max-amplitude, `probability_met`."""
+    from stickslip_jax.steady import REGIMES
+
+    from ..design import outer
+
+    axes = res["axes"]
+    w, k, v = (np.broadcast_to(a, res["amplitude"].shape).ravel()
+               for a in outer(axes["weight"], axes["stiffness"], axes["speed"]))
+    cols = {"weight_kgf": w, "stiffness_kgf_mm": k, "speed_mm_min": v * 60.0}
+    for key, name, factor in CSV_COLUMNS:
+        if key in res:
+            x = np.asarray(res[key]).ravel()
+            cols[name] = x.astype(int) if factor == 1 and x.dtype == bool else x * factor
+    if "regime" in res:
+        cols["regime"] = np.asarray([REGIMES[int(r)] for r in np.asarray(res["regime"]).ravel()])
+    if "tolerance" in res:
+        cols["probability_met"] = np.asarray(res["tolerance"]["probability_met"]).ravel()
+    lines = [",".join(cols)]
+    for i in range(w.size):
+        lines.append(",".join(str(c[i]) if isinstance(c[i], str) else f"{c[i]:.10g}"
+                              for c in cols.values()))
+    return "\n".join(lines) + "\n"
