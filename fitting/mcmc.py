@@ -27,11 +27,27 @@ the Laplace covariance. The integrated autocorrelation time $\tau$ of every
 parameter and the effective sample size $N_\mathrm{walkers} (N_\mathrm{steps} -
 \mathrm{burn}) / \tau$ are reported, with a warning when the chain is shorter than
 50 $\tau$ (emcee's rule of thumb) or the estimate is unreliable.
+
+The full chain after burn-in (every walker, every step) is kept in the result
+(`McmcResult.chain`, `log_prob`) and converts to an arviz `InferenceData`
+(`McmcResult.to_inference_data`, saved as netCDF by `McmcResult.save_chain`): the
+posterior group has chain = walker and draw = step (numbered from the burn-in on), one
+variable per parameter in natural units (a `units` attribute each; `gauge_offset` in mm
+over `record` when offsets are sampled), sample_stats has `lp` (the log-posterior), and
+the attributes hold the likelihood scale, the units and the run's settings. arviz is
+the optional extra `stickslip-jax[posterior]` (`import_arviz`).
+`McmcResult.arviz_summary` gives arviz's ESS (bulk, tail) and R-hat with the walkers
+as chains. **Caveat**: the walkers of an affine-invariant ensemble are not independent
+chains (each move uses the other walkers' positions), so R-hat across walkers is only
+indicative: a value near 1 says the walkers agree, not that independent runs would;
+the integrated autocorrelation time above is emcee's own diagnostic of the ensemble.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import json
+import warnings
 
 import emcee
 import equinox as eqx
@@ -45,8 +61,34 @@ from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, f
 from .report import ParameterEstimate
 from .uncertainty import laplace
 
-__all__ = ["PRIOR_BOUNDS", "McmcResult", "likelihood_scale", "log_posterior", "run_mcmc",
-           "prior_text"]
+__all__ = ["PRIOR_BOUNDS", "MissingExtra", "McmcResult", "import_arviz", "likelihood_scale",
+           "log_posterior", "run_mcmc", "prior_text"]
+
+POSTERIOR_EXTRA = 'pip install "stickslip-jax[posterior]"'
+"""How to install arviz (and its netCDF writer) for the chain file and arviz summaries."""
+
+ENSEMBLE_CAVEAT = ("the walkers of an affine-invariant ensemble are not independent chains: "
+                   "R-hat across walkers is only indicative")
+"""Said wherever arviz's across-chain diagnostics of the walkers are shown."""
+
+
+class MissingExtra(ImportError, ValueError):
+    """An optional dependency is missing: an ImportError for library callers, a one-line
+    error (exit 2) for the command line, which reports ValueErrors so."""
+
+
+def import_arviz(option: str | None = None):
+    """The arviz module, or `MissingExtra` naming `POSTERIOR_EXTRA` (prefixed by the
+    command-line `option` that needs it). Silences arviz's FutureWarning on import."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FutureWarning)
+            import arviz
+    except ImportError:
+        what = f"{option}: " if option else ""
+        raise MissingExtra(f"{what}needs arviz, which is not installed: "
+                           f"{POSTERIOR_EXTRA}") from None
+    return arviz
 
 PRIOR_BOUNDS = {**EmpiricalFriction.PRIOR_BOUNDS, **MicrosqueezeFriction.PRIOR_BOUNDS}
 """Support of the log-uniform prior of each parameter of both laws (natural units: h_e
@@ -138,7 +180,11 @@ def log_posterior(fit: FitResult, scale: float | None = None):
 
 @dataclasses.dataclass(frozen=True)
 class McmcResult:
-    """Posterior samples (natural units, `names` order), diagnostics and the prior used."""
+    """Posterior samples (natural units, `names` order), diagnostics and the prior used.
+
+    `samples` is the flat chain after burn-in (steps x walkers rows); `chain` the same
+    as (walkers, steps, parameters), `log_prob` the log-posterior (walkers, steps),
+    `offsets` the sampled gauge offsets in mm (walkers, steps, records) or None."""
 
     names: list
     samples: np.ndarray
@@ -153,6 +199,69 @@ class McmcResult:
     units: dict | None = None
     likelihood_scale: float = 1.0
     interrupted: bool = False
+    chain: np.ndarray | None = None
+    log_prob: np.ndarray | None = None
+    offsets: np.ndarray | None = None
+
+    def to_inference_data(self, attrs: dict | None = None, records=None):
+        """The chain after burn-in as an arviz `InferenceData` (module doc): chain = walker,
+        draw = step (numbered from the burn-in), one variable per parameter in natural
+        units, sample_stats `lp`. `attrs` (the objective, loss, model, seed...) join the
+        result's own (likelihood_scale, units, walkers, steps, burn, ...) on every group;
+        values that are not numbers or strings are stored as JSON text. `records`: names
+        of the records along `gauge_offset`. Raises `MissingExtra` without arviz."""
+        az = import_arviz()
+        if self.chain is None:
+            raise ValueError("this result keeps no chain (made without run_mcmc)")
+        draws = np.arange(self.burn, self.burn + self.chain.shape[1])
+        posterior = {n: self.chain[:, :, i] for i, n in enumerate(self.names)}
+        coords, dims = {"draw": draws}, {}
+        if self.offsets is not None and self.offsets.shape[-1]:
+            n_rec = self.offsets.shape[-1]
+            posterior["gauge_offset"] = self.offsets
+            coords["record"] = list(records) if records is not None else list(range(n_rec))
+            dims["gauge_offset"] = ["record"]
+        stats = {"lp": self.log_prob} if self.log_prob is not None else None
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FutureWarning)
+            # the layout is (walker, step) by construction, also with fewer steps than walkers
+            warnings.filterwarnings("ignore", "More chains", UserWarning)
+            idata = az.from_dict(posterior=posterior, sample_stats=stats, coords=coords,
+                                 dims=dims)
+        units = {**(self.units or {}), **({"gauge_offset": "mm"} if dims else {})}
+        for name, var in idata.posterior.data_vars.items():
+            var.attrs["units"] = units.get(name, "-")
+        meta = {"sampler": "emcee EnsembleSampler (affine-invariant stretch move)",
+                "likelihood_scale": self.likelihood_scale, "units": units,
+                "walkers": self.walkers, "steps": self.steps, "burn": self.burn,
+                "acceptance": self.acceptance, "prior": self.prior,
+                "interrupted": self.interrupted, "warnings": self.warnings,
+                "note": ENSEMBLE_CAVEAT, **(attrs or {})}
+        meta = {k: v if isinstance(v, (str, int, float)) and not isinstance(v, bool)
+                else json.dumps(v) for k, v in meta.items()}
+        for group in idata.groups():
+            getattr(idata, group).attrs.update(meta)
+        return idata
+
+    def save_chain(self, path: str, attrs: dict | None = None, records=None,
+                   idata=None) -> None:
+        """Write `to_inference_data(attrs, records)` (or `idata`, already made from it) as
+        netCDF to `path`, atomically (a temporary file renamed over it:
+        `stickslip_jax.output.write_atomic`). Read it back with `arviz.from_netcdf`."""
+        from stickslip_jax.output import write_atomic
+
+        idata = self.to_inference_data(attrs, records) if idata is None else idata
+        write_atomic(str(path), lambda tmp: idata.to_netcdf(tmp), suffix=".nc")
+
+    def arviz_summary(self, idata=None):
+        """arviz's diagnostics of the walkers as chains (a pandas DataFrame, one row per
+        parameter: ess_bulk, ess_tail, r_hat, mcse_*). See the module doc's caveat: R-hat
+        across the walkers of an ensemble is only indicative."""
+        az = import_arviz()
+        idata = self.to_inference_data() if idata is None else idata
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return az.summary(idata, var_names=list(self.names), kind="diagnostics")
 
     def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
         """One typed row per sampled parameter (`stickslip_fitting.report`): the posterior
@@ -255,6 +364,8 @@ def run_mcmc(
         steps = done
         burn = min(burn, done // 4)
     chain = sampler.get_chain(discard=burn, flat=True)
+    full = sampler.get_chain(discard=burn)  # (steps, walkers, dim)
+    log_prob = np.asarray(sampler.get_log_prob(discard=burn)).T
     tau = np.asarray(sampler.get_autocorr_time(discard=burn, tol=0), dtype=float)
     kept = steps - burn
     ess = walkers * kept / np.maximum(tau, 1.0)
@@ -274,4 +385,6 @@ def run_mcmc(
         acceptance=float(np.mean(sampler.acceptance_fraction)), walkers=walkers, steps=steps,
         burn=burn, prior=prior_text(fit.params.friction, names), warnings=warnings,
         units=dict(fit.params.friction.UNITS), likelihood_scale=scale, interrupted=interrupted,
+        chain=np.exp(np.transpose(full[:, :, : len(names)], (1, 0, 2))), log_prob=log_prob,
+        offsets=np.transpose(full[:, :, len(names):], (1, 0, 2)) if n_off else None,
     )

@@ -1,9 +1,10 @@
 r"""Figures of a fit: traces with the fitted model, $\mu_0(T_1)$ and $\mu_m(T_2)$ with bands, corner plot.
 
-All with matplotlib only (the corner plot is a small grid of histograms and
-scatter plots rather than a new dependency). Units on the axes: s, um, mu
-dimensionless. Following matplotlib's convention, every function returns its `Figure`
-and never switches the user's backend; given a `path` it also saves the figure there
+With matplotlib; the corner plot with the `corner` package (the community's standard
+posterior figure: quantiles, contours, truths). Units on the axes: s, um, mu
+dimensionless; the corner plot's from the parameter family's `UNITS`. Following
+matplotlib's convention, every function returns its `Figure` and never switches the
+user's backend; given a `path` it also saves the figure there
 (atomically) and closes it, without one it leaves it open for Jupyter to show.
 """
 
@@ -167,37 +168,34 @@ def fit_figure(fit, unc, records, path=None, max_traces: int = 4):
     return _finish(fig, path, 110)
 
 
-def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int = 30):
-    """Corner plot of posterior samples (N, d): histograms on the diagonal, pairs below
-    (returned; saved to `path` when given)."""
-    plt = _plt()
-    samples = np.asarray(samples)
-    d = samples.shape[1]
-    fig, axes = plt.subplots(d, d, figsize=(1.9 * d + 1, 1.9 * d + 1), squeeze=False)
-    for i in range(d):
-        for j in range(d):
-            ax = axes[i, j]
-            if j > i:
-                ax.axis("off")
-                continue
-            if i == j:
-                ax.hist(samples[:, i], bins=bins, histtype="step", color="k")
-                if truth and names[i] in truth:
-                    ax.axvline(truth[names[i]], color="tab:red")
-                ax.set_yticks([])
-            else:
-                ax.plot(samples[:, j], samples[:, i], ",", alpha=0.3, color="k")
-                if truth and names[i] in truth and names[j] in truth:
-                    ax.plot(truth[names[j]], truth[names[i]], "s", color="tab:red", ms=4)
-            if i == d - 1:
-                ax.set_xlabel(names[j])
-            else:
-                ax.set_xticklabels([])
-            if j == 0 and i > 0:
-                ax.set_ylabel(names[i])
-            elif j > 0:
-                ax.set_yticklabels([])
-            ax.tick_params(labelsize=6)
-    fig.tight_layout()
-    return _finish(fig, path, 100)
+def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int = 30,
+                units: dict | None = None, **kwargs):
+    """Corner plot of posterior samples (N, d) drawn by the `corner` package (returned;
+    saved to `path` when given): histograms with the 16, 50 and 84 % quantiles on the
+    diagonal (their values in the titles), 2-D histograms with density contours below,
+    the truth as lines where `truth` names a parameter, axes labelled
+    `name [unit]` from `units` (the parameter family's `UNITS`; "-" for dimensionless
+    shows no unit). Other keywords go to `corner.corner`. Example, for an `McmcResult`:
+    `corner_plot(res.samples, res.names, truth=truth, units=res.units)`.
+    """
+    import corner  # draws through pyplot with the user's backend, as it is
+    samples = np.asarray(samples, dtype=float)
+    units = units or {}
 
+    def label(n):
+        u = units.get(n, "-")
+        return n if u in ("-", "") else f"{n} [{u}]"
+
+    truths = None
+    if truth and any(n in truth for n in names):
+        truths = [truth.get(n) for n in names]
+    options = dict(bins=bins, labels=[label(n) for n in names], quantiles=[0.16, 0.5, 0.84],
+                   show_titles=True, title_fmt=".3g", title_kwargs={"fontsize": 8},
+                   truths=truths, truth_color="tab:red", label_kwargs={"fontsize": 9})
+    lo, hi = samples.min(axis=0), samples.max(axis=0)
+    if np.any(hi <= lo):  # a parameter that did not move (corner refuses no range)
+        pad = np.where(hi > lo, 0.0, np.maximum(1e-9, 1e-6 * np.abs(lo)))
+        options["range"] = list(zip(lo - pad, hi + pad))
+    options.update(kwargs)
+    fig = corner.corner(samples, **options)
+    return _finish(fig, path, 100)

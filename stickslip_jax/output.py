@@ -4,7 +4,8 @@
   is a folder, the path is not a folder), differs from every input file (same file by
   `os.path.samefile` or by resolved path) and from the other outputs; raises ValueError
   naming the option and the fix. Call it before the work starts.
-- `write_text(path, text)`, `write_json(path, obj)`, `save_figure(fig, path)`: write to a
+- `write_text(path, text)`, `write_json(path, obj)`, `save_figure(fig, path)`,
+  `write_atomic(path, write)` (any writer, e.g. a netCDF file): write to a
   temporary file in the target folder and rename it over the target, so a full disk or
   an interrupt leaves the previous file (or none), never half a file. `path` "-" writes
   JSON/text to stdout.
@@ -24,7 +25,8 @@ import sys
 import tempfile
 
 __all__ = [
-    "check_outputs", "json_owns_stdout", "save_figure", "strict_json", "write_json", "write_text",
+    "check_outputs", "json_owns_stdout", "save_figure", "strict_json", "write_atomic",
+    "write_json", "write_text",
 ]
 
 
@@ -137,6 +139,13 @@ def _replace(path: str, suffix: str, write) -> None:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def write_atomic(path: str, write, suffix: str | None = None) -> None:
+    """`write(tmp)` writes the file at the temporary path `tmp` (in `path`'s folder, ending
+    in `suffix`, default `path`'s extension); it is then renamed over `path` (module doc):
+    for outputs written by other libraries (a netCDF file written by xarray)."""
+    _replace(path, os.path.splitext(path)[1] if suffix is None else suffix, write)
 
 
 def check_memory(what: str, option: str, n_bytes: float, fraction: float = 0.5) -> None:

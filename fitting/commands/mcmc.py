@@ -8,7 +8,11 @@ size of every parameter, the prior used, and a warning when the chain is too sho
 `--json OUT` writes the summary ("parameters", "prior", ...) and the posterior draws
 ("names", "samples": a (draws, parameters) matrix thinned to at most `--draws` rows,
 "fixed": the values of parameters held fixed), which `stickslip design --posterior OUT`
-and `stickslip plan OUT` read.
+and `stickslip plan OUT` read. `--chain OUT.nc` saves the full chain after burn-in as
+arviz InferenceData in netCDF (`McmcResult.save_chain`; chain = walker, draw = step),
+and with arviz installed (the extra `stickslip-jax[posterior]`) arviz's ESS and R-hat
+of the walkers are printed, R-hat only indicative for an ensemble's walkers.
+`--plot OUT.png` (or `--corner`) draws the corner plot with the `corner` package.
 """
 
 from __future__ import annotations
@@ -51,7 +55,12 @@ def add_arguments(parser):
                     "design --posterior OUT` reads the draws)")
     parser.add_argument("--draws", type=int, default=2000,
                         help="at most this many draws in --json (evenly thinned; default 2000)")
-    add_plot_option(parser, "the corner plot of the posterior", aliases=("--corner",))
+    parser.add_argument("--chain", metavar="OUT.nc",
+                        help="write the full chain after burn-in (every walker and step, "
+                        "log-posterior, units, settings) as arviz InferenceData netCDF to "
+                        "OUT.nc; needs the extra: pip install \"stickslip-jax[posterior]\"")
+    add_plot_option(parser, "the corner plot of the posterior (the corner package: 16/50/84 "
+                    "%% quantiles, truths, units)", aliases=("--corner",))
     add_quiet_option(parser)
     # the old opt-out of the bar alone (the stage lines stay): hidden, --quiet is the flag
     parser.add_argument("--no-progress", action="store_true", help=argparse.SUPPRESS)
@@ -82,7 +91,15 @@ def run(args) -> int:
     from stickslip_jax.output import check_outputs, versioned, write_json
     from stickslip_jax.records import record_paths
 
-    check_outputs({"--json": args.json, args.plot_option: args.plot}, record_paths(args.records))
+    check_outputs({"--json": args.json, args.plot_option: args.plot, "--chain": args.chain},
+                  record_paths(args.records))
+    if args.chain == "-":
+        raise ValueError("--chain: give a file name such as chain.nc (netCDF is not written "
+                         "to stdout)")
+    from ..mcmc import ENSEMBLE_CAVEAT, MissingExtra, import_arviz
+
+    if args.chain:
+        import_arviz("--chain")  # before the fit: a one-line error naming the extra
     fit, campaign, extra = fit_from_args(args, objective=args.objective)
     records = campaign.records
     for w in campaign.warnings:
@@ -119,9 +136,27 @@ def run(args) -> int:
           f"acceptance {res.acceptance:.2f}")
     for w in res.warnings:
         print("warning: " + w)
-    if args.json:
-        from ..losses import loss_of
+    from ..losses import loss_of
 
+    # the chain file's attributes besides the result's own (likelihood scale, units, ...)
+    attrs = {"model": args.model, "objective": args.objective,
+             "loss": loss_of(fit.objective).spec(), "seed": args.seed,
+             "records": [f.name for f in fit.features],
+             "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
+    idata = None
+    try:
+        idata = res.to_inference_data(attrs, [f.name for f in fit.features])
+    except MissingExtra:
+        pass  # arviz's summary is optional (`--chain` checked for it above)
+    if idata is not None:
+        diag = res.arviz_summary(idata)
+        print(f"\narviz, walkers as chains ({ENSEMBLE_CAVEAT}):")
+        print(f"{'parameter':<10}{'ESS bulk':>10}{'ESS tail':>10}{'R-hat':>8}")
+        for name in res.names:
+            row = diag.loc[name]
+            print(f"{name:<10}{row['ess_bulk']:>10.0f}{row['ess_tail']:>10.0f}"
+                  f"{row['r_hat']:>8.3f}")
+    if args.json:
         # the fit's row keys (value = median, stderr = sd, ci95, truth_in_ci95, ...) and the
         # sampler's own (median, mean, sd, tau_steps, ess)
         out = {"model": args.model, "parameters": {
@@ -141,10 +176,13 @@ def run(args) -> int:
         write_json(args.json, versioned(out))
         if args.json != "-":
             print(f"wrote {args.json}")
+    if args.chain:
+        res.save_chain(args.chain, idata=idata)
+        print(f"wrote {args.chain}")
     if args.plot:
         from ..plots import corner_plot
 
-        corner_plot(res.samples, res.names, args.plot, truth=truth)
+        corner_plot(res.samples, res.names, args.plot, truth=truth, units=units)
         print(f"wrote {args.plot}")
     if res.interrupted:
         print("stickslip mcmc: interrupted; the chain so far is summarised above"
