@@ -4,6 +4,7 @@ both regimes, with gradients against finite differences."""
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -21,32 +22,44 @@ POINTS = [("A", 36.0, 86.9), ("C", 36.0, 27.3), ("C", 11.3, 86.9)]
 FACTORS = (0.2, 0.5, 0.8, 1.3, 2.0, 5.0, 12.0)  # drive speed / v_c: both sides
 
 
-def _exact_cycle(friction, W, k, v, t1_guess):
-    """The exact simulator's settled cycle: (T1, amplitude (x2 - x1)/2, slip time), a
-    re-slip's two slips counted as one cycle."""
-    horizon = 60.0 * (t1_guess + 0.1) + 1.0
-    tr = simulate_exact(ss.Slideway(friction, W, k), ConstantSpeed(v),
-                        jnp.linspace(0.0, horizon, 3), max_events=240)
-    c = tr.cycles
-    ok = np.asarray(c.valid)
-    t1 = np.asarray(c.stick_time)[ok][-6:]
-    amp = np.asarray(c.amplitude())[ok][-6:]
-    t2 = np.asarray(c.slip_time)[ok][-6:]
-    if np.any(t1 == 0.0):  # re-slips: pair each stick with the slip that follows
-        i = int(np.flatnonzero(t1 > 0)[-2])
-        return t1[i], amp[i] + amp[i + 1], t2[i] + t2[i + 1]
-    return t1[-1], amp[-1], t2[-1]
+@eqx.filter_jit
+def _simulate(friction, W, k, speeds, horizons):
+    """The exact simulator at every speed (one compiled, vmapped program)."""
+    def one(v, horizon):
+        tr = simulate_exact(ss.Slideway(friction, W, k), ConstantSpeed(v),
+                            jnp.linspace(0.0, horizon, 3), max_events=240)
+        return tr.cycles
+    return jax.vmap(one)(speeds, horizons)
+
+
+def _exact_cycles(friction, W, k, speeds, t1_guesses):
+    """The exact simulator's settled cycle at every speed: (T1, amplitude (x2 - x1)/2,
+    slip time), a re-slip's two slips counted as one cycle."""
+    cyc = _simulate(friction, jnp.asarray(W), jnp.asarray(k), jnp.asarray(speeds),
+                    60.0 * (jnp.asarray(t1_guesses) + 0.1) + 1.0)
+    out = []
+    for i in range(len(speeds)):
+        ok = np.asarray(cyc.valid[i])
+        t1 = np.asarray(cyc.stick_time[i])[ok][-6:]
+        amp = np.asarray(cyc.amplitude()[i])[ok][-6:]
+        t2 = np.asarray(cyc.slip_time[i])[ok][-6:]
+        if np.any(t1 == 0.0):  # re-slips: pair each stick with the slip that follows
+            j = int(np.flatnonzero(t1 > 0)[-2])
+            out.append((t1[j], amp[j] + amp[j + 1], t2[j] + t2[j + 1]))
+        else:
+            out.append((t1[-1], amp[-1], t2[-1]))
+    return out
 
 
 @pytest.mark.parametrize("lub, W, k", POINTS)
 def test_fixed_point_is_the_exact_limit_cycle(lub, W, k):
     fr = ss.lubricant(lub)
     vc = float(critical_speed(fr, W, k))
-    for f in FACTORS:
-        v = f * vc
-        lc = limit_cycle(fr, W, k, v)
+    speeds = [f * vc for f in FACTORS]
+    cycles = [limit_cycle(fr, W, k, v) for v in speeds]
+    exact = _exact_cycles(fr, W, k, speeds, [float(c.stick_time) for c in cycles])
+    for v, lc, (t1, amp, t2) in zip(speeds, cycles, exact):
         assert lc.result == optx.RESULTS.successful
-        t1, amp, t2 = _exact_cycle(fr, W, k, v, float(lc.stick_time))
         np.testing.assert_allclose(float(lc.stick_time), t1, rtol=1e-6)
         np.testing.assert_allclose(float(lc.amplitude), amp, rtol=1e-6)
         np.testing.assert_allclose(float(lc.slip_time), t2, rtol=1e-6)
