@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 import independent_records as ir
@@ -53,3 +54,45 @@ def test_strong_damping_is_named():
     assert "viscous_damping" in named, res.explanation
     assert res.gap_after <= 1.15 * res.noise
     assert res.effect_size["c"]["value"] > 0
+
+
+def test_joint_naming_rule():
+    """`decide` on synthetic inputs: a close, comparable, not clearly beaten contender is
+    named jointly; one the winner beats clearly is not; a comparable one in another
+    direction or an unphysical one keeps the confidence low; a small one does not count."""
+    from stickslip_fitting.discovery.cycle_workflow import Contender, decide
+
+    look = Contender("rate_state", 80.0, 0.95, 1.0)
+    d = decide(100.0, [look])
+    assert d.joint == (look,) and d.clear
+    assert decide(100.0, [Contender("rate_state", 80.0, 0.95, 4.0)]) == decide(100.0, [])
+    assert decide(100.0, []).clear
+    # the measured Stribeck campaign (b 0.015): sensor 30, rate_state 24 (cosine 0.46),
+    # stribeck 16 (0.15), unphysical negative damping 54: nothing joint, not certain
+    d = decide(30.0, [Contender("rate_state", 24.0, 0.46, 0.51),
+                      Contender("stribeck", 16.0, 0.15, 1.1),
+                      Contender("viscous_damping", 54.0, 0.44, -1.7, physical=False)])
+    assert d.joint == () and not d.clear
+    assert [c.name for c in d.unbeaten] == ["viscous_damping", "rate_state", "stribeck"]
+    small = decide(100.0, [Contender("stribeck", 30.0, 0.99, 2.0)])  # close, not comparable
+    assert small.joint == () and small.clear
+    other = decide(100.0, [Contender("friction_drift", 120.0, 0.3, -1.0)])  # explains more
+    assert other.joint == () and not other.clear
+    unphys = decide(100.0, [Contender("stribeck", 90.0, 0.99, 0.1, physical=False)])
+    assert unphys.joint == () and not unphys.clear
+    # no drop: nothing to compare
+    assert decide(100.0, [Contender("gauge_drift", 0.0, 0.99, 0.0)]).clear
+
+
+def test_paired_window_test():
+    """`paired_z`: 0 for identical fits, large when one fits every window better, of order
+    1 when two fits differ by noise only."""
+    from stickslip_fitting.discovery.cycle_workflow import paired_z
+
+    rng = np.random.default_rng(0)
+    starts = np.arange(0, 4000, 100)
+    r = rng.normal(size=4000)
+    assert paired_z(r, r, starts) == 0.0
+    assert paired_z(0.9 * r, r, starts) > 10
+    z = [paired_z(rng.normal(size=4000), rng.normal(size=4000), starts) for _ in range(200)]
+    assert 0.7 < np.std(z) < 1.3 and abs(np.mean(z)) < 0.3

@@ -153,7 +153,9 @@ def _run_cycle(args, records) -> int:
         if s.status != "used":
             print(f"warning: {s.name}: {s.status.replace('_', ' ')} ({s.reason}); not used",
                   file=sys.stderr)
-    print(f"effect: {result.effect} (confidence {result.confidence})")
+    joint = " or ".join([result.effect] + [r["name"] for r in result.indistinguishable_from])
+    print(f"effect: {joint} (confidence {result.confidence})"
+          + (": these records cannot tell them apart" if result.indistinguishable_from else ""))
     print(result.explanation)
     print(f"gap (residual RMS): {result.gap_before * 1e3:.3f} um -> "
           f"{result.gap_after * 1e3:.3f} um; noise {result.noise * 1e3:.3f} um")
