@@ -430,15 +430,9 @@ def _fit_heavy_tailed(features, loss, objective: str, kw: dict) -> FitResult:
     scale = np.sqrt(np.maximum(_record_chi2(gauss, robust=True) * before**2, 1.0))
     scaled = np.any(scale > 1.0) and len(features) > 1
     feats = _rescaled(features, scale) if scaled else list(features)
-    starts = kw["starts"]
-    if starts is None:
-        from_start = kw["offset"] == GaugeOffset.START
-        data = feature_data(feats, offset_from_start=from_start,
-                            pad_cycles=kw["pad_cycles"], reslip=kw["reslip"])
-        starts = initial_guesses(feats, np.asarray(data.start_level) if from_start else None)
     problem = _features_problem(feats, dict(kw["fixed"] or {}), kw["offset"], kw["slip_time"],
-                                list(starts) + [gauss.params.friction], kw["pad_cycles"],
-                                kw["reslip"], loss=loss)
+                                kw["starts"], kw["pad_cycles"], kw["reslip"], loss=loss,
+                                extra_starts=[gauss.params.friction])
     fit = _fit_problem(problem, feats, kw["rtol"], kw["atol"], kw["max_steps"])
     if objective != "features":
         rest = {k: v for k, v in kw.items() if k != "starts"}
@@ -535,15 +529,16 @@ def _fit_problem(problem: _FeaturesProblem, features, rtol, atol, max_steps) -> 
 
 
 def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
-                      reslip=None, loss=None) -> _FeaturesProblem:
-    """Set up the features fit of `fit_features` (data, objective under `loss`, starts,
-    spec)."""
+                      reslip=None, loss=None, extra_starts=()) -> _FeaturesProblem:
+    """Set up the features fit of `fit_features` (data, objective under `loss`, starts
+    (default `initial_guesses`) followed by `extra_starts`, spec)."""
     data = feature_data(features, offset_from_start=(offset == GaugeOffset.START),
                         pad_cycles=pad_cycles, reslip=reslip)
     obj = with_loss(FeaturesObjective(data, slip_time), loss)
     R = data.n_records
     offsets0 = (np.asarray(data.start_level) if offset == GaugeOffset.START else np.zeros(R))
     starts = initial_guesses(features, offsets0) if starts is None else list(starts)
+    starts = starts + list(extra_starts)
     if fixed:
         starts = [s.with_fixed(fixed) for s in starts]
     params0 = [CampaignParams(s, jax.device_put(offsets0)) for s in starts]

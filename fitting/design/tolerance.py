@@ -78,18 +78,14 @@ class ToleranceDesign:
     converged: bool
 
 
-def _smooth_quantile(a, q):
-    """The q quantile of the draws (linear interpolation of the sorted values: piecewise
-    smooth in the draws, so Newton's method and its gradient see a slope)."""
-    return jnp.quantile(a, q)
-
-
 @eqx.filter_jit
 def _solve_stiffness(sample, weight, speed, max_amplitude, meet, k0):
     def residual(log_k, args):
         sample, w, v, tol, q = args
         a = _amplitudes(sample, w, jnp.exp(log_k), v)
-        return jnp.log(_smooth_quantile(a, q)) - jnp.log(tol)
+        # the q quantile interpolates the sorted draws linearly: piecewise smooth, so
+        # Newton's method and its gradient see a slope
+        return jnp.log(jnp.quantile(a, q)) - jnp.log(tol)
 
     sol = optx.root_find(residual, optx.Newton(rtol=1e-10, atol=1e-10), jnp.log(k0),
                          args=(sample, weight, speed, max_amplitude, meet), max_steps=100,
