@@ -165,10 +165,49 @@ SCHEMA_VERSION = 1
 """Version of the JSON documents the commands write (the key "schema_version" of each):
 raised when a key changes meaning or goes away; new keys do not raise it."""
 
+UNIT_SUFFIXES = {
+    "_kgf": "kgf", "_mm": "mm", "_um": "um", "_s": "s", "_hz": "Hz",
+    "_mm_per_min": "mm/min", "_mm_per_s": "mm/s", "_kgf_per_mm": "kgf/mm",
+    "_pa_s": "Pa*s",
+}
+"""The JSON key convention: a quantity with a unit ends in its unit, compound units with
+`_per_` (`stiffness_kgf_per_mm`, `drive_speed_mm_per_min`); a dimensionless quantity
+(`amplitude_ratio`, `frequency_ratio`, `mu_s`) has no suffix. Rows of parameter estimates
+(`parameters.NAME`) carry their unit in a `unit` field instead (the names are the paper's
+symbols). One key per quantity in every command (`tests/test_json_keys.py`)."""
 
-def versioned(doc: dict) -> dict:
-    """`doc` with "schema_version" first (what every command's JSON carries)."""
-    return {"schema_version": SCHEMA_VERSION, **doc}
+
+def _with_aliases(obj, aliases: dict[str, str], used: dict[str, str]):
+    if isinstance(obj, list):
+        return [_with_aliases(v, aliases, used) for v in obj]
+    if not isinstance(obj, dict):
+        return obj
+    out = {}
+    for key, value in obj.items():
+        value = _with_aliases(value, aliases, used)
+        out[key] = value
+        old = aliases.get(key)
+        if old is not None and old not in obj:
+            out[old] = value
+            used[old] = key
+    return out
+
+
+def versioned(doc: dict, aliases: dict[str, str] | None = None) -> dict:
+    """`doc` with "schema_version" first (what every command's JSON carries).
+
+    `aliases` {new key: old key}: a key renamed to the one-key-per-quantity convention
+    (`UNIT_SUFFIXES`) is also written under its old name, beside the new one at every
+    depth, for one release; the document then lists the old names it carries under
+    "deprecated_keys" {old: new}. The aliases go away with schema_version 2."""
+    if not aliases:
+        return {"schema_version": SCHEMA_VERSION, **doc}
+    used: dict[str, str] = {}
+    body = _with_aliases(doc, aliases, used)
+    out = {"schema_version": SCHEMA_VERSION, **body}
+    if used:
+        out["deprecated_keys"] = dict(sorted(used.items()))
+    return out
 
 
 def dumps(obj, **kwargs) -> str:

@@ -170,6 +170,17 @@ def compute(args):
     return out
 
 
+JSON_ALIASES = {
+    "stiffness_kgf_per_mm": "stiffness_kgf_mm",
+    "drive_speed_mm_per_min": "speed_mm_min",
+    "critical_speed_mm_per_min": "critical_speed_mm_min",
+    "critical_speed_band_mm_per_min": "critical_speed_band_mm_min",
+}
+"""JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
+their old names, still written beside them for one release (`deprecated_keys`). The
+--csv columns keep their names."""
+
+
 def to_json(args, res) -> dict:
     axes = res["axes"]
     doc = {
@@ -177,12 +188,12 @@ def to_json(args, res) -> dict:
         else {"lubricant": args.lubricant, "table": args.table},
         "method": _method(args),
         "axes": {"weight_kgf": axes["weight"].tolist(),
-                 "stiffness_kgf_mm": axes["stiffness"].tolist(),
-                 "speed_mm_min": (axes["speed"] * 60.0).tolist()},
+                 "stiffness_kgf_per_mm": axes["stiffness"].tolist(),
+                 "drive_speed_mm_per_min": (axes["speed"] * 60.0).tolist()},
         "shape": list(res["amplitude"].shape),
         "index_order": ["weight", "stiffness", "speed"],
         "amplitude_mm": res["amplitude"].tolist(),
-        "critical_speed_mm_min": (res["critical_speed"] * 60.0).tolist(),
+        "critical_speed_mm_per_min": (res["critical_speed"] * 60.0).tolist(),
         "stick_slip": res["stick_slip"].tolist(),
     }
     if "regime" in res:
@@ -193,7 +204,7 @@ def to_json(args, res) -> dict:
     if args.posterior:
         doc["level"] = args.level
         doc["probability_stick_slip"] = res["probability"].tolist()
-        doc["critical_speed_band_mm_min"] = (res["critical_speed_band"] * 60.0).tolist()
+        doc["critical_speed_band_mm_per_min"] = (res["critical_speed_band"] * 60.0).tolist()
         doc["amplitude_band_mm"] = res["amplitude_band"].tolist()
     else:
         doc.update(
@@ -305,7 +316,7 @@ def run(args) -> int:
         doc = to_json(args, res)
         if "tolerance" in res:
             doc["tolerance"] = res["tolerance"]
-        write_json(args.json, versioned(doc), indent=None)
+        write_json(args.json, versioned(doc, JSON_ALIASES), indent=None)
         if args.json != "-":  # with "-" the summary below goes to stderr
             print(f"wrote {args.json}")
     if args.csv:
@@ -328,8 +339,8 @@ def run(args) -> int:
         print(f"  {'W [kgf]':>9} {'v [mm/min]':>11} {'k needed [kgf/mm]':>18} {'P met':>7}")
         for row in t["required_stiffness"]:
             k = ("not found" if not row["converged"]
-                 else f"{row['stiffness_kgf_mm']:.5g}")
-            print(f"  {row['weight_kgf']:9.4g} {row['speed_mm_min']:11.4g} {k:>18} "
+                 else f"{row['stiffness_kgf_per_mm']:.5g}")
+            print(f"  {row['weight_kgf']:9.4g} {row['drive_speed_mm_per_min']:11.4g} {k:>18} "
                   f"{row['probability']:7.3f}")
         ok = np.asarray(t["probability_met"]) >= t["meet"]
         print(f"  grid points meeting it: {int(ok.sum())} of {ok.size}")
@@ -365,8 +376,8 @@ def tolerance(args, res) -> dict:
         for vi in axes["speed"]:
             d = required_stiffness(sample, wi, vi, args.max_amplitude, meet=args.meet,
                                    start=float(np.median(axes["stiffness"])))
-            rows.append({"weight_kgf": d.weight, "speed_mm_min": d.speed * 60.0,
-                         "stiffness_kgf_mm": d.stiffness if d.converged else None,
+            rows.append({"weight_kgf": d.weight, "drive_speed_mm_per_min": d.speed * 60.0,
+                         "stiffness_kgf_per_mm": d.stiffness if d.converged else None,
                          "probability": d.probability, "converged": d.converged})
     draws = int(np.size(jax.tree_util.tree_leaves(sample)[0]))
     return {"max_amplitude_mm": float(args.max_amplitude), "meet": args.meet, "draws": draws,

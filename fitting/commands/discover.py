@@ -77,7 +77,7 @@ def run(args) -> int:
         raise ValueError(f"--threshold: must be >= 0, got {args.threshold}")
     if not 0 < args.alpha < 1:
         raise ValueError(f"--alpha: must be between 0 and 1, got {args.alpha}")
-    from stickslip_jax.output import check_outputs, versioned, write_json
+    from stickslip_jax.output import check_outputs, write_json
 
     from ..campaign import screen_records
 
@@ -105,13 +105,28 @@ def run(args) -> int:
         print(f"{c['name']:22s} {c['score']:10.1f} {d:>10s}")
     _print_parameters(result)
     if args.json:
-        write_json(args.json, {**versioned(result.to_json()),
+        write_json(args.json, {**json_document(result),
                                "records_screened": [x.to_json() for x in campaign.screening]})
     if args.plot:
         from ..discovery.plots import plot_discovery
 
         plot_discovery(result, args.plot)
     return 0
+
+
+JSON_ALIASES = {"noise_mm": "noise", "gap_before_mm": "gap_before", "gap_after_mm": "gap_after"}
+"""JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
+their old names, still written beside them for one release (`deprecated_keys`)."""
+
+
+def json_document(result) -> dict:
+    """The result's JSON (`to_json()`) under the one key convention, versioned: the
+    campaign's noise and gaps (mm) carry their unit in the key."""
+    from stickslip_jax.output import versioned
+
+    new = {old: new for new, old in JSON_ALIASES.items()}
+    doc = {new.get(k, k): v for k, v in result.to_json().items()}
+    return versioned(doc, JSON_ALIASES)
 
 
 def _print_parameters(result) -> None:
@@ -127,7 +142,7 @@ def _print_parameters(result) -> None:
 def _run_cycle(args, records) -> int:
     import sys
 
-    from stickslip_jax.output import save_figure, versioned, write_json
+    from stickslip_jax.output import save_figure, write_json
 
     from ..discovery.cycle_effects import FAMILIES
     from ..discovery.cycle_workflow import discover_cycles
@@ -168,7 +183,7 @@ def _run_cycle(args, records) -> int:
               f"{d:>10s}")
     _print_parameters(result)
     if args.json:
-        write_json(args.json, versioned(result.to_json()))
+        write_json(args.json, json_document(result))
     if args.plot:
         from ..discovery.plots import plot_cycle_discovery
 

@@ -69,6 +69,15 @@ def _um(x):
     return float(from_internal(float(x), "um", "length"))
 
 
+JSON_ALIASES = {
+    "drive_height_mm": "height_mm", "drive_offset_mm": "offset_mm",
+    "eps_prime_um": "eps_prime", "mean_um": "mean", "d_eps_um": "d_eps",
+    "measured_eps_prime_um": "measured_eps_prime", "measured_d_eps_um": "measured_d_eps",
+}
+"""JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
+their old names, still written beside them for one release (`deprecated_keys`)."""
+
+
 def run(args) -> int:
     from stickslip_jax import pitching as pt
     from stickslip_jax.output import check_outputs, versioned, write_json
@@ -128,20 +137,21 @@ def run(args) -> int:
               f"{'eps_meas':>10} {'d_eps_meas':>11}   [um]")
         rows = []
         for i, name in enumerate(names):
-            row = {"point": name, "eps_prime": _um(pred.peak[i]), "mean": _um(pred.mean[i]),
-                   "d_eps": _um(pred.variation[i])}
-            line = (f"{name:>8} {row['eps_prime']:10.4g} {row['mean']:9.4g} "
-                    f"{row['d_eps']:9.4g}")
+            row = {"point": name, "eps_prime_um": _um(pred.peak[i]),
+                   "mean_um": _um(pred.mean[i]), "d_eps_um": _um(pred.variation[i])}
+            line = (f"{name:>8} {row['eps_prime_um']:10.4g} {row['mean_um']:9.4g} "
+                    f"{row['d_eps_um']:9.4g}")
             if observed[i]:
-                row["measured_eps_prime"] = _um(meas.peak[i])
-                row["measured_d_eps"] = _um(meas.variation[i])
-                line += f" {row['measured_eps_prime']:10.4g} {row['measured_d_eps']:11.4g}"
+                row["measured_eps_prime_um"] = _um(meas.peak[i])
+                row["measured_d_eps_um"] = _um(meas.variation[i])
+                line += (f" {row['measured_eps_prime_um']:10.4g}"
+                         f" {row['measured_d_eps_um']:11.4g}")
             print(line)
             rows.append(row)
-        out["records"].append({"file": str(path), "height_mm": h, "offset_mm": o,
+        out["records"].append({"file": str(path), "drive_height_mm": h, "drive_offset_mm": o,
                                "points": rows})
     if args.json:
-        write_json(args.json, versioned(out))
+        write_json(args.json, versioned(out, JSON_ALIASES))
     if args.plot:
         _plot(args.plot, paths, runs, traces, names)
     return 0

@@ -185,6 +185,12 @@ MAX_BUDGET = 1000
 """Most records one plan proposes (the greedy design adds them one at a time)."""
 
 
+JSON_ALIASES = {"stiffness_kgf_per_mm": "stiffness_kgf_mm",
+                "drive_speed_mm_per_min": "speed_mm_min"}
+"""JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
+their old names, still written beside them for one release (`deprecated_keys`)."""
+
+
 def run(args) -> int:
     import sys
 
@@ -225,7 +231,8 @@ def run(args) -> int:
         w, k, v = (float(np.asarray(x)[i]) for x in
                    (plan.campaign.weight, plan.campaign.stiffness, plan.campaign.speed))
         _, mask = observables(u, w, k, v)
-        rows.append({"weight_kgf": w, "stiffness_kgf_mm": k, "speed_mm_min": v * 60.0,
+        rows.append({"weight_kgf": w, "stiffness_kgf_per_mm": k,
+                     "drive_speed_mm_per_min": v * 60.0,
                      "stick_slip_expected": bool(np.asarray(mask)[0] > 0)})
     # the parameter rows: the estimate (log coordinates) with its sd before and after
     from ..params import UNITS
@@ -245,7 +252,7 @@ def run(args) -> int:
     if args.json:
         from stickslip_jax.output import versioned, write_json
 
-        write_json(args.json, versioned(doc))
+        write_json(args.json, versioned(doc, JSON_ALIASES))
         if args.json != "-":  # with "-" the table below goes to stderr
             print(f"wrote {args.json}")
     print(f"plan from {desc}: {args.budget} record(s), {args.criterion}-optimal, "
@@ -253,8 +260,8 @@ def run(args) -> int:
     print(f"{'#':>3} {'W [kgf]':>9} {'k [kgf/mm]':>11} {'v [mm/min]':>11}  regime")
     for i, r in enumerate(rows, 1):
         regime = "stick-slip" if r["stick_slip_expected"] else "smooth"
-        print(f"{i:>3} {r['weight_kgf']:>9.4g} {r['stiffness_kgf_mm']:>11.4g} "
-              f"{r['speed_mm_min']:>11.4g}  {regime}")
+        print(f"{i:>3} {r['weight_kgf']:>9.4g} {r['stiffness_kgf_per_mm']:>11.4g} "
+              f"{r['drive_speed_mm_per_min']:>11.4g}  {regime}")
     print("relative sd of the parameters (sd of log), before -> after:")
     for b, a in zip(before, after):
         print(f"  {b.name:>6}: {b.log_sd:.3g} -> {a.log_sd:.3g}")

@@ -36,9 +36,16 @@ def run(args) -> int:
         save_record_plot(record, out, phases)
     except OSError as exc:
         raise ValueError(f"{flag}: cannot write {out}: {exc.strerror or exc}") from None
+    n = phases.n_slips
     print(
-        f"{out}: {record.n_samples} samples, {phases.n_slips} slips, "
+        f"{out}: {record.n_samples} samples, {n} slip{'' if n == 1 else 's'}, "
         f"{100 * phases.stick_fraction:.0f} % of samples in stick "
         f"(slip threshold {phases.threshold:.3g} mm/s, window {phases.window} samples)"
     )
+    if phases.glitches:
+        print(f"note: {args.record}: {phases.glitches} single-sample spike(s) (glitches) left "
+              "out of the phase detection")
+    if phases.quantum:
+        print(f"note: {args.record}: quantised in steps of {phases.quantum:.3g} mm; one step "
+              "within the slope window is not counted as a slip")
     return 0

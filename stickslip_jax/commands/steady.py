@@ -25,16 +25,27 @@ def add_arguments(p):
     add_json_option(p, "the results", bare=True)
 
 
+JSON_ALIASES = {
+    "drive_speed_mm_per_min": "speed_mm_min",
+    "stiffness_kgf_per_mm": "stiffness_kgf_mm",
+    "critical_speed_mm_per_min": "critical_speed_mm_min",
+    "amplitude_ratio": "ak_over_W",
+    "frequency_ratio": "f_over_f0",
+    "max_amplitude_mm": "amplitude_mm",  # tolerance.amplitude_mm (results keep amplitude_mm)
+}
+"""JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
+their old names, still written beside them for one release (`deprecated_keys`)."""
+
 COLUMNS = (
-    ("speed_mm_min", "v [mm/min]"),
+    ("drive_speed_mm_per_min", "v [mm/min]"),
     ("stick_slip", "stick-slip"),
     ("stick_time_s", "T1 [s]"),
     ("slip_time_s", "T2 [s]"),
     ("amplitude_mm", "a [mm]"),
-    ("ak_over_W", "ak/W [-]"),
+    ("amplitude_ratio", "ak/W [-]"),
     ("frequency_hz", "f [Hz]"),
-    ("f_over_f0", "f/f0 [-]"),
-    ("critical_speed_mm_min", "v_c [mm/min]"),
+    ("frequency_ratio", "f/f0 [-]"),
+    ("critical_speed_mm_per_min", "v_c [mm/min]"),
     ("cycle_amplitude_mm", "a_cycle [mm]"),
     ("cycle_stick_time_s", "T1_cycle [s]"),
 )
@@ -65,16 +76,16 @@ def run(args) -> int:
     rows = []
     for i, v in enumerate(args.speed):
         rows.append({
-            "speed_mm_min": mm_per_min(v),
+            "drive_speed_mm_per_min": mm_per_min(v),
             "regime": REGIMES[int(out.regime[i])],
             "stick_slip": bool(out.stick_slip[i]),
             "stick_time_s": float(out.stick_time[i]),
             "slip_time_s": float(out.slip_time[i]),
             "amplitude_mm": float(out.amplitude[i]),
-            "ak_over_W": float(out.amplitude_ratio[i]),
+            "amplitude_ratio": float(out.amplitude_ratio[i]),
             "frequency_hz": float(out.frequency[i]),
-            "f_over_f0": float(out.frequency_ratio[i]),
-            "critical_speed_mm_min": float(mm_per_min(out.critical_speed[i])),
+            "frequency_ratio": float(out.frequency_ratio[i]),
+            "critical_speed_mm_per_min": float(mm_per_min(out.critical_speed[i])),
             # the time-domain model's limit cycle (fixed point of the one-cycle map)
             "cycle_amplitude_mm": float(cyc.amplitude[i]),
             "cycle_stick_time_s": float(cyc.stick_time[i]),
@@ -86,7 +97,8 @@ def run(args) -> int:
         if not args.tolerance > 0:
             raise ValueError(f"--tolerance: must be positive, got {args.tolerance}")
         v_tol, _ = tolerance_speed(friction, args.weight, args.stiffness, args.tolerance)
-        tol = {"amplitude_mm": args.tolerance, "speed_mm_min": float(mm_per_min(v_tol))}
+        tol = {"max_amplitude_mm": args.tolerance,
+               "drive_speed_mm_per_min": float(mm_per_min(v_tol))}
     if args.json:
         from ..output import versioned, write_json
 
@@ -94,11 +106,11 @@ def run(args) -> int:
             "lubricant": args.lubricant,
             "table": args.table,
             "weight_kgf": args.weight,
-            "stiffness_kgf_mm": args.stiffness,
+            "stiffness_kgf_per_mm": args.stiffness,
             "natural_frequency_hz": float(out.natural_frequency[0]),
             "results": rows,
             "tolerance": tol,
-        }))
+        }, JSON_ALIASES))
         if args.json != "-":  # with "-" the table below goes to stderr
             print(f"wrote {args.json}")
     print(f"lubricant {args.lubricant} (Table {args.table}), W = {args.weight:g} kgf, "
@@ -122,8 +134,8 @@ def run(args) -> int:
           "simulator's; eq (6) at every speed): above v_c of eq (12) it keeps a smaller "
           "stick-slip, with no sharp end (stickslip_jax.limit_cycle)")
     if tol is not None:
-        print(f"the limit cycle's amplitude stays below {tol['amplitude_mm'] * 1e3:.4g} um "
-              f"above v = {tol['speed_mm_min']:.5g} mm/min")
+        print(f"the limit cycle's amplitude stays below {tol['max_amplitude_mm'] * 1e3:.4g} um "
+              f"above v = {tol['drive_speed_mm_per_min']:.5g} mm/min")
     if any(int(r) == RESTICK_FAILURE for r in out.regime):
         print("double: re-stick failure, a slip ends with the spring force above mu_d W (exp(-delta "
               "T2^n) > 1/2), so the slider slips again at once (double slips); eqs (5)-(6) "
