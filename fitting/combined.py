@@ -27,8 +27,10 @@ flags and the slider velocity at `params`), `velocity_shape()` (None when no tra
 residual vector, in order), `clusters(features)` (the stick phase each residual reads,
 for the robust covariance), `robust` (True: samples of one stick phase share errors, so
 the default covariance is the cluster sandwich), `describe()` and `kind` (the name on the
-command line and in JSON: "features", "trace", "both").
-`make_objective(kind, features, trace, weights=..., slip_time=...)` builds one by name;
+command line and in JSON: a `stickslip_fitting.modes.Objective`, "features", "trace",
+"both", "smooth"; a weighted sum of other terms is named by theirs joined with "+").
+`make_objective(kind, features, trace, weights=..., slip_time=...)` builds one by name
+(an `Objective` or its value, validated once there);
 `CampaignObjective` is the old name of that factory. `slip_time` is a
 `stickslip_jax.modes.SlipTime` (its string works too: the field converts it once, when
 the objective is built).
@@ -53,6 +55,7 @@ import numpy as np
 
 from stickslip_jax.modes import SlipTime
 
+from .modes import Objective
 from .objectives import FeatureData, feature_residuals
 from .solve import AbstractResiduals
 from .trace_objective import TraceData, failed_windows, trace_residuals_and_flags
@@ -60,8 +63,9 @@ from .trace_objective import TraceData, failed_windows, trace_residuals_and_flag
 __all__ = ["OBJECTIVES", "AbstractObjective", "CampaignObjective", "FeaturesObjective",
            "TraceObjective", "WeightedSum", "make_objective", "residual_cycles"]
 
-OBJECTIVES = ("features", "trace", "both")
-"""Objective names of the command line (`--objective`)."""
+OBJECTIVES = (Objective.FEATURES.value, Objective.TRACE.value, Objective.BOTH.value)
+"""The objectives `make_objective` builds (values of `stickslip_fitting.modes.Objective`;
+"smooth" is `stickslip_fitting.smooth_objective.SmoothObjective`, built from the records)."""
 
 
 class AbstractObjective(AbstractResiduals):
@@ -69,7 +73,7 @@ class AbstractObjective(AbstractResiduals):
     AbstractResiduals` over `CampaignParams` with the flags, clusters and trace data the
     campaign fit, its uncertainty and its report read."""
 
-    kind: ClassVar[str]
+    kind: ClassVar[Objective]
     robust: ClassVar[bool]
 
     @abc.abstractmethod
@@ -108,7 +112,7 @@ class FeaturesObjective(AbstractObjective):
     features: FeatureData
     slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,
                                     converter=SlipTime.parse)
-    kind: ClassVar[str] = "features"
+    kind: ClassVar[Objective] = Objective.FEATURES
     robust: ClassVar[bool] = False
 
     def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
@@ -159,7 +163,7 @@ class TraceObjective(AbstractObjective):
     trace: TraceData
     slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,
                                     converter=SlipTime.parse)
-    kind: ClassVar[str] = "trace"
+    kind: ClassVar[Objective] = Objective.TRACE
     robust: ClassVar[bool] = True
 
     def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
@@ -217,9 +221,11 @@ class WeightedSum(AbstractObjective):
             raise ValueError("WeightedSum: at most one term may read a trace")
 
     @property
-    def kind(self) -> str:
+    def kind(self) -> Objective | str:
         kinds = [t.kind for t in self.terms]
-        return "both" if kinds == ["features", "trace"] else "+".join(kinds)
+        if kinds == [Objective.FEATURES, Objective.TRACE]:
+            return Objective.BOTH
+        return "+".join(kinds)
 
     @property
     def slip_time(self) -> SlipTime:
@@ -270,28 +276,36 @@ class WeightedSum(AbstractObjective):
                 return t.failures(ok)
         return 0
 
-    def weight_of(self, kind: str) -> float:
-        """The weight of the term named `kind` (0 when there is none)."""
+    def weight_of(self, kind: Objective | str) -> float:
+        """The weight of the term named `kind` (an `Objective` or its value; 0 when there
+        is none)."""
+        kind = Objective.parse(kind)
         return float(sum(w for t, w in zip(self.terms, self.weights) if t.kind == kind))
 
 
-def make_objective(kind: str, features: FeatureData, trace: TraceData | None = None, *,
+def make_objective(kind: Objective | str, features: FeatureData,
+                   trace: TraceData | None = None, *,
                    weights: tuple[float, float] = (0.5, 0.5),
                    slip_time: SlipTime | str = SlipTime.PAPER) -> AbstractObjective:
-    """The objective named `kind` ("features", "trace" or "both"; `OBJECTIVES`)."""
-    if kind not in OBJECTIVES:
-        raise ValueError(f"--objective must be one of {', '.join(OBJECTIVES)}, got {kind!r}")
-    if kind == "features":
+    """The objective named `kind`: `Objective.FEATURES`, `.TRACE` or `.BOTH`, or their
+    values (`OBJECTIVES`)."""
+    kind = Objective.parse(kind)
+    if kind is Objective.SMOOTH:
+        raise ValueError(f"make_objective builds the objectives {OBJECTIVES}; 'smooth' "
+                         "reads the records: smooth_objective.SmoothObjective(smooth_data("
+                         "records, features))")
+    if kind is Objective.FEATURES:
         return FeaturesObjective(features, slip_time)
     if trace is None:
-        raise ValueError(f"objective {kind!r} needs the records' traces (TraceData)")
-    if kind == "trace":
+        raise ValueError(f"objective {kind.value!r} needs the records' traces (TraceData)")
+    if kind is Objective.TRACE:
         return TraceObjective(trace, slip_time)
     return WeightedSum((FeaturesObjective(features, slip_time), TraceObjective(trace, slip_time)),
                        (float(weights[0]), float(weights[1])))
 
 
-def CampaignObjective(features, trace=None, kind: str = "features", weight_features: float = 0.5,
+def CampaignObjective(features, trace=None, kind: Objective | str = Objective.FEATURES,
+                      weight_features: float = 0.5,
                       weight_trace: float = 0.5,
                       slip_time: SlipTime | str = SlipTime.PAPER) -> AbstractObjective:
     """Old name of `make_objective` (kept for existing code)."""

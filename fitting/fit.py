@@ -23,9 +23,11 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
   (at most `SCREEN_STEPS` steps each: a start stuck on a plateau of the objective stops
   there instead of spending the whole step budget); then only the best few are
   polished to the tolerances, and the best converged start wins.
-- Objective (`objective=`): the cycle features (default), the full trace through the
-  exact simulator restarted per cycle (`stickslip_fitting.trace_objective`), or both
-  (`stickslip_fitting.combined`); the trace and combined fits start from the features optimum.
+- Objective (`objective=`, a `stickslip_fitting.modes.Objective` or its value): the cycle
+  features (default), the full trace through the exact simulator restarted per cycle
+  (`stickslip_fitting.trace_objective`), both (`stickslip_fitting.combined`), or whole
+  records through the smoothed simulator (`stickslip_fitting.smooth_objective`); all but
+  the features start from the features optimum.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ from stickslip_jax.modes import GaugeOffset, SlipTime
 
 from .combined import AbstractObjective, FeaturesObjective, make_objective
 from .losses import Gaussian, with_loss
+from .modes import Objective
 from .features import RecordFeatures, record_features
 from .objectives import FeatureData, feature_data, feature_residuals
 from .trace_objective import trace_data
@@ -326,7 +329,7 @@ def fit_features(
     atol: float = 1e-10,
     max_steps: int = 400,
     pad_cycles: int = 0,
-    objective: str = "features",
+    objective: Objective | str = Objective.FEATURES,
     records=None,
     weights: tuple[float, float] = (0.5, 0.5),
     pad_length: int = 0,
@@ -346,8 +349,9 @@ def fit_features(
     - `starts`: starting `EmpiricalFriction`s (default `initial_guesses`).
     - `pad_cycles`: pad the cycle axis (campaigns of other lengths reuse the compilation).
     - `reslip`: model re-slips (`stickslip_fitting.objectives.feature_data`; None: detected).
-    - `objective`: "features" (default), "trace", "both" (`stickslip_fitting.combined`) or
-      "smooth" (whole records, `stickslip_fitting.smooth_objective`); all but "features"
+    - `objective`: a `stickslip_fitting.modes.Objective` or its value: "features"
+      (default), "trace", "both" (`stickslip_fitting.combined`) or "smooth" (whole
+      records, `stickslip_fitting.smooth_objective`); all but "features"
       need `records` (the `Record`s the features came from) and start from the
       features fit's optimum ("features first"); `weights` = (w_features, w_trace) for
       "both"; `pad_length`, `pad_windows`: trace rows at least this long, at least this
@@ -360,6 +364,9 @@ def fit_features(
     """
     offset = GaugeOffset.parse(offset, "offset")
     slip_time = SlipTime.parse(slip_time)
+    objective = Objective.parse(objective)
+    if objective.needs_records and records is None:
+        raise ValueError(f"objective {objective.value!r} needs the records (records=...)")
     if loss is not None and not isinstance(loss, Gaussian):
         kw = dict(fixed=fixed, offset=offset, slip_time=slip_time, starts=starts, rtol=rtol,
                   atol=atol, max_steps=max_steps, pad_cycles=pad_cycles, records=records,
@@ -367,12 +374,7 @@ def fit_features(
                   reslip=reslip)
         return _fit_heavy_tailed(features, loss, objective, kw)
     fixed = dict(fixed or {})
-    if objective not in ("features", "trace", "both", "smooth"):
-        raise ValueError(f"--objective must be features, trace, both or smooth, got "
-                         f"{objective!r}")
-    if objective != "features" and records is None:
-        raise ValueError(f"objective {objective!r} needs the records (records=...)")
-    if objective == "smooth":
+    if objective is Objective.SMOOTH:
         from .smooth_objective import SmoothObjective, smooth_data
 
         sobj = SmoothObjective(smooth_data(records, features), slip_time=slip_time)
@@ -380,7 +382,7 @@ def fit_features(
                                     reslip)
         first = _fit_problem(problem, features, rtol, atol, max_steps)
         return _refine(first, sobj, max(rtol, 1e-8), max(atol, 1e-8), min(max_steps, 100))
-    if objective != "features":
+    if objective.needs_records:  # trace, both
         tdata = trace_data(records, features, pad_length=pad_length, pad_windows=pad_windows)
         # hundreds of thousands of residuals: tolerances not tighter than 1e-8, measured
         # as root mean squares (a step that moves the whitened residuals by 1e-8 RMS),
@@ -409,7 +411,7 @@ def fit_features(
     return _fit_rescaled(problem_of, features, rtol, atol, max_steps)
 
 
-def _fit_heavy_tailed(features, loss, objective: str, kw: dict) -> FitResult:
+def _fit_heavy_tailed(features, loss, objective: Objective, kw: dict) -> FitResult:
     """`fit_features(..., loss=loss)` (not Gaussian).
 
     1. The Gaussian features fit (`fit_features`), whose residuals give each record's
@@ -425,7 +427,7 @@ def _fit_heavy_tailed(features, loss, objective: str, kw: dict) -> FitResult:
     3. For the other objectives: their Gaussian fit from there, then the objective under
        the loss from its optimum.
     """
-    gauss = fit_features(features, objective="features", **kw)
+    gauss = fit_features(features, objective=Objective.FEATURES, **kw)
     before = 1.0 if gauss.record_scale is None else gauss.record_scale
     scale = np.sqrt(np.maximum(_record_chi2(gauss, robust=True) * before**2, 1.0))
     scaled = np.any(scale > 1.0) and len(features) > 1
@@ -434,7 +436,7 @@ def _fit_heavy_tailed(features, loss, objective: str, kw: dict) -> FitResult:
                                 kw["starts"], kw["pad_cycles"], kw["reslip"], loss=loss,
                                 extra_starts=[gauss.params.friction])
     fit = _fit_problem(problem, feats, kw["rtol"], kw["atol"], kw["max_steps"])
-    if objective != "features":
+    if objective is not Objective.FEATURES:
         rest = {k: v for k, v in kw.items() if k != "starts"}
         start = fit_features(feats, objective=objective, starts=[fit.params.friction],
                              rescale_records=False, **rest)
@@ -512,7 +514,7 @@ class _FeaturesProblem(NamedTuple):
 
 
 def _fit_problem(problem: _FeaturesProblem, features, rtol, atol, max_steps) -> FitResult:
-    """The multi-start features fit of `problem` (`fit_features` with objective "features")."""
+    """The multi-start features fit of `problem` (`fit_features` with `Objective.FEATURES`)."""
     values, chi2s, result, ok, steps, _, best, rounds = _solve_rounds(
         problem.free_starts, problem.static, problem.objective, rtol, atol, max_steps)
     free_best = _take(values, best)

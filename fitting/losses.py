@@ -197,11 +197,12 @@ class HeavyTailed(AbstractObjective):
             raise ValueError("HeavyTailed: the objective already has a loss")
 
     @property
-    def kind(self) -> str:
+    def kind(self):
+        """The inner objective's (`stickslip_fitting.modes.Objective`)."""
         return self.inner.kind
 
     @property
-    def slip_time(self) -> str:
+    def slip_time(self):
         return self.inner.slip_time
 
     def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):

@@ -91,7 +91,8 @@ def fit_microsqueeze(
 
     `eta` (kgf s/mm^2), `pair` (name in Table 10 or a `SurfacePair`) and `contact` are
     given; `fixed`, `offset` and the other keywords as in `stickslip_fitting.fit.fit_features`
-    (`objective` "features", "trace" or "both", the last two with `records`).
+    (`objective` a `stickslip_fitting.modes.Objective`: "features", or "trace", "both",
+    "smooth" with `records`).
     """
     if not (np.isfinite(eta) and eta > 0):
         raise ValueError(f"--eta: the viscosity must be positive and finite, got {eta}")

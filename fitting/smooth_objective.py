@@ -13,7 +13,8 @@ model reproduces the whole oscillogram, the timing of every slip included. A sma
 error of the period accumulates over the cycles, so its residuals are correlated over a
 record: the robust covariance treats each record as one cluster.
 
-Settings (`SmoothObjective` fields): the simulator's `formulation` ("latch": not stiff,
+Settings (`SmoothObjective` fields): the simulator's `formulation` (a
+`stickslip_jax.modes.Formulation` or its value; default "latch": not stiff,
 gradients verified against finite differences for smoothing 1e-4 ... 1e-2 at rtol <=
 1e-9), `smoothing` (dimensionless, default 1e-4: at 1e-3 the smoothed slips of a slow record
 drift from exact ones by several noise standard deviations), `rtol`/`atol` (mm, mm/s;
@@ -36,11 +37,12 @@ from jaxtyping import Array, Bool, Float
 
 import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed
-from stickslip_jax.modes import SlipTime
+from stickslip_jax.modes import Formulation, SlipTime
 from stickslip_jax.simulation import simulate_smooth
 from stickslip_jax.simulation.trace import pad_series
 
 from .combined import AbstractObjective
+from .modes import Objective
 
 __all__ = ["SmoothData", "SmoothObjective", "smooth_data"]
 
@@ -111,10 +113,11 @@ class SmoothObjective(AbstractObjective):
     rtol: float = eqx.field(static=True, default=1e-9)
     atol: float = eqx.field(static=True, default=1e-11)
     max_steps: int = eqx.field(static=True, default=16384)
-    formulation: str = eqx.field(static=True, default="latch")
+    formulation: Formulation = eqx.field(static=True, default=Formulation.LATCH,
+                                         converter=Formulation.parse)
     slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,
                                     converter=SlipTime.parse)
-    kind: ClassVar[str] = "smooth"
+    kind: ClassVar[Objective] = Objective.SMOOTH
     robust: ClassVar[bool] = True
 
     def simulate(self, params):

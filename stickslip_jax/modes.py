@@ -9,6 +9,10 @@ its value. Functions validate a mode once where it enters (`SlipTime.parse(value
 
 - `SlipTime`: the $T_2$ put into the mean kinetic friction, eq (3).
 - `GaugeOffset`: how the fits treat a record's gauge zero.
+- `Formulation`: the smoothed simulator's equations (`stickslip_jax.simulation.smooth`).
+
+The fitting package's modes (the objective, the design criterion) are in
+`stickslip_fitting.modes`, built on `AbstractMode`.
 
 ```python
 SlipTime.parse("self_consistent")      # SlipTime.SELF_CONSISTENT
@@ -21,7 +25,7 @@ from __future__ import annotations
 import enum
 import re
 
-__all__ = ["AbstractMode", "GaugeOffset", "SlipTime"]
+__all__ = ["AbstractMode", "Formulation", "GaugeOffset", "SlipTime"]
 
 
 class AbstractMode(str, enum.Enum):
@@ -74,3 +78,21 @@ class GaugeOffset(AbstractMode):
 
     ZERO = "zero"
     START = "start"
+
+
+class Formulation(AbstractMode):
+    """The equations of the smoothed simulator (`stickslip_jax.simulation.smooth`, whose
+    module docstring gives them).
+
+    - `RIGID_STICK` ("rigid_stick"): the friction force switched in by the stick weight
+      (stiff: an implicit solver, Kvaerno5).
+    - `VELOCITY` ("velocity"): friction as a smooth function of the slider velocity
+      (stiff; gradients verified for smoothing >= 0.03).
+    - `LATCH` ("latch", the default): a resting slider latched until the applied force
+      exceeds static friction; not stiff (explicit Tsit5), 45-60 times cheaper than
+      `RIGID_STICK` on the benchmark campaign.
+    """
+
+    RIGID_STICK = "rigid_stick"
+    VELOCITY = "velocity"
+    LATCH = "latch"

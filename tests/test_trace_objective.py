@@ -219,7 +219,7 @@ def test_bad_inputs(campaign):
     _, recs, feats = campaign
     with pytest.raises(ValueError, match="needs the records"):
         fit_features(feats, objective="trace")
-    with pytest.raises(ValueError, match="--objective"):
+    with pytest.raises(ValueError, match="objective must be one of"):
         fit_features(feats, objective="samples")
     prog = dataclasses.replace(recs[0], drive_program=((0.0, recs[0].drive_speed),))
     with pytest.raises(ValueError, match="constant drive speed"):

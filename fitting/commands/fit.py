@@ -14,6 +14,8 @@ import math
 
 import numpy as np
 
+from ..modes import Objective
+
 NAME = "fit"
 HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"
 
@@ -34,8 +36,8 @@ def add_arguments(parser):
                         help="static-friction law: eq (1) (default) or the microsqueeze law")
     add_gauge_offset_argument(parser)
     add_slip_time_argument(parser)
-    parser.add_argument("--objective", choices=("features", "trace", "both", "smooth"),
-                        default="features",
+    parser.add_argument("--objective", choices=Objective.choices(),
+                        default=Objective.FEATURES.value,
                         help="fit the cycle features (default, fast), every sample of the "
                         "traces through the exact simulator restarted per cycle, both "
                         "(weights 1/2 each), or whole records through the smoothed simulator "
@@ -96,7 +98,7 @@ def add_model_arguments(parser):
                         help="--model microsqueeze: surface pair of Table 10 (default S1G1)")
 
 
-def fit_from_args(args, *, objective: str = "features"):
+def fit_from_args(args, *, objective: Objective | str = "features"):
     """Read the campaign of `args.records`, screen it and fit `args.model` to the records
     with usable stick-slip (`stickslip_fitting.campaign`; all of them with `args.strict`).
 
@@ -108,6 +110,7 @@ def fit_from_args(args, *, objective: str = "features"):
     from ..fit import fit_features
     from ..losses import parse_loss
 
+    objective = Objective.parse(objective)
     loss = parse_loss(args.loss)
     if args.model == "microsqueeze":
         from ..microsqueeze_fit import default_eta, fit_microsqueeze

@@ -37,8 +37,10 @@ def add_arguments(parser):
 
     add_gauge_offset_argument(parser)
     add_slip_time_argument(parser)
-    parser.add_argument("--objective", choices=("features", "trace", "both", "smooth"),
-                        default="features",
+    from ..modes import Objective
+
+    parser.add_argument("--objective", choices=Objective.choices(),
+                        default=Objective.FEATURES.value,
                         help="the likelihood: the cycle features (default), every sample of "
                         "the traces (exact simulator restarted per cycle), both, or whole "
                         "records (smoothed simulator); all but features are tempered to the "

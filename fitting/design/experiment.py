@@ -46,6 +46,7 @@ from stickslip_jax import Friction, KatoKinetic, KatoStatic, steady_state
 from stickslip_jax.lsq import gauss_newton_covariance
 from stickslip_jax.steady import STICK_SLIP
 
+from ..modes import DesignCriterion
 from ..solve import AbstractResiduals, least_squares
 from .posterior import PARAMETERS, friction_params
 
@@ -170,19 +171,19 @@ def greedy_design(
     prior_sd=1.0,
     existing: Campaign | None = None,
     repeats: bool = True,
-    criterion: str = "D",
+    criterion: DesignCriterion | str = DesignCriterion.D,
 ) -> Plan:
     """Choose `budget` records from `candidates`, each maximising log det of the
     posterior precision (prior + `existing` records + records chosen so far).
 
     `u`: the parameter estimate ($\\log$, `log_params`) at which the information is
     evaluated; `prior_sd`: sd of $\\log$ parameters (scalar or 6); `repeats`: allow a
-    candidate to be chosen more than once (a repeated record); `criterion`: ``"D"``
-    (maximise log det of the precision) or ``"A"`` (minimise the trace of the
-    posterior covariance, i.e. the mean posterior variance).
+    candidate to be chosen more than once (a repeated record); `criterion`: a
+    `stickslip_fitting.modes.DesignCriterion` or its value, ``"D"`` (maximise log det of
+    the precision) or ``"A"`` (minimise the trace of the posterior covariance, i.e. the
+    mean posterior variance).
     """
-    if criterion not in ("D", "A"):
-        raise ValueError(f"criterion must be 'D' or 'A', got {criterion!r}")
+    criterion = DesignCriterion.parse(criterion)
     if budget < 1:
         raise ValueError(f"budget must be >= 1, got {budget}")
     if not repeats and budget > len(candidates):
@@ -196,7 +197,7 @@ def greedy_design(
     chosen, log_dets = [], []
     available = np.ones(len(candidates), bool)
     for _ in range(budget):
-        if criterion == "D":
+        if criterion is DesignCriterion.D:
             _, ld = np.linalg.slogdet(prec[None] + info)
         else:
             ld = -np.trace(np.linalg.inv(prec[None] + info), axis1=1, axis2=2)
@@ -334,7 +335,7 @@ def sequential_campaign(
     *,
     noise: Noise = Noise(),
     prior_sd=1.0,
-    criterion: str = "D",
+    criterion: DesignCriterion | str = DesignCriterion.D,
 ) -> tuple[Campaign, LaplaceFit]:
     """Simulate a sequential campaign on synthetic data (what `stickslip plan` is for).
 
@@ -345,6 +346,7 @@ def sequential_campaign(
     campaign and its fit. Rows not yet recorded are carried as masked padding, so the
     fit compiles once.
     """
+    criterion = DesignCriterion.parse(criterion)
     if n_next < 0:
         raise ValueError(f"n_next must be >= 0, got {n_next}")
     n0 = len(pilot)

@@ -107,7 +107,7 @@ def steady_kernel(points: DesignPoints, shared=None) -> DesignMap:
         natural_frequency=s.natural_frequency,
         critical_speed=s.critical_speed,
         stick_slip=s.stick_slip,
-        converged=jnp.asarray(s.result._value == optx.RESULTS.successful._value),
+        converged=jnp.asarray(s.result == optx.RESULTS.successful),
         regime=s.regime,
     )
 
@@ -121,7 +121,7 @@ def cycle_kernel(points: DesignPoints, shared=None) -> DesignMap:
     from stickslip_jax.limit_cycle import limit_cycle
 
     c = jax.vmap(limit_cycle)(points.friction, points.weight, points.stiffness, points.speed)
-    ok = c.result._value == optx.RESULTS.successful._value
+    ok = c.result == optx.RESULTS.successful
     f0 = 1.0 / (2.0 * jax.vmap(ss_slip_time)(points.weight, points.stiffness))
     zero = jnp.zeros_like(c.amplitude)
     stick = ok & (c.stick_time > 0)

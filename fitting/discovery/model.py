@@ -38,6 +38,7 @@ from jaxtyping import Array, Float
 
 import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed
+from stickslip_jax.modes import Formulation
 from stickslip_jax.simulation.smooth import simulate_smooth
 
 from ..params import NAMES, EmpiricalFriction
@@ -79,7 +80,7 @@ class Settings:
     atol: float = 1e-8
     max_steps: int = 8192
     solver: str = "kvaerno5"
-    formulation: str = "rigid_stick"
+    formulation: Formulation = Formulation.RIGID_STICK
 
     def make_solver(self):
         """The implicit diffrax solver named by `solver` (full Newton stages)."""

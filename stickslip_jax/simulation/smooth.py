@@ -88,7 +88,7 @@ import optimistix as optx
 from jaxtyping import ArrayLike, Float
 
 from ..drives import AbstractDrive
-from ..modes import SlipTime
+from ..modes import Formulation, SlipTime
 from ..slideway import Slideway
 from ..units import G_MM_S2
 from .parts import (
@@ -104,7 +104,8 @@ from .exact import count_at_or_before
 from .trace import Cycles, SimulationResult, Trace
 
 
-FORMULATIONS = ("rigid_stick", "velocity", "latch")
+FORMULATIONS = Formulation.choices()
+"""The values of `stickslip_jax.modes.Formulation` (old name, kept)."""
 DEFAULT_SMOOTHING = 1e-3
 """Default smoothing (all formulations; rigid stick: the sharpest whose gradients the tests
 verify (limit-cycle amplitude within 0.2 % of the exact simulator on the benchmark)."""
@@ -268,7 +269,7 @@ def simulate_smooth(
     mask: ArrayLike | None = None,
     adjoint: dfx.AbstractAdjoint | None = None,
     dt0: float | None = None,
-    formulation: str = "latch",
+    formulation: Formulation | str = Formulation.LATCH,
 ) -> Trace:
     r"""Simulate the smoothed model (module docstring) on the sample times `ts` (s).
 
@@ -282,7 +283,8 @@ def simulate_smooth(
     - `rtol`, `atol` (mm, mm/s), `solver` (default Kvaerno5; Tsit5 for "latch"),
       `max_steps`, `adjoint` (default `RecursiveCheckpointAdjoint`), `dt0` (s, default
       automatic).
-    - `formulation`: "latch" (default), "rigid_stick" or "velocity" (module docstring;
+    - `formulation`: a `stickslip_jax.modes.Formulation` or its value: "latch" (default),
+      "rigid_stick" or "velocity" (module docstring;
       "latch" is not stiff and 45-60 times cheaper than "rigid_stick" on the benchmark
       campaign; its cost grows with `max_steps`, size that to the need).
     - The slider starts at rest with `initial_deflection` (mm), stuck for
@@ -304,13 +306,12 @@ def simulate_smooth(
         if slip_time != SlipTime.PAPER:
             raise ValueError('slip_time must be "paper" or a number of seconds '
                              '(the smoothed simulator has no self-consistent mode)')
-    if formulation not in FORMULATIONS:
-        raise ValueError(f"formulation must be one of {FORMULATIONS}, got {formulation!r}")
+    formulation = Formulation.parse(formulation)
     ts = jnp.asarray(ts, dtype=float)
     if ts.ndim != 1 or ts.shape[0] < 2:
         raise ValueError("ts must be a 1-D array of at least two times (s); vmap for batches")
     mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
-    latch = formulation == "latch"
+    latch = formulation is Formulation.LATCH
     if latch:  # the rendering from the accepted steps needs sorted sample times
         ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
     if solver is None:
@@ -342,7 +343,7 @@ def simulate_smooth(
             drive_speed=drive.speed(t), eps=eps, normal_load=W,
         )
 
-    rigid = formulation in ("rigid_stick", "latch")
+    rigid = formulation is not Formulation.VELOCITY
 
     def make_core(cv):
         # rigid_stick and latch keep the stick time of the last stick (s) as its 4th state and hands
@@ -381,7 +382,7 @@ def simulate_smooth(
             # 4 / (tau + T0/20), so the Jacobian stays O(1/t): not stiff)
             d_memory = rest * (1.0 + 4.0 * (tau - memory) / (tau + t_r_latch))
             d_tau = rest - (1.0 - rest) * tau / t_r_latch
-        elif formulation == "velocity":
+        elif formulation is Formulation.VELOCITY:
             sig = stick_weight(r)
             f_fric = N * friction_curve(r, mu0, mu_sl)
             ydd = (k * core.x - f_fric + extra) / M

@@ -15,7 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..drives import AbstractDrive, ConstantSpeed, SpeedProgram
-from ..modes import SlipTime
+from ..modes import Formulation, SlipTime
 from ..slideway import Slideway
 from .exact import simulate_exact
 from .smooth import simulate_smooth
@@ -79,8 +79,10 @@ def synthetic_record(
         simulator = {"name": "exact", "slip_time": SlipTime.PAPER.value,
                      "max_events": max_events}
     else:
-        trace = _smooth(slideway, drive, ts, smoothing=jnp.asarray(smoothing), formulation="latch")
-        simulator = {"name": "smooth", "formulation": "latch", "smoothing": float(smoothing),
+        trace = _smooth(slideway, drive, ts, smoothing=jnp.asarray(smoothing),
+                        formulation=Formulation.LATCH)
+        simulator = {"name": "smooth", "formulation": Formulation.LATCH.value,
+                     "smoothing": float(smoothing),
                      "slip_time": SlipTime.PAPER.value}
     if not bool(trace.result == SimulationResult.successful):
         raise ValueError(f"simulation failed: {trace.result}")

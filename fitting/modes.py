@@ -1,0 +1,65 @@
+r"""The fitting package's mode options, str-valued enums like `stickslip_jax.modes`
+(`AbstractMode`): the old strings keep working (`Objective("trace") is Objective.TRACE`,
+`Objective.TRACE == "trace"`, hashed, printed and JSON-encoded as the string), a value is
+validated once where it enters (`Objective.parse(value)`, or `choices=Objective.choices()`
+on the command line) and compared with the members inside. No JAX import: the command
+parsers use them.
+
+- `Objective`: what a campaign fit minimises (`--objective`).
+- `DesignCriterion`: what the experiment design optimises (`stickslip plan --criterion`).
+
+```python
+Objective.parse("both")            # Objective.BOTH
+Objective.parse("samples")         # ValueError: objective must be one of ('features', ...)
+```
+"""
+
+from __future__ import annotations
+
+from stickslip_jax.modes import AbstractMode
+
+__all__ = ["DesignCriterion", "Objective"]
+
+
+class Objective(AbstractMode):
+    """What a campaign fit minimises (`stickslip_fitting.combined`, `.smooth_objective`).
+
+    - `FEATURES` ("features", the default): plateau levels and eq (6) per cycle.
+    - `TRACE` ("trace"): every sample against the exact simulator restarted at every
+      measured slip end.
+    - `BOTH` ("both"): the features and the trace, weights 1/2 each (`WeightedSum`).
+    - `SMOOTH` ("smooth"): whole records against the smoothed simulator.
+
+    All but `FEATURES` read the records' samples (`needs_records`) and start from the
+    features fit's optimum.
+    """
+
+    FEATURES = "features"
+    TRACE = "trace"
+    BOTH = "both"
+    SMOOTH = "smooth"
+
+    @classmethod
+    def parse(cls, value, name: str | None = "objective"):
+        return super().parse(value, name)
+
+    @property
+    def needs_records(self) -> bool:
+        """True when the objective reads the records' samples, not only their features."""
+        return self is not Objective.FEATURES
+
+
+class DesignCriterion(AbstractMode):
+    r"""The optimality criterion of the experiment design (`stickslip_fitting.design.
+    experiment.greedy_design`), over the posterior precision $P$ of the log parameters.
+
+    - `D` ("D", the default): maximise $\log\det P$ (the volume of the credible region).
+    - `A` ("A"): minimise $\operatorname{tr} P^{-1}$ (the mean posterior variance).
+    """
+
+    D = "D"
+    A = "A"
+
+    @classmethod
+    def parse(cls, value, name: str | None = "criterion"):
+        return super().parse(value, name)
