@@ -43,7 +43,10 @@ def add_arguments(p):
     p.add_argument("--noise", type=float, nargs=4, default=(0.05, 0.05, 0.01, 0.01),
                    metavar=("LOG_A", "LOG_T1", "MU_0", "MU_M"),
                    help="noise sd per record: relative for a and T1, absolute for mu_0, mu_m")
-    p.add_argument("--criterion", choices=("D", "A"), default="D",
+    from ..modes import DesignCriterion
+
+    p.add_argument("--criterion", choices=DesignCriterion.choices(),
+                   default=DesignCriterion.D.value,
                    help="D: maximise det of the information; A: minimise the mean variance")
     p.add_argument("--no-repeats", action="store_true", help="never propose the same record twice")
     from stickslip_jax.commands._args import add_json_option, add_quiet_option
