@@ -23,7 +23,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
-from ._math import as_float
+from .numerics import as_float
 
 
 class AbstractDrive(eqx.Module):

@@ -8,7 +8,7 @@ from jaxtyping import Array, Float
 
 from .friction import Friction
 from .units import G_MM_S2
-from ._math import as_float
+from .numerics import as_float
 
 
 class Slideway(eqx.Module):

@@ -87,7 +87,7 @@ DEFAULT_UNIT = {
     "viscosity": "Pa*s",
 }
 """The unit of a bare number on the command line, one per quantity in every command
-(`stickslip_jax.commands._args.quantity`). Viscosity is in Pa*s, the SI unit labs use
+(`stickslip_jax.commands.options.quantity`). Viscosity is in Pa*s, the SI unit labs use
 (`fit --eta` took kgf*s/mm^2 until issue 17; its bare numbers below 1e-5 are refused)."""
 
 

@@ -11,7 +11,7 @@ from stickslip_jax.units import DEFAULT_UNIT, from_internal
 
 def _quantity_options():
     """(command, option, dimension, default unit) of every option typed by
-    `stickslip_jax.commands._args.quantity` or `viscosity` (type names 'dimension (unit)')."""
+    `stickslip_jax.commands.options.quantity` or `viscosity` (type names 'dimension (unit)')."""
     parser = build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     for command, p in sub.choices.items():

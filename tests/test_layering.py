@@ -40,6 +40,73 @@ def test_no_private_name_imported_across_modules():
     assert not bad, "private names imported from other modules:\n" + "\n".join(bad)
 
 
+def _package_of(path: pathlib.Path) -> list[str]:
+    """Dotted package of a source file as installed (fitting/ is stickslip_fitting)."""
+    parts = list(path.relative_to(ROOT).with_suffix("").parts)
+    parts[0] = {"fitting": "stickslip_fitting"}.get(parts[0], parts[0])
+    return parts[:-1] if parts[-1] != "__init__" else parts[:-1]
+
+
+def _absolute(path, module, level):
+    """The absolute dotted module of an import (relative ones resolved from `path`)."""
+    if level == 0:
+        return module.split(".")
+    pkg = _package_of(path)
+    base = pkg[: len(pkg) - (level - 1)]
+    return base + (module.split(".") if module else [])
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__")
+
+
+def test_no_private_module_imported_from_outside_its_package():
+    """A module whose name starts with an underscore is private to the package that holds
+    it (and that package's subpackages): the fitting side uses only public modules of the
+    model package."""
+    bad = []
+    for path, tree in _modules(*PACKAGES):
+        here = _package_of(path)
+        for node, module, names, level in _imports(tree):
+            paths = ([_absolute(path, module, level)] if module is not None or level
+                     else [n.split(".") for n in names])
+            if module is not None or level:  # `from pkg import _module`
+                paths += [paths[0] + [n] for n in names if _private(n)]
+            for parts in paths:
+                i = next((i for i, part in enumerate(parts) if _private(part)), None)
+                if i is not None and here[:i] != parts[:i]:
+                    bad.append(f"{path.relative_to(ROOT)}:{node.lineno}: {'.'.join(parts[:i + 1])}")
+    assert not bad, "private modules imported from outside their package:\n" + "\n".join(bad)
+
+
+def test_no_private_attribute_of_an_imported_module():
+    """`module._name` (or `getattr(module, "_name")`) on an imported module or object is
+    the import of a private name by another route."""
+    bad = []
+    for path, tree in _modules(*PACKAGES):
+        bound = set()
+        for _, module, names, _ in _imports(tree):
+            bound.update(n.split(".")[0] for n in names)
+        for node in ast.walk(tree):
+            for alias in getattr(node, "names", ()) if isinstance(
+                    node, (ast.Import, ast.ImportFrom)) else ():
+                if alias.asname:
+                    bound.add(alias.asname)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and _private(node.attr):
+                root = node.value
+                while isinstance(root, ast.Attribute):
+                    root = root.value
+                if isinstance(root, ast.Name) and root.id in bound:
+                    bad.append(f"{path.relative_to(ROOT)}:{node.lineno}: {ast.unparse(node)}")
+            elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+                  and node.func.id == "getattr" and len(node.args) >= 2
+                  and isinstance(node.args[1], ast.Constant)
+                  and isinstance(node.args[1].value, str) and _private(node.args[1].value)):
+                bad.append(f"{path.relative_to(ROOT)}:{node.lineno}: {ast.unparse(node)}")
+    assert not bad, "private attributes of imported names:\n" + "\n".join(bad)
+
+
 def test_model_package_never_imports_fitting():
     bad = []
     for path, tree in _modules("stickslip_jax"):

@@ -64,7 +64,7 @@ def _method(args) -> str:
 
 
 def add_arguments(p):
-    from stickslip_jax.commands._args import quantity
+    from stickslip_jax.commands.options import quantity
 
     p.add_argument("--lubricant", default="A", help="paper lubricant (Table 6: A, C)")
     p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
@@ -93,7 +93,7 @@ def add_arguments(p):
                    "grid point, and per (W, v) the stiffness that meets it with --meet")
     p.add_argument("--meet", type=float, default=0.95,
                    help="with --max-amplitude: the probability to meet (default 0.95)")
-    from stickslip_jax.commands._args import add_json_option, add_plot_option
+    from stickslip_jax.commands.options import add_json_option, add_plot_option
 
     add_plot_option(p, "the map figure", hidden=("--out",))
     add_json_option(p, "the map", bare=True)
@@ -102,7 +102,7 @@ def add_arguments(p):
                    "with every quantity in its own column, units in the header (pandas, R, "
                    "spreadsheets read it as is)")
     p.add_argument("--chunk-size", type=int, default=65_536, help="points per device batch")
-    from stickslip_jax.commands._args import add_quiet_option
+    from stickslip_jax.commands.options import add_quiet_option
 
     add_quiet_option(p)
     # the old opt-in flag: the bar now shows by default on a terminal; --progress shows it

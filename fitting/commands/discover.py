@@ -33,7 +33,7 @@ def add_arguments(parser):
     parser.add_argument("--strict", action="store_true",
                         help="refuse the campaign when any record has no usable stick-slip "
                         "(default: run on the records that have it, list the others)")
-    from stickslip_jax.commands._args import add_json_option, add_plot_option, add_quiet_option
+    from stickslip_jax.commands.options import add_json_option, add_plot_option, add_quiet_option
 
     add_json_option(parser, "the result")
     add_plot_option(parser, "the residuals by phase before and after and the traces")

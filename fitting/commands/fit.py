@@ -48,7 +48,7 @@ def add_arguments(parser):
                         help="refuse the campaign when any record has no usable stick-slip "
                         "(default: fit the records that have it, list the others)")
     add_model_arguments(parser)
-    from stickslip_jax.commands._args import add_json_option, add_plot_option, add_quiet_option
+    from stickslip_jax.commands.options import add_json_option, add_plot_option, add_quiet_option
 
     add_json_option(parser, "the result")
     add_plot_option(parser, "the diagnostic figure")
@@ -88,7 +88,7 @@ def add_model_arguments(parser):
                         "student-t[:NU] (heavy-tailed, nu 4 unless given) or huber[:C] "
                         "(C 1.345 noise standard deviations unless given): for records with "
                         "sporadic irregular slips or outliers the model does not describe")
-    from stickslip_jax.commands._args import viscosity
+    from stickslip_jax.commands.options import viscosity
 
     parser.add_argument("--eta", type=viscosity(), default=None,
                         help="--model microsqueeze: lubricant viscosity, Pa*s unless a unit "

@@ -51,7 +51,7 @@ def add_arguments(parser):
     from .fit import add_model_arguments
 
     add_model_arguments(parser)
-    from stickslip_jax.commands._args import add_json_option, add_plot_option, add_quiet_option
+    from stickslip_jax.commands.options import add_json_option, add_plot_option, add_quiet_option
 
     add_json_option(parser, "the summary and the (thinned) posterior draws (`stickslip "
                     "design --posterior OUT` reads the draws)")

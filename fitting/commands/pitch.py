@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stickslip_jax.commands._args import (
+from stickslip_jax.commands.options import (
     add_json_option,
     add_plot_option,
     quantity,

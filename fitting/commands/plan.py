@@ -49,7 +49,7 @@ def add_arguments(p):
                    default=DesignCriterion.D.value,
                    help="D: maximise det of the information; A: minimise the mean variance")
     p.add_argument("--no-repeats", action="store_true", help="never propose the same record twice")
-    from stickslip_jax.commands._args import add_json_option, add_quiet_option
+    from stickslip_jax.commands.options import add_json_option, add_quiet_option
 
     add_json_option(p, "the plan", bare=True, action=_JsonOrOldSource)
     p.set_defaults(json_source=None)

@@ -50,7 +50,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from stickslip_jax._math import safe_power
+from stickslip_jax.numerics import safe_power
 from stickslip_jax.units import G_MM_S2
 
 from ..params import EmpiricalFriction
@@ -69,12 +69,20 @@ FFT_SIZE = 512
 """FFT length of the sensor kernel's convolution (at least 2 (N_STEPS + 1))."""
 
 
-def kernel_cdf(s, tau, order):
-    """Fraction of the sensor kernel's weight at delays below s (s, tau in s; order 1 or
-    2; module doc): 1 - e^{-s/tau}, or 1 - (1 + 2 s/tau) e^{-2 s/tau}."""
+def kernel_cdf(s, tau, order, zeta=1.0):
+    """Fraction of the sensor kernel's weight at delays below s (s, tau in s; module
+    doc): order 1, $1 - e^{-s/\\tau}$; order 2, the step response of a second-order
+    sensor of damping ratio `zeta` (<= 1) and natural frequency $\\omega_n = 2\\zeta/\\tau$
+    (mean delay tau): $1 - e^{-\\zeta\\omega_n s}(\\cos\\omega_d s + \\zeta\\omega_n s\\,
+    \\mathrm{sinc}(\\omega_d s))$, $\\omega_d = \\omega_n\\sqrt{1-\\zeta^2}$ (at zeta = 1 the
+    critically damped $1 - (1 + 2s/\\tau) e^{-2s/\\tau}$)."""
     tau = jnp.maximum(tau, 1e-9)
-    a = jnp.where(order == 1, 1.0, 2.0) * s / tau
-    return 1.0 - jnp.where(order == 1, 1.0, 1.0 + a) * jnp.exp(-a)
+    zeta = jnp.clip(zeta, 0.05, 1.0)
+    wn = 2.0 * zeta / tau
+    wd = wn * jnp.sqrt(1.0 - zeta * zeta)
+    a = zeta * wn * s
+    second = 1.0 - jnp.exp(-a) * (jnp.cos(wd * s) + a * jnp.sinc(wd * s / jnp.pi))
+    return jnp.where(order == 1, 1.0 - jnp.exp(-s / tau), second)
 
 
 def _hermite(y0, y1, m0, m1, f):

@@ -11,7 +11,7 @@ HELP = ("save a PNG of a record: deflection vs time with stick and slip phases m
 
 
 def add_arguments(p):
-    from ._args import add_plot_option
+    from .options import add_plot_option
 
     p.add_argument("record", help="record file (CSV, see README 'Records')")
     add_plot_option(p, "the figure (default: next to the record, NAME.png)", hidden=("--out",))

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from ._args import quantity
+from .options import quantity
 
 NAME = "simulate"
 HELP = ("simulate a run of the slideway (paper's model) and write it as a record CSV "

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from ._args import add_json_option, quantity
+from .options import add_json_option, quantity
 
 NAME = "steady"
 HELP = "steady stick-slip (eqs 5-7, 12) for a paper lubricant at given W, k and drive speeds"

@@ -21,7 +21,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from .surfaces import MODEL_SLIDER_WEIGHT, SurfacePair
-from .._math import as_float, is_concrete, check_positive
+from ..numerics import as_float, is_concrete, check_positive
 
 Scalar = Float[Array, ""]
 

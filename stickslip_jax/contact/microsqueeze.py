@@ -50,7 +50,7 @@ from ..friction import AbstractStaticFriction
 from ..tables import load_table
 from .boundary import BoundaryContact, approach_for, film_from_mu_s, final_approach, static_coefficient
 from .surfaces import SurfacePair, surface_pair
-from .._math import as_float, is_concrete
+from ..numerics import as_float, is_concrete
 
 Scalar = Float[Array, ""]
 

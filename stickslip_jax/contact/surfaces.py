@@ -29,7 +29,7 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from ..tables import load_table
-from .._math import as_float, check_positive
+from ..numerics import as_float, check_positive
 
 Scalar = Float[Array, ""]
 

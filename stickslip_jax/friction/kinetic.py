@@ -8,7 +8,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._math import as_float, safe_power
+from ..numerics import as_float, safe_power
 from .static import AbstractStaticFriction, Scalar
 
 

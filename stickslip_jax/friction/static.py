@@ -14,7 +14,7 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._math import as_float, one_minus_exp_neg, safe_power
+from ..numerics import as_float, one_minus_exp_neg, safe_power
 
 Scalar = Float[Array, ""]
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
-from .._math import as_float
+from ..numerics import as_float
 
 ETA_A = 2.2e-8
 """Viscosity of the paper's lubricant A in kgf*s/mm^2 (NOTES.md: 0.216 Pa*s, ~195 cSt)."""

@@ -34,7 +34,7 @@ from typing import ClassVar
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
-from .._math import as_float
+from ..numerics import as_float
 
 Scalar = Float[Array, ""]
 

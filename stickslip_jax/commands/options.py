@@ -1,5 +1,6 @@
 """Argument types and options shared by subcommands: quantities with units, and the one
-grammar of output options (`--json OUT`, `--plot OUT.png`, `--quiet`).
+grammar of output options (`--json OUT`, `--plot OUT.png`, `--quiet`). Public: the
+subcommands registered from other packages (`stickslip_fitting.commands`) use them.
 
 Nothing here imports JAX or pint at import time: `stickslip --help` builds every parser
 without them (the unit parser is imported when a value is read).

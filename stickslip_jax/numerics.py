@@ -1,5 +1,6 @@
 """Numerical helpers shared by the physics modules (NaN-safe powers and logs, float
-conversion and construction-time checks of concrete values)."""
+conversion and construction-time checks of concrete values). Public: the fitting
+package's effect families use `safe_power` too."""
 
 import jax
 import jax.numpy as jnp
