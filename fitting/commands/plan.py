@@ -213,14 +213,17 @@ def run(args) -> int:
     if not all(x > 0 for x in args.noise):
         raise ValueError("--noise: every noise level must be positive")
     u, sd, existing, desc = read_sources(args)
-    cands = candidate_grid(_values(args.weights, "force", "kgf", "--weights"),
-                           _values(args.stiffnesses, "stiffness", "kgf/mm", "--stiffnesses"),
-                           _values(args.speeds, "speed", "mm/min", "--speeds"))
+    axes = (_values(args.weights, "force", "kgf", "--weights"),
+            _values(args.stiffnesses, "stiffness", "kgf/mm", "--stiffnesses"),
+            _values(args.speeds, "speed", "mm/min", "--speeds"))
     from stickslip_jax.output import check_memory
 
-    # the Fisher matrix of every candidate (6 x 6) and its observables, per greedy step
-    check_memory(f"{len(cands)} candidate records", "--weights/--stiffnesses/--speeds",
-                 float(len(cands)) * 64 * 8)
+    # the Fisher matrix of every candidate (6 x 6) and its observables, per greedy step;
+    # checked before the grid of candidates is built (3000^3 of them died building it)
+    n_cands = float(np.prod([np.size(a) for a in axes], dtype=float))
+    check_memory(f"{' x '.join(str(np.size(a)) for a in axes)} = {n_cands:.3g} candidate "
+                 "records", "--weights/--stiffnesses/--speeds", n_cands * 64 * 8)
+    cands = candidate_grid(*axes)
     if args.no_repeats and args.budget > len(cands):
         raise ValueError(f"--budget: {args.budget} exceeds the {len(cands)} candidates")
     noise = Noise(*args.noise)
