@@ -36,14 +36,13 @@ def add_arguments(parser):
                         help="static-friction law: eq (1) (default) or the microsqueeze law")
     add_gauge_offset_argument(parser)
     add_slip_time_argument(parser)
-    parser.add_argument("--objective", choices=Objective.choices(),
-                        default=Objective.FEATURES.value,
-                        help="fit the cycle features (default, fast), every sample of the "
-                        "traces through the exact simulator restarted per cycle, both "
-                        "(weights 1/2 each), or whole records through the smoothed simulator "
-                        "(slow; tests the timing of every slip); all but features start from "
-                        "the features fit, and their intervals use a cluster-robust "
-                        "covariance (per stick phase; per record for smooth)")
+    add_objective_argument(
+        parser, help="fit the cycle features (default, fast), every sample of the "
+                  "traces through the exact simulator restarted per cycle, both "
+                  "(weights 1/2 each), or whole records through the smoothed simulator "
+                  "(slow; tests the timing of every slip); all but features start from "
+                  "the features fit, and their intervals use a cluster-robust "
+                  "covariance (per stick phase; per record for smooth)")
     parser.add_argument("--strict", action="store_true",
                         help="refuse the campaign when any record has no usable stick-slip "
                         "(default: fit the records that have it, list the others)")
@@ -53,6 +52,13 @@ def add_arguments(parser):
     add_json_option(parser, "the result")
     add_plot_option(parser, "the diagnostic figure")
     add_quiet_option(parser)
+
+
+def add_objective_argument(parser, help: str):
+    """--objective (`stickslip_fitting.modes.Objective`'s values, default "features"):
+    shared by `fit` and `mcmc`, each with its own help."""
+    parser.add_argument("--objective", choices=Objective.choices(),
+                        default=Objective.FEATURES.value, help=help)
 
 
 def add_slip_time_argument(parser):

@@ -33,18 +33,15 @@ def add_arguments(parser):
     parser.add_argument("--burn", type=int, default=None, help="steps discarded (default steps/4)")
     parser.add_argument("--seed", type=int, default=0,
                         help="random seed of the walkers' start and moves (0 to 2**32 - 1)")
-    from .fit import add_gauge_offset_argument, add_slip_time_argument
+    from .fit import add_gauge_offset_argument, add_objective_argument, add_slip_time_argument
 
     add_gauge_offset_argument(parser)
     add_slip_time_argument(parser)
-    from ..modes import Objective
-
-    parser.add_argument("--objective", choices=Objective.choices(),
-                        default=Objective.FEATURES.value,
-                        help="the likelihood: the cycle features (default), every sample of "
-                        "the traces (exact simulator restarted per cycle), both, or whole "
-                        "records (smoothed simulator); all but features are tempered to the "
-                        "cluster-robust intervals")
+    add_objective_argument(
+        parser, help="the likelihood: the cycle features (default), every sample of "
+                  "the traces (exact simulator restarted per cycle), both, or whole "
+                  "records (smoothed simulator); all but features are tempered to the "
+                  "cluster-robust intervals")
     parser.add_argument("--strict", action="store_true",
                         help="refuse the campaign when any record has no usable stick-slip "
                         "(default: sample with the records that have it, list the others)")
