@@ -1,0 +1,247 @@
+"""One JSON key per quantity across commands (issue 20, item 1): every command's `--json`
+on small inputs (the shipped campaign, small grids, a small synthetic campaign) carries
+`schema_version` first, names each quantity by one key in every command (`SYNONYMS`),
+writes units as key suffixes (`stickslip_jax.output.UNIT_SUFFIXES`), and keeps each
+renamed key under its old name for one release, listed under `deprecated_keys`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import pathlib
+import re
+import sys
+
+import numpy as np
+import pytest
+
+from stickslip_jax.cli import main
+from stickslip_jax.output import SCHEMA_VERSION, versioned
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+EXAMPLES = sorted(str(p) for p in (ROOT / "data" / "examples").glob("*.csv"))
+
+JSON_COMMANDS = ("steady", "design", "plan", "fit", "mcmc", "discover", "pitch")
+
+SYNONYMS = {
+    "stiffness_kgf_per_mm": {"stiffness_kgf_mm", "stiffness", "k_kgf_per_mm", "k_kgf_mm",
+                             "stiffness_n_per_mm"},
+    "drive_speed_mm_per_min": {"speed_mm_min", "speed_mm_per_min", "drive_speed_mm_min",
+                               "drive_speed", "speed", "v_mm_per_min", "drive_speed_mm_s",
+                               "speed_mm_s"},
+    "weight_kgf": {"weight", "w_kgf", "weight_n"},
+    "critical_speed_mm_per_min": {"critical_speed_mm_min", "critical_speed", "v_c_mm_per_min",
+                                  "v_c_mm_min", "critical_speed_mm_s"},
+    "critical_speed_band_mm_per_min": {"critical_speed_band_mm_min"},
+    "amplitude_ratio": {"ak_over_W", "ak_over_w", "ak_w"},
+    "frequency_ratio": {"f_over_f0", "f_f0"},
+    "frequency_hz": {"frequency", "f_hz"},
+    "natural_frequency_hz": {"f0_hz", "natural_frequency"},
+    "stick_time_s": {"stick_time", "t1_s", "T1_s"},
+    "slip_time_s": {"t2_s", "T2_s"},
+    "amplitude_mm": {"a_mm", "amplitude_um"},
+    "max_amplitude_mm": {"tolerance_mm", "amplitude_tolerance_mm", "max_amplitude"},
+    "noise_mm": {"noise", "noise_um", "noise_sd_mm"},
+    "gap_before_mm": {"gap_before"},
+    "gap_after_mm": {"gap_after"},
+    "drive_height_mm": {"height_mm", "height", "drive_height"},
+    "drive_offset_mm": {"offset_mm", "drive_offset"},
+    "viscosity_pa_s": {"viscosity", "eta_pa_s", "eta"},
+    "eps_prime_um": {"eps_prime", "eps_prime_mm"},
+    "d_eps_um": {"d_eps", "d_eps_mm"},
+    "mean_um": {"mean_mm"},
+    "measured_eps_prime_um": {"measured_eps_prime"},
+    "measured_d_eps_um": {"measured_d_eps"},
+    "residual_rms_mm": {"residual_rms", "rms_residual_mm"},
+}
+"""The canonical key of a quantity -> other names it has had or could plausibly get. A
+document may use only the canonical one (others only as deprecated aliases)."""
+
+UNSUFFIXED_COMPOUND = re.compile(r"_(kgf|mm|um|n)_(mm|min|s|um)$")
+"""A compound unit written without `_per_` (`_kgf_mm`, `_mm_min`): ambiguous, not the
+convention (`_kgf_per_mm`, `_mm_per_min`)."""
+
+SKIP = {"units"}
+"""Subtrees whose keys name kinds of quantity, not values (pitch's `units` map)."""
+
+
+def _synthetic_discovery_campaign(folder: pathlib.Path) -> list[str]:
+    sys.path.insert(0, str(ROOT / "tests"))
+    import independent_records as ir
+    from stickslip_jax.records import write_record
+
+    paths = []
+    for i, r in enumerate(ir.campaign(seed=11, runs=((36.0, 86.9),), speeds=(5.0, 10.0),
+                                      cycles=5.0)):
+        paths.append(str(folder / f"d{i}.csv"))
+        write_record(r, paths[-1])
+    return paths
+
+
+def _pitch_records(folder: pathlib.Path) -> list[str]:
+    from stickslip_jax import pitching as pt
+    from stickslip_jax.records import Record, write_record
+
+    t = np.arange(601) * 0.02
+    phase = (t % 2.0) / 2.0
+    force = np.where(phase < 0.95, 5.0 + 7.0 * phase / 0.95, 12.0 - 7.0 * (phase - 0.95) / 0.05)
+    model = pt.default_model()
+    paths = []
+    for i, (h, o) in enumerate([(20.0, 30.0), (60.0, -30.0)]):
+        disp = np.asarray(pt.tilt_history(model, t, force, pt.DrivePoint(h, o)).displacement)
+        disp = disp + 2e-5 * np.random.default_rng(i).standard_normal(disp.shape)
+        rec = Record(time=t, deflection=force / 86.9, stiffness=86.9, weight=36.0,
+                     drive_speed=0.05, channels={"pitch_1": disp[:, 0], "pitch_3": disp[:, 2]},
+                     channel_units={"pitch_1": "um", "pitch_3": "um"},
+                     extra_header={"drive_height": f"{h} mm", "drive_offset": f"{o} mm"})
+        paths.append(str(write_record(rec, folder / f"p{i}.csv", channel_units="original")))
+    return paths
+
+
+@pytest.fixture(scope="module")
+def documents(tmp_path_factory):
+    """{command: its --json document} on small inputs, every option that adds keys on."""
+    d = tmp_path_factory.mktemp("json_keys")
+    runs = {
+        "steady": ["steady", "--weight", "36", "--stiffness", "86.9", "--speed", "1", "60",
+                   "--tolerance", "1um"],
+        "design": ["design", "--weight", "36", "--stiffness", "100:1000:3", "--speed", "5",
+                   "--max-amplitude", "1um", "--quiet"],
+        "plan": ["plan", "A", "--budget", "2", "--quiet"],
+        "fit": ["fit", *EXAMPLES, "--quiet"],
+        "mcmc": ["mcmc", *EXAMPLES[:4], "--steps", "20", "--walkers", "14", "--quiet"],
+        "discover": ["discover", *_synthetic_discovery_campaign(d), "--quiet", "--top", "1"],
+        "pitch": ["pitch", *_pitch_records(d), "--fit"],
+    }
+    assert set(runs) == set(JSON_COMMANDS)
+    docs = {}
+    for name, argv in runs.items():
+        out = d / f"{name}.json"
+        rc = main([*argv, "--json", str(out)])
+        assert rc in (0, 3), (name, rc)  # 3: ran, answer flagged unreliable (still JSON)
+        docs[name] = json.loads(out.read_text())
+    return docs
+
+
+def _dicts(obj, path=""):
+    """Every dict in `obj` with its path (lists walked through; `SKIP` subtrees left out)."""
+    if isinstance(obj, dict):
+        yield path, obj
+        for k, v in obj.items():
+            if k not in SKIP and k != "deprecated_keys":
+                yield from _dicts(v, f"{path}.{k}")
+    elif isinstance(obj, list):
+        for v in obj:
+            yield from _dicts(v, f"{path}[]")
+
+
+def current_keys(doc) -> dict[str, set[str]]:
+    """{key: paths} of `doc`, leaving out each deprecated alias written beside its new
+    key in the same dict with the same value (checked here)."""
+    deprecated = doc.get("deprecated_keys", {})
+    keys: dict[str, set[str]] = {}
+    for path, d in _dicts(doc):
+        for k, v in d.items():
+            new = deprecated.get(k)
+            if new is not None and new in d:
+                assert d[new] == v, f"{path}.{k}: alias differs from {new}"
+                continue
+            keys.setdefault(k, set()).add(path or ".")
+    return keys
+
+
+def problems(docs: dict[str, dict]) -> list[str]:
+    """What breaks the convention in `docs` {command: document} (empty: none)."""
+    canonical = {alt: name for name, alts in SYNONYMS.items() for alt in alts}
+    out = []
+    for command, doc in docs.items():
+        if next(iter(doc), None) != "schema_version" or doc["schema_version"] != SCHEMA_VERSION:
+            out.append(f"{command}: schema_version is not the first key")
+        for key, paths in current_keys(doc).items():
+            if key in canonical:
+                out.append(f"{command}: {key} at {sorted(paths)} is {canonical[key]} elsewhere")
+            if UNSUFFIXED_COMPOUND.search(key):
+                out.append(f"{command}: {key}: compound unit without _per_")
+        for old, new in doc.get("deprecated_keys", {}).items():
+            used = [p for p, d in _dicts(doc) if old in d and new in d]
+            if not used:
+                out.append(f"{command}: deprecated {old} -> {new} never written beside {new}")
+    return out
+
+
+def test_every_json_document_follows_the_key_convention(documents):
+    assert set(documents) == set(JSON_COMMANDS)
+    assert problems(documents) == []
+
+
+def test_one_key_per_quantity_across_commands(documents):
+    """The quantities several commands report are under one key in all of them."""
+    where = {name: [c for c, doc in documents.items() if name in current_keys(doc)]
+             for name in ("stiffness_kgf_per_mm", "drive_speed_mm_per_min", "weight_kgf",
+                          "critical_speed_mm_per_min", "amplitude_ratio", "noise_mm")}
+    assert set(where["stiffness_kgf_per_mm"]) >= {"steady", "design", "plan", "fit", "mcmc",
+                                                  "discover"}
+    assert set(where["drive_speed_mm_per_min"]) >= {"steady", "design", "plan", "fit",
+                                                    "discover"}
+    assert set(where["critical_speed_mm_per_min"]) >= {"steady", "design"}
+    assert set(where["amplitude_ratio"]) >= {"steady"}
+    assert set(where["noise_mm"]) >= {"fit", "discover"}
+
+
+def test_old_keys_are_kept_for_one_release(documents):
+    """Readers of the old keys still find them, with the same values, for one release."""
+    steady = documents["steady"]
+    assert steady["deprecated_keys"]["stiffness_kgf_mm"] == "stiffness_kgf_per_mm"
+    assert steady["stiffness_kgf_mm"] == steady["stiffness_kgf_per_mm"]
+    row = steady["results"][0]
+    assert row["speed_mm_min"] == row["drive_speed_mm_per_min"] == pytest.approx(1.0)
+    assert row["ak_over_W"] == row["amplitude_ratio"]
+    assert steady["tolerance"]["amplitude_mm"] == steady["tolerance"]["max_amplitude_mm"]
+    assert row["amplitude_mm"] != steady["tolerance"]["max_amplitude_mm"]  # not renamed
+    design = documents["design"]
+    assert design["axes"]["speed_mm_min"] == design["axes"]["drive_speed_mm_per_min"]
+    req = design["tolerance"]["required_stiffness"][0]
+    assert req["stiffness_kgf_mm"] == req["stiffness_kgf_per_mm"]
+    assert documents["discover"]["noise"] == documents["discover"]["noise_mm"]
+    rec = documents["pitch"]["records"][0]
+    assert rec["offset_mm"] == rec["drive_offset_mm"] == pytest.approx(30.0)
+    for name in ("fit", "mcmc"):  # nothing renamed: no aliases
+        assert "deprecated_keys" not in documents[name]
+
+
+@pytest.mark.parametrize("name", JSON_COMMANDS)
+def test_aliases_are_declared_by_the_command(documents, name):
+    """The deprecated keys a document lists are its command module's JSON_ALIASES."""
+    from stickslip_jax.cli import registered
+
+    module = next(importlib.import_module(m) for m in registered()
+                  if importlib.import_module(m).NAME == name)
+    aliases = getattr(module, "JSON_ALIASES", {})
+    listed = documents[name].get("deprecated_keys", {})
+    assert listed == {aliases[new]: new for new in listed.values()}
+    for new, old in aliases.items():
+        assert new not in SYNONYMS.get(old, ()), (new, old)
+        assert old in SYNONYMS.get(new, ()) or new in ("max_amplitude_mm", "mean_um"), \
+            f"{name}: {old} -> {new} missing from SYNONYMS"
+
+
+def test_the_check_catches_synonyms_and_missing_versions():
+    """The checker is not vacuous: the pre-convention keys fail it."""
+    old_steady = {"schema_version": SCHEMA_VERSION, "stiffness_kgf_mm": 86.9,
+                  "results": [{"speed_mm_min": 1.0, "ak_over_W": 0.1}]}
+    found = problems({"steady": old_steady, "fit": {"records": [{"noise": 1e-3}]}})
+    assert any("stiffness_kgf_mm" in p for p in found)
+    assert any("speed_mm_min" in p for p in found)
+    assert any("ak_over_W" in p for p in found)
+    assert any("fit: schema_version" in p for p in found)
+    assert any("noise" in p for p in found)
+    # an alias is fine only beside its new key with the same value
+    doc = versioned({"a": [{"stiffness_kgf_per_mm": 2.0}]}, {"stiffness_kgf_per_mm": "k_kgf_mm"})
+    assert doc["deprecated_keys"] == {"k_kgf_mm": "stiffness_kgf_per_mm"}
+    assert doc["a"][0]["k_kgf_mm"] == 2.0 and problems({"x": doc}) == []
+    doc["a"][0]["k_kgf_mm"] = 3.0
+    with pytest.raises(AssertionError, match="alias differs"):
+        problems({"x": doc})
+    assert problems({"x": {"schema_version": SCHEMA_VERSION, "speed_mm_s": 1.0}})  # synonym
+    assert problems({"x": {"schema_version": SCHEMA_VERSION, "load_kgf_mm": 1.0}})  # no _per_
