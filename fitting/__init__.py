@@ -1,22 +1,25 @@
 r"""stickslip_fitting (the folder fitting/): parameter identification, design studies and the missing-physics workflow
 for stickslip_jax.
 
-Data flow, one way (each arrow a module boundary):
+Data flow, one way (each step knows only the ones before it):
 
-1. records -> `campaign.load_campaign` (screening: used / set aside / no stick-slip)
-   -> `features.record_features` (cycle extraction with quality flags);
-2. -> objective (`solve.AbstractResiduals`; for campaigns `combined.AbstractObjective`):
-   `objectives` (cycle features), `trace_objective` (every sample, exact simulator
-   restarted per cycle), `smooth_objective` (whole records, smoothed simulator),
-   `combined.WeightedSum`; `pitch_fit.PitchObjective` (pitching channels) and
-   `design.experiment.SteadyObservables` (steady observables of a planned campaign);
-3. -> solve: `solve.least_squares(objective, params, free)` (the one Levenberg-Marquardt
-   of `stickslip_jax.lsq` over any parameter pytree); for campaigns `fit.fit_features` /
-   `fit.fit_records` / `fit.fit_objective` add multi-start and reweighting (one result
-   type `FitResult` with a result code);
-4. -> uncertainty: `uncertainty.laplace` (Fisher or cluster sandwich), or the
-   posterior by `mcmc.run_mcmc` (emcee at the edge, on the same objective);
-5. -> report: `commands/` (argument parsing, tables, JSON); `plots` (figures).
+1. records -> `campaign.load_campaign` (screening) -> `features.record_features` (cycles)
+2. -> objective: `combined.AbstractObjective` (features, trace, `WeightedSum`, smooth)
+3. -> solve: `solve.least_squares(objective, params, free)`; `fit.fit_features` (multi-start)
+4. -> uncertainty: `uncertainty.laplace` (Fisher, cluster sandwich) or `mcmc.run_mcmc`
+5. -> report: `report.ParameterEstimate` rows; `commands/` (tables, JSON), `plots` (figures)
+
+In more words: the objectives are `combined.FeaturesObjective` (cycle features),
+`combined.TraceObjective` (every sample, exact simulator restarted per cycle),
+`combined.WeightedSum` (`--objective both`) and `smooth_objective.SmoothObjective` (whole
+records, smoothed simulator), all `solve.AbstractResiduals`, as are
+`pitch_fit.PitchObjective` (pitching channels) and `design.experiment.SteadyObservables`
+(steady observables of a planned campaign). `solve.least_squares` is the one
+Levenberg-Marquardt (`stickslip_jax.lsq`) over any parameter pytree; for campaigns
+`fit.fit_features` / `fit.fit_records` / `fit.fit_objective` add multi-start and
+reweighting (one result type `FitResult` with a result code). `mcmc.run_mcmc` samples the
+same objective (emcee at the edge). Mode options (`--objective`, `--criterion`) are the
+str enums of `modes`.
 
 Where new things go:
 - a new friction law to fit: a final subclass of `params.AbstractFrictionParams`
@@ -24,9 +27,12 @@ Where new things go:
 - a new objective: a final subclass of `combined.AbstractObjective` in a module beside
   `trace_objective` / `smooth_objective`, with residuals of `params.CampaignParams`
   whitened by their standard errors (an objective over other parameters: a final
-  subclass of `solve.AbstractResiduals`, solved by `solve.least_squares`);
+  subclass of `solve.AbstractResiduals`, solved by `solve.least_squares`); to offer it
+  as `--objective NAME`, a member of `modes.Objective` and its branch in `fit.fit_features`;
 - a new effect for discovery: a family in `discovery.cycle_effects` and its term in
   `discovery.cycle_model`;
+- a new mode option: a member of its enum in `modes` (or a new `AbstractMode` there),
+  validated once with `.parse` where it enters;
 - a new subcommand: a module in `commands/` (NAME, HELP, add_arguments, run) and an
   entry point in the `stickslip.commands` group of pyproject.toml.
 
