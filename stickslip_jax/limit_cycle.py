@@ -31,6 +31,32 @@ that falls smoothly: the undamped model has no sharp stick-slip boundary, only t
 where the amplitude falls below a tolerance (`tolerance_speed`). Lubricant A, W 36 kgf,
 k 86.9 kgf/mm: $v_c$ = 48.9 mm/min, the limit cycle 8.01 / 7.32 / 5.66 um at 52 / 60 / 90
 mm/min (the exact simulator's values to 1e-12).
+
+**Damping** (`limit_cycle(..., damping_ratio=zeta)`, `cycle_map(..., damping_ratio=zeta)`,
+`boundary_speed`). The paper's equation of motion (eq 2) has no damping, so a small limit
+cycle persists at every speed. With a viscous force $c\dot y$ on the slider (relative to
+the slideway, as a lubricant film gives it; $c = 2\zeta M\omega_0$, $M = W/g$,
+$\omega_0 = \sqrt{kg/W}$, so $\zeta$ is the damping ratio of the slideway's own mode) the
+stick is unchanged (the slider is at rest) and a slip from rest at deflection $x_b$ under
+the constant $\mu_m$ of eq (3) (still at $T_2 = \pi/\omega_0$) is a damped oscillation
+about $x_{eq} = \mu_m W/k + 2\zeta v/\omega_0$: with $d = x_b - x_{eq}$,
+$\omega_d = \omega_0\sqrt{1 - \zeta^2}$, the slider's velocity is
+
+$$\dot y(t) = v + e^{-\zeta\omega_0 t}\left(-v\cos\omega_d t
+  + \frac{\omega_0^2 d + \zeta\omega_0 v}{\omega_d}\sin\omega_d t\right)$$
+
+and the deflection $x_{eq} + e^{-\zeta\omega_0 t}(d\cos\omega_d t + (v + \zeta\omega_0
+d)\sin(\omega_d t)/\omega_d)$. The slip ends where $\dot y$ returns to zero, between
+its first maximum and first minimum (closed-form times; the root by bisection with an
+implicit-function gradient); if that minimum is positive the slider never stops again
+(steady sliding). A re-slip from rest with $\mu_d$ follows while $kx > W\mu_d$. The fixed
+point is found by bisection in $\log T_1$ on "the slider stops and the residual is
+positive"; where the stopping region begins with a positive residual there is no limit
+cycle with a stick. Unlike the undamped model this happens at a finite speed,
+`boundary_speed`, where a finite cycle vanishes at once: the boundary is sharp (lubricant
+A, W 36 kgf, k 86.9 kgf/mm: $\zeta$ = 0.01, 0.05, 0.1 end stick-slip at 97.9, 54.7,
+39.0 mm/min with 3.0, 4.1, 5.0 um cycles just below; eq (12)'s $v_c$ is 48.9 mm/min).
+`damping_ratio=0` reproduces the undamped map to 1e-11.
 """
 
 from __future__ import annotations
@@ -44,10 +70,10 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from .friction import Friction
-from .steady import (RESTICK_FAILURE, STICK_SLIP, critical_speed, natural_angular_frequency,
-                     restick_failure, slip_time)
+from .steady import (RESTICK_FAILURE, STEADY_SLIDING, STICK_SLIP, critical_speed,
+                     natural_angular_frequency, restick_failure, slip_time)
 
-__all__ = ["LimitCycle", "cycle_map", "limit_cycle", "tolerance_speed"]
+__all__ = ["LimitCycle", "boundary_speed", "cycle_map", "limit_cycle", "tolerance_speed"]
 
 _TWO_PI = 2.0 * math.pi
 _LOG_T_START = math.log(1e12)
@@ -107,12 +133,21 @@ def _check(weight, stiffness, speed):
 
 @eqx.filter_jit
 def limit_cycle(friction: Friction, weight, stiffness, speed, rtol: float = 1e-13,
-                max_steps: int = 200) -> LimitCycle:
+                max_steps: int = 200, damping_ratio=None) -> LimitCycle:
     r"""The fixed point of the one-cycle map (module doc) at W (kgf), k (kgf/mm), v (mm/s);
-    scalars (`jax.vmap` for many points)."""
+    scalars (`jax.vmap` for many points).
+
+    `damping_ratio` $\zeta$ (dimensionless, $0 \le \zeta < 1$; default None: the paper's
+    undamped model, solved by Newton's method): the map of the damped model (module
+    section "Damping"), solved by bisection in $\log T_1$ with implicit gradients. Where
+    it has no fixed point with a stick (above `boundary_speed`) the result is steady
+    sliding: `regime` `STEADY_SLIDING`, amplitude, stick time and frequency 0."""
     if not isinstance(friction, Friction):
         raise ValueError(f"friction must be a Friction, got {type(friction)}")
     weight, stiffness, speed = _check(weight, stiffness, speed)
+    if damping_ratio is not None:
+        return _damped_limit_cycle(friction, weight, stiffness, speed,
+                                   _check_zeta(damping_ratio))
     t2 = slip_time(weight, stiffness)
     omega = natural_angular_frequency(weight, stiffness)
     double = _double(friction, t2)
@@ -137,11 +172,13 @@ def limit_cycle(friction: Friction, weight, stiffness, speed, rtol: float = 1e-1
         regime=jnp.where(double, RESTICK_FAILURE, STICK_SLIP), result=sol.result)
 
 
-def cycle_map(friction: Friction, weight, stiffness, speed, trough):
+def cycle_map(friction: Friction, weight, stiffness, speed, trough, damping_ratio=None):
     r"""One cycle of the model from a stick that starts at rest with deflection `trough`
     (mm): the deflection where the next stick starts (module doc), and the stick time
     $T_1$ (s). Scalars; the breakaway is found by bisection (values only: a check of
-    `limit_cycle`, not a differentiable path)."""
+    `limit_cycle`, not a differentiable path). With `damping_ratio` $\zeta$: the damped
+    model's cycle (module section "Damping"); the deflection is NaN where the slider
+    never stops again (steady sliding)."""
     weight, stiffness, speed = _check(weight, stiffness, speed)
     t2 = slip_time(weight, stiffness)
     x1 = jnp.asarray(trough, dtype=float)
@@ -161,6 +198,12 @@ def cycle_map(friction: Friction, weight, stiffness, speed, trough):
     t1 = jnp.where(margin(0.0) >= 0, 0.0, 0.5 * (lo + hi))
     x2 = x1 + speed * t1
     mu_0 = friction.static(t1)
+    if damping_ratio is not None:
+        zeta = _check_zeta(damping_ratio)
+        omega = natural_angular_frequency(weight, stiffness)
+        x, _, _, stopped = _damped_slips(friction, weight, stiffness, speed, omega, zeta, x2,
+                                         friction.kinetic(mu_0, friction.mu_d, t2))
+        return jnp.where(stopped, x, jnp.nan), t1
     c = friction.kinetic(mu_0, friction.mu_d, t2) * weight / stiffness
     after = 2.0 * c - x2
     c_d = friction.mu_d * weight / stiffness
@@ -189,3 +232,159 @@ def tolerance_speed(friction: Friction, weight, stiffness, amplitude, rtol: floa
                                jnp.asarray(stiffness, float), amplitude),
                          max_steps=max_steps, throw=False)
     return jnp.exp(sol.value), sol.result
+
+
+# --------------------------------------------------------------------------------------
+# Viscous damping: the one-cycle map of the damped model and its sharp boundary
+# --------------------------------------------------------------------------------------
+
+_N_BISECT = 100  # float64 bisection steps (interval widths reach adjacent floats)
+_N_RESLIP = 4  # re-slips from rest followed after one slip at most
+_LOG_T_LO, _LOG_T_HI = math.log(1e-12), math.log(1e12)
+
+
+def _with_implicit_gradient(root, fn):
+    """`root` (a converged root of `fn`, found without gradients) with the derivative of
+    the implicit function theorem: value `root`, tangent $-\\partial_\\theta f / f'$."""
+    root = jax.lax.stop_gradient(root)
+    value, slope = jax.jvp(fn, (root,), (jnp.ones_like(root),))
+    return root - (value - jax.lax.stop_gradient(value)) / jax.lax.stop_gradient(slope)
+
+
+def _bisect(predicate, lo, hi, n=_N_BISECT):
+    """The transition of a predicate (False at `lo`, True at `hi`): (lo, hi) after `n`
+    halvings."""
+    def body(_, lohi):
+        lo, hi = lohi
+        mid = 0.5 * (lo + hi)
+        up = predicate(mid)
+        return jnp.where(up, lo, mid), jnp.where(up, mid, hi)
+
+    return jax.lax.fori_loop(0, n, body, (lo, hi))
+
+
+def _damped_slip(x_start, mu, weight, stiffness, speed, omega, zeta):
+    r"""One slip from rest of the damped model (eq (2) with $c\dot y$; module section
+    "Damping"): the slider starts at rest with deflection `x_start` (mm) under a constant
+    kinetic friction `mu`. Returns (deflection at the end, duration s, stopped): the slip
+    ends at the first $t > 0$ where the slider's velocity returns to zero; `stopped` is
+    False where it never does (its velocity's first minimum stays positive: from then on
+    the slider slides for ever)."""
+    wd = omega * jnp.sqrt(1.0 - zeta**2)
+    x_eq = mu * weight / stiffness + 2.0 * zeta * speed / omega
+    d = x_start - x_eq
+
+    def velocity(t, d=d, v=speed):
+        # slider velocity (mm/s): v + e^{-zeta w t} (P cos wd t + Q sin wd t), P = -v
+        q = (omega**2 * d + zeta * omega * v) / wd
+        return v + jnp.exp(-zeta * omega * t) * (-v * jnp.cos(wd * t) + q * jnp.sin(wd * t))
+
+    q = (omega**2 * d + zeta * omega * speed) / wd
+    a = zeta * omega * speed + wd * q  # = w^2 (d + 2 zeta v / w) > 0 after breakaway
+    b = zeta * omega * q - wd * speed
+    t_max = jnp.arctan2(a, b) / wd  # the velocity's first maximum, then its minimum
+    t_min = t_max + jnp.pi / wd
+    stopped = velocity(t_min) <= 0.0
+    lo, hi = _bisect(lambda t: velocity(t) <= 0.0, t_max, t_min)
+    t_end = jnp.where(stopped, 0.5 * (lo + hi), t_min)
+    t_end = _with_implicit_gradient(t_end, velocity)
+    z = jnp.exp(-zeta * omega * t_end) * (
+        d * jnp.cos(wd * t_end) + (speed + zeta * omega * d) / wd * jnp.sin(wd * t_end))
+    return x_eq + z, t_end, stopped
+
+
+def _damped_slips(friction, weight, stiffness, speed, omega, zeta, peak, mu_m):
+    """The slip from breakaway at `peak` (mm) with eq (3)'s `mu_m`, then the re-slips from
+    rest (with $\\mu_d$) while the spring force exceeds $W\\mu_d$. Returns (deflection where
+    the next stick starts, total slip time, number of slips, stopped)."""
+    x, t, stopped = _damped_slip(peak, mu_m, weight, stiffness, speed, omega, zeta)
+
+    def body(_, state):
+        x, t, stopped, n = state
+        again = stopped & (stiffness * x > weight * friction.mu_d)
+        x2, t2, s2 = _damped_slip(x, friction.mu_d, weight, stiffness, speed, omega, zeta)
+        return (jnp.where(again, x2, x), t + jnp.where(again, t2, 0.0),
+                jnp.where(again, s2, stopped), n + again)
+
+    x, t, stopped, n = jax.lax.fori_loop(0, _N_RESLIP, body, (x, t, stopped, jnp.ones((), int)))
+    stopped = stopped & (stiffness * x <= weight * friction.mu_d)
+    return x, t, n, stopped
+
+
+def _damped_residual(log_t1, friction, weight, stiffness, speed, omega, zeta, t2):
+    """Fixed-point residual (mm) of the damped one-cycle map at stick time e^log_t1:
+    (deflection where the next stick starts) - (where this one started), with the
+    number of slips and whether the slider stops."""
+    t1 = jnp.exp(log_t1)
+    mu_0 = friction.static(t1)
+    peak = mu_0 * weight / stiffness
+    mu_m = friction.kinetic(mu_0, friction.mu_d, t2)
+    x, slip, n, stopped = _damped_slips(friction, weight, stiffness, speed, omega, zeta,
+                                        peak, mu_m)
+    return x - (peak - speed * t1), (slip, n, stopped, peak)
+
+
+def _check_zeta(zeta):
+    zeta = jnp.asarray(zeta, dtype=float)
+    if zeta.ndim:
+        raise ValueError("damping_ratio takes a scalar; use jax.vmap over values")
+    return eqx.error_if(zeta, ~((zeta >= 0) & (zeta < 1)),
+                        "damping ratio zeta must lie in [0, 1)")
+
+
+def _damped_limit_cycle(friction, weight, stiffness, speed, zeta) -> LimitCycle:
+    t2 = slip_time(weight, stiffness)
+    omega = natural_angular_frequency(weight, stiffness)
+    args = (friction, weight, stiffness, speed, omega, zeta, t2)
+
+    def settles_above(log_t1):
+        r, (_, _, stopped, _) = _damped_residual(log_t1, *args)
+        return stopped & (r > 0)
+
+    lo, hi = _bisect(settles_above, jnp.asarray(_LOG_T_LO), jnp.asarray(_LOG_T_HI))
+    r_lo, (_, n_lo, stop_lo, peak_lo) = _damped_residual(lo, *args)
+    r_hi, (_, n_hi, stop_hi, _) = _damped_residual(hi, *args)
+    # a root: the map stops on both sides of the transition, with the same slips, and
+    # the residual vanishes there (to round-off); not the edge of the region where the
+    # slider stops (there the residual jumps from "never stops" to > 0: steady sliding)
+    small = 1e-9 * peak_lo
+    found = (stop_lo & stop_hi & (n_lo == n_hi) & (jnp.abs(r_lo) <= small)
+             & (jnp.abs(r_hi) <= small) & settles_above(jnp.asarray(_LOG_T_HI)))
+    log_t1 = _with_implicit_gradient(hi, lambda s: _damped_residual(s, *args)[0])
+    _, (slip, n, _, peak) = _damped_residual(log_t1, *args)
+    t1 = jnp.exp(log_t1)
+    zero = jnp.zeros_like(t1)
+    trough = peak - speed * t1
+    return LimitCycle(
+        stick_time=jnp.where(found, t1, zero), slip_time=jnp.where(found, slip, zero),
+        peak=jnp.where(found, peak, zero), trough=jnp.where(found, trough, zero),
+        amplitude=jnp.where(found, 0.5 * (peak - trough), zero),
+        frequency=jnp.where(found, 1.0 / (t1 + slip), zero),
+        critical_speed=critical_speed(friction, weight, stiffness),
+        regime=jnp.where(found, jnp.where(n > 1, RESTICK_FAILURE, STICK_SLIP), STEADY_SLIDING),
+        result=optx.RESULTS.successful)
+
+
+@eqx.filter_jit
+def boundary_speed(friction: Friction, weight, stiffness, damping_ratio,
+                   speed_range=(1e-6, 1e5)):
+    r"""The damped model's sharp stick-slip boundary (mm/s): the drive speed above which
+    the one-cycle map with damping ratio $\zeta$ has no fixed point with a stick (the
+    slider, once it slips, never stops again: steady sliding), at W (kgf), k (kgf/mm).
+    Bisection in $\log v$ over `speed_range` (mm/s); `inf` where a limit cycle exists at
+    its top (the undamped model, $\zeta = 0$, for eq (1) with $m < 1$), 0 where none exists
+    at its bottom. Scalars (`jax.vmap` over $\zeta$ or design points); values only."""
+    if not isinstance(friction, Friction):
+        raise ValueError(f"friction must be a Friction, got {type(friction)}")
+    weight, stiffness, _ = _check(weight, stiffness, 1.0)
+    zeta = _check_zeta(damping_ratio)
+    friction, weight, stiffness, zeta = jax.lax.stop_gradient((friction, weight, stiffness, zeta))
+
+    def sliding(log_v):
+        c = _damped_limit_cycle(friction, weight, stiffness, jnp.exp(log_v), zeta)
+        return c.regime == STEADY_SLIDING
+
+    lo, hi = (jnp.log(jnp.asarray(x, dtype=float)) for x in speed_range)
+    a, b = _bisect(sliding, lo, hi, n=60)
+    v = jnp.exp(0.5 * (a + b))
+    return jnp.where(sliding(lo), 0.0, jnp.where(sliding(hi), v, jnp.inf))
