@@ -941,8 +941,12 @@ def _parse_data(lines, start, columns, path):
     while stop > start and not lines[stop - 1].strip():
         stop -= 1
     body = lines[start:stop]
+    import warnings
+
     try:
-        data = np.loadtxt(body, delimiter=",", comments=None, dtype=np.float64, ndmin=2)
+        with warnings.catch_warnings():  # no rows: said below, with the line
+            warnings.simplefilter("ignore", UserWarning)
+            data = np.loadtxt(body, delimiter=",", comments=None, dtype=np.float64, ndmin=2)
     except ValueError:
         data = None
     if data is not None and data.shape[1:] == (len(columns),) and bool(np.isfinite(data).all()):
@@ -1081,6 +1085,13 @@ def parse_record(text: str, source=None) -> Record:
     columns, units = [], []
     for cell in lines[i].split(","):
         cm = _COLUMN.fullmatch(cell)
+        if cm is None and cell.count("[") > 1:
+            raise RecordError(
+                f"the column row {lines[i].strip()[:60]!r} has no ',', ';' or tab between "
+                "its columns; separate them (and the values) with ',' (or ';' or tabs)",
+                path,
+                column_line,
+            )
         if cm is None:
             raise RecordError(
                 f"column {cell.strip()[:40]!r} must be 'name [unit]' "
