@@ -355,7 +355,19 @@ def run_mcmc(
 
     sampler = emcee.EnsembleSampler(walkers, dim, log_prob, vectorize=True)
     sampler.random_state = np.random.RandomState(seed).get_state()
-    interrupted = _sample(sampler, p0, steps, progress)
+    try:
+        interrupted = _sample(sampler, p0, steps, progress)
+    except ValueError as exc:
+        if "condition number" not in str(exc):
+            raise
+        # emcee refuses walkers that start (nearly) on one line: the fit's covariance is
+        # degenerate, e.g. a --fix value the records contradict
+        raise ValueError(
+            "the walkers cannot start: around the fit's optimum they are not linearly "
+            "independent (the fit's covariance is degenerate: parameters not identifiable "
+            "or at a bound, or --fix values the records contradict); check `stickslip fit` "
+            "with the same records and options, and fix fewer parameters or add records"
+        ) from None
     if interrupted:
         # Ctrl-C: keep the chain so far (at least MIN_KEPT steps), say so
         done = int(sampler.iteration)
