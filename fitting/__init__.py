@@ -50,10 +50,12 @@ __all__ = [
     "AbstractResiduals",
     "Campaign",
     "CampaignParams",
+    "DesignCriterion",
     "EmpiricalFriction",
     "FitResult",
     "McmcResult",
     "MicrosqueezeFriction",
+    "Objective",
     "RecordFeatures",
     "Uncertainty",
     "discover_cycles",
@@ -80,6 +82,7 @@ _HOME = {
     "McmcResult": "mcmc", "run_mcmc": "mcmc",
     "discover_cycles": "discovery.cycle_workflow",
     "AbstractResiduals": "solve", "least_squares": "solve",
+    "Objective": "modes", "DesignCriterion": "modes",
 }
 
 

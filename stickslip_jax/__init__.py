@@ -32,7 +32,7 @@ _HOME = {
     "slip_time": "steady", "slip_trajectory": "steady", "steady_map": "steady",
     "steady_state": "steady",
     "Slideway": "slideway",
-    "GaugeOffset": "modes", "SlipTime": "modes",
+    "Formulation": "modes", "GaugeOffset": "modes", "SlipTime": "modes",
     "load_table": "tables",
 }
 """Public name -> the module that defines it (imported on first use)."""
@@ -58,6 +58,7 @@ __all__ = [
     "AbstractKineticFriction",
     "AbstractStaticFriction",
     "DerjaguinStatic",
+    "Formulation",
     "Friction",
     "GaugeOffset",
     "HoweStatic",

@@ -65,6 +65,12 @@ def test_fitting_modes_accept_their_old_strings():
             assert hash(member) == hash(value)
             assert json.dumps([member]) == json.dumps([value])
     assert [m.needs_records for m in Objective] == [False, True, True, True]
+    import stickslip_fitting
+    import stickslip_jax
+
+    assert stickslip_fitting.Objective is Objective
+    assert stickslip_fitting.DesignCriterion is DesignCriterion
+    assert stickslip_jax.Formulation is Formulation
 
 
 @pytest.mark.parametrize("enum_name, bad, message", [
