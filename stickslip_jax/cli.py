@@ -106,7 +106,12 @@ def _join_negative_values(argv: list[str]) -> list[str]:
 def main(argv=None, *, prepare=None) -> int:
     """Parse `argv` and run the command; `prepare()`, if given, runs once the arguments
     are parsed and a command will run (`console_main`: JAX's compilation cache), so
-    `--help` and usage errors never import JAX."""
+    `--help` and usage errors never import JAX. Progress goes through the `stickslip`
+    logger (`stickslip_jax.logs`): stage lines on stderr with the time since this call,
+    off with the command's `--quiet`, details with `--debug`."""
+    import time
+
+    start = time.time()
     parser = build_parser()
     argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
     args = parser.parse_args(argv)
@@ -115,7 +120,12 @@ def main(argv=None, *, prepare=None) -> int:
         return 2
     if prepare is not None:
         prepare()
+    from .logs import configure, logger
     from .output import json_owns_stdout
+
+    configure(args.command, quiet=bool(getattr(args, "quiet", False)), debug=args.debug,
+              start=start)
+    logger.debug(f"arguments: {' '.join(argv)}")
 
     try:
         # `--json -`: stdout carries only the JSON document; the table goes to stderr

@@ -7,6 +7,7 @@ over many campaigns are in `test_cycle_discovery_rates.py` (slow)."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -45,6 +46,8 @@ def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):
         assert key in rep
     assert {c["name"] for c in rep["candidates"]} >= {"viscous_damping", "sensor_lowpass"}
     assert "base_fit:" in captured.err and "ranking:" in captured.err  # progress lines
+    # ... through the `stickslip` logger, with the time since the start (tests/test_logging.py)
+    assert re.search(r"^stickslip discover \[\s*\d+\.\d s\] base_fit:", captured.err, re.M)
 
 
 def test_strong_damping_is_named():

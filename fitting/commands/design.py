@@ -124,6 +124,14 @@ def _axes(args):
     return axes
 
 
+def _say_map(shape, how) -> None:
+    """The stage line of the map (the `stickslip` logger: stderr unless --quiet)."""
+    from stickslip_jax.logs import logger
+
+    n = int(np.prod(shape))
+    logger.info(f"map of {' x '.join(map(str, shape))} = {n} point{'s' * (n != 1)} ({how})...")
+
+
 def compute(args):
     """The map as a dict of NumPy arrays (internal units) plus its axes."""
     from stickslip_jax.lubricants import lubricant, lubricants
@@ -154,6 +162,7 @@ def compute(args):
         if not Path(args.posterior).exists():
             raise ValueError(f"--posterior: no such file {args.posterior!r}")
         sample = load_samples(args.posterior)
+        _say_map(shape, "steady analysis over the posterior draws")
         u = propagate(sample, w, k, v, level=args.level, chunk_size=args.chunk_size * 4,
                       progress=_progress(args))
         out.update(probability=u.probability, critical_speed_band=u.critical_speed,
@@ -161,6 +170,7 @@ def compute(args):
                    amplitude_band=u.amplitude, stick_slip=u.probability >= 0.5)
         return out
     friction = lubricant(args.lubricant, table=args.table)
+    _say_map(shape, f"method {_method(args)}")
     m = design_map(friction, w, k, v, method=_method(args),
                    chunk_size=args.chunk_size, progress=_progress(args))
     out.update(amplitude=m.amplitude, amplitude_ratio=m.amplitude_ratio, frequency=m.frequency,
@@ -305,10 +315,15 @@ def run(args) -> int:
 
     check_outputs({"--json": args.json, args.plot_option: args.plot, "--csv": args.csv},
                   [args.posterior] if args.posterior else [])
+    from stickslip_jax.logs import logger
+
     res = compute(args)
+    logger.info("map done")
     if args.max_amplitude is not None:
+        logger.info(f"design to a tolerance: {args.max_amplitude * 1e3:g} um...")
         res["tolerance"] = tolerance(args, res)
     if args.plot:
+        logger.info("drawing the figure...")
         plot(args, res, args.plot)
     if args.json:
         from stickslip_jax.output import versioned, write_json

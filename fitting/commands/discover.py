@@ -92,9 +92,13 @@ def run(args) -> int:
     for w in campaign.warnings:
         print("warning: " + w, file=sys.stderr)
     records = campaign.records
+    from stickslip_jax.logs import logger
+
+    logger.info(f"discovery on {len(records)} records (base smooth: minutes)...")
     result = discover(records, candidates=tuple(args.only or CANDIDATES), top=args.top,
                       threshold=args.threshold, crop=args.crop, learn=args.learn,
                       max_evals=args.max_evals)
+    logger.info(f"discovery done: {result.effect}")
     print(f"effect: {result.effect} (confidence {result.confidence})")
     print(result.explanation)
     print(f"gap (residual RMS): {result.gap_before * 1e3:.3f} um -> "
@@ -158,12 +162,12 @@ def _run_cycle(args, records) -> int:
             raise ValueError(f"--only: {', '.join(bad)} exist only with --base smooth; the "
                              f"cycle base has {', '.join(sorted(names))}")
 
-    def progress(line):
-        print(line, file=sys.stderr, flush=True)
+    from stickslip_jax.logs import logger
 
+    logger.info(f"discovery on {len(records)} records (base cycle)...")
     result = discover_cycles(records, candidates=tuple(only) if only else None, top=args.top,
                              alpha=args.alpha, max_evals=args.max_evals, strict=args.strict,
-                             progress=None if args.quiet else progress)
+                             progress=None if args.quiet else logger.info)
     for s in result.campaign.screening:
         if s.status != "used":
             print(f"warning: {s.name}: {s.status.replace('_', ' ')} ({s.reason}); not used",

@@ -148,16 +148,13 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
 
 
 def _say_fitting(args, campaign, objective) -> None:
-    """One progress line on stderr once the inputs are read and checked (not --quiet)."""
-    import sys
+    """One stage line (the `stickslip` logger: stderr unless --quiet) once the inputs are
+    read and checked."""
+    from stickslip_jax.logs import logger
 
-    if getattr(args, "quiet", False):
-        return
     n = sum(s.status == "used" for s in campaign.screening)
-    command = getattr(args, "command", "fit")
     loss = "" if args.loss == "gaussian" else f", loss {args.loss}"
-    print(f"stickslip {command}: fitting {n} records (objective {objective}{loss}, model "
-          f"{args.model})...", file=sys.stderr, flush=True)
+    logger.info(f"fitting {n} records (objective {objective}{loss}, model {args.model})...")
 
 
 def parse_fix(items, law=None) -> dict[str, float]:
@@ -377,10 +374,14 @@ def run(args) -> int:
     check_outputs({"--json": args.json, "--plot": args.plot}, record_paths(args.records))
     import sys
 
+    from stickslip_jax.logs import logger
+
     fit, campaign, extra = fit_from_args(args, objective=args.objective)
+    logger.info(f"fit {'converged' if fit.converged else 'did not converge'}; intervals...")
     records = campaign.records
     unc = laplace(fit)
     report = build_report(fit, unc, campaign, model=args.model, extra=extra)
+    logger.info("report done")
     print(format_table(report))
     for n in campaign.notes:
         print("note: " + n)
@@ -392,6 +393,7 @@ def run(args) -> int:
     if args.plot:
         from ..plots import fit_figure
 
+        logger.info("drawing the figure...")
         fit_figure(fit, unc, records, args.plot)
         print(f"wrote {args.plot}")
     if not fit.converged:

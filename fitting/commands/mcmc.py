@@ -124,11 +124,14 @@ def run(args) -> int:
         print("warning: " + w)
     import sys
 
-    if not args.quiet:
-        print(f"sampling: {args.walkers} walkers x {args.steps} steps (Ctrl-C stops and keeps "
-              "the chain so far)", file=sys.stderr, flush=True)
+    from stickslip_jax.logs import logger
+
+    logger.info(f"sampling: {args.walkers} walkers x {args.steps} steps (Ctrl-C stops and "
+                "keeps the chain so far)")
     res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
                    progress=not (args.quiet or args.no_progress))
+    logger.info(f"sampling {'interrupted' if res.interrupted else 'done'}: acceptance "
+                f"{res.acceptance:.2f}")
     res.warnings.extend(_fixed_misfit(fit, res.names))
     summary = res.summary()
     units = res.units
@@ -201,6 +204,7 @@ def run(args) -> int:
     if args.plot:
         from ..plots import corner_plot
 
+        logger.info("drawing the corner plot...")
         corner_plot(res.samples, res.names, args.plot, truth=truth, units=units)
         print(f"wrote {args.plot}")
     if res.interrupted:

@@ -195,8 +195,6 @@ their old names, still written beside them for one release (`deprecated_keys`)."
 
 
 def run(args) -> int:
-    import sys
-
     from stickslip_jax.output import check_outputs
 
     from ..design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
@@ -227,11 +225,13 @@ def run(args) -> int:
     if args.no_repeats and args.budget > len(cands):
         raise ValueError(f"--budget: {args.budget} exceeds the {len(cands)} candidates")
     noise = Noise(*args.noise)
-    if not args.quiet:
-        print(f"stickslip plan: choosing {args.budget} of {len(cands)} candidate records "
-              f"({args.criterion}-optimal)...", file=sys.stderr, flush=True)
+    from stickslip_jax.logs import logger
+
+    logger.info(f"choosing {args.budget} of {len(cands)} candidate records "
+                f"({args.criterion}-optimal)...")
     plan = greedy_design(u, cands, args.budget, noise=noise, prior_sd=sd, existing=existing,
                          repeats=not args.no_repeats, criterion=args.criterion)
+    logger.info("plan done")
     rows = []
     for i in range(args.budget):
         w, k, v = (float(np.asarray(x)[i]) for x in
