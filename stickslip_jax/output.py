@@ -9,6 +9,9 @@
   temporary file in the target folder and rename it over the target, so a full disk or
   an interrupt leaves the previous file (or none), never half a file. `path` "-" writes
   JSON/text to stdout.
+- JSON is strict (`strict_json`): a NaN or infinity is written as null, and the document
+  gets a key "null_reasons" ({"results[0].critical_speed_mm_min": "not defined for these
+  inputs (NaN)", ...}) saying where each such null is and why.
 - `json_owns_stdout(active)`: while a command runs with `--json -` (`stickslip_jax.cli`
   wraps every command in it), what the command prints goes to stderr and only the JSON
   (`write_json("-", ...)`) reaches stdout, so `stickslip fit ... --json - | jq` reads one
@@ -25,7 +28,8 @@ import sys
 import tempfile
 
 __all__ = [
-    "check_outputs", "json_owns_stdout", "save_figure", "strict_json", "write_atomic",
+    "check_outputs", "json_owns_stdout", "null_reasons", "save_figure", "strict_json",
+    "write_atomic",
     "write_json", "write_text",
 ]
 
@@ -63,6 +67,41 @@ def check_outputs(outputs: dict[str, str | None], inputs=()) -> None:
             if _same(p, path):
                 raise ValueError(f"{option} and {other} name the same file {path}")
         seen[option] = path
+
+
+NULL_REASONS = "null_reasons"
+"""Key of a JSON document that lists, for each value written as null because it was NaN or
+infinite, its place and why (`null_reasons`)."""
+
+
+def null_reasons(obj, where: str = "") -> dict[str, str]:
+    """{place of the value ("results[0].critical_speed_mm_min"): why it is null} for every
+    NaN or infinity in `obj` (which `strict_json` writes as null)."""
+    if isinstance(obj, float):
+        if math.isnan(obj):
+            return {where: "not defined for these inputs (NaN)"}
+        if math.isinf(obj):
+            return {where: ("infinite" if obj > 0 else "minus infinite") + " for these inputs"}
+        return {}
+    out = {}
+    if isinstance(obj, dict):
+        for k, v in obj.items():
+            out.update(null_reasons(v, f"{where}.{k}" if where else str(k)))
+    elif isinstance(obj, (list, tuple)):
+        for i, v in enumerate(obj):
+            out.update(null_reasons(v, f"{where}[{i}]"))
+    return out
+
+
+def _explained(obj):
+    """`strict_json(obj)`, and a document (dict) with nulls made of NaN or infinity gets
+    `NULL_REASONS`: where each is and why (strict JSON has no NaN; a bare null would not
+    say whether a value is missing or undefined)."""
+    reasons = null_reasons(obj) if isinstance(obj, dict) else {}
+    out = strict_json(obj)
+    if reasons:
+        out[NULL_REASONS] = {**out.get(NULL_REASONS, {}), **reasons}
+    return out
 
 
 def strict_json(obj):
@@ -212,12 +251,12 @@ def versioned(doc: dict, aliases: dict[str, str] | None = None) -> dict:
 
 def dumps(obj, **kwargs) -> str:
     """Strict JSON text of `obj` (NaN and infinities as null): what every command prints."""
-    return json.dumps(strict_json(obj), allow_nan=False, **kwargs)
+    return json.dumps(_explained(obj), allow_nan=False, **kwargs)
 
 
 def write_json(path: str, obj, indent: int | None = 2) -> None:
     """Strict JSON (`strict_json`), indented by `indent` (None: one line), atomically."""
-    write_text(path, json.dumps(strict_json(obj), indent=indent, allow_nan=False) + "\n")
+    write_text(path, json.dumps(_explained(obj), indent=indent, allow_nan=False) + "\n")
 
 
 def save_figure(fig, path: str, **kwargs) -> None:

@@ -56,6 +56,18 @@ _METHOD_TITLE = {"steady": "steady analysis", "exact": "exact simulator",
                  "cycle": "time-domain limit cycle"}
 
 
+def _damping(args):
+    """--damping-ratio, checked: None, or zeta in [0, 1) with --method cycle."""
+    zeta = getattr(args, "damping_ratio", None)
+    if zeta is None:
+        return None
+    if _method(args) != "cycle" or args.posterior:
+        raise ValueError("--damping-ratio: only with --method cycle (and no --posterior)")
+    if not 0 <= zeta < 1:
+        raise ValueError(f"--damping-ratio: must lie in [0, 1), e.g. 0.05, got {zeta}")
+    return zeta
+
+
 def _method(args) -> str:
     """The map's method: --method, or `exact` for the old --exact flag."""
     if args.exact and args.method not in (None, "exact"):
@@ -101,6 +113,13 @@ def add_arguments(p):
                    help="write the map as a long-format CSV: one row per (W, k, v) point "
                    "with every quantity in its own column, units in the header (pandas, R, "
                    "spreadsheets read it as is)")
+    p.add_argument("--netcdf", metavar="OUT.nc",
+                   help="write the map as NetCDF (an xarray Dataset: dimensions W, k, v with "
+                   "units, one variable per quantity; needs the [netcdf] extra, xarray)")
+    p.add_argument("--damping-ratio", type=float, default=None, metavar="ZETA",
+                   help="with --method cycle: viscous damping ratio zeta (0 <= zeta < 1) of "
+                   "the slider's own mode; the damped limit cycle ends at a sharp boundary "
+                   "(stickslip_jax.limit_cycle.boundary_speed)")
     p.add_argument("--chunk-size", type=int, default=65_536, help="points per device batch")
     from stickslip_jax.commands.options import add_quiet_option
 
@@ -172,7 +191,8 @@ def compute(args):
     friction = lubricant(args.lubricant, table=args.table)
     _say_map(shape, f"method {_method(args)}")
     m = design_map(friction, w, k, v, method=_method(args),
-                   chunk_size=args.chunk_size, progress=_progress(args))
+                   chunk_size=args.chunk_size, progress=_progress(args),
+                   damping_ratio=_damping(args))
     out.update(amplitude=m.amplitude, amplitude_ratio=m.amplitude_ratio, frequency=m.frequency,
                frequency_ratio=m.frequency_ratio, stick_time=m.stick_time,
                critical_speed=m.critical_speed, stick_slip=m.stick_slip, converged=m.converged,
@@ -197,6 +217,7 @@ def to_json(args, res) -> dict:
         "source": {"posterior": args.posterior} if args.posterior
         else {"lubricant": args.lubricant, "table": args.table},
         "method": _method(args),
+        **({"damping_ratio": _damping(args)} if _damping(args) is not None else {}),
         "axes": {"weight_kgf": axes["weight"].tolist(),
                  "stiffness_kgf_per_mm": axes["stiffness"].tolist(),
                  "drive_speed_mm_per_min": (axes["speed"] * 60.0).tolist()},
@@ -313,8 +334,14 @@ def plot(args, res, path):
 def run(args) -> int:
     from stickslip_jax.output import check_outputs
 
-    check_outputs({"--json": args.json, args.plot_option: args.plot, "--csv": args.csv},
+    check_outputs({"--json": args.json, args.plot_option: args.plot, "--csv": args.csv,
+                   "--netcdf": args.netcdf},
                   [args.posterior] if args.posterior else [])
+    _damping(args)
+    if args.netcdf:
+        from ..design.netcdf import import_xarray
+
+        import_xarray("--netcdf")  # before the work: a missing extra is one line
     from stickslip_jax.logs import logger
 
     res = compute(args)
@@ -339,6 +366,14 @@ def run(args) -> int:
 
         write_text(args.csv, long_csv(res))
         print(f"wrote {args.csv}")
+    if args.netcdf:
+        from ..design.netcdf import map_dataset, write_netcdf
+
+        source = (f"posterior {args.posterior}" if args.posterior
+                  else f"lubricant {args.lubricant} (Table {args.table})")
+        write_netcdf(args.netcdf, map_dataset(res, {"method": _method(args), "source": source,
+                                                    "damping_ratio": _damping(args)}))
+        print(f"wrote {args.netcdf}")
     amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]
     print(f"design map {'x'.join(str(s) for s in amp.shape)} (W x k x v), "
           f"{_METHOD_TITLE[_method(args)]}")

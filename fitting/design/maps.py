@@ -117,10 +117,15 @@ def cycle_kernel(points: DesignPoints, shared=None) -> DesignMap:
     simulator's settled cycle, at any speed, re-slips included) vmapped over a chunk of
     design points. `stick_slip` is True wherever the fixed point exists (every speed for
     eq (1) with m < 1: the undamped model has no sharp boundary; threshold `amplitude`
-    for a tolerance); `critical_speed` stays eq (12)'s for comparison."""
+    for a tolerance); `critical_speed` stays eq (12)'s for comparison. `shared`: None,
+    or the damping ratio zeta of the damped model (`limit_cycle(..., damping_ratio=)`),
+    whose stick-slip ends at a sharp boundary."""
     from stickslip_jax.limit_cycle import limit_cycle
 
-    c = jax.vmap(limit_cycle)(points.friction, points.weight, points.stiffness, points.speed)
+    def one(f, w, k, v):
+        return limit_cycle(f, w, k, v, damping_ratio=shared)
+
+    c = jax.vmap(one)(points.friction, points.weight, points.stiffness, points.speed)
     ok = c.result == optx.RESULTS.successful
     f0 = 1.0 / (2.0 * jax.vmap(ss_slip_time)(points.weight, points.stiffness))
     zero = jnp.zeros_like(c.amplitude)
@@ -167,6 +172,7 @@ def iter_design_map(
     chunk_size: int = 65_536,
     mesh=None,
     progress: bool = False,
+    damping_ratio=None,
 ):
     """Yield ``(start, stop, DesignMap)`` chunks of the flattened map (NumPy leaves).
 
@@ -175,8 +181,15 @@ def iter_design_map(
     """
     points = design_points(friction, weight, stiffness, speed)
     batch = DesignPoints(points.friction, points.weight, points.stiffness, points.speed, ())
+    shared = None
+    if damping_ratio is not None:
+        if method != "cycle":
+            raise ValueError(f"damping_ratio: only method 'cycle' has damping, not {method!r}")
+        if not 0 <= float(damping_ratio) < 1:
+            raise ValueError(f"damping ratio must lie in [0, 1), got {damping_ratio}")
+        shared = jnp.asarray(float(damping_ratio))
     yield from map_chunks(
-        _kernel(method), batch, points.shape, chunk_size=chunk_size, mesh=mesh,
+        _kernel(method), batch, points.shape, shared=shared, chunk_size=chunk_size, mesh=mesh,
         progress=progress, desc=f"{method} map",
     )
 
@@ -191,19 +204,23 @@ def design_map(
     chunk_size: int = 65_536,
     mesh=None,
     progress: bool = False,
+    damping_ratio=None,
 ) -> DesignMap:
     r"""Stick-slip characteristics over the broadcast of friction parameters, W, k and v.
 
     Units in: W kgf, k kgf/mm, v mm/s; out as in `DesignMap`. `method` is ``"steady"``
     (eqs 5-7, 12; fast) or ``"exact"`` (limit cycle of the event-driven simulator).
     Runs in chunks of `chunk_size` points, sharded over every device of `mesh`
-    (default: all devices JAX sees); `progress=True` shows a tqdm bar.
+    (default: all devices JAX sees); `progress=True` shows a tqdm bar. `damping_ratio`
+    (``method="cycle"`` only): the viscous damping ratio zeta of the damped limit cycle
+    (`stickslip_jax.limit_cycle`), which makes the stick-slip boundary sharp.
     """
     points = design_points(friction, weight, stiffness, speed)
     if math.prod(points.shape) == 0:
         raise ValueError("empty design map: every axis needs at least one point")
     return collect(
         iter_design_map(friction, weight, stiffness, speed, method=method,
-                        chunk_size=chunk_size, mesh=mesh, progress=progress),
+                        chunk_size=chunk_size, mesh=mesh, progress=progress,
+                        damping_ratio=damping_ratio),
         points.shape,
     )
