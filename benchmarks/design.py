@@ -10,16 +10,29 @@
    `brentq` for the breakaway, `solve_ivp` (DOP853) with a stop event for each slip),
    over a subset of the same points, run in this process: points/s, the speed ratio
    and the agreement of the limit-cycle amplitudes.
+4. Processes: a 100,000-point map (`--process-method`, default `exact`: the event-driven
+   simulator, the costliest kernel; `cycle` and `steady` cost so little per point that
+   the all-gather dominates) in 1 and in 2 CPU processes on localhost joined by
+   `jax.distributed` (`stickslip_jax.distributed.initialize`; each process runs
+   `benchmarks/design_worker.py`, the map split over both processes' devices and
+   all-gathered, as in tests/test_distributed.py), points/s after compilation, the
+   parallel efficiency rate_2 / (2 rate_1), and a projection for N hosts.
 
     python benchmarks/design.py            # full size
-    python benchmarks/design.py --small    # smoke run (10^4 steady, 500 exact, 10 SciPy)
+    python benchmarks/design.py --small    # smoke run (10^4 steady, 500 exact, 10 SciPy,
+                                           # 5,000 points per process run)
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import socket
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import jax
 import numpy as np
@@ -97,11 +110,41 @@ def timed(fn, repeat):
     return best, out
 
 
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("localhost", 0))
+        return s.getsockname()[1]
+
+
+def process_rate(n_processes, n_points, method, repeat):
+    """Points/s of a `n_points` map computed by `n_processes` local CPU processes joined by
+    `jax.distributed` (benchmarks/design_worker.py), after compilation: n_points over the
+    slowest process's best time. Returns (rate, seconds, checksum)."""
+    worker = Path(__file__).with_name("design_worker.py")
+    port = str(_free_port())
+    procs = [subprocess.Popen([sys.executable, str(worker), str(i), str(n_processes), port,
+                               str(n_points), method, str(repeat)],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for i in range(n_processes)]
+    outs = [p.communicate(timeout=1800) for p in procs]
+    runs = []
+    for p, (out, err) in zip(procs, outs):
+        if p.returncode != 0:
+            raise RuntimeError(f"design_worker.py failed:\n{err[-3000:]}")
+        runs.append(json.loads(out.strip().splitlines()[-1]))
+    seconds = max(r["seconds"] for r in runs)
+    return n_points / seconds, seconds, runs[0]["checksum"]
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--small", action="store_true", help="quick smoke run")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--chunk-size", type=int, default=262_144)
+    ap.add_argument("--process-method", default="exact", choices=("steady", "exact", "cycle"),
+                    help="map method of the 1- and 2-process runs (default exact)")
+    ap.add_argument("--hosts", default="1,2,4,8,16,64",
+                    help="host counts of the projection (comma-separated)")
     args = ap.parse_args(argv)
     n_steady, n_exact, n_scipy = (10_000, 500, 10) if args.small else (1_000_000, 10_000, 200)
     print(f"devices: {jax.devices()}")
@@ -139,6 +182,26 @@ def main(argv=None):
           "(exact: last two cycles within 1e-3)")
     print(f"SciPy vs exact map on {n_scipy} points: same regime {agree * 100:.0f} %, "
           f"max relative amplitude difference {rel:.2e}")
+
+    # 4. the same map in 1 and 2 processes joined by jax.distributed (localhost)
+    n_proc_points = 5_000 if args.small else 100_000
+    rate1, t1, sum1 = process_rate(1, n_proc_points, args.process_method, args.repeat)
+    rate2, t2, sum2 = process_rate(2, n_proc_points, args.process_method, args.repeat)
+    eff = rate2 / (2.0 * rate1)
+    print(f"\n{args.process_method} map across processes (jax.distributed, CPU, localhost; "
+          f"{n_proc_points} points, after compilation):")
+    print(f"{'processes':<36}{'points':>10}{'time [s]':>11}{'points/s':>12}")
+    print(f"{'1':<36}{n_proc_points:>10}{t1:>11.3f}{rate1:>12.4g}")
+    print(f"{'2':<36}{n_proc_points:>10}{t2:>11.3f}{rate2:>12.4g}")
+    print(f"speed-up 2 / 1: {rate2 / rate1:.2f}x, parallel efficiency {eff * 100:.0f} %; "
+          f"same map: {'yes' if sum1 == sum2 else 'NO'} (amplitude sums {sum1!r}, {sum2!r})")
+    print("projection for N hosts (assumption: each host adds one process's rate times the "
+          "measured 2-process efficiency, rate_N = N rate_1 eff; the all-gather of the "
+          "result is taken to stay as cheap as on localhost, so this is an upper bound for "
+          "maps whose points cost less than the network):")
+    print(f"{'hosts':<36}{'points/s':>12}")
+    for n in (int(x) for x in args.hosts.split(",")):
+        print(f"{n:<36}{(rate1 if n == 1 else n * rate1 * eff):>12.4g}")
 
 
 if __name__ == "__main__":
