@@ -141,6 +141,16 @@ def main(argv=None, *, prepare=None) -> int:
         # stdout closed early (`stickslip fit ... | head`): not an error of ours
         sys.stderr.close()
         return 141
+    except OSError as exc:
+        # the system refused a read or write (full disk, permissions): one line naming the
+        # file; the output was written atomically, so the previous file is still there
+        if args.debug:
+            raise
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"stickslip {args.command}: error: {where}{exc.strerror or exc}; nothing was "
+              "written over (free space or fix the permissions, then run again)",
+              file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         # outputs are written atomically: an interrupt leaves no partial file
         print(f"stickslip {args.command}: interrupted", file=sys.stderr)

@@ -174,9 +174,12 @@ def _replace(path: str, suffix: str, write) -> None:
         write(tmp)
         os.chmod(tmp, _mode(path))
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and exc.errno is not None:
+            # name the output, not the temporary file
+            raise OSError(exc.errno, f"cannot write ({exc.strerror})", path) from exc
         raise
 
 
