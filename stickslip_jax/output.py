@@ -54,6 +54,9 @@ def check_outputs(outputs: dict[str, str | None], inputs=()) -> None:
         if os.path.isdir(path):
             raise ValueError(f"{option}: {path} is a folder; give a file name inside it")
         folder = os.path.dirname(os.path.abspath(path))
+        if os.path.exists(folder) and not os.path.isdir(folder):
+            raise ValueError(f"{option}: {os.path.dirname(path)} is a file, not a folder; "
+                             "give a path in a folder")
         if not os.path.isdir(folder):
             raise ValueError(f"{option}: the folder {os.path.dirname(path) or '.'} does not "
                              "exist; create it first")
