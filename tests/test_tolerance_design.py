@@ -70,3 +70,31 @@ def test_required_stiffness_against_bisection_on_one_draw():
                                0.005, rtol=1e-8)
     with pytest.raises(ValueError, match="--meet"):
         required_stiffness(sample, 36.0, 0.1, 0.005, meet=1.5)
+
+
+def test_design_front_over_weight_and_stiffness():
+    import stickslip_jax as ss
+    from stickslip_fitting.design import friction_from_params, friction_params
+    from stickslip_fitting.design.tolerance import _pareto, design_front, meet_probability
+
+    rng = np.random.default_rng(0)
+    p = {n: x * np.exp(0.05 * rng.standard_normal(30))
+         for n, x in friction_params(ss.lubricant("A")).items()}
+    sample = friction_from_params(p)
+    w = np.linspace(10.0, 60.0, 6)
+    fr = design_front(sample, w, 5.0 / 60.0, 0.005, meet=0.9)
+    assert fr.converged.all()
+    # every pair meets the tolerance with the asked probability; 3 % softer does not
+    at = meet_probability(sample, w, fr.stiffness * (1 + 1e-6), 5.0 / 60.0, 0.005)
+    soft = meet_probability(sample, w, fr.stiffness * 0.97, 5.0 / 60.0, 0.005)
+    assert np.all(at >= 0.9) and np.all(soft < 0.9)
+    # the paper's model depends on W and k only through k/W (M = W/g, x = mu W/k):
+    # the required stiffness is a stiffness per weight, so every pair is on the front
+    np.testing.assert_allclose(fr.stiffness / w, fr.stiffness[0] / w[0], rtol=1e-7)
+    assert fr.pareto.all() and fr.best_product == 0 and len(fr.pairs()) == 6
+    # the front against a brute-force dominance check on made-up pairs
+    ww, kk = np.array([10.0, 20.0, 30.0, 40.0]), np.array([50.0, 40.0, 60.0, 60.0])
+    keep = _pareto(ww, kk, np.ones(4, bool))
+    assert keep.tolist() == [False, True, False, True]
+    with pytest.raises(ValueError, match="weights"):
+        design_front(sample, [[10.0]], 0.1, 0.005)

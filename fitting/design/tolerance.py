@@ -16,6 +16,16 @@ $v_c$ "none".
   fixed point by the implicit function theorem); a stiffer spring meets it with at least
   that probability (the amplitude falls with k: about W/k times a friction drop that
   shrinks with T1). Returns k (kgf/mm), the probability met there, and the solver result.
+- `design_front(sample, weights, v, max_amplitude, meet=0.95)`: the inverse design over
+  (W, k): the required stiffness at every weight of a grid (one vmapped solve), the
+  Pareto front of the pairs (a heavier slide with a softer drive is better on both
+  counts: pair i is dominated if another has W >= W_i and k <= k_i, one of them
+  strictly) and the pair with the smallest product k W. Every pair meets the tolerance
+  with probability `meet` (a slide lighter than the grid's lightest is not searched).
+  In the paper's model W and k enter only through k/W (the mass is W/g and every
+  deflection mu W/k), so the required stiffness is proportional to W and every pair is on
+  the front: the answer is a stiffness per weight (tested); the front matters once the
+  friction depends on W (a contact law).
 """
 
 from __future__ import annotations
@@ -33,7 +43,8 @@ from stickslip_jax.limit_cycle import limit_cycle
 
 from .uncertainty import sample_size
 
-__all__ = ["ToleranceDesign", "meet_probability", "required_stiffness"]
+__all__ = ["ToleranceDesign", "ToleranceFront", "design_front", "meet_probability",
+           "required_stiffness"]
 
 
 def _amplitudes(sample: Friction, weight, stiffness, speed):
@@ -111,3 +122,60 @@ def required_stiffness(sample: Friction, weight: float, speed: float, max_amplit
     return ToleranceDesign(float(weight), float(speed), float(max_amplitude), float(meet),
                            float(k), float(prob),
                            bool(result == optx.RESULTS.successful) and bool(np.isfinite(k)))
+
+
+@dataclasses.dataclass(frozen=True)
+class ToleranceFront:
+    """The inverse design over (W, k) at one speed (`design_front`): per weight of the
+    grid (kgf) the required `stiffness` (kgf/mm; NaN where not found), the `probability`
+    met there, `converged`; `pareto`: not dominated (module doc); `best_product`: the
+    index of the converged pair with the smallest k W (kgf^2/mm)."""
+
+    weight: np.ndarray
+    speed: float
+    max_amplitude: float
+    meet: float
+    stiffness: np.ndarray
+    probability: np.ndarray
+    converged: np.ndarray
+    pareto: np.ndarray
+    best_product: int
+
+    def pairs(self) -> list[tuple[float, float]]:
+        """The Pareto pairs (W kgf, k kgf/mm), lightest first."""
+        return [(float(w), float(k)) for w, k, p in
+                zip(self.weight, self.stiffness, self.pareto) if p]
+
+
+def _pareto(weight, stiffness, ok):
+    """Non-dominated pairs among `ok`: none other with W >= and k <= (one strictly)."""
+    keep = np.zeros(weight.size, bool)
+    for i in np.flatnonzero(ok):
+        other = ok & (weight >= weight[i]) & (stiffness <= stiffness[i]) \
+            & ((weight > weight[i]) | (stiffness < stiffness[i]))
+        keep[i] = not other.any()
+    return keep
+
+
+def design_front(sample: Friction, weights, speed: float, max_amplitude: float, *,
+                 meet: float = 0.95, start: float = 100.0) -> ToleranceFront:
+    """The inverse design over (W, k) of the module doc at drive speed `speed` (mm/s),
+    `weights` a 1-D grid (kgf); `start`: the first stiffness tried (kgf/mm)."""
+    if not 0 < meet < 1:
+        raise ValueError(f"--meet: must lie between 0 and 1, e.g. 0.95, got {meet}")
+    if not max_amplitude > 0:
+        raise ValueError(f"--max-amplitude: must be positive, got {max_amplitude}")
+    sample_size(sample)
+    w = np.asarray(weights, dtype=float)
+    if w.ndim != 1 or not w.size or not np.all(np.isfinite(w) & (w > 0)):
+        raise ValueError("weights must be a 1-D grid of positive, finite weights (kgf)")
+    solve = jax.vmap(_solve_stiffness, in_axes=(None, 0, None, None, None, None))
+    k, prob, result = solve(sample, jnp.asarray(w), jnp.asarray(float(speed)),
+                            jnp.asarray(float(max_amplitude)), jnp.asarray(meet),
+                            jnp.asarray(float(start)))
+    k, prob = np.asarray(k), np.asarray(prob)
+    ok = (np.asarray(result._value) == optx.RESULTS.successful._value) & np.isfinite(k)
+    k = np.where(ok, k, np.nan)
+    product = np.where(ok, k * w, np.inf)
+    return ToleranceFront(w, float(speed), float(max_amplitude), float(meet), k, prob, ok,
+                          _pareto(w, k, ok), int(np.argmin(product)))
