@@ -1,0 +1,117 @@
+"""Issue 21, tracebacks and hangs: bad output paths, huge seeds, grids and plans too large
+for memory, a sampler that cannot start and Ctrl-C are one line on stderr with the right
+exit code (2 bad input, 130 interrupted), never a Python traceback, a hang or a partial
+file.
+
+Each case asserts the exit code, that no input changed and that no output but the
+expected one exists (`cli_safety.run_checked`; the Ctrl-C cases run a subprocess and
+send it SIGINT)."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from cli_safety import EXAMPLES, TRUTH, copy_records, interrupt, one_line, run_checked, snapshot
+
+SIMULATE = ["simulate", "--lubricant", "A", "--weight", "36", "--stiffness", "86.9",
+            "--speed", "10", "--duration", "1"]
+
+
+@pytest.mark.parametrize("target", ["folder", "empty", "missing folder", "inside a file"])
+def test_simulate_bad_out_is_one_line(tmp_path, target, capsys):
+    """`simulate --out DIR`, `--out ''`, `--out file/x.csv`: Python tracebacks."""
+    rec = copy_records(tmp_path, EXAMPLES[:1])[0]
+    path = {"folder": tmp_path, "empty": "", "missing folder": tmp_path / "no" / "x.csv",
+            "inside a file": rec / "x.csv"}[target]
+    _, err = run_checked([*SIMULATE, "--out", path], capsys, tmp_path, 2)
+    one_line(err, "--out")
+
+
+@pytest.mark.parametrize("seed", ["99999999999999999999999", "-1"])
+def test_simulate_seed_out_of_range_is_one_line(tmp_path, seed, capsys):
+    _, err = run_checked([*SIMULATE, "--seed", seed, "--out", tmp_path / "x.csv"], capsys,
+                         tmp_path, 2)
+    one_line(err, "--seed")
+
+
+@pytest.mark.parametrize("command", ["fit", "mcmc", "pitch", "discover"])
+@pytest.mark.parametrize("target", ["folder", "missing/out.json", ""])
+def test_json_to_a_bad_path_is_one_line(tmp_path, command, target, capsys):
+    """`--json DIR` (fit, mcmc, pitch): Python tracebacks, after the work."""
+    records = copy_records(tmp_path / "records", EXAMPLES[:3 if command != "pitch" else 1])
+    path = {"folder": tmp_path, "missing/out.json": tmp_path / "missing" / "o.json",
+            "": ""}[target]
+    _, err = run_checked([command, *records, "--json", path], capsys, tmp_path, 2)
+    one_line(err, "--json")
+
+
+def test_huge_design_grid_is_refused_with_its_size(tmp_path, capsys):
+    """A 3000^3 design grid died with ArrayMemoryError."""
+    _, err = run_checked(["design", "--weight", "10:60:3000", "--stiffness", "10:100:3000",
+                          "--speed", "1:100:3000", "--json"], capsys, tmp_path, 2)
+    one_line(err, "--weight/--stiffness/--speed", "3000 x 3000 x 3000", "GiB")
+
+
+def test_huge_plan_candidate_set_is_refused_with_its_size(tmp_path, capsys):
+    """`plan` with 3000^3 candidates died with ArrayMemoryError while building them."""
+    _, err = run_checked(["plan", "A", "--weights", "10:60:3000", "--stiffnesses",
+                          "10:100:3000", "--speeds", "1:100:3000"], capsys, tmp_path, 2)
+    one_line(err, "--weights/--stiffnesses/--speeds", "candidate records", "GiB")
+
+
+def test_plan_budget_is_bounded(tmp_path, capsys):
+    """`plan --budget 100000` gave no output after 300 s."""
+    _, err = run_checked(["plan", TRUTH, "--budget", "100000"], capsys, tmp_path, 2)
+    one_line(err, "--budget", "1-1000")
+
+
+def test_mcmc_that_cannot_start_its_walkers_is_one_line(tmp_path, capsys):
+    """`mcmc --fix mu_d=0.9` (a fixed value the records contradict) ended in emcee's
+    'Initial state has a large condition number'; now one line that says what to do."""
+    records = copy_records(tmp_path, EXAMPLES)
+    _, err = run_checked(["mcmc", *records, "--fix", "mu_d=0.9", "--walkers", "16", "--steps",
+                          "20", "-q", "--json", tmp_path / "m.json"], capsys, tmp_path, 2)
+    one_line(err, "walkers cannot start", "stickslip fit", "--fix")
+
+
+def test_ctrl_c_during_mcmc_keeps_the_chain(tmp_path):
+    """Ctrl-C during `mcmc` printed a long traceback and lost the chain. Now: exit 130, one
+    line, and the chain so far summarised and written (subprocess with SIGINT)."""
+    records = copy_records(tmp_path, EXAMPLES)
+    before = snapshot(tmp_path)
+    out = tmp_path / "m.json"
+    # 15 s: compile the log-posterior and take some steps (slower on a loaded machine)
+    code, stdout, stderr = interrupt(
+        ["mcmc", *records, "--walkers", "16", "--steps", "1000000", "--no-progress", "--json",
+         out], "sampling:", 15.0, tmp_path)
+    assert code == 130, stderr[-2000:]
+    assert "Traceback" not in stderr and "interrupted" in stderr.strip().splitlines()[-1]
+    rep = json.loads(out.read_text())
+    assert rep["interrupted"] and len(rep["samples"]) > 0
+    assert "interrupted after" in stdout
+    after = snapshot(tmp_path)
+    assert {p: after[p] for p in before} == before  # inputs unchanged
+    assert set(after) - set(before) == {"m.json"}  # the chain so far, nothing partial
+
+
+def test_ctrl_c_during_a_trace_fit_is_one_line(tmp_path):
+    """Ctrl-C during `fit --objective trace` printed a 23-58-line traceback."""
+    records = copy_records(tmp_path, EXAMPLES)
+    before = snapshot(tmp_path)
+    code, _, stderr = interrupt(["fit", *records, "--objective", "trace", "--json",
+                                 tmp_path / "f.json"], "fitting", 1.5, tmp_path)
+    assert code == 130, stderr[-2000:]
+    assert "Traceback" not in stderr and stderr.strip().splitlines()[-1].endswith("interrupted")
+    assert snapshot(tmp_path) == before  # inputs unchanged, no partial output
+
+
+def test_ctrl_c_during_simulate_is_one_line(tmp_path):
+    """Ctrl-C during `simulate` printed a traceback; no partial record may be left."""
+    code, _, stderr = interrupt(
+        ["simulate", "--lubricant", "A", "--weight", "36", "--stiffness", "86.9", "--speed",
+         "1", "--duration", "2000", "--sample-rate", "2000", "--out", tmp_path / "long.csv"],
+        None, 8.0, tmp_path)  # the run takes about 25 s: imports, simulation, writing
+    assert code == 130, stderr[-2000:]
+    assert "Traceback" not in stderr and stderr.strip().splitlines()[-1].endswith("interrupted")
+    assert snapshot(tmp_path) == {}
