@@ -12,7 +12,7 @@ exactly, so a family is a set of forms, not one formula. Units are internal (kgf
 | `rate_state` | slip friction $+b\,e^{-y/L}$ (weakens with slip distance) | b (-) | L 0.01, 0.03, 0.1 mm |
 | `drive_periodic_error` | drive $u + \sum_{h=1,2} a_h \sin(2\pi h u/\lambda) + b_h\cos(\dots)$, per record | 4 per record, mm | $\lambda$ 1-10 mm |
 | `drive_speed_drift` | drive speed $v(1 + s\,(t - t_\mathrm{mid}))$ | s 1/s | - |
-| `sensor_lowpass` | gauge reads $x$ through a low-pass of mean delay $\tau$ | $\tau$ s | order 1, 2 (gamma kernel) |
+| `sensor_lowpass` | gauge reads $x$ through a low-pass of mean delay $\tau$ | $\tau$ s | order 1; order 2 with damping ratio 0.4-1 |
 | `friction_drift` | $\mu_s$, $\mu_d$ shift by $r_s t$, $r_d t$ (t from the record's start) | $r_s$, $r_d$ 1/s | - |
 | `gauge_drift` | gauge zero drifts: reads $x + r t$ | r mm/s | - |
 | `load_coupling` | normal load $N = W + \kappa k x$ (drive moment, ch. 6) | $\kappa$ (-) | - |
@@ -37,6 +37,9 @@ import numpy as np
 __all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "Family", "Shape", "drive_error", "drive_error_range",
            "family"]
 
+SENSOR_ZETAS = (0.4, 0.55, 0.7, 0.85, 1.0)
+"""Damping ratios of the second-order sensor kernels scanned: under-damped amplifiers,
+the Butterworth response of most anti-aliasing filters, critically damped."""
 DRIVE_ERROR_MAX = 0.05
 """mm: a drive error larger than 50 um over a record is a broken drive, not an effect."""
 
@@ -61,17 +64,20 @@ class Shape:
     """Shape settings of the model (traced values, so one compilation serves every
     shape): Stribeck speed scale `vs` (mm/s) and exponent `p`, slip-weakening length
     `length` (mm), screw pitch `pitch` (mm), sensor kernel `order` (1: first-order
-    low-pass, 2: critically damped second order)."""
+    low-pass, 2: second order) and, for order 2, its damping ratio `zeta` (1: critically
+    damped)."""
 
     vs: float = 10.0
     p: float = 1.0
     length: float = 0.03
     pitch: float = 5.0
     order: int = 1
+    zeta: float = 1.0
 
     def label(self, fam: "Family") -> str:
         keys = {"stribeck": ("vs", "p"), "rate_state": ("length",),
-                "drive_periodic_error": ("pitch",), "sensor_lowpass": ("order",)}
+                "drive_periodic_error": ("pitch",),
+                "sensor_lowpass": ("order",) if self.order == 1 else ("order", "zeta")}
         return ", ".join(f"{k} = {getattr(self, k):g}" for k in keys.get(fam.name, ()))
 
 
@@ -137,7 +143,7 @@ FAMILIES: tuple[Family, ...] = (
            "fast slips.",
            ("tau",), ("s",), (1e-3,), (1,), (0.05,),
            "a gauge slower than 50 ms cannot show slips at all",
-           shapes=(Shape(order=1), Shape(order=2))),
+           shapes=(Shape(order=1),) + tuple(Shape(order=2, zeta=z) for z in SENSOR_ZETAS)),
     Family("friction_drift",
            "The friction level drifts with time (temperature, wear, lubricant spreading).",
            ("r_s", "r_d"), ("1/s", "1/s"), (1e-4, 1e-4), (0, 0), (0.01, 0.01),

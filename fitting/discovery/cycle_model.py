@@ -17,12 +17,18 @@ the effects of `cycle_effects` enter as parts of it:
   $x = x_b + \dot u(t_b)(t - t_b) - y$, $\mu_m$ from eq (3) with $T_2 = \pi/\omega_0$ (eq 7);
   the slider stops where $\dot y$ first returns to 0 (interpolated), and sticks again;
 - **measurement**: the gauge reads $c_r + (K * x)(t) + r_g (t - t_\mathrm{mid})$ with gauge
-  drift $r_g$ and a low-pass kernel $K$ of mean delay $\tau$ (order 1: $e^{-s/\tau}/\tau$,
-  order 2, critically damped: $4 s e^{-2s/\tau}/\tau^2$). Write $x = L - D$ with the stick
+  drift $r_g$ and a low-pass kernel $K$ of mean delay $\tau$ (order 1: $e^{-s/\tau}/\tau$;
+  order 2: the impulse response of a second-order sensor of damping ratio $\zeta$ and
+  natural frequency $2\zeta/\tau$, at $\zeta = 1$ $4 s e^{-2s/\tau}/\tau^2$; `kernel_cdf`).
+  Write $x = L - D$ with the stick
   line $L(t) = x_0 + u(t) - u(t_0)$ and the slip displacement $D$ (0 before breakaway, $y$
   during the slip, $y_\mathrm{stop}$ after). $K * L = L(t - \tau)$ (exact for a steady
   drive); $K * D$ is a discrete convolution on the RK4 grid with the kernel's bin
-  masses (its CDF at the bin edges), interpolated like the slip. The window's measured
+  masses (its CDF at the bin edges), interpolated like the slip, run on `TAIL_STEPS`
+  nodes (the slip and the gauge's settling after it). The gauge still settles from the
+  previous slip when a window starts: the measured restart level holds that tail at
+  $t_0$, and its decay after $t_0$ (the previous window's $K * D$ minus its final
+  value) is added (`previous_rows`). The window's measured
   restart state is itself a reading, so the slider's clock starts $\tau$ earlier
   ($t_0 - \tau$): a pure delay is then invisible in the per-cycle model, and what the
   sensor changes is the shape of the slips (second order in $\tau$; the score test
@@ -57,7 +63,7 @@ from ..params import EmpiricalFriction
 from ..trace_objective import TraceData
 from .cycle_effects import FAMILIES, Family, Shape, drive_error
 
-__all__ = ["BLOCK", "CycleModel", "N_STEPS", "kernel_cdf"]
+__all__ = ["BLOCK", "CycleModel", "N_STEPS", "TAIL_STEPS", "kernel_cdf", "previous_rows"]
 
 N_STEPS = 128
 """RK4 steps per slip (over 2.5 pi/omega_0: room for slips lengthened by the effects)."""
@@ -65,8 +71,12 @@ BLOCK = 8
 """Tangents per compiled forward-mode call (`CycleModel.evaluate`)."""
 NEWTON = 40
 """Bracketed Newton iterations for the breakaway time."""
+TAIL_STEPS = 256
+"""Nodes (RK4 steps of the slip grid) over which the sensor kernel's convolution runs:
+the slip and 1.5 times its grid after it, where the gauge settles (read by the next
+window, `_model`)."""
 FFT_SIZE = 512
-"""FFT length of the sensor kernel's convolution (at least 2 (N_STEPS + 1))."""
+"""FFT length of the sensor kernel's convolution (at least 2 TAIL_STEPS - 1)."""
 
 
 def kernel_cdf(s, tau, order, zeta=1.0):
@@ -114,8 +124,11 @@ class _Eff(eqx.Module):
 
 def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, ts):
     """One row: (model deflection as read by the gauge, without offset [L]; slider
-    velocity [L]; ok). `sensor` (static): the kernel convolution (module doc)."""
-    vs, p, length, pitch, order = shape[0], shape[1], shape[2], shape[3], shape[4]
+    velocity [L]; ok; tail). `sensor` (static): the kernel convolution (module doc);
+    tail = (what the gauge still owes of this row's slip on the grid t_b + n h
+    [TAIL_STEPS] (mm), t_b, h), read by the next window (`_model`)."""
+    vs, p, length, pitch, order, zeta = (shape[0], shape[1], shape[2], shape[3], shape[4],
+                                         shape[5])
     if sensor:
         # the measured restart state is a reading: the slider's own clock is tau earlier
         tau = jnp.maximum(eff.tau, 1e-7)
@@ -219,30 +232,41 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
         return x, yd
 
     if sensor:
-        n = jnp.arange(N_STEPS + 1)
+        # the slip displacement D on the RK4 grid, held at y_stop after the stop and
+        # beyond the slip grid (TAIL_STEPS nodes in all), convolved with the kernel's bin
+        # masses over the same span
+        n = jnp.arange(TAIL_STEPS)
+        pad = TAIL_STEPS - (N_STEPS + 1)
+        Yx = jnp.concatenate([Y, jnp.full(pad, y_stop)])
+        YDx = jnp.concatenate([YD, jnp.zeros(pad)])
         moving = n * h < t_stop - t_b
-        D = jnp.where(moving, Y, y_stop)
-        Dd = jnp.where(moving, YD, 0.0)
-        cdf = kernel_cdf(jnp.maximum((jnp.arange(N_STEPS + 2) - 0.5) * h, 0.0), tau, order)
+        D = jnp.where(moving, Yx, y_stop)
+        Dd = jnp.where(moving, YDx, 0.0)
+        cdf = kernel_cdf(jnp.maximum((jnp.arange(TAIL_STEPS + 1) - 0.5) * h, 0.0), tau,
+                         order, zeta)
         w = jnp.diff(cdf)
         # causal convolution F[n] = sum_{l <= n} w[l] D[n - l] by FFT (zero-padded to
-        # FFT_SIZE >= 2 (N_STEPS + 1): no wrap-around): a matrix of lags would carry a
-        # [N_STEPS + 1]^2 tangent per row and Jacobian column
+        # FFT_SIZE >= 2 TAIL_STEPS - 1: no wrap-around): a matrix of lags would carry a
+        # [TAIL_STEPS]^2 tangent per row and Jacobian column
         wf = jnp.fft.rfft(w, FFT_SIZE)
-        F = jnp.fft.irfft(jnp.fft.rfft(D, FFT_SIZE) * wf, FFT_SIZE)[:N_STEPS + 1]
-        Fd = jnp.fft.irfft(jnp.fft.rfft(Dd, FFT_SIZE) * wf, FFT_SIZE)[:N_STEPS + 1]
+        F = jnp.fft.irfft(jnp.fft.rfft(D, FFT_SIZE) * wf, FFT_SIZE)[:TAIL_STEPS]
+        Fd = jnp.fft.irfft(jnp.fft.rfft(Dd, FFT_SIZE) * wf, FFT_SIZE)[:TAIL_STEPS]
+        last = TAIL_STEPS - 1
         s_ = (ts - t_b) / h
-        j = jnp.clip(jnp.floor(s_), 0, N_STEPS - 1).astype(jnp.int32)
+        j = jnp.clip(jnp.floor(s_), 0, last - 1).astype(jnp.int32)
         f = jnp.clip(s_ - j, 0.0, 1.0)
         Fv = _hermite(F[j], F[j + 1], Fd[j] * h, Fd[j + 1] * h, f)
-        Fv = jnp.where(ts < t_b, 0.0, jnp.where(s_ > N_STEPS, F[N_STEPS], Fv))
+        Fv = jnp.where(ts < t_b, 0.0, jnp.where(s_ > last, F[last], Fv))
         x = x0 + u(ts - tau) - u0 - Fv
         yd = render(ts)[1]
+        # what the gauge still owes of this slip after it (read by the next window)
+        tail = (F[last] - F, t_b, h)
     else:
         x, yd = render(ts)
+        tail = (jnp.zeros(TAIL_STEPS), t_b, h)
     read = x + eff.r_g * (ts - tref)
     ok = found & stops & jnp.all(jnp.isfinite(read))
-    return read, yd, ok
+    return read, yd, ok, tail
 
 
 class _Layout(eqx.Module):
@@ -288,9 +312,10 @@ def _effects_of(layout: _Layout, theta, record):
                 r_g=one("gauge_drift"), kappa=one("load_coupling"))
 
 
-def _model(z, scales, shape, sensor, data: TraceData, tref, layout: _Layout):
+def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layout):
+    """(gauge reading incl. offset [N, L], slider velocity [N, L], ok [N]). `prev` [N]:
+    a row of the previous window of the same record, or -1 (`previous_rows`)."""
     tref, tstart = tref[0], tref[1]
-    """(gauge reading incl. offset [N, L], slider velocity [N, L], ok [N])."""
     nat = z * scales
     fr = EmpiricalFriction(*[nat[i] for i in range(6)]).friction()
     offset = nat[6:layout.n_base]
@@ -301,22 +326,59 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, layout: _Layout):
         return _row(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], tstart[rec], ts)
 
     x0 = data.start_level - offset[data.record]
-    read, yd, ok = jax.vmap(one)(data.record, data.weight, data.stiffness, data.speed,
-                                 data.start_time, x0, data.stick_time, data.time)
+    read, yd, ok, (E, tb, h) = jax.vmap(one)(data.record, data.weight, data.stiffness,
+                                             data.speed, data.start_time, x0,
+                                             data.stick_time, data.time)
+    if sensor:
+        # the gauge still settles from the previous slip when a window starts: the
+        # measured restart level is the settled stick line (`features`: the plateau
+        # after the slip), so the reading is that line plus what the gauge still owes
+        # (placed at the previous window's measured breakaway, on the slider's clock:
+        # the model's breakaway may miss it by the stick time's scatter)
+        p = jnp.maximum(prev, 0)
+        tau = jnp.maximum(_effects_of(layout, theta, 0).tau, 1e-7)
+        origin = data.start_time[p] - tau + data.stick_time[p]
+
+        def owed(t):  # [N, L]: the previous slip's tail at times t (0 beyond its grid)
+            s_ = (t - origin[:, None]) / h[p][:, None]
+            j = jnp.clip(jnp.floor(s_), 0, TAIL_STEPS - 2).astype(jnp.int32)
+            f = jnp.clip(s_ - j, 0.0, 1.0)
+            Ep = E[p]
+            e = (1 - f) * jnp.take_along_axis(Ep, j, 1) + f * jnp.take_along_axis(Ep, j + 1, 1)
+            return jnp.where((s_ >= 0) & (s_ <= TAIL_STEPS - 1), e, 0.0)
+
+        read = read + jnp.where((prev >= 0)[:, None], owed(data.time), 0.0)
     return read + offset[data.record][:, None], yd, ok
 
 
+def previous_rows(data: TraceData) -> np.ndarray:
+    """[N]: for every row, the first row of the previous cycle window of its record
+    (its slip ends where this window starts), or -1 (first window, or a cycle left out
+    between them)."""
+    rec = np.asarray(data.record)
+    win = np.asarray(data.window)
+    prev = np.full(rec.shape, -1)
+    first = {}
+    for i, (r, w) in enumerate(zip(rec, win)):
+        first.setdefault((int(r), int(w)), i)
+    for i, (r, w) in enumerate(zip(rec, win)):
+        j = first.get((int(r), int(w) - 1))
+        if j is not None:
+            prev[i] = j
+    return prev
+
+
 @eqx.filter_jit
-def _value(z, scales, shape, sensor, data, tref, sd, layout):
-    read, yd, ok = _model(z, scales, shape, sensor, data, tref, layout)
+def _value(z, scales, shape, sensor, data, tref, prev, sd, layout):
+    read, yd, ok = _model(z, scales, shape, sensor, data, tref, prev, layout)
     r = jnp.where(data.mask, (data.deflection - read) / sd, 0.0)
     return r, yd, ok
 
 
 @eqx.filter_jit
-def _value_and_block(z, T, scales, shape, sensor, data, tref, sd, layout):
+def _value_and_block(z, T, scales, shape, sensor, data, tref, prev, sd, layout):
     def f(zz):
-        read, _, ok = _model(zz, scales, shape, sensor, data, tref, layout)
+        read, _, ok = _model(zz, scales, shape, sensor, data, tref, prev, layout)
         return jnp.where(data.mask, (data.deflection - read) / sd, 0.0), ok
 
     def col(t):
@@ -342,6 +404,7 @@ class CycleModel:
         self.data = data
         self.tref = jax.device_put(np.asarray(tref, float))
         self.sd = jax.device_put(np.asarray(sd, float))
+        self._prev = jax.device_put(previous_rows(data))
         self.layout = _layout(n_records)
         self.scales = np.ones(self.layout.size)
         for f in FAMILIES:
@@ -362,7 +425,8 @@ class CycleModel:
 
     @staticmethod
     def _shape(shape: Shape):
-        return jnp.asarray([shape.vs, shape.p, shape.length, shape.pitch, shape.order])
+        return jnp.asarray([shape.vs, shape.p, shape.length, shape.pitch, shape.order,
+                            shape.zeta])
 
     def z0(self, friction: EmpiricalFriction, offsets) -> np.ndarray:
         z = np.zeros(self.layout.size)
@@ -375,7 +439,7 @@ class CycleModel:
         """(whitened residuals flat [n], slider velocity [N, L], ok [N]); `sensor`: the
         kernel convolution (else a pure delay by tau, module doc)."""
         r, yd, ok = _value(jnp.asarray(z), self._scales, self._shape(shape), bool(sensor),
-                           self.data, self.tref, self.sd, self.layout)
+                           self.data, self.tref, self._prev, self.sd, self.layout)
         return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
 
     def warm(self) -> dict:
@@ -434,8 +498,8 @@ class CycleModel:
             part = T_all[:, a:a + BLOCK]
             T[:, :part.shape[1]] = part
             r_, J_, ok_ = _value_and_block(zj, jax.device_put(T), self._scales, sh,
-                                           bool(sensor), self.data, self.tref, self.sd,
-                                           self.layout)
+                                           bool(sensor), self.data, self.tref, self._prev,
+                                           self.sd, self.layout)
             J_ = np.asarray(J_).reshape(-1, BLOCK)[self.mask]
             blocks.append(J_[:, :part.shape[1]])
             r, ok = r_, ok and bool(np.all(np.asarray(ok_)[np.asarray(self.data.mask).any(1)]))

@@ -84,7 +84,12 @@ and without the prior draws a smooth curve with huge coefficients of opposite si
 SCREW_SPREAD = 3.0
 """Largest ratio of the screw error's amplitudes between records (`_one_screw`)."""
 SENSOR_PROBE = 1.0
-"""Probe time constant of the sensor's secant score, in its scale (1 ms)."""
+"""Smallest probe time constant of the sensor's secant score, in its scale (1 ms)."""
+SENSOR_PROBES = (1.0, 2.5, 6.0, 15.0)
+"""Probe time constants (ms) of the sensor's secant score: the sensor changes the traces
+at second order in tau and its kernels ring, so one short secant misjudges a slow
+sensor; the probe that lowers chi-square most at the base parameters gives the secant,
+and its refit starts there (the look-elsewhere is counted in the Bonferroni level)."""
 RECORD_CHI2 = 3.0
 """A record whose base chi2/n exceeds this and 3x the campaign's median weighs by its own
 scatter (its standard errors scaled by sqrt(chi2/n); reported in `records_scaled`)."""
@@ -450,7 +455,8 @@ def discover_cycles(
                          "weighed by their scatter" if scaled else ""))
 
     Qb = base_basis(Jb)
-    n_tests = sum(len(f.shapes) for f in fams)
+    n_tests = sum(len(f.shapes) * (len(SENSOR_PROBES) if f.name == "sensor_lowpass" else 1)
+                  for f in fams)
     level = alpha / n_tests
     scores: list[_Score] = []
 
@@ -468,17 +474,25 @@ def discover_cycles(
         for f in plain:
             plain_J[f.name] = J_all[:, a:a + score_cols(f).size]
             a += score_cols(f).size
+    sensor_scores: list[_Score] = []
+    sensor_probe: dict[Shape, float] = {}
     for f in fams:
         cols = score_cols(f)
         best = None
         for shape in f.shapes:
             if f.name == "sensor_lowpass":
                 # zero first derivative at tau = 0 (module doc of cycle_model): the
-                # secant to a probe time constant
-                zp = z_base.copy()
-                zp[cols] = SENSOR_PROBE
-                Jc = ((model.residuals(zp, shape, sensor=True)[0] - r0)
-                      / SENSOR_PROBE)[:, None]
+                # secant to the probe time constant that fits best
+                best_probe = None
+                for probe in SENSOR_PROBES:
+                    zp = z_base.copy()
+                    zp[cols] = probe
+                    rp = model.residuals(zp, shape, sensor=True)[0]
+                    if best_probe is None or np.sum(rp ** 2) < best_probe[0]:
+                        best_probe = (float(np.sum(rp ** 2)), probe, rp)
+                _, probe, rp = best_probe
+                sensor_probe[shape] = probe
+                Jc = ((rp - r0) / probe)[:, None]
             elif f.name in plain_J:
                 Jc = plain_J[f.name]
             else:
@@ -486,11 +500,14 @@ def discover_cycles(
             Jp = project_out(Qb, Jc)
             F, p, dof, step, pred = _hotelling(Jp, r0, starts)
             sc = _Score(f, shape, F, p, dof, step, Jp, pred)
+            if f.name == "sensor_lowpass":
+                sensor_scores.append(sc)
             # the shape that would explain most (its predicted chi-square drop)
             if best is None or pred > best.chi2_predicted:
                 best = sc
         scores.append(best)
     scores.sort(key=lambda s: (np.nan_to_num(s.p_value, nan=1.0), -s.chi2_predicted))
+    sensor_shapes = [s.shape for s in sorted(sensor_scores, key=lambda s: -s.chi2_predicted)]
     # significant: the robust (window-level) test, or a relevant predicted drop (at least
     # RELEVANT of the chi-square) that the per-sample score test supports: the robust test
     # loses power where a few windows (slow records, whose breakaway timing is most
@@ -516,18 +533,19 @@ def discover_cycles(
     def refit(sc: _Score) -> _Refit:
         f = sc.family
         cols = np.concatenate([base_cols, model.cols(f)])
+        # the sensor: the two kernels whose secants predicted the largest drops
         options = ([(sc.shape, False)] if f.name != "sensor_lowpass" else
-                   [(Shape(order=o), True) for o in (1, 2)])
+                   [(shape, True) for shape in sensor_shapes[:2]])
         step = sc.step
-        if f.name == "sensor_lowpass":  # a secant step: start at the probe if it is negative
-            step = np.maximum(step, SENSOR_PROBE)
         best = None
         for shape, sensor in options:
             z1 = z_base.copy()
             step_cols = model.cols(f)
             if f.per_record:
                 step_cols = step_cols.reshape(G, -1)[:, :2].ravel()
-            if not misfit or f.name == "sensor_lowpass":  # from the score step
+            if f.name == "sensor_lowpass":  # from the kernel's best probe
+                z1[step_cols] = sensor_probe.get(shape, SENSOR_PROBE)
+            elif not misfit:  # from the score step
                 z1[step_cols] += step
             prior = None
             if f.name == "drive_periodic_error":
@@ -589,6 +607,12 @@ def discover_cycles(
             stage("contenders", ", ".join(f"{rf.family.name} chi2 -{rf.drop:.0f}"
                                           + (" (unphysical)" if rf.unphysical else "")
                                           for rf in refits[-len(extra):]))
+    # the winner: the physical refit that lowers chi-square most among the families the
+    # calibrated test let through (the first refits, and contenders that are significant
+    # themselves: a significant family ranked below `top` by its p-value may explain most)
+    eligible = ({sc.family.name for sc in significant}
+                | {sc.family.name for sc in to_refit})
+    physical = [rf for rf in ranked() if rf.family.name in eligible]
     chosen = physical[0] if physical else None
     rivals, decision, compared = [], None, {}
     if chosen is not None:
