@@ -104,6 +104,10 @@ def run(args) -> int:
         raise ValueError(f"--draws: need at least 1 draw, got {args.draws}")
     if args.steps < 10:
         raise ValueError(f"--steps: need at least 10 steps, got {args.steps}")
+    free = 6 - len(set(f.split("=")[0].strip() for f in args.fix))
+    if args.walkers < 2 * max(free, 1):  # before the fit (gauge offsets may need more)
+        raise ValueError(f"--walkers: need at least {2 * max(free, 1)} walkers (twice the "
+                         f"{max(free, 1)} free parameters), got {args.walkers}")
     if args.burn is not None and not 0 <= args.burn < args.steps:
         raise ValueError(f"--burn: must lie in [0, --steps), got {args.burn}")
     from stickslip_jax.output import check_outputs, versioned, write_json
