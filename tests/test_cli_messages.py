@@ -114,9 +114,19 @@ def test_output_folder_is_checked_before_any_work(tmp_path, command, capsys):
     (["plan", "nowhere.json"], ["nowhere.json", "neither a file nor a lubricant"]),
     (["plan", "A", "--budget", "0"], ["--budget", "1-1000"]),
     (["fit", "nowhere.csv"], ["nowhere.csv", "check the path"]),
+    (["plot", "."], ["is a folder", "give one of its record files"]),
 ])
 def test_errors_name_the_option_or_file_and_the_fix(tmp_path, monkeypatch, argv, names,
                                                     capsys):
     monkeypatch.chdir(tmp_path)
     _, err = run_checked(argv, capsys, tmp_path, 2)
     one_line(err, *names)
+
+
+def test_mcmc_walkers_are_checked_before_the_fit(tmp_path, capsys):
+    """Too few walkers were refused only after the fit (minutes with --objective trace)."""
+    records = copy_records(tmp_path, EXAMPLES)
+    _, err = run_checked(["mcmc", *records, "--walkers", "3", "--fix", "n=1"], capsys,
+                         tmp_path, 2)
+    assert "fitting" not in err
+    one_line(err, "--walkers", "at least 10 walkers", "5 free parameters")
