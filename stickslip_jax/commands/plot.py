@@ -22,6 +22,9 @@ def run(args) -> int:
     from ..records import read_record
 
     flag = args.plot_option
+    if Path(args.record).is_dir():
+        raise ValueError(f"{args.record}: is a folder, not a record file; give one of its "
+                         "record files")
     out = Path(args.plot) if args.plot else Path(args.record).with_suffix(".png")
     if out.suffix.lower() != ".png":
         raise ValueError(f"{flag}: {out} must end in .png")
