@@ -748,9 +748,9 @@ def _read_bytes(path: Path, max_bytes: int) -> bytes:
         if not path.exists():
             raise RecordError("no such file; check the path", path)
         if path.is_dir():
-            raise RecordError("is a folder, not a record file; give one of its record files "
-                              "(fit, mcmc and discover take a folder; in Python: read_campaign)",
-                              path)
+            raise RecordError("is a directory, not a record file; give one of its record "
+                              "files (fit, mcmc and discover take a directory; in Python: "
+                              "read_campaign)", path)
         size = path.stat().st_size
         if size > max_bytes:
             raise RecordError(
