@@ -28,6 +28,7 @@
 
 # %%
 import os
+import sys
 from pathlib import Path
 
 import equinox as eqx
@@ -49,7 +50,8 @@ N = 40 if SMALL else 200  # points per curve
 def save(fig, name):
     fig.tight_layout()
     fig.savefig(FIGDIR / f"01_{name}.png", dpi=90 if SMALL else 130)
-    plt.close(fig)
+    if "ipykernel" not in sys.modules:  # in Jupyter the figure stays open and is shown
+        plt.close(fig)
 
 
 LUBS = {name: ss.lubricant(name) for name in ("A", "C")}  # Table 6

@@ -23,6 +23,7 @@
 
 # %%
 import os
+import sys
 from pathlib import Path
 
 import equinox as eqx
@@ -58,7 +59,8 @@ CONTACT = BoundaryContact()
 def save(fig, name):
     fig.tight_layout()
     fig.savefig(FIGDIR / f"{name}.png", dpi=90)
-    plt.close(fig)
+    if "ipykernel" not in sys.modules:  # in Jupyter the figure stays open and is shown
+        plt.close(fig)
 
 
 def trend(ok, text):

@@ -76,6 +76,9 @@ print(mc.warnings)
 # ## Figures: traces with the fitted model, mu_0(T1) with its band, mu_m(T2), corner plot
 
 # %%
-fit_figure(fit, unc, records, FIG / "03_fit.png")
-corner_plot(mc.samples, mc.names, FIG / "03_corner.png", truth=truth)
+# the functions return their Figure (shown below in Jupyter); saved as PNG too
+fig_fit = fit_figure(fit, unc, records)
+fig_fit.savefig(FIG / "03_fit.png", dpi=110)
+fig_corner = corner_plot(mc.samples, mc.names, truth=truth)
+fig_corner.savefig(FIG / "03_corner.png", dpi=110)
 print("figures in", FIG)

@@ -2,9 +2,14 @@
 
 Implements Kato, Sato, Yamaguchi and Matsubayashi, "Stick-slip motion and
 characteristics of friction in machine tool slideway". Internal units: kgf, mm, s
-(see `stickslip_jax.units`). Importing the package enables `jax_enable_x64` (on JAX if
-it is imported already, else through the environment variable `JAX_ENABLE_X64`, which
-JAX reads when it is imported). The public names are imported on first use.
+(see `stickslip_jax.units`).
+
+Importing the package enables `jax_enable_x64` for the whole process, by design: every
+JAX array of the process is then float64 by default (on JAX if it is imported already,
+else through the environment variable `JAX_ENABLE_X64`, which JAX reads when it is
+imported and which child processes inherit). The steady analysis, the limit cycle's
+implicit gradients and the fits' covariances need float64; code that wants float32 next
+to the model should run in its own process. The public names are imported on first use.
 """
 
 import importlib

@@ -1,0 +1,142 @@
+"""Regenerate the committed figures of the README and the documentation site in
+`docs/images/`, each drawn by the command it illustrates (`--plot`):
+
+| file | command |
+|---|---|
+| `fit.png` | `stickslip fit data/examples/*.csv` (the shipped campaign: the fit overlay) |
+| `mcmc_corner.png` | `stickslip mcmc` on four of the shipped records (a short chain), its corner plot at 60 dpi |
+| `design_map.png` | `stickslip design` over k x v (lubricant A, W = 36 kgf) |
+| `discover.png` | `stickslip discover` on a small campaign with viscous damping (independent generator) |
+| `record.png` | `stickslip plot` of one shipped record |
+| `pitch.png` | `stickslip pitch --fit` on two synthetic records with tilt channels |
+
+    .venv/bin/python docs/make_figures.py [NAME ...]   # all, or only these (fit, design, ...)
+
+Prints the time and size of each figure. About 1-2 minutes on 2 cores (see the README).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import pathlib
+import sys
+import tempfile
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+IMAGES = ROOT / "docs" / "images"
+EXAMPLES = sorted(str(p) for p in (ROOT / "data" / "examples").glob("*.csv"))
+
+
+def _discovery_campaign(folder: pathlib.Path) -> list[str]:
+    """Four records of lubricant A (W, k = 36 kgf, 86.9 kgf/mm and 20 kgf, 27.3 kgf/mm at
+    5 and 10 mm/min) with viscous damping the paper's model lacks (damping ratio 0.15),
+    made by the tests' independent SciPy generator (`tests/independent_records.py`, the
+    campaign of `tests/test_cycle_discovery.py`, where discovery names the damping)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    import independent_records as ir
+    from stickslip_jax.records import write_record
+
+    records = ir.campaign(physics=ir.Physics(damping_ratio=0.15), seed=12,
+                          runs=((36.0, 86.9), (20.0, 27.3)), speeds=(5.0, 10.0), cycles=5.0)
+    paths = []
+    for i, r in enumerate(records):
+        paths.append(str(folder / f"damped{i}.csv"))
+        write_record(r, paths[-1])
+    return paths
+
+
+def _corner(tmp: pathlib.Path, out: pathlib.Path) -> None:
+    """`stickslip mcmc`'s corner plot (`stickslip_fitting.plots.corner_plot`, the
+    function behind `mcmc --plot`) from the run's JSON draws, without the scatter of
+    single draws and at 60 dpi: the command's 100 dpi figure is a 0.5 MB file."""
+    import json
+
+    import numpy as np
+
+    from stickslip_fitting.plots import corner_plot
+    from stickslip_jax.output import save_figure
+
+    doc = json.loads((tmp / "mcmc.json").read_text())
+    rows = doc["parameters"]
+    fig = corner_plot(np.asarray(doc["samples"]), doc["names"], plot_datapoints=False,
+                      truth={n: r["truth"] for n, r in rows.items() if r.get("truth") is not None},
+                      units={n: r["unit"] for n, r in rows.items()})
+    save_figure(fig, str(out), dpi=60)
+
+
+def _pitch_records(folder: pathlib.Path) -> list[str]:
+    """Two records with tilt channels pitch_1, pitch_3 from the chapter-6 model (2e-5 mm
+    noise), driven at (h, l) = (20, 30) and (60, -30) mm."""
+    import numpy as np
+
+    from stickslip_jax import pitching as pt
+    from stickslip_jax.records import Record, write_record
+
+    t = np.arange(601) * 0.02
+    phase = (t % 2.0) / 2.0
+    force = np.where(phase < 0.95, 5.0 + 7.0 * phase / 0.95, 12.0 - 7.0 * (phase - 0.95) / 0.05)
+    model = pt.default_model()
+    paths = []
+    for i, (h, o) in enumerate([(20.0, 30.0), (60.0, -30.0)]):
+        disp = np.asarray(pt.tilt_history(model, t, force, pt.DrivePoint(h, o)).displacement)
+        disp = disp + 2e-5 * np.random.default_rng(i).standard_normal(disp.shape)
+        rec = Record(time=t, deflection=force / 86.9, stiffness=86.9, weight=36.0,
+                     drive_speed=0.05, channels={"pitch_1": disp[:, 0], "pitch_3": disp[:, 2]},
+                     channel_units={"pitch_1": "um", "pitch_3": "um"},
+                     extra_header={"drive_height": f"{h} mm", "drive_offset": f"{o} mm"})
+        paths.append(str(write_record(rec, folder / f"pitch{i}.csv", channel_units="original")))
+    return paths
+
+
+def figures(tmp: pathlib.Path) -> dict[str, list[str]]:
+    """{name: the stickslip command line that draws docs/images/NAME.png}."""
+    return {
+        "fit": lambda: ["fit", *EXAMPLES],
+        "mcmc_corner": lambda: ["mcmc", *EXAMPLES[:4], "--steps", "400", "--walkers", "16",
+                                "--seed", "1", "--draws", "4800", "--json",
+                                str(tmp / "mcmc.json")],
+        "design_map": lambda: ["design", "--lubricant", "A", "--weight", "36",
+                               "--stiffness", "20:200:40", "--speed", "0.5:200:40:log"],
+        "discover": lambda: ["discover", *_discovery_campaign(tmp)],
+        "record": lambda: ["plot", str(ROOT / "data/examples/A_W36_k86.9_v5mm-min.csv")],
+        "pitch": lambda: ["pitch", *_pitch_records(tmp), "--fit"],
+    }
+
+
+def main(argv=None) -> int:
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    from stickslip_jax.cli import main as stickslip
+
+    only = list(sys.argv[1:] if argv is None else argv)
+    IMAGES.mkdir(parents=True, exist_ok=True)
+    total = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        todo = figures(pathlib.Path(tmp))
+        unknown = set(only) - set(todo)
+        if unknown:
+            raise SystemExit(f"unknown figure(s) {sorted(unknown)}; choose from {sorted(todo)}")
+        for name, argv_of in todo.items():
+            if only and name not in only:
+                continue
+            t0 = time.perf_counter()
+            out = IMAGES / f"{name}.png"
+            argv = argv_of()
+            quiet = ["--quiet"] if argv[0] in ("fit", "mcmc", "design", "discover") else []
+            plot = [] if name == "mcmc_corner" else ["--plot", str(out)]
+            with contextlib.redirect_stdout(io.StringIO()):
+                rc = stickslip([*argv, *quiet, *plot])
+            if rc != 0:
+                raise SystemExit(f"{name}: stickslip exited {rc}")
+            if name == "mcmc_corner":
+                _corner(pathlib.Path(tmp), out)
+            print(f"{name}: {time.perf_counter() - t0:.1f} s, {out.stat().st_size / 1024:.0f} KiB",
+                  flush=True)
+    print(f"all: {time.perf_counter() - total:.1f} s", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
