@@ -4,9 +4,9 @@
 | file | command |
 |---|---|
 | `fit.png` | `stickslip fit data/examples/*.csv` (the shipped campaign: the fit overlay) |
-| `mcmc_corner.png` | `stickslip mcmc` on four of the shipped records (a short chain), its corner plot at 60 dpi |
+| `mcmc_corner.png` | `stickslip mcmc` on four shipped records (a short chain), at 60 dpi |
 | `design_map.png` | `stickslip design` over k x v (lubricant A, W = 36 kgf) |
-| `discover.png` | `stickslip discover` on a small campaign with viscous damping (independent generator) |
+| `discover.png` | `stickslip discover` on a small campaign with viscous damping |
 | `record.png` | `stickslip plot` of one shipped record |
 | `pitch.png` | `stickslip pitch --fit` on two synthetic records with tilt channels |
 

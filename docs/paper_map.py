@@ -16,8 +16,8 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 PACKAGES = {"stickslip_jax": ROOT / "stickslip_jax", "stickslip_fitting": ROOT / "fitting"}
 """Import name -> folder (the identification package lives in fitting/)."""
 
-_EQ = re.compile(r"\beqs?\.?\s*((?:\(?\d+[a-z]?\)?(?:\s*(?:,|and|or|-|–|to|/|\+)\s*(?:eq\.?\s*)?)?)+)",
-                 re.I)
+_EQ = re.compile(r"\beqs?\.?\s*((?:\(?\d+[a-z]?\)?"
+                 r"(?:\s*(?:,|and|or|-|–|to|/|\+)\s*(?:eq\.?\s*)?)?)+)", re.I)
 _TABLE = re.compile(r"\bTables?\s+((?:\d+(?:\s*(?:,|and|or|-|–|/)\s*)?)+)")
 _FIG = re.compile(r"\bFigs?\.?\s+((?:\d+(?:\s*(?:,|and|or|-|–|/)\s*)?)+)")
 _NUM = re.compile(r"(\d+)([a-z]?)")

@@ -58,8 +58,8 @@ def test_quiet_sets_warning_and_debug_sets_debug(capsys):
     assert main(["--debug", "plan", "A", "--budget", "1"]) == 0
     assert logger.level == logging.DEBUG
     err = capsys.readouterr().err
-    assert re.search(r"^stickslip plan \[\s*\d+\.\d s\] debug: arguments: --debug plan A --budget 1$",
-                     err, re.M), err
+    assert re.search(r"^stickslip plan \[\s*\d+\.\d s\] debug: arguments: --debug plan A "
+                     r"--budget 1$", err, re.M), err
     assert "choosing 1 of" in err
     # --quiet wins over nothing else: a plain run is back at INFO
     assert main(["plan", "A", "--budget", "1"]) == 0
