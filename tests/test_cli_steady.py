@@ -48,6 +48,55 @@ def test_limit_cycle_columns_above_v_c_and_tolerance(capsys):
     assert "below 1 um above v = 1282.2 mm/min" in cap.err
 
 
+def test_damping_ratio_boundary_beside_v_c(capsys):
+    """--damping-ratio: the damped limit cycle and the sharp boundary speed, printed and in
+    the JSON, equal `limit_cycle(..., damping_ratio)` and `boundary_speed` called directly."""
+    from stickslip_jax.limit_cycle import boundary_speed, limit_cycle
+
+    argv = BASE + ["--speed", "30", "90", "--damping-ratio", "0.05", "--json", "-"]
+    assert main(argv) == 0
+    cap = capsys.readouterr()
+    doc = json.loads(cap.out)
+    friction = ss.lubricant("A")
+    v_b = 60.0 * float(boundary_speed(friction, 36.0, 86.9, 0.05))
+    assert doc["damping_ratio"] == 0.05
+    assert doc["boundary_speed_mm_per_min"] == pytest.approx(v_b, rel=1e-12)
+    assert v_b == pytest.approx(54.735, abs=1e-3)  # the README's 54.7 mm/min
+    line = next(s for s in cap.err.splitlines() if s.startswith("damping ratio zeta = 0.05"))
+    assert f"above v = {v_b:.5g} mm/min" in line and "v_c = 48.911 mm/min" in line
+    r30, r90 = doc["results"]
+    c30 = limit_cycle(friction, 36.0, 86.9, 0.5, damping_ratio=0.05)
+    f0 = doc["natural_frequency_hz"]
+    assert r30["damped_regime"] == "stick-slip"
+    assert r30["damped_cycle_amplitude_mm"] == pytest.approx(float(c30.amplitude), rel=1e-9)
+    assert r30["damped_cycle_stick_time_s"] == pytest.approx(float(c30.stick_time), rel=1e-9)
+    assert r30["damped_cycle_frequency_ratio"] == pytest.approx(float(c30.frequency) / f0,
+                                                                rel=1e-9)
+    # the damped cycle is smaller than the undamped one, and gone above the boundary
+    assert 0 < r30["damped_cycle_amplitude_mm"] < r30["cycle_amplitude_mm"]
+    assert r90["damped_regime"] == "steady sliding" and r90["damped_cycle_amplitude_mm"] == 0
+    assert r90["cycle_amplitude_mm"] > 0  # the undamped model's cycle goes on
+    header = cap.err.splitlines()[1]
+    assert "a_damped [mm]" in header and "f/f0_damped [-]" in header
+    row = cap.err.splitlines()[2].split()
+    assert float(row[-3]) == pytest.approx(float(c30.amplitude), rel=1e-4)
+    assert float(row[-1]) == pytest.approx(float(c30.frequency) / f0, rel=1e-4)
+
+
+def test_damping_ratio_zero_has_no_boundary(capsys):
+    """zeta = 0: boundary_speed is inf, so the JSON has null with its reason, the table
+    says there is none, and the damped cycle is the undamped one."""
+    assert main(BASE + ["--speed", "90", "--damping-ratio", "0", "--json", "-"]) == 0
+    cap = capsys.readouterr()
+    doc = json.loads(cap.out)
+    assert doc["boundary_speed_mm_per_min"] is None
+    assert "infinite" in doc["null_reasons"]["boundary_speed_mm_per_min"]
+    (r90,) = doc["results"]
+    assert r90["damped_cycle_amplitude_mm"] == pytest.approx(r90["cycle_amplitude_mm"],
+                                                             rel=1e-9)
+    assert "no boundary speed" in cap.err
+
+
 def test_json_and_units_on_arguments(capsys):
     argv = ["steady", "--lubricant", "C", "--weight", "353.04 N", "--stiffness", "852.2 N/mm",
             "--speed", "1", "100 um/s", "--json"]
@@ -69,7 +118,8 @@ def test_help(capsys):
         main(["steady", "--help"])
     assert exc.value.code == 0
     out = capsys.readouterr().out
-    for flag in ("--lubricant", "--weight", "--stiffness", "--speed", "--json", "mm/min"):
+    for flag in ("--lubricant", "--weight", "--stiffness", "--speed", "--json", "mm/min",
+                 "--damping-ratio", "boundary"):
         assert flag in out
 
 
@@ -84,6 +134,8 @@ def test_help(capsys):
         (["--weight", "36", "--stiffness", "86.9", "--speed", "1.2.3"], "--speed"),
         (["--weight", "thirty", "--stiffness", "86.9", "--speed", "1"], "--weight"),
         (["--weight", "36 kgf/mm", "--stiffness", "86.9", "--speed", "1"], "--weight"),
+        (["--weight", "36", "--stiffness", "86.9", "--speed", "1", "--damping-ratio", "1"],
+         "--damping-ratio"),
     ],
 )
 def test_user_errors_one_line_exit_2(capsys, args, names):

@@ -105,7 +105,7 @@ def documents(tmp_path_factory):
     d = tmp_path_factory.mktemp("json_keys")
     runs = {
         "steady": ["steady", "--weight", "36", "--stiffness", "86.9", "--speed", "1", "60",
-                   "--tolerance", "1um"],
+                   "--tolerance", "1um", "--damping-ratio", "0.05"],
         "design": ["design", "--weight", "36", "--stiffness", "100:1000:3", "--speed", "5",
                    "--max-amplitude", "1um", "--quiet"],
         "plan": ["plan", "A", "--budget", "2", "--quiet"],

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 from .options import add_json_option, quantity
 
 NAME = "steady"
@@ -22,6 +24,12 @@ def add_arguments(p):
                    help="also print the drive speed above which the time-domain limit "
                    "cycle's amplitude stays below this (mm unless a unit is given, e.g. "
                    "'1 um')")
+    p.add_argument("--damping-ratio", type=float, default=None, metavar="ZETA",
+                   help="also print the limit cycle with viscous damping ratio ZETA "
+                   "(0 <= ZETA < 1, of the slider's own mode; e.g. 0.05): its amplitude, T1 "
+                   "and f/f0, and the sharp boundary speed above which the damped model "
+                   "slides steadily (stickslip_jax.limit_cycle.boundary_speed), beside eq "
+                   "(12)'s v_c")
     add_json_option(p, "the results", bare=True)
 
 
@@ -50,6 +58,13 @@ COLUMNS = (
     ("cycle_stick_time_s", "T1_cycle [s]"),
 )
 
+DAMPED_COLUMNS = (
+    ("damped_cycle_amplitude_mm", "a_damped [mm]"),
+    ("damped_cycle_stick_time_s", "T1_damped [s]"),
+    ("damped_cycle_frequency_ratio", "f/f0_damped [-]"),
+)
+"""Columns added by --damping-ratio: the damped limit cycle (0 above the boundary)."""
+
 
 def run(args) -> int:
     import jax.numpy as jnp
@@ -60,6 +75,9 @@ def run(args) -> int:
     from ..units import mm_per_min
 
     check_outputs({"--json": args.json})
+    zeta = args.damping_ratio
+    if zeta is not None and not 0 <= zeta < 1:
+        raise ValueError(f"--damping-ratio: must lie in [0, 1), e.g. 0.05, got {zeta}")
     if args.lubricant not in lubricants(args.table):
         raise ValueError(
             f"--lubricant: unknown lubricant {args.lubricant!r}; "
@@ -92,6 +110,24 @@ def run(args) -> int:
             "cycle_slip_time_s": float(cyc.slip_time[i]),
             "cycle_frequency_hz": float(cyc.frequency[i]),
         })
+    damped = None
+    if zeta is not None:
+        from ..limit_cycle import boundary_speed
+
+        f0 = out.natural_frequency[0]
+        dc = jax.vmap(lambda v: limit_cycle(friction, args.weight, args.stiffness, v,
+                                            damping_ratio=zeta))(speeds)
+        for i, r in enumerate(rows):  # 0 where the damped model slides steadily
+            r.update({
+                "damped_regime": REGIMES[int(dc.regime[i])],
+                "damped_cycle_amplitude_mm": float(dc.amplitude[i]),
+                "damped_cycle_stick_time_s": float(dc.stick_time[i]),
+                "damped_cycle_slip_time_s": float(dc.slip_time[i]),
+                "damped_cycle_frequency_hz": float(dc.frequency[i]),
+                "damped_cycle_frequency_ratio": float(dc.frequency[i] / f0),
+            })
+        # inf (no boundary: zeta = 0) becomes null with its reason in the JSON
+        damped = float(mm_per_min(boundary_speed(friction, args.weight, args.stiffness, zeta)))
     tol = None
     if args.tolerance is not None:
         if not args.tolerance > 0:
@@ -110,16 +146,19 @@ def run(args) -> int:
             "natural_frequency_hz": float(out.natural_frequency[0]),
             "results": rows,
             "tolerance": tol,
+            **({} if zeta is None else {"damping_ratio": zeta,
+                                        "boundary_speed_mm_per_min": damped}),
         }, JSON_ALIASES))
         if args.json != "-":  # with "-" the table below goes to stderr
             print(f"wrote {args.json}")
     print(f"lubricant {args.lubricant} (Table {args.table}), W = {args.weight:g} kgf, "
           f"k = {args.stiffness:g} kgf/mm, f0 = {float(out.natural_frequency[0]):.4g} Hz")
-    widths = [max(len(h), 12) for _, h in COLUMNS]
-    print("  ".join(h.rjust(w) for (_, h), w in zip(COLUMNS, widths)))
+    columns = COLUMNS + (DAMPED_COLUMNS if zeta is not None else ())
+    widths = [max(len(h), 12) for _, h in columns]
+    print("  ".join(h.rjust(w) for (_, h), w in zip(columns, widths)))
     for r in rows:
         cells = []
-        for (key, _), w in zip(COLUMNS, widths):
+        for (key, _), w in zip(columns, widths):
             val = r[key]
             if key == "stick_slip" and r["regime"] == REGIMES[RESTICK_FAILURE]:
                 cells.append("double".rjust(w))  # re-stick failure: see the note below
@@ -133,6 +172,13 @@ def run(args) -> int:
     print("a_cycle, T1_cycle: the limit cycle of the time-domain model (the exact "
           "simulator's; eq (6) at every speed): above v_c of eq (12) it keeps a smaller "
           "stick-slip, with no sharp end (stickslip_jax.limit_cycle)")
+    if zeta is not None:
+        v_c = rows[0]["critical_speed_mm_per_min"]
+        where = (f"stick-slip ends sharply above v = {damped:.5g} mm/min (the boundary speed)"
+                 if math.isfinite(damped) else
+                 "no boundary speed (a limit cycle at every speed, as without damping)")
+        print(f"damping ratio zeta = {zeta:g} (a_damped, T1_damped, f/f0_damped: its limit "
+              f"cycle, 0 where it slides steadily): {where}; eq (12)'s v_c = {v_c:.5g} mm/min")
     if tol is not None:
         print(f"the limit cycle's amplitude stays below {tol['max_amplitude_mm'] * 1e3:.4g} um "
               f"above v = {tol['drive_speed_mm_per_min']:.5g} mm/min")
