@@ -53,9 +53,11 @@ def test_cycle_map_kernel_agrees_with_the_exact_simulator_across_both_boundaries
     """Lubricant C at 11.3 kgf: springs on both sides of the re-stick-failure boundary
     (exp(-delta T2^n) = 1/2 near k = 50 kgf/mm), speeds on both sides of eq (12)'s v_c.
     The exact simulator (8 cycles; re-slip pairs counted as one cycle) and the one-cycle
-    map's fixed point give the same regime everywhere and the same amplitude for one-slip
-    cycles (the simulator's re-slip cycles are still settling after 8 cycles: within 5 %);
-    eq (12) calls most of these points steady sliding."""
+    map's fixed point give the same regime everywhere and the same amplitude, for one-slip
+    and re-slip cycles alike, and every simulated point has settled (its last two whole
+    cycles within 1e-3; a re-slip cycle takes 4 events, and with the budget of 2 events
+    per cycle, comparing the last cycle with the re-slip entry before it, they were
+    unsettled and 4 % off); eq (12) calls most of these points steady sliding."""
     import jax.numpy as jnp
 
     import stickslip_jax as ss
@@ -72,8 +74,8 @@ def test_cycle_map_kernel_agrees_with_the_exact_simulator_across_both_boundaries
     np.testing.assert_array_equal(np.asarray(ex.regime), reg)
     assert set(np.unique(reg)) == {STICK_SLIP, RESTICK_FAILURE}
     one = reg == STICK_SLIP
-    np.testing.assert_allclose(np.asarray(ex.amplitude)[one], np.asarray(cy.amplitude)[one],
-                               rtol=1e-4)  # 8 simulated cycles settle to a few 1e-5
-    np.testing.assert_allclose(np.asarray(ex.amplitude)[~one], np.asarray(cy.amplitude)[~one],
-                               rtol=0.05)
+    assert np.sum(~one) >= 10
+    # 8 simulated whole cycles settle to a few 1e-5 (re-slip cycles too)
+    np.testing.assert_allclose(np.asarray(ex.amplitude), np.asarray(cy.amplitude), rtol=1e-4)
+    assert np.asarray(ex.converged).all()
     assert np.sum(np.asarray(st.regime) == STEADY_SLIDING) >= 15

@@ -1,16 +1,19 @@
 r"""Design-map kernel from the exact event-driven simulator (`simulate_exact`).
 
 Each design point (friction, W kgf, k kgf/mm, v mm/s) is simulated from rest at zero
-deflection under a constant drive speed for `N_CYCLES` stick-slip cycles (the event
-budget, `max_events = 2 N_CYCLES`, ends the run; the horizon is an upper bound on
-the time they take: the first climb to $\mu_0 W/k$ plus, per cycle, a climb of at most
-$2(\mu_0(\infty) - \mu_d)W/k$ and a slip of at most $2\pi/\omega_0$). The map takes the
-*last* complete cycle as the limit cycle: amplitude $(x_2 - x_1)/2$ (eq 5), stick time
-$T_1$, actual slip time $T_2$, frequency $1/(T_1 + T_2)$. Stick-slip means the run
-still sticks in its last cycle ($T_1 > 0$, no `steady_sliding`); the critical speed
-column is corrected eq (12), as in the steady map. `converged` means the run slid
-steadily, or its last two cycles' amplitudes agree within `LIMIT_CYCLE_RTOL` (the limit
-cycle is reached).
+deflection under a constant drive speed for `N_CYCLES` whole stick-slip cycles, a stick
+with the slip and, under re-stick failure, the re-slip from rest that follow it counted
+as one cycle (the event budget, `max_events = EVENTS_PER_CYCLE N_CYCLES`, holds that many
+re-slip cycles; the horizon is an upper bound on the time they take: the first climb to
+$\mu_0 W/k$ plus, per cycle, a climb of at most $2(\mu_0(\infty) - \mu_d)W/k$ and two
+slips of at most $2\pi/\omega_0$ each). The map takes the `N_CYCLES`-th whole cycle
+(the last, if the horizon ends the run before) as the limit cycle: amplitude
+$(x_2 - x_1)/2$ (eq 5; to the end of the re-slip), stick time $T_1$, actual slip time
+$T_2$ (both slips), frequency $1/(T_1 + T_2)$. Stick-slip means the run still sticks in
+that cycle ($T_1 > 0$, no `steady_sliding`); the critical speed column is corrected eq
+(12), as in the steady map. `converged` means the run slid steadily, or that cycle's
+amplitude and the previous whole cycle's agree within `LIMIT_CYCLE_RTOL` (the limit cycle
+is reached).
 """
 
 from __future__ import annotations
@@ -27,15 +30,24 @@ from .maps import DesignMap, DesignPoints
 
 N_CYCLES = 8
 
+EVENTS_PER_CYCLE = 4
+"""Event budget per cycle: a stick and a slip, then with re-stick failure a stick of
+T1 = 0 and the re-slip (a one-slip cycle needs 2; with 2 a re-slip run held only half
+its cycles)."""
+
 
 LIMIT_CYCLE_RTOL = 1e-3
 
 
 def _last(values, valid, back: int = 0):
-    """Value at the last (`back` = 0) or an earlier True entry of `valid` (0 if none)."""
-    last = jnp.max(jnp.where(valid, jnp.arange(valid.shape[0]), -1))
-    idx = jnp.maximum(last - back, 0)
-    return jnp.where(last - back >= 0, values[idx], 0.0)
+    """Value at the last (`back` = 0) True entry of `valid`, or the one `back` True entries
+    before it (0 if there is none). Counted over the True entries, not the indices: with
+    re-slips the entries alternate between a stick and its re-slip (not valid), and the
+    previous cycle is two indices back."""
+    rank = jnp.cumsum(valid)  # 1 at the first True entry
+    target = rank[-1] - back
+    idx = jnp.argmax(valid & (rank == target))
+    return jnp.where(target >= 1, values[idx], 0.0)
 
 
 def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
@@ -45,9 +57,10 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
     mu_inf = friction.static.asymptote()
     scale = weight / stiffness
     horizon = (mu_inf * scale + n_cycles * 2.0 * (mu_inf - friction.mu_d) * scale) / speed
-    horizon = horizon + n_cycles * 2.0 * t2 + 4.0 * t2
+    horizon = horizon + n_cycles * 4.0 * t2 + 4.0 * t2  # two slips per cycle with re-slips
     ts = jnp.stack([jnp.zeros_like(horizon), horizon])
-    trace = simulate_exact(slideway, ConstantSpeed(speed), ts, max_events=2 * n_cycles)
+    trace = simulate_exact(slideway, ConstantSpeed(speed), ts,
+                           max_events=EVENTS_PER_CYCLE * n_cycles)
     cyc = trace.cycles
     # with re-slips (re-stick failure) every cycle is a stick, a slip and a slip again
     # from rest (a "cycle" of T1 = 0): the last stick with the slip(s) that follow it
@@ -62,7 +75,9 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
     # a stick whose re-slip fell outside the event budget is not a whole cycle
     last_idx = jnp.max(jnp.where(valid, jnp.arange(n), -1))
     whole = valid & ~((jnp.arange(n) == last_idx) & jnp.any(reslip) & ~follow)
-    valid = whole
+    # the n_cycles-th whole cycle: the budget holds n_cycles re-slip cycles (4 events
+    # each) and up to twice as many one-slip cycles, of which the first n_cycles are used
+    valid = whole & (jnp.cumsum(whole) <= n_cycles)
     n_valid = jnp.sum(valid)
     t1 = _last(cyc.stick_time, valid)
     t2_actual = _last(t2_all, valid)
