@@ -193,17 +193,18 @@ def write_atomic(path: str, write, suffix: str | None = None) -> None:
     _replace(path, os.path.splitext(path)[1] if suffix is None else suffix, write)
 
 
-def check_memory(what: str, option: str, n_bytes: float, fraction: float = 0.5) -> None:
+def check_memory(what: str, option: str, n_bytes: float, fraction: float = 0.5,
+                 advice: str = "use a smaller one") -> None:
     """ValueError naming `option` when `what` needs more than `fraction` of this machine's
-    memory (`n_bytes`, an estimate): refuse before allocating instead of failing later."""
+    memory (`n_bytes`, an estimate): refuse before allocating instead of failing later;
+    `advice` ends the message (how to make it smaller)."""
     try:
         total = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (ValueError, OSError, AttributeError):  # pragma: no cover (not POSIX)
         total = 16 * 2**30
     if n_bytes > fraction * total:
         raise ValueError(f"{option}: {what} needs about {n_bytes / 2**30:.3g} GiB, more than "
-                         f"{fraction:.0%} of this machine's {total / 2**30:.3g} GiB; use a "
-                         "smaller one")
+                         f"{fraction:.0%} of this machine's {total / 2**30:.3g} GiB; {advice}")
 
 
 SCHEMA_VERSION = 1

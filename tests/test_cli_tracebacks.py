@@ -53,6 +53,50 @@ def test_huge_design_grid_is_refused_with_its_size(tmp_path, capsys):
     one_line(err, "--weight/--stiffness/--speed", "3000 x 3000 x 3000", "GiB")
 
 
+def _machine_memory(monkeypatch, gib: float) -> None:
+    """This machine's memory as `check_memory` sees it (the cases below do not depend on
+    the machine they run on)."""
+    import os
+
+    pages = {"SC_PAGE_SIZE": 4096, "SC_PHYS_PAGES": int(gib * 2**30) // 4096}
+    real = os.sysconf
+    monkeypatch.setattr(os, "sysconf", lambda name: pages.get(name) or real(name))
+
+
+def test_design_memory_counts_points_times_draws(tmp_path, capsys, monkeypatch):
+    """`design --posterior --max-amplitude` holds every draw's limit cycle at every grid
+    point: points x draws (10^3 x 20,000 draws, about 1.2 GiB), not the grid alone (8 MB),
+    is what the check must weigh (it counted grid points only)."""
+    _machine_memory(monkeypatch, 1.0)
+    post = tmp_path / "post.csv"
+    post.write_text("mu_s,mu_d,gamma,m,delta,n\n"
+                    + "0.58,0.21,0.38,0.39,67,1\n" * 20_000)
+    grid = ["--weight", "10:60:10", "--stiffness", "20:150:10", "--speed", "1:60:10"]
+    _, err = run_checked(["design", "--posterior", post, *grid, "--max-amplitude", "1um",
+                          "--json", tmp_path / "map.json"], capsys, tmp_path, 2)
+    line = one_line(err, "--weight/--stiffness/--speed", "10 x 10 x 10", "20000 draws",
+                    "--max-amplitude", "GiB", "fewer draws")
+    assert "needs about 1.19 GiB" in line  # 1000 x 20000 x 64 bytes, plus the grid's share
+    # the same grid without --max-amplitude streams the draws in chunks: not refused
+    assert run_checked(["design", "--posterior", post, *grid, "--quiet"], capsys, tmp_path,
+                       0)
+
+
+def test_design_memory_counts_the_outputs(tmp_path, capsys, monkeypatch):
+    """300^3 points with 2 draws and --json reached 6.8 GB: the JSON lists hold about
+    1.6 kB a point, which the check counts (and it says how to do without them)."""
+    _machine_memory(monkeypatch, 4.0)
+    post = tmp_path / "post.csv"
+    post.write_text("mu_s,mu_d,gamma,m,delta,n\n0.58,0.21,0.38,0.39,67,1\n"
+                    "0.6,0.2,0.4,0.4,66,1\n")
+    _, err = run_checked(["design", "--posterior", post, "--weight", "10:60:300",
+                          "--stiffness", "20:150:300", "--speed", "1:60:300", "--json",
+                          tmp_path / "map.json"], capsys, tmp_path, 2)
+    line = one_line(err, "--weight/--stiffness/--speed", "300 x 300 x 300", "with --json",
+                    "--netcdf instead of --json", "GiB")
+    assert "draws" not in line.split("needs")[0]  # without --max-amplitude draws stream
+
+
 def test_huge_plan_candidate_set_is_refused_with_its_size(tmp_path, capsys):
     """`plan` with 3000^3 candidates died with ArrayMemoryError while building them."""
     _, err = run_checked(["plan", "A", "--weights", "10:60:3000", "--stiffnesses",

@@ -151,6 +151,46 @@ def _say_map(shape, how) -> None:
     logger.info(f"map of {' x '.join(map(str, shape))} = {n} point{'s' * (n != 1)} ({how})...")
 
 
+# Peak memory of a map, measured with /usr/bin/time on 1.25e5-8e6 point grids (design
+# --posterior, 2-200 draws): about 70-90 bytes a grid point for the map itself, plus
+# 1,570 a point for --json (Python lists of every array, then the text; 700 without
+# --posterior), 260 for --csv, 80 for --netcdf, and 59 a point and draw for
+# --max-amplitude (its meet probability holds every draw's limit cycle at every point).
+# A 300^3 grid with 2 draws and --json had reached 6.8 GB when it was stopped.
+_BYTES_PER_POINT = {"map": 128, "--json": 1_600, "--csv": 300, "--netcdf": 100}
+_BYTES_PER_POINT_DRAW = 64  # --max-amplitude
+
+
+def _check_memory(args, shape, sample) -> None:
+    """Refuse (one line: the size and how to reduce it) a map whose estimated peak memory,
+    the grid's points times what each output needs plus points x draws for
+    --max-amplitude, is more than half this machine's."""
+    import jax
+
+    from stickslip_jax.output import check_memory
+
+    n_points = float(np.prod(shape, dtype=float))
+    draws = 1 if sample is None else int(np.size(jax.tree_util.tree_leaves(sample)[0]))
+    outputs = [o for o in ("--json", "--csv", "--netcdf") if getattr(args, o[2:])]
+    per_point = _BYTES_PER_POINT["map"] + sum(_BYTES_PER_POINT[o] for o in outputs)
+    n_bytes = n_points * per_point
+    what = f"the grid of {' x '.join(map(str, shape))} = {n_points:.3g} points"
+    if args.max_amplitude is not None:
+        n_bytes += n_points * draws * _BYTES_PER_POINT_DRAW
+        what += f" x {draws} draw{'s' * (draws != 1)} (--max-amplitude)"
+    if outputs:
+        what += f" with {', '.join(outputs)}"
+    advice = "use fewer grid points"
+    if args.max_amplitude is not None and draws > 1:
+        advice += " or fewer draws (thin the --posterior file)"
+    heavy = [o for o in outputs if o != "--netcdf"]
+    if heavy:
+        advice += (f", or write --netcdf instead of {' and '.join(heavy)} (about "
+                   f"{_BYTES_PER_POINT['--netcdf']} bytes a point instead of "
+                   f"{sum(_BYTES_PER_POINT[o] for o in heavy):,})")
+    check_memory(what, "--weight/--stiffness/--speed", n_bytes, advice=advice)
+
+
 def compute(args):
     """The map as a dict of NumPy arrays (internal units) plus its axes."""
     from stickslip_jax.lubricants import lubricant, lubricants
@@ -165,15 +205,8 @@ def compute(args):
     if not 0 < args.level < 1:
         raise ValueError("--level: must be between 0 and 1, e.g. 0.9")
     axes = _axes(args)
-    from stickslip_jax.output import check_memory
-
     shape = tuple(axes[n].size for n in ("weight", "stiffness", "speed"))
-    n_points = float(np.prod(shape, dtype=float))
-    # about 16 float64 result arrays per grid point (and the axes broadcast to the grid)
-    check_memory(f"the grid of {' x '.join(map(str, shape))} = {n_points:.3g} points",
-                 "--weight/--stiffness/--speed", n_points * 16 * 8)
-    w, k, v = outer(axes["weight"], axes["stiffness"], axes["speed"])
-    out = {"axes": axes}
+    sample = None
     if args.posterior:
         if _method(args) != "steady":
             raise ValueError(f"--method {_method(args)}: not available with --posterior "
@@ -181,6 +214,10 @@ def compute(args):
         if not Path(args.posterior).exists():
             raise ValueError(f"--posterior: no such file {args.posterior!r}")
         sample = load_samples(args.posterior)
+    _check_memory(args, shape, sample)
+    w, k, v = outer(axes["weight"], axes["stiffness"], axes["speed"])
+    out = {"axes": axes}
+    if args.posterior:
         _say_map(shape, "steady analysis over the posterior draws")
         u = propagate(sample, w, k, v, level=args.level, chunk_size=args.chunk_size * 4,
                       progress=_progress(args))
