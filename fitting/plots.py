@@ -14,7 +14,7 @@ from stickslip_jax.output import save_figure
 
 import numpy as np
 
-__all__ = ["corner_plot", "fit_figure", "fitted_traces", "friction_curves"]
+__all__ = ["corner_plot", "fit_figure", "fitted_traces", "friction_curves", "residual_panel"]
 
 
 def _plt():
@@ -94,16 +94,66 @@ def fitted_traces(fit, records):
     return out
 
 
+PHASE_ORDER = ("levels", "stick_times", "start_level", "trace_stick", "trace_slip")
+"""The phases of `stickslip_fitting.adequacy` in the order the residual panel shows them."""
+
+
+def residual_panel(report, ax=None):
+    """chi2/n of the residuals by record and phase (one panel; returns its `Figure`, drawn
+    on `ax` when given): for each record a group of bars, one per phase of `report`, a
+    `stickslip_fitting.adequacy.Adequacy` (`adequacy(fit)`): levels, stick times, the first
+    plateau (`--offset start`), the trace objective's stick and slip samples (trace and
+    combined fits). chi2/n is in the records' own errors, so 1 is "to the noise"; dashed
+    lines at `GOOD` and `BAD`, log scale. Each phase is one `BarContainer` labelled with
+    the phase, its bars in record order, NaN where a record has no residual in the phase.
+    Example: `residual_panel(adequacy(fit))`.
+    """
+    from .adequacy import BAD, GOOD
+
+    if ax is None:
+        fig, ax = _plt().subplots(figsize=(8, 3.5))
+    else:
+        fig = ax.figure
+    records = list(dict.fromkeys(r.record for r in report.rows))
+    phases = [p for p in PHASE_ORDER if any(r.phase == p for r in report.rows)]
+    phases += sorted({r.phase for r in report.rows} - set(phases))
+    value = {(r.record, r.phase): r.chi2_per_n for r in report.rows}
+    x = np.arange(len(records))
+    width = 0.8 / max(len(phases), 1)
+    for j, phase in enumerate(phases):
+        heights = [value.get((rec, phase), np.nan) for rec in records]
+        ax.bar(x + (j - (len(phases) - 1) / 2) * width, heights, width, label=phase)
+    ax.axhline(GOOD, color="0.3", ls="--", lw=0.8)
+    ax.axhline(BAD, color="tab:red", ls="--", lw=0.8)
+    ax.set_yscale("log")
+    from matplotlib.ticker import FormatStrFormatter, LogLocator
+
+    ax.yaxis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
+    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
+    ax.yaxis.set_minor_formatter(FormatStrFormatter("%g"))
+    ax.set_xticks(x, records, rotation=30, ha="right", fontsize=7)
+    ax.set(ylabel="chi2/n (records' errors)",
+           title=f"residuals by record and phase (1 = to the noise; dashed: {GOOD:g}, "
+                 f"{BAD:g}); verdict: {report.verdict}")
+    ax.legend(fontsize=7, ncols=len(phases) or 1)
+    return fig
+
+
 def fit_figure(fit, unc, records, path=None, max_traces: int = 4):
     """The diagnostic figure (returned; saved to `path` when given): the first
     `max_traces` records with the fitted simulation (`fitted_traces`) and breakaway levels
     over them, mu_0 against T1 with the fitted eq (1) and its 95 % band, mu_m against T2
-    with the fitted eq (3)."""
+    with the fitted eq (3), the parameters, and below the residuals' chi2/n by record and
+    phase of `stickslip_fitting.adequacy` (`residual_panel`, every record of the fit)."""
     import jax.numpy as jnp
+
+    from .adequacy import adequacy
 
     plt = _plt()
     n = min(max_traces, len(records))
-    fig, axes = plt.subplots(2, 2, figsize=(11, 8))
+    fig = plt.figure(figsize=(11, 11.5))
+    layout = fig.add_gridspec(3, 2, height_ratios=(1, 1, 0.85))
+    axes = np.array([[fig.add_subplot(layout[i, j]) for j in range(2)] for i in range(2)])
     ax = axes[0, 0]
     offset = np.asarray(fit.params.offset)
     fr = fit.params.friction.friction()
@@ -164,6 +214,7 @@ def fit_figure(fit, unc, records, path=None, max_traces: int = 4):
         ("(fixed)" if r["fixed"] else "(not identifiable)")) for r in unc.table()]
     lines.append(f"chi2/dof = {fit.reduced_chi2:.3g}")
     ax.text(0.0, 1.0, "\n".join(lines), va="top", family="monospace", fontsize=10)
+    residual_panel(adequacy(fit), ax=fig.add_subplot(layout[2, :]))
     fig.tight_layout()
     return _finish(fig, path, 110)
 
