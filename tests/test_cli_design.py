@@ -62,6 +62,9 @@ def test_design_posterior_and_line_plot(capsys, tmp_path):
     (["--weight", "10:60:3", "--stiffness", "20:90:3", "--speed", "1:9:3", "--out", "x.png"],
      "--out"),
     (["--posterior", "missing.csv", *GRID], "--posterior"),
+    (["--max-amplitude", "1um", "--meet", "1.5", *GRID], "--meet"),  # was after the map
+    (["--weight", "10:60:3", "--stiffness", "20:90:3", "--speed", "1:9:3", "--max-amplitude",
+      "1um", "--plot", "x.png"], "--plot"),
 ])
 def test_design_errors_are_one_line(capsys, argv, needle):
     assert main(["design", *argv]) == 2

@@ -288,6 +288,17 @@ def to_json(args, res) -> dict:
 LABELS = {"weight": "W [kgf]", "stiffness": "k [kgf/mm]", "speed": "v [mm/min]"}
 
 
+def _figure_grid(args, axes) -> list[str]:
+    """The grid axes a figure shows (one or two); a ValueError naming the figure's option
+    otherwise (`run` checks it before the map is computed)."""
+    grid = [n for n in ("weight", "stiffness", "speed") if axes[n].size > 1]
+    if len(grid) == 0 or len(grid) > 2:
+        raise ValueError(f"{args.plot_option}: a figure needs one or two of "
+                         "--weight/--stiffness/--speed "
+                         f"as START:STOP:COUNT grids, got {len(grid)}")
+    return grid
+
+
 def plot(args, res, path):
     """Amplitude and v_c maps (2 grid axes) or curves (1 grid axis), boundary drawn."""
     import matplotlib
@@ -296,11 +307,7 @@ def plot(args, res, path):
     import matplotlib.pyplot as plt
 
     axes = res["axes"]
-    grid = [n for n in ("weight", "stiffness", "speed") if axes[n].size > 1]
-    if len(grid) == 0 or len(grid) > 2:
-        raise ValueError(f"{args.plot_option}: a figure needs one or two of "
-                         "--weight/--stiffness/--speed "
-                         f"as START:STOP:COUNT grids, got {len(grid)}")
+    grid = _figure_grid(args, axes)
     scale = {"weight": 1.0, "stiffness": 1.0, "speed": 60.0}
     squeeze = tuple(i for i, n in enumerate(("weight", "stiffness", "speed")) if n not in grid)
     panels = [("amplitude", "amplitude a [mm]", 1.0), ("critical_speed", "v_c [mm/min]", 60.0)]
@@ -375,6 +382,10 @@ def run(args) -> int:
                    "--netcdf": args.netcdf},
                   [args.posterior] if args.posterior else [])
     _damping(args)
+    if args.plot:
+        _figure_grid(args, _axes(args))  # a figure the grid cannot give: before the work
+    if args.max_amplitude is not None:
+        _check_tolerance_options(args)
     if args.netcdf:
         from ..design.netcdf import import_xarray
 
@@ -436,6 +447,14 @@ def run(args) -> int:
     return 0
 
 
+def _check_tolerance_options(args) -> None:
+    """--meet and --max-amplitude in range (`run` checks them before the map)."""
+    if not 0 < args.meet < 1:
+        raise ValueError(f"--meet: must lie between 0 and 1, e.g. 0.95, got {args.meet}")
+    if not args.max_amplitude > 0:
+        raise ValueError(f"--max-amplitude: must be positive, got {args.max_amplitude}")
+
+
 def tolerance(args, res) -> dict:
     """--max-amplitude: the meet probability on the grid and, per (W, v), the stiffness
     that meets the tolerance (`stickslip_fitting.design.tolerance`)."""
@@ -444,10 +463,7 @@ def tolerance(args, res) -> dict:
     from ..design import load_samples, outer
     from ..design.tolerance import meet_probability, required_stiffness
 
-    if not 0 < args.meet < 1:
-        raise ValueError(f"--meet: must lie between 0 and 1, e.g. 0.95, got {args.meet}")
-    if not args.max_amplitude > 0:
-        raise ValueError(f"--max-amplitude: must be positive, got {args.max_amplitude}")
+    _check_tolerance_options(args)
     if args.posterior:
         sample = load_samples(args.posterior)
     else:
