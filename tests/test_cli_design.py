@@ -128,10 +128,23 @@ def test_long_csv_matches_the_json_map(capsys, tmp_path):
     df = pd.read_csv(out_csv)
     doc = json.loads(out_json.read_text())
     assert len(df) == 2 * 3 * 2
-    assert list(df.columns[:3]) == ["weight_kgf", "stiffness_kgf_mm", "speed_mm_min"]
+    # the JSON's names (issue 20: one name per quantity; the CSV cannot carry aliases)
+    assert list(df.columns[:3]) == ["weight_kgf", "stiffness_kgf_per_mm",
+                                    "drive_speed_mm_per_min"]
     np.testing.assert_allclose(df["amplitude_mm"], np.ravel(doc["amplitude_mm"]), rtol=1e-9)
-    np.testing.assert_allclose(df["speed_mm_min"],
-                               np.tile(doc["axes"]["speed_mm_min"], 6), rtol=1e-9)
+    np.testing.assert_allclose(df["drive_speed_mm_per_min"],
+                               np.tile(doc["axes"]["drive_speed_mm_per_min"], 6), rtol=1e-9)
+    np.testing.assert_allclose(df["stiffness_kgf_per_mm"],
+                               np.tile(np.repeat(doc["axes"]["stiffness_kgf_per_mm"], 2), 2))
+    np.testing.assert_allclose(df["critical_speed_mm_per_min"],
+                               np.ravel(doc["critical_speed_mm_per_min"]), rtol=1e-9)
+    # every column that is also a JSON key of the map has that key's name and values
+    shared = [c for c in df.columns if c in doc and c not in ("regime", "stick_slip",
+                                                              "converged")]
+    assert len(shared) >= 6, shared
+    for c in shared:
+        np.testing.assert_allclose(df[c], np.ravel(doc[c]), rtol=1e-9, err_msg=c)
+    assert not set(df.columns) & set(doc["deprecated_keys"])  # no old name in the CSV
     assert set(df["regime"]) <= {"stick-slip", "re-stick failure", "steady sliding"}
     np.testing.assert_allclose(df["probability_met"],
                                np.ravel(doc["tolerance"]["probability_met"]))

@@ -62,6 +62,11 @@ UNSUFFIXED_COMPOUND = re.compile(r"_(kgf|mm|um|n)_(mm|min|s|um)$")
 """A compound unit written without `_per_` (`_kgf_mm`, `_mm_min`): ambiguous, not the
 convention (`_kgf_per_mm`, `_mm_per_min`)."""
 
+ROWS = ("records",)
+"""Keys that hold one object per item in every command (`fit`, `discover`: the screening
+of every record; `plan`: the proposed records; `pitch`: per record file), never a list of
+names (mcmc's names are `record_names`)."""
+
 SKIP = {"units"}
 """Subtrees whose keys name kinds of quantity, not values (pitch's `units` map)."""
 
@@ -163,6 +168,13 @@ def problems(docs: dict[str, dict]) -> list[str]:
                 out.append(f"{command}: {key} at {sorted(paths)} is {canonical[key]} elsewhere")
             if UNSUFFIXED_COMPOUND.search(key):
                 out.append(f"{command}: {key}: compound unit without _per_")
+        deprecated = doc.get("deprecated_keys", {})
+        for path, d in _dicts(doc):
+            for key in ROWS:
+                if key in d and not (key in deprecated and deprecated[key] in d):
+                    value = d[key]
+                    if not (isinstance(value, list) and all(isinstance(v, dict) for v in value)):
+                        out.append(f"{command}: {path}.{key} is not a list of objects")
         for old, new in doc.get("deprecated_keys", {}).items():
             used = [p for p, d in _dicts(doc) if old in d and new in d]
             if not used:
@@ -206,8 +218,10 @@ def test_old_keys_are_kept_for_one_release(documents):
     assert documents["discover"]["noise"] == documents["discover"]["noise_mm"]
     rec = documents["pitch"]["records"][0]
     assert rec["offset_mm"] == rec["drive_offset_mm"] == pytest.approx(30.0)
-    for name in ("fit", "mcmc"):  # nothing renamed: no aliases
-        assert "deprecated_keys" not in documents[name]
+    mcmc = documents["mcmc"]  # its list of names was "records", objects elsewhere
+    assert mcmc["deprecated_keys"] == {"records": "record_names"}
+    assert mcmc["records"] == mcmc["record_names"]
+    assert "deprecated_keys" not in documents["fit"]  # nothing renamed: no aliases
 
 
 @pytest.mark.parametrize("name", JSON_COMMANDS)
@@ -222,8 +236,26 @@ def test_aliases_are_declared_by_the_command(documents, name):
     assert listed == {aliases[new]: new for new in listed.values()}
     for new, old in aliases.items():
         assert new not in SYNONYMS.get(old, ()), (new, old)
-        assert old in SYNONYMS.get(new, ()) or new in ("max_amplitude_mm", "mean_um"), \
+        # record_names: a change of meaning (records holds objects), not a synonym
+        assert old in SYNONYMS.get(new, ()) or new in ("max_amplitude_mm", "mean_um",
+                                                       "record_names"), \
             f"{name}: {old} -> {new} missing from SYNONYMS"
+
+
+def test_records_is_one_structure_in_every_command(documents):
+    """`records`: a non-empty list of objects wherever a command writes it under that name
+    (mcmc's list of names is `record_names`, `records` only as its deprecated alias)."""
+    has = {c for c, doc in documents.items() if "records" in current_keys(doc)}
+    assert has == {"fit", "discover", "plan", "pitch"}
+    for command in has:
+        rows = documents[command]["records"]
+        assert rows and all(isinstance(r, dict) for r in rows), command
+    for command in ("fit", "discover"):  # the screening of every record, by name
+        assert {"name", "status"} <= set(documents[command]["records"][0]), command
+    mcmc = documents["mcmc"]
+    assert all(isinstance(n, str) for n in mcmc["record_names"])
+    assert mcmc["record_names"] == [r["name"] for r in mcmc["records_screened"]
+                                    if r["status"] == "used"]
 
 
 def test_the_check_catches_synonyms_and_missing_versions():
@@ -236,6 +268,10 @@ def test_the_check_catches_synonyms_and_missing_versions():
     assert any("ak_over_W" in p for p in found)
     assert any("fit: schema_version" in p for p in found)
     assert any("noise" in p for p in found)
+    names = {"schema_version": SCHEMA_VERSION, "records": ["r1.csv", "r2.csv"]}
+    assert problems({"mcmc": names}) == ["mcmc: .records is not a list of objects"]
+    assert problems({"mcmc": versioned({"record_names": ["r1.csv"]}, {"record_names": "records"})}
+                    ) == []  # the deprecated alias beside its new key is fine
     # an alias is fine only beside its new key with the same value
     doc = versioned({"a": [{"stiffness_kgf_per_mm": 2.0}]}, {"stiffness_kgf_per_mm": "k_kgf_mm"})
     assert doc["deprecated_keys"] == {"k_kgf_mm": "stiffness_kgf_per_mm"}

@@ -84,7 +84,9 @@ def test_chain_opens_with_arviz_and_gives_the_json_means(run):
     assert json.loads(attrs["units"])["gamma"] == "s^-m"
     assert int(attrs["walkers"]) == WALKERS and int(attrs["burn"]) == BURN
     assert "not independent chains" in attrs["note"]
-    assert json.loads(attrs["records"]) == doc["records"]
+    names = json.loads(attrs["record_names"])
+    assert names == doc["record_names"] == json.loads(attrs["records"])  # old name, 1 release
+    assert names == [r["name"] for r in doc["records_screened"] if r["status"] == "used"]
 
 
 def test_chain_written_atomically(run):

@@ -245,7 +245,8 @@ JSON_ALIASES = {
 }
 """JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
 their old names, still written beside them for one release (`deprecated_keys`). The
---csv columns keep their names."""
+--csv columns have the same new names (`CSV_COLUMNS`; a CSV header cannot carry aliases,
+so they were renamed at once)."""
 
 
 def to_json(args, res) -> dict:
@@ -494,7 +495,7 @@ CSV_COLUMNS = (  # (key in the map, column, factor from internal units)
     ("frequency", "frequency_hz", 1.0),
     ("frequency_ratio", "frequency_ratio", 1.0),
     ("stick_time", "stick_time_s", 1.0),
-    ("critical_speed", "critical_speed_mm_min", 60.0),
+    ("critical_speed", "critical_speed_mm_per_min", 60.0),
     ("probability", "probability_stick_slip", 1.0),
     ("stick_slip", "stick_slip", 1),
     ("converged", "converged", 1),
@@ -502,9 +503,10 @@ CSV_COLUMNS = (  # (key in the map, column, factor from internal units)
 
 
 def long_csv(res) -> str:
-    """The map as long-format CSV text: columns weight_kgf, stiffness_kgf_mm,
-    speed_mm_min, then every quantity the map has (`CSV_COLUMNS`), `regime` by name and,
-    with --max-amplitude, `probability_met`."""
+    """The map as long-format CSV text: columns weight_kgf, stiffness_kgf_per_mm,
+    drive_speed_mm_per_min, then every quantity the map has (`CSV_COLUMNS`), `regime` by
+    name and, with --max-amplitude, `probability_met`; the JSON's key names (the columns
+    `stiffness_kgf_mm`, `speed_mm_min`, `critical_speed_mm_min` until issue 20)."""
     from stickslip_jax.steady import REGIMES
 
     from ..design import outer
@@ -512,7 +514,7 @@ def long_csv(res) -> str:
     axes = res["axes"]
     w, k, v = (np.broadcast_to(a, res["amplitude"].shape).ravel()
                for a in outer(axes["weight"], axes["stiffness"], axes["speed"]))
-    cols = {"weight_kgf": w, "stiffness_kgf_mm": k, "speed_mm_min": v * 60.0}
+    cols = {"weight_kgf": w, "stiffness_kgf_per_mm": k, "drive_speed_mm_per_min": v * 60.0}
     for key, name, factor in CSV_COLUMNS:
         if key in res:
             x = np.asarray(res[key]).ravel()

@@ -23,6 +23,12 @@ import argparse
 NAME = "mcmc"
 HELP = "sample the posterior of the friction parameters (emcee) for a campaign of records"
 
+JSON_ALIASES = {"record_names": "records"}
+"""JSON keys renamed -> their old names, still written beside them for one release
+(`deprecated_keys`): the names of the records sampled were `records`, which in `fit`,
+`discover`, `plan` and `pitch` holds one object per record; `records_screened` has
+mcmc's objects (the screening of every record given)."""
+
 
 def add_arguments(parser):
     parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
@@ -167,7 +173,8 @@ def run(args) -> int:
     # the chain file's attributes besides the result's own (likelihood scale, units, ...)
     attrs = {"model": args.model, "objective": args.objective,
              "loss": loss_of(fit.objective).spec(), "seed": args.seed,
-             "records": [f.name for f in fit.features],
+             "record_names": [f.name for f in fit.features],
+             "records": [f.name for f in fit.features],  # old name, one release (JSON)
              "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
     idata = None
     try:
@@ -192,14 +199,14 @@ def run(args) -> int:
             "interrupted": res.interrupted,
             "likelihood_scale": res.likelihood_scale, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
             "acceptance": res.acceptance, "warnings": res.warnings,
-            "records": [f.name for f in fit.features],
+            "record_names": [f.name for f in fit.features],
             "records_screened": [s.to_json() for s in campaign.screening],
             # the draws, in the layout of stickslip_fitting.design.posterior.load_samples
             "names": list(res.names), "samples": thinned_draws(res.samples, args.draws).tolist(),
             "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
         if extra:
             out.update(extra)
-        write_json(args.json, versioned(out))
+        write_json(args.json, versioned(out, JSON_ALIASES))
         if args.json != "-":
             print(f"wrote {args.json}")
     if args.chain:
