@@ -140,9 +140,9 @@ def run(args) -> int:
                 "keeps the chain so far)")
     res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
                    progress=not (args.quiet or args.no_progress))
+    res.warnings.extend(_fixed_misfit(fit, res.names))
     logger.info(f"sampling {'interrupted' if res.interrupted else 'done'}: acceptance "
                 f"{res.acceptance:.2f}")
-    res.warnings.extend(_fixed_misfit(fit, res.names))
     summary = res.summary()
     units = res.units
     truth = find_truth(records, list(fit.values))
