@@ -21,6 +21,7 @@ import os
 import sys
 import time
 
+import numpy as np
 import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
@@ -145,7 +146,59 @@ def test_discovery_rates_meet_the_issue_targets(rows):
     assert s["found_gap_ok"]
 
 
+POWER = {
+    "viscous_damping": ("physics", "damping_ratio", (0.02, 0.1, 0.4)),
+    "stribeck": ("physics", "stribeck_b", (0.015, 0.04, 0.1)),
+    "drive_periodic_error": ("imp", "screw_amp_mm", (0.002, 0.005, 0.02)),
+    "sensor_lowpass": ("imp", "sensor_hz", (60.0, 40.0, 20.0)),
+    "friction_drift": ("physics", "drift_mu_s", (-1e-4, -5e-4)),
+}
+"""The power sweep (`python tests/test_cycle_discovery_rates.py --power`): each effect at
+growing sizes (the second-order sensor with damping ratio 0.7; friction drift with
+mu_d drifting at half mu_s's rate), both lubricants."""
+
+
+def power_campaigns():
+    out = []
+    for i, (name, (arg, field, sizes)) in enumerate(POWER.items()):
+        for j, size in enumerate(sizes):
+            kw = {field: size}
+            if field == "sensor_hz":
+                kw["sensor_order"] = 2
+            if field == "drift_mu_s":
+                kw["drift_mu_d"] = 0.5 * size
+            value = P(**kw) if arg == "physics" else I(**kw)
+            for lube_i, lube in enumerate(LUBES):
+                out.append((f"{name}/{field}={size:g}/{'AC'[lube_i]}", 400 + 10 * i + j, lube,
+                            {arg: value}))
+    return out
+
+
+def visible(row) -> float:
+    """The effect's visible size: the excess RMS of the paper's model over the noise
+    (sqrt(gap^2 / noise^2 - 1); what the base model cannot absorb)."""
+    return float(np.sqrt(max(row["gap_before"] ** 2 - 1.0, 0.0)))
+
+
+def power_table(rows) -> str:
+    lines = [f"{'effect / size / lubricant':44s} {'answer':30s} {'conf':5s} "
+             f"{'visible':>8s} {'gap after':>9s} {'found':>6s}"]
+    for r in rows:
+        fam = r["kind"].split("/")[0]
+        hit = bool(r["named"] & EFFECTS[fam][0])
+        lines.append(f"{r['kind']:44s} {'+'.join(sorted(r['named'])):30s} {r['confidence']:5s} "
+                     f"{visible(r):8.2f} {r['gap_after']:9.2f} {'yes' if hit else 'no':>6s}")
+    return "\n".join(lines)
+
+
 if __name__ == "__main__":
+    if sys.argv[1:2] == ["--power"]:
+        rows = []
+        for k, s, lube, kw in power_campaigns():
+            rows.append(run_one(k, s, lube, **kw))
+            print(power_table(rows[-1:]).splitlines()[-1], flush=True)
+        print(power_table(rows))
+        sys.exit(0)
     n = int(sys.argv[1]) if len(sys.argv) > 1 else 20
     rows = []
     for k, s, lube, kw in campaigns(n):

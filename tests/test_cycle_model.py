@@ -48,15 +48,16 @@ def test_base_equals_exact_trace(setup):
     assert np.max(np.abs(r - exact)) < 1e-3
 
 
-@pytest.mark.parametrize("name", ["viscous_damping", "stribeck", "drive_speed_drift",
-                                  "friction_drift", "load_coupling", "gauge_drift"])
+@pytest.mark.parametrize("name", ["viscous_damping", "stribeck", "rate_state",
+                                  "drive_speed_drift", "friction_drift", "load_coupling",
+                                  "gauge_drift"])
 def test_jacobian_matches_finite_differences(setup, name):
     model, z, *_ = setup
-    cols = model.cols(family(name))[:1]
+    cols = model.cols(family(name))[:2]  # (rate_state: a and b; friction_drift: r_s, r_d)
     cols = np.concatenate([[0, 3], cols])
     shape = Shape()
     z1 = z.copy()
-    z1[cols[-1]] = 0.5  # away from zero: the derivative of a present effect
+    z1[cols[2:]] = 0.5  # away from zero: the derivative of a present effect
     r, J, ok = model.evaluate(z1, cols, shape)
     for j, c in enumerate(cols):
         h = 1e-5
@@ -211,3 +212,29 @@ def test_unphysical_values_are_named():
     assert "lifts" in family("load_coupling").unphysical(np.array([2.0]))
     assert {f.name for f in FAMILIES} >= {"viscous_damping", "stribeck", "sensor_lowpass",
                                           "drive_periodic_error", "friction_drift"}
+
+
+def test_rate_and_state_signs(setup):
+    """Dieterich-Ruina in the slip: the evolution effect (b > 0, friction falling as the
+    contact renews) lengthens the slip; the direct effect (a > 0, friction rising with
+    speed) shortens it; the stick before the breakaway is unchanged."""
+    model, z, *_ = setup
+    a_col, b_col = model.cols(family("rate_state"))
+    mask = np.asarray(model.data.mask)
+    _, yd, _ = model.residuals(z)
+    row = int(np.argmax([(mask[i] & (yd[i] > 0)).any() for i in range(len(mask))]))
+    sl = _row_slice(model, row)
+    sd = np.asarray(model.sd)[row][mask[row]]
+    x = np.asarray(model.data.deflection)[row][mask[row]]
+
+    def reading(**coef):
+        z1 = z.copy()
+        for col, v in ((a_col, coef.get("a", 0.0)), (b_col, coef.get("b", 0.0))):
+            z1[col] = v / 1e-3
+        return x - model.residuals(z1)[0][sl] * sd
+
+    base, weak, strong = reading(), reading(b=0.005), reading(a=0.005)
+    before = ~(yd[row][mask[row]] > 0).cumsum().astype(bool)
+    assert np.allclose(weak[before], base[before]) and np.allclose(strong[before], base[before])
+    # the deepest point of the slip (the window ends where the measured slip ends)
+    assert weak.min() < base.min() - 1e-4 < strong.min() - 2e-4  # mm

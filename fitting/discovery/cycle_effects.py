@@ -8,8 +8,8 @@ exactly, so a family is a set of forms, not one formula. Units are internal (kgf
 | name | enters the per-cycle model as | parameters | shapes scanned |
 |---|---|---|---|
 | `viscous_damping` | slip force $-c\,\dot y$ | c kgf s/mm | - |
-| `stribeck` | slip friction $+b\,e^{-(\dot y/v_s)^p}$ (falls with slip speed) | b (-) | $v_s$ 3, 10, 30 mm/s; p 1, 2 |
-| `rate_state` | slip friction $+b\,e^{-y/L}$ (weakens with slip distance) | b (-) | L 0.01, 0.03, 0.1 mm |
+| `stribeck` | slip friction $+b\,s(\dot y/v_s)$, falling with slip speed: $s(w) = e^{-w^p}$, or $-\ln(1 + w)$ (velocity weakening without a floor, rate-and-state's steady state) | b (-) | exponential: $v_s$ 3, 10, 30 mm/s, p 1, 2; logarithmic: $v_s$ 1, 10 mm/s |
+| `rate_state` | slip friction $+a\ln(1 + \dot y/V_\mathrm{ref}) + b\ln(\theta/\theta_b)$, Dieterich-Ruina with the aging law $\dot\theta = 1 - \dot y\theta/D_c$ | a, b (-) | $D_c$ 0.01, 0.03, 0.1 mm |
 | `drive_periodic_error` | drive $u + \sum_{h=1,2} a_h \sin(2\pi h u/\lambda) + b_h\cos(\dots)$, per record | 4 per record, mm | $\lambda$ 1-10 mm |
 | `drive_speed_drift` | drive speed $v(1 + s\,(t - t_\mathrm{mid}))$ | s 1/s | - |
 | `sensor_lowpass` | gauge reads $x$ through a low-pass of mean delay $\tau$ | $\tau$ s | order 1; order 2 with damping ratio 0.4-1 |
@@ -62,10 +62,11 @@ def drive_error_range(coef, t, speed, pitch) -> float:
 @dataclasses.dataclass(frozen=True)
 class Shape:
     """Shape settings of the model (traced values, so one compilation serves every
-    shape): Stribeck speed scale `vs` (mm/s) and exponent `p`, slip-weakening length
-    `length` (mm), screw pitch `pitch` (mm), sensor kernel `order` (1: first-order
-    low-pass, 2: second order) and, for order 2, its damping ratio `zeta` (1: critically
-    damped)."""
+    shape): Stribeck speed scale `vs` (mm/s) and exponent `p`, rate-and-state
+    characteristic slip distance D_c `length` (mm), screw pitch `pitch` (mm), sensor
+    kernel `order` (1: first-order low-pass, 2: second order) and, for order 2, its
+    damping ratio `zeta` (1: critically damped); `log`: the logarithmic Stribeck curve $-\\ln(1 + v/v_s)$ instead of
+    $e^{-(v/v_s)^p}$."""
 
     vs: float = 10.0
     p: float = 1.0
@@ -73,12 +74,15 @@ class Shape:
     pitch: float = 5.0
     order: int = 1
     zeta: float = 1.0
+    log: bool = False
 
     def label(self, fam: "Family") -> str:
-        keys = {"stribeck": ("vs", "p"), "rate_state": ("length",),
+        keys = {"stribeck": ("vs", "log") if self.log else ("vs", "p"), "rate_state": ("D_c",),
                 "drive_periodic_error": ("pitch",),
                 "sensor_lowpass": ("order",) if self.order == 1 else ("order", "zeta")}
-        return ", ".join(f"{k} = {getattr(self, k):g}" for k in keys.get(fam.name, ()))
+        value = {"vs": self.vs, "p": self.p, "D_c": self.length, "pitch": self.pitch,
+                 "order": self.order, "zeta": self.zeta, "log": int(self.log)}
+        return ", ".join(f"{k} = {value[k]:g}" for k in keys.get(fam.name, ()))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -121,11 +125,15 @@ FAMILIES: tuple[Family, ...] = (
            "Kinetic friction falls with slip speed (a Stribeck curve): the slip starts "
            "against higher friction than it ends with.",
            ("b",), ("-",), (0.01,), (1,), (0.5,), "a friction step larger than mu itself",
-           shapes=tuple(Shape(vs=vs, p=p) for vs in (3.0, 10.0, 30.0) for p in (1.0, 2.0))),
+           shapes=tuple(Shape(vs=vs, p=p) for vs in (3.0, 10.0, 30.0) for p in (1.0, 2.0))
+           + tuple(Shape(vs=vs, log=True) for vs in (1.0, 10.0))),
     Family("rate_state",
-           "Friction weakens over a short slip distance (rate-and-state / slip weakening): "
-           "extra friction at the start of each slip that decays with the distance slid.",
-           ("b",), ("-",), (0.01,), (1,), (0.5,), "a friction step larger than mu itself",
+           "Rate-and-state friction (Dieterich-Ruina): friction rises with the slip speed "
+           "(direct effect a) and falls as the contact state renews over a slip distance "
+           "D_c (evolution effect b), so each slip starts against the friction the stick "
+           "has aged to and ends against less.",
+           ("a", "b"), ("-", "-"), (0.001, 0.001), (1, 0), (0.1, 0.1),
+           "rate-and-state coefficients above 0.1 (lubricated metals: 0.001-0.02)",
            shapes=tuple(Shape(length=L) for L in (0.01, 0.03, 0.1))),
     Family("drive_periodic_error",
            "The drive is not u = v t: a periodic error of the lead screw (first and second "

@@ -13,7 +13,10 @@ the effects of `cycle_effects` enter as parts of it:
   (load coupling) and $\mu_s$, $\mu_d$ shifted by friction drift; found by a bracketed
   Newton iteration whose last step carries the derivative (implicit function theorem);
 - **slip** (RK4, fixed step, `N_STEPS` over 2.5 $\pi/\omega_0$):
-  $m\ddot y = k x - N(\mu_m + b_S e^{-(\dot y/v_s)^p} + b_R e^{-y/L}) - c\dot y$,
+  $m\ddot y = k x - N(\mu_m + b_S s(\dot y/v_s) + a \ln(1 + \dot y/V_\mathrm{ref})
+  + b \ln(\theta/\theta_b)) - c\dot y$ with the Dieterich-Ruina state $\theta$ (aging
+  law $\dot\theta = 1 - \dot y\theta/D_c$, $\theta_b = T_1 + D_c/V_\mathrm{ref}$ at the
+  breakaway, `DR_V_REF`) and the Stribeck curve $s(w) = e^{-w^p}$ or $-\ln(1 + w)$,
   $x = x_b + \dot u(t_b)(t - t_b) - y$, $\mu_m$ from eq (3) with $T_2 = \pi/\omega_0$ (eq 7);
   the slider stops where $\dot y$ first returns to 0 (interpolated), and sticks again;
 - **measurement**: the gauge reads $c_r + (K * x)(t) + r_g (t - t_\mathrm{mid})$ with gauge
@@ -71,6 +74,8 @@ BLOCK = 8
 """Tangents per compiled forward-mode call (`CycleModel.evaluate`)."""
 NEWTON = 40
 """Bracketed Newton iterations for the breakaway time."""
+DR_V_REF = 1.0
+"""mm/s: reference speed of the rate-and-state direct effect a ln(1 + V / V_REF)."""
 TAIL_STEPS = 256
 """Nodes (RK4 steps of the slip grid) over which the sensor kernel's convolution runs:
 the slip and 1.5 times its grid after it, where the gauge settles (read by the next
@@ -112,6 +117,7 @@ class _Eff(eqx.Module):
 
     c: jax.Array
     b_st: jax.Array
+    a_rs: jax.Array
     b_rs: jax.Array
     drive: jax.Array  # [4]
     s: jax.Array
@@ -127,8 +133,8 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
     velocity [L]; ok; tail). `sensor` (static): the kernel convolution (module doc);
     tail = (what the gauge still owes of this row's slip on the grid t_b + n h
     [TAIL_STEPS] (mm), t_b, h), read by the next window (`_model`)."""
-    vs, p, length, pitch, order, zeta = (shape[0], shape[1], shape[2], shape[3], shape[4],
-                                         shape[5])
+    vs, p, length, pitch, order, zeta, log_form = (shape[0], shape[1], shape[2], shape[3],
+                                                   shape[4], shape[5], shape[6])
     if sensor:
         # the measured restart state is a reading: the slider's own clock is tau earlier
         tau = jnp.maximum(eff.tau, 1e-7)
@@ -184,27 +190,41 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
     vdrive = jax.jvp(u, (t_b,), (jnp.ones_like(t_b),))[1]
     h = 2.5 * T2 / N_STEPS
 
-    def rhs(tau, y, yd):
+    # rate-and-state (Dieterich-Ruina, aging law): the state theta grew through the stick
+    # (theta_b = T1 + D_c / V_REF at the breakaway) and relaxes towards D_c / V in the
+    # slip; carried as l = ln(theta / theta_b), dl/dt = theta_b^-1 e^-l - V / D_c
+    theta_b = T + length / DR_V_REF
+
+    def rhs(tau, y, yd, lth):
         x = x_b + vdrive * tau - y
         N = W + eff.kappa * k * x
-        speed = jnp.abs(yd) / vs
-        mu = (mu_m + eff.b_st * jnp.exp(-safe_power(speed, p))
-              + eff.b_rs * jnp.exp(-y / length))
-        return (k * x - N * mu - eff.c * yd) / mass
+        V = jnp.abs(yd)
+        # the Stribeck curve: exponential, or logarithmic (velocity weakening without a
+        # floor, as rate-and-state friction's steady state)
+        fall = jnp.where(log_form > 0, -jnp.log1p(V / vs), jnp.exp(-safe_power(V / vs, p)))
+        mu = (mu_m + eff.b_st * fall
+              + eff.a_rs * jnp.log1p(V / DR_V_REF) + eff.b_rs * lth)
+        dl = jnp.exp(-jnp.maximum(lth, -30.0)) / theta_b - V / length
+        return (k * x - N * mu - eff.c * yd) / mass, dl
 
     def rk4(state, i):
-        y, yd = state
+        y, yd, lth = state
         tau = i * h
-        k1y, k1v = yd, rhs(tau, y, yd)
-        k2y, k2v = yd + 0.5 * h * k1v, rhs(tau + 0.5 * h, y + 0.5 * h * k1y, yd + 0.5 * h * k1v)
-        k3y, k3v = yd + 0.5 * h * k2v, rhs(tau + 0.5 * h, y + 0.5 * h * k2y, yd + 0.5 * h * k2v)
-        k4y, k4v = yd + h * k3v, rhs(tau + h, y + h * k3y, yd + h * k3v)
+        k1v, k1l = rhs(tau, y, yd, lth)
+        k1y = yd
+        k2y = yd + 0.5 * h * k1v
+        k2v, k2l = rhs(tau + 0.5 * h, y + 0.5 * h * k1y, k2y, lth + 0.5 * h * k1l)
+        k3y = yd + 0.5 * h * k2v
+        k3v, k3l = rhs(tau + 0.5 * h, y + 0.5 * h * k2y, k3y, lth + 0.5 * h * k2l)
+        k4y = yd + h * k3v
+        k4v, k4l = rhs(tau + h, y + h * k3y, k4y, lth + h * k3l)
         new = (y + h / 6 * (k1y + 2 * k2y + 2 * k3y + k4y),
-               yd + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v))
-        return new, new
+               yd + h / 6 * (k1v + 2 * k2v + 2 * k3v + k4v),
+               lth + h / 6 * (k1l + 2 * k2l + 2 * k3l + k4l))
+        return new, new[:2]
 
     zero = jnp.zeros_like(x_b)
-    _, (Y, YD) = jax.lax.scan(rk4, (zero, zero), jnp.arange(N_STEPS, dtype=float))
+    _, (Y, YD) = jax.lax.scan(rk4, (zero, zero, zero), jnp.arange(N_STEPS, dtype=float))
     Y = jnp.concatenate([zero[None], Y])
     YD = jnp.concatenate([zero[None], YD])
     stopped = YD[1:] <= 0
@@ -306,7 +326,8 @@ def _effects_of(layout: _Layout, theta, record):
 
     a = layout.first("drive_periodic_error") - layout.n_base
     drive = jax.lax.dynamic_slice(theta, (a + 4 * record,), (4,))
-    return _Eff(c=one("viscous_damping"), b_st=one("stribeck"), b_rs=one("rate_state"),
+    return _Eff(c=one("viscous_damping"), b_st=one("stribeck"), a_rs=one("rate_state"),
+                b_rs=one("rate_state", 1),
                 drive=drive, s=one("drive_speed_drift"), tau=one("sensor_lowpass"),
                 r_s=one("friction_drift"), r_d=one("friction_drift", 1),
                 r_g=one("gauge_drift"), kappa=one("load_coupling"))
@@ -426,7 +447,7 @@ class CycleModel:
     @staticmethod
     def _shape(shape: Shape):
         return jnp.asarray([shape.vs, shape.p, shape.length, shape.pitch, shape.order,
-                            shape.zeta])
+                            shape.zeta, float(shape.log)])
 
     def z0(self, friction: EmpiricalFriction, offsets) -> np.ndarray:
         z = np.zeros(self.layout.size)

@@ -350,6 +350,11 @@ def _friction_values(z) -> dict:
     return EmpiricalFriction(*[float(x) for x in z[:6]]).named_values()
 
 
+def noise_of(data) -> float:
+    """The campaign's noise level (mm): RMS of its windows' record noise estimates."""
+    return float(np.sqrt(np.mean(np.asarray(data.sigma)[np.asarray(data.mask).any(1)] ** 2)))
+
+
 def discover_cycles(
     records,
     *,
@@ -443,9 +448,20 @@ def discover_cycles(
     scaled_notes = [f"{recs[g].note or recs[g].source or f'record {g}'}: chi2/n {c:.3g} "
                     f"(campaign median {median_chi2:.3g}); weighed by its own scatter"
                     for g, c in scaled.items()]
+    sd_flat = np.asarray(model.sd).ravel()[model.mask]
+    if (base_fit.rss / base_fit.r.size > MISFIT
+            or np.sqrt(np.mean((base_fit.r * sd_flat) ** 2)) > MISFIT * noise_of(data)):
+        # far from the data, Levenberg-Marquardt's default patience stops early (the
+        # refits then each gained the same chi-square, whatever their family): continue
+        # the base fit as the refits would run, from a damped start with more patience
+        sub = _Sub(model, z_base, base_cols)
+        more = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals, lam0=1.0,
+                          stall_evals=8)
+        if more.rss < base_fit.rss:
+            base_fit, z_base = more, sub.full(more.z)
     r0, Jb = base_fit.r, base_fit.J
     sd = np.asarray(model.sd).ravel()[model.mask]
-    noise = float(np.sqrt(np.mean(np.asarray(data.sigma)[np.asarray(data.mask).any(1)] ** 2)))
+    noise = noise_of(data)
     gap_before = float(np.sqrt(np.mean((r0 * sd) ** 2)))
     slipping = np.asarray(yd).ravel()[model.mask] > 0
     n = r0.size
