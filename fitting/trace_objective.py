@@ -91,6 +91,7 @@ class TraceData(eqx.Module):
     stick_time: Float[Array, " N"]
     sigma: Float[Array, " N"]
     window: Int[Array, " N"]
+    drive_poly: Float[Array, "N 3"]
     time: Float[Array, "N L"]
     deflection: Float[Array, "N L"]
     mask: Bool[Array, "N L"]
@@ -105,7 +106,8 @@ CHUNK = 512
 
 
 def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
-               pad_windows: int = 0, chunk: int = CHUNK, drive_fix: bool = True) -> TraceData:
+               pad_windows: int = 0, chunk: int = CHUNK, drive_fix: bool = True,
+               measured_drive: bool = False) -> TraceData:
     """Cut every record into its complete cycles (module doc), the cycles into rows of
     `chunk` samples, and pad them into a `TraceData`.
 
@@ -116,8 +118,14 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     padding. `pad_length`: rows at least this long; `pad_windows`: at least this many
     rows (campaigns of other sizes reuse the compilation). `drive_fix`: take out the drive
     error the features found (`RecordFeatures.drive_fix`; False keeps it in the data, for
-    a model that has its own drive error, `stickslip_fitting.discovery.cycle_model`). Raises ValueError for a
-    record without stick-slip or without a constant drive speed.
+    a model that has its own drive error, `stickslip_fitting.discovery.cycle_model`).
+    `measured_drive`: a record driven by a `drive` column or a `drive_program` is used:
+    over each window the drive's displacement is least-squares fitted by the cubic
+    $u - u(t_s) = v s + c_2 s^2 + c_3 s^3$ ($s$ = time since the window's start t_s, s),
+    v as the row's `speed` and `drive_poly` = (0, c_2, c_3) (mm/s^2, mm/s^3);
+    constant-speed records get zeros (a model that reads `drive_poly`:
+    `stickslip_fitting.discovery.cycle_model`). Raises ValueError for a record without
+    stick-slip, or without a constant drive speed unless `measured_drive`.
     """
     if len(records) != len(features):
         raise ValueError("trace_data: give one RecordFeatures per record")
@@ -128,7 +136,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     for r, (rec, f) in enumerate(zip(records, features)):
         if not f.stick_slip:
             raise ValueError(f"{f.name}: no usable stick-slip ({f.message})")
-        if rec.drive_source != "speed":
+        if rec.drive_source != "speed" and not measured_drive:
             raise ValueError(
                 f"{f.name}: the trace objective needs a constant drive speed (drive_speed); "
                 "this record has a drive program or a drive column; use --objective features")
@@ -140,6 +148,9 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
                        float)
         fix = None if f.drive_fix is None or not drive_fix else np.asarray(f.drive_fix, float)
         sigma = max(float(f.noise), 1e-12)
+        u_meas = None if rec.drive_source == "speed" else np.asarray(rec.drive_position(t), float)
+        v_rec = (float(rec.drive_speed) if u_meas is None
+                 else float(np.polyfit(t - t[0], u_meas, 1)[0]))
         dropped = _after_reslip(f)
         for j in range(1, len(f.peak)):
             if not f.complete[j] or dropped[j - 1]:
@@ -148,10 +159,19 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
             sel = np.flatnonzero((t >= t_s) & (t < t_stop))
             if sel.size < 2:
                 continue
-            head = (r, f.weight, f.stiffness, float(rec.drive_speed), t_s,
+            poly = np.zeros(3)
+            if u_meas is not None:  # the window's own mean speed and the cubic rest
+                s_ = t[sel] - t_s
+                du = u_meas[sel] - np.interp(t_s, t, u_meas)
+                A = np.stack([s_, s_ ** 2, s_ ** 3], axis=1)
+                poly = np.linalg.lstsq(A, du, rcond=None)[0]
+                v_win, poly = poly[0], np.array([0.0, poly[1], poly[2]])
+            else:
+                v_win = v_rec
+            head = (r, f.weight, f.stiffness, float(v_win), t_s,
                     float(f.trough[j - 1]), float(f.trough_sd[j - 1]),
                     float(f.stick_time_sd[j]) / np.sqrt(2.0), float(f.stick_time[j]),
-                    sigma, n_windows)
+                    sigma, n_windows, poly)
             xw = x[sel] if fix is None else x[sel] - (fix[sel] - np.interp(t_s, t, fix))
             for a in range(0, sel.size, L):
                 part = sel[a:a + L]
@@ -168,7 +188,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     time = np.zeros((N, L))
     defl = np.zeros((N, L))
     mask = np.zeros((N, L), bool)
-    cols = [[row[i] for row in rows] for i in range(11)]
+    cols = [[row[i] for row in rows] for i in range(12)]
     for i, row in enumerate(rows):
         n = row[-2].size
         time[i, :n], time[i, n:] = row[-2], row[-2][-1]
@@ -186,6 +206,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         speed=j(cols[3]), start_time=j(cols[4]), start_level=j(cols[5]),
         start_level_sd=j(cols[6]), start_time_sd=j(cols[7]), stick_time=j(cols[8]),
         sigma=j(cols[9]), window=j(np.asarray(cols[10], np.int32)),
+        drive_poly=j(np.asarray(cols[11], float).reshape(-1, 3)),
         time=j(time), deflection=j(defl), mask=j(mask),
     )
 

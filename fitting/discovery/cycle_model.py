@@ -128,13 +128,14 @@ class _Eff(eqx.Module):
     kappa: jax.Array
 
 
-def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, ts):
+def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, poly, ts):
     """One row: (model deflection as read by the gauge, without offset [L]; slider
     velocity [L]; ok; tail). `sensor` (static): the kernel convolution (module doc);
     tail = (what the gauge still owes of this row's slip on the grid t_b + n h
     [TAIL_STEPS] (mm), t_b, h), read by the next window (`_model`)."""
     vs, p, length, pitch, order, zeta, log_form = (shape[0], shape[1], shape[2], shape[3],
                                                    shape[4], shape[5], shape[6])
+    tw = t0  # the window's measured start: origin of a measured drive's cubic
     if sensor:
         # the measured restart state is a reading: the slider's own clock is tau earlier
         tau = jnp.maximum(eff.tau, 1e-7)
@@ -151,9 +152,11 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
         base = static(T)
         return base + d_d + (d_s - d_d) * (base - mu_d) / (mu_s - mu_d)
 
-    def u(t):  # drive (mm), arbitrary origin: speed drift and screw error
+    def u(t):  # drive (mm), arbitrary origin: speed drift, screw error, measured drive
         dt = t - tref
-        return v * dt + 0.5 * v * eff.s * dt * dt + drive_error(eff.drive, t, v, pitch)
+        sw = t - tw
+        return (v * dt + 0.5 * v * eff.s * dt * dt + drive_error(eff.drive, t, v, pitch)
+                + sw * (poly[0] + sw * (poly[1] + sw * poly[2])))
 
     u0 = u(t0)
 
@@ -342,14 +345,15 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
     offset = nat[6:layout.n_base]
     theta = nat[layout.n_base:]
 
-    def one(rec, W, k, v, t0, x0, T1m, ts):
+    def one(rec, W, k, v, t0, x0, T1m, poly, ts):
         eff = _effects_of(layout, theta, rec)
-        return _row(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], tstart[rec], ts)
+        return _row(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], tstart[rec],
+                    poly, ts)
 
     x0 = data.start_level - offset[data.record]
     read, yd, ok, (E, tb, h) = jax.vmap(one)(data.record, data.weight, data.stiffness,
                                              data.speed, data.start_time, x0,
-                                             data.stick_time, data.time)
+                                             data.stick_time, data.drive_poly, data.time)
     if sensor:
         # the gauge still settles from the previous slip when a window starts: the
         # measured restart level is the settled stick line (`features`: the plateau

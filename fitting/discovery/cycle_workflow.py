@@ -328,7 +328,8 @@ def _one_screw(coef, recs, pitch) -> str | None:
     if max(amp.max(), amp2.max()) > DRIVE_ERROR_MAX:
         return (f"screw error amplitude {1e3 * max(amp.max(), amp2.max()):.3g} um > "
                 f"{1e3 * DRIVE_ERROR_MAX:g} um (a broken drive, not an effect)")
-    travel = np.array([r.drive_speed * (float(r.time[-1]) - float(r.time[0])) for r in recs])
+    travel = np.array([r.nominal_drive_speed * (float(r.time[-1]) - float(r.time[0]))
+                       for r in recs])
     a = amp[travel >= pitch]
     if a.size < 2 or a.max() <= SCREW_SPREAD * max(a.min(), 1e-12):
         return None
@@ -392,7 +393,7 @@ def discover_cycles(
 
     campaign = screen_records(list(records), strict=strict)
     recs, feats = campaign.records, campaign.features
-    data = trace_data(recs, feats, drive_fix=False)
+    data = trace_data(recs, feats, drive_fix=False, measured_drive=True)
     G = len(recs)
     # the per-cycle model's programs compile in a background thread meanwhile
     warm = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape),
@@ -590,7 +591,8 @@ def discover_cycles(
         bad = f.unphysical(vals)
         if f.per_record and f.name == "drive_periodic_error":
             span = max(drive_error_range(vals.reshape(G, -1)[g], recs[g].time,
-                                         recs[g].drive_speed, shape.pitch) for g in range(G))
+                                         recs[g].nominal_drive_speed, shape.pitch)
+                       for g in range(G))
             if span > DRIVE_ERROR_MAX:
                 bad = (f"drive error {span * 1e3:.3g} um peak to peak > "
                        f"{DRIVE_ERROR_MAX * 1e3:g} um (a broken drive, not an effect)")
