@@ -136,3 +136,19 @@ def test_a_measured_drive_column_is_used():
     c = screen_records(_measured_drive_campaign(True))
     with pytest.raises(ValueError, match="constant drive speed"):
         trace_data(c.records, c.features)
+
+
+def test_plausible_start():
+    """The base fit's start: a sane features fit is kept as it is; one that wandered where
+    the features cannot determine it (the real records: m -> 0, delta 2e12, n 1e116, so
+    no slip ends) starts with exponents 1 and the kinetic decay inside [0.02, 0.9]."""
+    from stickslip_fitting.discovery.cycle_workflow import plausible_start
+
+    T1, T2 = np.array([0.5, 1.0, 2.0]), np.array([0.017, 0.02, 0.042])
+    sane = np.log([0.38, 0.4, 67.0, 1.0])
+    assert np.allclose(plausible_start(sane, T1, T2), sane)
+    wild = np.array([np.log(0.73), -800.0, np.log(2e12), np.log(1.8e116)])
+    lg, lm, ld, ln = plausible_start(wild, T1, T2)
+    assert np.all(np.isfinite([lg, lm, ld, ln])) and lm == 0.0 and ln == 0.0
+    q = np.exp(-np.exp(ld) * np.median(T2))
+    assert 0.02 <= q <= 0.9 + 1e-12

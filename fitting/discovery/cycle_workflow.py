@@ -70,7 +70,7 @@ from .cycle_model import CycleModel, drift_origins
 from .scores import base_basis, principal_cosine, project_out
 
 __all__ = ["CLEAR", "COLLINEAR", "JOINT", "MISFIT", "Contender", "CycleDiscovery", "Decision",
-           "decide", "discover_cycles", "paired_z"]
+           "decide", "discover_cycles", "paired_z", "plausible_start"]
 
 MISFIT = 1.5
 """Base chi2/n above which every family is refitted (`discover_cycles`, stage 4)."""
@@ -90,6 +90,35 @@ SENSOR_PROBES = (1.0, 2.5, 6.0, 15.0)
 at second order in tau and its kernels ring, so one short secant misjudges a slow
 sensor; the probe that lowers chi-square most at the base parameters gives the secant,
 and its refit starts there (the look-elsewhere is counted in the Bonferroni level)."""
+EXPONENTS = (0.02, 5.0)
+"""Range of the exponents m and n (eqs 1 and 3) at the base fit's start."""
+
+
+def plausible_start(logs, stick_times, slip_times) -> np.ndarray:
+    """The features' (log gamma, log m, log delta, log n) moved into a range where the
+    per-cycle model runs: parameters the features cannot determine may wander far (the
+    real records: m -> 0, delta 2e12, n 1e116, so exp(-delta T2^n) = 1 and no slip ends).
+    An exponent m or n outside `EXPONENTS` starts at 1; gamma and delta keep what the
+    records measure, gamma T1^m and delta T2^n at the median stick and slip times (s),
+    with exp(-gamma T1^m) in [0.02, 0.98] and exp(-delta T2^n) in [0.02, 0.9] (a mean
+    kinetic friction within 10 % of mu_0 - mu_d of the breakaway level leaves no slip that
+    ends)."""
+    lg, lm, ld, ln = (float(v) for v in logs)
+    T1 = float(np.nanmedian(stick_times[stick_times > 0])) if np.any(stick_times > 0) else 1.0
+    T2 = float(np.median(slip_times))
+    out = []
+    with np.errstate(over="ignore", invalid="ignore"):
+        for l_coef, l_exp, T, q_max in ((lg, lm, T1, 0.98), (ld, ln, T2, 0.9)):
+            lo, hi = np.log(-np.log(q_max)), np.log(-np.log(0.02))
+            e = float(np.exp(l_exp))
+            e1 = e if EXPONENTS[0] <= e <= EXPONENTS[1] else 1.0
+            a = l_coef + e * np.log(T)  # log(coefficient T^exponent)
+            a = float(np.clip(np.nan_to_num(a, nan=0.0, posinf=hi, neginf=lo), lo, hi))
+            out.append((a - e1 * np.log(T), np.log(e1)))
+    (lg1, lm1), (ld1, ln1) = out
+    return np.array([lg1, lm1, ld1, ln1])
+
+
 RECORD_CHI2 = 3.0
 """A record whose base chi2/n exceeds this and 3x the campaign's median weighs by its own
 scatter (its standard errors scaled by sqrt(chi2/n); reported in `records_scaled`)."""
@@ -409,6 +438,9 @@ def discover_cycles(
     model = CycleModel(data, drift_origins(recs),
                        np.ones(np.asarray(data.mask).shape), G)
     z_start = model.z0(start.params.friction, np.asarray(start.params.offset))
+    z_start[2:6] = plausible_start(z_start[2:6], np.asarray(data.stick_time),
+                                   np.pi / np.sqrt(np.asarray(data.stiffness) * 9806.65
+                                                   / np.asarray(data.weight)))
     _, yd, _ = model.residuals(z_start)
     model = CycleModel(data, model.tref, np.asarray(trace_sd(start.params, data, yd)), G)
     stage("prepare", f"{G} records used, {len(campaign.not_used)} set aside, "
