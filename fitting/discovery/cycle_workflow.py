@@ -523,7 +523,7 @@ def discover_cycles(
         for f in plain:
             plain_J[f.name] = J_all[:, a:a + score_cols(f).size]
             a += score_cols(f).size
-    sensor_scores: list[_Score] = []
+    shape_scores: dict[str, list[_Score]] = {}
     sensor_probe: dict[Shape, float] = {}
     for f in fams:
         cols = score_cols(f)
@@ -549,14 +549,12 @@ def discover_cycles(
             Jp = project_out(Qb, Jc)
             F, p, dof, step, pred = _hotelling(Jp, r0, starts)
             sc = _Score(f, shape, F, p, dof, step, Jp, pred)
-            if f.name == "sensor_lowpass":
-                sensor_scores.append(sc)
+            shape_scores.setdefault(f.name, []).append(sc)
             # the shape that would explain most (its predicted chi-square drop)
             if best is None or pred > best.chi2_predicted:
                 best = sc
         scores.append(best)
     scores.sort(key=lambda s: (np.nan_to_num(s.p_value, nan=1.0), -s.chi2_predicted))
-    sensor_shapes = [s.shape for s in sorted(sensor_scores, key=lambda s: -s.chi2_predicted)]
     # significant: the robust (window-level) test, or a relevant predicted drop (at least
     # RELEVANT of the chi-square) that the per-sample score test supports: the robust test
     # loses power where a few windows (slow records, whose breakaway timing is most
@@ -580,14 +578,22 @@ def discover_cycles(
     warm["evaluate", True].result()
 
     def refit(sc: _Score) -> _Refit:
+        """The family of `sc` refitted with the base: the sensor with its two kernels
+        whose secants predicted the largest drops, the screw error with its three best
+        pitches, the others with their best shape; a physical fit beats an unphysical one,
+        then the lower chi-square wins."""
         f = sc.family
         cols = np.concatenate([base_cols, model.cols(f)])
-        # the sensor: the two kernels whose secants predicted the largest drops
-        options = ([(sc.shape, False)] if f.name != "sensor_lowpass" else
-                   [(shape, True) for shape in sensor_shapes[:2]])
-        step = sc.step
+        ranked_shapes = sorted(shape_scores.get(f.name, [sc]), key=lambda s: -s.chi2_predicted)
+        if f.name == "sensor_lowpass":
+            options = [(s_, True) for s_ in ranked_shapes[:2]]
+        elif f.name == "drive_periodic_error":
+            options = [(s_, False) for s_ in ranked_shapes[:3]]
+        else:
+            options = [(sc, False)]
         best = None
-        for shape, sensor in options:
+        for option, sensor in options:
+            shape = option.shape
             z1 = z_base.copy()
             step_cols = model.cols(f)
             if f.per_record:
@@ -595,7 +601,7 @@ def discover_cycles(
             if f.name == "sensor_lowpass":  # from the kernel's best probe
                 z1[step_cols] = sensor_probe.get(shape, SENSOR_PROBE)
             elif not misfit:  # from the score step
-                z1[step_cols] += step
+                z1[step_cols] += option.step
             prior = None
             if f.name == "drive_periodic_error":
                 prior = np.full(cols.size, np.inf)
@@ -605,14 +611,18 @@ def discover_cycles(
                 # from a bent base the Gauss-Newton step overshoots: start damped and
                 # allow more rejected trials before calling it stalled
                 fit = solve_host(s1.evaluate, z1[cols], max_evals=refit_evals,
-                                          lam0=1.0 if misfit else 1e-6,
-                                          stall_evals=8 if misfit else 4)
+                                 lam0=1.0 if misfit else 1e-6,
+                                 stall_evals=8 if misfit else 4)
             except ValueError:  # the score step left the simulator's domain
                 s1 = _Sub(model, z_base, cols, shape, sensor, prior)
                 fit = solve_host(s1.evaluate, z_base[cols], max_evals=refit_evals)
-            if best is None or fit.rss < best[0].rss:
-                best = (fit, shape, sensor, s1)
-        fit, shape, sensor, s1 = best
+            one = _judge(f, shape, fit, sensor, cols)
+            if best is None or ((one.unphysical is not None, one.fit.rss)
+                                < (best.unphysical is not None, best.fit.rss)):
+                best = one
+        return best
+
+    def _judge(f, shape, fit, sensor, cols) -> _Refit:
         k = len(model.cols(f))
         vals = fit.z[-k:] * model.scales[model.cols(f)]
         try:
