@@ -7,6 +7,7 @@ parsers use them.
 
 - `Objective`: what a campaign fit minimises (`--objective`).
 - `DesignCriterion`: what the experiment design optimises (`stickslip plan --criterion`).
+- `MapMethod`: how a design map computes each point (`stickslip design --method`).
 
 ```python
 Objective.parse("both")            # Objective.BOTH
@@ -18,7 +19,7 @@ from __future__ import annotations
 
 from stickslip_jax.modes import AbstractMode
 
-__all__ = ["DesignCriterion", "Objective"]
+__all__ = ["DesignCriterion", "MapMethod", "Objective"]
 
 
 class Objective(AbstractMode):
@@ -62,4 +63,23 @@ class DesignCriterion(AbstractMode):
 
     @classmethod
     def parse(cls, value, name: str | None = "criterion"):
+        return super().parse(value, name)
+
+
+class MapMethod(AbstractMode):
+    """How a design map computes each point (`stickslip_fitting.design.maps`).
+
+    - `STEADY` ("steady", the default): the paper's steady-state analysis, eqs (5)-(7)
+      and (12).
+    - `EXACT` ("exact"): the exact simulator run to its limit cycle.
+    - `CYCLE` ("cycle"): the fixed point of the one-cycle map (`stickslip_jax.limit_cycle`;
+      the only one with a damping ratio).
+    """
+
+    STEADY = "steady"
+    EXACT = "exact"
+    CYCLE = "cycle"
+
+    @classmethod
+    def parse(cls, value, name: str | None = "method"):
         return super().parse(value, name)

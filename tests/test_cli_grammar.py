@@ -49,6 +49,7 @@ MEANINGS = {
     "-q": r"no progress",
     "--weight": r"slider weight",
     "--stiffness": r"stiffness",
+    "--damping-ratio": r"viscous damping ratio .* of\s+the slider.s own mode",
     "--speed": r"drive speed",
     "--lubricant": r"lubricant",
     "--table": r"table of eq \(1\) parameters",

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..modes import MapMethod
+
 NAME = "design"
 HELP = ("design map of stick-slip amplitude and critical speed over grids of W, k, v "
         "(steady analysis, or the exact simulator with --exact; a posterior with --posterior)")
@@ -61,18 +63,18 @@ def _damping(args):
     zeta = getattr(args, "damping_ratio", None)
     if zeta is None:
         return None
-    if _method(args) != "cycle" or args.posterior:
+    if _method(args) is not MapMethod.CYCLE or args.posterior:
         raise ValueError("--damping-ratio: only with --method cycle (and no --posterior)")
     if not 0 <= zeta < 1:
         raise ValueError(f"--damping-ratio: must lie in [0, 1), e.g. 0.05, got {zeta}")
     return zeta
 
 
-def _method(args) -> str:
+def _method(args) -> MapMethod:
     """The map's method: --method, or `exact` for the old --exact flag."""
-    if args.exact and args.method not in (None, "exact"):
+    if args.exact and args.method not in (None, MapMethod.EXACT):
         raise ValueError(f"--exact and --method {args.method} disagree: give one of them")
-    return "exact" if args.exact else (args.method or "steady")
+    return MapMethod.EXACT if args.exact else MapMethod.parse(args.method or "steady")
 
 
 def add_arguments(p):
@@ -91,7 +93,7 @@ def add_arguments(p):
                    help="posterior sample (CSV/JSON with mu_s, mu_d, gamma, m, delta, n) to "
                         "propagate instead of the lubricant: probability of stick-slip, v_c band")
     p.add_argument("--level", type=float, default=0.9, help="credible level of the v_c band")
-    p.add_argument("--method", choices=("steady", "exact", "cycle"), default=None,
+    p.add_argument("--method", choices=MapMethod.choices(), default=None,
                    help="steady: eqs (5)-(7) and (12) (default); exact: the exact simulator "
                    "run for 8 cycles; cycle: the time-domain limit cycle as the fixed point "
                    "of the one-cycle map (exact, at every speed, fast)")
@@ -208,7 +210,7 @@ def compute(args):
     shape = tuple(axes[n].size for n in ("weight", "stiffness", "speed"))
     sample = None
     if args.posterior:
-        if _method(args) != "steady":
+        if _method(args) is not MapMethod.STEADY:
             raise ValueError(f"--method {_method(args)}: not available with --posterior "
                              "(steady analysis only)")
         if not Path(args.posterior).exists():
@@ -254,7 +256,7 @@ def to_json(args, res) -> dict:
     doc = {
         "source": {"posterior": args.posterior} if args.posterior
         else {"lubricant": args.lubricant, "table": args.table},
-        "method": _method(args),
+        "method": _method(args).value,
         **({"damping_ratio": _damping(args)} if _damping(args) is not None else {}),
         "axes": {"weight_kgf": axes["weight"].tolist(),
                  "stiffness_kgf_per_mm": axes["stiffness"].tolist(),
@@ -318,7 +320,7 @@ def plot(args, res, path):
     # A smooth field whose zero level is the stick-slip boundary.
     if args.posterior:
         edge = res["probability"] - 0.5
-    elif _method(args) != "steady":
+    elif _method(args) is not MapMethod.STEADY:
         edge = res["stick_slip"].astype(float) - 0.5
     else:
         edge = np.log(res["critical_speed"] / np.broadcast_to(
@@ -420,7 +422,7 @@ def run(args) -> int:
 
         source = (f"posterior {args.posterior}" if args.posterior
                   else f"lubricant {args.lubricant} (Table {args.table})")
-        write_netcdf(args.netcdf, map_dataset(res, {"method": _method(args), "source": source,
+        write_netcdf(args.netcdf, map_dataset(res, {"method": _method(args).value, "source": source,
                                                     "damping_ratio": _damping(args)}))
         print(f"wrote {args.netcdf}")
     amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]

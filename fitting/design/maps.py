@@ -30,6 +30,7 @@ from stickslip_jax import Friction, steady_state
 from stickslip_jax import slip_time as ss_slip_time
 from stickslip_jax.steady import STEADY_SLIDING
 
+from ..modes import MapMethod
 from .chunks import collect, map_chunks
 
 
@@ -145,21 +146,18 @@ def cycle_kernel(points: DesignPoints, shared=None) -> DesignMap:
     )
 
 
-METHODS = ("steady", "exact", "cycle")
-"""Design-map kernels: eqs (5)-(7), (12) (`steady_kernel`), the exact simulator run to
-its limit cycle (`exact.exact_kernel`), the one-cycle map's fixed point (`cycle_kernel`)."""
+METHODS = MapMethod.choices()
+"""Design-map kernels (`stickslip_fitting.modes.MapMethod`): eqs (5)-(7), (12)
+(`steady_kernel`), the exact simulator run to its limit cycle (`exact.exact_kernel`), the
+one-cycle map's fixed point (`cycle_kernel`)."""
 
 
-def _kernel(method: str):
-    if method == "steady":
-        return steady_kernel
-    if method == "exact":
+def _kernel(method: MapMethod):
+    if method is MapMethod.EXACT:
         from .exact import exact_kernel
 
         return exact_kernel
-    if method == "cycle":
-        return cycle_kernel
-    raise ValueError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    return cycle_kernel if method is MapMethod.CYCLE else steady_kernel
 
 
 def iter_design_map(
@@ -179,18 +177,19 @@ def iter_design_map(
     Use it to stream maps larger than memory to disk or into a reduction; the map's
     shape is ``design_points(...).shape``.
     """
+    method = MapMethod.parse(method)
     points = design_points(friction, weight, stiffness, speed)
     batch = DesignPoints(points.friction, points.weight, points.stiffness, points.speed, ())
     shared = None
     if damping_ratio is not None:
-        if method != "cycle":
+        if method is not MapMethod.CYCLE:
             raise ValueError(f"damping_ratio: only method 'cycle' has damping, not {method!r}")
         if not 0 <= float(damping_ratio) < 1:
             raise ValueError(f"damping ratio must lie in [0, 1), got {damping_ratio}")
         shared = jnp.asarray(float(damping_ratio))
     yield from map_chunks(
         _kernel(method), batch, points.shape, shared=shared, chunk_size=chunk_size, mesh=mesh,
-        progress=progress, desc=f"{method} map",
+        progress=progress, desc=f"{method.value} map",
     )
 
 

@@ -174,7 +174,7 @@ def design_front(sample: Friction, weights, speed: float, max_amplitude: float, 
                             jnp.asarray(float(max_amplitude)), jnp.asarray(meet),
                             jnp.asarray(float(start)))
     k, prob = np.asarray(k), np.asarray(prob)
-    ok = (np.asarray(result._value) == optx.RESULTS.successful._value) & np.isfinite(k)
+    ok = np.asarray(result == optx.RESULTS.successful) & np.isfinite(k)
     k = np.where(ok, k, np.nan)
     product = np.where(ok, k * w, np.inf)
     return ToleranceFront(w, float(speed), float(max_amplitude), float(meet), k, prob, ok,
