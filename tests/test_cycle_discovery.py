@@ -141,14 +141,21 @@ def test_a_measured_drive_column_is_used():
 def test_plausible_start():
     """The base fit's start: a sane features fit is kept as it is; one that wandered where
     the features cannot determine it (the real records: m -> 0, delta 2e12, n 1e116, so
-    no slip ends) starts with exponents 1 and the kinetic decay inside [0.02, 0.9]."""
+    no slip ends; a strong Stribeck campaign: mu_s - mu_d 9e5 with gamma 5e-8) starts with
+    exponents 1, the kinetic decay inside [0.02, 0.9] and eq (1)'s rise at the median
+    stick time kept."""
     from stickslip_fitting.discovery.cycle_workflow import plausible_start
 
     T1, T2 = np.array([0.5, 1.0, 2.0]), np.array([0.017, 0.02, 0.042])
-    sane = np.log([0.38, 0.4, 67.0, 1.0])
+    sane = np.log([0.21, 0.35, 0.38, 0.4, 67.0, 1.0])
     assert np.allclose(plausible_start(sane, T1, T2), sane)
-    wild = np.array([np.log(0.73), -800.0, np.log(2e12), np.log(1.8e116)])
-    lg, lm, ld, ln = plausible_start(wild, T1, T2)
-    assert np.all(np.isfinite([lg, lm, ld, ln])) and lm == 0.0 and ln == 0.0
-    q = np.exp(-np.exp(ld) * np.median(T2))
+    wild = np.array([np.log(0.32), np.log(0.03), np.log(0.73), -800.0, np.log(2e12),
+                     np.log(1.8e116)])
+    z = plausible_start(wild, T1, T2)
+    assert np.all(np.isfinite(z)) and z[3] == 0.0 and z[5] == 0.0
+    q = np.exp(-np.exp(z[4]) * np.median(T2))
     assert 0.02 <= q <= 0.9 + 1e-12
+    flat = np.log([0.17, 9.16e5, 5.1e-8, 0.48, 3.65e14, 8.45])
+    z = plausible_start(flat, T1, T2)
+    rise = np.exp(z[1]) * -np.expm1(-np.exp(z[2]) * 1.0 ** np.exp(z[3]))
+    assert np.isclose(rise, 9.16e5 * -np.expm1(-5.1e-8), rtol=1e-6) and np.exp(z[1]) < 10

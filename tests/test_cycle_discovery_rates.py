@@ -53,7 +53,13 @@ def run_one(kind, seed, lube, **kw):
 
     recs = ir.campaign(lube, seed=seed, **DESIGN, **kw)
     t = time.perf_counter()
-    res = discover_cycles(recs)
+    try:
+        res = discover_cycles(recs)
+    except ValueError as e:  # refused with a reason (counted as not named)
+        print(f"{kind}: refused: {e}", file=sys.stderr)
+        return dict(kind=kind, effect="refused", named={"refused"}, confidence="-",
+                    gap_before=float("nan"), gap_after=float("nan"),
+                    seconds=time.perf_counter() - t, samples=0)
     named = {res.effect} | {r["name"] for r in res.indistinguishable_from}
     if os.environ.get("STICKSLIP_RATES_LOG"):  # the decision's inputs, one JSON line each
         with open(os.environ["STICKSLIP_RATES_LOG"], "a") as fh:

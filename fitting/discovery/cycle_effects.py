@@ -8,7 +8,7 @@ exactly, so a family is a set of forms, not one formula. Units are internal (kgf
 | name | enters the per-cycle model as | parameters | shapes scanned |
 |---|---|---|---|
 | `viscous_damping` | slip force $-c\,\dot y$ | c kgf s/mm | - |
-| `stribeck` | slip friction $+b\,s(\dot y/v_s)$, falling with slip speed: $s(w) = e^{-w^p}$, or $-\ln(1 + w)$ (velocity weakening without a floor, rate-and-state's steady state) | b (-) | exponential: $v_s$ 3, 10, 30 mm/s, p 1, 2; logarithmic: $v_s$ 1, 10 mm/s |
+| `stribeck` | slip friction $+b\,s(\dot y/v_s)$, falling with slip speed: $s(w) = e^{-w^p}$, $-\ln(1 + w)$ (no floor, rate-and-state's steady state) or $-w$ (a negative slope) | b (-) | exponential: $v_s$ 3, 10, 30 mm/s, p 1, 2; logarithmic: $v_s$ 1, 10 mm/s; linear |
 | `rate_state` | slip friction $+a\ln(1 + \dot y/V_\mathrm{ref}) + b\ln(\theta/\theta_b)$, Dieterich-Ruina with the aging law $\dot\theta = 1 - \dot y\theta/D_c$ | a, b (-) | $D_c$ 0.01, 0.03, 0.1 mm |
 | `drive_periodic_error` | drive $u + \sum_{h=1,2} a_h \sin(2\pi h u/\lambda) + b_h\cos(\dots)$, per record | 4 per record, mm | $\lambda$ 1-10 mm |
 | `drive_speed_drift` | drive speed $v(1 + s\,(t - t_\mathrm{mid}))$ | s 1/s | - |
@@ -34,9 +34,13 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "Family", "Shape", "drive_error", "drive_error_range",
+__all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "STRIBECK_FORMS", "Family", "Shape", "drive_error", "drive_error_range",
            "family"]
 
+STRIBECK_FORMS = ("exp", "log", "linear")
+"""Forms of the Stribeck family's falling friction (`Shape.form`): exponential (a floor at
+high speed), logarithmic (no floor, as rate-and-state's steady state), linear (the falling
+branch's negative slope, the classic explanation of stick-slip)."""
 SENSOR_ZETAS = (0.4, 0.55, 0.7, 0.85, 1.0)
 """Damping ratios of the second-order sensor kernels scanned: under-damped amplifiers,
 the Butterworth response of most anti-aliasing filters, critically damped."""
@@ -65,8 +69,8 @@ class Shape:
     shape): Stribeck speed scale `vs` (mm/s) and exponent `p`, rate-and-state
     characteristic slip distance D_c `length` (mm), screw pitch `pitch` (mm), sensor
     kernel `order` (1: first-order low-pass, 2: second order) and, for order 2, its
-    damping ratio `zeta` (1: critically damped); `log`: the logarithmic Stribeck curve $-\\ln(1 + v/v_s)$ instead of
-    $e^{-(v/v_s)^p}$."""
+    damping ratio `zeta` (1: critically damped); `form`: the Stribeck curve, "exp"
+    $e^{-(v/v_s)^p}$, "log" $-\\ln(1 + v/v_s)$ or "linear" $-v/v_s$ (`STRIBECK_FORMS`)."""
 
     vs: float = 10.0
     p: float = 1.0
@@ -74,15 +78,17 @@ class Shape:
     pitch: float = 5.0
     order: int = 1
     zeta: float = 1.0
-    log: bool = False
+    form: str = "exp"
 
     def label(self, fam: "Family") -> str:
-        keys = {"stribeck": ("vs", "log") if self.log else ("vs", "p"), "rate_state": ("D_c",),
+        keys = {"stribeck": ("form", "vs") if self.form != "exp" else ("vs", "p"),
+                "rate_state": ("D_c",),
                 "drive_periodic_error": ("pitch",),
                 "sensor_lowpass": ("order",) if self.order == 1 else ("order", "zeta")}
         value = {"vs": self.vs, "p": self.p, "D_c": self.length, "pitch": self.pitch,
-                 "order": self.order, "zeta": self.zeta, "log": int(self.log)}
-        return ", ".join(f"{k} = {value[k]:g}" for k in keys.get(fam.name, ()))
+                 "order": self.order, "zeta": self.zeta, "form": self.form}
+        return ", ".join(f"{k} = {value[k]:g}" if k != "form" else f"{value[k]}"
+                         for k in keys.get(fam.name, ()))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -126,7 +132,8 @@ FAMILIES: tuple[Family, ...] = (
            "against higher friction than it ends with.",
            ("b",), ("-",), (0.01,), (1,), (0.5,), "a friction step larger than mu itself",
            shapes=tuple(Shape(vs=vs, p=p) for vs in (3.0, 10.0, 30.0) for p in (1.0, 2.0))
-           + tuple(Shape(vs=vs, log=True) for vs in (1.0, 10.0))),
+           + tuple(Shape(vs=vs, form="log") for vs in (1.0, 10.0))
+           + (Shape(vs=10.0, form="linear"),)),
     Family("rate_state",
            "Rate-and-state friction (Dieterich-Ruina): friction rises with the slip speed "
            "(direct effect a) and falls as the contact state renews over a slip distance "

@@ -16,7 +16,7 @@ the effects of `cycle_effects` enter as parts of it:
   $m\ddot y = k x - N(\mu_m + b_S s(\dot y/v_s) + a \ln(1 + \dot y/V_\mathrm{ref})
   + b \ln(\theta/\theta_b)) - c\dot y$ with the Dieterich-Ruina state $\theta$ (aging
   law $\dot\theta = 1 - \dot y\theta/D_c$, $\theta_b = T_1 + D_c/V_\mathrm{ref}$ at the
-  breakaway, `DR_V_REF`) and the Stribeck curve $s(w) = e^{-w^p}$ or $-\ln(1 + w)$,
+  breakaway, `DR_V_REF`) and the Stribeck curve $s(w) = e^{-w^p}$, $-\ln(1 + w)$ or $-w$,
   $x = x_b + \dot u(t_b)(t - t_b) - y$, $\mu_m$ from eq (3) with $T_2 = \pi/\omega_0$ (eq 7);
   the slider stops where $\dot y$ first returns to 0 (interpolated), and sticks again;
 - **measurement**: the gauge reads $c_r + (K * x)(t) + r_g (t - t_\mathrm{mid})$ with gauge
@@ -64,7 +64,7 @@ from stickslip_jax.units import G_MM_S2
 
 from ..params import EmpiricalFriction
 from ..trace_objective import TraceData
-from .cycle_effects import FAMILIES, Family, Shape, drive_error
+from .cycle_effects import FAMILIES, STRIBECK_FORMS, Family, Shape, drive_error
 
 __all__ = ["BLOCK", "CycleModel", "N_STEPS", "TAIL_STEPS", "kernel_cdf", "previous_rows"]
 
@@ -133,7 +133,7 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
     velocity [L]; ok; tail). `sensor` (static): the kernel convolution (module doc);
     tail = (what the gauge still owes of this row's slip on the grid t_b + n h
     [TAIL_STEPS] (mm), t_b, h), read by the next window (`_model`)."""
-    vs, p, length, pitch, order, zeta, log_form = (shape[0], shape[1], shape[2], shape[3],
+    vs, p, length, pitch, order, zeta, form = (shape[0], shape[1], shape[2], shape[3],
                                                    shape[4], shape[5], shape[6])
     tw = t0  # the window's measured start: origin of a measured drive's cubic
     if sensor:
@@ -202,9 +202,11 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
         x = x_b + vdrive * tau - y
         N = W + eff.kappa * k * x
         V = jnp.abs(yd)
-        # the Stribeck curve: exponential, or logarithmic (velocity weakening without a
-        # floor, as rate-and-state friction's steady state)
-        fall = jnp.where(log_form > 0, -jnp.log1p(V / vs), jnp.exp(-safe_power(V / vs, p)))
+        # the Stribeck curve (`cycle_effects.STRIBECK_FORMS`): exponential, logarithmic
+        # (velocity weakening without a floor, as rate-and-state's steady state), or
+        # linear (the falling branch's constant negative slope)
+        fall = jnp.where(form == 1, -jnp.log1p(V / vs),
+                         jnp.where(form == 2, -V / vs, jnp.exp(-safe_power(V / vs, p))))
         mu = (mu_m + eff.b_st * fall
               + eff.a_rs * jnp.log1p(V / DR_V_REF) + eff.b_rs * lth)
         dl = jnp.exp(-jnp.maximum(lth, -30.0)) / theta_b - V / length
@@ -451,7 +453,7 @@ class CycleModel:
     @staticmethod
     def _shape(shape: Shape):
         return jnp.asarray([shape.vs, shape.p, shape.length, shape.pitch, shape.order,
-                            shape.zeta, float(shape.log)])
+                            shape.zeta, float(STRIBECK_FORMS.index(shape.form))])
 
     def z0(self, friction: EmpiricalFriction, offsets) -> np.ndarray:
         z = np.zeros(self.layout.size)

@@ -55,6 +55,8 @@ from __future__ import annotations
 import dataclasses
 import time
 
+import equinox as eqx
+import jax
 import numpy as np
 import scipy.stats
 
@@ -95,28 +97,36 @@ EXPONENTS = (0.02, 5.0)
 
 
 def plausible_start(logs, stick_times, slip_times) -> np.ndarray:
-    """The features' (log gamma, log m, log delta, log n) moved into a range where the
-    per-cycle model runs: parameters the features cannot determine may wander far (the
-    real records: m -> 0, delta 2e12, n 1e116, so exp(-delta T2^n) = 1 and no slip ends).
-    An exponent m or n outside `EXPONENTS` starts at 1; gamma and delta keep what the
-    records measure, gamma T1^m and delta T2^n at the median stick and slip times (s),
-    with exp(-gamma T1^m) in [0.02, 0.98] and exp(-delta T2^n) in [0.02, 0.9] (a mean
-    kinetic friction within 10 % of mu_0 - mu_d of the breakaway level leaves no slip that
-    ends)."""
-    lg, lm, ld, ln = (float(v) for v in logs)
+    """The features' six logs (log mu_d, log(mu_s - mu_d), log gamma, log m, log delta,
+    log n; `EmpiricalFriction`) moved into a range where the per-cycle model runs:
+    parameters the features cannot determine may wander far (the real records: m -> 0,
+    delta 2e12, n 1e116, so exp(-delta T2^n) = 1 and no slip ends; a strong Stribeck
+    campaign: mu_s - mu_d 9e5 with gamma 5e-8). An exponent m or n outside `EXPONENTS`
+    starts at 1; gamma and delta keep what the records measure, gamma T1^m and delta
+    T2^n at the median stick and slip times (s), with exp(-gamma T1^m) in [0.02, 0.98]
+    and exp(-delta T2^n) in [0.02, 0.9] (a mean kinetic friction within 10 % of
+    mu_0 - mu_d of the breakaway level leaves no slip that ends); mu_s - mu_d then keeps
+    eq (1)'s rise mu_0(T1) - mu_d at the median stick time."""
+    z = np.asarray(logs, float).copy()
+    lgap, lg, lm, ld, ln = (float(v) for v in z[1:6])
     T1 = float(np.nanmedian(stick_times[stick_times > 0])) if np.any(stick_times > 0) else 1.0
     T2 = float(np.median(slip_times))
     out = []
-    with np.errstate(over="ignore", invalid="ignore"):
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         for l_coef, l_exp, T, q_max in ((lg, lm, T1, 0.98), (ld, ln, T2, 0.9)):
             lo, hi = np.log(-np.log(q_max)), np.log(-np.log(0.02))
             e = float(np.exp(l_exp))
             e1 = e if EXPONENTS[0] <= e <= EXPONENTS[1] else 1.0
             a = l_coef + e * np.log(T)  # log(coefficient T^exponent)
-            a = float(np.clip(np.nan_to_num(a, nan=0.0, posinf=hi, neginf=lo), lo, hi))
-            out.append((a - e1 * np.log(T), np.log(e1)))
-    (lg1, lm1), (ld1, ln1) = out
-    return np.array([lg1, lm1, ld1, ln1])
+            a1 = float(np.clip(np.nan_to_num(a, nan=0.0, posinf=hi, neginf=lo), lo, hi))
+            out.append((a1 - e1 * np.log(T), np.log(e1), a, a1))
+        (lg1, lm1, a, a1), (ld1, ln1, _, _) = out
+        # the rise (mu_s - mu_d)(1 - exp(-gamma T1^m)) at the median stick time
+        rise = float(np.exp(lgap) * -np.expm1(-np.exp(a)))
+        if np.isfinite(rise) and rise > 0:
+            lgap = float(np.log(rise / -np.expm1(-np.exp(a1))))
+    z[1:6] = [lgap, lg1, lm1, ld1, ln1]
+    return z
 
 
 RECORD_CHI2 = 3.0
@@ -299,6 +309,7 @@ class CycleDiscovery(DiscoveryEstimates):
     sensor: bool
     records_scaled: list = dataclasses.field(default_factory=list)
     effect_of: str = ""
+    windows_set_aside: list = dataclasses.field(default_factory=list)
 
     def to_json(self) -> dict:
         return {
@@ -323,6 +334,7 @@ class CycleDiscovery(DiscoveryEstimates):
             "residuals_by_phase_after": self.phases_after,
             "records": [s.to_json() for s in self.campaign.screening],
             "records_scaled": self.records_scaled,
+            "windows_set_aside": self.windows_set_aside,
             "timings_s": self.timings,
         }
 
@@ -428,23 +440,48 @@ def discover_cycles(
     warm = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape),
                       G).warm()
     start = fit_features(feats)
+    # weights (effective variance) at the start, refreshed once at the base optimum
+    model = CycleModel(data, drift_origins(recs),
+                       np.ones(np.asarray(data.mask).shape), G)
+    z_start = model.z0(start.params.friction, np.asarray(start.params.offset))
+    z_start[:6] = plausible_start(z_start[:6], np.asarray(data.stick_time),
+                                  np.pi / np.sqrt(np.asarray(data.stiffness) * 9806.65
+                                                  / np.asarray(data.weight)))
+    _, yd, ok = model.residuals(z_start)
+    # a cycle window the paper's model cannot reproduce at the start (no breakaway, or a
+    # slip that does not end within 2.5 pi/omega_0: e.g. a strong Stribeck drop) is set
+    # aside and listed; one such window must not stop the campaign
+    has = np.asarray(data.mask).any(1)
+    failed = np.unique(np.asarray(data.window)[has & ~np.asarray(ok)])
+    windows_set_aside = []
+    if failed.size:
+        keep = ~np.isin(np.asarray(data.window), failed)
+        if not np.any(keep & has):
+            raise ValueError("the paper's model reproduces none of the campaign's cycle "
+                             "windows at the features' parameters (no breakaway, or slips "
+                             "that do not end); check the records' stick-slip")
+        rec_of_window = {int(w): int(r) for w, r in zip(np.asarray(data.window),
+                                                        np.asarray(data.record))}
+        for g in sorted({rec_of_window[int(w)] for w in failed}):
+            n_w = sum(1 for w in failed if rec_of_window[int(w)] == g)
+            windows_set_aside.append(
+                f"{recs[g].note or recs[g].source or f'record {g}'}: {n_w} cycle window(s) "
+                "set aside (the paper's model at the start finds no breakaway or a slip "
+                "that does not end)")
+        data = eqx.tree_at(lambda d: d.mask, data,
+                           jax.device_put(np.asarray(data.mask) & keep[:, None]))
+        model = CycleModel(data, model.tref, np.ones(np.asarray(data.mask).shape), G)
+        _, yd, _ = model.residuals(z_start)
     window = np.broadcast_to(np.asarray(data.window)[:, None], data.mask.shape)
     window = np.asarray(window).ravel()[np.asarray(data.mask).ravel()]
     if np.any(np.diff(window) < 0):
         raise RuntimeError("trace_data rows are not in window order")
     starts = np.flatnonzero(np.r_[True, np.diff(window) != 0])
     n_windows = starts.size
-    # weights (effective variance) at the start, refreshed once at the base optimum
-    model = CycleModel(data, drift_origins(recs),
-                       np.ones(np.asarray(data.mask).shape), G)
-    z_start = model.z0(start.params.friction, np.asarray(start.params.offset))
-    z_start[2:6] = plausible_start(z_start[2:6], np.asarray(data.stick_time),
-                                   np.pi / np.sqrt(np.asarray(data.stiffness) * 9806.65
-                                                   / np.asarray(data.weight)))
-    _, yd, _ = model.residuals(z_start)
     model = CycleModel(data, model.tref, np.asarray(trace_sd(start.params, data, yd)), G)
     stage("prepare", f"{G} records used, {len(campaign.not_used)} set aside, "
-                     f"{n_windows} cycle windows, {model.mask.sum()} samples")
+                     f"{n_windows} cycle windows, {model.mask.sum()} samples"
+                     + (f"; {failed.size} windows set aside" if failed.size else ""))
 
     base_cols = np.arange(model.n_base)
     warm["evaluate", False].result()
@@ -724,6 +761,8 @@ def discover_cycles(
     if scaled_notes:
         explanation += (f" {len(scaled_notes)} record(s) are described worse than their noise "
                         "and weigh by their own scatter: " + "; ".join(scaled_notes) + ".")
+    if windows_set_aside:
+        explanation += " Set aside: " + "; ".join(windows_set_aside) + "."
     cand_json = []
     by_family = {rf.family.name: rf for rf in refits}
     for sc in scores:
@@ -757,7 +796,7 @@ def discover_cycles(
         indistinguishable_from=rivals, phases_before=phases_before,
         phases_after=phases_after, timings=timings, base_fit=base_fit, final_fit=final_fit,
         campaign=campaign, model=model, z_before=z_base, z_after=z_after, shape=shape,
-        sensor=sensor, records_scaled=scaled_notes)
+        sensor=sensor, records_scaled=scaled_notes, windows_set_aside=windows_set_aside)
 
 
 def _explain(effect, chosen, decision, gap_before, gap_after, noise, pattern, phases) -> str:
