@@ -80,7 +80,7 @@ class PitchRun(eqx.Module):
 
 
 def _header_length(record, key):
-    text = getattr(record, "extra_header", {}).get(key)
+    text = record.extra_header.get(key)
     if text is None:
         return None
     try:
