@@ -156,7 +156,10 @@ def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, r
             if pos.size == 0:
                 break
             j = int(pos[0])
-            tb = optimize.brentq(margin, grid[j - 1] if j else ts, grid[j], xtol=1e-13)
+            if j == 0 and margin(ts) >= 0:  # a drive error moving the far end at once
+                tb = ts
+            else:
+                tb = optimize.brentq(margin, grid[j - 1] if j else ts, grid[j], xtol=1e-13)
             T1 = tb - ts
             mu0 = mu_s - (mu_s - f.mu_d) * math.exp(-f.gamma * T1 ** f.m)
             mum = f.mu_d + (mu0 - f.mu_d) * math.exp(-f.delta * t2 ** f.n)

@@ -198,9 +198,10 @@ def power_table(rows) -> str:
 
 
 if __name__ == "__main__":
-    if sys.argv[1:2] == ["--power"]:
+    if sys.argv[1:2] == ["--power"]:  # [--power [FIRST]]: from campaign FIRST on
         rows = []
-        for k, s, lube, kw in power_campaigns():
+        first = int(sys.argv[2]) if len(sys.argv) > 2 else 0
+        for k, s, lube, kw in power_campaigns()[first:]:
             rows.append(run_one(k, s, lube, **kw))
             print(power_table(rows[-1:]).splitlines()[-1], flush=True)
         print(power_table(rows))
