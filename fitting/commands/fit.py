@@ -270,18 +270,25 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     return out
 
 
-def _fixed_misfit(fit, unc) -> list[str]:
-    """A warning when fixed values leave the records far from the model (`FIXED_MISFIT`)."""
-    fixed = [f"{e.name}={e.value:g}" for e in unc.estimates() if e.fixed]
-    if not fixed or fit.record_chi2 is None:
+def fixed_misfit_warning(fixed: list[str], record_chi2, consequence: str) -> list[str]:
+    """A warning when the fixed values (`fixed`: "name=value" strings) leave the records
+    far from the model (median record chi2/n above `FIXED_MISFIT`); `consequence` says
+    what is then not meaningful (shared by `fit` and `mcmc`)."""
+    if not fixed or record_chi2 is None:
         return []
-    med = float(np.median(fit.record_chi2))
+    med = float(np.median(record_chi2))
     if med <= FIXED_MISFIT:
         return []
     return [f"with the fixed values ({', '.join(fixed)}) the model misses the records far "
             f"beyond their noise (median record chi2/n {med:.3g} before scaling their errors): "
-            "the fixed values are incompatible with these records, and the other estimates "
-            "and their intervals are not meaningful."]
+            f"the fixed values are incompatible with these records, and {consequence}."]
+
+
+def _fixed_misfit(fit, unc) -> list[str]:
+    """A warning when fixed values leave the records far from the model (`FIXED_MISFIT`)."""
+    return fixed_misfit_warning([f"{e.name}={e.value:g}" for e in unc.estimates() if e.fixed],
+                                fit.record_chi2,
+                                "the other estimates and their intervals are not meaningful")
 
 
 def _record_rows(fit, campaign) -> list[dict]:

@@ -83,20 +83,10 @@ def thinned_draws(samples, max_draws: int):
 def _fixed_misfit(fit, free) -> list[str]:
     """`stickslip fit`'s warning when fixed values leave the records far from the model
     (median record chi2/n above `FIXED_MISFIT`): the posterior around them means little."""
-    import numpy as np
+    from .fit import fixed_misfit_warning
 
-    from .fit import FIXED_MISFIT
-
-    fixed = [f"{n}={v:g}" for n, v in fit.values.items() if n not in free]
-    if not fixed or fit.record_chi2 is None:
-        return []
-    med = float(np.median(fit.record_chi2))
-    if med <= FIXED_MISFIT:
-        return []
-    return [f"with the fixed values ({', '.join(fixed)}) the model misses the records far "
-            f"beyond their noise (median record chi2/n {med:.3g} before scaling their errors): "
-            "the fixed values are incompatible with these records, and the posterior of the "
-            "others is not meaningful."]
+    return fixed_misfit_warning([f"{n}={v:g}" for n, v in fit.values.items() if n not in free],
+                                fit.record_chi2, "the posterior of the others is not meaningful")
 
 
 def run(args) -> int:
