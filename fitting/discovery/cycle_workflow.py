@@ -434,7 +434,15 @@ def discover_cycles(
 
     campaign = screen_records(list(records), strict=strict)
     recs, feats = campaign.records, campaign.features
-    data = trace_data(recs, feats, drive_fix=False, measured_drive=True)
+    try:
+        data = trace_data(recs, feats, drive_fix=False, measured_drive=True)
+    except ValueError as e:  # said in discovery's words (the trace objective's advice,
+        # "use --objective features", is not an option here)
+        raise ValueError("discovery needs complete stick-slip cycles whose restart state is "
+                         "measured: " + str(e).replace("; use --objective features", "")
+                         .replace("trace objective: ", "") + "; the per-cycle model has "
+                         "nothing to fit (check the records: a sensor ringing at the "
+                         "slideway's own frequency or slips that never re-stick)") from None
     G = len(recs)
     # the per-cycle model's programs compile in a background thread meanwhile
     warm = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape),
