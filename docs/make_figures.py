@@ -67,9 +67,10 @@ def _corner(tmp: pathlib.Path, out: pathlib.Path) -> None:
     save_figure(fig, str(out), dpi=60)
 
 
-def _pitch_records(folder: pathlib.Path) -> list[str]:
+def pitch_records(folder: pathlib.Path, stem: str = "pitch") -> list[str]:
     """Two records with tilt channels pitch_1, pitch_3 from the chapter-6 model (2e-5 mm
-    noise), driven at (h, l) = (20, 30) and (60, -30) mm."""
+    noise), driven at (h, l) = (20, 30) and (60, -30) mm; files STEM0.csv, STEM1.csv in
+    `folder` (also used by tests/test_json_keys.py)."""
     import numpy as np
 
     from stickslip_jax import pitching as pt
@@ -87,7 +88,7 @@ def _pitch_records(folder: pathlib.Path) -> list[str]:
                      drive_speed=0.05, channels={"pitch_1": disp[:, 0], "pitch_3": disp[:, 2]},
                      channel_units={"pitch_1": "um", "pitch_3": "um"},
                      extra_header={"drive_height": f"{h} mm", "drive_offset": f"{o} mm"})
-        paths.append(str(write_record(rec, folder / f"pitch{i}.csv", channel_units="original")))
+        paths.append(str(write_record(rec, folder / f"{stem}{i}.csv", channel_units="original")))
     return paths
 
 
@@ -102,7 +103,7 @@ def figures(tmp: pathlib.Path) -> dict[str, list[str]]:
                                "--stiffness", "20:200:40", "--speed", "0.5:200:40:log"],
         "discover": lambda: ["discover", *_discovery_campaign(tmp)],
         "record": lambda: ["plot", str(ROOT / "data/examples/A_W36_k86.9_v5mm-min.csv")],
-        "pitch": lambda: ["pitch", *_pitch_records(tmp), "--fit"],
+        "pitch": lambda: ["pitch", *pitch_records(tmp), "--fit"],
     }
 
 

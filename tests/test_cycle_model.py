@@ -12,8 +12,9 @@ from stickslip_fitting.discovery.cycle_effects import FAMILIES, Shape, family
 from stickslip_fitting.discovery.cycle_model import CycleModel, kernel_cdf, drift_origins
 
 
-@pytest.fixture(scope="module")
-def setup():
+def _model(last_duration, seed0=0, imp=ir.Imperfections()):
+    """(model, features fit, data, trace simulation, sd) of a 3-record campaign of the
+    independent generator (lubricant A), weighted as the discovery workflow does."""
     from stickslip_jax.records import Record
 
     from stickslip_fitting.campaign import screen_records
@@ -22,9 +23,9 @@ def setup():
 
     recs = []
     for i, (W, k, v, T) in enumerate(((36.0, 86.9, 5.0, 12.0), (20.0, 27.3, 10.0, 12.0),
-                                      (36.0, 86.9, 10.0, 6.0))):
+                                      (36.0, 86.9, 10.0, last_duration))):
         tr = ir.simulate(ir.LUBRICANT_A, weight=W, stiffness=k, speed_mm_min=v, duration=T,
-                         rate_hz=1000.0, seed=i)
+                         rate_hz=1000.0, seed=seed0 + i, imp=imp)
         recs.append(Record(time=tr.time, deflection=tr.deflection, stiffness=k, weight=W,
                            drive_speed=v / 60.0, note=str(i)))
     c = screen_records(recs)
@@ -32,7 +33,12 @@ def setup():
     data = trace_data(c.records, c.features, drive_fix=False)
     sim = trace_simulation(fit.params, data)
     sd = trace_sd(fit.params, data, sim.slider_velocity)
-    model = CycleModel(data, drift_origins(c.records), sd, len(c.records))
+    return CycleModel(data, drift_origins(c.records), sd, len(c.records)), fit, data, sim, sd
+
+
+@pytest.fixture(scope="module")
+def setup():
+    model, fit, data, sim, sd = _model(6.0)
     z = model.z0(fit.params.friction, np.asarray(fit.params.offset))
     return model, z, fit, data, sim, np.asarray(sd)
 
@@ -98,27 +104,11 @@ def sensor_campaign():
     damping ratio 0.7, lfilter on an 8x finer grid): the model's base fitted with the
     sensor's mean delay free, from the truth."""
     from stickslip_jax.lsq import solve_host
-    from stickslip_jax.records import Record
 
-    from stickslip_fitting.campaign import screen_records
     from stickslip_fitting.discovery.cycle_workflow import _Sub
-    from stickslip_fitting.fit import fit_features
-    from stickslip_fitting.trace_objective import trace_data, trace_simulation, trace_sd
 
     imp = ir.Imperfections(sensor_order=2, sensor_hz=40.0, sensor_zeta=0.7)
-    recs = []
-    for i, (W, k, v, T) in enumerate(((36.0, 86.9, 5.0, 12.0), (20.0, 27.3, 10.0, 12.0),
-                                      (36.0, 86.9, 10.0, 8.0))):
-        tr = ir.simulate(ir.LUBRICANT_A, weight=W, stiffness=k, speed_mm_min=v, duration=T,
-                         rate_hz=1000.0, seed=10 + i, imp=imp)
-        recs.append(Record(time=tr.time, deflection=tr.deflection, stiffness=k, weight=W,
-                           drive_speed=v / 60.0, note=str(i)))
-    c = screen_records(recs)
-    fit = fit_features(c.features)
-    data = trace_data(c.records, c.features, drive_fix=False)
-    sim = trace_simulation(fit.params, data)
-    model = CycleModel(data, drift_origins(c.records),
-                       trace_sd(fit.params, data, sim.slider_velocity), len(c.records))
+    model, fit, *_ = _model(8.0, seed0=10, imp=imp)
     tau = 2 * 0.7 / (2 * np.pi * 40.0)  # the sensor's mean delay (s)
     col = model.cols(family("sensor_lowpass"))
     z = model.z0(fit.params.friction, np.asarray(fit.params.offset))

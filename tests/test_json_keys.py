@@ -13,7 +13,6 @@ import pathlib
 import re
 import sys
 
-import numpy as np
 import pytest
 
 from stickslip_jax.cli import main
@@ -85,23 +84,13 @@ def _synthetic_discovery_campaign(folder: pathlib.Path) -> list[str]:
 
 
 def _pitch_records(folder: pathlib.Path) -> list[str]:
-    from stickslip_jax import pitching as pt
-    from stickslip_jax.records import Record, write_record
-
-    t = np.arange(601) * 0.02
-    phase = (t % 2.0) / 2.0
-    force = np.where(phase < 0.95, 5.0 + 7.0 * phase / 0.95, 12.0 - 7.0 * (phase - 0.95) / 0.05)
-    model = pt.default_model()
-    paths = []
-    for i, (h, o) in enumerate([(20.0, 30.0), (60.0, -30.0)]):
-        disp = np.asarray(pt.tilt_history(model, t, force, pt.DrivePoint(h, o)).displacement)
-        disp = disp + 2e-5 * np.random.default_rng(i).standard_normal(disp.shape)
-        rec = Record(time=t, deflection=force / 86.9, stiffness=86.9, weight=36.0,
-                     drive_speed=0.05, channels={"pitch_1": disp[:, 0], "pitch_3": disp[:, 2]},
-                     channel_units={"pitch_1": "um", "pitch_3": "um"},
-                     extra_header={"drive_height": f"{h} mm", "drive_offset": f"{o} mm"})
-        paths.append(str(write_record(rec, folder / f"p{i}.csv", channel_units="original")))
-    return paths
+    """The docs figures' two tilt records (`docs/make_figures.py`: `pitch_records`)."""
+    sys.path.insert(0, str(pathlib.Path(__file__).parents[1] / "docs"))
+    try:
+        from make_figures import pitch_records
+    finally:
+        sys.path.pop(0)
+    return pitch_records(folder, stem="p")
 
 
 @pytest.fixture(scope="module")
