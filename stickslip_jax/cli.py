@@ -121,7 +121,7 @@ def main(argv=None, *, prepare=None) -> int:
     if prepare is not None:
         prepare()
     from .logs import configure, logger
-    from .output import json_owns_stdout
+    from .output import interrupted, json_owns_stdout
 
     configure(args.command, quiet=bool(getattr(args, "quiet", False)), debug=args.debug,
               start=start)
@@ -130,7 +130,10 @@ def main(argv=None, *, prepare=None) -> int:
     try:
         # `--json -`: stdout carries only the JSON document; the table goes to stderr
         with json_owns_stdout(getattr(args, "json", None) == "-"):
-            return int(args.run_command(args) or 0)
+            code = int(args.run_command(args) or 0)
+        if interrupted():  # a Ctrl-C swallowed on the way (module output)
+            raise KeyboardInterrupt
+        return code
     except (UsageError, ValueError, FileNotFoundError) as exc:
         if args.debug:
             raise
@@ -196,11 +199,22 @@ def console_main() -> int:
     # the command writes figures to files: a non-interactive backend unless the user
     # chose one (library plotting functions never switch it themselves)
     os.environ.setdefault("MPLBACKEND", "Agg")
+    from .output import catch_interrupts
+
+    catch_interrupts()
     try:
-        return main(prepare=_persistent_cache)
+        code = main(prepare=_persistent_cache)
     except KeyboardInterrupt:  # before a subcommand started (imports, parsing)
         print("stickslip: interrupted", file=sys.stderr)
-        return 130
+        code = 130
+    if code == 130:
+        # interrupted: the outputs are settled (written whole or not at all); leave without
+        # the interpreter's shutdown, which can crash ("pure virtual method called",
+        # SIGSEGV) when the Ctrl-C landed while jaxlib was being imported
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(130)
+    return code
 
 
 if __name__ == "__main__":

@@ -12,6 +12,10 @@
 - JSON is strict (`strict_json`): a NaN or infinity is written as null, and the document
   gets a key "null_reasons" ({"results[0].critical_speed_mm_min": "not defined for these
   inputs (NaN)", ...}) saying where each such null is and why.
+- `catch_interrupts()`: the `stickslip` command's Ctrl-C handler. It records the interrupt
+  before raising KeyboardInterrupt, so an interrupt that lands where Python swallows
+  exceptions (a garbage-collector callback of JAX, a `__del__`) is still honoured: no
+  output is renamed into place afterwards, and the command exits 130.
 - `json_owns_stdout(active)`: while a command runs with `--json -` (`stickslip_jax.cli`
   wraps every command in it), what the command prints goes to stderr and only the JSON
   (`write_json("-", ...)`) reaches stdout, so `stickslip fit ... --json - | jq` reads one
@@ -28,7 +32,7 @@ import sys
 import tempfile
 
 __all__ = [
-    "check_outputs", "json_owns_stdout", "null_reasons", "save_figure", "strict_json",
+    "catch_interrupts", "check_outputs", "interrupted", "json_owns_stdout", "null_reasons", "save_figure", "strict_json",
     "write_atomic",
     "write_json", "write_text",
 ]
@@ -150,6 +154,39 @@ def json_owns_stdout(active: bool):
         _JSON_STDOUT = previous
 
 
+_INTERRUPTED = False
+
+
+def interrupted() -> bool:
+    """True once `catch_interrupts`'s handler has seen a Ctrl-C in this process."""
+    return _INTERRUPTED
+
+
+def _on_sigint(signum, frame):
+    global _INTERRUPTED
+    _INTERRUPTED = True
+    raise KeyboardInterrupt
+
+
+def _unraisable(previous):
+    """sys.unraisablehook that stays quiet about the recorded Ctrl-C (Python would print
+    "Exception ignored in ... Traceback" for it) and passes anything else on."""
+    def hook(unraisable):
+        if _INTERRUPTED and issubclass(unraisable.exc_type, KeyboardInterrupt):
+            return
+        previous(unraisable)
+    return hook
+
+
+def catch_interrupts() -> None:
+    """Install the SIGINT handler that records the interrupt (module doc) and a
+    sys.unraisablehook that does not print a swallowed one; main thread only."""
+    import signal
+
+    signal.signal(signal.SIGINT, _on_sigint)
+    sys.unraisablehook = _unraisable(sys.unraisablehook)
+
+
 def write_text(path: str, text: str) -> None:
     """Write `text` to `path` atomically (module doc); "-" prints it (to the stdout that
     `json_owns_stdout` kept, if any)."""
@@ -176,6 +213,8 @@ def _replace(path: str, suffix: str, write) -> None:
     try:
         write(tmp)
         os.chmod(tmp, _mode(path))
+        if _INTERRUPTED:  # a Ctrl-C that something swallowed: do not finish the output
+            raise KeyboardInterrupt
         os.replace(tmp, path)
     except BaseException as exc:
         if os.path.exists(tmp):

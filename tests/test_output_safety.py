@@ -58,6 +58,38 @@ def test_failed_write_keeps_the_previous_file(tmp_path, monkeypatch):
     assert [p.name for p in tmp_path.iterdir()] == ["result.json"]  # no temporary left
 
 
+def test_swallowed_interrupt_still_stops_the_output(tmp_path, monkeypatch):
+    """CI saw a Ctrl-C land in one of JAX's garbage-collector callbacks, where Python
+    prints "Exception ignored" and goes on: `simulate` then finished, wrote its record and
+    exited 0. The handler records the interrupt, so no output is renamed into place and
+    the command exits 130 (`cli.main`)."""
+    monkeypatch.setattr(_output, "_INTERRUPTED", False)
+    try:
+        _output._on_sigint(2, None)  # the handler, its KeyboardInterrupt swallowed
+    except KeyboardInterrupt:
+        pass
+    assert _output.interrupted()
+    target = tmp_path / "result.json"
+    with pytest.raises(KeyboardInterrupt):
+        _output.write_json(str(target), {"new": 1})
+    assert list(tmp_path.iterdir()) == []  # neither the output nor a temporary file
+
+
+def test_swallowed_interrupt_prints_no_traceback(monkeypatch):
+    """The swallowed Ctrl-C is not reported as "Exception ignored ... Traceback"; any
+    other unraisable exception still reaches the previous hook."""
+    import sys
+    import types
+
+    seen = []
+    hook = _output._unraisable(seen.append)
+    monkeypatch.setattr(_output, "_INTERRUPTED", True)
+    hook(types.SimpleNamespace(exc_type=KeyboardInterrupt))
+    hook(types.SimpleNamespace(exc_type=RuntimeError))
+    assert [u.exc_type for u in seen] == [RuntimeError]
+    assert sys.unraisablehook is not hook  # installed only by the command (catch_interrupts)
+
+
 def test_json_is_strict():
     text = json.dumps(_output.strict_json({"a": float("nan"), "b": [1.0, float("inf")]}),
                       allow_nan=False)

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import os
 import re
-import tempfile
 
 NAME = "import"
 HELP = "convert a raw logger file (CSV/TSV/';', decimal commas) into a record file"
@@ -110,6 +109,7 @@ def run(args) -> int:
     import numpy as np
 
     from ..records import Record, RecordError, write_record
+    from ..output import write_atomic
 
     raw, out = os.path.abspath(args.raw), os.path.abspath(args.out)
     if raw == out:
@@ -157,14 +157,7 @@ def run(args) -> int:
             note=f"imported from {os.path.basename(args.raw)}", notes=tuple(notes), **kw)
     except RecordError as exc:
         raise ValueError(f"{args.raw}: {exc}") from None
-    fd, tmp = tempfile.mkstemp(prefix=".import-", suffix=".csv", dir=os.path.dirname(out))
-    os.close(fd)
-    try:
-        write_record(rec, tmp)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
+    write_atomic(out, lambda tmp: write_record(rec, tmp), ".csv")
     print(f"wrote {args.out}: {rec.time.size} samples, {rec.time[-1] - rec.time[0]:.6g} s, "
           f"k = {rec.stiffness:.6g} kgf/mm, W = {rec.weight:.6g} kgf")
     for n in rec.notes:
