@@ -104,6 +104,9 @@ def figures(tmp: pathlib.Path) -> dict[str, list[str]]:
         "discover": lambda: ["discover", *_discovery_campaign(tmp)],
         "record": lambda: ["plot", str(ROOT / "data/examples/A_W36_k86.9_v5mm-min.csv")],
         "pitch": lambda: ["pitch", *pitch_records(tmp), "--fit"],
+        "fit_batch": lambda: ["fit-batch", str(ROOT / "data/examples"),
+                              *(str(ROOT / f"data/examples/A_W36_k{k}_*.csv")
+                                for k in ("27.3", "86.9", "128.5"))],
     }
 
 
@@ -125,7 +128,8 @@ def main(argv=None) -> int:
             t0 = time.perf_counter()
             out = IMAGES / f"{name}.png"
             argv = argv_of()
-            quiet = ["--quiet"] if argv[0] in ("fit", "mcmc", "design", "discover") else []
+            quiet = ["--quiet"] if argv[0] in ("fit", "mcmc", "design", "discover",
+                                               "fit-batch") else []
             plot = [] if name == "mcmc_corner" else ["--plot", str(out)]
             with contextlib.redirect_stdout(io.StringIO()):
                 rc = stickslip([*argv, *quiet, *plot])

@@ -14,7 +14,7 @@ from stickslip_jax.output import save_figure
 
 import numpy as np
 
-__all__ = ["corner_plot", "fit_figure", "fitted_traces", "friction_curves", "residual_panel"]
+__all__ = ["batch_figure", "corner_plot", "fit_figure", "fitted_traces", "friction_curves", "residual_panel"]
 
 
 def _plt():
@@ -250,3 +250,49 @@ def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int 
     options.update(kwargs)
     fig = corner.corner(samples, **options)
     return _finish(fig, path, 100)
+
+
+def batch_figure(batch, path=None, dpi: int = 120):
+    """The parameters of a batch of campaign fits side by side (`stickslip fit-batch
+    --plot`): one panel per fitted parameter, a point per campaign with its 95 % interval
+    (none where the parameter was not identifiable; a hollow point where it was fixed),
+    campaigns not fitted left empty and named in the title. `batch` is a
+    `stickslip_fitting.batch.BatchResult`; returns the `Figure` (saved and closed when
+    `path` is given)."""
+    entries = list(batch.entries)
+    names = list(dict.fromkeys(p for e in entries if e.report
+                               for p in e.report["parameters"]))
+    ncol = min(3, max(len(names), 1))
+    nrow = max(1, -(-len(names) // ncol))
+    fig, axes = _plt().subplots(nrow, ncol, figsize=(4.2 * ncol, 0.6 + 2.6 * nrow),
+                                squeeze=False, sharex=True)
+    x = np.arange(len(entries))
+    for ax, name in zip(axes.flat, names):
+        unit = ""
+        for i, e in enumerate(entries):
+            p = (e.report or {}).get("parameters", {}).get(name)
+            if p is None:
+                continue
+            unit = "" if p["unit"] == "-" else f" [{p['unit']}]"
+            ci = p.get("ci95")
+            color = "tab:blue" if e.status == "fitted" else "tab:orange"
+            if ci and not p["fixed"]:
+                ax.errorbar(i, p["value"], yerr=[[p["value"] - ci[0]], [ci[1] - p["value"]]],
+                            fmt="o", color=color, ms=4, capsize=3)
+            else:
+                ax.plot(i, p["value"], "o", ms=4, color=color,
+                        mfc="none" if p["fixed"] else color)
+        ax.set_ylabel(name + unit)
+        ax.grid(alpha=0.3)
+    for ax in axes.flat[len(names):]:
+        ax.set_visible(False)
+    for ax in axes[-1]:
+        ax.set_xticks(x, [e.name for e in entries], rotation=30, ha="right", fontsize=7)
+    failed = [e.name for e in entries if e.report is None]
+    title = (f"{len(entries)} campaigns: value and 95 % interval (orange: did not converge; "
+             "no bar: not identifiable; hollow: fixed)")
+    if failed:
+        title += "\nnot fitted: " + ", ".join(failed)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return _finish(fig, path, dpi)

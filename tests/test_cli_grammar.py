@@ -21,14 +21,14 @@ import pytest
 from stickslip_jax.cli import build_parser, main
 
 COMMANDS = {"steady", "simulate", "plot", "import", "fit", "mcmc", "design", "plan",
-            "discover", "pitch"}
+            "discover", "pitch", "fit-batch"}
 """Every subcommand; a new one must be added here and to the sets below that apply."""
 
-JSON_COMMANDS = {"steady", "design", "plan", "fit", "mcmc", "discover", "pitch"}
+JSON_COMMANDS = {"steady", "design", "plan", "fit", "mcmc", "discover", "pitch", "fit-batch"}
 BARE_JSON = {"steady", "design", "plan"}
 """A bare `--json` (no value) printed JSON to stdout before `--json OUT` existed."""
-FIGURE_COMMANDS = {"plot", "fit", "mcmc", "design", "discover", "pitch"}
-PROGRESS_COMMANDS = {"fit", "mcmc", "discover", "design", "plan"}
+FIGURE_COMMANDS = {"plot", "fit", "mcmc", "design", "discover", "pitch", "fit-batch"}
+PROGRESS_COMMANDS = {"fit", "mcmc", "discover", "design", "plan", "fit-batch"}
 
 DEPRECATED = {
     ("fit", "--offset"): "--gauge-offset",
@@ -57,14 +57,15 @@ MEANINGS = {
     "--gauge-offset": r"gauge offset",
     "--slip-time": r"T2 in eq \(3\)",
     "--objective": r"features",
-    "--strict": r"refuse the campaign",
+    "--strict": r"(refuse|fail) (the|a) campaign",
     "--fix": r"hold a parameter fixed",
     "--eta": r"viscosity",
     "--surface": r"surface pair",
     "--loss": r"likelihood of the residuals",
     "--seed": r"random seed",
     "--noise": r"noise",  # simulate: the noise added; plan: the noise of a record (sd)
-    "--out": r"record|CSV",  # the record file written (simulate, import)
+    "--out": r"record|CSV",
+    "--csv": r"as a long-format CSV: one row per",  # the record file written (simulate, import)
 }
 """Option names used by more than one command -> a pattern their help text matches in
 every command: one concept per name. An option shared by commands but missing here
@@ -88,6 +89,7 @@ MINIMAL = {
     "plan": ["A"],
     "discover": ["a.csv", "b.csv"],
     "pitch": ["run.csv"],
+    "fit-batch": ["campaign1", "campaign2"],
 }
 """Arguments each command needs to parse (nothing is read: parsing only)."""
 

@@ -65,7 +65,7 @@ def test_paper_map_objects_exist():
             obj = getattr(obj, attr)
 
 
-IMAGES = ("fit", "discover", "design_map", "mcmc_corner", "record", "pitch")
+IMAGES = ("fit", "discover", "design_map", "mcmc_corner", "record", "pitch", "fit_batch")
 
 
 @pytest.mark.parametrize("name", IMAGES)

@@ -21,7 +21,7 @@ from stickslip_jax.output import SCHEMA_VERSION, versioned
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 EXAMPLES = sorted(str(p) for p in (ROOT / "data" / "examples").glob("*.csv"))
 
-JSON_COMMANDS = ("steady", "design", "plan", "fit", "mcmc", "discover", "pitch")
+JSON_COMMANDS = ("steady", "design", "plan", "fit", "mcmc", "discover", "pitch", "fit-batch")
 
 SYNONYMS = {
     "stiffness_kgf_per_mm": {"stiffness_kgf_mm", "stiffness", "k_kgf_per_mm", "k_kgf_mm",
@@ -107,6 +107,8 @@ def documents(tmp_path_factory):
         "mcmc": ["mcmc", *EXAMPLES[:4], "--steps", "20", "--walkers", "14", "--quiet"],
         "discover": ["discover", *_synthetic_discovery_campaign(d), "--quiet", "--top", "1"],
         "pitch": ["pitch", *_pitch_records(d), "--fit"],
+        "fit-batch": ["fit-batch", str(ROOT / "data" / "examples" / "A_W36_k27.3_*.csv"),
+                      str(d / "no_such_folder"), "--quiet"],
     }
     assert set(runs) == set(JSON_COMMANDS)
     docs = {}
@@ -235,8 +237,9 @@ def test_records_is_one_structure_in_every_command(documents):
     """`records`: a non-empty list of objects wherever a command writes it under that name
     (mcmc's list of names is `record_names`, `records` only as its deprecated alias)."""
     has = {c for c, doc in documents.items() if "records" in current_keys(doc)}
-    assert has == {"fit", "discover", "plan", "pitch"}
-    for command in has:
+    assert has == {"fit", "discover", "plan", "pitch", "fit-batch"}  # fit-batch: in `fit`'s
+    assert "records" in documents["fit-batch"]["campaigns"][0]["result"]  # reports
+    for command in has - {"fit-batch"}:
         rows = documents[command]["records"]
         assert rows and all(isinstance(r, dict) for r in rows), command
     for command in ("fit", "discover"):  # the screening of every record, by name

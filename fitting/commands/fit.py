@@ -69,9 +69,10 @@ def add_slip_time_argument(parser):
                         help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
 
 
-def add_gauge_offset_argument(parser):
-    """--gauge-offset (old name --offset, hidden; `stickslip_jax.modes.GaugeOffset`'s
-    values): shared by `stickslip fit` and `mcmc`."""
+def add_gauge_offset_argument(parser, old_name: bool = True):
+    """--gauge-offset (old name --offset, hidden, unless `old_name` is False: a command
+    newer than the rename; `stickslip_jax.modes.GaugeOffset`'s values): shared by
+    `stickslip fit`, `mcmc` and `fit-batch`."""
     import argparse
 
     from stickslip_jax.modes import GaugeOffset
@@ -80,6 +81,8 @@ def add_gauge_offset_argument(parser):
                         default=GaugeOffset.ZERO.value,
                         help="gauge offset: trust the zero (default), or read it from the first "
                         "sample of records that start with the spring relaxed")
+    if not old_name:
+        return
     # the old name (`stickslip pitch --drive-offset` is a length: one name per concept)
     parser.add_argument("--offset", dest="offset", choices=GaugeOffset.choices(),
                         default=argparse.SUPPRESS, help=argparse.SUPPRESS)

@@ -1,0 +1,204 @@
+"""`stickslip fit-batch CAMPAIGN...`: fit many campaigns, one per folder or glob, on one
+machine or spread over processes and hosts (`jax.distributed`).
+
+Every CAMPAIGN is fitted as `stickslip fit CAMPAIGN` would fit it, with the same options
+(`--objective`, `--fix`, `--loss`, ...). A campaign that cannot be fitted is listed with
+the reason and the others go on (`stickslip_fitting.batch`). Prints one row per campaign;
+`--json OUT` writes every campaign's `stickslip fit --json` report, `--csv OUT` a long
+table (one row per campaign and parameter, units in a column), `--plot OUT.png` the
+parameters of every campaign side by side with their 95 % intervals. Across processes: start
+the same command on every process with `--coordinator HOST:PORT --num-processes N
+--process-id I`; process 0 prints the table and writes the files. Exit 0 when every
+campaign fitted and converged, 3 when some did not.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+NAME = "fit-batch"
+HELP = "fit many campaigns (one per folder or glob), across processes with jax.distributed"
+
+
+def add_arguments(parser):
+    from stickslip_jax.commands.options import (add_json_option, add_plot_option,
+                                                add_quiet_option)
+
+    from .fit import (add_gauge_offset_argument, add_model_arguments, add_objective_argument,
+                      add_slip_time_argument)
+
+    parser.add_argument("campaigns", nargs="+", metavar="CAMPAIGN",
+                        help="one campaign per argument: a folder of record CSV files or a "
+                        "quoted glob ('runs/A_*.csv')")
+    parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
+                        help="static-friction law: eq (1) (default) or the microsqueeze law")
+    add_gauge_offset_argument(parser, old_name=False)
+    add_slip_time_argument(parser)
+    add_objective_argument(parser, help="what each campaign's fit matches (as in stickslip "
+                           "fit): the cycle features (default, fast), every sample of the "
+                           "traces, both, or whole records through the smoothed simulator")
+    parser.add_argument("--strict", action="store_true",
+                        help="fail a campaign when any of its records has no usable "
+                        "stick-slip (default: fit the records that have it)")
+    add_model_arguments(parser)
+    add_json_option(parser, "every campaign's fit report")
+    parser.add_argument("--csv", metavar="OUT.csv",
+                        help="write the results as a long-format CSV: one row per campaign "
+                        "and parameter (status, value, unit, standard error, 95 %% interval)")
+    add_plot_option(parser, "the parameters of every campaign side by side")
+    add_quiet_option(parser)
+    group = parser.add_argument_group(
+        "across processes (jax.distributed; give all three on every process)")
+    group.add_argument("--coordinator", metavar="HOST:PORT",
+                       help="address of process 0, e.g. localhost:12345 or node01:12345")
+    group.add_argument("--num-processes", type=int, metavar="N",
+                       help="number of processes that share the batch")
+    group.add_argument("--process-id", type=int, metavar="I",
+                       help="this process's index, 0 ... N-1 (process 0 writes the outputs)")
+
+
+def _join(args) -> None:
+    """Join the `jax.distributed` job the three options describe (before any JAX work)."""
+    given = [args.coordinator is not None, args.num_processes is not None,
+             args.process_id is not None]
+    if not any(given):
+        return
+    if not all(given):
+        raise ValueError("--coordinator, --num-processes and --process-id: give all three "
+                         "(the same coordinator and count on every process) or none")
+    from stickslip_jax.distributed import initialize
+
+    try:
+        initialize(args.coordinator, args.num_processes, args.process_id)
+    except ValueError as exc:
+        raise ValueError(f"--coordinator/--num-processes/--process-id: {exc}") from None
+    except RuntimeError as exc:  # JAX was already in use, or the coordinator is unreachable
+        raise ValueError(f"--coordinator {args.coordinator}: cannot join the job ({exc})") \
+            from None
+
+
+def _fit_one(args):
+    """fit_one(spec) of `stickslip_fitting.batch.fit_batch`: `stickslip fit`'s path."""
+    from ..uncertainty import laplace
+    from .fit import build_report, fit_from_args
+
+    def fit_one(spec) -> dict:
+        one = argparse.Namespace(**{**vars(args), "records": [spec]})
+        fit, campaign, extra = fit_from_args(one, objective=args.objective)
+        report = build_report(fit, laplace(fit), campaign, model=args.model, extra=extra)
+        report["notes"] = list(campaign.notes)
+        return report
+
+    return fit_one
+
+
+PARAMS_SHOWN = ("mu_s", "mu_d", "gamma", "m", "delta", "n", "h_e", "Q")
+
+
+def format_table(batch) -> str:
+    """One row per campaign: status, records used, parameter values, chi2/dof, time."""
+    names = [p for p in PARAMS_SHOWN if any(
+        e.report and p in e.report["parameters"] for e in batch.entries)]
+    width = max([8] + [len(e.name) for e in batch.entries]) + 2
+    head = (f"{'campaign':<{width}}{'status':<15}{'records':>8}"
+            + "".join(f"{n:>11}" for n in names) + f"{'chi2/dof':>10}{'s':>7}")
+    lines = [head, "-" * len(head)]
+    for e in batch.entries:
+        line = f"{e.name:<{width}}{e.status.replace('_', ' '):<15}"
+        if e.report is None:
+            lines.append(line + f"{'':>8}  {e.message}")
+            continue
+        used = sum(r.get("status", "used") == "used" for r in e.report["records"])
+        line += f"{used:>8}"
+        for n in names:
+            p = e.report["parameters"].get(n)
+            line += f"{p['value']:>11.5g}" if p else f"{'':>11}"
+        lines.append(line + f"{e.report['reduced_chi2']:>10.3g}{e.seconds:>7.1f}")
+    n = len(batch.entries)
+    lines.append("")
+    lines.append(f"{batch.count('fitted')} of {n} campaigns fitted"
+                 + (f", {batch.count('not_converged')} did not converge"
+                    if batch.count("not_converged") else "")
+                 + (f", {batch.count('failed') + batch.count('error')} could not be fitted"
+                    if batch.count("failed") + batch.count("error") else "")
+                 + f"; {batch.processes} process{'es' if batch.processes > 1 else ''}, "
+                 f"{batch.seconds:.1f} s")
+    return "\n".join(lines)
+
+
+def _num(x) -> str:
+    """A number for the CSV: full precision, empty when there is none."""
+    return "" if x is None else repr(float(x))
+
+
+def long_table(batch) -> str:
+    """CSV text, one row per campaign and parameter (a campaign not fitted: one row)."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["campaign", "status", "parameter", "value", "unit", "stderr", "ci95_low",
+                "ci95_high", "fixed", "reduced_chi2", "message"])
+    for e in batch.entries:
+        if e.report is None:
+            w.writerow([e.name, e.status, "", "", "", "", "", "", "", "", e.message])
+            continue
+        for name, p in e.report["parameters"].items():
+            ci = p.get("ci95") or [None, None]
+            w.writerow([e.name, e.status, name, _num(p["value"]), p["unit"],
+                        _num(p.get("stderr")), _num(ci[0]), _num(ci[1]), bool(p["fixed"]),
+                        _num(e.report["reduced_chi2"]), ""])
+    return buf.getvalue()
+
+
+def run(args) -> int:
+    import sys
+
+    from stickslip_jax.logs import logger
+    from stickslip_jax.output import check_outputs, versioned, write_json, write_text
+    from stickslip_jax.records import RecordError, record_paths
+
+    from ..batch import ERROR, FITTED, fit_batch
+
+    inputs = []
+    for spec in args.campaigns:
+        try:
+            inputs.extend(record_paths(spec))
+        except RecordError:
+            pass  # the campaign fails with this message; the batch goes on
+    check_outputs({"--json": args.json, "--csv": args.csv, args.plot_option: args.plot},
+                  inputs)
+    _join(args)
+    import jax
+
+    lead = jax.process_index() == 0
+    logger.info(f"fitting {len(args.campaigns)} campaigns on {jax.process_count()} "
+                f"process(es)...")
+    batch = fit_batch(args.campaigns, _fit_one(args), progress=logger.info)
+    errors = any(e.status == ERROR for e in batch.entries)
+    code = 1 if errors else 0 if all(e.status == FITTED for e in batch.entries) else 3
+    if not lead:  # every process ends with the batch and its exit code; one writes
+        return code
+    print(format_table(batch))
+    for e in batch.entries:
+        for note in (e.report or {}).get("notes", []):
+            print(f"note: {e.name}: {note}")
+    if args.json:
+        write_json(args.json, versioned({
+            "processes": batch.processes, "wall_time_s": batch.seconds,
+            "campaigns": [e.to_json() for e in batch.entries]}))
+        if args.json != "-":
+            print(f"wrote {args.json}")
+    if args.csv:
+        write_text(args.csv, long_table(batch))
+        print(f"wrote {args.csv}")
+    if args.plot:
+        from ..plots import batch_figure
+
+        batch_figure(batch, args.plot)
+        print(f"wrote {args.plot}")
+    if errors:
+        print("stickslip fit-batch: internal errors in some campaigns (see the table); run "
+              "one of them with `stickslip --debug fit` for the traceback", file=sys.stderr)
+    return code
