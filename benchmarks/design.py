@@ -142,7 +142,8 @@ def _free_port() -> int:
 def process_rate(n_processes, n_points, method, repeat):
     """Points/s of a `n_points` map computed by `n_processes` local CPU processes joined by
     `jax.distributed` (benchmarks/design_worker.py), after compilation: n_points over the
-    slowest process's best time. Returns (rate, seconds, checksum)."""
+    slowest process's best time. Returns (rate, seconds, checksum, cores kept busy by all
+processes together)."""
     worker = Path(__file__).with_name("design_worker.py")
     port = str(_free_port())
     procs = [subprocess.Popen([sys.executable, str(worker), str(i), str(n_processes), port,
@@ -156,7 +157,7 @@ def process_rate(n_processes, n_points, method, repeat):
             raise RuntimeError(f"design_worker.py failed:\n{err[-3000:]}")
         runs.append(json.loads(out.strip().splitlines()[-1]))
     seconds = max(r["seconds"] for r in runs)
-    return n_points / seconds, seconds, runs[0]["checksum"]
+    return n_points / seconds, seconds, runs[0]["checksum"], sum(r["cores_busy"] for r in runs)
 
 
 def main(argv=None):
@@ -214,14 +215,21 @@ def main(argv=None):
         return
     # 4. the same map in 1 and 2 processes joined by jax.distributed (localhost)
     n_proc_points = 5_000 if args.small else 100_000
-    rate1, t1, sum1 = process_rate(1, n_proc_points, args.process_method, args.repeat)
-    rate2, t2, sum2 = process_rate(2, n_proc_points, args.process_method, args.repeat)
+    rate1, t1, sum1, cores1 = process_rate(1, n_proc_points, args.process_method, args.repeat)
+    rate2, t2, sum2, cores2 = process_rate(2, n_proc_points, args.process_method, args.repeat)
     eff = rate2 / (2.0 * rate1)
     print(f"\n{args.process_method} map across processes (jax.distributed, CPU, localhost; "
           f"{n_proc_points} points, after compilation):")
-    print(f"{'processes':<36}{'points':>10}{'time [s]':>11}{'points/s':>12}")
-    print(f"{'1':<36}{n_proc_points:>10}{t1:>11.3f}{rate1:>12.4g}")
-    print(f"{'2':<36}{n_proc_points:>10}{t2:>11.3f}{rate2:>12.4g}")
+    import os
+
+    print(f"{'processes':<36}{'points':>10}{'time [s]':>11}{'points/s':>12}"
+          f"{'cores busy':>12}")
+    print(f"{'1':<36}{n_proc_points:>10}{t1:>11.3f}{rate1:>12.4g}{cores1:>12.2f}")
+    print(f"{'2':<36}{n_proc_points:>10}{t2:>11.3f}{rate2:>12.4g}{cores2:>12.2f}")
+    print(f"(cores busy: CPU time / wall time of the map, all processes; this machine has "
+          f"{os.cpu_count()} cores: where one process already keeps them busy (XLA runs "
+          "the vmapped kernel on several threads), a second process on the same cores cannot "
+          "add speed; a second host adds its own cores)")
     print(f"speed-up 2 / 1: {rate2 / rate1:.2f}x, parallel efficiency {eff * 100:.0f} %; "
           f"same map: {'yes' if sum1 == sum2 else 'NO'} (amplitude sums {sum1!r}, {sum2!r})")
     print("projection for N hosts (assumption: each host adds one process's rate times the "

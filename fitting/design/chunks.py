@@ -70,26 +70,63 @@ def map_chunks(
     mesh = batch_mesh() if mesh is None else mesh
     size = padded_size(min(chunk_size, total), mesh.size)
     fn = _jitted(kernel)
-    shared_dev = replicate(shared, mesh) if shared is not None else None
+    local, part, first = _process_share(mesh, size)
+    shared_dev = replicate(shared, local) if shared is not None else None
     bar = _progress(total, progress, desc)
 
     def dispatch(start):
         stop = min(start + size, total)
         rows = pad_batch(gather_rows(batch, shape, start, stop), size)
-        return start, stop, fn(shard_batch(rows, mesh), shared_dev)
+        if local is not mesh:  # this process's rows only (_process_share)
+            rows = jax.tree_util.tree_map(lambda x: x[first:first + part], rows)
+        return start, stop, fn(shard_batch(rows, local), shared_dev)
 
     pending = dispatch(0)
     try:
         while pending is not None:
             start, stop, out = pending
             pending = dispatch(stop) if stop < total else None
-            host = jax.tree_util.tree_map(lambda x: to_host(x)[: stop - start], out)
+            host = jax.tree_util.tree_map(
+                lambda x: _gather(x, local is not mesh)[: stop - start], out)
             if bar is not None:
                 bar.update(stop - start)
             yield start, stop, host
     finally:
         if bar is not None:
             bar.close()
+
+
+def _process_share(mesh, size: int):
+    """(local mesh, rows per process, this process's first row) of a chunk of `size` rows.
+
+    One process: (mesh, size, 0). Several (`jax.distributed`): each process computes its
+    own contiguous block of every chunk on its own devices, and the blocks are
+    all-gathered afterwards (`_gather`). A chunk sharded over devices of several processes
+    would run a kernel with a data-dependent loop (the exact simulator's `while_loop`) in
+    lock-step: its stop condition is a reduction over the whole batch, an all-reduce
+    between the processes at every iteration, which made 2 processes no faster than one
+    (benchmarks/design.py)."""
+    n_proc = jax.process_count()
+    if n_proc == 1:
+        return mesh, size, 0
+    mine = [d for d in mesh.devices.flat if d.process_index == jax.process_index()]
+    if not mine or len(mine) * n_proc != mesh.size:
+        raise ValueError(f"the mesh's {mesh.size} devices are not spread evenly over the "
+                         f"{n_proc} processes (this one holds {len(mine)}); use a mesh with "
+                         "the same number of devices on every process")
+    part = size // n_proc
+    return batch_mesh(mine), part, jax.process_index() * part
+
+
+def _gather(x, across_processes: bool) -> np.ndarray:
+    """A result block on the host: with several processes, every process's block in
+    process order (`multihost_utils.process_allgather`)."""
+    x = to_host(x)
+    if not across_processes:
+        return x
+    from jax.experimental import multihost_utils
+
+    return np.asarray(multihost_utils.process_allgather(x, tiled=True))
 
 
 _JIT_CACHE: dict = {}

@@ -10,12 +10,16 @@ same arithmetic as on one device, so the results are identical.
 Several hosts: start every process with the same script and call
 ``jax.distributed.initialize()`` (coordinator address, process count and id from the
 cluster, e.g. SLURM sets them automatically) before any other JAX call. Then
-`jax.devices()` lists the devices of *all* hosts, `batch_mesh()` spans them, and
-`shard_batch` builds the global array with `jax.make_array_from_callback`, each process
-supplying only the rows its own devices hold (every process computes the same cheap
-grid of design points). `to_host` gathers a result with
-`jax.experimental.multihost_utils.process_allgather`, so every process ends with the
-whole map; write files from ``jax.process_index() == 0`` only.
+`jax.devices()` lists the devices of *all* hosts and `batch_mesh()` spans them.
+`stickslip_fitting.design.chunks.map_chunks` (what `design_map` runs) then gives each
+process a contiguous block of every chunk, computed on a mesh of its own devices, and
+all-gathers the blocks (`jax.experimental.multihost_utils.process_allgather`), so every
+process ends with the whole map (every process computes the same cheap grid of design
+points); write files from ``jax.process_index() == 0`` only. For other uses,
+`shard_batch` builds a global array over several processes with
+`jax.make_array_from_callback` (each process supplying the rows its devices hold) and
+`to_host` gathers one; a kernel with a data-dependent loop should not run on such an
+array, since its stop condition then needs an all-reduce between processes per step.
 """
 
 from __future__ import annotations
