@@ -107,7 +107,7 @@ CHUNK = 512
 
 def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
                pad_windows: int = 0, chunk: int = CHUNK, drive_fix: bool = True,
-               measured_drive: bool = False) -> TraceData:
+               measured_drive: bool = False, keep_reslips: bool = False) -> TraceData:
     """Cut every record into its complete cycles (module doc), the cycles into rows of
     `chunk` samples, and pad them into a `TraceData`.
 
@@ -124,8 +124,10 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     $u - u(t_s) = v s + c_2 s^2 + c_3 s^3$ ($s$ = time since the window's start t_s, s),
     v as the row's `speed` and `drive_poly` = (0, c_2, c_3) (mm/s^2, mm/s^3);
     constant-speed records get zeros (a model that reads `drive_poly`:
-    `stickslip_fitting.discovery.cycle_model`). Raises ValueError for a record without
-    stick-slip, or without a constant drive speed unless `measured_drive`.
+    `stickslip_fitting.discovery.cycle_model`). `keep_reslips`: keep the windows after
+    slips measured as re-slips too (a model whose measurement chain may lengthen every
+    slip: `stickslip_fitting.discovery.cycle_workflow`). Raises ValueError for a record
+    without stick-slip, or without a constant drive speed unless `measured_drive`.
     """
     if len(records) != len(features):
         raise ValueError("trace_data: give one RecordFeatures per record")
@@ -151,7 +153,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         u_meas = None if rec.drive_source == "speed" else np.asarray(rec.drive_position(t), float)
         v_rec = (float(rec.drive_speed) if u_meas is None
                  else float(np.polyfit(t - t[0], u_meas, 1)[0]))
-        dropped = _after_reslip(f)
+        dropped = _after_reslip(f) & (not keep_reslips)
         for j in range(1, len(f.peak)):
             if not f.complete[j] or dropped[j - 1]:
                 continue

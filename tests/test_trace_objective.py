@@ -111,6 +111,11 @@ def test_windows_after_a_reslip_are_left_out():
     with pytest.raises(ValueError, match="re-slip"):  # only re-slipping records: said so
         trace_data([rec for rec, s in zip(recs, stiff) if s],
                    [f for f, s in zip(feats, stiff) if s])
+    # keep_reslips (discovery, where a slow gauge lengthens every slip): every window
+    kept = trace_data(recs, feats, keep_reslips=True)
+    rows = np.asarray(kept.mask).any(axis=1)
+    assert np.unique(np.asarray(kept.window)[rows]).size == sum(
+        int(np.count_nonzero(f.complete[1:])) for f in feats)
 
 
 def test_trace_fit_recovers_truth_within_intervals(campaign, trace_fit):
