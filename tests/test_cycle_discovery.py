@@ -50,6 +50,7 @@ def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):
     assert re.search(r"^stickslip discover \[\s*\d+\.\d s\] base_fit:", captured.err, re.M)
 
 
+@pytest.mark.slow  # 31 s: with the slow tests, keeping the default suite under 10 minutes
 def test_strong_damping_is_named():
     recs = ir.campaign(physics=ir.Physics(damping_ratio=0.15), seed=12, **SMALL)
     res = discover_cycles(recs)

@@ -67,6 +67,7 @@ def damped():
     return recs, discover(recs, top=2, max_evals=20)
 
 
+@pytest.mark.slow  # the whole-record workflow's campaign: 60 s with its fixture
 def test_tiny_campaign_names_gauge_drift(damped):
     recs, res = damped
     assert res.effect == "gauge_drift"
@@ -77,6 +78,7 @@ def test_tiny_campaign_names_gauge_drift(damped):
     assert set(res.timings) >= {"base_fit", "ranking", "refit", "total"}
 
 
+@pytest.mark.slow  # the whole-record workflow's campaign: 60 s with its fixture
 def test_tiny_campaign_without_effect_answers_none_through_the_cli(tmp_path, damped):
     from stickslip_jax.cli import main
     from stickslip_jax.records import write_record

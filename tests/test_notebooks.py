@@ -12,9 +12,13 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
+SLOW = {"05_missing_physics"}
+"""Notebooks that take over a minute at small size: run with the slow tests (`.ci/run`
+runs those too), keeping the default suite under 10 minutes."""
 
 
-@pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
+@pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem in SLOW
+                                  else p for p in NOTEBOOKS], ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs_headless(path, tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg", STICKSLIP_SMALL="1", STICKSLIP_FIGDIR=str(tmp_path))
     proc = subprocess.run(

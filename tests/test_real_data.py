@@ -53,6 +53,7 @@ def test_only_what_the_records_determine_gets_an_interval(report):
         assert v["value"] is None or np.isfinite(v["value"])
 
 
+@pytest.mark.slow  # 63 s: with the slow tests, keeping the default suite under 10 minutes
 def test_discovery_runs_on_the_real_records():
     """The missing-physics workflow on the measured records: the sliding control is set
     aside and listed, the others are fitted (the base had failed at its start, where the
