@@ -3,21 +3,15 @@ give the map of one process, bit for bit."""
 
 from __future__ import annotations
 
-import socket
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from ports import free_port
 
 HERE = Path(__file__).parent
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        return s.getsockname()[1]
 
 
 @pytest.mark.slow
@@ -25,7 +19,7 @@ def test_two_processes_give_the_one_process_map(tmp_path):
     import stickslip_jax as ss
     from stickslip_fitting.design import design_map, outer
 
-    port = str(_free_port())
+    port = str(free_port())
     outs = [tmp_path / f"map{i}.npy" for i in range(2)]
     procs = [subprocess.Popen([sys.executable, str(HERE / "distributed_map.py"), str(i), "2",
                                port, str(outs[i])], stdout=subprocess.PIPE,

@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import csv
 import json
-import socket
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from ports import free_port
 
 from stickslip_fitting.batch import (ERROR, FAILED, FITTED, NOT_CONVERGED, campaign_name,
                                      fit_batch, shares)
@@ -107,18 +107,12 @@ def test_fit_batch_refuses_half_the_distributed_options(capsys):
     assert "give all three" in capsys.readouterr().err
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        return s.getsockname()[1]
-
-
 @pytest.mark.slow
 def test_two_processes_give_the_one_process_batch(tmp_path):
     """`stickslip fit-batch` started on 2 processes (jax.distributed on localhost, gloo)
     fits each campaign once, and process 0 writes the results of one process."""
     exe = str(Path(sys.executable).with_name("stickslip"))
-    port = str(_free_port())
+    port = str(free_port())
     outs = [tmp_path / f"b{i}.json" for i in range(2)]
     procs = [subprocess.Popen([exe, "fit-batch", *CAMPAIGNS, "--json", str(outs[i]),
                                "--coordinator", f"localhost:{port}", "--num-processes", "2",
