@@ -133,7 +133,8 @@ def timed(fn, repeat):
     return best, out
 
 
-def _free_port() -> int:
+def free_port() -> int:
+    """A free TCP port on localhost (the jax.distributed coordinator of part 4)."""
     with socket.socket() as s:
         s.bind(("localhost", 0))
         return s.getsockname()[1]
@@ -145,7 +146,7 @@ def process_rate(n_processes, n_points, method, repeat):
     slowest process's best time. Returns (rate, seconds, checksum, cores kept busy by all
 processes together)."""
     worker = Path(__file__).with_name("design_worker.py")
-    port = str(_free_port())
+    port = str(free_port())
     procs = [subprocess.Popen([sys.executable, str(worker), str(i), str(n_processes), port,
                                str(n_points), method, str(repeat)],
                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)

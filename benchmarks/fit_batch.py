@@ -23,12 +23,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import socket
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+from design import free_port  # benchmarks/design.py, beside this script
 
 ROOT = Path(__file__).resolve().parents[1]
 EXAMPLES = ROOT / "data" / "examples"
@@ -40,12 +41,6 @@ def campaigns(repeat: int) -> list[str]:
     return one * repeat
 
 
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("localhost", 0))
-        return s.getsockname()[1]
-
-
 def run_batch(specs, n_processes: int, objective: str, folder: str):
     """Wall time (s) of `stickslip fit-batch` on `n_processes` processes, and process 0's
     JSON document."""
@@ -53,7 +48,7 @@ def run_batch(specs, n_processes: int, objective: str, folder: str):
     out = os.path.join(folder, f"batch{n_processes}.json")
     env = {**os.environ, "STICKSLIP_CACHE_DIR": ""}
     base = [exe, "fit-batch", *specs, "-q", "--objective", objective, "--json", out]
-    port = str(_free_port())
+    port = str(free_port())
     dist = (lambda i: ["--coordinator", f"localhost:{port}", "--num-processes",
                        str(n_processes), "--process-id", str(i)]) if n_processes > 1 else \
         (lambda i: [])

@@ -40,10 +40,6 @@ class Objective(AbstractMode):
     BOTH = "both"
     SMOOTH = "smooth"
 
-    @classmethod
-    def parse(cls, value, name: str | None = "objective"):
-        return super().parse(value, name)
-
     @property
     def needs_records(self) -> bool:
         """True when the objective reads the records' samples, not only their features."""
@@ -62,8 +58,8 @@ class DesignCriterion(AbstractMode):
     A = "A"
 
     @classmethod
-    def parse(cls, value, name: str | None = "criterion"):
-        return super().parse(value, name)
+    def option(cls) -> str:
+        return "criterion"
 
 
 class MapMethod(AbstractMode):
@@ -81,5 +77,5 @@ class MapMethod(AbstractMode):
     CYCLE = "cycle"
 
     @classmethod
-    def parse(cls, value, name: str | None = "method"):
-        return super().parse(value, name)
+    def option(cls) -> str:
+        return "method"

@@ -58,8 +58,8 @@ from stickslip_jax.simulation import SimulationResult, simulate_exact
 from .features import RecordFeatures
 from .params import CampaignParams
 
-__all__ = ["CHUNK", "TraceData", "failed_windows", "reslip_windows", "trace_data",
-           "trace_residuals", "trace_residuals_and_flags", "trace_sd", "trace_simulation",
+__all__ = ["CHUNK", "TraceData", "cycle_windows", "failed_windows", "reslip_windows",
+           "trace_data", "trace_residuals", "trace_residuals_and_flags", "trace_sd", "trace_simulation",
            "window_failures"]
 
 MAX_EVENTS = 6
@@ -276,6 +276,13 @@ def trace_residuals_and_flags(params: CampaignParams, data: TraceData,
 def _after_reslip(f: RecordFeatures) -> np.ndarray:
     """Per cycle j >= 1: complete, but the slip before it had a re-slip (left out)."""
     return np.asarray(f.complete[1:], bool) & f.slipped_on[:-1]
+
+
+def cycle_windows(features: list[RecordFeatures]) -> int:
+    """Complete cycles after a record's first slip: the windows `trace_data` cuts with
+    `keep_reslips` (without it, `reslip_windows` of them are left out)."""
+    return sum(int(np.count_nonzero(np.asarray(f.complete[1:], bool)))
+               for f in features if f.stick_slip)
 
 
 def reslip_windows(features: list[RecordFeatures]) -> int:

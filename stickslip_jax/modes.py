@@ -44,14 +44,20 @@ class AbstractMode(str, enum.Enum):
         return tuple(m.value for m in cls)
 
     @classmethod
+    def option(cls) -> str:
+        """The argument's name in error messages: the class name in snake case unless a
+        subclass names it otherwise."""
+        return re.sub(r"(?<!^)(?=[A-Z])", "_", cls.__name__).lower()
+
+    @classmethod
     def parse(cls, value, name: str | None = None):
         """`value` (a member or its string) as a member; a ValueError naming the argument
-        (`name`, default the class name in snake case) and the choices otherwise."""
+        (`name`, default `option()`) and the choices otherwise."""
         try:
             return cls(value)
         except ValueError:
-            name = name or re.sub(r"(?<!^)(?=[A-Z])", "_", cls.__name__).lower()
-            raise ValueError(f"{name} must be one of {cls.choices()}, got {value!r}") from None
+            raise ValueError(f"{name or cls.option()} must be one of {cls.choices()}, "
+                             f"got {value!r}") from None
 
 
 class SlipTime(AbstractMode):

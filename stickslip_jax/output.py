@@ -32,9 +32,8 @@ import sys
 import tempfile
 
 __all__ = [
-    "catch_interrupts", "check_outputs", "interrupted", "json_owns_stdout", "null_reasons", "save_figure", "strict_json",
-    "write_atomic",
-    "write_json", "write_text",
+    "catch_interrupts", "check_outputs", "interrupted", "json_owns_stdout", "null_reasons",
+    "save_figure", "strict_json", "write_atomic", "write_json", "write_text",
 ]
 
 

@@ -14,8 +14,8 @@ from stickslip_fitting.features import record_features
 from stickslip_fitting.fit import MAX_ROUNDS, fit_features
 from stickslip_fitting.params import NAMES, CampaignParams, EmpiricalFriction
 from stickslip_fitting.synthetic import synthetic_campaign, truth_values
-from stickslip_fitting.trace_objective import (CHUNK, reslip_windows, trace_data, trace_residuals,
-                                     trace_simulation)
+from stickslip_fitting.trace_objective import (CHUNK, cycle_windows, reslip_windows,
+                                               trace_data, trace_residuals, trace_simulation)
 from stickslip_fitting.uncertainty import laplace
 
 
@@ -114,8 +114,8 @@ def test_windows_after_a_reslip_are_left_out():
     # keep_reslips (discovery, where a slow gauge lengthens every slip): every window
     kept = trace_data(recs, feats, keep_reslips=True)
     rows = np.asarray(kept.mask).any(axis=1)
-    assert np.unique(np.asarray(kept.window)[rows]).size == sum(
-        int(np.count_nonzero(f.complete[1:])) for f in feats)
+    assert np.unique(np.asarray(kept.window)[rows]).size == cycle_windows(feats) == sum(
+        f.n_complete - int(f.complete[0]) for f in feats)
 
 
 def test_trace_fit_recovers_truth_within_intervals(campaign, trace_fit):

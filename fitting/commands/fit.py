@@ -32,26 +32,35 @@ def __getattr__(name):
 
 def add_arguments(parser):
     parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
-    parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
-                        help="static-friction law: eq (1) (default) or the microsqueeze law")
-    add_gauge_offset_argument(parser)
-    add_slip_time_argument(parser)
-    add_objective_argument(
-        parser, help="fit the cycle features (default, fast), every sample of the "
-                  "traces through the exact simulator restarted per cycle, both "
-                  "(weights 1/2 each), or whole records through the smoothed simulator "
-                  "(slow; tests the timing of every slip); all but features start from "
-                  "the features fit, and their intervals use a cluster-robust "
-                  "covariance (per stick phase; per record for smooth)")
-    parser.add_argument("--strict", action="store_true",
-                        help="refuse the campaign when any record has no usable stick-slip "
-                        "(default: fit the records that have it, list the others)")
-    add_model_arguments(parser)
+    add_campaign_fit_arguments(
+        parser,
+        objective_help="fit the cycle features (default, fast), every sample of the "
+                       "traces through the exact simulator restarted per cycle, both "
+                       "(weights 1/2 each), or whole records through the smoothed simulator "
+                       "(slow; tests the timing of every slip); all but features start from "
+                       "the features fit, and their intervals use a cluster-robust "
+                       "covariance (per stick phase; per record for smooth)",
+        strict_help="refuse the campaign when any record has no usable stick-slip "
+                    "(default: fit the records that have it, list the others)")
     from stickslip_jax.commands.options import add_json_option, add_plot_option, add_quiet_option
 
     add_json_option(parser, "the result")
     add_plot_option(parser, "the diagnostic figure")
     add_quiet_option(parser)
+
+
+def add_campaign_fit_arguments(parser, *, objective_help: str, strict_help: str,
+                               old_offset_name: bool = True):
+    """The options of one campaign's fit (--model, --gauge-offset, --slip-time,
+    --objective, --strict, --fix, --loss, --eta, --surface): shared by `stickslip fit`
+    and `fit-batch`, each with its own help for --objective and --strict."""
+    parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
+                        help="static-friction law: eq (1) (default) or the microsqueeze law")
+    add_gauge_offset_argument(parser, old_name=old_offset_name)
+    add_slip_time_argument(parser)
+    add_objective_argument(parser, help=objective_help)
+    parser.add_argument("--strict", action="store_true", help=strict_help)
+    add_model_arguments(parser)
 
 
 def add_objective_argument(parser, help: str):

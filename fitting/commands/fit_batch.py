@@ -24,23 +24,18 @@ def add_arguments(parser):
     from stickslip_jax.commands.options import (add_json_option, add_plot_option,
                                                 add_quiet_option)
 
-    from .fit import (add_gauge_offset_argument, add_model_arguments, add_objective_argument,
-                      add_slip_time_argument)
+    from .fit import add_campaign_fit_arguments
 
     parser.add_argument("campaigns", nargs="+", metavar="CAMPAIGN",
                         help="one campaign per argument: a folder of record CSV files or a "
                         "quoted glob ('runs/A_*.csv')")
-    parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
-                        help="static-friction law: eq (1) (default) or the microsqueeze law")
-    add_gauge_offset_argument(parser, old_name=False)
-    add_slip_time_argument(parser)
-    add_objective_argument(parser, help="what each campaign's fit matches (as in stickslip "
-                           "fit): the cycle features (default, fast), every sample of the "
-                           "traces, both, or whole records through the smoothed simulator")
-    parser.add_argument("--strict", action="store_true",
-                        help="fail a campaign when any of its records has no usable "
-                        "stick-slip (default: fit the records that have it)")
-    add_model_arguments(parser)
+    add_campaign_fit_arguments(
+        parser, old_offset_name=False,
+        objective_help="what each campaign's fit matches (as in stickslip fit): the cycle "
+                       "features (default, fast), every sample of the traces, both, or whole "
+                       "records through the smoothed simulator",
+        strict_help="fail a campaign when any of its records has no usable stick-slip "
+                    "(default: fit the records that have it)")
     add_json_option(parser, "every campaign's fit report")
     parser.add_argument("--csv", metavar="OUT.csv",
                         help="write the results as a long-format CSV: one row per campaign "
@@ -92,13 +87,10 @@ def _fit_one(args):
     return fit_one
 
 
-PARAMS_SHOWN = ("mu_s", "mu_d", "gamma", "m", "delta", "n", "h_e", "Q")
-
-
 def format_table(batch) -> str:
     """One row per campaign: status, records used, parameter values, chi2/dof, time."""
-    names = [p for p in PARAMS_SHOWN if any(
-        e.report and p in e.report["parameters"] for e in batch.entries)]
+    names = list(dict.fromkeys(p for e in batch.entries if e.report
+                               for p in e.report["parameters"]))
     width = max([8] + [len(e.name) for e in batch.entries]) + 2
     head = (f"{'campaign':<{width}}{'status':<15}{'records':>8}"
             + "".join(f"{n:>11}" for n in names) + f"{'chi2/dof':>10}{'s':>7}")
@@ -159,7 +151,7 @@ def run(args) -> int:
     from stickslip_jax.output import check_outputs, versioned, write_json, write_text
     from stickslip_jax.records import RecordError, record_paths
 
-    from ..batch import ERROR, FITTED, fit_batch
+    from ..batch import ERROR, fit_batch
 
     inputs = []
     for spec in args.campaigns:
@@ -176,8 +168,8 @@ def run(args) -> int:
     logger.info(f"fitting {len(args.campaigns)} campaigns on {jax.process_count()} "
                 f"process(es)...")
     batch = fit_batch(args.campaigns, _fit_one(args), progress=logger.info)
-    errors = any(e.status == ERROR for e in batch.entries)
-    code = 1 if errors else 0 if all(e.status == FITTED for e in batch.entries) else 3
+    errors = batch.count(ERROR) > 0
+    code = 1 if errors else 0 if batch.all_fitted else 3
     if not lead:  # every process ends with the batch and its exit code; one writes
         return code
     print(format_table(batch))

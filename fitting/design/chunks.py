@@ -71,13 +71,14 @@ def map_chunks(
     size = padded_size(min(chunk_size, total), mesh.size)
     fn = _jitted(kernel)
     local, part, first = _process_share(mesh, size)
+    across = local is not mesh  # several processes: each computes its block, then gather
     shared_dev = replicate(shared, local) if shared is not None else None
     bar = _progress(total, progress, desc)
 
     def dispatch(start):
         stop = min(start + size, total)
         rows = pad_batch(gather_rows(batch, shape, start, stop), size)
-        if local is not mesh:  # this process's rows only (_process_share)
+        if across:  # this process's rows only (_process_share)
             rows = jax.tree_util.tree_map(lambda x: x[first:first + part], rows)
         return start, stop, fn(shard_batch(rows, local), shared_dev)
 
@@ -87,7 +88,7 @@ def map_chunks(
             start, stop, out = pending
             pending = dispatch(stop) if stop < total else None
             host = jax.tree_util.tree_map(
-                lambda x: _gather(x, local is not mesh)[: stop - start], out)
+                lambda x: _gather(x, across)[: stop - start], out)
             if bar is not None:
                 bar.update(stop - start)
             yield start, stop, host

@@ -67,7 +67,7 @@ from ..campaign import Campaign, screen_records
 from ..fit import fit_features
 from ..params import CampaignParams, EmpiricalFriction
 from ..report import DiscoveryEstimates, ParameterEstimate
-from ..trace_objective import reslip_windows, trace_data, trace_sd
+from ..trace_objective import cycle_windows, reslip_windows, trace_data, trace_sd
 from .cycle_effects import DRIVE_ERROR_MAX, FAMILIES, Family, Shape, drive_error_range, family
 from .cycle_model import CycleModel, drift_origins
 from .scores import base_basis, principal_cosine, project_out
@@ -296,7 +296,7 @@ class _Refit:
     stderr: np.ndarray
     unphysical: str | None
     sensor: bool
-    sub: "_Sub | None" = None  # the refit's problem (to continue it)
+    sub: _Sub  # the refit's problem (to continue it)
 
 
 @dataclasses.dataclass
@@ -382,14 +382,14 @@ def _hotelling(Jp, r, starts):
     return F, float(scipy.stats.f.sf(F, p, n - p)), p, step, predicted
 
 
-def _one_screw(coef, recs, pitch) -> str | None:
+def _one_screw(coef, recs, pitch, spans) -> str | None:
     """One lead screw has one error amplitude. Every record's harmonic amplitudes stay
     below SCREW_AMPLITUDE_MAX; among the records that travel at least one pitch, the
     first-harmonic amplitudes agree within a factor SCREW_SPREAD (an error that fits each
     record with its own size is something else, e.g. a drift). A record that travels less
-    than a pitch sees a piece of one period: its error over its own travel (peak to peak)
-    must stay within SCREW_SPREAD times the full swing 2 (A1 + A2) of the largest screw
-    error the long records show."""
+    than a pitch sees a piece of one period: its error over its own travel (`spans`, peak
+    to peak per record, mm) must stay within SCREW_SPREAD times the full swing
+    2 (A1 + A2) of the largest screw error the long records show."""
     amp = np.hypot(coef[:, 0], coef[:, 1])
     amp2 = np.hypot(coef[:, 2], coef[:, 3])
     travel = np.array([r.nominal_drive_speed * (float(r.time[-1]) - float(r.time[0]))
@@ -400,11 +400,10 @@ def _one_screw(coef, recs, pitch) -> str | None:
                 f"{1e3 * SCREW_AMPLITUDE_MAX:g} um (a broken drive, not an effect)")
     if long.any() and not long.all():
         swing = 2.0 * float(np.max(amp[long] + amp2[long]))
-        spans = [drive_error_range(coef[g], recs[g].time, recs[g].nominal_drive_speed, pitch)
-                 for g in np.flatnonzero(~long)]
-        if max(spans) > SCREW_SPREAD * max(swing, 1e-12):
+        short = float(np.max(np.asarray(spans)[~long]))
+        if short > SCREW_SPREAD * max(swing, 1e-12):
             return (f"a record shorter than a pitch needs a drive error of "
-                    f"{1e3 * max(spans):.3g} um peak to peak, more than {SCREW_SPREAD:g} "
+                    f"{1e3 * short:.3g} um peak to peak, more than {SCREW_SPREAD:g} "
                     f"times the {1e3 * swing:.3g} um swing the longer records show; one "
                     "lead screw has one amplitude")
     a = amp[long]
@@ -475,8 +474,7 @@ def discover_cycles(
     # gauge or a damped slip, the very effects sought, so every window is kept (measured:
     # a 20 Hz second-order sensor made 94 of 94 windows "re-slips" and the campaign was
     # refused)
-    n_complete = sum(int(np.count_nonzero(np.asarray(f.complete[1:], bool)))
-                     for f in feats if f.stick_slip)
+    n_complete = cycle_windows(feats)
     n_reslip = reslip_windows(feats)
     keep_reslips = n_reslip > 0 and n_reslip >= RESLIP_SYSTEMATIC * n_complete
     try:
@@ -716,30 +714,30 @@ def discover_cycles(
             except ValueError:  # the score step left the simulator's domain
                 s1 = _Sub(model, z_base, cols, shape, sensor, prior)
                 fit = solve_host(s1.evaluate, z_base[cols], max_evals=refit_evals)
-            one = _judge(f, shape, fit, sensor, cols, s1)
+            one = _judge(f, shape, fit, sensor, s1)
             if best is None or ((one.unphysical is not None, one.fit.rss)
                                 < (best.unphysical is not None, best.fit.rss)):
                 best = one
         return best
 
-    def _judge(f, shape, fit, sensor, cols, sub=None) -> _Refit:
+    def _judge(f, shape, fit, sensor, sub: _Sub) -> _Refit:
         k = len(model.cols(f))
         vals = fit.z[-k:] * model.scales[model.cols(f)]
         try:
-            cov = gauss_newton_covariance(fit.J, max(fit.rss / (n - len(cols)), 1.0))
+            cov = gauss_newton_covariance(fit.J, max(fit.rss / (n - len(sub.cols)), 1.0))
             se = np.sqrt(np.clip(np.diag(cov)[-k:], 0, None)) * model.scales[model.cols(f)]
         except np.linalg.LinAlgError:
             se = np.full(k, np.nan)
         bad = f.unphysical(vals)
         if f.per_record and f.name == "drive_periodic_error":
-            span = max(drive_error_range(vals.reshape(G, -1)[g], recs[g].time,
-                                         recs[g].nominal_drive_speed, shape.pitch)
-                       for g in range(G))
-            if span > DRIVE_ERROR_MAX:
-                bad = (f"drive error {span * 1e3:.3g} um peak to peak > "
+            spans = np.array([drive_error_range(vals.reshape(G, -1)[g], recs[g].time,
+                                                recs[g].nominal_drive_speed, shape.pitch)
+                              for g in range(G)])
+            if spans.max() > DRIVE_ERROR_MAX:
+                bad = (f"drive error {spans.max() * 1e3:.3g} um peak to peak > "
                        f"{DRIVE_ERROR_MAX * 1e3:g} um (a broken drive, not an effect)")
             else:
-                bad = _one_screw(vals.reshape(G, -1), recs, shape.pitch)
+                bad = _one_screw(vals.reshape(G, -1), recs, shape.pitch, spans)
         return _Refit(f, shape, fit, base_fit.rss - fit.rss, vals, se, bad, sensor, sub)
 
     refits = [refit(sc) for sc in to_refit]
@@ -786,15 +784,14 @@ def discover_cycles(
         decision = decide(chosen.drop, others, joint=joint, collinear=collinear, clear=clear)
         compared = {c.name: c for c in others}
         rivals = [c.to_json() for c in decision.joint]
-    if chosen is not None and misfit and not chosen.fit.converged and chosen.sub is not None:
+    if chosen is not None and misfit and not chosen.fit.converged:
         # far from the data the winner's refit ran out of evaluations: continue it (after
         # the decision, which compares refits of equal budgets) so that the gap after and
         # the estimates are those of the fitted effect
         more = solve_host(chosen.sub.evaluate, chosen.fit.z, max_evals=max_evals, lam0=1e-3,
                           stall_evals=8)
         if more.rss < chosen.fit.rss:
-            polished = _judge(chosen.family, chosen.shape, more, chosen.sensor,
-                              chosen.sub.cols, chosen.sub)
+            polished = _judge(chosen.family, chosen.shape, more, chosen.sensor, chosen.sub)
             if polished.unphysical is None:
                 chosen = polished
                 stage("polish", f"{chosen.family.name} chi2 -{chosen.drop:.0f}, "
