@@ -57,6 +57,7 @@ import numpy as np
 
 from .fit import COMPILER_OPTIONS, FitResult
 from .microsqueeze_params import MicrosqueezeFriction
+from .modes import Covariance
 from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_mask
 from .report import ParameterEstimate
 from .uncertainty import laplace
@@ -140,9 +141,9 @@ def likelihood_scale(fit: FitResult, robust=None) -> float:
     already computed."""
     base = max(1.0, fit.reduced_chi2)
     robust = laplace(fit) if robust is None else robust
-    if robust.covariance == "fisher":
+    if robust.covariance is Covariance.FISHER:
         return base
-    fisher = laplace(fit, covariance="fisher")
+    fisher = laplace(fit, covariance=Covariance.FISHER)
     free = robust.free
     ratio = np.diag(robust.cov_log)[free] / np.diag(fisher.cov_log)[free]
     ratio = ratio[np.isfinite(ratio)]

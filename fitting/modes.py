@@ -8,6 +8,8 @@ parsers use them.
 - `Objective`: what a campaign fit minimises (`--objective`).
 - `DesignCriterion`: what the experiment design optimises (`stickslip plan --criterion`).
 - `MapMethod`: how a design map computes each point (`stickslip design --method`).
+- `Covariance`: how a fit's covariance is computed (`laplace(covariance=...)`).
+- `DiscoveryBase`: the base model of missing-physics discovery (`stickslip discover --base`).
 
 ```python
 Objective.parse("both")            # Objective.BOTH
@@ -19,7 +21,7 @@ from __future__ import annotations
 
 from stickslip_jax.modes import AbstractMode
 
-__all__ = ["DesignCriterion", "MapMethod", "Objective"]
+__all__ = ["Covariance", "DesignCriterion", "DiscoveryBase", "MapMethod", "Objective"]
 
 
 class Objective(AbstractMode):
@@ -79,3 +81,40 @@ class MapMethod(AbstractMode):
     @classmethod
     def option(cls) -> str:
         return "method"
+
+
+class Covariance(AbstractMode):
+    """How a fit's covariance is computed (`stickslip_fitting.uncertainty.laplace`).
+
+    - `AUTO` ("auto", the default): chosen from the objective and the fit (`laplace`).
+    - `FISHER` ("fisher"): the Gauss-Newton information, scaled by max(1, chi2/dof).
+    - `SANDWICH` ("sandwich"): cluster-robust, one cluster per stick phase.
+    - `TWO_LEVEL` ("two_level"): the larger of the stick-phase and record-level sandwiches.
+    """
+
+    AUTO = "auto"
+    FISHER = "fisher"
+    SANDWICH = "sandwich"
+    TWO_LEVEL = "two_level"
+
+    @property
+    def robust(self) -> bool:
+        """True for the cluster-robust covariances."""
+        return self in (Covariance.SANDWICH, Covariance.TWO_LEVEL)
+
+
+class DiscoveryBase(AbstractMode):
+    """The base model of missing-physics discovery (`stickslip discover --base`).
+
+    - `CYCLE` ("cycle", the default): the per-cycle exact model of `stickslip fit
+      --objective trace` (`stickslip_fitting.discovery.cycle_workflow`; seconds).
+    - `SMOOTH` ("smooth"): the smoothed simulator over whole records
+      (`stickslip_fitting.discovery.workflow`; minutes).
+    """
+
+    CYCLE = "cycle"
+    SMOOTH = "smooth"
+
+    @classmethod
+    def option(cls) -> str:
+        return "base"

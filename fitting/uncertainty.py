@@ -46,6 +46,7 @@ from .fit import COMPILER_OPTIONS, FitResult
 from stickslip_jax.lsq import gauss_newton_covariance
 
 from .losses import HeavyTailed
+from .modes import Covariance
 from .params import CampaignParams, free_mask
 from .report import ParameterEstimate
 
@@ -78,7 +79,7 @@ class Uncertainty:
     warnings: list
     scale: float
     units: dict | None = None
-    covariance: str = "fisher"
+    covariance: Covariance = Covariance.FISHER
 
     def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
         """One typed row per parameter (`stickslip_fitting.report.ParameterEstimate`), with the
@@ -229,7 +230,8 @@ def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
     return flagged, msgs
 
 
-COVARIANCES = ("auto", "fisher", "sandwich", "two_level")
+COVARIANCES = Covariance.choices()
+"""The covariance options' values (kept for callers of the string tuple)."""
 
 
 def _two_level(cov_stick, J, r, record) -> np.ndarray:
@@ -289,7 +291,8 @@ def _null_share(F) -> np.ndarray:
     return np.sum(V[:, null] ** 2, axis=1)
 
 
-def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "auto",
+def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
+            covariance: Covariance | str = Covariance.AUTO,
             lag: int = 1, small_sample: str = "jackknife") -> Uncertainty:
     """Laplace covariance, intervals and identifiability report of a fit (module doc).
 
@@ -304,9 +307,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
     A fit under a heavy-tailed loss (`stickslip_fitting.losses.HeavyTailed`) gets the
     two-level covariance with 3 records or more, the stick-phase sandwich otherwise.
     """
-    if covariance not in COVARIANCES:
-        raise ValueError(f"covariance must be one of {COVARIANCES}, got {covariance!r}")
-    if covariance == "auto":
+    covariance = Covariance.parse(covariance)
+    if covariance is Covariance.AUTO:
         traced = fit.objective is not None and fit.objective.robust
         misfit = fit.objective is not None and (fit.reduced_chi2 > SANDWICH_CHI2
                                                 or fit.record_scale is not None)
@@ -317,8 +319,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         # noise: the two-level covariance (measured, tests/test_real_world_coverage.py)
         heavy = isinstance(fit.objective, HeavyTailed)
         many = len(fit.features) >= 3
-        covariance = ("two_level" if heavy and many else "sandwich" if traced else
-                      "two_level" if misfit and many else "fisher")
+        covariance = (Covariance.TWO_LEVEL if heavy and many else Covariance.SANDWICH if traced
+                      else Covariance.TWO_LEVEL if misfit and many else Covariance.FISHER)
     if isinstance(fit.objective, HeavyTailed):  # Huber's sandwich (`AbstractLoss.score_form`)
         J, r, free, idx = jacobian_log(fit, fit.objective.inner)
         J, r = fit.objective.loss.score_form(J, r)
@@ -326,12 +328,12 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         J, r, free, idx = jacobian_log(fit)
     F = J.T @ J
     k = idx.size
-    if covariance in ("sandwich", "two_level"):
+    if covariance.robust:
         from .combined import residual_cycles
 
         rec, cyc = residual_cycles(fit.objective, fit.features)
         cov = sandwich_covariance(J, r, rec, cyc, lag=lag, small_sample=small_sample)
-        if covariance == "two_level":
+        if covariance is Covariance.TWO_LEVEL:
             cov = _two_level(cov, J, r, rec)
         scale = 1.0
     else:
@@ -356,7 +358,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         Foo, Ffo = F[k:, k:], F[:k, k:]
         Fff = Fff - Ffo @ np.linalg.pinv(Foo, hermitian=True) @ Ffo.T
     null = _null_share(Fff)
-    if covariance == "sandwich":  # the information the robust covariance implies
+    if covariance is Covariance.SANDWICH:  # the information the robust covariance implies
         Fff = np.linalg.pinv(cov[:k, :k], rcond=1e-13, hermitian=True)
     eig, vec = np.linalg.eigh(Fff / scale)
     weakest = {names[i]: float(w) for i, w in zip(idx, vec[:, 0])} if k else {}
@@ -417,7 +419,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
                 )
     if not fit.converged:
         warnings.append("the optimiser did not report convergence; treat the values with care.")
-    if covariance == "fisher" and fit.objective is not None and fit.objective.robust:
+    if covariance is Covariance.FISHER and fit.objective is not None and fit.objective.robust:
         warnings.append(
             f"objective '{fit.objective.kind}' with the Fisher covariance: samples of one stick "
             "phase share the error of its restart state (and 'both' reads them twice), so "
@@ -430,7 +432,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5, covariance: str = "
         warnings.append(
             f"chi2/dof = {fit.reduced_chi2:.3g}: the model does not fit the records to their noise "
             "level; " + ("the intervals are widened by that factor's square root." if
-                         covariance == "fisher" else "the robust intervals follow the actual "
+                         covariance is Covariance.FISHER else "the robust intervals follow the actual "
                          "scatter, but a model error also biases the values.")
         )
     return Uncertainty(

@@ -77,6 +77,9 @@ def test_fitting_modes_accept_their_old_strings():
     ("Objective", "samples",
      r"objective must be one of \('features', 'trace', 'both', 'smooth'\), got 'samples'"),
     ("DesignCriterion", "E", r"criterion must be one of \('D', 'A'\), got 'E'"),
+    ("Covariance", "hessian",
+     r"covariance must be one of \('auto', 'fisher', 'sandwich', 'two_level'\), got 'hessian'"),
+    ("DiscoveryBase", "ode", r"base must be one of \('cycle', 'smooth'\), got 'ode'"),
     ("Formulation", "bristle",
      r"formulation must be one of \('rigid_stick', 'velocity', 'latch'\), got 'bristle'"),
 ])
@@ -107,6 +110,22 @@ def test_cli_choices_come_from_the_enums():
         assert action.default == "features" and type(action.default) is str
     action = option(plan, "--criterion")
     assert tuple(action.choices) == ("D", "A") and action.default == "D"
+    from stickslip_fitting.commands import discover
+
+    action = option(discover, "--base")
+    assert tuple(action.choices) == ("cycle", "smooth") and action.default == "cycle"
+
+
+def test_covariance_mode_takes_strings_and_reports_a_member():
+    """`laplace(covariance=...)` accepts the old strings and reports the member it used;
+    the mcmc likelihood scale compares members (one Fisher path)."""
+    from stickslip_fitting.modes import Covariance
+
+    assert Covariance.choices() == ("auto", "fisher", "sandwich", "two_level")
+    assert [m.robust for m in Covariance] == [False, False, True, True]
+    from stickslip_fitting.uncertainty import COVARIANCES
+
+    assert COVARIANCES == Covariance.choices()
 
 
 def test_objective_factory_and_weighted_sum_take_strings_or_members():

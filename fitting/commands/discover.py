@@ -37,7 +37,10 @@ def add_arguments(parser):
 
     add_json_option(parser, "the result")
     add_plot_option(parser, "the residuals by phase before and after and the traces")
-    parser.add_argument("--base", choices=("cycle", "smooth"), default="cycle",
+    from stickslip_fitting.modes import DiscoveryBase
+
+    parser.add_argument("--base", choices=DiscoveryBase.choices(),
+                        default=DiscoveryBase.CYCLE.value,
                         help="the base model: per-cycle exact model (default; seconds) or "
                         "the smoothed simulator over whole records (minutes)")
     parser.add_argument("--alpha", type=float, default=0.01,
@@ -86,7 +89,9 @@ def run(args) -> int:
                   [r.source for r in records if r.source])
     if len(records) < 2:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
-    if args.base == "cycle":
+    from stickslip_fitting.modes import DiscoveryBase
+
+    if DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE:
         return _run_cycle(args, records)
     campaign = screen_records(records, strict=args.strict)
     for w in campaign.warnings:
