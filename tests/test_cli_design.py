@@ -56,6 +56,30 @@ def test_design_posterior_and_line_plot(capsys, tmp_path):
     assert png.exists()
 
 
+def test_design_posterior_warns_when_points_times_draws_are_many(capsys, tmp_path,
+                                                                  monkeypatch):
+    """The runtime of `design --posterior` grows as points x draws: the stage line states
+    the count and, above `POSTERIOR_WARN`, a warning gives the expected minutes and the
+    fix before the map starts."""
+    from stickslip_fitting.commands import design as design_cmd
+
+    rng = np.random.default_rng(1)
+    p = friction_params(ss.lubricant("A"))
+    sample = friction_from_params({n: x * np.exp(0.05 * rng.standard_normal(8)) for n, x in p.items()})
+    save_samples(sample, tmp_path / "post.csv")
+    argv = ["design", "--posterior", str(tmp_path / "post.csv"), "--weight", "36",
+            "--stiffness", "86.9", "--speed", "1:100:12:log"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "12 points (steady analysis over 8 posterior draws: 96 analyses)" in err
+    assert "warning" not in err
+    monkeypatch.setattr(design_cmd, "POSTERIOR_WARN", 50)
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "warning: --posterior: 12 points x 8 draws = 96 steady analyses" in err
+    assert "thin the --posterior file" in err
+
+
 @pytest.mark.parametrize("argv, needle", [
     (["--lubricant", "Z", *GRID], "--lubricant"),
     (["--weight", "10:60", "--stiffness", "86.9", "--speed", "1"], "--weight"),

@@ -153,6 +153,35 @@ def _say_map(shape, how) -> None:
     logger.info(f"map of {' x '.join(map(str, shape))} = {n} point{'s' * (n != 1)} ({how})...")
 
 
+POSTERIOR_RATE = 2.7e6
+"""Steady analyses a second of `design --posterior` (grid points x draws), measured on a
+2-core machine (41^3 points x 400 draws: 10.3 s, compilation included)."""
+
+POSTERIOR_WARN = 3e8
+"""Grid points x draws above which `design --posterior` warns before it starts (about
+2 minutes at `POSTERIOR_RATE`)."""
+
+
+def _say_posterior_work(shape, sample) -> None:
+    """The stage line of a posterior map: its points x draws steady analyses, and a warning
+    with the expected time and how to shorten it when they are many (the runtime grows as
+    points x draws)."""
+    import jax
+
+    from stickslip_jax.logs import logger
+
+    draws = int(np.size(jax.tree_util.tree_leaves(sample)[0]))
+    n = int(np.prod(shape))
+    work = float(n) * draws
+    _say_map(shape, f"steady analysis over {draws} posterior draw{'s' * (draws != 1)}: "
+             f"{work:.3g} analyses")
+    if work > POSTERIOR_WARN:
+        logger.warning(
+            f"--posterior: {n} points x {draws} draws = {work:.3g} steady analyses, about "
+            f"{work / POSTERIOR_RATE / 60:.0f} min at {POSTERIOR_RATE:.2g} a second (2 cores); "
+            "thin the --posterior file or use fewer grid points to shorten it")
+
+
 # Peak memory of a map, measured with /usr/bin/time on 1.25e5-8e6 point grids (design
 # --posterior, 2-200 draws): about 70-90 bytes a grid point for the map itself, plus
 # 1,570 a point for --json (Python lists of every array, then the text; 700 without
@@ -220,7 +249,7 @@ def compute(args):
     w, k, v = outer(axes["weight"], axes["stiffness"], axes["speed"])
     out = {"axes": axes}
     if args.posterior:
-        _say_map(shape, "steady analysis over the posterior draws")
+        _say_posterior_work(shape, sample)
         u = propagate(sample, w, k, v, level=args.level, chunk_size=args.chunk_size * 4,
                       progress=_progress(args))
         out.update(probability=u.probability, critical_speed_band=u.critical_speed,
