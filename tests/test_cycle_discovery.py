@@ -35,10 +35,16 @@ def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):
     from stickslip_jax.cli import main
 
     out = tmp_path / "d.json"
-    assert main(["discover", *clean_files, "--json", str(out)]) == 0
+    assert main(["discover", *clean_files, "--json", str(out), "--learn"]) == 0
     captured = capsys.readouterr()
     rep = json.loads(out.read_text())
     assert rep["effect"] == "none", rep["explanation"]
+    # --learn: the learned phase correction is fitted whatever the answer (on clean
+    # records it has nothing phase-locked to learn)
+    learned = rep["learned_correction"]
+    assert learned["gap_unit"] == "mm" and learned["n_parameters"] > 0
+    assert learned["gap_after"] <= learned["gap_before"] < 1.1 * rep["noise"]
+    assert "learned:" in captured.err
     assert rep["base"] == "cycle" and rep["gap_unit"] == "mm"
     assert abs(rep["gap_before"] / rep["noise"] - 1) < 0.1
     for key in ("candidates", "parameters_before", "parameters_after", "timings_s",

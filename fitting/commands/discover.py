@@ -60,8 +60,10 @@ def add_arguments(parser):
                         help="evaluation budget of the base fit (default 80; it stops earlier "
                         "when converged)")
     parser.add_argument("--learn", action="store_true",
-                        help="--base smooth: fit a learned (MLP) correction when no effect "
-                        "explains the data")
+                        help="fit the learned correction: with --base cycle a spline over "
+                        "the cycle phase (always fitted when the answer is 'unexplained'; "
+                        "--learn fits it whatever the answer); with --base smooth an MLP "
+                        "friction force, when no effect explains the data")
 
 
 def run(args) -> int:
@@ -156,9 +158,6 @@ def _run_cycle(args, records) -> int:
     from ..discovery.cycle_effects import FAMILIES
     from ..discovery.cycle_workflow import discover_cycles
 
-    if args.learn:
-        raise ValueError("--learn: the learned correction exists only with --base smooth "
-                         "(not yet for the per-cycle base)")
     names = {f.name for f in FAMILIES}
     only = args.only or None
     if only:
@@ -172,6 +171,7 @@ def _run_cycle(args, records) -> int:
     logger.info(f"discovery on {len(records)} records (base cycle)...")
     result = discover_cycles(records, candidates=tuple(only) if only else None, top=args.top,
                              alpha=args.alpha, max_evals=args.max_evals, strict=args.strict,
+                             learn=args.learn,
                              progress=None if args.quiet else logger.info)
     for s in result.campaign.screening:
         if s.status != "used":

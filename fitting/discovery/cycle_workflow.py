@@ -44,7 +44,9 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    explains the gap (residual RMS after within 15 % of the noise) and no other such
    contender (another direction, or unphysical) is left unbeaten; when the base model
    leaves a gap that no family explains (less than half of the excess chi-square
-   removed) the answer is "unexplained" with the residual pattern.
+   removed) the answer is "unexplained" with the residual pattern and a learned
+   correction over the cycle phase (`cycle_learned`: where the gap lies and how much of
+   it a smooth phase-locked term closes; `learned`, JSON `learned_correction`).
 
 Gaps are residual RMS in mm; `noise` is the campaign's noise level (RMS of the records'
 robust noise estimates, `RecordFeatures.noise`).
@@ -69,6 +71,7 @@ from ..params import CampaignParams, EmpiricalFriction
 from ..report import DiscoveryEstimates, ParameterEstimate
 from ..trace_objective import cycle_windows, reslip_windows, trace_data, trace_sd
 from .cycle_effects import DRIVE_ERROR_MAX, FAMILIES, Family, Shape, drive_error_range, family
+from .cycle_learned import CycleLearned, fit_cycle_correction
 from .cycle_model import CycleModel, drift_origins
 from .scores import base_basis, principal_cosine, project_out
 
@@ -332,6 +335,9 @@ class CycleDiscovery(DiscoveryEstimates):
     records_scaled: list = dataclasses.field(default_factory=list)
     effect_of: str = ""
     windows_set_aside: list = dataclasses.field(default_factory=list)
+    learned: CycleLearned | None = None
+    """The learned phase correction (`cycle_learned`): fitted when the answer is
+    "unexplained", or always with `learn=True`; None otherwise."""
 
     def to_json(self) -> dict:
         return {
@@ -357,6 +363,8 @@ class CycleDiscovery(DiscoveryEstimates):
             "records": [s.to_json() for s in self.campaign.screening],
             "records_scaled": self.records_scaled,
             "windows_set_aside": self.windows_set_aside,
+            "learned_correction": (self.learned.to_json() if self.learned is not None
+                                   else None),
             "timings_s": self.timings,
         }
 
@@ -444,6 +452,7 @@ def discover_cycles(
     max_evals: int = 30,
     refit_evals: int = 15,
     strict: bool = False,
+    learn: bool = False,
     progress=None,
 ) -> CycleDiscovery:
     """Run the workflow (module doc) on `records` (a campaign of `Record`s).
@@ -454,7 +463,9 @@ def discover_cycles(
     families are named together and when the winner beats a contender clearly
     (`decide`); `max_evals`, `refit_evals`: Levenberg-Marquardt budgets of the base fit
     and of each refit; `strict`: refuse the campaign when a record has no
-    usable stick-slip; `progress`: called with one line per finished stage.
+    usable stick-slip; `learn`: fit the learned phase correction (`cycle_learned`) even
+    when a family explains the residual (it is always fitted for "unexplained");
+    `progress`: called with one line per finished stage.
     """
     fams = [family(n) for n in candidates] if candidates else list(FAMILIES)
     timings = {}
@@ -831,6 +842,16 @@ def discover_cycles(
     pattern = max(phases_before, key=lambda k: phases_before[k]["rms"] or 0.0)
     explanation = _explain(effect, chosen, decision, gap_before, gap_after, noise, pattern,
                            phases_before)
+    learned = None
+    if learn or effect == "unexplained":
+        learned = fit_cycle_correction(data, r0, Jb[:n], sd, noise)
+        explanation += (f" A learned correction over the cycle phase ({learned.n_parameters} "
+                        "spline coefficients, fitted with the base parameters) lowers the "
+                        f"gap to {learned.gap_after * 1e3:.3g} um, closing "
+                        f"{100 * learned.closes:.0f} % of its excess over the noise; "
+                        f"{learned.signature}.")
+        stage("learned", f"gap {gap_before * 1e3:.3g} -> {learned.gap_after * 1e3:.3g} um "
+                         f"({100 * learned.closes:.0f} % of the excess)")
     if scaled_notes:
         explanation += (f" {len(scaled_notes)} record(s) are described worse than their noise "
                         "and weigh by their own scatter: " + "; ".join(scaled_notes) + ".")
@@ -873,7 +894,8 @@ def discover_cycles(
         indistinguishable_from=rivals, phases_before=phases_before,
         phases_after=phases_after, timings=timings, base_fit=base_fit, final_fit=final_fit,
         campaign=campaign, model=model, z_before=z_base, z_after=z_after, shape=shape,
-        sensor=sensor, records_scaled=scaled_notes, windows_set_aside=windows_set_aside)
+        sensor=sensor, records_scaled=scaled_notes, windows_set_aside=windows_set_aside,
+        learned=learned)
 
 
 def _explain(effect, chosen, decision, gap_before, gap_after, noise, pattern, phases) -> str:

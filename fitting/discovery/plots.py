@@ -90,16 +90,31 @@ def plot_cycle_discovery(result, *, records: int = 3):
     pos = np.arange(len(names))
     ax.bar(pos - 0.2, [1e3 * (result.phases_before[n]["rms"] or 0) for n in names], 0.4,
            label="paper's model")
+    after = result.effect_of or result.effect  # "unexplained": the best family's refit
     ax.bar(pos + 0.2, [1e3 * (result.phases_after[n]["rms"] or 0) for n in names], 0.4,
-           label=f"with {result.effect}")
+           label=f"with {after}")
     ax.axhline(result.noise * 1e3, color="k", lw=0.8, ls="--", label="noise")
     ax.set_xticks(pos, names)
     ax.set_ylabel("residual RMS (um)")
     ax.legend(fontsize=8)
-    axes[0, 1].axis("off")
-    axes[0, 1].text(0, 0.5, f"effect: {result.effect} ({result.confidence})\n"
-                    f"gap {result.gap_before * 1e3:.3g} -> {result.gap_after * 1e3:.3g} um "
-                    f"(noise {result.noise * 1e3:.3g} um)", fontsize=10, va="center")
+    summary = (f"effect: {result.effect} ({result.confidence})\n"
+               f"gap {result.gap_before * 1e3:.3g} -> {result.gap_after * 1e3:.3g} um "
+               f"(noise {result.noise * 1e3:.3g} um)")
+    learned = result.learned
+    if learned is None:
+        axes[0, 1].axis("off")
+        axes[0, 1].text(0, 0.5, summary, fontsize=10, va="center")
+    else:  # the learned phase correction over the cycle, at the median climb
+        ax = axes[0, 1]
+        phase, corr = learned.correction_at()
+        ax.plot(phase, 1e3 * corr, color="C3")
+        ax.axvline(1.0, color="k", lw=0.6, ls=":")
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_xlabel("stick phase (0-1), then 1 + slip phase")
+        ax.set_ylabel("learned correction (um)")
+        ax.set_title(summary.replace("\n", "; ") + f"\nlearned: gap -> "
+                     f"{learned.gap_after * 1e3:.3g} um ({100 * learned.closes:.0f} % of "
+                     "the excess)", fontsize=8)
     for row, g in enumerate(pick, start=1):
         sel = rec == g
         order = np.argsort(t[sel])
@@ -107,7 +122,7 @@ def plot_cycle_discovery(result, *, records: int = 3):
         ax = axes[row, 0]
         ax.plot(tt, x[sel][order], ".", ms=1, color="0.5", label="record")
         ax.plot(tt, (x - r0)[sel][order], lw=0.8, label="paper's model")
-        ax.plot(tt, (x - r1)[sel][order], lw=0.8, label=f"with {result.effect}")
+        ax.plot(tt, (x - r1)[sel][order], lw=0.8, label=f"with {after}")
         ax.set_ylabel("deflection (mm)")
         ax.set_title(result.campaign.records[g].note or f"record {g}", fontsize=9)
         ax = axes[row, 1]

@@ -1,0 +1,202 @@
+r"""Beyond the library, on the per-cycle base: a learned correction over the cycle phase.
+
+When no effect family explains the residual (`cycle_workflow`: "unexplained"), the
+per-cycle model gets an additive correction of the gauge reading learned from the data,
+a smooth function of where in its cycle each sample lies:
+
+$$x_\mathrm{model}(t) + A_w\,g_\mathrm{stick}(\phi) + g_\mathrm{stick}^0(\phi)
+  + A_w\,g_\mathrm{slip}(\psi),$$
+
+with $\phi = (t - t_e)/T_1 \in [0, 1]$ the stick phase of the sample (from the
+window's measured slip end $t_e$ and stick time $T_1$), $\psi = (t - t_e - T_1)
+\omega_0/\pi$ the slip phase (0 at the measured breakaway, 1 a single slip later,
+$\omega_0 = \sqrt{k g/W}$), and $A_w = v T_1$ the window's climb (mm): a pattern that
+scales with the cycle's size (a spring law, a slip shape) and one that does not (a creep
+of fixed size, a gauge artefact). Each $g$ is a cubic B-spline (`STICK_KNOTS`,
+`SLIP_KNOTS` coefficients), so the correction is linear in its coefficients: it is
+fitted jointly with the base parameters by one Gauss-Newton step from the base optimum
+(least squares on the base Jacobian and the spline columns, in the whitened residuals).
+
+Nothing here is a physical law: the answer is **where** the gap lies (`signature`: the
+phase and the size of the largest correction) and **how much of it** a smooth
+phase-locked term closes (`closes`: the share of the excess of the gap over the noise).
+A residual the correction cannot close is not locked to the cycle (noise that is not
+white, irregular slips, a drift between cycles). Units: mm and s.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+__all__ = ["CycleLearned", "SLIP_KNOTS", "STICK_KNOTS", "fit_cycle_correction",
+           "phase_coordinates"]
+
+STICK_KNOTS = 8
+"""Coefficients of each stick-phase spline (cubic, equally spaced on [0, 1])."""
+
+SLIP_KNOTS = 6
+"""Coefficients of the slip-phase spline (cubic, equally spaced on [0, `SLIP_SPAN`])."""
+
+SLIP_SPAN = 1.5
+"""The slip phase the slip spline covers (single slips end at 1; a longer slip is a
+damped or lengthened one); samples beyond it get no slip correction."""
+
+SMOOTHING = 1.0
+"""Weight of the P-spline penalty (module doc of `fit_cycle_correction`): a second
+difference of one noise unit costs like this many samples."""
+
+G_MM = 9806.65
+"""Standard gravity in mm/s^2 (omega_0 = sqrt(k g / W), k kgf/mm, W kgf)."""
+
+
+def phase_coordinates(data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per masked sample of the `TraceData` `data` (flat, padding removed): the stick
+    phase phi (s/s), the slip phase psi (-) and the window's climb A_w = v T1 (mm)."""
+    mask = np.asarray(data.mask)
+    t = np.asarray(data.time)
+    per_row = {name: np.broadcast_to(np.asarray(row)[:, None], mask.shape)[mask]
+               for name, row in (("start", data.start_time), ("stick", data.stick_time),
+                                 ("speed", data.speed), ("k", data.stiffness),
+                                 ("w", data.weight))}
+    since = t[mask] - per_row["start"]
+    stick = np.maximum(per_row["stick"], 1e-12)
+    omega0 = np.sqrt(per_row["k"] * G_MM / per_row["w"])
+    phi = since / stick
+    psi = (since - stick) * omega0 / np.pi
+    return phi, psi, per_row["speed"] * stick
+
+
+def _bspline_columns(x: np.ndarray, n_coef: int, lo: float, hi: float) -> np.ndarray:
+    """Cubic B-spline basis (clamped, equally spaced knots) on [lo, hi] at x; zero outside."""
+    from scipy.interpolate import BSpline
+
+    degree = 3
+    inner = np.linspace(lo, hi, n_coef - degree + 1)
+    knots = np.r_[[lo] * degree, inner, [hi] * degree]
+    inside = (x >= lo) & (x <= hi)
+    out = np.zeros((x.size, n_coef))
+    if inside.any():
+        out[inside] = BSpline.design_matrix(np.clip(x[inside], lo, hi), knots,
+                                            degree).toarray()
+    return out
+
+
+def correction_columns(phi, psi, climb) -> tuple[np.ndarray, list[str]]:
+    """The correction's columns in mm per unit coefficient (module doc) and their labels."""
+    stick = (phi >= 0) & (psi < 0)
+    b_stick = _bspline_columns(np.where(stick, phi, -1.0), STICK_KNOTS, 0.0, 1.0)
+    b_slip = _bspline_columns(np.where(psi >= 0, psi, -1.0), SLIP_KNOTS, 0.0, SLIP_SPAN)
+    cols = np.hstack([b_stick * climb[:, None], b_stick * 1e-3, b_slip * climb[:, None]])
+    labels = ([f"stick_scaled[{i}]" for i in range(STICK_KNOTS)]
+              + [f"stick_fixed[{i}]" for i in range(STICK_KNOTS)]
+              + [f"slip_scaled[{i}]" for i in range(SLIP_KNOTS)])
+    return cols, labels
+
+
+@dataclasses.dataclass(frozen=True)
+class CycleLearned:
+    """The learned phase correction of the per-cycle base (module doc). Gaps are residual
+    RMS in mm; `closes` the share of (gap_before - noise) it removes (1: to the noise)."""
+
+    gap_before: float
+    gap_after: float
+    noise: float
+    n_parameters: int
+    signature: str
+    profile: dict
+    median_climb: float = 0.0
+    """The campaign's median window climb v T1 (mm), at which `correction_at` evaluates
+    the scaled parts."""
+
+    def correction_at(self) -> tuple[np.ndarray, np.ndarray]:
+        """The correction (mm) at the median climb over the cycle: x = stick phase on
+        [0, 1], then 1 + slip phase."""
+        p = self.profile
+        stick = (np.asarray(p["stick_fixed_mm"])
+                 + self.median_climb * np.asarray(p["stick_per_mm_of_climb"]))
+        slip = self.median_climb * np.asarray(p["slip_per_mm_of_climb"])
+        return (np.r_[p["stick_phase"], 1.0 + np.asarray(p["slip_phase"])],
+                np.r_[stick, slip])
+
+    @property
+    def closes(self) -> float:
+        excess = self.gap_before - self.noise
+        return float((self.gap_before - self.gap_after) / excess) if excess > 0 else 0.0
+
+    def to_json(self) -> dict:
+        return {"gap_before": self.gap_before, "gap_after": self.gap_after, "gap_unit": "mm",
+                "closes": self.closes, "n_parameters": self.n_parameters,
+                "signature": self.signature, "basis": "cubic B-splines over the stick phase "
+                "(scaled by the window's climb, and fixed) and the slip phase (scaled)",
+                "profile_mm": self.profile}
+
+
+def _profile(coef, n_grid: int = 31) -> dict:
+    """The fitted correction on a phase grid: the scaled parts in mm per mm of climb, the
+    fixed part in mm."""
+    grid = np.linspace(0.0, 1.0, n_grid)
+    slip_grid = np.linspace(0.0, SLIP_SPAN, n_grid)
+    bs = _bspline_columns(grid, STICK_KNOTS, 0.0, 1.0)
+    bl = _bspline_columns(slip_grid, SLIP_KNOTS, 0.0, SLIP_SPAN)
+    s_scaled = bs @ coef[:STICK_KNOTS]
+    s_fixed = bs @ coef[STICK_KNOTS:2 * STICK_KNOTS] * 1e-3
+    slip = bl @ coef[2 * STICK_KNOTS:]
+    profile = {"stick_phase": grid.tolist(), "stick_per_mm_of_climb": s_scaled.tolist(),
+               "stick_fixed_mm": s_fixed.tolist(), "slip_phase": slip_grid.tolist(),
+               "slip_per_mm_of_climb": slip.tolist()}
+    return profile
+
+
+def fit_cycle_correction(data, r0: np.ndarray, Jb: np.ndarray, sd: np.ndarray,
+                         noise: float) -> CycleLearned:
+    """Fit the phase correction jointly with the base parameters (one Gauss-Newton step
+    from the base optimum: least squares on [Jb, correction columns / sd]) and report
+    the gap it leaves (module doc). `r0`, `Jb`: the base fit's whitened residuals and
+    Jacobian over the masked samples; `sd`: their standard errors (mm); `noise`: the
+    campaign's noise (mm)."""
+    phi, psi, climb = phase_coordinates(data)
+    if phi.size != r0.size:
+        raise ValueError(f"fit_cycle_correction: {phi.size} masked samples in the data, "
+                         f"{r0.size} residuals")
+    cols, _ = correction_columns(phi, psi, climb)
+    a_med = float(np.median(climb))
+    A = np.hstack([Jb, cols / sd[:, None]])
+    # P-spline smoothness: second differences of each spline's coefficients, in units of
+    # the noise at the median climb, cost like `SMOOTHING` samples (a sparsely sampled end
+    # of the slip phase otherwise takes wild values)
+    unit = np.r_[[noise / max(a_med, 1e-12)] * STICK_KNOTS, [noise / 1e-3] * STICK_KNOTS,
+                 [noise / max(a_med, 1e-12)] * SLIP_KNOTS]
+    pen = np.zeros((0, A.shape[1]))
+    at = Jb.shape[1]
+    for size in (STICK_KNOTS, STICK_KNOTS, SLIP_KNOTS):
+        D = np.diff(np.eye(size), 2, axis=0) / unit[at - Jb.shape[1]:at - Jb.shape[1] + size]
+        block = np.zeros((size - 2, A.shape[1]))
+        block[:, at:at + size] = np.sqrt(SMOOTHING) * D
+        pen = np.vstack([pen, block])
+        at += size
+    scale = np.linalg.norm(A, axis=0)
+    scale[scale == 0] = 1.0
+    beta = np.linalg.lstsq(np.vstack([A, pen]) / scale, np.r_[r0, np.zeros(len(pen))],
+                           rcond=1e-10)[0] / scale
+    r1 = r0 - A @ beta
+    coef = beta[Jb.shape[1]:]
+    used = np.any(cols != 0, axis=0)
+    gap_before = float(np.sqrt(np.mean((r0 * sd) ** 2)))
+    gap_after = float(np.sqrt(np.mean((r1 * sd) ** 2)))
+    profile = _profile(coef)
+    # where the correction (in mm, at the campaign's median climb) is largest
+    corr = cols @ coef
+    parts = {"stick, early (phase 0-0.5)": (phi >= 0) & (phi < 0.5) & (psi < 0),
+             "stick, late (phase 0.5-1, before breakaway)": (phi >= 0.5) & (psi < 0),
+             "slip": (psi >= 0) & (psi <= 1.0),
+             "after the slip (phase 1-1.5: settling)": (psi > 1.0)}
+    rms = {k: float(np.sqrt(np.mean(corr[s] ** 2))) if s.any() else 0.0
+           for k, s in parts.items()}
+    where = max(rms, key=rms.get)
+    signature = (f"the correction is largest in the {where} (RMS {rms[where] * 1e3:.3g} um; "
+                 f"median climb {a_med * 1e3:.3g} um)")
+    return CycleLearned(gap_before=gap_before, gap_after=gap_after, noise=float(noise),
+                        n_parameters=int(used.sum()), signature=signature, profile=profile,
+                        median_climb=a_med)
