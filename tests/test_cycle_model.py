@@ -228,3 +228,28 @@ def test_rate_and_state_signs(setup):
     assert np.allclose(weak[before], base[before]) and np.allclose(strong[before], base[before])
     # the deepest point of the slip (the window ends where the measured slip ends)
     assert weak.min() < base.min() - 1e-4 < strong.min() - 2e-4  # mm
+
+
+def test_rational_stribeck_form(setup):
+    """The rational (Hess-Soom) Stribeck curve 1/(1 + (v/v_s)^p): equal to the exponential
+    form where v << v_s (both 1: a constant friction step), different at v ~ v_s, and its
+    Jacobian matches finite differences."""
+    model, z, *_ = setup
+    col = model.cols(family("stribeck"))[0]
+    z1 = z.copy()
+    z1[col] = 0.5
+    far = [model.residuals(z1, Shape(vs=1e9, p=2.0, form=f))[0] for f in ("exp", "rational")]
+    np.testing.assert_allclose(far[0], far[1], atol=1e-9)
+    near = [model.residuals(z1, Shape(vs=5.0, p=2.0, form=f))[0] for f in ("exp", "rational")]
+    assert np.max(np.abs(near[0] - near[1])) > 1e-3
+    shape = Shape(vs=5.0, p=2.0, form="rational")
+    cols = np.array([0, col])
+    r, J, ok = model.evaluate(z1, cols, shape)
+    for j, c in enumerate(cols):
+        h = 1e-5
+        zp, zm = z1.copy(), z1.copy()
+        zp[c] += h
+        zm[c] -= h
+        fd = (model.residuals(zp, shape)[0] - model.residuals(zm, shape)[0]) / (2 * h)
+        close = np.abs(J[:, j] - fd) <= 1e-4 * max(np.abs(fd).max(), 1e-9)
+        assert close.mean() > 0.999, (c, close.mean())

@@ -34,10 +34,10 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "STRIBECK_FORMS", "Family", "Shape", "drive_error", "drive_error_range",
-           "family"]
+__all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "SHAPE_STEP", "STRIBECK_FORMS", "Family", "Shape",
+           "drive_error", "drive_error_range", "family", "neighbour_shapes"]
 
-STRIBECK_FORMS = ("exp", "log", "linear")
+STRIBECK_FORMS = ("exp", "log", "linear", "rational")
 """Forms of the Stribeck family's falling friction (`Shape.form`): exponential (a floor at
 high speed), logarithmic (no floor, as rate-and-state's steady state), linear (the falling
 branch's negative slope). The linear form is not scanned: with a negative coefficient it
@@ -74,7 +74,8 @@ class Shape:
     characteristic slip distance D_c `length` (mm), screw pitch `pitch` (mm), sensor
     kernel `order` (1: first-order low-pass, 2: second order) and, for order 2, its
     damping ratio `zeta` (1: critically damped); `form`: the Stribeck curve, "exp"
-    $e^{-(v/v_s)^p}$, "log" $-\\ln(1 + v/v_s)$ or "linear" $-v/v_s$ (`STRIBECK_FORMS`)."""
+    $e^{-(v/v_s)^p}$, "log" $-\\ln(1 + v/v_s)$, "linear" $-v/v_s$ or "rational"
+    $1/(1 + (v/v_s)^p)$ (Hess and Soom's form with p = 2) (`STRIBECK_FORMS`)."""
 
     vs: float = 10.0
     p: float = 1.0
@@ -85,7 +86,8 @@ class Shape:
     form: str = "exp"
 
     def label(self, fam: "Family") -> str:
-        keys = {"stribeck": ("form", "vs") if self.form != "exp" else ("vs", "p"),
+        keys = {"stribeck": {"exp": ("vs", "p"), "rational": ("form", "vs", "p")}.get(
+                    self.form, ("form", "vs")),
                 "rate_state": ("D_c",),
                 "drive_periodic_error": ("pitch",),
                 "sensor_lowpass": ("order",) if self.order == 1 else ("order", "zeta")}
@@ -175,6 +177,41 @@ FAMILIES: tuple[Family, ...] = (
            "slider, ch. 6): friction grows with the deflection.",
            ("kappa",), ("-",), (0.01,), (0,), (1.0,), "kappa mu above 1 lifts the slider"),
 )
+
+
+SHAPE_STEP = 1.6
+"""Factor between neighbouring speed scales, slip distances and pitches in the shape
+refinement (`neighbour_shapes`)."""
+
+
+def neighbour_shapes(fam: Family, shape: Shape) -> list[Shape]:
+    """The shapes next to `shape` in the family's continuous shape parameters (the local
+    search of the shape refinement, `cycle_workflow`): the Stribeck speed scale times or
+    over `SHAPE_STEP`, its exponent +-1 (0.5 at least) and its other forms; the
+    rate-and-state slip distance and the screw pitch times or over `SHAPE_STEP`; the
+    second-order sensor's damping ratio +-0.15 (0.3-1) and the other kernel order. Empty
+    for families without shapes."""
+    rep = dataclasses.replace
+    out: list[Shape] = []
+    if fam.name == "stribeck":
+        out += [rep(shape, vs=shape.vs * SHAPE_STEP), rep(shape, vs=shape.vs / SHAPE_STEP)]
+        if shape.form in ("exp", "rational"):
+            out += [rep(shape, p=shape.p + 1.0), rep(shape, p=max(shape.p - 1.0, 0.5))]
+        out += [rep(shape, form=f, p=shape.p if f in ("exp", "rational") else 1.0)
+                for f in ("exp", "rational", "log") if f != shape.form]
+    elif fam.name == "rate_state":
+        out += [rep(shape, length=shape.length * SHAPE_STEP),
+                rep(shape, length=shape.length / SHAPE_STEP)]
+    elif fam.name == "drive_periodic_error":
+        out += [rep(shape, pitch=shape.pitch * SHAPE_STEP),
+                rep(shape, pitch=shape.pitch / SHAPE_STEP)]
+    elif fam.name == "sensor_lowpass":
+        if shape.order == 2:
+            out += [rep(shape, zeta=min(shape.zeta + 0.15, 1.0)),
+                    rep(shape, zeta=max(shape.zeta - 0.15, 0.3)), rep(shape, order=1)]
+        else:
+            out += [rep(shape, order=2, zeta=0.7)]
+    return [s for s in dict.fromkeys(out) if s != shape]
 
 
 def family(name: str) -> Family:

@@ -203,10 +203,13 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
         N = W + eff.kappa * k * x
         V = jnp.abs(yd)
         # the Stribeck curve (`cycle_effects.STRIBECK_FORMS`): exponential, logarithmic
-        # (velocity weakening without a floor, as rate-and-state's steady state), or
-        # linear (the falling branch's constant negative slope)
+        # (velocity weakening without a floor, as rate-and-state's steady state),
+        # linear (the falling branch's constant negative slope) or rational (Hess and
+        # Soom's 1 / (1 + (v/v_s)^p))
         fall = jnp.where(form == 1, -jnp.log1p(V / vs),
-                         jnp.where(form == 2, -V / vs, jnp.exp(-safe_power(V / vs, p))))
+                         jnp.where(form == 2, -V / vs,
+                                   jnp.where(form == 3, 1.0 / (1.0 + safe_power(V / vs, p)),
+                                             jnp.exp(-safe_power(V / vs, p)))))
         mu = (mu_m + eff.b_st * fall
               + eff.a_rs * jnp.log1p(V / DR_V_REF) + eff.b_rs * lth)
         dl = jnp.exp(-jnp.maximum(lth, -30.0)) / theta_b - V / length

@@ -1,0 +1,57 @@
+"""Effect families of the per-cycle discovery model (fitting/discovery/cycle_effects.py):
+the neighbouring shapes of the shape refinement and the Stribeck forms."""
+
+from __future__ import annotations
+
+import pytest
+
+from stickslip_fitting.discovery.cycle_effects import (
+    SHAPE_STEP,
+    STRIBECK_FORMS,
+    Shape,
+    family,
+    neighbour_shapes,
+)
+
+
+def test_stribeck_neighbours_step_the_scale_the_exponent_and_the_form():
+    f = family("stribeck")
+    start = Shape(vs=3.0, p=2.0, form="exp")
+    near = neighbour_shapes(f, start)
+    assert start not in near and len(near) == len(set(near))
+    assert Shape(vs=3.0 * SHAPE_STEP, p=2.0) in near and Shape(vs=3.0 / SHAPE_STEP, p=2.0) in near
+    assert Shape(vs=3.0, p=3.0) in near and Shape(vs=3.0, p=1.0) in near
+    assert {s.form for s in near} == {"exp", "rational", "log"}
+    # the exponent never falls below 0.5; the log form has none to step
+    assert all(s.p >= 0.5 for s in neighbour_shapes(f, Shape(vs=3.0, p=0.5)))
+    log = neighbour_shapes(f, Shape(vs=1.0, form="log"))
+    assert all(s.p == 1.0 for s in log if s.form == "log")
+    assert "rational" in STRIBECK_FORMS
+
+
+@pytest.mark.parametrize("name, shape, field", [
+    ("rate_state", Shape(length=0.03), "length"),
+    ("drive_periodic_error", Shape(pitch=5.0), "pitch"),
+])
+def test_scale_like_shapes_step_by_the_factor(name, shape, field):
+    near = neighbour_shapes(family(name), shape)
+    values = sorted(getattr(s, field) for s in near)
+    assert values == pytest.approx([getattr(shape, field) / SHAPE_STEP,
+                                    getattr(shape, field) * SHAPE_STEP])
+
+
+def test_sensor_neighbours_and_families_without_shapes():
+    f = family("sensor_lowpass")
+    near = neighbour_shapes(f, Shape(order=2, zeta=1.0))
+    assert Shape(order=1, zeta=1.0) in near and Shape(order=2, zeta=0.85) in near
+    assert all(0.3 <= s.zeta <= 1.0 for s in near)
+    assert neighbour_shapes(f, Shape(order=1)) == [Shape(order=2, zeta=0.7)]
+    for name in ("viscous_damping", "friction_drift", "gauge_drift", "load_coupling",
+                 "drive_speed_drift"):
+        assert neighbour_shapes(family(name), Shape()) == []
+
+
+def test_rational_stribeck_label():
+    assert Shape(vs=10.0, p=2.0, form="rational").label(family("stribeck")) == \
+        "rational, vs = 10, p = 2"
+    assert Shape(vs=10.0, p=2.0).label(family("stribeck")) == "vs = 10, p = 2"
