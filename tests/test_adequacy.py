@@ -82,3 +82,28 @@ def test_sentences_need_more_than_chance():
     assert verdict == "misses" and "1 of 2 records" in text[0]
     assert _sentences([PhaseRow("a", "trace_slip", 500, 3.0)], 3.0, 1)[0] == "marginal"
     assert BAD > 2
+
+
+def test_correlated_stick_times_p_value_is_calibrated():
+    """The stick-time residuals are close to second differences of independent timing
+    errors: `PhaseRow.p_value` with `STICK_LAGS` keeps the false-alarm rate near its level
+    where the independent chi2 more than doubles it (Monte Carlo, 4 and 6 residuals)."""
+    from scipy.stats import chi2
+
+    from stickslip_fitting.adequacy import STICK_LAGS
+
+    rng = np.random.default_rng(0)
+    level = 0.01
+    for n in (4, 6):
+        e = rng.standard_normal((200_000, n + 2))
+        r = (e[:, 2:] - 2 * e[:, 1:-1] + e[:, :-2]) / np.sqrt(6.0)  # unit variance
+        q = np.sum(r ** 2, axis=1)
+        naive = np.mean(chi2.sf(q, n) < level)
+        cut = [PhaseRow("r", "stick_times", n, float(x) / n, False, STICK_LAGS).p_value()
+               for x in np.quantile(q, [1 - level])]
+        # the Satterthwaite p-value at the true 1 % quantile of q is close to 1 %
+        assert 0.6 * level < cut[0] < 1.6 * level, (n, cut)
+        assert naive > 2 * level, (n, naive)
+    row = PhaseRow("r", "levels", 4, 2.0)
+    assert row.p_value() == pytest.approx(chi2.sf(8.0, 4))
+    assert PhaseRow("r", "stick_times", 4, 2.0, False, STICK_LAGS).p_value() > row.p_value()
