@@ -6,6 +6,7 @@ from __future__ import annotations
 import pytest
 
 from stickslip_fitting.discovery.cycle_effects import (
+    PITCH_STEP,
     SHAPE_STEP,
     STRIBECK_FORMS,
     Shape,
@@ -29,15 +30,15 @@ def test_stribeck_neighbours_step_the_scale_the_exponent_and_the_form():
     assert "rational" in STRIBECK_FORMS
 
 
-@pytest.mark.parametrize("name, shape, field", [
-    ("rate_state", Shape(length=0.03), "length"),
-    ("drive_periodic_error", Shape(pitch=5.0), "pitch"),
+@pytest.mark.parametrize("name, shape, field, step", [
+    ("rate_state", Shape(length=0.03), "length", SHAPE_STEP),
+    ("drive_periodic_error", Shape(pitch=5.0), "pitch", PITCH_STEP),
 ])
-def test_scale_like_shapes_step_by_the_factor(name, shape, field):
+def test_scale_like_shapes_step_by_the_factor(name, shape, field, step):
     near = neighbour_shapes(family(name), shape)
     values = sorted(getattr(s, field) for s in near)
-    assert values == pytest.approx([getattr(shape, field) / SHAPE_STEP,
-                                    getattr(shape, field) * SHAPE_STEP])
+    assert values == pytest.approx([getattr(shape, field) / step,
+                                    getattr(shape, field) * step])
 
 
 def test_sensor_neighbours_and_families_without_shapes():

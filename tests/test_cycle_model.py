@@ -249,3 +249,39 @@ def test_rational_stribeck_form(setup):
     assert np.max(np.abs(near[0] - near[1])) > 1e-3
     _assert_jacobian_matches_fd(model, z1, np.array([0, col]),
                                 Shape(vs=5.0, p=2.0, form="rational"), "rational")
+
+
+def test_shared_screw_maps_amplitude_and_phases(setup):
+    """The screw refit with one amplitude per harmonic and a phase per record
+    (`cycle_workflow._SharedScrew`): its model coordinates are A cos(phi), A sin(phi) per
+    record, its residuals those of the per-record model at those coefficients, and its
+    chain-rule Jacobian matches finite differences."""
+    from stickslip_fitting.discovery.cycle_workflow import _SharedScrew, _Sub
+
+    model, z, *_ = setup
+    G = model.n_records
+    fam = family("drive_periodic_error")
+    base = np.arange(model.n_base)
+    cols = np.concatenate([base, model.cols(fam)])
+    shape = Shape(pitch=2.0)
+    shared = _SharedScrew(model, z.copy(), cols, shape, False, None, base.size)
+    phases1 = np.linspace(0.3, 2.0, G)
+    w = np.concatenate([z[base], [2.0, 0.5], phases1, -phases1])  # 2 um and 0.5 um
+    coef = shared.full(w)[model.cols(fam)].reshape(G, 4)
+    np.testing.assert_allclose(np.hypot(coef[:, 0], coef[:, 1]), 2.0)
+    np.testing.assert_allclose(np.hypot(coef[:, 2], coef[:, 3]), 0.5)
+    np.testing.assert_allclose(np.arctan2(coef[:, 1], coef[:, 0]), phases1)
+    r, J, _ = shared.evaluate(w)
+    plain = _Sub(model, z.copy(), cols, shape)
+    np.testing.assert_allclose(r, plain.evaluate(shared.full(w)[cols])[0])
+    for j in (0, 1, base.size, base.size + 2 + G - 1):
+        h = 1e-5
+        wp, wm = w.copy(), w.copy()
+        wp[j] += h
+        wm[j] -= h
+        fd = (shared.evaluate(wp)[0] - shared.evaluate(wm)[0]) / (2 * h)
+        close = np.abs(J[:, j] - fd) <= 1e-4 * max(np.abs(fd).max(), 1e-9)
+        assert close.mean() > 0.999, (j, close.mean())
+    start = _SharedScrew.start(coef.ravel(), G)
+    np.testing.assert_allclose(start[:2], [2.0, 0.5])
+    np.testing.assert_allclose(start[2:2 + G], phases1)

@@ -34,7 +34,7 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "SHAPE_STEP", "STRIBECK_FORMS", "Family", "Shape",
+__all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "PITCH_STEP", "SHAPE_STEP", "STRIBECK_FORMS", "Family", "Shape",
            "drive_error", "drive_error_range", "family", "neighbour_shapes"]
 
 STRIBECK_FORMS = ("exp", "log", "linear", "rational")
@@ -184,11 +184,17 @@ SHAPE_STEP = 1.6
 refinement (`neighbour_shapes`)."""
 
 
+PITCH_STEP = 1.1
+"""Factor between neighbouring screw pitches in the shape refinement (the scanned
+pitches are 1.2-1.5x apart)."""
+
+
 def neighbour_shapes(fam: Family, shape: Shape) -> list[Shape]:
     """The shapes next to `shape` in the family's continuous shape parameters (the local
     search of the shape refinement, `cycle_workflow`): the Stribeck speed scale times or
     over `SHAPE_STEP`, its exponent +-1 (0.5 at least) and its other forms; the
-    rate-and-state slip distance and the screw pitch times or over `SHAPE_STEP`; the
+    rate-and-state slip distance times or over `SHAPE_STEP`, the screw pitch times or over
+    `PITCH_STEP`; the
     second-order sensor's damping ratio +-0.15 (0.3-1) and the other kernel order. Empty
     for families without shapes."""
     rep = dataclasses.replace
@@ -202,9 +208,9 @@ def neighbour_shapes(fam: Family, shape: Shape) -> list[Shape]:
     elif fam.name == "rate_state":
         out += [rep(shape, length=shape.length * SHAPE_STEP),
                 rep(shape, length=shape.length / SHAPE_STEP)]
-    elif fam.name == "drive_periodic_error":
-        out += [rep(shape, pitch=shape.pitch * SHAPE_STEP),
-                rep(shape, pitch=shape.pitch / SHAPE_STEP)]
+    elif fam.name == "drive_periodic_error":  # the scanned pitches are 1.2-1.5x apart
+        out += [rep(shape, pitch=shape.pitch * PITCH_STEP),
+                rep(shape, pitch=shape.pitch / PITCH_STEP)]
     elif fam.name == "sensor_lowpass":
         if shape.order == 2:
             out += [rep(shape, zeta=min(shape.zeta + 0.15, 1.0)),

@@ -289,6 +289,67 @@ class _Sub:
         rows[np.arange(rows.shape[0]), np.flatnonzero(on)] = 1.0 / self.prior[on]
         return np.concatenate([r, np.asarray(z)[on] / self.prior[on]]), np.vstack([J, rows]), ok
 
+    def family_part(self, z, cov, k):
+        """The last `k` model coordinates (the family's) at the free coordinates `z`, and
+        their covariance from the free coordinates' `cov` (None: not computed)."""
+        return np.asarray(z)[-k:], (None if cov is None else cov[-k:, -k:])
+
+
+@dataclasses.dataclass
+class _SharedScrew(_Sub):
+    """The screw error with one amplitude per harmonic and a phase per record (one lead
+    screw, records starting at different places on it): free coordinates are the base's
+    `n_base` columns, then A1, A2 (model scale units) and the G first- then G
+    second-harmonic phases (rad). `cols` are the model columns: base, then the family's
+    4 per record (a1_sin = A1 cos phi1, a1_cos = A1 sin phi1, likewise A2, phi2)."""
+
+    n_base: int = 0
+
+    def _coef(self, w):
+        w = np.asarray(w, float)
+        G = (w.size - 2) // 2
+        a1, a2, p1, p2 = w[0], w[1], w[2:2 + G], w[2 + G:]
+        coef = np.stack([a1 * np.cos(p1), a1 * np.sin(p1), a2 * np.cos(p2),
+                         a2 * np.sin(p2)], axis=1).ravel()
+        D = np.zeros((4 * G, w.size))
+        for g in range(G):
+            D[4 * g + 0, 0], D[4 * g + 0, 2 + g] = np.cos(p1[g]), -a1 * np.sin(p1[g])
+            D[4 * g + 1, 0], D[4 * g + 1, 2 + g] = np.sin(p1[g]), a1 * np.cos(p1[g])
+            D[4 * g + 2, 1], D[4 * g + 2, 2 + G + g] = np.cos(p2[g]), -a2 * np.sin(p2[g])
+            D[4 * g + 3, 1], D[4 * g + 3, 2 + G + g] = np.sin(p2[g]), a2 * np.cos(p2[g])
+        return coef, D
+
+    def _model_z(self, z):
+        z = np.asarray(z, float)
+        return np.concatenate([z[:self.n_base], self._coef(z[self.n_base:])[0]])
+
+    def full(self, z):
+        return super().full(self._model_z(z))
+
+    def evaluate(self, z):
+        r, J, ok = self.model.evaluate(self.full(z), self.cols, self.shape, self.sensor)
+        _, D = self._coef(np.asarray(z)[self.n_base:])
+        return r, np.hstack([J[:, :self.n_base], J[:, self.n_base:] @ D]), ok
+
+    def family_part(self, z, cov, k):
+        _, D = self._coef(np.asarray(z)[self.n_base:])
+        vals = self._model_z(z)[-k:]
+        if cov is None:
+            return vals, None
+        return vals, D @ cov[self.n_base:, self.n_base:] @ D.T
+
+    @staticmethod
+    def start(coef, G):
+        """Free screw coordinates from per-record coefficients (z units, 4 per record):
+        the median first- and second-harmonic amplitudes over the records that have
+        any, and each record's phases."""
+        c = np.asarray(coef, float).reshape(G, 4)
+        amp1, amp2 = np.hypot(c[:, 0], c[:, 1]), np.hypot(c[:, 2], c[:, 3])
+        a1 = float(np.median(amp1[amp1 > 0])) if np.any(amp1 > 0) else 1.0
+        a2 = float(np.median(amp2[amp2 > 0])) if np.any(amp2 > 0) else 0.1 * a1
+        return np.concatenate([[a1, a2], np.arctan2(c[:, 1], c[:, 0]),
+                               np.arctan2(c[:, 3], c[:, 2])])
+
 
 @dataclasses.dataclass
 class _Score:
@@ -720,7 +781,7 @@ def discover_cycles(
             # far from the data the effect may be large: its first coordinate (physically
             # one-sided) also starts at fractions of its bound (LARGE_STARTS)
             starts += [frac * f.bound[0] / f.scales[0] for frac in LARGE_STARTS]
-        best = None
+        best, tried = None, []
         for (option, sensor), start in itertools.product(options, starts):
             shape = option.shape
             z1 = z_base.copy()
@@ -748,19 +809,39 @@ def discover_cycles(
                 s1 = _Sub(model, z_base, cols, shape, sensor, prior)
                 fit = solve_host(s1.evaluate, z_base[cols], max_evals=refit_evals)
             one = _judge(f, shape, fit, sensor, s1)
+            tried.append(one)
             if best is None or ((one.unphysical is not None, one.fit.rss)
                                 < (best.unphysical is not None, best.fit.rss)):
                 best = one
+        if f.name == "drive_periodic_error":
+            # one lead screw: each shape again with one amplitude per harmonic and a phase
+            # per record (`_SharedScrew`), from the per-record fit's coefficients (records
+            # that travel a fraction of a pitch can no longer bend their own error)
+            nb = base_cols.size
+            for one in tried:
+                shared = _SharedScrew(model, z_base.copy(), cols, one.shape, False, None, nb)
+                w0 = np.concatenate([one.fit.z[:nb], _SharedScrew.start(one.fit.z[nb:nb + 4 * G], G)])
+                try:
+                    fit = solve_host(shared.evaluate, w0, max_evals=refit_evals, lam0=1e-3,
+                                     stall_evals=8)
+                except ValueError:
+                    continue
+                two = _judge(f, one.shape, fit, False, shared)
+                if (two.unphysical is not None, two.fit.rss) < (best.unphysical is not None,
+                                                                 best.fit.rss):
+                    best = two
         return best
 
     def _judge(f, shape, fit, sensor, sub: _Sub) -> _Refit:
         k = len(model.cols(f))
-        vals = fit.z[-k:] * model.scales[model.cols(f)]
         try:
-            cov = gauss_newton_covariance(fit.J, max(fit.rss / (n - len(sub.cols)), 1.0))
-            se = np.sqrt(np.clip(np.diag(cov)[-k:], 0, None)) * model.scales[model.cols(f)]
+            cov = gauss_newton_covariance(fit.J, max(fit.rss / (n - fit.z.size), 1.0))
         except np.linalg.LinAlgError:
-            se = np.full(k, np.nan)
+            cov = None
+        z_f, cov_f = sub.family_part(fit.z, cov, k)
+        vals = z_f * model.scales[model.cols(f)]
+        se = (np.full(k, np.nan) if cov_f is None else
+              np.sqrt(np.clip(np.diag(cov_f), 0, None)) * model.scales[model.cols(f)])
         bad = f.unphysical(vals)
         if f.per_record and f.name == "drive_periodic_error":
             spans = np.array([drive_error_range(vals.reshape(G, -1)[g], recs[g].time,
@@ -897,8 +978,7 @@ def discover_cycles(
                 break
             factor_now = factor_next
     if chosen is not None:
-        z_after = _Sub(model, z_base, np.concatenate(
-            [base_cols, model.cols(chosen.family)])).full(chosen.fit.z)
+        z_after = chosen.sub.full(chosen.fit.z)
         r1 = chosen.fit.r[:n]  # without the prior's rows
         final_fit, shape, sensor = chosen.fit, chosen.shape, chosen.sensor
     else:
