@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 
 from stickslip_fitting.discovery.cycle_learned import (
-    G_MM,
     correction_columns,
     fit_cycle_correction,
     phase_coordinates,
@@ -26,7 +25,7 @@ def _windows(n_windows=12, samples=400, seed=0):
     k = rng.choice([40.0, 86.9, 200.0], n_windows)
     v = rng.choice([0.05, 0.2], n_windows)
     t1 = rng.uniform(0.5, 2.0, n_windows)
-    omega0 = np.sqrt(k * G_MM / w)
+    omega0 = np.sqrt(k * 9806.65 / w)  # standard gravity in mm/s^2
     start = np.cumsum(np.r_[0.0, t1[:-1] + 2 * np.pi / omega0[:-1]])
     span = t1 + 1.6 * np.pi / omega0
     time = start[:, None] + np.linspace(0, 1, samples)[None, :] * span[:, None]

@@ -162,15 +162,20 @@ POSTERIOR_WARN = 3e8
 2 minutes at `POSTERIOR_RATE`)."""
 
 
+def _draws(sample) -> int:
+    """The number of draws of a posterior sample (a pytree of equal-length arrays)."""
+    import jax
+
+    return int(np.size(jax.tree_util.tree_leaves(sample)[0]))
+
+
 def _say_posterior_work(shape, sample) -> None:
     """The stage line of a posterior map: its points x draws steady analyses, and a warning
     with the expected time and how to shorten it when they are many (the runtime grows as
     points x draws)."""
-    import jax
-
     from stickslip_jax.logs import logger
 
-    draws = int(np.size(jax.tree_util.tree_leaves(sample)[0]))
+    draws = _draws(sample)
     n = int(np.prod(shape))
     work = float(n) * draws
     _say_map(shape, f"steady analysis over {draws} posterior draw{'s' * (draws != 1)}: "
@@ -196,12 +201,10 @@ def _check_memory(args, shape, sample) -> None:
     """Refuse (one line: the size and how to reduce it) a map whose estimated peak memory,
     the grid's points times what each output needs plus points x draws for
     --max-amplitude, is more than half this machine's."""
-    import jax
-
     from stickslip_jax.output import check_memory
 
     n_points = float(np.prod(shape, dtype=float))
-    draws = 1 if sample is None else int(np.size(jax.tree_util.tree_leaves(sample)[0]))
+    draws = 1 if sample is None else _draws(sample)
     outputs = [o for o in ("--json", "--csv", "--netcdf") if getattr(args, o[2:])]
     per_point = _BYTES_PER_POINT["map"] + sum(_BYTES_PER_POINT[o] for o in outputs)
     n_bytes = n_points * per_point
@@ -514,7 +517,7 @@ def tolerance(args, res) -> dict:
             rows.append({"weight_kgf": d.weight, "drive_speed_mm_per_min": d.speed * 60.0,
                          "stiffness_kgf_per_mm": d.stiffness if d.converged else None,
                          "probability": d.probability, "converged": d.converged})
-    draws = int(np.size(jax.tree_util.tree_leaves(sample)[0]))
+    draws = _draws(sample)
     return {"max_amplitude_mm": float(args.max_amplitude), "meet": args.meet, "draws": draws,
             "amplitude": "time-domain limit cycle (stickslip_jax.limit_cycle)",
             "probability_met": prob.tolist(), "required_stiffness": rows}

@@ -30,6 +30,8 @@ import dataclasses
 
 import numpy as np
 
+from stickslip_jax.units import G_MM_S2
+
 __all__ = ["CycleLearned", "SLIP_KNOTS", "STICK_KNOTS", "fit_cycle_correction",
            "phase_coordinates"]
 
@@ -47,8 +49,6 @@ SMOOTHING = 1.0
 """Weight of the P-spline penalty (module doc of `fit_cycle_correction`): a second
 difference of one noise unit costs like this many samples."""
 
-G_MM = 9806.65
-"""Standard gravity in mm/s^2 (omega_0 = sqrt(k g / W), k kgf/mm, W kgf)."""
 
 
 def phase_coordinates(data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -62,7 +62,7 @@ def phase_coordinates(data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                                  ("w", data.weight))}
     since = t[mask] - per_row["start"]
     stick = np.maximum(per_row["stick"], 1e-12)
-    omega0 = np.sqrt(per_row["k"] * G_MM / per_row["w"])
+    omega0 = np.sqrt(per_row["k"] * G_MM_S2 / per_row["w"])
     phi = since / stick
     psi = (since - stick) * omega0 / np.pi
     return phi, psi, per_row["speed"] * stick
@@ -156,6 +156,8 @@ def fit_cycle_correction(data, r0: np.ndarray, Jb: np.ndarray, sd: np.ndarray,
     the gap it leaves (module doc). `r0`, `Jb`: the base fit's whitened residuals and
     Jacobian over the masked samples; `sd`: their standard errors (mm); `noise`: the
     campaign's noise (mm)."""
+    from scipy.linalg import block_diag
+
     phi, psi, climb = phase_coordinates(data)
     if phi.size != r0.size:
         raise ValueError(f"fit_cycle_correction: {phi.size} masked samples in the data, "
@@ -166,16 +168,11 @@ def fit_cycle_correction(data, r0: np.ndarray, Jb: np.ndarray, sd: np.ndarray,
     # P-spline smoothness: second differences of each spline's coefficients, in units of
     # the noise at the median climb, cost like `SMOOTHING` samples (a sparsely sampled end
     # of the slip phase otherwise takes wild values)
-    unit = np.r_[[noise / max(a_med, 1e-12)] * STICK_KNOTS, [noise / 1e-3] * STICK_KNOTS,
-                 [noise / max(a_med, 1e-12)] * SLIP_KNOTS]
-    pen = np.zeros((0, A.shape[1]))
-    at = Jb.shape[1]
-    for size in (STICK_KNOTS, STICK_KNOTS, SLIP_KNOTS):
-        D = np.diff(np.eye(size), 2, axis=0) / unit[at - Jb.shape[1]:at - Jb.shape[1] + size]
-        block = np.zeros((size - 2, A.shape[1]))
-        block[:, at:at + size] = np.sqrt(SMOOTHING) * D
-        pen = np.vstack([pen, block])
-        at += size
+    scaled_unit = noise / max(a_med, 1e-12)  # mm per mm of climb; the fixed part in um
+    blocks = [np.diff(np.eye(size), 2, axis=0) / unit for size, unit in
+              ((STICK_KNOTS, scaled_unit), (STICK_KNOTS, noise / 1e-3), (SLIP_KNOTS, scaled_unit))]
+    pen = np.hstack([np.zeros((sum(b.shape[0] for b in blocks), Jb.shape[1])),
+                     np.sqrt(SMOOTHING) * block_diag(*blocks)])
     scale = np.linalg.norm(A, axis=0)
     scale[scale == 0] = 1.0
     beta = np.linalg.lstsq(np.vstack([A, pen]) / scale, np.r_[r0, np.zeros(len(pen))],

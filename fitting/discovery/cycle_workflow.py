@@ -496,6 +496,13 @@ def _one_screw(coef, recs, pitch, spans) -> str | None:
             "one amplitude")
 
 
+def _record_chi2(r, rec_of, G) -> np.ndarray:
+    """chi2/n of the whitened residuals `r` of every record (`rec_of`: record per
+    residual; NaN for a record without residuals)."""
+    return np.array([np.mean(r[rec_of == g] ** 2) if np.any(rec_of == g) else np.nan
+                     for g in range(G)])
+
+
 def _gap(r, sd) -> float:
     """Residual RMS (mm) of whitened residuals `r` with standard errors `sd`."""
     return float(np.sqrt(np.mean((r * sd) ** 2)))
@@ -643,8 +650,7 @@ def discover_cycles(
     # one such record must not make the whole campaign "unexplained"
     rec_of = np.broadcast_to(np.asarray(data.record)[:, None], data.mask.shape)
     rec_of = np.asarray(rec_of).ravel()[model.mask]
-    chi2_rec = np.array([np.mean(base_fit.r[rec_of == g] ** 2) if np.any(rec_of == g)
-                         else np.nan for g in range(G)])
+    chi2_rec = _record_chi2(base_fit.r, rec_of, G)
     median_chi2 = float(np.nanmedian(chi2_rec))
     limit = max(RECORD_CHI2, RECORD_CHI2 * median_chi2)
     scaled = {g: float(c) for g, c in enumerate(chi2_rec) if c > limit}
@@ -662,7 +668,7 @@ def discover_cycles(
                     for g, c in scaled.items()]
     sd_flat = np.asarray(model.sd).ravel()[model.mask]
     if (base_fit.rss / base_fit.r.size > MISFIT
-            or np.sqrt(np.mean((base_fit.r * sd_flat) ** 2)) > MISFIT * noise_of(data)):
+            or _gap(base_fit.r, sd_flat) > MISFIT * noise_of(data)):
         # far from the data, Levenberg-Marquardt's default patience stops early (the
         # refits then each gained the same chi-square, whatever their family): continue
         # the base fit as the refits would run, from a damped start with more patience
@@ -674,7 +680,7 @@ def discover_cycles(
     r0, Jb = base_fit.r, base_fit.J
     sd = np.asarray(model.sd).ravel()[model.mask]
     noise = noise_of(data)
-    gap_before = float(np.sqrt(np.mean((r0 * sd) ** 2)))
+    gap_before = _gap(r0, sd)
     slipping = np.asarray(yd).ravel()[model.mask] > 0
     n = r0.size
     stage("base_fit", f"gap {gap_before * 1e3:.3g} um, noise {noise * 1e3:.3g} um, "
@@ -968,8 +974,7 @@ def discover_cycles(
             chosen = one
             sd_after = np.asarray(model_after.sd).ravel()[model_after.mask]
             r_plain = chosen.fit.r[:n] * factor_now[rec_of]
-            chi2_after = np.array([np.mean(r_plain[rec_of == g] ** 2) if np.any(rec_of == g)
-                                   else np.nan for g in range(G)])
+            chi2_after = _record_chi2(r_plain, rec_of, G)
             limit_after = max(RECORD_CHI2, RECORD_CHI2 * float(np.nanmedian(chi2_after)))
             beyond = chi2_after > limit_after
             reweighed = [g for g in scaled if not beyond[g]]
