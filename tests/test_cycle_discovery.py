@@ -6,6 +6,7 @@ over many campaigns are in `test_cycle_discovery_rates.py` (slow)."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 
@@ -28,6 +29,15 @@ def clean_files(tmp_path_factory):
         p = d / f"r{i}.csv"
         write_record(r, p)
         paths.append(str(p))
+    # and one irregular record (mu_s drawn per cycle, 5 % spread): the paper's model
+    # describes it at chi2/n ~500 (measured); it must be set aside and listed, not bend
+    # the others' base fit (before, the campaign's median chi2/n rose to 107 and the
+    # screw error was named on the clean records)
+    bad = ir.campaign(seed=12, imp=ir.Imperfections(mu_s_jitter=0.05),
+                      runs=((20.0, 27.3),), speeds=(5.0,), cycles=5.0)[0]
+    p = d / "irregular.csv"
+    write_record(dataclasses.replace(bad, note="irregular"), p)
+    paths.append(str(p))
     return paths
 
 
@@ -47,6 +57,10 @@ def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):
     assert "learned:" in captured.err
     assert rep["base"] == "cycle" and rep["gap_unit"] == "mm"
     assert abs(rep["gap_before"] / rep["noise"] - 1) < 0.1
+    # the irregular record: listed, set aside; over every record the gap is its own
+    (note,) = rep["records_scaled"]
+    assert note.startswith("irregular") and "set aside" in note
+    assert rep["gap_all_records_before_mm"] > 5 * rep["gap_before"]
     for key in ("candidates", "parameters_before", "parameters_after", "timings_s",
                 "records", "residuals_by_phase_before"):
         assert key in rep
