@@ -133,17 +133,10 @@ class RecordFeatures:
         `stickslip_fitting.objectives._levels`): one jump made of two slips, so its `end_time`
         (the end of a single half cosine about the jump's middle) is not when the
         slider came to rest."""
-        with np.errstate(invalid="ignore"):
-            return ~(self.slip_ratio <= RESLIP_RATIO)
-
-    @property
-    def slip_ratio(self) -> np.ndarray:
-        r"""Per cycle: the measured slip time over that of a single slip of its amplitude
-        $a$ at the drive speed $v$ ($\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$);
-        NaN where the slip could not be timed."""
         a = np.maximum(self.amplitude, 1e-300)
         single = (math.pi + 2.0 * np.arctan(self.drive_speed / (self.omega0 * a))) / self.omega0
-        return np.asarray(self.slip_time) / single
+        with np.errstate(invalid="ignore"):
+            return ~(np.asarray(self.slip_time) <= RESLIP_RATIO * single)
 
     @property
     def n_complete(self) -> int:

@@ -36,11 +36,7 @@ A window that starts after a slip with a re-slip (`RecordFeatures.slipped_on`) i
 out (`reslip_windows` counts them): that jump is two slips, the slider comes to rest
 later than the measured slip end and above the measured level, so the restart state
 would be wrong (at the true parameters such windows gave residuals up to 29 standard
-errors). So is the window whose own slip lasted over `MERGED_RATIO` times a single
-slip: the model slips once and sticks, the record slips on (near the stick-slip boundary, where slips of a few um are half missed
-by the cycle extraction, a window then held two or three slips: a clean record at
-chi2/n 11 at the true parameters, 1.25 without those windows). The cycles are still in
-the features objective, which models the re-slip.
+errors). The cycles are still in the features objective, which models the re-slip.
 
 Only constant drive speeds (`drive_speed` records) are supported here; records with a
 drive program or a measured drive column are refused with a ValueError.
@@ -277,18 +273,9 @@ def trace_residuals_and_flags(params: CampaignParams, data: TraceData,
     return jnp.where(data.mask, r, 0.0).ravel(), ok, trace.slider_velocity
 
 
-MERGED_RATIO = 2.0
-"""A window whose own slip was measured this many times longer than a single slip of its
-size holds two slips or more (module doc) and is left out; a lengthened single slip (a
-damping ratio of 0.2 or a slow gauge: 1.3-2x) stays, as the evidence of those effects."""
-
-
 def _after_reslip(f: RecordFeatures) -> np.ndarray:
-    """Per cycle j >= 1: complete, but the slip before it or its own slip had a re-slip
-    (left out; module doc)."""
-    with np.errstate(invalid="ignore"):
-        merged = np.asarray(f.slip_ratio[1:] > MERGED_RATIO, bool)
-    return np.asarray(f.complete[1:], bool) & (f.slipped_on[:-1] | merged)
+    """Per cycle j >= 1: complete, but the slip before it had a re-slip (left out)."""
+    return np.asarray(f.complete[1:], bool) & f.slipped_on[:-1]
 
 
 def cycle_windows(features: list[RecordFeatures]) -> int:
