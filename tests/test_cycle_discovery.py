@@ -181,3 +181,19 @@ def test_plausible_start():
     z = plausible_start(flat, T1, T2)
     rise = np.exp(z[1]) * -np.expm1(-np.exp(z[2]) * 1.0 ** np.exp(z[3]))
     assert np.isclose(rise, 9.16e5 * -np.expm1(-5.1e-8), rtol=1e-6) and np.exp(z[1]) < 10
+
+
+def test_a_non_finite_derivative_is_not_tested():
+    """A family whose derivative is not finite at the base fit gets no test (p NaN,
+    never significant) instead of stopping the ranking (measured: "SVD did not
+    converge" from the Gauss-Newton step)."""
+    from stickslip_fitting.discovery.cycle_workflow import _hotelling
+
+    rng = np.random.default_rng(0)
+    J, r, starts = rng.normal(size=(40, 2)), rng.normal(size=40), np.arange(0, 40, 4)
+    F, p, dof, step, pred = _hotelling(J, r, starts)
+    assert np.isfinite(p) and dof == 2 and step.shape == (2,)
+    J[3, 1] = np.nan
+    F, p, dof, step, pred = _hotelling(J, r, starts)
+    assert np.isnan(F) and np.isnan(p) and dof == 2 and pred == 0.0
+    assert np.array_equal(step, np.zeros(2))

@@ -471,6 +471,10 @@ def _hotelling(Jp, r, starts):
     score Jp^T r with window-level contributions (module doc); `starts`: index of the
     first sample of every window (samples are stored window by window)."""
     p = Jp.shape[1]
+    if not (np.all(np.isfinite(Jp)) and np.all(np.isfinite(r))):
+        # the family's derivative is not finite at the base (the simulator left its
+        # domain for this shape): no test (p NaN, never significant), not a crash
+        return float("nan"), float("nan"), p, np.zeros(p), 0.0
     g = np.add.reduceat(Jp * r[:, None], starts, axis=0)
     g = g[np.any(g != 0, axis=1)]
     n = g.shape[0]
@@ -823,7 +827,13 @@ def discover_cycles(
                 Jc = plain_J[f.name]
             else:
                 _, Jc, _ = model.evaluate(z_base, cols, shape)
-            Jp = project_out(Qb, Jc * described[:, None])
+            Jc = Jc * described[:, None]
+            if np.all(np.isfinite(Jc)):
+                Jp = project_out(Qb, Jc)
+            else:
+                logger.warning(f"{f.name} ({shape.label(f)}): its derivative at the base "
+                               "fit is not finite; not tested")
+                Jp = np.full(Jc.shape, np.nan)
             F, p, dof, step, pred = _hotelling(Jp, r_rank, starts)
             sc = _Score(f, shape, F, p, dof, step, Jp, pred)
             shape_scores.setdefault(f.name, []).append(sc)
