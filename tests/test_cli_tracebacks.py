@@ -119,6 +119,7 @@ def test_mcmc_that_cannot_start_its_walkers_is_one_line(tmp_path, capsys):
     one_line(err, "walkers cannot start", "stickslip fit", "--fix")
 
 
+@pytest.mark.slow  # 25 s; the default suite took 9.5-10.6 min on 2 cores (target 10); CI runs slow tests
 def test_ctrl_c_during_mcmc_keeps_the_chain(tmp_path):
     """Ctrl-C during `mcmc` printed a long traceback and lost the chain. Now: exit 130, one
     line, and the chain so far summarised and written (subprocess with SIGINT)."""
