@@ -70,6 +70,7 @@ import numpy as np
 import scipy.stats
 
 from stickslip_jax.logs import logger
+from stickslip_jax.units import G_MM_S2
 from stickslip_jax.lsq import HostResult, gauss_newton_covariance, solve_host
 
 from ..campaign import Campaign, screen_records
@@ -620,7 +621,7 @@ def discover_cycles(
     model = CycleModel(data, drift_origins(recs),
                        np.ones(np.asarray(data.mask).shape), G)
     z_start = model.z0(start.params.friction, np.asarray(start.params.offset))
-    t2_of = np.pi / np.sqrt(np.asarray(data.stiffness) * 9806.65 / np.asarray(data.weight))
+    t2_of = np.pi / np.sqrt(np.asarray(data.stiffness) * G_MM_S2 / np.asarray(data.weight))
     z_start[:6] = plausible_start(z_start[:6], np.asarray(data.stick_time), t2_of)
     _, yd, ok = model.residuals(z_start)
     # a cycle window the paper's model cannot reproduce at the start (no breakaway, or a
