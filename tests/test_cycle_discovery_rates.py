@@ -154,6 +154,10 @@ def test_discovery_rates_do_not_regress(rows):
     assert not s["outside_high"]
     assert not s["wrong_high"]
     assert s["found"] >= 0.6
+    # an unexplained gap (or none) is never "X or Y" (session 15's first run of the
+    # contenders' shape refinement printed "unexplained or rate_state" for the creep)
+    assert not [r["kind"] for r in rows if r["effect"] in ("none", "unexplained")
+                and len(r["named"]) > 1]
     assert all(c is not None and c >= 0.5 for _, c in s["outside_learned"]), s["outside_learned"]
 
 
@@ -197,6 +201,20 @@ def power_campaigns():
                             {arg: value}))
     return out
 
+
+
+@pytest.mark.slow
+def test_a_large_stribeck_drop_on_lubricant_c_is_named():
+    """The power sweep's Stribeck drop of 0.1 on lubricant C (rational curve, v_s 10
+    mm/s): far from the data (base chi2/n 2) the grid shapes had the per-record screw
+    (pitch 1.8 mm, amplitudes 3-38 um on records that travel less than a pitch) explain
+    more than Stribeck's best grid shape, and the screw was named (sessions 12-15). The
+    close contenders' shapes are now refined before the choice (session 15: stribeck
+    (low), gap 1.68 -> 1.17x, about 90 s)."""
+    (k, s, lube, kw), = [c for c in power_campaigns() if c[0] == "stribeck/stribeck_b=0.1/C"]
+    row = run_one(k, s, lube, **kw)
+    assert row["named"] & EFFECTS["stribeck"][0], row
+    assert row["gap_after"] < 0.8 * row["gap_before"]
 
 def visible(row) -> float:
     """The effect's visible size: the excess RMS of the paper's model over the noise

@@ -36,7 +36,11 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    most of the signal).
 4. `refit`: the `top` significant families, each refitted from the score step with its
    best shape (the sensor with both kernel orders). A fit beyond a family's physical
-   bounds or signs is reported as unphysical and never named.
+   bounds or signs is reported as unphysical and never named. Far from the data (base
+   chi2/n > `MISFIT`), the physical refits that explain at least `joint` of the best
+   one's drop have their continuous shape parameters refined before the choice
+   (`REFINE_CONTENDERS`; the grid shapes alone let a per-record screw beat a rational
+   Stribeck curve on lubricant C).
 5. `decision`: every other family with nominal evidence (robust p < `alpha` without
    the Bonferroni factor) is refitted as a contender. The physical refit with the
    largest chi-square drop wins; each other refit is compared with it by the **paired
@@ -262,6 +266,10 @@ are tried at full weight (`discover_cycles`)."""
 
 REFINE_FITS = 12
 """Short refits (`refit_evals` evaluations each) the shape refinement may spend."""
+
+REFINE_CONTENDERS = 3
+"""Far from the data, the physical refits (best first) whose shapes are refined before
+the choice when they explain at least `joint` of the best one's chi-square drop."""
 
 RESLIP_SYSTEMATIC = 0.9
 """Fraction of the complete cycle windows flagged as following a re-slip
@@ -997,6 +1005,51 @@ def discover_cycles(
     # themselves: a significant family ranked below `top` by its p-value may explain most)
     eligible = ({sc.family.name for sc in significant}
                 | {sc.family.name for sc in to_refit})
+
+    def refine_shape(rf: _Refit) -> tuple[_Refit, int]:
+        """A local search over the family's continuous shape parameters
+        (`cycle_effects.neighbour_shapes`), each shape a short polish from the best fit so
+        far; returns the best physical refit and the number of short refits tried."""
+        refined, tried = rf, 0
+        while tried < REFINE_FITS:
+            better = None
+            for shape_ in neighbour_shapes(refined.family, refined.shape):
+                if tried >= REFINE_FITS:
+                    break
+                tried += 1
+                sub_ = dataclasses.replace(refined.sub, shape=shape_)
+                try:
+                    fit_ = solve_host(sub_.evaluate, refined.fit.z, max_evals=refit_evals,
+                                      lam0=1e-3, stall_evals=8)
+                except ValueError:  # this shape leaves the simulator's domain
+                    continue
+                one = _judge(refined.family, shape_, fit_, refined.sensor, sub_)
+                if one.unphysical is None and one.fit.rss < (better or refined).fit.rss:
+                    better = one
+            if better is None:
+                break
+            refined = better
+        return refined, tried
+
+    shaped: set[str] = set()
+    close = [rf for rf in ranked() if rf.family.name in eligible]
+    if misfit and len(close) > 1 and _gap(close[0].fit.r[:n][described],
+                                          sd[described]) > REFINE_GAP * noise:
+        # far from the data the grid shapes decide between families (a rational Stribeck
+        # curve against the exponential grid lost to a per-record screw on C): the
+        # physical refits within reach of the best (drop >= `joint` of it) with a shape
+        # to refine are refined before the choice (REFINE_CONTENDERS at most)
+        lead = close[0].drop
+        for rf in close[:REFINE_CONTENDERS]:
+            if rf.drop < joint * lead or not neighbour_shapes(rf.family, rf.shape):
+                continue
+            better, tried = refine_shape(rf)
+            shaped.add(rf.family.name)
+            if better is not rf:
+                refits[refits.index(rf)] = better
+                stage("shape", f"{rf.family.name} {better.shape.label(better.family)} "
+                               f"(from {rf.shape.label(rf.family)}), chi2 -{better.drop:.0f}, "
+                               f"{tried} short refits")
     physical = [rf for rf in ranked() if rf.family.name in eligible]
     chosen = physical[0] if physical else None
     rivals, decision, compared = [], None, {}
@@ -1023,31 +1076,13 @@ def discover_cycles(
                 chosen = polished
                 stage("polish", f"{chosen.family.name} chi2 -{chosen.drop:.0f}, "
                                 f"{more.n_evals} more evaluations")
-    if (chosen is not None and misfit and neighbour_shapes(chosen.family, chosen.shape)
+    if (chosen is not None and misfit and chosen.family.name not in shaped
+            and neighbour_shapes(chosen.family, chosen.shape)
             and _gap(chosen.fit.r[:n][described], sd[described]) > REFINE_GAP * noise):
         # far from the data the named family's grid shape may not be the records' own
         # (a real Stribeck curve is not one of ours): a local search over its continuous
-        # shape parameters (`cycle_effects.neighbour_shapes`), each shape a short
-        # polish from the best fit so far, after the decision (which compared the grid)
-        refined, tried = chosen, 0
-        while tried < REFINE_FITS:
-            better = None
-            for shape_ in neighbour_shapes(refined.family, refined.shape):
-                if tried >= REFINE_FITS:
-                    break
-                tried += 1
-                sub_ = dataclasses.replace(refined.sub, shape=shape_)
-                try:
-                    fit_ = solve_host(sub_.evaluate, refined.fit.z, max_evals=refit_evals,
-                                      lam0=1e-3, stall_evals=8)
-                except ValueError:  # this shape leaves the simulator's domain
-                    continue
-                one = _judge(refined.family, shape_, fit_, refined.sensor, sub_)
-                if one.unphysical is None and one.fit.rss < (better or refined).fit.rss:
-                    better = one
-            if better is None:
-                break
-            refined = better
+        # shape parameters, after the decision (which compared the grid)
+        refined, tried = refine_shape(chosen)
         if refined is not chosen:
             stage("shape", f"{refined.family.name} {refined.shape.label(refined.family)} "
                            f"(from {chosen.shape.label(chosen.family)}), chi2 "
@@ -1188,7 +1223,9 @@ def discover_cycles(
         candidates=cand_json, estimates_before=rows_before, estimates_after=rows_after,
         effect_estimates=effect_rows,
         effect_of=chosen.family.name if chosen is not None else "",
-        indistinguishable_from=rivals, phases_before=phases_before,
+        # partners of a named effect only (an unexplained gap has no name to share)
+        indistinguishable_from=rivals if effect not in ("none", "unexplained") else [],
+        phases_before=phases_before,
         phases_after=phases_after, timings=timings, base_fit=base_fit, final_fit=final_fit,
         campaign=campaign, model=model, z_before=z_base, z_after=z_after, shape=shape,
         sensor=sensor, records_scaled=scaled_notes, windows_set_aside=windows_set_aside,
