@@ -503,6 +503,17 @@ def _slip_duration(t_c: float, t: np.ndarray, u: np.ndarray, y_pre: float, y_pos
     return float(scipy.optimize.brentq(excess, lo, hi, xtol=1e-9 * lo))
 
 
+def _slip_ends(t_c: float, t: np.ndarray, u: np.ndarray, y_pre: float, y_post: float,
+               omega0: float) -> tuple[float, float, float, float, float, float]:
+    """(duration T (s), breakaway t_b, end t_e (s), peak x2, trough x1 (mm), the drive's
+    mean speed over the slip v (mm/s)) of the slip centred at `t_c` (`_slip_duration`)."""
+    slip = _slip_duration(t_c, t, u, y_pre, y_post, omega0)
+    t_b, t_e = t_c - 0.5 * slip, t_c + 0.5 * slip
+    u_b, u_e = np.interp([t_b, t_e], t, u)
+    return (slip, t_b, t_e, float(u_b - y_pre), float(u_e - y_post),
+            max(float(u_e - u_b) / slip, 0.0))
+
+
 def _runs(flag: np.ndarray) -> list[tuple[int, int]]:
     """(start, stop) index pairs (stop exclusive) of the True runs of a bool array."""
     if flag.size == 0:
@@ -731,15 +742,9 @@ def extract_cycles(
         # Refine t_c on the deflection itself: x = c - R sin(omega0 (t - t_c)) about the
         # centre of the slip, c = (x2 + x1)/2 (eq 5), R^2 = a^2 + (v/omega0)^2.
         xs_seg = x[seg_lo:seg_hi]
-        slip = t2
         y_pre, y_post = before.end_level, after.level
         for _ in range(4):
-            slip = _slip_duration(t_c, t, u, y_pre, y_post, omega0)
-            t_b, t_e = t_c - 0.5 * slip, t_c + 0.5 * slip
-            u_b, u_e = np.interp([t_b, t_e], t, u)
-            x2 = float(u_b - y_pre)
-            x1 = float(u_e - y_post)
-            v_slip = max(float(u_e - u_b) / slip, 0.0)
+            slip, t_b, t_e, x2, x1, v_slip = _slip_ends(t_c, t, u, y_pre, y_post, omega0)
             amp = 0.5 * (x2 - x1)
             if not amp > 0:
                 break
@@ -758,17 +763,13 @@ def extract_cycles(
             if done:
                 break
         # the slip and its ends at the final centre
-        slip = _slip_duration(t_c, t, u, y_pre, y_post, omega0)
-        t_b, t_e = t_c - 0.5 * slip, t_c + 0.5 * slip
-        u_b, u_e = np.interp([t_b, t_e], t, u)
-        x2, x1 = float(u_b - y_pre), float(u_e - y_post)
+        slip, t_b, t_e, x2, x1, v_slip = _slip_ends(t_c, t, u, y_pre, y_post, omega0)
+        amp = 0.5 * (x2 - x1)
         tc_sd = sigma / max(abs(slope), 1e-300) / math.sqrt(n_mid)
         # the slip's duration carries the error of the jump J = y_post - y_pre (the two
         # plateau levels): dT/dJ = -q / (omega0 a), q = v / (omega0 a) (implicit
         # derivative of `_slip_duration`); near the boundary (q ~ 1, a of a few um) it
-        # is the larger part (measured: 0.75 ms against 0.2 ms for t_c)
-        amp = 0.5 * (x2 - x1)
-        v_slip = max(float(np.interp(t_e, t, u) - np.interp(t_b, t, u)) / slip, 0.0)
+        # is the larger part (measured there: end times scatter by 0.75 ms)
         slip_sd = (v_slip / (omega0 * amp) / (omega0 * amp)
                    * math.hypot(before.end_sd, after.sd)) if amp > 0 else 0.0
         rows.append(dict(
