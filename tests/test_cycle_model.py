@@ -251,6 +251,38 @@ def test_rational_stribeck_form(setup):
                                 Shape(vs=5.0, p=2.0, form="rational"), "rational")
 
 
+def test_damping_ratio_form_is_a_dashpot_per_record(setup):
+    """Viscous damping's ratio form (one damping ratio zeta, c = 2 zeta sqrt(k m) in each
+    record): on each record's rows it equals the dashpot form with that record's c; the
+    setup's two sliders differ in sqrt(k m), so one dashpot cannot be both; its Jacobian
+    matches finite differences."""
+    from stickslip_jax.units import G_MM_S2
+
+    model, z, fit, data, *_ = setup
+    col = model.cols(family("viscous_damping"))[0]
+    scale = family("viscous_damping").scales[0]
+    zeta = 0.1
+    z1 = z.copy()
+    z1[col] = zeta / scale
+    ratio = model.residuals(z1, Shape(damping="ratio"))[0]
+    L = np.asarray(data.mask).shape[1]
+    rec = np.repeat(np.asarray(data.record), L)[model.mask]
+    W = np.repeat(np.asarray(data.weight), L)[model.mask]
+    k = np.repeat(np.asarray(data.stiffness), L)[model.mask]
+    dashpots = set()
+    for g in np.unique(rec):
+        rows = rec == g
+        c = 2.0 * zeta * np.sqrt(k[rows][0] * W[rows][0] / G_MM_S2)
+        dashpots.add(round(c, 6))
+        z2 = z.copy()
+        z2[col] = c / scale
+        dashpot = model.residuals(z2, Shape())[0]
+        np.testing.assert_allclose(ratio[rows], dashpot[rows], atol=1e-9)
+    assert len(dashpots) > 1
+    _assert_jacobian_matches_fd(model, z1, np.array([0, col]), Shape(damping="ratio"),
+                                "damping ratio")
+
+
 def test_shared_screw_maps_amplitude_and_phases(setup):
     """The screw refit with one amplitude per harmonic and a phase per record
     (`cycle_workflow._SharedScrew`): its model coordinates are A cos(phi), A sin(phi) per

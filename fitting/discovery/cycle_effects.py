@@ -7,7 +7,7 @@ exactly, so a family is a set of forms, not one formula. Units are internal (kgf
 
 | name | enters the per-cycle model as | parameters | shapes scanned |
 |---|---|---|---|
-| `viscous_damping` | slip force $-c\,\dot y$ | c kgf s/mm | - |
+| `viscous_damping` | slip force $-c\,\dot y$ | c kgf s/mm (dashpot) or damping ratio $\zeta$, $c = 2\zeta\sqrt{k m}$ per record | dashpot; ratio |
 | `stribeck` | slip friction $+b\,s(\dot y/v_s)$, falling with slip speed: $s(w) = e^{-w^p}$, $-\ln(1 + w)$ (no floor, rate-and-state's steady state) | b (-) | exponential: $v_s$ 3, 10, 30 mm/s, p 1, 2; logarithmic: $v_s$ 1, 10 mm/s |
 | `rate_state` | slip friction $+a\ln(1 + \dot y/V_\mathrm{ref}) + b\ln(\theta/\theta_b)$, Dieterich-Ruina with the aging law $\dot\theta = 1 - \dot y\theta/D_c$ | a, b (-) | $D_c$ 0.01, 0.03, 0.1 mm |
 | `drive_periodic_error` | drive $u + \sum_{h=1,2} a_h \sin(2\pi h u/\lambda) + b_h\cos(\dots)$, per record | 4 per record, mm | $\lambda$ 1-10 mm |
@@ -34,10 +34,14 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["DRIVE_ERROR_MAX", "FAMILIES", "PITCH_STEP", "SHAPE_STEP", "STRIBECK_FORMS", "Family", "Shape",
+__all__ = ["DAMPING_FORMS", "DRIVE_ERROR_MAX", "FAMILIES", "PITCH_STEP", "SHAPE_STEP", "STRIBECK_FORMS", "Family", "Shape",
            "drive_error", "drive_error_range", "family", "neighbour_shapes"]
 
 STRIBECK_FORMS = ("exp", "log", "linear", "rational")
+DAMPING_FORMS = ("dashpot", "ratio")
+"""Viscous damping's forms: one dashpot c for every record (kgf s/mm), or one damping
+ratio zeta, c = 2 zeta sqrt(k m) in each record (the way a machine's modal damping is
+quoted; c then differs between sliders and springs)."""
 """Forms of the Stribeck family's falling friction (`Shape.form`): exponential (a floor at
 high speed), logarithmic (no floor, as rate-and-state's steady state), linear (the falling
 branch's negative slope). The linear form is not scanned: with a negative coefficient it
@@ -75,7 +79,8 @@ class Shape:
     kernel `order` (1: first-order low-pass, 2: second order) and, for order 2, its
     damping ratio `zeta` (1: critically damped); `form`: the Stribeck curve, "exp"
     $e^{-(v/v_s)^p}$, "log" $-\\ln(1 + v/v_s)$, "linear" $-v/v_s$ or "rational"
-    $1/(1 + (v/v_s)^p)$ (Hess and Soom's form with p = 2) (`STRIBECK_FORMS`)."""
+    $1/(1 + (v/v_s)^p)$ (Hess and Soom's form with p = 2) (`STRIBECK_FORMS`); `damping`:
+    viscous damping as one dashpot or one damping ratio (`DAMPING_FORMS`)."""
 
     vs: float = 10.0
     p: float = 1.0
@@ -84,16 +89,20 @@ class Shape:
     order: int = 1
     zeta: float = 1.0
     form: str = "exp"
+    damping: str = "dashpot"
 
     def label(self, fam: "Family") -> str:
         keys = {"stribeck": {"exp": ("vs", "p"), "rational": ("form", "vs", "p")}.get(
                     self.form, ("form", "vs")),
                 "rate_state": ("D_c",),
+                "viscous_damping": ("damping",),
                 "drive_periodic_error": ("pitch",),
                 "sensor_lowpass": ("order",) if self.order == 1 else ("order", "zeta")}
         value = {"vs": self.vs, "p": self.p, "D_c": self.length, "pitch": self.pitch,
-                 "order": self.order, "zeta": self.zeta, "form": self.form}
-        return ", ".join(f"{k} = {value[k]:g}" if k != "form" else f"{value[k]}"
+                 "order": self.order, "zeta": self.zeta, "form": self.form,
+                 "damping": self.damping}
+        return ", ".join(f"{k} = {value[k]:g}" if k not in ("form", "damping")
+                         else f"{value[k]}"
                          for k in keys.get(fam.name, ()))
 
 
@@ -109,6 +118,13 @@ class Family:
     bound_note: str
     shapes: tuple[Shape, ...] = (Shape(),)
     per_record: bool = False
+
+    def named(self, shape: Shape) -> tuple[tuple[str, ...], tuple[str, ...]]:
+        """The parameters' names and units in this shape (viscous damping's ratio form
+        fits the damping ratio zeta, dimensionless, instead of c)."""
+        if self.name == "viscous_damping" and shape.damping == "ratio":
+            return ("zeta",), ("-",)
+        return self.params, self.units
 
     def n_params(self, n_records: int) -> int:
         return len(self.params) * (n_records if self.per_record else 1)
@@ -132,7 +148,8 @@ FAMILIES: tuple[Family, ...] = (
            "A force proportional to the slider velocity (a viscous oil film or a damper) "
            "resists the slip, so slips are slower and smaller than dry friction predicts.",
            ("c",), ("kgf*s/mm",), (0.01,), (1,), (1.0,),
-           "a damping ratio above about 1 would stop stick-slip altogether"),
+           "a damping ratio above about 1 would stop stick-slip altogether",
+           shapes=(Shape(), Shape(damping="ratio"))),
     Family("stribeck",
            "Kinetic friction falls with slip speed (a Stribeck curve): the slip starts "
            "against higher friction than it ends with.",
@@ -205,6 +222,8 @@ def neighbour_shapes(fam: Family, shape: Shape) -> list[Shape]:
             out += [rep(shape, p=shape.p + 1.0), rep(shape, p=max(shape.p - 1.0, 0.5))]
         out += [rep(shape, form=f, p=shape.p if f in ("exp", "rational") else 1.0)
                 for f in ("exp", "rational", "log") if f != shape.form]
+    elif fam.name == "viscous_damping":
+        out += [rep(shape, damping=d) for d in DAMPING_FORMS if d != shape.damping]
     elif fam.name == "rate_state":
         out += [rep(shape, length=shape.length * SHAPE_STEP),
                 rep(shape, length=shape.length / SHAPE_STEP)]

@@ -64,7 +64,7 @@ from stickslip_jax.units import G_MM_S2
 
 from ..params import EmpiricalFriction
 from ..trace_objective import TraceData
-from .cycle_effects import FAMILIES, STRIBECK_FORMS, Family, Shape, drive_error
+from .cycle_effects import DAMPING_FORMS, FAMILIES, STRIBECK_FORMS, Family, Shape, drive_error
 
 __all__ = ["BLOCK", "CycleModel", "N_STEPS", "TAIL_STEPS", "kernel_cdf", "previous_rows"]
 
@@ -133,8 +133,9 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
     velocity [L]; ok; tail). `sensor` (static): the kernel convolution (module doc);
     tail = (what the gauge still owes of this row's slip on the grid t_b + n h
     [TAIL_STEPS] (mm), t_b, h), read by the next window (`_model`)."""
-    vs, p, length, pitch, order, zeta, form = (shape[0], shape[1], shape[2], shape[3],
-                                                   shape[4], shape[5], shape[6])
+    vs, p, length, pitch, order, zeta, form, damping = (shape[0], shape[1], shape[2],
+                                                        shape[3], shape[4], shape[5],
+                                                        shape[6], shape[7])
     tw = t0  # the window's measured start: origin of a measured drive's cubic
     if sensor:
         # the measured restart state is a reading: the slider's own clock is tau earlier
@@ -143,6 +144,8 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
     mass = W / G_MM_S2
     omega = jnp.sqrt(k / mass)
     T2 = jnp.pi / omega
+    # viscous damping: one dashpot c, or one damping ratio (c = 2 zeta sqrt(k m))
+    c = eff.c * jnp.where(damping == 1, 2.0 * jnp.sqrt(k * mass), 1.0)
     static = friction.static
     mu_s, mu_d = static.mu_s, static.mu_d
     drift = t0 - tstart  # friction drifts from the record's start
@@ -213,7 +216,7 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
         mu = (mu_m + eff.b_st * fall
               + eff.a_rs * jnp.log1p(V / DR_V_REF) + eff.b_rs * lth)
         dl = jnp.exp(-jnp.maximum(lth, -30.0)) / theta_b - V / length
-        return (k * x - N * mu - eff.c * yd) / mass, dl
+        return (k * x - N * mu - c * yd) / mass, dl
 
     def rk4(state, i):
         y, yd, lth = state
@@ -456,7 +459,8 @@ class CycleModel:
     @staticmethod
     def _shape(shape: Shape):
         return jnp.asarray([shape.vs, shape.p, shape.length, shape.pitch, shape.order,
-                            shape.zeta, float(STRIBECK_FORMS.index(shape.form))])
+                            shape.zeta, float(STRIBECK_FORMS.index(shape.form)),
+                            float(DAMPING_FORMS.index(shape.damping))])
 
     def z0(self, friction: EmpiricalFriction, offsets) -> np.ndarray:
         z = np.zeros(self.layout.size)

@@ -29,11 +29,15 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    $F = \frac{n - p}{p(n-1)} T^2 \sim F(p, n - p)$ ($n$ windows, $p$ parameters). The
    windows are the independent units: residuals within a window share the errors of its
    measured restart state, so a per-sample test would raise false alarms on clean data.
-   A family is significant when its best shape's p-value is below
-   `alpha` / (number of family-shape tests) (Bonferroni), or when its predicted
-   chi-square drop is at least `RELEVANT` of the samples and the per-sample score test
-   passes the same level (the window-level test loses power when a few windows carry
-   most of the signal).
+   A family is significant when its best shape's **family-wise** p-value is below
+   `alpha`: the share of sign flips of the windows (`flips`, Westfall-Young min-p) whose
+   smallest p-value over all family-shape tests is as small, so the false-alarm rate of
+   the whole ranking is measured on the data with the tests' correlations kept (the
+   shapes of a family and the slip-shape families are strongly correlated; Bonferroni's
+   `alpha` / (number of tests) assumed them independent and lost power); or when its
+   predicted chi-square drop is at least `RELEVANT` of the samples and the per-sample
+   score test passes Bonferroni's level (the window-level test loses power when a few
+   windows carry most of the signal).
 4. `refit`: the `top` significant families, each refitted from the score step with its
    best shape (the sensor with both kernel orders). A fit beyond a family's physical
    bounds or signs is reported as unphysical and never named. Far from the data (base
@@ -86,6 +90,7 @@ from .cycle_effects import (DRIVE_ERROR_MAX, FAMILIES, Family, Shape, drive_erro
                             neighbour_shapes)
 from .cycle_learned import CycleLearned, fit_cycle_correction
 from .cycle_model import CycleModel, drift_origins
+from .flips import FLIPS, family_wise_p
 from .scores import base_basis, principal_cosine, project_out
 
 __all__ = ["CLEAR", "COLLINEAR", "JOINT", "MISFIT", "Contender", "CycleDiscovery", "Decision",
@@ -386,6 +391,8 @@ class _Score:
     step: np.ndarray  # Gauss-Newton step of the family's coordinates (scaled)
     direction: np.ndarray  # efficient-score columns (for collinearity)
     chi2_predicted: float  # chi-square drop the Gauss-Newton step predicts
+    test: int = -1  # index of its test among all family-shape tests (`flips`)
+    p_family: float = float("nan")  # family-wise p-value over all tests (`flips`)
 
 
 @dataclasses.dataclass
@@ -475,6 +482,11 @@ class CycleDiscovery(DiscoveryEstimates):
         }
 
 
+def _window_scores(Jp, r, starts) -> np.ndarray:
+    """The efficient score's contribution of every cycle window (windows x columns)."""
+    return np.add.reduceat(Jp * r[:, None], starts, axis=0)
+
+
 def _hotelling(Jp, r, starts):
     """(F, p-value, dof, Gauss-Newton step, predicted chi-square drop) of the efficient
     score Jp^T r with window-level contributions (module doc); `starts`: index of the
@@ -484,7 +496,7 @@ def _hotelling(Jp, r, starts):
         # the family's derivative is not finite at the base (the simulator left its
         # domain for this shape): no test (p NaN, never significant), not a crash
         return float("nan"), float("nan"), p, np.zeros(p), 0.0
-    g = np.add.reduceat(Jp * r[:, None], starts, axis=0)
+    g = _window_scores(Jp, r, starts)
     g = g[np.any(g != 0, axis=1)]
     n = g.shape[0]
     info = Jp.T @ Jp
@@ -815,6 +827,13 @@ def discover_cycles(
             a += score_cols(f).size
     shape_scores: dict[str, list[_Score]] = {}
     sensor_probe: dict[Shape, float] = {}
+    window_g: list[np.ndarray] = []  # every test's window contributions (`flips`)
+
+    def efficient(Jc):
+        Jc = Jc * described[:, None]
+        if np.all(np.isfinite(Jc)):
+            return project_out(Qb, Jc)
+        return np.full(Jc.shape, np.nan)
     for f in fams:
         cols = score_cols(f)
         best = None
@@ -828,23 +847,28 @@ def discover_cycles(
                     zp[cols] = probe
                     rp = model.residuals(zp, shape, sensor=True)[0]
                     if best_probe is None or np.sum(rp ** 2) < best_probe[0]:
-                        best_probe = (float(np.sum(rp ** 2)), probe, rp)
-                _, probe, rp = best_probe
+                        best_probe = (float(np.sum(rp ** 2)), probe, rp, len(window_g))
+                    # every probe is a test of the family-wise level (the choice among
+                    # them is part of the look-elsewhere)
+                    window_g.append(_window_scores(
+                        efficient(((rp - r0) / probe)[:, None]), r_rank, starts))
+                _, probe, rp, test = best_probe
                 sensor_probe[shape] = probe
                 Jc = ((rp - r0) / probe)[:, None]
             elif f.name in plain_J:
                 Jc = plain_J[f.name]
             else:
                 _, Jc, _ = model.evaluate(z_base, cols, shape)
-            Jc = Jc * described[:, None]
-            if np.all(np.isfinite(Jc)):
-                Jp = project_out(Qb, Jc)
-            else:
+            Jp = efficient(Jc)
+            if not np.all(np.isfinite(Jp)):
                 logger.warning(f"{f.name} ({shape.label(f)}): its derivative at the base "
                                "fit is not finite; not tested")
-                Jp = np.full(Jc.shape, np.nan)
+            elif f.name != "sensor_lowpass":
+                test = len(window_g)
+                window_g.append(_window_scores(Jp, r_rank, starts))
             F, p, dof, step, pred = _hotelling(Jp, r_rank, starts)
-            sc = _Score(f, shape, F, p, dof, step, Jp, pred)
+            sc = _Score(f, shape, F, p, dof, step, Jp, pred,
+                        test=test if np.all(np.isfinite(Jp)) else -1)
             shape_scores.setdefault(f.name, []).append(sc)
             # the shape that would explain most (its predicted chi-square drop)
             if best is None or pred > best.chi2_predicted:
@@ -854,6 +878,12 @@ def discover_cycles(
                 f"{s_.shape.label(f)} {s_.chi2_predicted:.4g} (p {s_.p_value:.2g})"
                 for s_ in shape_scores[f.name]))
         scores.append(best)
+    # the family-wise p-value of every family's chosen shape: the share of sign flips of
+    # the windows whose smallest p-value over all tests is as small (`flips`; Bonferroni's
+    # alpha / n_tests assumed the tests independent, and they are strongly correlated)
+    adjusted = family_wise_p(window_g)
+    for sc in scores:
+        sc.p_family = float(adjusted[sc.test]) if sc.test >= 0 else float("nan")
     scores.sort(key=lambda s: (np.nan_to_num(s.p_value, nan=1.0), -s.chi2_predicted))
     # significant: the robust (window-level) test, or a relevant predicted drop (at least
     # RELEVANT of the chi-square) that the per-sample score test supports: the robust test
@@ -861,12 +891,13 @@ def discover_cycles(
     # sensitive) carry most of the signal
     s2 = float(np.mean(r_rank[described] ** 2)) if described.any() else base_fit.rss / n
     significant = [s for s in scores
-                   if s.p_value < level
+                   if s.p_family < alpha
                    or (s.chi2_predicted >= RELEVANT * n_used
                        and scipy.stats.chi2.sf(s.chi2_predicted / s2, s.dof) < level)]
     stage("ranking", f"{len(significant)} of {len(fams)} families significant "
-                     f"(p < {level:.2g}); best {scores[0].family.name} "
-                     f"p = {scores[0].p_value:.2g}")
+                     f"(family-wise p < {alpha:g} over {len(window_g)} tests); best "
+                     f"{scores[0].family.name} p = {scores[0].p_value:.2g} "
+                     f"(family-wise {scores[0].p_family:.2g})")
 
     # a base fit far from the data (chi2/n > MISFIT): the first-order score test is
     # unreliable (the base parameters have bent to absorb the effect), so every family is
@@ -1155,9 +1186,10 @@ def discover_cycles(
     effect_rows = []
     if chosen is not None:
         f = chosen.family
-        names = ([f"{p}[{i}]" for i in range(G) for p in f.params] if f.per_record
-                 else list(f.params))
-        units = [u for _ in range(G if f.per_record else 1) for u in f.units]
+        params, f_units = f.named(chosen.shape)
+        names = ([f"{p}[{i}]" for i in range(G) for p in params] if f.per_record
+                 else list(params))
+        units = [u for _ in range(G if f.per_record else 1) for u in f_units]
         effect_rows = [ParameterEstimate.from_normal(nm, u, v, s)
                        for nm, v, s, u in zip(names, chosen.values, chosen.stderr, units)]
     phases_before = _phases(r0 * sd, slipping)
@@ -1199,7 +1231,8 @@ def discover_cycles(
         rf = by_family.get(sc.family.name)
         cand_json.append({
             "name": sc.family.name, "shape": sc.shape.label(sc.family),
-            "score": sc.statistic, "score_p_value": sc.p_value, "dof": sc.dof,
+            "score": sc.statistic, "score_p_value": sc.p_value,
+            "family_wise_p_value": sc.p_family, "dof": sc.dof,
             "chi2_drop_predicted": sc.chi2_predicted,
             "delta_criterion": (-rf.drop if rf else None),
             "chi2_drop": (rf.drop if rf else None),
@@ -1218,8 +1251,9 @@ def discover_cycles(
         effect=effect, explanation=explanation, confidence=confidence,
         gap_before=gap_before, gap_after=gap_after, noise=noise,
         criterion=(f"robust score test (Hotelling T^2 over {n_windows} cycle windows), "
-                   f"significant at p < {level:.2g} (alpha {alpha:g} over {n_tests} "
-                   "family-shape tests); delta_criterion = -(chi-square drop of the refit)"),
+                   f"significant at family-wise p < {alpha:g} (the smallest p-value of "
+                   f"{len(window_g)} family-shape tests under {FLIPS} sign flips of the "
+                   "windows); delta_criterion = -(chi-square drop of the refit)"),
         candidates=cand_json, estimates_before=rows_before, estimates_after=rows_after,
         effect_estimates=effect_rows,
         effect_of=chosen.family.name if chosen is not None else "",
@@ -1248,8 +1282,8 @@ def _explain(effect, chosen, decision, gap_before, gap_after, noise, pattern, ph
                      f"{gap_after * um:.3g} um")
         return text + "."
     f = chosen.family
-    sizes = ", ".join(f"{p} = {v:.3g} +- {s:.2g} {u}" for p, v, s, u in
-                      zip(f.params, chosen.values, chosen.stderr, f.units))
+    sizes = ", ".join(f"{p} = {v:.3g} +- {s:.2g} {u}" for p, u, v, s in
+                      zip(*f.named(chosen.shape), chosen.values, chosen.stderr))
     text = (f"{f.explanation} Adding {f.name} ({chosen.shape.label(f) or 'no shape'}"
             f"{'; ' + sizes if not f.per_record else ''}) lowers chi-square by "
             f"{chosen.drop:.0f} and the residual RMS from {gap_before * um:.3g} um to "

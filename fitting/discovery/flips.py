@@ -1,0 +1,82 @@
+r"""Family-wise p-values of many correlated score tests by sign flips of the cycle windows.
+
+Discovery tests every family and shape (`cycle_workflow`, stage 3): 30-50 tests whose
+efficient scores are far from independent (the shapes of one family, and the slip-shape
+families Stribeck, rate-and-state and damping, change the slips in similar ways).
+Bonferroni's level alpha / K assumes the worst and loses power; this module measures the
+false-alarm rate of "the smallest p-value of all tests" instead (Westfall & Young's
+single-step min-p), from the data themselves:
+
+Test k has window contributions $g_{k,w}$ (its efficient score summed over cycle window
+w; `n` windows). Under the base model the windows are independent with mean-zero,
+symmetric contributions, so flipping the sign of every window's contribution (the same
+signs $s_w = \pm 1$ for all tests: their correlation is kept) gives data that are as
+likely as those observed. The self-normalised score statistic
+$U_k(s) = s^\top g_k (g_k^\top g_k)^{-1} g_k^\top s$ (invariant $g_k^\top g_k$ under flips)
+is a monotone function of Hotelling's $T^2$ of the same contributions, so the observed
+test's p-value is the F p-value that `cycle_workflow._hotelling` reports, and each flip's
+p-values come from the same transform. The adjusted p-value of test k is the share of
+flips whose smallest p-value over *all* tests is at most test k's observed one.
+
+Pure NumPy (host side, after the Jacobians); a fixed seed makes the answer reproducible.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.stats
+
+__all__ = ["FLIPS", "family_wise_p", "hotelling_p_of_u"]
+
+FLIPS = 4000
+"""Sign-flip draws (the adjusted p-value's resolution is 1 / (FLIPS + 1))."""
+
+
+def hotelling_p_of_u(u: np.ndarray, n: int, p: int) -> np.ndarray:
+    """Hotelling's p-value (F(p, n - p), unbiased covariance, as in
+    `cycle_workflow._hotelling`) of window contributions whose self-normalised
+    statistic is `u` (`u` = n gbar' (g'g/n)^-1 gbar, in [0, n))."""
+    u = np.minimum(np.asarray(u, float), n * (1.0 - 1e-12))
+    a = u / (1.0 - u / n)  # n gbar' C^-1 gbar with the biased covariance C
+    t2 = a * (n - 1) / n
+    F = (n - p) / (p * (n - 1)) * t2
+    return scipy.stats.f.sf(F, p, n - p)
+
+
+def _basis(g: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of the columns of g (numerical rank)."""
+    u, s, _ = np.linalg.svd(g, full_matrices=False)
+    keep = s > 1e-10 * (s[0] if s.size else 0.0)
+    return u[:, keep]
+
+
+def family_wise_p(contributions: list[np.ndarray], *, flips: int = FLIPS,
+                  seed: int = 0) -> np.ndarray:
+    """Adjusted p-values (Westfall-Young min-p over sign flips; module doc) of the tests
+    whose window contributions are `contributions` (each n x p_k, the same n windows in
+    the same order; rows of zeros are windows a test does not see). A test with
+    non-finite contributions, or fewer windows than p_k + 2, gets NaN and takes no part."""
+    if not contributions:
+        return np.zeros(0)
+    n_rows = contributions[0].shape[0]
+    if any(g.shape[0] != n_rows for g in contributions):
+        raise ValueError("family_wise_p: every test needs the same windows (rows); got "
+                         f"{sorted({g.shape[0] for g in contributions})}")
+    rng = np.random.default_rng(seed)
+    S = rng.integers(0, 2, size=(n_rows, flips), dtype=np.int8).astype(float) * 2.0 - 1.0
+    observed = np.full(len(contributions), np.nan)
+    min_p = np.ones(flips)
+    for k, g in enumerate(contributions):
+        if not np.all(np.isfinite(g)):
+            continue
+        seen = np.any(g != 0, axis=1)
+        n = int(seen.sum())
+        Q = _basis(g[seen])
+        p = Q.shape[1]
+        if p == 0 or n <= p + 1:
+            continue
+        observed[k] = hotelling_p_of_u(np.sum(Q.sum(axis=0) ** 2), n, p)
+        u = np.sum((Q.T @ S[seen]) ** 2, axis=0)
+        min_p = np.minimum(min_p, hotelling_p_of_u(u, n, p))
+    adjusted = (1.0 + np.sum(min_p[None, :] <= observed[:, None], axis=1)) / (flips + 1.0)
+    return np.where(np.isfinite(observed), np.minimum(adjusted, 1.0), np.nan)
