@@ -47,9 +47,17 @@ def test_sensor_neighbours_and_families_without_shapes():
     assert Shape(order=1, zeta=1.0) in near and Shape(order=2, zeta=0.85) in near
     assert all(0.3 <= s.zeta <= 1.0 for s in near)
     assert neighbour_shapes(f, Shape(order=1)) == [Shape(order=2, zeta=0.7)]
-    for name in ("viscous_damping", "friction_drift", "gauge_drift", "load_coupling",
-                 "drive_speed_drift"):
+    for name in ("friction_drift", "gauge_drift", "load_coupling", "drive_speed_drift"):
         assert neighbour_shapes(family(name), Shape()) == []
+
+
+def test_damping_forms_are_neighbours_and_name_their_parameter():
+    f = family("viscous_damping")
+    assert neighbour_shapes(f, Shape()) == [Shape(damping="ratio")]
+    assert neighbour_shapes(f, Shape(damping="ratio")) == [Shape()]
+    assert f.named(Shape()) == (("c",), ("kgf*s/mm",))
+    assert f.named(Shape(damping="ratio")) == (("zeta",), ("-",))
+    assert Shape(damping="ratio").label(f) == "ratio"
 
 
 def test_rational_stribeck_label():
