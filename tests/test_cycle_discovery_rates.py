@@ -156,12 +156,14 @@ def test_discovery_rates_do_not_regress(rows):
     session 14: 0 of 20 false alarms, every named gap after <= 1.13x, the creep's
     learned correction closes 59 %, 12 min on 2 cores; session 15, every slip near the
     boundary found and timed without bias: 7 of 10, no artefact, 0 of 20 false alarms,
-    clean gaps 1.01-1.05x, named gaps after <= 1.06x, 7 min 17 s)."""
+    clean gaps 1.01-1.05x, named gaps after <= 1.06x, 7 min 17 s; session 16, the
+    family-wise level by sign flips and the damping-ratio form: 8 of 10, 0 of 20, named
+    gaps after <= 1.06x)."""
     s = summarise(rows)
     assert s["false_alarms"] <= 0.05
     assert not s["outside_high"]
     assert not s["wrong_high"]
-    assert s["found"] >= 0.6
+    assert s["found"] >= 0.7
     # an unexplained gap (or none) is never "X or Y" (session 15's first run of the
     # contenders' shape refinement printed "unexplained or rate_state" for the creep)
     assert not [r["kind"] for r in rows if r["effect"] in ("none", "unexplained")
@@ -180,8 +182,10 @@ def test_discovery_rates_meet_the_issue_targets(rows):
     """The issue's targets at these sizes: >= 80 % named, gap after within 15 % of the
     noise where named. Passed at the edge in sessions 12 to 14 (8 of 10, every gap after
     <= 1.13x), but one of the 8 (the 2 um screw on C) was an artefact of trace windows
-    holding two slips (README); with those windows gone (session 15) it is 7 of 10 and
-    fails. Marked `targets`: CI runs `-m "slow and not targets"`."""
+    holding two slips (README); with those windows gone (session 15) it was 7 of 10 and
+    failed; session 16 (family-wise level, damping-ratio form): 8 of 10, gaps after
+    <= 1.06x, passes at the edge. Marked `targets`: CI runs `-m "slow and not targets"`
+    (one campaign either way decides it)."""
     s = summarise(rows)
     assert s["found"] >= 0.8
     assert s["found_gap_ok"]
