@@ -83,7 +83,8 @@ def test_strong_damping_is_named():
 def test_joint_naming_rule():
     """`decide` on synthetic inputs: a close, comparable, not clearly beaten contender is
     named jointly; one the winner beats clearly is not; a comparable one in another
-    direction or an unphysical one keeps the confidence low; a small one does not count."""
+    direction or an unphysical one keeps the confidence low; a small one does not count
+    unless it is close (then joint: the paired test decides, not the share)."""
     from stickslip_fitting.discovery.cycle_workflow import Contender, decide
 
     look = Contender("rate_state", 80.0, 0.95, 1.0)
@@ -98,8 +99,12 @@ def test_joint_naming_rule():
                       Contender("viscous_damping", 54.0, 0.44, -1.7, physical=False)])
     assert d.joint == () and not d.clear
     assert [c.name for c in d.unbeaten] == ["viscous_damping", "rate_state", "stribeck"]
-    small = decide(100.0, [Contender("stribeck", 30.0, 0.99, 2.0)])  # close, not comparable
-    assert small.joint == () and small.clear
+    # close and not clearly beaten: joint, however small its share (session 16)
+    small = decide(100.0, [Contender("stribeck", 30.0, 0.99, 2.0)])
+    assert [c.name for c in small.joint] == ["stribeck"] and small.clear
+    assert decide(100.0, [Contender("stribeck", 30.0, 0.99, 3.5)]).joint == ()
+    # small, in another direction: neither joint nor unbeaten
+    assert decide(100.0, [Contender("sensor_lowpass", 30.0, 0.5, 0.5)]).clear
     other = decide(100.0, [Contender("friction_drift", 120.0, 0.3, -1.0)])  # explains more
     assert other.joint == () and not other.clear
     unphys = decide(100.0, [Contender("stribeck", 90.0, 0.99, 0.1, physical=False)])
