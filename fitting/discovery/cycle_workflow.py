@@ -493,7 +493,7 @@ def _window_scores(Jp, r, starts) -> np.ndarray:
     return np.add.reduceat(Jp * r[:, None], starts, axis=0)
 
 
-def _hotelling(Jp, r, starts):
+def _hotelling(Jp, r, starts, g=None):
     """(F, p-value, dof, Gauss-Newton step, predicted chi-square drop) of the efficient
     score Jp^T r with window-level contributions (module doc); `starts`: index of the
     first sample of every window (samples are stored window by window)."""
@@ -502,7 +502,7 @@ def _hotelling(Jp, r, starts):
         # the family's derivative is not finite at the base (the simulator left its
         # domain for this shape): no test (p NaN, never significant), not a crash
         return float("nan"), float("nan"), p, np.zeros(p), 0.0
-    g = _window_scores(Jp, r, starts)
+    g = _window_scores(Jp, r, starts) if g is None else g  # (`g`: already summed)
     g = g[np.any(g != 0, axis=1)]
     n = g.shape[0]
     info = Jp.T @ Jp
@@ -872,7 +872,9 @@ def discover_cycles(
             elif f.name != "sensor_lowpass":
                 test = len(window_g)
                 window_g.append(_window_scores(Jp, r_rank, starts))
-            F, p, dof, step, pred = _hotelling(Jp, r_rank, starts)
+            F, p, dof, step, pred = _hotelling(
+                Jp, r_rank, starts,
+                window_g[test] if np.all(np.isfinite(Jp)) and test >= 0 else None)
             sc = _Score(f, shape, F, p, dof, step, Jp, pred,
                         test=test if np.all(np.isfinite(Jp)) else -1)
             shape_scores.setdefault(f.name, []).append(sc)
