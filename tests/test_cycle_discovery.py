@@ -65,6 +65,7 @@ def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):
                 "records", "residuals_by_phase_before"):
         assert key in rep
     assert {c["name"] for c in rep["candidates"]} >= {"viscous_damping", "sensor_lowpass"}
+    assert all({"chi2_drop", "unphysical", "refit_failed"} <= set(c) for c in rep["candidates"])
     assert "base_fit:" in captured.err and "ranking:" in captured.err  # progress lines
     # ... through the `stickslip` logger, with the time since the start (tests/test_logging.py)
     assert re.search(r"^stickslip discover \[\s*\d+\.\d s\] base_fit:", captured.err, re.M)
@@ -80,6 +81,13 @@ def test_strong_damping_is_named():
     # the dashpot's c (kgf s/mm) or, in the damping-ratio form, zeta (session 16)
     size = res.effect_size.get("c") or res.effect_size["zeta"]
     assert size["value"] > 0
+    # every refit is a result or says why not: no negative "drop" passed off as a
+    # measurement (a refit ending above the base is retried from the base, then
+    # reported in `refit_failed`)
+    for c in res.candidates:
+        assert "refit_failed" in c
+        if c["chi2_drop"] is not None and not c["refit_failed"]:
+            assert c["chi2_drop"] > -1.0, c
 
 
 def test_joint_naming_rule():
