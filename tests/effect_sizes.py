@@ -29,6 +29,9 @@ import independent_records as ir  # noqa: E402
 def trace_rms(records, friction: ir.Friction) -> float:
     """Residual RMS (mm) of the per-cycle model at `friction` (offsets fitted) over the
     cycle windows it reproduces."""
+    import equinox as eqx
+    import jax
+
     from stickslip_fitting.campaign import screen_records
     from stickslip_fitting.discovery.cycle_model import CycleModel, drift_origins
     from stickslip_fitting.discovery.cycle_workflow import _Sub
@@ -42,7 +45,14 @@ def trace_rms(records, friction: ir.Friction) -> float:
     G = len(recs)
     model = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape), G)
     f = friction
-    z = model.z0(EmpiricalFriction(f.mu_s, f.mu_d, f.gamma, f.m, f.delta, f.n), np.zeros(G))
+    z = model.z0(EmpiricalFriction.from_values(f.mu_s, f.mu_d, f.gamma, f.m, f.delta, f.n),
+                 np.zeros(G))
+    # windows the model cannot reproduce at this friction (no breakaway, a slip that
+    # does not end) are left out, as discovery leaves them out
+    _, _, ok = model.residuals(z)
+    mask = np.asarray(data.mask) & np.asarray(ok)[:, None]
+    data = eqx.tree_at(lambda d: d.mask, data, jax.device_put(mask))
+    model = CycleModel(data, model.tref, np.ones(mask.shape), G)
     cols = np.arange(6, model.n_base)  # the offsets only
     sub = _Sub(model, z, cols)
     fit = solve_host(sub.evaluate, z[cols], max_evals=10)

@@ -227,6 +227,44 @@ def power_campaigns():
 
 
 
+CALIBRATED = {
+    "viscous_damping": {"A": (P(damping_ratio=0.2), P(damping_ratio=0.6)),
+                        "C": (P(damping_ratio=0.3), P(damping_ratio=0.4))},
+    "stribeck": {"A": (P(stribeck_b=0.06), P(stribeck_b=0.2)),
+                 "C": (P(stribeck_b=0.12), P(stribeck_b=0.16))},
+    "drive_periodic_error": {"A": (I(screw_amp_mm=0.002), I(screw_amp_mm=0.015)),
+                             "C": (I(screw_amp_mm=0.012), I(screw_amp_mm=0.03))},
+    "sensor_lowpass": {"A": (I(sensor_order=2, sensor_hz=20.0), I(sensor_order=2, sensor_hz=7.0)),
+                       "C": (I(sensor_order=2, sensor_hz=12.0), I(sensor_order=2, sensor_hz=7.0))},
+    "friction_drift": {"A": (P(drift_mu_s=-2e-5, drift_mu_d=-1e-5),
+                             P(drift_mu_s=-5e-4, drift_mu_d=-2.5e-4)),
+                       "C": (P(drift_mu_s=-1e-4, drift_mu_d=-5e-5),
+                             P(drift_mu_s=-1e-3, drift_mu_d=-5e-4))},
+}
+"""The issue's sizes, "about 3x and 20x the noise in the traces", per lubricant: the
+effect's RMS misfit to the paper's per-cycle model at the generator's own friction
+(`tests/effect_sizes.py`; `python tests/effect_sizes.py --calibrated` prints them for
+these campaigns). The small size is about 3x; the large one 20x where a physical effect
+gets there (a 15 um screw error on A), else the largest that keeps stick-slip in the
+campaign: a damping ratio of 0.6 on A (0.5 on C leaves 1 of 12 records slipping), a
+Stribeck drop just below mu_d, a 7 Hz sensor, a drift that has saturated, a 30 um screw
+on C (about 100 um, the screw's bound, would be needed for 20x there). Measured at seed
+500 (session 17): 2.7/20.7x screw on A, 3.9 at 15 um and 6.7x at 30 um on C; damping
+3.0/4.8x (A), 2.3/2.6x (C); Stribeck 2.9/13.4x (A), 3.2/5.0x (C); sensor 2.6x at 20 Hz
+(A), 2.7x at 12 Hz and 4.7x at 7 Hz (C); drift 3.2/13.7x (A), 3.8/7.5x (C)."""
+
+
+def calibrated_campaigns():
+    out = []
+    for i, (name, by_lube) in enumerate(CALIBRATED.items()):
+        for lube_i, lube in enumerate(LUBES):
+            for j, value in enumerate(by_lube["AC"[lube_i]]):
+                arg = "physics" if isinstance(value, P) else "imp"
+                out.append((f"{name}/{'3x' if j == 0 else 'large'}/{'AC'[lube_i]}",
+                            600 + 10 * i + 2 * lube_i + j, lube, {arg: value}))
+    return out
+
+
 @pytest.mark.slow
 def test_a_large_stribeck_drop_on_lubricant_c_is_named():
     """The power sweep's Stribeck drop of 0.1 on lubricant C (rational curve, v_s 10
@@ -262,6 +300,14 @@ if __name__ == "__main__":
         rows = []
         first = int(sys.argv[2]) if len(sys.argv) > 2 else 0
         for k, s, lube, kw in power_campaigns()[first:]:
+            rows.append(run_one(k, s, lube, **kw))
+            print(power_table(rows[-1:]).splitlines()[-1], flush=True)
+        print(power_table(rows))
+        sys.exit(0)
+    if sys.argv[1:2] == ["--calibrated"]:  # the issue's sizes (CALIBRATED) [FIRST]
+        rows = []
+        first = int(sys.argv[2]) if len(sys.argv) > 2 else 0
+        for k, s, lube, kw in calibrated_campaigns()[first:]:
             rows.append(run_one(k, s, lube, **kw))
             print(power_table(rows[-1:]).splitlines()[-1], flush=True)
         print(power_table(rows))
