@@ -175,6 +175,20 @@ def test_a_measured_drive_column_is_used():
         trace_data(c.records, c.features)
 
 
+def test_lift_mu_d():
+    """A restart's mu_d driven towards 0 (no gradient left in log mu_d) starts at 0.4
+    mu_s, mu_s kept; a sane one is kept as it is."""
+    from stickslip_fitting.discovery.cycle_workflow import lift_mu_d
+
+    sane = np.log([0.21, 0.35, 0.38, 0.4, 67.0, 1.0])
+    assert np.array_equal(lift_mu_d(sane), sane)
+    stuck = np.log([1e-13, 0.48, 0.7, 0.3, 0.3, 0.43])
+    z = lift_mu_d(stuck)
+    mu_d, mu_s = np.exp(z[0]), np.exp(z[0]) + np.exp(z[1])
+    assert np.isclose(mu_s, 0.48) and np.isclose(mu_d, 0.4 * 0.48)
+    assert np.array_equal(z[2:], stuck[2:])
+
+
 def test_plausible_start():
     """The base fit's start: a sane features fit is kept as it is; one that wandered where
     the features cannot determine it (the real records: m -> 0, delta 2e12, n 1e116, so

@@ -55,7 +55,10 @@ def run_one(kind, seed, lube, **kw):
     recs = ir.campaign(lube, seed=seed, **DESIGN, **kw)
     t = time.perf_counter()
     try:
-        res = discover_cycles(recs)
+        # STICKSLIP_RATES_PROGRESS=1: every campaign's stage lines on stderr
+        res = discover_cycles(recs, progress=(
+            (lambda line: print(f"  {kind}: {line}", file=sys.stderr, flush=True))
+            if os.environ.get("STICKSLIP_RATES_PROGRESS") else None))
     except ValueError as e:  # refused with a reason (counted as not named)
         print(f"{kind}: refused: {e}", file=sys.stderr)
         return dict(kind=kind, effect="refused", named={"refused"}, confidence="-",

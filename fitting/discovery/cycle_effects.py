@@ -8,7 +8,7 @@ exactly, so a family is a set of forms, not one formula. Units are internal (kgf
 | name | enters the per-cycle model as | parameters | shapes scanned |
 |---|---|---|---|
 | `viscous_damping` | slip force $-c\,\dot y$ | c kgf s/mm (dashpot) or damping ratio $\zeta$, $c = 2\zeta\sqrt{k m}$ per record | dashpot; ratio |
-| `stribeck` | slip friction $+b\,s(\dot y/v_s)$, falling with slip speed: $s(w) = e^{-w^p}$, $-\ln(1 + w)$ (no floor, rate-and-state's steady state) | b (-) | exponential: $v_s$ 3, 10, 30 mm/s, p 1, 2; logarithmic: $v_s$ 1, 10 mm/s |
+| `stribeck` | slip friction $+b\,s(\dot y/v_s)$, falling with slip speed from 0 at rest ($\mu_m$ is the friction the slip starts against): $s(w) = e^{-w^p} - 1$, $1/(1 + w^p) - 1$, $-w$, $-\ln(1 + w)$ (no floor, rate-and-state's steady state) | b (-) | exponential: $v_s$ 3, 10, 30 mm/s, p 1, 2; logarithmic: $v_s$ 1, 10 mm/s |
 | `rate_state` | slip friction $+a\ln(1 + \dot y/V_\mathrm{ref}) + b\ln(\theta/\theta_b)$, Dieterich-Ruina with the aging law $\dot\theta = 1 - \dot y\theta/D_c$ | a, b (-) | $D_c$ 0.01, 0.03, 0.1 mm |
 | `drive_periodic_error` | drive $u + \sum_{h=1,2} a_h \sin(2\pi h u/\lambda) + b_h\cos(\dots)$, per record | 4 per record, mm | $\lambda$ 1-10 mm |
 | `drive_speed_drift` | drive speed $v(1 + s\,(t - t_\mathrm{mid}))$ | s 1/s | - |
@@ -78,8 +78,9 @@ class Shape:
     characteristic slip distance D_c `length` (mm), screw pitch `pitch` (mm), sensor
     kernel `order` (1: first-order low-pass, 2: second order) and, for order 2, its
     damping ratio `zeta` (1: critically damped); `form`: the Stribeck curve, "exp"
-    $e^{-(v/v_s)^p}$, "log" $-\\ln(1 + v/v_s)$, "linear" $-v/v_s$ or "rational"
-    $1/(1 + (v/v_s)^p)$ (Hess and Soom's form with p = 2) (`STRIBECK_FORMS`); `damping`:
+    $e^{-(v/v_s)^p} - 1$, "log" $-\\ln(1 + v/v_s)$, "linear" $-v/v_s$ or "rational"
+    $1/(1 + (v/v_s)^p) - 1$ (Hess and Soom's form with p = 2; every form 0 at rest)
+    (`STRIBECK_FORMS`); `damping`:
     viscous damping as one dashpot or one damping ratio (`DAMPING_FORMS`)."""
 
     vs: float = 10.0

@@ -208,11 +208,15 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
         # the Stribeck curve (`cycle_effects.STRIBECK_FORMS`): exponential, logarithmic
         # (velocity weakening without a floor, as rate-and-state's steady state),
         # linear (the falling branch's constant negative slope) or rational (Hess and
-        # Soom's 1 / (1 + (v/v_s)^p))
+        # Soom's 1 / (1 + (v/v_s)^p)); every form is 0 at rest, so mu_m (eq 3) is the
+        # friction the slip starts against and b > 0 lowers it with speed (anchored at
+        # speed instead, a drop of 0.2 on lubricant A needed mu_m 0.2 lower, mu_d -> 0,
+        # where the fit's log mu_d has no gradient left: gap after 18.5x the noise)
         fall = jnp.where(form == 1, -jnp.log1p(V / vs),
                          jnp.where(form == 2, -V / vs,
-                                   jnp.where(form == 3, 1.0 / (1.0 + safe_power(V / vs, p)),
-                                             jnp.exp(-safe_power(V / vs, p)))))
+                                   jnp.where(form == 3,
+                                             1.0 / (1.0 + safe_power(V / vs, p)) - 1.0,
+                                             jnp.exp(-safe_power(V / vs, p)) - 1.0)))
         mu = (mu_m + eff.b_st * fall
               + eff.a_rs * jnp.log1p(V / DR_V_REF) + eff.b_rs * lth)
         dl = jnp.exp(-jnp.maximum(lth, -30.0)) / theta_b - V / length
