@@ -268,6 +268,44 @@ def calibrated_campaigns():
     return out
 
 
+@pytest.fixture(scope="module")
+def calibrated_rows():
+    out = [run_one(k, s, lube, **kw) for k, s, lube, kw in calibrated_campaigns()]
+    print("\n" + power_table(out))
+    return out
+
+
+def _found(rows):
+    return [r for r in rows if r["named"] & EFFECTS[r["kind"].split("/")[0]][0]]
+
+
+@pytest.mark.slow
+def test_calibrated_sizes_do_not_regress(calibrated_rows):
+    """At the issue's sizes (CALIBRATED, 20 campaigns): what the workflow achieves today
+    (session 17: 19 of 20 named, alone or jointly; the miss is the damping ratio 0.6 on A,
+    where 10 of 12 records have no stick-slip left: "unexplained", its learned correction
+    closing 76 %). No library name without the truth given with high confidence, and no
+    refit failure passed off as a chi-square drop."""
+    rows = calibrated_rows
+    assert len(_found(rows)) >= 0.85 * len(rows), power_table(rows)
+    assert not [r["kind"] for r in rows if r["confidence"] == "high"
+                and r["effect"] not in ("none", "unexplained")
+                and not r["named"] & EFFECTS[r["kind"].split("/")[0]][0]]
+    assert not [(r["kind"], r["silent_failures"]) for r in rows if r["silent_failures"]]
+
+
+@pytest.mark.slow
+@pytest.mark.targets
+def test_calibrated_sizes_meet_the_issue_targets(calibrated_rows):
+    """The issue's targets at its own sizes: >= 80 % named and, where named, the gap after
+    within 15 % of the noise. Session 17: the naming target is met, the gap target is
+    not at the large sizes of the slip-shape effects and the slow sensor (README)."""
+    rows = calibrated_rows
+    found = _found(rows)
+    assert len(found) >= 0.8 * len(rows)
+    assert all(r["gap_after"] <= 1.15 for r in found), power_table(found)
+
+
 @pytest.mark.slow
 def test_a_large_stribeck_drop_on_lubricant_c_is_named():
     """The power sweep's Stribeck drop of 0.1 on lubricant C (rational curve, v_s 10
@@ -298,29 +336,28 @@ def power_table(rows) -> str:
     return "\n".join(lines)
 
 
-if __name__ == "__main__":
-    if sys.argv[1:2] == ["--power"]:  # [--power [FIRST]]: from campaign FIRST on
-        rows = []
-        first = int(sys.argv[2]) if len(sys.argv) > 2 else 0
-        for k, s, lube, kw in power_campaigns()[first:]:
-            rows.append(run_one(k, s, lube, **kw))
-            print(power_table(rows[-1:]).splitlines()[-1], flush=True)
-        print(power_table(rows))
-        sys.exit(0)
-    if sys.argv[1:2] == ["--calibrated"]:  # the issue's sizes (CALIBRATED) [FIRST]
-        rows = []
-        first = int(sys.argv[2]) if len(sys.argv) > 2 else 0
-        for k, s, lube, kw in calibrated_campaigns()[first:]:
-            rows.append(run_one(k, s, lube, **kw))
-            print(power_table(rows[-1:]).splitlines()[-1], flush=True)
-        print(power_table(rows))
-        sys.exit(0)
-    n = int(sys.argv[1]) if len(sys.argv) > 1 else 20
-    rows = []
-    for k, s, lube, kw in campaigns(n):
-        rows.append(run_one(k, s, lube, **kw))
-        r = rows[-1]
+def main(argv) -> None:
+    """`--power [FIRST]` / `--calibrated [FIRST]`: the power sweep or the issue's sizes
+    (from campaign FIRST on), one line per campaign, then the table; `[N_CLEAN]`: the
+    rates campaigns with N_CLEAN clean ones."""
+    sets = {"--power": power_campaigns, "--calibrated": calibrated_campaigns}
+    if argv[:1] and argv[0] in sets:
+        out = []
+        first = int(argv[1]) if len(argv) > 1 else 0
+        for k, s, lube, kw in sets[argv[0]]()[first:]:
+            out.append(run_one(k, s, lube, **kw))
+            print(power_table(out[-1:]).splitlines()[-1], flush=True)
+        print(power_table(out))
+        return
+    out = []
+    for k, s, lube, kw in campaigns(int(argv[0]) if argv else 20):
+        out.append(run_one(k, s, lube, **kw))
+        r = out[-1]
         print(f"{r['kind']:34s} {'+'.join(sorted(r['named'])):22s} {r['confidence']:5s} "
               f"{r['gap_before']:7.2f}->{r['gap_after']:5.2f} {r['seconds']:6.1f} s "
               f"{r['samples']} samples", flush=True)
-    print(table(rows))
+    print(table(out))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
