@@ -75,6 +75,9 @@ def run_one(kind, seed, lube, **kw):
         with open(os.environ["STICKSLIP_RATES_LOG"], "a") as fh:
             fh.write(json.dumps({"kind": kind, "seed": seed, "effect": res.effect,
                                  "confidence": res.confidence,
+                                 "gap_before": res.gap_before / res.noise,
+                                 "gap_after": res.gap_after / res.noise,
+                                 "seconds": time.perf_counter() - t,
                                  "joint": res.indistinguishable_from,
                                  "candidates": [{k: c[k] for k in (
                                      "name", "score_p_value", "family_wise_p_value",
