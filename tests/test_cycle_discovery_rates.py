@@ -255,9 +255,9 @@ gets there (a 15 um screw error on A), else the largest that keeps stick-slip in
 campaign: a damping ratio of 0.6 on A (0.5 on C leaves 1 of 12 records slipping), a
 Stribeck drop just below mu_d, a 7 Hz sensor, a drift that has saturated, a 30 um screw
 on C (about 100 um, the screw's bound, would be needed for 20x there). Measured at seed
-500 (session 17): 2.7/20.7x screw on A, 3.9 at 15 um and 6.7x at 30 um on C; damping
+500 (session 17): 2.7/20.7x screw on A, 3.0/6.7x on C (3.9x at 15 um); damping
 3.0/4.8x (A), 2.3/2.6x (C); Stribeck 2.9/13.4x (A), 3.2/5.0x (C); sensor 2.6x at 20 Hz
-(A), 2.7x at 12 Hz and 4.7x at 7 Hz (C); drift 3.2/13.7x (A), 3.8/7.5x (C)."""
+and 9.4x at 7 Hz (A), 2.7x at 12 Hz and 4.7x at 7 Hz (C); drift 3.2/13.7x (A), 3.8/7.5x (C)."""
 
 
 def calibrated_campaigns():

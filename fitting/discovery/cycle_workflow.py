@@ -1144,7 +1144,22 @@ def discover_cycles(
                 stage("shape", f"{rf.family.name} {better.shape.label(better.family)} "
                                f"(from {rf.shape.label(rf.family)}), chi2 -{better.drop:.0f}, "
                                f"{tried} short refits")
-    restarted: set[str] = set()
+    def continued(rf: _Refit, w=None, evals=max_evals, margin=0.0) -> _Refit | None:
+        """`rf`'s problem solved on from its fit (or from `w`): the physical result if it
+        lowers chi-square by more than `margin`, else None."""
+        try:
+            more = solve_host(rf.sub.evaluate, rf.fit.z if w is None else w,
+                              max_evals=evals, lam0=1e-3, stall_evals=8)
+        except ValueError:  # the start left the simulator's domain
+            return None
+        one = _judge(rf.family, rf.shape, more, rf.sensor, rf.sub)
+        if w is not None:
+            logger.debug(f"restart {rf.family.name} from "
+                         f"{_friction_values(rf.sub.full(w))}: chi2 -{one.drop:.0f}, "
+                         f"{more.n_evals} evaluations, {one.unphysical or 'physical'}, at "
+                         f"{_friction_values(rf.sub.full(more.z))}")
+        return one if one.unphysical is None and more.rss < rf.fit.rss - margin else None
+
     if misfit:
         # far from the data the refits' budget (`refit_evals`) ends some of them short of
         # their optimum, and the decision would compare where each stopped: the close
@@ -1157,16 +1172,11 @@ def discover_cycles(
         for rf in close:
             if rf.drop < joint * lead or rf.fit.converged:
                 continue
-            try:
-                more = solve_host(rf.sub.evaluate, rf.fit.z, max_evals=max_evals, lam0=1e-3,
-                                  stall_evals=8)
-            except ValueError:
-                continue
-            one = _judge(rf.family, rf.shape, more, rf.sensor, rf.sub)
-            if one.unphysical is None and more.rss < rf.fit.rss:
+            one = continued(rf)
+            if one is not None:
                 refits[refits.index(rf)] = one
                 polished_.append(f"{one.family.name} chi2 -{one.drop:.0f} (was "
-                                 f"-{rf.drop:.0f}, {more.n_evals} more evaluations)")
+                                 f"-{rf.drop:.0f}, {one.fit.n_evals} more evaluations)")
         if polished_:
             stage("continue", ", ".join(polished_))
         # a large effect bends the base friction and the refits start there: the close
@@ -1198,21 +1208,12 @@ def discover_cycles(
                 ws[-1][:6] = here
             best_ = rf
             for w in ws:
-                try:
-                    again = solve_host(rf.sub.evaluate, w, max_evals=2 * max_evals,
-                                       lam0=1e-3, stall_evals=8)
-                except ValueError:
-                    continue
-                one = _judge(f, rf.shape, again, rf.sensor, rf.sub)
-                logger.debug(f"restart {f.name} from {_friction_values(rf.sub.full(w))}: "
-                             f"chi2 -{one.drop:.0f}, {again.n_evals} evaluations, "
-                             f"{one.unphysical or 'physical'}, at "
-                             f"{_friction_values(rf.sub.full(again.z))}")
-                if one.unphysical is None and again.rss < best_.fit.rss - 1.0:
-                    best_ = one
+                one = continued(best_, w, 2 * max_evals, margin=1.0)
+                best_ = one if one is not None else best_
             if best_ is not rf:
                 refits[refits.index(rf)] = best_
-                restarted.add(f.name)
+                # a shape refined in the bent basin is refined again from here
+                shaped.discard(f.name)
                 fresh_.append(f"{f.name} chi2 -{best_.drop:.0f} (was -{rf.drop:.0f})")
         if fresh_:
             stage("restart", "from the start's friction: " + ", ".join(fresh_))
@@ -1233,36 +1234,13 @@ def discover_cycles(
     if chosen is not None and misfit and not chosen.fit.converged:
         # far from the data the winner's refit ran out of evaluations: continue it (after
         # the decision, which compares refits of equal budgets) so that the gap after and
-        # the estimates are those of the fitted effect
-        more = solve_host(chosen.sub.evaluate, chosen.fit.z, max_evals=max_evals, lam0=1e-3,
-                          stall_evals=8)
-        if more.rss < chosen.fit.rss:
-            polished = _judge(chosen.family, chosen.shape, more, chosen.sensor, chosen.sub)
-            if polished.unphysical is None:
-                chosen = polished
-                stage("polish", f"{chosen.family.name} chi2 -{chosen.drop:.0f}, "
-                                f"{more.n_evals} more evaluations")
-    if (chosen is not None and misfit and chosen.family.name not in restarted
-            and _gap(chosen.fit.r[:n][described], sd[described]) > REFINE_GAP * noise):
-        # the base friction bent to absorb the effect (far from the data), and the
-        # refits started there: the named fit again from the friction the base started
-        # from (the features fit), the effect and the gauge offsets kept
-        w = np.array(chosen.fit.z, float)
-        w[:6] = z_start[:6]
-        try:
-            fresh = solve_host(chosen.sub.evaluate, w, max_evals=2 * max_evals, lam0=1e-3,
-                               stall_evals=8)
-        except ValueError:
-            fresh = None
-        if fresh is not None and fresh.rss < chosen.fit.rss:
-            one = _judge(chosen.family, chosen.shape, fresh, chosen.sensor, chosen.sub)
-            if one.unphysical is None:
-                stage("restart", f"{one.family.name} from the start's friction: chi2 "
-                                 f"-{one.drop:.0f} (was -{chosen.drop:.0f}), "
-                                 f"{fresh.n_evals} evaluations")
-                chosen = one
-                # its shape was refined in the bent basin: refined again from here
-                shaped.discard(chosen.family.name)
+        # the estimates are those of the fitted effect. (Its restart from the start's
+        # friction, after the decision until session 16, is the `restart` above.)
+        polished = continued(chosen)
+        if polished is not None:
+            chosen = polished
+            stage("polish", f"{chosen.family.name} chi2 -{chosen.drop:.0f}, "
+                            f"{polished.fit.n_evals} more evaluations")
     if (chosen is not None and misfit and chosen.family.name not in shaped
             and neighbour_shapes(chosen.family, chosen.shape)
             and _gap(chosen.fit.r[:n][described], sd[described]) > REFINE_GAP * noise):
