@@ -128,7 +128,8 @@ def sensor_campaign():
 def test_second_order_sensor_of_an_independent_generator_is_fitted(sensor_campaign):
     """The model with the generator's kernel recovers its mean delay and fits to the noise;
     without the previous slip's tail (the gauge still settling when a window starts) the
-    windows' first samples miss by several standard errors."""
+    windows' first samples miss by several standard errors, in a record's first window
+    (no previous window: its own slip stands for the one before) as in the later ones."""
     import jax
 
     from stickslip_fitting.discovery import cycle_model as cm
@@ -139,14 +140,41 @@ def test_second_order_sensor_of_an_independent_generator_is_fitted(sensor_campai
     r = model.residuals(z, shape, sensor=True)[0]
     assert np.mean(r ** 2) < 1.05
     mask = np.asarray(model.data.mask)
-    first = (np.arange(mask.shape[1])[None, :] < 10) & (cm.previous_rows(model.data) >= 0)[:, None]
-    first = first[mask]
+    early = np.arange(mask.shape[1])[None, :] < 10
+    later = cm.previous_rows(model.data) >= 0
     no_tail = CycleModel.__new__(CycleModel)
     no_tail.__dict__.update(model.__dict__)
-    no_tail._prev = jax.device_put(np.full(mask.shape[0], -1))
+    no_tail._prev = (jax.device_put(np.full(mask.shape[0], -1)), model._prev[1])
     r0 = no_tail.residuals(z, shape, sensor=True)[0]
-    assert np.mean(r[first] ** 2) < 2.0
-    assert np.mean(r0[first] ** 2) > 3 * np.mean(r[first] ** 2)
+    for rows in (later, ~later & mask.any(1)):
+        first = (early & rows[:, None])[mask]
+        assert first.sum() >= 10
+        assert np.mean(r[first] ** 2) < 2.0
+        assert np.mean(r0[first] ** 2) > 3 * np.mean(r[first] ** 2)
+
+
+def test_tail_sources(setup):
+    """A window after a previous one owes that window's slip, begun at its measured
+    breakaway; a record's first window owes its own slip, begun its measured length
+    before the window's start."""
+    from stickslip_fitting.discovery import cycle_model as cm
+
+    model, *_ = setup
+    d = model.data
+    prev = cm.previous_rows(d)
+    rows, began = cm.tail_sources(d)
+    t0, T1 = np.asarray(d.start_time), np.asarray(d.stick_time)
+    later = prev >= 0
+    assert later.any() and (~later).any()
+    np.testing.assert_array_equal(rows[later], prev[later])
+    np.testing.assert_allclose(began[later], t0[prev[later]] + T1[prev[later]])
+    rec, win = np.asarray(d.record), np.asarray(d.window)
+    for i in np.flatnonzero(~later):
+        same = (rec == rec[i]) & (win == win[i])
+        assert rows[i] == np.flatnonzero(same)[0]
+        end = np.asarray(d.time)[same][np.asarray(d.mask)[same]].max()
+        assert began[i] == pytest.approx(t0[i] - (end - t0[i] - T1[i]))
+        assert began[i] < t0[i]
 
 
 @pytest.mark.parametrize("order", [1, 2])
