@@ -349,3 +349,24 @@ def test_shared_screw_maps_amplitude_and_phases(setup):
     start = _SharedScrew.start(coef.ravel(), G)
     np.testing.assert_allclose(start[:2], [2.0, 0.5])
     np.testing.assert_allclose(start[2:2 + G], phases1)
+
+
+def test_breakaway_offsets_put_the_breakaways_at_the_measured_stick_times(setup):
+    """At the fitted friction the offsets are the fitted ones (to a few um); at another
+    friction (mu_s 10 % higher) the fitted offsets put the model's slips away from the
+    measured ones, `breakaway_offsets` puts them back (residual near the noise's)."""
+    from stickslip_fitting.params import EmpiricalFriction
+
+    model, z, fit, *_ = setup
+    R = model.n_records
+    off = model.breakaway_offsets(z[:6], np.zeros(R))
+    np.testing.assert_allclose(off, z[6:model.n_base], atol=3e-3)
+    v = np.asarray(EmpiricalFriction(*[float(x) for x in z[:6]]).values())
+    z2 = z.copy()
+    z2[:6] = np.asarray(model.z0(EmpiricalFriction.from_values(1.1 * v[0], *v[1:]),
+                                 np.zeros(R))[:6])
+    r_old = model.residuals(z2)[0]
+    z2[6:model.n_base] = model.breakaway_offsets(z2[:6], z2[6:model.n_base])
+    r_new = model.residuals(z2)[0]
+    assert np.mean(r_new ** 2) < 0.1 * np.mean(r_old ** 2), (np.mean(r_new ** 2),
+                                                              np.mean(r_old ** 2))

@@ -1206,6 +1206,9 @@ def discover_cycles(
                 # and from its own fit, mu_d lifted off 0 (`lift_mu_d`)
                 ws.append(np.array(rf.fit.z, float))
                 ws[-1][:6] = here
+            for w in ws:
+                # with the offsets of that friction (`CycleModel.breakaway_offsets`)
+                w[6:model.n_base] = model.breakaway_offsets(w[:6], w[6:model.n_base])
             best_ = rf
             for w in ws:
                 one = continued(best_, w, 2 * max_evals, margin=1.0)
