@@ -519,7 +519,7 @@ class CycleModel:
         """[R]: the gauge offset of every record (mm) that puts the paper's breakaway at
         the measured stick times at the friction `logs` (the six `EmpiricalFriction`
         coordinates): the median over the record's windows of the measured breakaway
-        reading (start level + v T1) minus the breakaway deflection $W \mu_0(T_1)/k$
+        reading (start level + v T1) minus the breakaway deflection $W \\mu_0(T_1)/k$
         (eq 1). A fit's offsets belong to its friction: started from another friction
         with them, the model's breakaways fall outside the windows, where the residual no
         longer depends on the offset (measured: a Stribeck drop of 0.2 on A, refitted
