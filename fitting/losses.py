@@ -77,6 +77,16 @@ class AbstractLoss(eqx.Module):
         r = jnp.asarray(r, float)
         return jax.vmap(jax.grad(jax.grad(self.rho)))(r.ravel()).reshape(r.shape)
 
+    def weights(self, r):
+        """psi(r) / r, elementwise (rho''(0) at r = 0): a residual's weight in iteratively
+        reweighted least squares, where a weighted Gaussian fit with these weights held
+        fixed has the loss's estimating equation (Huber: min(1, c/|r|); Student-t:
+        (nu + 1) / (nu + r^2))."""
+        r = np.asarray(r, float)
+        small = np.abs(r) < 1e-6
+        safe = np.where(small, 1.0, r)
+        return np.where(small, float(self.curvature(0.0)), np.asarray(self.psi(safe)) / safe)
+
     def score_form(self, J, r):
         """(J', r') of the M-estimator with Jacobian `J` (rows: residuals) and residuals
         `r` of the *untransformed* objective, such that J'^T r' = sum_i psi(r_i) J_i (the

@@ -9,9 +9,12 @@ expected one exists (`cli_safety.run_checked`)."""
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import pytest
 from cli_safety import EXAMPLES, copy_records, one_line, run_checked
+
+REAL = Path(__file__).resolve().parents[1] / "data" / "real"
 
 RECORD = EXAMPLES[10]  # k 86.9 kgf/mm, 30 mm/min: 501 samples, quick to plot
 
@@ -115,6 +118,9 @@ def test_output_folder_is_checked_before_any_work(tmp_path, command, capsys):
     (["plan", "A", "--budget", "0"], ["--budget", "1-1000"]),
     (["fit", "nowhere.csv"], ["nowhere.csv", "check the path"]),
     (["plot", "."], ["is a folder", "give one of its record files"]),
+    (["discover", str(REAL), "--base", "smooth", "--loss", "student-t"],
+     ["--loss student-t", "--base cycle"]),
+    (["discover", str(REAL), "--loss", "cauchy"], ["--loss", "student-t:4"]),
 ])
 def test_errors_name_the_option_or_file_and_the_fix(tmp_path, monkeypatch, argv, names,
                                                     capsys):

@@ -35,6 +35,16 @@ def test_gradient_of_the_loss_and_slope_at_zero(loss):
     assert np.isfinite(slope) and abs(slope - expect) < 1e-12
 
 
+def test_irls_weights_are_the_closed_forms():
+    """`weights` (psi(r)/r, discovery's fixed weights) against Huber's min(1, c/|r|) and
+    Student-t's (nu + 1)/(nu + r^2); 1 for the Gaussian."""
+    r = np.array([-50.0, -3.0, -1.0, -1e-9, 0.0, 1e-9, 0.5, 1.345, 2.0, 40.0])
+    np.testing.assert_allclose(Gaussian().weights(r), 1.0)
+    np.testing.assert_allclose(Huber().weights(r), np.minimum(1.0, 1.345 / np.abs(
+        np.where(r == 0, 1.0, r))), rtol=1e-9)
+    np.testing.assert_allclose(StudentT(4.0).weights(r), 5.0 / (4.0 + r ** 2), rtol=1e-9)
+
+
 def test_far_residuals_pull_less():
     big = 1e3
     force = lambda loss: float(jax.grad(loss.rho)(big))  # noqa: E731

@@ -59,6 +59,11 @@ def add_arguments(parser):
     parser.add_argument("--max-evals", type=int, default=80,
                         help="evaluation budget of the base fit (default 80; it stops earlier "
                         "when converged)")
+    parser.add_argument("--loss", default="gaussian", metavar="NAME[:PARAMETER]",
+                        help="--base cycle: likelihood of the residuals: gaussian (least "
+                        "squares, default), student-t[:NU] or huber[:C], as in `stickslip "
+                        "fit`; its weights at the base fit are held fixed for every "
+                        "family (for spikes or sporadic irregular slips)")
     parser.add_argument("--learn", action="store_true",
                         help="fit the learned correction: with --base cycle a spline over "
                         "the cycle phase (always fitted when the answer is 'unexplained'; "
@@ -93,8 +98,14 @@ def run(args) -> int:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
     from stickslip_fitting.modes import DiscoveryBase
 
+    from ..losses import parse_loss
+
+    loss = parse_loss(args.loss)
     if DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE:
-        return _run_cycle(args, records)
+        return _run_cycle(args, records, loss)
+    if loss.spec() != "gaussian":
+        raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
+                         "fits least squares); drop --loss or use --base cycle")
     campaign = screen_records(records, strict=args.strict)
     for w in campaign.warnings:
         print("warning: " + w, file=sys.stderr)
@@ -150,7 +161,7 @@ def _print_parameters(result) -> None:
         print(f"{e.name:22s} {'-' if b is None else format(b, '.5g'):>12s} {e.value:12.5g}")
 
 
-def _run_cycle(args, records) -> int:
+def _run_cycle(args, records, loss) -> int:
     import sys
 
     from stickslip_jax.output import save_figure, write_json
@@ -171,7 +182,7 @@ def _run_cycle(args, records) -> int:
     logger.info(f"discovery on {len(records)} records (base cycle)...")
     result = discover_cycles(records, candidates=tuple(only) if only else None, top=args.top,
                              alpha=args.alpha, max_evals=args.max_evals, strict=args.strict,
-                             learn=args.learn,
+                             learn=args.learn, loss=loss,
                              progress=None if args.quiet else logger.info)
     for s in result.campaign.screening:
         if s.status != "used":
@@ -192,7 +203,7 @@ def _run_cycle(args, records) -> int:
               f"{d:>10s}")
     _print_parameters(result)
     if args.json:
-        write_json(args.json, json_document(result))
+        write_json(args.json, {**json_document(result), "loss": loss.spec()})
     if args.plot:
         from ..discovery.plots import plot_cycle_discovery
 

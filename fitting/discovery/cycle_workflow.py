@@ -86,6 +86,7 @@ from stickslip_jax.lsq import HostResult, gauss_newton_covariance, solve_host
 
 from ..campaign import Campaign, screen_records
 from ..fit import fit_features
+from ..losses import AbstractLoss
 from ..params import CampaignParams, EmpiricalFriction
 from ..report import DiscoveryEstimates, ParameterEstimate
 from ..trace_objective import cycle_windows, reslip_windows, trace_data, trace_sd
@@ -642,6 +643,7 @@ def discover_cycles(
     strict: bool = False,
     learn: bool = False,
     progress=None,
+    loss: AbstractLoss | None = None,
 ) -> CycleDiscovery:
     """Run the workflow (module doc) on `records` (a campaign of `Record`s).
 
@@ -653,7 +655,9 @@ def discover_cycles(
     and of each refit; `strict`: refuse the campaign when a record has no
     usable stick-slip; `learn`: fit the learned phase correction (`cycle_learned`) even
     when a family explains the residual (it is always fitted for "unexplained");
-    `progress`: called with one line per finished stage.
+    `progress`: called with one line per finished stage; `loss`: a heavy-tailed
+    likelihood (`stickslip_fitting.losses`, `--loss`) whose weights at the base fit are
+    held fixed through the workflow (None or Gaussian: least squares).
     """
     fams = [family(n) for n in candidates] if candidates else list(FAMILIES)
     timings = {}
@@ -746,6 +750,20 @@ def discover_cycles(
     sub = _Sub(model, z_base, base_cols)
     base_fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
     z_base = sub.full(base_fit.z)
+    robust = np.ones(np.asarray(data.mask).shape)  # per sample: sd multiplier of the loss
+    if loss is not None and loss.spec() != "gaussian":
+        # heavy-tailed noise (`--loss`): the loss's IRLS weights at the base fit, held
+        # fixed like the effective variance (every model is compared on the same
+        # weights): a sample far out weighs psi(r)/r of a Gaussian one
+        w = np.asarray(loss.weights(base_fit.r), float)
+        robust[np.asarray(data.mask)] = 1.0 / np.sqrt(np.maximum(w, 1e-6))
+        sd_base = sd_base * robust
+        model = CycleModel(data, model.tref, sd_base, G)
+        sub = _Sub(model, z_base, base_cols)
+        base_fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
+        z_base = sub.full(base_fit.z)
+        logger.debug(f"{loss.describe()}: {int(np.sum(w < 0.5))} of {w.size} samples "
+                     "weigh less than half")
     # a record the paper's model describes much worse than the others (a marginal or
     # irregular record) must not make the whole campaign "unexplained": it weighs by its
     # own scatter (RECORD_CHI2), as in `stickslip_fitting.fit`, or, far beyond the others
@@ -799,7 +817,7 @@ def discover_cycles(
         params = CampaignParams(EmpiricalFriction(*[float(x) for x in z_clean[:6]]),
                                 z_clean[6:model.n_base])
         _, yd, _ = model.residuals(z_clean)
-        sd_clean = np.asarray(trace_sd(params, data, yd))
+        sd_clean = np.asarray(trace_sd(params, data, yd)) * robust
         plain = CycleModel(data, model.tref, sd_clean, G)
         chi2_clean = _record_chi2(plain.residuals(z_clean)[0], rec_of, G)
         median_clean = float(np.nanmedian(np.delete(chi2_clean, suspects)) if kept
