@@ -80,7 +80,23 @@ __all__ = [
 JITTER_RTOL = 0.05
 """Time steps within this relative deviation of the mean step (and beyond
 `TIME_STEP_RTOL`) are a logger's clock jitter: the record is resampled to a uniform step
-with a note. Larger deviations (gaps, coarse rounding) are refused with the reason."""
+with a note. Larger deviations (gaps, coarse rounding) are refused with the reason, unless
+the clock is jittered by the looser test of `JITTER_STAMP`."""
+
+JITTER_STAMP = 0.25
+"""A clock of at least `JITTER_MIN_SAMPLES` samples whose stamps all lie within this
+fraction of a step of the uniform grid through the first and last stamp, and whose steps
+all lie within `JITTER_STEP` of the mean step, is a logger's jittered clock as well
+(stamps scattered by +-10 % of a step move single steps by up to 20 %): resampled with a
+note. A missing sample is a step of about twice the mean, a doubled one a step near 0,
+and a run of uneven rate drifts away from the grid: all still refused."""
+
+JITTER_STEP = 0.6
+"""Largest relative step deviation of a jittered clock under `JITTER_STAMP`."""
+
+JITTER_MIN_SAMPLES = 100
+"""Fewer samples than this cannot tell a clock's jitter from an uneven run: only
+`JITTER_RTOL` applies to them."""
 
 EPOCH_SECONDS = 1e6
 """A first time stamp above this (s) is a logger's epoch time: time then counts from the
@@ -244,6 +260,22 @@ def _uniform_grid(time: np.ndarray, dev: float, dt: float) -> tuple[np.ndarray, 
     grid[-1] = time[-1]
     return grid, (f"time stamps jitter by up to {100 * dev:.3g} % of the {dt:.6g} s step: "
                   "resampled to a uniform step (linear interpolation)")
+
+
+def jittered_clock(time: np.ndarray, dev: float) -> bool:
+    """Whether time stamps with step deviation `dev` (`time_step_deviation`) beyond
+    `TIME_STEP_RTOL` are a logger's clock jitter, to resample (`JITTER_RTOL`,
+    `JITTER_STAMP`)."""
+    if not dev > TIME_STEP_RTOL:
+        return False
+    if dev <= JITTER_RTOL:
+        return True
+    n = time.shape[0]
+    if n < JITTER_MIN_SAMPLES or dev > JITTER_STEP:
+        return False
+    dt = (time[-1] - time[0]) / (n - 1)
+    off = np.abs(time - (time[0] + dt * np.arange(n))) / dt
+    return bool(np.max(off) <= JITTER_STAMP)
 
 
 def time_step_deviation(time: np.ndarray) -> tuple[float, int, float]:
@@ -462,7 +494,7 @@ class Record:
         (kgf, mm, s) or strings with a unit (`stiffness="852 N/um"`, `mass="30.7 g"`,
         `drive_speed="42 um/s"`); the array units are named by `time_unit`,
         `deflection_unit` (or `force_unit` for `force=`, read as x = F/k) and
-        `drive_unit`. Time stamps whose steps jitter within `JITTER_RTOL` are resampled
+        `drive_unit`. Time stamps of a jittered clock (`jittered_clock`) are resampled
         to a uniform step (the note in `Record.notes`). Other `fields` (`lubricant`,
         `note`, `channels`, ...) pass through. Raises `RecordError`."""
 
@@ -499,7 +531,7 @@ class Record:
             t = t - t[0]
         if t.ndim == 1 and t.size > 2 and np.all(np.diff(t) > 0):
             dev, _, dt = time_step_deviation(t)
-            if TIME_STEP_RTOL < dev <= JITTER_RTOL:
+            if jittered_clock(t, dev):
                 grid, note = _uniform_grid(t, dev, dt)
                 x = np.interp(grid, t, x)
                 u = None if u is None else np.interp(grid, t, u)
@@ -1232,7 +1264,7 @@ def parse_record(text: str, source=None) -> Record:
         time = time - time[0]
         data[:, j] = time
     dev, r, dt = time_step_deviation(time)
-    if TIME_STEP_RTOL < dev <= JITTER_RTOL:  # a logger's clock jitter: resample uniformly
+    if jittered_clock(time, dev):  # a logger's clock jitter: resample uniformly
         grid, note = _uniform_grid(time, dev, dt)
         data = np.column_stack([grid if c == j else np.interp(grid, time, data[:, c])
                                 for c in range(data.shape[1])])

@@ -482,6 +482,39 @@ def test_jittered_clock_is_resampled(tmp_path):
     assert np.max(np.abs(r.deflection - (0.1 + 0.01 * np.sin(2 * np.pi * 5 * r.time)))) < 1e-5
 
 
+def test_a_loggers_wider_jitter_is_resampled_and_gaps_are_not(tmp_path):
+    """Stamps scattered by +-10 % of the step (single steps off by up to 20 %, refused
+    before) are a jittered logger: resampled with a note. A missing sample, a doubled
+    one, or stamps scattered by +-40 % are still refused (`JITTER_STAMP`)."""
+    rng = np.random.default_rng(1)
+    n, dt = 3000, 1e-3
+    t_true = np.arange(n) * dt
+    x = 0.1 + 0.01 * np.sin(2 * np.pi * 3 * t_true)
+
+    def read(stamps, values=x):
+        rows = "\n".join(f"{float(a)!r},{float(b)!r}" for a, b in zip(stamps, values))
+        return read_record(write(tmp_path, EXAMPLE.split("time [s]")[0]
+                                 + "time [s],deflection [mm]\n" + rows + "\n"))
+
+    jitter = 0.1 * dt * rng.uniform(-1, 1, n)
+    jitter[0] = jitter[-1] = 0.0
+    r = read(t_true + jitter)
+    assert any("resampled" in note for note in r.notes)
+    assert np.ptp(np.diff(r.time)) < 1e-12
+    # linear interpolation at stamps 0.1 ms off: error within slope x 0.1 ms (0.02 um)
+    assert np.max(np.abs(r.deflection - (0.1 + 0.01 * np.sin(2 * np.pi * 3 * r.time)))) < 3e-5
+    assert Record.from_arrays(t_true + jitter, x, stiffness=86.9, weight=36.0,
+                              drive_speed=0.1).notes
+    with pytest.raises(RecordError, match="uneven"):  # a missing sample
+        read(np.delete(t_true, 1500), np.delete(x, 1500))
+    with pytest.raises(RecordError, match="uneven"):  # a sample written twice, 1 us apart
+        read(np.insert(t_true, 1501, t_true[1500] + 1e-6), np.insert(x, 1501, x[1500]))
+    wild = 0.4 * dt * rng.uniform(-1, 1, n)
+    wild[0] = wild[-1] = 0.0
+    with pytest.raises(RecordError, match="uneven"):
+        read(t_true + wild)
+
+
 def test_epoch_time_stamps(tmp_path):
     """10 kHz epoch stamps (1.7e9 s; float64 keeps ~0.2 us): counted from the first."""
     t = 1.7e9 + np.arange(500) * 1e-4

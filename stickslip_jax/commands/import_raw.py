@@ -5,8 +5,8 @@ column names, extra columns) to a record file in the stickslip format.
 Columns are chosen by name (case-insensitive; `force [N]`, `Force (N)` and `force` all
 match `force`) or by 0-based index; their units come from the header's brackets or
 parentheses, or from `--time-unit`/`--value-unit`/`--drive-unit` (a unit is never
-guessed). Time stamps that jitter within 5 % of the step are resampled to a uniform step
-with a note; the run's conditions take any unit pint knows (`--stiffness "852 N/um"`,
+guessed). Time stamps of a jittered clock (`stickslip_jax.records.jittered_clock`) are
+resampled to a uniform step with a note; the run's conditions take any unit pint knows (`--stiffness "852 N/um"`,
 `--mass "30.7 g"`, `--speed "40 in/min"`). The input is only read; the output is written
 to a temporary file and renamed, and an existing output is kept unless `--force`.
 """
