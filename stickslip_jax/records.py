@@ -94,6 +94,14 @@ and a run of uneven rate drifts away from the grid: all still refused."""
 JITTER_STEP = 0.6
 """Largest relative step deviation of a jittered clock under `JITTER_STAMP`."""
 
+MISSING_RUN = 10
+"""Longest run of samples a logger may have dropped (a step of up to 11 mean steps, every
+step else one step): filled by linear interpolation with a note (`missing_samples`).
+Longer gaps are refused (split the run there)."""
+
+MISSING_SHARE = 0.01
+"""Largest share of a record's samples that may be missing and filled."""
+
 JITTER_MIN_SAMPLES = 100
 """Fewer samples than this cannot tell a clock's jitter from an uneven run: only
 `JITTER_RTOL` applies to them."""
@@ -276,6 +284,38 @@ def jittered_clock(time: np.ndarray, dev: float) -> bool:
     dt = (time[-1] - time[0]) / (n - 1)
     off = np.abs(time - (time[0] + dt * np.arange(n))) / dt
     return bool(np.max(off) <= JITTER_STAMP)
+
+
+def missing_samples(time: np.ndarray) -> tuple[np.ndarray, str] | None:
+    """A uniform clock that dropped samples: the full grid and a note, or None.
+
+    Every step is a whole number of the median step (within `JITTER_RTOL`), some are
+    more than one, at most `MISSING_RUN` samples are missing in a row and at most
+    `MISSING_SHARE` in all, in a record of `JITTER_MIN_SAMPLES` or more. The grid runs
+    from the first to the last stamp with the missing samples put back."""
+    n = time.shape[0]
+    if n < JITTER_MIN_SAMPLES:
+        return None
+    steps = np.diff(time)
+    dt = float(np.median(steps))
+    if not dt > 0:
+        return None
+    ratio = steps / dt
+    whole = np.rint(ratio)
+    if not (np.all(whole >= 1) and np.all(np.abs(ratio - whole) <= JITTER_RTOL)):
+        return None
+    runs = whole - 1
+    lost = int(runs.sum())
+    if lost == 0 or runs.max() > MISSING_RUN or lost > MISSING_SHARE * (n + lost):
+        return None
+    full = n + lost
+    grid = time[0] + (time[-1] - time[0]) / (full - 1) * np.arange(full)
+    grid[-1] = time[-1]
+    gaps = np.flatnonzero(runs)
+    where = ", ".join(f"{float(time[g]):.6g} s" for g in gaps[:3]) + (
+        ", ..." if gaps.size > 3 else "")
+    return grid, (f"{lost} sample(s) missing in {gaps.size} gap(s) of up to "
+                  f"{int(runs.max())} (after {where}): filled by linear interpolation")
 
 
 def time_step_deviation(time: np.ndarray) -> tuple[float, int, float]:
@@ -530,6 +570,16 @@ class Record:
             notes.append(f"time counted from the first time stamp ({float(t[0])!r} s)")
             t = t - t[0]
         if t.ndim == 1 and t.size > 2 and np.all(np.diff(t) > 0):
+            gap = missing_samples(t) if x.shape == t.shape else None
+            if gap is not None:  # a logger's dropped samples: put back, interpolated
+                grid, note = gap
+                x = np.interp(grid, t, x)
+                u = None if u is None else np.interp(grid, t, u)
+                if isinstance(fields.get("channels"), Mapping):
+                    fields["channels"] = {k: _resample(grid, t, v)
+                                          for k, v in fields["channels"].items()}
+                notes.append(note)
+                t = grid
             dev, _, dt = time_step_deviation(t)
             if jittered_clock(t, dev):
                 grid, note = _uniform_grid(t, dev, dt)
@@ -1263,6 +1313,13 @@ def parse_record(text: str, source=None) -> Record:
         notes.append(f"time counted from the first time stamp ({float(time[0])!r} s)")
         time = time - time[0]
         data[:, j] = time
+    gap = missing_samples(time)
+    if gap is not None:  # a logger's dropped samples: put back, interpolated
+        grid, note = gap
+        data = np.column_stack([grid if c == j else np.interp(grid, time, data[:, c])
+                                for c in range(data.shape[1])])
+        notes.append(note)
+        time = data[:, j]  # uniform now: the line numbers below are not needed again
     dev, r, dt = time_step_deviation(time)
     if jittered_clock(time, dev):  # a logger's clock jitter: resample uniformly
         grid, note = _uniform_grid(time, dev, dt)

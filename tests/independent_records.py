@@ -12,7 +12,8 @@ the instrument and drive imperfections are written in forms the package does not
   `creep_tau_s`), irregular slips (mu_s drawn per cycle, relative spread `mu_s_jitter`, Gaussian or
   heavy-tailed Student-t with `mu_s_jitter_df` degrees of freedom: sporadic large slips);
 - measurement chain: first-order (time constant) or second-order (natural frequency and
-  damping ratio) sensor dynamics, Gaussian noise, impulsive spikes, quantisation;
+  damping ratio) sensor dynamics, Gaussian noise, impulsive spikes, quantisation, a
+  logger whose time stamps jitter about the (uniform) sampling instants;
 - records without stick-slip: steady sliding with a decaying start-up transient.
 
 Physics (units kgf, mm, s; g = 9806.65 mm/s^2): the slider of weight W on a spring k is
@@ -67,6 +68,8 @@ class Imperfections:
     creep_tau_s: float = 0.05
     mu_s_jitter: float = 0.0
     mu_s_jitter_df: float = 0.0  # > 0: the per-cycle spread is Student-t with these dof
+    clock_jitter: float = 0.0  # logger's time stamps off the sampling instants, uniform in
+    # +- this fraction of the step (the samples themselves are taken on a uniform clock)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -217,6 +220,9 @@ def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, r
         x[hit] += rng.choice([-1, 1], hit.sum()) * imp.spike_mm * rng.uniform(0.5, 1, hit.sum())
     if imp.quantum_mm:
         x = np.round(x / imp.quantum_mm) * imp.quantum_mm
+    if imp.clock_jitter:  # the stamps a jittery logger writes (t stays the true instants)
+        t = t + imp.clock_jitter * rng.uniform(-1.0, 1.0, t.size) / rate_hz
+        t -= t[0]
     keep = np.asarray(breaks) < t[-1] - 2 * t2
     return Truth(t, x, clean, u(t), np.asarray(breaks)[keep], np.asarray(ends)[keep])
 
@@ -265,7 +271,9 @@ def campaign(friction: Friction = LUBRICANT_A, *, physics: Physics = Physics(),
             T = min(max(cycles * amp / (v / 60.0) * 0.8, 3.0), 300.0)
             tr = simulate(friction, weight=W, stiffness=k, speed_mm_min=v, duration=T,
                           rate_hz=rate_hz, imp=imp, seed=1000 * seed + i, physics=physics)
-            out.append(Record(time=tr.time, deflection=tr.deflection, stiffness=k, weight=W,
-                              drive_speed=v / 60.0, note=f"W{W:g} k{k:g} v{v:g}"))
+            # from_arrays: jittered time stamps are resampled to a uniform step there, as
+            # the package reads a jittery logger's file
+            out.append(Record.from_arrays(tr.time, tr.deflection, stiffness=k, weight=W,
+                                          drive_speed=v / 60.0, note=f"W{W:g} k{k:g} v{v:g}"))
             i += 1
     return out

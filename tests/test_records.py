@@ -484,8 +484,8 @@ def test_jittered_clock_is_resampled(tmp_path):
 
 def test_a_loggers_wider_jitter_is_resampled_and_gaps_are_not(tmp_path):
     """Stamps scattered by +-10 % of the step (single steps off by up to 20 %, refused
-    before) are a jittered logger: resampled with a note. A missing sample, a doubled
-    one, or stamps scattered by +-40 % are still refused (`JITTER_STAMP`)."""
+    before) are a jittered logger: resampled with a note. A long gap, a doubled
+    sample, or stamps scattered by +-40 % are still refused (`JITTER_STAMP`)."""
     rng = np.random.default_rng(1)
     n, dt = 3000, 1e-3
     t_true = np.arange(n) * dt
@@ -505,14 +505,41 @@ def test_a_loggers_wider_jitter_is_resampled_and_gaps_are_not(tmp_path):
     assert np.max(np.abs(r.deflection - (0.1 + 0.01 * np.sin(2 * np.pi * 3 * r.time)))) < 3e-5
     assert Record.from_arrays(t_true + jitter, x, stiffness=86.9, weight=36.0,
                               drive_speed=0.1).notes
-    with pytest.raises(RecordError, match="uneven"):  # a missing sample
-        read(np.delete(t_true, 1500), np.delete(x, 1500))
+    with pytest.raises(RecordError, match="uneven"):  # 20 samples missing in a row
+        read(np.delete(t_true, range(1500, 1520)), np.delete(x, range(1500, 1520)))
     with pytest.raises(RecordError, match="uneven"):  # a sample written twice, 1 us apart
         read(np.insert(t_true, 1501, t_true[1500] + 1e-6), np.insert(x, 1501, x[1500]))
     wild = 0.4 * dt * rng.uniform(-1, 1, n)
     wild[0] = wild[-1] = 0.0
     with pytest.raises(RecordError, match="uneven"):
         read(t_true + wild)
+
+
+def test_a_loggers_dropped_samples_are_filled(tmp_path):
+    """A uniform clock that dropped single samples and short runs (refused before, and
+    the campaign with it): put back by linear interpolation, with a note naming how
+    many and where; the samples that were read are kept exactly (`MISSING_RUN`)."""
+    n, dt = 2000, 1e-3
+    t = np.arange(n) * dt
+    x = 0.1 + 0.01 * np.sin(2 * np.pi * 3 * t)
+    drop = [300, 301, 302, 1200] + list(range(1500, 1510))
+    keep = np.setdiff1d(np.arange(n), drop)
+
+    def rows(tt, xx):
+        return "\n".join(f"{float(a)!r},{float(b)!r}" for a, b in zip(tt, xx))
+
+    head = EXAMPLE.split("time [s]")[0] + "time [s],deflection [mm]\n"
+    r = read_record(write(tmp_path, head + rows(t[keep], x[keep]) + "\n"))
+    assert r.time.shape == (n,) and np.allclose(r.time, t, atol=1e-12)
+    assert np.array_equal(r.deflection[keep], x[keep])
+    assert np.max(np.abs(r.deflection - x)) < 1e-5
+    assert any("14 sample(s) missing in 3 gap(s) of up to 10" in note and "0.299 s" in note
+               for note in r.notes), r.notes
+    a = Record.from_arrays(t[keep], x[keep], stiffness=86.9, weight=36.0, drive_speed=0.1)
+    assert a.time.shape == (n,) and a.notes == r.notes
+    with pytest.raises(RecordError, match="uneven"):  # a run of 11 (a gap to split at)
+        gone = np.setdiff1d(np.arange(n), range(700, 711))
+        read_record(write(tmp_path, head + rows(t[gone], x[gone]) + "\n"))
 
 
 def test_epoch_time_stamps(tmp_path):
