@@ -7,7 +7,9 @@ A campaign is not all-or-nothing: every record is read, its cycles extracted
 - `no_stick_slip`: no slip found at all (steady sliding, or stick-slip too small for the
   noise): information about the stick-slip boundary, not an error;
 - `set_aside`: slips were found but too few complete cycles passed the checks (the
-  reason names what failed, e.g. sticks that are not flat).
+  reason names what failed, e.g. sticks that are not flat);
+- `unreadable`: the file could not be read as a record (the reason names the line and
+  the fix; `stickslip_jax.records.read_campaign_files`).
 
 The fit goes on with the used records (at least `min_records` of them); `strict=True`
 refuses a campaign with any record not used (the behaviour before screening). Records
@@ -18,16 +20,19 @@ from __future__ import annotations
 
 import dataclasses
 
-from stickslip_jax.records import Record, check_campaign, read_campaign
+from pathlib import Path
+
+from stickslip_jax.records import Record, RecordError, check_campaign, read_campaign_files
 
 from .features import RecordFeatures, record_features
 
-__all__ = ["USED", "NO_STICK_SLIP", "SET_ASIDE", "Campaign", "RecordStatus", "find_truth",
+__all__ = ["USED", "NO_STICK_SLIP", "SET_ASIDE", "UNREADABLE", "Campaign", "RecordStatus", "find_truth",
            "load_campaign", "screen_records"]
 
 USED = "used"
 NO_STICK_SLIP = "no_stick_slip"
 SET_ASIDE = "set_aside"
+UNREADABLE = "unreadable"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -49,6 +54,16 @@ class RecordStatus:
     stiffness: float
     drive_speed: float
     notes: tuple[str, ...] = ()
+
+    @classmethod
+    def unreadable(cls, err: RecordError) -> RecordStatus:
+        """The status of a file that could not be read: named by its file name (with the
+        extension: it is not a record); its run (W, k, v, noise) unknown (NaN)."""
+        nan = float("nan")
+        reason = (f"line {err.line}: " if err.line is not None else "") + err.reason
+        return cls(name=Path(err.path).name if err.path else "?", status=UNREADABLE,
+                   reason=reason, cycles=0, complete_cycles=0, left_out={}, spikes=0,
+                   noise=nan, weight=nan, stiffness=nan, drive_speed=nan)
 
     def to_json(self) -> dict:
         return {"name": self.name, "status": self.status, "reason": self.reason,
@@ -108,13 +123,16 @@ def _status(f: RecordFeatures, record: Record | None = None) -> RecordStatus:
 
 
 def screen_records(records: list[Record], *, min_records: int = 2,
-                   strict: bool = False) -> Campaign:
+                   strict: bool = False, unreadable=()) -> Campaign:
     """Extract every record's cycles and keep the records with usable stick-slip.
 
-    Raises ValueError (one line naming the records) when fewer than `min_records`
-    remain, or, with `strict`, when any record is not used."""
+    `unreadable`: the `RecordError`s of the campaign's files that could not be read
+    (`read_campaign_files`), listed in the screening after the records (status
+    UNREADABLE). Raises ValueError (one line naming the records) when fewer than
+    `min_records` remain, or, with `strict`, when any record is not used."""
     features = [record_features(r) for r in records]
-    screening = [_status(f, r) for f, r in zip(features, records)]
+    screening = ([_status(f, r) for f, r in zip(features, records)]
+                 + [RecordStatus.unreadable(e) for e in unreadable])
     used = [i for i, s in enumerate(screening) if s.status == USED]
     bad = [f"{s.name}: {s.reason}" for s in screening if s.status != USED]
     if strict and bad:
@@ -122,7 +140,7 @@ def screen_records(records: list[Record], *, min_records: int = 2,
                          + " (remove these records, or leave out --strict to fit the rest)")
     if len(used) < min_records:
         raise ValueError(
-            f"only {len(used)} of {len(records)} records have usable stick-slip (a fit needs "
+            f"only {len(used)} of {len(screening)} records have usable stick-slip (a fit needs "
             f"{min_records}): " + (" | ".join(bad) if bad else "")
         )
     return Campaign(
@@ -133,15 +151,20 @@ def screen_records(records: list[Record], *, min_records: int = 2,
 
 def load_campaign(specs, *, min_records: int = 2, strict: bool = False) -> Campaign:
     """Read record files, directories or globs, check they form one campaign (one
-    lubricant) and screen them (`screen_records`). Raises ValueError naming what to fix."""
-    records = read_campaign(list(specs))
-    if len(records) < min_records:
+    lubricant) and screen them (`screen_records`). A file that cannot be read is listed
+    as UNREADABLE and the rest are fitted (`strict`: its error is raised, as is the only
+    file's). Raises ValueError naming what to fix."""
+    files = read_campaign_files(list(specs))
+    records = files.records
+    if files.unreadable and (strict or not records):  # as before files were set aside
+        raise files.unreadable[0]
+    if len(records) + len(files.unreadable) < min_records:
         raise ValueError(
             f"a campaign needs at least {min_records} records (got {len(records)}): one run "
-            "cannot separate the six friction parameters; give records at several speeds"
-        )
+            "cannot separate the six friction parameters; give records at several speeds")
     check_campaign(records, same=("lubricant",))
-    return screen_records(records, min_records=min_records, strict=strict)
+    return screen_records(records, min_records=min_records, strict=strict,
+                          unreadable=files.unreadable)
 
 
 def find_truth(records, names=None) -> dict[str, float] | None:

@@ -72,7 +72,9 @@ __all__ = [
     "format_record",
     "parse_drive_program",
     "parse_record",
+    "CampaignFiles",
     "read_campaign",
+    "read_campaign_files",
     "read_record",
     "write_record",
 ]
@@ -1547,13 +1549,22 @@ def _expand(spec) -> list[Path]:
     raise RecordError(f"a campaign is a path, a glob or a list of them, got {spec!r}")
 
 
-def read_campaign(spec, *, max_bytes: int = MAX_FILE_BYTES) -> list[Record]:
-    """Read a campaign: a file, a directory (its *.csv, sorted), a glob, or a list of these.
+@dataclasses.dataclass(frozen=True)
+class CampaignFiles:
+    """What reading a campaign's files gave (`read_campaign_files`): the `records` read, in
+    the order given, and the `unreadable` files, each as the `RecordError` that names the
+    file, the line and the fix (`.path`, `.line`, `.reason`)."""
 
-    Files are returned in the order given (sorted within a directory or glob); a file
-    named twice, or two files with the same content (a copy under another name would
-    count its record twice), is an error. Raises `RecordError` for the first bad file.
-    """
+    records: list[Record]
+    unreadable: list[RecordError]
+
+
+def read_campaign_files(spec, *, max_bytes: int = MAX_FILE_BYTES) -> CampaignFiles:
+    """Read a campaign as `read_campaign` does, but a file whose content cannot be read (a
+    summary table in the folder, a logger's long gap, a NaN cell) is listed in
+    `unreadable` instead of stopping the campaign: the other records can still be fitted.
+    A path that does not exist, a file named twice or a copy of another file's content
+    still raises `RecordError` (the campaign as given is wrong)."""
     import hashlib
 
     files = _expand(spec)
@@ -1565,16 +1576,33 @@ def read_campaign(spec, *, max_bytes: int = MAX_FILE_BYTES) -> list[Record]:
         if key in seen:
             raise RecordError(f"named twice in the campaign (also as {seen[key]})", f)
         seen[key] = str(f)
-    records = []
+    records, unreadable = [], []
     for f in files:
-        records.append(read_record(f, max_bytes=max_bytes))
         with open(f, "rb") as fh:
             digest = hashlib.sha256(fh.read()).hexdigest()
         if digest in contents:
             raise RecordError(f"the same content as {contents[digest]}: a copy would count "
                               "its record twice; give each record once", f)
         contents[digest] = str(f)
-    return records
+        try:
+            records.append(read_record(f, max_bytes=max_bytes))
+        except RecordError as err:
+            unreadable.append(err)
+    return CampaignFiles(records, unreadable)
+
+
+def read_campaign(spec, *, max_bytes: int = MAX_FILE_BYTES) -> list[Record]:
+    """Read a campaign: a file, a directory (its *.csv, sorted), a glob, or a list of these.
+
+    Files are returned in the order given (sorted within a directory or glob); a file
+    named twice, or two files with the same content (a copy under another name would
+    count its record twice), is an error. Raises `RecordError` for the first bad file
+    (`read_campaign_files` lists the bad files and reads the rest).
+    """
+    got = read_campaign_files(spec, max_bytes=max_bytes)
+    if got.unreadable:
+        raise got.unreadable[0]
+    return got.records
 
 
 def check_campaign(

@@ -74,7 +74,7 @@ def add_arguments(parser):
 def run(args) -> int:
     import sys
 
-    from stickslip_jax.records import read_campaign
+    from stickslip_jax.records import read_campaign_files
 
     from ..discovery import discover
     from ..discovery.effects import CANDIDATES
@@ -91,10 +91,13 @@ def run(args) -> int:
 
     from ..campaign import screen_records
 
-    records = read_campaign(args.records)
+    files = read_campaign_files(args.records)  # an unreadable file is set aside, listed
+    records, unreadable = files.records, files.unreadable
+    if unreadable and (args.strict or not records):
+        raise unreadable[0]
     check_outputs({"--json": args.json, "--plot": args.plot},
-                  [r.source for r in records if r.source])
-    if len(records) < 2:
+                  [r.source for r in records if r.source] + [e.path for e in unreadable])
+    if len(records) + len(unreadable) < 2:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
     from stickslip_fitting.modes import DiscoveryBase
 
@@ -102,11 +105,11 @@ def run(args) -> int:
 
     loss = parse_loss(args.loss)
     if DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE:
-        return _run_cycle(args, records, loss)
+        return _run_cycle(args, records, loss, unreadable)
     if loss.spec() != "gaussian":
         raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
                          "fits least squares); drop --loss or use --base cycle")
-    campaign = screen_records(records, strict=args.strict)
+    campaign = screen_records(records, strict=args.strict, unreadable=unreadable)
     for w in campaign.warnings:
         print("warning: " + w, file=sys.stderr)
     records = campaign.records
@@ -161,7 +164,7 @@ def _print_parameters(result) -> None:
         print(f"{e.name:22s} {'-' if b is None else format(b, '.5g'):>12s} {e.value:12.5g}")
 
 
-def _run_cycle(args, records, loss) -> int:
+def _run_cycle(args, records, loss, unreadable=()) -> int:
     import sys
 
     from stickslip_jax.output import save_figure, write_json
@@ -182,7 +185,7 @@ def _run_cycle(args, records, loss) -> int:
     logger.info(f"discovery on {len(records)} records (base cycle)...")
     result = discover_cycles(records, candidates=tuple(only) if only else None, top=args.top,
                              alpha=args.alpha, max_evals=args.max_evals, strict=args.strict,
-                             learn=args.learn, loss=loss,
+                             learn=args.learn, loss=loss, unreadable=unreadable,
                              progress=None if args.quiet else logger.info)
     for s in result.campaign.screening:
         if s.status != "used":

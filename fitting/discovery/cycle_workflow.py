@@ -644,6 +644,7 @@ def discover_cycles(
     learn: bool = False,
     progress=None,
     loss: AbstractLoss | None = None,
+    unreadable=(),
 ) -> CycleDiscovery:
     """Run the workflow (module doc) on `records` (a campaign of `Record`s).
 
@@ -657,7 +658,9 @@ def discover_cycles(
     when a family explains the residual (it is always fitted for "unexplained");
     `progress`: called with one line per finished stage; `loss`: a heavy-tailed
     likelihood (`stickslip_fitting.losses`, `--loss`) whose weights at the base fit are
-    held fixed through the workflow (None or Gaussian: least squares).
+    held fixed through the workflow (None or Gaussian: least squares); `unreadable`: the
+    errors of the campaign's files that could not be read (`read_campaign_files`), listed
+    in the screening.
     """
     fams = [family(n) for n in candidates] if candidates else list(FAMILIES)
     timings = {}
@@ -670,7 +673,7 @@ def discover_cycles(
         if progress is not None:
             progress(f"{name}: {line} ({timings[name]:.1f} s)")
 
-    campaign = screen_records(list(records), strict=strict)
+    campaign = screen_records(list(records), strict=strict, unreadable=unreadable)
     recs, feats = campaign.records, campaign.features
     # slips measured longer than a single slip are left out as re-slips (their restart
     # state is not measured); when nearly all are, the lengthening is systematic: a slow
