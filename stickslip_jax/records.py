@@ -288,6 +288,12 @@ def jittered_clock(time: np.ndarray, dev: float) -> bool:
     return bool(np.max(off) <= JITTER_STAMP)
 
 
+def _jitter_grid(time: np.ndarray) -> tuple[np.ndarray, str] | None:
+    """The uniform grid and note for a jittered clock (`jittered_clock`), or None."""
+    dev, _, dt = time_step_deviation(time)
+    return _uniform_grid(time, dev, dt) if jittered_clock(time, dev) else None
+
+
 def missing_samples(time: np.ndarray) -> tuple[np.ndarray, str] | None:
     """A uniform clock that dropped samples: the full grid and a note, or None.
 
@@ -571,20 +577,12 @@ class Record:
         if t.ndim == 1 and t.size and t[0] > EPOCH_SECONDS:
             notes.append(f"time counted from the first time stamp ({float(t[0])!r} s)")
             t = t - t[0]
-        if t.ndim == 1 and t.size > 2 and np.all(np.diff(t) > 0):
-            gap = missing_samples(t) if x.shape == t.shape else None
-            if gap is not None:  # a logger's dropped samples: put back, interpolated
-                grid, note = gap
-                x = np.interp(grid, t, x)
-                u = None if u is None else np.interp(grid, t, u)
-                if isinstance(fields.get("channels"), Mapping):
-                    fields["channels"] = {k: _resample(grid, t, v)
-                                          for k, v in fields["channels"].items()}
-                notes.append(note)
-                t = grid
-            dev, _, dt = time_step_deviation(t)
-            if jittered_clock(t, dev):
-                grid, note = _uniform_grid(t, dev, dt)
+        if t.ndim == 1 and t.size > 2 and np.all(np.diff(t) > 0) and x.shape == t.shape:
+            for regrid in (missing_samples, _jitter_grid):  # dropped samples, then jitter
+                got = regrid(t)
+                if got is None:
+                    continue
+                grid, note = got
                 x = np.interp(grid, t, x)
                 u = None if u is None else np.interp(grid, t, u)
                 if isinstance(fields.get("channels"), Mapping):
@@ -1315,21 +1313,16 @@ def parse_record(text: str, source=None) -> Record:
         notes.append(f"time counted from the first time stamp ({float(time[0])!r} s)")
         time = time - time[0]
         data[:, j] = time
-    gap = missing_samples(time)
-    if gap is not None:  # a logger's dropped samples: put back, interpolated
-        grid, note = gap
+    for regrid in (missing_samples, _jitter_grid):  # a logger's dropped samples, jitter
+        got = regrid(time)
+        if got is None:
+            continue
+        grid, note = got
         data = np.column_stack([grid if c == j else np.interp(grid, time, data[:, c])
                                 for c in range(data.shape[1])])
         notes.append(note)
         time = data[:, j]  # uniform now: the line numbers below are not needed again
     dev, r, dt = time_step_deviation(time)
-    if jittered_clock(time, dev):  # a logger's clock jitter: resample uniformly
-        grid, note = _uniform_grid(time, dev, dt)
-        data = np.column_stack([grid if c == j else np.interp(grid, time, data[:, c])
-                                for c in range(data.shape[1])])
-        notes.append(note)
-        time = data[:, j]
-        dev, r, dt = time_step_deviation(time)
     if not dev <= TIME_STEP_RTOL:
         msg = (
             f"time is uneven: the step to this line is {steps[r]:.6g} s against the mean "
