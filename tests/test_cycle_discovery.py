@@ -38,6 +38,11 @@ def clean_files(tmp_path_factory):
     p = d / "irregular.csv"
     write_record(dataclasses.replace(bad, note="irregular"), p)
     paths.append(str(p))
+    # and a file that is not a record (a summary table left among the records): listed
+    # as unreadable, the campaign goes on (it stopped the whole campaign before)
+    summary = d / "summary.csv"
+    summary.write_text("run,speed,amplitude\n1,5,0.02\n")
+    paths.append(str(summary))
     return paths
 
 
@@ -57,6 +62,8 @@ def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):
     assert "learned:" in captured.err
     assert rep["base"] == "cycle" and rep["gap_unit"] == "mm"
     assert abs(rep["gap_before"] / rep["noise"] - 1) < 0.1
+    assert "warning: summary.csv: unreadable (line 1:" in captured.err
+    assert {r["name"]: r["status"] for r in rep["records"]}["summary.csv"] == "unreadable"
     # the irregular record: listed, set aside; over every record the gap is its own
     (note,) = rep["records_scaled"]
     assert note.startswith("irregular") and "set aside" in note
