@@ -10,7 +10,9 @@ included (a fresh process), against one `fit --objective trace` of the same camp
 in the same process afterwards (warm). Target: total under 60 s on 2 cores. Measured
 (2 cores shared with other jobs, load 2-5): prepare 22.9-23.7 s, base fit 4.1-5.6,
 ranking 5.5-10.3, refit 12.6-13.2, total 45.3-52.9 s (was 113-206 s before the Jacobian
-compression, the FFT sensor kernel and the vectorised pitch scan of issue 18).
+compression, the FFT sensor kernel and the vectorised pitch scan of issue 18). Session 19,
+on a slower machine (the warm trace fit 3.0-4.0 s against 2.0 s before): 75.1-81.1 s,
+18.7-27.5x one trace fit.
 
 `--base smooth`, the whole-record workflow:
 Builds a synthetic campaign (lubricant A, 3 (W, k) x 4 speeds, 3 cycles per record,
