@@ -19,15 +19,14 @@ the user gave are never changed: screening only reads them. Units: kgf, mm, s.
 from __future__ import annotations
 
 import dataclasses
-
 from pathlib import Path
 
 from stickslip_jax.records import Record, RecordError, check_campaign, read_campaign_files
 
 from .features import RecordFeatures, record_features
 
-__all__ = ["USED", "NO_STICK_SLIP", "SET_ASIDE", "UNREADABLE", "Campaign", "RecordStatus", "find_truth",
-           "load_campaign", "screen_records"]
+__all__ = ["USED", "NO_STICK_SLIP", "SET_ASIDE", "UNREADABLE", "Campaign", "RecordStatus",
+           "find_truth", "load_campaign", "screen_records"]
 
 USED = "used"
 NO_STICK_SLIP = "no_stick_slip"
@@ -140,8 +139,8 @@ def screen_records(records: list[Record], *, min_records: int = 2,
                          + " (remove these records, or leave out --strict to fit the rest)")
     if len(used) < min_records:
         raise ValueError(
-            f"only {len(used)} of {len(screening)} records have usable stick-slip (a fit needs "
-            f"{min_records}): " + (" | ".join(bad) if bad else "")
+            f"only {len(used)} of {len(screening)} records have usable stick-slip (a fit "
+            f"needs {min_records}): " + (" | ".join(bad) if bad else "")
         )
     return Campaign(
         records=[records[i] for i in used], features=[features[i] for i in used],

@@ -9,9 +9,9 @@ import json
 
 import numpy as np
 import pytest
-
 from cli_safety import EXAMPLES, copy_records, run_checked
 from stickslip_fitting.campaign import UNREADABLE, load_campaign
+
 from stickslip_jax.records import RecordError, read_campaign, read_campaign_files
 
 
@@ -41,7 +41,8 @@ def test_unreadable_files_are_listed_and_the_rest_read(tmp_path):
     bad = [s for s in c.screening if s.status == UNREADABLE]
     assert [s.name for s in bad] == ["A_gap.csv", "summary.csv"]
     assert len(c.records) == len(EXAMPLES)
-    assert all("unreadable (line" in w for w in c.warnings if "A_gap.csv" in w or "summary.csv" in w)
+    said = [w for w in c.warnings if "A_gap.csv" in w or "summary.csv" in w]
+    assert len(said) == 2 and all("unreadable (line" in w for w in said)
     row = bad[0].to_json()
     assert row["status"] == "unreadable" and np.isnan(row["weight_kgf"])
     with pytest.raises(RecordError, match="A_gap.csv"):
