@@ -97,9 +97,10 @@ JITTER_STEP = 0.6
 """Largest relative step deviation of a jittered clock under `JITTER_STAMP`."""
 
 MISSING_RUN = 10
-"""Longest run of samples a logger may have dropped (a step of up to 11 mean steps, every
-step else one step): filled by linear interpolation with a note (`missing_samples`).
-Longer gaps are refused (split the run there)."""
+"""Longest run of samples a logger may have dropped (a step of up to 11 steps of its
+clock, the stamps otherwise on its grid within `JITTER_STAMP`): filled by linear
+interpolation with a note (`missing_samples`). Longer gaps are refused (split the run
+there)."""
 
 MISSING_SHARE = 0.01
 """Largest share of a record's samples that may be missing and filled."""
@@ -295,24 +296,27 @@ def _jitter_grid(time: np.ndarray) -> tuple[np.ndarray, str] | None:
 
 
 def missing_samples(time: np.ndarray) -> tuple[np.ndarray, str] | None:
-    """A uniform clock that dropped samples: the full grid and a note, or None.
+    """A clock that dropped samples: the full uniform grid and a note, or None.
 
-    Every step is a whole number of the median step (within `JITTER_RTOL`), some are
-    more than one, at most `MISSING_RUN` samples are missing in a row and at most
+    Every stamp lies within `JITTER_STAMP` of a step of a uniform grid (its step fitted
+    to the stamps; a jittered clock may drop samples too), no two stamps share a grid
+    point, some grid points have no stamp, at most `MISSING_RUN` in a row and at most
     `MISSING_SHARE` in all, in a record of `JITTER_MIN_SAMPLES` or more. The grid runs
     from the first to the last stamp with the missing samples put back."""
     n = time.shape[0]
     if n < JITTER_MIN_SAMPLES:
         return None
-    steps = np.diff(time)
-    dt = float(np.median(steps))
+    dt = float(np.median(np.diff(time)))
     if not dt > 0:
         return None
-    ratio = steps / dt
-    whole = np.rint(ratio)
-    if not (np.all(whole >= 1) and np.all(np.abs(ratio - whole) <= JITTER_RTOL)):
+    runs = np.rint(np.diff(time) / dt) - 1  # grid points skipped by each step
+    if np.any(runs < 0):  # a sample written twice
         return None
-    runs = whole - 1
+    k = np.r_[0.0, np.cumsum(runs + 1)]
+    dt, t0 = np.polyfit(k, time, 1)  # the clock's step over the whole run
+    off = np.abs(time - (t0 + k * dt)) / dt
+    if not dt > 0 or np.max(off) > JITTER_STAMP:
+        return None
     lost = int(runs.sum())
     if lost == 0 or runs.max() > MISSING_RUN or lost > MISSING_SHARE * (n + lost):
         return None
@@ -322,8 +326,11 @@ def missing_samples(time: np.ndarray) -> tuple[np.ndarray, str] | None:
     gaps = np.flatnonzero(runs)
     where = ", ".join(f"{float(time[g]):.6g} s" for g in gaps[:3]) + (
         ", ..." if gaps.size > 3 else "")
+    jitter = (f"; the stamps jitter by up to {100 * float(np.max(off)):.3g} % of the step"
+              if np.max(off) > TIME_STEP_RTOL else "")
     return grid, (f"{lost} sample(s) missing in {gaps.size} gap(s) of up to "
-                  f"{int(runs.max())} (after {where}): filled by linear interpolation")
+                  f"{int(runs.max())} (after {where}): filled by linear interpolation"
+                  + jitter)
 
 
 def time_step_deviation(time: np.ndarray) -> tuple[float, int, float]:

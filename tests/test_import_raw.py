@@ -65,3 +65,28 @@ def test_from_arrays_with_units():
         Record.from_arrays(t, t, stiffness="3 lbf", weight=1.0, drive_speed=1.0)
     with pytest.raises(RecordError, match="exactly one of weight"):
         Record.from_arrays(t, t, stiffness=1.0, drive_speed=1.0)
+
+
+def test_import_a_jittery_logger_that_dropped_samples(tmp_path, capsys):
+    """A logger whose stamps scatter by +-10 % of the step and that dropped 3 samples:
+    imported (both were refused before), each with a note; the record is uniform and
+    holds every sample of the run."""
+    rng = np.random.default_rng(3)
+    n, dt = 3000, 1e-3
+    t = np.arange(n) * dt
+    force = (0.1 + 0.02 * np.sin(2 * np.pi * 2 * t)) * 9.80665
+    keep = np.setdiff1d(np.arange(n), [1000, 1001, 2000])
+    stamps = t[keep] + 0.1 * dt * rng.uniform(-1, 1, keep.size)
+    stamps[0], stamps[-1] = t[0], t[-1]
+    raw = tmp_path / "raw.csv"
+    raw.write_text("time [s],force [N]\n" + "\n".join(
+        f"{float(a)!r},{float(b)!r}" for a, b in zip(stamps, force[keep])) + "\n")
+    out = tmp_path / "rec.csv"
+    assert main(["import", str(raw), "--out", str(out), "--time-col", "time", "--force-col",
+                 "force", "--stiffness", "852 N/um", "--mass", "30.7 g",
+                 "--speed", "42 um/s"]) == 0
+    text = capsys.readouterr().out
+    assert "3 sample(s) missing in 2 gap(s)" in text and "jitter" in text
+    rec = read_record(out)
+    assert rec.time.size == n and np.ptp(np.diff(rec.time)) < 1e-9
+    assert np.allclose(rec.force * 9.80665, force, atol=2e-3)  # kgf -> N
