@@ -310,7 +310,7 @@ def missing_samples(time: np.ndarray) -> tuple[np.ndarray, str] | None:
     if not dt > 0:
         return None
     runs = np.rint(np.diff(time) / dt) - 1  # grid points skipped by each step
-    if np.any(runs < 0):  # a sample written twice
+    if np.any(runs < 0) or not np.any(runs):  # a sample written twice; none missing
         return None
     k = np.r_[0.0, np.cumsum(runs + 1)]
     dt, t0 = np.polyfit(k, time, 1)  # the clock's step over the whole run
