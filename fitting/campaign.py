@@ -155,8 +155,7 @@ def load_campaign(specs, *, min_records: int = 2, strict: bool = False) -> Campa
     file's). Raises ValueError naming what to fix."""
     files = read_campaign_files(list(specs))
     records = files.records
-    if files.unreadable and (strict or not records):  # as before files were set aside
-        raise files.unreadable[0]
+    files.check(strict)
     if len(records) + len(files.unreadable) < min_records:
         raise ValueError(
             f"a campaign needs at least {min_records} records (got {len(records)}): one run "

@@ -318,7 +318,7 @@ def missing_samples(time: np.ndarray) -> tuple[np.ndarray, str] | None:
     if not dt > 0 or np.max(off) > JITTER_STAMP:
         return None
     lost = int(runs.sum())
-    if lost == 0 or runs.max() > MISSING_RUN or lost > MISSING_SHARE * (n + lost):
+    if runs.max() > MISSING_RUN or lost > MISSING_SHARE * (n + lost):
         return None
     full = n + lost
     grid = time[0] + (time[-1] - time[0]) / (full - 1) * np.arange(full)
@@ -1558,6 +1558,13 @@ class CampaignFiles:
     records: list[Record]
     unreadable: list[RecordError]
 
+    def check(self, strict: bool = False) -> None:
+        """Raise the first unreadable file's error when `strict` or when no file could be
+        read (a campaign of one bad file is that file's error); otherwise they are set
+        aside by the caller."""
+        if self.unreadable and (strict or not self.records):
+            raise self.unreadable[0]
+
 
 def read_campaign_files(spec, *, max_bytes: int = MAX_FILE_BYTES) -> CampaignFiles:
     """Read a campaign as `read_campaign` does, but a file whose content cannot be read (a
@@ -1578,8 +1585,11 @@ def read_campaign_files(spec, *, max_bytes: int = MAX_FILE_BYTES) -> CampaignFil
         seen[key] = str(f)
     records, unreadable = [], []
     for f in files:
-        with open(f, "rb") as fh:
-            digest = hashlib.sha256(fh.read()).hexdigest()
+        digest = hashlib.sha256()
+        with open(f, "rb") as fh:  # in blocks: a file over `max_bytes` is refused below
+            for block in iter(lambda: fh.read(1 << 20), b""):
+                digest.update(block)
+        digest = digest.hexdigest()
         if digest in contents:
             raise RecordError(f"the same content as {contents[digest]}: a copy would count "
                               "its record twice; give each record once", f)
@@ -1600,8 +1610,7 @@ def read_campaign(spec, *, max_bytes: int = MAX_FILE_BYTES) -> list[Record]:
     (`read_campaign_files` lists the bad files and reads the rest).
     """
     got = read_campaign_files(spec, max_bytes=max_bytes)
-    if got.unreadable:
-        raise got.unreadable[0]
+    got.check(strict=True)
     return got.records
 
 

@@ -93,8 +93,7 @@ def run(args) -> int:
 
     files = read_campaign_files(args.records)  # an unreadable file is set aside, listed
     records, unreadable = files.records, files.unreadable
-    if unreadable and (args.strict or not records):
-        raise unreadable[0]
+    files.check(args.strict)
     check_outputs({"--json": args.json, "--plot": args.plot},
                   [r.source for r in records if r.source] + [e.path for e in unreadable])
     if len(records) + len(unreadable) < 2:
