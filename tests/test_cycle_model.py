@@ -82,6 +82,35 @@ def _assert_jacobian_matches_fd(model, z1, cols, shape, name=""):
         assert close.mean() > 0.999, (name, c, close.mean())
 
 
+def test_per_record_columns_match_finite_differences(setup):
+    """The gauge offsets and a per-record family's coefficients share one tangent across
+    records (`CycleModel._tangents`); each record's column is nonzero on its own samples
+    only and matches central differences."""
+    model, z, *_ = setup
+    drive = model.cols(family("drive_periodic_error"))
+    cols = np.concatenate([np.arange(6, model.n_base), drive[[0, 4, 9]]])
+    z1 = z.copy()
+    z1[drive] = 0.2
+    _assert_jacobian_matches_fd(model, z1, cols, Shape(), "per-record")
+    _, J, _ = model.evaluate(z1, cols)
+    rec = model._record
+    for j, g in enumerate([0, 1, 2, 0, 1, 2]):
+        assert np.all(J[rec != g, j] == 0.0) and np.any(J[rec == g, j] != 0.0)
+
+
+def test_window_rows_group_the_rows_of_each_window(setup):
+    """Every row of a window reads the window's one stick-and-slip solution."""
+    from stickslip_fitting.discovery.cycle_model import window_rows
+
+    model, *_ = setup
+    win = np.asarray(model.data.window)
+    first, slot = window_rows(model.data)
+    np.testing.assert_array_equal(win[first][slot], win)
+    assert np.all(np.diff(win[first]) > 0)
+    assert np.all(first == [np.flatnonzero(win == w)[0] for w in win[first]])
+    assert first.size < win.size  # the campaign has windows longer than one row
+
+
 @pytest.mark.parametrize("order, zeta", [(1, 1.0), (2, 1.0), (2, 0.7), (2, 0.4)])
 def test_sensor_kernel_has_mean_tau(order, zeta):
     s = np.linspace(0, 1.0, 1000001)  # zeta 0.4 decays at 2 zeta^2 / tau = 32 /s
@@ -144,7 +173,7 @@ def test_second_order_sensor_of_an_independent_generator_is_fitted(sensor_campai
     later = cm.previous_rows(model.data) >= 0
     no_tail = CycleModel.__new__(CycleModel)
     no_tail.__dict__.update(model.__dict__)
-    no_tail._prev = (jax.device_put(np.full(mask.shape[0], -1)), model._prev[1])
+    no_tail._prev = (jax.device_put(np.full(mask.shape[0], -1)), *model._prev[1:])
     r0 = no_tail.residuals(z, shape, sensor=True)[0]
     for rows in (later, ~later & mask.any(1)):
         first = (early & rows[:, None])[mask]

@@ -71,7 +71,7 @@ from ..trace_objective import TraceData
 from .cycle_effects import DAMPING_FORMS, FAMILIES, STRIBECK_FORMS, Family, Shape, drive_error
 
 __all__ = ["BLOCK", "CycleModel", "N_STEPS", "TAIL_STEPS", "kernel_cdf", "previous_rows",
-           "tail_sources"]
+           "tail_sources", "window_rows"]
 
 N_STEPS = 128
 """RK4 steps per slip (over 2.5 pi/omega_0: room for slips lengthened by the effects)."""
@@ -135,18 +135,49 @@ class _Eff(eqx.Module):
     kappa: jax.Array
 
 
-def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, poly, ts):
-    """One row: (model deflection as read by the gauge, without offset [L]; slider
-    velocity [L]; ok; tail). `sensor` (static): the kernel convolution (module doc);
-    tail = (what the gauge still owes of this row's slip on the grid t_b + n h
-    [TAIL_STEPS] (mm), t_b, h), read by the next window (`_model`)."""
+def _drive(eff: _Eff, v, tref, tw, poly, pitch):
+    """The drive u(t) (mm, arbitrary origin) of one window: speed v (mm/s) with the speed
+    drift about `tref`, the screw error, and a measured drive's cubic from the window's
+    measured start `tw` (s)."""
+    def u(t):
+        dt = t - tref
+        sw = t - tw
+        return (v * dt + 0.5 * v * eff.s * dt * dt + drive_error(eff.drive, t, v, pitch)
+                + sw * (poly[0] + sw * (poly[1] + sw * poly[2])))
+    return u
+
+
+class _Slip(eqx.Module):
+    """One window's stick and slip (`_slip`), shared by the window's rows (`_render`)."""
+
+    t0: jax.Array  # the slider's clock origin (s; tau before the measured start with sensor)
+    x0: jax.Array  # restart deflection (mm, without offset)
+    u0: jax.Array  # u(t0) (mm)
+    t_b: jax.Array  # breakaway (s)
+    x_b: jax.Array  # deflection at the breakaway (mm)
+    u_b: jax.Array  # u(t_b) (mm)
+    h: jax.Array  # RK4 step (s)
+    Y: jax.Array  # [N_STEPS + 1] slip displacement (mm)
+    YD: jax.Array  # [N_STEPS + 1] slip velocity (mm/s)
+    t_stop: jax.Array  # slip end (s)
+    x_stop: jax.Array  # deflection at the slip end (mm)
+    u_stop: jax.Array  # u(t_stop) (mm)
+    ok: jax.Array  # breakaway found and the slip ended
+    F: jax.Array  # [TAIL_STEPS] the kernel-filtered slip displacement (sensor; else [0])
+    Fd: jax.Array  # its slope (mm/s)
+    tau: jax.Array  # the sensor's mean delay (s)
+
+
+def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, poly):
+    """One cycle window's stick and slip (module doc; `sensor` static: the kernel
+    convolution of the slip on its grid)."""
     vs, p, length, pitch, order, zeta, form, damping = (shape[0], shape[1], shape[2],
                                                         shape[3], shape[4], shape[5],
                                                         shape[6], shape[7])
     tw = t0  # the window's measured start: origin of a measured drive's cubic
+    tau = jnp.maximum(eff.tau, 1e-7)
     if sensor:
         # the measured restart state is a reading: the slider's own clock is tau earlier
-        tau = jnp.maximum(eff.tau, 1e-7)
         t0 = t0 - tau
     mass = W / G_MM_S2
     omega = jnp.sqrt(k / mass)
@@ -162,12 +193,7 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
         base = static(T)
         return base + d_d + (d_s - d_d) * (base - mu_d) / (mu_s - mu_d)
 
-    def u(t):  # drive (mm), arbitrary origin: speed drift, screw error, measured drive
-        dt = t - tref
-        sw = t - tw
-        return (v * dt + 0.5 * v * eff.s * dt * dt + drive_error(eff.drive, t, v, pitch)
-                + sw * (poly[0] + sw * (poly[1] + sw * poly[2])))
-
+    u = _drive(eff, v, tref, tw, poly, pitch)  # speed drift, screw error, measured drive
     u0 = u(t0)
 
     def g(T):
@@ -259,20 +285,6 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
     y_stop = _hermite(Y[i - 1], Y[i], YD[i - 1] * h, YD[i] * h, frac)
     x_stop = x_b + u(t_stop) - u(t_b) - y_stop
 
-    def render(t):
-        t = jnp.maximum(t, t0)
-        tau = (t - t_b) / h
-        j = jnp.clip(jnp.floor(tau), 0, N_STEPS - 1).astype(jnp.int32)
-        f = jnp.clip(tau - j, 0.0, 1.0)
-        y0, y1, m0, m1 = Y[j], Y[j + 1], YD[j] * h, YD[j + 1] * h
-        y = _hermite(y0, y1, m0, m1, f)
-        yd = _hermite_slope(y0, y1, m0, m1, f) / h
-        ut = u(t)
-        x = jnp.where(t < t_b, x0 + ut - u0,
-                      jnp.where(t < t_stop, x_b + ut - u(t_b) - y, x_stop + ut - u(t_stop)))
-        yd = jnp.where((t >= t_b) & (t < t_stop), yd, 0.0)
-        return x, yd
-
     if sensor:
         # the slip displacement D on the RK4 grid, held at y_stop after the stop and
         # beyond the slip grid (TAIL_STEPS nodes in all), convolved with the kernel's bin
@@ -293,22 +305,48 @@ def _row(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
         wf = jnp.fft.rfft(w, FFT_SIZE)
         F = jnp.fft.irfft(jnp.fft.rfft(D, FFT_SIZE) * wf, FFT_SIZE)[:TAIL_STEPS]
         Fd = jnp.fft.irfft(jnp.fft.rfft(Dd, FFT_SIZE) * wf, FFT_SIZE)[:TAIL_STEPS]
-        last = TAIL_STEPS - 1
+    else:
+        F = Fd = jnp.zeros(1)
+    return _Slip(t0=t0, x0=x0, u0=u0, t_b=t_b, x_b=x_b, u_b=u(t_b), h=h, Y=Y, YD=YD,
+                 t_stop=t_stop, x_stop=x_stop, u_stop=u(t_stop), ok=found & stops, F=F,
+                 Fd=Fd, tau=tau)
+
+
+def _render(sl: _Slip, eff: _Eff, shape, sensor, v, tref, tw, poly, ts):
+    """One row of a window (`sl`, `_slip`) at the sample times ts [L]: (the deflection
+    as read by the gauge, without offset [L] (mm); slider velocity [L] (mm/s); ok)."""
+    u = _drive(eff, v, tref, tw, poly, shape[3])
+    t0, t_b, h, Y, YD, t_stop = sl.t0, sl.t_b, sl.h, sl.Y, sl.YD, sl.t_stop
+
+    def render(t):
+        t = jnp.maximum(t, t0)
+        tau = (t - t_b) / h
+        j = jnp.clip(jnp.floor(tau), 0, N_STEPS - 1).astype(jnp.int32)
+        f = jnp.clip(tau - j, 0.0, 1.0)
+        y0, y1, m0, m1 = Y[j], Y[j + 1], YD[j] * h, YD[j + 1] * h
+        y = _hermite(y0, y1, m0, m1, f)
+        yd = _hermite_slope(y0, y1, m0, m1, f) / h
+        ut = u(t)
+        x = jnp.where(t < t_b, sl.x0 + ut - sl.u0,
+                      jnp.where(t < t_stop, sl.x_b + ut - sl.u_b - y,
+                                sl.x_stop + ut - sl.u_stop))
+        yd = jnp.where((t >= t_b) & (t < t_stop), yd, 0.0)
+        return x, yd
+
+    if sensor:
+        F, Fd, last = sl.F, sl.Fd, TAIL_STEPS - 1
         s_ = (ts - t_b) / h
         j = jnp.clip(jnp.floor(s_), 0, last - 1).astype(jnp.int32)
         f = jnp.clip(s_ - j, 0.0, 1.0)
         Fv = _hermite(F[j], F[j + 1], Fd[j] * h, Fd[j + 1] * h, f)
         Fv = jnp.where(ts < t_b, 0.0, jnp.where(s_ > last, F[last], Fv))
-        x = x0 + u(ts - tau) - u0 - Fv
+        x = sl.x0 + u(ts - sl.tau) - sl.u0 - Fv
         yd = render(ts)[1]
-        # what the gauge still owes of this slip after it (read by the next window)
-        tail = (F[last] - F, t_b, h)
     else:
         x, yd = render(ts)
-        tail = (jnp.zeros(TAIL_STEPS), t_b, h)
     read = x + eff.r_g * (ts - tref)
-    ok = found & stops & jnp.all(jnp.isfinite(read))
-    return read, yd, ok, tail
+    ok = sl.ok & jnp.all(jnp.isfinite(read))
+    return read, yd, ok
 
 
 class _Layout(eqx.Module):
@@ -358,35 +396,46 @@ def _effects_of(layout: _Layout, theta, record):
 def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layout):
     """(gauge reading incl. offset [N, L], slider velocity [N, L], ok [N]). `prev`:
     ([N] the row whose slip's tail the gauge still owes at the window's start, or -1;
-    [N] where that slip began, s) (`tail_sources`)."""
-    prev, began = prev
+    [N] where that slip began, s) (`tail_sources`), then ([W] the first row of every
+    window; [N] every row's window among them) (`window_rows`): a window's stick and
+    slip are solved once (`_slip`) and rendered for each of its rows (`_render`)."""
+    prev, began, first, slot = prev
     tref, tstart = tref[0], tref[1]
     nat = z * scales
     fr = EmpiricalFriction(*[nat[i] for i in range(6)]).friction()
     offset = nat[6:layout.n_base]
     theta = nat[layout.n_base:]
-
-    def one(rec, W, k, v, t0, x0, T1m, poly, ts):
-        eff = _effects_of(layout, theta, rec)
-        return _row(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], tstart[rec],
-                    poly, ts)
-
     x0 = data.start_level - offset[data.record]
-    read, yd, ok, (E, tb, h) = jax.vmap(one)(data.record, data.weight, data.stiffness,
-                                             data.speed, data.start_time, x0,
-                                             data.stick_time, data.drive_poly, data.time)
+
+    def one_window(rec, W, k, v, t0, x0, T1m, poly):
+        eff = _effects_of(layout, theta, rec)
+        return _slip(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], tstart[rec],
+                     poly)
+
+    slips = jax.vmap(one_window)(*(a[first] for a in (
+        data.record, data.weight, data.stiffness, data.speed, data.start_time, x0,
+        data.stick_time, data.drive_poly)))
+
+    def one_row(s, rec, v, tw, poly, ts):
+        sl = jax.tree.map(lambda a: a[s], slips)
+        eff = _effects_of(layout, theta, rec)
+        return _render(sl, eff, shape, sensor, v, tref[rec], tw, poly, ts)
+
+    read, yd, ok = jax.vmap(one_row)(slot, data.record, data.speed, data.start_time,
+                                     data.drive_poly, data.time)
     if sensor:
         # the gauge still settles from the previous slip when a window starts: the
         # measured restart level is the settled stick line (`features`: the plateau
         # after the slip), so the reading is that line plus what the gauge still owes
         # (placed at the previous slip's measured breakaway, on the slider's clock:
         # the model's breakaway may miss it by the stick time's scatter)
-        p = jnp.maximum(prev, 0)
+        p = slot[jnp.maximum(prev, 0)]
+        E = slips.F[:, -1:] - slips.F  # [W, TAIL_STEPS]: what each slip still owes after it
         tau = jnp.maximum(_effects_of(layout, theta, 0).tau, 1e-7)
         origin = began - tau
 
         def owed(t):  # [N, L]: the previous slip's tail at times t (0 beyond its grid)
-            s_ = (t - origin[:, None]) / h[p][:, None]
+            s_ = (t - origin[:, None]) / slips.h[p][:, None]
             j = jnp.clip(jnp.floor(s_), 0, TAIL_STEPS - 2).astype(jnp.int32)
             f = jnp.clip(s_ - j, 0.0, 1.0)
             Ep = E[p]
@@ -395,6 +444,15 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
 
         read = read + jnp.where((prev >= 0)[:, None], owed(data.time), 0.0)
     return read + offset[data.record][:, None], yd, ok
+
+
+def window_rows(data: TraceData) -> tuple[np.ndarray, np.ndarray]:
+    """([W] the first row of every cycle window of `data`, in order; [N] the position of
+    every row's window among them). The rows of one window share its restart state
+    (`trace_data`), so its stick and slip are solved once."""
+    win = np.asarray(data.window)
+    _, first, slot = np.unique(win, return_index=True, return_inverse=True)
+    return first.astype(np.int32), slot.astype(np.int32)
 
 
 def previous_rows(data: TraceData) -> np.ndarray:
@@ -455,10 +513,12 @@ def _value(z, scales, shape, sensor, data, tref, prev, sd, layout):
 
 
 @eqx.filter_jit
-def _value_and_block(z, T, scales, shape, sensor, data, tref, prev, sd, layout):
+def _value_and_block(z, T, scales, shape, sensor, data, tref, prev, sd, layout, idx):
+    """(r [n], J [n, B], ok [N]): the residuals of the samples `idx` (flat indices of
+    the unpadded samples) and their derivatives along the B tangents T [size, B]."""
     def f(zz):
         read, _, ok = _model(zz, scales, shape, sensor, data, tref, prev, layout)
-        return jnp.where(data.mask, (data.deflection - read) / sd, 0.0), ok
+        return ((data.deflection - read) / sd).ravel()[idx], ok
 
     def col(t):
         return jax.jvp(f, (z,), (t,), has_aux=True)
@@ -483,7 +543,8 @@ class CycleModel:
         self.data = data
         self.tref = jax.device_put(np.asarray(tref, float))
         self.sd = jax.device_put(np.asarray(sd, float))
-        self._prev = tuple(jax.device_put(a) for a in tail_sources(data))
+        self._prev = tuple(jax.device_put(a) for a in (*tail_sources(data),
+                                                      *window_rows(data)))
         self.layout = _layout(n_records)
         self.scales = np.ones(self.layout.size)
         for f in FAMILIES:
@@ -493,6 +554,18 @@ class CycleModel:
         self.mask = np.asarray(data.mask).ravel()
         self._record = np.broadcast_to(np.asarray(data.record)[:, None],
                                        np.asarray(data.mask).shape).ravel()[self.mask]
+        self._idx = jax.device_put(np.flatnonzero(self.mask).astype(np.int32))
+        self._real_rows = np.asarray(data.mask).any(1)
+        # every record's samples, one contiguous span of the residual vector (`trace_data`
+        # cuts the records in order)
+        self._span = np.zeros((n_records, 2), int)
+        for g in range(n_records):
+            where = np.flatnonzero(self._record == g)
+            if where.size:
+                if where[-1] - where[0] + 1 != where.size:
+                    raise ValueError("CycleModel: a record's samples are not contiguous "
+                                     "in the cycle windows (trace_data order)")
+                self._span[g] = where[0], where[-1] + 1
         self.n_records = n_records
 
     @property
@@ -605,16 +678,19 @@ class CycleModel:
             T[:, :part.shape[1]] = part
             r_, J_, ok_ = _value_and_block(zj, jax.device_put(T), self._scales, sh,
                                            bool(sensor), self.data, self.tref, self._prev,
-                                           self.sd, self.layout)
-            J_ = np.asarray(J_).reshape(-1, BLOCK)[self.mask]
-            blocks.append(J_[:, :part.shape[1]])
-            r, ok = r_, ok and bool(np.all(np.asarray(ok_)[np.asarray(self.data.mask).any(1)]))
-        r = np.asarray(r).ravel()[self.mask]
-        Jt = np.concatenate(blocks, axis=1)
-        J = Jt[:, tangent]
-        for i in np.flatnonzero(record >= 0):
-            J[:, i] = np.where(self._record == record[i], J[:, i], 0.0)
-        return r, J, ok
+                                           self.sd, self.layout, self._idx)
+            blocks.append(np.asarray(J_)[:, :part.shape[1]])
+            r, ok = r_, ok and bool(np.all(np.asarray(ok_)[self._real_rows]))
+        Jt = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=1)
+        # columns in Fortran order: each is written (and later read) contiguously
+        J = np.zeros((Jt.shape[0], cols.size), order="F")
+        for i, (t, g) in enumerate(zip(tangent, record)):
+            if g < 0:
+                J[:, i] = Jt[:, t]
+            else:  # a record's own coefficient: its samples only
+                a, b = self._span[g]
+                J[a:b, i] = Jt[a:b, t]
+        return np.asarray(r), J, ok
 
 
 def drift_origins(records) -> np.ndarray:
