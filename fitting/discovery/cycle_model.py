@@ -622,16 +622,16 @@ class CycleModel:
         return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
 
     def warm(self) -> dict:
-        """Compile the programs of `evaluate` and `residuals` in a background thread while
+        """Compile the programs of `residuals` and `evaluate` in a background thread while
         the caller works (XLA compiles without the GIL; on a campaign of 0.4 M samples
-        each takes 1.5-3.5 s): `evaluate` without the sensor kernel first, then
-        `residuals` and `evaluate` with it. Returns {("evaluate" | "residuals", sensor):
-        Future}; wait for a program's future before its first call (a call while it is
-        still compiling compiles it a second time). `residuals` without the kernel is
-        left to the caller, who needs it first."""
+        each takes 1.5-4.5 s): without the sensor kernel first (`residuals`, then
+        `evaluate`), then with it. Returns {("evaluate" | "residuals", sensor): Future};
+        wait for a program's future before its first call (a call while it is still
+        compiling compiles it a second time)."""
         z = np.zeros(self.layout.size)
         pool = concurrent.futures.ThreadPoolExecutor(1)
-        jobs = {("evaluate", False): lambda: self.evaluate(z, [0]),
+        jobs = {("residuals", False): lambda: self.residuals(z),
+                ("evaluate", False): lambda: self.evaluate(z, [0]),
                 ("residuals", True): lambda: self.residuals(z, sensor=True),
                 ("evaluate", True): lambda: self.evaluate(z, [0], sensor=True)}
         futures = {k: pool.submit(job) for k, job in jobs.items()}

@@ -77,6 +77,7 @@ import time
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 import scipy.stats
 
@@ -620,6 +621,21 @@ def _phases(r_mm, slipping):
     return out
 
 
+@eqx.filter_jit
+def _sd_at(logs, data, slider_velocity):
+    """`trace_sd` (mm, [N, L]) at the friction of the six `EmpiricalFriction` logs,
+    compiled once (run eagerly, each of its small operations compiled a program of its
+    own: 3.7 s of a cold 16 s preparation)."""
+    friction = EmpiricalFriction(*[logs[i] for i in range(6)])
+    return trace_sd(CampaignParams(friction, jnp.zeros(1)), data, slider_velocity)
+
+
+def sd_at(z, data, slider_velocity) -> np.ndarray:
+    """`_sd_at` at the first six coordinates of z (the friction logs)."""
+    return np.asarray(_sd_at(jax.device_put(np.asarray(z, float)[:6]), data,
+                             jax.device_put(np.asarray(slider_velocity, float))))
+
+
 def _friction_values(z) -> dict:
     return EmpiricalFriction(*[float(x) for x in z[:6]]).named_values()
 
@@ -701,9 +717,11 @@ def discover_cycles(
     # weights (effective variance) at the start, refreshed once at the base optimum
     model = CycleModel(data, drift_origins(recs),
                        np.ones(np.asarray(data.mask).shape), G)
-    z_start = model.z0(start.params.friction, np.asarray(start.params.offset))
+    z_features = model.z0(start.params.friction, np.asarray(start.params.offset))
+    z_start = z_features.copy()
     t2_of = np.pi / np.sqrt(np.asarray(data.stiffness) * G_MM_S2 / np.asarray(data.weight))
     z_start[:6] = plausible_start(z_start[:6], np.asarray(data.stick_time), t2_of)
+    warm["residuals", False].result()
     _, yd, ok = model.residuals(z_start)
     # a cycle window the paper's model cannot reproduce at the start (no breakaway, or a
     # slip that does not end within 2.5 pi/omega_0: e.g. a strong Stribeck drop) is set
@@ -735,7 +753,7 @@ def discover_cycles(
         raise RuntimeError("trace_data rows are not in window order")
     starts = np.flatnonzero(np.r_[True, np.diff(window) != 0])
     n_windows = starts.size
-    model = CycleModel(data, model.tref, np.asarray(trace_sd(start.params, data, yd)), G)
+    model = CycleModel(data, model.tref, sd_at(z_features, data, yd), G)
     stage("prepare", f"{G} records used, {len(campaign.not_used)} set aside, "
                      f"{n_windows} cycle windows, {model.mask.sum()} samples"
                      + (f"; {failed.size} windows set aside" if failed.size else ""))
@@ -745,10 +763,8 @@ def discover_cycles(
     sub = _Sub(model, z_start, base_cols)
     fit0 = solve_host(sub.evaluate, z_start[base_cols], max_evals=max_evals)
     z_base = sub.full(fit0.z)
-    params = CampaignParams(EmpiricalFriction(*[float(x) for x in z_base[:6]]),
-                            z_base[6:model.n_base])
     _, yd, _ = model.residuals(z_base)
-    sd_base = np.asarray(trace_sd(params, data, yd))
+    sd_base = sd_at(z_base, data, yd)
     model = CycleModel(data, model.tref, sd_base, G)
     sub = _Sub(model, z_base, base_cols)
     base_fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
@@ -817,10 +833,8 @@ def discover_cycles(
         # refreshed there: a record that only a bent base misfit weighs fully again, one
         # near the others' level weighs by its scatter and stays in the tests (a 2 um
         # screw error on lubricant C made its fastest record chi2/n 3.0: the evidence)
-        params = CampaignParams(EmpiricalFriction(*[float(x) for x in z_clean[:6]]),
-                                z_clean[6:model.n_base])
         _, yd, _ = model.residuals(z_clean)
-        sd_clean = np.asarray(trace_sd(params, data, yd)) * robust
+        sd_clean = sd_at(z_clean, data, yd) * robust
         plain = CycleModel(data, model.tref, sd_clean, G)
         chi2_clean = _record_chi2(plain.residuals(z_clean)[0], rec_of, G)
         median_clean = float(np.nanmedian(np.delete(chi2_clean, suspects)) if kept
