@@ -1,13 +1,16 @@
 """Benchmark: the whole discovery workflow on one 12-record campaign, time split by step.
 
     .venv/bin/python benchmarks/discover.py [--base cycle|smooth] [--small] [--effect NAME]
+                                            [--cold-only]
 
 `--base cycle` (default, the per-cycle model of `stickslip discover`): a 12-record
 campaign from the independent SciPy generator (`tests/independent_records.py`; lubricant
 A, 3 (W, k) x 4 speeds, about 7 cycles per record at 2 kHz, noise 0.5 um; about 0.5 M
 samples, a damping ratio of 0.1 hidden), `discover_cycles` timed by stage, compilation
 included (a fresh process), against one `fit --objective trace` of the same campaign
-in the same process afterwards (warm). Target: total under 60 s on 2 cores. Measured
+in the same process afterwards (warm). The cold column is the first run of a fresh
+process (compilation included: the target), the warm one a second run of the same
+campaign in the same process (run time alone). Target: total under 60 s on 2 cores. Measured
 (2 cores shared with other jobs, load 2-5): prepare 22.9-23.7 s, base fit 4.1-5.6,
 ranking 5.5-10.3, refit 12.6-13.2, total 45.3-52.9 s (was 113-206 s before the Jacobian
 compression, the FFT sensor kernel and the vectorised pitch scan of issue 18). Session 19,
@@ -51,6 +54,9 @@ def cycle(args):
     print(f"campaign: {len(recs)} records, {n} samples, hidden damping ratio 0.1; made in "
           f"{t_make:.1f} s (independent generator)")
     res = discover_cycles(recs, progress=lambda line: print("  " + line, flush=True))
+    warm = None
+    if not args.cold_only:  # the same campaign again in this process: run time alone
+        warm = discover_cycles(recs).timings
     c = screen_records(recs)
     t = time.perf_counter()
     fit_features(c.features, records=c.records, objective="trace")
@@ -58,9 +64,12 @@ def cycle(args):
     print(f"answer: {res.effect} ({res.confidence}); gap {res.gap_before * 1e3:.3f} -> "
           f"{res.gap_after * 1e3:.3f} um, noise {res.noise * 1e3:.3f} um; "
           f"{int(res.model.mask.sum())} samples in {res.model.data.window.max() + 1} windows")
-    print(f"{'stage':12s} {'seconds':>9s} {'x one trace fit':>16s}")
+    print(f"{'stage':12s} {'cold s':>9s} {'x one trace fit':>16s}"
+          + (f" {'warm s':>9s} {'x one trace fit':>16s}" if warm else ""))
     for k, v in res.timings.items():
-        print(f"{k:12s} {v:9.1f} {v / t_fit:16.1f}")
+        w = (warm or {}).get(k)
+        print(f"{k:12s} {v:9.1f} {v / t_fit:16.1f}"
+              + (f" {w:9.1f} {w / t_fit:16.1f}" if w is not None else ""))
     print(f"{'trace fit':12s} {t_fit:9.1f} {1.0:16.1f}  (stickslip fit --objective trace, "
           "warm, same process: baseline)")
     total = res.timings["total"]
@@ -72,6 +81,8 @@ def main(argv=None):
     ap.add_argument("--base", choices=("cycle", "smooth"), default="cycle")
     ap.add_argument("--small", action="store_true", help="4 records instead of 12")
     ap.add_argument("--effect", default="viscous_damping")
+    ap.add_argument("--cold-only", action="store_true",
+                    help="(--base cycle) skip the second, warm run of the workflow")
     args = ap.parse_args(argv)
     if args.base == "cycle":
         return cycle(args)

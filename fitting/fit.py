@@ -32,7 +32,6 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
 
 from __future__ import annotations
 
-import concurrent.futures
 import dataclasses
 import itertools
 from typing import NamedTuple
@@ -44,6 +43,7 @@ import numpy as np
 import optimistix as optx
 import jax.flatten_util  # noqa: F401
 
+from stickslip_jax.compilation import compile_in_background
 from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_decrease
 from stickslip_jax.modes import GaugeOffset, SlipTime
 
@@ -255,17 +255,14 @@ def _first_round(free_starts, static, objective, rtol, atol, max_steps):
 
 def _compile_together(calls):
     """Compile the solves `calls` (argument tuples of `_solve_starts`) ahead of use: traced
-    one after another (Python), then compiled by XLA in parallel threads (XLA releases the
-    GIL). Returns one future per call: once it is done, calls with arguments of the same
-    structure reuse its program (wait for it first, or the call compiles again). For the
-    trace fit, whose features and trace programs would otherwise compile one after the
-    other: the whole trace fit of benchmarks/fit.py's campaign took 4.7-4.9 s instead of
-    5.1-5.3 s including compilation (2 cores, four runs each)."""
+    one after another (Python), then compiled by XLA one after the other in a background
+    thread (`stickslip_jax.compilation`: two compilations at once are not safe), while the
+    caller goes on. Returns one future per call: once it is done, calls with arguments of
+    the same structure reuse its program (wait for it first, or the call compiles again).
+    For the trace fit, whose features solve runs while its trace program compiles."""
     lowered = [_solve_starts.lower(*args) for args in calls]
-    pool = concurrent.futures.ThreadPoolExecutor(len(lowered))
-    futures = [pool.submit(low.compile) for low in lowered]
-    pool.shutdown(wait=False)
-    return futures
+    futures = compile_in_background({i: low.compile for i, low in enumerate(lowered)})
+    return [futures[i] for i in range(len(lowered))]
 
 
 def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps):

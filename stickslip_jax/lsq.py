@@ -73,55 +73,58 @@ LAMBDA_AFTER_REJECT = 1e-3
 
 
 # ------------------------------------------------------------------------ shared update
-def _scaled(A, active):
-    d = jnp.where(active, jnp.diag(A), 1.0)
-    d = jnp.where(d > 0, d, 1.0)
-    s = 1.0 / jnp.sqrt(d)
+def _scaled(A, active, xp=jnp):
+    d = xp.where(active, xp.diag(A), 1.0)
+    d = xp.where(d > 0, d, 1.0)
+    s = 1.0 / xp.sqrt(d)
     mask = active[:, None] & active[None, :]
-    As = jnp.where(mask, A * s[:, None] * s[None, :], 0.0)
+    As = xp.where(mask, A * s[:, None] * s[None, :], 0.0)
     return As, s
 
 
-def damped_step(A: Float[Array, "P P"], g: Float[Array, " P"], lam, active=None):
+def damped_step(A: Float[Array, "P P"], g: Float[Array, " P"], lam, active=None, xp=jnp):
     r"""The Levenberg-Marquardt step $\delta = -(A + \lambda D)^{-1} g$ ($A = J^TJ$,
     $g = J^Tr$, $D$ = diag(A)) over the `active` parameters (others 0), and the cost
     decrease its linear model predicts, $-(2g^T\delta + \delta^TA\delta)$. Through the
     eigen-decomposition of the scaled $A$: a zero eigenvalue (a direction the data do not
-    determine) gets no step even at $\lambda = 0$."""
-    active = jnp.ones(g.shape, bool) if active is None else jnp.asarray(active, bool)
-    As, s = _scaled(A, active)
-    gs = jnp.where(active, g * s, 0.0)
-    w, V = jnp.linalg.eigh(As)
-    w = jnp.maximum(w, 0.0)
-    floor = jnp.finfo(w.dtype).eps * jnp.max(w) * w.size
-    coef = (V.T @ gs) / jnp.where(w + lam > floor, w + lam, jnp.inf)
-    step = jnp.where(active, -(V @ coef) * s, 0.0)
+    determine) gets no step even at $\lambda = 0$. `xp`: the array namespace (`numpy`
+    for the host driver `solve_host`: no program compiled per parameter count)."""
+    active = xp.ones(g.shape, bool) if active is None else xp.asarray(active, bool)
+    As, s = _scaled(A, active, xp)
+    gs = xp.where(active, g * s, 0.0)
+    w, V = xp.linalg.eigh(As)
+    w = xp.maximum(w, 0.0)
+    floor = xp.finfo(w.dtype).eps * xp.max(w) * w.size
+    coef = (V.T @ gs) / xp.where(w + lam > floor, w + lam, xp.inf)
+    step = xp.where(active, -(V @ coef) * s, 0.0)
     predicted = -(2.0 * g @ step + step @ (A @ step))
     return step, predicted
 
 
-def gauss_newton_decrease(A, g, active=None, rcond: float = 1e-12):
+def gauss_newton_decrease(A, g, active=None, rcond: float = 1e-12, xp=jnp):
     r"""Cost decrease of the full Gauss-Newton step, $g^TA^+g$ (pseudo-inverse over the
     `active` parameters; singular values below `rcond` of the largest dropped): the
-    stationarity test (for whitened residuals, a chi-square still to gain)."""
-    active = jnp.ones(g.shape, bool) if active is None else jnp.asarray(active, bool)
-    As, s = _scaled(A, active)
-    gs = jnp.where(active, g * s, 0.0)
-    w, V = jnp.linalg.eigh(As)
-    keep = w > rcond * jnp.max(jnp.abs(w))
+    stationarity test (for whitened residuals, a chi-square still to gain). `xp`: as in
+    `damped_step`."""
+    active = xp.ones(g.shape, bool) if active is None else xp.asarray(active, bool)
+    As, s = _scaled(A, active, xp)
+    gs = xp.where(active, g * s, 0.0)
+    w, V = xp.linalg.eigh(As)
+    keep = w > rcond * xp.max(xp.abs(w))
     proj = V.T @ gs
-    return jnp.sum(jnp.where(keep, proj**2 / jnp.where(keep, w, 1.0), 0.0))
+    return xp.sum(xp.where(keep, proj**2 / xp.where(keep, w, 1.0), 0.0))
 
 
-def nielsen_update(lam, nu, accept, rho):
+def nielsen_update(lam, nu, accept, rho, xp=jnp):
     r"""Nielsen's damping update: after an accepted step
     $\lambda\max(1/3, 1 - (2\rho-1)^3)$ and $\nu = 2$; after a rejected one $\lambda\nu$
-    (at least `LAMBDA_AFTER_REJECT`) and $\nu \leftarrow 2\nu$."""
-    lam_acc = jnp.maximum(lam * jnp.maximum(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3),
-                          LAMBDA_MIN)
-    lam_rej = jnp.where(lam < LAMBDA_AFTER_REJECT, jnp.maximum(lam * nu, LAMBDA_AFTER_REJECT),
-                        lam * nu)
-    return jnp.where(accept, lam_acc, lam_rej), jnp.where(accept, 2.0, 2.0 * nu)
+    (at least `LAMBDA_AFTER_REJECT`) and $\nu \leftarrow 2\nu$. `xp`: as in
+    `damped_step`."""
+    lam_acc = xp.maximum(lam * xp.maximum(1.0 / 3.0, 1.0 - (2.0 * rho - 1.0) ** 3),
+                         LAMBDA_MIN)
+    lam_rej = xp.where(lam < LAMBDA_AFTER_REJECT, xp.maximum(lam * nu, LAMBDA_AFTER_REJECT),
+                       lam * nu)
+    return xp.where(accept, lam_acc, lam_rej), xp.where(accept, 2.0, 2.0 * nu)
 
 
 def gauss_newton_covariance(J, scale: float = 1.0, rcond: float = 1e-13) -> np.ndarray:
@@ -136,8 +139,8 @@ def gauss_newton_covariance(J, scale: float = 1.0, rcond: float = 1e-13) -> np.n
     return np.linalg.pinv(J.T @ J, rcond=rcond, hermitian=True) * float(scale)
 
 
-def _flat(cost, cost_new, rounding):
-    return jnp.abs(cost_new - cost) <= rounding * jnp.abs(cost)
+def _flat(cost, cost_new, rounding, xp=jnp):
+    return xp.abs(cost_new - cost) <= rounding * xp.abs(cost)
 
 
 # ------------------------------------------------------------------------ optimistix solver
@@ -321,20 +324,21 @@ def solve_host(evaluate, z0, *, active=None, max_evals: int = 25, chi2_tol: floa
     history, best = [cost], [cost]
     while n_evals < max_evals:
         A, g = J.T @ J, J.T @ r
-        if float(gauss_newton_decrease(A, g, active)) < chi2_tol:
+        if float(gauss_newton_decrease(A, g, active, xp=np)) < chi2_tol:
             converged = True
             break
-        step, pred = (np.asarray(x) for x in damped_step(A, g, lam, active))
+        step, pred = damped_step(A, g, lam, active, xp=np)
+        pred = float(pred)
         z_try = z + step
         r_try, J_try, ok_try = evaluate(z_try)
         n_evals += 1
         good = bool(ok_try) and bool(np.all(np.isfinite(r_try)))
         cost_try = float(r_try @ r_try) if good else np.inf
         history.append(cost_try)
-        flat = good and bool(_flat(cost, cost_try, rounding))
+        flat = good and bool(_flat(cost, cost_try, rounding, np))
         accept = good and (cost_try < cost or flat)
         rho = (cost - cost_try) / float(pred) if (good and pred > 0) else 0.0
-        lam, nu = (float(x) for x in nielsen_update(lam, nu, accept, rho))
+        lam, nu = (float(x) for x in nielsen_update(lam, nu, accept, rho, xp=np))
         if accept:
             z, r, J, ok, cost = z_try, r_try, J_try, ok_try, cost_try
         best.append(cost)

@@ -117,3 +117,25 @@ def test_nielsen_update():
     assert float(lam) == pytest.approx(1e-2 / 3) and float(nu) == 2.0
     lam, nu = nielsen_update(1e-5, 4.0, False, 0.0)  # rejected: at least 1e-3, nu doubles
     assert float(lam) == pytest.approx(1e-3) and float(nu) == 8.0
+
+
+def test_host_namespace_gives_the_same_update():
+    """`solve_host` runs the shared update in NumPy (`xp=np`: no program compiled per
+    parameter count); it is the same update as the JAX one."""
+    rng = np.random.default_rng(3)
+    J = rng.normal(size=(50, 5)) * np.array([1.0, 10.0, 1e-3, 2.0, 1.0])
+    J[:, 4] = J[:, 0]  # rank deficient
+    r = rng.normal(size=50)
+    A, g = J.T @ J, J.T @ r
+    active = np.array([True, True, True, False, True])
+    for lam in (0.0, 1e-3, 10.0):
+        s_np, p_np = damped_step(A, g, lam, active, xp=np)
+        s_j, p_j = damped_step(jnp.asarray(A), jnp.asarray(g), lam, jnp.asarray(active))
+        assert isinstance(s_np, np.ndarray)
+        np.testing.assert_allclose(s_np, np.asarray(s_j), rtol=1e-8, atol=1e-12)
+        np.testing.assert_allclose(p_np, float(p_j), rtol=1e-8)
+    np.testing.assert_allclose(gauss_newton_decrease(A, g, active, xp=np),
+                               float(gauss_newton_decrease(A, g, active)), rtol=1e-8)
+    for accept, rho in ((True, 0.9), (False, 0.0), (True, 0.1)):
+        np.testing.assert_allclose(nielsen_update(1e-2, 2.0, accept, rho, xp=np),
+                                   [float(x) for x in nielsen_update(1e-2, 2.0, accept, rho)])

@@ -56,13 +56,12 @@ family: a record's rows depend only on its own, so the base model's 6 + R column
 
 from __future__ import annotations
 
-import concurrent.futures
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from stickslip_jax.compilation import compile_in_background
 from stickslip_jax.numerics import safe_power
 from stickslip_jax.units import G_MM_S2
 
@@ -623,20 +622,17 @@ class CycleModel:
 
     def warm(self) -> dict:
         """Compile the programs of `residuals` and `evaluate` in a background thread while
-        the caller works (XLA compiles without the GIL; on a campaign of 0.4 M samples
-        each takes 1.5-4.5 s): without the sensor kernel first (`residuals`, then
-        `evaluate`), then with it. Returns {("evaluate" | "residuals", sensor): Future};
-        wait for a program's future before its first call (a call while it is still
-        compiling compiles it a second time)."""
+        the caller works (`stickslip_jax.compilation`: one XLA compilation at a time; on
+        a campaign of 0.4 M samples each takes 1.5-5 s): without the sensor kernel first
+        (`residuals`, then `evaluate`), then with it. Returns {("evaluate" | "residuals",
+        sensor): Future}; wait for a program's future before its first call (a call while
+        it is still compiling compiles it a second time)."""
         z = np.zeros(self.layout.size)
-        pool = concurrent.futures.ThreadPoolExecutor(1)
-        jobs = {("residuals", False): lambda: self.residuals(z),
-                ("evaluate", False): lambda: self.evaluate(z, [0]),
-                ("residuals", True): lambda: self.residuals(z, sensor=True),
-                ("evaluate", True): lambda: self.evaluate(z, [0], sensor=True)}
-        futures = {k: pool.submit(job) for k, job in jobs.items()}
-        pool.shutdown(wait=False)
-        return futures
+        return compile_in_background({
+            ("residuals", False): lambda: self.residuals(z),
+            ("evaluate", False): lambda: self.evaluate(z, [0]),
+            ("residuals", True): lambda: self.residuals(z, sensor=True),
+            ("evaluate", True): lambda: self.evaluate(z, [0], sensor=True)})
 
     def _tangents(self, cols):
         """Group `cols` into tangents (Jacobian compression): a record's rows depend only
