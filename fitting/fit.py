@@ -43,7 +43,6 @@ import numpy as np
 import optimistix as optx
 import jax.flatten_util  # noqa: F401
 
-from stickslip_jax.compilation import compile_in_background
 from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_decrease
 from stickslip_jax.modes import GaugeOffset, SlipTime
 
@@ -253,18 +252,6 @@ def _first_round(free_starts, static, objective, rtol, atol, max_steps):
             objective, rtol, atol, max_steps)
 
 
-def _compile_together(calls):
-    """Compile the solves `calls` (argument tuples of `_solve_starts`) ahead of use: traced
-    one after another (Python), then compiled by XLA one after the other in a background
-    thread (`stickslip_jax.compilation`: two compilations at once are not safe), while the
-    caller goes on. Returns one future per call: once it is done, calls with arguments of
-    the same structure reuse its program (wait for it first, or the call compiles again).
-    For the trace fit, whose features solve runs while its trace program compiles."""
-    lowered = [_solve_starts.lower(*args) for args in calls]
-    futures = compile_in_background({i: low.compile for i, low in enumerate(lowered)})
-    return [futures[i] for i in range(len(lowered))]
-
-
 def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps):
     """Levenberg-Marquardt with effective-variance weights by iterative reweighting.
 
@@ -391,14 +378,10 @@ def fit_features(
 
         problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
                                     reslip)
-        features_ready, trace_ready = _compile_together([
-            _first_round(problem.free_starts, problem.static, problem.objective, rtol, atol,
-                         max_steps),
-            _first_round(_stack([_take(problem.free_starts, 0)]), problem.static,
-                         objective_of(problem.data), t_rtol, t_atol, t_steps)])
-        features_ready.result()
-        first = _fit_problem(problem, features, rtol, atol, max_steps)  # trace still compiling
-        trace_ready.result()
+        # the two solves compile one after the other, in this thread (compiled in
+        # background threads at the same time, the process crashed in XLA's compiler in
+        # 2 of about 120 discovery campaigns: session 20)
+        first = _fit_problem(problem, features, rtol, atol, max_steps)
         return _refine(first, objective_of(first.data), t_rtol, t_atol, t_steps)
     problem_of = lambda fs: _features_problem(fs, fixed, offset, slip_time, starts,  # noqa: E731
                                               pad_cycles, reslip)

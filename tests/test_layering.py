@@ -12,13 +12,6 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 PACKAGES = ("stickslip_jax", "fitting")
-THIRD_PARTY_INTERNALS = {
-    # the one place that reaches into jax: the compilation gate (one XLA compilation at
-    # a time, `stickslip_jax.compilation`), which falls back to compiling in the
-    # caller's thread when jax moves the function; tests/test_compilation.py checks that
-    # compilations still pass through it
-    ("stickslip_jax/compilation.py", "jax._src"),
-}
 
 
 def _modules(*packages):
@@ -81,9 +74,7 @@ def test_no_private_module_imported_from_outside_its_package():
                 paths += [paths[0] + [n] for n in names if _private(n)]
             for parts in paths:
                 i = next((i for i, part in enumerate(parts) if _private(part)), None)
-                if i is None or here[:i] == parts[:i]:
-                    continue
-                if (str(path.relative_to(ROOT)), ".".join(parts[:i + 1])) not in THIRD_PARTY_INTERNALS:
+                if i is not None and here[:i] != parts[:i]:
                     bad.append(f"{path.relative_to(ROOT)}:{node.lineno}: {'.'.join(parts[:i + 1])}")
     assert not bad, "private modules imported from outside their package:\n" + "\n".join(bad)
 

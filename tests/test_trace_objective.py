@@ -53,9 +53,9 @@ def trace_fit(trace_fit_and_compiles):
 
 
 def test_trace_fit_compiles_two_programs(trace_fit_and_compiles):
-    # the features and trace solves are compiled together ahead of the fit
-    # (stickslip_fitting.fit._compile_together); the fit itself must then compile nothing: had
-    # the arguments' structure differed, XLA would compile them again (4 programs)
+    # one program for the features solve and one for the trace solve, each compiled once
+    # for all its rounds: had the arguments' structure differed between rounds, XLA
+    # would compile them again (4 programs or more)
     _, compiled = trace_fit_and_compiles
     assert compiled <= 2  # fewer where this process compiled the layout before
 

@@ -61,7 +61,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from stickslip_jax.compilation import compile_in_background
 from stickslip_jax.numerics import safe_power
 from stickslip_jax.units import G_MM_S2
 
@@ -619,20 +618,6 @@ class CycleModel:
         r, yd, ok = _value(jnp.asarray(z), self._scales, self._shape(shape), bool(sensor),
                            self.data, self.tref, self._prev, self.sd, self.layout)
         return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
-
-    def warm(self) -> dict:
-        """Compile the programs of `residuals` and `evaluate` in a background thread while
-        the caller works (`stickslip_jax.compilation`: one XLA compilation at a time; on
-        a campaign of 0.4 M samples each takes 1.5-5 s): without the sensor kernel first
-        (`residuals`, then `evaluate`), then with it. Returns {("evaluate" | "residuals",
-        sensor): Future}; wait for a program's future before its first call (a call while
-        it is still compiling compiles it a second time)."""
-        z = np.zeros(self.layout.size)
-        return compile_in_background({
-            ("residuals", False): lambda: self.residuals(z),
-            ("evaluate", False): lambda: self.evaluate(z, [0]),
-            ("residuals", True): lambda: self.residuals(z, sensor=True),
-            ("evaluate", True): lambda: self.evaluate(z, [0], sensor=True)})
 
     def _tangents(self, cols):
         """Group `cols` into tangents (Jacobian compression): a record's rows depend only

@@ -710,9 +710,9 @@ def discover_cycles(
                          "nothing to fit (check the records: a sensor ringing at the "
                          "slideway's own frequency or slips that never re-stick)") from None
     G = len(recs)
-    # the per-cycle model's programs compile in a background thread meanwhile
-    warm = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape),
-                      G).warm()
+    # the per-cycle model's programs compile at their first use, in this thread
+    # (compiled in a background thread meanwhile, the process crashed in XLA's compiler
+    # in 2 of about 120 discovery campaigns of the slow tests: session 20)
     start = fit_features(feats)
     # weights (effective variance) at the start, refreshed once at the base optimum
     model = CycleModel(data, drift_origins(recs),
@@ -721,7 +721,6 @@ def discover_cycles(
     z_start = z_features.copy()
     t2_of = np.pi / np.sqrt(np.asarray(data.stiffness) * G_MM_S2 / np.asarray(data.weight))
     z_start[:6] = plausible_start(z_start[:6], np.asarray(data.stick_time), t2_of)
-    warm["residuals", False].result()
     _, yd, ok = model.residuals(z_start)
     # a cycle window the paper's model cannot reproduce at the start (no breakaway, or a
     # slip that does not end within 2.5 pi/omega_0: e.g. a strong Stribeck drop) is set
@@ -759,7 +758,6 @@ def discover_cycles(
                      + (f"; {failed.size} windows set aside" if failed.size else ""))
 
     base_cols = np.arange(model.n_base)
-    warm["evaluate", False].result()
     sub = _Sub(model, z_start, base_cols)
     fit0 = solve_host(sub.evaluate, z_start[base_cols], max_evals=max_evals)
     z_base = sub.full(fit0.z)
@@ -906,7 +904,6 @@ def discover_cycles(
 
     # the families without shapes share one Jacobian call (one tangent per column)
     plain = [f for f in fams if f.shapes == (Shape(),) and f.name != "sensor_lowpass"]
-    warm["residuals", True].result()
     plain_J = {}
     if plain:
         _, J_all, _ = model.evaluate(z_base, np.concatenate([score_cols(f) for f in plain]))
@@ -997,7 +994,6 @@ def discover_cycles(
     to_refit = (sorted(scores, key=lambda s: -s.chi2_predicted) if misfit
                 else significant[:top])
     refits: list[_Refit] = []
-    warm["evaluate", True].result()
 
     def refit(sc: _Score) -> _Refit:
         """The family of `sc` refitted with the base: the sensor with its two kernels
