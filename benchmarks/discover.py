@@ -15,7 +15,11 @@ campaign in the same process (run time alone). Target: total under 60 s on 2 cor
 ranking 5.5-10.3, refit 12.6-13.2, total 45.3-52.9 s (was 113-206 s before the Jacobian
 compression, the FFT sensor kernel and the vectorised pitch scan of issue 18). Session 19,
 on a slower machine (the warm trace fit 3.0-4.0 s against 2.0 s before): 75.1-81.1 s,
-18.7-27.5x one trace fit.
+18.7-27.5x one trace fit. Session 20 (same kind of machine; at its start 70.4 s, 22.6x a
+3.1 s trace fit): a window's slip solved once for all its rows, the Jacobian compacted
+on the device, the weights one compiled program, the host Levenberg-Marquardt update
+in NumPy, and no compilation in background threads (they crashed XLA's compiler):
+47.9 and 51.5 s cold, 28.7 and 32.2 s warm, 11.8-12.6x a 3.8-4.4 s trace fit.
 
 `--base smooth`, the whole-record workflow:
 Builds a synthetic campaign (lubricant A, 3 (W, k) x 4 speeds, 3 cycles per record,
