@@ -56,6 +56,8 @@ family: a record's rows depend only on its own, so the base model's 6 + R column
 
 from __future__ import annotations
 
+import concurrent.futures
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -611,6 +613,27 @@ class CycleModel:
             if first.size:
                 out[g] = float(np.median(est[sel][first]))
         return out
+
+    def warm(self) -> dict:
+        """Compile the programs of `residuals` and `evaluate` in a background thread while
+        the caller works (XLA compiles without the GIL; on a campaign of 0.4 M samples
+        each takes 1.5-5 s): without the sensor kernel first (`residuals`, then
+        `evaluate`), then with it. Returns {("evaluate" | "residuals", sensor): Future};
+        wait for a program's future before its first call (a call while it is still
+        compiling compiles it a second time).
+
+        Session 20 removed this, blaming the thread for crashes in XLA's compiler; the
+        cause was the process's memory-map limit (`stickslip_jax.programs`, session 21),
+        reached with or without the thread."""
+        z = np.zeros(self.layout.size)
+        pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="stickslip-warm")
+        jobs = {("residuals", False): lambda: self.residuals(z),
+                ("evaluate", False): lambda: self.evaluate(z, [0]),
+                ("residuals", True): lambda: self.residuals(z, sensor=True),
+                ("evaluate", True): lambda: self.evaluate(z, [0], sensor=True)}
+        futures = {k: pool.submit(job) for k, job in jobs.items()}
+        pool.shutdown(wait=False)
+        return futures
 
     def residuals(self, z, shape: Shape = Shape(), sensor: bool = False):
         """(whitened residuals flat [n], slider velocity [N, L], ok [N]); `sensor`: the

@@ -82,6 +82,7 @@ import numpy as np
 import scipy.stats
 
 from stickslip_jax.logs import logger
+from stickslip_jax.programs import release_programs
 from stickslip_jax.units import G_MM_S2
 from stickslip_jax.lsq import HostResult, gauss_newton_covariance, solve_host
 
@@ -678,6 +679,9 @@ def discover_cycles(
     errors of the campaign's files that could not be read (`read_campaign_files`), listed
     in the screening.
     """
+    # a process that runs many campaigns would reach its memory-map limit, and die in
+    # XLA's compiler (`stickslip_jax.programs`; the slow tests did, session 20)
+    released = release_programs()
     fams = [family(n) for n in candidates] if candidates else list(FAMILIES)
     timings = {}
     clock = [time.perf_counter()]
@@ -688,6 +692,10 @@ def discover_cycles(
         clock[0] = now
         if progress is not None:
             progress(f"{name}: {line} ({timings[name]:.1f} s)")
+
+    if released.released and progress is not None:
+        progress(f"memory: JAX's compiled programs dropped ({released.maps_before} -> "
+                 f"{released.maps_after} memory maps, limit {released.limit})")
 
     campaign = screen_records(list(records), strict=strict, unreadable=unreadable)
     recs, feats = campaign.records, campaign.features
@@ -710,9 +718,9 @@ def discover_cycles(
                          "nothing to fit (check the records: a sensor ringing at the "
                          "slideway's own frequency or slips that never re-stick)") from None
     G = len(recs)
-    # the per-cycle model's programs compile at their first use, in this thread
-    # (compiled in a background thread meanwhile, the process crashed in XLA's compiler
-    # in 2 of about 120 discovery campaigns of the slow tests: session 20)
+    # the per-cycle model's programs compile in a background thread meanwhile
+    warm = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape),
+                      G).warm()
     start = fit_features(feats)
     # weights (effective variance) at the start, refreshed once at the base optimum
     model = CycleModel(data, drift_origins(recs),
@@ -721,6 +729,7 @@ def discover_cycles(
     z_start = z_features.copy()
     t2_of = np.pi / np.sqrt(np.asarray(data.stiffness) * G_MM_S2 / np.asarray(data.weight))
     z_start[:6] = plausible_start(z_start[:6], np.asarray(data.stick_time), t2_of)
+    warm["residuals", False].result()
     _, yd, ok = model.residuals(z_start)
     # a cycle window the paper's model cannot reproduce at the start (no breakaway, or a
     # slip that does not end within 2.5 pi/omega_0: e.g. a strong Stribeck drop) is set
@@ -758,6 +767,7 @@ def discover_cycles(
                      + (f"; {failed.size} windows set aside" if failed.size else ""))
 
     base_cols = np.arange(model.n_base)
+    warm["evaluate", False].result()
     sub = _Sub(model, z_start, base_cols)
     fit0 = solve_host(sub.evaluate, z_start[base_cols], max_evals=max_evals)
     z_base = sub.full(fit0.z)
@@ -904,6 +914,7 @@ def discover_cycles(
 
     # the families without shapes share one Jacobian call (one tangent per column)
     plain = [f for f in fams if f.shapes == (Shape(),) and f.name != "sensor_lowpass"]
+    warm["residuals", True].result()
     plain_J = {}
     if plain:
         _, J_all, _ = model.evaluate(z_base, np.concatenate([score_cols(f) for f in plain]))
@@ -994,6 +1005,7 @@ def discover_cycles(
     to_refit = (sorted(scores, key=lambda s: -s.chi2_predicted) if misfit
                 else significant[:top])
     refits: list[_Refit] = []
+    warm["evaluate", True].result()
 
     def refit(sc: _Score) -> _Refit:
         """The family of `sc` refitted with the base: the sensor with its two kernels
