@@ -352,6 +352,9 @@ def fit_features(
     would otherwise die in XLA's compiler).
     """
     release_programs()
+    if not features:
+        raise ValueError("fit_features: no records to fit (features is empty); a campaign "
+                         "needs the features of at least one record (record_features)")
     offset = GaugeOffset.parse(offset, "offset")
     slip_time = SlipTime.parse(slip_time)
     objective = Objective.parse(objective)

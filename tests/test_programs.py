@@ -49,3 +49,21 @@ def test_nothing_released_below_the_fraction():
 def test_a_fraction_outside_zero_to_one_is_refused():
     with pytest.raises(ValueError, match="fraction"):
         release_programs(0.0)
+
+
+def test_the_campaign_verbs_release_first(monkeypatch):
+    """fit_features and discover_cycles check the maps before anything else (a campaign
+    that is refused still checked them)."""
+    from stickslip_fitting import fit as fit_module
+    from stickslip_fitting.discovery import cycle_workflow
+
+    calls = []
+    spy = lambda *a, **k: calls.append(1) or release_programs(1.0)  # noqa: E731
+    monkeypatch.setattr(fit_module, "release_programs", spy)
+    monkeypatch.setattr(cycle_workflow, "release_programs", spy)
+    with pytest.raises(ValueError, match="no records to fit"):
+        fit_module.fit_features([])
+    assert len(calls) == 1
+    with pytest.raises(ValueError, match="usable stick-slip"):
+        cycle_workflow.discover_cycles([])
+    assert len(calls) == 2
