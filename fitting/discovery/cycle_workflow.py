@@ -646,6 +646,13 @@ def noise_of(data) -> float:
     return float(np.sqrt(np.mean(np.asarray(data.sigma)[np.asarray(data.mask).any(1)] ** 2)))
 
 
+def _cancel(warm: dict):
+    """Cancel the warm-up jobs (`CycleModel.warm`) that have not started (a campaign
+    refused after the warm-up began: its programs are not needed)."""
+    for f in warm.values():
+        f.cancel()
+
+
 def discover_cycles(
     records,
     *,
@@ -721,7 +728,11 @@ def discover_cycles(
     # the per-cycle model's programs compile in a background thread meanwhile
     warm = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape),
                       G).warm()
-    start = fit_features(feats)
+    try:
+        start = fit_features(feats)
+    except BaseException:  # the jobs not yet started are not compiled for nothing
+        _cancel(warm)
+        raise
     # weights (effective variance) at the start, refreshed once at the base optimum
     model = CycleModel(data, drift_origins(recs),
                        np.ones(np.asarray(data.mask).shape), G)
@@ -740,6 +751,7 @@ def discover_cycles(
     if failed.size:
         keep = ~np.isin(np.asarray(data.window), failed)
         if not np.any(keep & has):
+            _cancel(warm)
             raise ValueError("the paper's model reproduces none of the campaign's cycle "
                              "windows at the features' parameters (no breakaway, or slips "
                              "that do not end); check the records' stick-slip")
