@@ -18,8 +18,11 @@ on a slower machine (the warm trace fit 3.0-4.0 s against 2.0 s before): 75.1-81
 18.7-27.5x one trace fit. Session 20 (same kind of machine; at its start 70.4 s, 22.6x a
 3.1 s trace fit): a window's slip solved once for all its rows, the Jacobian compacted
 on the device, the weights one compiled program, the host Levenberg-Marquardt update
-in NumPy, and no compilation in background threads (they crashed XLA's compiler):
-47.9 and 51.5 s cold, 28.7 and 32.2 s warm, 11.8-12.6x a 3.8-4.4 s trace fit.
+in NumPy, and no compilation in background threads (blamed for crashes in XLA's
+compiler): 47.9 and 51.5 s cold, 28.7 and 32.2 s warm, 11.8-12.6x a 3.8-4.4 s trace fit.
+Session 21: the crashes were the process's memory-map limit (`stickslip_jax.programs`),
+so the model's warm-up thread is back: 55.2, 48.9 and 46.1 s cold (35.2 s warm),
+10.0-12.4x a 3.9-4.6 s trace fit.
 
 `--base smooth`, the whole-record workflow:
 Builds a synthetic campaign (lubricant A, 3 (W, k) x 4 speeds, 3 cycles per record,
