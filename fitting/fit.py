@@ -352,14 +352,14 @@ def fit_features(
     would otherwise die in XLA's compiler).
     """
     release_programs()
-    if not features:
-        raise ValueError("fit_features: no records to fit (features is empty); a campaign "
-                         "needs the features of at least one record (record_features)")
     offset = GaugeOffset.parse(offset, "offset")
     slip_time = SlipTime.parse(slip_time)
     objective = Objective.parse(objective)
     if objective.needs_records and records is None:
         raise ValueError(f"objective {objective.value!r} needs the records (records=...)")
+    if not features:
+        raise ValueError("fit_features: no records to fit (features is empty); a campaign "
+                         "needs the features of at least one record (record_features)")
     if loss is not None and not isinstance(loss, Gaussian):
         kw = dict(fixed=fixed, offset=offset, slip_time=slip_time, starts=starts, rtol=rtol,
                   atol=atol, max_steps=max_steps, pad_cycles=pad_cycles, records=records,
