@@ -10,19 +10,13 @@ samples, a damping ratio of 0.1 hidden), `discover_cycles` timed by stage, compi
 included (a fresh process), against one `fit --objective trace` of the same campaign
 in the same process afterwards (warm). The cold column is the first run of a fresh
 process (compilation included: the target), the warm one a second run of the same
-campaign in the same process (run time alone). Target: total under 60 s on 2 cores. Measured
-(2 cores shared with other jobs, load 2-5): prepare 22.9-23.7 s, base fit 4.1-5.6,
-ranking 5.5-10.3, refit 12.6-13.2, total 45.3-52.9 s (was 113-206 s before the Jacobian
-compression, the FFT sensor kernel and the vectorised pitch scan of issue 18). Session 19,
-on a slower machine (the warm trace fit 3.0-4.0 s against 2.0 s before): 75.1-81.1 s,
-18.7-27.5x one trace fit. Session 20 (same kind of machine; at its start 70.4 s, 22.6x a
-3.1 s trace fit): a window's slip solved once for all its rows, the Jacobian compacted
-on the device, the weights one compiled program, the host Levenberg-Marquardt update
-in NumPy, and no compilation in background threads (blamed for crashes in XLA's
-compiler): 47.9 and 51.5 s cold, 28.7 and 32.2 s warm, 11.8-12.6x a 3.8-4.4 s trace fit.
-Session 21: the crashes were the process's memory-map limit (`stickslip_jax.programs`),
-so the model's warm-up thread is back: 55.2, 48.9 and 46.1 s cold (35.2 s warm),
-10.0-12.4x a 3.9-4.6 s trace fit.
+campaign in the same process (run time alone). Target: total under 60 s on 2 cores.
+Measured on 2 cores shared with other jobs: 55.2, 48.9 and 46.1 s cold (35.2 s warm),
+10.0-12.4x a 3.9-4.6 s trace fit. What the time rests on: the compressed Jacobian
+(compacted on the device), the FFT sensor kernel, the vectorised pitch scan, a window's
+slip solved once for all its rows, the weights as one compiled program, the host
+Levenberg-Marquardt update in NumPy, and the model's programs compiled in a warm-up
+thread while the campaign is prepared.
 
 `--base smooth`, the whole-record workflow:
 Builds a synthetic campaign (lubricant A, 3 (W, k) x 4 speeds, 3 cycles per record,

@@ -7,7 +7,7 @@ then reads it with `stickslip_jax.records.read_campaign`:
 
 - `fast`: the reader as shipped (NumPy's C parser over all rows; the checked parser only
   when that fails, to name the bad line);
-- `checked`: the row-by-row regex parser alone (the reader before the fast path), by
+- `checked`: the row-by-row regex parser alone (the fallback that names a bad line), by
   routing `_parse_data` to `_parse_data_checked`;
 - `numpy.loadtxt` of the data rows alone (no header, no checks) for reference.
 

@@ -31,7 +31,7 @@ command line and in JSON: a `stickslip_fitting.modes.Objective`, "features", "tr
 "both", "smooth"; a weighted sum of other terms is named by theirs joined with "+").
 `make_objective(kind, features, trace, weights=..., slip_time=...)` builds one by name
 (an `Objective` or its value, validated once there);
-`CampaignObjective` is the old name of that factory. `slip_time` is a
+`CampaignObjective` is a deprecated alias of that factory. `slip_time` is a
 `stickslip_jax.modes.SlipTime` (its string works too: the field converts it once, when
 the objective is built).
 

@@ -154,9 +154,9 @@ NOISE_FLOOR = 1e-5
 """Smallest noise standard deviation a record is given (mm; 10 nm): the order of the best
 displacement gauges on slideways (measured records here: 0.5-1.5 um). A noise-free
 (simulated) record would otherwise get intervals that measure only the simulator's
-rounding (issue 21: delta 73.03 +- 1e-8 for a truth of 67 from noise-free records; on
-noise-free smoothed-simulator records, smoothing 1e-3, the 95 % intervals missed mu_s
-by 0.07 % with a standard error of 3e-5 relative before the floor)."""
+rounding (measured without the floor: delta 73.03 +- 1e-8 for a truth of 67 from
+noise-free records; on noise-free smoothed-simulator records, smoothing 1e-3, the 95 %
+intervals missed mu_s by 0.07 % with a standard error of 3e-5 relative)."""
 
 
 def _robust_sigma(x: np.ndarray) -> float:

@@ -388,8 +388,8 @@ def fit_features(
         problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
                                     reslip)
         # the two solves compile one after the other, in this thread (compiling the
-        # trace solve in a background thread meanwhile saved nothing measurable: 3.1 s
-        # including compilation either way, session 20)
+        # trace solve in a background thread meanwhile saves nothing measurable: 3.1 s
+        # including compilation either way)
         first = _fit_problem(problem, features, rtol, atol, max_steps)
         return _refine(first, objective_of(first.data), t_rtol, t_atol, t_steps)
     problem_of = lambda fs: _features_problem(fs, fixed, offset, slip_time, starts,  # noqa: E731

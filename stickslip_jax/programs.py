@@ -1,7 +1,7 @@
 """Compiled programs and the process's memory maps: their release between campaigns.
 
 XLA's CPU backend loads each kernel of a compiled program as its own memory mappings
-(code, read-only data, data). Measured (session 21): 18 maps for a small program, about
+(code, read-only data, data). Measured: 18 maps for a small program, about
 100 for a test program of 30 matrix and FFT steps, about 2,400 for a discovery campaign.
 JAX keeps every compiled program, and each campaign's shapes compile new ones.
 

@@ -88,7 +88,8 @@ DEFAULT_UNIT = {
 }
 """The unit of a bare number on the command line, one per quantity in every command
 (`stickslip_jax.commands.options.quantity`). Viscosity is in Pa*s, the SI unit labs use
-(`fit --eta` took kgf*s/mm^2 until issue 17; its bare numbers below 1e-5 are refused)."""
+(a bare viscosity below 1e-5 Pa*s, thinner than air, is refused: it is a value in the
+paper's unit, kgf*s/mm^2, written without its unit; `commands.options.viscosity`)."""
 
 
 class UnitError(ValueError):

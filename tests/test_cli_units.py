@@ -46,13 +46,13 @@ def test_a_bare_viscosity_is_pa_s(command, option):
 
 
 @pytest.mark.parametrize("command, option", [("fit", "--eta"), ("pitch", "--viscosity")])
-def test_a_bare_value_of_the_old_unit_is_refused(command, option, capsys):
+def test_a_bare_value_thinner_than_air_is_refused(command, option, capsys):
     with pytest.raises(SystemExit) as exc:
         main([command, "missing.csv", option, "2.2e-8"])
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1, err
-    assert f"argument {option}: a bare viscosity is in Pa*s now" in err[0]
+    assert f"argument {option}: a bare viscosity is in Pa*s (the default unit" in err[0]
     assert "'2.2e-8 kgf*s/mm^2' (= 0.2157 Pa*s)" in err[0]
 
 

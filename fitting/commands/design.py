@@ -279,8 +279,8 @@ JSON_ALIASES = {
 }
 """JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
 their old names, still written beside them for one release (`deprecated_keys`). The
---csv columns have the same new names (`CSV_COLUMNS`; a CSV header cannot carry aliases,
-so they were renamed at once)."""
+--csv columns have the same names (`CSV_COLUMNS`) and no aliases (a CSV header cannot
+carry them)."""
 
 
 def to_json(args, res) -> dict:
@@ -539,8 +539,8 @@ CSV_COLUMNS = (  # (key in the map, column, factor from internal units)
 def long_csv(res) -> str:
     """The map as long-format CSV text: columns weight_kgf, stiffness_kgf_per_mm,
     drive_speed_mm_per_min, then every quantity the map has (`CSV_COLUMNS`), `regime` by
-    name and, with --max-amplitude, `probability_met`; the JSON's key names (the columns
-    `stiffness_kgf_mm`, `speed_mm_min`, `critical_speed_mm_min` until issue 20)."""
+    name and, with --max-amplitude, `probability_met`; the JSON's key names (a CSV header
+    cannot carry the JSON's deprecated aliases, `JSON_ALIASES`)."""
     from stickslip_jax.steady import REGIMES
 
     from ..design import outer

@@ -3,8 +3,8 @@
 Default (`--base cycle`): the per-cycle model of `stickslip fit --objective trace`
 (every cycle restarted at its measured slip end), a robust score test of every effect
 family, refits of the significant ones, and a named effect, "none" or "unexplained"
-(`stickslip_fitting.discovery.cycle_workflow`). `--base smooth`: the earlier workflow on the
-smoothed simulator over whole records (`stickslip_fitting.discovery.workflow`: BIC choice).
+(`stickslip_fitting.discovery.cycle_workflow`). `--base smooth`: the whole-record workflow on
+the smoothed simulator over whole records (`stickslip_fitting.discovery.workflow`: BIC choice).
 Progress lines go to stderr (`--quiet` turns them off). Prints the answer,
 the gap (residual RMS) before and after, the candidate table and the parameters
 before and after. `--json OUT` writes {"effect", "explanation", "gap_before",

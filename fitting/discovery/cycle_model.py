@@ -622,9 +622,9 @@ class CycleModel:
         wait for a program's future before its first call (a call while it is still
         compiling compiles it a second time).
 
-        Session 20 removed this, blaming the thread for crashes in XLA's compiler; the
-        cause was the process's memory-map limit (`stickslip_jax.programs`, session 21),
-        reached with or without the thread."""
+        The thread is not what crashes XLA's compiler in a long process: that is the
+        process's memory-map limit (`stickslip_jax.programs`), reached with or without
+        the thread."""
         z = np.zeros(self.layout.size)
         pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="stickslip-warm")
         jobs = {("residuals", False): lambda: self.residuals(z),

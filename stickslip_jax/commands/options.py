@@ -79,14 +79,14 @@ def add_quiet_option(parser, *, hidden=()) -> None:
 
 BARE_VISCOSITY_FLOOR = 1e-5
 """Pa*s. A bare viscosity below it (thinner than air, 1.8e-5 Pa*s) is a value written in
-the old default unit of `fit --eta`, kgf*s/mm^2 (lubricant A: 2.2e-8), and is refused."""
+the paper's unit, kgf*s/mm^2 (lubricant A: 2.2e-8), and is refused."""
 
 
 def viscosity():
     """argparse type of a viscosity: a bare number in Pa*s (`units.DEFAULT_UNIT`, every
     command), or any unit: `0.216 Pa*s`, `216 cP`, `2.2e-8 kgf*s/mm^2`,
     `230 cSt at 870 kg/m^3`. A bare number below `BARE_VISCOSITY_FLOOR` is refused with
-    how to write it in kgf*s/mm^2 (the old unit of `--eta`)."""
+    how to write it in kgf*s/mm^2 (the paper's unit)."""
     parse_default = quantity("viscosity", "Pa*s")
 
     def parse(text: str) -> float:
@@ -100,9 +100,9 @@ def viscosity():
             old = f"{text.strip()} kgf*s/mm^2"
             pa_s = from_internal(parse_default(old), "Pa*s", "viscosity")
             raise argparse.ArgumentTypeError(
-                f"a bare viscosity is in Pa*s now (the default unit of every command; --eta "
-                f"took kgf*s/mm^2 before), and {text.strip()} Pa*s is thinner than air: write "
-                f"the unit, e.g. '{old}' (= {pa_s:.4g} Pa*s)")
+                f"a bare viscosity is in Pa*s (the default unit of every command), and "
+                f"{text.strip()} Pa*s is thinner than air: write the unit, e.g. '{old}' "
+                f"(= {pa_s:.4g} Pa*s)")
         return parse_default(text)
 
     parse.__name__ = parse_default.__name__
