@@ -10,7 +10,7 @@ import pytest
 
 import stickslip_jax as ss
 from stickslip_fitting.design import maximum_weight, minimum_stiffness
-from stickslip_fitting.design.inverse import _minimum_stiffness
+from stickslip_fitting.design.inverse import _design
 
 FEED = 10.0 / 60  # mm/s
 
@@ -76,7 +76,7 @@ def test_tight_tolerance_is_set_by_the_critical_speed(lub_a):
     assert not bool(tight.limited_by_amplitude)
     np.testing.assert_allclose(tight.value, plain.value, rtol=1e-12)
     # new float values of W, feed and tolerance reuse the compiled solver
-    compiled = _minimum_stiffness._cached
+    compiled = _design._cached
     before = compiled._cache_size()
     minimum_stiffness(lub_a, 40.0, 2 * FEED, 2e-6)
     minimum_stiffness(lub_a, 41.0, 3 * FEED)

@@ -53,24 +53,19 @@ def _newton(fn, u0, args, lower, upper, rtol):
                           options=dict(lower=lower, upper=upper))
 
 
-def _log_vc_k(u, args):
-    friction, weight, log_v = args
-    return jnp.log(critical_speed(friction, weight, jnp.exp(u))) - log_v
+def _pair(u, other, for_weight):
+    """(W, k) with the unknown exp(u) in the weight's place or the stiffness's."""
+    return (jnp.exp(u), other) if for_weight else (other, jnp.exp(u))
 
 
-def _log_vc_w(u, args):
-    friction, stiffness, log_v = args
-    return jnp.log(critical_speed(friction, jnp.exp(u), stiffness)) - log_v
+def _log_vc(u, args):
+    friction, other, log_v, for_weight = args
+    return jnp.log(critical_speed(friction, *_pair(u, other, for_weight))) - log_v
 
 
-def _log_a_k(u, args):
-    friction, weight, speed, log_tol = args
-    return jnp.log(steady_state(friction, weight, jnp.exp(u), speed).amplitude) - log_tol
-
-
-def _log_a_w(u, args):
-    friction, stiffness, speed, log_tol = args
-    return jnp.log(steady_state(friction, jnp.exp(u), stiffness, speed).amplitude) - log_tol
+def _log_a(u, args):
+    friction, other, speed, log_tol, for_weight = args
+    return jnp.log(steady_state(friction, *_pair(u, other, for_weight), speed).amplitude) - log_tol
 
 
 def _check(friction, x, name):
@@ -101,41 +96,8 @@ def minimum_stiffness(
     slider of `weight` W (kgf), or that keeps its amplitude under `amplitude_tolerance`
     (mm). Corrected eq (12) and eqs (5)-(7).
     """
-    return _minimum_stiffness(_leaves(friction), _arr(weight), _arr(feed), _arr(amplitude_tolerance),
-                              rtol)
-
-
-def _leaves(friction):
-    return jax.tree_util.tree_map(
-        lambda x: jnp.asarray(x, dtype=float) if isinstance(x, (int, float)) else x, friction)
-
-
-def _arr(x):
-    # arrays, not Python floats, so that new values do not recompile
-    return None if x is None else jnp.asarray(x, dtype=float)
-
-
-@eqx.filter_jit
-def _minimum_stiffness(friction, weight, feed, amplitude_tolerance, rtol):
-    weight = _check(friction, weight, "weight W")
-    feed = _check(friction, feed, "feed rate v")
-    log_v = jnp.log(feed)
-    sol_c = _newton(_log_vc_k, jnp.log(100.0), (friction, weight, log_v), _LOG_MIN, _LOG_MAX, rtol)
-    u_c = sol_c.value
-    if amplitude_tolerance is None:
-        k = jnp.exp(u_c)
-        vc, amp, by_amp, res = _answer(friction, weight, k, feed, jnp.asarray(False), [sol_c.result])
-        return InverseDesign(k, vc, amp, by_amp, res)
-    tol = _check(friction, amplitude_tolerance, "amplitude_tolerance")
-    # Just below k_c the stick time equals the slip time, eq (5): a = v T0 / 2.
-    a_edge = 0.5 * feed * slip_time(weight, jnp.exp(u_c))
-    by_amp = tol >= a_edge
-    sol_a = _newton(_log_a_k, u_c - _EDGE, (friction, weight, feed, jnp.log(tol)),
-                    _LOG_MIN, u_c - _EDGE, rtol)
-    k = jnp.exp(jnp.where(by_amp, sol_a.value, u_c))
-    res_a = optx.RESULTS.where(by_amp, sol_a.result, optx.RESULTS.successful)
-    vc, amp, by_amp, res = _answer(friction, weight, k, feed, by_amp, [sol_c.result, res_a])
-    return InverseDesign(k, vc, amp, by_amp, res)
+    return _design(_leaves(friction), _arr(weight), _arr(feed), _arr(amplitude_tolerance),
+                   rtol, False)
 
 
 def maximum_weight(
@@ -149,27 +111,48 @@ def maximum_weight(
     drive of `stiffness` k (kgf/mm), or whose stick-slip amplitude stays under
     `amplitude_tolerance` (mm). Corrected eq (12) and eqs (5)-(7).
     """
-    return _maximum_weight(_leaves(friction), _arr(stiffness), _arr(feed), _arr(amplitude_tolerance),
-                           rtol)
+    return _design(_leaves(friction), _arr(stiffness), _arr(feed), _arr(amplitude_tolerance),
+                   rtol, True)
+
+
+def _leaves(friction):
+    return jax.tree_util.tree_map(
+        lambda x: jnp.asarray(x, dtype=float) if isinstance(x, (int, float)) else x, friction)
+
+
+def _arr(x):
+    # arrays, not Python floats, so that new values do not recompile
+    return None if x is None else jnp.asarray(x, dtype=float)
 
 
 @eqx.filter_jit
-def _maximum_weight(friction, stiffness, feed, amplitude_tolerance, rtol):
-    stiffness = _check(friction, stiffness, "stiffness k")
+def _design(friction, other, feed, amplitude_tolerance, rtol, for_weight: bool):
+    """The weight (`for_weight`) or the stiffness at which v_c reaches the feed, or with a
+    tolerance the amplitude reaches it. v_c and a rise with W and fall with k, so the
+    amplitude's root lies above the critical weight and below the critical stiffness."""
+    other = _check(friction, other, "stiffness k" if for_weight else "weight W")
     feed = _check(friction, feed, "feed rate v")
-    log_v = jnp.log(feed)
-    sol_c = _newton(_log_vc_w, jnp.log(30.0), (friction, stiffness, log_v), _LOG_MIN, _LOG_MAX, rtol)
+    u0 = jnp.log(30.0) if for_weight else jnp.log(100.0)
+    sol_c = _newton(_log_vc, u0, (friction, other, jnp.log(feed), for_weight),
+                    _LOG_MIN, _LOG_MAX, rtol)
     u_c = sol_c.value
     if amplitude_tolerance is None:
-        w = jnp.exp(u_c)
-        vc, amp, by_amp, res = _answer(friction, w, stiffness, feed, jnp.asarray(False), [sol_c.result])
-        return InverseDesign(w, vc, amp, by_amp, res)
+        value = jnp.exp(u_c)
+        vc, amp, by_amp, res = _answer(friction, *_pair(u_c, other, for_weight), feed,
+                                       jnp.asarray(False), [sol_c.result])
+        return InverseDesign(value, vc, amp, by_amp, res)
     tol = _check(friction, amplitude_tolerance, "amplitude_tolerance")
-    a_edge = 0.5 * feed * slip_time(jnp.exp(u_c), stiffness)
+    # Just at the critical design the stick time equals the slip time, eq (5): a = v T0 / 2.
+    a_edge = 0.5 * feed * slip_time(*_pair(u_c, other, for_weight))
     by_amp = tol >= a_edge
-    sol_a = _newton(_log_a_w, u_c + _EDGE, (friction, stiffness, feed, jnp.log(tol)),
-                    u_c + _EDGE, _LOG_MAX, rtol)
-    w = jnp.exp(jnp.where(by_amp, sol_a.value, u_c))
+    if for_weight:
+        u_a, lower, upper = u_c + _EDGE, u_c + _EDGE, _LOG_MAX
+    else:
+        u_a, lower, upper = u_c - _EDGE, _LOG_MIN, u_c - _EDGE
+    sol_a = _newton(_log_a, u_a, (friction, other, feed, jnp.log(tol), for_weight),
+                    lower, upper, rtol)
+    u = jnp.where(by_amp, sol_a.value, u_c)
     res_a = optx.RESULTS.where(by_amp, sol_a.result, optx.RESULTS.successful)
-    vc, amp, by_amp, res = _answer(friction, w, stiffness, feed, by_amp, [sol_c.result, res_a])
-    return InverseDesign(w, vc, amp, by_amp, res)
+    vc, amp, by_amp, res = _answer(friction, *_pair(u, other, for_weight), feed, by_amp,
+                                   [sol_c.result, res_a])
+    return InverseDesign(jnp.exp(u), vc, amp, by_amp, res)
