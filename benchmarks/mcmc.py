@@ -4,7 +4,7 @@ Ours: the trace fit (features first), then emcee on the vectorised, compiled tra
 log-posterior (`stickslip_fitting.mcmc.run_mcmc`), cold (compilation included) and warm. Printed:
 every parameter's median, 95 % interval and whether it contains the truth
 (data/examples/truth.json), the autocorrelation time and effective sample size, and the
-time to reach >= 1000 effective samples of every parameter (issue target: < 3 min).
+time to reach >= 1000 effective samples of every parameter (target: < 3 min).
 
 Baseline (same process): the same emcee run with the log-likelihood a SciPy user would
 write, the NumPy model with the slip in closed form (benchmarks/scipy_reference.py,

@@ -1,5 +1,5 @@
 r"""The fitting package's mode options, str-valued enums like `stickslip_jax.modes`
-(`AbstractMode`): the old strings keep working (`Objective("trace") is Objective.TRACE`,
+(`AbstractMode`): plain strings work too (`Objective("trace") is Objective.TRACE`,
 `Objective.TRACE == "trace"`, hashed, printed and JSON-encoded as the string), a value is
 validated once where it enters (`Objective.parse(value)`, or `choices=Objective.choices()`
 on the command line) and compared with the members inside. No JAX import: the command

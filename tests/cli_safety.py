@@ -1,4 +1,4 @@
-"""Shared helpers of the issue-21 command-line tests (test_cli_data_loss, _wrong_answers,
+"""Shared helpers of the command-line safety tests (test_cli_data_loss, _wrong_answers,
 _tracebacks, _messages): run a `stickslip` command on copies of the shipped records in a
 scratch folder and check, besides its exit code, that no input changed (SHA-256 before
 and after) and that no output but the expected one exists (no partial file, no temporary

@@ -1,4 +1,5 @@
-"""How large a hidden effect is in the traces: the issue's "about 3x and 20x the noise".
+"""How large a hidden effect is in the traces: the target sizes, "about 3x and 20x the
+noise".
 
 An effect's size in the traces is what the paper's model cannot reproduce when it is
 given the generator's own friction: the per-cycle model (every cycle restarted from its

@@ -252,7 +252,7 @@ def write_record(path, truth: Truth, *, friction: Friction, weight, stiffness, s
 
 
 RUNS = ((36.0, 86.9), (20.0, 27.3), (11.3, 128.5))
-"""(W kgf, k kgf/mm) of a discovery campaign (3 x 4 speeds, as the issue describes)."""
+"""(W kgf, k kgf/mm) of a discovery campaign (3 (W, k) x 4 speeds)."""
 
 
 def campaign(friction: Friction = LUBRICANT_A, *, physics: Physics = Physics(),

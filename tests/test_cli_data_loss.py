@@ -1,4 +1,4 @@
-"""Issue 21, data loss: no command writes over one of its inputs, a failed or refused run
+"""No data loss: no command writes over one of its inputs, a failed or refused run
 leaves the previous output (or none), never half a file.
 
 Every case runs `stickslip` on copies of the shipped records in a scratch folder and
@@ -26,7 +26,8 @@ def camp(tmp_path):
     ("mcmc", "--chain"), ("discover", "--json"), ("discover", "--plot"),
 ])
 def test_an_output_naming_an_input_record_is_refused(camp, tmp_path, command, option, capsys):
-    """`stickslip fit camp/*.csv --json camp/one.csv` overwrote the record with JSON, exit 0."""
+    """`stickslip fit camp/*.csv --json camp/one.csv` is refused: the JSON never
+    overwrites an input record."""
     _, err = run_checked([command, *camp, option, camp[1]], capsys, tmp_path, 2)
     one_line(err, option, "input record")
 
@@ -37,7 +38,7 @@ def test_pitch_json_naming_its_record_is_refused(camp, tmp_path, capsys):
 
 
 def test_plot_of_a_record_named_png_keeps_the_record(tmp_path, capsys):
-    """`stickslip plot run.png` drew the record's figure over the record itself."""
+    """`stickslip plot run.png` never draws the record's figure over the record itself."""
     rec = tmp_path / "run.png"
     shutil.copy(EXAMPLES[0], rec)
     _, err = run_checked(["plot", rec], capsys, tmp_path, 2)
@@ -78,8 +79,8 @@ def _full_disk(monkeypatch):
 
 
 def test_full_disk_keeps_the_previous_json(tmp_path, monkeypatch, capsys):
-    """On a full disk `--json old.json` left a truncated JSON in place of the old file;
-    now the old file stays, no temporary file is left, and the error is one line."""
+    """On a full disk `--json old.json` keeps the old file (no truncated JSON in its
+    place), leaves no temporary file, and the error is one line."""
     old = tmp_path / "old.json"
     old.write_text('{"previous": true}')
     _full_disk(monkeypatch)
@@ -89,7 +90,7 @@ def test_full_disk_keeps_the_previous_json(tmp_path, monkeypatch, capsys):
 
 
 def test_full_disk_keeps_the_previous_simulated_record(tmp_path, monkeypatch, capsys):
-    """`simulate --out` on a full disk left a CSV cut mid-line."""
+    """`simulate --out` on a full disk leaves no CSV cut mid-line."""
     old = copy_records(tmp_path, EXAMPLES[:1])[0]
     _full_disk(monkeypatch)
     _, err = run_checked(["simulate", "--lubricant", "A", "--weight", "36", "--stiffness",

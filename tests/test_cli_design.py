@@ -152,7 +152,7 @@ def test_long_csv_matches_the_json_map(capsys, tmp_path):
     df = pd.read_csv(out_csv)
     doc = json.loads(out_json.read_text())
     assert len(df) == 2 * 3 * 2
-    # the JSON's names (issue 20: one name per quantity; the CSV cannot carry aliases)
+    # the JSON's names (one name per quantity; the CSV cannot carry aliases)
     assert list(df.columns[:3]) == ["weight_kgf", "stiffness_kgf_per_mm",
                                     "drive_speed_mm_per_min"]
     np.testing.assert_allclose(df["amplitude_mm"], np.ravel(doc["amplitude_mm"]), rtol=1e-9)

@@ -1,4 +1,4 @@
-"""One CLI grammar (issue 20, item 1): every subcommand's parser, built in-process the way
+"""One CLI grammar: every subcommand's parser, built in-process the way
 `stickslip --help` builds it, checked for the shared options and their meanings.
 
 - every option (and positional) has help text; hidden options are only the deprecated
@@ -37,7 +37,7 @@ DEPRECATED = {
     ("design", "--out"): "--plot",
     ("plot", "--out"): "--plot",
     ("mcmc", "--no-progress"): None,  # hid the bar only; --quiet hides the lines too
-    ("design", "--progress"): None,  # the old opt-in bar; now on by default on a terminal
+    ("design", "--progress"): None,  # an opt-in bar; on by default on a terminal
 }
 """Old option names still accepted but hidden from --help: (command, old) -> new name
 (same destination), None where the old flag has no new counterpart."""
@@ -306,8 +306,8 @@ print(json.dumps({"times": times, "heavy": heavy}))
 
 
 def test_help_is_built_without_jax():
-    """`stickslip SUB --help` imports neither JAX nor the model code (issue 20: the parser
-    took 2-3 s because JAX was imported to build it)."""
+    """`stickslip SUB --help` imports neither JAX nor the model code (importing JAX
+    to build the parser would take 2-3 s)."""
     import subprocess
     import sys
     import time

@@ -1,4 +1,4 @@
-"""Issue 21, messages that did not help: every error is one line that names the file or
+"""Messages that help: every error is one line that names the file or
 the option and the fix; times are plain numbers; records in a spreadsheet's dialect (';',
 tabs, decimal commas, quoted numbers, leading blank lines) are read; output paths are
 checked before any work.
@@ -45,8 +45,8 @@ def _dialect(src, dst, kind):
 @pytest.mark.parametrize("kind", ["semicolon", "tab", "decimal comma", "quoted",
                                   "leading blank lines"])
 def test_spreadsheet_dialects_are_read(tmp_path, kind, capsys):
-    """Semicolon and tab files were reported as a bad column name, quoted numbers refused,
-    a leading blank line refused though the README says blank lines are ignored."""
+    """Semicolon and tab files, quoted numbers and a leading blank line (the docs say
+    blank lines are ignored) are read, not refused as a bad column name or a bad row."""
     src = copy_records(tmp_path, [RECORD])[0]
     out, _ = run_checked(["plot", src, "--plot", tmp_path / "a.png"], capsys, tmp_path, 0,
                          new=["a.png"])
@@ -66,7 +66,7 @@ def test_space_separated_columns_say_so(tmp_path, capsys):
 
 
 def test_times_in_messages_are_plain_numbers(tmp_path, capsys):
-    """Times were shown as `np.float64(0.2) s`."""
+    """Times in messages are plain numbers (`0.2 s`), never `np.float64(0.2) s`."""
     text = RECORD.read_text().splitlines()
     head = [ln for ln in text if not ln[:1].isdigit()]
     rows = [ln for ln in text if ln[:1].isdigit()][:50]
@@ -80,7 +80,8 @@ def test_times_in_messages_are_plain_numbers(tmp_path, capsys):
 
 @pytest.mark.parametrize("option", ["--speed", "--weight"])
 def test_negative_grid_start_names_the_option(tmp_path, option, capsys):
-    """`--speed -10:60:5` gave argparse's 'expected one argument'."""
+    """`--speed -10:60:5` names the option and the fix, not argparse's 'expected one
+    argument'."""
     args = {"--weight": "36", "--stiffness": "86.9", "--speed": "5", option: "-10:60:5"}
     _, err = run_checked(["design", *[x for kv in args.items() for x in kv], "--json"], capsys,
                          tmp_path, 2)
@@ -96,7 +97,7 @@ def test_mcmc_seed_out_of_range_names_the_option(tmp_path, capsys):
 
 @pytest.mark.parametrize("command", ["fit", "mcmc", "discover"])
 def test_output_folder_is_checked_before_any_work(tmp_path, command, capsys):
-    """The output folder was checked only after minutes of fitting."""
+    """The output folder is checked before any work, not after minutes of fitting."""
     records = copy_records(tmp_path, EXAMPLES)
     t0 = time.time()
     _, err = run_checked([command, *records, "--plot", tmp_path / "missing" / "fig.png"],
@@ -130,7 +131,8 @@ def test_errors_name_the_option_or_file_and_the_fix(tmp_path, monkeypatch, argv,
 
 
 def test_mcmc_walkers_are_checked_before_the_fit(tmp_path, capsys):
-    """Too few walkers were refused only after the fit (minutes with --objective trace)."""
+    """Too few walkers are refused before the fit (which takes minutes with --objective
+    trace)."""
     records = copy_records(tmp_path, EXAMPLES)
     _, err = run_checked(["mcmc", *records, "--walkers", "3", "--fix", "n=1"], capsys,
                          tmp_path, 2)

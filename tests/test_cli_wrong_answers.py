@@ -1,4 +1,4 @@
-"""Issue 21, silently wrong answers: fixed values honoured exactly and checked, strict JSON,
+"""No silently wrong answers: fixed values honoured exactly and checked, strict JSON,
 posterior and prior draws checked against the model's domain, slips counted through a
 glitch or a quantised logger, copies of a record refused, noise-free records floored.
 
@@ -34,8 +34,9 @@ def camp(tmp_path_factory):
     (["mu_s=nan"], "positive and finite"),
 ])
 def test_fixed_values_are_checked_before_fitting(camp, command, fix, message, capsys):
-    """Duplicate, out-of-range, contradictory or all-fixed --fix values were taken
-    silently ("converged" with standard errors of 1e-70) or crashed (IndexError)."""
+    """Duplicate, out-of-range, contradictory or all-fixed --fix values are refused
+    before the fit, never taken silently ("converged" with standard errors of 1e-70) nor
+    a crash (IndexError)."""
     folder, records = camp
     args = [command, *records]
     for f in fix:
@@ -45,8 +46,8 @@ def test_fixed_values_are_checked_before_fitting(camp, command, fix, message, ca
 
 
 def test_fixed_mu_s_is_reported_exactly_and_a_misfit_is_said(camp, tmp_path, capsys):
-    """`--fix mu_s=0.3` printed 'mu_s 0.31722 fixed'; a fixed value that the records
-    contradict now says so instead of a quiet 'converged'."""
+    """`--fix mu_s=0.3` reports mu_s 0.3 exactly, and a fixed value that the records
+    contradict is said, not hidden behind a quiet 'converged'."""
     folder, records = camp
     out = tmp_path / "f.json"
     stdout, _ = run_checked(["fit", *records, "--fix", "mu_s=0.3", "--json", out], capsys,
@@ -58,9 +59,8 @@ def test_fixed_mu_s_is_reported_exactly_and_a_misfit_is_said(camp, tmp_path, cap
 
 
 def test_mcmc_keeps_a_fixed_value_exactly_and_design_uses_it(camp, tmp_path, capsys):
-    """`mcmc --fix mu_s=0.3` wrote another value into its JSON, which `design --posterior`
-    then used; now the value is exact in the JSON and in every draw design reads, and the
-    misfit of the fixed value is said."""
+    """`mcmc --fix mu_s=0.3` writes that exact value into its JSON and into every draw
+    `design --posterior` reads, and says the misfit of the fixed value."""
     from stickslip_fitting.design import friction_params, load_samples
 
     folder, records = camp
@@ -75,7 +75,8 @@ def test_mcmc_keeps_a_fixed_value_exactly_and_design_uses_it(camp, tmp_path, cap
 
 
 def test_printed_json_is_strict_and_says_why_a_value_is_null(tmp_path, capsys):
-    """`steady --stiffness 1e308 --json` printed Infinity/NaN tokens (invalid JSON)."""
+    """`steady --stiffness 1e308 --json` prints strict JSON (no Infinity/NaN tokens): a
+    value that is not finite is null, with the reason."""
     out, _ = run_checked(["steady", "--weight", "36", "--stiffness", "1e308", "--speed", "5",
                           "--json"], capsys, tmp_path, 0)
 
@@ -83,7 +84,7 @@ def test_printed_json_is_strict_and_says_why_a_value_is_null(tmp_path, capsys):
         raise ValueError(token)
 
     doc = json.loads(out, parse_constant=refuse)
-    # the critical speed's key, by its new name or the old one (deprecated, issue 20)
+    # the critical speed's key, by its name or its deprecated alias
     key = next(k for k in doc["results"][0] if k.startswith("critical_speed_mm"))
     assert doc["results"][0][key] is None
     assert "NaN" in doc["null_reasons"][f"results[0].{key}"]
@@ -91,8 +92,9 @@ def test_printed_json_is_strict_and_says_why_a_value_is_null(tmp_path, capsys):
 
 
 def test_posterior_draws_outside_the_domain_are_refused(tmp_path, capsys):
-    """`design --posterior` accepted draws with mu_s < 0 or mu_s < mu_d and reported
-    v_c = -15.4 mm/min; `plan` proposed one record three times from such a prior."""
+    """`design --posterior` refuses draws with mu_s < 0 or mu_s < mu_d (they would give
+    v_c = -15.4 mm/min), and `plan` refuses such a prior (it would propose one record
+    three times)."""
     draws = [TRUTH, [0.15, *TRUTH[1:]], [-0.3, *TRUTH[1:]]]
     post = tmp_path / "post.json"
     post.write_text(json.dumps({"names": NAMES, "samples": draws}))
@@ -123,8 +125,9 @@ def _slips(out: str) -> int:
 
 @pytest.mark.parametrize("defect", ["glitch", "quantised"])
 def test_plot_counts_slips_through_a_glitch_and_a_quantised_logger(tmp_path, defect, capsys):
-    """One 10 mm glitch sample made `plot` see 1 slip in a 6-slip record; a 5 um-quantised
-    record gave 81 slips. Both now count the slips of the clean record and say why."""
+    """`plot` counts the slips of the clean record, and says why, through one 10 mm
+    glitch sample (which would leave 1 slip seen of 6) and a 5 um-quantised logger
+    (which would give 81 slips)."""
     src = copy_records(tmp_path, [EXAMPLES[6]])[0]  # k 27.3 kgf/mm, 5 mm/min: 6 slips
     out, _ = run_checked(["plot", src, "--plot", tmp_path / "clean.png"], capsys, tmp_path, 0,
                          new=["clean.png"])
@@ -148,7 +151,7 @@ def test_plot_counts_slips_through_a_glitch_and_a_quantised_logger(tmp_path, def
 
 
 def test_a_copy_under_another_name_is_refused(tmp_path, capsys):
-    """A byte-identical record under another name was counted twice."""
+    """A byte-identical record under another name is refused, not counted twice."""
     copy_records(tmp_path, EXAMPLES[:3])
     (tmp_path / "copy.csv").write_bytes(EXAMPLES[0].read_bytes())
     _, err = run_checked(["fit", tmp_path], capsys, tmp_path, 2)
@@ -156,8 +159,8 @@ def test_a_copy_under_another_name_is_refused(tmp_path, capsys):
 
 
 def test_noise_free_record_gets_the_noise_floor():
-    """A noise-free record gave delta 73.03 +- 1e-8 (truth 67): its noise estimate is now
-    floored (10 nm), and said so."""
+    """A noise-free record's noise estimate is floored (10 nm), and said so: without the
+    floor it gives delta 73.03 +- 1e-8 for a truth of 67."""
     import stickslip_jax as ss
     from stickslip_fitting.features import NOISE_FLOOR, record_features
     from stickslip_fitting.synthetic import synthetic_campaign
@@ -173,9 +176,10 @@ def test_noise_free_record_gets_the_noise_floor():
 
 @pytest.mark.slow  # about 1 min on 2 cores (12 records simulated, then fitted)
 def test_noise_free_campaign_intervals_hold_the_truth(tmp_path, capsys):
-    """End to end: the shipped campaign made again without noise (data/examples/
-    make_campaign.py, noise 0) is fitted with 95 % intervals that hold the truth (before
-    the noise floor: delta 73.03 +- 1e-8, truth 67), and the floor is said."""
+    """End to end: the shipped campaign made again without noise
+    (data/examples/make_campaign.py, noise 0) is fitted with 95 % intervals that hold
+    the truth (without the noise floor: delta 73.03 +- 1e-8, truth 67), and the floor is
+    said."""
     import importlib.util
 
     from cli_safety import ROOT

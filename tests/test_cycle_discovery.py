@@ -85,7 +85,7 @@ def test_strong_damping_is_named():
     named = {res.effect} | {r["name"] for r in res.indistinguishable_from}
     assert "viscous_damping" in named, res.explanation
     assert res.gap_after <= 1.15 * res.noise
-    # the dashpot's c (kgf s/mm) or, in the damping-ratio form, zeta (session 16)
+    # the dashpot's c (kgf s/mm) or, in the damping-ratio form, zeta
     size = res.effect_size.get("c") or res.effect_size["zeta"]
     assert size["value"] > 0
     # every refit is a result or says why not: no negative "drop" passed off as a
@@ -116,7 +116,7 @@ def test_joint_naming_rule():
                       Contender("viscous_damping", 54.0, 0.44, -1.7, physical=False)])
     assert d.joint == () and not d.clear
     assert [c.name for c in d.unbeaten] == ["viscous_damping", "rate_state", "stribeck"]
-    # close and not clearly beaten: joint, however small its share (session 16)
+    # close and not clearly beaten: joint, however small its share
     small = decide(100.0, [Contender("stribeck", 30.0, 0.99, 2.0)])
     assert [c.name for c in small.joint] == ["stribeck"] and small.clear
     assert decide(100.0, [Contender("stribeck", 30.0, 0.99, 3.5)]).joint == ()
@@ -255,7 +255,7 @@ def _knocked_campaign(tmp_path):
 
 def test_heavy_tailed_loss_keeps_knocks_from_raising_an_alarm(tmp_path, capsys):
     """Knocks are not missing physics. Under least squares they leave the base at chi2/n
-    1.28 and the answer "unexplained" (session 18, measured); with `--loss student-t`
+    1.28 and the answer "unexplained" (measured); with `--loss student-t`
     (weights at the base fit held fixed) they pull little: "none" with high confidence,
     and the gaps stay in um (the knocks are still in them)."""
     from stickslip_jax.cli import main

@@ -116,9 +116,9 @@ def _rows(which):
 @pytest.mark.slow
 def test_imperfect_instruments_raise_no_false_alarm():
     """No library effect named, and nothing "unexplained", on clean physics read through
-    an imperfect instrument; a campaign is never refused for its instrument (session 19:
-    10 of 10 "none (high)", gaps 0.91-1.06x the noise, 6-52 s a campaign; a 4 % clock
-    jitter had refused its records before)."""
+    an imperfect instrument; a campaign is never refused for its instrument, a 4 % clock
+    jitter included (measured: 10 of 10 "none (high)", gaps 0.91-1.06x the noise, 6-52 s
+    a campaign)."""
     rows = _rows((INSTRUMENT,))
     assert not [r["kind"] for r in rows if r["effect"] == "refused"], table(rows)
     assert not [r["kind"] for r in rows if false_alarm(r)], table(rows)
@@ -128,8 +128,8 @@ def test_imperfect_instruments_raise_no_false_alarm():
 @pytest.mark.targets
 def test_irregular_slips_raise_no_false_alarm():
     """Irregular slips (mu_s scattering 1 % from cycle to cycle): "none" or "unexplained",
-    never a library name. Marked `targets` (about 4 min a campaign, beyond CI's budget;
-    README, session 19, for what it measured)."""
+    never a library name. Marked `targets` (about 4 min a campaign, beyond CI's
+    budget)."""
     rows = _rows((SLIDER,))
     assert not [r["kind"] for r in rows if false_alarm(r)], table(rows)
 

@@ -9,7 +9,7 @@ stick-slip boundary (the fast runs of the light, stiff slider).
 
 `python tests/test_cycle_discovery_rates.py [N_CLEAN]` prints the table (rates, power by
 effect and size, gap after / noise, time per campaign); the slow test asserts the
-issue's targets: named (alone or jointly with its indistinguishable partner) in >= 80 %
+targets: named (alone or jointly with its indistinguishable partner) in >= 80 %
 of the effect campaigns, gap after within 15 % of the noise when named, false alarms
 <= 5 % on clean campaigns, outside effects never named with "high" confidence.
 """
@@ -85,7 +85,8 @@ def run_one(kind, seed, lube, **kw):
                                      "direction_cosine", "z_winner")}
                                      for c in res.candidates]}) + "\n")
     # a refit that ended above the base fit says so (`refit_failed`), never a negative
-    # "drop" (session 16: load coupling "lowered" chi-square by -1.2e6 to -1.8e7)
+    # "drop" (a failed refit of load coupling would otherwise "lower" chi-square by
+    # -1.2e6 to -1.8e7)
     silent = [c["name"] for c in res.candidates if c["chi2_drop"] is not None
               and c["chi2_drop"] < -1.0 and not c["refit_failed"]]
     return dict(kind=kind, effect=res.effect, named=named, confidence=res.confidence,
@@ -160,45 +161,36 @@ def rows():
 
 @pytest.mark.slow
 def test_discovery_rates_do_not_regress(rows):
-    """What the workflow achieves today (README): false alarms <= 5 %, outside effects
-    never named with high confidence (and, when unexplained, at least half the gap's
-    excess closed by the learned phase correction), no wrong name with high confidence, at least 60 %
-    of the effect campaigns named (7 of 10 in session 11, 8 of 10 in sessions 12 to
-    14, one of them the 2 um screw on C, an artefact of trace windows holding two slips;
-    session 14: 0 of 20 false alarms, every named gap after <= 1.13x, the creep's
-    learned correction closes 59 %, 12 min on 2 cores; session 15, every slip near the
-    boundary found and timed without bias: 7 of 10, no artefact, 0 of 20 false alarms,
-    clean gaps 1.01-1.05x, named gaps after <= 1.06x, 7 min 17 s; session 16, the
-    family-wise level by sign flips and the damping-ratio form: 8 of 10, 0 of 20, named
-    gaps after <= 1.06x)."""
+    """What the workflow achieves (docs): false alarms <= 5 %, outside effects never
+    named with high confidence (and, when unexplained, at least half the gap's excess
+    closed by the learned phase correction), no wrong name with high confidence, at
+    least 70 % of the effect campaigns named (measured: 8 of 10 named, 0 of 20 false
+    alarms, named gaps after <= 1.06x the noise)."""
     s = summarise(rows)
     assert s["false_alarms"] <= 0.05
     assert not s["outside_high"]
     assert not s["wrong_high"]
     assert s["found"] >= 0.7
     assert not [(r["kind"], r["silent_failures"]) for r in rows if r["silent_failures"]]
-    # an unexplained gap (or none) is never "X or Y" (session 15's first run of the
-    # contenders' shape refinement printed "unexplained or rate_state" for the creep)
+    # an unexplained gap (or none) is never "X or Y" (e.g. "unexplained or rate_state"
+    # for the creep, a contender whose refined shape came close)
     assert not [r["kind"] for r in rows if r["effect"] in ("none", "unexplained")
                 and len(r["named"]) > 1]
     assert all(c is not None and c >= 0.5 for _, c in s["outside_learned"]), s["outside_learned"]
     # the calibration itself: on clean campaigns the family-wise p-value is uniform
-    # (session 16: Kolmogorov-Smirnov p 0.80 over the 20 clean campaigns; Bonferroni's
-    # min(1, K p) piles up at 1, the unadjusted smallest p near 0)
+    # (measured: Kolmogorov-Smirnov p 0.80 over the 20 clean campaigns; Bonferroni's
+    # min(1, K p) would pile up at 1, the unadjusted smallest p near 0)
     clean = [r["family_wise"] for r in rows if r["kind"] == "clean"]
     assert scipy.stats.kstest(clean, "uniform").pvalue > 0.01, sorted(clean)
 
 
 @pytest.mark.slow
 @pytest.mark.targets
-def test_discovery_rates_meet_the_issue_targets(rows):
-    """The issue's targets at these sizes: >= 80 % named, gap after within 15 % of the
-    noise where named. Passed at the edge in sessions 12 to 14 (8 of 10, every gap after
-    <= 1.13x), but one of the 8 (the 2 um screw on C) was an artefact of trace windows
-    holding two slips (README); with those windows gone (session 15) it was 7 of 10 and
-    failed; session 16 (family-wise level, damping-ratio form): 8 of 10, gaps after
-    <= 1.06x, passes at the edge. Marked `targets`: CI runs `-m "slow and not targets"`
-    (one campaign either way decides it)."""
+def test_discovery_rates_meet_the_targets(rows):
+    """The targets at these sizes: >= 80 % named, gap after within 15 % of the noise
+    where named. Met at the edge (measured: 8 of 10, gaps after <= 1.06x). Marked
+    `targets`: CI runs `-m "slow and not targets"` (one campaign either way decides
+    it)."""
     s = summarise(rows)
     assert s["found"] >= 0.8
     assert s["found_gap_ok"]
@@ -247,7 +239,7 @@ CALIBRATED = {
                        "C": (P(drift_mu_s=-1e-4, drift_mu_d=-5e-5),
                              P(drift_mu_s=-1e-3, drift_mu_d=-5e-4))},
 }
-"""The issue's sizes, "about 3x and 20x the noise in the traces", per lubricant: the
+"""The calibrated sizes, "about 3x and 20x the noise in the traces", per lubricant: the
 effect's RMS misfit to the paper's per-cycle model at the generator's own friction
 (`tests/effect_sizes.py`; `python tests/effect_sizes.py --calibrated` prints them for
 these campaigns). The small size is about 3x; the large one 20x where a physical effect
@@ -255,7 +247,7 @@ gets there (a 15 um screw error on A), else the largest that keeps stick-slip in
 campaign: a damping ratio of 0.6 on A (0.5 on C leaves 1 of 12 records slipping), a
 Stribeck drop just below mu_d, a 7 Hz sensor, a drift that has saturated, a 30 um screw
 on C (about 100 um, the screw's bound, would be needed for 20x there). Measured at seed
-500 (session 17): 2.7/20.7x screw on A, 3.0/6.7x on C (3.9x at 15 um); damping
+500: 2.7/20.7x screw on A, 3.0/6.7x on C (3.9x at 15 um); damping
 3.0/4.8x (A), 2.3/2.6x (C); Stribeck 2.9/13.4x (A), 3.2/5.0x (C); sensor 2.6x at 20 Hz
 and 9.4x at 7 Hz (A), 2.7x at 12 Hz and 4.7x at 7 Hz (C); drift 3.2/13.7x (A), 3.8/7.5x (C)."""
 
@@ -284,13 +276,12 @@ def _found(rows):
 
 @pytest.mark.slow
 def test_calibrated_sizes_do_not_regress(calibrated_rows):
-    """At the issue's sizes (CALIBRATED, 20 campaigns): what the workflow achieves today
-    (session 17: 19 of 20 named, alone or jointly; the miss is the damping ratio 0.6 on A,
-    where 10 of 12 records have no stick-slip left: "unexplained", its learned correction
-    closing 76 %; 13 of them within 1.15x the noise after. Session 18: 19 of 20 named, 18
-    within 1.15x; the damping ratio 0.6 on A is "sensor_lowpass" with low confidence, the
-    7 Hz sensor on A 1.28x). No library name without the truth given with high
-    confidence, and no refit failure passed off as a chi-square drop."""
+    """At the calibrated sizes (CALIBRATED, 20 campaigns): what the workflow achieves
+    (measured: 19 of 20 named, alone or jointly, 18 within 1.15x the noise after; the
+    damping ratio 0.6 on A, where 10 of 12 records have no stick-slip left, is
+    "sensor_lowpass" with low confidence; the 7 Hz sensor on A 1.28x). No library name
+    without the truth given with high confidence, and no refit failure passed off as a
+    chi-square drop."""
     rows = calibrated_rows
     assert len(_found(rows)) >= 0.85 * len(rows), power_table(rows)
     # named with the gap after within 15 % of the noise (two campaigns of slack)
@@ -304,12 +295,11 @@ def test_calibrated_sizes_do_not_regress(calibrated_rows):
 
 @pytest.mark.slow
 @pytest.mark.targets
-def test_calibrated_sizes_meet_the_issue_targets(calibrated_rows):
-    """The issue's targets at its own sizes: the family named (alone or jointly with its
+def test_calibrated_sizes_meet_the_targets(calibrated_rows):
+    """The targets at the calibrated sizes: the family named (alone or jointly with its
     indistinguishable partner) and the gap after within 15 % of the noise, in >= 80 % of
-    the campaigns. Session 17: 19 of 20 named, 13 of them within 1.15x: not met.
-    Session 18: 18 of 20 named within 1.15x: met. (The stricter reading, every named
-    campaign within 1.15x, is not: the 7 Hz sensor on A, 1.28x; README.)"""
+    the campaigns (measured: 18 of 20 named within 1.15x). The stricter reading, every
+    named campaign within 1.15x, is not met: the 7 Hz sensor on A, 1.28x."""
     rows = calibrated_rows
     found = _found(rows)
     assert len(found) >= 0.8 * len(rows)
@@ -320,10 +310,10 @@ def test_calibrated_sizes_meet_the_issue_targets(calibrated_rows):
 @pytest.mark.slow
 def test_a_large_stribeck_drop_on_lubricant_c_is_named():
     """The power sweep's Stribeck drop of 0.1 on lubricant C (rational curve, v_s 10
-    mm/s): far from the data (base chi2/n 2) the grid shapes had the per-record screw
+    mm/s): far from the data (base chi2/n 2) the grid shapes let the per-record screw
     (pitch 1.8 mm, amplitudes 3-38 um on records that travel less than a pitch) explain
-    more than Stribeck's best grid shape, and the screw was named (sessions 12-15). The
-    close contenders' shapes are now refined before the choice (session 15: stribeck
+    more than Stribeck's best grid shape, so the screw would be named; the close
+    contenders' shapes are therefore refined before the choice (measured: stribeck
     (low), gap 1.68 -> 1.17x, about 90 s)."""
     (k, s, lube, kw), = [c for c in power_campaigns() if c[0] == "stribeck/stribeck_b=0.1/C"]
     row = run_one(k, s, lube, **kw)
@@ -348,7 +338,7 @@ def power_table(rows) -> str:
 
 
 def main(argv) -> None:
-    """`--power [FIRST]` / `--calibrated [FIRST]`: the power sweep or the issue's sizes
+    """`--power [FIRST]` / `--calibrated [FIRST]`: the power sweep or the calibrated sizes
     (from campaign FIRST on), one line per campaign, then the table; `[N_CLEAN]`: the
     rates campaigns with N_CLEAN clean ones."""
     sets = {"--power": power_campaigns, "--calibrated": calibrated_campaigns}

@@ -295,7 +295,7 @@ def test_rate_and_state_signs(setup):
 def test_rational_stribeck_form(setup):
     """The rational (Hess-Soom) Stribeck curve 1/(1 + (v/v_s)^p) - 1: equal to the
     exponential form where v << v_s, different at v ~ v_s, and its Jacobian matches
-    finite differences. Every form is 0 at rest (session 17): where v << v_s the drop b
+    finite differences. Every form is 0 at rest: where v << v_s the drop b
     changes nothing, so mu_m of eq (3) stays the friction the slip starts against."""
     model, z, *_ = setup
     col = model.cols(family("stribeck"))[0]

@@ -21,7 +21,7 @@ GRID = ["--weight", "11.3:36:2", "--stiffness", "27.3:128.5:3", "--speed", "5:60
 
 
 def _key(doc, *names):
-    """The first of `names` in `doc` (JSON keys renamed by issue 20 keep old aliases)."""
+    """The first of `names` in `doc` (a renamed JSON key keeps its deprecated alias)."""
     return next(doc[n] for n in names if n in doc)
 
 

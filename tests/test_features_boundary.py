@@ -57,7 +57,8 @@ def test_short_sticks_are_not_merged(noisy):
 
 def test_slip_ends_are_unbiased_at_low_noise():
     """The slip's duration is the fixed point of the closed form, not four iterations from
-    pi / omega0 (before: ends 0.7 ms early, breakaways 0.6 ms late at any noise)."""
+    pi / omega0 (which leave the ends 0.7 ms early and the breakaways 0.6 ms late at any
+    noise)."""
     tr, f = _record(5e-5, 7)
     pairs = _matched(tr, f)
     assert len(pairs) >= 50

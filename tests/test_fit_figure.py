@@ -1,4 +1,4 @@
-"""The fit figure's residual panel (`stickslip_fitting.plots.residual_panel`, issue 20):
+"""The fit figure's residual panel (`stickslip_fitting.plots.residual_panel`):
 chi2/n by record and phase, the same numbers as `stickslip_fitting.adequacy`."""
 
 from __future__ import annotations

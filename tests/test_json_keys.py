@@ -1,4 +1,4 @@
-"""One JSON key per quantity across commands (issue 20, item 1): every command's `--json`
+"""One JSON key per quantity across commands: every command's `--json`
 on small inputs (the shipped campaign, small grids, a small synthetic campaign) carries
 `schema_version` first, names each quantity by one key in every command (`SYNONYMS`),
 writes units as key suffixes (`stickslip_jax.output.UNIT_SUFFIXES`), and keeps each

@@ -1,4 +1,4 @@
-"""The package's layering (issue 16): data flow one way, no private names across
+"""The package's layering: data flow one way, no private names across
 modules, subcommands registered from the fitting side, no probing of parameter classes.
 
 Read from the source with `ast`, so these fail the moment a shortcut comes back."""
@@ -197,8 +197,8 @@ def test_every_package_is_installed():
 
 
 def test_library_plots_keep_the_backend_and_return_the_figure():
-    """Issue 20: plotting functions switched the user's backend to Agg and returned no
-    Figure. Source check: no matplotlib.use in the library's plotting modules."""
+    """Plotting functions keep the user's backend (never switch it to Agg) and return
+    the Figure. Source check: no matplotlib.use in the library's plotting modules."""
     for rel in ("fitting/plots.py", "fitting/discovery/plots.py"):
         text = (ROOT / rel).read_text()
         assert "matplotlib.use(" not in text, rel

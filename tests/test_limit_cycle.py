@@ -81,7 +81,7 @@ def test_below_v_c_it_is_eq_6_and_above_it_goes_on():
     np.testing.assert_allclose(float(below.amplitude), float(st.amplitude), rtol=1e-10)
     np.testing.assert_allclose(float(below.stick_time), float(st.stick_time), rtol=1e-10)
     above = [float(limit_cycle(fr, W, k, f * vc).amplitude) for f in (1.06, 1.23, 1.84)]
-    # the measurement: 8.0, 7.3 and 5.7 um at 52, 60 and 90 mm/min
+    # reference amplitudes: 8.0, 7.3 and 5.7 um at 52, 60 and 90 mm/min
     np.testing.assert_allclose(above, [8.0e-3, 7.3e-3, 5.7e-3], atol=0.06e-3)
     assert above[0] > above[1] > above[2] > 0
 

@@ -1,4 +1,4 @@
-"""Progress through `logging` (issue 20, item 4): the long commands (fit, mcmc, discover,
+"""Progress through `logging`: the long commands (fit, mcmc, discover,
 design, plan) write stage lines with the time since the command started to stderr through
 the `stickslip` logger; `--quiet` sets it to WARNING (no lines), `stickslip --debug` to
 DEBUG; used as a library the package prints nothing. (discover's lines, from the same

@@ -1,4 +1,4 @@
-"""`stickslip mcmc`'s posterior outputs (issue 20, item 2): the corner plot drawn by the
+"""`stickslip mcmc`'s posterior outputs: the corner plot drawn by the
 `corner` package, the full chain as arviz InferenceData netCDF (`--chain`), arviz's
 ESS / R-hat with the ensemble caveat, and the one-line error without the
 `[posterior]` extra. One short run on the shipped example campaign is shared."""

@@ -1,4 +1,4 @@
-"""Mode options are small str-valued enums (issue 16): old strings keep working, a bad
+"""Mode options are small str-valued enums: plain strings work too, a bad
 value is refused once where it enters, JSON carries the value."""
 
 from __future__ import annotations

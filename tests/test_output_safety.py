@@ -1,9 +1,9 @@
-"""Nothing the user gave us is overwritten or lost (issue: output safety).
+"""Nothing the user gave us is overwritten or lost.
 
 Every output path is checked before any work starts (an input record, a folder, a
 missing folder, two options naming one file), and files are written atomically (a
 failure while writing leaves the previous file, and no temporary file). The command-line
-cases of issue 21 live in one module per family: tests/test_cli_data_loss.py,
+cases live in one module per family: tests/test_cli_data_loss.py,
 test_cli_wrong_answers.py, test_cli_tracebacks.py and test_cli_messages.py; here the
 writer itself, strict JSON, exit codes 1 and 3 and the schema version."""
 
@@ -59,9 +59,9 @@ def test_failed_write_keeps_the_previous_file(tmp_path, monkeypatch):
 
 
 def test_swallowed_interrupt_still_stops_the_output(tmp_path, monkeypatch):
-    """CI saw a Ctrl-C land in one of JAX's garbage-collector callbacks, where Python
-    prints "Exception ignored" and goes on: `simulate` then finished, wrote its record and
-    exited 0. The handler records the interrupt, so no output is renamed into place and
+    """A Ctrl-C can land in one of JAX's garbage-collector callbacks, where Python prints
+    "Exception ignored" and goes on: `simulate` would then finish, write its record and
+    exit 0. The handler records the interrupt, so no output is renamed into place and
     the command exits 130 (`cli.main`)."""
     monkeypatch.setattr(_output, "_INTERRUPTED", False)
     try:
@@ -114,7 +114,7 @@ def test_outputs_get_the_usual_permissions(tmp_path):
 
 
 def test_debug_shows_the_traceback(tmp_path, capsys):
-    """Issue 20: every ValueError became one line with no way to see the traceback."""
+    """A ValueError is one line without a traceback; `--debug` shows the traceback."""
     missing = str(tmp_path / "nowhere.csv")
     assert main(["fit", missing]) == 2
     assert "Traceback" not in capsys.readouterr().err
@@ -123,7 +123,7 @@ def test_debug_shows_the_traceback(tmp_path, capsys):
 
 
 def test_a_fit_that_did_not_converge_exits_3(monkeypatch, capsys):
-    """Issue 20: a fit that did not converge exited 0."""
+    """A fit that did not converge exits 3, not 0, and says so."""
     import dataclasses
 
     import stickslip_fitting.commands.fit as fit_command
@@ -140,7 +140,7 @@ def test_a_fit_that_did_not_converge_exits_3(monkeypatch, capsys):
 
 
 def test_every_json_carries_the_schema_version(tmp_path, capsys):
-    """Issue 20: no output carried a schema version."""
+    """Every JSON output carries the schema version."""
     from stickslip_jax.output import SCHEMA_VERSION
 
     assert main(["steady", "--weight", "36", "--stiffness", "86.9", "--speed", "5",

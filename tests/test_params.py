@@ -73,8 +73,9 @@ def test_parameter_estimate_row():
 
 @pytest.mark.parametrize("i", [0, 1])
 def test_fixed_mu_s_is_held_exactly(i):
-    """--fix mu_s with mu_d free: the law is anchored at mu_s (issue: the stored gap
-    moved mu_s with mu_d, so a fit printed 'mu_s 0.31722 fixed' for --fix mu_s=0.3)."""
+    """--fix mu_s with mu_d free: the law is anchored at mu_s (a stored gap mu_s - mu_d
+    would move mu_s with mu_d, and a fit would print 'mu_s 0.31722 fixed' for --fix
+    mu_s=0.3)."""
     import equinox as eqx
 
     p = _laws()[i].with_fixed({"mu_s": 0.35})
@@ -109,7 +110,7 @@ def test_fit_honours_fixed_values():
 
 
 def test_mcmc_rows_are_the_fit_rows():
-    """One typed parameter row for fit and mcmc reports (issue 16)."""
+    """One typed parameter row for fit and mcmc reports."""
     import numpy as np
 
     from stickslip_fitting.mcmc import McmcResult

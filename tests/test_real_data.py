@@ -56,9 +56,8 @@ def test_only_what_the_records_determine_gets_an_interval(report):
 @pytest.mark.slow  # 63 s: with the slow tests, keeping the default suite under 10 minutes
 def test_discovery_runs_on_the_real_records():
     """The missing-physics workflow on the measured records: the sliding control is set
-    aside and listed, the others are fitted (the base had failed at its start, where the
-    features fit had wandered), and the paper's model leaves a gap many times the noise
-    that is not given a library name with high confidence."""
+    aside and listed, the others are fitted, and the paper's model leaves a gap many times
+    the noise that is not given a library name with high confidence."""
     from stickslip_jax.records import read_campaign
 
     from stickslip_fitting.discovery.cycle_workflow import discover_cycles

@@ -2,7 +2,7 @@
 generator (`tests/independent_records.py`, no code shared with stickslip_jax.simulation),
 with each instrument / drive imperfection alone and all together.
 
-Measured rates are asserted as the issue states them: >= 90 % of the true slips found,
+Measured rates are asserted against the targets: >= 90 % of the true slips found,
 <= 1 false slip per record; a campaign with records without usable stick-slip exits 0,
 lists them, and recovers mu_s and mu_d within 2 % with 95 % intervals containing them.
 """
@@ -72,10 +72,10 @@ def test_cycles_found_under_imperfection(name):
 
 def test_creep_through_the_whole_stick_of_a_stiff_spring():
     """k 128.5 kgf/mm at 4 mm/min: sticks of 0.39 s with a creep time constant of 0.2 s,
-    so the slider creeps from the stick's start (measured: 13 of 73 cycles complete
-    before the creeping-stick line model, 72 after). At 20 mm/min (85 ms sticks, about a
-    third of them creeping faster than half the drive) fewer are kept: a weak spot in the
-    README."""
+    so the slider creeps from the stick's start (measured: 72 of 73 cycles complete with
+    the creeping-stick line model; a flat-stick model would keep 13). At 20 mm/min (85 ms
+    sticks, about a third of them creeping faster than half the drive) fewer are kept: a
+    documented weak spot."""
     found, total, false = _rates(IMPERFECTIONS["creep"], runs=((128.5, 4.0, 30.0, 1000.0),))
     assert total >= 60
     assert found >= 0.9 * total, (found, total)

@@ -1,7 +1,7 @@
 """The share of posterior draws that meet a tolerance (`stickslip_fitting.design.tolerance`)
 is a count over the draws, reported exactly (float64): 19 of 20 draws is 0.95, not the
-float32 0.94999999 that read as missing a 0.95 target (session 15, the slow tolerance
-design test)."""
+float32 0.94999999 that reads as missing a 0.95 target (the slow tolerance design
+test)."""
 
 import equinox as eqx
 import jax

@@ -233,7 +233,7 @@ def test_bad_inputs(campaign):
 
 def test_fit_objective_moves_only_the_leaves_chosen(trace_fit):
     """The one fitting verb over an objective and a parameter pytree: the free leaves are
-    chosen by a function, as `eqx.tree_at`'s `where` (issue 16)."""
+    chosen by a function, as `eqx.tree_at`'s `where`."""
     from stickslip_fitting.fit import fit_objective
 
     fit = trace_fit

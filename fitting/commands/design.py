@@ -126,7 +126,7 @@ def add_arguments(p):
     from stickslip_jax.commands.options import add_quiet_option
 
     add_quiet_option(p)
-    # the old opt-in flag: the bar now shows by default on a terminal; --progress shows it
+    # a deprecated opt-in flag: the bar shows by default on a terminal; --progress shows it
     # off a terminal too
     p.add_argument("--progress", action="store_true", help=argparse.SUPPRESS)
 

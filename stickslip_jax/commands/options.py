@@ -34,8 +34,7 @@ def quantity(dimension: str, default_unit: str, positive: bool = True):
 def add_json_option(parser, what: str, *, bare: bool = False, action=None) -> None:
     """`--json OUT`: write `what` as JSON to the file OUT, or to stdout with `-` (the
     command's table then goes to stderr: `stickslip_jax.output.json_owns_stdout`).
-    `bare`: a `--json` without a value means `--json -` (the commands that printed JSON
-    with a bare flag before OUT existed: steady, design, plan). `action`: an argparse
+    `bare`: a `--json` without a value also means `--json -` (steady, design, plan). `action`: an argparse
     Action class in place of storing the value."""
     extra = dict(nargs="?", const="-") if bare else {}
     if action is not None:
