@@ -37,11 +37,13 @@ def test_pitch_json_naming_its_record_is_refused(camp, tmp_path, capsys):
     one_line(err, "--json", "input record")
 
 
-def test_plot_of_a_record_named_png_keeps_the_record(tmp_path, capsys):
-    """`stickslip plot run.png` never draws the record's figure over the record itself."""
+def test_plot_of_a_record_named_png_keeps_the_record(tmp_path, capsys, monkeypatch):
+    """`stickslip plot run.png`, run in the record's folder, never draws the record's
+    figure over the record itself (the default figure name is the record's)."""
     rec = tmp_path / "run.png"
     shutil.copy(EXAMPLES[0], rec)
-    _, err = run_checked(["plot", rec], capsys, tmp_path, 2)
+    monkeypatch.chdir(tmp_path)
+    _, err = run_checked(["plot", "run.png"], capsys, tmp_path, 2)
     one_line(err, "--plot", "input record")
 
 

@@ -120,19 +120,30 @@ def test_figure_has_trace_and_phase_plane(noisy):
     assert "7 slips" in trace.get_legend().get_title().get_text()
 
 
-def test_cli_plot_writes_png_next_to_record(tmp_path, noisy, capsys):
-    p = write_record(noisy[0], tmp_path / "run.csv")
+def test_cli_plot_writes_png_in_the_current_folder_not_beside_the_data(tmp_path, noisy,
+                                                                        capsys, monkeypatch):
+    """Without --plot the figure is NAME.png in the current folder; the record's data
+    folder gets nothing. --plot OUT.png (and its hidden alias --out) write OUT.png."""
+    data, work = tmp_path / "data", tmp_path / "work"
+    data.mkdir()
+    work.mkdir()
+    monkeypatch.chdir(work)
+    p = write_record(noisy[0], data / "run.csv")
     assert main(["plot", str(p)]) == 0
-    png = tmp_path / "run.png"
+    png = work / "run.png"
     assert png.read_bytes()[:8] == PNG_MAGIC and png.stat().st_size > 20_000
+    assert sorted(f.name for f in data.iterdir()) == ["run.csv"]
     out = capsys.readouterr().out
-    assert str(png) in out and "7 slips" in out
-    custom = tmp_path / "fig.png"
-    assert main(["plot", str(p), "--out", str(custom)]) == 0
+    assert out.startswith("run.png: ") and "7 slips" in out
     import matplotlib.image
 
-    h, w = matplotlib.image.imread(custom).shape[:2]
-    assert w > 1000 and h > 400
+    for option in ("--plot", "--out"):
+        custom = tmp_path / f"fig{option.strip('-')}.png"
+        assert main(["plot", str(p), option, str(custom)]) == 0
+        assert str(custom) in capsys.readouterr().out
+        h, w = matplotlib.image.imread(custom).shape[:2]
+        assert w > 1000 and h > 400
+    assert sorted(f.name for f in data.iterdir()) == ["run.csv"]
 
 
 @pytest.mark.parametrize(

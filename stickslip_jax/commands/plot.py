@@ -1,5 +1,9 @@
 """`stickslip plot RECORD [--plot OUT.png]`: the trace with stick/slip phases and its
-phase plane."""
+phase plane.
+
+Without `--plot` the figure is NAME.png in the current folder (NAME: the record's file
+name without its extension), never beside the record in its data folder unless that is
+where the command runs."""
 
 from __future__ import annotations
 
@@ -14,7 +18,8 @@ def add_arguments(p):
     from .options import add_plot_option
 
     p.add_argument("record", help="record file (CSV, see README 'Records')")
-    add_plot_option(p, "the figure (default: next to the record, NAME.png)", hidden=("--out",))
+    add_plot_option(p, "the figure (default: NAME.png in the current folder, NAME the "
+                    "record's file name without its extension)", hidden=("--out",))
 
 
 def run(args) -> int:
@@ -25,7 +30,7 @@ def run(args) -> int:
     if Path(args.record).is_dir():
         raise ValueError(f"{args.record}: is a folder, not a record file; give one of its "
                          "record files")
-    out = Path(args.plot) if args.plot else Path(args.record).with_suffix(".png")
+    out = Path(args.plot) if args.plot else Path(Path(args.record).with_suffix(".png").name)
     if out.suffix.lower() != ".png":
         raise ValueError(f"{flag}: {out} must end in .png")
     if not out.parent.is_dir():
