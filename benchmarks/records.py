@@ -24,8 +24,9 @@ import time
 
 import numpy as np
 
-from stickslip_jax import records as rec_mod
 from stickslip_jax.records import Record, read_campaign, write_record
+from stickslip_jax.records import parse as rec_parse
+from stickslip_jax.records import rows as rec_rows
 
 
 def make_campaign(folder, n_records, n_samples):
@@ -63,12 +64,12 @@ def main():
         paths = make_campaign(folder, a.records, a.samples)
         size = sum(os.path.getsize(p) for p in paths) / 1e6
         t_fast, fast = best(lambda: read_campaign(paths), a.repeat)
-        fast_parse = rec_mod._parse_data
-        rec_mod._parse_data = rec_mod._parse_data_checked
+        fast_parse = rec_parse._parse_data  # the reader parse_record calls
+        rec_parse._parse_data = rec_rows._parse_data_checked
         try:
             t_checked, checked = best(lambda: read_campaign(paths), a.repeat)
         finally:
-            rec_mod._parse_data = fast_parse
+            rec_parse._parse_data = fast_parse
 
         def loadtxt():
             return [np.loadtxt(p, delimiter=",", comments="#", skiprows=8) for p in paths]

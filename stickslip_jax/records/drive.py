@@ -1,0 +1,110 @@
+"""Drive programs: piecewise-constant drive speeds ((segment start s, speed mm/s), ...),
+their speed and displacement at given times, and the `drive_program` header's text."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..units import UnitError, factor
+from .errors import RecordError
+from .grammar import _SEGMENT
+from .quantities import _encode, _fmt, _unit_choices
+
+__all__ = ["format_drive_program", "parse_drive_program", "program_position", "program_speed"]
+
+
+def _check_program(program) -> tuple[tuple[float, float], ...]:
+    try:
+        segs = tuple((float(s), float(v)) for s, v in program)
+    except (TypeError, ValueError):
+        raise RecordError(
+            f"drive_program must be ((start s, speed mm/s), ...), got {program!r}"
+        ) from None
+    if not segs:
+        raise RecordError("drive_program needs at least one segment")
+    for s, v in segs:
+        if not (math.isfinite(s) and math.isfinite(v)):
+            raise RecordError(f"drive_program segment ({s}, {v}) is not finite")
+        if v < 0:
+            raise RecordError(f"drive_program speed {v} mm/s is negative; use 0 for a hold")
+    for (s0, _), (s1, _) in zip(segs, segs[1:]):
+        if not s1 > s0:
+            raise RecordError(f"drive_program start times must increase: {s1} s follows {s0} s")
+    return segs
+
+
+def program_speed(program, t) -> np.ndarray:
+    """Drive speed (mm/s) of a program ((start s, speed mm/s), ...) at times t (s); 0 before it."""
+    t = np.asarray(t, dtype=np.float64)
+    starts = np.array([s for s, _ in program])
+    speeds = np.array([0.0] + [v for _, v in program])
+    return speeds[np.searchsorted(starts, t, side="right")]
+
+
+def program_position(program, t) -> np.ndarray:
+    """Drive displacement u(t) = integral_0^t v(s) ds (mm) of a program, at times t (s)."""
+    t = np.asarray(t, dtype=np.float64)
+    starts = [s for s, _ in program]
+    ends = starts[1:] + [np.inf]
+    u = np.zeros_like(t)
+    for (s, v), e in zip(program, ends):
+        u = u + v * (np.clip(t, s, e) - np.clip(0.0, s, e))
+    return u
+
+
+
+def _parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]:
+    segs = []
+    hint = "write e.g. 'drive_program: 0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min'"
+    for part in text.split(";"):
+        m = _SEGMENT.fullmatch(part)
+        if m is None:
+            raise RecordError(
+                f"drive_program: cannot read segment {part.strip()!r} as "
+                f"'start-time unit speed unit'; {hint}",
+                path,
+                line,
+            )
+        try:
+            start = float(m.group(1)) * factor(m.group(2), "time")
+        except UnitError:
+            raise RecordError(
+                f"drive_program: unknown time unit {m.group(2)!r}; use one of "
+                f"{_unit_choices('time')}",
+                path,
+                line,
+            ) from None
+        try:
+            speed = float(m.group(3)) * factor(m.group(4), "speed")
+        except UnitError:
+            raise RecordError(
+                f"drive_program: unknown speed unit {m.group(4)!r}; use one of "
+                f"{_unit_choices('speed')}",
+                path,
+                line,
+            ) from None
+        segs.append((start, speed))
+    try:
+        return _check_program(segs)
+    except RecordError as exc:
+        raise RecordError(f"{exc.reason}; {hint}", path, line) from None
+
+
+def parse_drive_program(text: str) -> tuple[tuple[float, float], ...]:
+    """Parse `"0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min"` into ((start s, speed mm/s), ...).
+
+    The syntax of the `drive_program` header (also for a command-line option); raises
+    `RecordError` (a `ValueError`) saying what to fix.
+    """
+    return _parse_program(str(text), None, None)
+
+
+def format_drive_program(program, speed_unit: str = "mm/s", time_unit: str = "s") -> str:
+    """The `drive_program` text of ((start s, speed mm/s), ...), numbers with repr precision."""
+    segs = _check_program(program)
+    ft, fv = factor(time_unit, "time"), factor(speed_unit, "speed")
+    return "; ".join(
+        f"{_fmt(_encode(s, ft))} {time_unit} {_fmt(_encode(v, fv))} {speed_unit}" for s, v in segs
+    )

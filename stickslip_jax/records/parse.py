@@ -1,0 +1,356 @@
+"""Reading a record file: the header, the column row, the run's conditions, the data rows
+and the clock, each checked in the order a reader meets them, into one `Record`."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..units import G_MM_S2, UnitError, factor
+from .dialects import _decode, _lines, _normalise_dialect, _read_bytes
+from .drive import _parse_program
+from .errors import RecordError
+from .grammar import (
+    _COLUMN,
+    _HEADER,
+    _KEY,
+    _QUANTITY,
+    FORMAT_VERSION,
+    KNOWN_KEYS,
+    MAX_FILE_BYTES,
+    RESERVED_COLUMNS,
+)
+from .quantities import _channel_factor, _quantity, _unit_choices
+from .record import Record
+from .rows import _decimals, _parse_data
+from .sampling import (
+    EPOCH_SECONDS,
+    TIME_STEP_RTOL,
+    _jitter_grid,
+    missing_samples,
+    time_step_deviation,
+)
+
+__all__ = ["parse_record", "read_record"]
+
+_DIMENSIONS = {"time": "time", "deflection": "length", "force": "force", "drive": "length"}
+
+
+def _text_value(key, value, path, line):
+    if value == "":
+        raise RecordError(f"{key}: empty value; give a value or delete the line", path, line)
+    if not value.isprintable():
+        raise RecordError(f"{key}: the value has control characters; remove them", path, line)
+    return value
+
+
+def _split_lines(text: str, path: str) -> list[str]:
+    """The lines of a record's text whose first non-blank line is the format's first line."""
+    if text.startswith("\ufeff"):
+        text = text[1:]
+    if text.strip() == "":
+        raise RecordError("file is empty; a record starts with '# stickslip-record: 1'", path)
+    if "\x00" in text:
+        raise RecordError("binary content (NUL character); a record is UTF-8 CSV text", path)
+    lines = _lines(text, path)
+    first = next(i for i, ln in enumerate(lines) if ln.strip())  # blank lines are ignored
+    m = _HEADER.fullmatch(lines[first].strip())
+    if m is None or m.group(1) != "stickslip-record":
+        raise RecordError(
+            f"the first line must be '# stickslip-record: {FORMAT_VERSION}', "
+            f"got {lines[first][:60]!r}",
+            path,
+            first + 1,
+        )
+    return lines
+
+
+def _header(lines: list[str], path: str) -> tuple[dict[str, tuple[str, int]], int]:
+    """({key: (value, line)}, index of the column row) of the header lines."""
+    header: dict[str, tuple[str, int]] = {}
+    i = 0
+    while i < len(lines):
+        line = lines[i].strip()
+        if line == "":
+            i += 1
+            continue
+        if not line.startswith("#"):
+            break
+        m = _HEADER.fullmatch(line)
+        if m is None:
+            raise RecordError(
+                f"header line {line[:60]!r} is not '# key: value'; "
+                "put free text in '# note: ...'",
+                path,
+                i + 1,
+            )
+        key, value = m.group(1), m.group(2).strip()
+        if not _KEY.fullmatch(key):
+            raise RecordError(
+                f"header key {key!r} must be lowercase: write '{key.lower()}'", path, i + 1
+            )
+        if key in header:
+            raise RecordError(
+                f"{key} given twice (also at line {header[key][1]}); keep one", path, i + 1
+            )
+        header[key] = (value, i + 1)
+        i += 1
+    version = header["stickslip-record"][0]
+    if version != FORMAT_VERSION:
+        raise RecordError(
+            f"unsupported format version {version!r}; this reader knows "
+            f"'stickslip-record: {FORMAT_VERSION}'",
+            path,
+            header["stickslip-record"][1],
+        )
+    if i >= len(lines):
+        raise RecordError(
+            "no column row after the header; add e.g. 'time [s],deflection [mm]' and the data",
+            path,
+            max(j + 1 for j, ln in enumerate(lines) if ln.strip()),
+        )
+    return header, i
+
+
+def _column_factor(name: str, unit: str, path: str, column_line: int) -> float:
+    """The factor to internal units of a column `name [unit]`."""
+    if name in _DIMENSIONS:
+        try:
+            return factor(unit, _DIMENSIONS[name])
+        except UnitError:
+            raise RecordError(
+                f"column {name!r}: unknown {_DIMENSIONS[name]} unit {unit!r}; use one of "
+                f"{_unit_choices(_DIMENSIONS[name])}",
+                path,
+                column_line,
+            ) from None
+    try:
+        return _channel_factor(unit)
+    except UnitError:
+        raise RecordError(
+            f"column {name!r}: unknown unit {unit!r}; use a unit of length, time, "
+            "force, speed, ... (e.g. um) or '-' for a pure number",
+            path,
+            column_line,
+        ) from None
+
+
+def _column_row(row: str, path: str, column_line: int):
+    """(names, units, factors to internal units) of the column row."""
+    columns, units = [], []
+    for cell in row.split(","):
+        cm = _COLUMN.fullmatch(cell)
+        if cm is None and cell.count("[") > 1:
+            raise RecordError(
+                f"the column row {row.strip()[:60]!r} has no ',', ';' or tab between "
+                "its columns; separate them (and the values) with ',' (or ';' or tabs)",
+                path,
+                column_line,
+            )
+        if cm is None:
+            raise RecordError(
+                f"column {cell.strip()[:40]!r} must be 'name [unit]' "
+                "(e.g. 'time [s]', '[-]' for a pure number)",
+                path,
+                column_line,
+            )
+        name, unit = cm.group(1), cm.group(2).strip()
+        if name in columns:
+            raise RecordError(f"column {name!r} appears twice", path, column_line)
+        columns.append(name)
+        units.append(unit)
+    factors = [_column_factor(n, u, path, column_line) for n, u in zip(columns, units)]
+    if "time" not in columns:
+        raise RecordError(
+            f"no 'time [s]' column (columns: {', '.join(columns)})", path, column_line
+        )
+    if ("deflection" in columns) == ("force" in columns):
+        what = "both" if "deflection" in columns else "neither"
+        raise RecordError(
+            f"{what} of 'deflection' and 'force' columns; give exactly one", path, column_line
+        )
+    return columns, units, factors
+
+
+def _weight(header, path: str, column_line: int) -> float:
+    """The slider weight W in kgf from `slider_weight` or `slider_mass` (W = m g)."""
+    if "slider_weight" in header and "slider_mass" in header:
+        raise RecordError(
+            "both slider_weight and slider_mass given; keep one",
+            path,
+            header["slider_mass"][1],
+        )
+    if "slider_mass" in header:
+        m_text, w_line = header["slider_mass"]
+        mm = _QUANTITY.fullmatch(m_text)
+        if mm is not None and mm.group(2).strip() == "kg":
+            weight = float(mm.group(1))  # 1 kg weighs 1 kgf (W = m g, standard gravity)
+        else:
+            weight = _quantity(m_text, "mass", "slider_mass", path, w_line) * G_MM_S2
+    else:
+        if "slider_weight" not in header:
+            raise RecordError("missing header line '# slider_weight: 36.0 kgf'", path,
+                              column_line)
+        w_text, w_line = header["slider_weight"]
+        weight = _quantity(w_text, "force", "slider_weight", path, w_line)
+    if not (math.isfinite(weight) and weight > 0):
+        raise RecordError("slider weight must be positive and finite", path, w_line)
+    return weight
+
+
+def _conditions(header, columns, path: str, column_line: int) -> dict:
+    """The `Record` fields the header gives: stiffness, weight, drive, texts, truth, extra."""
+    if "stiffness" not in header:
+        raise RecordError("missing header line '# stiffness: 86.9 kgf/mm'", path, column_line)
+    k_text, k_line = header["stiffness"]
+    stiffness = _quantity(k_text, "stiffness", "stiffness", path, k_line)
+    if not stiffness > 0:
+        raise RecordError("stiffness must be positive", path, k_line)
+    weight = _weight(header, path, column_line)
+    drive_speed = None
+    if "drive_speed" in header:
+        v_text, v_line = header["drive_speed"]
+        drive_speed = _quantity(v_text, "speed", "drive_speed", path, v_line)
+        if drive_speed < 0:
+            raise RecordError("drive_speed must be >= 0", path, v_line)
+    program = None
+    if "drive_program" in header:
+        program = _parse_program(header["drive_program"][0], path, header["drive_program"][1])
+    if drive_speed is None and program is None and "drive" not in columns:
+        raise RecordError(
+            "no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line "
+            "or a 'drive [mm]' column",
+            path,
+            column_line,
+        )
+    fields = dict(stiffness=stiffness, weight=weight, drive_speed=drive_speed,
+                  drive_program=program)
+    for key in ("lubricant", "surface", "note"):
+        fields[key] = (_text_value(key, header[key][0], path, header[key][1])
+                       if key in header else None)
+    truth = None
+    if "truth" in header:
+        t_text, t_line = header["truth"]
+        try:
+            truth = json.loads(t_text)
+        except (ValueError, RecursionError) as exc:
+            raise RecordError(f"truth: not valid JSON ({str(exc)[:80]})", path, t_line) from None
+        if not isinstance(truth, dict):
+            raise RecordError("truth: must be a JSON object {...}", path, t_line)
+    fields["truth"] = truth
+    fields["extra_header"] = {key: _text_value(key, value, path, line)
+                              for key, (value, line) in header.items() if key not in KNOWN_KEYS}
+    return fields
+
+
+def _data(lines, start, columns, factors, path: str, column_line: int):
+    """(data rows in internal units, their line numbers) after the column row."""
+    data, rows = _parse_data(lines, start, columns, path)
+    if data.shape[0] < 2:
+        raise RecordError(
+            f"{data.shape[0]} data row(s); a record needs at least two samples",
+            path,
+            rows[-1] if rows else column_line,
+        )
+    with np.errstate(over="ignore", invalid="ignore"):
+        data = data * np.array(factors)
+    if not np.all(np.isfinite(data)):
+        r, c = np.argwhere(~np.isfinite(data))[0]
+        raise RecordError(
+            f"column {columns[c]!r} overflows after unit conversion", path, rows[r]
+        )
+    return data, rows
+
+
+def _clock(data, rows, lines, j: int, time_factor: float, path: str, notes: list[str]):
+    """The data with a uniform clock in column `j`: strictly increasing time, epoch
+    stamps counted from the first, dropped samples and jitter resampled with a note;
+    other unevenness is refused with the line and the fix."""
+    time = data[:, j]
+    steps = np.diff(time)
+    bad = np.flatnonzero(~(steps > 0))
+    if bad.size:
+        r = int(bad[0])
+        raise RecordError(
+            f"time does not increase: {float(time[r + 1]):.10g} s after {float(time[r]):.10g} s "
+            f"(line {rows[r]}); sort the rows and remove duplicates",
+            path,
+            rows[r + 1],
+        )
+    if time[0] > EPOCH_SECONDS:  # logger epoch stamps: count from the first sample
+        notes.append(f"time counted from the first time stamp ({float(time[0])!r} s)")
+        time = time - time[0]
+        data[:, j] = time
+    for regrid in (missing_samples, _jitter_grid):  # a logger's dropped samples, jitter
+        got = regrid(time)
+        if got is None:
+            continue
+        grid, note = got
+        data = np.column_stack([grid if c == j else np.interp(grid, time, data[:, c])
+                                for c in range(data.shape[1])])
+        notes.append(note)
+        time = data[:, j]  # uniform now: the line numbers below are not needed again
+    dev, r, dt = time_step_deviation(time)
+    if not dev <= TIME_STEP_RTOL:
+        msg = (
+            f"time is uneven: the step to this line is {steps[r]:.6g} s against the mean "
+            f"step {dt:.6g} s (relative deviation {dev:.3g}, tolerance {TIME_STEP_RTOL:g}); "
+        )
+        cells = [lines[rows[r] - 1].split(",")[j], lines[rows[r + 1] - 1].split(",")[j]]
+        rounding = 0.5 * sum(_decimals(c) for c in cells) * time_factor  # of a written step
+        if abs(steps[r] - dt) <= 1.01 * rounding:
+            msg += (
+                "this is within the rounding of the written digits: if the time stamps "
+                "were rounded, write them with more digits, else resample uniformly"
+            )
+        else:
+            msg += "resample the run to a uniform step (or split it at the gap)"
+        raise RecordError(msg, path, rows[r + 1])
+    return data
+
+
+def parse_record(text: str, source=None) -> Record:
+    """Parse the text of a record file; `source` names it in errors and in `Record.source`."""
+    path = "<text>" if source is None else str(source)
+    lines = _split_lines(text, path)
+    header, i = _header(lines, path)
+    column_line = i + 1
+    notes: list[str] = []
+    lines = lines[:i] + _normalise_dialect(lines[i:], notes)
+    columns, units, factors = _column_row(lines[i], path, column_line)
+    fields = _conditions(header, columns, path, column_line)
+    data, rows = _data(lines, i + 1, columns, factors, path, column_line)
+    j = columns.index("time")
+    data = _clock(data, rows, lines, j, factors[j], path, notes)
+    if "deflection" in columns:
+        deflection = data[:, columns.index("deflection")]
+    else:
+        deflection = data[:, columns.index("force")] / fields["stiffness"]
+    channels = {
+        name: data[:, c] for c, name in enumerate(columns) if name not in RESERVED_COLUMNS
+    }
+    unit_of = dict(zip(columns, units))
+    try:
+        return Record(
+            time=data[:, j],
+            deflection=deflection,
+            drive=data[:, columns.index("drive")] if "drive" in columns else None,
+            channels=channels,
+            channel_units={name: unit_of[name] for name in channels},
+            source=None if source is None else str(source),
+            notes=tuple(notes),
+            **fields,
+        )
+    except RecordError as exc:
+        raise RecordError(exc.reason, path) from None
+
+
+def read_record(path, *, max_bytes: int = MAX_FILE_BYTES) -> Record:
+    """Read one record file (format in the `stickslip_jax.records` docstring); raises
+    `RecordError`."""
+    path = Path(path)
+    text = _decode(_read_bytes(path, max_bytes), path)
+    return parse_record(text, source=path)
