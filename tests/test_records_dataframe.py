@@ -1,14 +1,23 @@
-"""`Record.from_dataframe`: pandas columns chosen by label, units from the labels or the
-keywords, extra columns as channels; pandas stays optional."""
+"""Records and pandas DataFrames: `Record.from_dataframe` (columns chosen by label, units
+from the labels or the keywords, extra columns as channels) and `Record.to_dataframe`
+(units in the column names, metadata in `attrs`, read back exactly); pandas stays
+optional."""
 
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stickslip_jax.records import Record, RecordError, format_record, parse_record
+from stickslip_jax.records import (
+    Record,
+    RecordError,
+    format_record,
+    parse_record,
+    read_record,
+)
 from stickslip_jax.units import KGF_N
 
 CONDITIONS = dict(stiffness="852 N/um", mass="30.7 g", drive_speed="40 in/min")
@@ -133,3 +142,101 @@ def test_missing_pandas_names_the_install(monkeypatch):
     with pytest.raises(ImportError, match="Record.from_dataframe needs pandas: pip install "
                        "pandas"):
         Record.from_dataframe(object(), **CONDITIONS)
+
+
+def _rich_record(drive="program"):
+    """A record with every kind of field: channels of a known, an unknown and no unit,
+    truth, extra header, notes and a source."""
+    t = np.arange(300) * 2e-3
+    conditions = {
+        "program": dict(drive_program=((0.0, 0.02), (0.3, 0.0))),
+        "speed": dict(drive_speed=0.05),
+        "column": dict(drive=0.05 * t + 1e-4 * np.sin(30 * t), drive_speed=0.05),
+    }[drive]
+    return Record(time=t, deflection=0.1 + 0.01 * np.sin(40 * t), stiffness=86.9,
+                  weight=36.0, lubricant="A", surface="S1G1", note="bench run",
+                  channels={"pitch_1": 1e-3 * np.cos(40 * t), "temp": 21.0 + t,
+                            "ratio": np.full_like(t, 0.5)},
+                  channel_units={"pitch_1": "um", "temp": "degC", "ratio": "-"},
+                  truth={"mu_s": 0.3}, source="runs/r1.csv",
+                  extra_header={"operator": "kb"}, notes=("resampled",), **conditions)
+
+
+@pytest.mark.parametrize("drive", ["program", "speed", "column"])
+def test_to_dataframe_columns_and_attrs_and_back(drive):
+    pytest.importorskip("pandas")
+    rec = _rich_record(drive)
+    df = rec.to_dataframe()
+    assert list(df.columns) == ["time_s", "x_mm", "force_kgf", "drive_mm", "pitch_1_mm",
+                                "temp_degC", "ratio_1"]
+    np.testing.assert_array_equal(df["time_s"], rec.time)
+    np.testing.assert_array_equal(df["x_mm"], rec.deflection)
+    np.testing.assert_array_equal(df["force_kgf"], rec.force)
+    np.testing.assert_array_equal(df["drive_mm"], rec.drive_position())
+    np.testing.assert_array_equal(df["pitch_1_mm"], rec.channels["pitch_1"])  # internal mm
+    assert df.attrs["stiffness_kgf_per_mm"] == 86.9 and df.attrs["weight_kgf"] == 36.0
+    assert df.attrs["drive_source"] == drive
+    assert df.attrs["drive_program"] == rec.drive_program
+    assert df.attrs["drive_speed_mm_per_s"] == rec.drive_speed
+    assert (df.attrs["lubricant"], df.attrs["surface"], df.attrs["note"]) == (
+        "A", "S1G1", "bench run")
+    assert df.attrs["truth"] == {"mu_s": 0.3} and df.attrs["source"] == "runs/r1.csv"
+    assert df.attrs["channel_units"] == {"pitch_1": "um", "temp": "degC", "ratio": "-"}
+    back = Record.from_dataframe(df)
+    assert back == rec
+    assert (back.source, back.notes, back.channel_units) == (
+        rec.source, rec.notes, rec.channel_units)
+    assert back.drive_source == drive
+    # a field given by name replaces the frame's
+    assert Record.from_dataframe(df, lubricant="B") == rec.replace(lubricant="B")
+
+
+def test_to_dataframe_of_a_read_file_gives_the_file_back():
+    pytest.importorskip("pandas")
+    rec = read_record(sorted((Path(__file__).parents[1] / "data" / "examples").glob("*.csv"))[0])
+    df = rec.to_dataframe()
+    assert df.shape == (rec.n_samples, 4)
+    back = Record.from_dataframe(df)
+    assert back == rec and back.source == rec.source
+    assert format_record(back) == format_record(rec)
+
+
+def test_to_dataframe_frame_refuses_mixed_arguments_and_lost_attrs():
+    pd = pytest.importorskip("pandas")
+    df = _rich_record().to_dataframe()
+    with pytest.raises(RecordError, match="carries its columns and conditions; leave out "
+                       "time=, weight="):
+        Record.from_dataframe(df, weight=36.0, time="time_s")
+    bare = df.drop(columns=["temp_degC"])
+    with pytest.raises(RecordError, match="lacks the column\\(s\\) 'temp_degC'"):
+        Record.from_dataframe(bare)
+    lost = df.copy()
+    del lost.attrs["weight_kgf"]
+    with pytest.raises(RecordError, match="attrs lack 'weight_kgf'"):
+        Record.from_dataframe(lost)
+    plain = pd.DataFrame({"time [s]": df["time_s"], "deflection [mm]": df["x_mm"]})
+    with pytest.raises(TypeError, match="missing 1 required keyword-only argument: "
+                       "'stiffness'"):
+        Record.from_dataframe(plain, weight=36.0, drive_speed=0.05)
+    # with its conditions given, a to_dataframe frame is read by label like any other
+    got = Record.from_dataframe(df, time="time_s", deflection="x_mm", time_unit="s",
+                                deflection_unit="mm", stiffness=86.9, weight=36.0,
+                                drive_speed=0.02, extra_columns=[])
+    np.testing.assert_array_equal(got.deflection, df["x_mm"])
+
+
+def test_to_dataframe_refuses_a_channel_that_repeats_a_column():
+    pytest.importorskip("pandas")
+    t = np.arange(10) * 1e-3
+    rec = Record(time=t, deflection=t, stiffness=1.0, weight=1.0, drive_speed=1.0,
+                 channels={"x": t}, channel_units={"x": "um"})
+    with pytest.raises(RecordError, match="channel 'x' would be the column 'x_mm'"):
+        rec.to_dataframe()
+
+
+def test_to_dataframe_without_pandas_names_the_extra(monkeypatch):
+    rec = _rich_record()
+    monkeypatch.setitem(sys.modules, "pandas", None)
+    with pytest.raises(ImportError, match='Record.to_dataframe needs pandas: pip install '
+                       '"stickslip-jax\\[pandas\\]"'):
+        rec.to_dataframe()
