@@ -13,7 +13,7 @@ and the likelihood-ratio statistic $\Lambda = N\ln(\mathrm{RSS}_0/\mathrm{RSS}_c
 $\Delta\mathrm{BIC}$ is named only if $\Delta\mathrm{BIC} < -$`threshold`; otherwise the
 answer is "none". Naming an effect that is not there is the worst failure, so the
 threshold (default 10, i.e. $\Lambda > 18.6$ for one parameter on 5000 samples) was
-chosen on campaigns with no hidden effect (tests; README).
+chosen on campaigns with no hidden effect (tests).
 
 A refit whose fitted value breaks a sign that physics requires (`SIGNS` in
 effects.py: c >= 0 for viscous damping, ...) is not a physical explanation: the

@@ -197,7 +197,7 @@ def discover(
     refit also passes the BIC threshold, the short refits are not trusted to separate
     them (they crawl along the friction law's flat valley at different speeds): the
     score winner is named with "low" confidence and the other is reported in
-    `indistinguishable_from`. Measured on the stribeck campaign (README): the score
+    `indistinguishable_from`. Measured on the stribeck campaign: the score
     test prefers stribeck (170 vs 130), 40-evaluation refits prefer rate_state, and the
     true parameters give the chi-square drop the score test predicted (166).
     """

@@ -17,7 +17,7 @@ HELP = ("save a PNG of a record: deflection vs time with stick and slip phases m
 def add_arguments(p):
     from .options import add_plot_option
 
-    p.add_argument("record", help="record file (CSV, see README 'Records')")
+    p.add_argument("record", help="record file (CSV; the format: docs/records.md)")
     add_plot_option(p, "the figure (default: NAME.png in the current folder, NAME the "
                     "record's file name without its extension)", hidden=("--out",))
 

@@ -70,7 +70,7 @@ interpolation (`SaveAt(steps=True)`, the vector field at the step ends), so the 
 run grows with `max_steps` (its step buffer): size it to the need (about 130-150 steps per
 stick-slip cycle at rtol 1e-8). Parts with fast states of their own (a sensor low-pass of
 10 us) make any formulation stiff: pass an implicit `solver` for them.
-Measured (tests, README): amplitude error vs exact linear in $\eta$ (1.2 %, 0.10 %, 0.008 %
+Measured (tests): amplitude error vs exact linear in $\eta$ (1.2 %, 0.10 %, 0.008 %
 at $\eta$ = 1e-2, 1e-3, 1e-4 at 3 mm/min), the number of steps independent of $\eta$,
 gradients within 1e-4 of finite differences for $\eta$ = 1e-2 ... 1e-4 at rtol 1e-9 and
 1e-10.
