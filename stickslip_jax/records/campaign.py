@@ -14,14 +14,6 @@ from .grammar import MAX_FILE_BYTES
 from .parse import read_record
 from .record import Record
 
-__all__ = [
-    "CampaignFiles",
-    "check_campaign",
-    "read_campaign",
-    "read_campaign_files",
-    "record_paths",
-]
-
 
 def record_paths(spec) -> list[Path]:
     """The record files a campaign spec names (files, folders, globs; `read_campaign`)."""

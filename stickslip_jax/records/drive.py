@@ -12,8 +12,6 @@ from .errors import RecordError
 from .grammar import _SEGMENT
 from .quantities import _encode, _fmt, _unit_choices
 
-__all__ = ["format_drive_program", "parse_drive_program", "program_position", "program_speed"]
-
 
 def _check_program(program) -> tuple[tuple[float, float], ...]:
     try:
@@ -52,7 +50,6 @@ def program_position(program, t) -> np.ndarray:
     for (s, v), e in zip(program, ends):
         u = u + v * (np.clip(t, s, e) - np.clip(0.0, s, e))
     return u
-
 
 
 def _parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]:

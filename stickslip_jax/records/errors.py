@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-__all__ = ["RecordError"]
-
 
 class RecordError(ValueError):
     """A record that cannot be read or built; the message names the file, line and fix.

@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import re
 
-__all__ = ["FORMAT_VERSION", "KNOWN_KEYS", "MAX_FILE_BYTES", "RESERVED_COLUMNS"]
-
 FORMAT_VERSION = "1"
 """The version in a record's first line, `# stickslip-record: 1`."""
 

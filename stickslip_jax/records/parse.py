@@ -34,8 +34,6 @@ from .sampling import (
     time_step_deviation,
 )
 
-__all__ = ["parse_record", "read_record"]
-
 _DIMENSIONS = {"time": "time", "deflection": "length", "force": "force", "drive": "length"}
 
 

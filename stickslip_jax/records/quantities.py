@@ -12,8 +12,6 @@ from ..units import INTERNAL_UNIT, UNITS, UnitError, factor
 from .errors import RecordError
 from .grammar import _QUANTITY
 
-__all__ = ["channel_dimension", "unit_dimension"]
-
 
 def unit_dimension(unit: str) -> str:
     """The dimension (`"length"`, `"time"`, ...) of a unit that `stickslip_jax.units` knows."""
@@ -52,7 +50,6 @@ def _internal_channel_unit(unit: str) -> str:
 # ---------------------------------------------------------------------------- record
 
 
-
 def _quantity(text: str, dimension: str, key: str, path, line: int) -> float:
     m = _QUANTITY.fullmatch(text)
     if m is None:
@@ -80,7 +77,6 @@ def _quantity(text: str, dimension: str, key: str, path, line: int) -> float:
     if not math.isfinite(value):
         raise RecordError(f"{key}: {m.group(1)!r} is out of range", path, line)
     return value * f
-
 
 
 def _encode(values: np.ndarray, f: float) -> np.ndarray:

@@ -27,8 +27,6 @@ from .sampling import (
     time_step_deviation,
 )
 
-__all__ = ["Record"]
-
 
 def _array(name, value, n=None):
     try:
@@ -67,7 +65,6 @@ def _text(name, value):
             f"got {value!r}"
         )
     return value
-
 
 
 @dataclasses.dataclass(frozen=True, eq=False)

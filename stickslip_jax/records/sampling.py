@@ -5,20 +5,6 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = [
-    "EPOCH_SECONDS",
-    "JITTER_MIN_SAMPLES",
-    "JITTER_RTOL",
-    "JITTER_STAMP",
-    "JITTER_STEP",
-    "MISSING_RUN",
-    "MISSING_SHARE",
-    "TIME_STEP_RTOL",
-    "jittered_clock",
-    "missing_samples",
-    "time_step_deviation",
-]
-
 TIME_STEP_RTOL = 1e-3
 """Largest relative deviation of a time step from the mean step, |dt_i - dt| / dt."""
 

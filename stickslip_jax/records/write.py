@@ -15,8 +15,6 @@ from .grammar import FORMAT_VERSION
 from .quantities import _channel_factor, _encode, _fmt, _internal_channel_unit, channel_dimension
 from .record import Record
 
-__all__ = ["format_record", "write_record"]
-
 
 def format_record(
     record: Record,
