@@ -26,7 +26,7 @@ from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.simulation import simulate_exact
 from stickslip_jax.steady import RESTICK_FAILURE, STEADY_SLIDING, STICK_SLIP, restick_failure
 
-from .maps import DesignMap, DesignPoints
+from .points import DesignMap, DesignPoints
 
 N_CYCLES = 8
 

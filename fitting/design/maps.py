@@ -19,12 +19,9 @@ from __future__ import annotations
 
 import math
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
 import optimistix as optx
-from jaxtyping import Array, Bool, Float
 
 from stickslip_jax import Friction, steady_state
 from stickslip_jax import slip_time as ss_slip_time
@@ -32,67 +29,11 @@ from stickslip_jax.steady import STEADY_SLIDING
 
 from ..modes import MapMethod
 from .chunks import collect, map_chunks
+from .exact import exact_kernel
+from .points import DesignMap, DesignPoints, design_points, outer
 
-
-class DesignMap(eqx.Module):
-    r"""Stick-slip characteristics at every design point (arrays of the map's shape).
-
-    `amplitude` a (mm, eq 5; 0 where sliding is smooth), `amplitude_ratio` ak/W,
-    `frequency` f (Hz), `frequency_ratio` f/f0, `stick_time` T1 (s), `slip_time` T2 (s),
-    `natural_frequency` f0 (Hz), `critical_speed` v_c (mm/s, corrected eq 12),
-    `stick_slip` (bool), `converged` (the stick-time solve, or the simulation, succeeded),
-    `regime` (`stickslip_jax.steady.REGIMES`: 0 steady sliding, 1 stick-slip, 2 re-stick
-    failure, where eq (6)'s amplitude is not the motion's).
-    """
-
-    amplitude: Float[Array, "..."]
-    amplitude_ratio: Float[Array, "..."]
-    frequency: Float[Array, "..."]
-    frequency_ratio: Float[Array, "..."]
-    stick_time: Float[Array, "..."]
-    slip_time: Float[Array, "..."]
-    natural_frequency: Float[Array, "..."]
-    critical_speed: Float[Array, "..."]
-    stick_slip: Bool[Array, "..."]
-    converged: Bool[Array, "..."]
-    regime: Array
-
-
-class DesignPoints(eqx.Module):
-    """Design points: `friction` (array leaves), W (kgf), k (kgf/mm), v (mm/s), all
-    broadcastable to `shape`. Leaves are NumPy arrays, not yet broadcast."""
-
-    friction: Friction
-    weight: np.ndarray
-    stiffness: np.ndarray
-    speed: np.ndarray
-    shape: tuple[int, ...] = eqx.field(static=True)
-
-
-def design_points(friction: Friction, weight, stiffness, speed) -> DesignPoints:
-    """Check and broadcast the arguments of a map (W kgf, k kgf/mm, v mm/s)."""
-    if not isinstance(friction, Friction):
-        raise ValueError(f"friction must be a stickslip_jax.Friction, got {type(friction)}")
-    friction = jax.tree_util.tree_map(lambda x: np.asarray(x, dtype=float), friction)
-    w, k, v = (np.asarray(x, dtype=float) for x in (weight, stiffness, speed))
-    shapes = [np.shape(x) for x in jax.tree_util.tree_leaves(friction)] + [w.shape, k.shape, v.shape]
-    try:
-        shape = np.broadcast_shapes(*shapes)
-    except ValueError as exc:
-        raise ValueError(f"design-map arguments do not broadcast together: {shapes}") from exc
-    for name, x in (("weight W", w), ("stiffness k", k), ("drive speed v", v)):
-        if not np.all(np.isfinite(x) & (x > 0)):
-            raise ValueError(f"{name} must be finite and positive everywhere")
-    return DesignPoints(friction, w, k, v, tuple(int(s) for s in shape))
-
-
-def outer(*axes):
-    """1-D axes reshaped to broadcast as an outer grid: ``outer(W, k, v)`` -> W x k x v."""
-    n = len(axes)
-    return tuple(
-        np.asarray(a, dtype=float).reshape([-1 if i == j else 1 for j in range(n)])
-        for i, a in enumerate(axes)
-    )
+__all__ = ["DesignMap", "DesignPoints", "design_map", "design_points", "iter_design_map", "outer",
+           "steady_kernel", "cycle_kernel", "exact_kernel"]
 
 
 def steady_kernel(points: DesignPoints, shared=None) -> DesignMap:
@@ -154,8 +95,6 @@ one-cycle map's fixed point (`cycle_kernel`)."""
 
 def _kernel(method: MapMethod):
     if method is MapMethod.EXACT:
-        from .exact import exact_kernel
-
         return exact_kernel
     return cycle_kernel if method is MapMethod.CYCLE else steady_kernel
 
