@@ -1,6 +1,17 @@
 r"""stickslip_fitting (the folder fitting/): parameter identification, design studies and the missing-physics workflow
 for stickslip_jax.
 
+One call fits a campaign as `stickslip fit` does (`api`):
+
+```python
+import stickslip_fitting as sf
+result = sf.fit("data/examples/*.csv")   # -> CampaignFit
+result.summary(); result.plot("fit.png"); result.to_json("fit.json")
+```
+
+`stickslip_fitting.fit` is also the module of the fit machinery (`fit.fit_features`,
+`fit.FitResult`); calling it runs `api.fit`.
+
 Data flow, one way (each step knows only the ones before it):
 
 1. records -> `campaign.load_campaign` (screening) -> `features.record_features` (cycles)
@@ -42,13 +53,20 @@ pitching fits in `pitch_fit`. Importing this package enables `jax_enable_x64` (t
 """
 
 import importlib
+import sys
+import types
+from typing import TYPE_CHECKING
 
 import stickslip_jax  # noqa: F401  (enables x64)
+
+if TYPE_CHECKING:  # for type checkers, `stickslip_fitting.fit(...)` is the one-call fit
+    from .api import fit as fit
 
 __all__ = [
     "AbstractFrictionParams",
     "AbstractResiduals",
     "Campaign",
+    "CampaignFit",
     "CampaignParams",
     "DesignCriterion",
     "EmpiricalFriction",
@@ -59,6 +77,7 @@ __all__ = [
     "RecordFeatures",
     "Uncertainty",
     "discover_cycles",
+    "fit",
     "fit_features",
     "fit_microsqueeze",
     "fit_objective",
@@ -83,12 +102,46 @@ _HOME = {
     "discover_cycles": "discovery.cycle_workflow",
     "AbstractResiduals": "solve", "least_squares": "solve",
     "Objective": "modes", "DesignCriterion": "modes",
+    "CampaignFit": "api",
 }
+
+
+class _FitModule(types.ModuleType):
+    """The type of the submodule `stickslip_fitting.fit`: a module (fit_features,
+    FitResult, ...) that, called, runs the one-call fit `api.fit`."""
+
+    def __call__(self, records, **options):
+        from .api import fit
+
+        return fit(records, **options)
+
+    @property
+    def __signature__(self):
+        import inspect
+
+        from .api import fit
+
+        return inspect.signature(fit)
+
+
+class _Package(types.ModuleType):
+    """This package's module type: the import system sets each submodule as an attribute
+    of the package, and the submodule `fit` gets the type `_FitModule` there."""
+
+    def __setattr__(self, name, value):
+        if name == "fit" and type(value) is types.ModuleType:
+            value.__class__ = _FitModule
+        super().__setattr__(name, value)
+
+
+sys.modules[__name__].__class__ = _Package
 
 
 def __getattr__(name):
     # imported on first use: building the `stickslip` parser imports this package, and
     # the fit modules pull in the simulators
+    if name == "fit":  # the submodule, callable (`_FitModule`)
+        return importlib.import_module(".fit", __name__)
     if name in _HOME:
         return getattr(importlib.import_module(f".{_HOME[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

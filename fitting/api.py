@@ -1,0 +1,381 @@
+r"""One call for a campaign's fit: `stickslip_fitting.fit(records, ...)` -> `CampaignFit`.
+
+```python
+import stickslip_fitting as sf
+
+result = sf.fit("data/examples/*.csv")   # a glob, a folder, a list of paths or Records
+print(result.summary())                  # pandas DataFrame, one row per parameter
+result.plot("fit.png")                   # the diagnostic figure
+result.to_json("fit.json")               # the document of `stickslip fit --json`
+```
+
+The call runs the steps of `stickslip fit` with the same functions, so it gives the same
+numbers and the same document: read and screen the campaign
+(`campaign.load_campaign`; `campaign.screen_records` for `Record` objects), fit
+(`fit.fit_features`, or `microsqueeze_fit.fit_microsqueeze` for the microsqueeze law),
+the Laplace intervals (`uncertainty.laplace`) and the report
+(`commands.fit.build_report`). The options are the command's: `model`, `objective`,
+`fix`, `loss`, `gauge_offset`, `slip_time`, `strict`, `eta`, `surface`, each given as the
+object it names (`Objective.TRACE`, `{"n": 1.0}`, `Huber(2.0)`, `EmpiricalFriction`) or
+as the command line's string for it.
+
+Units are the internal ones (kgf, mm, s; mu dimensionless, gamma s^-m, delta s^-n). A
+parameter the records do not determine has no value: NaN in `summary()`, null with a
+reason in the JSON.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import warnings
+from collections.abc import Iterable, Mapping
+from typing import TYPE_CHECKING, Any, Union
+
+from stickslip_jax.modes import GaugeOffset, SlipTime
+from stickslip_jax.records import Record
+
+from .modes import Objective
+
+if TYPE_CHECKING:
+    import pandas
+
+    from matplotlib.figure import Figure
+
+    from .campaign import Campaign
+    from .fit import FitResult
+    from .losses import AbstractLoss
+    from .params import AbstractFrictionParams
+    from .uncertainty import Uncertainty
+
+__all__ = ["CampaignFit", "RecordsSpec", "SUMMARY_COLUMNS", "fit"]
+
+RecordsSpec = Union[str, "os.PathLike[str]", Record, Iterable[Union[str, "os.PathLike[str]", Record]]]
+"""What `fit` reads: a file, a folder (its *.csv), a glob, or a list of these; or
+`Record` objects (one or a list)."""
+
+SUMMARY_COLUMNS = ("value", "std_err", "low", "high", "unit", "identifiable", "reason")
+"""The columns of `CampaignFit.summary()` (low, high: the 95 % interval)."""
+
+_MODELS = ("empirical", "microsqueeze")
+_PANDAS = 'pip install "stickslip-jax[pandas]"'
+
+
+@dataclasses.dataclass(frozen=True)
+class CampaignFit:
+    """The result of `fit`: the campaign's friction parameters with their intervals.
+
+    - `summary()`: a pandas DataFrame indexed by parameter (`SUMMARY_COLUMNS`);
+    - `plot(path)`: the diagnostic figure of `stickslip fit --plot`;
+    - `to_json(path)`: the document of `stickslip fit --json` (written to `path`, and
+      returned as text); `to_dict()` the same as a dict;
+    - `str(result)`: the table `stickslip fit` prints, with its warnings and notes.
+
+    The parts: `report` (the JSON document before strict encoding), `fit`
+    (`stickslip_fitting.fit.FitResult`: the optimum, the objective, chi2),
+    `uncertainty` (`stickslip_fitting.uncertainty.Uncertainty`: covariance,
+    identifiability), `campaign` (`stickslip_fitting.campaign.Campaign`: the records
+    used and the screening of every record) and `model` ("empirical" or "microsqueeze").
+    For the posterior, `stickslip_fitting.run_mcmc(result.fit)`.
+    """
+
+    report: dict
+    fit: FitResult
+    uncertainty: Uncertainty
+    campaign: Campaign
+    model: str = "empirical"
+    inputs: tuple[str, ...] = ()
+    """The record files read (an output may not overwrite one of them)."""
+
+    @property
+    def converged(self) -> bool:
+        """True when the optimiser reached an optimum (the CLI exits 3 otherwise)."""
+        return bool(self.report["converged"])
+
+    @property
+    def parameters(self) -> dict[str, dict]:
+        """{name: entry} of the JSON document (value, stderr, ci95, unit, identifiable,
+        fixed, ...), in the law's order."""
+        return self.report["parameters"]
+
+    @property
+    def values(self) -> dict[str, float]:
+        """{name: value}; NaN for a parameter the records do not determine."""
+        return {name: row[0] for name, row in self._rows().items()}
+
+    @property
+    def notes(self) -> list[str]:
+        """What reading and cycle extraction did to each record (`Campaign.notes`)."""
+        return list(self.campaign.notes)
+
+    def _rows(self) -> dict[str, tuple]:
+        """{name: (value, std_err, low, high, unit, identifiable, reason)} from the
+        report's parameter entries."""
+        nan = math.nan
+        rows = {}
+        for name, p in self.report["parameters"].items():
+            fixed = bool(p.get("fixed", False))
+            known = bool(p.get("identifiable", True)) or fixed
+            value = p.get("value")
+            value = nan if value is None or not known else float(value)
+            reason = p.get("reason")
+            if not known and not reason:
+                reason = "not identifiable: the records do not determine it"
+            if fixed and not reason:
+                reason = "fixed (given, not fitted)"
+            interval = p.get("ci95")
+            shown = (known and not fixed and not p.get("at_bound", False)
+                     and p.get("stderr") is not None and interval is not None)
+            rows[name] = (value,
+                          float(p["stderr"]) if shown else nan,
+                          float(interval[0]) if shown else nan,
+                          float(interval[1]) if shown else nan,
+                          p["unit"], bool(p.get("identifiable", True)), reason or "")
+        return rows
+
+    def summary(self) -> pandas.DataFrame:
+        """One row per parameter, indexed by its name: `value`, `std_err` and the 95 %
+        interval `low`, `high` (internal units, `unit`), `identifiable`, and `reason`
+        (empty for an estimate; why not, for a parameter that is fixed, at a bound of its
+        support, or not identifiable). A parameter the records do not determine has value
+        NaN. Needs pandas (the `[pandas]` extra)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError(f"CampaignFit.summary() needs pandas: {_PANDAS} (or pip "
+                              "install pandas)") from None
+        rows = self._rows()
+        frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(SUMMARY_COLUMNS))
+        frame.index.name = "parameter"
+        return frame
+
+    def to_dict(self) -> dict:
+        """The `stickslip fit --json` document as a dict (strict JSON: NaN as None)."""
+        import json
+
+        return json.loads(self.to_json())
+
+    def to_json(self, path: str | os.PathLike[str] | None = None) -> str:
+        """The `stickslip fit --json` document (with "schema_version"), as text; written
+        to `path` too when given (atomically; never over one of the input records)."""
+        from stickslip_jax.output import check_outputs, dumps, versioned, write_text
+
+        text = dumps(versioned(self.report), indent=2) + "\n"
+        if path is not None:
+            check_outputs({"to_json": os.fspath(path)}, self.inputs)
+            write_text(os.fspath(path), text)
+        return text
+
+    def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
+        """The diagnostic figure of `stickslip fit --plot` (`stickslip_fitting.plots.
+        fit_figure`): returned, and saved to `path` (closed then) when given."""
+        from .plots import fit_figure
+
+        if path is not None:
+            from stickslip_jax.output import check_outputs
+
+            check_outputs({"plot": os.fspath(path)}, self.inputs)
+            path = os.fspath(path)
+        return fit_figure(self.fit, self.uncertainty, self.campaign.records, path)
+
+    def __str__(self) -> str:
+        from .commands.fit import format_table
+
+        return "\n".join([format_table(self.report)] + [f"note: {n}" for n in self.notes])
+
+    def __repr__(self) -> str:
+        used = sum(s.status == "used" for s in self.campaign.screening)
+        values = ", ".join(f"{n}={v:.5g}" for n, v in self.values.items())
+        return (f"CampaignFit(model={self.model!r}, records={used}, converged="
+                f"{self.converged}, {values})")
+
+
+def fit(
+    records: RecordsSpec,
+    *,
+    model: str | type[AbstractFrictionParams] = "empirical",
+    objective: Objective | str = Objective.FEATURES,
+    fix: Mapping[str, float] | None = None,
+    loss: AbstractLoss | str = "gaussian",
+    gauge_offset: GaugeOffset | str = GaugeOffset.ZERO,
+    slip_time: SlipTime | str = SlipTime.PAPER,
+    strict: bool = False,
+    eta: float | str | None = None,
+    surface: str = "S1G1",
+) -> CampaignFit:
+    """Fit the friction parameters to a campaign of records, as `stickslip fit` does.
+
+    - `records`: a file, a folder (its *.csv), a glob ("data/examples/*.csv"), a list of
+      these, or `Record` objects (`stickslip_jax.records`).
+    - `model`: the static-friction law, `EmpiricalFriction` (eq (1), "empirical", the
+      default) or `MicrosqueezeFriction` ("microsqueeze": h_e and Q in place of gamma
+      and m, with the viscosity `eta` and the surface pair `surface` given).
+    - `objective`: a `stickslip_fitting.modes.Objective` (or its value): FEATURES (cycle
+      features, the default), TRACE, BOTH or SMOOTH.
+    - `fix`: {name: value} held fixed, e.g. {"n": 1.0}.
+    - `loss`: the likelihood, a `stickslip_fitting.losses.AbstractLoss` (`Gaussian()`,
+      `Huber(c)`, `StudentT(nu)`) or its spec ("gaussian", "huber:1.345", "student-t:4").
+    - `gauge_offset`: a `stickslip_jax.modes.GaugeOffset`: ZERO (trust the gauge zero)
+      or START (read it from each record's first sample).
+    - `slip_time`: a `stickslip_jax.modes.SlipTime`: PAPER (pi/omega0, eq 7) or
+      SELF_CONSISTENT.
+    - `strict`: refuse the campaign when a record has no usable stick-slip (default: fit
+      the records that have it; the others are listed in the report).
+    - `eta`: microsqueeze only: the viscosity, a number in Pa*s or a string with its unit
+      ("216 cP"); default the records' lubricant in Table 11. `surface`: the surface pair
+      of Table 10.
+
+    Every mistake in the options or the records raises ValueError naming what to fix
+    (a glob that matches no file names the pattern), before any fitting. A fit that does
+    not converge gives a RuntimeWarning (`CampaignFit.converged` is then False).
+    """
+    from .campaign import load_campaign
+    from .commands.fit import build_report
+    from .uncertainty import laplace
+
+    objective = Objective.parse(objective)
+    gauge_offset = GaugeOffset.parse(gauge_offset, "gauge_offset")
+    slip_time = SlipTime.parse(slip_time)
+    law, model_name = _law(model)
+    loss = _loss(loss)
+    fixed = _fixed(fix, law)
+    if model_name == "microsqueeze":
+        pair = _surface(surface)
+        eta_value = None if eta is None else _viscosity(eta)
+    elif eta is not None:
+        raise ValueError("eta: only used with model='microsqueeze'")
+
+    given = _as_list(records)
+    if given and all(isinstance(r, Record) for r in given):
+        campaign, inputs = _campaign_of_records(given, strict), ()
+    elif any(isinstance(r, Record) for r in given):
+        raise ValueError("records: give paths (files, folders, globs) or Record objects, "
+                         "not both in one campaign")
+    else:
+        from stickslip_jax.records import record_paths
+
+        campaign = load_campaign(given, strict=strict)
+        inputs = tuple(str(p) for p in record_paths(given))
+
+    kw: dict[str, Any] = dict(fixed=fixed, offset=gauge_offset, slip_time=slip_time,
+                              objective=objective, records=campaign.records, loss=loss)
+    extra = None
+    if model_name == "microsqueeze":
+        from .microsqueeze_fit import default_eta, fit_microsqueeze
+
+        if eta_value is None:
+            eta_value = default_eta(campaign.records[0].lubricant)
+        result = fit_microsqueeze(campaign.features, eta=eta_value, pair=pair, **kw)
+        extra = {"given": {"eta": {"value": eta_value, "unit": "kgf*s/mm^2"},
+                           "surface": surface}}
+    else:
+        from .fit import fit_features
+
+        result = fit_features(campaign.features, **kw)
+    unc = laplace(result)
+    report = build_report(result, unc, campaign, model=model_name, extra=extra)
+    out = CampaignFit(report=report, fit=result, uncertainty=unc, campaign=campaign,
+                      model=model_name, inputs=inputs)
+    if not out.converged:
+        warnings.warn("the fit did not converge (see str(result) for the warnings): its "
+                      "values are not an optimum", RuntimeWarning, stacklevel=2)
+    return out
+
+
+def _as_list(records) -> list:
+    """`records` as a list of specs or Records (a single one in a list)."""
+    if isinstance(records, (str, os.PathLike, Record)):
+        return [records]
+    if isinstance(records, Iterable):
+        return list(records)
+    raise ValueError(f"records: a path, a folder, a glob, a Record or a list of them, got "
+                     f"{records!r}")
+
+
+def _campaign_of_records(records: list[Record], strict: bool) -> Campaign:
+    """The screened campaign of `Record` objects (`load_campaign`'s checks without files)."""
+    from stickslip_jax.records import check_campaign
+
+    from .campaign import screen_records
+
+    if len(records) < 2:
+        raise ValueError(
+            f"a campaign needs at least 2 records (got {len(records)}): one run cannot "
+            "separate the six friction parameters; give records at several speeds")
+    check_campaign(records, same=("lubricant",))
+    return screen_records(records, min_records=2, strict=strict)
+
+
+def _law(model) -> tuple[type[AbstractFrictionParams], str]:
+    """(law class, its name in the report) of `model` (a class or its name)."""
+    from .microsqueeze_params import MicrosqueezeFriction
+    from .params import EmpiricalFriction
+
+    laws = {"empirical": EmpiricalFriction, "microsqueeze": MicrosqueezeFriction}
+    for name, law in laws.items():
+        if model is law or model == name:
+            return law, name
+    raise ValueError(f"model must be one of {_MODELS} (or EmpiricalFriction, "
+                     f"MicrosqueezeFriction), got {model!r}")
+
+
+def _keyword(err: ValueError, option: str) -> ValueError:
+    """The command's message with its option written as the keyword."""
+    return ValueError(str(err).replace(f"--{option}", option))
+
+
+def _loss(loss) -> AbstractLoss:
+    from .losses import AbstractLoss, parse_loss
+
+    if isinstance(loss, AbstractLoss):
+        return loss
+    try:
+        return parse_loss(loss)
+    except ValueError as err:
+        raise _keyword(err, "loss") from None
+
+
+def _fixed(fix, law) -> dict[str, float]:
+    """{name: value} checked by the command's own `parse_fix` (names, ranges, one free)."""
+    from .commands.fit import parse_fix
+
+    if fix is None:
+        fix = {}
+    if not isinstance(fix, Mapping):
+        raise ValueError(f"fix: a mapping {{name: value}}, e.g. {{'n': 1.0}}, got {fix!r}")
+    items = []
+    for name, value in fix.items():
+        try:
+            number = float(value)
+        except (TypeError, ValueError):
+            raise ValueError(f"fix {name}: {value!r} is not a number") from None
+        items.append(f"{name}={number!r}")
+    try:
+        return parse_fix(items, law)
+    except ValueError as err:
+        raise _keyword(err, "fix") from None
+
+
+def _surface(name: str):
+    from stickslip_jax.contact import surface_pair
+
+    try:
+        return surface_pair(name)
+    except (KeyError, ValueError) as err:
+        raise ValueError(f"surface: unknown surface pair {name!r} ({err})") from None
+
+
+def _viscosity(eta) -> float:
+    """`eta` in kgf*s/mm^2 from a number in Pa*s or a string with its unit (the command's
+    parser)."""
+    import argparse
+
+    from stickslip_jax.commands.options import viscosity
+
+    if isinstance(eta, bool) or not isinstance(eta, (int, float, str)):
+        raise ValueError(f"eta: a number in Pa*s or a string with its unit, got {eta!r}")
+    try:
+        return float(viscosity()(eta if isinstance(eta, str) else repr(float(eta))))
+    except (argparse.ArgumentTypeError, ValueError) as err:
+        raise ValueError(f"eta: {err}") from None
