@@ -9,6 +9,7 @@ from __future__ import annotations
 import importlib
 import importlib.util
 import json
+import os
 import pathlib
 import re
 import shlex
@@ -280,3 +281,42 @@ def test_pages_link_to_pages_that_exist():
                                page.read_text(encoding="utf-8")):
             target = (page.parent / link).resolve()
             assert target.is_file() or target.name == "paper-map.md", (page, link)
+
+
+def _readme_python_blocks() -> list[str]:
+    text = README.read_text(encoding="utf-8")
+    return re.findall(r"^```python\n(.*?)^```", text, re.S | re.M)
+
+
+def _sandbox(tmp_path):
+    """A folder whose data/ is the repository's, so that the README's relative paths
+    read the shipped files and its outputs (fit.png, ...) land in the folder."""
+    (tmp_path / "data").symlink_to(ROOT / "data", target_is_directory=True)
+    return tmp_path
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("command", [c for c, mine in shell_commands(README.read_text(
+    encoding="utf-8")) if not mine], ids=lambda c: c[:60])
+def test_readme_commands_run(command, tmp_path):
+    """Each command of the README runs on the shipped files and exits 0."""
+    import subprocess
+    import sys
+
+    env = dict(os.environ, PATH=f"{pathlib.Path(sys.executable).parent}{os.pathsep}"
+               f"{os.environ.get('PATH', '')}")
+    proc = subprocess.run(["bash", "-c", command], cwd=_sandbox(tmp_path), env=env,
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("code", _readme_python_blocks(), ids=lambda c: c.split("\n")[0][:40])
+def test_readme_python_runs(code, tmp_path):
+    """The README's Python example runs as shown, on the shipped files."""
+    import subprocess
+    import sys
+
+    proc = subprocess.run([sys.executable, "-c", code], cwd=_sandbox(tmp_path),
+                          capture_output=True, text=True, timeout=900)
+    assert proc.returncode == 0, proc.stderr[-2000:]
