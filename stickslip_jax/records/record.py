@@ -8,6 +8,7 @@ import json
 import math
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -26,6 +27,9 @@ from .sampling import (
     missing_samples,
     time_step_deviation,
 )
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def _array(name, value, n=None):
@@ -370,7 +374,7 @@ class Record:
             time_unit=time_unit, deflection_unit=deflection_unit, force_unit=force_unit,
             drive_unit=drive_unit, extra_columns=extra_columns, **fields)
 
-    def to_dataframe(self):
+    def to_dataframe(self) -> pd.DataFrame:
         """The samples as a pandas DataFrame, units in the column names, metadata in
         `df.attrs`.
 
