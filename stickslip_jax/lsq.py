@@ -1,39 +1,52 @@
-r"""The project's one least-squares solver: Levenberg-Marquardt for whitened residuals.
+r"""The project's one least-squares solver, Levenberg-Marquardt for whitened residuals,
+and `least_squares`, the one verb every fit calls.
 
 Every fit of the project (cycle features, trace, combined, pitching, experiment design,
 the contact calibration, the discovery refits) minimises $\|r(y)\|^2$ with this
-algorithm. Two drivers share its update (`damped_step`, `nielsen_update`,
-`gauss_newton_decrease`):
+algorithm, assembled from public optimistix pieces:
 
-- `LevenbergMarquardt`, an `optimistix.AbstractLeastSquaresSolver` built only on
-  optimistix's public solver interface (`init`, `step`, `terminate`, `postprocess`), so
-  it runs inside `optimistix.least_squares` and one compiled program; its state is its
-  own (no other solver's private state is read);
-- `solve_host(evaluate, z0, ...)`, the same iteration driven from Python for objectives
-  that are not one traceable function (the discovery workflow evaluates its residuals and
+- `MarquardtDescent` (an `optimistix.AbstractDescent`): the damped step
+  $(J^TJ + \lambda D)\,\delta = -J^Tr$ with Marquardt's scaling $D = \mathrm{diag}(J^TJ)$
+  (each parameter on its own scale: log friction parameters and gauge offsets in mm
+  alike), through the eigen-decomposition of the scaled normal matrix, so a
+  rank-deficient problem gives the minimum-norm step; it also gives the cost decrease of
+  the full Gauss-Newton step (the stationarity test);
+- `NielsenDamping` (an `optimistix.AbstractSearch`): a step is accepted when it lowers
+  the cost, or changes it only within rounding (`rounding` of the cost: at the optimum
+  the predicted decreases of a sum of up to a million squares fall below its rounding,
+  and a strict rule would reject steps on the sign of rounding noise); Nielsen's damping
+  update: after an accepted step $\lambda \leftarrow \lambda \max(1/3, 1 - (2\rho - 1)^3)$
+  ($\rho$: actual over predicted decrease), after a rejected one
+  $\lambda \leftarrow \lambda\nu$, $\nu \leftarrow 2\nu$. Its step size is $1/\lambda$,
+  optimistix's convention for damped-Newton descents (`optimistix.DampedNewtonDescent`
+  reads it the same way; `MarquardtDescent` takes `optimistix.ClassicalTrustRegion`'s);
+- `LevenbergMarquardt` (an `optimistix.AbstractLeastSquaresSolver`, so it runs inside
+  `optimistix.least_squares` and one compiled program): the two composed. The Jacobian
+  is built once per evaluated point, by forward mode with one tangent per parameter (the
+  parameters are few, the residuals many), and only $J^TJ$ and $J^Tr$ are kept between
+  steps. It stops (successfully) when the full Gauss-Newton step would lower the cost by
+  less than `atol + rtol * cost` (stationarity in units of the whitened cost: the cost
+  is a chi-square), when an accepted step changed the cost only within rounding, when
+  the damping has grown past `LAMBDA_MAX` (no descent direction left at this precision),
+  or after `cap` steps when a cap is given (a traced value: screening runs share one
+  compilation with full runs). (Not an `optimistix.AbstractGaussNewton`: that class
+  stops on changes of the iterate and of the residuals, and carries the Jacobian as a
+  linear operator from step to step, the whole linearisation of a trace simulator.)
+- `least_squares(fn, params, free)` -> `LeastSquaresSolution` (fitted parameters,
+  result code, step count, aux): the verb, over the leaves of a parameter pytree that
+  `free` selects;
+- `solve_host(evaluate, z0, ...)`: the same rules driven from Python for objectives that
+  are not one traceable function (the discovery workflow evaluates its residuals and
   Jacobian blocks by several compiled programs).
 
-The iteration:
+Each rule is one function over an array namespace `xp` (`damped_step`,
+`gauss_newton_decrease`, `acceptance`, `nielsen_update`): `jax.numpy` in the pieces,
+`numpy` in `solve_host` (no program compiled per parameter count).
 
-- the Jacobian is built once per evaluated point, by forward mode with one tangent per
-  parameter (the parameters are few, the residuals many);
-- the damped step solves $(J^TJ + \lambda D)\,\delta = -J^Tr$ with Marquardt's scaling
-  $D = \mathrm{diag}(J^TJ)$ (each parameter on its own scale: log friction parameters
-  and gauge offsets in mm alike), through the eigen-decomposition of the scaled normal
-  matrix, so a rank-deficient problem gives the minimum-norm step;
-- Nielsen's damping update: after an accepted step
-  $\lambda \leftarrow \lambda \max(1/3, 1 - (2\rho - 1)^3)$ ($\rho$: actual over predicted
-  decrease), after a rejected one $\lambda \leftarrow \lambda\nu$, $\nu \leftarrow 2\nu$;
-- a step is accepted when it lowers the cost, or changes it only within rounding
-  (`rounding` of the cost: at the optimum the predicted decreases of a sum of up to a
-  million squares fall below its rounding, and a strict rule would reject steps on the
-  sign of rounding noise);
-- it stops (successfully) when the full Gauss-Newton step would lower the cost by less
-  than `atol + rtol * cost` (stationarity in units of the whitened cost: the cost is a
-  chi-square), when an accepted step changed the cost only within rounding, when the
-  damping has grown past `LAMBDA_MAX` (no descent direction left at this precision), or
-  after `cap` steps when a cap is given (a traced value: screening runs share one
-  compilation with full runs).
+```python
+sol = least_squares(lambda p, _: model(p) - data, params, lambda p: (p.a, p.b))
+sol.params, sol.result, sol.stats["num_steps"]
+```
 """
 
 from __future__ import annotations
@@ -46,18 +59,28 @@ from typing import Any
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import jax.tree_util as jtu
+import lineax as lx
 import numpy as np
 import optimistix as optx
 from jax.flatten_util import ravel_pytree
-from jaxtyping import Array, Bool, Float, Int
+from jaxtyping import Array, Bool, Float, Int, PyTree, Scalar
 
 __all__ = [
     "LAMBDA_MAX",
-    "gauss_newton_covariance",
     "HostResult",
+    "LeastSquaresSolution",
     "LevenbergMarquardt",
+    "MarquardtDescent",
+    "MarquardtState",
+    "NielsenDamping",
+    "NielsenState",
+    "acceptance",
     "damped_step",
+    "free_filter",
+    "gauss_newton_covariance",
     "gauss_newton_decrease",
+    "least_squares",
     "nielsen_update",
     "solve_host",
 ]
@@ -72,14 +95,35 @@ LAMBDA_AFTER_REJECT = 1e-3
 """A rejected step raises a smaller damping to at least this."""
 
 
-# ------------------------------------------------------------------------ shared update
-def _scaled(A, active, xp=jnp):
+# ------------------------------------------------------------------------ the rules
+def _eigen(A, g, active, xp):
+    """Eigen-decomposition of the Marquardt-scaled normal matrix over the `active`
+    parameters: (w, V, scaled gradient, scale)."""
     d = xp.where(active, xp.diag(A), 1.0)
     d = xp.where(d > 0, d, 1.0)
     s = 1.0 / xp.sqrt(d)
     mask = active[:, None] & active[None, :]
-    As = xp.where(mask, A * s[:, None] * s[None, :], 0.0)
-    return As, s
+    w, V = xp.linalg.eigh(xp.where(mask, A * s[:, None] * s[None, :], 0.0))
+    return w, V, xp.where(active, g * s, 0.0), s
+
+
+def _damped(eigen, lam, active, xp):
+    w, V, gs, s = eigen
+    w = xp.maximum(w, 0.0)
+    floor = xp.finfo(w.dtype).eps * xp.max(w) * w.size
+    coef = (V.T @ gs) / xp.where(w + lam > floor, w + lam, xp.inf)
+    return xp.where(active, -(V @ coef) * s, 0.0)
+
+
+def _decrease(eigen, rcond, xp):
+    w, V, gs, _ = eigen
+    keep = w > rcond * xp.max(xp.abs(w))
+    proj = V.T @ gs
+    return xp.sum(xp.where(keep, proj**2 / xp.where(keep, w, 1.0), 0.0))
+
+
+def _mask(active, size, xp):
+    return xp.ones(size, bool) if active is None else xp.asarray(active, bool)
 
 
 def damped_step(A: Float[Array, "P P"], g: Float[Array, " P"], lam, active=None, xp=jnp):
@@ -89,16 +133,9 @@ def damped_step(A: Float[Array, "P P"], g: Float[Array, " P"], lam, active=None,
     eigen-decomposition of the scaled $A$: a zero eigenvalue (a direction the data do not
     determine) gets no step even at $\lambda = 0$. `xp`: the array namespace (`numpy`
     for the host driver `solve_host`: no program compiled per parameter count)."""
-    active = xp.ones(g.shape, bool) if active is None else xp.asarray(active, bool)
-    As, s = _scaled(A, active, xp)
-    gs = xp.where(active, g * s, 0.0)
-    w, V = xp.linalg.eigh(As)
-    w = xp.maximum(w, 0.0)
-    floor = xp.finfo(w.dtype).eps * xp.max(w) * w.size
-    coef = (V.T @ gs) / xp.where(w + lam > floor, w + lam, xp.inf)
-    step = xp.where(active, -(V @ coef) * s, 0.0)
-    predicted = -(2.0 * g @ step + step @ (A @ step))
-    return step, predicted
+    active = _mask(active, g.shape, xp)
+    step = _damped(_eigen(A, g, active, xp), lam, active, xp)
+    return step, -(2.0 * g @ step + step @ (A @ step))
 
 
 def gauss_newton_decrease(A, g, active=None, rcond: float = 1e-12, xp=jnp):
@@ -106,13 +143,15 @@ def gauss_newton_decrease(A, g, active=None, rcond: float = 1e-12, xp=jnp):
     `active` parameters; singular values below `rcond` of the largest dropped): the
     stationarity test (for whitened residuals, a chi-square still to gain). `xp`: as in
     `damped_step`."""
-    active = xp.ones(g.shape, bool) if active is None else xp.asarray(active, bool)
-    As, s = _scaled(A, active, xp)
-    gs = xp.where(active, g * s, 0.0)
-    w, V = xp.linalg.eigh(As)
-    keep = w > rcond * xp.max(xp.abs(w))
-    proj = V.T @ gs
-    return xp.sum(xp.where(keep, proj**2 / xp.where(keep, w, 1.0), 0.0))
+    return _decrease(_eigen(A, g, _mask(active, g.shape, xp), xp), rcond, xp)
+
+
+def acceptance(cost, cost_new, finite, rounding, xp=jnp):
+    """(accept, within rounding): a trial point whose cost `cost_new` is `finite` is
+    accepted when it lowers `cost`, or changes it by at most `rounding` of it. `xp`: as
+    in `damped_step`."""
+    flat = finite & (xp.abs(cost_new - cost) <= rounding * xp.abs(cost))
+    return finite & ((cost_new < cost) | flat), flat
 
 
 def nielsen_update(lam, nu, accept, rho, xp=jnp):
@@ -139,23 +178,144 @@ def gauss_newton_covariance(J, scale: float = 1.0, rcond: float = 1e-13) -> np.n
     return np.linalg.pinv(J.T @ J, rcond=rcond, hermitian=True) * float(scale)
 
 
-def _flat(cost, cost_new, rounding, xp=jnp):
-    return xp.abs(cost_new - cost) <= rounding * xp.abs(cost)
+# ------------------------------------------------------------------------ optimistix pieces
+def _flat(tree):
+    return ravel_pytree(tree)[0]
 
 
-# ------------------------------------------------------------------------ optimistix solver
+def _dot(a, b):
+    return sum(jnp.vdot(x, y) for x, y in zip(jtu.tree_leaves(a), jtu.tree_leaves(b)))
+
+
+def _normal_equations(f_info):
+    """($J^TJ$, $J^Tr$) of the Gauss-Newton model that `f_info` carries, flattened: a
+    `FunctionInfo.ResidualJac` (residuals and Jacobian) or a `FunctionInfo.
+    EvalGradHessian` (value 0.5 cost, gradient $J^Tr$, Hessian $J^TJ$)."""
+    if isinstance(f_info, optx.FunctionInfo.ResidualJac):
+        J = f_info.jac.as_matrix()
+        return J.T @ J, J.T @ _flat(f_info.residual)
+    if isinstance(f_info, optx.FunctionInfo.EvalGradHessian):
+        return f_info.hessian.as_matrix(), _flat(f_info.grad)
+    raise ValueError("MarquardtDescent needs residuals and their Jacobian, or a gradient "
+                     f"and a (Gauss-Newton) Hessian; got {type(f_info).__name__}")
+
+
+def _predicted(f_info, y, y_eval):
+    """Decrease of `f_info.as_min()` the quadratic model predicts for the step y -> y_eval."""
+    delta = jtu.tree_map(lambda a, b: a - b, y_eval, y)
+    if isinstance(f_info, optx.FunctionInfo.ResidualJac):
+        u = f_info.jac.mv(delta)
+        return -(_dot(f_info.residual, u) + 0.5 * _dot(u, u))
+    return -(_dot(f_info.grad, delta) + 0.5 * _dot(delta, f_info.hessian.mv(delta)))
+
+
+def _finite(f_info):
+    ok = jnp.isfinite(f_info.as_min())
+    if isinstance(f_info, optx.FunctionInfo.EvalGradHessian):
+        ok = ok & jnp.all(jnp.isfinite(_flat(f_info.grad)))
+    return ok
+
+
+class MarquardtState(eqx.Module):
+    """`MarquardtDescent`'s state at the accepted point `y`: the eigen-decomposition
+    (`w`, `V`) of the Marquardt-scaled normal matrix, the scaled gradient `gs`, the
+    scale `s`, and `newton_decrease`, $g^TA^+g$: the decrease of $\\|r\\|^2$ the full
+    Gauss-Newton step predicts (`gauss_newton_decrease`)."""
+
+    y: PyTree
+    w: Float[Array, " P"]
+    V: Float[Array, "P P"]
+    gs: Float[Array, " P"]
+    s: Float[Array, " P"]
+    newton_decrease: Float[Array, ""]
+
+
+class MarquardtDescent(optx.AbstractDescent):
+    r"""The Levenberg-Marquardt descent with Marquardt's scaling: the step
+    $\delta = -(J^TJ + \lambda\,\mathrm{diag}(J^TJ))^{-1}J^Tr$ over the `active`
+    parameters (`damped_step`), through one eigen-decomposition per accepted point (a
+    rejected step's retry costs no factorisation; an undetermined direction gets no
+    step). The step size is $1/\lambda$ (as in `optimistix.DampedNewtonDescent`: the
+    step grows with it; infinity is the Gauss-Newton step). Reads a `FunctionInfo.
+    ResidualJac` or a `FunctionInfo.EvalGradHessian`; `rcond`: the relative eigenvalue
+    below which `MarquardtState.newton_decrease` drops a direction."""
+
+    active: Bool[Array, " P"] | None = None
+    rcond: float = 1e-12
+
+    def init(self, y, f_info_struct) -> MarquardtState:
+        v = _flat(y)
+        zero = jnp.zeros(v.size, v.dtype)
+        return MarquardtState(y, zero, jnp.zeros((v.size, v.size), v.dtype), zero,
+                              jnp.ones(v.size, v.dtype), jnp.zeros((), v.dtype))
+
+    def query(self, y, f_info, state: MarquardtState) -> MarquardtState:
+        A, g = _normal_equations(f_info)
+        eigen = _eigen(A, g, _mask(self.active, g.shape, jnp), jnp)
+        return MarquardtState(y, *eigen, _decrease(eigen, self.rcond, jnp))
+
+    def step(self, step_size: Scalar, state: MarquardtState):
+        active = _mask(self.active, state.gs.shape, jnp)
+        step = _damped((state.w, state.V, state.gs, state.s), 1.0 / step_size, active, jnp)
+        return ravel_pytree(state.y)[1](step), optx.RESULTS.successful
+
+
+class NielsenState(eqx.Module):
+    """`NielsenDamping`'s state: the damping `lam`, Nielsen's factor `nu`, and `flat`:
+    the last step was accepted for changing the cost only within rounding."""
+
+    lam: Float[Array, ""]
+    nu: Float[Array, ""]
+    flat: Bool[Array, ""]
+
+
+class NielsenDamping(optx.AbstractSearch):
+    r"""Nielsen's damping for a Levenberg-Marquardt descent (`nielsen_update`): accepts a
+    step when it lowers the cost or changes it by at most `rounding` of it
+    (`acceptance`; a non-finite cost or gradient is rejected), then scales the damping
+    $\lambda$ by the ratio $\rho$ of the actual to the predicted decrease. Returns the
+    step size $1/\lambda$ (`MarquardtDescent`, `optimistix.DampedNewtonDescent`).
+    `lam0`: the initial damping (relative to Marquardt's scaling; an array may be
+    traced); 0 starts with the Gauss-Newton step (a start where the quadratic model is
+    trusted)."""
+
+    lam0: float | Float[Array, ""] = 1e-3
+    rounding: float = 1e-10
+
+    def init(self, y, f_info_struct) -> NielsenState:
+        dtype = _flat(y).dtype
+        return NielsenState(jnp.asarray(self.lam0, dtype), jnp.asarray(2.0, dtype),
+                            jnp.array(False))
+
+    def step(self, first_step, y, y_eval, f_info, f_eval_info, state: NielsenState):
+        f, f_eval = f_info.as_min(), f_eval_info.as_min()
+        accept, flat = acceptance(f, f_eval, _finite(f_eval_info), self.rounding)
+        accept, flat = first_step | accept, ~first_step & flat
+        pred = _predicted(f_info, y, y_eval)
+        rho = jnp.where(pred > 0, (f - f_eval) / jnp.where(pred > 0, pred, 1.0), 0.0)
+        lam, nu = nielsen_update(state.lam, state.nu, accept, rho)
+        lam = jnp.where(first_step, state.lam, lam)
+        return 1.0 / lam, accept, optx.RESULTS.successful, NielsenState(lam, nu, flat)
+
+
+# ------------------------------------------------------------------------ the solver
 class _State(eqx.Module):
     y: Float[Array, " P"]  # the accepted point (flat)
     y_try: Float[Array, " P"]  # the point the next step evaluates
-    cost: Float[Array, ""]
-    g: Float[Array, " P"]
-    A: Float[Array, "P P"]
+    f_info: optx.FunctionInfo.EvalGradHessian  # Gauss-Newton model at y
     aux: Any
-    lam: Float[Array, ""]
-    nu: Float[Array, ""]
+    search: NielsenState
+    descent: MarquardtState
     first: Bool[Array, ""]
     num_steps: Int[Array, ""]
     terminate: Bool[Array, ""]
+
+
+def _model(cost, g, A):
+    """The Gauss-Newton model of $\\frac12\\|r\\|^2$ at a point: value, gradient $J^Tr$,
+    Hessian $J^TJ$."""
+    return optx.FunctionInfo.EvalGradHessian(
+        0.5 * cost, g, lx.MatrixLinearOperator(A, lx.positive_semidefinite_tag))
 
 
 def _value_and_jacobian(fn, unravel, v, args, jac: str = "fwd"):
@@ -184,8 +344,8 @@ def _value_and_jacobian(fn, unravel, v, args, jac: str = "fwd"):
 
 
 class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
-    """Levenberg-Marquardt with Marquardt scaling and Nielsen damping (module docstring),
-    for `optimistix.least_squares`.
+    """Levenberg-Marquardt: `MarquardtDescent` and `NielsenDamping` with the stopping
+    rules of the module docstring, for `optimistix.least_squares`.
 
     - `rtol`, `atol`: stop when the full Gauss-Newton step would lower the cost by less
       than `atol + rtol * cost` (cost = sum of squared residuals).
@@ -204,56 +364,54 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
 
     rtol: float
     atol: float
-    rounding: float = 1e-10
-    lam0: float = 1e-3
-    cap: Int[Array, ""] | None = None
-    active: Bool[Array, " P"] | None = None
-    norm: Callable = optx.max_norm  # optimistix's interface; unused by the stopping rules
+    descent: MarquardtDescent
+    search: NielsenDamping
+    cap: Int[Array, ""] | None
+    norm: Callable  # optimistix's interface; unused by the stopping rules
+
+    def __init__(self, rtol: float, atol: float, rounding: float = 1e-10, lam0=1e-3,
+                 cap=None, active=None, norm: Callable = optx.max_norm):
+        self.rtol = rtol
+        self.atol = atol
+        self.descent = MarquardtDescent(active=active)
+        self.search = NielsenDamping(lam0=lam0, rounding=rounding)
+        self.cap = cap
+        self.norm = norm
 
     def init(self, fn, y, args, options, f_struct, aux_struct, tags):
         v, _ = ravel_pytree(y)
         P = v.size
+        model = _model(jnp.asarray(jnp.inf, v.dtype), jnp.zeros(P, v.dtype),
+                       jnp.zeros((P, P), v.dtype))
         aux0 = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), aux_struct)
-        return _State(
-            y=v, y_try=v, cost=jnp.asarray(jnp.inf, v.dtype), g=jnp.zeros(P, v.dtype),
-            A=jnp.zeros((P, P), v.dtype), aux=aux0, lam=jnp.asarray(self.lam0, v.dtype),
-            nu=jnp.asarray(2.0, v.dtype), first=jnp.array(True), num_steps=jnp.array(0),
-            terminate=jnp.array(False))
+        return _State(y=v, y_try=v, f_info=model, aux=aux0, search=self.search.init(v, model),
+                      descent=self.descent.init(v, model), first=jnp.array(True),
+                      num_steps=jnp.array(0), terminate=jnp.array(False))
 
     def step(self, fn, y, args, options, state: _State, tags):
         _, unravel = ravel_pytree(y)
-        active = (jnp.ones(state.y.shape, bool) if self.active is None
-                  else jnp.asarray(self.active, bool))
         r, jac_t, aux = _value_and_jacobian(fn, unravel, state.y_try, args,
                                             options.get("jac", "fwd"))
         r = r.ravel() if r.ndim != 1 else r
         jac_t = jac_t.reshape(jac_t.shape[0], -1)
-        cost_t = jnp.sum(r * r)
-        g_t, A_t = jac_t @ r, jac_t @ jac_t.T
-        finite = jnp.isfinite(cost_t) & jnp.all(jnp.isfinite(g_t))
-        delta = state.y_try - state.y
-        pred = -(2.0 * state.g @ delta + delta @ (state.A @ delta))
-        actual = state.cost - cost_t
-        flat = ~state.first & finite & _flat(state.cost, cost_t, self.rounding)
-        accept = state.first | (finite & ((actual > 0) | flat))
-        rho = jnp.where(pred > 0, actual / jnp.where(pred > 0, pred, 1.0), 0.0)
-        lam, nu = nielsen_update(state.lam, state.nu, accept, rho)
-        lam = jnp.where(state.first, state.lam, lam)
+        trial = _model(jnp.sum(r * r), jac_t @ r, jac_t @ jac_t.T)
+        step_size, accept, _, search = self.search.step(
+            state.first, state.y, state.y_try, state.f_info, trial, state.search)
 
         def pick(new, old):
             return jax.tree_util.tree_map(lambda a, b: jnp.where(accept, a, b), new, old)
 
-        y_new, cost, g, A = pick((state.y_try, cost_t, g_t, A_t),
-                                 (state.y, state.cost, state.g, state.A))
-        aux = pick(aux, state.aux)
+        y_new, f_info, aux = pick((state.y_try, trial, aux), (state.y, state.f_info, state.aux))
+        descent = self.descent.query(y_new, f_info, state.descent)
+        step, _ = self.descent.step(step_size, descent)
         num_steps = state.num_steps + 1
-        step, _ = damped_step(A, g, lam, active)
-        stationary = gauss_newton_decrease(A, g, active) < self.atol + self.rtol * cost
-        stop = (accept & (stationary | flat)) | (lam > LAMBDA_MAX)
+        stationary = descent.newton_decrease < self.atol + self.rtol * (2.0 * f_info.f)
+        stop = (accept & (stationary | search.flat)) | (search.lam > LAMBDA_MAX)
         if self.cap is not None:
             stop = stop | (num_steps >= self.cap)
-        new = _State(y=y_new, y_try=y_new + step, cost=cost, g=g, A=A, aux=aux, lam=lam,
-                     nu=nu, first=jnp.array(False), num_steps=num_steps, terminate=stop)
+        new = _State(y=y_new, y_try=y_new + step, f_info=f_info, aux=aux, search=search,
+                     descent=descent, first=jnp.array(False), num_steps=num_steps,
+                     terminate=stop)
         return unravel(y_new), new, aux
 
     def terminate(self, fn, y, args, options, state: _State, tags):
@@ -261,6 +419,59 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
 
     def postprocess(self, fn, y, aux, args, options, state: _State, tags, result):
         return y, aux, {}
+
+
+# ------------------------------------------------------------------------ the verb
+def free_filter(params: PyTree, free=None) -> PyTree:
+    """The boolean filter spec of the free leaves: `free` a function `params -> leaf or
+    tuple of leaves` (like `eqx.tree_at`'s `where`), a spec already, or None (every leaf)."""
+    if free is None:
+        return jax.tree_util.tree_map(lambda _: True, params)
+    if callable(free):
+        none = jax.tree_util.tree_map(lambda _: False, params)
+        return eqx.tree_at(free, none, replace_fn=lambda _: True)
+    return free
+
+
+class LeastSquaresSolution(eqx.Module):
+    """What `least_squares` returns: the fitted `params` (free leaves at the optimum, the
+    others as given), the `result` code (`optimistix.RESULTS`), the solver's `stats`
+    (`num_steps`) and the `aux` output of the residual function at the optimum (None
+    without `has_aux`)."""
+
+    params: PyTree
+    result: optx.RESULTS
+    stats: dict
+    aux: Any = None
+
+    @property
+    def successful(self):
+        return self.result == optx.RESULTS.successful
+
+
+@eqx.filter_jit
+def _solve(fn, free, static, args, solver, has_aux, max_steps, jac):
+    return optx.least_squares(lambda f, a: fn(eqx.combine(f, static), a), solver, free,
+                              args=args, has_aux=has_aux, max_steps=max_steps, throw=False,
+                              options=dict(jac=jac))
+
+
+def least_squares(fn, params: PyTree, free=None, *, args=None, has_aux: bool = False,
+                  rtol: float = 1e-10, atol: float = 1e-10, max_steps: int = 200,
+                  jac: str = "fwd", lam0=1e-3, cap=None,
+                  rounding: float = 1e-10) -> LeastSquaresSolution:
+    """Minimise the sum of squares of `fn(params, args)` (a residual array; with
+    `has_aux`, a pair (residuals, aux)) over the leaves of `params` that `free` selects
+    (`free_filter`), by `LevenbergMarquardt(rtol, atol, rounding, lam0, cap)` in one
+    compiled `optimistix.least_squares` (jit-compatible: `lam0` and `cap` may be traced).
+    `fn` may be an `eqx.Module` (an objective: its arrays are traced, not baked in).
+    `jac="bwd"` builds the Jacobian by reverse mode (residuals through a
+    `jax.custom_vjp`). Never raises on a failed solve: read `result`."""
+    free_part, static = eqx.partition(params, free_filter(params, free))
+    solver = LevenbergMarquardt(rtol=rtol, atol=atol, rounding=rounding, lam0=lam0, cap=cap)
+    sol = _solve(fn, free_part, static, args, solver, has_aux, max_steps, jac)
+    return LeastSquaresSolution(eqx.combine(sol.value, static), sol.result, sol.stats,
+                                sol.aux if has_aux else None)
 
 
 # ------------------------------------------------------------------------ host driver
@@ -295,11 +506,11 @@ class HostResult:
 def solve_host(evaluate, z0, *, active=None, max_evals: int = 25, chi2_tol: float = 0.05,
                first=None, lam0: float = 1e-3, stall_evals: int = 4,
                stall_tol: float = 0.5, rounding: float = 1e-10) -> HostResult:
-    r"""The same Levenberg-Marquardt iteration as `LevenbergMarquardt`, driven from Python:
-    minimise ||r(z)||^2 over the `active` coordinates of z from `z0`, where
-    `evaluate(z) -> (r, J, ok)` (J: [N, P] over all coordinates; ok False when the
-    objective failed there). One evaluation per iteration: an accepted trial point
-    already carries the Jacobian of the next.
+    r"""The rules of `LevenbergMarquardt` (`damped_step`, `acceptance`, `nielsen_update`,
+    `gauss_newton_decrease`, in NumPy), driven from Python: minimise ||r(z)||^2 over the
+    `active` coordinates of z from `z0`, where `evaluate(z) -> (r, J, ok)` (J: [N, P]
+    over all coordinates; ok False when the objective failed there). One evaluation per
+    iteration: an accepted trial point already carries the Jacobian of the next.
 
     Converged when the full Gauss-Newton step would lower the cost by less than
     `chi2_tol` (a chi-square), when an accepted step changed it only within `rounding`,
@@ -335,8 +546,7 @@ def solve_host(evaluate, z0, *, active=None, max_evals: int = 25, chi2_tol: floa
         good = bool(ok_try) and bool(np.all(np.isfinite(r_try)))
         cost_try = float(r_try @ r_try) if good else np.inf
         history.append(cost_try)
-        flat = good and bool(_flat(cost, cost_try, rounding, np))
-        accept = good and (cost_try < cost or flat)
+        accept, flat = (bool(x) for x in acceptance(cost, cost_try, good, rounding, np))
         rho = (cost - cost_try) / float(pred) if (good and pred > 0) else 0.0
         lam, nu = (float(x) for x in nielsen_update(lam, nu, accept, rho, xp=np))
         if accept:
