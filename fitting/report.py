@@ -1,18 +1,32 @@
 """One typed row per estimated parameter, shared by the reports (`stickslip fit`, `mcmc`,
 `pitch`, `discover`, `plan`): dicts only when writing JSON.
 
-`ParameterEstimate(name, unit, value, stderr, ci95, fixed, identifiable, truth, log_sd)`:
-units are the internal ones (`AbstractFrictionParams.UNITS`); `stderr` and `ci95` are None
-for a fixed or unidentifiable parameter, or where only a value is reported (discovery's
-parameters); `truth` only when the records carry the values they were made from;
-`log_sd` the standard deviation of log(value) (a relative error) for an estimate made in
-log coordinates (`from_log`: pitching, `stickslip plan`).
+`ParameterEstimate(name, unit, value, stderr, ci95, fixed, identifiable, truth, log_sd,
+reason, bounds)`: units are the internal ones (`AbstractFrictionParams.UNITS`); `stderr`
+and `ci95` are None for a fixed or unidentifiable parameter, or where only a value is
+reported (discovery's parameters); `truth` only when the records carry the values they
+were made from; `log_sd` the standard deviation of log(value) (a relative error) for an
+estimate made in log coordinates (`from_log`: pitching, `stickslip plan`); `reason` why
+the data do not determine a parameter that is not identifiable; `bounds` (low, high) the
+support of the parameter, when it has one (`PRIOR_BOUNDS` of the friction law).
+
+**Unknowns look unknown.** A free parameter the data do not determine has no value: its
+`value` holds the optimiser's last point (a placeholder, kept for code that restarts from
+it), but JSON writes `"value": null` with `"identifiable": false` and `"reason"`, and the
+tables and figures show "-" with the reason (`value_text`, `note_text`). A value within a
+relative 1e-6 of a bound of its support is "at bound" (`at_bound`: "lower", "upper" or
+None): its standard error says nothing about the parameter, only about the bound.
 
 - `ParameterEstimate.from_log(name, unit, u, sd)`: value exp(u), interval
   exp(u -+ 1.96 sd); `from_normal(name, unit, value, sd)`: value -+ 1.96 sd.
 - `to_json()`: the fit report's entry; `to_json(keys)` only those keys (e.g. discovery's
   effect sizes: value, stderr, unit).
 - `DiscoveryEstimates`: the rows of the discovery results and the dicts of their JSON.
+- `value_text(entry)`, `note_text(entry)`: the cells of a parameter's JSON entry in a
+  text table ("-" for no value; "fixed", "not identifiable: <reason>", "at upper bound 5").
+- `text_table(header, rows, align)`: columns padded to their widest cell and separated by
+  two spaces (no cell has two spaces in a row, so splitting a line at runs of two spaces or
+  more gives its cells back), a rule under the header.
 """
 
 from __future__ import annotations
@@ -21,7 +35,8 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["DiscoveryEstimates", "ParameterEstimate", "Z95"]
+__all__ = ["DiscoveryEstimates", "ParameterEstimate", "Z95", "note_text", "text_table",
+           "value_text"]
 
 Z95 = 1.959963984540054
 """The standard normal's 97.5 % quantile (two-sided 95 % intervals)."""
@@ -40,6 +55,8 @@ class ParameterEstimate:
     identifiable: bool = True
     truth: float | None = None
     log_sd: float | None = None
+    reason: str | None = None
+    bounds: tuple[float, float] | None = None
 
     @classmethod
     def from_log(cls, name: str, unit: str, log_value: float, log_sd: float | None = None,
@@ -68,8 +85,36 @@ class ParameterEstimate:
                    ci95=(value - Z95 * s, value + Z95 * s), **kwargs)
 
     @property
+    def determined(self) -> bool:
+        """The value means something: identifiable from the data, or fixed (given)."""
+        return bool(self.identifiable or self.fixed)
+
+    @property
+    def at_bound(self) -> str | None:
+        """"lower" or "upper" when the value lies within a relative 1e-6 of that bound of
+        `bounds` (beyond it counts too), None otherwise or without bounds."""
+        if self.bounds is None or self.fixed or not self.determined:
+            return None
+        lo, hi = (float(b) for b in self.bounds)
+        tol = 1e-6 * max(abs(lo), abs(hi), hi - lo)
+        if self.value <= lo + tol:
+            return "lower"
+        if self.value >= hi - tol:
+            return "upper"
+        return None
+
+    def with_bounds(self, bounds: dict | None) -> ParameterEstimate:
+        """This row with the support `bounds[name]` ({name: (low, high)}) when given."""
+        if not bounds or self.name not in bounds:
+            return self
+        lo, hi = bounds[self.name]
+        return dataclasses.replace(self, bounds=(float(lo), float(hi)))
+
+    @property
     def relative_error(self) -> float | None:
-        return None if self.truth is None else (self.value - self.truth) / self.truth
+        if self.truth is None or not self.determined:
+            return None
+        return (self.value - self.truth) / self.truth
 
     @property
     def truth_in_ci95(self) -> bool | None:
@@ -82,16 +127,27 @@ class ParameterEstimate:
 
     def to_json(self, keys: tuple[str, ...] | None = None) -> dict:
         """The entry of a report's "parameters" (keys of the `--json` contract); `keys`:
-        only these, in this order."""
+        only these, in this order. A parameter the data do not determine has "value" null
+        and a "reason"; "reason" is null for a determined one, and says so for a value at
+        a bound ("at_bound" true)."""
         if keys is not None:
             full = self.to_json()
             return {k: full[k] for k in keys}
-        out = {"value": self.value, "stderr": self.stderr,
+        side = self.at_bound
+        if not self.determined:
+            reason = "not identifiable: " + (self.reason or "the data do not determine it")
+        elif side is not None:
+            b = self.bounds[0 if side == "lower" else 1]
+            reason = f"at the {side} bound {b:g} of its support"
+        else:
+            reason = None
+        out = {"value": self.value if self.determined else None, "stderr": self.stderr,
                "ci95": None if self.ci95 is None else [self.ci95[0], self.ci95[1]],
-               "unit": self.unit, "identifiable": self.identifiable, "fixed": self.fixed}
+               "unit": self.unit, "identifiable": self.identifiable, "fixed": self.fixed,
+               "reason": reason, "at_bound": side is not None}
         if self.truth is not None:
             out["truth"] = self.truth
-            out["relative_error"] = self.relative_error
+            out["relative_error"] = self.relative_error  # null without a value
             if self.ci95 is not None:
                 out["truth_in_ci95"] = self.truth_in_ci95
         return out
@@ -131,3 +187,57 @@ class DiscoveryEstimates:
     @property
     def effect_size(self) -> dict[str, dict]:
         return {e.name: e.to_json(self.EFFECT_KEYS) for e in self.effect_estimates}
+
+
+def value_text(entry: dict, fmt: str = ".5g") -> str:
+    """A parameter's value for a text table, from its JSON entry (`ParameterEstimate.
+    to_json`): "-" when it has none (not identifiable), else formatted with `fmt`."""
+    v = entry.get("value")
+    return "-" if v is None else format(float(v), fmt)
+
+
+def note_text(entry: dict) -> str:
+    """What a table says beside a parameter's value (its JSON entry): "fixed", the reason
+    it is not identifiable ("not identifiable: ..."), "at lower/upper bound B", or ""."""
+    if entry.get("fixed"):
+        return "fixed"
+    if entry.get("value") is None or not entry.get("identifiable", True):
+        reason = entry.get("reason") or "not identifiable"
+        return reason if reason.startswith("not identifiable") else \
+            "not identifiable: " + reason
+    if entry.get("at_bound"):
+        return (entry.get("reason") or "at bound").replace("at the ", "at ").replace(
+            " of its support", "")
+    return ""
+
+
+def text_table(header, rows, align: str | None = None, rule: bool = True) -> str:
+    """Lines of a table: every column padded to its widest cell (header included),
+    columns separated by two spaces, `align` one letter per column ("l" left, "r" right;
+    default: the first left, the others right), a rule of dashes under the header. Runs of
+    spaces inside a cell are collapsed to one, so a row splits back into its cells at
+    two spaces or more. Trailing spaces are dropped."""
+    import re
+
+    def clean(c) -> str:
+        return re.sub(r"\s{2,}", " ", str(c)).strip()
+
+    header = [clean(h) for h in header]
+    rows = [[clean(c) for c in r] for r in rows]
+    ncol = len(header)
+    if any(len(r) != ncol for r in rows):
+        raise ValueError(f"every row needs {ncol} cells (the header's)")
+    align = align or "l" + "r" * (ncol - 1)
+    if len(align) != ncol:
+        raise ValueError(f"align needs one letter per column ({ncol})")
+    widths = [max(len(c) for c in col) for col in zip(header, *rows)]
+
+    def line(cells) -> str:
+        return "  ".join(c.ljust(w) if a == "l" else c.rjust(w)
+                         for c, w, a in zip(cells, widths, align)).rstrip()
+
+    out = [line(header)]
+    if rule:
+        out.append("-" * (sum(widths) + 2 * (ncol - 1)))
+    out += [line(r) for r in rows]
+    return "\n".join(out)

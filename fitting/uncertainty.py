@@ -63,7 +63,9 @@ class Uncertainty:
     `free` (fitted, not fixed), `corr` (P x P correlation in log coordinates, NaN for
     fixed), `fisher_eigenvalues` (friction block, offsets marginalised, ascending),
     `weakest_direction` ({name: weight}), `identifiable` ({name: bool}),
-    `warnings` (plain-language lines), `scale` (the chi2/dof factor applied).
+    `warnings` (plain-language lines), `scale` (the chi2/dof factor applied),
+    `reasons` ({name: why the records do not determine it} for every free parameter
+    that is not identifiable: a short phrase for tables and the JSON's "reason").
     """
 
     value: np.ndarray
@@ -80,6 +82,7 @@ class Uncertainty:
     scale: float
     units: dict | None = None
     covariance: Covariance = Covariance.FISHER
+    reasons: dict = dataclasses.field(default_factory=dict)
 
     def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
         """One typed row per parameter (`stickslip_fitting.report.ParameterEstimate`), with the
@@ -92,7 +95,9 @@ class Uncertainty:
                 name=n, unit=self.units[n], value=float(self.value[i]),
                 stderr=float(self.stderr[i]) if shown else None,
                 ci95=(float(self.ci95[i, 0]), float(self.ci95[i, 1])) if shown else None,
-                fixed=not bool(self.free[i]), identifiable=ok).with_truth(truth))
+                fixed=not bool(self.free[i]), identifiable=ok,
+                reason=None if ok or not self.free[i] else self.reasons.get(
+                    n, "the records do not determine it")).with_truth(truth))
         return rows
 
     def table(self) -> list[dict]:
@@ -206,14 +211,17 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
     return Hinv @ M @ Hinv
 
 
-def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
-    flagged, msgs = set(), []
+def _design_warnings(fit: FitResult, free) -> tuple[dict, list]:
+    """({name: reason} of the parameters the campaign's design leaves undetermined,
+    the warnings that say so)."""
+    flagged, msgs = {}, []
     feats = fit.features
     names = fit.params.friction.NAMES
     shape = fit.params.friction.SHAPE_NAMES
     t2 = np.array([math.pi / f.omega0 for f in feats])
     if t2.max() / t2.min() < 1.05 and free[names.index("n")]:
-        flagged |= {"n", "delta"}
+        flagged.update(dict.fromkeys(("n", "delta"), f"one slip time T2 = {t2.mean():.4g} s "
+                                     "for every record (one k/W)"))
         msgs.append(
             f"n, delta: every record has the same slip time T2 = {t2.mean():.4g} s (one k/W), "
             "so only delta*T2^n is determined; use springs or weights with different k/W, "
@@ -221,7 +229,8 @@ def _design_warnings(fit: FitResult, free) -> tuple[set, list]:
         )
     t1 = np.concatenate([f.stick_time[f.complete] for f in feats])
     if t1.size and t1.max() / t1.min() < 1.5:
-        flagged |= set(shape)
+        flagged.update(dict.fromkeys(shape, "all stick times within a factor 1.5 (one drive "
+                                     "speed)"))
         msgs.append(
             f"{', '.join(shape)}: all stick times lie within {t1.min():.3g}-{t1.max():.3g} s (one drive "
             "speed), so the rise of mu_0 with stick time (eq 1) cannot be resolved; "
@@ -364,6 +373,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
     weakest = {names[i]: float(w) for i, w in zip(idx, vec[:, 0])} if k else {}
     flagged, warnings = _design_warnings(fit, free)
     identifiable = {}
+    reasons = {n: r for n, r in flagged.items() if free[names.index(n)]}
     for i, n in enumerate(names):
         bad_num = bool(free[i]) and not (log_se[i] <= max_relative_se)
         # a standard error of exactly 0: the data do not move the fit in that direction at
@@ -372,12 +382,18 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         flat = bool(free[i]) and not (log_se[i] > 0)
         lo_hi = PHYSICAL_RANGE.get(n)
         wild = bool(free[i]) and lo_hi is not None and not lo_hi[0] <= value[i] <= lo_hi[1]
-        if wild:
+        if wild:  # the value is not printed: it is no estimate
             warnings.append(
-                f"{n} = {value[i]:.4g} lies outside the physical range {lo_hi[0]:g}-{lo_hi[1]:g}: "
+                f"{n}: the fit left the physical range {lo_hi[0]:g}-{lo_hi[1]:g}: "
                 "the campaign does not determine it (or the model does not describe the "
                 "records); not identifiable.")
+            reasons.setdefault(n, f"the fit left the physical range {lo_hi[0]:g}-{lo_hi[1]:g}")
         identifiable[n] = not (bad_num or flat or wild or (n in flagged and free[i]))
+        if flat:
+            reasons.setdefault(n, "the residuals do not change with it")
+        elif bad_num:
+            reasons.setdefault(n, f"relative standard error {log_se[i]:.2g} > "
+                                  f"{max_relative_se}")
         if flat and n not in flagged:
             warnings.append(
                 f"{n}: not identifiable from this campaign (the residuals do not change with "
@@ -394,6 +410,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         if identifiable[names[a]] and null[j] > NULL_SHARE:
             identifiable[names[a]] = False
             partners = [names[b] for jj, b in enumerate(idx) if b != a and null[jj] > NULL_SHARE]
+            reasons[names[a]] = ("determined only together with " + ", ".join(partners)
+                                 if partners else "the residuals do not change with it")
             warnings.append(
                 f"{names[a]}: the records do not determine it"
                 + (f" apart from {', '.join(partners)}" if partners else "")
@@ -407,6 +425,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
                     and not identifiable[names[b]] and abs(corr[a, b]) > 0.999]
             if tied:
                 identifiable[names[a]] = False
+                reasons[names[a]] = f"determined only together with {', '.join(tied)}"
                 warnings.append(f"{names[a]}: determined only together with {', '.join(tied)} "
                                 "(|r| > 0.999), which this campaign does not determine; "
                                 "not identifiable.")
@@ -439,7 +458,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         value=value, stderr=stderr, log_se=log_se, ci95=ci95, free=free, corr=corr,
         cov_log=cov_log, fisher_eigenvalues=eig, weakest_direction=weakest,
         identifiable=identifiable, warnings=warnings, scale=scale,
-        units=dict(fit.params.friction.UNITS), covariance=covariance,
+        units=dict(fit.params.friction.UNITS), covariance=covariance, reasons=reasons,
     )
 
 

@@ -19,7 +19,8 @@ def test_from_log_and_from_normal():
     bare = ParameterEstimate.from_normal("mu_d", "-", 0.2)
     assert bare.stderr is None and bare.ci95 is None
     assert g.to_json(("value", "stderr", "unit")) == {"value": 30.0, "stderr": 2.0, "unit": "mm"}
-    assert list(g.to_json()) == ["value", "stderr", "ci95", "unit", "identifiable", "fixed"]
+    assert list(g.to_json()) == ["value", "stderr", "ci95", "unit", "identifiable", "fixed",
+                                 "reason", "at_bound"]
 
 
 @dataclasses.dataclass

@@ -227,7 +227,8 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
         campaign = screen_records(list(campaign), min_records=1)
     records = campaign.records
     truth = find_truth(records, fit.params.friction.NAMES)
-    params = {e.name: e.to_json() for e in unc.estimates(truth)}
+    bounds = fit.params.friction.PRIOR_BOUNDS  # the support: a value there is "at bound"
+    params = {e.name: e.with_bounds(bounds).to_json() for e in unc.estimates(truth)}
     from ..combined import FeaturesObjective
     from ..fit import compiled
     from ..adequacy import adequacy
@@ -322,25 +323,33 @@ def _record_rows(fit, campaign) -> list[dict]:
 
 
 def format_table(report) -> str:
+    """The printed result: one row per parameter (value, unit, standard error, 95 %
+    interval; truth and error when the records carry it; a note: fixed, not identifiable
+    with the reason, at a bound), then the fit's quality, warnings and notes. A parameter
+    the records do not determine shows "-", never its placeholder value."""
+    from ..report import note_text, text_table, value_text
+
     truth = report["truth_available"]
-    head = f"{'parameter':<10}{'value':>12}{'unit':>7}{'std err':>12}{'95 % interval':>26}"
+    header = ["parameter", "value", "unit", "std err", "95 % interval"]
     if truth:
-        head += f"{'truth':>12}{'error':>9}"
-    lines = [head, "-" * len(head)]
+        header += ["truth", "error"]
+    header.append("note")
+    rows = []
     for name, p in report["parameters"].items():
-        if p["fixed"]:
-            se, ci = "fixed", ""
-        elif not p["identifiable"]:
-            se, ci = "not identifiable", ""
-        else:
-            se = f"{p['stderr']:.3g}"
-            ci = f"[{p['ci95'][0]:.5g}, {p['ci95'][1]:.5g}]"
-        line = f"{name:<10}{p['value']:>12.5g}{p['unit']:>7}{se:>12}{ci:>26}"
-        if len(se) > 12:
-            line = f"{name:<10}{p['value']:>12.5g}{p['unit']:>7}  {se:<36}"
+        shown = (p["stderr"] is not None and not p["fixed"] and p["value"] is not None
+                 and not p.get("at_bound"))
+        row = [name, value_text(p), p["unit"], f"{p['stderr']:.3g}" if shown else "-",
+               f"[{p['ci95'][0]:.5g}, {p['ci95'][1]:.5g}]" if shown and p["ci95"] else "-"]
         if truth:
-            line += f"{p['truth']:>12.5g}{100 * p['relative_error']:>8.2f}%"
-        lines.append(line)
+            err = p.get("relative_error")
+            row += [f"{p['truth']:.5g}" if p.get("truth") is not None else "-",
+                    "-" if err is None else f"{100 * err:.2f}%"]
+        row.append(note_text(p))
+        rows.append(row)
+    align = "lrlrr" + ("rr" if truth else "") + "l"
+    if not any(r[-1] for r in rows):  # nothing to note: no empty column
+        header, rows, align = header[:-1], [r[:-1] for r in rows], align[:-1]
+    lines = text_table(header, rows, align).splitlines()
     lines.append("")
     used = [r for r in report["records"] if r.get("status", "used") == "used"]
     lines.append(
@@ -413,7 +422,9 @@ def run(args) -> int:
         from ..plots import fit_figure
 
         logger.info("drawing the figure...")
-        fit_figure(fit, unc, records, args.plot)
+        reasons = {s.name: s.reason for s in campaign.screening}
+        fit_figure(fit, unc, records, args.plot,
+                   not_used=[(r, reasons.get(f.name) or "not used") for r, f in campaign.not_used])
         print(f"wrote {args.plot}")
     if not fit.converged:
         print("stickslip fit: the fit did not converge (see the warnings): the values above "

@@ -88,24 +88,48 @@ def _fit_one(args):
 
 
 def format_table(batch) -> str:
-    """One row per campaign: status, records used, parameter values, chi2/dof, time."""
+    """One row per campaign: status, records used, parameter values (headed with their
+    units), chi2/dof, time; columns padded to their widest cell. A parameter the campaign
+    does not determine shows "-" and is listed with the reason below the table; a value at
+    a bound of its support or fixed says so in its cell; a campaign not fitted has "-"
+    everywhere and its message below."""
+    from ..report import note_text, text_table, value_text
+
     names = list(dict.fromkeys(p for e in batch.entries if e.report
                                for p in e.report["parameters"]))
-    width = max([8] + [len(e.name) for e in batch.entries]) + 2
-    head = (f"{'campaign':<{width}}{'status':<15}{'records':>8}"
-            + "".join(f"{n:>11}" for n in names) + f"{'chi2/dof':>10}{'s':>7}")
-    lines = [head, "-" * len(head)]
+    units = {}
     for e in batch.entries:
-        line = f"{e.name:<{width}}{e.status.replace('_', ' '):<15}"
+        for n, p in (e.report or {}).get("parameters", {}).items():
+            units.setdefault(n, p.get("unit", "-"))
+    header = (["campaign", "status", "records"]
+              + [n if units[n] in ("-", "") else f"{n} [{units[n]}]" for n in names]
+              + ["chi2/dof", "s"])
+    rows, below = [], []
+    for e in batch.entries:
+        row = [e.name, e.status.replace("_", " ")]
         if e.report is None:
-            lines.append(line + f"{'':>8}  {e.message}")
+            rows.append(row + ["-"] * (len(header) - 3) + [f"{e.seconds:.1f}"])
+            below.append(f"{e.name}: {e.status.replace('_', ' ')}: {e.message}")
             continue
         used = sum(r.get("status", "used") == "used" for r in e.report["records"])
-        line += f"{used:>8}"
+        row.append(str(used))
+        unknown: dict[str, list[str]] = {}
         for n in names:
             p = e.report["parameters"].get(n)
-            line += f"{p['value']:>11.5g}" if p else f"{'':>11}"
-        lines.append(line + f"{e.report['reduced_chi2']:>10.3g}{e.seconds:>7.1f}")
+            if p is None:
+                row.append("-")
+                continue
+            cell, note = value_text(p), note_text(p)
+            if p.get("value") is None:
+                unknown.setdefault(note.removeprefix("not identifiable: "), []).append(n)
+            elif note:
+                cell += " (fixed)" if p.get("fixed") else " (at bound)"
+            row.append(cell)
+        rows.append(row + [f"{e.report['reduced_chi2']:.3g}", f"{e.seconds:.1f}"])
+        for reason, which in unknown.items():
+            below.append(f"{e.name}: {', '.join(which)} not identifiable (-): {reason}")
+    lines = text_table(header, rows, "ll" + "r" * (len(header) - 2)).splitlines()
+    lines += [""] + below if below else []
     n = len(batch.entries)
     lines.append("")
     lines.append(f"{batch.count('fitted')} of {n} campaigns fitted"
@@ -124,7 +148,9 @@ def _num(x) -> str:
 
 
 def long_table(batch) -> str:
-    """CSV text, one row per campaign and parameter (a campaign not fitted: one row)."""
+    """CSV text, one row per campaign and parameter (a campaign not fitted: one row with
+    its message). A parameter the campaign does not determine has an empty value and its
+    reason in `message` ("not identifiable: ..."), as has a value at a bound."""
     import csv
     import io
 
@@ -140,7 +166,7 @@ def long_table(batch) -> str:
             ci = p.get("ci95") or [None, None]
             w.writerow([e.name, e.status, name, _num(p["value"]), p["unit"],
                         _num(p.get("stderr")), _num(ci[0]), _num(ci[1]), bool(p["fixed"]),
-                        _num(e.report["reduced_chi2"]), ""])
+                        _num(e.report["reduced_chi2"]), p.get("reason") or ""])
     return buf.getvalue()
 
 
