@@ -8,9 +8,9 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
 - Parameters: `stickslip_fitting.params.CampaignParams` (friction in unconstrained coordinates,
   one gauge offset per record); the free leaves are chosen with `eqx.partition`
   (`free_spec(fixed=..., offsets=...)`).
-- Solver: `optimistix.least_squares` with the project's one Levenberg-Marquardt
-  (`stickslip_jax.lsq.LevenbergMarquardt`: Marquardt scaling, Nielsen damping, the
-  Jacobian once per evaluated point by forward mode), the whole multi-start run (a
+- Solver: the project's one least-squares verb, `stickslip_jax.lsq.least_squares`
+  (Levenberg-Marquardt: Marquardt scaling, Nielsen damping, the Jacobian once per
+  evaluated point by forward mode), the whole multi-start run (a
   `lax.map` over starting points) inside one `eqx.filter_jit`, so a campaign compiles
   once. It stops when the Gauss-Newton step would lower chi2 by less than
   `atol + rtol * chi2`.
@@ -43,7 +43,7 @@ import numpy as np
 import optimistix as optx
 import jax.flatten_util  # noqa: F401
 
-from stickslip_jax.lsq import LevenbergMarquardt, gauss_newton_decrease
+from stickslip_jax.lsq import free_filter, gauss_newton_decrease, least_squares
 from stickslip_jax.modes import GaugeOffset, SlipTime
 from stickslip_jax.programs import release_programs
 
@@ -54,7 +54,6 @@ from .features import RecordFeatures, record_features
 from .objectives import FeatureData, feature_data, feature_residuals
 from .trace_objective import trace_data
 from .params import CampaignParams, EmpiricalFriction, free_spec
-from .solve import free_filter
 
 __all__ = ["FitResult", "fit_features", "fit_objective", "fit_records", "initial_guesses"]
 
@@ -179,13 +178,11 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, caps, lams, static, ob
             r, aux = res(v)
             return r, (jnp.sum(r * r), aux)
 
-        solver = LevenbergMarquardt(rtol=rtol, atol=atol, cap=cap, lam0=lam0)
-        sol = optx.least_squares(residuals, solver, y0, has_aux=True, max_steps=max_steps,
-                                 throw=False)
+        sol = least_squares(residuals, y0, has_aux=True, rtol=rtol, atol=atol,
+                            max_steps=max_steps, lam0=lam0, cap=cap)
         chi2, (ok, vel_opt) = sol.aux
-        success = sol.result == optx.RESULTS.successful
-        return (unravel(sol.value), chi2, sol.result, success, sol.stats["num_steps"], ok,
-                vel_opt)
+        return (unravel(sol.params), chi2, sol.result, sol.successful,
+                sol.stats["num_steps"], ok, vel_opt)
 
     return jax.lax.map(solve, (flat_starts, ref_starts, velocity, caps, lams))
 

@@ -14,14 +14,16 @@ features, trace, weighted sum, smooth, heavy-tailed), `stickslip_fitting.pitch_f
 PitchObjective` (the pitching/yawing channels) and `stickslip_fitting.design.experiment.
 SteadyObservables` (the steady observables of a planned campaign, with its prior).
 
-`least_squares(objective, params, free)` is the one verb that minimises an objective's
-residuals over the leaves `free` selects (a function `params -> leaf or tuple of leaves`
-like `eqx.tree_at`'s `where`, a boolean filter spec as for `eqx.partition`, or None: every
-array leaf), with the project's one solver (`stickslip_jax.lsq.LevenbergMarquardt`)
-inside `optimistix.least_squares`; `jacobian(objective, params, free)` is the Jacobian
-over the same leaves (for `stickslip_jax.lsq.gauss_newton_covariance`). The campaign fit
-(`stickslip_fitting.fit.fit_objective`) adds multi-start and reweighting rounds on top of
-the same solver.
+An objective is also the residual function of the one least-squares verb,
+`stickslip_jax.lsq.least_squares` (re-exported here with its `LeastSquaresSolution` and
+`free_filter`): `least_squares(objective, params, free)` minimises its residuals over the
+leaves `free` selects (a function `params -> leaf or tuple of leaves` like
+`eqx.tree_at`'s `where`, a boolean filter spec as for `eqx.partition`, or None: every
+array leaf) with the project's one solver (`stickslip_jax.lsq.LevenbergMarquardt`);
+`jacobian(objective, params, free)` is the Jacobian over the same leaves (for
+`stickslip_jax.lsq.gauss_newton_covariance`). The campaign fit
+(`stickslip_fitting.fit.fit_objective`) adds multi-start and reweighting rounds around
+the same verb.
 
 ```python
 sol = least_squares(PitchObjective(template, batch, scale), params, spec)
@@ -36,11 +38,10 @@ import abc
 import equinox as eqx
 import jax
 import numpy as np
-import optimistix as optx
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Float, PyTree
 
-from stickslip_jax.lsq import LevenbergMarquardt
+from stickslip_jax.lsq import LeastSquaresSolution, free_filter, least_squares
 
 __all__ = ["AbstractResiduals", "LeastSquaresSolution", "free_filter", "jacobian",
            "least_squares"]
@@ -48,6 +49,10 @@ __all__ = ["AbstractResiduals", "LeastSquaresSolution", "free_filter", "jacobian
 
 class AbstractResiduals(eqx.Module):
     """An objective: whitened residuals of a parameter pytree (module doc)."""
+
+    def __call__(self, params, args=None) -> Float[Array, " N"]:
+        """The residuals: an objective is the residual function of `least_squares`."""
+        return self.residuals(params)
 
     @abc.abstractmethod
     def residuals(self, params) -> Float[Array, " N"]:
@@ -72,52 +77,6 @@ class AbstractResiduals(eqx.Module):
         if start != r.size:
             raise ValueError(f"residual vector of {r.size} entries, blocks of {start}")
         return out
-
-
-def free_filter(params: PyTree, free=None) -> PyTree:
-    """The boolean filter spec of the free leaves: `free` a function `params -> leaf or
-    tuple of leaves` (like `eqx.tree_at`'s `where`), a spec already, or None (every leaf)."""
-    if free is None:
-        return jax.tree_util.tree_map(lambda _: True, params)
-    if callable(free):
-        none = jax.tree_util.tree_map(lambda _: False, params)
-        return eqx.tree_at(free, none, replace_fn=lambda _: True)
-    return free
-
-
-class LeastSquaresSolution(eqx.Module):
-    """What `least_squares` returns: the fitted `params` (free leaves at the optimum, the
-    others as given), the `result` code (`optimistix.RESULTS`) and the solver's `stats`
-    (`num_steps`)."""
-
-    params: PyTree
-    result: optx.RESULTS
-    stats: dict
-
-    @property
-    def successful(self):
-        return self.result == optx.RESULTS.successful
-
-
-@eqx.filter_jit
-def _solve(objective, free, static, solver, max_steps, jac):
-    return optx.least_squares(lambda f, obj: obj.residuals(eqx.combine(f, static)),
-                              solver, free, args=objective, max_steps=max_steps, throw=False,
-                              options=dict(jac=jac))
-
-
-def least_squares(objective: AbstractResiduals, params: PyTree, free=None, *,
-                  rtol: float = 1e-10, atol: float = 1e-10, max_steps: int = 200,
-                  jac: str = "fwd") -> LeastSquaresSolution:
-    """Minimise `objective.residuals` over the leaves of `params` that `free` selects
-    (`free_filter`), by `stickslip_jax.lsq.LevenbergMarquardt(rtol, atol)` in one compiled
-    `optimistix.least_squares` (jit-compatible). `jac="bwd"` builds the Jacobian by
-    reverse mode (residuals through a `jax.custom_vjp`). Never raises on a failed solve:
-    read `result`."""
-    free_part, static = eqx.partition(params, free_filter(params, free))
-    sol = _solve(objective, free_part, static, LevenbergMarquardt(rtol=rtol, atol=atol),
-                 max_steps, jac)
-    return LeastSquaresSolution(eqx.combine(sol.value, static), sol.result, sol.stats)
 
 
 @eqx.filter_jit

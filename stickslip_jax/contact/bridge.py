@@ -4,9 +4,9 @@ The paper (Figs 82, 84, 95) fits $\mu_0 = \mu_s - (\mu_s - \mu_d)\exp(-\gamma T_
 theoretical $\mu_0 \sim T_1$ curves to read how $\mu_s$, $\gamma$ and $m$ depend on
 $t_b$, $\eta$ and $\xi_1\xi_2$. `fit_kato` does that by least squares on a log-spaced
 grid of stick times (default 0.01-1000 s, the range of Figs 66 and 76), keeping
-$\mu_d$ equal to the law's and fitting $(\mu_s, \log\gamma, \log m)$ with
-optimistix Levenberg-Marquardt. It is jit/vmap safe (vmap over a batch of laws gives
-the trend curves in one call).
+$\mu_d$ equal to the law's and fitting $(\mu_s, \log\gamma, \log m)$ with the
+project's one least-squares verb (`stickslip_jax.lsq.least_squares`). It is jit/vmap
+safe (vmap over a batch of laws gives the trend curves in one call).
 """
 
 from __future__ import annotations
@@ -17,7 +17,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from ..friction import AbstractStaticFriction, KatoStatic
-from ..lsq import LevenbergMarquardt
+from ..lsq import least_squares
 
 Scalar = Float[Array, ""]
 
@@ -70,9 +70,7 @@ def fit_kato(
     m0 = 0.5
     gamma0 = jnp.log(2.0) / T_half**m0
     p0 = jnp.stack([mu_inf if fix_mu_s else mu_end, jnp.log(gamma0), jnp.log(m0)])
-    sol = optx.least_squares(
-        residual, LevenbergMarquardt(rtol=rtol, atol=atol), p0, max_steps=max_steps, throw=False
-    )
-    fitted = model(sol.value)
-    rms = jnp.sqrt(jnp.mean(residual(sol.value, None) ** 2))
+    sol = least_squares(residual, p0, rtol=rtol, atol=atol, max_steps=max_steps)
+    fitted = model(sol.params)
+    rms = jnp.sqrt(jnp.mean(residual(sol.params, None) ** 2))
     return KatoFit(law=fitted, rms=rms, result=sol.result)
