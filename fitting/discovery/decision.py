@@ -1,0 +1,145 @@
+"""Statistics and decision rules of the per-cycle discovery (`cycle_workflow`): the robust
+score test over cycle windows (`_hotelling`), the paired window test between two refits
+(`paired_z`), which contenders are named with the winner (`decide`), and the gaps."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import scipy.stats
+
+from .options import CLEAR, COLLINEAR, JOINT
+
+__all__ = ["Contender", "Decision", "decide", "noise_of", "paired_z"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Contender:
+    """Another refitted family as the decision sees it beside the winner: its refit's
+    chi-square drop, the principal cosine between its efficient-score directions and the
+    winner's (`scores.principal_cosine`), the winner's advantage in the paired window
+    test (`paired_z`), and whether its fit is physical."""
+
+    name: str
+    drop: float
+    cosine: float
+    z: float
+    physical: bool = True
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "direction_cosine": self.cosine, "chi2_drop": self.drop,
+                "z_winner": self.z, "physical": self.physical}
+
+
+@dataclasses.dataclass(frozen=True)
+class Decision:
+    """`decide`'s answer: the contenders named with the winner (`joint`) and those not
+    named that the winner does not beat clearly (`unbeaten`: the confidence is low)."""
+
+    joint: tuple[Contender, ...]
+    unbeaten: tuple[Contender, ...]
+
+    @property
+    def clear(self) -> bool:
+        return not self.unbeaten
+
+
+def paired_z(r_winner: np.ndarray, r_other: np.ndarray, starts: np.ndarray) -> float:
+    r"""The winner's advantage over another refit in standard errors: the difference of
+    their chi-squares, $\Delta = \sum_w \delta_w$ with $\delta_w$ the difference within
+    cycle window w, over its window-level standard error $\sqrt{n}\,\mathrm{sd}(\delta_w)$
+    (the windows are the independent units, as in the score test). Near 0: the records
+    do not prefer either; large: the winner fits clearly better."""
+    d = np.add.reduceat(np.asarray(r_other) ** 2 - np.asarray(r_winner) ** 2, starts)
+    total = float(d.sum())
+    se = float(np.sqrt(d.size) * d.std(ddof=1)) if d.size > 1 else 0.0
+    if not se > 0:
+        return float("inf") if total > 0 else 0.0
+    return total / se
+
+
+def decide(winner_drop: float, others, *, joint: float = JOINT, collinear: float = COLLINEAR,
+           clear: float = CLEAR) -> Decision:
+    """Which contenders are named with the winner, and which keep the confidence low.
+
+    Only contenders that the winner does not beat clearly (`paired_z` < `clear`) count.
+    A physical one whose direction is close (cosine >= `collinear`) and that lowers
+    chi-square at all is named jointly ("X or Y: these records cannot tell them apart"):
+    the paired test, not the ratio of the drops, says whether the records prefer one (on
+    a campaign with a damping ratio of 0.02, rate_state lowered chi-square by 32 and
+    damping by 13, cosine 0.94, z 1.4: the records cannot tell them apart, and naming
+    rate_state alone with high confidence was the refit's path). Any other that explains
+    a comparable share (drop >= `joint` x the winner's, possibly more) is `unbeaten` and
+    the answer not certain (a family in another direction, or an unphysical refit, that
+    explains as much says the named one is not the whole story).
+
+    >>> decide(30.0, [Contender("rate_state", 24.0, 0.46, 1.1)]).clear
+    False
+    """
+    named, unbeaten = [], []
+    for c in others:
+        if c.z >= clear or not c.drop > 0:
+            continue
+        if c.physical and c.cosine >= collinear:
+            named.append(c)
+        elif c.drop >= joint * winner_drop:
+            unbeaten.append(c)
+    return Decision(tuple(sorted(named, key=lambda c: -c.drop)),
+                    tuple(sorted(unbeaten, key=lambda c: -c.drop)))
+
+
+def _window_scores(Jp, r, starts) -> np.ndarray:
+    """The efficient score's contribution of every cycle window (windows x columns)."""
+    return np.add.reduceat(Jp * r[:, None], starts, axis=0)
+
+
+def _hotelling(Jp, r, starts, g=None):
+    """(F, p-value, dof, Gauss-Newton step, predicted chi-square drop) of the efficient
+    score Jp^T r with window-level contributions (module doc); `starts`: index of the
+    first sample of every window (samples are stored window by window)."""
+    p = Jp.shape[1]
+    if not (np.all(np.isfinite(Jp)) and np.all(np.isfinite(r))):
+        # the family's derivative is not finite at the base (the simulator left its
+        # domain for this shape): no test (p NaN, never significant), not a crash
+        return float("nan"), float("nan"), p, np.zeros(p), 0.0
+    g = _window_scores(Jp, r, starts) if g is None else g  # (`g`: already summed)
+    g = g[np.any(g != 0, axis=1)]
+    n = g.shape[0]
+    info = Jp.T @ Jp
+    U = Jp.T @ r
+    step = np.linalg.lstsq(info, U, rcond=1e-12)[0]  # r = data - model: model += J step
+    predicted = float(U @ step)
+    if n <= p + 1:
+        return float("nan"), float("nan"), p, step, predicted
+    gbar = g.mean(axis=0)
+    cov = np.cov(g.T).reshape(p, p)
+    t2 = n * float(gbar @ np.linalg.lstsq(cov, gbar, rcond=1e-10)[0])
+    F = (n - p) / (p * (n - 1)) * t2
+    return F, float(scipy.stats.f.sf(F, p, n - p)), p, step, predicted
+
+
+def _record_chi2(r, rec_of, G) -> np.ndarray:
+    """chi2/n of the whitened residuals `r` of every record (`rec_of`: record per
+    residual; NaN for a record without residuals)."""
+    return np.array([np.mean(r[rec_of == g] ** 2) if np.any(rec_of == g) else np.nan
+                     for g in range(G)])
+
+
+def _gap(r, sd) -> float:
+    """Residual RMS (mm) of whitened residuals `r` with standard errors `sd`."""
+    return float(np.sqrt(np.mean((r * sd) ** 2)))
+
+
+def _phases(r_mm, slipping):
+    """Residual RMS (mm) and count by phase."""
+    out = {}
+    for name, sel in (("stick", ~slipping), ("slip", slipping)):
+        out[name] = {"rms": float(np.sqrt(np.mean(r_mm[sel] ** 2))) if sel.any() else None,
+                     "samples": int(sel.sum())}
+    return out
+
+
+def noise_of(data) -> float:
+    """The campaign's noise level (mm): RMS of its windows' record noise estimates."""
+    return float(np.sqrt(np.mean(np.asarray(data.sigma)[np.asarray(data.mask).any(1)] ** 2)))

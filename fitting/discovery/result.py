@@ -1,0 +1,135 @@
+"""The result of the per-cycle discovery (`cycle_workflow.discover_cycles`): `CycleDiscovery`,
+its JSON (the `stickslip discover --json` contract) and its explanation text."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from stickslip_jax.lsq import HostResult
+
+from ..campaign import Campaign
+from ..report import DiscoveryEstimates, ParameterEstimate
+from .cycle_effects import Shape
+from .cycle_learned import CycleLearned
+from .cycle_model import CycleModel
+from .options import DEFAULTS
+
+__all__ = ["CycleDiscovery"]
+
+
+@dataclasses.dataclass
+class CycleDiscovery(DiscoveryEstimates):
+    """Outcome of `discover_cycles`; `to_json` is the `stickslip discover --json` contract
+    (the keys of the whole-record workflow, plus `base`, `records`, `phases`). The
+    parameter rows are `stickslip_fitting.report.ParameterEstimate`s (`DiscoveryEstimates`:
+    `parameters_before`, `parameters_after` and `effect_size` are derived from them)."""
+
+    effect: str
+    explanation: str
+    confidence: str
+    gap_before: float
+    gap_after: float
+    noise: float
+    criterion: str
+    candidates: list
+    estimates_before: list[ParameterEstimate]
+    estimates_after: list[ParameterEstimate]
+    effect_estimates: list[ParameterEstimate]
+    indistinguishable_from: list
+    phases_before: dict
+    phases_after: dict
+    timings: dict
+    base_fit: HostResult
+    final_fit: HostResult
+    campaign: Campaign
+    model: CycleModel
+    z_before: np.ndarray
+    z_after: np.ndarray
+    shape: Shape
+    sensor: bool
+    records_scaled: list = dataclasses.field(default_factory=list)
+    effect_of: str = ""
+    windows_set_aside: list = dataclasses.field(default_factory=list)
+    learned: CycleLearned | None = None
+    """The learned phase correction (`cycle_learned`): fitted when the answer is
+    "unexplained", or always with `learn=True`; None otherwise."""
+    gap_all_before: float = float("nan")
+    gap_all_after: float = float("nan")
+    """The residual RMS (mm) over every record used, those weighed by their scatter
+    (`records_scaled`) included; `gap_before` and `gap_after` are over the records the
+    paper's model describes (the ones the decision uses)."""
+
+    def to_json(self) -> dict:
+        return {
+            "effect": self.effect, "explanation": self.explanation,
+            "confidence": self.confidence,
+            "indistinguishable_from": self.indistinguishable_from,
+            "base": "cycle",
+            "base_fit": {"converged": self.base_fit.converged,
+                         "evaluations": self.base_fit.n_evals,
+                         "criterion": "converged when a full Gauss-Newton step would lower "
+                                      "chi-square by < 0.05, or the last 4 evaluations "
+                                      "lowered it by < 0.5 together"},
+            "final_fit": {"converged": self.final_fit.converged,
+                          "evaluations": self.final_fit.n_evals},
+            "gap_before": self.gap_before, "gap_after": self.gap_after, "gap_unit": "mm",
+            "gap_all_records_before_mm": self.gap_all_before,
+            "gap_all_records_after_mm": self.gap_all_after,
+            "noise": self.noise, "criterion": self.criterion,
+            "candidates": self.candidates,
+            "parameters_before": self.parameters_before,
+            "parameters_after": self.parameters_after,
+            "effect_size": self.effect_size,
+            "residuals_by_phase_before": self.phases_before,
+            "residuals_by_phase_after": self.phases_after,
+            "records": [s.to_json() for s in self.campaign.screening],
+            "records_scaled": self.records_scaled,
+            "windows_set_aside": self.windows_set_aside,
+            "learned_correction": (self.learned.to_json() if self.learned is not None
+                                   else None),
+            "timings_s": self.timings,
+        }
+
+
+def _explain(effect, chosen, decision, gap_before, gap_after, noise, pattern, phases,
+             explained_gap: float = DEFAULTS.explained_gap) -> str:
+    """The answer in words: the effect named (and its partners, `decision`), the gaps
+    before and after against the noise, or the unexplained residual's phase."""
+    um = 1e3
+    if effect == "none":
+        return ("The paper's model explains the records to the noise level: no effect "
+                f"family passes the robust score test (gap {gap_before * um:.3g} um, noise "
+                f"{noise * um:.3g} um).")
+    if effect == "unexplained":
+        text = ("Unexplained residual: the paper's model leaves a gap of "
+                f"{gap_before * um:.3g} um (noise {noise * um:.3g} um), largest in the "
+                f"{pattern} phase (RMS {phases[pattern]['rms'] * um:.3g} um), that no library "
+                "family explains")
+        if chosen is not None:
+            text += (f"; the best, {chosen.family.name}, only lowers it to "
+                     f"{gap_after * um:.3g} um")
+        return text + "."
+    f = chosen.family
+    sizes = ", ".join(f"{p} = {v:.3g} +- {s:.2g} {u}" for p, u, v, s in
+                      zip(*f.named(chosen.shape), chosen.values, chosen.stderr))
+    text = (f"{f.explanation} Adding {f.name} ({chosen.shape.label(f) or 'no shape'}"
+            f"{'; ' + sizes if not f.per_record else ''}) lowers chi-square by "
+            f"{chosen.drop:.0f} and the residual RMS from {gap_before * um:.3g} um to "
+            f"{gap_after * um:.3g} um (noise {noise * um:.3g} um).")
+    if gap_after > explained_gap * noise:
+        text += (f" The residual is still {gap_after / noise:.2g} x the noise: something "
+                 "else is missing too.")
+    if decision is not None and decision.joint:
+        names = " or ".join([f.name] + [c.name for c in decision.joint])
+        text = (f"{names}: these records cannot tell them apart ("
+                + "; ".join(f"{c.name}: chi-square drop {c.drop:.0f}, direction cosine "
+                            f"{c.cosine:.2f}, {f.name} ahead by {c.z:.2g} standard errors"
+                            for c in decision.joint) + "). " + text)
+    if decision is not None and decision.unbeaten:
+        text += (" Not certain: " + "; ".join(
+            f"{c.name}{'' if c.physical else ' (unphysical)'} lowers chi-square by "
+            f"{c.drop:.0f}, {f.name} is ahead by only {c.z:.2g} standard errors"
+            for c in decision.unbeaten) + ".")
+    return text

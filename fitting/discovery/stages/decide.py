@@ -1,0 +1,61 @@
+"""Stage 5 of the per-cycle discovery, `decision`: the winner among the eligible physical
+refits, every other refit compared with it (`decision.decide`), and, far from the data,
+the winner's fit continued and its shape refined (`cycle_workflow`, module doc)."""
+
+from __future__ import annotations
+
+from ..cycle_effects import neighbour_shapes
+from ..decision import Contender, _gap, decide, paired_z
+from ..scores import principal_cosine
+from .refit import _ranked, continued, refine_shape
+from .state import Choice, Clock, Fits, Refitted
+
+__all__ = ["choose"]
+
+
+def choose(fx: Fits, refitted: Refitted, *, clock: Clock) -> Choice:
+    """The winner and the decision (module doc of `cycle_workflow`, stage 5)."""
+    opts, n, misfit = fx.opts, fx.base.n, fx.base.misfit
+    refits = refitted.refits
+    physical = [rf for rf in _ranked(refits) if rf.family.name in refitted.eligible]
+    chosen = physical[0] if physical else None
+    rivals, decision, compared = [], None, {}
+    if chosen is not None:
+        direction = {sc.family.name: sc.direction for sc in fx.ranking.scores}
+        r_win = chosen.fit.r[:n]
+        others = [Contender(rf.family.name, rf.drop,
+                            principal_cosine(direction[chosen.family.name],
+                                             direction[rf.family.name]),
+                            paired_z(r_win, rf.fit.r[:n], fx.prep.starts),
+                            rf.unphysical is None)
+                  for rf in refits if rf is not chosen and rf.drop > 0]
+        decision = decide(chosen.drop, others, joint=opts.joint, collinear=opts.collinear,
+                          clear=opts.clear)
+        compared = {c.name: c for c in others}
+        rivals = [c.to_json() for c in decision.joint]
+    if chosen is not None and misfit and not chosen.fit.converged:
+        # far from the data the winner's refit ran out of evaluations: continue it (after
+        # the decision, which compares refits of equal budgets) so that the gap after and
+        # the estimates are those of the fitted effect (its restart from the start's
+        # friction is `sharpen`'s, before the decision)
+        polished = continued(fx, chosen)
+        if polished is not None:
+            chosen = polished
+            clock("polish", f"{chosen.family.name} chi2 -{chosen.drop:.0f}, "
+                            f"{polished.fit.n_evals} more evaluations")
+    described = fx.base.described
+    if (chosen is not None and misfit and chosen.family.name not in refitted.shaped
+            and neighbour_shapes(chosen.family, chosen.shape)
+            and _gap(chosen.fit.r[:n][described], fx.base.sd[described])
+            > opts.refine_gap * fx.base.noise):
+        # far from the data the named family's grid shape may not be the records' own
+        # (a real Stribeck curve is not one of ours): a local search over its continuous
+        # shape parameters, after the decision (which compared the grid)
+        refined, tried = refine_shape(fx, chosen)
+        if refined is not chosen:
+            clock("shape", f"{refined.family.name} {refined.shape.label(refined.family)} "
+                           f"(from {chosen.shape.label(chosen.family)}), chi2 "
+                           f"-{refined.drop:.0f}, {tried} short refits")
+            chosen = refined
+    return Choice(chosen=chosen, decision=decision, rivals=rivals, compared=compared,
+                  decided_drop=chosen.drop if chosen is not None else 0.0)

@@ -1,0 +1,152 @@
+"""Stage 3 of the per-cycle discovery, `ranking`: the robust score test of every family
+and shape from one Jacobian block each at the base fit, and the family-wise p-values of
+the sign flips (`cycle_workflow`, module doc)."""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.stats
+
+from stickslip_jax.logs import logger
+
+from ..cycle_effects import Shape
+from ..decision import _hotelling, _window_scores
+from ..flips import family_wise_p
+from ..options import DiscoveryOptions
+from ..scores import base_basis, project_out
+from .state import Base, Clock, Prepared, Ranking, _Score
+
+__all__ = ["rank"]
+
+
+def score_cols(model, f, G) -> np.ndarray:
+    """The family's columns in the score test: the first harmonic only of a per-record
+    family (dof 2 per record)."""
+    cols = model.cols(f)
+    return cols.reshape(G, -1)[:, :2].ravel() if f.per_record else cols
+
+
+def _efficient(Qb, described, Jc) -> np.ndarray:
+    """The columns `Jc` over the described records with the base projected out (NaN
+    where they are not finite)."""
+    Jc = Jc * described[:, None]
+    if np.all(np.isfinite(Jc)):
+        return project_out(Qb, Jc)
+    return np.full(Jc.shape, np.nan)
+
+
+def _plain_jacobians(model, z_base, fams, G) -> dict:
+    """The families without shapes share one Jacobian call (one tangent per column)."""
+    plain = [f for f in fams if f.shapes == (Shape(),) and f.name != "sensor_lowpass"]
+    plain_J = {}
+    if plain:
+        _, J_all, _ = model.evaluate(z_base, np.concatenate([score_cols(model, f, G)
+                                                             for f in plain]))
+        a = 0
+        for f in plain:
+            plain_J[f.name] = J_all[:, a:a + score_cols(model, f, G).size]
+            a += score_cols(model, f, G).size
+    return plain_J
+
+
+def _sensor_secant(model, base: Base, cols, shape, opts, efficient, r_rank, starts, window_g):
+    """The sensor's column: zero first derivative at tau = 0 (module doc of
+    `cycle_model`), so the secant to the probe time constant that fits best; every
+    probe is a test of the family-wise level (the choice among them is part of the
+    look-elsewhere). Returns the column, the probe and its test's index."""
+    best_probe = None
+    for probe in opts.sensor_probes:
+        zp = base.z.copy()
+        zp[cols] = probe
+        rp = model.residuals(zp, shape, sensor=True)[0]
+        if best_probe is None or np.sum(rp ** 2) < best_probe[0]:
+            best_probe = (float(np.sum(rp ** 2)), probe, rp, len(window_g))
+        window_g.append(_window_scores(efficient(((rp - base.r) / probe)[:, None]), r_rank,
+                                       starts))
+    _, probe, rp, test = best_probe
+    return ((rp - base.r) / probe)[:, None], probe, test
+
+
+def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, window_g,
+                   sensor_probe) -> list[_Score]:
+    """Every shape's score test of family `f` (appending its window contributions to
+    `window_g`, the sensor's probes to `sensor_probe`)."""
+    cols = score_cols(model, f, G)
+    out = []
+    for shape in f.shapes:
+        test = -1
+        if f.name == "sensor_lowpass":
+            Jc, sensor_probe[shape], test = _sensor_secant(
+                model, base, cols, shape, opts, efficient, r_rank, starts, window_g)
+        elif f.name in plain_J:
+            Jc = plain_J[f.name]
+        else:
+            _, Jc, _ = model.evaluate(base.z, cols, shape)
+        Jp = efficient(Jc)
+        finite = np.all(np.isfinite(Jp))
+        if not finite:
+            logger.warning(f"{f.name} ({shape.label(f)}): its derivative at the base "
+                           "fit is not finite; not tested")
+        elif f.name != "sensor_lowpass":
+            test = len(window_g)
+            window_g.append(_window_scores(Jp, r_rank, starts))
+        F, p, dof, step, pred = _hotelling(
+            Jp, r_rank, starts, window_g[test] if finite and test >= 0 else None)
+        out.append(_Score(f, shape, F, p, dof, step, Jp, pred, test=test if finite else -1))
+    return out
+
+
+def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clock) -> Ranking:
+    """The score tests of every family (module doc of `cycle_workflow`, stage 3)."""
+    model, described, starts, G = base.model, base.described, prep.starts, prep.G
+    alpha, n_used = opts.alpha, base.n_used
+    r_rank = np.where(described, base.r, 0.0)
+    Qb = base_basis(base.fit.J * described[:, None])
+    n_tests = sum(len(f.shapes) * (len(opts.sensor_probes) if f.name == "sensor_lowpass"
+                                   else 1) for f in fams)
+    level = alpha / n_tests
+    prep.warm["residuals", True].result()
+    plain_J = _plain_jacobians(model, base.z, fams, G)
+    scores: list[_Score] = []
+    shape_scores: dict[str, list[_Score]] = {}
+    sensor_probe: dict[Shape, float] = {}
+    window_g: list[np.ndarray] = []  # every test's window contributions (`flips`)
+
+    def efficient(Jc):
+        return _efficient(Qb, described, Jc)
+
+    for f in fams:
+        shape_scores[f.name] = _family_scores(f, model, base, opts, G, plain_J, efficient,
+                                              r_rank, starts, window_g, sensor_probe)
+        # the shape that would explain most (its predicted chi-square drop)
+        best = None
+        for sc in shape_scores[f.name]:
+            if best is None or sc.chi2_predicted > best.chi2_predicted:
+                best = sc
+        if len(f.shapes) > 1:
+            logger.debug(f"{f.name}: predicted chi2 drop by shape: " + ", ".join(
+                f"{s_.shape.label(f)} {s_.chi2_predicted:.4g} (p {s_.p_value:.2g})"
+                for s_ in shape_scores[f.name]))
+        scores.append(best)
+    # the family-wise p-value of every family's chosen shape: the share of sign flips of
+    # the windows whose smallest p-value over all tests is as small (`flips`; Bonferroni's
+    # alpha / n_tests assumed the tests independent, and they are strongly correlated)
+    adjusted = family_wise_p(window_g)
+    for sc in scores:
+        sc.p_family = float(adjusted[sc.test]) if sc.test >= 0 else float("nan")
+    scores.sort(key=lambda s: (np.nan_to_num(s.p_value, nan=1.0), -s.chi2_predicted))
+    # significant: the robust (window-level) test, or a relevant predicted drop (at least
+    # `relevant` of the chi-square) that the per-sample score test supports: the robust
+    # test loses power where a few windows (slow records, whose breakaway timing is most
+    # sensitive) carry most of the signal
+    s2 = float(np.mean(r_rank[described] ** 2)) if described.any() else base.fit.rss / base.n
+    significant = [s for s in scores
+                   if s.p_family < alpha
+                   or (s.chi2_predicted >= opts.relevant * n_used
+                       and scipy.stats.chi2.sf(s.chi2_predicted / s2, s.dof) < level)]
+    clock("ranking", f"{len(significant)} of {len(fams)} families significant "
+                     f"(family-wise p < {alpha:g} over {len(window_g)} tests); best "
+                     f"{scores[0].family.name} p = {scores[0].p_value:.2g} "
+                     f"(family-wise {scores[0].p_family:.2g})")
+    return Ranking(scores=scores, shape_scores=shape_scores, sensor_probe=sensor_probe,
+                   significant=significant, n_tests=len(window_g))

@@ -1,0 +1,196 @@
+"""What the stages of the per-cycle discovery hand on (`cycle_workflow`): each stage is a
+function of the states before it and returns its own, frozen.
+
+`Clock` times the stages and reports each line to `progress`; `Prepared` is the campaign
+and its cycle windows (`prepare`), `Base` the paper's model fitted to them (`base_fit`),
+`Ranking` the score tests (`rank`), `Fits` what every refit needs (the states so far and
+the options), `Refitted` the refits (`refit`, `sharpen`), `Choice` the winner and the
+decision (`decide`), `Reweighed` the winner with the records tried at full weight
+(`reweigh`)."""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from stickslip_jax.lsq import HostResult
+
+from ...campaign import Campaign
+from ..cycle_effects import Family, Shape
+from ..cycle_model import CycleModel
+from ..decision import Decision
+from ..options import DiscoveryOptions
+from ..subproblems import _Sub
+
+__all__ = ["Base", "Choice", "Clock", "Fits", "Prepared", "Ranking", "Refitted", "Reweighed"]
+
+
+@dataclasses.dataclass
+class Clock:
+    """Stage timings (s, by stage name; a stage reported twice keeps its last time) and the
+    progress lines ("name: line (t s)")."""
+
+    progress: Callable[[str], object] | None = None
+    timings: dict = dataclasses.field(default_factory=dict)
+    last: float = dataclasses.field(default_factory=time.perf_counter)
+
+    def __call__(self, name: str, line: str) -> None:
+        now = time.perf_counter()
+        self.timings[name] = now - self.last
+        self.last = now
+        if self.progress is not None:
+            self.progress(f"{name}: {line} ({self.timings[name]:.1f} s)")
+
+    def say(self, line: str) -> None:
+        """A progress line that is not a stage."""
+        if self.progress is not None:
+            self.progress(line)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Prepared:
+    """The screened campaign, its cycle windows (`trace_data`, windows the model cannot
+    start set aside) and the model weighted at the features fit's friction."""
+
+    campaign: Campaign
+    data: object  # `trace_objective.TraceData`
+    warm: dict  # the model's programs compiling in the background (`CycleModel.warm`)
+    model: CycleModel
+    z_start: np.ndarray  # the base fit's start (`plausible_start` of the features fit)
+    t2_of: np.ndarray  # per window: the slip time pi / omega_0 (s)
+    starts: np.ndarray  # index of every window's first sample (samples are window by window)
+    windows_set_aside: list
+    n_complete: int  # complete cycle windows
+    n_reslip: int  # of them, those following a re-slip
+    keep_reslips: bool
+
+    @property
+    def recs(self):
+        return self.campaign.records
+
+    @property
+    def feats(self):
+        return self.campaign.features
+
+    @property
+    def G(self) -> int:
+        return len(self.campaign.records)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Base:
+    """The paper's model fitted to the windows (no effect), with the records it describes
+    worse than their noise weighed by their scatter (`scaled`) or set aside (`aside`)."""
+
+    model: CycleModel  # weighted as at the base optimum (records scaled by `factor`)
+    fit: HostResult
+    z: np.ndarray  # the model's coordinates at the base fit
+    sd_plain: np.ndarray  # [N, L] standard errors before the records' scaling
+    rec_of: np.ndarray  # per residual: its record
+    median_chi2: float  # the campaign's median record chi2/n
+    scaled: dict  # record -> chi2/n: weighed by its scatter
+    aside: dict  # record -> chi2/n: set aside (a subset of `scaled`)
+    scaled_notes: list  # `records_scaled`
+    described: np.ndarray  # per residual: its record is not set aside
+    n_used: int  # residuals of the described records
+    sd: np.ndarray  # per residual: standard error (mm)
+    noise: float  # the campaign's noise level (mm)
+    gap_before: float
+    gap_all_before: float
+    slipping: np.ndarray  # per residual: in a slip
+    misfit: bool  # far from the data (chi2/n or gap over `misfit`)
+
+    @property
+    def r(self) -> np.ndarray:
+        return self.fit.r
+
+    @property
+    def n(self) -> int:
+        return self.fit.r.size
+
+
+@dataclasses.dataclass
+class _Score:
+    family: Family
+    shape: Shape
+    statistic: float  # F statistic (Hotelling T^2, small-sample corrected)
+    p_value: float
+    dof: int
+    step: np.ndarray  # Gauss-Newton step of the family's coordinates (scaled)
+    direction: np.ndarray  # efficient-score columns (for collinearity)
+    chi2_predicted: float  # chi-square drop the Gauss-Newton step predicts
+    test: int = -1  # index of its test among all family-shape tests (`flips`)
+    p_family: float = float("nan")  # family-wise p-value over all tests (`flips`)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Ranking:
+    """The score tests: every family's best shape (`scores`, ordered by p-value), every
+    shape's test (`shape_scores`), the sensor's probe per kernel, the significant ones."""
+
+    scores: list
+    shape_scores: dict
+    sensor_probe: dict
+    significant: list
+    n_tests: int  # family-shape tests counted in the family-wise p-values
+
+
+@dataclasses.dataclass
+class _Refit:
+    family: Family
+    shape: Shape
+    fit: HostResult
+    drop: float  # chi-square drop against the base fit
+    values: np.ndarray  # natural values of the family's parameters
+    stderr: np.ndarray
+    unphysical: str | None
+    sensor: bool
+    sub: _Sub  # the refit's problem (to continue it)
+    failed: str | None = None  # why the refit is not a result (it ended above the base)
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Fits:
+    """What a refit needs: the options, the campaign, the base and the ranking."""
+
+    opts: DiscoveryOptions
+    prep: Prepared
+    base: Base
+    ranking: Ranking
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Refitted:
+    """The refits in the order they were made; `eligible`: the families the calibrated
+    test let through (the winner is one of them); `shaped`: families whose shape the
+    refinement before the decision already searched."""
+
+    refits: list
+    eligible: frozenset
+    shaped: frozenset = frozenset()
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Choice:
+    """The winner (None: no physical refit that lowers chi-square) after its polish and
+    shape refinement, the decision against the other refits and its chi-square drop as
+    decided."""
+
+    chosen: _Refit | None
+    decision: Decision | None
+    rivals: list  # `indistinguishable_from`
+    compared: dict  # family name -> `Contender`
+    decided_drop: float
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Reweighed:
+    """The winner after the records weighed by their scatter were tried at full weight,
+    the standard errors of its last fit, and the records that weigh fully again."""
+
+    chosen: _Refit | None
+    sd_after: np.ndarray
+    reweighed: list

@@ -1,0 +1,58 @@
+"""Starts of the per-cycle discovery's fits (`cycle_workflow`): the features' friction
+moved where the per-cycle model runs (`plausible_start`), and a restart's kinetic friction
+lifted off zero (`lift_mu_d`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .options import EXPONENTS, MU_D_FLOOR, MU_D_LIFT
+
+__all__ = ["lift_mu_d", "plausible_start"]
+
+
+def plausible_start(logs, stick_times, slip_times) -> np.ndarray:
+    """The features' six logs (log mu_d, log(mu_s - mu_d), log gamma, log m, log delta,
+    log n; `EmpiricalFriction`) moved into a range where the per-cycle model runs:
+    parameters the features cannot determine may wander far (the real records: m -> 0,
+    delta 2e12, n 1e116, so exp(-delta T2^n) = 1 and no slip ends; a strong Stribeck
+    campaign: mu_s - mu_d 9e5 with gamma 5e-8). An exponent m or n outside `EXPONENTS`
+    starts at 1; gamma and delta keep what the records measure, gamma T1^m and delta
+    T2^n at the median stick and slip times (s), with exp(-gamma T1^m) in [0.02, 0.98]
+    and exp(-delta T2^n) in [0.02, 0.9] (a mean kinetic friction within 10 % of
+    mu_0 - mu_d of the breakaway level leaves no slip that ends); mu_s - mu_d then keeps
+    eq (1)'s rise mu_0(T1) - mu_d at the median stick time."""
+    z = np.asarray(logs, float).copy()
+    lgap, lg, lm, ld, ln = (float(v) for v in z[1:6])
+    T1 = float(np.nanmedian(stick_times[stick_times > 0])) if np.any(stick_times > 0) else 1.0
+    T2 = float(np.median(slip_times))
+    out = []
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        for l_coef, l_exp, T, q_max in ((lg, lm, T1, 0.98), (ld, ln, T2, 0.9)):
+            lo, hi = np.log(-np.log(q_max)), np.log(-np.log(0.02))
+            e = float(np.exp(l_exp))
+            e1 = e if EXPONENTS[0] <= e <= EXPONENTS[1] else 1.0
+            a = l_coef + e * np.log(T)  # log(coefficient T^exponent)
+            a1 = float(np.clip(np.nan_to_num(a, nan=0.0, posinf=hi, neginf=lo), lo, hi))
+            out.append((a1 - e1 * np.log(T), np.log(e1), a, a1))
+        (lg1, lm1, a, a1), (ld1, ln1, _, _) = out
+        # the rise (mu_s - mu_d)(1 - exp(-gamma T1^m)) at the median stick time
+        rise = float(np.exp(lgap) * -np.expm1(-np.exp(a)))
+        if np.isfinite(rise) and rise > 0:
+            lgap = float(np.log(rise / -np.expm1(-np.exp(a1))))
+    z[1:6] = [lgap, lg1, lm1, ld1, ln1]
+    return z
+
+
+def lift_mu_d(logs) -> np.ndarray:
+    """The six friction logs (`EmpiricalFriction`) with mu_d lifted to MU_D_LIFT x mu_s
+    (mu_s kept) when it is below MU_D_FLOOR x mu_s. The fit's coordinate is log mu_d: a
+    fit that has driven mu_d towards 0 (a large effect lowering the slips' friction, such
+    as a Stribeck drop of 0.2 on lubricant A: mu_d 1e-13 in both the features fit and the
+    base) has no gradient left to bring it back once the effect is added."""
+    z = np.asarray(logs, float).copy()
+    mu_d, gap = np.exp(z[0]), np.exp(z[1])
+    mu_s = mu_d + gap
+    if mu_d < MU_D_FLOOR * mu_s:
+        z[0], z[1] = np.log(MU_D_LIFT * mu_s), np.log((1.0 - MU_D_LIFT) * mu_s)
+    return z

@@ -1,0 +1,118 @@
+"""Sub-problems of the per-cycle model over flat coordinate vectors, for
+`stickslip_jax.lsq.solve_host` (`cycle_workflow`): some of the model's coordinates free
+(`_Sub`), and the screw error with one amplitude per harmonic and a phase per record
+(`_SharedScrew`)."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .cycle_effects import Shape
+from .cycle_model import CycleModel
+
+__all__ = ["_SharedScrew", "_Sub"]
+
+
+@dataclasses.dataclass
+class _Sub:
+    """The model with only `cols` of the full coordinates free (`stickslip_jax.lsq.solve_host`)."""
+
+    model: CycleModel
+    z_full: np.ndarray
+    cols: np.ndarray
+    shape: Shape = Shape()
+    sensor: bool = False
+    prior: np.ndarray | None = None  # per free coordinate: prior sd (z units), inf: none
+
+    def full(self, z):
+        out = self.z_full.copy()
+        out[self.cols] = z
+        return out
+
+    def active(self):
+        return np.ones(len(self.cols), bool)
+
+    def evaluate(self, z):
+        r, J, ok = self.model.evaluate(self.full(z), self.cols, self.shape, self.sensor)
+        if self.prior is None:
+            return r, J, ok
+        on = np.isfinite(self.prior)  # a Gaussian prior as extra residual rows
+        rows = np.zeros((int(on.sum()), J.shape[1]))
+        rows[np.arange(rows.shape[0]), np.flatnonzero(on)] = 1.0 / self.prior[on]
+        return np.concatenate([r, np.asarray(z)[on] / self.prior[on]]), np.vstack([J, rows]), ok
+
+    def without_effect(self, z) -> np.ndarray:
+        """The free coordinates `z` with the family's effect taken out (its coordinates,
+        after the base's, at 0)."""
+        w = np.array(z, float)
+        w[self.model.n_base:] = 0.0
+        return w
+
+    def family_part(self, z, cov, k):
+        """The last `k` model coordinates (the family's) at the free coordinates `z`, and
+        their covariance from the free coordinates' `cov` (None: not computed)."""
+        return np.asarray(z)[-k:], (None if cov is None else cov[-k:, -k:])
+
+
+@dataclasses.dataclass
+class _SharedScrew(_Sub):
+    """The screw error with one amplitude per harmonic and a phase per record (one lead
+    screw, records starting at different places on it): free coordinates are the base's
+    `n_base` columns, then A1, A2 (model scale units) and the G first- then G
+    second-harmonic phases (rad). `cols` are the model columns: base, then the family's
+    4 per record (a1_sin = A1 cos phi1, a1_cos = A1 sin phi1, likewise A2, phi2)."""
+
+    n_base: int = 0
+
+    def _coef(self, w):
+        w = np.asarray(w, float)
+        G = (w.size - 2) // 2
+        a1, a2, p1, p2 = w[0], w[1], w[2:2 + G], w[2 + G:]
+        coef = np.stack([a1 * np.cos(p1), a1 * np.sin(p1), a2 * np.cos(p2),
+                         a2 * np.sin(p2)], axis=1).ravel()
+        D = np.zeros((4 * G, w.size))
+        for g in range(G):
+            D[4 * g + 0, 0], D[4 * g + 0, 2 + g] = np.cos(p1[g]), -a1 * np.sin(p1[g])
+            D[4 * g + 1, 0], D[4 * g + 1, 2 + g] = np.sin(p1[g]), a1 * np.cos(p1[g])
+            D[4 * g + 2, 1], D[4 * g + 2, 2 + G + g] = np.cos(p2[g]), -a2 * np.sin(p2[g])
+            D[4 * g + 3, 1], D[4 * g + 3, 2 + G + g] = np.sin(p2[g]), a2 * np.cos(p2[g])
+        return coef, D
+
+    def _model_z(self, z):
+        z = np.asarray(z, float)
+        return np.concatenate([z[:self.n_base], self._coef(z[self.n_base:])[0]])
+
+    def full(self, z):
+        return super().full(self._model_z(z))
+
+    def evaluate(self, z):
+        r, J, ok = self.model.evaluate(self.full(z), self.cols, self.shape, self.sensor)
+        _, D = self._coef(np.asarray(z)[self.n_base:])
+        return r, np.hstack([J[:, :self.n_base], J[:, self.n_base:] @ D]), ok
+
+    def without_effect(self, z) -> np.ndarray:
+        """Amplitudes at 0, the records' phases kept."""
+        w = np.array(z, float)
+        w[self.n_base:self.n_base + 2] = 0.0
+        return w
+
+    def family_part(self, z, cov, k):
+        _, D = self._coef(np.asarray(z)[self.n_base:])
+        vals = self._model_z(z)[-k:]
+        if cov is None:
+            return vals, None
+        return vals, D @ cov[self.n_base:, self.n_base:] @ D.T
+
+    @staticmethod
+    def start(coef, G):
+        """Free screw coordinates from per-record coefficients (z units, 4 per record):
+        the median first- and second-harmonic amplitudes over the records that have
+        any, and each record's phases."""
+        c = np.asarray(coef, float).reshape(G, 4)
+        amp1, amp2 = np.hypot(c[:, 0], c[:, 1]), np.hypot(c[:, 2], c[:, 3])
+        a1 = float(np.median(amp1[amp1 > 0])) if np.any(amp1 > 0) else 1.0
+        a2 = float(np.median(amp2[amp2 > 0])) if np.any(amp2 > 0) else 0.1 * a1
+        return np.concatenate([[a1, a2], np.arctan2(c[:, 1], c[:, 0]),
+                               np.arctan2(c[:, 3], c[:, 2])])
