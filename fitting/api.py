@@ -247,6 +247,7 @@ def fit(
         raise ValueError("eta: only used with model='microsqueeze'")
 
     given = _as_list(records)
+    inputs: tuple[str, ...]
     if given and all(isinstance(r, Record) for r in given):
         campaign, inputs = _campaign_of_records(given, strict), ()
     elif any(isinstance(r, Record) for r in given):

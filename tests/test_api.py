@@ -5,6 +5,7 @@ the figure, and errors that name what to fix."""
 import dataclasses
 import json
 import math
+import os
 import pathlib
 import sys
 import warnings
@@ -211,3 +212,54 @@ def test_real_records_show_unknowns_as_unknown():
         assert math.isnan(row["value"]) and math.isnan(row["std_err"]), name
         assert row["reason"].startswith("not identifiable"), (name, row["reason"])
         assert real.report["parameters"][name]["identifiable"] is False
+
+
+_USER_CODE = '''
+import stickslip_fitting as sf
+from stickslip_fitting import CampaignFit
+from stickslip_fitting.losses import Huber
+from stickslip_fitting.modes import Objective
+from stickslip_jax.modes import GaugeOffset
+
+result: CampaignFit = sf.fit("data/examples/*.csv", objective=Objective.TRACE,
+                             fix={"n": 1.0}, loss=Huber(2.0), gauge_offset=GaugeOffset.START)
+result.plot("fit.png")
+text: str = result.to_json("fit.json")
+converged: bool = result.converged
+values: dict[str, float] = result.values
+wrong = sf.fit("data/examples", objective=3.5)
+'''
+
+_MYPY_INI = """[mypy]
+follow_imports = silent
+[mypy-jax.*,jaxlib.*,equinox.*,diffrax.*,optimistix.*,lineax.*,jaxtyping.*,numpy.*,matplotlib.*,scipy.*,pandas.*,emcee.*,corner.*,pint.*,arviz.*,xarray.*,tqdm.*]
+follow_imports = skip
+ignore_missing_imports = True
+"""
+
+
+def test_public_api_type_checks(tmp_path):
+    """mypy over the public entry points (the packages ship py.typed): a user's script
+    that calls `stickslip_fitting.fit` type-checks, a wrong option type is reported, and
+    the modules of the call have no type errors."""
+    pytest.importorskip("mypy", reason="mypy (the [test] extra) is not installed")
+    import subprocess
+
+    src = tmp_path / "src"  # the installed names: stickslip_fitting is the folder fitting/
+    src.mkdir()
+    (src / "stickslip_fitting").symlink_to(ROOT / "fitting")
+    (src / "stickslip_jax").symlink_to(ROOT / "stickslip_jax")
+    (tmp_path / "mypy.ini").write_text(_MYPY_INI)
+    (tmp_path / "user.py").write_text(_USER_CODE)
+    run = subprocess.run(
+        [sys.executable, "-m", "mypy", "--config-file", "mypy.ini", "--cache-dir",
+         str(tmp_path / "cache"), "--no-error-summary", "user.py",
+         "src/stickslip_fitting/__init__.py", "src/stickslip_fitting/api.py",
+         "src/stickslip_jax/__init__.py"],
+        cwd=tmp_path, env={**os.environ, "MYPYPATH": str(src)},
+        capture_output=True, text=True, timeout=600)
+    errors = [line for line in run.stdout.splitlines() if ": error:" in line]
+    assert len(errors) == 1, run.stdout + run.stderr
+    line = _USER_CODE.splitlines().index(next(t for t in _USER_CODE.splitlines()
+                                                 if t.startswith("wrong ="))) + 1
+    assert errors[0].startswith(f"user.py:{line}:") and 'Argument "objective"' in errors[0], errors
