@@ -203,7 +203,7 @@ def run(args) -> int:
         res.save_chain(args.chain, idata=idata)
         print(f"wrote {args.chain}")
     if args.plot:
-        from ..plots import corner_plot
+        from ..posterior_plots import corner_plot
 
         logger.info("drawing the corner plot...")
         corner_plot(res.samples, res.names, args.plot, truth=truth, units=units)
