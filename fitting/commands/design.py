@@ -335,7 +335,9 @@ def _figure_grid(args, axes) -> list[str]:
 
 
 def plot(args, res, path):
-    """Amplitude and v_c maps (2 grid axes) or curves (1 grid axis), boundary drawn."""
+    """Amplitude and v_c maps (2 grid axes) or curves (1 grid axis), the stick-slip
+    boundary dashed where the grid crosses it; saved to `path` and closed (the `Figure`
+    is returned for inspection)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -371,8 +373,9 @@ def plot(args, res, path):
             y = axes[grid[0]] * scale[grid[0]]
             mesh = ax.pcolormesh(x, y, z, shading="auto", cmap="viridis")
             fig.colorbar(mesh, ax=ax, label=label)
-            if crosses:
-                ax.contour(x, y, edge, levels=[0.0], colors="w", linewidths=1.5)
+            if crosses:  # dashed: the boundary v = v_c (or P = 0.5) between the regimes
+                ax.contour(x, y, edge, levels=[0.0], colors="w", linewidths=1.5,
+                           linestyles="--")
             if double is not None and double.any():
                 ax.contourf(x, y, double.astype(float), levels=[0.5, 1.5], colors="none",
                             hatches=["///"])
@@ -401,13 +404,17 @@ def plot(args, res, path):
     fixed = ", ".join(f"{LABELS[n].split(' ')[0]} = {float(axes[n][0]) * scale[n]:g} "
                       f"{LABELS[n].split(' ')[1][1:-1]}"
                       for n in ("weight", "stiffness", "speed") if n not in grid)
+    boundary = ("" if not crosses else "; dashed: stick-slip boundary"
+                + (" (P = 0.5)" if args.posterior else
+                   " (v = v_c)" if _method(args) is MapMethod.STEADY else ""))
     fig.suptitle(f"{_METHOD_TITLE[_method(args)]}"
-                 f"{'; ' + fixed if fixed else ''}; white/dashed: stick-slip boundary", fontsize=10)
+                 f"{'; ' + fixed if fixed else ''}{boundary}", fontsize=10)
     fig.tight_layout()
     from stickslip_jax.output import save_figure
 
     save_figure(fig, path, dpi=120)
     plt.close(fig)
+    return fig
 
 
 def run(args) -> int:

@@ -1,4 +1,10 @@
-"""Figures of a discovery result: residual RMS by phase before/after, and the traces."""
+"""Figures of a discovery result: residual RMS by phase before/after, and the traces.
+
+The traces are drawn over the samples the fit used: where a record's fitted windows leave
+time out (cycles set aside, the run-in), the lines break instead of crossing the gap.
+Each record's panel is titled by its file stem, spring and drive speed (never its free-
+text note, which may be a licence paragraph).
+"""
 
 from __future__ import annotations
 
@@ -6,13 +12,59 @@ import numpy as np
 
 from .residuals import PHASES
 
-__all__ = ["plot_cycle_discovery", "plot_discovery"]
+__all__ = ["TITLE_CHARS", "broken_at_gaps", "plot_cycle_discovery", "plot_discovery",
+           "record_title"]
+
+TITLE_CHARS = 60
+"""The longest panel title (characters); a longer one is cut with an ellipsis."""
 
 
-def plot_discovery(result, path=None, *, records: int = 3):
-    """Residual RMS by phase (um) before/after, and `records` traces with the base and
-    final fits and their residuals (um against s). Returns the `Figure` (the user's
-    backend is never switched); with `path`, saves it there (atomically) and closes it."""
+def record_title(record, index: int | None = None) -> str:
+    """A short title of a record: `name: k = 86.9 kgf/mm, v = 5 mm/min, W = 36 kgf` (W
+    where it fits), at most `TITLE_CHARS` characters."""
+    name = getattr(record, "name", None) or (f"record {index}" if index is not None
+                                             else "record")
+    parts = []
+    k, v, w = (getattr(record, a, None) for a in ("stiffness", "drive_speed", "weight"))
+    if k is not None:
+        parts.append(f"k = {float(k):.3g} kgf/mm")
+    if v is not None:
+        parts.append(f"v = {float(v) * 60.0:.3g} mm/min")
+    text = name + (": " + ", ".join(parts) if parts else "")
+    if w is not None and len(text) + 16 <= TITLE_CHARS:
+        text += f", W = {float(w):.3g} kgf"
+    return text if len(text) <= TITLE_CHARS else text[:TITLE_CHARS - 3] + "..."
+
+
+def broken_at_gaps(t, *ys, factor: float = 1.5):
+    """`t` and `ys` sorted by time with a NaN inserted wherever the time step exceeds
+    `factor` times the median step (the gaps between fitted windows), so that a line
+    drawn through them breaks there."""
+    t = np.asarray(t, dtype=float)
+    order = np.argsort(t, kind="stable")
+    t = t[order]
+    ys = [np.asarray(y, dtype=float)[order] for y in ys]
+    if t.size < 3:
+        return (t, *ys)
+    dt = np.diff(t)
+    step = np.median(dt[dt > 0]) if np.any(dt > 0) else 0.0
+    cut = np.flatnonzero(dt > factor * step) + 1 if step > 0 else np.array([], int)
+    return (np.insert(t, cut, np.nan), *(np.insert(y, cut, np.nan) for y in ys))
+
+
+def _picked(n: int, records: int) -> list[int]:
+    """Up to `records` record indices spread evenly over `n` (all when n <= records)."""
+    if n <= records:
+        return list(range(n))
+    return sorted({int(round(i)) for i in np.linspace(0, n - 1, max(1, records))})
+
+
+def plot_discovery(result, path=None, *, records: int = 4):
+    """Residual RMS by phase (um) before/after, and the traces of up to `records` records
+    (spread over the campaign) with the base and final fits (mm against s) and their
+    residuals (um), the lines broken between fitted windows. Returns the `Figure` (the
+    user's backend is never switched); with `path`, saves it there (atomically) and
+    closes it."""
     import matplotlib.pyplot as plt
 
     from stickslip_jax.output import save_figure
@@ -25,8 +77,9 @@ def plot_discovery(result, path=None, *, records: int = 3):
     base = result.base_problem.trajectories(result.base_fit.z)[0]
     final = result.final_problem.trajectories(result.final_fit.z)[0]
     R = tr.n_records
-    pick = sorted({0, R // 2, R - 1})[:records]
-    fig, axes = plt.subplots(1 + len(pick), 2, figsize=(11, 2.6 * (1 + len(pick))))
+    pick = _picked(R, records)
+    fig, axes = plt.subplots(1 + len(pick), 2, figsize=(11, 2.6 * (1 + len(pick))),
+                             squeeze=False)
     ax = axes[0, 0]
     x = np.arange(len(PHASES))
     rb = [result.residuals_before.phases[p]["rms"] * 1e3 for p in PHASES]
@@ -35,25 +88,31 @@ def plot_discovery(result, path=None, *, records: int = 3):
     ax.bar(x + 0.2, ra, 0.4, label=f"with {result.effect}")
     ax.axhline(result.noise * 1e3, color="k", ls="--", lw=1, label="noise")
     ax.set_xticks(x, PHASES)
+    ax.set_xlabel("phase of the cycle")
     ax.set_ylabel("residual RMS (um)")
     ax.legend(fontsize=8)
-    ax.set_title(f"effect: {result.effect} ({result.confidence})")
+    ax.set_title(f"effect: {result.effect} ({result.confidence}); traces of {len(pick)} "
+                 f"of {R} records", fontsize=9)
     ax = axes[0, 1]
     names = [c["name"] for c in result.candidates]
     ax.barh(names, [max(c["score"], 1e-3) for c in result.candidates])
     ax.set_xscale("log")
-    ax.set_xlabel("score statistic (chi-square)")
+    ax.set_xlabel("score statistic (chi-square, dimensionless)")
+    recs = getattr(result, "records", None)
     for row, i in enumerate(pick, start=1):
         mi = m[i]
+        tt, di, bi, fi = broken_at_gaps(t[i][mi], d[i][mi], base[i][mi], final[i][mi])
         a = axes[row, 0]
-        a.plot(t[i][mi], d[i][mi], ".", ms=2, color="0.5", label="record")
-        a.plot(t[i][mi], base[i][mi], lw=1, label="base fit")
-        a.plot(t[i][mi], final[i][mi], lw=1, ls="--", label="final fit")
+        a.plot(tt, di, ".", ms=2, color="0.5", label="record")
+        a.plot(tt, bi, lw=1, label="base fit")
+        a.plot(tt, fi, lw=1, ls="--", label="final fit")
         a.set_ylabel("deflection (mm)")
+        a.set_title(record_title(recs[i], i) if recs is not None and i < len(recs)
+                    else f"record {i}", fontsize=9)
         a.legend(fontsize=7)
         b = axes[row, 1]
-        b.plot(t[i][mi], (d[i][mi] - base[i][mi]) * 1e3, lw=0.8, label="base residual")
-        b.plot(t[i][mi], (d[i][mi] - final[i][mi]) * 1e3, lw=0.8, label="final residual")
+        b.plot(tt, (di - bi) * 1e3, lw=0.8, label="base residual")
+        b.plot(tt, (di - fi) * 1e3, lw=0.8, label="final residual")
         b.set_ylabel("residual (um)")
         b.legend(fontsize=7)
     axes[-1, 0].set_xlabel("time (s)")
@@ -65,11 +124,13 @@ def plot_discovery(result, path=None, *, records: int = 3):
     return fig
 
 
-def plot_cycle_discovery(result, *, records: int = 3):
+def plot_cycle_discovery(result, *, records: int = 4):
     """Figure of a per-cycle discovery (`cycle_workflow.CycleDiscovery`): residual RMS by
-    phase before and after (um), and for up to `records` records the measured deflection
-    with the base and final models (mm against s) and their residuals (um). Returns the
-    `matplotlib.figure.Figure` (the backend is left as it is)."""
+    phase before and after (um) against the noise, and for up to `records` records
+    (spread over the campaign) the measured deflection with the paper's model and the
+    model with the effect (mm against s) and their residuals (um), each record's panel
+    titled by `record_title` and its lines broken between the fitted cycle windows.
+    Returns the `matplotlib.figure.Figure` (the backend is left as it is)."""
     from matplotlib.figure import Figure
 
     model = result.model
@@ -82,7 +143,7 @@ def plot_cycle_discovery(result, *, records: int = 3):
     r0 = model.residuals(result.z_before)[0] * sd
     r1 = model.residuals(result.z_after, result.shape, result.sensor)[0] * sd
     G = model.n_records
-    pick = sorted({0, G // 2, G - 1})[:records]
+    pick = _picked(G, records)
     fig = Figure(figsize=(11, 2.6 * (1 + len(pick))), layout="constrained")
     axes = fig.subplots(1 + len(pick), 2, squeeze=False)
     ax = axes[0, 0]
@@ -95,11 +156,16 @@ def plot_cycle_discovery(result, *, records: int = 3):
            label=f"with {after}")
     ax.axhline(result.noise * 1e3, color="k", lw=0.8, ls="--", label="noise")
     ax.set_xticks(pos, names)
+    ax.set_xlabel("phase of the cycle")
     ax.set_ylabel("residual RMS (um)")
-    ax.legend(fontsize=8)
+    ax.set_ylim(0.0, 1.45 * ax.get_ylim()[1])  # room for the legend above the bars
+    ax.legend(fontsize=8, ncols=3, loc="upper center")
+    given = len(getattr(result.campaign, "screening", ()) or ()) or G
     summary = (f"effect: {result.effect} ({result.confidence})\n"
                f"gap {result.gap_before * 1e3:.3g} -> {result.gap_after * 1e3:.3g} um "
-               f"(noise {result.noise * 1e3:.3g} um)")
+               f"(noise {result.noise * 1e3:.3g} um)\n"
+               f"traces of {len(pick)} of the {G} records used"
+               + (f" ({given} given)" if given > G else "") + ", fitted cycle windows only")
     learned = result.learned
     if learned is None:
         axes[0, 1].axis("off")
@@ -107,31 +173,30 @@ def plot_cycle_discovery(result, *, records: int = 3):
     else:  # the learned phase correction over the cycle, at the median climb
         ax = axes[0, 1]
         phase, corr = learned.correction_at()
-        ax.plot(phase, 1e3 * corr, color="C3")
-        ax.axvline(1.0, color="k", lw=0.6, ls=":")
+        ax.plot(phase, 1e3 * corr, color="C3", label="learned correction")
+        ax.axvline(1.0, color="k", lw=0.6, ls=":", label="stick | slip")
         ax.axhline(0.0, color="k", lw=0.5)
-        ax.set_xlabel("stick phase (0-1), then 1 + slip phase")
+        ax.set_xlabel("stick phase (0-1), then 1 + slip phase (dimensionless)")
         ax.set_ylabel("learned correction (um)")
-        ax.set_title(summary.replace("\n", "; ") + f"\nlearned: gap -> "
-                     f"{learned.gap_after * 1e3:.3g} um ({100 * learned.closes:.0f} % of "
+        ax.legend(fontsize=7)
+        ax.set_title(summary.replace("\n", "; ", 1) + f"\nlearned: gap "
+                     f"-> {learned.gap_after * 1e3:.3g} um ({100 * learned.closes:.0f} % of "
                      "the excess)", fontsize=8)
     for row, g in enumerate(pick, start=1):
         sel = rec == g
-        order = np.argsort(t[sel])
-        tt = t[sel][order]
+        tt, xx, m0, m1 = broken_at_gaps(t[sel], x[sel], (x - r0)[sel], (x - r1)[sel])
         ax = axes[row, 0]
-        ax.plot(tt, x[sel][order], ".", ms=1, color="0.5", label="record")
-        ax.plot(tt, (x - r0)[sel][order], lw=0.8, label="paper's model")
-        ax.plot(tt, (x - r1)[sel][order], lw=0.8, label=f"with {after}")
+        ax.plot(tt, xx, ".", ms=1, color="0.5", label="record")
+        ax.plot(tt, m0, lw=0.8, label="paper's model")
+        ax.plot(tt, m1, lw=0.8, label=f"with {after}")
         ax.set_ylabel("deflection (mm)")
-        ax.set_title(result.campaign.records[g].note or f"record {g}", fontsize=9)
+        ax.set_title(record_title(result.campaign.records[g], g), fontsize=9)
+        ax.legend(fontsize=7)
         ax = axes[row, 1]
-        ax.plot(tt, 1e3 * r0[sel][order], lw=0.5, label="before")
-        ax.plot(tt, 1e3 * r1[sel][order], lw=0.5, label="after")
+        ax.plot(tt, 1e3 * (xx - m0), lw=0.5, label="paper's model")
+        ax.plot(tt, 1e3 * (xx - m1), lw=0.5, label=f"with {after}")
         ax.set_ylabel("residual (um)")
-        if row == 1:
-            axes[row, 0].legend(fontsize=7)
-            ax.legend(fontsize=7)
+        ax.legend(fontsize=7)
     for ax in axes[-1]:
         ax.set_xlabel("time (s)")
     return fig

@@ -1,0 +1,224 @@
+"""The figures' readability, checked on their matplotlib objects: the corner plot shows the
+truth inside its axes and prints no offset text, the discovery figure titles records
+briefly and breaks its lines between fitted windows, the design map draws the stick-slip
+boundary its title promises (dashed)."""
+
+from __future__ import annotations
+
+import re
+import types
+
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")
+
+NAMES = ["mu_s", "mu_d", "gamma", "m", "delta", "n"]
+TRUTH = dict(zip(NAMES, [0.56, 0.21, 0.38, 0.4, 67.0, 1.0]))
+UNITS = {"mu_s": "-", "mu_d": "-", "gamma": "s^-m", "m": "-", "delta": "s^-n", "n": "-"}
+
+
+def _draws(mean, sd, n=3000, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.asarray(mean) + np.asarray(sd) * rng.standard_normal((n, len(mean)))
+
+
+def _grid(fig, d):
+    return np.asarray(fig.axes).reshape(d, d)
+
+
+def test_corner_axes_contain_a_truth_the_draws_miss():
+    """A posterior of delta at 77 +- 1 (truth 67) and n at 1.04 (truth 1.0): every axis
+    of those parameters is widened to show the truth, with the line inside the frame."""
+    import matplotlib.pyplot as plt
+
+    from stickslip_fitting.plots import corner_plot  # the name kept beside the new module
+
+    s = _draws([0.56, 0.21, 0.38, 0.4, 77.0, 1.04], [2e-3, 5e-5, 2e-3, 3e-4, 1.0, 3e-3])
+    assert s[:, 4].min() > 67.0 and s[:, 5].min() > 1.0  # the truths lie outside the draws
+    fig = corner_plot(s, NAMES, truth=TRUTH, units=UNITS)
+    g = _grid(fig, 6)
+    for j, name in enumerate(NAMES):
+        t = TRUTH[name]
+        for i in range(j, 6):  # column j: the x axis is parameter j
+            lo, hi = g[i, j].get_xlim()
+            assert lo < t < hi, (name, i, lo, hi)
+        for k in range(j):  # row j below the diagonal: the y axis is parameter j
+            lo, hi = g[j, k].get_ylim()
+            assert lo < t < hi, (name, k, lo, hi)
+    assert "67" not in g[4, 4].get_title()  # shown, so not named as off axis
+    plt.close(fig)
+
+
+def test_corner_names_a_truth_too_far_to_share_the_axis():
+    import matplotlib.pyplot as plt
+
+    from stickslip_fitting.posterior_plots import TRUTH_REACH, corner_plot
+
+    s = _draws([1.0, 2.0], [0.01, 0.01])
+    far = 1.0 + 10 * TRUTH_REACH * np.ptp(s[:, 0])
+    fig = corner_plot(s, ["a", "b"], truth={"a": far, "b": 2.0})
+    g = _grid(fig, 2)
+    assert "off axis" in g[0, 0].get_title() and "off axis" not in g[1, 1].get_title()
+    assert g[1, 0].get_xlim()[1] < far  # the axis keeps the draws readable
+    plt.close(fig)
+
+
+def test_corner_ticks_have_no_offset_text_and_tell_ticks_apart():
+    """mu_d = 0.21 known to 5e-6: matplotlib's default would print "+2.1e-1" (and a
+    scale) in a corner; the ticks carry their digits instead, each label distinct."""
+    import matplotlib.pyplot as plt
+
+    from stickslip_fitting.posterior_plots import corner_plot
+
+    s = _draws([0.56, 0.21, 67.0], [1e-4, 5e-6, 0.05])
+    fig = corner_plot(s, ["mu_s", "mu_d", "delta"], truth={"mu_d": 0.21},
+                      units={"delta": "s^-n"})
+    fig.canvas.draw()
+    labelled = 0
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            assert axis.get_offset_text().get_text() == "", axis.get_offset_text().get_text()
+            texts = [t.get_text() for t in axis.get_ticklabels() if t.get_text()]
+            if texts:
+                labelled += 1
+                assert len(set(texts)) == len(texts), texts
+                for text in texts:
+                    float(text)  # a plain number each, no "1e-5+2.1e-1" pieces
+    assert labelled >= 4
+    g = _grid(fig, 3)
+    # the median with the decimals of its interval (4.8e-6: 7), not "0.21" of ".3g"
+    assert re.fullmatch(r"mu_d = 0\.\d{7}\n\+0\.00000\d\d / -0\.00000\d\d",
+                        g[1, 1].get_title()), g[1, 1].get_title()
+    plt.close(fig)
+
+
+def test_plotting_modules_keep_the_backend():
+    import pathlib
+
+    root = pathlib.Path(__file__).resolve().parents[1]
+    for rel in ("fitting/posterior_plots.py", "fitting/discovery/plots.py"):
+        assert "matplotlib.use(" not in (root / rel).read_text(), rel
+
+
+# --- the discovery figure -------------------------------------------------------------
+
+LICENCE = ("measured by Colas et al. (ENS de Lyon), npusteln/stickslip data_raw/k168Nm_v42.mat "
+           "from t = 93.9095 s; licence CeCILL-B; cite: J. Colas, N. Pustelnik, C. Oliver, "
+           "P. Abry, J.-C. Geminard, V. Vidal, Nonlinear denoising for solid friction")
+
+
+def _record(name, k, v, w=0.0307):
+    return types.SimpleNamespace(name=name, stiffness=k, drive_speed=v, weight=w, note=LICENCE)
+
+
+def test_record_title_is_short_and_never_the_note():
+    from stickslip_fitting.discovery.plots import TITLE_CHARS, record_title
+
+    title = record_title(_record("paper_k168Nm_v42um-s", 0.0171, 0.042))
+    assert title.startswith("paper_k168Nm_v42um-s: k = 0.0171 kgf/mm, v = 2.52 mm/min")
+    assert len(title) <= TITLE_CHARS and "licence" not in title
+    long = record_title(_record("x" * 200, 1.0, 1.0))
+    assert len(long) == TITLE_CHARS and long.endswith("...")
+
+
+def test_broken_at_gaps_puts_nan_between_windows():
+    from stickslip_fitting.discovery.plots import broken_at_gaps
+
+    t = np.r_[np.arange(10) * 0.1, 5.0 + np.arange(10) * 0.1]
+    tt, y = broken_at_gaps(t[::-1], t[::-1] * 2)  # sorted on the way
+    assert np.isnan(tt).sum() == 1 and np.isnan(y).sum() == 1
+    k = int(np.flatnonzero(np.isnan(tt))[0])
+    assert tt[k - 1] == pytest.approx(0.9) and tt[k + 1] == pytest.approx(5.0)
+    assert np.isnan(broken_at_gaps(np.arange(20) * 0.1)[0]).sum() == 0
+
+
+class _CycleModel:
+    """The surface of `cycle_model.CycleModel` the figure reads: two records, each in
+    two windows of 50 samples (rows of 25) separated by a gap of 10 s."""
+
+    n_records = 2
+
+    def __init__(self):
+        rows, self.per = [], 25
+        for g in range(2):
+            for start in (0.0, 0.5, 10.0, 10.5):
+                rows.append((g, start + 0.02 * np.arange(self.per)))
+        self.data = types.SimpleNamespace(
+            mask=np.ones((len(rows), self.per), bool),
+            time=np.array([r[1] for r in rows]),
+            deflection=np.array([0.1 + 0.01 * np.sin(r[1]) for r in rows]),
+            record=np.array([r[0] for r in rows]))
+        self.sd = np.full((len(rows), self.per), 1e-3)
+
+    def residuals(self, z, shape=None, sensor=None):
+        rng = np.random.default_rng(int(z))
+        return (rng.standard_normal(self.data.mask.sum()),)
+
+
+def _cycle_result():
+    model = _CycleModel()
+    phases = {"stick": {"rms": 2e-3}, "slip": {"rms": 3e-3}}
+    return types.SimpleNamespace(
+        model=model, z_before=0, z_after=1, shape=None, sensor=None,
+        phases_before=phases, phases_after=phases, effect="viscous_damping",
+        effect_of="", confidence="low", noise=1e-3, gap_before=2e-3, gap_after=1.5e-3,
+        learned=None,
+        campaign=types.SimpleNamespace(
+            records=[_record("paper_k1002Nm_v42um-s", 0.102, 0.042),
+                     _record("paper_k168Nm_v42um-s", 0.0171, 0.042)],
+            screening=[None, None, None]))
+
+
+def test_cycle_discovery_figure_titles_records_and_breaks_lines_at_gaps():
+    from stickslip_fitting.discovery.plots import TITLE_CHARS, plot_cycle_discovery
+
+    fig = plot_cycle_discovery(_cycle_result())
+    axes = np.asarray(fig.axes).reshape(-1, 2)
+    assert axes.shape[0] == 3  # the summary row and both records
+    for row, name in zip(axes[1:], ("paper_k1002Nm", "paper_k168Nm")):
+        title = row[0].get_title()
+        assert title.startswith(name) and len(title) <= TITLE_CHARS and "licence" not in title
+        for ax in row:
+            assert ax.get_legend() is not None
+            assert "(um)" in ax.get_ylabel() or "(mm)" in ax.get_ylabel()
+            lines = [ln for ln in ax.get_lines() if ln.get_linestyle() not in ("None", "")]
+            assert lines
+            for ln in lines:  # one break per record: the 9.5 s gap between its windows
+                x = np.asarray(ln.get_xdata(), float)
+                assert np.isnan(x).sum() == 1, ln.get_label()
+                k = int(np.flatnonzero(np.isnan(x))[0])
+                assert x[k + 1] - x[k - 1] > 9.0
+    assert all(ax.get_xlabel() == "time (s)" for ax in axes[-1])
+    assert "3 given" in axes[0, 1].texts[0].get_text()
+
+
+# --- the design map -------------------------------------------------------------------
+
+def test_design_map_draws_the_boundary_its_title_promises_dashed(tmp_path, monkeypatch):
+    import stickslip_fitting.commands.design as design
+    from stickslip_jax.cli import main
+
+    figures = []
+    draw = design.plot
+    monkeypatch.setattr(design, "plot", lambda *a, **k: figures.append(draw(*a, **k)))
+    out = tmp_path / "map.png"
+    assert main(["design", "--lubricant", "A", "--weight", "36", "--stiffness", "20:200:8",
+                 "--speed", "0.5:200:8:log", "--plot", str(out), "--quiet"]) == 0
+    assert out.exists() and len(figures) == 1
+    fig = figures[0]
+    assert "dashed: stick-slip boundary" in fig._suptitle.get_text()
+    from matplotlib.collections import QuadMesh
+    from matplotlib.contour import ContourSet
+
+    maps = [ax for ax in fig.axes if ax.get_title()  # not the colour bars
+            and any(isinstance(c, QuadMesh) for c in ax.collections)]
+    assert len(maps) == 2  # amplitude and v_c
+    for ax in maps:
+        sets = [c for c in ax.collections if isinstance(c, ContourSet)]
+        assert sets, ax.get_title()
+        for cs in sets:
+            styles = cs.get_linestyles()
+            assert styles and all(dashes is not None for _, dashes in styles), styles
+            assert any(len(p.vertices) > 1 for p in cs.get_paths())  # a boundary is drawn
