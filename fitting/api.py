@@ -177,7 +177,10 @@ class CampaignFit:
 
             check_outputs({"plot": os.fspath(path)}, self.inputs)
             path = os.fspath(path)
-        return fit_figure(self.fit, self.uncertainty, self.campaign.records, path)
+        reasons = {s.name: s.reason for s in self.campaign.screening}
+        not_used = [(r, reasons.get(f.name) or "not used") for r, f in self.campaign.not_used]
+        return fit_figure(self.fit, self.uncertainty, self.campaign.records, path,
+                          not_used=not_used)
 
     def __str__(self) -> str:
         from .commands.fit import format_table
