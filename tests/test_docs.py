@@ -320,3 +320,43 @@ def test_readme_python_runs(code, tmp_path):
     proc = subprocess.run([sys.executable, "-c", code], cwd=_sandbox(tmp_path),
                           capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-2000:]
+
+
+# --- the benchmarks page and the script that writes it ------------------------------------
+
+def _report():
+    spec = importlib.util.spec_from_file_location("bench_report", ROOT / "benchmarks" / "report.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_benchmark_report_knows_every_script_and_the_page_has_its_section():
+    report = _report()
+    scripts = {p.stem for p in (ROOT / "benchmarks").glob("*.py")}
+    helpers = {"report", "scipy_reference", "design_worker"}
+    assert set(report.BENCHMARKS) == scripts - helpers
+    page = (DOCS / "benchmarks.md").read_text(encoding="utf-8")
+    for name in report.BENCHMARKS:
+        begin, end = report.markers(name)
+        assert page.count(begin) == 1 and page.count(end) == 1, name
+        assert page.index(begin) < page.index(end), name
+    assert set(report.FAST) <= set(report.BENCHMARKS)
+
+
+def test_benchmark_report_replaces_one_section_and_adds_missing_ones():
+    report = _report()
+    page = ("# Benchmarks\n\n<!-- report.py:begin records -->\nold figures\n"
+            "<!-- report.py:end records -->\n\ntext after\n")
+    new = report.update_page(page, "records", "new figures\n```text\nx\n```")
+    assert "old figures" not in new and "new figures" in new and new.endswith("text after\n")
+    assert new.count("report.py:begin records") == 1
+    added = report.update_page(new, "fit", "fit figures")
+    assert added.startswith(new.rstrip("\n")) and "## `benchmarks/fit.py`" in added
+    assert "<!-- report.py:begin fit -->\nfit figures\n<!-- report.py:end fit -->" in added
+    host = {"cpu": "CPU", "cores": "2", "platform": "p", "python": "3", "jax": "j",
+            "jaxlib": "l", "devices": "cpu"}
+    facts = {"date": "d", "command": "python benchmarks/records.py", "wall_s": 1.0,
+             "load_before": "1", "load_after": "2"}
+    block = report.section("records", "table\n", facts, host)
+    assert "| CPU | CPU |" in block and "| cores | 2 |" in block and "table" in block
