@@ -19,7 +19,7 @@ algorithm, assembled from public optimistix pieces:
   ($\rho$: actual over predicted decrease), after a rejected one
   $\lambda \leftarrow \lambda\nu$, $\nu \leftarrow 2\nu$. Its step size is $1/\lambda$,
   optimistix's convention for damped-Newton descents (`optimistix.DampedNewtonDescent`
-  reads it the same way; `MarquardtDescent` takes `optimistix.ClassicalTrustRegion`'s);
+  reads it the same way);
 - `LevenbergMarquardt` (an `optimistix.AbstractLeastSquaresSolver`, so it runs inside
   `optimistix.least_squares` and one compiled program): the two composed. The Jacobian
   is built once per evaluated point, by forward mode with one tangent per parameter (the
