@@ -360,3 +360,11 @@ def test_benchmark_report_replaces_one_section_and_adds_missing_ones():
              "load_before": "1", "load_after": "2"}
     block = report.section("records", "table\n", facts, host)
     assert "| CPU | CPU |" in block and "| cores | 2 |" in block and "table" in block
+
+
+@pytest.mark.parametrize("path", _documents(), ids=lambda p: str(p.relative_to(ROOT)))
+def test_repository_files_named_exist(path):
+    """A test, script, data file or module the text names (`tests/test_x.py`, ...) is there."""
+    named = re.findall(r"\b((?:tests|benchmarks|docs|data|notebooks|stickslip_jax|fitting)"
+                       r"/[\w./-]+\.(?:py|csv|json|md|txt))\b", path.read_text(encoding="utf-8"))
+    assert [n for n in named if not (ROOT / n).exists()] == []
