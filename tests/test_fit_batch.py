@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -78,6 +79,21 @@ def test_fit_batch_command(tmp_path, capsys):
     text = capsys.readouterr().out
     assert code == 3
     assert "3 of 4 campaigns fitted, 1 could not be fitted; 1 process" in text
+    # the table: every row has the header's cells (columns two spaces or more apart)
+    lines = text.splitlines()
+    header = re.split(r"\s{2,}", lines[0].strip())
+    assert header[:3] == ["campaign", "status", "records"] and header[-2:] == ["chi2/dof", "s"]
+    assert "gamma [s^-m]" in header and "delta [s^-n]" in header
+    body = [re.split(r"\s{2,}", line.strip()) for line in lines[2:6]]
+    assert [len(r) for r in body] == [len(header)] * 4, body
+    assert body[3][1] == "failed" and "nowhere: failed: " in text
+    delta_n = [header.index("delta [s^-n]"), header.index("n")]
+    for row in body[:3]:
+        # one spring each: one slip time, delta and n not determined, printed as "-"
+        assert [row[i] for i in delta_n] == ["-", "-"], row
+        for cell in row[3:]:
+            assert cell == "-" or float(cell) == float(cell)  # one number per cell
+    assert text.count("delta, n not identifiable (-): one slip time T2") == 3
     doc = json.loads(out.read_text())
     assert doc["schema_version"] >= 1 and doc["processes"] == 1
     rows = doc["campaigns"]
