@@ -4,15 +4,18 @@
 | file | command |
 |---|---|
 | `fit.png` | `stickslip fit data/examples/*.csv` (the shipped campaign: the fit overlay) |
-| `mcmc_corner.png` | `stickslip mcmc` on four shipped records (a short chain), at 60 dpi |
+| `mcmc_corner.png` | `stickslip mcmc data/examples/*.csv` (all 12 records, 32 walkers x 4000 steps), at 80 dpi |
 | `design_map.png` | `stickslip design` over k x v (lubricant A, W = 36 kgf) |
 | `discover.png` | `stickslip discover` on a small campaign with viscous damping |
 | `record.png` | `stickslip plot` of one shipped record |
 | `pitch.png` | `stickslip pitch --fit` on two synthetic records with tilt channels |
+| `fit_batch.png` | `stickslip fit-batch` of the shipped campaign, whole and per spring |
+
+Each figure gets a caption strip at its foot saying what data made it (`CAPTIONS`; the
+pixels above it are the command's own). The script first prints the machine (CPU model,
+cores, date, jax version and backend), then the time and size of each figure.
 
     .venv/bin/python docs/make_figures.py [NAME ...]   # all, or only these (fit, design, ...)
-
-Prints the time and size of each figure. About 1-2 minutes on 2 cores (see the README).
 """
 
 from __future__ import annotations
@@ -28,6 +31,77 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 IMAGES = ROOT / "docs" / "images"
 EXAMPLES = sorted(str(p) for p in (ROOT / "data" / "examples").glob("*.csv"))
+
+MCMC_WALKERS, MCMC_STEPS = 32, 4000
+"""The corner figure's chain: long enough (about 50 autocorrelation times after burn-in
+on the shipped campaign) that `stickslip mcmc` does not call it too short."""
+
+CAPTIONS = {
+    "fit": "Data: the 12 shipped records of data/examples (synthetic, lubricant A, W = 36 "
+           "kgf, k = 27.3/86.9/128.5 kgf/mm, 1.5-75 mm/min, 0.5 um noise).",
+    "mcmc_corner": f"Data: all 12 records of data/examples (synthetic; red lines: the truth "
+                   f"of data/examples/truth.json); emcee, {MCMC_WALKERS} walkers x "
+                   f"{MCMC_STEPS} steps, burn-in {MCMC_STEPS // 4}.",
+    "design_map": "No data: lubricant A's friction parameters (paper, Table 6), W = 36 kgf, "
+                  "a 40 x 40 grid of k x v, steady analysis.",
+    "discover": "Data: 4 synthetic records of lubricant A with viscous damping (ratio 0.15), "
+                "which the paper's model lacks (tests/independent_records.py).",
+    "record": "Data: data/examples/A_W36_k86.9_v5mm-min.csv (synthetic, lubricant A).",
+    "pitch": "Data: 2 synthetic records of the chapter-6 tilt model, drive points (20, 30) "
+             "and (60, -30) mm, 2e-5 mm noise.",
+    "fit_batch": "Data: data/examples as one campaign and split by spring (k = 27.3, 86.9, "
+                 "128.5 kgf/mm).",
+}
+"""The caption strip of each figure: what data made it."""
+
+
+def machine() -> str:
+    """One line: CPU model, cores (usable / present), date (UTC), jax version and backend."""
+    import datetime
+    import platform
+
+    import jax
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in pathlib.Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    usable = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    return (f"machine: {cpu}, {usable} of {os.cpu_count()} cores usable, {date}, "
+            f"jax {jax.__version__} ({jax.default_backend()}), {platform.system()} "
+            f"{platform.release()}, Python {platform.python_version()}")
+
+
+def png_dpi(path: pathlib.Path) -> int:
+    """The PNG's resolution as saved (its pHYs chunk); 100 when it has none."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        return int(round(im.info.get("dpi", (100, 100))[0]))
+
+
+def add_caption(path: pathlib.Path, text: str) -> None:
+    """Append a caption strip with `text` below the PNG at `path`; the pixels above are
+    copied unchanged (`figimage` at the PNG's own size and resolution)."""
+    import matplotlib.image as mpimg
+    from matplotlib.figure import Figure
+
+    from stickslip_jax.output import save_figure
+
+    dpi = png_dpi(path)
+    img = mpimg.imread(str(path))
+    h, w = img.shape[:2]
+    strip = int(round(0.3 * dpi))  # one line of 8-point text and its margins
+    fig = Figure(figsize=(w / dpi, (h + strip) / dpi), dpi=dpi, facecolor="white")
+    fig.figimage(img, 0, strip, origin="upper")
+    fig.text(0.01, 0.5 * strip / (h + strip), text, fontsize=8, va="center", ha="left",
+             style="italic")
+    save_figure(fig, str(path), dpi=dpi)
 
 
 def _discovery_campaign(folder: pathlib.Path) -> list[str]:
@@ -51,7 +125,7 @@ def _discovery_campaign(folder: pathlib.Path) -> list[str]:
 def _corner(tmp: pathlib.Path, out: pathlib.Path) -> None:
     """`stickslip mcmc`'s corner plot (`stickslip_fitting.plots.corner_plot`, the
     function behind `mcmc --plot`) from the run's JSON draws, without the scatter of
-    single draws and at 60 dpi: the command's 100 dpi figure is a 0.5 MB file."""
+    single draws and at 80 dpi: the command's 100 dpi figure is a 0.5 MB file."""
     import json
 
     import numpy as np
@@ -64,7 +138,7 @@ def _corner(tmp: pathlib.Path, out: pathlib.Path) -> None:
     fig = corner_plot(np.asarray(doc["samples"]), doc["names"], plot_datapoints=False,
                       truth={n: r["truth"] for n, r in rows.items() if r.get("truth") is not None},
                       units={n: r["unit"] for n, r in rows.items()})
-    save_figure(fig, str(out), dpi=60)
+    save_figure(fig, str(out), dpi=80)
 
 
 def pitch_records(folder: pathlib.Path, stem: str = "pitch") -> list[str]:
@@ -96,9 +170,9 @@ def figures(tmp: pathlib.Path) -> dict[str, list[str]]:
     """{name: the stickslip command line that draws docs/images/NAME.png}."""
     return {
         "fit": lambda: ["fit", *EXAMPLES],
-        "mcmc_corner": lambda: ["mcmc", *EXAMPLES[:4], "--steps", "400", "--walkers", "16",
-                                "--seed", "1", "--draws", "4800", "--json",
-                                str(tmp / "mcmc.json")],
+        "mcmc_corner": lambda: ["mcmc", *EXAMPLES, "--steps", str(MCMC_STEPS),
+                                "--walkers", str(MCMC_WALKERS), "--seed", "1",
+                                "--draws", "8000", "--json", str(tmp / "mcmc.json")],
         "design_map": lambda: ["design", "--lubricant", "A", "--weight", "36",
                                "--stiffness", "20:200:40", "--speed", "0.5:200:40:log"],
         "discover": lambda: ["discover", *_discovery_campaign(tmp)],
@@ -116,6 +190,7 @@ def main(argv=None) -> int:
 
     only = list(sys.argv[1:] if argv is None else argv)
     IMAGES.mkdir(parents=True, exist_ok=True)
+    print(machine(), flush=True)
     total = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         todo = figures(pathlib.Path(tmp))
@@ -137,6 +212,7 @@ def main(argv=None) -> int:
                 raise SystemExit(f"{name}: stickslip exited {rc}")
             if name == "mcmc_corner":
                 _corner(pathlib.Path(tmp), out)
+            add_caption(out, CAPTIONS[name])
             print(f"{name}: {time.perf_counter() - t0:.1f} s, {out.stat().st_size / 1024:.0f} KiB",
                   flush=True)
     print(f"all: {time.perf_counter() - total:.1f} s", flush=True)
