@@ -52,6 +52,19 @@ def program_position(program, t) -> np.ndarray:
     return u
 
 
+def _segment_value(number: str, unit: str, dimension: str, path, line: int) -> float:
+    """A program segment's `number unit` in internal units."""
+    try:
+        return float(number) * factor(unit, dimension)
+    except UnitError:
+        raise RecordError(
+            f"drive_program: unknown {dimension} unit {unit!r}; use one of "
+            f"{_unit_choices(dimension)}",
+            path,
+            line,
+        ) from None
+
+
 def _parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]:
     segs = []
     hint = "write e.g. 'drive_program: 0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min'"
@@ -64,24 +77,8 @@ def _parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...
                 path,
                 line,
             )
-        try:
-            start = float(m.group(1)) * factor(m.group(2), "time")
-        except UnitError:
-            raise RecordError(
-                f"drive_program: unknown time unit {m.group(2)!r}; use one of "
-                f"{_unit_choices('time')}",
-                path,
-                line,
-            ) from None
-        try:
-            speed = float(m.group(3)) * factor(m.group(4), "speed")
-        except UnitError:
-            raise RecordError(
-                f"drive_program: unknown speed unit {m.group(4)!r}; use one of "
-                f"{_unit_choices('speed')}",
-                path,
-                line,
-            ) from None
+        start = _segment_value(m.group(1), m.group(2), "time", path, line)
+        speed = _segment_value(m.group(3), m.group(4), "speed", path, line)
         segs.append((start, speed))
     try:
         return _check_program(segs)
