@@ -164,7 +164,7 @@ def _cycle_result():
         model=model, z_before=0, z_after=1, shape=None, sensor=None,
         phases_before=phases, phases_after=phases, effect="viscous_damping",
         effect_of="", confidence="low", noise=1e-3, gap_before=2e-3, gap_after=1.5e-3,
-        learned=None,
+        learned=None, indistinguishable_from=[{"name": "stribeck"}],
         campaign=types.SimpleNamespace(
             records=[_record("paper_k1002Nm_v42um-s", 0.102, 0.042),
                      _record("paper_k168Nm_v42um-s", 0.0171, 0.042)],
@@ -191,7 +191,8 @@ def test_cycle_discovery_figure_titles_records_and_breaks_lines_at_gaps():
                 k = int(np.flatnonzero(np.isnan(x))[0])
                 assert x[k + 1] - x[k - 1] > 9.0
     assert all(ax.get_xlabel() == "time (s)" for ax in axes[-1])
-    assert "3 given" in axes[0, 1].texts[0].get_text()
+    summary = axes[0, 1].texts[0].get_text()
+    assert "viscous_damping or stribeck (low)" in summary and "3 given" in summary
 
 
 # --- the design map -------------------------------------------------------------------

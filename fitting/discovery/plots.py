@@ -161,7 +161,9 @@ def plot_cycle_discovery(result, *, records: int = 4):
     ax.set_ylim(0.0, 1.45 * ax.get_ylim()[1])  # room for the legend above the bars
     ax.legend(fontsize=8, ncols=3, loc="upper center")
     given = len(getattr(result.campaign, "screening", ()) or ()) or G
-    summary = (f"effect: {result.effect} ({result.confidence})\n"
+    joint = " or ".join([result.effect] + [r["name"] for r in
+                                           getattr(result, "indistinguishable_from", ()) or ()])
+    summary = (f"effect: {joint} ({result.confidence})\n"
                f"gap {result.gap_before * 1e3:.3g} -> {result.gap_after * 1e3:.3g} um "
                f"(noise {result.noise * 1e3:.3g} um)\n"
                f"traces of {len(pick)} of the {G} records used"
