@@ -223,3 +223,50 @@ def test_design_map_draws_the_boundary_its_title_promises_dashed(tmp_path, monke
             styles = cs.get_linestyles()
             assert styles and all(dashes is not None for _, dashes in styles), styles
             assert any(len(p.vertices) > 1 for p in cs.get_paths())  # a boundary is drawn
+
+
+def _smooth_result():
+    """The surface of `workflow.DiscoveryResult` that `plot_discovery` reads: three
+    records, each with samples at 0-1 s and 6-7 s (a 5 s window gap) and padding."""
+    from stickslip_fitting.discovery.residuals import PHASES
+
+    R, N = 3, 120
+    t = np.tile(np.r_[np.linspace(0, 1, 50), np.linspace(6, 7, 50), np.zeros(20)], (R, 1))
+    mask = np.tile(np.r_[np.ones(100, bool), np.zeros(20, bool)], (R, 1))
+    data = 0.1 + 0.01 * np.sin(t)
+    traces = types.SimpleNamespace(time=t, data=data, mask=mask, n_records=R,
+                                   stiffness=np.array([27.3, 86.9, 128.5]),
+                                   speed=np.array([5.0, 10.0, 20.0]) / 60.0,
+                                   weight=np.full(R, 36.0))
+
+    def problem(offset):
+        return types.SimpleNamespace(traces=traces,
+                                     trajectories=lambda z: (data + offset,))
+
+    phases = types.SimpleNamespace(phases={p: {"rms": 1e-3} for p in PHASES})
+    return types.SimpleNamespace(
+        base_problem=problem(1e-3), final_problem=problem(2e-4),
+        base_fit=types.SimpleNamespace(z=None), final_fit=types.SimpleNamespace(z=None),
+        residuals_before=phases, residuals_after=phases, noise=5e-4, effect="stribeck",
+        confidence="high", candidates=[{"name": "stribeck", "score": 30.0},
+                                       {"name": "rate_state", "score": 2.0}])
+
+
+def test_smooth_discovery_figure_titles_records_and_breaks_lines_at_gaps():
+    import matplotlib.pyplot as plt
+
+    from stickslip_fitting.discovery.plots import plot_discovery
+
+    fig = plot_discovery(_smooth_result())
+    axes = np.asarray(fig.axes).reshape(-1, 2)
+    assert axes.shape[0] == 4
+    assert axes[1, 0].get_title() == "record 0: k = 27.3 kgf/mm, v = 5 mm/min, W = 36 kgf"
+    for row in axes[1:]:
+        for ax in row:
+            assert ax.get_legend() is not None and "(" in ax.get_ylabel()
+            for ln in ax.get_lines():
+                if ln.get_linestyle() in ("None", ""):
+                    continue
+                x = np.asarray(ln.get_xdata(), float)
+                assert np.isnan(x).sum() == 1 and x[~np.isnan(x)].min() == 0.0
+    plt.close(fig)

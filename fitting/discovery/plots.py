@@ -8,6 +8,8 @@ text note, which may be a licence paragraph).
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from .residuals import PHASES
@@ -107,8 +109,10 @@ def plot_discovery(result, path=None, *, records: int = 4):
         a.plot(tt, bi, lw=1, label="base fit")
         a.plot(tt, fi, lw=1, ls="--", label="final fit")
         a.set_ylabel("deflection (mm)")
-        a.set_title(record_title(recs[i], i) if recs is not None and i < len(recs)
-                    else f"record {i}", fontsize=9)
+        rec = (recs[i] if recs is not None and i < len(recs) else
+               SimpleNamespace(name=f"record {i}", stiffness=float(tr.stiffness[i]),
+                               drive_speed=float(tr.speed[i]), weight=float(tr.weight[i])))
+        a.set_title(record_title(rec, i), fontsize=9)
         a.legend(fontsize=7)
         b = axes[row, 1]
         b.plot(tt, (di - bi) * 1e3, lw=0.8, label="base residual")
