@@ -95,7 +95,7 @@ def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothD
         k.append(rec.stiffness)
         v.append(rec.drive_speed)
         x1.append(float(f.trough[0]))
-        sig.append(float(f.noise))  # floored at features.NOISE_FLOOR
+        sig.append(float(f.noise))  # floored at sticks.NOISE_FLOOR
     ts, data, mask = pad_series(times, xs)
 
     def arr(a):

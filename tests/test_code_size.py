@@ -20,11 +20,9 @@ MODULE_LINES = 800
 
 ALLOWED = {
     "fitting/discovery/workflow.py:discover": 181,
-    "fitting/features.py:extract_cycles": 269,
     "fitting/uncertainty.py:laplace": 160,
     "stickslip_jax/simulation/exact.py:_events": 204,
     "stickslip_jax/simulation/smooth.py:simulate_smooth": 208,
-    "fitting/features.py": 827,
 }
 
 

@@ -200,7 +200,7 @@ def test_noisy_reslip_levels_are_unbiased():
     """A stiff spring whose every slip ends in a long re-slip (slip ratio ~2.9, prior draw
     18 of the calibration): the fall of x in the slow second slip is lost in the noise,
     so the features must not start the next stick plateau there
-    (`stickslip_fitting.features._settled_start`). Measured z-scores of peak and trough against the
+    (`stickslip_fitting.sticks.settled_start`). Measured z-scores of peak and trough against the
     model at the truth: mean 0.0 / 0.2 over seeds 1-4, 20 cycles (without the settling
     3.6 / 3.8)."""
     from stickslip_fitting.objectives import _levels
@@ -229,7 +229,7 @@ def test_reslip_campaign_is_fitted():
     zero-stick breakaway level mu_d W/k: the exact simulator slips on with mu_d (re-slip).
     Without the re-slip in the features model every start ended at chi2/dof 1.5e6; without
     the late timing of double slips (`_reslip_shift`) at 2.1; without the plateau
-    settling (`stickslip_fitting.features._settled_start`) 1.19; measured 0.76."""
+    settling (`stickslip_fitting.sticks.settled_start`) 1.19; measured 0.76."""
     fr = ss.Friction(ss.KatoStatic(mu_s=0.5698, mu_d=0.2174, gamma=0.3446, m=0.5057),
                      ss.KatoKinetic(delta=33.84, n=0.9216))
     recs = synthetic_campaign(fr, seed=525, pad_to=40_000, **SMALL_A)

@@ -96,7 +96,7 @@ def test_second_order_sensor_at_the_slideway_frequency():
 
 def test_pure_noise_has_no_slips():
     """Steady sliding with noise, spikes and quantisation: no slip in 20 records of 20 k
-    samples (the length-aware threshold, `stickslip_fitting.features.detection_z`)."""
+    samples (the length-aware threshold, `stickslip_fitting.sticks.detection_z`)."""
     rng = np.random.default_rng(0)
     t = np.arange(20_000) * 1e-3
     slips = 0
