@@ -36,17 +36,16 @@ from typing import TYPE_CHECKING, Any, Union
 from stickslip_jax.modes import GaugeOffset, SlipTime
 from stickslip_jax.records import Record
 
-from .modes import Objective
+from .modes import ModelModes, Objective
 
 if TYPE_CHECKING:
     import pandas
-
     from matplotlib.figure import Figure
 
     from .campaign import Campaign
     from .fit import FitResult
     from .losses import AbstractLoss
-    from .params import AbstractFrictionParams
+    from .params import AbstractFrictionParams, Hold
     from .uncertainty import Uncertainty
 
 __all__ = ["CampaignFit", "RecordsSpec", "SUMMARY_COLUMNS", "fit"]
@@ -242,7 +241,7 @@ def fit(
     slip_time = SlipTime.parse(slip_time)
     law, model_name = _law(model)
     loss = _loss(loss)
-    fixed = _fixed(fix, law)
+    hold = _hold(fix, law)
     if model_name == "microsqueeze":
         pair = _surface(surface)
         eta_value = None if eta is None else _viscosity(eta)
@@ -262,7 +261,7 @@ def fit(
         campaign = load_campaign(given, strict=strict)
         inputs = tuple(str(p) for p in record_paths(given))
 
-    kw: dict[str, Any] = dict(fixed=fixed, offset=gauge_offset, slip_time=slip_time,
+    kw: dict[str, Any] = dict(hold=hold, modes=ModelModes(offset=gauge_offset, slip_time=slip_time),
                               objective=objective, records=campaign.records, loss=loss)
     extra = None
     if model_name == "microsqueeze":
@@ -340,9 +339,11 @@ def _loss(loss) -> AbstractLoss:
         raise _keyword(err, "loss") from None
 
 
-def _fixed(fix, law) -> dict[str, float]:
-    """{name: value} checked by the command's own `parse_fix` (names, ranges, one free)."""
+def _hold(fix, law) -> Hold | None:
+    """The `Hold` of {name: value}, checked by the command's own `parse_fix` (names,
+    ranges, one free); None when nothing is held."""
     from .commands.fit import parse_fix
+    from .params import Hold
 
     if fix is None:
         fix = {}
@@ -356,9 +357,10 @@ def _fixed(fix, law) -> dict[str, float]:
             raise ValueError(f"fix {name}: {value!r} is not a number") from None
         items.append(f"{name}={number!r}")
     try:
-        return parse_fix(items, law)
+        fixed = parse_fix(items, law)
     except ValueError as err:
         raise _keyword(err, "fix") from None
+    return Hold.named(fixed) if fixed else None
 
 
 def _surface(name: str):

@@ -7,7 +7,9 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
 
 - Parameters: `stickslip_fitting.params.CampaignParams` (friction in unconstrained coordinates,
   one gauge offset per record); the free leaves are chosen with `eqx.partition`
-  (`free_spec(fixed=..., offsets=...)`).
+  (`free_spec(hold=..., offsets=...)`; the held parameters a `params.Hold`).
+- Options: typed objects with defaults (`stickslip_fitting.modes`): the `Objective` and
+  the `ModelModes`, `Weighting`, `Padding` and `SolverOptions` groups.
 - Solver: the project's one least-squares verb, `stickslip_jax.lsq.least_squares`
   (Levenberg-Marquardt: Marquardt scaling, Nielsen damping, the Jacobian once per
   evaluated point by forward mode), the whole multi-start run (a
@@ -23,7 +25,7 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
   (at most `SCREEN_STEPS` steps each: a start stuck on a plateau of the objective stops
   there instead of spending the whole step budget); then only the best few are
   polished to the tolerances, and the best converged start wins.
-- Objective (`objective=`, a `stickslip_fitting.modes.Objective` or its value): the cycle
+- Objective (`objective=`, a `stickslip_fitting.modes.Objective`): the cycle
   features (default), the full trace through the exact simulator restarted per cycle
   (`stickslip_fitting.trace_objective`), both (`stickslip_fitting.combined`), or whole
   records through the smoothed simulator (`stickslip_fitting.smooth_objective`); all but
@@ -38,22 +40,22 @@ from typing import NamedTuple
 
 import equinox as eqx
 import jax
+import jax.flatten_util  # noqa: F401
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
-import jax.flatten_util  # noqa: F401
 
 from stickslip_jax.lsq import free_filter, gauss_newton_decrease, least_squares
 from stickslip_jax.modes import GaugeOffset, SlipTime
 from stickslip_jax.programs import release_programs
 
 from .combined import AbstractObjective, FeaturesObjective, make_objective
-from .losses import Gaussian, with_loss
-from .modes import Objective
 from .features import RecordFeatures, record_features
+from .losses import AbstractLoss, Gaussian, with_loss
+from .modes import ModelModes, Objective, Padding, SolverOptions, Weighting
 from .objectives import FeatureData, feature_data, feature_residuals
+from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, Hold, free_spec
 from .trace_objective import trace_data
-from .params import CampaignParams, EmpiricalFriction, free_spec
 
 __all__ = ["FitResult", "fit_features", "fit_objective", "fit_records", "initial_guesses"]
 
@@ -300,104 +302,125 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps):
     return values, chi2s_np, _take(results, best), ok, total, flags, best, k + 1
 
 
+class _Options(NamedTuple):
+    """The option objects of `fit_features`, passed on together inside this module."""
+
+    hold: Hold | None
+    modes: ModelModes
+    weighting: Weighting
+    padding: Padding
+    solver: SolverOptions
+
+
 def fit_features(
     features: list[RecordFeatures],
     *,
-    fixed: dict[str, float] | None = None,
-    offset: GaugeOffset | str = GaugeOffset.ZERO,
-    slip_time: SlipTime | str = SlipTime.PAPER,
-    starts: list[EmpiricalFriction] | None = None,
-    rtol: float = 1e-10,
-    atol: float = 1e-10,
-    max_steps: int = 400,
-    pad_cycles: int = 0,
-    objective: Objective | str = Objective.FEATURES,
     records=None,
-    weights: tuple[float, float] = (0.5, 0.5),
-    pad_length: int = 0,
-    pad_windows: int = 0,
-    reslip: bool | None = None,
-    loss=None,
-    rescale_records: bool = True,
+    objective: Objective = Objective.FEATURES,
+    hold: Hold | None = None,
+    starts: list[AbstractFrictionParams] | None = None,
+    loss: AbstractLoss | None = None,
+    modes: ModelModes = ModelModes(),
+    weighting: Weighting = Weighting(),
+    padding: Padding = Padding(),
+    solver: SolverOptions = SolverOptions(),
+    **flat,
 ) -> FitResult:
-    """Fit mu_s, mu_d, gamma, m, delta, n jointly to the cycle features of a campaign.
+    r"""Fit mu_s, mu_d, gamma, m, delta, n jointly to the cycle features of a campaign.
 
-    - `fixed`: {name: value} held fixed (e.g. {"n": 1.0}).
-    - `offset`: a `stickslip_jax.modes.GaugeOffset` or its value: "zero" (trust the gauge
-      zero) or "start" (each record starts with the spring relaxed: its first plateau
-      gives the offset, fitted as a nuisance).
-    - `slip_time`: $T_2$ in eq (3), a `SlipTime` or its value: "paper" ($\\pi/\\omega_0$)
-      or "self_consistent".
-    - `starts`: starting `EmpiricalFriction`s (default `initial_guesses`).
-    - `pad_cycles`: pad the cycle axis (campaigns of other lengths reuse the compilation).
-    - `reslip`: model re-slips (`stickslip_fitting.objectives.feature_data`; None: detected).
-    - `objective`: a `stickslip_fitting.modes.Objective` or its value: "features"
-      (default), "trace", "both" (`stickslip_fitting.combined`) or "smooth" (whole
-      records, `stickslip_fitting.smooth_objective`); all but "features"
-      need `records` (the `Record`s the features came from) and start from the
-      features fit's optimum ("features first"); `weights` = (w_features, w_trace) for
-      "both"; `pad_length`, `pad_windows`: trace rows at least this long, at least this
-      many (`trace_data`).
-    - `rescale_records`: scale the errors of records the model describes worse than
-      their noise to their scatter and refit (`RECORD_CHI2`; features objective).
+    - `objective`: a `stickslip_fitting.modes.Objective`: FEATURES (default), TRACE, BOTH
+      (`stickslip_fitting.combined`) or SMOOTH (whole records,
+      `stickslip_fitting.smooth_objective`); all but FEATURES need `records` (the
+      `Record`s the features came from) and start from the features fit's optimum
+      ("features first").
+    - `hold`: the parameters held at given values (`stickslip_fitting.params.Hold`, e.g.
+      `Hold(lambda f: f.log_n, 1.0)`).
+    - `starts`: starting friction modules (default `initial_guesses`).
     - `loss`: a heavy-tailed likelihood (`stickslip_fitting.losses`: `Huber()`,
       `StudentT()`; None or `Gaussian()`: least squares). The Gaussian fit is the start,
-      then the objective under the loss is fitted from it (`_robust_refit`).
+      then the objective under the loss is fitted from it (`_fit_heavy_tailed`).
+    - `modes`: `ModelModes` (gauge offset, the slip time $T_2$ of eq (3), re-slips);
+      `weighting`: `Weighting` (the weights of BOTH, per-record error scaling,
+      `RECORD_CHI2`); `padding`: `Padding` (campaigns of other sizes reuse the
+      compilation); `solver`: `SolverOptions` (tolerances, step cap).
+
+    The flat keywords `fixed` ({name: value}), `offset`, `slip_time`, `reslip`,
+    `weights`, `rescale_records`, `pad_cycles`, `pad_length`, `pad_windows`, `rtol`,
+    `atol` and `max_steps`, and modes given by their values, are read into these objects
+    in one place (`flat_options`).
 
     Before it starts, JAX's compiled programs are dropped when the process nears its
     memory-map limit (`stickslip_jax.programs`: a process that fits many campaigns
     would otherwise die in XLA's compiler).
     """
     release_programs()
-    offset = GaugeOffset.parse(offset, "offset")
-    slip_time = SlipTime.parse(slip_time)
-    objective = Objective.parse(objective)
+    o = _Options(hold, modes, weighting, padding, solver)
+    if flat or not isinstance(objective, Objective):
+        objective, o = flat_options(objective, o, flat)
     if objective.needs_records and records is None:
         raise ValueError(f"objective {objective.value!r} needs the records (records=...)")
     if not features:
         raise ValueError("fit_features: no records to fit (features is empty); a campaign "
                          "needs the features of at least one record (record_features)")
     if loss is not None and not isinstance(loss, Gaussian):
-        kw = dict(fixed=fixed, offset=offset, slip_time=slip_time, starts=starts, rtol=rtol,
-                  atol=atol, max_steps=max_steps, pad_cycles=pad_cycles, records=records,
-                  weights=weights, pad_length=pad_length, pad_windows=pad_windows,
-                  reslip=reslip)
-        return _fit_heavy_tailed(features, loss, objective, kw)
-    fixed = dict(fixed or {})
-    if objective is Objective.SMOOTH:
-        from .smooth_objective import SmoothObjective, smooth_data
-
-        sobj = SmoothObjective(smooth_data(records, features), slip_time=slip_time)
-        problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
-                                    reslip)
-        first = _fit_problem(problem, features, rtol, atol, max_steps)
-        return _refine(first, sobj, max(rtol, 1e-8), max(atol, 1e-8), min(max_steps, 100))
-    if objective.needs_records:  # trace, both
-        tdata = trace_data(records, features, pad_length=pad_length, pad_windows=pad_windows)
-        # hundreds of thousands of residuals: tolerances not tighter than 1e-8, measured
-        # as root mean squares (a step that moves the whitened residuals by 1e-8 RMS),
-        # steps at most 100 per round (see _refine for the fallback convergence test)
-        t_rtol, t_atol, t_steps = max(rtol, 1e-8), max(atol, 1e-8), min(max_steps, 100)
-
-        def objective_of(data):
-            return make_objective(objective, data, tdata, weights=weights, slip_time=slip_time)
-
-        problem = _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
-                                    reslip)
+        return _fit_heavy_tailed(features, records, loss, objective, starts, o)
+    if objective.needs_records:
         # the two solves compile one after the other, in this thread (compiling the
         # trace solve in a background thread meanwhile saves nothing measurable: 3.1 s
         # including compilation either way)
-        first = _fit_problem(problem, features, rtol, atol, max_steps)
-        return _refine(first, objective_of(first.data), t_rtol, t_atol, t_steps)
-    problem_of = lambda fs: _features_problem(fs, fixed, offset, slip_time, starts,  # noqa: E731
-                                              pad_cycles, reslip)
-    if not rescale_records:
-        fit = _fit_problem(problem_of(features), features, rtol, atol, max_steps)
+        first = _fit_problem(_features_problem(features, o, starts), features, o.solver)
+        if objective is Objective.SMOOTH:
+            from .smooth_objective import SmoothObjective, smooth_data
+
+            obj = SmoothObjective(smooth_data(records, features), slip_time=o.modes.slip_time)
+        else:
+            tdata = trace_data(records, features, pad_length=o.padding.length,
+                               pad_windows=o.padding.windows)
+            obj = make_objective(objective, first.data, tdata, weights=o.weighting.pair,
+                                 slip_time=o.modes.slip_time)
+        return _refine(first, obj, o.solver.refine())
+    if not o.weighting.rescale_records:
+        fit = _fit_problem(_features_problem(features, o, starts), features, o.solver)
         return dataclasses.replace(fit, record_chi2=_record_chi2(fit))
-    return _fit_rescaled(problem_of, features, rtol, atol, max_steps)
+    return _fit_rescaled(lambda fs: _features_problem(fs, o, starts), features, o.solver)
 
 
-def _fit_heavy_tailed(features, loss, objective: Objective, kw: dict) -> FitResult:
+_FLAT = {"offset": ("modes", "offset"), "slip_time": ("modes", "slip_time"),
+         "reslip": ("modes", "reslip"), "rescale_records": ("weighting", "rescale_records"),
+         "pad_cycles": ("padding", "cycles"), "pad_length": ("padding", "length"),
+         "pad_windows": ("padding", "windows"), "rtol": ("solver", "rtol"),
+         "atol": ("solver", "atol"), "max_steps": ("solver", "max_steps")}
+"""Flat keyword of `fit_features` -> (option object, its field)."""
+
+
+def flat_options(objective, options: _Options, flat: dict) -> tuple[Objective, _Options]:
+    """`fit_features`' flat keywords (`_FLAT`, `fixed` {name: value}, `weights`
+    (w_features, w_trace)) and modes given by their values, as the option objects: the
+    one place inside the fit where they are read."""
+    unknown = sorted(set(flat) - set(_FLAT) - {"fixed", "weights"})
+    if unknown:
+        raise TypeError(f"fit_features() got unexpected keyword argument(s) "
+                        f"{', '.join(unknown)}")
+    parts = options._asdict()
+    for name, value in flat.items():
+        if name == "fixed":
+            parts["hold"] = Hold.named(dict(value)) if value else None
+            continue
+        if name == "weights":
+            parts["weighting"] = dataclasses.replace(
+                parts["weighting"], features=float(value[0]), trace=float(value[1]))
+            continue
+        group, field = _FLAT[name]
+        if name == "offset":
+            value = GaugeOffset.parse(value, "offset")
+        elif name == "slip_time":
+            value = SlipTime.parse(value)
+        parts[group] = dataclasses.replace(parts[group], **{field: value})
+    return Objective.parse(objective), _Options(**parts)
+
+
+def _fit_heavy_tailed(features, records, loss, objective: Objective, starts,
+                      o: _Options) -> FitResult:
     """`fit_features(..., loss=loss)` (not Gaussian).
 
     1. The Gaussian features fit (`fit_features`), whose residuals give each record's
@@ -413,22 +436,23 @@ def _fit_heavy_tailed(features, loss, objective: Objective, kw: dict) -> FitResu
     3. For the other objectives: their Gaussian fit from there, then the objective under
        the loss from its optimum.
     """
-    gauss = fit_features(features, objective=Objective.FEATURES, **kw)
+    rescale = dataclasses.replace(o.weighting, rescale_records=True)
+    gauss = fit_features(features, records=records, starts=starts,
+                         **o._replace(weighting=rescale)._asdict())
     before = 1.0 if gauss.record_scale is None else gauss.record_scale
     scale = np.sqrt(np.maximum(_record_chi2(gauss, robust=True) * before**2, 1.0))
     scaled = np.any(scale > 1.0) and len(features) > 1
     feats = _rescaled(features, scale) if scaled else list(features)
-    problem = _features_problem(feats, dict(kw["fixed"] or {}), kw["offset"], kw["slip_time"],
-                                kw["starts"], kw["pad_cycles"], kw["reslip"], loss=loss,
+    problem = _features_problem(feats, o, starts, loss=loss,
                                 extra_starts=[gauss.params.friction])
-    fit = _fit_problem(problem, feats, kw["rtol"], kw["atol"], kw["max_steps"])
+    fit = _fit_problem(problem, feats, o.solver)
     if objective is not Objective.FEATURES:
-        rest = {k: v for k, v in kw.items() if k != "starts"}
-        start = fit_features(feats, objective=objective, starts=[fit.params.friction],
-                             rescale_records=False, **rest)
+        once = dataclasses.replace(o.weighting, rescale_records=False)
+        start = fit_features(feats, records=records, objective=objective,
+                             starts=[fit.params.friction],
+                             **o._replace(weighting=once)._asdict())
         fit = fit_objective(with_loss(start.objective, loss), start.params, start.spec,
-                            rtol=max(kw["rtol"], 1e-8), atol=max(kw["atol"], 1e-8),
-                            max_steps=min(kw["max_steps"], 100), base=start)
+                            solver=o.solver.refine(), base=start)
     return dataclasses.replace(fit, record_scale=scale if scaled else None,
                                record_chi2=_record_chi2(fit) * scale**2)
 
@@ -464,13 +488,13 @@ def _rescaled(features, scale):
         for f, s in zip(features, scale)]
 
 
-def _fit_rescaled(problem_of, features, rtol, atol, max_steps, rounds: int = 4) -> FitResult:
+def _fit_rescaled(problem_of, features, solver: SolverOptions, rounds: int = 4) -> FitResult:
     """The features fit; when some record's chi2/n exceeds `RECORD_CHI2`, again with each
     record's standard errors scaled by sqrt(max(1, chi2/n)) of its residuals at the
     latest optimum (its actual scatter), until the scales settle (within 10 %, at most
     `rounds` refits). Each refit starts afresh from the multi-start, so a record that
     pulled the first fit into a wrong basin no longer can."""
-    fit = _fit_problem(problem_of(features), features, rtol, atol, max_steps)
+    fit = _fit_problem(problem_of(features), features, solver)
     chi = _record_chi2(fit)
     if len(features) < 2 or not np.any(chi > RECORD_CHI2):
         return dataclasses.replace(fit, record_chi2=chi)
@@ -481,7 +505,7 @@ def _fit_rescaled(problem_of, features, rtol, atol, max_steps, rounds: int = 4) 
             break
         scale = new
         scaled = _rescaled(features, scale)
-        fit = _fit_problem(problem_of(scaled), scaled, rtol, atol, max_steps)
+        fit = _fit_problem(problem_of(scaled), scaled, solver)
         chi = _record_chi2(fit) * scale**2  # in the records' own errors
     return dataclasses.replace(fit, record_chi2=chi, record_scale=scale)
 
@@ -499,10 +523,11 @@ class _FeaturesProblem(NamedTuple):
     starts: list
 
 
-def _fit_problem(problem: _FeaturesProblem, features, rtol, atol, max_steps) -> FitResult:
+def _fit_problem(problem: _FeaturesProblem, features, solver: SolverOptions) -> FitResult:
     """The multi-start features fit of `problem` (`fit_features` with `Objective.FEATURES`)."""
     values, chi2s, result, ok, steps, _, best, rounds = _solve_rounds(
-        problem.free_starts, problem.static, problem.objective, rtol, atol, max_steps)
+        problem.free_starts, problem.static, problem.objective, solver.rtol, solver.atol,
+        solver.max_steps)
     free_best = _take(values, best)
     params = eqx.combine(free_best, problem.static)
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free_best,
@@ -516,21 +541,21 @@ def _fit_problem(problem: _FeaturesProblem, features, rtol, atol, max_steps) -> 
     )
 
 
-def _features_problem(features, fixed, offset, slip_time, starts, pad_cycles,
-                      reslip=None, loss=None, extra_starts=()) -> _FeaturesProblem:
+def _features_problem(features, o: _Options, starts=None, loss=None,
+                      extra_starts=()) -> _FeaturesProblem:
     """Set up the features fit of `fit_features` (data, objective under `loss`, starts
-    (default `initial_guesses`) followed by `extra_starts`, spec)."""
-    data = feature_data(features, offset_from_start=(offset == GaugeOffset.START),
-                        pad_cycles=pad_cycles, reslip=reslip)
-    obj = with_loss(FeaturesObjective(data, slip_time), loss)
-    R = data.n_records
-    offsets0 = (np.asarray(data.start_level) if offset == GaugeOffset.START else np.zeros(R))
+    (default `initial_guesses`) followed by `extra_starts`, with `o.hold` applied, spec)."""
+    from_start = o.modes.offset is GaugeOffset.START
+    data = feature_data(features, offset_from_start=from_start, pad_cycles=o.padding.cycles,
+                        reslip=o.modes.reslip)
+    obj = with_loss(FeaturesObjective(data, o.modes.slip_time), loss)
+    offsets0 = np.asarray(data.start_level) if from_start else np.zeros(data.n_records)
     starts = initial_guesses(features, offsets0) if starts is None else list(starts)
     starts = starts + list(extra_starts)
-    if fixed:
-        starts = [s.with_fixed(fixed) for s in starts]
+    if o.hold is not None:
+        starts = [o.hold.apply(s) for s in starts]
     params0 = [CampaignParams(s, jax.device_put(offsets0)) for s in starts]
-    spec = free_spec(params0[0], fixed=tuple(fixed), offsets=(offset == GaugeOffset.START))
+    spec = free_spec(params0[0], hold=o.hold, offsets=from_start)
     frees, statics = zip(*(eqx.partition(p, spec) for p in params0))
     return _FeaturesProblem(data, obj, _stack(frees), statics[0], spec, starts)
 
@@ -553,7 +578,7 @@ def _gn_decrement(free, static, objective) -> float:
 
 
 def fit_objective(objective: AbstractObjective, params: CampaignParams, free, *,
-                  rtol: float = 1e-8, atol: float = 1e-8, max_steps: int = 100,
+                  solver: SolverOptions = SolverOptions().refine(),
                   base: FitResult | None = None) -> FitResult:
     """The fitting verb over any objective and a parameter pytree: Levenberg-Marquardt
     (`stickslip_jax.lsq`, with the reweighting rounds of `_solve_rounds`) of `objective`
@@ -563,14 +588,15 @@ def fit_objective(objective: AbstractObjective, params: CampaignParams, free, *,
 
         fit_objective(obj, params, lambda p: (p.friction.log_mu_d, p.friction.log_gap))
 
-    `base`: the `FitResult` this one refines (its features and data carry over to the
-    report; `fit_features` refines its features fit this way). Converged when the solver
+    `solver`: tolerances and step cap (default `SolverOptions().refine()`: 1e-8, 1e-8,
+    100 steps a round). `base`: the `FitResult` this one refines (its features and data
+    carry over to the report; `fit_features` refines its features fit this way). Converged when the solver
     met its tolerances, or when a Gauss-Newton step would lower chi2 by less than 1e-3
     (stationarity in units of the noise) although the step budget ran out."""
     spec = free_filter(params, free)
     part, static = eqx.partition(params, spec)
     values, chi2s, result, ok, steps, flags, _, rounds = _solve_rounds(
-        _stack([part]), static, objective, rtol, atol, max_steps)
+        _stack([part]), static, objective, solver.rtol, solver.atol, solver.max_steps)
     free_opt = _take(values, 0)
     n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(part, eqx.is_array)))
     converged = bool(ok[0]) or _gn_decrement(free_opt, static, objective) < 1e-3
@@ -585,10 +611,9 @@ def fit_objective(objective: AbstractObjective, params: CampaignParams, free, *,
                      **fields)
 
 
-def _refine(first: FitResult, obj: AbstractObjective, rtol, atol, max_steps) -> FitResult:
+def _refine(first: FitResult, obj: AbstractObjective, solver: SolverOptions) -> FitResult:
     """Levenberg-Marquardt (with reweighting rounds) of `obj` from the features fit's optimum."""
-    return fit_objective(obj, first.params, first.spec, rtol=rtol, atol=atol,
-                         max_steps=max_steps, base=first)
+    return fit_objective(obj, first.params, first.spec, solver=solver, base=first)
 
 
 def fit_records(records, **kwargs) -> FitResult:

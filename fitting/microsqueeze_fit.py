@@ -17,6 +17,7 @@ Q mm$^4$, T in s.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 
 import jax.numpy as jnp
@@ -24,12 +25,13 @@ import numpy as np
 
 from stickslip_jax.contact import BoundaryContact, SurfacePair, surface_pair
 from stickslip_jax.contact.boundary import approach_for, film_from_mu_s, final_approach
-from stickslip_jax.tables import load_table
 from stickslip_jax.modes import GaugeOffset
+from stickslip_jax.tables import load_table
 
 from .features import RecordFeatures
-from .fit import FitResult, mu_levels, fit_features
+from .fit import FitResult, fit_features, mu_levels
 from .microsqueeze_params import MicrosqueezeFriction
+from .modes import ModelModes
 
 __all__ = ["default_eta", "fit_microsqueeze", "microsqueeze_starts"]
 
@@ -84,23 +86,24 @@ def microsqueeze_starts(
 
 def fit_microsqueeze(
     features: list[RecordFeatures], *, eta: float, pair: SurfacePair | str = "S1G1",
-    contact: BoundaryContact | None = None, fixed: dict[str, float] | None = None,
-    offset: GaugeOffset | str = GaugeOffset.ZERO, **kwargs,
+    contact: BoundaryContact | None = None, modes: ModelModes = ModelModes(), **kwargs,
 ) -> FitResult:
     """Fit mu_s, mu_d, h_e (mm), Q (mm^4), delta, n to a campaign's cycle features.
 
     `eta` (kgf s/mm^2), `pair` (name in Table 10 or a `SurfacePair`) and `contact` are
-    given; `fixed`, `offset` and the other keywords as in `stickslip_fitting.fit.fit_features`
-    (`objective` a `stickslip_fitting.modes.Objective`: "features", or "trace", "both",
-    "smooth" with `records`).
+    given; `modes` and the other keywords as in `stickslip_fitting.fit.fit_features`
+    (`objective` a `stickslip_fitting.modes.Objective`: FEATURES, or TRACE, BOTH, SMOOTH
+    with `records`; `hold` a `stickslip_fitting.params.Hold`).
     """
     if not (np.isfinite(eta) and eta > 0):
         raise ValueError(f"--eta: the viscosity must be positive and finite, got {eta}")
     from .objectives import feature_data
 
-    offset = GaugeOffset.parse(offset, "offset")
+    if "offset" in kwargs:  # fit_features' flat keyword (`fit.flat_options`), needed here
+        modes = dataclasses.replace(modes, offset=GaugeOffset.parse(kwargs.pop("offset"),
+                                                                    "offset"))
     offsets0 = None
-    if offset == GaugeOffset.START:
+    if modes.offset is GaugeOffset.START:
         offsets0 = np.asarray(feature_data(features, offset_from_start=True).start_level)
     starts = microsqueeze_starts(features, eta=eta, pair=pair, contact=contact, offsets=offsets0)
-    return fit_features(features, fixed=fixed, offset=offset, starts=starts, **kwargs)
+    return fit_features(features, modes=modes, starts=starts, **kwargs)

@@ -1,27 +1,39 @@
-r"""The fitting package's mode options, str-valued enums like `stickslip_jax.modes`
-(`AbstractMode`): plain strings work too (`Objective("trace") is Objective.TRACE`,
-`Objective.TRACE == "trace"`, hashed, printed and JSON-encoded as the string), a value is
-validated once where it enters (`Objective.parse(value)`, or `choices=Objective.choices()`
-on the command line) and compared with the members inside. No JAX import: the command
+r"""The fitting package's mode options and option groups. No JAX import: the command
 parsers use them.
+
+Modes are str-valued enums like `stickslip_jax.modes` (`AbstractMode`): hashed, printed
+and JSON-encoded as their value (`Objective.TRACE == "trace"`). A user's string becomes a
+member once, where it enters (`Objective.parse(value)` in `stickslip_fitting.commands`
+and `stickslip_fitting.api`); inside the package members are passed and compared.
 
 - `Objective`: what a campaign fit minimises (`--objective`).
 - `DesignCriterion`: what the experiment design optimises (`stickslip plan --criterion`).
 - `MapMethod`: how a design map computes each point (`stickslip design --method`).
 - `Covariance`: how a fit's covariance is computed (`laplace(covariance=...)`).
+- `SmallSample`: the small-sample correction of the cluster-robust covariance.
 - `DiscoveryBase`: the base model of missing-physics discovery (`stickslip discover --base`).
+
+The option groups of a campaign fit (`stickslip_fitting.fit.fit_features`) are frozen
+dataclasses with defaults: `ModelModes` (gauge offset, slip time, re-slips), `Weighting`
+(objective weights, per-record error scaling), `Padding` (shapes that reuse a
+compilation) and `SolverOptions` (tolerances and step cap).
 
 ```python
 Objective.parse("both")            # Objective.BOTH
 Objective.parse("samples")         # ValueError: objective must be one of ('features', ...)
+fit_features(features, modes=ModelModes(offset=GaugeOffset.START),
+             solver=SolverOptions(max_steps=100))
 ```
 """
 
 from __future__ import annotations
 
-from stickslip_jax.modes import AbstractMode
+import dataclasses
 
-__all__ = ["Covariance", "DesignCriterion", "DiscoveryBase", "MapMethod", "Objective"]
+from stickslip_jax.modes import AbstractMode, GaugeOffset, SlipTime
+
+__all__ = ["Covariance", "DesignCriterion", "DiscoveryBase", "MapMethod", "ModelModes",
+           "Objective", "Padding", "SmallSample", "SolverOptions", "Weighting", "check_member"]
 
 
 class Objective(AbstractMode):
@@ -103,6 +115,21 @@ class Covariance(AbstractMode):
         return self in (Covariance.SANDWICH, Covariance.TWO_LEVEL)
 
 
+class SmallSample(AbstractMode):
+    """The small-sample correction of the cluster-robust covariance
+    (`stickslip_fitting.uncertainty.sandwich_covariance`).
+
+    - `JACKKNIFE` ("jackknife", the default): leave-one-cluster-out scores (CR3).
+    - `CR2` ("cr2"): Bell-McCaffrey, each cluster's residuals scaled by
+      $(I - P_{cc})^{-1/2}$.
+    - `NONE` ("none"): the plain scores times G/(G-1).
+    """
+
+    JACKKNIFE = "jackknife"
+    CR2 = "cr2"
+    NONE = "none"
+
+
 class DiscoveryBase(AbstractMode):
     """The base model of missing-physics discovery (`stickslip discover --base`).
 
@@ -118,3 +145,78 @@ class DiscoveryBase(AbstractMode):
     @classmethod
     def option(cls) -> str:
         return "base"
+
+
+def check_member(name: str, value, kind: type) -> None:
+    """TypeError naming the argument `name` unless `value` is a member of the mode `kind`
+    (a user's string becomes one at the edge, `kind.parse`)."""
+    if not isinstance(value, kind):
+        raise TypeError(f"{name}: a {kind.__name__} member, got {value!r} (a string "
+                        f"becomes one with {kind.__name__}.parse)")
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelModes:
+    """How a campaign fit models the records (`stickslip_fitting.fit.fit_features`)."""
+
+    offset: GaugeOffset = GaugeOffset.ZERO
+    """ZERO: trust the gauge zero; START: fit one offset per record from its first plateau."""
+    slip_time: SlipTime = SlipTime.PAPER
+    r"""$T_2$ in eq (3): PAPER ($\pi/\omega_0$) or SELF_CONSISTENT."""
+    reslip: bool | None = None
+    """Model re-slips (`stickslip_fitting.objectives.feature_data`); None: detected."""
+
+    def __post_init__(self):
+        check_member("offset", self.offset, GaugeOffset)
+        check_member("slip_time", self.slip_time, SlipTime)
+
+
+@dataclasses.dataclass(frozen=True)
+class Weighting:
+    """Weights of a campaign fit's residuals (`stickslip_fitting.fit.fit_features`)."""
+
+    features: float = 0.5
+    """Weight of the features objective in `Objective.BOTH`."""
+    trace: float = 0.5
+    """Weight of the trace objective in `Objective.BOTH`."""
+    rescale_records: bool = True
+    """Scale the errors of records the model describes worse than their noise
+    (`stickslip_fitting.fit.RECORD_CHI2`) to their scatter and refit."""
+
+    @property
+    def pair(self) -> tuple[float, float]:
+        """(w_features, w_trace), as `stickslip_fitting.combined.make_objective` takes them."""
+        return (self.features, self.trace)
+
+
+@dataclasses.dataclass(frozen=True)
+class Padding:
+    """Shapes padded so that campaigns of other sizes reuse a compilation."""
+
+    cycles: int = 0
+    """Cycle axis of the features data at least this long."""
+    length: int = 0
+    """Trace rows at least this long (`stickslip_fitting.trace_objective.trace_data`)."""
+    windows: int = 0
+    """Trace rows at least this many."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SolverOptions:
+    """Tolerances and step cap of the Levenberg-Marquardt solves
+    (`stickslip_jax.lsq.least_squares`): a run stops when a step would lower chi2 by less
+    than `atol + rtol * chi2`."""
+
+    rtol: float = 1e-10
+    """Relative tolerance on the chi2 decrease."""
+    atol: float = 1e-10
+    """Absolute tolerance on the chi2 decrease."""
+    max_steps: int = 400
+    """Levenberg-Marquardt steps per reweighting round at most."""
+
+    def refine(self) -> SolverOptions:
+        """The options of a solve over hundreds of thousands of residuals (trace, both,
+        smooth): tolerances not tighter than 1e-8 (root mean squares: a step that moves
+        the whitened residuals by 1e-8 RMS), at most 100 steps per round."""
+        return SolverOptions(max(self.rtol, 1e-8), max(self.atol, 1e-8),
+                             min(self.max_steps, 100))

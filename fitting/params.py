@@ -16,8 +16,11 @@ sampler work in unconstrained coordinates:
 | n | - | `log_n` |
 
 `CampaignParams` adds one gauge offset per record (mm, a nuisance). Which leaves are
-fitted is chosen with a boolean filter spec and `eqx.partition` (`free_spec`), never
-with string-keyed dicts; names appear only at the reporting edge (`NAMES`, `UNITS`).
+fitted is chosen with a boolean filter spec and `eqx.partition` (`free_spec`); the
+parameters a fit holds at given values are a `Hold`, whose `where` selects their leaves
+like `eqx.tree_at`'s (`Hold(lambda f: f.log_n, 1.0)`). Names appear only at the edges:
+the command line's and `stickslip_fitting.api`'s `fix` (`Hold.named`) and reports
+(`NAMES`, `UNITS`).
 
 Every friction law that can be fitted is a final subclass of `AbstractFrictionParams`
 (this module's `EmpiricalFriction`; `stickslip_fitting.microsqueeze_params.MicrosqueezeFriction`):
@@ -32,6 +35,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+from collections.abc import Callable, Mapping
 from typing import ClassVar
 
 import equinox as eqx
@@ -41,6 +45,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from stickslip_jax.friction import Friction, KatoKinetic, KatoStatic
+from stickslip_jax.lsq import free_filter
 
 __all__ = [
     "AbstractFrictionParams",
@@ -48,6 +53,7 @@ __all__ = [
     "UNITS",
     "CampaignParams",
     "EmpiricalFriction",
+    "Hold",
     "free_spec",
     "natural_values",
 ]
@@ -268,19 +274,77 @@ def natural_values(params: CampaignParams) -> Float[Array, " P"]:
     return params.friction.values()
 
 
-def free_spec(params: CampaignParams, *, fixed=(), offsets: bool = False) -> CampaignParams:
+def _floats(values) -> tuple[float, ...]:
+    return tuple(float(v) for v in np.atleast_1d(np.asarray(values, dtype=float)))
+
+
+class Hold(eqx.Module):
+    """Friction parameters a fit holds at given natural values.
+
+    `where`: a function of the friction module to the stored leaf or tuple of leaves of
+    the held parameters (like `eqx.tree_at`'s `where`); `values`: their natural values,
+    in the same order (mu_s held means mu_s itself, see `with_fixed`)::
+
+        Hold(lambda f: f.log_n, 1.0)                       # n = 1, the paper's value
+        Hold(lambda f: (f.log_m, f.log_n), (0.5, 1.0))
+        Hold.named({"n": 1.0})                             # from names (the edges)
+    """
+
+    where: Callable = eqx.field(static=True)
+    values: tuple[float, ...] = eqx.field(static=True, converter=_floats)
+
+    @classmethod
+    def named(cls, values: Mapping[str, float]) -> Hold:
+        """From {name: natural value} (`--fix NAME=VALUE`, `api.fit(fix=...)`); names
+        the law lacks raise ValueError when the hold is used (`natural`)."""
+        names = tuple(values)
+
+        def where(f):
+            unknown = [n for n in names if n not in f.LEAVES]
+            if unknown:
+                raise ValueError(f"unknown parameter(s) {', '.join(unknown)}; choose from "
+                                 f"{', '.join(f.NAMES)}")
+            return tuple(getattr(f, f.LEAVES[n]) for n in names)
+
+        return cls(where, tuple(values.values()))
+
+    def natural(self, friction: AbstractFrictionParams) -> dict[str, float]:
+        """{name: value} of the held parameters of `friction`'s law; ValueError when
+        `where` selects a leaf that stores none of them or the values do not match."""
+        names = friction.NAMES
+        tags = eqx.tree_at(lambda f: f.leaves(), friction,
+                           [jnp.asarray(float(i)) for i in range(len(names))])
+        picked = jax.tree_util.tree_leaves(self.where(tags))
+        known = free_filter(friction, lambda f: f.leaves())
+        chosen = free_filter(friction, self.where)
+        if any(c and not k for c, k in zip(jax.tree_util.tree_leaves(chosen),
+                                           jax.tree_util.tree_leaves(known))):
+            raise ValueError(f"Hold: select leaves of the parameters {', '.join(names)}")
+        if len(picked) != len(self.values):
+            raise ValueError(f"Hold: {len(picked)} parameters selected, {len(self.values)} "
+                             "values given")
+        return {names[int(t)]: v for t, v in zip(picked, self.values)}
+
+    def apply(self, friction: AbstractFrictionParams) -> AbstractFrictionParams:
+        """`friction` with the held values (`AbstractFrictionParams.with_fixed`)."""
+        return friction.with_fixed(self.natural(friction))
+
+
+def free_spec(params: CampaignParams, *, hold: Hold | None = None,
+              offsets: bool = False) -> CampaignParams:
     """Boolean filter spec: True on the leaves to fit.
 
-    `fixed`: names from `NAMES` held at their current value (mu_s fixed means the gap
-    mu_s - mu_d is fixed). `offsets`: fit the per-record gauge offsets.
+    Every friction leaf but those `hold` selects (held at their current value: mu_s
+    held means the gap mu_s - mu_d is); `offsets`: the per-record gauge offsets too.
     """
-    names = params.friction.NAMES
-    bad = [n for n in fixed if n not in names]
-    if bad:
-        raise ValueError(f"unknown parameter(s) {bad}; choose from {', '.join(names)}")
+    if hold is not None:
+        hold.natural(params.friction)  # ValueError naming an unknown parameter
     spec = jax.tree_util.tree_map(lambda _: False, params)
     leaves = lambda p: p.friction.leaves() + [p.offset]  # noqa: E731
-    return eqx.tree_at(leaves, spec, [n not in fixed for n in names] + [bool(offsets)])
+    spec = eqx.tree_at(leaves, spec, [True] * len(params.friction.NAMES) + [bool(offsets)])
+    if hold is None:
+        return spec
+    return eqx.tree_at(lambda p: hold.where(p.friction), spec, replace_fn=lambda _: False)
 
 
 def free_mask(spec: CampaignParams) -> np.ndarray:

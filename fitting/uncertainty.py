@@ -42,11 +42,11 @@ import jax.numpy as jnp
 import numpy as np
 from jax.flatten_util import ravel_pytree
 
-from .fit import COMPILER_OPTIONS, FitResult
 from stickslip_jax.lsq import gauss_newton_covariance
 
+from .fit import COMPILER_OPTIONS, FitResult
 from .losses import HeavyTailed
-from .modes import Covariance
+from .modes import Covariance, SmallSample, check_member
 from .params import CampaignParams, free_mask
 from .report import ParameterEstimate
 
@@ -144,7 +144,7 @@ def fisher_log(fit: FitResult):
 
 
 def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
-                        small_sample: str = "jackknife") -> np.ndarray:
+                        small_sample: SmallSample = SmallSample.JACKKNIFE) -> np.ndarray:
     r"""Cluster-robust covariance $H^{-1} M H^{-1}$ of a least-squares estimate.
 
     $H = J^\top J$; $M = \sum_{c,c'} \tilde g_c \tilde g_{c'}^\top$ over clusters $c$
@@ -153,18 +153,17 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
     two stick phases times both), with the cluster scores $g_c = \sum_{i \in c} J_i r_i$.
     The residuals at the optimum are shrunk by the fit, which biases the plain estimate
     low when a few clusters carry most of the information about a parameter;
-    `small_sample="jackknife"` (default) undoes that with the leave-one-cluster-out
+    `small_sample` (`stickslip_fitting.modes.SmallSample`): JACKKNIFE (default) undoes
+    that with the leave-one-cluster-out
     scores $\tilde g_c = (I - A_c H^{-1})^{-1} g_c$, $A_c = J_c^\top J_c$, times
-    $(G-1)/G$ (the "CR3" estimator); `"cr2"` (Bell-McCaffrey) scales each cluster's
+    $(G-1)/G$ (the "CR3" estimator); CR2 (Bell-McCaffrey) scales each cluster's
     residuals by $(I - P_{cc})^{-1/2}$, $P_{cc} = J_c H^{-1} J_c^\top$ (between CR1 and CR3;
-    the usual choice with few, large clusters); `"none"` uses $\tilde g_c = g_c$ times
+    the usual choice with few, large clusters); NONE uses $\tilde g_c = g_c$ times
     $G/(G-1)$.
     M is clipped to be positive semi-definite; entries labelled record -1 (padding) are
     left out.
     """
-    if small_sample not in ("jackknife", "cr2", "none"):
-        raise ValueError(
-            f"small_sample must be 'jackknife', 'cr2' or 'none', got {small_sample!r}")
+    check_member("small_sample", small_sample, SmallSample)
     J, r = np.asarray(J), np.asarray(r)
     record, cycle = np.asarray(record), np.asarray(cycle)
     keep = record >= 0
@@ -175,7 +174,7 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
     g = np.zeros((G, p))
     np.add.at(g, inv, J[keep] * r[keep, None])
     Hinv = gauss_newton_covariance(J)
-    if small_sample == "jackknife":
+    if small_sample is SmallSample.JACKKNIFE:
         A = np.zeros((G, p, p))
         Jk = J[keep]
         np.add.at(A, inv, Jk[:, :, None] * Jk[:, None, :])
@@ -183,7 +182,7 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
         g = np.stack([np.linalg.lstsq(eye - A[c] @ Hinv, g[c], rcond=1e-12)[0]
                       for c in range(G)]) if G else g
         factor = (G - 1) / max(G, 1)
-    elif small_sample == "cr2":  # Bell-McCaffrey: residuals scaled by (I - P_cc)^(-1/2)
+    elif small_sample is SmallSample.CR2:  # Bell-McCaffrey: residuals scaled by (I - P_cc)^(-1/2)
         Jk, rk = J[keep], r[keep]
         g = np.zeros((G, p))
         for c in range(G):
@@ -259,7 +258,7 @@ def _two_level(cov_stick, J, r, record) -> np.ndarray:
     keep = record >= 0
     G = int(np.unique(record[keep]).size)
     cov_rec = sandwich_covariance(J, r, record, np.where(keep, 0, -1), lag=0,
-                                  small_sample="cr2")
+                                  small_sample=SmallSample.CR2)
     cov_rec = cov_rec * (float(t_dist.ppf(0.975, max(G - 1, 1))) / Z95) ** 2
     d_stick, d_rec = np.diag(cov_stick), np.diag(cov_rec)
     sd = np.sqrt(np.maximum(np.maximum(d_stick, d_rec), 0.0))
@@ -301,29 +300,29 @@ def _null_share(F) -> np.ndarray:
 
 
 def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
-            covariance: Covariance | str = Covariance.AUTO,
-            lag: int = 1, small_sample: str = "jackknife") -> Uncertainty:
+            covariance: Covariance = Covariance.AUTO, lag: int = 1,
+            small_sample: SmallSample = SmallSample.JACKKNIFE) -> Uncertainty:
     """Laplace covariance, intervals and identifiability report of a fit (module doc).
 
-    `covariance`: "fisher" ($F^{-1}$ scaled by max(1, chi2/dof)), "sandwich" (cluster-robust
-    per stick phase, `sandwich_covariance` with `lag` and `small_sample`), or "auto":
-    the sandwich for the trace and combined objectives (module doc), fisher for features
-    unless chi2/dof > `SANDWICH_CHI2` or some record's errors were scaled to its scatter
-    (`stickslip_fitting.fit.RECORD_CHI2`) (records the model does not describe to their noise:
-    drive or sensor imperfections, creep; the residuals are then correlated within each
-    stick phase and a scaled Fisher matrix undercovers: on an independent SciPy
-    campaign with such imperfections, chi2/dof 426, its 95 % interval missed mu_s).
+    `covariance` (a `modes.Covariance`): FISHER ($F^{-1}$ scaled by max(1, chi2/dof)),
+    SANDWICH (cluster-robust per stick phase, `sandwich_covariance` with `lag` and
+    `small_sample`), or AUTO: the sandwich for the trace and combined objectives (module
+    doc), FISHER for features unless chi2/dof > `SANDWICH_CHI2` or some record's errors
+    were scaled to its scatter (`fit.RECORD_CHI2`) (records the model does not describe
+    to their noise: drive or sensor imperfections, creep; the residuals are then
+    correlated within each stick phase and a scaled Fisher matrix undercovers: on an
+    independent SciPy campaign with such imperfections, chi2/dof 426, its 95 % interval
+    missed mu_s).
     A fit under a heavy-tailed loss (`stickslip_fitting.losses.HeavyTailed`) gets the
     two-level covariance with 3 records or more, the stick-phase sandwich otherwise.
     """
-    covariance = Covariance.parse(covariance)
+    check_member("covariance", covariance, Covariance)
     if covariance is Covariance.AUTO:
         traced = fit.objective is not None and fit.objective.robust
         misfit = fit.objective is not None and (fit.reduced_chi2 > SANDWICH_CHI2
                                                 or fit.record_scale is not None)
-        # with fewer than 3 records the between-record scatter cannot be estimated and a
-        # stick-phase sandwich of a badly described pair collapses: Fisher at the
-        # per-record scaled errors then
+        # with fewer than 3 records the between-record scatter cannot be estimated and a stick-
+        # phase sandwich of a badly described pair collapses: Fisher at the scaled errors then
         # a heavy-tailed loss is chosen for records the model does not describe to their
         # noise: the two-level covariance (measured, tests/test_real_world_coverage.py)
         heavy = isinstance(fit.objective, HeavyTailed)

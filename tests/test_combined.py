@@ -10,6 +10,7 @@ import stickslip_jax as ss
 from stickslip_fitting.combined import CampaignObjective, residual_cycles
 from stickslip_fitting.features import record_features
 from stickslip_fitting.fit import fit_features
+from stickslip_fitting.modes import Covariance
 from stickslip_fitting.params import NAMES
 from stickslip_fitting.synthetic import draw_prior_friction, synthetic_campaign, truth_values
 from stickslip_fitting.trace_objective import trace_data
@@ -62,13 +63,15 @@ def test_sandwich_agrees_with_fisher_on_the_features_objective(campaign):
     the same thing as F^-1 (within its sampling noise, ~25 clusters)."""
     _, _, fit = campaign
     fisher = laplace(fit)
-    robust = laplace(fit, covariance="sandwich")
+    robust = laplace(fit, covariance=Covariance.SANDWICH)
     assert fisher.covariance == "fisher" and robust.covariance == "sandwich"
     ratio = robust.log_se / fisher.log_se
     assert np.all((ratio > 0.5) & (ratio < 2.0)), ratio
     np.testing.assert_allclose(robust.value, fisher.value)
     with pytest.raises(ValueError, match="covariance"):
-        laplace(fit, covariance="bootstrap")
+        Covariance.parse("bootstrap")
+    with pytest.raises(TypeError, match=r"covariance: a Covariance member.*Covariance\.parse"):
+        laplace(fit, covariance="sandwich")
 
 
 BOTH_CAMPAIGNS = 20
@@ -110,7 +113,8 @@ def test_both_interval_calibration(request):
             if not (fit.converged and fit.reduced_chi2 < 2.0):
                 continue
             for kind in ("sandwich", "fisher"):
-                unc = laplace(fit, covariance="auto" if kind == "sandwich" else "fisher")
+                unc = laplace(fit, covariance=Covariance.AUTO if kind == "sandwich"
+                              else Covariance.FISHER)
                 assert unc.covariance == kind
                 hits[obj, kind].append([
                     abs(np.log(truth[n] / unc.value[j])) <= z90 * unc.log_se[j]

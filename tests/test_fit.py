@@ -14,7 +14,7 @@ from stickslip_fitting import fit as fit_module
 from stickslip_fitting.features import record_features
 from stickslip_fitting.fit import fit_features
 from stickslip_fitting.objectives import feature_data, feature_residuals
-from stickslip_fitting.params import NAMES, CampaignParams, EmpiricalFriction, free_spec
+from stickslip_fitting.params import NAMES, CampaignParams, EmpiricalFriction, Hold, free_spec
 from stickslip_fitting.synthetic import draw_prior_friction, synthetic_campaign, truth_values
 from stickslip_fitting.uncertainty import laplace
 
@@ -122,10 +122,10 @@ def test_poor_start_still_converges(campaign):
 
 def test_free_spec_and_bad_inputs():
     p = CampaignParams(EmpiricalFriction.from_friction(ss.lubricant("A")), jnp.zeros(2))
-    spec = free_spec(p, fixed=("n",), offsets=True)
+    spec = free_spec(p, hold=Hold(lambda f: f.log_n, 1.0), offsets=True)
     assert spec.friction.log_n is False and spec.friction.log_gamma is True and spec.offset
     with pytest.raises(ValueError, match="unknown parameter"):
-        free_spec(p, fixed=("nu",))
+        free_spec(p, hold=Hold.named({"nu": 1.0}))
     with pytest.raises(ValueError, match="mu_s > mu_d"):
         EmpiricalFriction.from_values(0.2, 0.3, 1, 1, 1, 1)
     with pytest.raises(ValueError, match="positive"):

@@ -10,6 +10,7 @@ import stickslip_jax as ss
 from stickslip_fitting.features import record_features
 from stickslip_fitting.fit import fit_features
 from stickslip_fitting.mcmc import log_posterior, run_mcmc
+from stickslip_fitting.modes import Covariance, Objective
 from stickslip_fitting.synthetic import synthetic_campaign, truth_values
 from stickslip_fitting.uncertainty import laplace
 
@@ -136,9 +137,9 @@ def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, cap
     from stickslip_jax.records import write_record
 
     recs, ffit = fitted
-    tfit = fit_features(ffit.features, objective="trace", records=recs)
+    tfit = fit_features(ffit.features, objective=Objective.TRACE, records=recs)
     scale = likelihood_scale(tfit)
-    robust, fisher = laplace(tfit), laplace(tfit, covariance="fisher")
+    robust, fisher = laplace(tfit), laplace(tfit, covariance=Covariance.FISHER)
     assert robust.covariance == "sandwich"
     ratio = np.nanmax(np.diag(robust.cov_log) / np.diag(fisher.cov_log))
     assert scale == pytest.approx(max(1.0, tfit.reduced_chi2) * max(1.0, ratio), rel=1e-9)

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from stickslip_fitting.microsqueeze_params import MicrosqueezeFriction
-from stickslip_fitting.params import CampaignParams, EmpiricalFriction, free_mask, free_spec
+from stickslip_fitting.params import (CampaignParams, EmpiricalFriction, Hold, free_mask,
+                                      free_spec)
 
 A = dict(mu_s=0.56, mu_d=0.21, gamma=0.38, m=0.4, delta=67.0, n=1.0)
 
@@ -43,11 +44,33 @@ def test_with_values_checks_the_domain(i):
 def test_free_spec_and_mask():
     emp, _ = _laws()
     params = CampaignParams(emp, np.zeros(3))
-    spec = free_spec(params, fixed=("n", "mu_s"), offsets=True)
+    spec = free_spec(params, hold=Hold(lambda f: (f.log_n, f.log_gap), (1.0, 0.4)),
+                     offsets=True)
     assert free_mask(spec).tolist() == [False, True, True, True, True, False]
     assert bool(spec.offset)
+    assert free_mask(free_spec(params)).all() and not bool(free_spec(params).offset)
     with pytest.raises(ValueError, match="unknown parameter"):
-        free_spec(params, fixed=("h_e",))
+        free_spec(params, hold=Hold.named({"h_e": 1.0}))
+
+
+@pytest.mark.parametrize("i", [0, 1])
+def test_hold_selects_leaves_by_a_function(i):
+    """A `Hold` names its parameters by a function over the friction module (like
+    `eqx.tree_at`'s `where`), in its own order; `Hold.named` is the same from names."""
+    law = _laws()[i]
+    shape = "log_m" if i == 0 else "log_Q"
+    hold = Hold(lambda f: (f.log_n, getattr(f, shape)), (1.1, 0.7))
+    name = {"log_m": "m", "log_Q": "Q"}[shape]
+    assert hold.natural(law) == {"n": 1.1, name: 0.7}
+    assert Hold(lambda f: f.log_n, 1.1).natural(law) == {"n": 1.1}
+    assert Hold.named({name: 0.7, "n": 1.1}).natural(law) == {name: 0.7, "n": 1.1}
+    held = hold.apply(law).named_values()
+    assert held["n"] == pytest.approx(1.1, rel=1e-14)
+    assert held[name] == pytest.approx(0.7, rel=1e-14)
+    with pytest.raises(ValueError, match="2 values given"):
+        Hold(lambda f: f.log_n, (1.0, 2.0)).natural(law)
+    with pytest.raises(ValueError, match="unknown parameter"):
+        Hold.named({"nu": 1.0}).natural(law)
 
 
 def test_physical_region():
@@ -81,7 +104,7 @@ def test_fixed_mu_s_is_held_exactly(i):
     p = _laws()[i].with_fixed({"mu_s": 0.35})
     assert p.fixed_mu_s == 0.35
     params = CampaignParams(p, np.zeros(2))
-    spec = free_spec(params, fixed=("mu_s",))
+    spec = free_spec(params, hold=Hold.named({"mu_s": 0.35}))
     assert free_mask(spec)[1] and not free_mask(spec)[0]
     moved = eqx.tree_at(lambda q: q.friction.log_mu_d, params, params.friction.log_mu_d - 0.2)
     assert float(moved.friction.values()[0]) == pytest.approx(0.35, abs=1e-15)
@@ -104,9 +127,13 @@ def test_fit_honours_fixed_values():
 
     recs = synthetic_campaign(ss.lubricant("A"), speed_fractions=(0.05, 0.3), cycles=3,
                               seed=4, pad_to=20_000)
-    fit = fit_features([record_features(r) for r in recs], fixed={"mu_s": 0.3, "n": 1.2})
+    feats = [record_features(r) for r in recs]
+    fit = fit_features(feats, hold=Hold(lambda f: (f.log_gap, f.log_n), (0.3, 1.2)))
     assert fit.values["mu_s"] == 0.3 and fit.values["n"] == pytest.approx(1.2, rel=1e-15)
     assert fit.values["mu_d"] < 0.3
+    # the flat keyword of names reads into the same hold
+    flat = fit_features(feats, fixed={"mu_s": 0.3, "n": 1.2})
+    assert flat.values == fit.values
 
 
 def test_mcmc_rows_are_the_fit_rows():

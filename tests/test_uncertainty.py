@@ -5,6 +5,7 @@ least squares with clustered and neighbour-correlated errors (Monte Carlo)."""
 import numpy as np
 import pytest
 
+from stickslip_fitting.modes import SmallSample
 from stickslip_fitting.uncertainty import sandwich_covariance
 
 
@@ -18,7 +19,7 @@ def test_singleton_clusters_reduce_to_the_hc_formula():
     meat = sum(np.outer(j, j) * e * e for j, e in zip(Jk, rk)) * 35 / 34
     Hinv = np.linalg.inv(J.T @ J)  # padding rows still count in H: they are zero in a fit
     ref = Hinv @ meat @ Hinv
-    got = sandwich_covariance(J, r, rec, cyc, lag=0, small_sample="none")
+    got = sandwich_covariance(J, r, rec, cyc, lag=0, small_sample=SmallSample.NONE)
     np.testing.assert_allclose(got, ref, rtol=1e-10)
     # the jackknife scores: g_c / (1 - h_c) for one-row clusters, h_c the leverage
     h = np.einsum("ij,jk,ik->i", Jk, Hinv, Jk)
@@ -61,7 +62,7 @@ def test_sandwich_recovers_the_covariance_of_least_squares(neighbours):
         r = err - X @ b  # residuals at the least-squares optimum (J = X up to sign)
         for lag in (0, 1):
             est[lag].append(np.diag(sandwich_covariance(-X, r, rec, cyc, lag=lag)))
-        est["none"].append(np.diag(sandwich_covariance(-X, r, rec, cyc, small_sample="none")))
+        est["none"].append(np.diag(sandwich_covariance(-X, r, rec, cyc, small_sample=SmallSample.NONE)))
     ratio = {k: np.mean(v, axis=0) / np.diag(exact) for k, v in est.items()}
     # lag 1 is right in both cases; without the jackknife scores it is biased low (the
     # residuals are shrunk by the fit)

@@ -14,7 +14,9 @@ import math
 
 import numpy as np
 
-from ..modes import Objective
+from stickslip_jax.modes import GaugeOffset, SlipTime
+
+from ..modes import ModelModes, Objective
 
 NAME = "fit"
 HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"
@@ -72,8 +74,6 @@ def add_objective_argument(parser, help: str):
 
 def add_slip_time_argument(parser):
     """--slip-time (`stickslip_jax.modes.SlipTime`'s values): shared by `fit` and `mcmc`."""
-    from stickslip_jax.modes import SlipTime
-
     parser.add_argument("--slip-time", choices=SlipTime.choices(), default=SlipTime.PAPER.value,
                         help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
 
@@ -83,8 +83,6 @@ def add_gauge_offset_argument(parser, old_name: bool = True):
     newer than the rename; `stickslip_jax.modes.GaugeOffset`'s values): shared by
     `stickslip fit`, `mcmc` and `fit-batch`."""
     import argparse
-
-    from stickslip_jax.modes import GaugeOffset
 
     parser.add_argument("--gauge-offset", dest="offset", choices=GaugeOffset.choices(),
                         default=GaugeOffset.ZERO.value,
@@ -127,15 +125,20 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
     from ..campaign import load_campaign
     from ..fit import fit_features
     from ..losses import parse_loss
+    from ..params import Hold
 
     objective = Objective.parse(objective)
     loss = parse_loss(args.loss)
+    modes = ModelModes(offset=GaugeOffset.parse(args.offset, "offset"),
+                       slip_time=SlipTime.parse(args.slip_time))
     if args.model == "microsqueeze":
-        from ..microsqueeze_fit import default_eta, fit_microsqueeze
-        from ..microsqueeze_params import MicrosqueezeFriction
         from stickslip_jax.contact import surface_pair
 
+        from ..microsqueeze_fit import default_eta, fit_microsqueeze
+        from ..microsqueeze_params import MicrosqueezeFriction
+
         fixed = parse_fix(args.fix, MicrosqueezeFriction)
+        hold = Hold.named(fixed) if fixed else None
         try:
             pair = surface_pair(args.surface)
         except (KeyError, ValueError) as err:
@@ -143,8 +146,7 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
         campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
         eta = args.eta if args.eta is not None else default_eta(campaign.records[0].lubricant)
         _say_fitting(args, campaign, objective)
-        fit = fit_microsqueeze(campaign.features, eta=eta, pair=pair, fixed=fixed,
-                               offset=args.offset, slip_time=args.slip_time,
+        fit = fit_microsqueeze(campaign.features, eta=eta, pair=pair, hold=hold, modes=modes,
                                objective=objective, records=campaign.records, loss=loss)
         return fit, campaign, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
                                         "surface": args.surface}}
@@ -153,9 +155,8 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
     fixed = parse_fix(args.fix)
     campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
     _say_fitting(args, campaign, objective)
-    fit = fit_features(campaign.features, fixed=fixed, offset=args.offset,
-                       slip_time=args.slip_time, objective=objective, records=campaign.records,
-                       loss=loss)
+    fit = fit_features(campaign.features, hold=Hold.named(fixed) if fixed else None,
+                       modes=modes, objective=objective, records=campaign.records, loss=loss)
     return fit, campaign, None
 
 
@@ -229,9 +230,9 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     truth = find_truth(records, fit.params.friction.NAMES)
     bounds = fit.params.friction.PRIOR_BOUNDS  # the support: a value there is "at bound"
     params = {e.name: e.with_bounds(bounds).to_json() for e in unc.estimates(truth)}
+    from ..adequacy import adequacy
     from ..combined import FeaturesObjective
     from ..fit import compiled
-    from ..adequacy import adequacy
     from ..losses import loss_of
     from ..objectives import feature_residuals
 
