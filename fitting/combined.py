@@ -29,10 +29,9 @@ for the robust covariance), `robust` (True: samples of one stick phase share err
 the default covariance is the cluster sandwich), `describe()` and `kind` (the name on the
 command line and in JSON: a `stickslip_fitting.modes.Objective`, "features", "trace",
 "both", "smooth"; a weighted sum of other terms is named by theirs joined with "+").
-`make_objective(kind, features, trace, weights=..., slip_time=...)` builds one by name
-(an `Objective` or its value, validated once there);
-`CampaignObjective` is a deprecated alias of that factory. `slip_time` is a
-`stickslip_jax.modes.SlipTime` (its string works too: the field converts it once, when
+`make_objective(kind, features, trace, weights=..., slip_time=...)` builds one from an
+`Objective` member; `CampaignObjective(features, trace, kind=value, ...)` from its value.
+`slip_time` is a `stickslip_jax.modes.SlipTime` (the field converts its string once, when
 the objective is built).
 
 `residual_cycles(objective, features)` labels every residual with the stick phase
@@ -55,7 +54,7 @@ import numpy as np
 
 from stickslip_jax.modes import SlipTime
 
-from .modes import Objective
+from .modes import Objective, check_member
 from .objectives import FeatureData, feature_residuals
 from .solve import AbstractResiduals
 from .trace_objective import TraceData, failed_windows, trace_residuals_and_flags
@@ -276,20 +275,18 @@ class WeightedSum(AbstractObjective):
                 return t.failures(ok)
         return 0
 
-    def weight_of(self, kind: Objective | str) -> float:
-        """The weight of the term named `kind` (an `Objective` or its value; 0 when there
-        is none)."""
-        kind = Objective.parse(kind)
+    def weight_of(self, kind: Objective) -> float:
+        """The weight of the term `kind` (an `Objective`; 0 when there is none)."""
+        check_member("kind", kind, Objective)
         return float(sum(w for t, w in zip(self.terms, self.weights) if t.kind == kind))
 
 
-def make_objective(kind: Objective | str, features: FeatureData,
+def make_objective(kind: Objective, features: FeatureData,
                    trace: TraceData | None = None, *,
                    weights: tuple[float, float] = (0.5, 0.5),
-                   slip_time: SlipTime | str = SlipTime.PAPER) -> AbstractObjective:
-    """The objective named `kind`: `Objective.FEATURES`, `.TRACE` or `.BOTH`, or their
-    values (`OBJECTIVES`)."""
-    kind = Objective.parse(kind)
+                   slip_time: SlipTime = SlipTime.PAPER) -> AbstractObjective:
+    """The objective `kind`: `Objective.FEATURES`, `.TRACE` or `.BOTH` (`OBJECTIVES`)."""
+    check_member("kind", kind, Objective)
     if kind is Objective.SMOOTH:
         raise ValueError(f"make_objective builds the objectives {OBJECTIVES}; 'smooth' "
                          "reads the records: smooth_objective.SmoothObjective(smooth_data("
@@ -308,8 +305,8 @@ def CampaignObjective(features, trace=None, kind: Objective | str = Objective.FE
                       weight_features: float = 0.5,
                       weight_trace: float = 0.5,
                       slip_time: SlipTime | str = SlipTime.PAPER) -> AbstractObjective:
-    """Old name of `make_objective` (kept for existing code)."""
-    return make_objective(kind, features, trace, weights=(weight_features, weight_trace),
+    """`make_objective` with the kind given by its value and two weights."""
+    return make_objective(Objective.parse(kind), features, trace, weights=(weight_features, weight_trace),
                           slip_time=slip_time)
 
 

@@ -8,9 +8,9 @@ times $T_{1,j}$, the model predicts for every complete cycle $j$ (gauge offset $
 - breakaway level $L_0(T_1) = c + (W/k)\,\mu_0(T_1)$, eq (1) (section 3.1);
 - slip-end level $L_1(T_1) = c + (W/k)\,(2\mu_m - \mu_0)$, eq (5) with eq (3)
   $\mu_m = \mu_d + (\mu_0 - \mu_d)e^{-\delta T_2^n}$ and $T_2 = \pi/\omega_0$ (eq 7,
-  `slip_time=SlipTime.PAPER`, or "paper") or the actual slip duration
-  $\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$ (`SlipTime.SELF_CONSISTENT`,
-  "self_consistent"); `SlipTime` is `stickslip_jax.modes.SlipTime`.
+  `slip_time=SlipTime.PAPER`) or the actual slip duration
+  $\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$ (`SlipTime.SELF_CONSISTENT`);
+  `SlipTime` is `stickslip_jax.modes.SlipTime`.
 
 Two kinds of residual, each built from independent noise so that no measurement is
 counted twice (restart per cycle: nothing accumulates from cycle to cycle):
@@ -44,6 +44,7 @@ from jaxtyping import Array, Bool, Float
 from stickslip_jax.modes import SlipTime
 
 from .features import RecordFeatures
+from .modes import check_member
 from .params import CampaignParams
 
 __all__ = ["FeatureData", "feature_data", "feature_residuals", "SLIP_TIME_MODES"]
@@ -261,19 +262,19 @@ def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time, speed=No
 
 
 def feature_residuals(
-    params: CampaignParams, data: FeatureData, slip_time: SlipTime | str = SlipTime.PAPER,
+    params: CampaignParams, data: FeatureData, slip_time: SlipTime = SlipTime.PAPER,
     weights_at: CampaignParams | None = None,
 ) -> Float[Array, " N"]:
     """Whitened residuals of the features objective (module doc); padded entries are 0.
 
     Shape: (2 R C + R,), fixed by the data, so one compilation serves every parameter
     value. `slip_time` selects the $T_2$ of eq (3): `SlipTime.PAPER` (eq 7) or
-    `SlipTime.SELF_CONSISTENT` (or their strings).
+    `SlipTime.SELF_CONSISTENT`.
     `weights_at`: evaluate the effective-variance standard errors at these parameters
     instead of at `params` (the fit freezes them for one Levenberg-Marquardt run, so that
     its Jacobian is the exact derivative of what it minimises; see `stickslip_fitting.fit`).
     """
-    slip_time = SlipTime.parse(slip_time)
+    check_member("slip_time", slip_time, SlipTime)
     ref = params if weights_at is None else weights_at
     friction, friction_ref = params.friction.friction(), ref.friction.friction()
     scale = data.weight / data.stiffness

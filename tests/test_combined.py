@@ -10,7 +10,7 @@ import stickslip_jax as ss
 from stickslip_fitting.combined import CampaignObjective, residual_cycles
 from stickslip_fitting.features import record_features
 from stickslip_fitting.fit import fit_features
-from stickslip_fitting.modes import Covariance
+from stickslip_fitting.modes import Covariance, Objective, Padding
 from stickslip_fitting.params import NAMES
 from stickslip_fitting.synthetic import draw_prior_friction, synthetic_campaign, truth_values
 from stickslip_fitting.trace_objective import trace_data
@@ -70,7 +70,7 @@ def test_sandwich_agrees_with_fisher_on_the_features_objective(campaign):
     np.testing.assert_allclose(robust.value, fisher.value)
     with pytest.raises(ValueError, match="covariance"):
         Covariance.parse("bootstrap")
-    with pytest.raises(TypeError, match=r"covariance: a Covariance member.*Covariance\.parse"):
+    with pytest.raises(TypeError, match=r"covariance: a member of Covariance.*Covariance\.parse"):
         laplace(fit, covariance="sandwich")
 
 
@@ -108,8 +108,8 @@ def test_both_interval_calibration(request):
     for fr, recs, feats, _ in camps:
         truth = truth_values(fr)
         for obj in ("both", "trace"):
-            fit = fit_features(feats, objective=obj, records=recs, pad_cycles=8,
-                               pad_length=pad_l, pad_windows=pad_n)
+            fit = fit_features(feats, objective=Objective(obj), records=recs,
+                               padding=Padding(cycles=8, length=pad_l, windows=pad_n))
             if not (fit.converged and fit.reduced_chi2 < 2.0):
                 continue
             for kind in ("sandwich", "fisher"):

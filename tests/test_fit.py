@@ -13,6 +13,7 @@ import stickslip_jax as ss
 from stickslip_fitting import fit as fit_module
 from stickslip_fitting.features import record_features
 from stickslip_fitting.fit import fit_features
+from stickslip_fitting.modes import Padding
 from stickslip_fitting.objectives import feature_data, feature_residuals
 from stickslip_fitting.params import NAMES, CampaignParams, EmpiricalFriction, Hold, free_spec
 from stickslip_fitting.synthetic import draw_prior_friction, synthetic_campaign, truth_values
@@ -21,6 +22,7 @@ from stickslip_fitting.uncertainty import laplace
 NEAR_C = dict(conditions=((36.0, 10.0), (36.0, 20.0), (36.0, 40.0)),
               speed_fractions=(0.02, 0.15), cycles=3, sample_rate=200.0)
 SMALL_A = dict(speed_fractions=(0.05, 0.3), cycles=4)
+N_ONE = Hold(lambda f: f.log_n, 1.0)
 
 
 def _near(name):
@@ -36,7 +38,7 @@ def campaign(request):
     records = synthetic_campaign(fr, noise=5e-4, seed=11, lubricant=request.param,
                                  pad_to=40_000, **kw)
     feats = [record_features(r) for r in records]
-    fit = fit_features(feats, pad_cycles=8)
+    fit = fit_features(feats, padding=Padding(cycles=8))
     return request.param, fr, feats, fit, laplace(fit)
 
 
@@ -52,6 +54,15 @@ def test_recovery_within_intervals(campaign):
         assert unc.identifiable[n], (name, n)
     for n in ("mu_s", "mu_d"):
         assert fit.values[n] == pytest.approx(truth[n], rel=0.02)
+
+
+def test_flat_keywords_give_the_option_objects_fit(campaign):
+    """The flat keywords (`pad_cycles`, ...) read into the option objects: the same fit."""
+    _, _, feats, fit, _ = campaign
+    flat = fit_features(feats, pad_cycles=8, rtol=1e-10, offset="zero")
+    assert flat.chi2 == fit.chi2 and flat.values == fit.values
+    with pytest.raises(TypeError, match="unexpected keyword argument.*pad_cycle"):
+        fit_features(feats, pad_cycle=8)
 
 
 def test_residuals_at_truth_are_unit_normal(campaign):
@@ -101,13 +112,13 @@ def test_fixed_parameter_stays_and_no_recompilation(campaign, monkeypatch):
         return real(*a, **k)
 
     monkeypatch.setattr(fit_module, "feature_residuals", counting)
-    a = fit_features(feats, fixed={"n": 1.0}, pad_cycles=pad)
+    a = fit_features(feats, hold=N_ONE, padding=Padding(cycles=pad))
     traced = len(calls)
     assert traced > 0
     assert a.values["n"] == 1.0 and a.converged
     # other data of the same shapes (the levels shifted by a gauge offset): no new trace
     feats2 = [dataclasses.replace(f, peak=f.peak + 1e-4, trough=f.trough + 1e-4) for f in feats]
-    b = fit_features(feats2, fixed={"n": 1.0}, pad_cycles=pad)
+    b = fit_features(feats2, hold=N_ONE, padding=Padding(cycles=pad))
     assert len(calls) == traced
     assert b.values["n"] == 1.0 and b.values["mu_d"] != a.values["mu_d"]
 
@@ -116,7 +127,7 @@ def test_poor_start_still_converges(campaign):
     _, fr, feats, fit, _ = campaign
     bad = [EmpiricalFriction.from_values(0.9, 0.05, 20.0, 2.0, 1.0, 0.3)]
     grid = fit_module.initial_guesses(feats)
-    res = fit_features(feats, starts=bad + grid[1:], pad_cycles=8)
+    res = fit_features(feats, starts=bad + grid[1:], padding=Padding(cycles=8))
     assert res.chi2 == pytest.approx(fit.chi2, rel=1e-6)
 
 
@@ -160,7 +171,7 @@ def test_interval_calibration_over_prior_draws(request):
                                   **dict(NEAR_C, sample_rate=1000.0))
         feats = [f for f in (record_features(r) for r in recs) if f.stick_slip]
         assert len(feats) >= 4  # a stiff spring may hide a small stick-slip in the noise
-        fit = fit_features(feats, pad_cycles=8)
+        fit = fit_features(feats, padding=Padding(cycles=8))
         unc = laplace(fit)
         truth = truth_values(fr)
         for j, n in enumerate(NAMES):
@@ -240,7 +251,7 @@ def test_reslip_campaign_is_fitted():
         reslip.append(x1 > 0.2174)
     assert any(reslip) and not all(reslip)  # the campaign exercises both kinds of cycle
     feats = [record_features(r) for r in recs]
-    fit = fit_features(feats, pad_cycles=8)
+    fit = fit_features(feats, padding=Padding(cycles=8))
     assert fit.data.reslip  # detected from the measured slip times
     assert fit.converged and fit.reduced_chi2 < 1.3
     no_reslip = feature_data(feats, pad_cycles=8, reslip=False)

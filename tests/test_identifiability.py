@@ -6,6 +6,7 @@ import pytest
 import stickslip_jax as ss
 from stickslip_fitting.features import record_features
 from stickslip_fitting.fit import fit_features
+from stickslip_fitting.modes import Padding
 from stickslip_fitting.uncertainty import laplace
 from stickslip_fitting.synthetic import synthetic_campaign
 
@@ -15,7 +16,7 @@ def one_speed():
     """Table 1's three (W, k) pairs (all k/W = 2.41/mm: one slip time) at one speed fraction."""
     recs = synthetic_campaign(ss.lubricant("A"), conditions=ss.experimental_conditions(),
                               speed_fractions=(0.1,), cycles=4, seed=5, pad_to=40_000)
-    fit = fit_features([record_features(r) for r in recs], pad_cycles=8)
+    fit = fit_features([record_features(r) for r in recs], padding=Padding(cycles=8))
     return fit, laplace(fit)
 
 

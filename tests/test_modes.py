@@ -1,5 +1,7 @@
-"""Mode options are small str-valued enums: plain strings work too, a bad
-value is refused once where it enters, JSON carries the value."""
+"""Mode options are small str-valued enums: a user's string becomes a member once where it
+enters (the command line, `api.fit`), a bad value is refused there, JSON carries the value;
+inside the package the verbs take members, and a campaign fit's options are typed
+objects."""
 
 from __future__ import annotations
 
@@ -116,39 +118,54 @@ def test_cli_choices_come_from_the_enums():
     assert tuple(action.choices) == ("cycle", "smooth") and action.default == "cycle"
 
 
-def test_covariance_mode_takes_strings_and_reports_a_member():
-    """`laplace(covariance=...)` accepts the old strings and reports the member it used;
-    the mcmc likelihood scale compares members (one Fisher path)."""
-    from stickslip_fitting.modes import Covariance
+def test_covariance_and_small_sample_modes():
+    """`laplace(covariance=...)` and `sandwich_covariance(small_sample=...)` take members;
+    a string is refused with the way to its member."""
+    import numpy as np
+
+    from stickslip_fitting.modes import Covariance, SmallSample
+    from stickslip_fitting.uncertainty import COVARIANCES, laplace, sandwich_covariance
 
     assert Covariance.choices() == ("auto", "fisher", "sandwich", "two_level")
     assert [m.robust for m in Covariance] == [False, False, True, True]
-    from stickslip_fitting.uncertainty import COVARIANCES
-
     assert COVARIANCES == Covariance.choices()
+    assert SmallSample.choices() == ("jackknife", "cr2", "none")
+    with pytest.raises(TypeError, match=r"covariance: a member of Covariance.*Covariance\.parse"):
+        laplace(None, covariance="fisher")
+    J, r = np.eye(4, 2), np.arange(4.0)
+    rec, cyc = np.zeros(4, int), np.arange(4)
+    with pytest.raises(TypeError, match="small_sample: a member of SmallSample"):
+        sandwich_covariance(J, r, rec, cyc, small_sample="cr2")
+    with pytest.raises(ValueError, match="small_sample must be one of"):
+        SmallSample.parse("cr1")
+    by_member = sandwich_covariance(J, r, rec, cyc, small_sample=SmallSample.parse("none"))
+    assert by_member.shape == (2, 2) and np.all(np.isfinite(by_member))
 
 
-def test_objective_factory_and_weighted_sum_take_strings_or_members():
-    from stickslip_fitting.combined import (OBJECTIVES, FeaturesObjective, TraceObjective,
-                                            WeightedSum, make_objective)
+def test_objective_factory_and_weighted_sum_take_members():
+    from stickslip_fitting.combined import (OBJECTIVES, CampaignObjective, FeaturesObjective,
+                                            TraceObjective, WeightedSum, make_objective)
     from stickslip_fitting.modes import Objective
 
     assert OBJECTIVES == ("features", "trace", "both")
     assert FeaturesObjective.kind is Objective.FEATURES and TraceObjective.kind == "trace"
-    with pytest.raises(ValueError, match="objective must be one of"):
-        make_objective("samples", None)
+    with pytest.raises(TypeError, match="kind: a member of Objective"):
+        make_objective("features", None)
     with pytest.raises(ValueError, match="needs the records' traces"):
         make_objective(Objective.TRACE, None)
     with pytest.raises(ValueError, match="SmoothObjective"):
-        make_objective("smooth", None)
-    assert make_objective("features", None).kind is Objective.FEATURES
+        make_objective(Objective.SMOOTH, None)
     assert make_objective(Objective.FEATURES, None).kind is Objective.FEATURES
+    # the factory of values parses them
+    assert CampaignObjective(None, kind="features").kind is Objective.FEATURES
+    with pytest.raises(ValueError, match="objective must be one of"):
+        CampaignObjective(None, kind="samples")
     both = WeightedSum((FeaturesObjective(None), FeaturesObjective(None)), (0.25, 0.5))
     assert both.kind == "features+features"
-    assert both.weight_of("features") == both.weight_of(Objective.FEATURES) == 0.75
-    assert both.weight_of("trace") == 0.0
-    with pytest.raises(ValueError, match="objective must be one of"):
-        both.weight_of("trcae")
+    assert both.weight_of(Objective.FEATURES) == 0.75
+    assert both.weight_of(Objective.TRACE) == 0.0
+    with pytest.raises(TypeError, match="kind: a member of Objective"):
+        both.weight_of("trace")
 
 
 def test_fit_features_validates_the_objective_before_fitting():
@@ -162,9 +179,10 @@ def test_fit_features_validates_the_objective_before_fitting():
             fit_features([], objective=objective)
 
 
-def test_design_criterion_string_or_member_picks_the_same_branch():
-    """"A" minimises the posterior covariance trace (its criterion values are minus a
-    trace: negative), "D" maximises log det of the precision (>= 0 with a unit prior)."""
+def test_design_criterion_members_pick_their_branch():
+    """A minimises the posterior covariance trace (its criterion values are minus a
+    trace: negative), D maximises log det of the precision (>= 0 with a unit prior); the
+    command line's value is parsed into the member."""
     import numpy as np
 
     import stickslip_jax as ss
@@ -176,15 +194,13 @@ def test_design_criterion_string_or_member_picks_the_same_branch():
     cands = Campaign(np.full(3, 36.0), np.full(3, 86.9),
                      from_mm_per_min(np.array([0.01, 1.0, 10.0])))
     with pytest.raises(ValueError, match=r"criterion must be one of \('D', 'A'\), got 'E'"):
-        greedy_design(u, cands, 1, criterion="E")
-    # (a dict keyed by criterion would merge "D" and DesignCriterion.D: they hash alike)
-    by_string = [greedy_design(u, cands, 2, criterion=c) for c in ("D", "A")]
-    by_member = [greedy_design(u, cands, 2, criterion=c)
-                 for c in (DesignCriterion.D, DesignCriterion.A)]
-    for s, m in zip(by_string, by_member):
-        np.testing.assert_array_equal(s.indices, m.indices)
-        np.testing.assert_array_equal(s.log_det, m.log_det)
-    assert np.all(by_string[0].log_det > 0) and np.all(by_string[1].log_det < 0)
+        DesignCriterion.parse("E")
+    with pytest.raises(TypeError, match="criterion: a member of DesignCriterion"):
+        greedy_design(u, cands, 1, criterion="A")
+    d, a = (greedy_design(u, cands, 2, criterion=DesignCriterion.parse(c)) for c in ("D", "A"))
+    assert np.all(d.log_det > 0) and np.all(a.log_det < 0)
+    default = greedy_design(u, cands, 2)
+    np.testing.assert_array_equal(default.indices, d.indices)
 
 
 def test_formulation_string_or_member_one_compilation():
@@ -215,3 +231,50 @@ def test_formulation_string_or_member_one_compilation():
     assert float(jnp.ptp(old.deflection)) > 0  # it moved
     with pytest.raises(ValueError, match=r"formulation must be one of \('rigid_stick'"):
         simulate_smooth(sw, ConstantSpeed(1.0), ts, formulation="bristle")
+
+
+def test_fit_option_groups_are_typed_frozen_and_have_defaults():
+    import dataclasses
+
+    from stickslip_fitting.modes import ModelModes, Padding, SolverOptions, Weighting
+
+    assert ModelModes() == ModelModes(GaugeOffset.ZERO, SlipTime.PAPER, None)
+    assert Weighting().pair == (0.5, 0.5) and Weighting().rescale_records
+    assert Padding() == Padding(0, 0, 0)
+    assert SolverOptions() == SolverOptions(1e-10, 1e-10, 400)
+    # the solves over whole traces: not tighter than 1e-8, at most 100 steps a round
+    assert SolverOptions().refine() == SolverOptions(1e-8, 1e-8, 100)
+    assert SolverOptions(1e-6, 1e-12, 50).refine() == SolverOptions(1e-6, 1e-8, 50)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        SolverOptions().rtol = 1e-3
+    with pytest.raises(TypeError, match="offset: a member of GaugeOffset"):
+        ModelModes(offset="start")
+    with pytest.raises(TypeError, match="slip_time: a member of SlipTime"):
+        ModelModes(slip_time="paper")
+
+
+def test_flat_keywords_read_into_the_option_objects():
+    """`fit_features`' flat keywords and string modes: one mapping to the objects."""
+    from stickslip_fitting.fit import _Options, flat_options
+    from stickslip_fitting.modes import ModelModes, Objective, Padding, SolverOptions, Weighting
+    from stickslip_fitting.params import EmpiricalFriction
+
+    defaults = _Options(None, ModelModes(), Weighting(), Padding(), SolverOptions())
+    flat = dict(fixed={"m": 0.5, "n": 1.0}, offset="start", slip_time="self_consistent",
+                reslip=True, weights=(0.3, 0.7), rescale_records=False, pad_cycles=8,
+                pad_length=100, pad_windows=4, rtol=1e-6, atol=1e-7, max_steps=50)
+    objective, o = flat_options("both", defaults, flat)
+    assert objective is Objective.BOTH
+    assert o.modes == ModelModes(GaugeOffset.START, SlipTime.SELF_CONSISTENT, True)
+    assert o.weighting == Weighting(0.3, 0.7, False)
+    assert o.padding == Padding(8, 100, 4)
+    assert o.solver == SolverOptions(1e-6, 1e-7, 50)
+    start = EmpiricalFriction.from_values(0.4, 0.3, 1.0, 0.8, 2.0, 1.3)
+    assert o.hold.natural(start) == {"m": 0.5, "n": 1.0}
+    # nothing given: the objects as they came; an empty `fixed` holds nothing
+    assert flat_options(Objective.TRACE, defaults, {}) == (Objective.TRACE, defaults)
+    assert flat_options(Objective.TRACE, defaults, {"fixed": {}})[1].hold is None
+    with pytest.raises(ValueError, match="offset must be one of"):
+        flat_options(Objective.FEATURES, defaults, {"offset": "middle"})
+    with pytest.raises(TypeError, match="unexpected keyword argument.*tol"):
+        flat_options(Objective.FEATURES, defaults, {"tol": 1e-3})

@@ -11,6 +11,7 @@ import pytest
 import stickslip_jax as ss
 from stickslip_fitting.features import record_features
 from stickslip_fitting.fit import fit_features
+from stickslip_fitting.modes import Objective
 from stickslip_fitting.params import CampaignParams, EmpiricalFriction
 from stickslip_fitting.smooth_objective import SmoothObjective, smooth_data
 from stickslip_fitting.synthetic import synthetic_campaign, truth_values
@@ -29,7 +30,7 @@ def campaign():
 @pytest.fixture(scope="module")
 def smooth_fit(campaign):
     recs, feats = campaign
-    return fit_features(feats, objective="smooth", records=recs)
+    return fit_features(feats, objective=Objective.SMOOTH, records=recs)
 
 
 def test_residuals_at_truth_are_noise(campaign):

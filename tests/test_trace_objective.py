@@ -12,6 +12,7 @@ import pytest
 import stickslip_jax as ss
 from stickslip_fitting.features import record_features
 from stickslip_fitting.fit import MAX_ROUNDS, fit_features
+from stickslip_fitting.modes import Objective, Padding
 from stickslip_fitting.params import NAMES, CampaignParams, EmpiricalFriction
 from stickslip_fitting.synthetic import synthetic_campaign, truth_values
 from stickslip_fitting.trace_objective import (CHUNK, cycle_windows, reslip_windows,
@@ -43,7 +44,8 @@ def trace_fit_and_compiles(campaign):
     """The trace fit and how many programs of the solve XLA compiled for it."""
     _, recs, feats = campaign
     before = len(SOLVE_COMPILES)
-    fit = fit_features(feats, objective="trace", records=recs, pad_cycles=8)
+    fit = fit_features(feats, objective=Objective.TRACE, records=recs,
+                       padding=Padding(cycles=8))
     return fit, len(SOLVE_COMPILES) - before
 
 
@@ -202,8 +204,8 @@ def test_fit_residuals_are_the_objectives(trace_fit):
     from stickslip_fitting.combined import make_objective
 
     fit = trace_fit
-    both = make_objective("both", fit.data, fit.objective.trace, weights=(0.3, 0.7))
-    assert both.kind == "both" and both.weight_of("trace") == 0.7
+    both = make_objective(Objective.BOTH, fit.data, fit.objective.trace, weights=(0.3, 0.7))
+    assert both.kind == "both" and both.weight_of(Objective.TRACE) == 0.7
     assert list(both.blocks()) == ["levels", "stick_times", "start_levels", "trace"]
     assert sum(both.blocks().values()) == both.residuals(fit.params).size
     parts = both.split(both.residuals(fit.params))
@@ -223,7 +225,7 @@ def test_fit_residuals_are_the_objectives(trace_fit):
 def test_bad_inputs(campaign):
     _, recs, feats = campaign
     with pytest.raises(ValueError, match="needs the records"):
-        fit_features(feats, objective="trace")
+        fit_features(feats, objective=Objective.TRACE)
     with pytest.raises(ValueError, match="objective must be one of"):
         fit_features(feats, objective="samples")
     prog = dataclasses.replace(recs[0], drive_program=((0.0, recs[0].drive_speed),))

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..modes import DesignCriterion
 from .design import parse_grid
 
 NAME = "plan"
@@ -43,8 +44,6 @@ def add_arguments(p):
     p.add_argument("--noise", type=float, nargs=4, default=(0.05, 0.05, 0.01, 0.01),
                    metavar=("LOG_A", "LOG_T1", "MU_0", "MU_M"),
                    help="noise sd per record: relative for a and T1, absolute for mu_0, mu_m")
-    from ..modes import DesignCriterion
-
     p.add_argument("--criterion", choices=DesignCriterion.choices(),
                    default=DesignCriterion.D.value,
                    help="D: maximise det of the information; A: minimise the mean variance")
@@ -230,7 +229,8 @@ def run(args) -> int:
     logger.info(f"choosing {args.budget} of {len(cands)} candidate records "
                 f"({args.criterion}-optimal)...")
     plan = greedy_design(u, cands, args.budget, noise=noise, prior_sd=sd, existing=existing,
-                         repeats=not args.no_repeats, criterion=args.criterion)
+                         repeats=not args.no_repeats,
+                         criterion=DesignCriterion.parse(args.criterion))
     logger.info("plan done")
     rows = []
     for i in range(args.budget):

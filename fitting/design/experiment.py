@@ -46,7 +46,7 @@ from stickslip_jax import Friction, KatoKinetic, KatoStatic, steady_state
 from stickslip_jax.lsq import gauss_newton_covariance
 from stickslip_jax.steady import STICK_SLIP
 
-from ..modes import DesignCriterion
+from ..modes import DesignCriterion, check_member
 from ..solve import AbstractResiduals, least_squares
 from .posterior import PARAMETERS, friction_params
 
@@ -171,7 +171,7 @@ def greedy_design(
     prior_sd=1.0,
     existing: Campaign | None = None,
     repeats: bool = True,
-    criterion: DesignCriterion | str = DesignCriterion.D,
+    criterion: DesignCriterion = DesignCriterion.D,
 ) -> Plan:
     """Choose `budget` records from `candidates`, each maximising log det of the
     posterior precision (prior + `existing` records + records chosen so far).
@@ -179,11 +179,10 @@ def greedy_design(
     `u`: the parameter estimate ($\\log$, `log_params`) at which the information is
     evaluated; `prior_sd`: sd of $\\log$ parameters (scalar or 6); `repeats`: allow a
     candidate to be chosen more than once (a repeated record); `criterion`: a
-    `stickslip_fitting.modes.DesignCriterion` or its value, ``"D"`` (maximise log det of
-    the precision) or ``"A"`` (minimise the trace of the posterior covariance, i.e. the
-    mean posterior variance).
+    `stickslip_fitting.modes.DesignCriterion`, D (maximise log det of the precision) or A
+    (minimise the trace of the posterior covariance, i.e. the mean posterior variance).
     """
-    criterion = DesignCriterion.parse(criterion)
+    check_member("criterion", criterion, DesignCriterion)
     if budget < 1:
         raise ValueError(f"budget must be >= 1, got {budget}")
     if not repeats and budget > len(candidates):
@@ -335,7 +334,7 @@ def sequential_campaign(
     *,
     noise: Noise = Noise(),
     prior_sd=1.0,
-    criterion: DesignCriterion | str = DesignCriterion.D,
+    criterion: DesignCriterion = DesignCriterion.D,
 ) -> tuple[Campaign, LaplaceFit]:
     """Simulate a sequential campaign on synthetic data (what `stickslip plan` is for).
 
@@ -346,7 +345,7 @@ def sequential_campaign(
     campaign and its fit. Rows not yet recorded are carried as masked padding, so the
     fit compiles once.
     """
-    criterion = DesignCriterion.parse(criterion)
+    check_member("criterion", criterion, DesignCriterion)
     if n_next < 0:
         raise ValueError(f"n_next must be >= 0, got {n_next}")
     n0 = len(pilot)
