@@ -17,7 +17,7 @@ rounds because the machine is shared):
    of the same size (SciPy xtol = ftol = gtol = 1e-10; ours rtol = atol = 1e-10 on the
    step and on the change of every residual; the criteria differ, the optima agree);
 2. the trace fit (every sample through the exact simulator, restarted per cycle): ours
-   (`objective="trace"`: features fit first, then LM on the trace) and SciPy on the same
+   (`Objective.TRACE`: features fit first, then LM on the trace) and SciPy on the same
    jitted trace residuals from the same start (our features optimum), same rounds,
    tolerances 1e-8 (ours: root mean square of the step and of the residual change);
    then the SciPy-native trace part: the same SciPy `least_squares` on residuals of a
@@ -107,6 +107,7 @@ def main():
     from stickslip_fitting.features import record_features
     from stickslip_fitting.fit import fit_features, initial_guesses
     from stickslip_fitting.mcmc import run_mcmc
+    from stickslip_fitting.modes import Objective
     from stickslip_fitting.objectives import feature_residuals
     from stickslip_fitting.params import CampaignParams, free_spec
     from stickslip_fitting.synthetic import synthetic_campaign, truth_values
@@ -175,12 +176,10 @@ def main():
     feat_dev = float(np.max(np.abs(sp_vals / np.asarray(fit.params.friction.values()) - 1)))
 
     # 2. trace fit: ours (features first + trace) vs SciPy from the same start
-    t_tr_first, tfit = best_of(lambda: fit_features(feats, objective="trace", records=recs),
-                               R, clear=True)
-    t_tr_again, tfit = best_of(lambda: fit_features(feats, objective="trace", records=recs),
-                               max(R, 3))
-    t_both_first, bfit = best_of(lambda: fit_features(feats, objective="both", records=recs),
-                                 1, clear=True)
+    trace, both = (dict(objective=o, records=recs) for o in (Objective.TRACE, Objective.BOTH))
+    t_tr_first, tfit = best_of(lambda: fit_features(feats, **trace), R, clear=True)
+    t_tr_again, tfit = best_of(lambda: fit_features(feats, **trace), max(R, 3))
+    t_both_first, bfit = best_of(lambda: fit_features(feats, **both), 1, clear=True)
     tdata = trace_data(recs, feats)
     tstart = np.asarray(ravel_pytree(eqx.partition(fit.params, fit.spec)[0])[0])
 
