@@ -237,8 +237,8 @@ def fit(
     from .uncertainty import laplace
 
     objective = Objective.parse(objective)
-    gauge_offset = GaugeOffset.parse(gauge_offset, "gauge_offset")
-    slip_time = SlipTime.parse(slip_time)
+    modes = ModelModes(offset=GaugeOffset.parse(gauge_offset, "gauge_offset"),
+                       slip_time=SlipTime.parse(slip_time))
     law, model_name = _law(model)
     loss = _loss(loss)
     hold = _hold(fix, law)
@@ -261,7 +261,7 @@ def fit(
         campaign = load_campaign(given, strict=strict)
         inputs = tuple(str(p) for p in record_paths(given))
 
-    kw: dict[str, Any] = dict(hold=hold, modes=ModelModes(offset=gauge_offset, slip_time=slip_time),
+    kw: dict[str, Any] = dict(hold=hold, modes=modes,
                               objective=objective, records=campaign.records, loss=loss)
     extra = None
     if model_name == "microsqueeze":
