@@ -8,7 +8,7 @@ then reads it with `stickslip_jax.records.read_campaign`:
 - `fast`: the reader as shipped (NumPy's C parser over all rows; the checked parser only
   when that fails, to name the bad line);
 - `checked`: the row-by-row regex parser alone (the fallback that names a bad line), by
-  routing `_parse_data` to `_parse_data_checked`;
+  routing `parse_data` to `parse_data_checked`;
 - `numpy.loadtxt` of the data rows alone (no header, no checks) for reference.
 
 Prints best-of-`--repeat` wall times, MB/s and the ratio; checks that both paths give
@@ -64,12 +64,12 @@ def main():
         paths = make_campaign(folder, a.records, a.samples)
         size = sum(os.path.getsize(p) for p in paths) / 1e6
         t_fast, fast = best(lambda: read_campaign(paths), a.repeat)
-        fast_parse = rec_parse._parse_data  # the reader parse_record calls
-        rec_parse._parse_data = rec_rows._parse_data_checked
+        fast_parse = rec_parse.parse_data  # the reader parse_record calls
+        rec_parse.parse_data = rec_rows.parse_data_checked
         try:
             t_checked, checked = best(lambda: read_campaign(paths), a.repeat)
         finally:
-            rec_parse._parse_data = fast_parse
+            rec_parse.parse_data = fast_parse
 
         def loadtxt():
             return [np.loadtxt(p, delimiter=",", comments="#", skiprows=8) for p in paths]

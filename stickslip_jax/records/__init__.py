@@ -67,8 +67,6 @@ from .grammar import FORMAT_VERSION, KNOWN_KEYS, MAX_FILE_BYTES, RESERVED_COLUMN
 from .parse import parse_record, read_record
 from .quantities import channel_dimension, unit_dimension
 from .record import Record
-from .rows import _parse_data as _parse_data  # the fast reader (benchmarks/records.py)
-from .rows import _parse_data_checked as _parse_data_checked
 from .sampling import (
     EPOCH_SECONDS,
     JITTER_MIN_SAMPLES,

@@ -12,8 +12,8 @@ import numpy as np
 
 from ..units import UnitError
 from .errors import RecordError
-from .grammar import _NAME, FORMAT_VERSION, RESERVED_COLUMNS
-from .quantities import _channel_factor, _internal_channel_unit
+from .grammar import FORMAT_VERSION, NAME, RESERVED_COLUMNS
+from .quantities import channel_factor, internal_channel_unit
 
 _LABEL = re.compile(r"^\s*(.*?)\s*(?:\[(.*)\]|\((.*)\))?\s*$", re.DOTALL)
 
@@ -114,7 +114,7 @@ def _extra_channels(cols: _Columns, used, extra_columns) -> tuple[dict, dict]:
         problem = None
         if not pd.api.types.is_numeric_dtype(col):
             problem = f"is not numeric (dtype {col.dtype})"
-        elif not _NAME.fullmatch(name) or name in RESERVED_COLUMNS:
+        elif not NAME.fullmatch(name) or name in RESERVED_COLUMNS:
             problem = f"gives the channel name {name!r}, which is reserved or empty"
         elif name in channels:
             problem = f"gives the channel name {name!r} a second time"
@@ -129,7 +129,7 @@ def _extra_channels(cols: _Columns, used, extra_columns) -> tuple[dict, dict]:
             unit = "-"
             notes.append(f"column {label!r} has no unit: kept as a pure number")
         try:
-            f = _channel_factor(unit)
+            f = channel_factor(unit)
         except UnitError as exc:
             raise RecordError(f"extra column {label!r}: {exc}") from None
         channels[name] = col.to_numpy(np.float64) * f
@@ -204,7 +204,7 @@ def _channel_columns(record) -> dict[str, str]:
     """{channel: its `to_dataframe` column `<channel>_<internal unit>`}."""
     out = {}
     for name in record.channels:
-        column = f"{name}_{_unit_suffix(_internal_channel_unit(record.channel_units[name]))}"
+        column = f"{name}_{_unit_suffix(internal_channel_unit(record.channel_units[name]))}"
         if column in _OWN_COLUMNS or column in out.values():
             raise RecordError(f"to_dataframe: channel {name!r} would be the column "
                               f"{column!r} a second time; rename the channel")

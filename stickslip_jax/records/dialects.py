@@ -9,7 +9,7 @@ from pathlib import Path
 from .errors import RecordError
 
 
-def _read_bytes(path: Path, max_bytes: int) -> bytes:
+def read_bytes(path: Path, max_bytes: int) -> bytes:
     try:
         if not path.exists():
             raise RecordError("no such file; check the path", path)
@@ -33,7 +33,7 @@ def _read_bytes(path: Path, max_bytes: int) -> bytes:
     return data
 
 
-def _decode(data: bytes, path) -> str:
+def decode(data: bytes, path) -> str:
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
     nul = data.find(b"\x00")
@@ -55,7 +55,7 @@ def _decode(data: bytes, path) -> str:
     return text
 
 
-def _normalise_dialect(lines: list[str], notes: list[str]) -> list[str]:
+def normalise_dialect(lines: list[str], notes: list[str]) -> list[str]:
     """The column row and data rows in the format's dialect: `,` between cells, `.` as
     decimal point, no quotes. Detected from the column row: `;` or tab separated files
     (where a `,` in the numbers is a decimal comma) and quoted cells are rewritten, with
@@ -82,7 +82,7 @@ def _normalise_dialect(lines: list[str], notes: list[str]) -> list[str]:
     return out
 
 
-def _lines(text: str, path) -> list[str]:
+def text_lines(text: str, path) -> list[str]:
     if "\r" in text:  # \r\n line ends are fine; a bare \r inside a line is not
         lines = text.split("\n")
         for i, line in enumerate(lines):

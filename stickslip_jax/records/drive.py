@@ -9,11 +9,11 @@ import numpy as np
 
 from ..units import UnitError, factor
 from .errors import RecordError
-from .grammar import _SEGMENT
-from .quantities import _encode, _fmt, _unit_choices
+from .grammar import SEGMENT
+from .quantities import encode, fmt, unit_choices
 
 
-def _check_program(program) -> tuple[tuple[float, float], ...]:
+def check_program(program) -> tuple[tuple[float, float], ...]:
     try:
         segs = tuple((float(s), float(v)) for s, v in program)
     except (TypeError, ValueError):
@@ -59,17 +59,17 @@ def _segment_value(number: str, unit: str, dimension: str, path, line: int) -> f
     except UnitError:
         raise RecordError(
             f"drive_program: unknown {dimension} unit {unit!r}; use one of "
-            f"{_unit_choices(dimension)}",
+            f"{unit_choices(dimension)}",
             path,
             line,
         ) from None
 
 
-def _parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]:
+def parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]:
     segs = []
     hint = "write e.g. 'drive_program: 0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min'"
     for part in text.split(";"):
-        m = _SEGMENT.fullmatch(part)
+        m = SEGMENT.fullmatch(part)
         if m is None:
             raise RecordError(
                 f"drive_program: cannot read segment {part.strip()!r} as "
@@ -81,7 +81,7 @@ def _parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...
         speed = _segment_value(m.group(3), m.group(4), "speed", path, line)
         segs.append((start, speed))
     try:
-        return _check_program(segs)
+        return check_program(segs)
     except RecordError as exc:
         raise RecordError(f"{exc.reason}; {hint}", path, line) from None
 
@@ -92,13 +92,13 @@ def parse_drive_program(text: str) -> tuple[tuple[float, float], ...]:
     The syntax of the `drive_program` header (also for a command-line option); raises
     `RecordError` (a `ValueError`) saying what to fix.
     """
-    return _parse_program(str(text), None, None)
+    return parse_program(str(text), None, None)
 
 
 def format_drive_program(program, speed_unit: str = "mm/s", time_unit: str = "s") -> str:
     """The `drive_program` text of ((start s, speed mm/s), ...), numbers with repr precision."""
-    segs = _check_program(program)
+    segs = check_program(program)
     ft, fv = factor(time_unit, "time"), factor(speed_unit, "speed")
     return "; ".join(
-        f"{_fmt(_encode(s, ft))} {time_unit} {_fmt(_encode(v, fv))} {speed_unit}" for s, v in segs
+        f"{fmt(encode(s, ft))} {time_unit} {fmt(encode(v, fv))} {speed_unit}" for s, v in segs
     )

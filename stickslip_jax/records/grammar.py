@@ -25,12 +25,12 @@ KNOWN_KEYS = (
     "truth",
 )
 
-_NUM = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
-_NUMBER = re.compile(_NUM)
-_QUANTITY = re.compile(rf"\s*({_NUM})\s*(.*?)\s*")
-_SEGMENT = re.compile(rf"\s*({_NUM})\s*([^\s\d.+-]\S*)\s+({_NUM})\s*(\S+)\s*")
-_HEADER = re.compile(r"#\s*([A-Za-z][A-Za-z0-9_-]*)\s*:(.*)")
-_COLUMN = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*\[([^\[\]]*)\]\s*")
-_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
-_KEY = re.compile(r"[a-z][a-z0-9_-]*")
-_NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
+NUM = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
+NUMBER = re.compile(NUM)
+QUANTITY = re.compile(rf"\s*({NUM})\s*(.*?)\s*")
+SEGMENT = re.compile(rf"\s*({NUM})\s*([^\s\d.+-]\S*)\s+({NUM})\s*(\S+)\s*")
+HEADER = re.compile(r"#\s*([A-Za-z][A-Za-z0-9_-]*)\s*:(.*)")
+COLUMN = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*\[([^\[\]]*)\]\s*")
+NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+KEY = re.compile(r"[a-z][a-z0-9_-]*")
+NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}

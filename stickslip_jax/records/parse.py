@@ -10,26 +10,26 @@ from pathlib import Path
 import numpy as np
 
 from ..units import G_MM_S2, UnitError, factor
-from .dialects import _decode, _lines, _normalise_dialect, _read_bytes
-from .drive import _parse_program
+from .dialects import decode, normalise_dialect, read_bytes, text_lines
+from .drive import parse_program
 from .errors import RecordError
 from .grammar import (
-    _COLUMN,
-    _HEADER,
-    _KEY,
-    _QUANTITY,
+    COLUMN,
     FORMAT_VERSION,
+    HEADER,
+    KEY,
     KNOWN_KEYS,
     MAX_FILE_BYTES,
+    QUANTITY,
     RESERVED_COLUMNS,
 )
-from .quantities import _channel_factor, _quantity, _unit_choices
+from .quantities import channel_factor, quantity, unit_choices
 from .record import Record
-from .rows import _decimals, _parse_data
+from .rows import parse_data, resolution_of
 from .sampling import (
     EPOCH_SECONDS,
     TIME_STEP_RTOL,
-    _jitter_grid,
+    jitter_grid,
     missing_samples,
     time_step_deviation,
 )
@@ -53,9 +53,9 @@ def _split_lines(text: str, path: str) -> list[str]:
         raise RecordError("file is empty; a record starts with '# stickslip-record: 1'", path)
     if "\x00" in text:
         raise RecordError("binary content (NUL character); a record is UTF-8 CSV text", path)
-    lines = _lines(text, path)
+    lines = text_lines(text, path)
     first = next(i for i, ln in enumerate(lines) if ln.strip())  # blank lines are ignored
-    m = _HEADER.fullmatch(lines[first].strip())
+    m = HEADER.fullmatch(lines[first].strip())
     if m is None or m.group(1) != "stickslip-record":
         raise RecordError(
             f"the first line must be '# stickslip-record: {FORMAT_VERSION}', "
@@ -77,7 +77,7 @@ def _header(lines: list[str], path: str) -> tuple[dict[str, tuple[str, int]], in
             continue
         if not line.startswith("#"):
             break
-        m = _HEADER.fullmatch(line)
+        m = HEADER.fullmatch(line)
         if m is None:
             raise RecordError(
                 f"header line {line[:60]!r} is not '# key: value'; "
@@ -86,7 +86,7 @@ def _header(lines: list[str], path: str) -> tuple[dict[str, tuple[str, int]], in
                 i + 1,
             )
         key, value = m.group(1), m.group(2).strip()
-        if not _KEY.fullmatch(key):
+        if not KEY.fullmatch(key):
             raise RecordError(
                 f"header key {key!r} must be lowercase: write '{key.lower()}'", path, i + 1
             )
@@ -121,12 +121,12 @@ def _column_factor(name: str, unit: str, path: str, column_line: int) -> float:
         except UnitError:
             raise RecordError(
                 f"column {name!r}: unknown {_DIMENSIONS[name]} unit {unit!r}; use one of "
-                f"{_unit_choices(_DIMENSIONS[name])}",
+                f"{unit_choices(_DIMENSIONS[name])}",
                 path,
                 column_line,
             ) from None
     try:
-        return _channel_factor(unit)
+        return channel_factor(unit)
     except UnitError:
         raise RecordError(
             f"column {name!r}: unknown unit {unit!r}; use a unit of length, time, "
@@ -140,7 +140,7 @@ def _column_row(row: str, path: str, column_line: int):
     """(names, units, factors to internal units) of the column row."""
     columns, units = [], []
     for cell in row.split(","):
-        cm = _COLUMN.fullmatch(cell)
+        cm = COLUMN.fullmatch(cell)
         if cm is None and cell.count("[") > 1:
             raise RecordError(
                 f"the column row {row.strip()[:60]!r} has no ',', ';' or tab between "
@@ -183,17 +183,17 @@ def _weight(header, path: str, column_line: int) -> float:
         )
     if "slider_mass" in header:
         m_text, w_line = header["slider_mass"]
-        mm = _QUANTITY.fullmatch(m_text)
+        mm = QUANTITY.fullmatch(m_text)
         if mm is not None and mm.group(2).strip() == "kg":
             weight = float(mm.group(1))  # 1 kg weighs 1 kgf (W = m g, standard gravity)
         else:
-            weight = _quantity(m_text, "mass", "slider_mass", path, w_line) * G_MM_S2
+            weight = quantity(m_text, "mass", "slider_mass", path, w_line) * G_MM_S2
     else:
         if "slider_weight" not in header:
             raise RecordError("missing header line '# slider_weight: 36.0 kgf'", path,
                               column_line)
         w_text, w_line = header["slider_weight"]
-        weight = _quantity(w_text, "force", "slider_weight", path, w_line)
+        weight = quantity(w_text, "force", "slider_weight", path, w_line)
     if not (math.isfinite(weight) and weight > 0):
         raise RecordError("slider weight must be positive and finite", path, w_line)
     return weight
@@ -204,19 +204,19 @@ def _conditions(header, columns, path: str, column_line: int) -> dict:
     if "stiffness" not in header:
         raise RecordError("missing header line '# stiffness: 86.9 kgf/mm'", path, column_line)
     k_text, k_line = header["stiffness"]
-    stiffness = _quantity(k_text, "stiffness", "stiffness", path, k_line)
+    stiffness = quantity(k_text, "stiffness", "stiffness", path, k_line)
     if not stiffness > 0:
         raise RecordError("stiffness must be positive", path, k_line)
     weight = _weight(header, path, column_line)
     drive_speed = None
     if "drive_speed" in header:
         v_text, v_line = header["drive_speed"]
-        drive_speed = _quantity(v_text, "speed", "drive_speed", path, v_line)
+        drive_speed = quantity(v_text, "speed", "drive_speed", path, v_line)
         if drive_speed < 0:
             raise RecordError("drive_speed must be >= 0", path, v_line)
     program = None
     if "drive_program" in header:
-        program = _parse_program(header["drive_program"][0], path, header["drive_program"][1])
+        program = parse_program(header["drive_program"][0], path, header["drive_program"][1])
     if drive_speed is None and program is None and "drive" not in columns:
         raise RecordError(
             "no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line "
@@ -246,7 +246,7 @@ def _conditions(header, columns, path: str, column_line: int) -> dict:
 
 def _data(lines, start, columns, factors, path: str, column_line: int):
     """(data rows in internal units, their line numbers) after the column row."""
-    data, rows = _parse_data(lines, start, columns, path)
+    data, rows = parse_data(lines, start, columns, path)
     if data.shape[0] < 2:
         raise RecordError(
             f"{data.shape[0]} data row(s); a record needs at least two samples",
@@ -282,7 +282,7 @@ def _clock(data, rows, lines, j: int, time_factor: float, path: str, notes: list
         notes.append(f"time counted from the first time stamp ({float(time[0])!r} s)")
         time = time - time[0]
         data[:, j] = time
-    for regrid in (missing_samples, _jitter_grid):  # a logger's dropped samples, jitter
+    for regrid in (missing_samples, jitter_grid):  # a logger's dropped samples, jitter
         got = regrid(time)
         if got is None:
             continue
@@ -298,7 +298,7 @@ def _clock(data, rows, lines, j: int, time_factor: float, path: str, notes: list
             f"step {dt:.6g} s (relative deviation {dev:.3g}, tolerance {TIME_STEP_RTOL:g}); "
         )
         cells = [lines[rows[r] - 1].split(",")[j], lines[rows[r + 1] - 1].split(",")[j]]
-        rounding = 0.5 * sum(_decimals(c) for c in cells) * time_factor  # of a written step
+        rounding = 0.5 * sum(resolution_of(c) for c in cells) * time_factor  # of a written step
         if abs(steps[r] - dt) <= 1.01 * rounding:
             msg += (
                 "this is within the rounding of the written digits: if the time stamps "
@@ -317,7 +317,7 @@ def parse_record(text: str, source=None) -> Record:
     header, i = _header(lines, path)
     column_line = i + 1
     notes: list[str] = []
-    lines = lines[:i] + _normalise_dialect(lines[i:], notes)
+    lines = lines[:i] + normalise_dialect(lines[i:], notes)
     columns, units, factors = _column_row(lines[i], path, column_line)
     fields = _conditions(header, columns, path, column_line)
     data, rows = _data(lines, i + 1, columns, factors, path, column_line)
@@ -350,5 +350,5 @@ def read_record(path, *, max_bytes: int = MAX_FILE_BYTES) -> Record:
     """Read one record file (format in the `stickslip_jax.records` docstring); raises
     `RecordError`."""
     path = Path(path)
-    text = _decode(_read_bytes(path, max_bytes), path)
+    text = decode(read_bytes(path, max_bytes), path)
     return parse_record(text, source=path)

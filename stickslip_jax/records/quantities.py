@@ -10,7 +10,7 @@ import numpy as np
 
 from ..units import INTERNAL_UNIT, UNITS, UnitError, factor
 from .errors import RecordError
-from .grammar import _QUANTITY
+from .grammar import QUANTITY
 
 
 def unit_dimension(unit: str) -> str:
@@ -24,7 +24,7 @@ def unit_dimension(unit: str) -> str:
     raise UnitError(f"unknown unit {unit!r}")
 
 
-def _unit_choices(dimension: str) -> str:
+def unit_choices(dimension: str) -> str:
     return ", ".join(u for u in UNITS[dimension] if u)
 
 
@@ -37,12 +37,12 @@ def channel_dimension(unit: str) -> str:
         return "raw:" + unit.strip()
 
 
-def _channel_factor(unit: str) -> float:
+def channel_factor(unit: str) -> float:
     dim = channel_dimension(unit)
     return 1.0 if dim.startswith("raw:") else factor(unit, dim)
 
 
-def _internal_channel_unit(unit: str) -> str:
+def internal_channel_unit(unit: str) -> str:
     dim = channel_dimension(unit)
     return unit.strip() if dim.startswith("raw:") else INTERNAL_UNIT[dim]
 
@@ -50,8 +50,8 @@ def _internal_channel_unit(unit: str) -> str:
 # ---------------------------------------------------------------------------- record
 
 
-def _quantity(text: str, dimension: str, key: str, path, line: int) -> float:
-    m = _QUANTITY.fullmatch(text)
+def quantity(text: str, dimension: str, key: str, path, line: int) -> float:
+    m = QUANTITY.fullmatch(text)
     if m is None:
         raise RecordError(
             f"{key}: cannot read 'number unit' from {text.strip()!r}; "
@@ -62,7 +62,7 @@ def _quantity(text: str, dimension: str, key: str, path, line: int) -> float:
     value, unit = float(m.group(1)), m.group(2)
     if unit == "":
         raise RecordError(
-            f"{key}: {text.strip()!r} has no unit; add one of {_unit_choices(dimension)}",
+            f"{key}: {text.strip()!r} has no unit; add one of {unit_choices(dimension)}",
             path,
             line,
         )
@@ -70,7 +70,7 @@ def _quantity(text: str, dimension: str, key: str, path, line: int) -> float:
         f = factor(unit, dimension)
     except UnitError:
         raise RecordError(
-            f"{key}: unknown {dimension} unit {unit!r}; use one of {_unit_choices(dimension)}",
+            f"{key}: unknown {dimension} unit {unit!r}; use one of {unit_choices(dimension)}",
             path,
             line,
         ) from None
@@ -79,7 +79,7 @@ def _quantity(text: str, dimension: str, key: str, path, line: int) -> float:
     return value * f
 
 
-def _encode(values: np.ndarray, f: float) -> np.ndarray:
+def encode(values: np.ndarray, f: float) -> np.ndarray:
     """Values to write in a unit of factor f, chosen so that reading (y * f) gives them back
     exactly whenever some float y does; otherwise within one unit in the last place."""
     values = np.asarray(values, dtype=np.float64)
@@ -93,6 +93,6 @@ def _encode(values: np.ndarray, f: float) -> np.ndarray:
     return y
 
 
-def _fmt(x: float) -> str:
+def fmt(x: float) -> str:
     return repr(float(x))
 

@@ -15,16 +15,16 @@ import numpy as np
 from ..units import G_MM_S2, UnitError, factor
 from ..units import parse_quantity as _parse_quantity_text
 from . import dataframe as _dataframe
-from .drive import _check_program, program_position, program_speed
+from .drive import check_program, program_position, program_speed
 from .errors import RecordError
-from .grammar import _KEY, _NAME, KNOWN_KEYS, RESERVED_COLUMNS
+from .grammar import KEY, KNOWN_KEYS, NAME, RESERVED_COLUMNS
 from .quantities import channel_dimension
 from .sampling import (
     EPOCH_SECONDS,
     TIME_STEP_RTOL,
-    _jitter_grid,
-    _resample,
+    jitter_grid,
     missing_samples,
+    resample_to,
     time_step_deviation,
 )
 
@@ -149,7 +149,7 @@ class Record:
         if self.drive is not None:
             put("drive", _array("drive", self.drive, n))
         if self.drive_program is not None:
-            put("drive_program", _check_program(self.drive_program))
+            put("drive_program", check_program(self.drive_program))
         if self.drive_speed is None and self.drive is None and self.drive_program is None:
             raise RecordError("a record needs a drive: drive_speed, drive_program or drive")
         for name in ("lubricant", "surface", "note"):
@@ -163,7 +163,7 @@ class Record:
                 f"channels {sorted(self.channels)}, units {sorted(self.channel_units)}"
             )
         for name, values in self.channels.items():
-            if not isinstance(name, str) or not _NAME.fullmatch(name) or name in RESERVED_COLUMNS:
+            if not isinstance(name, str) or not NAME.fullmatch(name) or name in RESERVED_COLUMNS:
                 raise RecordError(
                     f"channel name {name!r} must be an identifier (letters, digits, _) "
                     f"other than {', '.join(RESERVED_COLUMNS)}"
@@ -187,7 +187,7 @@ class Record:
             put("source", str(self.source))
         extra = {}
         for key, value in dict(self.extra_header).items():
-            if not isinstance(key, str) or not _KEY.fullmatch(key) or key in KNOWN_KEYS:
+            if not isinstance(key, str) or not KEY.fullmatch(key) or key in KNOWN_KEYS:
                 raise RecordError(
                     f"extra header key {key!r} must be lowercase letters, digits, _ or - "
                     f"and not one of {', '.join(KNOWN_KEYS)}"
@@ -315,7 +315,7 @@ class Record:
             notes.append(f"time counted from the first time stamp ({float(t[0])!r} s)")
             t = t - t[0]
         if t.ndim == 1 and t.size > 2 and np.all(np.diff(t) > 0) and x.shape == t.shape:
-            for regrid in (missing_samples, _jitter_grid):  # dropped samples, then jitter
+            for regrid in (missing_samples, jitter_grid):  # dropped samples, then jitter
                 got = regrid(t)
                 if got is None:
                     continue
@@ -323,7 +323,7 @@ class Record:
                 x = np.interp(grid, t, x)
                 u = None if u is None else np.interp(grid, t, u)
                 if isinstance(fields.get("channels"), Mapping):
-                    fields["channels"] = {k: _resample(grid, t, v)
+                    fields["channels"] = {k: resample_to(grid, t, v)
                                           for k, v in fields["channels"].items()}
                 notes.append(note)
                 t = grid

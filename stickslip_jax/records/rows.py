@@ -10,21 +10,21 @@ import warnings
 import numpy as np
 
 from .errors import RecordError
-from .grammar import _NONFINITE, _NUM, _NUMBER
+from .grammar import NONFINITE, NUM, NUMBER
 
 
 def _cell_problem(cell: str, column: str) -> str:
     c = cell.strip()
     if c == "":
         return f"empty cell in column {column!r}; every sample needs a value"
-    if c.lower() in _NONFINITE:
+    if c.lower() in NONFINITE:
         return f"{c} in column {column!r}; every value must be finite: remove or fill the sample"
     if "," in c:
         return f"{c!r} in column {column!r} is not a number"
     return f"{c[:40]!r} in column {column!r} is not a number; use '.' as the decimal point"
 
 
-def _parse_data(lines, start, columns, path):
+def parse_data(lines, start, columns, path):
     """The data rows as an (n, ncol) float64 array and their 1-based line numbers.
 
     Fast path: NumPy's C parser (`numpy.loadtxt`, correctly rounded like `float`) over
@@ -47,13 +47,13 @@ def _parse_data(lines, start, columns, path):
         rows = [start + 1 + k for k, ln in enumerate(body) if ln.strip()]
         if data.shape[0] == len(rows):
             return data, rows
-    return _parse_data_checked(lines, start, columns, path)
+    return parse_data_checked(lines, start, columns, path)
 
 
-def _parse_data_checked(lines, start, columns, path):
-    """Row-by-row parser with precise errors (the format's grammar, `_NUM`)."""
+def parse_data_checked(lines, start, columns, path):
+    """Row-by-row parser with precise errors (the format's grammar, `NUM`)."""
     ncol = len(columns)
-    cell = rf"\s*{_NUM}\s*"
+    cell = rf"\s*{NUM}\s*"
     row_re = re.compile(cell + (rf",{cell}" * (ncol - 1)))
     rows, numbers = [], []
     fullmatch = row_re.fullmatch
@@ -81,7 +81,7 @@ def _parse_data_checked(lines, start, columns, path):
                 i + 1,
             )
         for c, name in zip(cells, columns):
-            if not _NUMBER.fullmatch(c.strip()):
+            if not NUMBER.fullmatch(c.strip()):
                 raise RecordError(_cell_problem(c, name), path, i + 1)
         raise RecordError("cannot read this row", path, i + 1)  # pragma: no cover
     if not numbers:
@@ -98,7 +98,7 @@ def _parse_data_checked(lines, start, columns, path):
     return data, rows
 
 
-def _decimals(text: str) -> float:
+def resolution_of(text: str) -> float:
     """Resolution of a written number: 10**-(decimals) scaled by its exponent."""
     t = text.strip().lower()
     mant, _, exp = t.partition("e")

@@ -42,7 +42,7 @@ EPOCH_SECONDS = 1e6
 """A first time stamp above this (s) is a logger's epoch time: time then counts from the
 first sample (float64 keeps about 0.2 us of a 1.7e9 s stamp)."""
 
-def _resample(grid: np.ndarray, t: np.ndarray, values):
+def resample_to(grid: np.ndarray, t: np.ndarray, values):
     """`values` at `t` linearly interpolated to `grid`; anything that is not an array of
     t's shape is passed on for `Record` to report."""
     try:
@@ -77,7 +77,7 @@ def jittered_clock(time: np.ndarray, dev: float) -> bool:
     return bool(np.max(off) <= JITTER_STAMP)
 
 
-def _jitter_grid(time: np.ndarray) -> tuple[np.ndarray, str] | None:
+def jitter_grid(time: np.ndarray) -> tuple[np.ndarray, str] | None:
     """The uniform grid and note for a jittered clock (`jittered_clock`), or None."""
     dev, _, dt = time_step_deviation(time)
     return _uniform_grid(time, dev, dt) if jittered_clock(time, dev) else None

@@ -12,7 +12,7 @@ from ..units import UnitError, factor
 from .drive import format_drive_program
 from .errors import RecordError
 from .grammar import FORMAT_VERSION
-from .quantities import _channel_factor, _encode, _fmt, _internal_channel_unit, channel_dimension
+from .quantities import channel_dimension, channel_factor, encode, fmt, internal_channel_unit
 from .record import Record
 
 
@@ -36,11 +36,11 @@ def format_record(
     except UnitError as exc:
         raise RecordError(f"write_record: {exc}") from None
     if channel_units is None:
-        ch_units = {n: _internal_channel_unit(u) for n, u in record.channel_units.items()}
+        ch_units = {n: internal_channel_unit(u) for n, u in record.channel_units.items()}
     elif channel_units == "original":
         ch_units = dict(record.channel_units)
     else:
-        ch_units = {n: _internal_channel_unit(u) for n, u in record.channel_units.items()}
+        ch_units = {n: internal_channel_unit(u) for n, u in record.channel_units.items()}
         for n, u in dict(channel_units).items():
             if n not in ch_units:
                 raise RecordError(f"write_record: no channel {n!r}")
@@ -51,10 +51,10 @@ def format_record(
                 )
             ch_units[n] = u
     out = [f"# stickslip-record: {FORMAT_VERSION}"]
-    out.append(f"# stiffness: {_fmt(record.stiffness)} kgf/mm")
-    out.append(f"# slider_weight: {_fmt(record.weight)} kgf")
+    out.append(f"# stiffness: {fmt(record.stiffness)} kgf/mm")
+    out.append(f"# slider_weight: {fmt(record.weight)} kgf")
     if record.drive_speed is not None:
-        out.append(f"# drive_speed: {_fmt(record.drive_speed)} mm/s")
+        out.append(f"# drive_speed: {fmt(record.drive_speed)} mm/s")
     if record.drive_program is not None:
         out.append(f"# drive_program: {format_drive_program(record.drive_program)}")
     for key in ("lubricant", "surface", "note"):
@@ -66,21 +66,21 @@ def format_record(
     for key, value in record.extra_header.items():
         out.append(f"# {key}: {value}")
     names = ["time"]
-    cols = [_encode(record.time, f_time)]
+    cols = [encode(record.time, f_time)]
     heads = [f"time [{time_unit}]"]
     if f_force is None:
-        cols.append(_encode(record.deflection, f_defl))
+        cols.append(encode(record.deflection, f_defl))
         heads.append(f"deflection [{deflection_unit}]")
     else:
         cols.append(record.force / f_force)
         heads.append(f"force [{force_unit}]")
     names.append("x")
     if record.drive is not None:
-        cols.append(_encode(record.drive, f_drive))
+        cols.append(encode(record.drive, f_drive))
         heads.append(f"drive [{drive_unit}]")
     for n, values in record.channels.items():
         u = ch_units[n]
-        cols.append(_encode(values, _channel_factor(u)))
+        cols.append(encode(values, channel_factor(u)))
         heads.append(f"{n} [{u}]")
     out.append(",".join(heads))
     table = np.column_stack(cols)
