@@ -83,7 +83,7 @@ class AbstractFrictionParams(eqx.Module):
     - `MODEL`: the law's name in reports and JSON ("empirical", "microsqueeze");
     - `NAMES`: the natural parameters in reporting order (`values()` order);
     - `UNITS`: {name: unit} in the internal units (dimensionless shown as -);
-    - `LEAVES`: {name: the field that stores it} (what `free_spec` fixes);
+    - `LEAVES`: {name: the field that stores it} (what `Hold.named` selects);
     - `SHAPE_NAMES`: the parameters of the rise of mu_0 with stick time (eq (1) or its
       microsqueeze counterpart): undetermined when every record has one drive speed;
     - `PRIOR_BOUNDS`: {name: (low, high)}, the support of the log-uniform MCMC prior;
