@@ -151,7 +151,7 @@ def check_member(name: str, value, kind: type) -> None:
     """TypeError naming the argument `name` unless `value` is a member of the mode `kind`
     (a user's string becomes one at the edge, `kind.parse`)."""
     if not isinstance(value, kind):
-        raise TypeError(f"{name}: a {kind.__name__} member, got {value!r} (a string "
+        raise TypeError(f"{name}: a member of {kind.__name__}, got {value!r} (a string "
                         f"becomes one with {kind.__name__}.parse)")
 
 
