@@ -14,7 +14,7 @@ numbers and the same document: read and screen the campaign
 (`campaign.load_campaign`; `campaign.screen_records` for `Record` objects), fit
 (`fit.fit_features`, or `microsqueeze_fit.fit_microsqueeze` for the microsqueeze law),
 the Laplace intervals (`uncertainty.laplace`) and the report
-(`commands.fit.build_report`). The options are the command's: `model`, `objective`,
+(`fit_report.build_report`). The options are the command's: `model`, `objective`,
 `fix`, `loss`, `gauge_offset`, `slip_time`, `strict`, `eta`, `surface`, each given as the
 object it names (`Objective.TRACE`, `{"n": 1.0}`, `Huber(2.0)`, `EmpiricalFriction`) or
 as the command line's string for it.
@@ -182,7 +182,7 @@ class CampaignFit:
                           not_used=not_used)
 
     def __str__(self) -> str:
-        from .commands.fit import format_table
+        from .fit_report import format_table
 
         return "\n".join([format_table(self.report)] + [f"note: {n}" for n in self.notes])
 
@@ -233,7 +233,7 @@ def fit(
     not converge gives a RuntimeWarning (`CampaignFit.converged` is then False).
     """
     from .campaign import load_campaign
-    from .commands.fit import build_report
+    from .fit_report import build_report
     from .uncertainty import laplace
 
     objective = Objective.parse(objective)

@@ -75,7 +75,8 @@ def _join(args) -> None:
 def _fit_one(args):
     """fit_one(spec) of `stickslip_fitting.batch.fit_batch`: `stickslip fit`'s path."""
     from ..uncertainty import laplace
-    from .fit import build_report, fit_from_args
+    from ..fit_report import build_report
+    from .fit import fit_from_args
 
     def fit_one(spec) -> dict:
         one = argparse.Namespace(**{**vars(args), "records": [spec]})

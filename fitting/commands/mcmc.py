@@ -83,7 +83,7 @@ def thinned_draws(samples, max_draws: int):
 def _fixed_misfit(fit, free) -> list[str]:
     """`stickslip fit`'s warning when fixed values leave the records far from the model
     (median record chi2/n above `FIXED_MISFIT`): the posterior around them means little."""
-    from .fit import fixed_misfit_warning
+    from ..fit_report import fixed_misfit_warning
 
     return fixed_misfit_warning([f"{n}={v:g}" for n, v in fit.values.items() if n not in free],
                                 fit.record_chi2, "the posterior of the others is not meaningful")

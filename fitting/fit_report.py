@@ -1,0 +1,194 @@
+"""The report of a campaign fit: the `--json` document of `stickslip fit` (`build_report`:
+parameters with their intervals and reasons, records, residuals, adequacy, identifiability)
+and its printed table (`format_table`). Used by the command, by `stickslip_fitting.fit`
+(the Python call) and by `fit-batch`; the rows and cells come from `report`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["FIXED_MISFIT", "build_report", "fixed_misfit_warning", "format_table"]
+
+FIXED_MISFIT = 100.0
+"""With fixed values, a median record chi2/n (before any error scaling) above this means
+the fixed values do not describe the records: said in a warning."""
+
+
+def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
+    """The JSON-ready result of a fit (the `--json` contract).
+
+    `records` lists every record given, in order: the used ones with their fitted gauge
+    offset, the others with `status` and `reason` (`stickslip_fitting.campaign`);
+    `steady_records` compares records without stick-slip with the fitted boundary."""
+    from .campaign import Campaign, boundary_check, find_truth
+
+    if not isinstance(campaign, Campaign):  # a plain list of records: all used
+        from .campaign import screen_records
+
+        campaign = screen_records(list(campaign), min_records=1)
+    records = campaign.records
+    truth = find_truth(records, fit.params.friction.NAMES)
+    bounds = fit.params.friction.PRIOR_BOUNDS  # the support: a value there is "at bound"
+    params = {e.name: e.with_bounds(bounds).to_json() for e in unc.estimates(truth)}
+    from .adequacy import adequacy
+    from .combined import FeaturesObjective
+    from .fit import compiled
+    from .losses import loss_of
+    from .objectives import feature_residuals
+
+    res = compiled(feature_residuals, fit.params, fit.data, fit.slip_time)
+    level_sd = np.asarray(fit.data.trough_sd)
+    levels = FeaturesObjective(fit.data).split(res)["levels"].reshape(level_sd.shape) * level_sd
+    mask = np.asarray(fit.data.has_end | fit.data.has_next)
+    rms = float(np.sqrt(np.mean(levels[mask] ** 2))) if mask.any() else float("nan")
+    out = {
+        "model": model,
+        "parameters": params,
+        "records": _record_rows(fit, campaign),
+        "records_not_used": sum(s.status != "used" for s in campaign.screening),
+        "steady_records": boundary_check(fit.params.friction.friction(), campaign),
+        "residual_rms_mm": rms,
+        "chi2": fit.chi2,
+        "dof": fit.dof,
+        "reduced_chi2": fit.reduced_chi2,
+        "converged": fit.converged,
+        "objective": fit.objective.describe(),
+        "loss": loss_of(fit.objective).spec(),
+        "slip_time": str(fit.slip_time),
+        "covariance": unc.covariance,
+        "covariance_scale": unc.scale,
+        "identifiability": {
+            "not_identifiable": [n for n, ok in unc.identifiable.items() if not ok],
+            "fisher_eigenvalues_log": [float(x) for x in unc.fisher_eigenvalues],
+            "weakest_direction": unc.weakest_direction,
+            "correlation": [[None if not np.isfinite(x) else float(x) for x in row]
+                            for row in unc.corr],
+            "warnings": list(unc.warnings) + _fixed_misfit(fit, unc),
+        },
+        "truth_available": truth is not None,
+        "adequacy": adequacy(fit).to_json(),
+    }
+    td = fit.objective.trace_data()
+    if td is not None:
+        from .trace_objective import reslip_windows, trace_residuals
+
+        rt = np.asarray(compiled(trace_residuals, fit.params, td, fit.slip_time))
+        rt = rt.reshape(td.mask.shape)
+        rt = rt * np.asarray(td.sigma)[:, None]
+        out["trace_residual_rms_mm"] = float(np.sqrt(np.mean(rt[np.asarray(td.mask)] ** 2)))
+        out["trace_samples"] = td.n_residuals()
+        out["trace_window_failures"] = fit.trace_failures
+        out["trace_windows_after_reslip"] = reslip_windows(fit.features)
+    if extra:
+        out.update(extra)
+    return out
+
+
+def fixed_misfit_warning(fixed: list[str], record_chi2, consequence: str) -> list[str]:
+    """A warning when the fixed values (`fixed`: "name=value" strings) leave the records
+    far from the model (median record chi2/n above `FIXED_MISFIT`); `consequence` says
+    what is then not meaningful (shared by `fit` and `mcmc`)."""
+    if not fixed or record_chi2 is None:
+        return []
+    med = float(np.median(record_chi2))
+    if med <= FIXED_MISFIT:
+        return []
+    return [f"with the fixed values ({', '.join(fixed)}) the model misses the records far "
+            f"beyond their noise (median record chi2/n {med:.3g} before scaling their errors): "
+            f"the fixed values are incompatible with these records, and {consequence}."]
+
+
+def _fixed_misfit(fit, unc) -> list[str]:
+    """A warning when fixed values leave the records far from the model (`FIXED_MISFIT`)."""
+    return fixed_misfit_warning([f"{e.name}={e.value:g}" for e in unc.estimates() if e.fixed],
+                                fit.record_chi2,
+                                "the other estimates and their intervals are not meaningful")
+
+
+def _record_rows(fit, campaign) -> list[dict]:
+    offsets = np.asarray(fit.params.offset)
+    used = {f.name: i for i, f in enumerate(fit.features)}
+    rows = []
+    chi = fit.record_chi2
+    scale = fit.record_scale
+    for s in campaign.screening:
+        row = s.to_json()
+        if s.status == "used" and s.name in used:
+            i = used[s.name]
+            row["gauge_offset_mm"] = float(offsets[i])
+            if chi is not None:
+                row["features_chi2_per_residual"] = float(chi[i])
+                row["error_scale"] = float(scale[i]) if scale is not None else 1.0
+        rows.append(row)
+    return rows
+
+
+def format_table(report) -> str:
+    """The printed result: one row per parameter (value, unit, standard error, 95 %
+    interval; truth and error when the records carry it; a note: fixed, not identifiable
+    with the reason, at a bound), then the fit's quality, warnings and notes. A parameter
+    the records do not determine shows "-", never its placeholder value."""
+    from .report import note_text, text_table, value_text
+
+    truth = report["truth_available"]
+    header = ["parameter", "value", "unit", "std err", "95 % interval"]
+    if truth:
+        header += ["truth", "error"]
+    header.append("note")
+    rows = []
+    for name, p in report["parameters"].items():
+        shown = (p["stderr"] is not None and not p["fixed"] and p["value"] is not None
+                 and not p.get("at_bound"))
+        row = [name, value_text(p), p["unit"], f"{p['stderr']:.3g}" if shown else "-",
+               f"[{p['ci95'][0]:.5g}, {p['ci95'][1]:.5g}]" if shown and p["ci95"] else "-"]
+        if truth:
+            err = p.get("relative_error")
+            row += [f"{p['truth']:.5g}" if p.get("truth") is not None else "-",
+                    "-" if err is None else f"{100 * err:.2f}%"]
+        row.append(note_text(p))
+        rows.append(row)
+    align = "lrlrr" + ("rr" if truth else "") + "l"
+    if not any(r[-1] for r in rows):  # nothing to note: no empty column
+        header, rows, align = header[:-1], [r[:-1] for r in rows], align[:-1]
+    lines = text_table(header, rows, align).splitlines()
+    lines.append("")
+    used = [r for r in report["records"] if r.get("status", "used") == "used"]
+    lines.append(
+        f"{len(used)} records, "
+        f"{sum(r['complete_cycles'] for r in used)} complete cycles; "
+        f"residual rms {report['residual_rms_mm'] * 1e3:.3g} um; chi2/dof = "
+        f"{report['reduced_chi2']:.3g}; converged: {report['converged']}"
+    )
+    worst = max((r.get("features_chi2_per_residual", 0.0) for r in used), default=0.0)
+    if any(r.get("error_scale", 1.0) > 1.0 for r in used):
+        lines[-1] += (f" (after scaling record errors to their scatter; before, chi2/n up to "
+                      f"{worst:.3g}: the model does not describe the records to their noise)")
+    if "trace_residual_rms_mm" in report:
+        lines.append(
+            f"objective: {report['objective']}; {report['trace_samples']} samples, trace "
+            f"residual rms {report['trace_residual_rms_mm'] * 1e3:.3g} um"
+            + (f"; {report['trace_window_failures']} cycle simulations failed"
+               if report["trace_window_failures"] else "")
+            + (f"; {report['trace_windows_after_reslip']} cycles after a re-slip left out"
+               " of the trace (features only)" if report["trace_windows_after_reslip"] else "")
+        )
+    if report.get("loss", "gaussian") != "gaussian":
+        lines.append(f"likelihood: {report['loss']} loss (heavy-tailed; the intervals are "
+                     f"the M-estimator's sandwich, covariance {report['covariance']})")
+    for sentence in report.get("adequacy", {}).get("sentences", []):
+        lines.append("adequacy: " + sentence)
+    for w in report["identifiability"]["warnings"]:
+        lines.append("warning: " + w)
+    for r in report["records"]:
+        if r.get("status", "used") != "used":
+            lines.append(f"warning: {r['name']}: {r['status'].replace('_', ' ')}, not fitted "
+                         f"({r['reason']})")
+    scaled = [r for r in used if r.get("error_scale", 1.0) > 1.0]
+    if scaled:
+        lines.append(
+            "warning: the model describes these records worse than their noise; their "
+            "feature errors were scaled to their scatter (chi2/n before scaling): "
+            + ", ".join(f"{r['name']} ({r['features_chi2_per_residual']:.3g})" for r in scaled))
+    for s in report.get("steady_records", []):
+        lines.append(("warning: " if s["misfit"] else "note: ") + s["message"])
+    return "\n".join(lines)
