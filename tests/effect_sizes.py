@@ -35,7 +35,7 @@ def trace_rms(records, friction: ir.Friction) -> float:
 
     from stickslip_fitting.campaign import screen_records
     from stickslip_fitting.discovery.cycle_model import CycleModel, drift_origins
-    from stickslip_fitting.discovery.cycle_workflow import _Sub
+    from stickslip_fitting.discovery.subproblems import SubProblem
     from stickslip_fitting.params import EmpiricalFriction
     from stickslip_fitting.trace_objective import trace_data
     from stickslip_jax.lsq import solve_host
@@ -55,7 +55,7 @@ def trace_rms(records, friction: ir.Friction) -> float:
     data = eqx.tree_at(lambda d: d.mask, data, jax.device_put(mask))
     model = CycleModel(data, model.tref, np.ones(mask.shape), G)
     cols = np.arange(6, model.n_base)  # the offsets only
-    sub = _Sub(model, z, cols)
+    sub = SubProblem(model, z, cols)
     fit = solve_host(sub.evaluate, z[cols], max_evals=10)
     r, _, ok = model.residuals(sub.full(fit.z))
     mask = np.asarray(data.mask)

@@ -74,6 +74,20 @@ def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):
     assert {c["name"] for c in rep["candidates"]} >= {"viscous_damping", "sensor_lowpass"}
     assert all({"chi2_drop", "unphysical", "refit_failed"} <= set(c) for c in rep["candidates"])
     assert "base_fit:" in captured.err and "ranking:" in captured.err  # progress lines
+    # the ranking's count of significant families is the candidates marked significant,
+    # each with the test that made it so, and the table's count says the same
+    said = int(re.search(r"ranking: (\d+) of (\d+) families significant", captured.err)
+               .group(1))
+    marked = [c for c in rep["candidates"] if c["significant"]]
+    assert said == len(marked)
+    assert all(c["significant_by"] in ("family-wise", "per-sample") for c in marked)
+    assert all(c["family_wise_p_value"] < 0.01 for c in marked
+               if c["significant_by"] == "family-wise")
+    assert re.search(rf"^{said} of {len(rep['candidates'])} families significant",
+                     captured.out, re.M)
+    # every phase carries the RMS its own standard errors lead one to expect
+    for ph in rep["residuals_by_phase_before"].values():
+        assert {"rms", "samples", "expected_rms", "chi2_per_sample"} <= set(ph)
     # ... through the `stickslip` logger, with the time since the start (tests/test_logging.py)
     assert re.search(r"^stickslip discover \[\s*\d+\.\d s\] base_fit:", captured.err, re.M)
 
@@ -223,14 +237,14 @@ def test_a_non_finite_derivative_is_not_tested():
     """A family whose derivative is not finite at the base fit gets no test (p NaN,
     never significant) instead of stopping the ranking (measured: "SVD did not
     converge" from the Gauss-Newton step)."""
-    from stickslip_fitting.discovery.cycle_workflow import _hotelling
+    from stickslip_fitting.discovery.decision import hotelling
 
     rng = np.random.default_rng(0)
     J, r, starts = rng.normal(size=(40, 2)), rng.normal(size=40), np.arange(0, 40, 4)
-    F, p, dof, step, pred = _hotelling(J, r, starts)
+    F, p, dof, step, pred = hotelling(J, r, starts)
     assert np.isfinite(p) and dof == 2 and step.shape == (2,)
     J[3, 1] = np.nan
-    F, p, dof, step, pred = _hotelling(J, r, starts)
+    F, p, dof, step, pred = hotelling(J, r, starts)
     assert np.isnan(F) and np.isnan(p) and dof == 2 and pred == 0.0
     assert np.array_equal(step, np.zeros(2))
 

@@ -139,7 +139,7 @@ def sensor_campaign():
     sensor's mean delay free, from the truth."""
     from stickslip_jax.lsq import solve_host
 
-    from stickslip_fitting.discovery.cycle_workflow import _Sub
+    from stickslip_fitting.discovery.subproblems import SubProblem
 
     imp = ir.Imperfections(sensor_order=2, sensor_hz=40.0, sensor_zeta=0.7)
     model, fit, *_ = _model(8.0, seed0=10, imp=imp)
@@ -149,7 +149,7 @@ def sensor_campaign():
     z[col] = tau / 1e-3
     cols = np.concatenate([np.arange(model.n_base), col])
     shape = Shape(order=2, zeta=0.7)
-    sub = _Sub(model, z, cols, shape, True)
+    sub = SubProblem(model, z, cols, shape, True)
     res = solve_host(sub.evaluate, z[cols], max_evals=20)
     return model, sub.full(res.z), shape, tau
 
@@ -346,10 +346,10 @@ def test_damping_ratio_form_is_a_dashpot_per_record(setup):
 
 def test_shared_screw_maps_amplitude_and_phases(setup):
     """The screw refit with one amplitude per harmonic and a phase per record
-    (`cycle_workflow._SharedScrew`): its model coordinates are A cos(phi), A sin(phi) per
+    (`subproblems.SharedScrewProblem`): its model coordinates are A cos(phi), A sin(phi) per
     record, its residuals those of the per-record model at those coefficients, and its
     chain-rule Jacobian matches finite differences."""
-    from stickslip_fitting.discovery.cycle_workflow import _SharedScrew, _Sub
+    from stickslip_fitting.discovery.subproblems import SharedScrewProblem, SubProblem
 
     model, z, *_ = setup
     G = model.n_records
@@ -357,7 +357,7 @@ def test_shared_screw_maps_amplitude_and_phases(setup):
     base = np.arange(model.n_base)
     cols = np.concatenate([base, model.cols(fam)])
     shape = Shape(pitch=2.0)
-    shared = _SharedScrew(model, z.copy(), cols, shape, False, None, base.size)
+    shared = SharedScrewProblem(model, z.copy(), cols, shape, False, None, base.size)
     phases1 = np.linspace(0.3, 2.0, G)
     w = np.concatenate([z[base], [2.0, 0.5], phases1, -phases1])  # 2 um and 0.5 um
     coef = shared.full(w)[model.cols(fam)].reshape(G, 4)
@@ -365,7 +365,7 @@ def test_shared_screw_maps_amplitude_and_phases(setup):
     np.testing.assert_allclose(np.hypot(coef[:, 2], coef[:, 3]), 0.5)
     np.testing.assert_allclose(np.arctan2(coef[:, 1], coef[:, 0]), phases1)
     r, J, _ = shared.evaluate(w)
-    plain = _Sub(model, z.copy(), cols, shape)
+    plain = SubProblem(model, z.copy(), cols, shape)
     np.testing.assert_allclose(r, plain.evaluate(shared.full(w)[cols])[0])
     for j in (0, 1, base.size, base.size + 2 + G - 1):
         h = 1e-5
@@ -375,7 +375,7 @@ def test_shared_screw_maps_amplitude_and_phases(setup):
         fd = (shared.evaluate(wp)[0] - shared.evaluate(wm)[0]) / (2 * h)
         close = np.abs(J[:, j] - fd) <= 1e-4 * max(np.abs(fd).max(), 1e-9)
         assert close.mean() > 0.999, (j, close.mean())
-    start = _SharedScrew.start(coef.ravel(), G)
+    start = SharedScrewProblem.start(coef.ravel(), G)
     np.testing.assert_allclose(start[:2], [2.0, 0.5])
     np.testing.assert_allclose(start[2:2 + G], phases1)
 

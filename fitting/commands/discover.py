@@ -155,12 +155,59 @@ def json_document(result) -> dict:
 
 def _print_parameters(result) -> None:
     """The parameter table, from the result's typed rows (`stickslip_fitting.report.
-    ParameterEstimate`): each parameter before and after (effect parameters after only)."""
+    ParameterEstimate`): each parameter before and after (effect parameters after only),
+    "-" for a value the data do not determine, and a note ("at upper bound 1", "no
+    standard error: ..."); when the final fit kept every friction parameter of the base
+    fit, a line says so."""
+    print(parameter_table(result))
+
+
+def parameter_table(result) -> str:
+    """`_print_parameters`'s text."""
+    from ..report import note_text, text_table, value_text
+
     before = {e.name: e.value for e in result.estimates_before}
-    print(f"{'parameter':22s} {'before':>12s} {'after':>12s}")
+    rows = []
     for e in result.estimates():
         b = before.get(e.name)
-        print(f"{e.name:22s} {'-' if b is None else format(b, '.5g'):>12s} {e.value:12.5g}")
+        entry = e.to_json()
+        rows.append([e.name, "-" if b is None else format(b, ".5g"), value_text(entry),
+                     note_text(entry) or ""])
+    out = text_table(["parameter", "before", "after", "note"], rows, align="lrrl")
+    after = {e.name: e.value for e in result.estimates_after}
+    if (getattr(result, "effect_of", "") and before and after
+            and all(after.get(k) == v for k, v in before.items())):
+        out += ("\nfriction parameters unchanged by the refit: the final fit kept the base "
+                "fit's values")
+    return out
+
+
+def candidate_table(candidates) -> str:
+    """The cycle base's candidate table: each family's robust window test (F, its p and
+    the family-wise p over every family-shape test), which test made it significant
+    ("family-wise", "per-sample" or "no": the count of the ranking's progress line) and
+    the refit's chi-square drop; then how many are significant and what the two ways of
+    being significant mean."""
+    from ..discovery.stages.state import SIGNIFICANT_BY
+    from ..report import text_table
+
+    def p_text(p):
+        return "-" if p is None or p != p else format(p, ".2g")
+
+    rows = []
+    for c in candidates:
+        d = "-" if c["chi2_drop"] is None else f"{c['chi2_drop']:.1f}"
+        if c["unphysical"]:
+            d += " unphysical"
+        rows.append([c["name"], c["shape"] or "-", f"{c['score']:.2f}",
+                     p_text(c["score_p_value"]), p_text(c.get("family_wise_p_value")),
+                     c.get("significant_by") or "no", d])
+    n = sum(bool(c.get("significant")) for c in candidates)
+    return (text_table(["family", "shape", "F", "p", "p family-wise", "significant",
+                        "chi2 drop"], rows, align="llrrrrr")
+            + f"\n{n} of {len(candidates)} families significant (p: the robust window "
+              "test of the family; p family-wise: over every family-shape test); "
+            + "; ".join(f"{k}: {v}" for k, v in SIGNIFICANT_BY.items()))
 
 
 def _run_cycle(args, records, loss, unreadable=()) -> int:
@@ -196,13 +243,7 @@ def _run_cycle(args, records, loss, unreadable=()) -> int:
     print(result.explanation)
     print(f"gap (residual RMS): {result.gap_before * 1e3:.3f} um -> "
           f"{result.gap_after * 1e3:.3f} um; noise {result.noise * 1e3:.3f} um")
-    print(f"{'family':22s} {'shape':18s} {'F':>8s} {'p':>9s} {'chi2 drop':>10s}")
-    for c in result.candidates:
-        d = "-" if c["chi2_drop"] is None else f"{c['chi2_drop']:.1f}"
-        if c["unphysical"]:
-            d += " unphysical"
-        print(f"{c['name']:22s} {c['shape']:18s} {c['score']:8.2f} {c['score_p_value']:9.2g} "
-              f"{d:>10s}")
+    print(candidate_table(result.candidates))
     _print_parameters(result)
     if args.json:
         write_json(args.json, {**json_document(result), "loss": loss.spec()})

@@ -127,6 +127,12 @@ class Family:
             return ("zeta",), ("-",)
         return self.params, self.units
 
+    def support(self) -> tuple[tuple[float, float], ...]:
+        """Each parameter's physical range (natural units): [0, bound] where physics
+        requires >= 0 (`signs` +1), [-bound, bound] otherwise (a fit beyond it is
+        unphysical, `unphysical`)."""
+        return tuple((0.0 if sign > 0 else -b, b) for sign, b in zip(self.signs, self.bound))
+
     def n_params(self, n_records: int) -> int:
         return len(self.params) * (n_records if self.per_record else 1)
 

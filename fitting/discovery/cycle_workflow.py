@@ -40,8 +40,10 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    windows carry most of the signal).
 4. `refit`: the `top` significant families, each refitted from the score step with its
    best shape (the sensor with both kernel orders). A fit beyond a family's physical
-   bounds or signs is reported as unphysical and never named. Far from the data (base
-   chi2/n > `MISFIT`), the physical refits that explain at least `joint` of the best
+   bounds or signs, or one whose traces do not change with the family's parameters (a
+   zero Jacobian: e.g. a damping that stops every slip), is reported as unphysical and
+   never named. Far from the data (base chi2/n > `MISFIT`), the physical refits that
+   explain at least `joint` of the best
    one's drop have their continuous shape parameters refined before the choice
    (`REFINE_CONTENDERS`; the grid shapes alone let a per-record screw beat a rational
    Stribeck curve on lubricant C). When none of the `top` refits is physical, the other
@@ -64,6 +66,9 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    removed) the answer is "unexplained" with the residual pattern and a learned
    correction over the cycle phase (`cycle_learned`: where the gap lies and how much of
    it a smooth phase-locked term closes; `learned`, JSON `learned_correction`).
+   The explanation names every phase (stick, slip) left above the noise, and whether its
+   residual is within its own standard errors (a slip's timing error moves the fast
+   trace); "none" is "low" when a phase's chi2/n exceeds `PHASE_CHI2`.
 
 Gaps are residual RMS in mm; `noise` is the campaign's noise level (RMS of the records'
 robust noise estimates, `RecordFeatures.noise`).
@@ -83,21 +88,22 @@ from stickslip_jax.programs import release_programs
 
 from ..losses import AbstractLoss
 from .cycle_effects import FAMILIES, family
-from .decision import Contender, Decision, _hotelling, decide, noise_of, paired_z  # noqa: F401
+from .decision import Contender, Decision, decide, hotelling, noise_of, paired_z  # noqa: F401
 from .options import (CLEAR, COLLINEAR, DEFAULTS, DRIVE_PRIOR, EXPONENTS, JOINT, LARGE_STARTS,
-                      MISFIT, MU_D_FLOOR, MU_D_LIFT, RECORD_CHI2, REFINE_CONTENDERS,
-                      REFINE_FITS, REFINE_GAP, RELEVANT, RESLIP_SYSTEMATIC, REWEIGH_ROUNDS,
-                      REWEIGH_TOLERANCE, SCREW_AMPLITUDE_MAX, SCREW_SPREAD, SENSOR_PROBE,
-                      SENSOR_PROBES, SET_ASIDE, SET_ASIDE_CHI2, SMALL_EXCESS, DiscoveryOptions)
+                      MISFIT, MU_D_FLOOR, MU_D_LIFT, PHASE_CHI2, RECORD_CHI2,
+                      REFINE_CONTENDERS, REFINE_FITS, REFINE_GAP, RELEVANT, RESLIP_SYSTEMATIC,
+                      REWEIGH_ROUNDS, REWEIGH_TOLERANCE, SCREW_AMPLITUDE_MAX, SCREW_SPREAD,
+                      SENSOR_PROBE, SENSOR_PROBES, SET_ASIDE, SET_ASIDE_CHI2, SMALL_EXCESS,
+                      DiscoveryOptions)
 from .result import CycleDiscovery
 from .stages import (Clock, Fits, base_fit, choose, conclude, prepare, rank, refit, reweigh,
                      sharpen)
 from .stages.prepare import sd_at
 from .starts import lift_mu_d, plausible_start
-from .subproblems import _SharedScrew, _Sub  # noqa: F401 (the tests check them here)
+from .subproblems import SharedScrewProblem, SubProblem  # noqa: F401
 
 __all__ = ["CLEAR", "COLLINEAR", "DEFAULTS", "DRIVE_PRIOR", "EXPONENTS", "JOINT",
-           "LARGE_STARTS", "MISFIT", "MU_D_FLOOR", "MU_D_LIFT", "RECORD_CHI2",
+           "LARGE_STARTS", "MISFIT", "MU_D_FLOOR", "MU_D_LIFT", "PHASE_CHI2", "RECORD_CHI2",
            "REFINE_CONTENDERS", "REFINE_FITS", "REFINE_GAP", "RELEVANT", "RESLIP_SYSTEMATIC",
            "REWEIGH_ROUNDS", "REWEIGH_TOLERANCE", "SCREW_AMPLITUDE_MAX", "SCREW_SPREAD",
            "SENSOR_PROBE", "SENSOR_PROBES", "SET_ASIDE", "SET_ASIDE_CHI2", "SMALL_EXCESS",

@@ -1,5 +1,5 @@
 """Statistics and decision rules of the per-cycle discovery (`cycle_workflow`): the robust
-score test over cycle windows (`_hotelling`), the paired window test between two refits
+score test over cycle windows (`hotelling`), the paired window test between two refits
 (`paired_z`), which contenders are named with the winner (`decide`), and the gaps."""
 
 from __future__ import annotations
@@ -89,12 +89,12 @@ def decide(winner_drop: float, others, *, joint: float = JOINT, collinear: float
                     tuple(sorted(unbeaten, key=lambda c: -c.drop)))
 
 
-def _window_scores(Jp, r, starts) -> np.ndarray:
+def window_scores(Jp, r, starts) -> np.ndarray:
     """The efficient score's contribution of every cycle window (windows x columns)."""
     return np.add.reduceat(Jp * r[:, None], starts, axis=0)
 
 
-def _hotelling(Jp, r, starts, g=None):
+def hotelling(Jp, r, starts, g=None):
     """(F, p-value, dof, Gauss-Newton step, predicted chi-square drop) of the efficient
     score Jp^T r with window-level contributions (module doc); `starts`: index of the
     first sample of every window (samples are stored window by window)."""
@@ -103,7 +103,7 @@ def _hotelling(Jp, r, starts, g=None):
         # the family's derivative is not finite at the base (the simulator left its
         # domain for this shape): no test (p NaN, never significant), not a crash
         return float("nan"), float("nan"), p, np.zeros(p), 0.0
-    g = _window_scores(Jp, r, starts) if g is None else g  # (`g`: already summed)
+    g = window_scores(Jp, r, starts) if g is None else g  # (`g`: already summed)
     g = g[np.any(g != 0, axis=1)]
     n = g.shape[0]
     info = Jp.T @ Jp
@@ -119,24 +119,32 @@ def _hotelling(Jp, r, starts, g=None):
     return F, float(scipy.stats.f.sf(F, p, n - p)), p, step, predicted
 
 
-def _record_chi2(r, rec_of, G) -> np.ndarray:
+def chi2_by_record(r, rec_of, G) -> np.ndarray:
     """chi2/n of the whitened residuals `r` of every record (`rec_of`: record per
     residual; NaN for a record without residuals)."""
     return np.array([np.mean(r[rec_of == g] ** 2) if np.any(rec_of == g) else np.nan
                      for g in range(G)])
 
 
-def _gap(r, sd) -> float:
+def rms_gap(r, sd) -> float:
     """Residual RMS (mm) of whitened residuals `r` with standard errors `sd`."""
     return float(np.sqrt(np.mean((r * sd) ** 2)))
 
 
-def _phases(r_mm, slipping):
-    """Residual RMS (mm) and count by phase."""
+def rms_by_phase(r_mm, slipping, sd=None):
+    """Residual RMS (mm) and count by phase; with the residuals' standard errors `sd` (mm)
+    also the RMS they lead one to expect ("expected_rms", mm) and the whitened residuals'
+    chi2/n ("chi2_per_sample"): a slip's timing error moves the fast trace, so a slip
+    phase's residual is larger than the gauge noise and still at its own noise."""
     out = {}
     for name, sel in (("stick", ~slipping), ("slip", slipping)):
         out[name] = {"rms": float(np.sqrt(np.mean(r_mm[sel] ** 2))) if sel.any() else None,
                      "samples": int(sel.sum())}
+        if sd is not None:
+            s = np.asarray(sd)[sel]
+            out[name]["expected_rms"] = float(np.sqrt(np.mean(s ** 2))) if sel.any() else None
+            out[name]["chi2_per_sample"] = (float(np.mean((r_mm[sel] / s) ** 2))
+                                            if sel.any() else None)
     return out
 
 

@@ -82,6 +82,8 @@ class DiscoveryOptions:
     explained_share: float = 0.5
     # gap after / noise at or below which the named effect explains the gap ("high" confidence)
     explained_gap: float = 1.15
+    # a phase's chi2/n (residuals over their own standard errors) above which "none" is "low"
+    phase_chi2: float = 2.0
 
     # -- re-weighing (stage 6) --
     # continuations of the winner while the records weighed by their scatter weigh fully again
@@ -175,6 +177,9 @@ the slips (a slow gauge, damping) and every window is kept (`discover_cycles`). 
 on the independent generator: 1-32 % flagged on the rates and large-effect campaigns,
 71 % under stick-phase creep (keeping them took its base gap from 1.6 to 32x the noise),
 73 % and 100 % under 20 Hz sensors (the second was refused for want of windows)."""
+PHASE_CHI2 = DEFAULTS.phase_chi2
+"""A phase (stick, slip) whose residuals over their own standard errors have a chi2/n
+above this is not explained: "none" is then given with "low" confidence."""
 LARGE_STARTS = DEFAULTS.large_starts
 """Far from the data (a misfit base), the refit of a family whose first parameter is
 one-sided (damping c, Stribeck b, rate-and-state a) also starts with that parameter at

@@ -159,6 +159,11 @@ def plot_cycle_discovery(result, *, records: int = 4):
     ax.bar(pos + 0.2, [1e3 * (result.phases_after[n]["rms"] or 0) for n in names], 0.4,
            label=f"with {after}")
     ax.axhline(result.noise * 1e3, color="k", lw=0.8, ls="--", label="noise")
+    expected = [result.phases_after[n].get("expected_rms") for n in names]
+    if all(e is not None for e in expected):
+        # a slip's timing error moves the fast trace: the slip phase's own scatter
+        ax.hlines([1e3 * e for e in expected], pos - 0.45, pos + 0.45, colors="tab:red",
+                  lw=1.5, ls=":", label="expected from their standard errors")
     ax.set_xticks(pos, names)
     ax.set_xlabel("phase of the cycle")
     ax.set_ylabel("residual RMS (um)")

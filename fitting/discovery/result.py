@@ -16,7 +16,8 @@ from .cycle_learned import CycleLearned
 from .cycle_model import CycleModel
 from .options import DEFAULTS
 
-__all__ = ["CycleDiscovery"]
+__all__ = ["NO_STDERR", "CycleDiscovery", "effect_estimate", "estimate_text", "phase_misfit",
+           "phase_text"]
 
 
 @dataclasses.dataclass
@@ -61,6 +62,14 @@ class CycleDiscovery(DiscoveryEstimates):
     (`records_scaled`) included; `gap_before` and `gap_after` are over the records the
     paper's model describes (the ones the decision uses)."""
 
+    @property
+    def effect_size(self) -> dict[str, dict]:
+        """The named effect's parameters: value, stderr, unit (`EFFECT_KEYS`), and
+        "at_bound" (on an end of its physical range, `Family.support`) with the "reason"
+        (null when neither at a bound nor undetermined; value null when undetermined)."""
+        return {e.name: e.to_json(self.EFFECT_KEYS + ("at_bound", "reason"))
+                for e in self.effect_estimates}
+
     def to_json(self) -> dict:
         return {
             "effect": self.effect, "explanation": self.explanation,
@@ -93,7 +102,74 @@ class CycleDiscovery(DiscoveryEstimates):
         }
 
 
-def _explain(effect, chosen, decision, gap_before, gap_after, noise, pattern, phases,
+NO_STDERR = ("no standard error: the refit's derivatives do not determine it (the "
+             "Gauss-Newton covariance gives it no variance)")
+
+
+def effect_estimate(name: str, unit: str, value: float, stderr: float,
+                    bounds: tuple[float, float]) -> ParameterEstimate:
+    """A named effect's parameter: its value, standard error and physical range
+    (`Family.support`: "at_bound" in the JSON when it sits on an end); a standard error
+    of zero or none (a direction the Jacobian does not see) is no standard error, and the
+    value is then not determined (`NO_STDERR`)."""
+    s = float(stderr)
+    if np.isfinite(s) and s > 0:
+        return ParameterEstimate.from_normal(name, unit, value, s, bounds=bounds)
+    at = ParameterEstimate.from_normal(name, unit, value, None, bounds=bounds)
+    if at.at_bound is not None:  # the value the range stopped at: said as such
+        return at
+    return dataclasses.replace(at, identifiable=False, reason=NO_STDERR)
+
+
+def estimate_text(e: ParameterEstimate) -> str:
+    """"name = value +- stderr unit", or "name = value unit (at bound)" for a value on
+    an end of its range, or "(no standard error)": never "+- 0"."""
+    unit = f" {e.unit}" if e.unit and e.unit != "-" else ""
+    if e.at_bound is not None:
+        return f"{e.name} = {e.value:.3g}{unit} (at bound)"
+    if e.stderr is None or not e.stderr > 0:
+        return f"{e.name} = {e.value:.3g}{unit} (no standard error)"
+    return f"{e.name} = {e.value:.3g} +- {e.stderr:.2g}{unit}"
+
+
+def phase_text(phases: dict, noise: float, explained_gap: float = DEFAULTS.explained_gap,
+               phase_chi2: float = DEFAULTS.phase_chi2, by: str = "any family") -> str:
+    """The residual of every phase (stick, slip) larger than `explained_gap` x the noise,
+    in words: within its own standard errors (a slip's timing error moves the fast trace,
+    so a slip phase's scatter is larger than the gauge noise) when its chi2/n is at most
+    `phase_chi2`, else not explained (`by`: "any family", or the effect named); "" when
+    every phase is at the noise."""
+    um, said = 1e3, []
+    for name, ph in phases.items():
+        rms = ph.get("rms")
+        if rms is None or not rms > explained_gap * noise:
+            continue
+        chi2 = ph.get("chi2_per_sample")
+        head = (f"{name} phases {rms * um:.3g} um, {rms / noise:.2g} x the noise "
+                f"({ph.get('samples', 0)} samples)")
+        if chi2 is None:
+            said.append(head)
+        elif chi2 <= phase_chi2:
+            said.append(f"{head}, within their own standard errors (RMS "
+                        f"{ph['expected_rms'] * um:.3g} um, chi2/n {chi2:.2g}: a slip's "
+                        "timing error moves the fast trace)")
+        else:
+            said.append(f"{head}, beyond their own standard errors (RMS "
+                        f"{ph['expected_rms'] * um:.3g} um, chi2/n {chi2:.2g}): not explained "
+                        f"by {by}")
+    if not said:
+        return ""
+    return " Residual by phase: " + "; ".join(said) + "."
+
+
+def phase_misfit(phases: dict, phase_chi2: float = DEFAULTS.phase_chi2) -> list[str]:
+    """The phases whose residuals exceed their own standard errors (chi2/n above
+    `phase_chi2`)."""
+    return [n for n, ph in phases.items()
+            if (ph.get("chi2_per_sample") or 0.0) > phase_chi2]
+
+
+def explanation_text(effect, chosen, decision, gap_before, gap_after, noise, pattern, phases,
              explained_gap: float = DEFAULTS.explained_gap) -> str:
     """The answer in words: the effect named (and its partners, `decision`), the gaps
     before and after against the noise, or the unexplained residual's phase."""
@@ -112,8 +188,8 @@ def _explain(effect, chosen, decision, gap_before, gap_after, noise, pattern, ph
                      f"{gap_after * um:.3g} um")
         return text + "."
     f = chosen.family
-    sizes = ", ".join(f"{p} = {v:.3g} +- {s:.2g} {u}" for p, u, v, s in
-                      zip(*f.named(chosen.shape), chosen.values, chosen.stderr))
+    sizes = ", ".join(estimate_text(effect_estimate(p, u, v, s, b)) for p, u, v, s, b in
+                      zip(*f.named(chosen.shape), chosen.values, chosen.stderr, f.support()))
     text = (f"{f.explanation} Adding {f.name} ({chosen.shape.label(f) or 'no shape'}"
             f"{'; ' + sizes if not f.per_record else ''}) lowers chi-square by "
             f"{chosen.drop:.0f} and the residual RMS from {gap_before * um:.3g} um to "

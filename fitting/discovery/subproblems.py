@@ -1,7 +1,7 @@
 """Sub-problems of the per-cycle model over flat coordinate vectors, for
 `stickslip_jax.lsq.solve_host` (`cycle_workflow`): some of the model's coordinates free
-(`_Sub`), and the screw error with one amplitude per harmonic and a phase per record
-(`_SharedScrew`)."""
+(`SubProblem`), and the screw error with one amplitude per harmonic and a phase per record
+(`SharedScrewProblem`)."""
 
 from __future__ import annotations
 
@@ -12,11 +12,11 @@ import numpy as np
 from .cycle_effects import Shape
 from .cycle_model import CycleModel
 
-__all__ = ["_SharedScrew", "_Sub"]
+__all__ = ["SharedScrewProblem", "SubProblem"]
 
 
 @dataclasses.dataclass
-class _Sub:
+class SubProblem:
     """The model with only `cols` of the full coordinates free (`stickslip_jax.lsq.solve_host`)."""
 
     model: CycleModel
@@ -57,7 +57,7 @@ class _Sub:
 
 
 @dataclasses.dataclass
-class _SharedScrew(_Sub):
+class SharedScrewProblem(SubProblem):
     """The screw error with one amplitude per harmonic and a phase per record (one lead
     screw, records starting at different places on it): free coordinates are the base's
     `n_base` columns, then A1, A2 (model scale units) and the G first- then G

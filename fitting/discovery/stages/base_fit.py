@@ -13,17 +13,17 @@ from ...fit import fit_features
 from ...losses import AbstractLoss
 from ...params import EmpiricalFriction
 from ..cycle_model import CycleModel
-from ..decision import _gap, _record_chi2, noise_of
+from ..decision import rms_gap, chi2_by_record, noise_of
 from ..options import DiscoveryOptions
 from ..starts import plausible_start
-from ..subproblems import _Sub
+from ..subproblems import SubProblem
 from .prepare import sd_at
 from .state import Base, Clock, Prepared
 
 __all__ = ["base_fit"]
 
 
-def _friction_values(z) -> dict:
+def friction_values(z) -> dict:
     return EmpiricalFriction(*[float(x) for x in z[:6]]).named_values()
 
 
@@ -34,13 +34,13 @@ def _solve_base(prep: Prepared, opts: DiscoveryOptions, loss: AbstractLoss | Non
     model, data, G, max_evals = prep.model, prep.data, prep.G, opts.max_evals
     base_cols = np.arange(model.n_base)
     prep.warm["evaluate", False].result()
-    sub = _Sub(model, prep.z_start, base_cols)
+    sub = SubProblem(model, prep.z_start, base_cols)
     fit0 = solve_host(sub.evaluate, prep.z_start[base_cols], max_evals=max_evals)
     z_base = sub.full(fit0.z)
     _, yd, _ = model.residuals(z_base)
     sd_base = sd_at(z_base, data, yd)
     model = CycleModel(data, model.tref, sd_base, G)
-    sub = _Sub(model, z_base, base_cols)
+    sub = SubProblem(model, z_base, base_cols)
     fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
     z_base = sub.full(fit.z)
     robust = np.ones(np.asarray(data.mask).shape)  # per sample: sd multiplier of the loss
@@ -52,7 +52,7 @@ def _solve_base(prep: Prepared, opts: DiscoveryOptions, loss: AbstractLoss | Non
         robust[np.asarray(data.mask)] = 1.0 / np.sqrt(np.maximum(w, 1e-6))
         sd_base = sd_base * robust
         model = CycleModel(data, model.tref, sd_base, G)
-        sub = _Sub(model, z_base, base_cols)
+        sub = SubProblem(model, z_base, base_cols)
         fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
         z_base = sub.full(fit.z)
         logger.debug(f"{loss.describe()}: {int(np.sum(w < 0.5))} of {w.size} samples "
@@ -75,7 +75,7 @@ def _judge_records(prep: Prepared, opts: DiscoveryOptions, model, fit, z_base, s
     data, G, feats, max_evals = prep.data, prep.G, prep.feats, opts.max_evals
     base_cols = np.arange(model.n_base)
     sd_plain = np.asarray(sd_base)
-    chi2_rec = _record_chi2(fit.r, rec_of, G)
+    chi2_rec = chi2_by_record(fit.r, rec_of, G)
     median_chi2 = float(np.nanmedian(chi2_rec))
     suspects = [g for g, c in enumerate(chi2_rec)
                 if c > max(opts.record_chi2, opts.record_chi2 * median_chi2)]
@@ -103,12 +103,12 @@ def _judge_records(prep: Prepared, opts: DiscoveryOptions, model, fit, z_base, s
         zs.append(z_clean)
     fits = []
     for z0 in zs:
-        sub = _Sub(model, z0, base_cols)
+        sub = SubProblem(model, z0, base_cols)
         fit_ = solve_host(sub.evaluate, z0[base_cols], max_evals=2 * max_evals)
         fits.append((fit_.rss, fit_, sub.full(fit_.z)))
         logger.debug(f"base fit with {len(suspects)} record(s) set aside: chi2 "
                      f"{fit_.rss:.6g}, {fit_.n_evals} evaluations, converged "
-                     f"{fit_.converged}, friction {_friction_values(sub.full(fit_.z))}")
+                     f"{fit_.converged}, friction {friction_values(sub.full(fit_.z))}")
     z_clean = min(fits, key=lambda f: f[0])[2]
     # 2. every record judged again at that base, the weights (effective variance)
     # refreshed there: a record that only a bent base misfit weighs fully again, one
@@ -117,7 +117,7 @@ def _judge_records(prep: Prepared, opts: DiscoveryOptions, model, fit, z_base, s
     _, yd, _ = model.residuals(z_clean)
     sd_clean = sd_at(z_clean, data, yd) * robust
     plain = CycleModel(data, model.tref, sd_clean, G)
-    chi2_clean = _record_chi2(plain.residuals(z_clean)[0], rec_of, G)
+    chi2_clean = chi2_by_record(plain.residuals(z_clean)[0], rec_of, G)
     median_clean = float(np.nanmedian(np.delete(chi2_clean, suspects)) if kept
                          else np.nanmedian(chi2_clean))
     if median_clean <= opts.misfit:
@@ -136,7 +136,7 @@ def _judge_records(prep: Prepared, opts: DiscoveryOptions, model, fit, z_base, s
     for g, c in scaled.items():
         factor[g] = (opts.set_aside if g in aside else 1.0) * np.sqrt(c)
     model = CycleModel(data, model.tref, sd_plain * factor[np.asarray(data.record)][:, None], G)
-    sub = _Sub(model, z_base, base_cols)
+    sub = SubProblem(model, z_base, base_cols)
     fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
     z_base = sub.full(fit.z)
     return model, fit, z_base, sd_plain, median_chi2, scaled, aside, yd
@@ -161,12 +161,12 @@ def base_fit(prep: Prepared, *, loss: AbstractLoss | None, opts: DiscoveryOption
                     for g, c in scaled.items()]
     sd_flat = np.asarray(model.sd).ravel()[model.mask]
     if (fit.rss / max(n_used, 1) > opts.misfit
-            or _gap(fit.r[described], sd_flat[described]) > opts.misfit * noise_of(data)):
+            or rms_gap(fit.r[described], sd_flat[described]) > opts.misfit * noise_of(data)):
         # far from the data, Levenberg-Marquardt's default patience stops early (the
         # refits then each gained the same chi-square, whatever their family): continue
         # the base fit as the refits would run, from a damped start with more patience
         base_cols = np.arange(model.n_base)
-        sub = _Sub(model, z_base, base_cols)
+        sub = SubProblem(model, z_base, base_cols)
         more = solve_host(sub.evaluate, z_base[base_cols], max_evals=opts.max_evals, lam0=1.0,
                           stall_evals=8)
         if more.rss < fit.rss:
@@ -176,8 +176,8 @@ def base_fit(prep: Prepared, *, loss: AbstractLoss | None, opts: DiscoveryOption
     noise = noise_of(data)
     # the gap, the misfit test and the score tests are over the records the paper's
     # model describes (`described`)
-    gap_before = _gap(r0[described], sd[described])
-    gap_all_before = _gap(r0, sd)
+    gap_before = rms_gap(r0[described], sd[described])
+    gap_all_before = rms_gap(r0, sd)
     slipping = np.asarray(yd).ravel()[model.mask] > 0
     clock("base_fit", f"gap {gap_before * 1e3:.3g} um, noise {noise * 1e3:.3g} um, "
                       f"chi2/n {fit.rss / n_used:.3f}, {fit.n_evals} evaluations"

@@ -5,9 +5,9 @@ the winner's fit continued and its shape refined (`cycle_workflow`, module doc).
 from __future__ import annotations
 
 from ..cycle_effects import neighbour_shapes
-from ..decision import Contender, _gap, decide, paired_z
+from ..decision import Contender, rms_gap, decide, paired_z
 from ..scores import principal_cosine
-from .refit import _ranked, continued, refine_shape
+from .refit import ranked_refits, continued, refine_shape
 from .state import Choice, Clock, Fits, Refitted
 
 __all__ = ["choose"]
@@ -17,7 +17,7 @@ def choose(fx: Fits, refitted: Refitted, *, clock: Clock) -> Choice:
     """The winner and the decision (module doc of `cycle_workflow`, stage 5)."""
     opts, n, misfit = fx.opts, fx.base.n, fx.base.misfit
     refits = refitted.refits
-    physical = [rf for rf in _ranked(refits) if rf.family.name in refitted.eligible]
+    physical = [rf for rf in ranked_refits(refits) if rf.family.name in refitted.eligible]
     chosen = physical[0] if physical else None
     rivals, decision, compared = [], None, {}
     if chosen is not None:
@@ -46,7 +46,7 @@ def choose(fx: Fits, refitted: Refitted, *, clock: Clock) -> Choice:
     described = fx.base.described
     if (chosen is not None and misfit and chosen.family.name not in refitted.shaped
             and neighbour_shapes(chosen.family, chosen.shape)
-            and _gap(chosen.fit.r[:n][described], fx.base.sd[described])
+            and rms_gap(chosen.fit.r[:n][described], fx.base.sd[described])
             > opts.refine_gap * fx.base.noise):
         # far from the data the named family's grid shape may not be the records' own
         # (a real Stribeck curve is not one of ours): a local search over its continuous

@@ -8,10 +8,10 @@ from ...params import EmpiricalFriction
 from ...report import DiscoveryEstimates, ParameterEstimate
 from ..cycle_effects import Shape
 from ..cycle_learned import fit_cycle_correction
-from ..decision import _gap, _phases
+from ..decision import rms_by_phase, rms_gap
 from ..flips import FLIPS
-from ..result import CycleDiscovery, _explain
-from .base_fit import _friction_values
+from ..result import CycleDiscovery, effect_estimate, explanation_text, phase_misfit, phase_text
+from .base_fit import friction_values
 from .state import Choice, Clock, Fits, Refitted, Reweighed
 
 __all__ = ["conclude"]
@@ -45,9 +45,11 @@ def _effect_rows(chosen, G) -> list[ParameterEstimate]:
     params, f_units = f.named(chosen.shape)
     names = ([f"{p}[{i}]" for i in range(G) for p in params] if f.per_record
              else list(params))
-    units = [u for _ in range(G if f.per_record else 1) for u in f_units]
-    return [ParameterEstimate.from_normal(nm, u, v, s)
-            for nm, v, s, u in zip(names, chosen.values, chosen.stderr, units)]
+    reps = G if f.per_record else 1
+    units = [u for _ in range(reps) for u in f_units]
+    support = [b for _ in range(reps) for b in f.support()]
+    return [effect_estimate(nm, u, v, s, b)
+            for nm, v, s, u, b in zip(names, chosen.values, chosen.stderr, units, support)]
 
 
 def _notes(fx: Fits, chosen, reweighed, gap_all_after) -> str:
@@ -86,7 +88,9 @@ def _candidates(scores, refits, compared) -> list[dict]:
             # the refit's shape where it was refitted (refined or chosen among the grid's)
             "name": sc.family.name, "shape": (rf or sc).shape.label(sc.family),
             "score": sc.statistic, "score_p_value": sc.p_value,
-            "family_wise_p_value": sc.p_family, "dof": sc.dof,
+            "family_wise_p_value": sc.p_family, "per_sample_p_value": sc.p_sample,
+            "significant": sc.significant_by is not None,
+            "significant_by": sc.significant_by, "dof": sc.dof,
             "chi2_drop_predicted": sc.chi2_predicted,
             "delta_criterion": (-rf.drop if rf else None),
             "chi2_drop": (rf.drop if rf else None),
@@ -116,14 +120,21 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
     # named effect describes weighs fully again in the fit, `reweigh`, and counts in
     # `gap_all_after`; counted here it made the gap "grow": a Stribeck drop of 0.16 on C,
     # 0.604 -> 1.08 um, while the records of the gap before went to the noise)
-    gap_after = _gap(r1[described], sd_after[described])
-    gap_all_after = _gap(r1, sd_after)
+    gap_after = rms_gap(r1[described], sd_after[described])
+    gap_all_after = rms_gap(r1, sd_after)
     effect, confidence = _verdict(fx, choice, chosen, gap_after)
-    phases_before = _phases(r0 * sd, base.slipping)
-    phases_after = _phases(r1 * sd_after, base.slipping)
+    phases_before = rms_by_phase(r0 * sd, base.slipping, sd)
+    phases_after = rms_by_phase(r1 * sd_after, base.slipping, sd_after)
     pattern = max(phases_before, key=lambda k: phases_before[k]["rms"] or 0.0)
-    explanation = _explain(effect, chosen, choice.decision, gap_before, gap_after, noise,
+    explanation = explanation_text(effect, chosen, choice.decision, gap_before, gap_after, noise,
                            pattern, phases_before, opts.explained_gap)
+    if effect != "unexplained":
+        # a phase the answer leaves above the noise, said (and "none" is then not certain
+        # where that phase exceeds its own standard errors)
+        explanation += phase_text(phases_after, noise, opts.explained_gap, opts.phase_chi2,
+                                  "any family" if effect == "none" else effect)
+        if effect == "none" and phase_misfit(phases_after, opts.phase_chi2):
+            confidence = "low"
     learned = None
     if learn or effect == "unexplained":
         learned = fit_cycle_correction(prep.data, r0, base.fit.J[:n], sd, noise, described)
@@ -136,7 +147,7 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
                          f"({100 * learned.closes:.0f} % of the excess)")
     explanation += _notes(fx, chosen, after.reweighed, gap_all_after)
     cand_json = _candidates(fx.ranking.scores, refitted.refits, choice.compared)
-    rows_before, rows_after = (DiscoveryEstimates.value_rows(_friction_values(z),
+    rows_before, rows_after = (DiscoveryEstimates.value_rows(friction_values(z),
                                                              EmpiricalFriction.UNITS)
                                for z in (base.z, z_after))
     clock("decision", f"{effect} ({confidence}); gap {gap_before * 1e3:.3g} -> "
@@ -148,7 +159,11 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
         criterion=(f"robust score test (Hotelling T^2 over {prep.starts.size} cycle windows), "
                    f"significant at family-wise p < {opts.alpha:g} (the smallest p-value of "
                    f"{fx.ranking.n_tests} family-shape tests under {FLIPS} sign flips of the "
-                   "windows); delta_criterion = -(chi-square drop of the refit)"),
+                   "windows), or by a predicted chi-square drop of at least "
+                   f"{opts.relevant:g} of the samples whose per-sample score test has p < "
+                   f"{fx.ranking.level:.2g} (alpha / number of "
+                   "tests; `significant_by` of each candidate); delta_criterion = "
+                   "-(chi-square drop of the refit)"),
         candidates=cand_json, estimates_before=rows_before, estimates_after=rows_after,
         effect_estimates=_effect_rows(chosen, prep.G),
         effect_of=chosen.family.name if chosen is not None else "",

@@ -10,13 +10,13 @@ import scipy.stats
 from stickslip_jax.logs import logger
 
 from ..cycle_effects import Shape
-from ..decision import _hotelling, _window_scores
+from ..decision import hotelling, window_scores
 from ..flips import family_wise_p
 from ..options import DiscoveryOptions
 from ..scores import base_basis, project_out
-from .state import Base, Clock, Prepared, Ranking, _Score
+from .state import Base, Clock, FamilyScore, Prepared, Ranking
 
-__all__ = ["rank"]
+__all__ = ["rank", "significance_line"]
 
 
 def score_cols(model, f, G) -> np.ndarray:
@@ -61,14 +61,14 @@ def _sensor_secant(model, base: Base, cols, shape, opts, efficient, r_rank, star
         rp = model.residuals(zp, shape, sensor=True)[0]
         if best_probe is None or np.sum(rp ** 2) < best_probe[0]:
             best_probe = (float(np.sum(rp ** 2)), probe, rp, len(window_g))
-        window_g.append(_window_scores(efficient(((rp - base.r) / probe)[:, None]), r_rank,
+        window_g.append(window_scores(efficient(((rp - base.r) / probe)[:, None]), r_rank,
                                        starts))
     _, probe, rp, test = best_probe
     return ((rp - base.r) / probe)[:, None], probe, test
 
 
 def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, window_g,
-                   sensor_probe) -> list[_Score]:
+                   sensor_probe) -> list[FamilyScore]:
     """Every shape's score test of family `f` (appending its window contributions to
     `window_g`, the sensor's probes to `sensor_probe`)."""
     cols = score_cols(model, f, G)
@@ -89,11 +89,22 @@ def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, 
                            "fit is not finite; not tested")
         elif f.name != "sensor_lowpass":
             test = len(window_g)
-            window_g.append(_window_scores(Jp, r_rank, starts))
-        F, p, dof, step, pred = _hotelling(
+            window_g.append(window_scores(Jp, r_rank, starts))
+        F, p, dof, step, pred = hotelling(
             Jp, r_rank, starts, window_g[test] if finite and test >= 0 else None)
-        out.append(_Score(f, shape, F, p, dof, step, Jp, pred, test=test if finite else -1))
+        out.append(FamilyScore(f, shape, F, p, dof, step, Jp, pred, test=test if finite else -1))
     return out
+
+
+def significance_line(significant, n_families: int, alpha: float, level: float,
+                      n_tests: int) -> str:
+    """How many families are significant, and by which test (the count of the candidate
+    table's "significant" column)."""
+    wise = sum(s.significant_by == "family-wise" for s in significant)
+    sample = len(significant) - wise
+    return (f"{len(significant)} of {n_families} families significant: {wise} by the "
+            f"robust window test (family-wise p < {alpha:g} over {n_tests} tests), "
+            f"{sample} by a relevant predicted drop with per-sample p < {level:.2g}")
 
 
 def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clock) -> Ranking:
@@ -107,8 +118,8 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
     level = alpha / n_tests
     prep.warm["residuals", True].result()
     plain_J = _plain_jacobians(model, base.z, fams, G)
-    scores: list[_Score] = []
-    shape_scores: dict[str, list[_Score]] = {}
+    scores: list[FamilyScore] = []
+    shape_scores: dict[str, list[FamilyScore]] = {}
     sensor_probe: dict[Shape, float] = {}
     window_g: list[np.ndarray] = []  # every test's window contributions (`flips`)
 
@@ -140,13 +151,15 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
     # test loses power where a few windows (slow records, whose breakaway timing is most
     # sensitive) carry most of the signal
     s2 = float(np.mean(r_rank[described] ** 2)) if described.any() else base.fit.rss / base.n
-    significant = [s for s in scores
-                   if s.p_family < alpha
-                   or (s.chi2_predicted >= opts.relevant * n_used
-                       and scipy.stats.chi2.sf(s.chi2_predicted / s2, s.dof) < level)]
-    clock("ranking", f"{len(significant)} of {len(fams)} families significant "
-                     f"(family-wise p < {alpha:g} over {len(window_g)} tests); best "
-                     f"{scores[0].family.name} p = {scores[0].p_value:.2g} "
-                     f"(family-wise {scores[0].p_family:.2g})")
+    for sc in scores:
+        sc.p_sample = float(scipy.stats.chi2.sf(sc.chi2_predicted / s2, sc.dof))
+        if sc.p_family < alpha:
+            sc.significant_by = "family-wise"
+        elif sc.chi2_predicted >= opts.relevant * n_used and sc.p_sample < level:
+            sc.significant_by = "per-sample"
+    significant = [s for s in scores if s.significant_by is not None]
+    clock("ranking", significance_line(significant, len(fams), alpha, level, len(window_g))
+          + f"; best {scores[0].family.name} p = {scores[0].p_value:.2g} "
+            f"(family-wise {scores[0].p_family:.2g})")
     return Ranking(scores=scores, shape_scores=shape_scores, sensor_probe=sensor_probe,
-                   significant=significant, n_tests=len(window_g))
+                   significant=significant, n_tests=len(window_g), level=level)

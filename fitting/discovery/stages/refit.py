@@ -15,11 +15,11 @@ from stickslip_jax.lsq import gauss_newton_covariance, solve_host
 
 from ..cycle_effects import DRIVE_ERROR_MAX, drive_error_range, neighbour_shapes
 from ..options import DEFAULTS, DiscoveryOptions
-from ..subproblems import _SharedScrew, _Sub
-from .base_fit import _friction_values
-from .state import Clock, Fits, Refitted, _Refit, _Score
+from ..subproblems import SharedScrewProblem, SubProblem
+from .base_fit import friction_values
+from .state import Clock, FamilyRefit, FamilyScore, Fits, Refitted
 
-__all__ = ["continued", "judge", "refine_shape", "refit"]
+__all__ = ["continued", "dead", "judge", "refine_shape", "refit"]
 
 
 def _one_screw(coef, recs, pitch, spans, opts: DiscoveryOptions = DEFAULTS) -> str | None:
@@ -55,19 +55,29 @@ def _one_screw(coef, recs, pitch, spans, opts: DiscoveryOptions = DEFAULTS) -> s
             "one amplitude")
 
 
-def _said(rf: _Refit) -> str:
+def _said(rf: FamilyRefit) -> str:
     """A refit in a progress line: its chi-square drop and why it is not a result."""
     why = " (refit failed)" if rf.failed else " (unphysical)" if rf.unphysical else ""
     return f"{rf.family.name} chi2 {-rf.drop:+.0f}{why}"
 
 
-def _ranked(refits) -> list[_Refit]:
+def ranked_refits(refits) -> list[FamilyRefit]:
     """The physical refits that lower chi-square, the largest drop first."""
     return sorted([rf for rf in refits if not rf.unphysical and rf.drop > 0],
                   key=lambda rf: -rf.drop)
 
 
-def judge(fx: Fits, f, shape, fit, sensor, sub: _Sub) -> _Refit:
+def dead(J_family) -> bool:
+    """The family's columns of a refit's Jacobian (data rows) are all zero: the traces do
+    not change with its parameters there (measured on the real campaign: a dashpot of
+    0.05 kgf s/mm and more stops every slip of the windows, so chi-square is flat in every
+    coordinate and the solver stops at its start), and the refit does not determine the
+    effect's size."""
+    J_family = np.asarray(J_family)
+    return J_family.size > 0 and not np.any(J_family != 0)
+
+
+def judge(fx: Fits, f, shape, fit, sensor, sub: SubProblem) -> FamilyRefit:
     """The refit `fit` of family `f` as a result: its chi-square drop against the base,
     the family's values and standard errors, and why it is unphysical (None: physical)."""
     model, G, recs = fx.base.model, fx.prep.G, fx.prep.recs
@@ -90,16 +100,20 @@ def judge(fx: Fits, f, shape, fit, sensor, sub: _Sub) -> _Refit:
                    f"{DRIVE_ERROR_MAX * 1e3:g} um (a broken drive, not an effect)")
         else:
             bad = _one_screw(vals.reshape(G, -1), recs, shape.pitch, spans, fx.opts)
-    return _Refit(f, shape, fit, fx.base.fit.rss - fit.rss, vals, se, bad, sensor, sub)
+    if bad is None and dead(fit.J[:fx.base.n, model.n_base:]):
+        bad = (f"the traces do not change with {', '.join(f.params)} at the refit (zero "
+               "derivative: the effect's size there stops every slip of the windows, or "
+               "leaves the model's reach), so the refit does not determine its size")
+    return FamilyRefit(f, shape, fit, fx.base.fit.rss - fit.rss, vals, se, bad, sensor, sub)
 
 
-def _better(one: _Refit, best: _Refit | None) -> bool:
+def _better(one: FamilyRefit, best: FamilyRefit | None) -> bool:
     """A physical fit beats an unphysical one, then the lower chi-square wins."""
     return best is None or ((one.unphysical is not None, one.fit.rss)
                             < (best.unphysical is not None, best.fit.rss))
 
 
-def _options(fx: Fits, sc: _Score):
+def _options(fx: Fits, sc: FamilyScore):
     """The (shape score, sensor) pairs a family is refitted with, and the starts of its
     first coordinate (None: from the score step or the base)."""
     f, misfit = sc.family, fx.base.misfit
@@ -121,9 +135,9 @@ def _options(fx: Fits, sc: _Score):
     return options, starts
 
 
-def _shared_screw(fx: Fits, f, cols, tried, best) -> _Refit:
+def _shared_screw(fx: Fits, f, cols, tried, best) -> FamilyRefit:
     """Far from the data (a large screw error bends the base): each shape again with one
-    amplitude per harmonic and a phase per record (`_SharedScrew`), from the per-record
+    amplitude per harmonic and a phase per record (`SharedScrewProblem`), from the per-record
     fit's coefficients (records that travel a fraction of a pitch can no longer bend
     their own error). Not near the data: there the per-record form's bounds are what
     keeps noise from being named a screw (measured: with the shared form on every
@@ -131,8 +145,8 @@ def _shared_screw(fx: Fits, f, cols, tried, best) -> _Refit:
     model, z_base, G = fx.base.model, fx.base.z, fx.prep.G
     nb = model.n_base
     for one in tried:
-        shared = _SharedScrew(model, z_base.copy(), cols, one.shape, False, None, nb)
-        w0 = np.concatenate([one.fit.z[:nb], _SharedScrew.start(one.fit.z[nb:nb + 4 * G], G)])
+        shared = SharedScrewProblem(model, z_base.copy(), cols, one.shape, False, None, nb)
+        w0 = np.concatenate([one.fit.z[:nb], SharedScrewProblem.start(one.fit.z[nb:nb + 4 * G], G)])
         try:
             fit = solve_host(shared.evaluate, w0, max_evals=fx.opts.refit_evals, lam0=1e-3,
                              stall_evals=8)
@@ -145,7 +159,7 @@ def _shared_screw(fx: Fits, f, cols, tried, best) -> _Refit:
     return best
 
 
-def refit_family(fx: Fits, sc: _Score) -> _Refit:
+def refit_family(fx: Fits, sc: FamilyScore) -> FamilyRefit:
     """The family of `sc` refitted with the base: the sensor with its two kernels whose
     secants predicted the largest drops, the screw error with its three best pitches, the
     others with their best shape; a physical fit beats an unphysical one, then the lower
@@ -171,14 +185,14 @@ def refit_family(fx: Fits, sc: _Score) -> _Refit:
         if f.name == "drive_periodic_error":
             prior = np.full(cols.size, np.inf)
             prior[-model.cols(f).size:] = fx.opts.drive_prior / f.scales[0]
-        s1 = _Sub(model, z1, cols, shape, sensor, prior)
+        s1 = SubProblem(model, z1, cols, shape, sensor, prior)
         try:
             # from a bent base the Gauss-Newton step overshoots: start damped and allow
             # more rejected trials before calling it stalled
             fit = solve_host(s1.evaluate, z1[cols], max_evals=refit_evals,
                              lam0=1.0 if misfit else 1e-6, stall_evals=8 if misfit else 4)
         except ValueError:  # the score step left the simulator's domain
-            s1 = _Sub(model, z_base, cols, shape, sensor, prior)
+            s1 = SubProblem(model, z_base, cols, shape, sensor, prior)
             fit = solve_host(s1.evaluate, z_base[cols], max_evals=refit_evals)
         one = judge(fx, f, shape, fit, sensor, s1)
         tried.append(one)
@@ -193,7 +207,7 @@ def refit_family(fx: Fits, sc: _Score) -> _Refit:
         # from the base itself, the family at its no-effect value, where the solver
         # cannot end worse than the base (closer to the base wins even if unphysical:
         # above it, neither is a result)
-        s1 = _Sub(model, z_base, cols, best.shape, best.sensor, prior)
+        s1 = SubProblem(model, z_base, cols, best.shape, best.sensor, prior)
         try:
             fit = solve_host(s1.evaluate, z_base[cols], max_evals=refit_evals)
             one = judge(fx, f, best.shape, fit, best.sensor, s1)
@@ -210,7 +224,7 @@ def refit_family(fx: Fits, sc: _Score) -> _Refit:
     return best
 
 
-def refine_shape(fx: Fits, rf: _Refit) -> tuple[_Refit, int]:
+def refine_shape(fx: Fits, rf: FamilyRefit) -> tuple[FamilyRefit, int]:
     """A local search over the family's continuous shape parameters
     (`cycle_effects.neighbour_shapes`), each shape a short polish from the best fit so
     far; returns the best physical refit and the number of short refits tried."""
@@ -236,7 +250,7 @@ def refine_shape(fx: Fits, rf: _Refit) -> tuple[_Refit, int]:
     return refined, tried
 
 
-def continued(fx: Fits, rf: _Refit, w=None, evals=None, margin=0.0) -> _Refit | None:
+def continued(fx: Fits, rf: FamilyRefit, w=None, evals=None, margin=0.0) -> FamilyRefit | None:
     """`rf`'s problem solved on from its fit (or from `w`; `evals` evaluations, default
     `max_evals`): the physical result if it lowers chi-square by more than `margin`, else
     None."""
@@ -249,9 +263,9 @@ def continued(fx: Fits, rf: _Refit, w=None, evals=None, margin=0.0) -> _Refit | 
     one = judge(fx, rf.family, rf.shape, more, rf.sensor, rf.sub)
     if w is not None:
         logger.debug(f"restart {rf.family.name} from "
-                     f"{_friction_values(rf.sub.full(w))}: chi2 -{one.drop:.0f}, "
+                     f"{friction_values(rf.sub.full(w))}: chi2 -{one.drop:.0f}, "
                      f"{more.n_evals} evaluations, {one.unphysical or 'physical'}, at "
-                     f"{_friction_values(rf.sub.full(more.z))}")
+                     f"{friction_values(rf.sub.full(more.z))}")
     return one if one.unphysical is None and more.rss < rf.fit.rss - margin else None
 
 
@@ -265,7 +279,7 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
     fx.prep.warm["evaluate", True].result()
     refits = [refit_family(fx, sc) for sc in to_refit]
     clock("refit", ", ".join(_said(rf) for rf in refits) or "nothing to refit")
-    physical = _ranked(refits)
+    physical = ranked_refits(refits)
     if not physical:
         # none of the `top` refits is physical: the other significant families are
         # refitted before the gap is called unexplained (measured: a 5 um screw on C,
@@ -277,7 +291,7 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
             refits += [refit_family(fx, sc) for sc in more]
             clock("refit", "the next significant: " + ", ".join(
                 _said(rf) for rf in refits[-len(more):]))
-            physical = _ranked(refits)
+            physical = ranked_refits(refits)
     if physical:
         # contenders: every family with nominal evidence (robust p < alpha without the
         # family-wise adjustment, or significant beyond `top`) is refitted too, so that

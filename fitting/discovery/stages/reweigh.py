@@ -10,7 +10,7 @@ import numpy as np
 from stickslip_jax.lsq import solve_host
 
 from ..cycle_model import CycleModel
-from ..decision import _gap, _record_chi2
+from ..decision import rms_gap, chi2_by_record
 from .refit import judge
 from .state import Choice, Clock, Fits, Reweighed
 
@@ -46,8 +46,8 @@ def reweigh(fx: Fits, choice: Choice, *, clock: Clock) -> Reweighed:
         if one.unphysical is not None:
             break
         sd_one = np.asarray(model_after.sd).ravel()[model_after.mask]
-        before_ = _gap(chosen.fit.r[:n][described], sd_chosen[described])
-        after_ = _gap(one.fit.r[:n][described], sd_one[described])
+        before_ = rms_gap(chosen.fit.r[:n][described], sd_chosen[described])
+        after_ = rms_gap(one.fit.r[:n][described], sd_one[described])
         if after_ > opts.reweigh_tolerance * before_:
             clock("reweigh", f"not kept: the gap over the records not set aside would "
                              f"go from {before_ * 1e3:.3g} to {after_ * 1e3:.3g} um with "
@@ -56,7 +56,7 @@ def reweigh(fx: Fits, choice: Choice, *, clock: Clock) -> Reweighed:
         chosen, sd_chosen = one, sd_one
         sd_after = sd_one
         r_plain = chosen.fit.r[:n] * factor_now[rec_of]
-        chi2_after = _record_chi2(r_plain, rec_of, G)
+        chi2_after = chi2_by_record(r_plain, rec_of, G)
         median_after = float(np.nanmedian(chi2_after))
         limit_after = max(opts.record_chi2, opts.record_chi2 * median_after)
         beyond = chi2_after > limit_after

@@ -7,9 +7,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..cycle_effects import neighbour_shapes
-from ..decision import _gap
+from ..decision import rms_gap
 from ..starts import lift_mu_d
-from .refit import _ranked, continued, refine_shape
+from .refit import ranked_refits, continued, refine_shape
 from .state import Clock, Fits, Refitted
 
 __all__ = ["sharpen"]
@@ -17,13 +17,13 @@ __all__ = ["sharpen"]
 
 def _close(refits, eligible) -> list:
     """The physical refits of eligible families, the largest drop first."""
-    return [rf for rf in _ranked(refits) if rf.family.name in eligible]
+    return [rf for rf in ranked_refits(refits) if rf.family.name in eligible]
 
 
 def _gap_of(fx: Fits, rf) -> float:
     """The refit's gap (mm) over the described records."""
     described = fx.base.described
-    return _gap(rf.fit.r[:fx.base.n][described], fx.base.sd[described])
+    return rms_gap(rf.fit.r[:fx.base.n][described], fx.base.sd[described])
 
 
 def _refine_close(fx: Fits, refits: list, eligible, shaped: set, clock: Clock) -> None:

@@ -23,9 +23,10 @@ from ..cycle_effects import Family, Shape
 from ..cycle_model import CycleModel
 from ..decision import Decision
 from ..options import DiscoveryOptions
-from ..subproblems import _Sub
+from ..subproblems import SubProblem
 
-__all__ = ["Base", "Choice", "Clock", "Fits", "Prepared", "Ranking", "Refitted", "Reweighed"]
+__all__ = ["SIGNIFICANT_BY", "Base", "Choice", "Clock", "Fits", "Prepared", "Ranking",
+           "Refitted", "Reweighed"]
 
 
 @dataclasses.dataclass
@@ -113,7 +114,7 @@ class Base:
 
 
 @dataclasses.dataclass
-class _Score:
+class FamilyScore:
     family: Family
     shape: Shape
     statistic: float  # F statistic (Hotelling T^2, small-sample corrected)
@@ -124,6 +125,17 @@ class _Score:
     chi2_predicted: float  # chi-square drop the Gauss-Newton step predicts
     test: int = -1  # index of its test among all family-shape tests (`flips`)
     p_family: float = float("nan")  # family-wise p-value over all tests (`flips`)
+    p_sample: float = float("nan")  # per-sample score test's p-value (chi-square, dof)
+    significant_by: str | None = None  # which test made it significant (`SIGNIFICANT_BY`)
+
+
+SIGNIFICANT_BY = {
+    "family-wise": "the robust window test, family-wise p below alpha",
+    "per-sample": "a relevant predicted chi-square drop whose per-sample score test has p "
+                  "below alpha / (number of tests)",
+}
+"""The two ways a family is significant (`rank`): its key in `FamilyScore.significant_by`
+and what it means."""
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -136,10 +148,11 @@ class Ranking:
     sensor_probe: dict
     significant: list
     n_tests: int  # family-shape tests counted in the family-wise p-values
+    level: float = float("nan")  # the per-sample test's level (alpha / tests, Bonferroni)
 
 
 @dataclasses.dataclass
-class _Refit:
+class FamilyRefit:
     family: Family
     shape: Shape
     fit: HostResult
@@ -148,7 +161,7 @@ class _Refit:
     stderr: np.ndarray
     unphysical: str | None
     sensor: bool
-    sub: _Sub  # the refit's problem (to continue it)
+    sub: SubProblem  # the refit's problem (to continue it)
     failed: str | None = None  # why the refit is not a result (it ended above the base)
 
 
@@ -179,7 +192,7 @@ class Choice:
     shape refinement, the decision against the other refits and its chi-square drop as
     decided."""
 
-    chosen: _Refit | None
+    chosen: FamilyRefit | None
     decision: Decision | None
     rivals: list  # `indistinguishable_from`
     compared: dict  # family name -> `Contender`
@@ -191,6 +204,6 @@ class Reweighed:
     """The winner after the records weighed by their scatter were tried at full weight,
     the standard errors of its last fit, and the records that weigh fully again."""
 
-    chosen: _Refit | None
+    chosen: FamilyRefit | None
     sd_after: np.ndarray
     reweighed: list

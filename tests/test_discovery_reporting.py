@@ -1,0 +1,125 @@
+"""What `stickslip discover` (cycle base) says about its own numbers: the significance
+count agrees with the candidate table, a parameter on an end of its range says "at
+bound" and a standard error of zero is never printed as "+- 0", a refit whose traces do
+not change with the family's parameters is no result, a friction table the refit left
+as it was says so, and a phase left above the noise is named in the explanation."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import numpy as np
+
+from stickslip_fitting.commands.discover import candidate_table, parameter_table
+from stickslip_fitting.discovery.cycle_effects import family
+from stickslip_fitting.discovery.decision import rms_by_phase
+from stickslip_fitting.discovery.result import (CycleDiscovery, effect_estimate, estimate_text,
+                                                phase_misfit, phase_text)
+from stickslip_fitting.discovery.stages.rank import significance_line
+from stickslip_fitting.discovery.stages.refit import dead
+from stickslip_fitting.report import DiscoveryEstimates
+
+
+def _candidate(name, p, p_fw, by):
+    return {"name": name, "shape": "", "score": 1.0, "score_p_value": p,
+            "family_wise_p_value": p_fw, "per_sample_p_value": 1e-9,
+            "significant": by is not None, "significant_by": by, "chi2_drop": None,
+            "unphysical": None}
+
+
+def test_significance_count_agrees_with_the_table():
+    # every robust p >= 0.03 (as on the real campaign) and still significant by the
+    # per-sample route: the table says which test, and its count is the rows marked
+    cands = [_candidate("viscous_damping", 0.42, 0.9, "per-sample"),
+             _candidate("stribeck", 0.42, 0.9, "per-sample"),
+             _candidate("gauge_drift", 0.001, 0.004, "family-wise"),
+             _candidate("friction_drift", 0.64, 1.0, None)]
+    text = candidate_table(cands)
+    lines = text.splitlines()
+    rows = [ln for ln in lines[2:] if ln.split() and ln.split()[0] in
+            {c["name"] for c in cands}]
+    marked = [ln for ln in rows if ln.split()[-2] in ("per-sample", "family-wise")]
+    n = int(re.search(r"^(\d+) of 4 families significant", text, re.M).group(1))
+    assert n == len(marked) == 3
+    assert "p family-wise" in lines[0] and "significant" in lines[0]
+    # the ranking's progress line counts the same and names both tests
+    Sc = dataclasses.make_dataclass("Sc", ["significant_by"])
+    line = significance_line([Sc("per-sample"), Sc("per-sample"), Sc("family-wise")], 4,
+                             0.01, 0.0002, 51)
+    assert line.startswith("3 of 4 families significant: 1 by the robust window test")
+    assert "2 by a relevant predicted drop with per-sample p < 0.0002" in line
+
+
+def test_a_value_at_its_bound_says_so_never_plus_minus_zero():
+    f = family("viscous_damping")
+    (lo, hi), = f.support()
+    at = effect_estimate("c", "kgf*s/mm", hi, 0.0, (lo, hi))
+    text = estimate_text(at)
+    assert text == "c = 1 kgf*s/mm (at bound)" and "+-" not in text
+    assert at.to_json()["at_bound"] and "bound" in at.to_json()["reason"]
+    # inside the range but no variance from the Gauss-Newton covariance: no "+- 0"
+    flat = effect_estimate("c", "kgf*s/mm", 0.1, 0.0, (lo, hi))
+    assert estimate_text(flat) == "c = 0.1 kgf*s/mm (no standard error)"
+    assert flat.to_json()["value"] is None and flat.to_json()["reason"]
+    ok = effect_estimate("c", "kgf*s/mm", 0.02, 0.003, (lo, hi))
+    assert estimate_text(ok) == "c = 0.02 +- 0.003 kgf*s/mm"
+    assert ok.to_json()["reason"] is None and not ok.to_json()["at_bound"]
+
+
+def _result(before, after, effect_rows):
+    rows = DiscoveryEstimates.value_rows
+    units = {k: "-" for k in before}
+    fields = {f.name: None for f in dataclasses.fields(CycleDiscovery)}
+    fields.update(estimates_before=rows(before, units), estimates_after=rows(after, units),
+                  effect_estimates=effect_rows, effect_of="viscous_damping",
+                  effect="viscous_damping")
+    return CycleDiscovery(**fields)
+
+
+def test_parameter_table_and_json_of_the_effect():
+    before = {"mu_s": 0.34668, "mu_d": 0.32452}
+    bound = effect_estimate("c", "kgf*s/mm", 1.0, 0.0, (0.0, 1.0))
+    res = _result(before, dict(before), [bound])
+    text = parameter_table(res)
+    assert "friction parameters unchanged by the refit" in text
+    (row,) = [ln for ln in text.splitlines() if ln.startswith("viscous_damping.c")]
+    assert "at upper bound 1" in row and "+-" not in row
+    size = res.effect_size["c"]
+    assert {"value", "stderr", "unit"} <= set(size) and size["at_bound"] is True
+    assert "upper bound" in size["reason"]
+    moved = _result(before, {"mu_s": 0.35, "mu_d": 0.31},
+                    [effect_estimate("c", "kgf*s/mm", 0.02, 0.003, (0.0, 1.0))])
+    assert "unchanged" not in parameter_table(moved)
+    undetermined = _result(before, {"mu_s": 0.35, "mu_d": 0.31},
+                           [effect_estimate("c", "kgf*s/mm", 0.1, 0.0, (0.0, 1.0))])
+    (row,) = [ln for ln in parameter_table(undetermined).splitlines()
+              if ln.startswith("viscous_damping.c")]
+    assert row.split()[2] == "-" and "no standard error" in row
+
+
+def test_a_refit_whose_traces_do_not_move_is_no_result():
+    assert dead(np.zeros((50, 1)))
+    assert not dead(np.r_[np.zeros(49), 1e-12][:, None])
+    assert not dead(np.zeros((50, 0)))
+
+
+def test_a_phase_above_the_noise_is_named():
+    rng = np.random.default_rng(0)
+    slipping = np.zeros(2000, bool)
+    slipping[:100] = True
+    sd = np.where(slipping, 1.1e-3, 0.5e-3)  # a slip's own errors are larger
+    r = rng.normal(size=2000) * sd * np.where(slipping, 0.92, 1.0)
+    phases = rms_by_phase(r, slipping, sd)
+    assert {"rms", "samples", "expected_rms", "chi2_per_sample"} <= set(phases["slip"])
+    noise = 0.5e-3
+    text = phase_text(phases, noise)
+    assert "slip phases" in text and "within their own standard errors" in text
+    assert "stick phases" not in text  # at the noise
+    assert phase_misfit(phases) == []
+    # a slip residual beyond its own errors: not explained by any family
+    r2 = np.where(slipping, 3.0 * r, r)
+    phases2 = rms_by_phase(r2, slipping, sd)
+    assert "not explained by any family" in phase_text(phases2, noise)
+    assert phase_misfit(phases2) == ["slip"]
+    assert phase_text(rms_by_phase(r * 0.5, slipping, sd), 1e-3) == ""
