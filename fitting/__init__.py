@@ -9,6 +9,10 @@ result = sf.fit("data/examples/*.csv")   # -> CampaignFit
 result.summary(); result.plot("fit.png"); result.to_json("fit.json")
 ```
 
+`sample(records)` -> `posterior_api.CampaignPosterior` (as `stickslip mcmc`) and
+`discover(records)` -> `discovery_api.CampaignDiscovery` (as `stickslip discover`) have
+the same shape: `summary()`, `plot(path)`, `to_json(path)`.
+
 `stickslip_fitting.fit` is also the module of the fit machinery (`fit.fit_features`,
 `fit.FitResult`); calling it runs `api.fit`.
 
@@ -66,8 +70,10 @@ __all__ = [
     "AbstractFrictionParams",
     "AbstractResiduals",
     "Campaign",
+    "CampaignDiscovery",
     "CampaignFit",
     "CampaignParams",
+    "CampaignPosterior",
     "Covariance",
     "DesignCriterion",
     "EmpiricalFriction",
@@ -83,6 +89,7 @@ __all__ = [
     "SolverOptions",
     "Uncertainty",
     "Weighting",
+    "discover",
     "discover_cycles",
     "fit",
     "fit_features",
@@ -95,6 +102,7 @@ __all__ = [
     "load_campaign",
     "record_features",
     "run_mcmc",
+    "sample",
 ]
 
 _HOME = {
@@ -112,6 +120,8 @@ _HOME = {
     "SmallSample": "modes", "ModelModes": "modes", "Weighting": "modes", "Padding": "modes",
     "SolverOptions": "modes",
     "CampaignFit": "api",
+    "CampaignPosterior": "posterior_api", "sample": "posterior_api",
+    "CampaignDiscovery": "discovery_api", "discover": "discovery_api",
 }
 
 

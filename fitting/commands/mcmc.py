@@ -19,15 +19,10 @@ from __future__ import annotations
 
 import argparse
 
+from ..mcmc_report import JSON_ALIASES, thinned_draws  # noqa: F401  (the JSON's renamed keys)
 
 NAME = "mcmc"
 HELP = "sample the posterior of the friction parameters (emcee) for a campaign of records"
-
-JSON_ALIASES = {"record_names": "records"}
-"""JSON keys renamed -> their old names, still written beside them for one release
-(`deprecated_keys`): the names of the records sampled were `records`, which in `fit`,
-`discover`, `plan` and `pitch` holds one object per record; `records_screened` has
-mcmc's objects (the screening of every record given)."""
 
 
 def add_arguments(parser):
@@ -71,27 +66,15 @@ def add_arguments(parser):
     parser.add_argument("--no-progress", action="store_true", help=argparse.SUPPRESS)
 
 
-def thinned_draws(samples, max_draws: int):
-    """At most `max_draws` rows of the flat chain, evenly spaced (natural units)."""
-    import numpy as np
-
-    samples = np.asarray(samples)
-    step = max(1, -(-samples.shape[0] // int(max_draws)))
-    return samples[::step]
-
-
 def _fixed_misfit(fit, free) -> list[str]:
-    """`stickslip fit`'s warning when fixed values leave the records far from the model
-    (median record chi2/n above `FIXED_MISFIT`): the posterior around them means little."""
-    from ..fit_report import fixed_misfit_warning
+    from ..mcmc_report import fixed_misfit
 
-    return fixed_misfit_warning([f"{n}={v:g}" for n, v in fit.values.items() if n not in free],
-                                fit.record_chi2, "the posterior of the others is not meaningful")
+    return fixed_misfit(fit, free)
 
 
 def run(args) -> int:
-    from ..mcmc import run_mcmc
     from ..campaign import find_truth
+    from ..mcmc import run_mcmc
     from .fit import fit_from_args
 
     if not 0 <= args.seed < 2**32:
@@ -180,22 +163,10 @@ def run(args) -> int:
             print(f"{name:<10}{row['ess_bulk']:>10.0f}{row['ess_tail']:>10.0f}"
                   f"{row['r_hat']:>8.3f}")
     if args.json:
-        # the fit's row keys (value = median, stderr = sd, ci95, truth_in_ci95, ...) and the
-        # sampler's own (median, mean, sd, tau_steps, ess)
-        out = {"model": args.model, "parameters": {
-            e.name: {**e.to_json(), **summary[e.name]} for e in res.estimates(truth)},
-            "prior": res.prior, "objective": args.objective,
-            "loss": loss_of(fit.objective).spec(),
-            "interrupted": res.interrupted,
-            "likelihood_scale": res.likelihood_scale, "walkers": res.walkers, "steps": res.steps, "burn": res.burn,
-            "acceptance": res.acceptance, "warnings": res.warnings,
-            "record_names": [f.name for f in fit.features],
-            "records_screened": [s.to_json() for s in campaign.screening],
-            # the draws, in the layout of stickslip_fitting.design.posterior.load_samples
-            "names": list(res.names), "samples": thinned_draws(res.samples, args.draws).tolist(),
-            "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
-        if extra:
-            out.update(extra)
+        from ..mcmc_report import mcmc_document
+
+        out = mcmc_document(res, fit, campaign, model=args.model, objective=args.objective,
+                            truth=truth, max_draws=args.draws, extra=extra)
         write_json(args.json, versioned(out, JSON_ALIASES))
         if args.json != "-":
             print(f"wrote {args.json}")

@@ -1,0 +1,258 @@
+r"""One call for missing-physics discovery: `stickslip_fitting.discover(records, ...)` ->
+`CampaignDiscovery`.
+
+```python
+import stickslip_fitting as sf
+
+found = sf.discover("data/examples/*.csv")
+print(found.effect, found.confidence)
+print(found.summary())          # pandas DataFrame: one row per effect family tested
+found.plot("discover.png")      # the figure of `stickslip discover --plot`
+found.to_json("discover.json")  # the document of `stickslip discover --json`
+```
+
+The call runs `stickslip discover` on its default base (the per-cycle model, `--base
+cycle`) with the same functions: the records read as the command reads them (a file that
+cannot be read is set aside and listed), `discovery.cycle_workflow.discover_cycles`, the
+figure of `discovery.plots.plot_cycle_discovery` and the document of the command's
+`json_document`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from typing import TYPE_CHECKING
+
+from stickslip_jax.records import Record
+
+from .api import RecordsSpec
+
+if TYPE_CHECKING:
+    import pandas
+    from matplotlib.figure import Figure
+
+    from .discovery.result import CycleDiscovery
+    from .losses import AbstractLoss
+
+__all__ = ["FAMILY_COLUMNS", "CampaignDiscovery", "discover"]
+
+FAMILY_COLUMNS = ("shape", "score", "p_value", "family_wise_p_value", "significant",
+                  "significant_by", "chi2_drop", "unphysical", "named")
+"""The columns of `CampaignDiscovery.summary()`: the family's shape, its robust window
+test (statistic F `score`, its `p_value` and the `family_wise_p_value` over every
+family-shape test), whether and by which test it is significant, the refit's chi-square
+drop (NaN when not refitted), whether the refit left the physical range, and whether the
+answer names it."""
+
+_PANDAS = 'pip install "stickslip-jax[pandas]"'
+
+
+def _number(x) -> float:
+    return float("nan") if x is None else float(x)
+
+
+@dataclasses.dataclass(frozen=True)
+class CampaignDiscovery:
+    """The result of `discover`: the effect the paper's model misses in a campaign.
+
+    - `effect`, `confidence`, `explanation`: the answer (a family's name, "none" or
+      "unexplained"); `named`: the families the answer names (the effect and those the
+      records cannot tell from it);
+    - `summary()`: a pandas DataFrame indexed by family (`FAMILY_COLUMNS`);
+    - `plot(path)`: the figure of `stickslip discover --plot`;
+    - `to_json(path)`: the document of `stickslip discover --json`; `to_dict()` the same
+      as a dict;
+    - `str(result)`: the answer, the gap, the candidate table and the parameters, as the
+      command prints them.
+
+    `result` is the workflow's `discovery.result.CycleDiscovery` (fits, residuals by
+    phase, the screened campaign, the learned correction).
+    """
+
+    result: CycleDiscovery
+    loss: str = "gaussian"
+    inputs: tuple[str, ...] = ()
+    """The record files read (an output may not overwrite one of them)."""
+
+    @property
+    def effect(self) -> str:
+        return self.result.effect
+
+    @property
+    def confidence(self) -> str:
+        return self.result.confidence
+
+    @property
+    def explanation(self) -> str:
+        return self.result.explanation
+
+    @property
+    def named(self) -> list[str]:
+        """The families the answer names: the effect and those the records cannot tell
+        from it (empty for "none" and "unexplained")."""
+        names = {c["name"] for c in self.result.candidates}
+        joint = [self.result.effect] + [r["name"] for r in self.result.indistinguishable_from]
+        return [n for n in joint if n in names]
+
+    def summary(self) -> pandas.DataFrame:
+        """One row per effect family tested, indexed by its name (`FAMILY_COLUMNS`), in
+        the order of the candidate table. Needs pandas (the `[pandas]` extra)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError(f"CampaignDiscovery.summary() needs pandas: {_PANDAS} (or pip "
+                              "install pandas)") from None
+        named = set(self.named)
+        rows = {}
+        for c in self.result.candidates:
+            rows[c["name"]] = (c.get("shape") or "", _number(c.get("score")),
+                               _number(c.get("score_p_value")),
+                               _number(c.get("family_wise_p_value")),
+                               bool(c.get("significant")), c.get("significant_by") or "",
+                               _number(c.get("chi2_drop")), bool(c.get("unphysical")),
+                               c["name"] in named)
+        frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(FAMILY_COLUMNS))
+        frame.index.name = "family"
+        return frame
+
+    @property
+    def report(self) -> dict:
+        """The `stickslip discover --json` document before strict encoding."""
+        from .commands.discover import json_document
+
+        return {**json_document(self.result), "loss": self.loss}
+
+    def to_dict(self) -> dict:
+        """The `stickslip discover --json` document as a dict (strict JSON: NaN as None)."""
+        import json
+
+        return json.loads(self.to_json())
+
+    def to_json(self, path: str | os.PathLike[str] | None = None) -> str:
+        """The `stickslip discover --json` document, as text; written to `path` too when
+        given (atomically; never over one of the input records)."""
+        from stickslip_jax.output import check_outputs, dumps, write_text
+
+        text = dumps(self.report, indent=2) + "\n"
+        if path is not None:
+            check_outputs({"to_json": os.fspath(path)}, self.inputs)
+            write_text(os.fspath(path), text)
+        return text
+
+    def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
+        """The figure of `stickslip discover --plot` (`discovery.plots.
+        plot_cycle_discovery`: residual RMS by phase before and after, traces and
+        residuals of up to four records): returned, and saved to `path` when given."""
+        from .discovery.plots import plot_cycle_discovery
+
+        fig = plot_cycle_discovery(self.result)
+        if path is not None:
+            from stickslip_jax.output import check_outputs, save_figure
+
+            check_outputs({"plot": os.fspath(path)}, self.inputs)
+            save_figure(fig, os.fspath(path), dpi=120)
+        return fig
+
+    def __str__(self) -> str:
+        from .commands.discover import candidate_table, parameter_table
+
+        r = self.result
+        joint = " or ".join([r.effect] + [x["name"] for x in r.indistinguishable_from])
+        return "\n".join([
+            f"effect: {joint} (confidence {r.confidence})"
+            + (": these records cannot tell them apart" if r.indistinguishable_from else ""),
+            r.explanation,
+            f"gap (residual RMS): {r.gap_before * 1e3:.3f} um -> {r.gap_after * 1e3:.3f} um; "
+            f"noise {r.noise * 1e3:.3f} um",
+            candidate_table(r.candidates), parameter_table(r)])
+
+    def __repr__(self) -> str:
+        return (f"CampaignDiscovery(effect={self.effect!r}, confidence={self.confidence!r}, "
+                f"families={len(self.result.candidates)})")
+
+
+def discover(
+    records: RecordsSpec,
+    *,
+    only: tuple[str, ...] | list[str] | None = None,
+    top: int = 3,
+    alpha: float = 0.01,
+    max_evals: int = 80,
+    loss: AbstractLoss | str = "gaussian",
+    strict: bool = False,
+    learn: bool = False,
+    progress=None,
+) -> CampaignDiscovery:
+    """Find the effect the paper's model misses in a campaign, as `stickslip discover`
+    does on its default base (the per-cycle model).
+
+    - `records`: a file, a folder (its *.csv), a glob, a list of these, or `Record`
+      objects; at least two.
+    - `only`: the effect families to consider (`discovery.cycle_effects.FAMILIES`'
+      names; default all), as `--only`.
+    - `top`: how many significant families to refit; `alpha`: the false-alarm rate of
+      the test over all families; `max_evals`: the evaluation budget of the base fit;
+      `loss`: the likelihood ("gaussian", "huber:C", "student-t:NU" or an
+      `AbstractLoss`); `strict`: refuse the campaign when a record has no usable
+      stick-slip; `learn`: fit the learned phase correction whatever the answer;
+      `progress`: called with one line per finished stage (e.g. `print`).
+
+    Every mistake in the options raises ValueError naming the keyword, before any fit.
+    """
+    from .discovery.cycle_effects import FAMILIES
+    from .discovery.cycle_workflow import discover_cycles
+    from .losses import AbstractLoss, parse_loss
+
+    if top < 1:
+        raise ValueError(f"top: must be at least 1, got {top}")
+    if max_evals < 2:
+        raise ValueError(f"max_evals: must be at least 2, got {max_evals}")
+    if not 0 < alpha < 1:
+        raise ValueError(f"alpha: must be between 0 and 1, got {alpha}")
+    if isinstance(only, str):
+        only = [only]
+    names = [f.name for f in FAMILIES]
+    bad = [n for n in only or () if n not in names]
+    if bad:
+        raise ValueError(f"only: unknown effect families {', '.join(bad)}; the families are "
+                         f"{', '.join(names)}")
+    if not isinstance(loss, AbstractLoss):
+        try:
+            loss = parse_loss(loss)
+        except ValueError as err:
+            raise ValueError(str(err).replace("--loss", "loss")) from None
+
+    given = _as_list(records)
+    unreadable: list = []
+    inputs: tuple[str, ...] = ()
+    if given and all(isinstance(r, Record) for r in given):
+        recs = given
+    elif any(isinstance(r, Record) for r in given):
+        raise ValueError("records: give paths (files, folders, globs) or Record objects, "
+                         "not both in one campaign")
+    else:
+        from stickslip_jax.records import read_campaign_files
+
+        files = read_campaign_files([os.fspath(g) for g in given])
+        recs, unreadable = files.records, list(files.unreadable)
+        files.check(strict)
+        inputs = tuple([r.source for r in recs if r.source] + [e.path for e in unreadable])
+    if len(recs) + len(unreadable) < 2:
+        raise ValueError("records: discovery needs at least two records (a campaign)")
+    result = discover_cycles(recs, candidates=tuple(only) if only else None, top=top,
+                             alpha=alpha, max_evals=max_evals, strict=strict, learn=learn,
+                             loss=loss, unreadable=tuple(unreadable), progress=progress)
+    return CampaignDiscovery(result=result, loss=loss.spec(), inputs=inputs)
+
+
+def _as_list(records) -> list:
+    """`records` as a list of specs or Records (a single one in a list)."""
+    from collections.abc import Iterable
+
+    if isinstance(records, (str, os.PathLike, Record)):
+        return [records]
+    if isinstance(records, Iterable):
+        return list(records)
+    raise ValueError(f"records: a path, a folder, a glob, a Record or a list of them, got "
+                     f"{records!r}")

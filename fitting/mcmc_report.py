@@ -1,0 +1,72 @@
+"""The document of `stickslip mcmc --json` (`mcmc_document`), built from a posterior
+sample (`mcmc.McmcResult`), the fit it started from and the screened campaign; the command
+and `stickslip_fitting.sample` both write it.
+
+Keys: "model", "parameters" (per parameter the fit's row keys, value = median,
+stderr = sd, ci95, truth_in_ci95 where the truth is known, and the sampler's own:
+median, mean, sd, tau_steps, ess), "prior", "objective", "loss", "interrupted",
+"likelihood_scale", "walkers", "steps", "burn", "acceptance", "warnings",
+"record_names", "records_screened", and the draws in the layout that
+`stickslip_fitting.design.posterior.load_samples` reads: "names", "samples" (a (draws,
+parameters) matrix thinned to at most `max_draws` rows) and "fixed" (the values of the
+parameters held fixed); for the microsqueeze law also "given" (eta, surface).
+"""
+
+from __future__ import annotations
+
+__all__ = ["JSON_ALIASES", "fixed_misfit", "mcmc_document", "thinned_draws"]
+
+JSON_ALIASES = {"record_names": "records"}
+"""JSON keys renamed -> their old names, still written beside them for one release
+(`deprecated_keys`): the names of the records sampled were `records`, which in `fit`,
+`discover`, `plan` and `pitch` holds one object per record; `records_screened` has
+mcmc's objects (the screening of every record given)."""
+
+
+def thinned_draws(samples, max_draws: int):
+    """At most `max_draws` rows of the flat chain, evenly spaced (natural units)."""
+    import numpy as np
+
+    samples = np.asarray(samples)
+    step = max(1, -(-samples.shape[0] // int(max_draws)))
+    return samples[::step]
+
+
+def fixed_misfit(fit, free) -> list[str]:
+    """`stickslip fit`'s warning when fixed values leave the records far from the model
+    (median record chi2/n above `FIXED_MISFIT`): the posterior around them means little.
+    `free`: the names sampled."""
+    from .fit_report import fixed_misfit_warning
+
+    return fixed_misfit_warning([f"{n}={v:g}" for n, v in fit.values.items() if n not in free],
+                                fit.record_chi2, "the posterior of the others is not meaningful")
+
+
+def mcmc_document(res, fit, campaign, *, model: str, objective: str,
+                  truth: dict | None = None, max_draws: int = 2000,
+                  extra: dict | None = None) -> dict:
+    """The `stickslip mcmc --json` document (module doc) before versioning: `res` the
+    `mcmc.McmcResult`, `fit` the `fit.FitResult` it sampled around, `campaign` the
+    screened `campaign.Campaign`, `model` the law's name, `objective` the objective's
+    name, `truth` the parameters the records were made from (or None), `max_draws` the
+    most rows of "samples", `extra` the microsqueeze law's {"given": ...}. Written with
+    `stickslip_jax.output.versioned(doc, JSON_ALIASES)`."""
+    from .losses import loss_of
+
+    summary = res.summary()
+    names = [f.name for f in fit.features]
+    out = {"model": model, "parameters": {
+        e.name: {**e.to_json(), **summary[e.name]} for e in res.estimates(truth)},
+        "prior": res.prior, "objective": objective,
+        "loss": loss_of(fit.objective).spec(),
+        "interrupted": res.interrupted,
+        "likelihood_scale": res.likelihood_scale, "walkers": res.walkers,
+        "steps": res.steps, "burn": res.burn,
+        "acceptance": res.acceptance, "warnings": res.warnings,
+        "record_names": names,
+        "records_screened": [s.to_json() for s in campaign.screening],
+        "names": list(res.names), "samples": thinned_draws(res.samples, max_draws).tolist(),
+        "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
+    if extra:
+        out.update(extra)
+    return out

@@ -1,0 +1,286 @@
+r"""One call for a campaign's posterior: `stickslip_fitting.sample(records, ...)` ->
+`CampaignPosterior`.
+
+```python
+import stickslip_fitting as sf
+
+post = sf.sample("data/examples/*.csv", steps=3000, walkers=32, seed=0)
+print(post.summary())        # pandas DataFrame: median, 95 % interval, unit, sd, tau, ESS
+post.plot("corner.png")      # the corner plot of `stickslip mcmc --plot`
+post.to_json("mcmc.json")    # the document of `stickslip mcmc --json`
+```
+
+The call runs the steps of `stickslip mcmc` with the same functions: the fit of
+`stickslip_fitting.fit` (the same options), then `mcmc.run_mcmc` around its optimum, and
+the document of `mcmc_report.mcmc_document`. A `CampaignFit` given in place of the records
+is sampled around without fitting again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
+
+from stickslip_jax.modes import GaugeOffset, SlipTime
+
+from .api import CampaignFit, RecordsSpec
+from .modes import Objective
+
+if TYPE_CHECKING:
+    import pandas
+    from matplotlib.figure import Figure
+
+    from .losses import AbstractLoss
+    from .mcmc import McmcResult
+    from .params import AbstractFrictionParams
+
+__all__ = ["POSTERIOR_COLUMNS", "CampaignPosterior", "objective_of", "sample"]
+
+POSTERIOR_COLUMNS = ("median", "low", "high", "unit", "sd", "mean", "tau_steps", "ess")
+"""The columns of `CampaignPosterior.summary()` (low, high: the central 95 % interval;
+tau_steps: the integrated autocorrelation time in steps; ess: the effective sample size)."""
+
+_PANDAS = 'pip install "stickslip-jax[pandas]"'
+
+
+@dataclasses.dataclass(frozen=True)
+class CampaignPosterior:
+    """The result of `sample`: posterior draws of the campaign's free friction parameters.
+
+    - `summary()`: a pandas DataFrame indexed by sampled parameter (`POSTERIOR_COLUMNS`);
+      the acceptance fraction in its `attrs["acceptance"]`;
+    - `plot(path)`: the corner plot of `stickslip mcmc --plot`;
+    - `to_json(path)`: the document of `stickslip mcmc --json` (with the thinned draws
+      that `stickslip design --posterior` and `stickslip plan` read); `to_dict()` the
+      same as a dict;
+    - `str(result)`: the posterior table, the prior, the sampler's settings and warnings.
+
+    The parts: `mcmc` (`stickslip_fitting.mcmc.McmcResult`: the flat chain `samples`,
+    `names`, `units`, `tau`, `ess`, `acceptance`), `campaign_fit` (the `CampaignFit` the
+    chain started from), `report` (the JSON document before strict encoding) and `truth`
+    (the parameters the records were made from, when they carry them; None otherwise).
+    """
+
+    report: dict
+    mcmc: McmcResult
+    campaign_fit: CampaignFit
+    truth: dict | None = None
+
+    @property
+    def names(self) -> list[str]:
+        """The sampled parameters, in the law's order (the fixed ones are in `fixed`)."""
+        return list(self.mcmc.names)
+
+    @property
+    def fixed(self) -> dict[str, float]:
+        """{name: value} of the parameters held fixed (not sampled)."""
+        return dict(self.report["fixed"])
+
+    @property
+    def acceptance(self) -> float:
+        """The mean acceptance fraction of the walkers' moves."""
+        return float(self.mcmc.acceptance)
+
+    @property
+    def warnings(self) -> list[str]:
+        """The sampler's warnings (a chain too short for its autocorrelation time, ...)."""
+        return list(self.mcmc.warnings)
+
+    def summary(self) -> pandas.DataFrame:
+        """One row per sampled parameter, indexed by its name: the posterior `median`, the
+        central 95 % interval `low`, `high` (internal units, `unit`), the standard
+        deviation `sd`, the `mean`, the autocorrelation time `tau_steps` and the effective
+        sample size `ess`. `attrs["acceptance"]` holds the acceptance fraction. Needs
+        pandas (the `[pandas]` extra)."""
+        try:
+            import pandas as pd
+        except ImportError:
+            raise ImportError(f"CampaignPosterior.summary() needs pandas: {_PANDAS} (or pip "
+                              "install pandas)") from None
+        rows = {}
+        for name, p in self.report["parameters"].items():
+            low, high = p["ci95"]
+            rows[name] = (float(p["median"]), float(low), float(high), p["unit"],
+                          float(p["sd"]), float(p["mean"]), float(p["tau_steps"]),
+                          float(p["ess"]))
+        frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(POSTERIOR_COLUMNS))
+        frame.index.name = "parameter"
+        frame.attrs["acceptance"] = self.acceptance
+        return frame
+
+    def to_dict(self) -> dict:
+        """The `stickslip mcmc --json` document as a dict (strict JSON: NaN as None)."""
+        import json
+
+        return json.loads(self.to_json())
+
+    def to_json(self, path: str | os.PathLike[str] | None = None) -> str:
+        """The `stickslip mcmc --json` document (with "schema_version" and the deprecated
+        keys it still carries), as text; written to `path` too when given (atomically;
+        never over one of the input records)."""
+        from stickslip_jax.output import check_outputs, dumps, versioned, write_text
+
+        from .mcmc_report import JSON_ALIASES
+
+        text = dumps(versioned(self.report, JSON_ALIASES), indent=2) + "\n"
+        if path is not None:
+            check_outputs({"to_json": os.fspath(path)}, self.campaign_fit.inputs)
+            write_text(os.fspath(path), text)
+        return text
+
+    def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
+        """The corner plot of `stickslip mcmc --plot` (`stickslip_fitting.posterior_plots.
+        corner_plot`: histograms, contours, 16/50/84 % quantiles, the truth where known):
+        returned, and saved to `path` (closed then) when given. Needs the `corner`
+        package."""
+        from .posterior_plots import corner_plot
+
+        if path is not None:
+            from stickslip_jax.output import check_outputs
+
+            check_outputs({"plot": os.fspath(path)}, self.campaign_fit.inputs)
+            path = os.fspath(path)
+        return corner_plot(self.mcmc.samples, self.mcmc.names, path, truth=self.truth,
+                           units=self.mcmc.units)
+
+    def __str__(self) -> str:
+        from .report import text_table
+
+        rows = []
+        for name, p in self.report["parameters"].items():
+            low, high = p["ci95"]
+            rows.append([name, f"{p['median']:.5g}", p["unit"], f"{p['sd']:.3g}",
+                         f"[{low:.5g}, {high:.5g}]", f"{p['tau_steps']:.1f}",
+                         f"{p['ess']:.0f}"])
+        r = self.report
+        lines = [text_table(["parameter", "median", "unit", "sd", "95 % interval", "tau",
+                             "ESS"], rows, align="lrlrrrr"),
+                 f"prior: {r['prior']}",
+                 f"likelihood: {r['objective']} objective, loss {r['loss']}, chi2 divided "
+                 f"by {r['likelihood_scale']:.3g}",
+                 f"{r['walkers']} walkers x {r['steps']} steps (burn-in {r['burn']}); "
+                 f"acceptance {r['acceptance']:.2f}"]
+        if self.fixed:
+            lines.append("fixed: " + ", ".join(f"{n} = {v:g}" for n, v in self.fixed.items()))
+        return "\n".join(lines + [f"warning: {w}" for w in r["warnings"]])
+
+    def __repr__(self) -> str:
+        medians = ", ".join(f"{n}={p['median']:.5g}" for n, p in self.report["parameters"].items())
+        return (f"CampaignPosterior(walkers={self.mcmc.walkers}, steps={self.mcmc.steps}, "
+                f"acceptance={self.acceptance:.2f}, {medians})")
+
+
+def sample(
+    records: RecordsSpec | CampaignFit,
+    *,
+    steps: int = 3000,
+    walkers: int = 32,
+    burn: int | None = None,
+    seed: int = 0,
+    draws: int = 2000,
+    model: str | type[AbstractFrictionParams] = "empirical",
+    objective: Objective | str = Objective.FEATURES,
+    fix: Mapping[str, float] | None = None,
+    loss: AbstractLoss | str = "gaussian",
+    gauge_offset: GaugeOffset | str = GaugeOffset.ZERO,
+    slip_time: SlipTime | str = SlipTime.PAPER,
+    strict: bool = False,
+    eta: float | str | None = None,
+    surface: str = "S1G1",
+    progress: bool = False,
+) -> CampaignPosterior:
+    """Sample the posterior of the friction parameters of a campaign, as `stickslip
+    mcmc` does: fit (`stickslip_fitting.fit`, whose options `model`, `objective`, `fix`,
+    `loss`, `gauge_offset`, `slip_time`, `strict`, `eta`, `surface` these are), then run
+    emcee around the optimum (`mcmc.run_mcmc`).
+
+    - `records`: what `stickslip_fitting.fit` reads (files, a folder, a glob, a list, or
+      `Record` objects), or a `CampaignFit` to sample around (then the fit's options
+      must be left at their defaults: they are the fit's own).
+    - `steps`, `walkers`, `burn` (default steps // 4), `seed`: the sampler's settings, as
+      `--steps`, `--walkers`, `--burn`, `--seed` (at least 10 steps; at least twice as
+      many walkers as free parameters; seed in 0 to 2**32 - 1).
+    - `draws`: at most this many draws in the JSON document (evenly thinned).
+    - `progress`: show emcee's progress bar.
+
+    Every mistake in the options raises ValueError naming the keyword, before the fit.
+    """
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        raise ValueError(f"seed: an integer in 0 to 2**32 - 1, got {seed!r}")
+    if draws < 1:
+        raise ValueError(f"draws: need at least 1 draw, got {draws}")
+    if steps < 10:
+        raise ValueError(f"steps: need at least 10 steps, got {steps}")
+    free = 6 - len(fix or {})
+    if walkers < 2 * max(free, 1):
+        raise ValueError(f"walkers: need at least {2 * max(free, 1)} walkers (twice the "
+                         f"{max(free, 1)} free parameters), got {walkers}")
+    if burn is not None and not 0 <= burn < steps:
+        raise ValueError(f"burn: must lie in [0, steps), got {burn}")
+    objective = Objective.parse(objective)
+    if isinstance(records, CampaignFit):
+        changed = {k: v for k, v in dict(
+            model=model, objective=objective, fix=fix, loss=loss, gauge_offset=gauge_offset,
+            slip_time=slip_time, strict=strict, eta=eta, surface=surface).items()
+            if not _is_default(k, v)}
+        if changed:
+            raise ValueError(f"{', '.join(changed)}: the options of the fit given; give the "
+                             "records to fit with other options")
+        cf = records
+    else:
+        from .api import fit
+
+        cf = fit(records, model=model, objective=objective, fix=fix, loss=loss,
+                 gauge_offset=gauge_offset, slip_time=slip_time, strict=strict, eta=eta,
+                 surface=surface)
+    from .campaign import find_truth
+    from .mcmc import run_mcmc
+    from .mcmc_report import fixed_misfit, mcmc_document
+
+    try:
+        res = run_mcmc(cf.fit, walkers=walkers, steps=steps, burn=burn, seed=seed,
+                       progress=progress)
+    except ValueError as err:  # the sampler's own checks name the command's options
+        raise ValueError(str(err).replace("--walkers", "walkers").replace("--steps", "steps")
+                         ) from None
+    res.warnings.extend(fixed_misfit(cf.fit, res.names))
+    truth = find_truth(cf.campaign.records, list(cf.fit.values))
+    extra = {"given": cf.report["given"]} if "given" in cf.report else None
+    doc = mcmc_document(res, cf.fit, cf.campaign, model=cf.model,
+                        objective=objective_of(cf.fit.objective).value,
+                        truth=truth, max_draws=draws, extra=extra)
+    return CampaignPosterior(report=doc, mcmc=res, campaign_fit=cf, truth=truth)
+
+
+def objective_of(objective) -> Objective:
+    """The `Objective` member of a fit's objective (a heavy-tailed loss's wrapper read
+    through): the name `stickslip mcmc --json` writes under "objective"."""
+    from .combined import FeaturesObjective, TraceObjective, WeightedSum
+    from .losses import HeavyTailed
+    from .smooth_objective import SmoothObjective
+
+    if isinstance(objective, HeavyTailed):
+        objective = objective.inner
+    kinds = ((FeaturesObjective, Objective.FEATURES), (TraceObjective, Objective.TRACE),
+             (WeightedSum, Objective.BOTH), (SmoothObjective, Objective.SMOOTH))
+    for kind, member in kinds:
+        if isinstance(objective, kind):
+            return member
+    raise ValueError(f"no objective option for {type(objective).__name__}")
+
+
+_DEFAULTS = dict(model="empirical", objective=Objective.FEATURES, fix=None, loss="gaussian",
+                 gauge_offset=GaugeOffset.ZERO, slip_time=SlipTime.PAPER, strict=False,
+                 eta=None, surface="S1G1")
+
+
+def _is_default(name: str, value) -> bool:
+    default = _DEFAULTS[name]
+    if name == "fix":
+        return not value
+    if isinstance(value, float) and math.isnan(value):
+        return False
+    return value == default or (isinstance(default, str) and value == default)
