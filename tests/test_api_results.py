@@ -1,0 +1,177 @@
+"""The one-call posterior and discovery, `stickslip_fitting.sample(records, ...)` ->
+`CampaignPosterior` and `stickslip_fitting.discover(records, ...)` -> `CampaignDiscovery`:
+the shape of `CampaignFit` (a summary DataFrame, the command's figure, the command's JSON
+document), checked against `stickslip mcmc --json` and `stickslip discover --json` run in
+this process on the same records."""
+
+import json
+import pathlib
+
+import pytest
+import stickslip_fitting as sf
+from stickslip_fitting.discovery_api import FAMILY_COLUMNS, CampaignDiscovery
+from stickslip_fitting.posterior_api import POSTERIOR_COLUMNS, CampaignPosterior
+
+from stickslip_jax.cli import main
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "data" / "examples"
+NAMES = ["mu_s", "mu_d", "gamma", "m", "delta", "n"]
+SAMPLER = dict(steps=20, walkers=12, seed=3)
+PNG = b"\x89PNG\r\n\x1a\n"
+# three records of the shipped campaign: enough for the discovery's test, about 40 s
+DISCOVERY_FILES = sorted(str(p) for p in EXAMPLES.glob("*.csv"))[:3]
+
+
+@pytest.fixture(scope="module")
+def posterior():
+    return sf.sample(str(EXAMPLES / "*.csv"), **SAMPLER)
+
+
+@pytest.fixture(scope="module")
+def mcmc_document(tmp_path_factory):
+    """`stickslip mcmc data/examples --json OUT` with the same sampler settings."""
+    out = tmp_path_factory.mktemp("mcmc") / "mcmc.json"
+    assert main(["mcmc", str(EXAMPLES), "--steps", str(SAMPLER["steps"]), "--walkers",
+                 str(SAMPLER["walkers"]), "--seed", str(SAMPLER["seed"]), "--json", str(out),
+                 "--quiet"]) == 0
+    return json.loads(out.read_text())
+
+
+def test_sample_is_the_package_attribute(posterior):
+    assert isinstance(posterior, CampaignPosterior)
+    assert "sample" in sf.__all__ and "CampaignPosterior" in sf.__all__
+    assert posterior.names == NAMES and posterior.fixed == {}
+    assert 0.0 < posterior.acceptance <= 1.0
+
+
+def test_posterior_summary_columns_and_rows(posterior):
+    frame = posterior.summary()
+    assert tuple(frame.columns) == POSTERIOR_COLUMNS
+    assert list(frame.index) == NAMES and frame.index.name == "parameter"
+    assert (frame["low"] <= frame["median"]).all() and (frame["median"] <= frame["high"]).all()
+    assert (frame["sd"] > 0).all() and (frame["ess"] > 0).all()
+    assert frame.loc["gamma", "unit"] == "s^-m" and frame.loc["mu_s", "unit"] == "-"
+    assert frame.attrs["acceptance"] == posterior.acceptance
+    # the shipped campaign was made with these values: the posterior sits on them
+    assert frame.loc["mu_d", "median"] == pytest.approx(0.21, rel=1e-3)
+    assert frame.loc["n", "median"] == pytest.approx(1.0, rel=1e-2)
+
+
+def test_posterior_json_is_the_command_document(posterior, mcmc_document, tmp_path):
+    path = tmp_path / "post.json"
+    text = posterior.to_json(path)
+    doc = json.loads(path.read_text())
+    assert json.loads(text) == doc == posterior.to_dict()
+    assert list(doc) == list(mcmc_document)
+    assert list(doc["parameters"]["mu_s"]) == list(mcmc_document["parameters"]["mu_s"])
+    assert doc["names"] == mcmc_document["names"] == NAMES
+    for key in ("model", "objective", "loss", "walkers", "steps", "burn", "record_names",
+                "records", "deprecated_keys", "fixed", "prior"):
+        assert doc[key] == mcmc_document[key], key
+    # the same fit and the same seed: the same chain
+    assert doc["acceptance"] == pytest.approx(mcmc_document["acceptance"], rel=1e-9)
+    for name in NAMES:
+        assert doc["parameters"][name]["median"] == pytest.approx(
+            mcmc_document["parameters"][name]["median"], rel=1e-9)
+    assert len(doc["samples"]) == len(mcmc_document["samples"])
+
+
+def test_posterior_plot_writes_the_corner_png(posterior, tmp_path):
+    path = tmp_path / "corner.png"
+    fig = posterior.plot(path)
+    assert fig is not None
+    assert path.read_bytes()[:8] == PNG
+
+
+def test_posterior_text(posterior):
+    text = str(posterior)
+    assert text.splitlines()[0].split()[:2] == ["parameter", "median"]
+    assert "prior: " in text and "acceptance" in text
+    assert "CampaignPosterior(" in repr(posterior)
+
+
+def test_sample_around_a_given_fit_and_its_options():
+    # a fit given: sampled around without fitting again; the fit's options are its own
+    fit = sf.fit(str(EXAMPLES / "*.csv"))
+    post = sf.sample(fit, steps=20, walkers=12, seed=1, draws=5)
+    assert post.campaign_fit is fit
+    assert post.report["objective"] == "features" and len(post.report["samples"]) <= 5
+    with pytest.raises(ValueError, match="fix"):
+        sf.sample(fit, fix={"n": 1.0}, steps=12, walkers=12)
+
+
+@pytest.mark.parametrize("kw, word", [
+    (dict(steps=5), "steps"), (dict(seed=-1), "seed"), (dict(draws=0), "draws"),
+    (dict(walkers=4), "walkers"), (dict(burn=30, steps=20), "burn"),
+])
+def test_sample_errors_name_the_keyword_before_fitting(kw, word):
+    with pytest.raises(ValueError, match=word):
+        sf.sample(str(EXAMPLES / "*.csv"), **kw)
+
+
+@pytest.fixture(scope="module")
+def found():
+    return sf.discover(DISCOVERY_FILES)
+
+
+@pytest.fixture(scope="module")
+def discover_document(tmp_path_factory):
+    out = tmp_path_factory.mktemp("discover") / "discover.json"
+    assert main(["discover", *DISCOVERY_FILES, "--json", str(out), "--quiet"]) == 0
+    return json.loads(out.read_text())
+
+
+def test_discover_is_the_package_attribute(found):
+    assert isinstance(found, CampaignDiscovery)
+    assert "discover" in sf.__all__ and "CampaignDiscovery" in sf.__all__
+    # the shipped campaign has no effect beyond the paper's model
+    assert found.effect == "none" and found.named == []
+
+
+def test_discovery_summary_lists_every_family(found):
+    from stickslip_fitting.discovery.cycle_effects import FAMILIES
+
+    frame = found.summary()
+    assert tuple(frame.columns) == FAMILY_COLUMNS and frame.index.name == "family"
+    assert sorted(frame.index) == sorted(f.name for f in FAMILIES)
+    assert ((frame["p_value"] >= 0) & (frame["p_value"] <= 1)).all()
+    assert frame["named"].sum() == len(found.named)
+    assert list(frame.index[frame["named"]]) == [n for n in frame.index if n in found.named]
+    assert frame["significant"].dtype == bool
+
+
+def test_discovery_json_is_the_command_document(found, discover_document, tmp_path):
+    path = tmp_path / "found.json"
+    text = found.to_json(path)
+    doc = json.loads(path.read_text())
+    assert json.loads(text) == doc == found.to_dict()
+    assert list(doc) == list(discover_document)
+    for key in ("effect", "confidence", "base", "loss", "deprecated_keys", "records"):
+        assert doc[key] == discover_document[key], key
+    assert [c["name"] for c in doc["candidates"]] == [
+        c["name"] for c in discover_document["candidates"]]
+    assert doc["gap_before_mm"] == pytest.approx(discover_document["gap_before_mm"], rel=1e-6)
+
+
+def test_discovery_plot_writes_a_png(found, tmp_path):
+    path = tmp_path / "found.png"
+    found.plot(path)
+    assert path.read_bytes()[:8] == PNG
+    text = str(found)
+    assert text.startswith(f"effect: {found.effect}") and "family" in text
+
+
+@pytest.mark.parametrize("kw, word", [
+    (dict(only=["no_such_family"]), "only"), (dict(top=0), "top"),
+    (dict(alpha=1.5), "alpha"), (dict(max_evals=1), "max_evals"),
+    (dict(loss="cauchy"), "loss"),
+])
+def test_discover_errors_name_the_keyword(kw, word):
+    with pytest.raises(ValueError, match=word):
+        sf.discover(DISCOVERY_FILES, **kw)
+
+
+def test_discover_needs_two_records():
+    with pytest.raises(ValueError, match="two records"):
+        sf.discover(DISCOVERY_FILES[:1])
