@@ -51,8 +51,10 @@ import numpy as np
 from stickslip_jax.units import G_MM_S2
 
 from . import sticks
+from .sticks import NOISE_FLOOR, detection_z
 
-__all__ = ["RESLIP_RATIO", "RecordFeatures", "extract_cycles", "record_features"]
+__all__ = ["NOISE_FLOOR", "RESLIP_RATIO", "RecordFeatures", "detection_z", "extract_cycles",
+           "record_features"]
 
 _RISE_10_90 = (math.pi - 2.0 * math.acos(0.8)) / math.pi
 """Fraction of a half cosine's duration between 10 % and 90 % of its rise."""
