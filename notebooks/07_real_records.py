@@ -71,7 +71,8 @@ unc = laplace(fit)
 for row in unc.table():
     ci = "not identifiable" if row["ci95"] is None or not row["identifiable"] else (
         f"[{row['ci95'][0]:.4g}, {row['ci95'][1]:.4g}]")
-    print(f"{row['name']:6s} {row['value']:12.5g} {row['unit']:5s} {ci}")
+    value = "-" if row["value"] is None else f"{row['value']:.5g}"  # "-": not determined
+    print(f"{row['name']:6s} {value:>12s} {row['unit']:5s} {ci}")
 print(f"chi2/dof {fit.reduced_chi2:.3g}; chi2/n by record before scaling:",
       {f.name: round(float(c), 1) for f, c in zip(fit.features, fit.record_chi2)})
 for w in unc.warnings:
@@ -99,7 +100,8 @@ fit_t = fit_features(campaign.features, records=campaign.records, loss=StudentT(
 for row in laplace(fit_t).table():
     ci = "not identifiable" if row["ci95"] is None or not row["identifiable"] else (
         f"[{row['ci95'][0]:.4g}, {row['ci95'][1]:.4g}]")
-    print(f"student-t: {row['name']:6s} {row['value']:12.5g} {ci}")
+    value = "-" if row["value"] is None else f"{row['value']:.5g}"
+    print(f"student-t: {row['name']:6s} {value:>12s} {ci}")
 
 # %% [markdown]
 # What the numbers say:
