@@ -248,7 +248,7 @@ def fit(
     elif eta is not None:
         raise ValueError("eta: only used with model='microsqueeze'")
 
-    given = _as_list(records)
+    given = as_list(records)
     inputs: tuple[str, ...]
     if given and all(isinstance(r, Record) for r in given):
         campaign, inputs = _campaign_of_records(given, strict), ()
@@ -286,7 +286,7 @@ def fit(
     return out
 
 
-def _as_list(records) -> list:
+def as_list(records) -> list:
     """`records` as a list of specs or Records (a single one in a list)."""
     if isinstance(records, (str, os.PathLike, Record)):
         return [records]

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 
 from stickslip_jax.records import Record
 
-from .api import RecordsSpec
+from .api import RecordsSpec, as_list
 
 if TYPE_CHECKING:
     import pandas
@@ -223,7 +223,7 @@ def discover(
         except ValueError as err:
             raise ValueError(str(err).replace("--loss", "loss")) from None
 
-    given = _as_list(records)
+    given = as_list(records)
     unreadable: list = []
     inputs: tuple[str, ...] = ()
     if given and all(isinstance(r, Record) for r in given):
@@ -244,15 +244,3 @@ def discover(
                              alpha=alpha, max_evals=max_evals, strict=strict, learn=learn,
                              loss=loss, unreadable=tuple(unreadable), progress=progress)
     return CampaignDiscovery(result=result, loss=loss.spec(), inputs=inputs)
-
-
-def _as_list(records) -> list:
-    """`records` as a list of specs or Records (a single one in a list)."""
-    from collections.abc import Iterable
-
-    if isinstance(records, (str, os.PathLike, Record)):
-        return [records]
-    if isinstance(records, Iterable):
-        return list(records)
-    raise ValueError(f"records: a path, a folder, a glob, a Record or a list of them, got "
-                     f"{records!r}")
