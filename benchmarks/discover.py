@@ -42,9 +42,9 @@ def cycle(args):
     sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
     import independent_records as ir
 
-    from stickslip_fitting.campaign import screen_records
+    from stickslip_fitting.data.campaign import screen_records
     from stickslip_fitting.discovery.cycle_workflow import discover_cycles
-    from stickslip_fitting.fit import fit_features
+    from stickslip_fitting.solve.fit import fit_features
 
     t = time.perf_counter()
     kw = dict(runs=ir.RUNS[:2], speeds=(5.0, 10.0)) if args.small else {}

@@ -27,12 +27,12 @@ rounds because the machine is shared):
    residual function); then the same again with the slips in closed form
    (`slip="closed_form"`: NumPy, no ODE solver, brentq for the breakaway); plus the
    combined objective ("both"), ours only;
-3. emcee (`stickslip_fitting.mcmc.run_mcmc`, 32 walkers): minimum effective sample size over the
+3. emcee (`stickslip_fitting.uncertainty.mcmc.run_mcmc`, 32 walkers): minimum effective sample size over the
    parameters per second, after compilation.
 
 Three SciPy baselines. The strict one: SciPy's residual functions are jitted JAX (the
 same model and residuals, compiled with the XLA options of our solves,
-`stickslip_fitting.fit.COMPILER_OPTIONS`, so the comparison is optimiser + derivatives); their
+`stickslip_fitting.solve.fit.COMPILER_OPTIONS`, so the comparison is optimiser + derivatives); their
 compilation is reported separately and included in the "SciPy incl. compilation"
 figures. The SciPy-native one (trace part): what a SciPy user would write for a general
 slip law, the model in NumPy/SciPy (it agrees with the exact simulator to about 1e-13 mm, see
@@ -71,7 +71,7 @@ def best_of(fn, repeat, clear=False):
 def scipy_rounds(res_fn, aux_fn, y0, ref0, vel0, tol, max_rounds, round_tol, max_nfev=4000,
                  first_round=0):
     """SciPy least_squares (2-point finite differences) with the reweighting rounds of
-    `stickslip_fitting.fit._solve_rounds`: the weights are frozen at `ref` (and the trace's slider
+    `stickslip_fitting.solve.fit._solve_rounds`: the weights are frozen at `ref` (and the trace's slider
     velocity `vel`) for one solve, then moved to its optimum; `max_nfev`: iterations per
     round at most (SciPy does not count the finite-difference evaluations there);
     `first_round`: rounds already done (stopping needs a second round). Returns
@@ -103,15 +103,15 @@ def main():
     from jax.flatten_util import ravel_pytree
 
     import stickslip_jax as ss
-    from stickslip_fitting import fit as fit_module
-    from stickslip_fitting.features import record_features
-    from stickslip_fitting.fit import fit_features, initial_guesses
-    from stickslip_fitting.mcmc import run_mcmc
+    from stickslip_fitting.solve import fit as fit_module
+    from stickslip_fitting.data.features import record_features
+    from stickslip_fitting.solve.fit import fit_features, initial_guesses
+    from stickslip_fitting.uncertainty.mcmc import run_mcmc
     from stickslip_fitting.modes import Objective
-    from stickslip_fitting.objectives import feature_residuals
+    from stickslip_fitting.objectives.cycle_features import feature_residuals
     from stickslip_fitting.params import CampaignParams, free_spec
-    from stickslip_fitting.synthetic import synthetic_campaign, truth_values
-    from stickslip_fitting.trace_objective import trace_data, trace_residuals_and_flags
+    from stickslip_fitting.data.synthetic import synthetic_campaign, truth_values
+    from stickslip_fitting.objectives.trace import trace_data, trace_residuals_and_flags
 
     fr = ss.lubricant("A")
     cycles = 3 if args.small else 15
@@ -146,7 +146,7 @@ def main():
     flat_starts = [np.asarray(ravel_pytree(eqx.partition(p, spec)[0])[0]) for p in starts]
 
     def scipy_features():
-        # our multi-start strategy (`stickslip_fitting.fit._solve_rounds`): every start screened
+        # our multi-start strategy (`stickslip_fitting.solve.fit._solve_rounds`): every start screened
         # for SCREEN_ROUNDS rounds of at most SCREEN_STEPS iterations, then the
         # POLISH_STARTS best polished with the full budget
         res = (lambda v, ref, _: fres(v, ref))
@@ -215,7 +215,7 @@ def main():
     # (scipy_reference.py: brentq + solve_ivp, each cycle window simulated once), same
     # start, rounds and tolerances; the weights are frozen per round by our trace_sd at the
     # previous optimum (its slider velocity from the SciPy model; the first round: 0)
-    from stickslip_fitting.trace_objective import trace_sd
+    from stickslip_fitting.objectives.trace import trace_sd
     from scipy_reference import (reference_windows, scipy_trace_residuals,
                                  scipy_trace_simulation, values_from_free)
 

@@ -1,7 +1,7 @@
 """Benchmark: `stickslip mcmc --objective trace` on the shipped campaign (data/examples).
 
 Ours: the trace fit (features first), then emcee on the vectorised, compiled trace
-log-posterior (`stickslip_fitting.mcmc.run_mcmc`), cold (compilation included) and warm. Printed:
+log-posterior (`stickslip_fitting.uncertainty.mcmc.run_mcmc`), cold (compilation included) and warm. Printed:
 every parameter's median, 95 % interval and whether it contains the truth
 (data/examples/truth.json), the autocorrelation time and effective sample size, and the
 time to reach >= 1000 effective samples of every parameter (target: < 3 min).
@@ -42,10 +42,10 @@ def main():
     import jax
     import jax.numpy as jnp
 
-    from stickslip_fitting.campaign import find_truth
-    from stickslip_fitting.fit import fit_records
-    from stickslip_fitting.mcmc import likelihood_scale, run_mcmc
-    from stickslip_fitting.trace_objective import trace_sd
+    from stickslip_fitting.data.campaign import find_truth
+    from stickslip_fitting.solve.fit import fit_records
+    from stickslip_fitting.uncertainty.mcmc import likelihood_scale, run_mcmc
+    from stickslip_fitting.objectives.trace import trace_sd
     from scipy_reference import reference_windows, scipy_trace_residuals
     from stickslip_jax.records import read_record
 

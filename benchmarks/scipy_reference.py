@@ -1,7 +1,7 @@
 r"""The stick-slip model and the trace residuals written as a SciPy user would: NumPy + SciPy only.
 
 An independent reference for the benchmarks (`simulate.py`, `fit.py`) and the tests:
-it shares no code with `stickslip_jax.simulation` or `stickslip_fitting.trace_objective`.
+it shares no code with `stickslip_jax.simulation` or `stickslip_fitting.objectives.trace`.
 
 Model (the paper's chapters 2-5, as `simulate_exact` with `slip_time="paper"` and a
 constant drive speed v): the slider starts at rest at time $t_0$ with spring
@@ -27,9 +27,9 @@ Units: kgf, mm, s (speeds mm/s, stiffness kgf/mm, mass W/g with g = 9806.65 mm/s
 - `scipy_record(friction, W, k, v, ts)`: one record from rest at t = 0 (the simulators
   benchmark's baseline).
 - `simulate_window(values, W, k, v, ts, t0=, x0=)`: deflection and slider velocity.
-- `reference_windows(tdata)`: a `stickslip_fitting.trace_objective.TraceData` converted once to
+- `reference_windows(tdata)`: a `stickslip_fitting.objectives.trace.TraceData` converted once to
   NumPy, one entry per cycle window; `scipy_trace_residuals(values, windows, sd)`: the
-  whitened trace residuals (the layout of `stickslip_fitting.trace_objective.trace_residuals`),
+  whitened trace residuals (the layout of `stickslip_fitting.objectives.trace.trace_residuals`),
   each cycle window simulated once; `scipy_trace_simulation` the simulations behind them.
 - `values_from_free(v)`: the fit's flat free vector (log coordinates,
   `stickslip_fitting.params`) to the natural parameters.
@@ -48,7 +48,7 @@ G_MM_S2 = 9806.65
 """Standard gravity (mm/s^2): slider mass M = W / g."""
 
 TRACE_MAX_SLIPS = 3
-"""Slips simulated per cycle window, as `stickslip_fitting.trace_objective` (its `MAX_EVENTS` = 6 stick
+"""Slips simulated per cycle window, as `stickslip_fitting.objectives.trace` (its `MAX_EVENTS` = 6 stick
 and slip phases): after the last one the slip's motion is continued to the window's end."""
 
 TRACE_RTOL, TRACE_ATOL = 1e-12, 1e-15
@@ -215,7 +215,7 @@ class ReferenceWindows:
 
 
 def reference_windows(tdata) -> ReferenceWindows:
-    """Convert a `stickslip_fitting.trace_objective.TraceData` to NumPy once (before fitting)."""
+    """Convert a `stickslip_fitting.objectives.trace.TraceData` to NumPy once (before fitting)."""
     a = {f.name: np.asarray(getattr(tdata, f.name)) for f in dataclasses.fields(tdata)}
     mask = a["mask"].astype(bool)
     real = mask.any(axis=1)
@@ -262,7 +262,7 @@ def scipy_trace_simulation(values, windows: ReferenceWindows, offsets=None, *,
 def scipy_trace_residuals(values, windows: ReferenceWindows, sd, offsets=None, *,
                           rtol=TRACE_RTOL, atol=TRACE_ATOL, slip="ode") -> np.ndarray:
     """Whitened trace residuals $(x - c - x_\\mathrm{sim}) / s$, flat (N L,), 0 on padding
-    (the layout of `stickslip_fitting.trace_objective.trace_residuals`).
+    (the layout of `stickslip_fitting.objectives.trace.trace_residuals`).
 
     `values`: (mu_s, mu_d, gamma, m, delta, n); `sd`: the standard errors s (mm, [N, L]),
     frozen (e.g. `trace_sd` at the previous optimum); `offsets`: gauge offsets per record

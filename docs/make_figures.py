@@ -137,14 +137,14 @@ def _discovery_campaign(folder: pathlib.Path) -> list[str]:
 
 
 def _corner(tmp: pathlib.Path, out: pathlib.Path) -> None:
-    """`stickslip mcmc`'s corner plot (`stickslip_fitting.plots.corner_plot`, the
+    """`stickslip mcmc`'s corner plot (`stickslip_fitting.report.plots.corner_plot`, the
     function behind `mcmc --plot`) from the run's JSON draws, without the scatter of
     single draws and at 80 dpi: the command's 100 dpi figure is a 0.5 MB file."""
     import json
 
     import numpy as np
 
-    from stickslip_fitting.plots import corner_plot
+    from stickslip_fitting.report.plots import corner_plot
     from stickslip_jax.output import save_figure
 
     doc = json.loads((tmp / "mcmc.json").read_text())

@@ -4,7 +4,7 @@ parsers use them.
 Modes are str-valued enums like `stickslip_jax.modes` (`AbstractMode`): hashed, printed
 and JSON-encoded as their value (`Objective.TRACE == "trace"`). A user's string becomes a
 member once, where it enters (`Objective.parse(value)` in `stickslip_fitting.commands`
-and `stickslip_fitting.api`); inside the package members are passed and compared.
+and `stickslip_fitting.api.campaign`); inside the package members are passed and compared.
 
 - `Objective`: what a campaign fit minimises (`--objective`).
 - `DesignCriterion`: what the experiment design optimises (`stickslip plan --criterion`).
@@ -13,7 +13,7 @@ and `stickslip_fitting.api`); inside the package members are passed and compared
 - `SmallSample`: the small-sample correction of the cluster-robust covariance.
 - `DiscoveryBase`: the base model of missing-physics discovery (`stickslip discover --base`).
 
-The option groups of a campaign fit (`stickslip_fitting.fit.fit_features`) are frozen
+The option groups of a campaign fit (`stickslip_fitting.solve.fit.fit_features`) are frozen
 dataclasses with defaults: `ModelModes` (gauge offset, slip time, re-slips), `Weighting`
 (objective weights, per-record error scaling), `Padding` (shapes that reuse a
 compilation) and `SolverOptions` (tolerances and step cap).
@@ -37,7 +37,7 @@ __all__ = ["Covariance", "DesignCriterion", "DiscoveryBase", "MapMethod", "Model
 
 
 class Objective(AbstractMode):
-    """What a campaign fit minimises (`stickslip_fitting.combined`, `.smooth_objective`).
+    """What a campaign fit minimises (`stickslip_fitting.objectives.combined`, `.smooth_objective`).
 
     - `FEATURES` ("features", the default): plateau levels and eq (6) per cycle.
     - `TRACE` ("trace"): every sample against the exact simulator restarted at every
@@ -96,7 +96,7 @@ class MapMethod(AbstractMode):
 
 
 class Covariance(AbstractMode):
-    """How a fit's covariance is computed (`stickslip_fitting.uncertainty.laplace`).
+    """How a fit's covariance is computed (`stickslip_fitting.uncertainty.laplace.laplace`).
 
     - `AUTO` ("auto", the default): chosen from the objective and the fit (`laplace`).
     - `FISHER` ("fisher"): the Gauss-Newton information, scaled by max(1, chi2/dof).
@@ -117,7 +117,7 @@ class Covariance(AbstractMode):
 
 class SmallSample(AbstractMode):
     """The small-sample correction of the cluster-robust covariance
-    (`stickslip_fitting.uncertainty.sandwich_covariance`).
+    (`stickslip_fitting.uncertainty.laplace.sandwich_covariance`).
 
     - `JACKKNIFE` ("jackknife", the default): leave-one-cluster-out scores (CR3).
     - `CR2` ("cr2"): Bell-McCaffrey, each cluster's residuals scaled by
@@ -157,14 +157,14 @@ def check_member(name: str, value, kind: type) -> None:
 
 @dataclasses.dataclass(frozen=True)
 class ModelModes:
-    """How a campaign fit models the records (`stickslip_fitting.fit.fit_features`)."""
+    """How a campaign fit models the records (`stickslip_fitting.solve.fit.fit_features`)."""
 
     offset: GaugeOffset = GaugeOffset.ZERO
     """ZERO: trust the gauge zero; START: fit one offset per record from its first plateau."""
     slip_time: SlipTime = SlipTime.PAPER
     r"""$T_2$ in eq (3): PAPER ($\pi/\omega_0$) or SELF_CONSISTENT."""
     reslip: bool | None = None
-    """Model re-slips (`stickslip_fitting.objectives.feature_data`); None: detected."""
+    """Model re-slips (`stickslip_fitting.objectives.cycle_features.feature_data`); None: detected."""
 
     def __post_init__(self):
         check_member("offset", self.offset, GaugeOffset)
@@ -173,7 +173,7 @@ class ModelModes:
 
 @dataclasses.dataclass(frozen=True)
 class Weighting:
-    """Weights of a campaign fit's residuals (`stickslip_fitting.fit.fit_features`)."""
+    """Weights of a campaign fit's residuals (`stickslip_fitting.solve.fit.fit_features`)."""
 
     features: float = 0.5
     """Weight of the features objective in `Objective.BOTH`."""
@@ -181,11 +181,11 @@ class Weighting:
     """Weight of the trace objective in `Objective.BOTH`."""
     rescale_records: bool = True
     """Scale the errors of records the model describes worse than their noise
-    (`stickslip_fitting.fit.RECORD_CHI2`) to their scatter and refit."""
+    (`stickslip_fitting.solve.fit.RECORD_CHI2`) to their scatter and refit."""
 
     @property
     def pair(self) -> tuple[float, float]:
-        """(w_features, w_trace), as `stickslip_fitting.combined.make_objective` takes them."""
+        """(w_features, w_trace), as `stickslip_fitting.objectives.combined.make_objective` takes them."""
         return (self.features, self.trace)
 
 
@@ -196,7 +196,7 @@ class Padding:
     cycles: int = 0
     """Cycle axis of the features data at least this long."""
     length: int = 0
-    """Trace rows at least this long (`stickslip_fitting.trace_objective.trace_data`)."""
+    """Trace rows at least this long (`stickslip_fitting.objectives.trace.trace_data`)."""
     windows: int = 0
     """Trace rows at least this many."""
 

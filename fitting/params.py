@@ -19,7 +19,7 @@ sampler work in unconstrained coordinates:
 fitted is chosen with a boolean filter spec and `eqx.partition` (`free_spec`); the
 parameters a fit holds at given values are a `Hold`, whose `where` selects their leaves
 like `eqx.tree_at`'s (`Hold(lambda f: f.log_n, 1.0)`). Names appear only at the edges:
-the command line's and `stickslip_fitting.api`'s `fix` (`Hold.named`) and reports
+the command line's and `stickslip_fitting.api.campaign`'s `fix` (`Hold.named`) and reports
 (`NAMES`, `UNITS`).
 
 Every friction law that can be fitted is a final subclass of `AbstractFrictionParams`

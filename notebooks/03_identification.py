@@ -11,12 +11,12 @@ import os
 from pathlib import Path
 
 import stickslip_jax as ss
-from stickslip_fitting.features import record_features
-from stickslip_fitting.fit import fit_features
-from stickslip_fitting.mcmc import run_mcmc
-from stickslip_fitting.plots import corner_plot, fit_figure
-from stickslip_fitting.synthetic import synthetic_campaign, truth_values
-from stickslip_fitting.uncertainty import laplace
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.solve.fit import fit_features
+from stickslip_fitting.uncertainty.mcmc import run_mcmc
+from stickslip_fitting.report.plots import corner_plot, fit_figure
+from stickslip_fitting.data.synthetic import synthetic_campaign, truth_values
+from stickslip_fitting.uncertainty.laplace import laplace
 
 SMALL = os.environ.get("STICKSLIP_SMALL") == "1"
 FIG = Path(os.environ.get("STICKSLIP_FIGDIR", "notebooks/figures"))

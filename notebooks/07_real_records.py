@@ -30,9 +30,9 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from stickslip_fitting.campaign import boundary_check, load_campaign
-from stickslip_fitting.fit import fit_features
-from stickslip_fitting.uncertainty import laplace
+from stickslip_fitting.data.campaign import boundary_check, load_campaign
+from stickslip_fitting.solve.fit import fit_features
+from stickslip_fitting.uncertainty.laplace import laplace
 
 FIG = Path(os.environ.get("STICKSLIP_FIGDIR", "notebooks/figures"))
 FIG.mkdir(parents=True, exist_ok=True)
@@ -81,14 +81,14 @@ for s in boundary_check(fit.params.friction.friction(), campaign):
     print(s["message"])
 
 # %% [markdown]
-# The adequacy report (`stickslip_fitting.adequacy`, the `adequacy:` lines of
+# The adequacy report (`stickslip_fitting.uncertainty.adequacy`, the `adequacy:` lines of
 # `stickslip fit`) measures chi2/n by record and phase in the records' own errors and says
 # what misses; a heavy-tailed likelihood (`--loss student-t`) is the alternative to
 # scaling a whole record's errors when only some cycles are far out.
 
 # %%
-from stickslip_fitting.adequacy import adequacy
-from stickslip_fitting.losses import StudentT
+from stickslip_fitting.uncertainty.adequacy import adequacy
+from stickslip_fitting.objectives.losses import StudentT
 
 report = adequacy(fit)
 for row in report.rows:

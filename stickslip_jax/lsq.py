@@ -173,7 +173,7 @@ def gauss_newton_covariance(J, scale: float = 1.0, rcond: float = 1e-13) -> np.n
     round-off). `scale` $s$: 1 for whitened residuals with trusted errors,
     max(1, chi2/dof) to widen for a misfit, sigma^2 for unwhitened residuals. The one
     covariance of the project's fits; the cluster-robust alternative is
-    `stickslip_fitting.uncertainty.sandwich_covariance`."""
+    `stickslip_fitting.uncertainty.laplace.sandwich_covariance`."""
     J = np.asarray(J, float)
     return np.linalg.pinv(J.T @ J, rcond=rcond, hermitian=True) * float(scale)
 

@@ -33,11 +33,11 @@ def trace_rms(records, friction: ir.Friction) -> float:
     import equinox as eqx
     import jax
 
-    from stickslip_fitting.campaign import screen_records
+    from stickslip_fitting.data.campaign import screen_records
     from stickslip_fitting.discovery.cycle_model import CycleModel, drift_origins
     from stickslip_fitting.discovery.subproblems import SubProblem
     from stickslip_fitting.params import EmpiricalFriction
-    from stickslip_fitting.trace_objective import trace_data
+    from stickslip_fitting.objectives.trace import trace_data
     from stickslip_jax.lsq import solve_host
 
     campaign = screen_records(list(records))

@@ -1,4 +1,4 @@
-"""The adequacy report (`stickslip_fitting.adequacy`): silent on records the model
+"""The adequacy report (`stickslip_fitting.uncertainty.adequacy`): silent on records the model
 describes, specific (record, phase, hint) on records it does not."""
 
 from __future__ import annotations
@@ -9,20 +9,20 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stickslip_fitting.adequacy import BAD, PhaseRow, _sentences, adequacy
+from stickslip_fitting.uncertainty.adequacy import BAD, PhaseRow, _sentences, adequacy
 
 
 @pytest.fixture(scope="module")
 def features():
     from stickslip_jax.records import read_record
-    from stickslip_fitting.features import record_features
+    from stickslip_fitting.data.features import record_features
 
     paths = sorted(Path(__file__).parents[1].glob("data/examples/A_W36_k*.csv"))
     return [record_features(read_record(p)) for p in paths]
 
 
 def test_clean_campaign_is_described(features):
-    from stickslip_fitting.fit import fit_features
+    from stickslip_fitting.solve.fit import fit_features
 
     rep = adequacy(fit_features(features))
     assert rep.verdict == "describes", rep.sentences
@@ -34,7 +34,7 @@ def test_clean_campaign_is_described(features):
 def test_scattered_record_is_named_with_its_phase(features):
     """One record's levels scattered by 20 noise standard deviations per cycle: that
     record and phase are named, in the records' own errors (not the scaled ones)."""
-    from stickslip_fitting.fit import fit_features
+    from stickslip_fitting.solve.fit import fit_features
 
     rng = np.random.default_rng(3)
     f = features[2]
@@ -55,8 +55,8 @@ def test_scattered_record_is_named_with_its_phase(features):
 
 
 def test_one_far_cycle_is_heavy_tailed_and_points_to_student_t(features):
-    from stickslip_fitting.fit import fit_features
-    from stickslip_fitting.losses import StudentT
+    from stickslip_fitting.solve.fit import fit_features
+    from stickslip_fitting.objectives.losses import StudentT
 
     i = max(range(len(features)), key=lambda i: np.size(features[i].peak))  # most cycles
     f = features[i]
@@ -90,7 +90,7 @@ def test_correlated_stick_times_p_value_is_calibrated():
     where the independent chi2 more than doubles it (Monte Carlo, 4 and 6 residuals)."""
     from scipy.stats import chi2
 
-    from stickslip_fitting.adequacy import STICK_LAGS
+    from stickslip_fitting.uncertainty.adequacy import STICK_LAGS
 
     rng = np.random.default_rng(0)
     level = 0.01

@@ -13,7 +13,7 @@ import warnings
 import pytest
 
 import stickslip_fitting as sf
-from stickslip_fitting.api import SUMMARY_COLUMNS, CampaignFit
+from stickslip_fitting.api.campaign import SUMMARY_COLUMNS, CampaignFit
 from stickslip_jax.cli import main
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -54,15 +54,13 @@ def _same_document(a, b, where="document"):
         assert a == b, (where, a, b)
 
 
-def test_the_call_is_the_package_attribute_and_the_module_stays_a_module(result):
+def test_the_call_is_the_package_attribute(result):
     import inspect
 
-    from stickslip_fitting import fit as fit_module
+    from stickslip_fitting.api.campaign import fit
 
     assert isinstance(result, CampaignFit) and result.converged
-    # `stickslip_fitting.fit` is the fit machinery's module, and calling it fits
-    assert fit_module is sf.fit and fit_module.__name__ == "stickslip_fitting.fit"
-    assert callable(fit_module) and hasattr(fit_module, "fit_features")
+    assert sf.fit is fit
     assert list(inspect.signature(sf.fit).parameters)[:3] == ["records", "model", "objective"]
     assert sf.CampaignFit is CampaignFit
 
@@ -182,8 +180,8 @@ def test_option_errors_name_the_keyword(options, message):
 
 def test_typed_options_are_accepted():
     """The option objects (modes, loss, law) are checked like their strings."""
-    from stickslip_fitting import api
-    from stickslip_fitting.losses import Huber
+    from stickslip_fitting.api import campaign as api
+    from stickslip_fitting.objectives.losses import Huber
     from stickslip_fitting.microsqueeze_params import MicrosqueezeFriction
     from stickslip_fitting.params import EmpiricalFriction
 
@@ -219,7 +217,7 @@ def test_real_records_show_unknowns_as_unknown():
 _USER_CODE = '''
 import stickslip_fitting as sf
 from stickslip_fitting import CampaignFit
-from stickslip_fitting.losses import Huber
+from stickslip_fitting.objectives.losses import Huber
 from stickslip_fitting.modes import Objective
 from stickslip_jax.modes import GaugeOffset
 
@@ -256,7 +254,7 @@ def test_public_api_type_checks(tmp_path):
     run = subprocess.run(
         [sys.executable, "-m", "mypy", "--config-file", "mypy.ini", "--cache-dir",
          str(tmp_path / "cache"), "--no-error-summary", "user.py",
-         "src/stickslip_fitting/__init__.py", "src/stickslip_fitting/api.py",
+         "src/stickslip_fitting/__init__.py", "src/stickslip_fitting/api/campaign.py",
          "src/stickslip_jax/__init__.py"],
         cwd=tmp_path, env={**os.environ, "MYPYPATH": str(src)},
         capture_output=True, text=True, timeout=600)

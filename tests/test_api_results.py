@@ -9,8 +9,8 @@ import pathlib
 
 import pytest
 import stickslip_fitting as sf
-from stickslip_fitting.discovery_api import FAMILY_COLUMNS, CampaignDiscovery
-from stickslip_fitting.posterior_api import POSTERIOR_COLUMNS, CampaignPosterior
+from stickslip_fitting.api.discovery import FAMILY_COLUMNS, CampaignDiscovery
+from stickslip_fitting.api.posterior import POSTERIOR_COLUMNS, CampaignPosterior
 
 from stickslip_jax.cli import main
 

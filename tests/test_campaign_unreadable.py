@@ -10,7 +10,7 @@ import json
 import numpy as np
 import pytest
 from cli_safety import EXAMPLES, copy_records, run_checked
-from stickslip_fitting.campaign import UNREADABLE, load_campaign
+from stickslip_fitting.data.campaign import UNREADABLE, load_campaign
 
 from stickslip_jax.records import RecordError, read_campaign, read_campaign_files
 

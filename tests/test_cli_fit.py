@@ -5,7 +5,7 @@ import json
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.synthetic import synthetic_campaign
+from stickslip_fitting.data.synthetic import synthetic_campaign
 from stickslip_jax.cli import main
 from stickslip_jax.records import write_record
 

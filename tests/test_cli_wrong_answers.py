@@ -162,8 +162,8 @@ def test_noise_free_record_gets_the_noise_floor():
     """A noise-free record's noise estimate is floored (10 nm), and said so: without the
     floor it gives delta 73.03 +- 1e-8 for a truth of 67."""
     import stickslip_jax as ss
-    from stickslip_fitting.features import NOISE_FLOOR, record_features
-    from stickslip_fitting.synthetic import synthetic_campaign
+    from stickslip_fitting.data.features import NOISE_FLOOR, record_features
+    from stickslip_fitting.data.synthetic import synthetic_campaign
 
     rec = synthetic_campaign(ss.lubricant("A"), speed_fractions=(0.05,), cycles=3, seed=0,
                              noise=0.0)[0]

@@ -1,4 +1,4 @@
-"""The combined objective's residual layout (stickslip_fitting.combined.residual_cycles) and the
+"""The combined objective's residual layout (stickslip_fitting.objectives.combined.residual_cycles) and the
 cluster-robust intervals of `--objective both` (coverage check: slow)."""
 
 import os
@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.combined import CampaignObjective, residual_cycles
-from stickslip_fitting.features import record_features
-from stickslip_fitting.fit import fit_features
+from stickslip_fitting.objectives.combined import CampaignObjective, residual_cycles
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.solve.fit import fit_features
 from stickslip_fitting.modes import Covariance, Objective, Padding
 from stickslip_fitting.params import NAMES
-from stickslip_fitting.synthetic import draw_prior_friction, synthetic_campaign, truth_values
-from stickslip_fitting.trace_objective import trace_data
-from stickslip_fitting.uncertainty import laplace
+from stickslip_fitting.data.synthetic import draw_prior_friction, synthetic_campaign, truth_values
+from stickslip_fitting.objectives.trace import trace_data
+from stickslip_fitting.uncertainty.laplace import laplace
 
 
 @pytest.fixture(scope="module")

@@ -183,8 +183,8 @@ def test_a_measured_drive_column_is_used():
     missing physics, so nothing is named and the base fits to the noise; the same records
     with only the nominal speed leave a gap many times the noise. The trace objective
     still refuses such records (its exact simulator drives at u = v t)."""
-    from stickslip_fitting.campaign import screen_records
-    from stickslip_fitting.trace_objective import trace_data
+    from stickslip_fitting.data.campaign import screen_records
+    from stickslip_fitting.objectives.trace import trace_data
 
     res = discover_cycles(_measured_drive_campaign(True))
     assert res.effect == "none" and res.confidence == "high"

@@ -17,9 +17,9 @@ def _model(last_duration, seed0=0, imp=ir.Imperfections()):
     independent generator (lubricant A), weighted as the discovery workflow does."""
     from stickslip_jax.records import Record
 
-    from stickslip_fitting.campaign import screen_records
-    from stickslip_fitting.fit import fit_features
-    from stickslip_fitting.trace_objective import trace_data, trace_sd, trace_simulation
+    from stickslip_fitting.data.campaign import screen_records
+    from stickslip_fitting.solve.fit import fit_features
+    from stickslip_fitting.objectives.trace import trace_data, trace_sd, trace_simulation
 
     recs = []
     for i, (W, k, v, T) in enumerate(((36.0, 86.9, 5.0, 12.0), (20.0, 27.3, 10.0, 12.0),

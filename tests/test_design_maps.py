@@ -163,7 +163,7 @@ def test_sample_files_round_trip(tmp_path, sample):
         {"parameters": list(PARAMETERS),
          "samples": np.column_stack([p[k] for k in PARAMETERS]).tolist()},
         {"posterior": {k: v.tolist() for k, v in p.items()}, "note": "extra keys ignored"},
-        # stickslip_fitting.mcmc layout: a matrix of the sampled parameters, the rest held fixed
+        # stickslip_fitting.uncertainty.mcmc layout: a matrix of the sampled parameters, the rest held fixed
         {"names": ["mu_s", "mu_d", "gamma", "m"],
          "samples": np.column_stack([p[k] for k in ("mu_s", "mu_d", "gamma", "m")]).tolist(),
          "fixed": {"delta": 67.0, "n": 1.0}},

@@ -18,7 +18,7 @@ from stickslip_fitting.discovery.result import (CycleDiscovery, effect_estimate,
                                                 phase_misfit, phase_text)
 from stickslip_fitting.discovery.stages.rank import significance_line
 from stickslip_fitting.discovery.stages.refit import dead
-from stickslip_fitting.report import DiscoveryEstimates
+from stickslip_fitting.report.rows import DiscoveryEstimates
 
 
 def _candidate(name, p, p_fw, by):

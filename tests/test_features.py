@@ -1,11 +1,11 @@
-"""Cycle features (stickslip_fitting.features) against the exact simulator's own cycle table."""
+"""Cycle features (stickslip_fitting.data.features) against the exact simulator's own cycle table."""
 
 import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.features import extract_cycles, record_features
-from stickslip_fitting.synthetic import synthetic_campaign
+from stickslip_fitting.data.features import extract_cycles, record_features
+from stickslip_fitting.data.synthetic import synthetic_campaign
 
 W, K = 36.0, 86.9
 

@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from stickslip_fitting.features import extract_cycles
+from stickslip_fitting.data.features import extract_cycles
 
 sys.path.insert(0, os.path.dirname(__file__))
 import independent_records as ir  # noqa: E402

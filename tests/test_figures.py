@@ -33,7 +33,7 @@ def test_corner_axes_contain_a_truth_the_draws_miss():
     of those parameters is widened to show the truth, with the line inside the frame."""
     import matplotlib.pyplot as plt
 
-    from stickslip_fitting.plots import corner_plot  # the name kept beside the new module
+    from stickslip_fitting.report.plots import corner_plot  # the name kept beside the new module
 
     s = _draws([0.56, 0.21, 0.38, 0.4, 77.0, 1.04], [2e-3, 5e-5, 2e-3, 3e-4, 1.0, 3e-3])
     assert s[:, 4].min() > 67.0 and s[:, 5].min() > 1.0  # the truths lie outside the draws
@@ -54,7 +54,7 @@ def test_corner_axes_contain_a_truth_the_draws_miss():
 def test_corner_names_a_truth_too_far_to_share_the_axis():
     import matplotlib.pyplot as plt
 
-    from stickslip_fitting.posterior_plots import TRUTH_REACH, corner_plot
+    from stickslip_fitting.report.posterior_plots import TRUTH_REACH, corner_plot
 
     s = _draws([1.0, 2.0], [0.01, 0.01])
     far = 1.0 + 10 * TRUTH_REACH * np.ptp(s[:, 0])
@@ -70,7 +70,7 @@ def test_corner_ticks_have_no_offset_text_and_tell_ticks_apart():
     scale) in a corner; the ticks carry their digits instead, each label distinct."""
     import matplotlib.pyplot as plt
 
-    from stickslip_fitting.posterior_plots import corner_plot
+    from stickslip_fitting.report.posterior_plots import corner_plot
 
     s = _draws([0.56, 0.21, 67.0], [1e-4, 5e-6, 0.05])
     fig = corner_plot(s, ["mu_s", "mu_d", "delta"], truth={"mu_d": 0.21},
@@ -98,7 +98,7 @@ def test_plotting_modules_keep_the_backend():
     import pathlib
 
     root = pathlib.Path(__file__).resolve().parents[1]
-    for rel in ("fitting/posterior_plots.py", "fitting/discovery/plots.py"):
+    for rel in ("fitting/report/posterior_plots.py", "fitting/discovery/plots.py"):
         assert "matplotlib.use(" not in (root / rel).read_text(), rel
 
 

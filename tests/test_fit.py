@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting import fit as fit_module
-from stickslip_fitting.features import record_features
-from stickslip_fitting.fit import fit_features
+from stickslip_fitting.solve import fit as fit_module
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.solve.fit import fit_features
 from stickslip_fitting.modes import Padding
-from stickslip_fitting.objectives import feature_data, feature_residuals
+from stickslip_fitting.objectives.cycle_features import feature_data, feature_residuals
 from stickslip_fitting.params import NAMES, CampaignParams, EmpiricalFriction, Hold, free_spec
-from stickslip_fitting.synthetic import draw_prior_friction, synthetic_campaign, truth_values
-from stickslip_fitting.uncertainty import laplace
+from stickslip_fitting.data.synthetic import draw_prior_friction, synthetic_campaign, truth_values
+from stickslip_fitting.uncertainty.laplace import laplace
 
 NEAR_C = dict(conditions=((36.0, 10.0), (36.0, 20.0), (36.0, 40.0)),
               speed_fractions=(0.02, 0.15), cycles=3, sample_rate=200.0)
@@ -141,7 +141,7 @@ def test_free_spec_and_bad_inputs():
         EmpiricalFriction.from_values(0.2, 0.3, 1, 1, 1, 1)
     with pytest.raises(ValueError, match="positive"):
         EmpiricalFriction.from_values(0.5, 0.2, -1, 1, 1, 1)
-    from stickslip_fitting.features import extract_cycles
+    from stickslip_fitting.data.features import extract_cycles
 
     t = np.arange(3000) * 1e-3
     none = extract_cycles(t, 0.05 + 0 * t, weight=36, stiffness=86.9, drive=1.0)
@@ -186,10 +186,10 @@ def test_interval_calibration_over_prior_draws(request):
 def test_reslip_levels_follow_the_measured_timing():
     """Noise-free stiff-spring records whose every slip has a re-slip: the features time
     such a double slip late (its centre fit assumes one half cosine), and the model's
-    measured levels (`stickslip_fitting.objectives._reslip_shift`) follow: peak and trough within
+    measured levels (`stickslip_fitting.objectives.cycle_features._reslip_shift`) follow: peak and trough within
     3e-6 mm (measured 2.0e-6 mm at 1 kHz sampling; without the timing shift 5.4e-6 and
     1.9e-5 mm)."""
-    from stickslip_fitting.objectives import _levels
+    from stickslip_fitting.objectives.cycle_features import _levels
 
     fr = ss.Friction(ss.KatoStatic(mu_s=0.5698, mu_d=0.2174, gamma=0.3446, m=0.5057),
                      ss.KatoKinetic(delta=33.84, n=0.9216))
@@ -211,10 +211,10 @@ def test_noisy_reslip_levels_are_unbiased():
     """A stiff spring whose every slip ends in a long re-slip (slip ratio ~2.9, prior draw
     18 of the calibration): the fall of x in the slow second slip is lost in the noise,
     so the features must not start the next stick plateau there
-    (`stickslip_fitting.sticks.settled_start`). Measured z-scores of peak and trough against the
+    (`stickslip_fitting.data.sticks.settled_start`). Measured z-scores of peak and trough against the
     model at the truth: mean 0.0 / 0.2 over seeds 1-4, 20 cycles (without the settling
     3.6 / 3.8)."""
-    from stickslip_fitting.objectives import _levels
+    from stickslip_fitting.objectives.cycle_features import _levels
 
     fr = ss.Friction(ss.KatoStatic(mu_s=0.5898, mu_d=0.2375, gamma=0.3772, m=0.3803),
                      ss.KatoKinetic(delta=65.98, n=1.0586))
@@ -240,7 +240,7 @@ def test_reslip_campaign_is_fitted():
     zero-stick breakaway level mu_d W/k: the exact simulator slips on with mu_d (re-slip).
     Without the re-slip in the features model every start ended at chi2/dof 1.5e6; without
     the late timing of double slips (`_reslip_shift`) at 2.1; without the plateau
-    settling (`stickslip_fitting.sticks.settled_start`) 1.19; measured 0.76."""
+    settling (`stickslip_fitting.data.sticks.settled_start`) 1.19; measured 0.76."""
     fr = ss.Friction(ss.KatoStatic(mu_s=0.5698, mu_d=0.2174, gamma=0.3446, m=0.5057),
                      ss.KatoKinetic(delta=33.84, n=0.9216))
     recs = synthetic_campaign(fr, seed=525, pad_to=40_000, **SMALL_A)

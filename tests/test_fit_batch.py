@@ -1,4 +1,4 @@
-"""Batches of campaign fits (`stickslip_fitting.batch`, `stickslip fit-batch`): shares,
+"""Batches of campaign fits (`stickslip_fitting.solve.batch`, `stickslip fit-batch`): shares,
 failures that stay local, the one-process path, and 2 `jax.distributed` processes on
 localhost giving the one-process results."""
 
@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from ports import free_port
 
-from stickslip_fitting.batch import (ERROR, FAILED, FITTED, NOT_CONVERGED, campaign_name,
+from stickslip_fitting.solve.batch import (ERROR, FAILED, FITTED, NOT_CONVERGED, campaign_name,
                                      fit_batch, shares)
 from stickslip_jax.cli import main
 

@@ -1,15 +1,15 @@
-"""The fit figure's residual panel (`stickslip_fitting.plots.residual_panel`):
-chi2/n by record and phase, the same numbers as `stickslip_fitting.adequacy`."""
+"""The fit figure's residual panel (`stickslip_fitting.report.plots.residual_panel`):
+chi2/n by record and phase, the same numbers as `stickslip_fitting.uncertainty.adequacy`."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 from matplotlib.figure import Figure
-from stickslip_fitting.adequacy import BAD, GOOD, PhaseRow, adequacy
-from stickslip_fitting.features import record_features
-from stickslip_fitting.fit import fit_features
-from stickslip_fitting.synthetic import synthetic_campaign
+from stickslip_fitting.uncertainty.adequacy import BAD, GOOD, PhaseRow, adequacy
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.solve.fit import fit_features
+from stickslip_fitting.data.synthetic import synthetic_campaign
 
 import stickslip_jax as ss
 
@@ -37,8 +37,8 @@ def campaign():
 
 def test_panel_shows_adequacy_by_record_and_phase():
     # rows with a phase missing for one record: NaN there, the others exactly the rows
-    from stickslip_fitting.adequacy import Adequacy
-    from stickslip_fitting.plots import residual_panel
+    from stickslip_fitting.uncertainty.adequacy import Adequacy
+    from stickslip_fitting.report.plots import residual_panel
 
     rows = [PhaseRow("r1", "levels", 10, 1.2), PhaseRow("r1", "stick_times", 9, 0.8),
             PhaseRow("r1", "trace_slip", 400, 7.5), PhaseRow("r2", "levels", 10, 3.0),
@@ -56,8 +56,8 @@ def test_panel_shows_adequacy_by_record_and_phase():
 
 
 def test_fit_figure_has_the_residual_panel(campaign):
-    from stickslip_fitting.plots import fit_figure
-    from stickslip_fitting.uncertainty import laplace
+    from stickslip_fitting.report.plots import fit_figure
+    from stickslip_fitting.uncertainty.laplace import laplace
 
     recs, feats = campaign
     fit = fit_features(feats)
@@ -77,7 +77,7 @@ def test_fit_figure_has_the_residual_panel(campaign):
 
 
 def test_trace_fit_panel_has_stick_and_slip_phases(campaign):
-    from stickslip_fitting.plots import residual_panel
+    from stickslip_fitting.report.plots import residual_panel
 
     recs, feats = campaign
     report = adequacy(fit_features(feats, objective="trace", records=recs, pad_cycles=8))
@@ -98,8 +98,8 @@ def test_fit_figure_draws_every_record_with_units_and_legends(campaign):
     parameter box gives units; the 95 % band is drawn above the points."""
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
-    from stickslip_fitting.plots import fit_figure
-    from stickslip_fitting.uncertainty import laplace
+    from stickslip_fitting.report.plots import fit_figure
+    from stickslip_fitting.uncertainty.laplace import laplace
 
     recs, feats = campaign
     fit = fit_features(feats)
@@ -138,8 +138,8 @@ def test_fit_figure_draws_every_record_with_units_and_legends(campaign):
 
 def test_fit_figure_limits_and_not_used_records(campaign):
     import matplotlib.pyplot as plt
-    from stickslip_fitting.plots import fit_figure
-    from stickslip_fitting.uncertainty import laplace
+    from stickslip_fitting.report.plots import fit_figure
+    from stickslip_fitting.uncertainty.laplace import laplace
 
     recs, feats = campaign
     fit = fit_features(feats)

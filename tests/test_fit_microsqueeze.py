@@ -8,12 +8,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from stickslip_fitting.features import record_features
-from stickslip_fitting.mcmc import PRIOR_BOUNDS, log_posterior, run_mcmc
-from stickslip_fitting.microsqueeze_fit import default_eta, fit_microsqueeze
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.uncertainty.mcmc import PRIOR_BOUNDS, log_posterior, run_mcmc
+from stickslip_fitting.solve.microsqueeze import default_eta, fit_microsqueeze
 from stickslip_fitting.microsqueeze_params import MICROSQUEEZE_NAMES, MicrosqueezeFriction
-from stickslip_fitting.synthetic import synthetic_campaign
-from stickslip_fitting.uncertainty import laplace
+from stickslip_fitting.data.synthetic import synthetic_campaign
+from stickslip_fitting.uncertainty.laplace import laplace
 from stickslip_jax.cli import main
 from stickslip_jax.contact import MicrosqueezeStatic
 from stickslip_jax.friction import Friction, KatoKinetic
@@ -118,7 +118,7 @@ def test_trace_objective_with_the_microsqueeze_law(records, paths, tmp_path, tru
     """Every objective works with both friction laws: the trace fit of the microsqueeze law
     (from the features fit's optimum) recovers every parameter within its robust 95 %
     interval, through the library and `stickslip fit --objective trace`."""
-    from stickslip_fitting.synthetic import truth_values
+    from stickslip_fitting.data.synthetic import truth_values
 
     truth = truth_values(truth_friction)
     fit = fit_microsqueeze([record_features(r) for r in records], eta=ETA_A, pair="S1G1",

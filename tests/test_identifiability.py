@@ -1,14 +1,14 @@
-"""Identifiability report (stickslip_fitting.uncertainty): one speed, one k/W, and a well-designed campaign."""
+"""Identifiability report (stickslip_fitting.uncertainty.laplace): one speed, one k/W, and a well-designed campaign."""
 
 import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.features import record_features
-from stickslip_fitting.fit import fit_features
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.solve.fit import fit_features
 from stickslip_fitting.modes import Padding
-from stickslip_fitting.uncertainty import laplace
-from stickslip_fitting.synthetic import synthetic_campaign
+from stickslip_fitting.uncertainty.laplace import laplace
+from stickslip_fitting.data.synthetic import synthetic_campaign
 
 
 @pytest.fixture(scope="module")

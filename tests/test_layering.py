@@ -142,10 +142,10 @@ def test_installed_under_the_project_namespace():
     """The folder is fitting/, the import name stickslip_fitting (a bare top-level
     `fitting` in site-packages would clash with another distribution of that name)."""
     import stickslip_fitting
-    import stickslip_fitting.fit as fit_module
+    import stickslip_fitting.solve.fit as fit_module
 
     assert pathlib.Path(stickslip_fitting.__file__).parent.name == "fitting"
-    assert fit_module.__name__ == "stickslip_fitting.fit"
+    assert fit_module.__name__ == "stickslip_fitting.solve.fit"
     text = (ROOT / "pyproject.toml").read_text()
     assert 'stickslip_fitting = "fitting"' in text
 
@@ -199,13 +199,13 @@ def test_every_package_is_installed():
 def test_library_plots_keep_the_backend_and_return_the_figure():
     """Plotting functions keep the user's backend (never switch it to Agg) and return
     the Figure. Source check: no matplotlib.use in the library's plotting modules."""
-    for rel in ("fitting/plots.py", "fitting/discovery/plots.py"):
+    for rel in ("fitting/report/plots.py", "fitting/discovery/plots.py"):
         text = (ROOT / rel).read_text()
         assert "matplotlib.use(" not in text, rel
     import numpy as np
     from matplotlib.figure import Figure
 
-    from stickslip_fitting.plots import corner_plot
+    from stickslip_fitting.report.plots import corner_plot
 
     fig = corner_plot(np.random.default_rng(0).normal(size=(200, 2)), ["a", "b"])
     assert isinstance(fig, Figure)

@@ -1,4 +1,4 @@
-"""Heavy-tailed likelihoods (`stickslip_fitting.losses`): the transform against the loss,
+"""Heavy-tailed likelihoods (`stickslip_fitting.objectives.losses`): the transform against the loss,
 its smoothness at zero, the command-line spelling, and a fit that a far outlier cycle
 pulls under least squares but not under the Student-t loss."""
 
@@ -11,7 +11,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from stickslip_fitting.losses import (Gaussian, HeavyTailed, Huber, StudentT, loss_of,
+from stickslip_fitting.objectives.losses import (Gaussian, HeavyTailed, Huber, StudentT, loss_of,
                                       parse_loss, with_loss)
 
 R = jnp.concatenate([-jnp.logspace(-9, 3, 40), jnp.zeros(1), jnp.logspace(-9, 3, 40)])
@@ -71,15 +71,15 @@ def features():
     from pathlib import Path
 
     from stickslip_jax.records import read_record
-    from stickslip_fitting.features import record_features
+    from stickslip_fitting.data.features import record_features
 
     paths = sorted(Path(__file__).parents[1].glob("data/examples/A_W36_k*.csv"))
     return [record_features(read_record(p)) for p in paths]
 
 
 def test_heavy_tailed_objective_delegates(features):
-    from stickslip_fitting.combined import FeaturesObjective
-    from stickslip_fitting.objectives import feature_data
+    from stickslip_fitting.objectives.combined import FeaturesObjective
+    from stickslip_fitting.objectives.cycle_features import feature_data
 
     inner = FeaturesObjective(feature_data(features[:2]))
     obj = with_loss(inner, StudentT())
@@ -102,8 +102,8 @@ def test_student_t_fit_resists_an_outlier_cycle(features):
     import json
     from pathlib import Path
 
-    from stickslip_fitting.fit import fit_features
-    from stickslip_fitting.uncertainty import laplace
+    from stickslip_fitting.solve.fit import fit_features
+    from stickslip_fitting.uncertainty.laplace import laplace
 
     friction = json.loads((Path(__file__).parents[1] / "data/examples/truth.json")
                           .read_text())["friction"]

@@ -243,7 +243,7 @@ def test_damping_limit_ends_a_solve_without_descent():
 
 
 def test_fitting_exports_the_same_verb():
-    import stickslip_fitting.solve as fsolve
+    import stickslip_fitting.solve.lsq as fsolve
     from stickslip_jax import lsq
 
     assert fsolve.least_squares is lsq.least_squares

@@ -1,4 +1,4 @@
-"""emcee posterior (stickslip_fitting.mcmc): agrees with the Laplace intervals, diagnostics, CLI, plots."""
+"""emcee posterior (stickslip_fitting.uncertainty.mcmc): agrees with the Laplace intervals, diagnostics, CLI, plots."""
 
 import json
 
@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.features import record_features
-from stickslip_fitting.fit import fit_features
-from stickslip_fitting.mcmc import log_posterior, run_mcmc
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.solve.fit import fit_features
+from stickslip_fitting.uncertainty.mcmc import log_posterior, run_mcmc
 from stickslip_fitting.modes import Covariance, Objective
-from stickslip_fitting.synthetic import synthetic_campaign, truth_values
-from stickslip_fitting.uncertainty import laplace
+from stickslip_fitting.data.synthetic import synthetic_campaign, truth_values
+from stickslip_fitting.uncertainty.laplace import laplace
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +60,7 @@ def test_short_chain_warns(fitted):
 
 
 def test_cli_mcmc_and_plots(fitted, tmp_path, capsys):
-    from stickslip_fitting.plots import fit_figure
+    from stickslip_fitting.report.plots import fit_figure
     from stickslip_jax.cli import main
     from stickslip_jax.records import write_record
 
@@ -111,7 +111,7 @@ def test_cli_mcmc_and_plots(fitted, tmp_path, capsys):
 def test_fitted_traces_follow_the_records(fitted):
     # the figure's overlay: the restarted simulation at the fitted parameters lies on
     # the record within its noise inside every window, NaN separates the windows
-    from stickslip_fitting.plots import fitted_traces, friction_curves
+    from stickslip_fitting.report.plots import fitted_traces, friction_curves
 
     recs, fit = fitted
     sims = fitted_traces(fit, recs[:2])
@@ -131,8 +131,8 @@ def test_fitted_traces_follow_the_records(fitted):
 def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, capsys):
     """`stickslip mcmc --objective trace`: the sampler draws from the trace objective the
     fit minimised, tempered so that no parameter's posterior is narrower than its
-    cluster-robust Laplace interval (module doc of stickslip_fitting.mcmc)."""
-    from stickslip_fitting.mcmc import likelihood_scale
+    cluster-robust Laplace interval (module doc of stickslip_fitting.uncertainty.mcmc)."""
+    from stickslip_fitting.uncertainty.mcmc import likelihood_scale
     from stickslip_jax.cli import main
     from stickslip_jax.records import write_record
 

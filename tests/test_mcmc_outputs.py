@@ -126,7 +126,7 @@ def test_library_corner_plot_returns_a_figure_with_units():
     import matplotlib.pyplot as plt
     from matplotlib.figure import Figure
 
-    from stickslip_fitting.plots import corner_plot
+    from stickslip_fitting.report.plots import corner_plot
 
     backend = matplotlib.get_backend()
     x = np.random.default_rng(0).normal([1.0, 2.0], 0.1, size=(500, 2))
@@ -139,7 +139,7 @@ def test_library_corner_plot_returns_a_figure_with_units():
 
 
 def test_missing_arviz_is_a_one_line_error(monkeypatch, tmp_path, capsys):
-    from stickslip_fitting.mcmc import import_arviz
+    from stickslip_fitting.uncertainty.mcmc import import_arviz
 
     monkeypatch.setitem(sys.modules, "arviz", None)  # `import arviz` raises ImportError
     with pytest.raises(ImportError, match=r"\[posterior\]"):

@@ -35,10 +35,10 @@ def test_bad_values_name_the_argument_and_the_choices():
 def test_objectives_convert_once_when_built():
     import numpy as np
 
-    from stickslip_fitting.combined import FeaturesObjective
-    from stickslip_fitting.objectives import feature_data
-    from stickslip_fitting.synthetic import synthetic_campaign
-    from stickslip_fitting.features import record_features
+    from stickslip_fitting.objectives.combined import FeaturesObjective
+    from stickslip_fitting.objectives.cycle_features import feature_data
+    from stickslip_fitting.data.synthetic import synthetic_campaign
+    from stickslip_fitting.data.features import record_features
     from stickslip_jax import lubricant
 
     records = synthetic_campaign(lubricant("A"), cycles=3, speed_fractions=(0.1,),
@@ -124,7 +124,7 @@ def test_covariance_and_small_sample_modes():
     import numpy as np
 
     from stickslip_fitting.modes import Covariance, SmallSample
-    from stickslip_fitting.uncertainty import COVARIANCES, laplace, sandwich_covariance
+    from stickslip_fitting.uncertainty.laplace import COVARIANCES, laplace, sandwich_covariance
 
     assert Covariance.choices() == ("auto", "fisher", "sandwich", "two_level")
     assert [m.robust for m in Covariance] == [False, False, True, True]
@@ -143,7 +143,7 @@ def test_covariance_and_small_sample_modes():
 
 
 def test_objective_factory_and_weighted_sum_take_members():
-    from stickslip_fitting.combined import (OBJECTIVES, CampaignObjective, FeaturesObjective,
+    from stickslip_fitting.objectives.combined import (OBJECTIVES, CampaignObjective, FeaturesObjective,
                                             TraceObjective, WeightedSum, make_objective)
     from stickslip_fitting.modes import Objective
 
@@ -169,7 +169,7 @@ def test_objective_factory_and_weighted_sum_take_members():
 
 
 def test_fit_features_validates_the_objective_before_fitting():
-    from stickslip_fitting.fit import fit_features
+    from stickslip_fitting.solve.fit import fit_features
     from stickslip_fitting.modes import Objective
 
     with pytest.raises(ValueError, match=r"objective must be one of \('features'"):
@@ -255,7 +255,7 @@ def test_fit_option_groups_are_typed_frozen_and_have_defaults():
 
 def test_flat_keywords_read_into_the_option_objects():
     """`fit_features`' flat keywords and string modes: one mapping to the objects."""
-    from stickslip_fitting.fit import _Options, flat_options
+    from stickslip_fitting.solve.fit import _Options, flat_options
     from stickslip_fitting.modes import ModelModes, Objective, Padding, SolverOptions, Weighting
     from stickslip_fitting.params import EmpiricalFriction
 

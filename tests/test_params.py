@@ -84,7 +84,7 @@ def test_physical_region():
 
 
 def test_parameter_estimate_row():
-    from stickslip_fitting.report import ParameterEstimate
+    from stickslip_fitting.report.rows import ParameterEstimate
 
     e = ParameterEstimate("mu_s", "-", 0.55, 0.01, (0.53, 0.57)).with_truth({"mu_s": 0.56})
     assert e.truth_in_ci95 and e.relative_error == pytest.approx(-1 / 56)
@@ -121,9 +121,9 @@ def test_fixed_mu_s_is_held_exactly(i):
 
 def test_fit_honours_fixed_values():
     import stickslip_jax as ss
-    from stickslip_fitting.features import record_features
-    from stickslip_fitting.fit import fit_features
-    from stickslip_fitting.synthetic import synthetic_campaign
+    from stickslip_fitting.data.features import record_features
+    from stickslip_fitting.solve.fit import fit_features
+    from stickslip_fitting.data.synthetic import synthetic_campaign
 
     recs = synthetic_campaign(ss.lubricant("A"), speed_fractions=(0.05, 0.3), cycles=3,
                               seed=4, pad_to=20_000)
@@ -140,8 +140,8 @@ def test_mcmc_rows_are_the_fit_rows():
     """One typed parameter row for fit and mcmc reports."""
     import numpy as np
 
-    from stickslip_fitting.mcmc import McmcResult
-    from stickslip_fitting.report import ParameterEstimate
+    from stickslip_fitting.uncertainty.mcmc import McmcResult
+    from stickslip_fitting.report.rows import ParameterEstimate
 
     rng = np.random.default_rng(0)
     res = McmcResult(names=["mu_s", "n"], samples=rng.normal([0.5, 1.0], 0.01, (400, 2)),

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.pitch_fit import PitchRun, fit_pitching, pitch_run
+from stickslip_fitting.solve.pitch import PitchRun, fit_pitching, pitch_run
 from stickslip_jax import pitching as pt
 from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.records import Record, read_record, write_record

@@ -54,7 +54,7 @@ def test_a_fraction_outside_zero_to_one_is_refused():
 def test_the_campaign_verbs_release_first(monkeypatch):
     """fit_features and discover_cycles check the maps before anything else (a campaign
     that is refused still checked them)."""
-    from stickslip_fitting import fit as fit_module
+    from stickslip_fitting.solve import fit as fit_module
     from stickslip_fitting.discovery import cycle_workflow
 
     calls = []

@@ -67,9 +67,9 @@ def coverage(menu, loss=None, n_campaigns=N_CAMPAIGNS):
     """Fit `n_campaigns` campaigns whose records draw their imperfection from `menu`;
     returns (90 % coverage, campaigns with an interval, within 2 %, mean relative error)
     per parameter (mu_s, mu_d)."""
-    from stickslip_fitting.campaign import screen_records
-    from stickslip_fitting.fit import fit_features
-    from stickslip_fitting.uncertainty import laplace
+    from stickslip_fitting.data.campaign import screen_records
+    from stickslip_fitting.solve.fit import fit_features
+    from stickslip_fitting.uncertainty.laplace import laplace
 
     names = ("mu_s", "mu_d")
     hits, close, with_ci = (dict.fromkeys(names, 0) for _ in range(3))
@@ -114,7 +114,7 @@ def test_student_t_loss_on_heavy_tailed_irregular_slips():
     sandwich) 0.96 / 1.00, 0.62 % / 0.027 %. Both over-cover mu_d on this menu (the
     two-level covariance takes the larger of two estimates), so the check here is that
     the heavy-tailed intervals are not too narrow (>= 0.80) while the error shrinks."""
-    from stickslip_fitting.losses import StudentT
+    from stickslip_fitting.objectives.losses import StudentT
 
     cover, with_ci, within, err_t = coverage(HEAVY_MENU, StudentT())
     _, _, _, err_gauss = coverage(HEAVY_MENU)

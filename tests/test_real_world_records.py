@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import independent_records as ir
-from stickslip_fitting.campaign import NO_STICK_SLIP, SET_ASIDE, USED, screen_records
-from stickslip_fitting.features import extract_cycles
+from stickslip_fitting.data.campaign import NO_STICK_SLIP, SET_ASIDE, USED, screen_records
+from stickslip_fitting.data.features import extract_cycles
 from stickslip_jax.cli import main
 from stickslip_jax.records import read_record
 
@@ -96,7 +96,7 @@ def test_second_order_sensor_at_the_slideway_frequency():
 
 def test_pure_noise_has_no_slips():
     """Steady sliding with noise, spikes and quantisation: no slip in 20 records of 20 k
-    samples (the length-aware threshold, `stickslip_fitting.sticks.detection_z`)."""
+    samples (the length-aware threshold, `stickslip_fitting.data.sticks.detection_z`)."""
     rng = np.random.default_rng(0)
     t = np.arange(20_000) * 1e-3
     slips = 0
@@ -195,7 +195,7 @@ def test_steady_records_against_the_boundary(tmp_path):
     48.9 mm/min at W 36 kgf, k 86.9 kgf/mm, is a misfit of the model; at 200 mm/min it is
     consistent with it."""
     import stickslip_jax as ss
-    from stickslip_fitting.campaign import boundary_check
+    from stickslip_fitting.data.campaign import boundary_check
 
     good = _campaign(tmp_path)[:2]
     recs = [read_record(p) for p in good]

@@ -1,4 +1,4 @@
-"""The one typed parameter row (`stickslip_fitting.report`): intervals from log or Gaussian
+"""The one typed parameter row (`stickslip_fitting.report.rows`): intervals from log or Gaussian
 coordinates, JSON subsets, and the discovery results' dicts derived from their rows."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import dataclasses
 
 import numpy as np
 
-from stickslip_fitting.report import Z95, DiscoveryEstimates, ParameterEstimate
+from stickslip_fitting.report.rows import Z95, DiscoveryEstimates, ParameterEstimate
 
 
 def test_from_log_and_from_normal():

@@ -15,10 +15,10 @@ import pytest
 from jax.flatten_util import ravel_pytree
 
 import stickslip_jax as ss
-from stickslip_fitting.features import record_features
+from stickslip_fitting.data.features import record_features
 from stickslip_fitting.params import CampaignParams, EmpiricalFriction, free_spec
-from stickslip_fitting.synthetic import synthetic_campaign
-from stickslip_fitting.trace_objective import trace_data, trace_residuals_and_flags, trace_sd
+from stickslip_fitting.data.synthetic import synthetic_campaign
+from stickslip_fitting.objectives.trace import trace_data, trace_residuals_and_flags, trace_sd
 from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.simulation import SimulationResult, simulate_exact
 

@@ -1,4 +1,4 @@
-"""The smoothed-simulator objective (stickslip_fitting.smooth_objective): whole records,
+"""The smoothed-simulator objective (stickslip_fitting.objectives.smooth): whole records,
 the simulator run freely from the first slip end, fitted by `--objective smooth`."""
 
 from __future__ import annotations
@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.features import record_features
-from stickslip_fitting.fit import fit_features
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.solve.fit import fit_features
 from stickslip_fitting.modes import Objective
 from stickslip_fitting.params import CampaignParams, EmpiricalFriction
-from stickslip_fitting.smooth_objective import SmoothObjective, smooth_data
-from stickslip_fitting.synthetic import synthetic_campaign, truth_values
-from stickslip_fitting.uncertainty import laplace
+from stickslip_fitting.objectives.smooth import SmoothObjective, smooth_data
+from stickslip_fitting.data.synthetic import synthetic_campaign, truth_values
+from stickslip_fitting.uncertainty.laplace import laplace
 
 FR = ss.lubricant("A")
 

@@ -1,4 +1,4 @@
-"""Trace objective (stickslip_fitting.trace_objective, stickslip_fitting.combined): the exact simulator restarted per
+"""Trace objective (stickslip_fitting.objectives.trace, stickslip_fitting.objectives.combined): the exact simulator restarted per
 cycle against every sample; recovery, gradients, the combined objective, bad input."""
 
 import dataclasses
@@ -10,14 +10,14 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.features import record_features
-from stickslip_fitting.fit import MAX_ROUNDS, fit_features
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.solve.fit import MAX_ROUNDS, fit_features
 from stickslip_fitting.modes import Objective, Padding
 from stickslip_fitting.params import NAMES, CampaignParams, EmpiricalFriction
-from stickslip_fitting.synthetic import synthetic_campaign, truth_values
-from stickslip_fitting.trace_objective import (CHUNK, cycle_windows, reslip_windows,
+from stickslip_fitting.data.synthetic import synthetic_campaign, truth_values
+from stickslip_fitting.objectives.trace import (CHUNK, cycle_windows, reslip_windows,
                                                trace_data, trace_residuals, trace_simulation)
-from stickslip_fitting.uncertainty import laplace
+from stickslip_fitting.uncertainty.laplace import laplace
 
 
 @pytest.fixture(scope="module")
@@ -201,7 +201,7 @@ def test_combined_objective_from_the_cli(campaign, tmp_path, capsys):
 def test_fit_residuals_are_the_objectives(trace_fit):
     """The fit's residuals with the weights frozen at the point itself (and its simulated slider
     velocity) are the objective's `residuals`, for the trace and the combined objective."""
-    from stickslip_fitting.combined import make_objective
+    from stickslip_fitting.objectives.combined import make_objective
 
     fit = trace_fit
     both = make_objective(Objective.BOTH, fit.data, fit.objective.trace, weights=(0.3, 0.7))
@@ -236,7 +236,7 @@ def test_bad_inputs(campaign):
 def test_fit_objective_moves_only_the_leaves_chosen(trace_fit):
     """The one fitting verb over an objective and a parameter pytree: the free leaves are
     chosen by a function, as `eqx.tree_at`'s `where`."""
-    from stickslip_fitting.fit import fit_objective
+    from stickslip_fitting.solve.fit import fit_objective
 
     fit = trace_fit
     start = eqx.tree_at(lambda p: p.friction.log_mu_d, fit.params,

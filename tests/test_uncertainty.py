@@ -1,4 +1,4 @@
-"""Cluster-robust (sandwich) covariance of stickslip_fitting.uncertainty against independent references:
+"""Cluster-robust (sandwich) covariance of stickslip_fitting.uncertainty.laplace against independent references:
 the textbook heteroscedasticity-consistent formula written here, and the exact covariance of
 least squares with clustered and neighbour-correlated errors (Monte Carlo)."""
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from stickslip_fitting.modes import SmallSample
-from stickslip_fitting.uncertainty import sandwich_covariance
+from stickslip_fitting.uncertainty.laplace import sandwich_covariance
 
 
 def test_singleton_clusters_reduce_to_the_hc_formula():
@@ -81,7 +81,7 @@ def test_null_share_finds_parameters_in_an_unseen_direction():
     """Information of three parameters where only a + b and c are seen: a and b each
     have half their weight in the null direction, c none; a nearly singular matrix
     (eigenvalue 1e-6 of 1) is not called null."""
-    from stickslip_fitting.uncertainty import NULL_SHARE, _null_share
+    from stickslip_fitting.uncertainty.laplace import NULL_SHARE, _null_share
 
     J = np.array([[1.0, 1.0, 0.0], [0.0, 0.0, 2.0], [1.0, 1.0, 0.0]])
     share = _null_share(J.T @ J)

@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from stickslip_fitting.batch import FAILED, FITTED, BatchEntry, BatchResult
-from stickslip_fitting.report import ParameterEstimate, note_text, text_table, value_text
+from stickslip_fitting.solve.batch import FAILED, FITTED, BatchEntry, BatchResult
+from stickslip_fitting.report.rows import ParameterEstimate, note_text, text_table, value_text
 
 ROOT = Path(__file__).resolve().parents[1]
 REAL = sorted(str(p) for p in (ROOT / "data" / "real").glob("*.csv"))
@@ -148,7 +148,7 @@ def test_batch_csv_has_no_placeholder_and_gives_the_reason():
 def test_batch_figure_draws_no_unknown_and_uses_log_axes_across_decades():
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
-    from stickslip_fitting.plots import batch_figure
+    from stickslip_fitting.report.plots import batch_figure
 
     fig = batch_figure(_batch())
     try:
@@ -193,7 +193,7 @@ def real_fit(tmp_path_factory):
     JSON, figure file and the figure it drew."""
     import contextlib
 
-    import stickslip_fitting.plots as plots
+    import stickslip_fitting.report.plots as plots
 
     from stickslip_jax.cli import main
 

@@ -89,7 +89,7 @@ def run(args) -> int:
         raise ValueError(f"--alpha: must be between 0 and 1, got {args.alpha}")
     from stickslip_jax.output import check_outputs, write_json
 
-    from ..campaign import screen_records
+    from ..data.campaign import screen_records
 
     files = read_campaign_files(args.records)  # an unreadable file is set aside, listed
     records, unreadable = files.records, files.unreadable
@@ -100,7 +100,7 @@ def run(args) -> int:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
     from stickslip_fitting.modes import DiscoveryBase
 
-    from ..losses import parse_loss
+    from ..objectives.losses import parse_loss
 
     loss = parse_loss(args.loss)
     if DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE:
@@ -154,7 +154,7 @@ def json_document(result) -> dict:
 
 
 def _print_parameters(result) -> None:
-    """The parameter table, from the result's typed rows (`stickslip_fitting.report.
+    """The parameter table, from the result's typed rows (`stickslip_fitting.report.rows.
     ParameterEstimate`): each parameter before and after (effect parameters after only),
     "-" for a value the data do not determine, and a note ("at upper bound 1", "no
     standard error: ..."); when the final fit kept every friction parameter of the base
@@ -164,7 +164,7 @@ def _print_parameters(result) -> None:
 
 def parameter_table(result) -> str:
     """`_print_parameters`'s text."""
-    from ..report import note_text, text_table, value_text
+    from ..report.rows import note_text, text_table, value_text
 
     before = {e.name: e.value for e in result.estimates_before}
     rows = []
@@ -189,7 +189,7 @@ def candidate_table(candidates) -> str:
     the refit's chi-square drop; then how many are significant and what the two ways of
     being significant mean."""
     from ..discovery.stages.state import SIGNIFICANT_BY
-    from ..report import text_table
+    from ..report.rows import text_table
 
     def p_text(p):
         return "-" if p is None or p != p else format(p, ".2g")

@@ -5,7 +5,7 @@ records carry the truth they were made from), the identifiability warnings, and 
 fit quality; `--json OUT` writes the same as JSON, `--plot OUT.png` the diagnostic
 figure. Units: mu dimensionless, gamma s^-m, delta s^-n; internal kgf, mm, s.
 `--model microsqueeze` fits h_e (mm) and Q (mm^4) in place of gamma and m, with the
-viscosity `--eta` and the surface pair `--surface` given (`stickslip_fitting.microsqueeze_fit`).
+viscosity `--eta` and the surface pair `--surface` given (`stickslip_fitting.solve.microsqueeze`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import math
 
 from stickslip_jax.modes import GaugeOffset, SlipTime
 
-from ..fit_report import FIXED_MISFIT, build_report, fixed_misfit_warning, format_table  # noqa: F401
+from ..report.fit_table import FIXED_MISFIT, build_report, fixed_misfit_warning, format_table  # noqa: F401
 from ..modes import ModelModes, Objective
 
 NAME = "fit"
@@ -26,7 +26,7 @@ def __getattr__(name):
     # imported where used, so the parser is built without the fitting code; the old
     # module-level names still resolve
     if name in ("find_truth", "load_campaign"):
-        from .. import campaign
+        from ..data import campaign
 
         return getattr(campaign, name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
@@ -116,15 +116,15 @@ def add_model_arguments(parser):
 
 def fit_from_args(args, *, objective: Objective | str = "features"):
     """Read the campaign of `args.records`, screen it and fit `args.model` to the records
-    with usable stick-slip (`stickslip_fitting.campaign`; all of them with `args.strict`).
+    with usable stick-slip (`stickslip_fitting.data.campaign`; all of them with `args.strict`).
 
     Returns (fit, campaign, extra): `extra` is None or the given quantities of the
     microsqueeze model ({"given": {"eta": ..., "surface": ...}}). Every user error is a
     ValueError naming the option or file to fix (checked before any fitting).
     """
-    from ..campaign import load_campaign
-    from ..fit import fit_features
-    from ..losses import parse_loss
+    from ..data.campaign import load_campaign
+    from ..solve.fit import fit_features
+    from ..objectives.losses import parse_loss
     from ..params import Hold
 
     objective = Objective.parse(objective)
@@ -134,7 +134,7 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
     if args.model == "microsqueeze":
         from stickslip_jax.contact import surface_pair
 
-        from ..microsqueeze_fit import default_eta, fit_microsqueeze
+        from ..solve.microsqueeze import default_eta, fit_microsqueeze
         from ..microsqueeze_params import MicrosqueezeFriction
 
         fixed = parse_fix(args.fix, MicrosqueezeFriction)
@@ -215,7 +215,7 @@ def run(args) -> int:
     from stickslip_jax.output import check_outputs, versioned, write_json
     from stickslip_jax.records import record_paths
 
-    from ..uncertainty import laplace
+    from ..uncertainty.laplace import laplace
 
     check_outputs({"--json": args.json, "--plot": args.plot}, record_paths(args.records))
     import sys
@@ -237,7 +237,7 @@ def run(args) -> int:
         if args.json != "-":
             print(f"wrote {args.json}")
     if args.plot:
-        from ..plots import fit_figure
+        from ..report.plots import fit_figure
 
         logger.info("drawing the figure...")
         reasons = {s.name: s.reason for s in campaign.screening}

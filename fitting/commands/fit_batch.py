@@ -3,7 +3,7 @@ machine or spread over processes and hosts (`jax.distributed`).
 
 Every CAMPAIGN is fitted as `stickslip fit CAMPAIGN` would fit it, with the same options
 (`--objective`, `--fix`, `--loss`, ...). A campaign that cannot be fitted is listed with
-the reason and the others go on (`stickslip_fitting.batch`). Prints one row per campaign;
+the reason and the others go on (`stickslip_fitting.solve.batch`). Prints one row per campaign;
 `--json OUT` writes every campaign's `stickslip fit --json` report, `--csv OUT` a long
 table (one row per campaign and parameter, units in a column), `--plot OUT.png` the
 parameters of every campaign side by side with their 95 % intervals. Across processes: start
@@ -73,9 +73,9 @@ def _join(args) -> None:
 
 
 def _fit_one(args):
-    """fit_one(spec) of `stickslip_fitting.batch.fit_batch`: `stickslip fit`'s path."""
-    from ..uncertainty import laplace
-    from ..fit_report import build_report
+    """fit_one(spec) of `stickslip_fitting.solve.batch.fit_batch`: `stickslip fit`'s path."""
+    from ..uncertainty.laplace import laplace
+    from ..report.fit_table import build_report
     from .fit import fit_from_args
 
     def fit_one(spec) -> dict:
@@ -94,7 +94,7 @@ def format_table(batch) -> str:
     does not determine shows "-" and is listed with the reason below the table; a value at
     a bound of its support or fixed says so in its cell; a campaign not fitted has "-"
     everywhere and its message below."""
-    from ..report import note_text, text_table, value_text
+    from ..report.rows import note_text, text_table, value_text
 
     names = list(dict.fromkeys(p for e in batch.entries if e.report
                                for p in e.report["parameters"]))
@@ -178,7 +178,7 @@ def run(args) -> int:
     from stickslip_jax.output import check_outputs, versioned, write_json, write_text
     from stickslip_jax.records import RecordError, record_paths
 
-    from ..batch import ERROR, fit_batch
+    from ..solve.batch import ERROR, fit_batch
 
     inputs = []
     for spec in args.campaigns:
@@ -213,7 +213,7 @@ def run(args) -> int:
         write_text(args.csv, long_table(batch))
         print(f"wrote {args.csv}")
     if args.plot:
-        from ..plots import batch_figure
+        from ..report.plots import batch_figure
 
         batch_figure(batch, args.plot)
         print(f"wrote {args.plot}")

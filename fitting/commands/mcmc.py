@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..mcmc_report import JSON_ALIASES, thinned_draws  # noqa: F401  (the JSON's renamed keys)
+from ..report.mcmc_document import JSON_ALIASES, thinned_draws  # noqa: F401  (the JSON's renamed keys)
 
 NAME = "mcmc"
 HELP = "sample the posterior of the friction parameters (emcee) for a campaign of records"
@@ -67,14 +67,14 @@ def add_arguments(parser):
 
 
 def _fixed_misfit(fit, free) -> list[str]:
-    from ..mcmc_report import fixed_misfit
+    from ..report.mcmc_document import fixed_misfit
 
     return fixed_misfit(fit, free)
 
 
 def run(args) -> int:
-    from ..campaign import find_truth
-    from ..mcmc import run_mcmc
+    from ..data.campaign import find_truth
+    from ..uncertainty.mcmc import run_mcmc
     from .fit import fit_from_args
 
     if not 0 <= args.seed < 2**32:
@@ -97,7 +97,7 @@ def run(args) -> int:
     if args.chain == "-":
         raise ValueError("--chain: give a file name such as chain.nc (netCDF is not written "
                          "to stdout)")
-    from ..mcmc import ENSEMBLE_CAVEAT, MissingExtra, import_arviz
+    from ..uncertainty.mcmc import ENSEMBLE_CAVEAT, MissingExtra, import_arviz
 
     if args.chain:
         import_arviz("--chain")  # before the fit: a one-line error naming the extra
@@ -141,7 +141,7 @@ def run(args) -> int:
           f"acceptance {res.acceptance:.2f}")
     for w in res.warnings:
         print("warning: " + w)
-    from ..losses import loss_of
+    from ..objectives.losses import loss_of
 
     # the chain file's attributes besides the result's own (likelihood scale, units, ...)
     attrs = {"model": args.model, "objective": args.objective,
@@ -163,7 +163,7 @@ def run(args) -> int:
             print(f"{name:<10}{row['ess_bulk']:>10.0f}{row['ess_tail']:>10.0f}"
                   f"{row['r_hat']:>8.3f}")
     if args.json:
-        from ..mcmc_report import mcmc_document
+        from ..report.mcmc_document import mcmc_document
 
         out = mcmc_document(res, fit, campaign, model=args.model, objective=args.objective,
                             truth=truth, max_draws=args.draws, extra=extra)
@@ -174,7 +174,7 @@ def run(args) -> int:
         res.save_chain(args.chain, idata=idata)
         print(f"wrote {args.chain}")
     if args.plot:
-        from ..posterior_plots import corner_plot
+        from ..report.posterior_plots import corner_plot
 
         logger.info("drawing the corner plot...")
         corner_plot(res.samples, res.names, args.plot, truth=truth, units=units)

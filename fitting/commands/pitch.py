@@ -9,7 +9,7 @@ gravity, mm unless a unit is given) and prints, per measuring point, the tilt ep
 (signed extreme), the mean and the variation d_eps over the second half of the record,
 in um; for channels the record carries (`pitch_N`, `yaw_N`) the measured values too.
 With `--fit` the compliances, neutral points and squeeze time constants are identified
-from those channels first (`stickslip_fitting.pitch_fit`) and printed with 95 % intervals.
+from those channels first (`stickslip_fitting.solve.pitch`) and printed with 95 % intervals.
 Without `--fit` the model is the illustrative `default_model()` at the given viscosity.
 """
 
@@ -84,7 +84,7 @@ def run(args) -> int:
     from stickslip_jax.records import read_record
     from stickslip_jax.units import from_internal
 
-    from ..pitch_fit import fit_pitching, pitch_run
+    from ..solve.pitch import fit_pitching, pitch_run
 
     paths = [Path(p) for p in args.records]
     for p in paths:

@@ -242,7 +242,7 @@ def run(args) -> int:
                      "stick_slip_expected": bool(np.asarray(mask)[0] > 0)})
     # the parameter rows: the estimate (log coordinates) with its sd before and after
     from ..params import UNITS
-    from ..report import ParameterEstimate
+    from ..report.rows import ParameterEstimate
 
     before, after = ([ParameterEstimate.from_log(p, UNITS[p], x, s)
                       for p, x, s in zip(PARAMETERS, u, sds)]

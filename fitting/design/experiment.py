@@ -20,9 +20,9 @@ find). `greedy_design` adds, one at a time, the candidate record that most incre
 $\log\det$ of the posterior precision (prior + records): greedy D-optimal design.
 `laplace_fit` fits the observables with a Gaussian prior in $u$ and returns the Laplace
 (Gauss-Newton) posterior covariance. Its objective is `SteadyObservables` (an
-`stickslip_fitting.solve.AbstractResiduals`: the whitened observables of every record,
+`stickslip_fitting.solve.lsq.AbstractResiduals`: the whitened observables of every record,
 then the prior as residuals), searched through `TanhBounded` (a bounded coordinate
-around the prior mean) by `stickslip_fitting.solve.least_squares`, the project's one
+around the prior mean) by `stickslip_fitting.solve.lsq.least_squares`, the project's one
 Levenberg-Marquardt.
 
 The design is local: the information is evaluated at an estimate of $u$, and the most
@@ -47,7 +47,7 @@ from stickslip_jax.lsq import gauss_newton_covariance
 from stickslip_jax.steady import STICK_SLIP
 
 from ..modes import DesignCriterion, check_member
-from ..solve import AbstractResiduals, least_squares
+from ..solve.lsq import AbstractResiduals, least_squares
 from .posterior import PARAMETERS, friction_params
 
 N_OBS = 4

@@ -44,7 +44,7 @@ def import_xarray(option: str | None = None):
     try:
         import xarray
     except ImportError:
-        from ..mcmc import MissingExtra
+        from ..uncertainty.mcmc import MissingExtra
 
         what = f"{option}: " if option else ""
         raise MissingExtra(f"{what}needs xarray, which is not installed: {NETCDF_EXTRA}") \

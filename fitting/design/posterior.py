@@ -10,7 +10,7 @@ rest dimensionless. Files read by `load_samples`:
   ``{"samples": {"mu_s": [...], ..., "n": [...]}}`` (columns),
   ``{"samples": [{"mu_s": ..., ...}, ...]}`` (rows),
   ``{"parameters": ["mu_s", ...], "samples": [[...], ...]}`` (a matrix, one draw per row;
-  ``"names"`` is accepted for ``"parameters"``, the layout of `stickslip_fitting.mcmc.McmcResult`),
+  ``"names"`` is accepted for ``"parameters"``, the layout of `stickslip_fitting.uncertainty.mcmc.McmcResult`),
   or the same objects without the ``"samples"`` wrapper / under ``"posterior"``.
   Parameters that were held fixed (not sampled) come from an optional
   ``"fixed": {"delta": 67, "n": 1}`` object next to the samples.

@@ -1,6 +1,6 @@
 r"""The per-cycle model with effects: the discovery base (`cycle_workflow`).
 
-Same windows as the trace objective (`stickslip_fitting.trace_objective`): cycle $j$ of a record
+Same windows as the trace objective (`stickslip_fitting.objectives.trace`): cycle $j$ of a record
 runs from the measured end of slip $j-1$ to the measured end of slip $j$, the slider at
 rest at the measured slip-end level. Nothing accumulates from cycle to cycle, so a long
 record's slips cannot drift away from the data. With every effect at zero this is the
@@ -67,7 +67,7 @@ from stickslip_jax.numerics import safe_power
 from stickslip_jax.units import G_MM_S2
 
 from ..params import EmpiricalFriction
-from ..trace_objective import TraceData
+from ..objectives.trace import TraceData
 from .cycle_effects import DAMPING_FORMS, FAMILIES, STRIBECK_FORMS, Family, Shape, drive_error
 
 __all__ = ["BLOCK", "CycleModel", "N_STEPS", "TAIL_STEPS", "kernel_cdf", "previous_rows",

@@ -10,9 +10,9 @@ result.effect, result.confidence, result.gap_before, result.gap_after
 
 Stages (each timed in `result.timings`, reported to `progress` as it finishes):
 
-1. `prepare`: screening (`stickslip_fitting.campaign.screen_records`: records without usable
+1. `prepare`: screening (`stickslip_fitting.data.campaign.screen_records`: records without usable
    stick-slip are set aside and listed), the features fit (start), the cycle windows
-   (`stickslip_fitting.trace_objective.trace_data`, the drive error left in the data).
+   (`stickslip_fitting.objectives.trace.trace_data`, the drive error left in the data).
 2. `base_fit`: the paper's model on every window (`cycle_model`, all effects zero):
    the objective of `stickslip fit --objective trace`, fitted by Levenberg-Marquardt
    (friction + one gauge offset per record), weights refreshed once at the optimum.
@@ -86,7 +86,7 @@ import dataclasses
 
 from stickslip_jax.programs import release_programs
 
-from ..losses import AbstractLoss
+from ..objectives.losses import AbstractLoss
 from .cycle_effects import FAMILIES, family
 from .decision import Contender, Decision, decide, hotelling, noise_of, paired_z  # noqa: F401
 from .options import (CLEAR, COLLINEAR, DEFAULTS, DRIVE_PRIOR, EXPONENTS, JOINT, LARGE_STARTS,
@@ -139,7 +139,7 @@ def discover_cycles(
     usable stick-slip; `learn`: fit the learned phase correction (`cycle_learned`) even
     when a family explains the residual (it is always fitted for "unexplained");
     `progress`: called with one line per finished stage; `loss`: a heavy-tailed
-    likelihood (`stickslip_fitting.losses`, `--loss`) whose weights at the base fit are
+    likelihood (`stickslip_fitting.objectives.losses`, `--loss`) whose weights at the base fit are
     held fixed through the workflow (None or Gaussian: least squares); `unreadable`: the
     errors of the campaign's files that could not be read (`read_campaign_files`), listed
     in the screening. The other tuning is `DEFAULTS` (`options.DiscoveryOptions`).

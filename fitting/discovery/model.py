@@ -4,7 +4,7 @@ A campaign enters as `CampaignTraces` (padded arrays [R records, N samples], mm 
 built from `stickslip_jax.records.Record`s by `campaign_traces`. Each record must start
 at the end of a slip (the slider just stuck, stick time 0): synthetic discovery
 records do, and `campaign_traces(..., crop="slip_end")` cuts a measured record at its
-first detected slip end (`stickslip_fitting.features`).
+first detected slip end (`stickslip_fitting.data.features`).
 
 The model of record $r$ is `simulate_smooth` (Kvaerno5, `Settings`) of
 `EffectSet.smooth_model(Slideway(friction, W_r, k_r))` with the constant drive speed
@@ -138,7 +138,7 @@ def _start_level(t, x, n0):
 
 
 def _crop_at_first_slip_end(record):
-    from ..features import record_features
+    from ..data.features import record_features
 
     f = record_features(record)
     if not f.stick_slip or len(f.end_time) == 0:

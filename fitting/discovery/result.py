@@ -9,8 +9,8 @@ import numpy as np
 
 from stickslip_jax.lsq import HostResult
 
-from ..campaign import Campaign
-from ..report import DiscoveryEstimates, ParameterEstimate
+from ..data.campaign import Campaign
+from ..report.rows import DiscoveryEstimates, ParameterEstimate
 from .cycle_effects import Shape
 from .cycle_learned import CycleLearned
 from .cycle_model import CycleModel
@@ -24,7 +24,7 @@ __all__ = ["NO_STDERR", "CycleDiscovery", "effect_estimate", "estimate_text", "p
 class CycleDiscovery(DiscoveryEstimates):
     """Outcome of `discover_cycles`; `to_json` is the `stickslip discover --json` contract
     (the keys of the whole-record workflow, plus `base`, `records`, `phases`). The
-    parameter rows are `stickslip_fitting.report.ParameterEstimate`s (`DiscoveryEstimates`:
+    parameter rows are `stickslip_fitting.report.rows.ParameterEstimate`s (`DiscoveryEstimates`:
     `parameters_before`, `parameters_after` and `effect_size` are derived from them)."""
 
     effect: str

@@ -24,7 +24,7 @@ from stickslip_jax.records import Record
 from stickslip_jax.simulation import pad_times
 from stickslip_jax.simulation.parts import AbstractForceTerm
 
-from ..synthetic import steady_operating_point, truth_values
+from ..data.synthetic import steady_operating_point, truth_values
 from .effects import EffectSet
 from .model import CampaignTraces, DiscoveryParams, Settings, simulate_campaign
 

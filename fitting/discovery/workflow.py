@@ -13,7 +13,7 @@ result.to_json()          # the `stickslip discover --json` contract
 Steps (each timed in `result.timings`):
 
 1. `prepare`: records -> padded traces (`model.campaign_traces`); a features-first
-   starting point for the friction (`stickslip_fitting.fit.fit_features` on the records with at
+   starting point for the friction (`stickslip_fitting.solve.fit.fit_features` on the records with at
    least two complete cycles).
 2. `base_fit`: the paper's model (all effects zero) fitted to the full traces by
    Levenberg-Marquardt (`stickslip_jax.lsq.solve_host`), friction + one initial deflection per record.
@@ -40,7 +40,7 @@ import numpy as np
 from stickslip_jax.lsq import HostResult, solve_host
 
 from ..params import EmpiricalFriction
-from ..report import DiscoveryEstimates, ParameterEstimate
+from ..report.rows import DiscoveryEstimates, ParameterEstimate
 from .effects import CANDIDATES, EffectSet
 from .model import Problem, Settings, campaign_traces
 from .ranking import direction_cosine, score_candidates
@@ -56,8 +56,8 @@ def initial_friction(records) -> EmpiricalFriction:
     Where the campaign cannot separate mu_s from gamma (a degenerate features fit,
     mu_s > 1.5), mu_s is set to 1.5 and gamma chosen to keep mu_0 at the median stick time.
     """
-    from ..features import record_features
-    from ..fit import fit_features
+    from ..data.features import record_features
+    from ..solve.fit import fit_features
 
     feats = [record_features(r) for r in records]
     good = [f for f in feats if f.stick_slip and f.n_complete >= 2]
@@ -87,7 +87,7 @@ def initial_friction(records) -> EmpiricalFriction:
 @dataclasses.dataclass
 class DiscoveryResult(DiscoveryEstimates):
     """Outcome of `discover` (see `to_json` for the CLI contract). Gaps in mm. The
-    parameter rows are `stickslip_fitting.report.ParameterEstimate`s (`DiscoveryEstimates`:
+    parameter rows are `stickslip_fitting.report.rows.ParameterEstimate`s (`DiscoveryEstimates`:
     `parameters_before`, `parameters_after` and `effect_size` are derived from them)."""
 
     effect: str

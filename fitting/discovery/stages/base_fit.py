@@ -9,8 +9,8 @@ import numpy as np
 from stickslip_jax.logs import logger
 from stickslip_jax.lsq import solve_host
 
-from ...fit import fit_features
-from ...losses import AbstractLoss
+from ...solve.fit import fit_features
+from ...objectives.losses import AbstractLoss
 from ...params import EmpiricalFriction
 from ..cycle_model import CycleModel
 from ..decision import rms_gap, chi2_by_record, noise_of

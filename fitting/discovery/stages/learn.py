@@ -5,7 +5,7 @@ the result (`cycle_workflow`, module doc)."""
 from __future__ import annotations
 
 from ...params import EmpiricalFriction
-from ...report import DiscoveryEstimates, ParameterEstimate
+from ...report.rows import DiscoveryEstimates, ParameterEstimate
 from ..cycle_effects import Shape
 from ..cycle_learned import fit_cycle_correction
 from ..decision import rms_by_phase, rms_gap

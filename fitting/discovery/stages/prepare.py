@@ -10,10 +10,10 @@ import numpy as np
 
 from stickslip_jax.units import G_MM_S2
 
-from ...campaign import screen_records
-from ...fit import fit_features
+from ...data.campaign import screen_records
+from ...solve.fit import fit_features
 from ...params import CampaignParams, EmpiricalFriction
-from ...trace_objective import cycle_windows, reslip_windows, trace_data, trace_sd
+from ...objectives.trace import cycle_windows, reslip_windows, trace_data, trace_sd
 from ..cycle_model import CycleModel, drift_origins
 from ..options import DiscoveryOptions
 from ..starts import plausible_start

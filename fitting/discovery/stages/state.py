@@ -18,7 +18,7 @@ import numpy as np
 
 from stickslip_jax.lsq import HostResult
 
-from ...campaign import Campaign
+from ...data.campaign import Campaign
 from ..cycle_effects import Family, Shape
 from ..cycle_model import CycleModel
 from ..decision import Decision

@@ -2,7 +2,7 @@ r"""Objectives: whitened residual vectors whose sum of squares is $-2\log$ likel
 
 **Features objective** (`feature_residuals`). The measurements of a record are its
 stick plateaus (the slider at rest; each level averages many samples, standard error
-$\sigma/\sqrt{N}$) and its slip times (see `stickslip_fitting.features`). With the measured stick
+$\sigma/\sqrt{N}$) and its slip times (see `stickslip_fitting.data.features`). With the measured stick
 times $T_{1,j}$, the model predicts for every complete cycle $j$ (gauge offset $c$):
 
 - breakaway level $L_0(T_1) = c + (W/k)\,\mu_0(T_1)$, eq (1) (section 3.1);
@@ -43,9 +43,9 @@ from jaxtyping import Array, Bool, Float
 
 from stickslip_jax.modes import SlipTime
 
-from .features import RecordFeatures
-from .modes import check_member
-from .params import CampaignParams
+from ..data.features import RecordFeatures
+from ..modes import check_member
+from ..params import CampaignParams
 
 __all__ = ["FeatureData", "feature_data", "feature_residuals", "SLIP_TIME_MODES"]
 
@@ -152,7 +152,7 @@ def feature_data(
 
 
 SHIFT_ITERATIONS = 1
-"""Iterations of the timing refinement of `stickslip_fitting.features` mirrored by `_reslip_shift`
+"""Iterations of the timing refinement of `stickslip_fitting.data.features` mirrored by `_reslip_shift`
 (1, 2 and 8 agree to 3e-7 mm in the levels; each costs compilation)."""
 
 
@@ -175,7 +175,7 @@ _CENTRE_FIT_GAIN = _centre_fit_gain()
 
 
 def _reslip_shift(omega0, v, x2, c, x1_end, t2r):
-    r"""Where `stickslip_fitting.features` times a slip with a re-slip (s, from the true breakaway).
+    r"""Where `stickslip_fitting.data.features` times a slip with a re-slip (s, from the true breakaway).
 
     The features take every slip for one half cosine symmetric about its centre $t_c$
     (eq 11 with the drive) and refine $t_c$ by fitting
@@ -214,7 +214,7 @@ def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time, speed=No
     r"""L0, L1 (mm) at stick time t1 for one record (eqs 1, 3, 5, 7), with re-slip.
 
     `t1` is the measured stick time (from the end of the previous slip's first half
-    cosine to the breakaway) and L1 the slip-end level as `stickslip_fitting.features` measures
+    cosine to the breakaway) and L1 the slip-end level as `stickslip_fitting.data.features` measures
     it (the stick line after the slip extrapolated back to that end). A slip that ends
     above the zero-stick breakaway level, $k x_1 > \mu_0(0) W = \mu_d W$, cannot
     restick: the slider slips on from rest with $\mu_d$ (as `simulate_exact` does) for

@@ -1,10 +1,10 @@
 r"""Campaign fit of the microsqueeze model: mu_s, mu_d, h_e, Q, delta, n.
 
 `fit_microsqueeze(features, eta=..., pair="S1G1")` runs the same jitted multi-start
-Levenberg-Marquardt fit as the empirical model (`stickslip_fitting.fit.fit_features`, features
+Levenberg-Marquardt fit as the empirical model (`stickslip_fitting.solve.fit.fit_features`, features
 objective: $\mu_0$ per cycle against `MicrosqueezeStatic`$(T_1)$, $\mu_m$ by eq (3)),
 with `stickslip_fitting.microsqueeze_params.MicrosqueezeFriction` in place of
-`EmpiricalFriction`; `stickslip_fitting.uncertainty.laplace` then gives the Gauss-Newton
+`EmpiricalFriction`; `stickslip_fitting.uncertainty.laplace.laplace` then gives the Gauss-Newton
 intervals of h_e (mm) and Q (mm$^4$) like those of gamma and m.
 
 Starts ("features first"): mu_d, mu_s from the measured per-cycle $\mu_m$, $\mu_0$ (as
@@ -28,10 +28,10 @@ from stickslip_jax.contact.boundary import approach_for, film_from_mu_s, final_a
 from stickslip_jax.modes import GaugeOffset
 from stickslip_jax.tables import load_table
 
-from .features import RecordFeatures
+from ..data.features import RecordFeatures
 from .fit import FitResult, fit_features, mu_levels
-from .microsqueeze_params import MicrosqueezeFriction
-from .modes import ModelModes
+from ..microsqueeze_params import MicrosqueezeFriction
+from ..modes import ModelModes
 
 __all__ = ["default_eta", "fit_microsqueeze", "microsqueeze_starts"]
 
@@ -91,13 +91,13 @@ def fit_microsqueeze(
     """Fit mu_s, mu_d, h_e (mm), Q (mm^4), delta, n to a campaign's cycle features.
 
     `eta` (kgf s/mm^2), `pair` (name in Table 10 or a `SurfacePair`) and `contact` are
-    given; `modes` and the other keywords as in `stickslip_fitting.fit.fit_features`
+    given; `modes` and the other keywords as in `stickslip_fitting.solve.fit.fit_features`
     (`objective` a `stickslip_fitting.modes.Objective`: FEATURES, or TRACE, BOTH, SMOOTH
     with `records`; `hold` a `stickslip_fitting.params.Hold`).
     """
     if not (np.isfinite(eta) and eta > 0):
         raise ValueError(f"--eta: the viscosity must be positive and finite, got {eta}")
-    from .objectives import feature_data
+    from ..objectives.cycle_features import feature_data
 
     if "offset" in kwargs:  # fit_features' flat keyword (`fit.flat_options`), needed here
         modes = dataclasses.replace(modes, offset=GaugeOffset.parse(kwargs.pop("offset"),

@@ -8,9 +8,9 @@ Every objective of the package is an `AbstractResiduals` (an `eqx.Module`):
   by them, so reports never slice by position);
 - `dof()`: the (weighted) number of residuals that carry data.
 
-Final objectives: the campaign objectives (`stickslip_fitting.combined.AbstractObjective`,
+Final objectives: the campaign objectives (`stickslip_fitting.objectives.combined.AbstractObjective`,
 which add the simulations' flags, clusters and trace data the campaign fit needs:
-features, trace, weighted sum, smooth, heavy-tailed), `stickslip_fitting.pitch_fit.
+features, trace, weighted sum, smooth, heavy-tailed), `stickslip_fitting.solve.pitch.
 PitchObjective` (the pitching/yawing channels) and `stickslip_fitting.design.experiment.
 SteadyObservables` (the steady observables of a planned campaign, with its prior).
 
@@ -22,7 +22,7 @@ leaves `free` selects (a function `params -> leaf or tuple of leaves` like
 array leaf) with the project's one solver (`stickslip_jax.lsq.LevenbergMarquardt`);
 `jacobian(objective, params, free)` is the Jacobian over the same leaves (for
 `stickslip_jax.lsq.gauss_newton_covariance`). The campaign fit
-(`stickslip_fitting.fit.fit_objective`) adds multi-start and reweighting rounds around
+(`stickslip_fitting.solve.fit.fit_objective`) adds multi-start and reweighting rounds around
 the same verb.
 
 ```python

@@ -2,7 +2,7 @@ r"""Joint least-squares fit of the friction parameters to a campaign of records.
 
 One verb, `fit_features(features, ...)` (or `fit_records(records, ...)`), returns a
 `FitResult`. The residuals are the whitened features objective of
-`stickslip_fitting.objectives` (its sum of squares is $-2\log$ likelihood up to a constant), so
+`stickslip_fitting.objectives.cycle_features` (its sum of squares is $-2\log$ likelihood up to a constant), so
 the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
 
 - Parameters: `stickslip_fitting.params.CampaignParams` (friction in unconstrained coordinates,
@@ -27,8 +27,8 @@ the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
   polished to the tolerances, and the best converged start wins.
 - Objective (`objective=`, a `stickslip_fitting.modes.Objective`): the cycle
   features (default), the full trace through the exact simulator restarted per cycle
-  (`stickslip_fitting.trace_objective`), both (`stickslip_fitting.combined`), or whole
-  records through the smoothed simulator (`stickslip_fitting.smooth_objective`); all but
+  (`stickslip_fitting.objectives.trace`), both (`stickslip_fitting.objectives.combined`), or whole
+  records through the smoothed simulator (`stickslip_fitting.objectives.smooth`); all but
   the features start from the features optimum.
 """
 
@@ -49,13 +49,13 @@ from stickslip_jax.lsq import free_filter, gauss_newton_decrease, least_squares
 from stickslip_jax.modes import GaugeOffset, SlipTime
 from stickslip_jax.programs import release_programs
 
-from .combined import AbstractObjective, FeaturesObjective, make_objective
-from .features import RecordFeatures, record_features
-from .losses import AbstractLoss, Gaussian, with_loss
-from .modes import ModelModes, Objective, Padding, SolverOptions, Weighting
-from .objectives import FeatureData, feature_data, feature_residuals
-from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, Hold, free_spec
-from .trace_objective import trace_data
+from ..objectives.combined import AbstractObjective, FeaturesObjective, make_objective
+from ..data.features import RecordFeatures, record_features
+from ..objectives.losses import AbstractLoss, Gaussian, with_loss
+from ..modes import ModelModes, Objective, Padding, SolverOptions, Weighting
+from ..objectives.cycle_features import FeatureData, feature_data, feature_residuals
+from ..params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, Hold, free_spec
+from ..objectives.trace import trace_data
 
 __all__ = ["FitResult", "fit_features", "fit_objective", "fit_records", "initial_guesses"]
 
@@ -71,7 +71,7 @@ class FitResult:
       `converged`: that result is successful; `n_starts`, `n_steps` (Levenberg-Marquardt
       steps of the best start, all reweighting rounds); `n_rounds` (reweighting rounds).
     - `slip_time`: the $T_2$ mode of eq (3) used (`SlipTime`).
-    - `objective`: the `stickslip_fitting.combined.AbstractObjective` minimised (features, trace
+    - `objective`: the `stickslip_fitting.objectives.combined.AbstractObjective` minimised (features, trace
       or both); `trace_failures`: windows of the trace objective whose simulation did not
       succeed at the optimum (0 when all ran).
     - `record_chi2`: chi2/n of each record's features residuals before any rescaling
@@ -329,14 +329,14 @@ def fit_features(
     r"""Fit mu_s, mu_d, gamma, m, delta, n jointly to the cycle features of a campaign.
 
     - `objective`: a `stickslip_fitting.modes.Objective`: FEATURES (default), TRACE, BOTH
-      (`stickslip_fitting.combined`) or SMOOTH (whole records,
-      `stickslip_fitting.smooth_objective`); all but FEATURES need `records` (the
+      (`stickslip_fitting.objectives.combined`) or SMOOTH (whole records,
+      `stickslip_fitting.objectives.smooth`); all but FEATURES need `records` (the
       `Record`s the features came from) and start from the features fit's optimum
       ("features first").
     - `hold`: the parameters held at given values (`stickslip_fitting.params.Hold`, e.g.
       `Hold(lambda f: f.log_n, 1.0)`).
     - `starts`: starting friction modules (default `initial_guesses`).
-    - `loss`: a heavy-tailed likelihood (`stickslip_fitting.losses`: `Huber()`,
+    - `loss`: a heavy-tailed likelihood (`stickslip_fitting.objectives.losses`: `Huber()`,
       `StudentT()`; None or `Gaussian()`: least squares). The Gaussian fit is the start,
       then the objective under the loss is fitted from it (`_fit_heavy_tailed`).
     - `modes`: `ModelModes` (gauge offset, the slip time $T_2$ of eq (3), re-slips);
@@ -370,7 +370,7 @@ def fit_features(
         # including compilation either way)
         first = _fit_problem(_features_problem(features, o, starts), features, o.solver)
         if objective is Objective.SMOOTH:
-            from .smooth_objective import SmoothObjective, smooth_data
+            from ..objectives.smooth import SmoothObjective, smooth_data
 
             obj = SmoothObjective(smooth_data(records, features), slip_time=o.modes.slip_time)
         else:

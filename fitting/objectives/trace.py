@@ -4,7 +4,7 @@ A small error in a stick time shifts every later slip, so a record simulated fro
 start drifts out of phase with the measurement and the residuals stop carrying
 information. Here the simulation is **restarted at the end of every slip**: cycle $j$
 of a record is the window from the measured end of slip $j-1$ ($t_{e,j-1}$, from
-`stickslip_fitting.features`) to the end of slip $j$. In it the exact simulator
+`stickslip_fitting.data.features`) to the end of slip $j$. In it the exact simulator
 (`stickslip_jax.simulation.simulate_exact`, chapters 2-5: stick while
 $k x < \mu_0(T_1) W$ (eq 1), slip with $\mu_m$ (eq 3) on eq (10)) starts at
 $t_{e,j-1}$ with the slider at rest, stick time 0 and the measured slip-end deflection
@@ -55,8 +55,8 @@ from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.modes import SlipTime
 from stickslip_jax.simulation import SimulationResult, simulate_exact
 
-from .features import RecordFeatures
-from .params import CampaignParams
+from ..data.features import RecordFeatures
+from ..params import CampaignParams
 
 __all__ = ["CHUNK", "TraceData", "cycle_windows", "failed_windows", "reslip_windows",
            "trace_data", "trace_residuals", "trace_residuals_and_flags", "trace_sd", "trace_simulation",

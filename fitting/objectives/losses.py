@@ -24,7 +24,7 @@ Final losses (`AbstractLoss`):
   falls as $1/r$: sporadic irregular slips, spikes the filter missed).
 
 `HeavyTailed(objective, loss)` is the objective whose residuals are the transformed
-residuals of another (`stickslip_fitting.combined.AbstractObjective`); its intervals
+residuals of another (`stickslip_fitting.objectives.combined.AbstractObjective`); its intervals
 come from the cluster-robust (sandwich) covariance, which does not assume the loss is
 the true density. `parse_loss("student-t:4")` reads the command line's `--loss`.
 """

@@ -36,7 +36,7 @@ def fixed_misfit(fit, free) -> list[str]:
     """`stickslip fit`'s warning when fixed values leave the records far from the model
     (median record chi2/n above `FIXED_MISFIT`): the posterior around them means little.
     `free`: the names sampled."""
-    from .fit_report import fixed_misfit_warning
+    from .fit_table import fixed_misfit_warning
 
     return fixed_misfit_warning([f"{n}={v:g}" for n, v in fit.values.items() if n not in free],
                                 fit.record_chi2, "the posterior of the others is not meaningful")
@@ -51,7 +51,7 @@ def mcmc_document(res, fit, campaign, *, model: str, objective: str,
     name, `truth` the parameters the records were made from (or None), `max_draws` the
     most rows of "samples", `extra` the microsqueeze law's {"given": ...}. Written with
     `stickslip_jax.output.versioned(doc, JSON_ALIASES)`."""
-    from .losses import loss_of
+    from ..objectives.losses import loss_of
 
     summary = res.summary()
     names = [f.name for f in fit.features]

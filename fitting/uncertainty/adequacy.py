@@ -3,8 +3,8 @@ what to do about it, in sentences.
 
 `adequacy(fit)` returns an `Adequacy`: one `PhaseRow` per (record, phase) with the
 number of residuals and their chi2/n **in the records' own errors** (before any scaling
-of a record's errors to its scatter, `stickslip_fitting.fit.RECORD_CHI2`, and before a
-heavy-tailed loss, `stickslip_fitting.losses`), the campaign's chi2/dof, a `verdict`
+of a record's errors to its scatter, `stickslip_fitting.solve.fit.RECORD_CHI2`, and before a
+heavy-tailed loss, `stickslip_fitting.objectives.losses`), the campaign's chi2/dof, a `verdict`
 ("describes": no phase of a record beyond chi2/n `GOOD`; "misses": some beyond `BAD`;
 "marginal" between; beyond meaning also improbable under the noise, `LEVEL`) and plain sentences a user can act on.
 
@@ -115,9 +115,9 @@ class Adequacy:
 
 
 def _features_rows(fit, names, scale) -> list[PhaseRow]:
-    from .combined import FeaturesObjective
-    from .fit import compiled
-    from .objectives import feature_residuals
+    from ..objectives.combined import FeaturesObjective
+    from ..solve.fit import compiled
+    from ..objectives.cycle_features import feature_residuals
 
     r = np.asarray(compiled(feature_residuals, fit.params, fit.data, fit.slip_time))
     obj = FeaturesObjective(fit.data, fit.slip_time)
@@ -140,8 +140,8 @@ def _features_rows(fit, names, scale) -> list[PhaseRow]:
 
 
 def _trace_rows(fit, names, td) -> list[PhaseRow]:
-    from .fit import compiled
-    from .trace_objective import trace_residuals_and_flags
+    from ..solve.fit import compiled
+    from ..objectives.trace import trace_residuals_and_flags
 
     r, _, vel = compiled(trace_residuals_and_flags, fit.params, td, fit.slip_time)
     r = np.asarray(r).reshape(td.mask.shape)
@@ -221,8 +221,8 @@ def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
 
 
 def adequacy(fit) -> Adequacy:
-    """The adequacy report of a `stickslip_fitting.fit.FitResult` (module doc)."""
-    from .losses import Gaussian, loss_of
+    """The adequacy report of a `stickslip_fitting.solve.fit.FitResult` (module doc)."""
+    from ..objectives.losses import Gaussian, loss_of
 
     names = [f.name or f"record {i}" for i, f in enumerate(fit.features)]
     scale = (np.ones(len(names)) if fit.record_scale is None

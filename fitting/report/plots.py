@@ -49,7 +49,7 @@ def friction_curves(fit, unc, n_draws: int = 200, seed: int = 0, extend: float =
     `extend` either way."""
     import jax
 
-    from .fit import compiled
+    from ..solve.fit import compiled
 
     t1 = np.concatenate([f.stick_time[f.complete] for f in fit.features])
     extend = max(float(extend), 1.0)
@@ -69,14 +69,14 @@ def friction_curves(fit, unc, n_draws: int = 200, seed: int = 0, extend: float =
 def fitted_traces(fit, records):
     """The fitted model over `records` (the first ones of the fit): per record, (time s,
     deflection mm without the gauge offset) of the exact simulator restarted at the
-    end of every slip, as the trace objective compares it (`stickslip_fitting.trace_objective`),
+    end of every slip, as the trace objective compares it (`stickslip_fitting.objectives.trace`),
     NaN between the cycle windows. None where that is not possible (a drive program,
     no complete cycle); the figure then shows the fitted levels only."""
     import jax
 
-    from .fit import compiled
-    from .params import CampaignParams
-    from .trace_objective import trace_data, trace_simulation
+    from ..solve.fit import compiled
+    from ..params import CampaignParams
+    from ..objectives.trace import trace_data, trace_simulation
 
     n = len(records)
     try:
@@ -99,20 +99,20 @@ def fitted_traces(fit, records):
 
 
 PHASE_ORDER = ("levels", "stick_times", "start_level", "trace_stick", "trace_slip")
-"""The phases of `stickslip_fitting.adequacy` in the order the residual panel shows them."""
+"""The phases of `stickslip_fitting.uncertainty.adequacy` in the order the residual panel shows them."""
 
 
 def residual_panel(report, ax=None):
     """chi2/n of the residuals by record and phase (one panel; returns its `Figure`, drawn
     on `ax` when given): for each record a group of bars, one per phase of `report`, a
-    `stickslip_fitting.adequacy.Adequacy` (`adequacy(fit)`): levels, stick times, the first
+    `stickslip_fitting.uncertainty.adequacy.Adequacy` (`adequacy(fit)`): levels, stick times, the first
     plateau (`--offset start`), the trace objective's stick and slip samples (trace and
     combined fits). chi2/n is in the records' own errors, so 1 is "to the noise"; dashed
     lines at `GOOD` and `BAD`, log scale. Each phase is one `BarContainer` labelled with
     the phase, its bars in record order, NaN where a record has no residual in the phase.
     Example: `residual_panel(adequacy(fit))`.
     """
-    from .adequacy import BAD, GOOD
+    from ..uncertainty.adequacy import BAD, GOOD
 
     if ax is None:
         fig, ax = _plt().subplots(figsize=(8, 3.5))
@@ -195,7 +195,7 @@ def fit_figure(fit, unc, records, path=None, max_traces: int | None = None, *,
 
     Record panels are the axes labelled "record NAME" (`Axes.get_label`), in the order of
     `records`, then the records not used."""
-    from .adequacy import adequacy
+    from ..uncertainty.adequacy import adequacy
 
     plt = _plt()
     n = len(records) if max_traces is None else min(int(max_traces), len(records))
@@ -360,7 +360,7 @@ def _parameter_box(ax, fit, unc) -> None:
     for one the records do not determine; fixed or at a bound said beside the value."""
     import textwrap
 
-    from .report import note_text, value_text
+    from .rows import note_text, value_text
 
     ax.axis("off")
     bounds = fit.params.friction.PRIOR_BOUNDS
@@ -392,7 +392,7 @@ def batch_figure(batch, path=None, dpi: int = 120):
     campaigns not fitted left empty and named in the title. A parameter a campaign does
     not determine has no point: a grey cross at the foot of the panel marks it. A panel
     whose values span more than two decades has a log axis. `batch` is a
-    `stickslip_fitting.batch.BatchResult`; returns the `Figure` (saved and closed when
+    `stickslip_fitting.solve.batch.BatchResult`; returns the `Figure` (saved and closed when
     `path` is given)."""
     from matplotlib.lines import Line2D
 

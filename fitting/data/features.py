@@ -140,7 +140,7 @@ class RecordFeatures:
         of its amplitude $a$ at the drive speed $v$ (eq 11 with the drive:
         $\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$), or could not be timed. Such a
         slip ended above $\mu_d W/k$ and slipped on from rest (a re-slip, see
-        `stickslip_fitting.objectives._levels`): one jump made of two slips, so its `end_time`
+        `stickslip_fitting.objectives.cycle_features._levels`): one jump made of two slips, so its `end_time`
         (the end of a single half cosine about the jump's middle) is not when the
         slider came to rest."""
         a = np.maximum(self.amplitude, 1e-300)

@@ -26,16 +26,16 @@ from typing import TYPE_CHECKING
 
 from stickslip_jax.modes import GaugeOffset, SlipTime
 
-from .api import CampaignFit, RecordsSpec
-from .modes import Objective
+from .campaign import CampaignFit, RecordsSpec
+from ..modes import Objective
 
 if TYPE_CHECKING:
     import pandas
     from matplotlib.figure import Figure
 
-    from .losses import AbstractLoss
-    from .mcmc import McmcResult
-    from .params import AbstractFrictionParams
+    from ..objectives.losses import AbstractLoss
+    from ..uncertainty.mcmc import McmcResult
+    from ..params import AbstractFrictionParams
 
 __all__ = ["POSTERIOR_COLUMNS", "CampaignPosterior", "objective_of", "sample"]
 
@@ -58,7 +58,7 @@ class CampaignPosterior:
       same as a dict;
     - `str(result)`: the posterior table, the prior, the sampler's settings and warnings.
 
-    The parts: `mcmc` (`stickslip_fitting.mcmc.McmcResult`: the flat chain `samples`,
+    The parts: `mcmc` (`stickslip_fitting.uncertainty.mcmc.McmcResult`: the flat chain `samples`,
     `names`, `units`, `tau`, `ess`, `acceptance`), `campaign_fit` (the `CampaignFit` the
     chain started from), `report` (the JSON document before strict encoding) and `truth`
     (the parameters the records were made from, when they carry them; None otherwise).
@@ -123,7 +123,7 @@ class CampaignPosterior:
         never over one of the input records)."""
         from stickslip_jax.output import check_outputs, dumps, versioned, write_text
 
-        from .mcmc_report import JSON_ALIASES
+        from ..report.mcmc_document import JSON_ALIASES
 
         text = dumps(versioned(self.report, JSON_ALIASES), indent=2) + "\n"
         if path is not None:
@@ -132,11 +132,11 @@ class CampaignPosterior:
         return text
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
-        """The corner plot of `stickslip mcmc --plot` (`stickslip_fitting.posterior_plots.
+        """The corner plot of `stickslip mcmc --plot` (`stickslip_fitting.report.posterior_plots.
         corner_plot`: histograms, contours, 16/50/84 % quantiles, the truth where known):
         returned, and saved to `path` (closed then) when given. Needs the `corner`
         package."""
-        from .posterior_plots import corner_plot
+        from ..report.posterior_plots import corner_plot
 
         if path is not None:
             from stickslip_jax.output import check_outputs
@@ -147,7 +147,7 @@ class CampaignPosterior:
                            units=self.mcmc.units)
 
     def __str__(self) -> str:
-        from .report import text_table
+        from ..report.rows import text_table
 
         rows = []
         for name, p in self.report["parameters"].items():
@@ -231,14 +231,14 @@ def sample(
                              "records to fit with other options")
         cf = records
     else:
-        from .api import fit
+        from .campaign import fit
 
         cf = fit(records, model=model, objective=objective, fix=fix, loss=loss,
                  gauge_offset=gauge_offset, slip_time=slip_time, strict=strict, eta=eta,
                  surface=surface)
-    from .campaign import find_truth
-    from .mcmc import run_mcmc
-    from .mcmc_report import fixed_misfit, mcmc_document
+    from ..data.campaign import find_truth
+    from ..uncertainty.mcmc import run_mcmc
+    from ..report.mcmc_document import fixed_misfit, mcmc_document
 
     try:
         res = run_mcmc(cf.fit, walkers=walkers, steps=steps, burn=burn, seed=seed,
@@ -258,9 +258,9 @@ def sample(
 def objective_of(objective) -> Objective:
     """The `Objective` member of a fit's objective (a heavy-tailed loss's wrapper read
     through): the name `stickslip mcmc --json` writes under "objective"."""
-    from .combined import FeaturesObjective, TraceObjective, WeightedSum
-    from .losses import HeavyTailed
-    from .smooth_objective import SmoothObjective
+    from ..objectives.combined import FeaturesObjective, TraceObjective, WeightedSum
+    from ..objectives.losses import HeavyTailed
+    from ..objectives.smooth import SmoothObjective
 
     if isinstance(objective, HeavyTailed):
         objective = objective.inner

@@ -16,14 +16,14 @@ is seen), so the neutral point is fitted only when the records span at least two
 heights (two offsets for $l_{Mh}$); otherwise it stays at the template's value and is
 reported as fixed.
 
-The objective is `PitchObjective` (an `stickslip_fitting.solve.AbstractResiduals`): every
+The objective is `PitchObjective` (an `stickslip_fitting.solve.lsq.AbstractResiduals`): every
 observed channel sample of every record, padded records stacked into one batch, in
 units of the data's RMS (`scale`), over a `PitchParams` pytree.
 
 Procedure: (1) a deterministic start: for each time constant on a log grid the gains
 $g_r = c(h_r - h_{Mv})$ follow by linear least squares, and a straight line through
 $(h_r, g_r)$ gives $c$ (slope) and $h_{Mv}$ (zero crossing); the best grid point starts
-(2) Levenberg-Marquardt (`stickslip_fitting.solve.least_squares`, the project's one
+(2) Levenberg-Marquardt (`stickslip_fitting.solve.lsq.least_squares`, the project's one
 solver) on all free parameters, jitted as a whole; (3) the Gauss-Newton covariance
 $s^2 (J^T J)^{-1}$ (`stickslip_jax.lsq.gauss_newton_covariance`) with $s^2$ = RSS/(N - p)
 (or the given noise), mapped to natural units (`report.ParameterEstimate.from_log` and
@@ -45,8 +45,8 @@ from jaxtyping import Array, Bool, Float
 
 from stickslip_jax.lsq import gauss_newton_covariance
 
-from .report import ParameterEstimate
-from .solve import AbstractResiduals, jacobian, least_squares
+from ..report.rows import ParameterEstimate
+from .lsq import AbstractResiduals, jacobian, least_squares
 from stickslip_jax import pitching as pt
 from stickslip_jax.units import UnitError, parse_quantity
 
@@ -254,7 +254,7 @@ class PitchFit:
         return self.result == optx.RESULTS.successful
 
     def estimates(self) -> list[ParameterEstimate]:
-        """The parameters as the reports' typed rows (`stickslip_fitting.report`)."""
+        """The parameters as the reports' typed rows (`stickslip_fitting.report.rows`)."""
         return [ParameterEstimate(
             name=n, unit=p["unit"], value=p["value"], stderr=p["stderr"],
             ci95=None if p["ci95"] is None else (float(p["ci95"][0]), float(p["ci95"][1])),

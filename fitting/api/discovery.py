@@ -26,14 +26,14 @@ from typing import TYPE_CHECKING
 
 from stickslip_jax.records import Record
 
-from .api import RecordsSpec, as_list
+from .campaign import RecordsSpec, as_list
 
 if TYPE_CHECKING:
     import pandas
     from matplotlib.figure import Figure
 
-    from .discovery.result import CycleDiscovery
-    from .losses import AbstractLoss
+    from ..discovery.result import CycleDiscovery
+    from ..objectives.losses import AbstractLoss
 
 __all__ = ["FAMILY_COLUMNS", "CampaignDiscovery", "discover"]
 
@@ -119,7 +119,7 @@ class CampaignDiscovery:
     @property
     def report(self) -> dict:
         """The `stickslip discover --json` document before strict encoding."""
-        from .commands.discover import json_document
+        from ..commands.discover import json_document
 
         return {**json_document(self.result), "loss": self.loss}
 
@@ -144,7 +144,7 @@ class CampaignDiscovery:
         """The figure of `stickslip discover --plot` (`discovery.plots.
         plot_cycle_discovery`: residual RMS by phase before and after, traces and
         residuals of up to four records): returned, and saved to `path` when given."""
-        from .discovery.plots import plot_cycle_discovery
+        from ..discovery.plots import plot_cycle_discovery
 
         fig = plot_cycle_discovery(self.result)
         if path is not None:
@@ -155,7 +155,7 @@ class CampaignDiscovery:
         return fig
 
     def __str__(self) -> str:
-        from .commands.discover import candidate_table, parameter_table
+        from ..commands.discover import candidate_table, parameter_table
 
         r = self.result
         joint = " or ".join([r.effect] + [x["name"] for x in r.indistinguishable_from])
@@ -200,9 +200,9 @@ def discover(
 
     Every mistake in the options raises ValueError naming the keyword, before any fit.
     """
-    from .discovery.cycle_effects import FAMILIES
-    from .discovery.cycle_workflow import discover_cycles
-    from .losses import AbstractLoss, parse_loss
+    from ..discovery.cycle_effects import FAMILIES
+    from ..discovery.cycle_workflow import discover_cycles
+    from ..objectives.losses import AbstractLoss, parse_loss
 
     if top < 1:
         raise ValueError(f"top: must be at least 1, got {top}")

@@ -42,7 +42,7 @@ from stickslip_jax.simulation import simulate_smooth
 from stickslip_jax.simulation.trace import pad_series
 
 from .combined import AbstractObjective
-from .modes import Objective
+from ..modes import Objective
 
 __all__ = ["SmoothData", "SmoothObjective", "smooth_data"]
 

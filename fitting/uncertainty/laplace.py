@@ -13,7 +13,7 @@ For the trace and combined objectives ("trace", "both") $F^{-1}$ is too narrow: 
 samples of one stick phase share the error of the measured restart state (slip-end
 level and time), and "both" reads every sample twice (features and trace). Their
 covariance is the cluster-robust sandwich $H^{-1} M H^{-1}$ (`sandwich_covariance`):
-the score of each stick phase (`stickslip_fitting.combined.residual_cycles`) is one cluster,
+the score of each stick phase (`stickslip_fitting.objectives.combined.residual_cycles`) is one cluster,
 neighbouring phases of a record are allowed to correlate (lag 1), and jackknife
 (leave-one-cluster-out) scores remove the small-sample bias. Measured on campaigns
 drawn from a prior (tests/test_combined.py, slow; 18 of 20 counted, two features fits
@@ -44,11 +44,11 @@ from jax.flatten_util import ravel_pytree
 
 from stickslip_jax.lsq import gauss_newton_covariance
 
-from .fit import COMPILER_OPTIONS, FitResult
-from .losses import HeavyTailed
-from .modes import Covariance, SmallSample, check_member
-from .params import CampaignParams, free_mask
-from .report import ParameterEstimate
+from ..solve.fit import COMPILER_OPTIONS, FitResult
+from ..objectives.losses import HeavyTailed
+from ..modes import Covariance, SmallSample, check_member
+from ..params import CampaignParams, free_mask
+from ..report.rows import ParameterEstimate
 
 __all__ = ["Uncertainty", "laplace", "Z95"]
 
@@ -85,7 +85,7 @@ class Uncertainty:
     reasons: dict = dataclasses.field(default_factory=dict)
 
     def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
-        """One typed row per parameter (`stickslip_fitting.report.ParameterEstimate`), with the
+        """One typed row per parameter (`stickslip_fitting.report.rows.ParameterEstimate`), with the
         truth when given ({name: value})."""
         rows = []
         for i, n in enumerate(self.identifiable):
@@ -148,7 +148,7 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
     r"""Cluster-robust covariance $H^{-1} M H^{-1}$ of a least-squares estimate.
 
     $H = J^\top J$; $M = \sum_{c,c'} \tilde g_c \tilde g_{c'}^\top$ over clusters $c$
-    (the (record, cycle) labels of `stickslip_fitting.combined.residual_cycles`, $G$ of them) and
+    (the (record, cycle) labels of `stickslip_fitting.objectives.combined.residual_cycles`, $G$ of them) and
     $c'$ = $c$ or a neighbour of the same record within `lag` cycles (the slip between
     two stick phases times both), with the cluster scores $g_c = \sum_{i \in c} J_i r_i$.
     The residuals at the optimum are shrunk by the fit, which biases the plain estimate
@@ -313,7 +313,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
     correlated within each stick phase and a scaled Fisher matrix undercovers: on an
     independent SciPy campaign with such imperfections, chi2/dof 426, its 95 % interval
     missed mu_s).
-    A fit under a heavy-tailed loss (`stickslip_fitting.losses.HeavyTailed`) gets the
+    A fit under a heavy-tailed loss (`stickslip_fitting.objectives.losses.HeavyTailed`) gets the
     two-level covariance with 3 records or more, the stick-phase sandwich otherwise.
     """
     check_member("covariance", covariance, Covariance)
@@ -337,7 +337,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
     F = J.T @ J
     k = idx.size
     if covariance.robust:
-        from .combined import residual_cycles
+        from ..objectives.combined import residual_cycles
 
         rec, cyc = residual_cycles(fit.objective, fit.features)
         cov = sandwich_covariance(J, r, rec, cyc, lag=lag, small_sample=small_sample)

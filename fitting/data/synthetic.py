@@ -24,7 +24,7 @@ from stickslip_jax.modes import SlipTime
 from stickslip_jax.records import Record
 from stickslip_jax.simulation import pad_times, simulate_exact
 
-from .params import EmpiricalFriction
+from ..params import EmpiricalFriction
 
 __all__ = ["draw_prior_friction", "synthetic_campaign", "truth_values"]
 
@@ -61,7 +61,7 @@ def truth_values(friction) -> dict[str, float]:
     from stickslip_jax.contact import MicrosqueezeStatic
 
     if isinstance(friction.static, MicrosqueezeStatic):
-        from .microsqueeze_params import MicrosqueezeFriction
+        from ..microsqueeze_params import MicrosqueezeFriction
 
         return MicrosqueezeFriction.from_friction(friction).named_values()
     return EmpiricalFriction.from_friction(friction).named_values()

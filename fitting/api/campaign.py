@@ -36,17 +36,17 @@ from typing import TYPE_CHECKING, Any, Union
 from stickslip_jax.modes import GaugeOffset, SlipTime
 from stickslip_jax.records import Record
 
-from .modes import ModelModes, Objective
+from ..modes import ModelModes, Objective
 
 if TYPE_CHECKING:
     import pandas
     from matplotlib.figure import Figure
 
-    from .campaign import Campaign
-    from .fit import FitResult
-    from .losses import AbstractLoss
-    from .params import AbstractFrictionParams, Hold
-    from .uncertainty import Uncertainty
+    from ..data.campaign import Campaign
+    from ..solve.fit import FitResult
+    from ..objectives.losses import AbstractLoss
+    from ..params import AbstractFrictionParams, Hold
+    from ..uncertainty.laplace import Uncertainty
 
 __all__ = ["CampaignFit", "RecordsSpec", "SUMMARY_COLUMNS", "fit"]
 
@@ -72,9 +72,9 @@ class CampaignFit:
     - `str(result)`: the table `stickslip fit` prints, with its warnings and notes.
 
     The parts: `report` (the JSON document before strict encoding), `fit`
-    (`stickslip_fitting.fit.FitResult`: the optimum, the objective, chi2),
-    `uncertainty` (`stickslip_fitting.uncertainty.Uncertainty`: covariance,
-    identifiability), `campaign` (`stickslip_fitting.campaign.Campaign`: the records
+    (`stickslip_fitting.solve.fit.FitResult`: the optimum, the objective, chi2),
+    `uncertainty` (`stickslip_fitting.uncertainty.laplace.Uncertainty`: covariance,
+    identifiability), `campaign` (`stickslip_fitting.data.campaign.Campaign`: the records
     used and the screening of every record) and `model` ("empirical" or "microsqueeze").
     For the posterior, `stickslip_fitting.run_mcmc(result.fit)`.
     """
@@ -167,9 +167,9 @@ class CampaignFit:
         return text
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
-        """The diagnostic figure of `stickslip fit --plot` (`stickslip_fitting.plots.
+        """The diagnostic figure of `stickslip fit --plot` (`stickslip_fitting.report.plots.
         fit_figure`): returned, and saved to `path` (closed then) when given."""
-        from .plots import fit_figure
+        from ..report.plots import fit_figure
 
         if path is not None:
             from stickslip_jax.output import check_outputs
@@ -182,7 +182,7 @@ class CampaignFit:
                           not_used=not_used)
 
     def __str__(self) -> str:
-        from .fit_report import format_table
+        from ..report.fit_table import format_table
 
         return "\n".join([format_table(self.report)] + [f"note: {n}" for n in self.notes])
 
@@ -216,7 +216,7 @@ def fit(
     - `objective`: a `stickslip_fitting.modes.Objective` (or its value): FEATURES (cycle
       features, the default), TRACE, BOTH or SMOOTH.
     - `fix`: {name: value} held fixed, e.g. {"n": 1.0}.
-    - `loss`: the likelihood, a `stickslip_fitting.losses.AbstractLoss` (`Gaussian()`,
+    - `loss`: the likelihood, a `stickslip_fitting.objectives.losses.AbstractLoss` (`Gaussian()`,
       `Huber(c)`, `StudentT(nu)`) or its spec ("gaussian", "huber:1.345", "student-t:4").
     - `gauge_offset`: a `stickslip_jax.modes.GaugeOffset`: ZERO (trust the gauge zero)
       or START (read it from each record's first sample).
@@ -232,9 +232,9 @@ def fit(
     (a glob that matches no file names the pattern), before any fitting. A fit that does
     not converge gives a RuntimeWarning (`CampaignFit.converged` is then False).
     """
-    from .campaign import load_campaign
-    from .fit_report import build_report
-    from .uncertainty import laplace
+    from ..data.campaign import load_campaign
+    from ..report.fit_table import build_report
+    from ..uncertainty.laplace import laplace
 
     objective = Objective.parse(objective)
     modes = ModelModes(offset=GaugeOffset.parse(gauge_offset, "gauge_offset"),
@@ -265,7 +265,7 @@ def fit(
                               objective=objective, records=campaign.records, loss=loss)
     extra = None
     if model_name == "microsqueeze":
-        from .microsqueeze_fit import default_eta, fit_microsqueeze
+        from ..solve.microsqueeze import default_eta, fit_microsqueeze
 
         if eta_value is None:
             eta_value = default_eta(campaign.records[0].lubricant)
@@ -273,7 +273,7 @@ def fit(
         extra = {"given": {"eta": {"value": eta_value, "unit": "kgf*s/mm^2"},
                            "surface": surface}}
     else:
-        from .fit import fit_features
+        from ..solve.fit import fit_features
 
         result = fit_features(campaign.features, **kw)
     unc = laplace(result)
@@ -300,7 +300,7 @@ def _campaign_of_records(records: list[Record], strict: bool) -> Campaign:
     """The screened campaign of `Record` objects (`load_campaign`'s checks without files)."""
     from stickslip_jax.records import check_campaign
 
-    from .campaign import screen_records
+    from ..data.campaign import screen_records
 
     if len(records) < 2:
         raise ValueError(
@@ -312,8 +312,8 @@ def _campaign_of_records(records: list[Record], strict: bool) -> Campaign:
 
 def _law(model) -> tuple[type[AbstractFrictionParams], str]:
     """(law class, its name in the report) of `model` (a class or its name)."""
-    from .microsqueeze_params import MicrosqueezeFriction
-    from .params import EmpiricalFriction
+    from ..microsqueeze_params import MicrosqueezeFriction
+    from ..params import EmpiricalFriction
 
     laws = {"empirical": EmpiricalFriction, "microsqueeze": MicrosqueezeFriction}
     for name, law in laws.items():
@@ -329,7 +329,7 @@ def _keyword(err: ValueError, option: str) -> ValueError:
 
 
 def _loss(loss) -> AbstractLoss:
-    from .losses import AbstractLoss, parse_loss
+    from ..objectives.losses import AbstractLoss, parse_loss
 
     if isinstance(loss, AbstractLoss):
         return loss
@@ -342,8 +342,8 @@ def _loss(loss) -> AbstractLoss:
 def _hold(fix, law) -> Hold | None:
     """The `Hold` of {name: value}, checked by the command's own `parse_fix` (names,
     ranges, one free); None when nothing is held."""
-    from .commands.fit import parse_fix
-    from .params import Hold
+    from ..commands.fit import parse_fix
+    from ..params import Hold
 
     if fix is None:
         fix = {}

@@ -4,20 +4,20 @@ likelihood up to a constant).
 
 `AbstractObjective` with final subclasses:
 
-- `FeaturesObjective`: `stickslip_fitting.objectives.feature_residuals` (plateau levels and eq (6)
+- `FeaturesObjective`: `stickslip_fitting.objectives.cycle_features.feature_residuals` (plateau levels and eq (6)
   per cycle; robust, fast);
-- `TraceObjective`: `stickslip_fitting.trace_objective.trace_residuals` (every sample against the
+- `TraceObjective`: `stickslip_fitting.objectives.trace.trace_residuals` (every sample against the
   exact simulator restarted per cycle);
 - `WeightedSum`: terms concatenated, each scaled by $\sqrt{w}$, so that the sum of
   squares is $\sum w \chi^2$ (`--objective both` is the features and the trace with
   weights 1/2 each: both read the same samples, so if they carried the same information
   the combined Fisher information would equal either one's; the intervals come from the
-  cluster-robust covariance of `stickslip_fitting.uncertainty`, which measures the overlap instead
+  cluster-robust covariance of `stickslip_fitting.uncertainty.laplace`, which measures the overlap instead
   of assuming it).
 
 Every objective offers the same interface, so the solver, the uncertainty, the sampler
 and the report never ask which one they have. `AbstractObjective` extends the package's
-objective interface `stickslip_fitting.solve.AbstractResiduals` (`residuals(params)`,
+objective interface `stickslip_fitting.solve.lsq.AbstractResiduals` (`residuals(params)`,
 `blocks()`, `dof()`, `split(r)`; the pitching and steady-observables objectives are
 its other subclasses); the full interface:
 `residuals_and_aux(params, weights_at, slider_velocity)` (the effective-variance weights
@@ -39,7 +39,7 @@ whose samples it reads, (record, cycle $j$) = the stick after slip $j$ (and the 
 that ends it): the level and eq (6) residuals of cycle $j$ and the trace window that
 starts at the end of slip $j$. Residuals of different stick phases share no samples
 (only the timing of the slip between neighbours), which is what the cluster-robust
-(sandwich) covariance of `stickslip_fitting.uncertainty` needs for the combined objective.
+(sandwich) covariance of `stickslip_fitting.uncertainty.laplace` needs for the combined objective.
 """
 
 from __future__ import annotations
@@ -54,21 +54,21 @@ import numpy as np
 
 from stickslip_jax.modes import SlipTime
 
-from .modes import Objective, check_member
-from .objectives import FeatureData, feature_residuals
-from .solve import AbstractResiduals
-from .trace_objective import TraceData, failed_windows, trace_residuals_and_flags
+from ..modes import Objective, check_member
+from .cycle_features import FeatureData, feature_residuals
+from ..solve.lsq import AbstractResiduals
+from .trace import TraceData, failed_windows, trace_residuals_and_flags
 
 __all__ = ["OBJECTIVES", "AbstractObjective", "CampaignObjective", "FeaturesObjective",
            "TraceObjective", "WeightedSum", "make_objective", "residual_cycles"]
 
 OBJECTIVES = (Objective.FEATURES.value, Objective.TRACE.value, Objective.BOTH.value)
 """The objectives `make_objective` builds (values of `stickslip_fitting.modes.Objective`;
-"smooth" is `stickslip_fitting.smooth_objective.SmoothObjective`, built from the records)."""
+"smooth" is `stickslip_fitting.objectives.smooth.SmoothObjective`, built from the records)."""
 
 
 class AbstractObjective(AbstractResiduals):
-    """What a campaign fit minimises (module doc): an `stickslip_fitting.solve.
+    """What a campaign fit minimises (module doc): an `stickslip_fitting.solve.lsq.
     AbstractResiduals` over `CampaignParams` with the flags, clusters and trace data the
     campaign fit, its uncertainty and its report read."""
 
@@ -106,7 +106,7 @@ class AbstractObjective(AbstractResiduals):
 
 
 class FeaturesObjective(AbstractObjective):
-    """The cycle features: plateau levels and eq (6) per cycle (`stickslip_fitting.objectives`)."""
+    """The cycle features: plateau levels and eq (6) per cycle (`stickslip_fitting.objectives.cycle_features`)."""
 
     features: FeatureData
     slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,
@@ -157,7 +157,7 @@ class FeaturesObjective(AbstractObjective):
 
 class TraceObjective(AbstractObjective):
     """Every sample against the exact simulator restarted at every measured slip end
-    (`stickslip_fitting.trace_objective`)."""
+    (`stickslip_fitting.objectives.trace`)."""
 
     trace: TraceData
     slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,

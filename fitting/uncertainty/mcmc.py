@@ -1,6 +1,6 @@
 r"""Posterior sampling of the friction parameters with emcee (affine-invariant ensemble).
 
-The log-posterior is the fit's objective (`stickslip_fitting.combined`: features, trace or
+The log-posterior is the fit's objective (`stickslip_fitting.objectives.combined`: features, trace or
 both) as a Gaussian likelihood, $\log L = -\tfrac12 \sum r^2 / s$ ($s = \max(1, \chi^2/\mathrm{dof})$ at
 the optimum, the same widening as the Laplace intervals), plus the **prior**: uniform
 in the logarithm of each free parameter inside `PRIOR_BOUNDS` (a scale-free prior
@@ -13,7 +13,7 @@ outside has zero prior density).
 For the trace and combined objectives (and features fits the model does not describe
 to their noise) the samples of one stick phase share errors, and a likelihood that
 treats them as independent is too narrow, as the Fisher intervals are (see
-`stickslip_fitting.uncertainty`). There the likelihood is tempered: $s$ is multiplied by the
+`stickslip_fitting.uncertainty.laplace`). There the likelihood is tempered: $s$ is multiplied by the
 largest ratio, over the free friction parameters, of the cluster-robust (sandwich)
 variance to the scaled Fisher variance (`likelihood_scale`, reported), so that no
 parameter's posterior is narrower than its robust Laplace interval. The sampler then
@@ -55,12 +55,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .fit import COMPILER_OPTIONS, FitResult
-from .microsqueeze_params import MicrosqueezeFriction
-from .modes import Covariance
-from .params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_mask
-from .report import ParameterEstimate
-from .uncertainty import laplace
+from ..solve.fit import COMPILER_OPTIONS, FitResult
+from ..microsqueeze_params import MicrosqueezeFriction
+from ..modes import Covariance
+from ..params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_mask
+from ..report.rows import ParameterEstimate
+from .laplace import laplace
 
 __all__ = ["PRIOR_BOUNDS", "MissingExtra", "McmcResult", "import_arviz", "likelihood_scale",
            "log_posterior", "run_mcmc", "prior_text"]
@@ -265,7 +265,7 @@ class McmcResult:
             return az.summary(idata, var_names=list(self.names), kind="diagnostics")
 
     def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
-        """One typed row per sampled parameter (`stickslip_fitting.report`): the posterior
+        """One typed row per sampled parameter (`stickslip_fitting.report.rows`): the posterior
         median as the value, its standard deviation as the standard error and the central
         95 % interval; with the truth when given."""
         summ = self.summary()

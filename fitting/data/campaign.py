@@ -1,7 +1,7 @@
 r"""A campaign of records, screened record by record before any fitting.
 
 A campaign is not all-or-nothing: every record is read, its cycles extracted
-(`stickslip_fitting.features`), and it gets a status:
+(`stickslip_fitting.data.features`), and it gets a status:
 
 - `used`: at least `min_cycles` complete stick-slip cycles; fitted;
 - `no_stick_slip`: no slip found at all (steady sliding, or stick-slip too small for the
@@ -167,7 +167,7 @@ def load_campaign(specs, *, min_records: int = 2, strict: bool = False) -> Campa
 
 def find_truth(records, names=None) -> dict[str, float] | None:
     """The friction parameters the records were made from, if all carry the same truth."""
-    from .params import NAMES
+    from ..params import NAMES
 
     NAMES = tuple(names or NAMES)  # noqa: N806
 

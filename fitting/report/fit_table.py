@@ -18,23 +18,23 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     """The JSON-ready result of a fit (the `--json` contract).
 
     `records` lists every record given, in order: the used ones with their fitted gauge
-    offset, the others with `status` and `reason` (`stickslip_fitting.campaign`);
+    offset, the others with `status` and `reason` (`stickslip_fitting.data.campaign`);
     `steady_records` compares records without stick-slip with the fitted boundary."""
-    from .campaign import Campaign, boundary_check, find_truth
+    from ..data.campaign import Campaign, boundary_check, find_truth
 
     if not isinstance(campaign, Campaign):  # a plain list of records: all used
-        from .campaign import screen_records
+        from ..data.campaign import screen_records
 
         campaign = screen_records(list(campaign), min_records=1)
     records = campaign.records
     truth = find_truth(records, fit.params.friction.NAMES)
     bounds = fit.params.friction.PRIOR_BOUNDS  # the support: a value there is "at bound"
     params = {e.name: e.with_bounds(bounds).to_json() for e in unc.estimates(truth)}
-    from .adequacy import adequacy
-    from .combined import FeaturesObjective
-    from .fit import compiled
-    from .losses import loss_of
-    from .objectives import feature_residuals
+    from ..uncertainty.adequacy import adequacy
+    from ..objectives.combined import FeaturesObjective
+    from ..solve.fit import compiled
+    from ..objectives.losses import loss_of
+    from ..objectives.cycle_features import feature_residuals
 
     res = compiled(feature_residuals, fit.params, fit.data, fit.slip_time)
     level_sd = np.asarray(fit.data.trough_sd)
@@ -70,7 +70,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     }
     td = fit.objective.trace_data()
     if td is not None:
-        from .trace_objective import reslip_windows, trace_residuals
+        from ..objectives.trace import reslip_windows, trace_residuals
 
         rt = np.asarray(compiled(trace_residuals, fit.params, td, fit.slip_time))
         rt = rt.reshape(td.mask.shape)
@@ -128,7 +128,7 @@ def format_table(report) -> str:
     interval; truth and error when the records carry it; a note: fixed, not identifiable
     with the reason, at a bound), then the fit's quality, warnings and notes. A parameter
     the records do not determine shows "-", never its placeholder value."""
-    from .report import note_text, text_table, value_text
+    from .rows import note_text, text_table, value_text
 
     truth = report["truth_available"]
     header = ["parameter", "value", "unit", "std err", "95 % interval"]
