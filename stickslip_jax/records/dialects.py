@@ -4,9 +4,14 @@ format's own (`,` between cells, `.` as decimal point) with a note."""
 
 from __future__ import annotations
 
+import csv
+import re
+import stat
+import zlib
 from pathlib import Path
 
 from .errors import RecordError
+from .grammar import MAX_FILE_BYTES
 
 
 def read_bytes(path: Path, max_bytes: int) -> bytes:
@@ -17,7 +22,11 @@ def read_bytes(path: Path, max_bytes: int) -> bytes:
             raise RecordError("is a directory, not a record file; give one of its record "
                               "files (fit, mcmc and discover take a directory; in Python: "
                               "read_campaign)", path)
-        size = path.stat().st_size
+        info = path.stat()
+        if not stat.S_ISREG(info.st_mode):
+            raise RecordError("not a regular file (a named pipe or a device); copy its "
+                              "content to a file and give that", path)
+        size = info.st_size
         if size > max_bytes:
             raise RecordError(
                 f"file is {size / 1e6:.1f} MB, over the {max_bytes / 1e6:.0f} MB limit; "
@@ -33,7 +42,52 @@ def read_bytes(path: Path, max_bytes: int) -> bytes:
     return data
 
 
-def decode(data: bytes, path) -> str:
+def _gunzip(data: bytes, path, max_bytes: int) -> bytes:
+    """The content of a gzip-compressed file, refused past `max_bytes` or when damaged."""
+    inflate = zlib.decompressobj(16 + zlib.MAX_WBITS)
+    try:
+        out = inflate.decompress(data, max_bytes + 1)
+    except zlib.error as exc:
+        raise RecordError(f"gzip-compressed but damaged ({exc}); decompress it with "
+                          "gunzip to see what is left", path) from None
+    if len(out) > max_bytes:
+        raise RecordError(f"decompressed file is over the {max_bytes / 1e6:.0f} MB limit",
+                          path)
+    if not inflate.eof:
+        raise RecordError("gzip-compressed but cut short; copy the file again", path)
+    return out
+
+
+def _utf16(data: bytes) -> str | None:
+    """The codec of UTF-16 text: a byte-order mark, or NUL in every other byte of ASCII
+    text (a logger's 'Unicode' export without one); None for anything else."""
+    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return "utf-16"
+    head = data[:400]
+    if len(head) >= 4 and len(head) % 2 == 0:
+        for codec, zeros in (("utf-16-le", head[1::2]), ("utf-16-be", head[0::2])):
+            if zeros.count(0) >= 0.9 * len(zeros):
+                return codec
+    return None
+
+
+def decode(data: bytes, path, notes: list[str] | None = None,
+           max_bytes: int = MAX_FILE_BYTES) -> str:
+    """The text of a record file's bytes: gzip-compressed files are decompressed, UTF-16
+    and Latin-1 (Windows-1252) text decoded, each with a note; UTF-8 needs none."""
+    notes = [] if notes is None else notes
+    if data[:2] == b"\x1f\x8b":
+        data = _gunzip(data, path, max_bytes)
+        notes.append("gzip-compressed: decompressed")
+    codec = _utf16(data)
+    if codec is not None:
+        try:
+            text = data.decode(codec)
+        except UnicodeDecodeError as exc:
+            raise RecordError(f"UTF-16 text with a bad character at offset {exc.start}; "
+                              "save the file as UTF-8", path) from None
+        notes.append("UTF-16 text")
+        return text.removeprefix("\ufeff")
     if data.startswith(b"\xef\xbb\xbf"):
         data = data[3:]
     nul = data.find(b"\x00")
@@ -44,41 +98,84 @@ def decode(data: bytes, path) -> str:
             data.count(b"\n", 0, nul) + 1,
         )
     try:
-        text = data.decode("utf-8")
+        return data.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise RecordError(
-            f"not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
-            "save the file as UTF-8",
-            path,
-            data.count(b"\n", 0, exc.start) + 1,
-        ) from None
+        line = data.count(b"\n", 0, exc.start) + 1
+        bad = f"byte 0x{data[exc.start]:02x} on line {line}"
+    try:
+        text = data.decode("cp1252")
+    except UnicodeDecodeError:
+        text = data.decode("latin-1")
+    notes.append(f"not UTF-8 ({bad}): read as Latin-1 (Windows-1252) text")
     return text
 
 
-def normalise_dialect(lines: list[str], notes: list[str]) -> list[str]:
+_SEP_LINE = re.compile(r'\s*"?sep=([,;\t|])"?[,;\t]*\s*')
+_QUOTED_HEAD = re.compile(r'\s*"((?:[^"]|"")*)"(.*)')
+_PADDING = re.compile(r"[\s,;\t]+$")
+
+
+def spreadsheet_header(lines: list[str], notes: list[str]) -> tuple[list[str], str | None]:
+    """The header lines as a spreadsheet leaves them, put back: Excel's `sep=;` first line
+    (blanked, its separator returned), quoted `"# key: value"` cells unquoted and the empty
+    cells padding a header line dropped. Other lines are left as they are."""
+    out, delim, touched = list(lines), None, False
+    for i, line in enumerate(out):
+        if not line.strip():
+            continue
+        m = _SEP_LINE.fullmatch(line)
+        if m is not None and delim is None and not touched:
+            delim, out[i], touched = m.group(1), "", True
+            notes.append(f"Excel's 'sep={delim}' line read as the separator")
+            continue
+        q = _QUOTED_HEAD.fullmatch(line)
+        if q is not None and q.group(1).lstrip().startswith("#"):
+            line = q.group(1).replace('""', '"') + q.group(2)
+        if not line.lstrip().startswith("#"):
+            break
+        out[i], touched = _PADDING.sub("", line), True
+    return out, delim
+
+
+def _cells(line: str, delim: str, quoted: bool) -> list[str]:
+    return next(csv.reader([line], delimiter=delim)) if quoted else line.split(delim)
+
+
+def normalise_dialect(lines: list[str], notes: list[str], delim: str | None = None) -> list[str]:
     """The column row and data rows in the format's dialect: `,` between cells, `.` as
-    decimal point, no quotes. Detected from the column row: `;` or tab separated files
-    (where a `,` in the numbers is a decimal comma) and quoted cells are rewritten, with
-    a note; a comma-separated file is left as it is (its errors stay precise)."""
+    decimal point, no quotes, no padding. Detected from the column row (or Excel's
+    `sep=` line, `delim`): `;` or tab separated files (where a `,` in the numbers is a
+    decimal comma), quoted cells and empty cells padding every row (a spreadsheet's) are
+    rewritten, with a note; a plain comma-separated file is left as it is (its errors stay
+    precise)."""
     head = lines[0] if lines else ""
-    delim = "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
+    if delim is None:
+        delim = "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
     sample = [ln for ln in lines[1:50] if ln.strip() and not ln.lstrip().startswith("#")]
     quoted = any('"' in ln for ln in sample) or '"' in head
-    if delim == "," and not quoted:
+    names = _cells(head, delim, quoted)
+    ncol = len(names)
+    while ncol > 1 and not names[ncol - 1].strip():
+        ncol -= 1
+    padded = ncol < len(names)
+    if delim == "," and not quoted and not padded:
         return lines
-    comma = delim != "," and any("," in ln for ln in sample)
+    comma = any("," in c for ln in sample for c in _cells(ln, delim, quoted))
     out = []
     for ln in lines:
-        if quoted:
-            ln = ln.replace('"', "")
+        if not ln.strip() or ln.lstrip().startswith("#"):
+            out.append(ln)
+            continue
+        cells = _cells(ln, delim, quoted)
+        if padded and len(cells) > ncol and not "".join(cells[ncol:]).strip():
+            cells = cells[:ncol]
         if comma:
-            ln = ln.replace(",", ".")
-        if delim != ",":
-            ln = ln.replace(delim, ",")
-        out.append(ln)
-    name = {";": "';'", "\t": "tabs", ",": "','"}[delim]
+            cells = [c.replace(",", ".") for c in cells]
+        out.append(",".join(cells))
+    name = {";": "';'", "\t": "tabs", ",": "','", "|": "'|'"}[delim]
     notes.append(f"cells separated by {name}" + (" with decimal commas" if comma else "")
-                 + (", quotes removed" if quoted else ""))
+                 + (", quotes removed" if quoted else "")
+                 + (", empty padding cells dropped" if padded else ""))
     return out
 
 

@@ -17,6 +17,10 @@ KNOWN_KEYS = (
     "stiffness",
     "slider_weight",
     "slider_mass",
+    "normal_load",
+    "friction_radius",
+    "torsional_stiffness",
+    "inertia",
     "drive_speed",
     "drive_program",
     "lubricant",
@@ -29,8 +33,12 @@ NUM = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
 NUMBER = re.compile(NUM)
 QUANTITY = re.compile(rf"\s*({NUM})\s*(.*?)\s*")
 SEGMENT = re.compile(rf"\s*({NUM})\s*([^\s\d.+-]\S*)\s+({NUM})\s*(\S+)\s*")
-HEADER = re.compile(r"#\s*([A-Za-z][A-Za-z0-9_-]*)\s*:(.*)")
-COLUMN = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*\[([^\[\]]*)\]\s*")
+HEADER = re.compile(r"#\s*([A-Za-z][A-Za-z0-9_ -]*?)\s*:(.*)")
+COLUMN = re.compile(r"\s*([A-Za-z_][A-Za-z0-9_]*)\s*(?:\[([^\[\]]*)\]|\(([^()]*)\))?\s*")
+"""A column cell: `name [unit]`, `name (unit)`, or a bare `name` whose unit a units row
+under the column row or a `# <name>_unit:` header line gives."""
+UNIT_CELL = re.compile(r"-|[A-Za-z\u00b5\u03bc%][A-Za-z0-9\u00b5\u03bc/*^.\u00b0% -]*")
+"""A cell of a units row: `s`, `mm`, `um/s`, `-`."""
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 KEY = re.compile(r"[a-z][a-z0-9_-]*")
 NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}

@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
 
+from ..rigs import RIG_COLUMNS, rig_header
 from ..units import G_MM_S2, UnitError, factor
-from .dialects import decode, normalise_dialect, read_bytes, text_lines
+from .dialects import decode, normalise_dialect, read_bytes, spreadsheet_header, text_lines
 from .drive import parse_program
 from .errors import RecordError
 from .grammar import (
@@ -20,8 +22,10 @@ from .grammar import (
     KEY,
     KNOWN_KEYS,
     MAX_FILE_BYTES,
+    NUMBER,
     QUANTITY,
     RESERVED_COLUMNS,
+    UNIT_CELL,
 )
 from .quantities import channel_factor, quantity, unit_choices
 from .record import Record
@@ -45,30 +49,42 @@ def _text_value(key, value, path, line):
     return value
 
 
-def _split_lines(text: str, path: str) -> list[str]:
-    """The lines of a record's text whose first non-blank line is the format's first line."""
+def _split_lines(text: str, path: str, notes: list[str]) -> tuple[list[str], str | None]:
+    """The lines of a record's text whose first non-blank line is the format's first line
+    (a spreadsheet's header put back, `spreadsheet_header`), and the separator of an
+    Excel `sep=` line (or None)."""
     if text.startswith("\ufeff"):
         text = text[1:]
     if text.strip() == "":
         raise RecordError("file is empty; a record starts with '# stickslip-record: 1'", path)
     if "\x00" in text:
         raise RecordError("binary content (NUL character); a record is UTF-8 CSV text", path)
-    lines = text_lines(text, path)
-    first = next(i for i, ln in enumerate(lines) if ln.strip())  # blank lines are ignored
+    lines, delim = spreadsheet_header(text_lines(text, path), notes)
+    first = next((i for i, ln in enumerate(lines) if ln.strip()), 0)
     m = HEADER.fullmatch(lines[first].strip())
-    if m is None or m.group(1) != "stickslip-record":
+    if m is None or _key(m.group(1)) != "stickslip-record":
         raise RecordError(
             f"the first line must be '# stickslip-record: {FORMAT_VERSION}', "
             f"got {lines[first][:60]!r}",
             path,
             first + 1,
         )
-    return lines
+    return lines, delim
 
 
-def _header(lines: list[str], path: str) -> tuple[dict[str, tuple[str, int]], int]:
-    """({key: (value, line)}, index of the column row) of the header lines."""
+def _key(key: str) -> str:
+    """A header key as the format spells it: `Stiffness`, `drive speed` and `Drive-Speed`
+    are `stiffness` and `drive_speed`; a key the format does not know is kept as written."""
+    canon = re.sub(r"[\s_-]+", "_", key.strip().lower())
+    canon = "stickslip-record" if canon == "stickslip_record" else canon
+    return canon if canon in KNOWN_KEYS or canon.endswith("_unit") else key.strip()
+
+
+def _header(lines: list[str], path: str, notes: list[str]):
+    """({key: (value, line)}, index of the column row) of the header lines; a comment line
+    that is not `# key: value` is left out with a note."""
     header: dict[str, tuple[str, int]] = {}
+    comments = []
     i = 0
     while i < len(lines):
         line = lines[i].strip()
@@ -78,24 +94,21 @@ def _header(lines: list[str], path: str) -> tuple[dict[str, tuple[str, int]], in
         if not line.startswith("#"):
             break
         m = HEADER.fullmatch(line)
-        if m is None:
-            raise RecordError(
-                f"header line {line[:60]!r} is not '# key: value'; "
-                "put free text in '# note: ...'",
-                path,
-                i + 1,
-            )
-        key, value = m.group(1), m.group(2).strip()
-        if not KEY.fullmatch(key):
-            raise RecordError(
-                f"header key {key!r} must be lowercase: write '{key.lower()}'", path, i + 1
-            )
+        key = None if m is None else _key(m.group(1))
+        if key is None or not KEY.fullmatch(key.lower()):
+            comments.append(str(i + 1))
+            i += 1
+            continue
+        value = m.group(2).strip()
         if key in header:
             raise RecordError(
                 f"{key} given twice (also at line {header[key][1]}); keep one", path, i + 1
             )
         header[key] = (value, i + 1)
         i += 1
+    if comments:
+        notes.append(f"comment line(s) {', '.join(comments[:5])} left out (not "
+                     "'# key: value'; free text belongs in '# note: ...')")
     version = header["stickslip-record"][0]
     if version != FORMAT_VERSION:
         raise RecordError(
@@ -113,11 +126,11 @@ def _header(lines: list[str], path: str) -> tuple[dict[str, tuple[str, int]], in
     return header, i
 
 
-def _column_factor(name: str, unit: str, path: str, column_line: int) -> float:
+def _column_factor(name: str, unit: str, path: str, column_line: int, rig=None) -> float:
     """The factor to internal units of a column `name [unit]`."""
     if name in _DIMENSIONS:
         try:
-            return factor(unit, _DIMENSIONS[name])
+            return (factor if rig is None else rig.factor)(unit, _DIMENSIONS[name])
         except UnitError:
             raise RecordError(
                 f"column {name!r}: unknown {_DIMENSIONS[name]} unit {unit!r}; use one of "
@@ -136,10 +149,26 @@ def _column_factor(name: str, unit: str, path: str, column_line: int) -> float:
         ) from None
 
 
-def _column_row(row: str, path: str, column_line: int):
-    """(names, units, factors to internal units) of the column row."""
+def _units_row(lines: list[str], i: int) -> list[str] | None:
+    """The cells of a units row under the column row (a logger's `s,mm`), or None."""
+    j = next((k for k in range(i + 1, min(i + 4, len(lines))) if lines[k].strip()), None)
+    if j is None:
+        return None
+    cells = [c.strip().strip("[]()").strip() for c in lines[j].split(",")]
+    if not any(cells) or any(NUMBER.fullmatch(c) or not UNIT_CELL.fullmatch(c) for c in cells):
+        return None
+    lines[j] = ""  # not a data row
+    return cells
+
+
+def _column_row(lines: list[str], i: int, header, path: str, rig=None):
+    """(names, units, factors to internal units) of the column row `lines[i]`; a unit is
+    the cell's brackets or parentheses, a units row under it, or a `# <name>_unit:` line,
+    and two of them that differ are refused."""
+    row, column_line = lines[i], i + 1
+    unit_row = _units_row(lines, i)
     columns, units = [], []
-    for cell in row.split(","):
+    for k, cell in enumerate(row.split(",")):
         cm = COLUMN.fullmatch(cell)
         if cm is None and cell.count("[") > 1:
             raise RecordError(
@@ -155,12 +184,30 @@ def _column_row(row: str, path: str, column_line: int):
                 path,
                 column_line,
             )
-        name, unit = cm.group(1), cm.group(2).strip()
+        name = cm.group(1).lower() if cm.group(1).lower() in RESERVED_COLUMNS else cm.group(1)
+        name = name if rig is None else RIG_COLUMNS.get(name, name)  # angle, torque
+        given = {"column row": cm.group(2) if cm.group(2) is not None else cm.group(3)}
+        if unit_row is not None and k < len(unit_row) and unit_row[k]:
+            given["units row"] = unit_row[k]
+        if f"{name}_unit" in header:
+            given[f"header '{name}_unit'"] = header[f"{name}_unit"][0]
+        given = {w: u.strip() for w, u in given.items() if u is not None}
+        if not given:
+            raise RecordError(
+                f"column {cell.strip()[:40]!r} must be 'name [unit]' (e.g. 'time [s]', "
+                f"'[-]' for a pure number), or give its unit in '# {name}_unit: ...'",
+                path,
+                column_line,
+            )
+        if len(set(given.values())) > 1:
+            raise RecordError(f"column {name!r}: the units disagree ("
+                              + ", ".join(f"{u!r} in the {w}" for w, u in given.items())
+                              + "); keep one", path, column_line)
         if name in columns:
             raise RecordError(f"column {name!r} appears twice", path, column_line)
         columns.append(name)
-        units.append(unit)
-    factors = [_column_factor(n, u, path, column_line) for n, u in zip(columns, units)]
+        units.append(next(iter(given.values())))
+    factors = [_column_factor(n, u, path, column_line, rig) for n, u in zip(columns, units)]
     if "time" not in columns:
         raise RecordError(
             f"no 'time [s]' column (columns: {', '.join(columns)})", path, column_line
@@ -310,15 +357,17 @@ def _clock(data, rows, lines, j: int, time_factor: float, path: str, notes: list
     return data
 
 
-def parse_record(text: str, source=None) -> Record:
-    """Parse the text of a record file; `source` names it in errors and in `Record.source`."""
+def parse_record(text: str, source=None, notes=()) -> Record:
+    """Parse the text of a record file; `source` names it in errors and in `Record.source`;
+    `notes` come first in `Record.notes` (what reading the bytes did)."""
     path = "<text>" if source is None else str(source)
-    lines = _split_lines(text, path)
-    header, i = _header(lines, path)
+    notes = list(notes)
+    lines, delim = _split_lines(text, path, notes)
+    header, i = _header(lines, path, notes)
+    rig, header, rig_fields = rig_header(header, path)
     column_line = i + 1
-    notes: list[str] = []
-    lines = lines[:i] + normalise_dialect(lines[i:], notes)
-    columns, units, factors = _column_row(lines[i], path, column_line)
+    lines = lines[:i] + normalise_dialect(lines[i:], notes, delim)
+    columns, units, factors = _column_row(lines, i, header, path, rig)
     fields = _conditions(header, columns, path, column_line)
     data, rows = _data(lines, i + 1, columns, factors, path, column_line)
     j = columns.index("time")
@@ -341,6 +390,7 @@ def parse_record(text: str, source=None) -> Record:
             source=None if source is None else str(source),
             notes=tuple(notes),
             **fields,
+            **rig_fields,
         )
     except RecordError as exc:
         raise RecordError(exc.reason, path) from None
@@ -350,5 +400,6 @@ def read_record(path, *, max_bytes: int = MAX_FILE_BYTES) -> Record:
     """Read one record file (format in the `stickslip_jax.records` docstring); raises
     `RecordError`."""
     path = Path(path)
-    text = decode(read_bytes(path, max_bytes), path)
-    return parse_record(text, source=path)
+    notes: list[str] = []
+    text = decode(read_bytes(path, max_bytes), path, notes, max_bytes)
+    return parse_record(text, source=path, notes=notes)

@@ -5,6 +5,7 @@ in a unit so that reading them gives the internal value back exactly."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -50,7 +51,12 @@ def internal_channel_unit(unit: str) -> str:
 # ---------------------------------------------------------------------------- record
 
 
+_DECIMAL_COMMA = re.compile(r"(\s*[-+]?\d+),(\d+\s*(?:[eE][-+]?\d+)?\s*(?:[^\d\s,.].*)?)")
+
+
 def quantity(text: str, dimension: str, key: str, path, line: int) -> float:
+    """`number unit` in internal units; a decimal comma (`86,9 kgf/mm`) is a point."""
+    text = _DECIMAL_COMMA.sub(r"\1.\2", text) if _DECIMAL_COMMA.fullmatch(text) else text
     m = QUANTITY.fullmatch(text)
     if m is None:
         raise RecordError(

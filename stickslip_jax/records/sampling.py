@@ -16,9 +16,9 @@ the clock is jittered by the looser test of `JITTER_STAMP`."""
 
 JITTER_STAMP = 0.25
 """A clock of at least `JITTER_MIN_SAMPLES` samples whose stamps all lie within this
-fraction of a step of the uniform grid through the first and last stamp, and whose steps
+fraction of a step of the uniform grid of the stamps' least-squares line, and whose steps
 all lie within `JITTER_STEP` of the mean step, is a logger's jittered clock as well
-(stamps scattered by +-10 % of a step move single steps by up to 20 %): resampled with a
+(stamps scattered by +-20 % of a step move single steps by up to 40 %): resampled with a
 note. A missing sample is a step of about twice the mean, a doubled one a step near 0,
 and a run of uneven rate drifts away from the grid: all still refused."""
 
@@ -52,9 +52,18 @@ def resample_to(grid: np.ndarray, t: np.ndarray, values):
     return np.interp(grid, t, a) if a.shape == t.shape else values
 
 
-def _uniform_grid(time: np.ndarray, dev: float, dt: float) -> tuple[np.ndarray, str]:
-    """The uniform grid (mean step `dt`, same ends) that a jittered clock is resampled to,
+def _line(time: np.ndarray) -> tuple[float, float]:
+    """(first stamp, step) of the least-squares line through the stamps: the clock a
+    jittered logger kept, which its own jittered first and last stamps are not."""
+    k = np.arange(time.shape[0], dtype=np.float64)
+    dt, t0 = np.polyfit(k, time - time[0], 1)
+    return float(time[0] + t0), float(dt)
+
+
+def _uniform_grid(time: np.ndarray, dev: float) -> tuple[np.ndarray, str]:
+    """The uniform grid (same ends, same count) that a jittered clock is resampled to,
     and the note saying so (`JITTER_RTOL`)."""
+    dt = (time[-1] - time[0]) / (time.size - 1)
     grid = time[0] + dt * np.arange(time.size)
     grid[-1] = time[-1]
     return grid, (f"time stamps jitter by up to {100 * dev:.3g} % of the {dt:.6g} s step: "
@@ -72,15 +81,15 @@ def jittered_clock(time: np.ndarray, dev: float) -> bool:
     n = time.shape[0]
     if n < JITTER_MIN_SAMPLES or dev > JITTER_STEP:
         return False
-    dt = (time[-1] - time[0]) / (n - 1)
-    off = np.abs(time - (time[0] + dt * np.arange(n))) / dt
-    return bool(np.max(off) <= JITTER_STAMP)
+    t0, dt = _line(time)
+    off = np.abs(time - (t0 + dt * np.arange(n))) / dt
+    return bool(dt > 0 and np.max(off) <= JITTER_STAMP)
 
 
 def jitter_grid(time: np.ndarray) -> tuple[np.ndarray, str] | None:
     """The uniform grid and note for a jittered clock (`jittered_clock`), or None."""
-    dev, _, dt = time_step_deviation(time)
-    return _uniform_grid(time, dev, dt) if jittered_clock(time, dev) else None
+    dev, _, _ = time_step_deviation(time)
+    return _uniform_grid(time, dev) if jittered_clock(time, dev) else None
 
 
 def missing_samples(time: np.ndarray) -> tuple[np.ndarray, str] | None:
