@@ -9,9 +9,10 @@ result = sf.fit("data/examples/*.csv")   # -> CampaignFit
 result.summary(); result.plot("fit.png"); result.to_json("fit.json")
 ```
 
-`sample(records)` -> `api.posterior.CampaignPosterior` (as `stickslip mcmc`) and
-`discover(records)` -> `api.discovery.CampaignDiscovery` (as `stickslip discover`) have
-the same shape: `summary()`, `plot(path)`, `to_json(path)`.
+`sample(records)` -> `api.posterior.CampaignPosterior` (as `stickslip mcmc`),
+`discover(records)` -> `api.discovery.CampaignDiscovery` (as `stickslip discover`) and
+`design_map(weight, stiffness, speed)` -> `api.design.DesignStudy` (as `stickslip design`)
+have the same shape: `summary()`, `plot(path)`, `to_json(path)`.
 
 The subpackages follow the data flow, one way (each knows only the ones before it):
 
@@ -63,6 +64,7 @@ __all__ = [
     "CampaignPosterior",
     "Covariance",
     "DesignCriterion",
+    "DesignStudy",
     "EmpiricalFriction",
     "FitResult",
     "Hold",
@@ -76,6 +78,7 @@ __all__ = [
     "SolverOptions",
     "Uncertainty",
     "Weighting",
+    "design_map",
     "discover",
     "discover_cycles",
     "fit",
@@ -110,6 +113,7 @@ _HOME = {
     "CampaignFit": "api.campaign", "fit": "api.campaign",
     "CampaignPosterior": "api.posterior", "sample": "api.posterior",
     "CampaignDiscovery": "api.discovery", "discover": "api.discovery",
+    "DesignStudy": "api.design", "design_map": "api.design",
 }
 
 

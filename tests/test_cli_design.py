@@ -1,4 +1,5 @@
-"""`stickslip design` and `stickslip plan` (stickslip_fitting.commands.design, .plan), in-process."""
+"""`stickslip design` and `stickslip plan` (stickslip_fitting.commands.design, .plan), in-process,
+and `stickslip_fitting.design_map`, the Python call the command makes."""
 
 import json
 
@@ -61,7 +62,7 @@ def test_design_posterior_warns_when_points_times_draws_are_many(capsys, tmp_pat
     """The runtime of `design --posterior` grows as points x draws: the stage line states
     the count and, above `POSTERIOR_WARN`, a warning gives the expected minutes and the
     fix before the map starts."""
-    from stickslip_fitting.commands import design as design_cmd
+    from stickslip_fitting.api import design as design_api
 
     rng = np.random.default_rng(1)
     p = friction_params(ss.lubricant("A"))
@@ -73,7 +74,7 @@ def test_design_posterior_warns_when_points_times_draws_are_many(capsys, tmp_pat
     err = capsys.readouterr().err
     assert "12 points (steady analysis over 8 posterior draws: 96 analyses)" in err
     assert "warning" not in err
-    monkeypatch.setattr(design_cmd, "POSTERIOR_WARN", 50)
+    monkeypatch.setattr(design_api, "POSTERIOR_WARN", 50)
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert "warning: --posterior: 12 points x 8 draws = 96 steady analyses" in err
@@ -173,3 +174,43 @@ def test_long_csv_matches_the_json_map(capsys, tmp_path):
     np.testing.assert_allclose(df["probability_met"],
                                np.ravel(doc["tolerance"]["probability_met"]))
     assert set(df["probability_met"]) <= {0.0, 1.0}  # one draw: the lubricant
+
+
+def test_python_design_map_is_the_command(capsys, tmp_path):
+    """`stickslip_fitting.design_map` gives the command's JSON, CSV and printed summary;
+    its mistakes name the keyword, not the option."""
+    import stickslip_fitting as sf
+
+    out = tmp_path / "map.json"
+    assert main(["design", *GRID, "--csv", str(tmp_path / "map.csv"), "--json", str(out),
+                 "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    study = sf.design_map("10:60:4", "20:150:3", "40")
+    assert study.to_dict() == json.loads(out.read_text())
+    assert study.to_csv() == (tmp_path / "map.csv").read_text()
+    assert str(study) in printed and study.summary().shape == (12, 12)
+    fig = study.plot(tmp_path / "map.png")
+    assert len(fig.axes) == 4 and (tmp_path / "map.png").exists()
+    with pytest.raises(ValueError, match=r"^level: acts only with posterior"):
+        sf.design_map("36", "86.9", "1:10:3", level=0.8)
+    with pytest.raises(ValueError, match=r"^stiffness: cannot read"):
+        sf.design_map("36", "20:200", "1")
+
+
+@pytest.mark.parametrize("argv, names", [
+    (["--level", "0.8"], ["--level", "--posterior FILE"]),
+    (["--meet", "0.9"], ["--meet", "--max-amplitude AMP"]),
+    (["--posterior", "{post}"], ["post.json", "'fixed' mu_s", "null"]),
+])
+def test_options_that_cannot_act_and_null_fixed_values_are_one_line(capsys, tmp_path, argv,
+                                                                     names):
+    post = tmp_path / "post.json"
+    post.write_text(json.dumps({"names": ["mu_d", "gamma", "m", "delta", "n"],
+                                "samples": [[0.21, 0.38, 0.4, 67.0, 1.0]] * 3,
+                                "fixed": {"mu_s": None}}))
+    argv = [a.format(post=post) for a in argv]
+    assert main(["design", "--weight", "36", "--stiffness", "86.9", "--speed", "1:10:3",
+                 *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "Traceback" not in err[0]
+    assert all(n in err[0] for n in names), err[0]

@@ -1,7 +1,7 @@
 """Design maps as xarray Datasets and NetCDF files (`stickslip design --netcdf OUT.nc`).
 
-`map_dataset(res, attrs)` turns the command's map (`commands.design.compute`: axes and
-arrays in internal units, [weight][stiffness][speed]) into an `xarray.Dataset` with
+`map_dataset(res, attrs)` turns a map (`api.design.DesignStudy.maps`: axes and arrays
+in internal units, [weight][stiffness][speed]) into an `xarray.Dataset` with
 dimensions ``W`` (kgf), ``k`` (kgf/mm) and ``v`` (mm/min, as in the JSON and CSV maps),
 one variable per quantity with a ``units`` and a ``long_name`` attribute, ``regime`` as
 a CF flag variable (``flag_values`` 0, 1, 2, ``flag_meanings``), the posterior's credible

@@ -63,16 +63,18 @@ def sample_size(sample: Friction) -> int:
 
 
 def _from_columns(cols: Mapping[str, object], source: str, fixed=None) -> Friction:
-    cols = dict(cols)
-    if fixed:
-        sizes = [np.size(cols[p]) for p in PARAMETERS if p in cols]
-        for p, value in fixed.items():
-            if p in PARAMETERS and p not in cols:
-                cols[p] = np.full(sizes[0] if sizes else 1, float(value))
+    cols = {p: _numbers(v, f"{source}: {p}") for p, v in cols.items() if p in PARAMETERS}
+    for p, value in (fixed or {}).items():
+        if p in PARAMETERS and p not in cols:
+            value = _numbers(value, f"{source}: 'fixed' {p}")
+            if value.size != 1:
+                raise ValueError(f"{source}: 'fixed' {p} must be one number, got {value.size}")
+            sizes = [a.size for a in cols.values()]
+            cols[p] = np.full(sizes[0] if sizes else 1, value[0])
     missing = [p for p in PARAMETERS if p not in cols]
     if missing:
         raise ValueError(f"{source}: sample lacks column(s) {', '.join(missing)}; need {PARAMETERS}")
-    arrays = {p: np.atleast_1d(np.asarray(cols[p], dtype=float)) for p in PARAMETERS}
+    arrays = {p: cols[p] for p in PARAMETERS}
     sizes = {a.shape for a in arrays.values()}
     if len(sizes) != 1 or len(next(iter(sizes))) != 1 or next(iter(sizes))[0] == 0:
         raise ValueError(f"{source}: every parameter needs the same number (>0) of draws")
@@ -81,6 +83,21 @@ def _from_columns(cols: Mapping[str, object], source: str, fixed=None) -> Fricti
             raise ValueError(f"{source}: column {p} has non-finite draws")
     check_domain(arrays, source)
     return friction_from_params(arrays)
+
+
+def _numbers(value, what: str) -> np.ndarray:
+    """`value` as a 1-D float array; a ValueError naming `what` for null, text or ragged
+    lists."""
+    if value is None:
+        raise ValueError(f"{what}: null, not a number; give its value")
+    try:
+        out = np.atleast_1d(np.asarray(value, dtype=float))
+    except (TypeError, ValueError):
+        raise ValueError(f"{what}: expected numbers, got {str(value)[:60]}; write every draw "
+                         "as a number") from None
+    if out.ndim != 1:
+        raise ValueError(f"{what}: expected a list of numbers, got shape {out.shape}")
+    return out
 
 
 def check_domain(values: Mapping[str, np.ndarray], source: str) -> None:
@@ -138,7 +155,10 @@ def _from_json(obj, source, fixed):
                 if isinstance(inner, Mapping) or names is None:
                     return _from_json(inner, source, fixed)
                 names = list(names)
-                mat = np.asarray(inner, dtype=float)
+                try:
+                    mat = np.asarray(inner, dtype=float)
+                except (TypeError, ValueError):
+                    mat = np.empty(0)  # null, text, or rows of different lengths
                 if mat.ndim != 2 or mat.shape[1] != len(names):
                     raise ValueError(f"{source}: samples must be a (draws, {len(names)}) matrix")
                 return _from_columns({n: mat[:, i] for i, n in enumerate(names)}, source, fixed)
