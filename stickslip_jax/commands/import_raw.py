@@ -1,11 +1,12 @@
 """`stickslip import RAW --time-col ... --force-col|--deflection-col ... --stiffness ...`:
-a raw logger file (plain CSV, TSV or `;`-separated with decimal commas, a header row of
-column names, extra columns) to a record file in the stickslip format.
+a raw logger file (plain CSV, TSV, `;`-separated with decimal commas or blank-separated;
+gzip-compressed, UTF-16 or Latin-1; a preamble above the column row, a units row under it,
+`hh:mm:ss.fff` time stamps, extra columns) to a record file in the stickslip format.
 
 Columns are chosen by name (case-insensitive; `force [N]`, `Force (N)` and `force` all
 match `force`) or by 0-based index; their units come from the header's brackets or
-parentheses, or from `--time-unit`/`--value-unit`/`--drive-unit` (a unit is never
-guessed). Time stamps of a jittered clock (`stickslip_jax.records.jittered_clock`) are
+parentheses or a units row, or from `--time-unit`/`--value-unit`/`--drive-unit` (a
+unit is never guessed, and an option contradicting the file is refused). Time stamps of a jittered clock (`stickslip_jax.records.jittered_clock`) are
 resampled to a uniform step with a note; the run's conditions take any unit pint knows (`--stiffness "852 N/um"`,
 `--mass "30.7 g"`, `--speed "40 in/min"`). The input is only read; the output is written
 to a temporary file and renamed, and an existing output is kept unless `--force`.
@@ -13,6 +14,8 @@ to a temporary file and renamed, and an existing output is kept unless `--force`
 
 from __future__ import annotations
 
+import csv
+import math
 import os
 import re
 
@@ -30,10 +33,12 @@ def add_arguments(parser):
     g.add_argument("--force-col", help="spring-force column (name or index); x = F/k")
     g.add_argument("--deflection-col", help="spring-deflection column (name or index)")
     parser.add_argument("--drive-col", help="measured drive displacement column (optional)")
-    parser.add_argument("--time-unit", help="unit of the time column if the header has none")
-    parser.add_argument("--value-unit",
-                        help="unit of the force/deflection column if the header has none")
-    parser.add_argument("--drive-unit", help="unit of the drive column if the header has none")
+    parser.add_argument("--time-unit", help="unit of the time column if the header has none "
+                        "(one contradicting the header is refused)")
+    parser.add_argument("--value-unit", help="unit of the force/deflection column if the "
+                        "header has none (one contradicting the header is refused)")
+    parser.add_argument("--drive-unit", help="unit of the drive column if the header has none "
+                        "(one contradicting the header is refused)")
     parser.add_argument("--stiffness", required=True, help="spring stiffness with unit, "
                         "e.g. '86.9 kgf/mm' or '852 N/um'")
     w = parser.add_mutually_exclusive_group(required=True)
@@ -47,46 +52,133 @@ def add_arguments(parser):
                         help="replace an existing --out file")
 
 
-def _cells(line: str, delim: str | None) -> list[str]:
-    return line.split() if delim is None else line.split(delim)
+_CLOCK = re.compile(r"\s*(?:(\d{4}-\d\d-\d\d)[ T])?(\d{1,2}):(\d\d):(\d\d(?:[.,]\d*)?)\s*")
+
+
+def _number(cell: str, comma: bool) -> float:
+    """A cell as a number: a decimal comma (`comma`) is a point, `hh:mm:ss.fff` (with or
+    without a date) is seconds; ValueError otherwise."""
+    c = cell.strip().strip('"').strip()
+    m = _CLOCK.fullmatch(c)
+    if m is not None:
+        day = 0.0
+        if m.group(1):
+            import datetime
+
+            day = datetime.date.fromisoformat(m.group(1)).toordinal() * 86400.0
+        return day + int(m.group(2)) * 3600.0 + int(m.group(3)) * 60.0 + float(
+            m.group(4).replace(",", "."))
+    value = float(c.replace(",", ".") if comma else c)
+    if not math.isfinite(value):
+        raise ValueError(c)
+    return value
+
+
+def _split(line: str, delim: str | None) -> list[str]:
+    if delim is None:
+        return line.split()
+    return next(csv.reader([line], delimiter=delim)) if '"' in line else line.split(delim)
+
+
+def _numeric(cells: list[str], comma: bool) -> bool:
+    try:
+        for c in cells:
+            _number(c, comma)
+    except ValueError:
+        return False
+    return len(cells) >= 2
+
+
+def _layout(lines: list[str], delimiter: str | None):
+    """(separator, decimal comma, index of the first data row): the separator (given, or
+    the first of `;`, tab, `,`, blanks) and decimal convention under which three rows in a
+    row have the same number (2 or more) of numeric cells."""
+    delims = [delimiter] if delimiter is not None else [";", "\t", ",", None]
+    for delim in delims:
+        for comma in ((False, True) if delim != "," else (False,)):
+            rows = [i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip()
+                    .startswith("#")]
+            for k in range(len(rows)):
+                window = [_split(lines[i], delim) for i in rows[k:k + 3]]
+                if all(len(w) == len(window[0]) and _numeric(w, comma) for w in window):
+                    return delim, comma, rows[k]
+                if k > 200:
+                    break
+    return None
 
 
 def read_raw(path: str, delimiter: str | None = None):
-    """(names, units, data, notes) of a raw text table with a header row; comment lines
-    starting with '#' before it are skipped. Raises ValueError naming the file and line."""
+    """(names, units, data, notes) of a raw text table: lines above its column row
+    (a logger's preamble, with or without '#') are skipped, a units row under it is read,
+    `hh:mm:ss.fff` stamps are seconds; the file may be gzip-compressed, UTF-16 or
+    Latin-1. Raises ValueError naming the file and line."""
+    from pathlib import Path
+
     import numpy as np
 
-    with open(path, encoding="utf-8-sig") as fh:
-        lines = fh.read().splitlines()
-    i = 0
-    while i < len(lines) and (not lines[i].strip() or lines[i].lstrip().startswith("#")):
-        i += 1
-    if i >= len(lines):
-        raise ValueError(f"{path}: no header row (column names) found")
-    head = lines[i]
-    if delimiter is None:
-        delim = next((d for d in (";", "\t", ",") if d in head), None)
-    else:
-        delim = {"tab": "\t", "\\t": "\t"}.get(delimiter, delimiter)
+    from ..records.dialects import decode, read_bytes
+    from ..records.grammar import MAX_FILE_BYTES
+
+    notes: list[str] = []
+    lines = decode(read_bytes(Path(path), MAX_FILE_BYTES), path, notes).splitlines()
+    sep = next((ln for ln in lines if ln.strip()), "").strip(' \r\n"')
+    if re.fullmatch(r"sep=[,;\t|]", sep):  # Excel's separator line
+        delimiter = delimiter or sep[4]
+        lines = [ln for ln in lines if ln.strip(' \r\n"') != sep]
+    if delimiter is not None:
+        delimiter = {"tab": "\t", "\\t": "\t"}.get(delimiter, delimiter)
+    found = _layout(lines, delimiter)
+    if found is None:
+        raise ValueError(f"{path}: no rows of numbers found (three rows in a row with the "
+                         "same number of numeric cells); set --delimiter, or check the file")
+    delim, comma, first = found
+    width = len(_split(lines[first], delim))
+    above = [i for i in range(first) if lines[i].strip() and not lines[i].lstrip()
+             .startswith("#") and len(_split(lines[i], delim)) == width]
+    if not above:
+        raise ValueError(f"{path}: no column row (names) above the numbers at line "
+                         f"{first + 1}; add one, e.g. 'time [s];force [N]'")
+    head, unit_row = above[-1], None
+    if len(above) > 1 and above[-1] == first - 1 and above[-2] < above[-1]:
+        head, unit_row = above[-2], _split(lines[above[-1]], delim)
+        notes.append(f"units row read from line {above[-1] + 1}")
+    if head > 0:
+        notes.append(f"column row at line {head + 1}; the {head} line(s) above it skipped")
     names, units = [], []
-    for cell in _cells(head, delim):
+    for k, cell in enumerate(_split(lines[head], delim)):
         m = _UNIT.match(cell.strip().strip('"'))
+        unit = (m.group(2) or m.group(3) or "").strip()
+        if not unit and unit_row is not None:
+            unit = unit_row[k].strip().strip('"').strip("[]()").strip()
         names.append(m.group(1).lower())
-        units.append((m.group(2) or m.group(3) or "").strip() or None)
-    body = [ln.replace('"', "") for ln in lines[i + 1:] if ln.strip()]
-    notes = []
-    if delim in (";", "\t") and any("," in ln for ln in body[:50]):
-        body = [ln.replace(",", ".") for ln in body]
+        units.append(unit or None)
+    if comma:
         notes.append("decimal commas read as points")
-    try:
-        data = np.loadtxt([ln if delim is None else ln.replace(delim, " ") for ln in body],
-                          ndmin=2)
-    except ValueError as exc:
-        raise ValueError(f"{path}: cannot read the numbers after line {i + 1} ({exc}); set "
-                         "--delimiter, or remove text rows") from None
-    if data.shape[1] != len(names):
-        raise ValueError(f"{path}: {data.shape[1]} numbers per row but {len(names)} column "
-                         f"names in line {i + 1}; set --delimiter")
+    rows, numbers = [], []
+    for i in range(first, len(lines)):
+        if not lines[i].strip() or lines[i].lstrip().startswith("#"):
+            continue
+        cells = _split(lines[i], delim)
+        if len(cells) != width:
+            raise ValueError(f"{path}: line {i + 1}: {len(cells)} cells but the column row "
+                             f"(line {head + 1}) has {width}; set --delimiter, or remove "
+                             "the row")
+        try:
+            numbers.append([_number(c, comma) for c in cells])
+        except ValueError:
+            bad = next(k for k, c in enumerate(cells) if not _numeric([c, "0"], comma))
+            raise ValueError(f"{path}: line {i + 1}: {cells[bad].strip()[:40]!r} in column "
+                             f"{names[bad]!r} is not a finite number; fix or remove the "
+                             "row") from None
+        rows.append(i + 1)
+    clock = [k for k in range(width) if _CLOCK.fullmatch(_split(lines[first], delim)[k]
+                                                         .strip().strip('"'))]
+    data = np.array(numbers, dtype=np.float64)
+    for k in clock:
+        units[k] = units[k] or "s"
+        data[:, k] -= data[:, k].min()
+        notes.append(f"column {names[k]!r}: clock stamps (hh:mm:ss) read as seconds from "
+                     "the first")
     return names, units, data, notes
 
 
@@ -127,6 +219,10 @@ def run(args) -> int:
     def col(spec, option, unit_option, given):
         j = _column(spec, names, option, args.raw)
         unit = given or units[j]
+        if given and units[j] and given.strip() != units[j]:
+            raise ValueError(f"{unit_option} {given}: contradicts the unit {units[j]!r} of "
+                             f"column {names[j]!r} in {args.raw}; drop {unit_option} (or "
+                             "fix the file's header)")
         if unit is None:
             raise ValueError(f"{unit_option}: column {names[j]!r} has no unit in the header; "
                              f"give it, e.g. {unit_option} s")
