@@ -65,6 +65,16 @@ UNITS: dict[str, dict[str, float]] = {
     "dimensionless": {"": 1.0, "-": 1.0, "1": 1.0},
 }
 
+RIG_UNITS: dict[str, dict[str, float]] = {
+    "angle": {"rad": 1.0, "deg": math.pi / 180.0},
+    "angular_speed": {"rad/s": 1.0, "rpm": math.pi / 30.0, "deg/s": math.pi / 180.0},
+    "torque": {"kgf*mm": 1.0, "N*m": 1e3 / KGF_N, "N*mm": 1.0 / KGF_N},
+    "torsional_stiffness": {"kgf*mm/rad": 1.0, "N*m/rad": 1e3 / KGF_N},
+    "inertia": {"kgf*mm*s^2": 1.0, "kg*m^2": 1e6 / G_MM_S2},
+}
+"""Quantities of rotational rigs (`stickslip_jax.rigs`), internal units rad, rad/s, kgf*mm,
+kgf*mm/rad and kgf*mm*s^2; apart from `UNITS` so that no extra column is read as one."""
+
 INTERNAL_UNIT = {
     "time": "s",
     "length": "mm",
@@ -107,9 +117,9 @@ def factor(unit: str, dimension: str) -> float:
     The units of `UNITS` first (exact, no dependency); any other unit through pint's
     registry, checked against the dimension (`852 N/um`, `40 in/min`, `10 lbf`, `2 mN`,
     `5 um/min`, `0.216 Pa s`: what labs write). Raises `UnitError`."""
-    if dimension not in UNITS:
+    table = UNITS.get(dimension, RIG_UNITS.get(dimension))
+    if table is None:
         raise UnitError(f"unknown dimension {dimension!r}; expected one of {sorted(UNITS)}")
-    table = UNITS[dimension]
     u = _normalise(unit)
     if u in table:
         return table[u]
@@ -131,7 +141,8 @@ def factor(unit: str, dimension: str) -> float:
 _PINT_INTERNAL = {
     "time": "s", "length": "mm", "force": "kgf", "speed": "mm/s", "stiffness": "kgf/mm",
     "mass": "kgf*s**2/mm", "viscosity": "kgf*s/mm**2", "pressure": "kgf/mm**2",
-    "dimensionless": "dimensionless",
+    "dimensionless": "dimensionless", "angle": "rad", "angular_speed": "rad/s",
+    "torque": "kgf*mm", "torsional_stiffness": "kgf*mm/rad", "inertia": "kgf*mm*s**2",
 }
 
 

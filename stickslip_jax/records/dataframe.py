@@ -233,6 +233,8 @@ def record_to_dataframe(record):
         _MARK: FORMAT_VERSION,
         "stiffness_kgf_per_mm": record.stiffness,
         "weight_kgf": record.weight,
+        "normal_load_kgf": record.normal_load,
+        "friction_radius_mm": record.friction_radius,
         "drive_source": record.drive_source,
         "drive_speed_mm_per_s": record.drive_speed,
         "drive_program": record.drive_program,
@@ -267,6 +269,8 @@ def _from_own_frame(cls, df, given: dict, fields: dict):
             deflection=df["x_mm"].to_numpy(np.float64),
             stiffness=a["stiffness_kgf_per_mm"],
             weight=a["weight_kgf"],
+            normal_load=a.get("normal_load_kgf"),
+            friction_radius=a.get("friction_radius_mm"),
             drive_speed=a["drive_speed_mm_per_s"],
             drive=(df["drive_mm"].to_numpy(np.float64) if a["drive_source"] == "column"
                    else None),

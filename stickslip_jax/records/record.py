@@ -77,7 +77,12 @@ class Record:
 
     - `time` (s, shape (n,), strictly increasing, uniform within `TIME_STEP_RTOL`),
       `deflection` x (mm, shape (n,)); `force` is $kx$ in kgf.
-    - `stiffness` k (kgf/mm), `weight` W (kgf).
+    - `stiffness` k (kgf/mm), `weight` W (kgf, the moving mass W/g), `normal_load` N
+      (kgf, the load the friction coefficients multiply; None: the paper's N = W, and
+      `load` gives N or W).
+    - `friction_radius` R (mm) of a rotational rig, whose quantities the record holds in
+      the equivalent linear coordinates (`stickslip_jax.rigs`; `rig` gives it back), or
+      None for a linear rig.
     - Drive: `drive_speed` v (mm/s), `drive` (measured drive displacement u in mm at
       `time`) or `drive_program` ((segment start s, speed mm/s), ...); at least one.
       `drive_position(t)` gives u(t) from the first present of drive, drive_program,
@@ -111,6 +116,8 @@ class Record:
     source: str | None = None
     extra_header: dict[str, str] = dataclasses.field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    normal_load: float | None = None
+    friction_radius: float | None = None
 
     def __post_init__(self):
         def put(name, value):
@@ -138,6 +145,9 @@ class Record:
         put("deflection", _array("deflection", self.deflection, n))
         put("stiffness", _positive("stiffness", self.stiffness))
         put("weight", _positive("weight", self.weight))
+        for name in ("normal_load", "friction_radius"):
+            if getattr(self, name) is not None:
+                put(name, _positive(name, getattr(self, name)))
         if self.drive_speed is not None:
             try:
                 v = float(self.drive_speed)
@@ -217,6 +227,19 @@ class Record:
         return self.stiffness * self.deflection
 
     @property
+    def load(self) -> float:
+        """The normal load N in kgf: `normal_load`, else the weight W (the paper's N = W)."""
+        return self.weight if self.normal_load is None else self.normal_load
+
+    @property
+    def rig(self):
+        """The `stickslip_jax.rigs.RotationalRig` of a record with a `friction_radius`,
+        else None (a linear rig)."""
+        from ..rigs import RotationalRig
+
+        return None if self.friction_radius is None else RotationalRig(self.friction_radius)
+
+    @property
     def omega0(self) -> float:
         r"""Natural angular frequency $\omega_0 = \sqrt{g k / W}$ in rad/s (paper section 2)."""
         return math.sqrt(G_MM_S2 * self.stiffness / self.weight)
@@ -272,12 +295,13 @@ class Record:
 
     @classmethod
     def from_arrays(cls, time, deflection=None, *, force=None, stiffness, weight=None,
-                    mass=None, drive_speed=None, drive=None, time_unit: str = "s",
+                    mass=None, drive_speed=None, drive=None, normal_load=None,
+                    time_unit: str = "s",
                     deflection_unit: str = "mm", force_unit: str = "kgf",
                     drive_unit: str = "mm", **fields) -> Record:
         """A record from arrays, for Python users: quantities are numbers in internal units
         (kgf, mm, s) or strings with a unit (`stiffness="852 N/um"`, `mass="30.7 g"`,
-        `drive_speed="42 um/s"`); the array units are named by `time_unit`,
+        `drive_speed="42 um/s"`, `normal_load="40 N"`); the array units are named by `time_unit`,
         `deflection_unit` (or `force_unit` for `force=`, read as x = F/k) and
         `drive_unit`. Time stamps of a jittered clock (`jittered_clock`) are resampled
         to a uniform step (the note in `Record.notes`). Other `fields` (`lubricant`,
@@ -329,6 +353,7 @@ class Record:
                 t = grid
         return cls(time=t, deflection=x, stiffness=k, weight=w,
                    drive_speed=q(drive_speed, "speed", "drive_speed"), drive=u,
+                   normal_load=q(normal_load, "force", "normal_load"),
                    notes=tuple(notes), **fields)
 
     @classmethod
@@ -383,7 +408,8 @@ class Record:
         column, the program's integral or v t) and one column per channel, named
         `<channel>_<unit>` in its internal unit (`pitch_1_mm`; `_1` for a pure number;
         a unit `stickslip_jax.units` does not know is kept as written, `temp_degC`).
-        `df.attrs`: `stiffness_kgf_per_mm`, `weight_kgf`, `drive_source` (`"column"`,
+        `df.attrs`: `stiffness_kgf_per_mm`, `weight_kgf`, `normal_load_kgf`,
+        `friction_radius_mm`, `drive_source` (`"column"`,
         `"program"` or `"speed"`), `drive_speed_mm_per_s`, `drive_program`
         ((start s, speed mm/s), ...), `lubricant`, `surface`, `note`, `truth`, `source`,
         `extra_header`, `notes`, `channel_units` (each channel's unit in the file) and
@@ -416,6 +442,8 @@ class Record:
             and same(self.drive, other.drive)
             and self.stiffness == other.stiffness
             and self.weight == other.weight
+            and self.normal_load == other.normal_load
+            and self.friction_radius == other.friction_radius
             and self.drive_speed == other.drive_speed
             and self.drive_program == other.drive_program
             and (self.lubricant, self.surface, self.note)

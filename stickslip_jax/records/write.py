@@ -53,6 +53,10 @@ def format_record(
     out = [f"# stickslip-record: {FORMAT_VERSION}"]
     out.append(f"# stiffness: {fmt(record.stiffness)} kgf/mm")
     out.append(f"# slider_weight: {fmt(record.weight)} kgf")
+    if record.normal_load is not None:
+        out.append(f"# normal_load: {fmt(record.normal_load)} kgf")
+    if record.friction_radius is not None:
+        out.append(f"# friction_radius: {fmt(record.friction_radius)} mm")
     if record.drive_speed is not None:
         out.append(f"# drive_speed: {fmt(record.drive_speed)} mm/s")
     if record.drive_program is not None:
