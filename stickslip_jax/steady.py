@@ -6,6 +6,8 @@ $v$ (mm/s), with friction laws $\mu_0(T_1)$ and $\mu_m(\mu_0, T_2)$:
 - slip time, eq (7): $T_2 = \pi\sqrt{W/(g k)} = 1/(2 f_0)$;
 - stick time, eq (6) generalised to any law: $k v T_1 / (2W) = \mu_0(T_1) - \mu_m(\mu_0(T_1), T_2)$;
 - amplitude, eq (5): $a = (\mu_0 - \mu_m) W / k = v T_1 / 2$ (half the peak-to-peak swing);
+- with a normal load $N$ apart from the weight, $N$ replaces $W$ in eqs (5), (6) and (12)
+  (the friction force is $\mu N$) while $T_2$ keeps the inertia $W/g$;
 - frequency $f = 1/(T_1 + T_2)$;
 - critical speed, eq (12) as corrected in NOTES.md item 3: eq (6) at $T_1 = T_2 = T_0$,
   $v_c = 2 W (\mu_0(T_0) - \mu_m(T_0)) / (k T_0)$.
@@ -40,15 +42,17 @@ def slip_time(weight, stiffness):
     return jnp.pi / natural_angular_frequency(weight, stiffness)
 
 
-def critical_speed(friction: Friction, weight, stiffness):
+def critical_speed(friction: Friction, weight, stiffness, normal_load=None):
     r"""Critical drive speed $v_c$ in mm/s, corrected eq (12) (NOTES.md item 3).
 
     $v_c = \frac{2W}{k T_0}(\mu_0(T_0) - \mu_m(\mu_0(T_0), T_0))$, $T_0 = \pi\sqrt{W/(gk)}$.
     For eq (1) + eq (3) this is
-    $\frac{2W}{kT_0}(\mu_s-\mu_d)(1-e^{-\gamma T_0^m})(1-e^{-\delta T_0^n})$.
+    $\frac{2W}{kT_0}(\mu_s-\mu_d)(1-e^{-\gamma T_0^m})(1-e^{-\delta T_0^n})$;
+    `normal_load` N (kgf) replaces the leading W when given.
     """
     t0 = slip_time(weight, stiffness)
-    return 2.0 * weight * friction.drop(t0, t0) / (stiffness * t0)
+    load = weight if normal_load is None else normal_load
+    return 2.0 * load * friction.drop(t0, t0) / (stiffness * t0)
 
 
 def _log_residual(log_t1, args):
@@ -108,14 +112,15 @@ def steady_state(
     speed: Float[ArrayLike, ""],
     rtol: float = 1e-13,
     max_steps: int = 100,
+    normal_load: Float[ArrayLike, ""] | None = None,
 ) -> SteadyState:
     r"""Steady stick-slip of eqs (5)-(7) and (12) at one design point.
 
     `weight` W in kgf, `stiffness` k in kgf/mm, `speed` v in mm/s (all scalars; use
-    `jax.vmap` for many points). Eq (6) is solved for $\log T_1$ with an optimistix
-    Newton root finder started above the root (the residual is concave in
-    $\log T_1$, so Newton converges monotonically); its derivative follows from the
-    implicit function theorem.
+    `jax.vmap` for many points); `normal_load` N in kgf (None: the paper's N = W). Eq (6)
+    is solved for $\log T_1$ with an optimistix Newton root finder started above the root
+    (the residual is concave in $\log T_1$, so Newton converges monotonically); its
+    derivative follows from the implicit function theorem.
 
     W, k and v are converted to arrays before the (cached) compiled call, so new
     Python-float values do not trigger recompilation.
@@ -127,6 +132,7 @@ def steady_state(
         jnp.asarray(speed, dtype=float),
         rtol,
         max_steps,
+        None if normal_load is None else jnp.asarray(normal_load, dtype=float),
     )
 
 
@@ -141,7 +147,8 @@ def _strong_floats(tree):
 
 
 @eqx.filter_jit
-def _steady_state(friction, weight, stiffness, speed, rtol, max_steps) -> SteadyState:
+def _steady_state(friction, weight, stiffness, speed, rtol, max_steps,
+                  normal_load=None) -> SteadyState:
     if not isinstance(friction, Friction):
         raise ValueError(f"friction must be a Friction, got {type(friction)}")
     weight = _check_positive(jnp.asarray(weight, dtype=float), "weight W")
@@ -149,10 +156,11 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps) -> Steady
     speed = _check_positive(jnp.asarray(speed, dtype=float), "drive speed v")
     if weight.ndim or stiffness.ndim or speed.ndim:
         raise ValueError("steady_state takes scalars; use jax.vmap over design points")
+    load = weight if normal_load is None else _check_positive(normal_load, "normal load N")
 
     t2 = slip_time(weight, stiffness)
     omega0 = jnp.pi / t2
-    v_c = critical_speed(friction, weight, stiffness)
+    v_c = critical_speed(friction, weight, stiffness, load)
     stick = speed < v_c
     # Above v_c solve at a safe speed and mask (double-where: finite gradients).
     v_solve = jnp.where(stick, speed, 0.5 * v_c)
@@ -161,14 +169,14 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps) -> Steady
         _log_residual,
         solver,
         _LOG_T_START,
-        args=(friction, weight, stiffness, v_solve, t2),
+        args=(friction, load, stiffness, v_solve, t2),
         max_steps=max_steps,
         throw=False,
     )
     t1 = jnp.exp(sol.value)
     mu_0 = friction.static(t1)
     mu_m = friction.kinetic(mu_0, friction.mu_d, t2)
-    amplitude = (mu_0 - mu_m) * weight / stiffness
+    amplitude = (mu_0 - mu_m) * load / stiffness
     zero = jnp.zeros_like(t1)
     t1 = jnp.where(stick, t1, zero)
     amplitude = jnp.where(stick, amplitude, zero)
@@ -183,7 +191,7 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps) -> Steady
         stick_time=t1,
         slip_time=t2,
         amplitude=amplitude,
-        amplitude_ratio=amplitude * stiffness / weight,
+        amplitude_ratio=amplitude * stiffness / load,
         frequency=freq,
         natural_frequency=f0,
         frequency_ratio=freq / f0,

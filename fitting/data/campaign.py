@@ -22,6 +22,7 @@ import dataclasses
 from pathlib import Path
 
 from stickslip_jax.records import Record, RecordError, check_campaign, read_campaign_files
+from stickslip_jax.rigs import rig_quantities
 
 from .features import RecordFeatures, record_features
 
@@ -39,7 +40,8 @@ class RecordStatus:
     """The screening of one record: `status` (USED, NO_STICK_SLIP or SET_ASIDE), the
     `reason` when not used, the slips found (`cycles`) and complete cycles, the cycles
     left out by reason, spikes replaced, the noise (mm) and the run's W (kgf), k (kgf/mm),
-    v (mm/s)."""
+    v (mm/s), normal load N (kgf, None: N = W) and a rotational rig's conditions in its
+    own units (`stickslip_jax.rigs.rig_quantities`)."""
 
     name: str
     status: str
@@ -53,6 +55,8 @@ class RecordStatus:
     stiffness: float
     drive_speed: float
     notes: tuple[str, ...] = ()
+    normal_load: float | None = None
+    rig: dict = dataclasses.field(default_factory=dict)
 
     @classmethod
     def unreadable(cls, err: RecordError) -> RecordStatus:
@@ -71,7 +75,8 @@ class RecordStatus:
                 "noise_mm": self.noise, "weight_kgf": self.weight,
                 "stiffness_kgf_per_mm": self.stiffness,
                 "drive_speed_mm_per_min": self.drive_speed * 60.0,
-                "notes": list(self.notes)}
+                "notes": list(self.notes), **self.rig,
+                **({} if self.normal_load is None else {"normal_load_kgf": self.normal_load})}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -115,7 +120,8 @@ def _status(f: RecordFeatures, record: Record | None = None) -> RecordStatus:
         name=f.name, status=status, reason=reason, cycles=int(len(f.peak)),
         complete_cycles=f.n_complete if f.stick_slip else 0, left_out=dict(f.left_out),
         spikes=int(f.spikes), noise=float(f.noise), weight=f.weight, stiffness=f.stiffness,
-        drive_speed=f.drive_speed,
+        drive_speed=f.drive_speed, normal_load=f.normal_load,
+        rig=rig_quantities(record) if record is not None else {},
         notes=tuple(record.notes if record is not None else ())
         + ((f.drive_note,) if f.drive_note else ())
         + ((f.noise_note,) if f.noise_note else ()))
@@ -208,7 +214,8 @@ def boundary_check(friction, campaign: Campaign) -> list[dict]:
     for rec, f in campaign.not_used:
         if _status(f).status != NO_STICK_SLIP:
             continue
-        st = steady_state(friction, f.weight, f.stiffness, f.drive_speed)
+        st = steady_state(friction, f.weight, f.stiffness, f.drive_speed,
+                          normal_load=f.normal_load)
         amp = float(st.amplitude) if bool(st.stick_slip) else 0.0
         visible = 2.0 * amp > 5.0 * float(f.noise)
         v_c = float(st.critical_speed) * 60.0

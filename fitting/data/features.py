@@ -113,6 +113,13 @@ class RecordFeatures:
     noise_note: str | None = None
     deflection_used: np.ndarray | None = dataclasses.field(default=None, repr=False)
     drive_fix: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    normal_load: float | None = None
+
+    @property
+    def load(self) -> float:
+        """The normal load N in kgf that the friction coefficients multiply (W unless the
+        record gives `normal_load`)."""
+        return self.weight if self.normal_load is None else self.normal_load
 
     @property
     def model_slip_time(self) -> float:
@@ -121,13 +128,13 @@ class RecordFeatures:
 
     @property
     def mu_0(self) -> np.ndarray:
-        r"""$\mu_0 = k x_2 / W$ per cycle (section 3.1; no gauge-offset correction)."""
-        return self.stiffness * self.peak / self.weight
+        r"""$\mu_0 = k x_2 / N$ per cycle (section 3.1, N = W; no gauge-offset correction)."""
+        return self.stiffness * self.peak / self.load
 
     @property
     def mu_m(self) -> np.ndarray:
-        r"""$\mu_m = k (x_2 + x_1)/(2W)$ per cycle (eq 5; no gauge-offset correction)."""
-        return self.stiffness * 0.5 * (self.peak + self.trough) / self.weight
+        r"""$\mu_m = k (x_2 + x_1)/(2N)$ per cycle (eq 5; no gauge-offset correction)."""
+        return self.stiffness * 0.5 * (self.peak + self.trough) / self.load
 
     @property
     def amplitude(self) -> np.ndarray:
@@ -490,8 +497,8 @@ def _assemble(r: _Prepared, rows, first, left_out, n_events, min_cycles, drive_n
 
 
 def record_features(record, **kwargs) -> RecordFeatures:
-    """`extract_cycles` on a `stickslip_jax.records.Record` (its drive, W, k and name)."""
-    return extract_cycles(
+    """`extract_cycles` on a `stickslip_jax.records.Record` (its drive, W, k, N and name)."""
+    return dataclasses.replace(extract_cycles(
         record.time,
         record.deflection,
         weight=record.weight,
@@ -499,4 +506,4 @@ def record_features(record, **kwargs) -> RecordFeatures:
         drive=record.drive_position(),
         name=record.name or "record",
         **kwargs,
-    )
+    ), normal_load=record.normal_load)

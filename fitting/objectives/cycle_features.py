@@ -28,7 +28,7 @@ counted twice (restart per cycle: nothing accumulates from cycle to cycle):
 With `offset_from_start`, a record that starts with the spring relaxed adds the residual
 (deflection at the first sample - c) / its standard error, which pins the gauge offset.
 
-Units: levels in mm, times in s, W in kgf, k in kgf/mm.
+Units: levels in mm, times in s, W and N in kgf, k in kgf/mm.
 """
 
 from __future__ import annotations
@@ -57,6 +57,8 @@ class FeatureData(eqx.Module):
     """Cycle features of a campaign as padded arrays [R records, C cycles] (mm, s)."""
 
     weight: Float[Array, " R"]
+    normal_load: Float[Array, " R"]
+    """N in kgf, the load the friction coefficients multiply (W unless a record gives it)."""
     stiffness: Float[Array, " R"]
     omega0: Float[Array, " R"]
     t1: Float[Array, "R C"]
@@ -141,7 +143,8 @@ def feature_data(
         return jax.device_put(np.asarray(x))
 
     return FeatureData(
-        weight=j([f.weight for f in features]), stiffness=j([f.stiffness for f in features]),
+        weight=j([f.weight for f in features]), normal_load=j([f.load for f in features]),
+        stiffness=j([f.stiffness for f in features]),
         omega0=j([f.omega0 for f in features]),
         t1=j(t1), t1_next=j(t1n), t1_sd=j(t1sd), t1_next_sd=j(t1nsd), trough=j(tr),
         trough_sd=j(trsd), climb_next=j(climb), has_end=j(has_end), has_next=j(has_next),
@@ -277,7 +280,7 @@ def feature_residuals(
     check_member("slip_time", slip_time, SlipTime)
     ref = params if weights_at is None else weights_at
     friction, friction_ref = params.friction.friction(), ref.friction.friction()
-    scale = data.weight / data.stiffness
+    scale = data.normal_load / data.stiffness
 
     # drive speed of each record (climb over stick time, eq 6), for the re-slip
     speeds = (jnp.sum(jnp.where(data.has_next, data.climb_next, 0.0), axis=1)

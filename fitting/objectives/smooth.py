@@ -50,13 +50,14 @@ __all__ = ["SmoothData", "SmoothObjective", "smooth_data"]
 class SmoothData(eqx.Module):
     """Whole records for the smoothed objective (module doc): `time` [R, N] (s, from each
     record's first slip end), `deflection` [R, N] (mm), `mask` [R, N] (False on padding);
-    per record `weight` (kgf), `stiffness` (kgf/mm), `speed` (mm/s), `start_level` (the
-    measured reading at the start, mm) and `sigma` (noise sd, mm)."""
+    per record `weight` W and `normal_load` N (kgf), `stiffness` (kgf/mm), `speed` (mm/s),
+    `start_level` (the measured reading at the start, mm) and `sigma` (noise sd, mm)."""
 
     time: Float[Array, "R N"]
     deflection: Float[Array, "R N"]
     mask: Bool[Array, "R N"]
     weight: Float[Array, " R"]
+    normal_load: Float[Array, " R"]
     stiffness: Float[Array, " R"]
     speed: Float[Array, " R"]
     start_level: Float[Array, " R"]
@@ -72,7 +73,7 @@ def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothD
     slip or no constant drive speed."""
     if len(records) != len(features):
         raise ValueError("smooth_data: one RecordFeatures per record")
-    times, xs, w, k, v, x1, sig = [], [], [], [], [], [], []
+    times, xs, w, k, v, x1, sig, n = [], [], [], [], [], [], [], []
     for rec, f in zip(records, features):
         name = rec.name or "record"
         if rec.drive is not None or rec.drive_program is not None or rec.drive_speed is None:
@@ -92,6 +93,7 @@ def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothD
         times.append(t)
         xs.append(x)
         w.append(rec.weight)
+        n.append(rec.load)
         k.append(rec.stiffness)
         v.append(rec.drive_speed)
         x1.append(float(f.trough[0]))
@@ -102,7 +104,8 @@ def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothD
         return jnp.asarray(np.asarray(a, float))
 
     return SmoothData(time=ts, deflection=arr(data), mask=mask, weight=arr(w),
-                      stiffness=arr(k), speed=arr(v), start_level=arr(x1), sigma=arr(sig))
+                      normal_load=arr(n), stiffness=arr(k), speed=arr(v), start_level=arr(x1),
+                      sigma=arr(sig))
 
 
 class SmoothObjective(AbstractObjective):
@@ -127,15 +130,16 @@ class SmoothObjective(AbstractObjective):
         x0 = d.start_level - params.offset
 
         def one(args):
-            w, k, v, x_start, t, m = args
-            tr = simulate_smooth(ss.Slideway(fr, w, k), ConstantSpeed(v), t,
+            w, n, k, v, x_start, t, m = args
+            tr = simulate_smooth(ss.Slideway(fr, w, k, n), ConstantSpeed(v), t,
                                  smoothing=self.smoothing, slip_time=self.slip_time,
                                  rtol=self.rtol, atol=self.atol, max_steps=self.max_steps,
                                  initial_deflection=x_start, mask=m,
                                  adjoint=dfx.ForwardMode(), formulation=self.formulation)
             return tr.deflection, tr.result == ss.simulation.SimulationResult.successful
 
-        return jax.lax.map(one, (d.weight, d.stiffness, d.speed, x0, d.time, d.mask))
+        return jax.lax.map(one, (d.weight, d.normal_load, d.stiffness, d.speed, x0, d.time,
+                                 d.mask))
 
     def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
         x, ok = self.simulate(params)

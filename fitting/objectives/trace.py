@@ -71,7 +71,7 @@ class TraceData(eqx.Module):
 
     Per row: `record` (index of its record: gauge offset), `window` (index of its cycle
     window; a long window spans several rows, each simulated from the window's start),
-    `weight` W (kgf),
+    `weight` W (kgf), `normal_load` N (kgf, W unless the record gives it),
     `stiffness` k (kgf/mm), `speed` v (mm/s), `start_time` (s, the measured end of the
     previous slip), `start_level` (mm, the measured slip-end deflection there, offset
     included), `start_level_sd` (mm) and `start_time_sd` (s) their standard errors,
@@ -82,6 +82,7 @@ class TraceData(eqx.Module):
 
     record: Int[Array, " N"]
     weight: Float[Array, " N"]
+    normal_load: Float[Array, " N"]
     stiffness: Float[Array, " N"]
     speed: Float[Array, " N"]
     start_time: Float[Array, " N"]
@@ -173,7 +174,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
             head = (r, f.weight, f.stiffness, float(v_win), t_s,
                     float(f.trough[j - 1]), float(f.trough_sd[j - 1]),
                     float(f.stick_time_sd[j]) / np.sqrt(2.0), float(f.stick_time[j]),
-                    sigma, n_windows, poly)
+                    sigma, n_windows, poly, f.load)
             xw = x[sel] if fix is None else x[sel] - (fix[sel] - np.interp(t_s, t, fix))
             for a in range(0, sel.size, L):
                 part = sel[a:a + L]
@@ -190,7 +191,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     time = np.zeros((N, L))
     defl = np.zeros((N, L))
     mask = np.zeros((N, L), bool)
-    cols = [[row[i] for row in rows] for i in range(12)]
+    cols = [[row[i] for row in rows] for i in range(13)]
     for i, row in enumerate(rows):
         n = row[-2].size
         time[i, :n], time[i, n:] = row[-2], row[-2][-1]
@@ -208,7 +209,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         speed=j(cols[3]), start_time=j(cols[4]), start_level=j(cols[5]),
         start_level_sd=j(cols[6]), start_time_sd=j(cols[7]), stick_time=j(cols[8]),
         sigma=j(cols[9]), window=j(np.asarray(cols[10], np.int32)),
-        drive_poly=j(np.asarray(cols[11], float).reshape(-1, 3)),
+        drive_poly=j(np.asarray(cols[11], float).reshape(-1, 3)), normal_load=j(cols[12]),
         time=j(time), deflection=j(defl), mask=j(mask),
     )
 
@@ -220,13 +221,14 @@ def trace_simulation(params: CampaignParams, data: TraceData,
     friction = params.friction.friction()
     offset = params.offset[data.record]
 
-    def one(w, k, v, t0, x0, ts, m):
-        sw = ss.Slideway(friction, w, k)
+    def one(w, n, k, v, t0, x0, ts, m):
+        sw = ss.Slideway(friction, w, k, n)
         return simulate_exact(sw, ConstantSpeed(v), ts, initial_deflection=x0, start_time=t0,
                               mask=m, max_events=MAX_EVENTS, slip_time=slip_time,
                               cycle_table=False)
 
-    return jax.vmap(one)(data.weight, data.stiffness, data.speed, data.start_time,
+    return jax.vmap(one)(data.weight, data.normal_load, data.stiffness, data.speed,
+                         data.start_time,
                          data.start_level - offset, data.time, data.mask)
 
 
@@ -244,7 +246,7 @@ def trace_sd(params: CampaignParams, data: TraceData, slider_velocity) -> Float[
     simulated slider velocity (mm/s, [N, L]; 0 while sticking)."""
     static = params.friction.friction().static
     _, slope = jax.jvp(static, (data.stick_time,), (jnp.ones_like(data.stick_time),))
-    k, W = data.stiffness, data.weight
+    k, W = data.stiffness, data.normal_load
     gap = jnp.maximum(jnp.abs(k * data.speed - W * slope), 1e-3 * k * data.speed)
     sd_b = jnp.sqrt((k * data.start_level_sd) ** 2 + (W * slope * data.start_time_sd) ** 2) / gap
     xdot = data.speed[:, None] - slider_velocity

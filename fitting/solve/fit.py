@@ -116,8 +116,8 @@ class FitResult:
 def mu_levels(features, offsets):
     mu0, mum = [], []
     for f, c in zip(features, offsets):
-        mu0.append(f.stiffness * (f.peak - c) / f.weight)
-        mum.append(f.stiffness * (0.5 * (f.peak + f.trough) - c) / f.weight)
+        mu0.append(f.stiffness * (f.peak - c) / f.load)
+        mum.append(f.stiffness * (0.5 * (f.peak + f.trough) - c) / f.load)
     return np.concatenate(mu0), np.concatenate(mum)
 
 

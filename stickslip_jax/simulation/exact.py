@@ -224,7 +224,7 @@ def simulate_exact(
 ) -> Trace:
     r"""Simulate the paper's stick-slip model exactly (events in closed form) on times `ts`.
 
-    - `slideway`: friction laws, weight W (kgf), stiffness k (kgf/mm).
+    - `slideway`: friction laws, weight W (kgf), stiffness k (kgf/mm), normal load N (kgf).
     - `drive`: any `AbstractDrive` (u(t) in mm, piecewise linear).
     - `ts` (s): sample times, non-decreasing (checked); the simulation runs from `start_time`
       (default `ts[0]`) to `max(ts)`.
@@ -301,10 +301,12 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
     t_end = jnp.asarray(t_end, dtype=float)
     friction = slideway.friction
     static = friction.static
-    W, k = slideway.weight, slideway.stiffness
-    W = eqx.error_if(W, ~(W > 0), "slider weight W must be positive")
+    # W is the friction load N below (the paper's N = W); the inertia is weight / g
+    W, k, weight = slideway.load, slideway.stiffness, slideway.weight
+    W = eqx.error_if(W, ~(W > 0), "normal load N (slider weight W) must be positive")
+    weight = eqx.error_if(weight, ~(weight > 0), "slider weight W must be positive")
     k = eqx.error_if(k, ~(k > 0), "stiffness k must be positive")
-    omega = jnp.sqrt(9806.65 * k / W)
+    omega = jnp.sqrt(9806.65 * k / weight)
     kt, ku, ks = drive.knots()
     bounds = jnp.concatenate([kt, t_end[None]])
     mu_restick = static(jnp.asarray(0.0))

@@ -15,7 +15,8 @@ zeros); `own` is the part's state vector (shape `(num_states,)`).
   drive error expressed as a force). It may use `ctx.normal_load` and
   `ctx.sign(ydot)`, the smoothed sign function of the simulator.
 - `AbstractLoadCoupling.normal_load(t, core, own, ctx) -> kgf`: the normal load $N$
-  that multiplies every friction coefficient (the paper: $N = W$, `ConstantLoad`).
+  that multiplies every friction coefficient (`ConstantLoad`: the slideway's N, the
+  paper's N = W).
 - `AbstractMeasurement.observe(t, core, own, ctx) -> mm`: what the strain gauge
   reports for the deflection (offset, drift, sensor dynamics via its own states);
   `noise_std` (mm) is the white-noise level used by synthetic records and likelihoods.
@@ -54,7 +55,7 @@ class Context(eqx.Module):
     `sign(v)` is the simulator's smoothed sign of a velocity, `tanh(8 v / eps)`, with
     `eps` the smoothing velocity (mm/s) of the stick/slip switch.
     `normal_load` is filled in after the load coupling part has been evaluated
-    (equal to `weight` while the load part itself runs).
+    (the slideway's static load `Slideway.load`, N or W, while the load part itself runs).
     """
 
     weight: Scalar
@@ -111,10 +112,10 @@ class AbstractMeasurement(AbstractPart):
 
 
 class ConstantLoad(AbstractLoadCoupling):
-    """The paper's assumption: the normal load is the slider weight, N = W."""
+    """A constant normal load: the slideway's `normal_load` N, or the paper's N = W."""
 
     def normal_load(self, t, core, own, ctx):
-        return ctx.weight
+        return ctx.normal_load
 
 
 class ViscousDamping(AbstractForceTerm):

@@ -340,7 +340,7 @@ def simulate_smooth(
     def context(t):
         return Context(
             weight=W, stiffness=k, mass=M, omega0=omega, drive_position=drive.position(t),
-            drive_speed=drive.speed(t), eps=eps, normal_load=W,
+            drive_speed=drive.speed(t), eps=eps, normal_load=sw.load,
         )
 
     rigid = formulation is not Formulation.VELOCITY

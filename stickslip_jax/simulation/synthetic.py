@@ -37,6 +37,8 @@ def friction_truth(slideway: Slideway) -> dict:
         "kinetic": fields(slideway.friction.kinetic),
         "weight_kgf": float(slideway.weight),
         "stiffness_kgf_mm": float(slideway.stiffness),
+        **({} if slideway.normal_load is None
+           else {"normal_load_kgf": float(slideway.normal_load)}),
     }
 
 
@@ -107,7 +109,9 @@ def synthetic_record(
         kwargs["drive"] = np.asarray(drive.position(ts))
     return Record(
         time=np.asarray(ts), deflection=x + noise, stiffness=float(slideway.stiffness),
-        weight=float(slideway.weight), lubricant=lubricant, note=note, truth=truth, **kwargs,
+        weight=float(slideway.weight), lubricant=lubricant, note=note, truth=truth,
+        normal_load=None if slideway.normal_load is None else float(slideway.normal_load),
+        **kwargs,
     )
 
 
@@ -118,7 +122,8 @@ def _event_budget(slideway: Slideway, drive: AbstractDrive, duration: float) -> 
     _, _, speeds = drive.knots()
     sp = np.asarray(speeds)
     v = float(sp[sp > 0].min()) if np.any(sp > 0) else 1.0
-    ss = steady_state(slideway.friction, slideway.weight, slideway.stiffness, v)
+    ss = steady_state(slideway.friction, slideway.weight, slideway.stiffness, v,
+                      normal_load=slideway.normal_load)
     period = float(ss.stick_time + ss.slip_time) if bool(ss.stick_slip) else float(
         ss.slip_time)
     budget = 4 * int(np.ceil(duration / max(period, 1e-9))) + 2 * sp.size + 16

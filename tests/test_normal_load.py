@@ -1,0 +1,152 @@
+"""A normal load N apart from the weight W: the friction force is mu N, the inertia W/g.
+
+A slideway (W, N, k) is exactly the paper's slideway (W' = N, k' = k N/W) with every
+length scaled by W/N (divide its equation of motion by N/W): the simulators and the steady
+analysis are checked against that equivalence, the default N = W against the plain
+slideway bit for bit, and a campaign with N != W is fitted back.
+"""
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from stickslip_fitting.data.features import record_features
+from stickslip_fitting.data.synthetic import truth_values
+from stickslip_fitting.modes import Objective, Padding
+from stickslip_fitting.params import NAMES
+from stickslip_fitting.solve.fit import fit_features
+from stickslip_fitting.uncertainty.laplace import laplace
+
+import stickslip_jax as ss
+from stickslip_jax.drives import ConstantSpeed
+from stickslip_jax.records import Record, format_record, parse_record
+from stickslip_jax.simulation import pad_times, simulate_exact, simulate_smooth
+
+FR = ss.lubricant("A")
+W, N, K, V = 36.0, 60.0, 86.9, 0.05  # kgf, kgf, kgf/mm, mm/s
+
+
+def test_default_load_is_the_weight_bit_for_bit():
+    ts = jnp.linspace(0.0, 12.0, 2401)
+    plain = simulate_exact(ss.Slideway(FR, W, K), ConstantSpeed(V), ts)
+    given = simulate_exact(ss.Slideway(FR, W, K, normal_load=W), ConstantSpeed(V), ts)
+    assert ss.Slideway(FR, W, K).load is not None and ss.Slideway(FR, W, K).normal_load is None
+    np.testing.assert_array_equal(plain.deflection, given.deflection)
+    np.testing.assert_array_equal(plain.cycles.mu_m, given.cycles.mu_m)
+    a, b = ss.steady_state(FR, W, K, V), ss.steady_state(FR, W, K, V, normal_load=W)
+    for name in ("stick_time", "amplitude", "amplitude_ratio", "critical_speed"):
+        assert float(getattr(a, name)) == float(getattr(b, name)), name
+    assert float(ss.critical_speed(FR, W, K)) == float(ss.critical_speed(FR, W, K, W))
+
+
+@pytest.mark.parametrize("load", [12.0, 60.0])
+def test_exact_simulator_matches_the_scaled_slideway(load):
+    s = W / load  # lengths of the equivalent slideway (W' = N, k' = k N / W) are s times
+    ts = jnp.linspace(0.0, 30.0, 6001)
+    rig = simulate_exact(ss.Slideway(FR, W, K, normal_load=load), ConstantSpeed(V), ts)
+    twin = simulate_exact(ss.Slideway(FR, load, K / s), ConstantSpeed(V * s), ts)
+    assert int(jnp.sum(rig.cycles.valid)) >= 3
+    np.testing.assert_allclose(np.asarray(rig.deflection) * s, twin.deflection,
+                               rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(rig.cycles.stick_time, twin.cycles.stick_time, rtol=1e-9,
+                               atol=1e-12)
+    np.testing.assert_allclose(rig.cycles.mu_0, twin.cycles.mu_0, rtol=1e-12)
+    # the friction drop scales with N, the slip time stays pi sqrt(W/(g k))
+    assert float(rig.cycles.model_slip_time[0]) == pytest.approx(
+        math.pi * math.sqrt(W / (ss.units.G_MM_S2 * K)), rel=1e-12)
+
+
+def test_smooth_simulator_matches_the_scaled_slideway():
+    s = W / N
+    ts = jnp.linspace(0.0, 8.0, 801)
+    kw = dict(smoothing=1e-3, rtol=1e-9, atol=1e-11)
+    rig = simulate_smooth(ss.Slideway(FR, W, K, normal_load=N), ConstantSpeed(V), ts, **kw)
+    twin = simulate_smooth(ss.Slideway(FR, N, K / s), ConstantSpeed(V * s), ts,
+                           **{**kw, "atol": 1e-11 * s})
+    x, y = np.asarray(rig.deflection) * s, np.asarray(twin.deflection)
+    assert np.ptp(x) > 0.05
+    assert np.max(np.abs(x - y)) < 2e-4 * np.ptp(y)
+
+
+def test_steady_state_with_a_normal_load():
+    s = W / N
+    rig = ss.steady_state(FR, W, K, V, normal_load=N)
+    twin = ss.steady_state(FR, N, K / s, V * s)
+    assert float(rig.stick_time) == pytest.approx(float(twin.stick_time), rel=1e-10)
+    assert float(rig.amplitude) * s == pytest.approx(float(twin.amplitude), rel=1e-10)
+    assert float(rig.critical_speed) * s == pytest.approx(float(twin.critical_speed),
+                                                          rel=1e-10)
+    assert float(rig.slip_time) == float(ss.steady_state(FR, W, K, V).slip_time)
+    with pytest.raises(Exception, match="normal load"):
+        ss.steady_state(FR, W, K, V, normal_load=-1.0)
+
+
+def test_record_carries_the_normal_load():
+    t = np.arange(5) * 1e-3
+    rec = Record.from_arrays(t, np.zeros(5), stiffness=K, weight=W, normal_load="588.399 N",
+                             drive_speed=V)
+    assert rec.normal_load == pytest.approx(60.0, rel=1e-6) and rec.load == rec.normal_load
+    back = parse_record(format_record(rec))
+    assert back == rec and back.normal_load == rec.normal_load
+    assert Record.from_arrays(t, np.zeros(5), stiffness=K, weight=W, drive_speed=V).load == W
+    assert Record.from_dataframe(rec.to_dataframe()) == rec
+    with pytest.raises(ValueError, match="normal_load"):
+        rec.replace(normal_load=0.0)
+
+
+@eqx.filter_jit
+def _simulate(friction, loads, ks, vs, x0s, ts, mask):
+    def one(n, k, v, x0, t, m):
+        return simulate_exact(ss.Slideway(friction, W, k, normal_load=n), ConstantSpeed(v),
+                              t, initial_deflection=x0, mask=m, max_events=48)
+
+    return jax.vmap(one)(loads, ks, vs, x0s, ts, mask)
+
+
+def _campaign(friction, load, seed=3, noise=5e-4, rate=1000.0):
+    """Records of W = 36 kgf under the normal load `load` at three k and two speeds, each
+    from its steady slip end (eq 5 with N), white noise `noise` mm."""
+    plan = []
+    for k in (40.0, 86.9, 200.0):
+        for frac in (0.03, 0.3):
+            v = frac * float(ss.critical_speed(friction, W, k, load))
+            st = ss.steady_state(friction, W, k, v, normal_load=load)
+            x1 = (2.0 * float(st.mu_m) - float(st.mu_0)) * load / k
+            n = int(6 * (float(st.stick_time) + float(st.slip_time)) * rate) + 1
+            plan.append((load, k, v, x1 - 1e-9, n))
+    times = [np.arange(p[4]) / rate for p in plan]
+    ts, mask = pad_times(times)
+    f = lambda i: jnp.asarray([p[i] for p in plan])  # noqa: E731
+    x = _simulate(friction, f(0), f(1), f(2), f(3), ts, mask).deflection
+    rng = np.random.default_rng(seed)
+    return [Record(time=times[i], deflection=np.asarray(x[i, :n]) + rng.normal(0, noise, n),
+                   stiffness=k, weight=W, normal_load=nl, drive_speed=v, lubricant="A",
+                   source=f"n{nl:g}_k{k:g}_{i}.csv")
+            for i, (nl, k, v, _, n) in enumerate(plan)]
+
+
+def test_campaign_with_a_normal_load_is_fitted_back():
+    records = _campaign(FR, N)
+    feats = [record_features(r) for r in records]
+    assert all(f.stick_slip for f in feats) and all(f.load == N for f in feats)
+    fit = fit_features(feats, padding=Padding(cycles=8))
+    unc = laplace(fit)
+    truth = truth_values(FR)
+    assert fit.converged
+    for i, name in enumerate(NAMES):
+        lo, hi = unc.ci95[i]
+        assert lo <= truth[name] <= hi, (name, unc.value[i], (lo, hi), truth[name])
+    for name in ("mu_s", "mu_d"):
+        assert fit.values[name] == pytest.approx(truth[name], rel=0.02)
+    # the same records read as N = W would put mu wrong by the factor N / W
+    wrong = [record_features(r.replace(normal_load=None)) for r in records]
+    assert np.median(wrong[0].mu_m) == pytest.approx(np.median(feats[0].mu_m) * N / W,
+                                                     rel=1e-12)
+    # the trace objective simulates with N too: its misfit at the features optimum is noise
+    both = fit_features(feats, records=records, objective=Objective.TRACE,
+                        padding=Padding(cycles=8))
+    assert 0.5 < both.reduced_chi2 < 2.0
+    assert both.values["mu_d"] == pytest.approx(truth["mu_d"], rel=0.01)
