@@ -150,12 +150,17 @@ def test_plot_counts_slips_through_a_glitch_and_a_quantised_logger(tmp_path, def
     assert ("1 single-sample spike" if defect == "glitch" else "quantised in steps of 0.005") in out
 
 
-def test_a_copy_under_another_name_is_refused(tmp_path, capsys):
-    """A byte-identical record under another name is refused, not counted twice."""
+def test_the_same_data_under_another_name_counts_once(tmp_path, capsys):
+    """A record re-saved by a spreadsheet (';', decimal commas, CRLF, another note) under
+    another name is the same run: fitted once, with a note naming the copy."""
     copy_records(tmp_path, EXAMPLES[:3])
-    (tmp_path / "copy.csv").write_bytes(EXAMPLES[0].read_bytes())
-    _, err = run_checked(["fit", tmp_path], capsys, tmp_path, 2)
-    one_line(err, "same content as", "copy.csv")
+    text = EXAMPLES[0].read_text().replace("# note: ", "# note: re-saved; ")
+    head, _, body = text.partition("time [s]")
+    body = ("time [s]" + body).replace(",", ";").replace(".", ",")
+    (tmp_path / "copy.csv").write_bytes((head + body).replace("\n", "\r\n").encode())
+    out, err = run_checked(["fit", tmp_path], capsys, tmp_path, 0)
+    assert "fitting 3 records" in err, err
+    assert "copy.csv holds the same data: counted once" in out + err
 
 
 def test_noise_free_record_gets_the_noise_floor():
