@@ -116,7 +116,7 @@ def test_joint_naming_rule():
     named jointly; one the winner beats clearly is not; a comparable one in another
     direction or an unphysical one keeps the confidence low; a small one does not count
     unless it is close (then joint: the paired test decides, not the share)."""
-    from stickslip_fitting.discovery.cycle_workflow import Contender, decide
+    from stickslip_fitting.discovery.decision import Contender, decide
 
     look = Contender("rate_state", 80.0, 0.95, 1.0)
     d = decide(100.0, [look])
@@ -147,7 +147,7 @@ def test_joint_naming_rule():
 def test_paired_window_test():
     """`paired_z`: 0 for identical fits, large when one fits every window better, of order
     1 when two fits differ by noise only."""
-    from stickslip_fitting.discovery.cycle_workflow import paired_z
+    from stickslip_fitting.discovery.decision import paired_z
 
     rng = np.random.default_rng(0)
     starts = np.arange(0, 4000, 100)
@@ -199,7 +199,7 @@ def test_a_measured_drive_column_is_used():
 def test_lift_mu_d():
     """A restart's mu_d driven towards 0 (no gradient left in log mu_d) starts at 0.4
     mu_s, mu_s kept; a sane one is kept as it is."""
-    from stickslip_fitting.discovery.cycle_workflow import lift_mu_d
+    from stickslip_fitting.discovery.starts import lift_mu_d
 
     sane = np.log([0.21, 0.35, 0.38, 0.4, 67.0, 1.0])
     assert np.array_equal(lift_mu_d(sane), sane)
@@ -216,7 +216,7 @@ def test_plausible_start():
     no slip ends; a strong Stribeck campaign: mu_s - mu_d 9e5 with gamma 5e-8) starts with
     exponents 1, the kinetic decay inside [0.02, 0.9] and eq (1)'s rise at the median
     stick time kept."""
-    from stickslip_fitting.discovery.cycle_workflow import plausible_start
+    from stickslip_fitting.discovery.starts import plausible_start
 
     T1, T2 = np.array([0.5, 1.0, 2.0]), np.array([0.017, 0.02, 0.042])
     sane = np.log([0.21, 0.35, 0.38, 0.4, 67.0, 1.0])

@@ -123,3 +123,37 @@ def test_a_phase_above_the_noise_is_named():
     assert "not explained by any family" in phase_text(phases2, noise)
     assert phase_misfit(phases2) == ["slip"]
     assert phase_text(rms_by_phase(r * 0.5, slipping, sd), 1e-3) == ""
+
+
+def test_both_bases_answer_with_one_document():
+    """`CycleDiscovery` and `SmoothDiscovery` are one `Discovery`: the keys every base
+    writes, "base" saying which, then each base's own."""
+    from types import SimpleNamespace as NS
+
+    from stickslip_fitting.discovery.result import Discovery, SmoothDiscovery
+
+    fit = NS(converged=True, n_evals=3)
+    common = dict(effect="none", explanation="", confidence="high", gap_before=1e-3,
+                  gap_after=1e-3, noise=1e-3, criterion="", candidates=[],
+                  estimates_before=[], estimates_after=[], effect_estimates=[], timings={},
+                  base_fit=fit, final_fit=fit)
+    analysis = NS(phases={}, test={"p_value": 0.5})
+    smooth = SmoothDiscovery(**common, residuals_before=analysis, residuals_after=analysis,
+                             test_before=analysis.test, test_after=analysis.test,
+                             base_problem=None, final_problem=None)
+    cycle = CycleDiscovery(**common, phases_before={}, phases_after={},
+                           campaign=NS(screening=[]), model=None, z_before=None,
+                           z_after=None, shape=None, sensor=False)
+    assert isinstance(smooth, Discovery) and isinstance(cycle, Discovery)
+    s, c = smooth.to_json(), cycle.to_json()
+    shared = {"effect", "explanation", "confidence", "indistinguishable_from", "base",
+              "base_fit", "final_fit", "gap_before", "gap_after", "gap_unit", "noise",
+              "criterion", "candidates", "parameters_before", "parameters_after",
+              "effect_size", "residuals_by_phase_before", "residuals_by_phase_after",
+              "timings_s"}
+    assert set(s) & set(c) == shared and (c["base"], s["base"]) == ("cycle", "smooth")
+    assert set(c) - shared == {"gap_all_records_before_mm", "gap_all_records_after_mm",
+                               "records", "records_scaled", "windows_set_aside",
+                               "learned_correction"}
+    assert set(s) - shared == {"misspecification_before", "misspecification_after"}
+    assert s["misspecification_after"] == {"p_value": 0.5} and c["learned_correction"] is None

@@ -144,9 +144,7 @@ class CampaignDiscovery:
         """The figure of `stickslip discover --plot` (`discovery.plots.
         plot_cycle_discovery`: residual RMS by phase before and after, traces and
         residuals of up to four records): returned, and saved to `path` when given."""
-        from ..discovery.plots import plot_cycle_discovery
-
-        fig = plot_cycle_discovery(self.result)
+        fig = self.result.figure()
         if path is not None:
             from stickslip_jax.output import check_outputs, save_figure
 
@@ -155,17 +153,9 @@ class CampaignDiscovery:
         return fig
 
     def __str__(self) -> str:
-        from ..commands.discover import candidate_table, parameter_table
+        from ..commands.discover import answer_text
 
-        r = self.result
-        joint = " or ".join([r.effect] + [x["name"] for x in r.indistinguishable_from])
-        return "\n".join([
-            f"effect: {joint} (confidence {r.confidence})"
-            + (": these records cannot tell them apart" if r.indistinguishable_from else ""),
-            r.explanation,
-            f"gap (residual RMS): {r.gap_before * 1e3:.3f} um -> {r.gap_after * 1e3:.3f} um; "
-            f"noise {r.noise * 1e3:.3f} um",
-            candidate_table(r.candidates), parameter_table(r)])
+        return answer_text(self.result)
 
     def __repr__(self) -> str:
         return (f"CampaignDiscovery(effect={self.effect!r}, confidence={self.confidence!r}, "

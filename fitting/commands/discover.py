@@ -72,12 +72,7 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
-    import sys
-
     from stickslip_jax.records import read_campaign_files
-
-    from ..discovery import discover
-    from ..discovery.effects import CANDIDATES
 
     if args.top < 1:
         raise ValueError(f"--top: must be at least 1, got {args.top}")
@@ -87,9 +82,7 @@ def run(args) -> int:
         raise ValueError(f"--threshold: must be >= 0, got {args.threshold}")
     if not 0 < args.alpha < 1:
         raise ValueError(f"--alpha: must be between 0 and 1, got {args.alpha}")
-    from stickslip_jax.output import check_outputs, write_json
-
-    from ..data.campaign import screen_records
+    from stickslip_jax.output import check_outputs, save_figure, write_json
 
     files = read_campaign_files(args.records)  # an unreadable file is set aside, listed
     records, unreadable = files.records, files.unreadable
@@ -103,38 +96,13 @@ def run(args) -> int:
     from ..objectives.losses import parse_loss
 
     loss = parse_loss(args.loss)
-    if DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE:
-        return _run_cycle(args, records, loss, unreadable)
-    if loss.spec() != "gaussian":
-        raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
-                         "fits least squares); drop --loss or use --base cycle")
-    campaign = screen_records(records, strict=args.strict, unreadable=unreadable)
-    for w in campaign.warnings:
-        print("warning: " + w, file=sys.stderr)
-    records = campaign.records
-    from stickslip_jax.logs import logger
-
-    logger.info(f"discovery on {len(records)} records (base smooth: minutes)...")
-    result = discover(records, candidates=tuple(args.only or CANDIDATES), top=args.top,
-                      threshold=args.threshold, crop=args.crop, learn=args.learn,
-                      max_evals=args.max_evals)
-    logger.info(f"discovery done: {result.effect}")
-    print(f"effect: {result.effect} (confidence {result.confidence})")
-    print(result.explanation)
-    print(f"gap (residual RMS): {result.gap_before * 1e3:.3f} um -> "
-          f"{result.gap_after * 1e3:.3f} um; noise {result.noise * 1e3:.3f} um")
-    print(f"{'candidate':22s} {'score':>10s} {'dBIC':>10s}")
-    for c in result.candidates:
-        d = "-" if c["delta_criterion"] is None else f"{c['delta_criterion']:.1f}"
-        print(f"{c['name']:22s} {c['score']:10.1f} {d:>10s}")
-    _print_parameters(result)
+    cycle = DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE
+    result, extra = (_run_cycle if cycle else _run_smooth)(args, records, loss, unreadable)
+    print(answer_text(result))
     if args.json:
-        write_json(args.json, {**json_document(result),
-                               "records_screened": [x.to_json() for x in campaign.screening]})
+        write_json(args.json, {**json_document(result), **extra})
     if args.plot:
-        from ..discovery.plots import plot_discovery
-
-        plot_discovery(result, args.plot)
+        save_figure(result.figure(), args.plot, dpi=120)
     return 0
 
 
@@ -153,17 +121,12 @@ def json_document(result) -> dict:
     return versioned(doc, JSON_ALIASES)
 
 
-def _print_parameters(result) -> None:
+def parameter_table(result) -> str:
     """The parameter table, from the result's typed rows (`stickslip_fitting.report.rows.
     ParameterEstimate`): each parameter before and after (effect parameters after only),
     "-" for a value the data do not determine, and a note ("at upper bound 1", "no
     standard error: ..."); when the final fit kept every friction parameter of the base
     fit, a line says so."""
-    print(parameter_table(result))
-
-
-def parameter_table(result) -> str:
-    """`_print_parameters`'s text."""
     from ..report.rows import note_text, text_table, value_text
 
     before = {e.name: e.value for e in result.estimates_before}
@@ -210,10 +173,60 @@ def candidate_table(candidates) -> str:
             + "; ".join(f"{k}: {v}" for k, v in SIGNIFICANT_BY.items()))
 
 
-def _run_cycle(args, records, loss, unreadable=()) -> int:
+def _run_smooth(args, records, loss, unreadable):
+    """The whole-record discovery on the smoothed simulator (`--base smooth`), on the
+    records with usable stick-slip (the others listed on stderr): the result and the
+    keys the command adds to its document."""
     import sys
 
-    from stickslip_jax.output import save_figure, write_json
+    from stickslip_jax.logs import logger
+
+    from ..data.campaign import screen_records
+    from ..discovery import discover
+    from ..discovery.effects import CANDIDATES
+
+    if loss.spec() != "gaussian":
+        raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
+                         "fits least squares); drop --loss or use --base cycle")
+    campaign = screen_records(records, strict=args.strict, unreadable=unreadable)
+    for w in campaign.warnings:
+        print("warning: " + w, file=sys.stderr)
+    logger.info(f"discovery on {len(campaign.records)} records (base smooth: minutes)...")
+    result = discover(campaign.records, candidates=tuple(args.only or CANDIDATES),
+                      top=args.top, threshold=args.threshold, crop=args.crop,
+                      learn=args.learn, max_evals=args.max_evals,
+                      progress=None if args.quiet else logger.info)
+    return result, {"records_screened": [x.to_json() for x in campaign.screening]}
+
+
+def answer_text(result) -> str:
+    """What the command prints (`discovery.result.Discovery`): the answer with the
+    families the records cannot tell from it, the explanation, the gap against the
+    noise, the candidate table of the result's base and the parameter table."""
+    r = result
+    joint = " or ".join([r.effect] + [x["name"] for x in r.indistinguishable_from])
+    table = candidate_table if r.BASE == "cycle" else smooth_candidate_table
+    return "\n".join([
+        f"effect: {joint} (confidence {r.confidence})"
+        + (": these records cannot tell them apart" if r.indistinguishable_from else ""),
+        r.explanation,
+        f"gap (residual RMS): {r.gap_before * 1e3:.3f} um -> {r.gap_after * 1e3:.3f} um; "
+        f"noise {r.noise * 1e3:.3f} um", table(r.candidates), parameter_table(r)])
+
+
+def smooth_candidate_table(candidates) -> str:
+    """The smooth base's candidate table: each effect's score and the refit's BIC change."""
+    lines = [f"{'candidate':22s} {'score':>10s} {'dBIC':>10s}"]
+    for c in candidates:
+        d = "-" if c["delta_criterion"] is None else f"{c['delta_criterion']:.1f}"
+        lines.append(f"{c['name']:22s} {c['score']:10.1f} {d:>10s}")
+    return "\n".join(lines)
+
+
+def _run_cycle(args, records, loss, unreadable=()):
+    """The per-cycle discovery (`--base cycle`), the records it does not use listed on
+    stderr: the result and the keys the command adds to its document."""
+    import sys
 
     from ..discovery.cycle_effects import FAMILIES
     from ..discovery.cycle_workflow import discover_cycles
@@ -237,18 +250,4 @@ def _run_cycle(args, records, loss, unreadable=()) -> int:
         if s.status != "used":
             print(f"warning: {s.name}: {s.status.replace('_', ' ')} ({s.reason}); not used",
                   file=sys.stderr)
-    joint = " or ".join([result.effect] + [r["name"] for r in result.indistinguishable_from])
-    print(f"effect: {joint} (confidence {result.confidence})"
-          + (": these records cannot tell them apart" if result.indistinguishable_from else ""))
-    print(result.explanation)
-    print(f"gap (residual RMS): {result.gap_before * 1e3:.3f} um -> "
-          f"{result.gap_after * 1e3:.3f} um; noise {result.noise * 1e3:.3f} um")
-    print(candidate_table(result.candidates))
-    _print_parameters(result)
-    if args.json:
-        write_json(args.json, {**json_document(result), "loss": loss.spec()})
-    if args.plot:
-        from ..discovery.plots import plot_cycle_discovery
-
-        save_figure(plot_cycle_discovery(result), args.plot, dpi=120)
-    return 0
+    return result, {"loss": loss.spec()}

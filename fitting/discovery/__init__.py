@@ -20,14 +20,15 @@ The whole-record workflow on the smoothed simulator (`--base smooth`):
 - `learned`: a learned (MLP) friction correction and a sparse regression naming its
   variables, for when no candidate explains the residuals.
 - `synthetic`: campaigns with a hidden effect, for tests and benchmarks.
-- `workflow`: `discover(records) -> DiscoveryResult`.
+- `workflow`: `discover(records) -> SmoothDiscovery`.
+- `result`: the one result type `Discovery` (`CycleDiscovery`, `SmoothDiscovery`).
 """
 
 import importlib
 
-__all__ = ["CANDIDATES", "DiscoveryResult", "EffectSet", "discover"]
+__all__ = ["CANDIDATES", "Discovery", "EffectSet", "discover"]
 
-_HOME = {"CANDIDATES": "effects", "EffectSet": "effects", "DiscoveryResult": "workflow",
+_HOME = {"CANDIDATES": "effects", "EffectSet": "effects", "Discovery": "result",
          "discover": "workflow"}
 
 

@@ -16,7 +16,7 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
 2. `base_fit`: the paper's model on every window (`cycle_model`, all effects zero):
    the objective of `stickslip fit --objective trace`, fitted by Levenberg-Marquardt
    (friction + one gauge offset per record), weights refreshed once at the optimum.
-   A record described much worse than the others (chi2/n above `RECORD_CHI2` times the
+   A record described much worse than the others (chi2/n above `record_chi2` times the
    campaign's median: a marginal record near the stick-slip boundary) weighs by its own
    scatter and is listed (`records_scaled`); the gaps, the misfit test and the score
    tests are over the other records (its structured residuals would otherwise be
@@ -35,17 +35,17 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    the whole ranking is measured on the data with the tests' correlations kept (the
    shapes of a family and the slip-shape families are strongly correlated; Bonferroni's
    `alpha` / (number of tests) assumed them independent and lost power); or when its
-   predicted chi-square drop is at least `RELEVANT` of the samples and the per-sample
+   predicted chi-square drop is at least `relevant` of the samples and the per-sample
    score test passes Bonferroni's level (the window-level test loses power when a few
    windows carry most of the signal).
 4. `refit`: the `top` significant families, each refitted from the score step with its
    best shape (the sensor with both kernel orders). A fit beyond a family's physical
    bounds or signs, or one whose traces do not change with the family's parameters (a
    zero Jacobian: e.g. a damping that stops every slip), is reported as unphysical and
-   never named. Far from the data (base chi2/n > `MISFIT`), the physical refits that
+   never named. Far from the data (base chi2/n > `misfit`), the physical refits that
    explain at least `joint` of the best
    one's drop have their continuous shape parameters refined before the choice
-   (`REFINE_CONTENDERS`; the grid shapes alone let a per-record screw beat a rational
+   (`refine_contenders`; the grid shapes alone let a per-record screw beat a rational
    Stribeck curve on lubricant C). When none of the `top` refits is physical, the other
    significant families are refitted too.
 5. `decision`: every other family with nominal evidence (robust p < `alpha` without
@@ -57,7 +57,7 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    beaten (z < `clear`) is named jointly when it is physical and changes the traces in
    nearly the same way (cosine >= `collinear`): `indistinguishable_from`, "X or Y:
    these records cannot tell them apart". Far from the data, a named fit that still
-   leaves more than `REFINE_GAP` x the noise is run again from the friction the base
+   leaves more than `refine_gap` x the noise is run again from the friction the base
    fit started from (`restart`: the base bent its friction to absorb the effect).
    Confidence is "high" only when the answer explains the gap (residual RMS after
    within 15 % of the noise) and no other contender that explains a comparable share
@@ -68,16 +68,16 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    it a smooth phase-locked term closes; `learned`, JSON `learned_correction`).
    The explanation names every phase (stick, slip) left above the noise, and whether its
    residual is within its own standard errors (a slip's timing error moves the fast
-   trace); "none" is "low" when a phase's chi2/n exceeds `PHASE_CHI2`.
+   trace); "none" is "low" when a phase's chi2/n exceeds `phase_chi2`.
 
 Gaps are residual RMS in mm; `noise` is the campaign's noise level (RMS of the records'
 robust noise estimates, `RecordFeatures.noise`).
 
 Layout: the stages are functions in `stickslip_fitting.discovery.stages` (`prepare`,
 `base_fit`, `rank`, `refit`, `sharpen`, `choose`, `reweigh`, `conclude`) that hand on
-frozen states (`stages.state`); the tuning is `options.DiscoveryOptions` (the upper-case
-names here are its defaults), the statistics and decision rules are in `decision`, the
-sub-problems over flat coordinates in `subproblems`, the result type in `result`.
+frozen states (`stages.state`); the tuning is `options.DiscoveryOptions` (`DEFAULTS`;
+the lower-case names above are its fields), the statistics and decision rules are in
+`decision`, the sub-problems over flat coordinates in `subproblems`, the result type in `result`.
 """
 
 from __future__ import annotations
@@ -88,27 +88,12 @@ from stickslip_jax.programs import release_programs
 
 from ..objectives.losses import AbstractLoss
 from .cycle_effects import FAMILIES, family
-from .decision import Contender, Decision, decide, hotelling, noise_of, paired_z  # noqa: F401
-from .options import (CLEAR, COLLINEAR, DEFAULTS, DRIVE_PRIOR, EXPONENTS, JOINT, LARGE_STARTS,
-                      MISFIT, MU_D_FLOOR, MU_D_LIFT, PHASE_CHI2, RECORD_CHI2,
-                      REFINE_CONTENDERS, REFINE_FITS, REFINE_GAP, RELEVANT, RESLIP_SYSTEMATIC,
-                      REWEIGH_ROUNDS, REWEIGH_TOLERANCE, SCREW_AMPLITUDE_MAX, SCREW_SPREAD,
-                      SENSOR_PROBE, SENSOR_PROBES, SET_ASIDE, SET_ASIDE_CHI2, SMALL_EXCESS,
-                      DiscoveryOptions)
+from .options import DEFAULTS, DiscoveryOptions
 from .result import CycleDiscovery
 from .stages import (Clock, Fits, base_fit, choose, conclude, prepare, rank, refit, reweigh,
                      sharpen)
-from .stages.prepare import sd_at
-from .starts import lift_mu_d, plausible_start
-from .subproblems import SharedScrewProblem, SubProblem  # noqa: F401
 
-__all__ = ["CLEAR", "COLLINEAR", "DEFAULTS", "DRIVE_PRIOR", "EXPONENTS", "JOINT",
-           "LARGE_STARTS", "MISFIT", "MU_D_FLOOR", "MU_D_LIFT", "PHASE_CHI2", "RECORD_CHI2",
-           "REFINE_CONTENDERS", "REFINE_FITS", "REFINE_GAP", "RELEVANT", "RESLIP_SYSTEMATIC",
-           "REWEIGH_ROUNDS", "REWEIGH_TOLERANCE", "SCREW_AMPLITUDE_MAX", "SCREW_SPREAD",
-           "SENSOR_PROBE", "SENSOR_PROBES", "SET_ASIDE", "SET_ASIDE_CHI2", "SMALL_EXCESS",
-           "Contender", "CycleDiscovery", "Decision", "DiscoveryOptions", "decide",
-           "discover_cycles", "lift_mu_d", "noise_of", "paired_z", "plausible_start", "sd_at"]
+__all__ = ["CycleDiscovery", "DiscoveryOptions", "discover_cycles"]
 
 
 def discover_cycles(
@@ -117,9 +102,9 @@ def discover_cycles(
     candidates: tuple[str, ...] | None = None,
     top: int = 3,
     alpha: float = 0.01,
-    collinear: float = COLLINEAR,
-    joint: float = JOINT,
-    clear: float = CLEAR,
+    collinear: float = DEFAULTS.collinear,
+    joint: float = DEFAULTS.joint,
+    clear: float = DEFAULTS.clear,
     max_evals: int = 30,
     refit_evals: int = 15,
     strict: bool = False,

@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 import scipy.stats
 
-from .options import CLEAR, COLLINEAR, JOINT
+from .options import DEFAULTS
 
 __all__ = ["Contender", "Decision", "decide", "noise_of", "paired_z"]
 
@@ -59,8 +59,8 @@ def paired_z(r_winner: np.ndarray, r_other: np.ndarray, starts: np.ndarray) -> f
     return total / se
 
 
-def decide(winner_drop: float, others, *, joint: float = JOINT, collinear: float = COLLINEAR,
-           clear: float = CLEAR) -> Decision:
+def decide(winner_drop: float, others, *, joint: float = DEFAULTS.joint,
+           collinear: float = DEFAULTS.collinear, clear: float = DEFAULTS.clear) -> Decision:
     """Which contenders are named with the winner, and which keep the confidence low.
 
     Only contenders that the winner does not beat clearly (`paired_z` < `clear`) count.

@@ -96,14 +96,11 @@ class _Effect:
 class ViscousDamping(AbstractForceTerm, _Effect):
     r"""Viscous force $-c\,\dot y$ on the slider (kgf), c in kgf*s/mm."""
 
-    NAME: ClassVar[str] = "viscous_damping"
-    EXPLANATION: ClassVar[str] = (
+    NAME = "viscous_damping"
+    EXPLANATION = (
         "A force proportional to the slider velocity (a viscous oil film or a damper) "
         "resists the slip, so slips are slower and smaller than dry friction predicts.")
-    PARAMS: ClassVar[tuple[str, ...]] = ("c",)
-    UNITS: ClassVar[tuple[str, ...]] = ("kgf*s/mm",)
-    SCALES: ClassVar[tuple[float, ...]] = (0.05,)
-    SIGNS: ClassVar[tuple[int, ...]] = (1,)
+    PARAMS, UNITS, SCALES, SIGNS = ("c",), ("kgf*s/mm",), (0.05,), (1,)
 
     c: Scalar = eqx.field(converter=_f, default=0.0)
 
@@ -118,14 +115,11 @@ class Stribeck(AbstractForceTerm, _Effect):
     curve), `b` < 0: it rises (viscous-like); `v_s` (mm/s) fixed.
     """
 
-    NAME: ClassVar[str] = "stribeck"
-    EXPLANATION: ClassVar[str] = (
+    NAME = "stribeck"
+    EXPLANATION = (
         "The kinetic friction coefficient changes with slip velocity (falling friction, "
         "the Stribeck curve), so the slip accelerates or brakes as it speeds up.")
-    PARAMS: ClassVar[tuple[str, ...]] = ("b",)
-    UNITS: ClassVar[tuple[str, ...]] = ("-",)
-    SCALES: ClassVar[tuple[float, ...]] = (0.01,)
-    SIGNS: ClassVar[tuple[int, ...]] = (0,)
+    PARAMS, UNITS, SCALES, SIGNS = ("b",), ("-",), (0.01,), (0,)
 
     b: Scalar = eqx.field(converter=_f, default=0.0)
     v_s: float = eqx.field(static=True, default=1.0)
@@ -144,14 +138,11 @@ class DrivePeriodicError(AbstractForceTerm, _Effect):
     is fixed (the screw lead or gear pitch).
     """
 
-    NAME: ClassVar[str] = "drive_periodic_error"
-    EXPLANATION: ClassVar[str] = (
+    NAME = "drive_periodic_error"
+    EXPLANATION = (
         "The drive does not advance uniformly: its position error repeats every screw "
         "or gear pitch, so the spring is loaded faster and slower in turn.")
-    PARAMS: ClassVar[tuple[str, ...]] = ("a_sin", "a_cos")
-    UNITS: ClassVar[tuple[str, ...]] = ("mm", "mm")
-    SCALES: ClassVar[tuple[float, ...]] = (1e-3, 1e-3)
-    SIGNS: ClassVar[tuple[int, ...]] = (0, 0)
+    PARAMS, UNITS, SCALES, SIGNS = ("a_sin", "a_cos"), ("mm", "mm"), (1e-3, 1e-3), (0, 0)
 
     a_sin: Scalar = eqx.field(converter=_f, default=0.0)
     a_cos: Scalar = eqx.field(converter=_f, default=0.0)
@@ -186,14 +177,11 @@ class SensorLowpass(AbstractMeasurement, _Effect):
     sample interval, so $\tau = 0$ reads $x$ to within $10^{-5}\,\dot x$.
     """
 
-    NAME: ClassVar[str] = "sensor_lowpass"
-    EXPLANATION: ClassVar[str] = (
+    NAME = "sensor_lowpass"
+    EXPLANATION = (
         "The recording chain (strain-gauge amplifier and oscillograph) is a low-pass "
         "filter: the fast slips are recorded late and rounded.")
-    PARAMS: ClassVar[tuple[str, ...]] = ("time_constant",)
-    UNITS: ClassVar[tuple[str, ...]] = ("s",)
-    SCALES: ClassVar[tuple[float, ...]] = (5e-4,)
-    SIGNS: ClassVar[tuple[int, ...]] = (1,)
+    PARAMS, UNITS, SCALES, SIGNS = ("time_constant",), ("s",), (5e-4,), (1,)
     TAU_MIN: ClassVar[float] = 1e-5
     num_states: ClassVar[int] = 1
 
@@ -227,14 +215,11 @@ class FrictionDrift(AbstractForceTerm, _Effect):
     simulator's smoothed sign (so it also raises the force the stick can hold).
     """
 
-    NAME: ClassVar[str] = "friction_drift"
-    EXPLANATION: ClassVar[str] = (
+    NAME = "friction_drift"
+    EXPLANATION = (
         "The friction level changes slowly during a record (warming up, running in), "
         "so peaks and troughs climb or sink from cycle to cycle.")
-    PARAMS: ClassVar[tuple[str, ...]] = ("rate",)
-    UNITS: ClassVar[tuple[str, ...]] = ("1/s",)
-    SCALES: ClassVar[tuple[float, ...]] = (2e-3,)
-    SIGNS: ClassVar[tuple[int, ...]] = (0,)
+    PARAMS, UNITS, SCALES, SIGNS = ("rate",), ("1/s",), (2e-3,), (0,)
 
     rate: Scalar = eqx.field(converter=_f, default=0.0)
 
@@ -245,14 +230,11 @@ class FrictionDrift(AbstractForceTerm, _Effect):
 class GaugeDrift(AbstractMeasurement, _Effect):
     """The gauge zero drifts linearly: reads x + rate * t (mm, t in s from the record start)."""
 
-    NAME: ClassVar[str] = "gauge_drift"
-    EXPLANATION: ClassVar[str] = (
+    NAME = "gauge_drift"
+    EXPLANATION = (
         "The strain-gauge zero drifts during a record (temperature of the bridge), so "
         "the whole trace tilts while the slider's motion is unchanged.")
-    PARAMS: ClassVar[tuple[str, ...]] = ("rate",)
-    UNITS: ClassVar[tuple[str, ...]] = ("mm/s",)
-    SCALES: ClassVar[tuple[float, ...]] = (1e-3,)
-    SIGNS: ClassVar[tuple[int, ...]] = (0,)
+    PARAMS, UNITS, SCALES, SIGNS = ("rate",), ("mm/s",), (1e-3,), (0,)
 
     rate: Scalar = eqx.field(converter=_f, default=0.0)
     noise_std: Scalar = eqx.field(converter=_f, default=0.0)
@@ -280,14 +262,11 @@ class LoadCoupling(AbstractLoadCoupling, _Effect):
     raised chi-square 70-fold).
     """
 
-    NAME: ClassVar[str] = "load_coupling"
-    EXPLANATION: ClassVar[str] = (
+    NAME = "load_coupling"
+    EXPLANATION = (
         "The drive force acts above the sliding surface; its moment presses the slider "
         "down (or lifts it), so the normal load and the friction grow with the spring force.")
-    PARAMS: ClassVar[tuple[str, ...]] = ("kappa",)
-    UNITS: ClassVar[tuple[str, ...]] = ("-",)
-    SCALES: ClassVar[tuple[float, ...]] = (0.1,)
-    SIGNS: ClassVar[tuple[int, ...]] = (0,)
+    PARAMS, UNITS, SCALES, SIGNS = ("kappa",), ("-",), (0.1,), (0,)
 
     kappa: Scalar = eqx.field(converter=_f, default=0.0)
 
@@ -349,14 +328,11 @@ class RateState(AbstractForceTerm, _Effect):
     $-N\,b\,e^{-s/L}\,(1-w)\,\mathrm{sign}(\dot y)$ (kgf); `L` (mm) fixed.
     """
 
-    NAME: ClassVar[str] = "rate_state"
-    EXPLANATION: ClassVar[str] = (
+    NAME = "rate_state"
+    EXPLANATION = (
         "Kinetic friction relaxes over a characteristic slip distance (rate-and-state "
         "friction) instead of being set by the slip time, so each slip starts stiffer.")
-    PARAMS: ClassVar[tuple[str, ...]] = ("b",)
-    UNITS: ClassVar[tuple[str, ...]] = ("-",)
-    SCALES: ClassVar[tuple[float, ...]] = (0.01,)
-    SIGNS: ClassVar[tuple[int, ...]] = (1,)
+    PARAMS, UNITS, SCALES, SIGNS = ("b",), ("-",), (0.01,), (1,)
     num_states: ClassVar[int] = 1
 
     b: Scalar = eqx.field(converter=_f, default=0.0)

@@ -264,10 +264,6 @@ def slot_matrix(effect: str | None, n_slots: int = 2) -> np.ndarray:
     return S
 
 
-def effect_dimension(effect: str) -> int:
-    return sum(1 for n, _ in EFFECT_PARAMS if n == effect)
-
-
 TRACE_COUNT = {"evaluate": 0}
 """How many times the residual/Jacobian function was traced (tests check it is once
 per campaign shape, whatever the candidate)."""

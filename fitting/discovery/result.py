@@ -1,9 +1,13 @@
-"""The result of the per-cycle discovery (`cycle_workflow.discover_cycles`): `CycleDiscovery`,
-its JSON (the `stickslip discover --json` contract) and its explanation text."""
+"""The result of a discovery, whichever its base model: `Discovery` and its two final
+subclasses, `CycleDiscovery` (the per-cycle base, `cycle_workflow.discover_cycles`) and
+`SmoothDiscovery` (the smoothed whole-record base, `workflow.discover`), their JSON (the
+`stickslip discover --json` contract) and the explanation text."""
 
 from __future__ import annotations
 
+import abc
 import dataclasses
+from typing import ClassVar
 
 import numpy as np
 
@@ -16,16 +20,23 @@ from .cycle_learned import CycleLearned
 from .cycle_model import CycleModel
 from .options import DEFAULTS
 
-__all__ = ["NO_STDERR", "CycleDiscovery", "effect_estimate", "estimate_text", "phase_misfit",
-           "phase_text"]
+__all__ = ["NO_STDERR", "CycleDiscovery", "Discovery", "SmoothDiscovery", "effect_estimate",
+           "estimate_text", "phase_misfit", "phase_text"]
+
+FIT_CRITERION = ("converged when a full Gauss-Newton step would lower chi-square by < 0.05, "
+                 "or the last 4 evaluations lowered it by < 0.5 together")
+"""When the base fit counts as converged (`stickslip_jax.lsq.solve_host`'s defaults)."""
 
 
-@dataclasses.dataclass
-class CycleDiscovery(DiscoveryEstimates):
-    """Outcome of `discover_cycles`; `to_json` is the `stickslip discover --json` contract
-    (the keys of the whole-record workflow, plus `base`, `records`, `phases`). The
-    parameter rows are `stickslip_fitting.report.rows.ParameterEstimate`s (`DiscoveryEstimates`:
-    `parameters_before`, `parameters_after` and `effect_size` are derived from them)."""
+@dataclasses.dataclass(kw_only=True)
+class Discovery(DiscoveryEstimates, abc.ABC):
+    """The answer of `stickslip discover`: the `effect` named (a family's name, "none" or
+    "unexplained"), its `confidence` and `explanation`, the gaps (residual RMS, mm)
+    before and after against the `noise` (mm), the `candidates` tested, the fits, and the
+    parameter rows (`stickslip_fitting.report.rows.ParameterEstimate`s;
+    `DiscoveryEstimates` derives `parameters_before`, `parameters_after` and
+    `effect_size`). `to_json` is the `--json` contract: the keys every base writes, with
+    those of the base (`base_json`) after the effect's size."""
 
     effect: str
     explanation: str
@@ -38,12 +49,57 @@ class CycleDiscovery(DiscoveryEstimates):
     estimates_before: list[ParameterEstimate]
     estimates_after: list[ParameterEstimate]
     effect_estimates: list[ParameterEstimate]
-    indistinguishable_from: list
-    phases_before: dict
-    phases_after: dict
     timings: dict
     base_fit: HostResult
     final_fit: HostResult
+    indistinguishable_from: list = dataclasses.field(default_factory=list)
+    effect_of: str = ""
+    learned: object = None
+    """The learned correction, where one was fitted (None otherwise)."""
+    BASE: ClassVar[str]
+    """The base model (the document's "base": "cycle" or "smooth")."""
+
+    @abc.abstractmethod
+    def base_json(self) -> dict:
+        """The keys of this base's document after "effect_size"."""
+
+    @abc.abstractmethod
+    def figure(self):
+        """The figure of `stickslip discover --plot` (`discovery.plots`): the residuals
+        by phase before and after, and the traces."""
+
+    def gaps_json(self) -> dict:
+        """The keys of this base's document after "gap_unit"."""
+        return {}
+
+    def to_json(self) -> dict:
+        return {
+            "effect": self.effect, "explanation": self.explanation,
+            "confidence": self.confidence,
+            "indistinguishable_from": self.indistinguishable_from, "base": self.BASE,
+            "base_fit": {"converged": self.base_fit.converged,
+                         "evaluations": self.base_fit.n_evals, "criterion": FIT_CRITERION},
+            "final_fit": {"converged": self.final_fit.converged,
+                          "evaluations": self.final_fit.n_evals},
+            "gap_before": self.gap_before, "gap_after": self.gap_after, "gap_unit": "mm",
+            **self.gaps_json(), "noise": self.noise, "criterion": self.criterion,
+            "candidates": self.candidates,
+            "parameters_before": self.parameters_before,
+            "parameters_after": self.parameters_after,
+            "effect_size": self.effect_size, **self.base_json(), "timings_s": self.timings,
+        }
+
+
+@dataclasses.dataclass(kw_only=True)
+class CycleDiscovery(Discovery):
+    """The answer on the per-cycle base (`discover_cycles`): with the residuals by phase,
+    the screened `campaign`, the per-cycle `model` and its coordinates before and after,
+    the records weighed by their scatter and the windows set aside; `learned` is the
+    phase correction (`cycle_learned.CycleLearned`), fitted when the answer is
+    "unexplained" or with `learn=True`."""
+
+    phases_before: dict
+    phases_after: dict
     campaign: Campaign
     model: CycleModel
     z_before: np.ndarray
@@ -51,16 +107,14 @@ class CycleDiscovery(DiscoveryEstimates):
     shape: Shape
     sensor: bool
     records_scaled: list = dataclasses.field(default_factory=list)
-    effect_of: str = ""
     windows_set_aside: list = dataclasses.field(default_factory=list)
     learned: CycleLearned | None = None
-    """The learned phase correction (`cycle_learned`): fitted when the answer is
-    "unexplained", or always with `learn=True`; None otherwise."""
     gap_all_before: float = float("nan")
     gap_all_after: float = float("nan")
     """The residual RMS (mm) over every record used, those weighed by their scatter
     (`records_scaled`) included; `gap_before` and `gap_after` are over the records the
     paper's model describes (the ones the decision uses)."""
+    BASE: ClassVar[str] = "cycle"
 
     @property
     def effect_size(self) -> dict[str, dict]:
@@ -70,36 +124,53 @@ class CycleDiscovery(DiscoveryEstimates):
         return {e.name: e.to_json(self.EFFECT_KEYS + ("at_bound", "reason"))
                 for e in self.effect_estimates}
 
-    def to_json(self) -> dict:
-        return {
-            "effect": self.effect, "explanation": self.explanation,
-            "confidence": self.confidence,
-            "indistinguishable_from": self.indistinguishable_from,
-            "base": "cycle",
-            "base_fit": {"converged": self.base_fit.converged,
-                         "evaluations": self.base_fit.n_evals,
-                         "criterion": "converged when a full Gauss-Newton step would lower "
-                                      "chi-square by < 0.05, or the last 4 evaluations "
-                                      "lowered it by < 0.5 together"},
-            "final_fit": {"converged": self.final_fit.converged,
-                          "evaluations": self.final_fit.n_evals},
-            "gap_before": self.gap_before, "gap_after": self.gap_after, "gap_unit": "mm",
-            "gap_all_records_before_mm": self.gap_all_before,
-            "gap_all_records_after_mm": self.gap_all_after,
-            "noise": self.noise, "criterion": self.criterion,
-            "candidates": self.candidates,
-            "parameters_before": self.parameters_before,
-            "parameters_after": self.parameters_after,
-            "effect_size": self.effect_size,
-            "residuals_by_phase_before": self.phases_before,
-            "residuals_by_phase_after": self.phases_after,
-            "records": [s.to_json() for s in self.campaign.screening],
-            "records_scaled": self.records_scaled,
-            "windows_set_aside": self.windows_set_aside,
-            "learned_correction": (self.learned.to_json() if self.learned is not None
-                                   else None),
-            "timings_s": self.timings,
-        }
+    def figure(self):
+        from .plots import plot_cycle_discovery
+
+        return plot_cycle_discovery(self)
+
+    def gaps_json(self) -> dict:
+        return {"gap_all_records_before_mm": self.gap_all_before,
+                "gap_all_records_after_mm": self.gap_all_after}
+
+    def base_json(self) -> dict:
+        return {"residuals_by_phase_before": self.phases_before,
+                "residuals_by_phase_after": self.phases_after,
+                "records": [s.to_json() for s in self.campaign.screening],
+                "records_scaled": self.records_scaled,
+                "windows_set_aside": self.windows_set_aside,
+                "learned_correction": (self.learned.to_json() if self.learned is not None
+                                       else None)}
+
+
+@dataclasses.dataclass(kw_only=True)
+class SmoothDiscovery(Discovery):
+    """The answer on the smoothed whole-record base (`workflow.discover`): with the
+    residual analyses before and after (`residuals.analyse_residuals`: phases and the
+    misspecification test) and the problems (`model.Problem`) of the base and final
+    fits; `learned` is the MLP friction correction (`learned`), when fitted."""
+
+    residuals_before: object
+    residuals_after: object
+    test_before: dict  # the misspecification test of the base fit's residuals
+    test_after: dict  # ... of the final fit's
+    base_problem: object
+    final_problem: object
+    BASE: ClassVar[str] = "smooth"
+
+    def figure(self):
+        from .plots import plot_discovery
+
+        return plot_discovery(self)
+
+    def base_json(self) -> dict:
+        out = {"misspecification_before": self.test_before,
+               "misspecification_after": self.test_after,
+               "residuals_by_phase_before": self.residuals_before.phases,
+               "residuals_by_phase_after": self.residuals_after.phases}
+        if self.learned is not None:
+            out["learned_correction"] = self.learned.to_json()
+        return out
 
 
 NO_STDERR = ("no standard error: the refit's derivatives do not determine it (the "

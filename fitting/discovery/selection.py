@@ -36,10 +36,11 @@ import scipy.stats
 
 from stickslip_jax.lsq import HostResult, solve_host
 
+from ..report.rows import ParameterEstimate
 from .model import Problem
 from .ranking import CandidateScore
 
-__all__ = ["Refit", "refit_candidates", "choose"]
+__all__ = ["Refit", "choose", "effect_rows", "refit_candidates"]
 
 
 @dataclasses.dataclass
@@ -126,8 +127,9 @@ def choose(refits: list[Refit], *, threshold: float = 10.0) -> Refit | None:
     return best if best.delta_bic < -threshold else None
 
 
-def effect_estimate(refit: Refit) -> dict:
-    """{param: {"value", "stderr", "unit"}} of the chosen effect (Gauss-Newton covariance)."""
+def effect_rows(refit: Refit) -> list[ParameterEstimate]:
+    """The chosen effect's parameters (natural units) with their Gauss-Newton standard
+    errors, as parameter rows."""
     from .effects import EffectSet
 
     pc, fit = refit.problem, refit.fit
@@ -135,11 +137,9 @@ def effect_estimate(refit: Refit) -> dict:
     cov = fit.covariance(act)
     idx = np.flatnonzero(act)
     part = getattr(EffectSet(), refit.name)
-    out = {}
-    for j, p in enumerate(part.PARAMS):
-        col = pc.n_base + j
-        k = int(np.flatnonzero(idx == col)[0])
-        out[p] = {"value": float(fit.z[col] * part.SCALES[j]),
-                  "stderr": float(math.sqrt(max(cov[k, k], 0.0)) * part.SCALES[j]),
-                  "unit": part.UNITS[j]}
+    out = []
+    for j, (p, unit, scale) in enumerate(zip(part.PARAMS, part.UNITS, part.SCALES)):
+        k = int(np.flatnonzero(idx == pc.n_base + j)[0])
+        out.append(ParameterEstimate.from_normal(p, unit, float(fit.z[pc.n_base + j] * scale),
+                                                 math.sqrt(max(cov[k, k], 0.0)) * scale))
     return out

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .options import EXPONENTS, MU_D_FLOOR, MU_D_LIFT
+from .options import DEFAULTS
 
 __all__ = ["lift_mu_d", "plausible_start"]
 
@@ -16,12 +16,12 @@ def plausible_start(logs, stick_times, slip_times) -> np.ndarray:
     log n; `EmpiricalFriction`) moved into a range where the per-cycle model runs:
     parameters the features cannot determine may wander far (the real records: m -> 0,
     delta 2e12, n 1e116, so exp(-delta T2^n) = 1 and no slip ends; a strong Stribeck
-    campaign: mu_s - mu_d 9e5 with gamma 5e-8). An exponent m or n outside `EXPONENTS`
-    starts at 1; gamma and delta keep what the records measure, gamma T1^m and delta
-    T2^n at the median stick and slip times (s), with exp(-gamma T1^m) in [0.02, 0.98]
-    and exp(-delta T2^n) in [0.02, 0.9] (a mean kinetic friction within 10 % of
-    mu_0 - mu_d of the breakaway level leaves no slip that ends); mu_s - mu_d then keeps
-    eq (1)'s rise mu_0(T1) - mu_d at the median stick time."""
+    campaign: mu_s - mu_d 9e5 with gamma 5e-8). An exponent m or n outside
+    `DiscoveryOptions.exponents` starts at 1; gamma and delta keep what the records
+    measure, gamma T1^m and delta T2^n at the median stick and slip times (s), with
+    exp(-gamma T1^m) in [0.02, 0.98] and exp(-delta T2^n) in [0.02, 0.9] (a mean
+    kinetic friction within 10 % of mu_0 - mu_d of the breakaway level leaves no slip
+    that ends); mu_s - mu_d then keeps eq (1)'s rise mu_0(T1) - mu_d at the median stick time."""
     z = np.asarray(logs, float).copy()
     lgap, lg, lm, ld, ln = (float(v) for v in z[1:6])
     T1 = float(np.nanmedian(stick_times[stick_times > 0])) if np.any(stick_times > 0) else 1.0
@@ -31,7 +31,7 @@ def plausible_start(logs, stick_times, slip_times) -> np.ndarray:
         for l_coef, l_exp, T, q_max in ((lg, lm, T1, 0.98), (ld, ln, T2, 0.9)):
             lo, hi = np.log(-np.log(q_max)), np.log(-np.log(0.02))
             e = float(np.exp(l_exp))
-            e1 = e if EXPONENTS[0] <= e <= EXPONENTS[1] else 1.0
+            e1 = e if DEFAULTS.exponents[0] <= e <= DEFAULTS.exponents[1] else 1.0
             a = l_coef + e * np.log(T)  # log(coefficient T^exponent)
             a1 = float(np.clip(np.nan_to_num(a, nan=0.0, posinf=hi, neginf=lo), lo, hi))
             out.append((a1 - e1 * np.log(T), np.log(e1), a, a1))
@@ -45,14 +45,16 @@ def plausible_start(logs, stick_times, slip_times) -> np.ndarray:
 
 
 def lift_mu_d(logs) -> np.ndarray:
-    """The six friction logs (`EmpiricalFriction`) with mu_d lifted to MU_D_LIFT x mu_s
-    (mu_s kept) when it is below MU_D_FLOOR x mu_s. The fit's coordinate is log mu_d: a
-    fit that has driven mu_d towards 0 (a large effect lowering the slips' friction, such
-    as a Stribeck drop of 0.2 on lubricant A: mu_d 1e-13 in both the features fit and the
-    base) has no gradient left to bring it back once the effect is added."""
+    """The six friction logs (`EmpiricalFriction`) with mu_d lifted to `mu_d_lift` x mu_s
+    (mu_s kept) when it is below `mu_d_floor` x mu_s (`DiscoveryOptions`). The fit's
+    coordinate is log mu_d: a fit that has driven mu_d towards 0 (a large effect lowering
+    the slips' friction, such as a Stribeck drop of 0.2 on lubricant A: mu_d 1e-13 in both
+    the features fit and the base) has no gradient left to bring it back once the effect
+    is added."""
     z = np.asarray(logs, float).copy()
     mu_d, gap = np.exp(z[0]), np.exp(z[1])
     mu_s = mu_d + gap
-    if mu_d < MU_D_FLOOR * mu_s:
-        z[0], z[1] = np.log(MU_D_LIFT * mu_s), np.log((1.0 - MU_D_LIFT) * mu_s)
+    floor, lift = DEFAULTS.mu_d_floor, DEFAULTS.mu_d_lift
+    if mu_d < floor * mu_s:
+        z[0], z[1] = np.log(lift * mu_s), np.log((1.0 - lift) * mu_s)
     return z

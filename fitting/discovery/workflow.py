@@ -33,21 +33,22 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 
 import numpy as np
 
-from stickslip_jax.lsq import HostResult, solve_host
+from stickslip_jax.lsq import solve_host
 
 from ..params import EmpiricalFriction
-from ..report.rows import DiscoveryEstimates, ParameterEstimate
+from ..report.rows import DiscoveryEstimates
 from .effects import CANDIDATES, EffectSet
 from .model import Problem, Settings, campaign_traces
 from .ranking import direction_cosine, score_candidates
 from .residuals import analyse_residuals
-from .selection import choose, effect_estimate, refit_candidates
+from .result import SmoothDiscovery
+from .selection import choose, effect_rows, refit_candidates
+from .stages.state import Clock
 
-__all__ = ["DiscoveryResult", "discover", "initial_friction"]
+__all__ = ["discover", "initial_friction"]
 
 
 def initial_friction(records) -> EmpiricalFriction:
@@ -84,65 +85,6 @@ def initial_friction(records) -> EmpiricalFriction:
     return EmpiricalFriction.from_values(**v)
 
 
-@dataclasses.dataclass
-class DiscoveryResult(DiscoveryEstimates):
-    """Outcome of `discover` (see `to_json` for the CLI contract). Gaps in mm. The
-    parameter rows are `stickslip_fitting.report.rows.ParameterEstimate`s (`DiscoveryEstimates`:
-    `parameters_before`, `parameters_after` and `effect_size` are derived from them)."""
-
-    effect: str
-    explanation: str
-    confidence: str
-    gap_before: float
-    gap_after: float
-    noise: float
-    criterion: str
-    candidates: list
-    estimates_before: list[ParameterEstimate]
-    estimates_after: list[ParameterEstimate]
-    effect_estimates: list[ParameterEstimate]
-    test_before: dict
-    test_after: dict
-    residuals_before: object
-    residuals_after: object
-    timings: dict
-    base_fit: HostResult
-    final_fit: HostResult
-    base_problem: Problem
-    final_problem: Problem
-    learned: object = None
-    indistinguishable_from: list = dataclasses.field(default_factory=list)
-    effect_of: str = ""
-
-    def to_json(self) -> dict:
-        out = {
-            "effect": self.effect, "explanation": self.explanation,
-            "confidence": self.confidence,
-            "indistinguishable_from": self.indistinguishable_from,
-            "base_fit": {"converged": self.base_fit.converged,
-                         "evaluations": self.base_fit.n_evals,
-                         "criterion": "converged when a full Gauss-Newton step would lower "
-                                      "chi-square by < 0.05, or the last 4 evaluations "
-                                      "lowered it by < 0.5 together"},
-            "final_fit": {"converged": self.final_fit.converged,
-                          "evaluations": self.final_fit.n_evals},
-            "gap_before": self.gap_before, "gap_after": self.gap_after,
-            "gap_unit": "mm", "noise": self.noise, "criterion": self.criterion,
-            "candidates": self.candidates,
-            "parameters_before": self.parameters_before,
-            "parameters_after": self.parameters_after,
-            "effect_size": self.effect_size,
-            "misspecification_before": self.test_before,
-            "misspecification_after": self.test_after,
-            "residuals_by_phase_before": self.residuals_before.phases,
-            "residuals_by_phase_after": self.residuals_after.phases,
-            "timings_s": self.timings,
-        }
-        if self.learned is not None:
-            out["learned_correction"] = self.learned.to_json()
-        return out
-
-
 def _friction_values(problem: Problem, z) -> dict:
     """Fitted friction parameters; with load coupling, mu_s and mu_d converted from the
     fit's apparent coefficients (against W) to physical ones (against N), the shape
@@ -159,7 +101,7 @@ def _analyse(problem: Problem, z, sigma):
     model, vel, stk = problem.trajectories(z)
     d, m = np.asarray(problem.traces.data), np.asarray(problem.traces.mask)
     res = [d[i][m[i]] - model[i][m[i]] for i in range(problem.traces.n_records)]
-    return analyse_residuals(res, problem.traces, vel, stk, sigma=sigma), res
+    return analyse_residuals(res, problem.traces, vel, stk, sigma=sigma)
 
 
 def discover(
@@ -178,7 +120,8 @@ def discover(
     refit_evals: int = 12,
     collinear: float = 0.8,
     fixed: tuple[str, ...] = (),
-) -> DiscoveryResult:
+    progress=None,
+) -> SmoothDiscovery:
     """Run the workflow (module docstring) on `records` (a campaign of `Record`s).
 
     `candidates`: library names to consider; `top`: how many to refit; `threshold`:
@@ -189,7 +132,8 @@ def discover(
     of the base fit and of the chosen model's polish (LM stops earlier at convergence:
     a full Gauss-Newton step would lower chi-square by < 0.05, or 4 evaluations gained
     < 0.5 together); `refit_evals`: budget
-    of each ranking refit; `collinear`: see "disagreement" below.
+    of each ranking refit; `collinear`: see "disagreement" below; `progress`: called
+    with one line per finished step.
 
     Disagreement: when the score test's winner (all statistics at the same converged
     base fit, so comparable) and the refits' BIC winner differ, their efficient-score
@@ -201,64 +145,111 @@ def discover(
     test prefers stribeck (170 vs 130), 40-evaluation refits prefer rate_state, and the
     true parameters give the chi-square drop the score test predicted (166).
     """
-    timings = {}
-    t = time.perf_counter()
+    clock = Clock(progress)
     traces = campaign_traces(records, crop=crop)
-    friction0 = initial_friction(records)
     effects = EffectSet.zeros() if effects is None else effects
-    base = Problem(traces, friction0, effects, settings=settings, fixed=tuple(fixed))
-    timings["prepare"] = time.perf_counter() - t
-
-    t = time.perf_counter()
+    base = Problem(traces, initial_friction(records), effects, settings=settings,
+                   fixed=tuple(fixed))
+    clock("prepare", f"{traces.n_records} records, {traces.n_samples} samples")
     base_fit = solve_host(base.evaluate, base.z0(), active=base.active(), max_evals=max_evals)
-    timings["base_fit"] = time.perf_counter() - t
-    sigma = float(traces.noise)
-    N = base_fit.n_data
-
-    t = time.perf_counter()
-    rep_before, _ = _analyse(base, base_fit.z, sigma)
-    timings["residuals_before"] = time.perf_counter() - t
-
-    t = time.perf_counter()
+    sigma, N = float(traces.noise), base_fit.n_data
+    gap_before = math.sqrt(base_fit.rss / N) * sigma
+    clock("base_fit", f"gap {gap_before * 1e3:.3g} um, {base_fit.n_evals} evaluations")
+    rep_before = _analyse(base, base_fit.z, sigma)
+    clock("residuals_before", f"misspecification p = {rep_before.p_value:.2g}")
     scores = score_candidates(base, base_fit.z, base_fit.rss, candidates)
-    timings["ranking"] = time.perf_counter() - t
+    clock("ranking", f"first {scores[0].name}" if scores else "no candidates")
+    refits, chosen, rivals = _refit_and_choose(base, base_fit, scores, effects, top=top,
+                                               threshold=threshold, collinear=collinear,
+                                               refit_evals=refit_evals, max_evals=max_evals)
+    clock("refit", chosen.name if chosen is not None else "none")
+    final_problem, final_fit = (base, base_fit) if chosen is None else (chosen.problem,
+                                                                         chosen.fit)
+    rep_after = rep_before if chosen is None else _analyse(final_problem, final_fit.z, sigma)
+    gap_after = math.sqrt(final_fit.rss / N) * sigma
+    rows = [] if chosen is None else effect_rows(chosen)
+    if chosen is not None:
+        runner = refits[1].delta_bic if len(refits) > 1 else 0.0
+        # high: the residuals pass, the cheap ranking and the refits agree on the winner
+        confident = (rep_after.p_value >= p_explained and scores[0].name == chosen.name
+                     and not rivals and (runner - chosen.delta_bic) >= margin)
+        effect, confidence = chosen.name, "high" if confident else "low"
+    else:
+        effect, confidence = "none", "high" if rep_before.p_value >= p_explained else "low"
+    explanation = _explanation(chosen, rows, rivals, rep_before, rep_after, gap_before,
+                               gap_after, sigma, effects, p_explained)
+    clock("residuals_after", f"{effect} ({confidence}); gap {gap_before * 1e3:.3g} -> "
+                             f"{gap_after * 1e3:.3g} um")
+    learned = None
+    if learn and rep_after.p_value < p_explained:
+        from .learned import fit_learned_correction
 
-    t = time.perf_counter()
+        learned = fit_learned_correction(base, base_fit)
+        explanation += (" A learned correction lowers the residual RMS to "
+                        f"{learned.gap_after * 1e3:.3g} um; it depends mostly on "
+                        f"{', '.join(learned.named_terms) or 'nothing identifiable'}.")
+        clock("learned", f"gap {learned.gap_after * 1e3:.3g} um")
+    clock.timings["total"] = sum(clock.timings.values())
+    value_rows = DiscoveryEstimates.value_rows
+    return SmoothDiscovery(
+        effect=effect, explanation=explanation, confidence=confidence,
+        gap_before=gap_before, gap_after=gap_after, noise=sigma,
+        criterion="BIC (Gaussian likelihood, noise profiled); delta_criterion = "
+                  "BIC(with effect) - BIC(base), named if < -%g" % threshold,
+        candidates=_candidates(scores, refits, effects),
+        estimates_before=value_rows(_friction_values(base, base_fit.z), EmpiricalFriction.UNITS),
+        estimates_after=value_rows(_friction_values(final_problem, final_fit.z),
+                                   EmpiricalFriction.UNITS),
+        effect_estimates=rows, effect_of=effect if rows else "",
+        residuals_before=rep_before, residuals_after=rep_after, test_before=rep_before.test,
+        test_after=rep_after.test, timings=clock.timings,
+        base_fit=base_fit, final_fit=final_fit, base_problem=base, final_problem=final_problem,
+        learned=learned, indistinguishable_from=rivals,
+    )
+
+
+def _refit_and_choose(base, base_fit, scores, effects, *, top, threshold, collinear,
+                      refit_evals, max_evals):
+    """The `top` refits, the one named (None: "none") and its rivals (`discover`'s
+    disagreement rule); a chosen refit that has not converged is polished first."""
     refits = refit_candidates(base, base_fit, scores, top=top, max_evals=refit_evals)
     chosen = choose(refits, threshold=threshold)
     rivals = []
     if chosen is not None and scores[0].name != chosen.name:
-        by_name0 = {r.name: r for r in refits}
-        first = by_name0.get(scores[0].name)
+        first = {r.name: r for r in refits}.get(scores[0].name)
         cos = direction_cosine(scores[0], next(c for c in scores if c.name == chosen.name))
         if first is not None and first.delta_bic < -threshold and cos > collinear:
             rivals = [{"name": chosen.name, "direction_cosine": cos,
                        "delta_criterion": chosen.delta_bic}]
             chosen = first
-    if chosen is not None and not chosen.fit.converged:
-        # polish the chosen model (the ranking refits are short)
-        more = solve_host(chosen.problem.evaluate, chosen.fit.z,
-                          active=chosen.problem.active(), max_evals=max_evals,
-                          first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok),
-                          lam0=chosen.fit.lam)
-        part = getattr(effects, chosen.name)
-        bad = type(part).unphysical(
-            {p: float(more.z[chosen.problem.n_base + j] * part.SCALES[j])
-             for j, p in enumerate(part.PARAMS)})
-        lr = 0.0 if bad else N * math.log(base_fit.rss / min(more.rss, base_fit.rss))
-        chosen = dataclasses.replace(chosen, fit=more, lr=lr, unphysical=bad,
-                                     delta_bic=-lr + chosen.dof * math.log(N))
-        refits = sorted([chosen] + [r for r in refits if r.name != chosen.name],
-                        key=lambda c: c.delta_bic)
-        if bad:  # the polish crossed into an unphysical sign: not an explanation
-            chosen = choose(refits, threshold=threshold)
-    timings["refit"] = time.perf_counter() - t
+    if chosen is None or chosen.fit.converged:
+        return refits, chosen, rivals
+    # polish the chosen model (the ranking refits are short)
+    more = solve_host(chosen.problem.evaluate, chosen.fit.z, active=chosen.problem.active(),
+                      max_evals=max_evals, first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok),
+                      lam0=chosen.fit.lam)
+    part = getattr(effects, chosen.name)
+    bad = type(part).unphysical(
+        {p: float(more.z[chosen.problem.n_base + j] * part.SCALES[j])
+         for j, p in enumerate(part.PARAMS)})
+    N = base_fit.n_data
+    lr = 0.0 if bad else N * math.log(base_fit.rss / min(more.rss, base_fit.rss))
+    chosen = dataclasses.replace(chosen, fit=more, lr=lr, unphysical=bad,
+                                 delta_bic=-lr + chosen.dof * math.log(N))
+    refits = sorted([chosen] + [r for r in refits if r.name != chosen.name],
+                    key=lambda c: c.delta_bic)
+    if bad:  # the polish crossed into an unphysical sign: not an explanation
+        chosen = choose(refits, threshold=threshold)
+    return refits, chosen, rivals
 
+
+def _candidates(scores, refits, effects) -> list[dict]:
+    """The JSON candidate table: each effect's score test and, when refitted, its BIC."""
     by_name = {r.name: r for r in refits}
-    cand_json = []
+    out = []
     for sc in scores:
         rf = by_name.get(sc.name)
-        cand_json.append({
+        out.append({
             "name": sc.name, "score": sc.statistic, "score_p_value": sc.p_value,
             "dof": sc.dof, "predicted_size": sc.predicted,
             "delta_criterion": rf.delta_bic if rf else None,
@@ -266,80 +257,32 @@ def discover(
             "unphysical": (rf.unphysical if rf else None) or sc.unphysical,
             "explanation": getattr(effects, sc.name).EXPLANATION,
         })
+    return out
 
-    gap_before = math.sqrt(base_fit.rss / N) * sigma
-    params_before = _friction_values(base, base_fit.z)
-    t = time.perf_counter()
-    if chosen is not None:
-        final_problem, final_fit = chosen.problem, chosen.fit
-        rep_after, _ = _analyse(final_problem, final_fit.z, sigma)
-        size = effect_estimate(chosen)
-        runner = refits[1].delta_bic if len(refits) > 1 else 0.0
-        explained = rep_after.p_value >= p_explained
-        # the cheap ranking and the refits must agree on the winner
-        agree = scores[0].name == chosen.name
-        confident = (explained and agree and not rivals
-                     and (runner - chosen.delta_bic) >= margin)
-        confidence = "high" if confident else "low"
-        part = getattr(effects, chosen.name)
-        sizes = ", ".join(f"{p} = {v['value']:.3g} +- {v['stderr']:.2g} {v['unit']}"
-                          for p, v in size.items())
-        explanation = (f"{part.EXPLANATION} Adding {chosen.name} ({sizes}) lowers BIC by "
-                       f"{-chosen.delta_bic:.1f} and the residual RMS from "
-                       f"{gap_before * 1e3:.3g} um to "
-                       f"{math.sqrt(final_fit.rss / N) * sigma * 1e3:.3g} um "
-                       f"(noise {sigma * 1e3:.3g} um)")
-        if rivals:
-            rv = rivals[0]
-            explanation += (f"; {rv['name']} changes the traces almost the same way here "
-                            f"(cosine {rv['direction_cosine']:.2f} between their score "
-                            f"directions) and its short refit scored better (BIC "
-                            f"{rv['delta_criterion']:.1f}): the two are not clearly "
-                            "distinguished by this campaign")
-        if not explained:
-            explanation += ("; the residuals still fail the misspecification test "
-                            f"(p = {rep_after.p_value:.2g}), so something else is missing too")
-        effect = chosen.name
-    else:
-        final_problem, final_fit, rep_after = base, base_fit, rep_before
-        size, confidence = {}, "high" if rep_before.p_value >= p_explained else "low"
-        effect = "none"
+
+def _explanation(chosen, rows, rivals, rep_before, rep_after, gap_before, gap_after, sigma,
+                 effects, p_explained) -> str:
+    """The answer in words: the effect named with its size and the gaps, or "none"."""
+    if chosen is None:
         if rep_before.p_value >= p_explained:
-            explanation = ("The paper's model explains the records to the noise level "
-                           f"(misspecification test p = {rep_before.p_value:.2g}); no library "
-                           "effect improves BIC enough.")
-        else:
-            explanation = ("The residuals are more than noise (misspecification test p = "
-                           f"{rep_before.p_value:.2g}, worst in the {rep_before.worst_phase()} "
-                           "phase) but no library effect explains them.")
-    timings["residuals_after"] = time.perf_counter() - t
-    gap_after = math.sqrt(final_fit.rss / N) * sigma
-    params_after = _friction_values(final_problem, final_fit.z)
-
-    learned = None
-    if learn and rep_after.p_value < p_explained:
-        from .learned import fit_learned_correction
-
-        t = time.perf_counter()
-        learned = fit_learned_correction(base, base_fit)
-        timings["learned"] = time.perf_counter() - t
-        explanation += (" A learned correction lowers the residual RMS to "
-                        f"{learned.gap_after * 1e3:.3g} um; it depends mostly on "
-                        f"{', '.join(learned.named_terms) or 'nothing identifiable'}.")
-    timings["total"] = sum(timings.values())
-    return DiscoveryResult(
-        effect=effect, explanation=explanation, confidence=confidence,
-        gap_before=gap_before, gap_after=gap_after, noise=sigma,
-        criterion="BIC (Gaussian likelihood, noise profiled); delta_criterion = "
-                  "BIC(with effect) - BIC(base), named if < -%g" % threshold,
-        candidates=cand_json,
-        estimates_before=DiscoveryEstimates.value_rows(params_before, EmpiricalFriction.UNITS),
-        estimates_after=DiscoveryEstimates.value_rows(params_after, EmpiricalFriction.UNITS),
-        effect_estimates=[ParameterEstimate.from_normal(p, v["unit"], v["value"], v["stderr"])
-                          for p, v in size.items()],
-        effect_of=effect if size else "",
-        test_before=rep_before.test, test_after=rep_after.test,
-        residuals_before=rep_before, residuals_after=rep_after, timings=timings,
-        base_fit=base_fit, final_fit=final_fit, base_problem=base, final_problem=final_problem,
-        learned=learned, indistinguishable_from=rivals,
-    )
+            return ("The paper's model explains the records to the noise level "
+                    f"(misspecification test p = {rep_before.p_value:.2g}); no library "
+                    "effect improves BIC enough.")
+        return ("The residuals are more than noise (misspecification test p = "
+                f"{rep_before.p_value:.2g}, worst in the {rep_before.worst_phase()} "
+                "phase) but no library effect explains them.")
+    sizes = ", ".join(f"{e.name} = {e.value:.3g} +- {e.stderr:.2g} {e.unit}" for e in rows)
+    text = (f"{getattr(effects, chosen.name).EXPLANATION} Adding {chosen.name} ({sizes}) "
+            f"lowers BIC by {-chosen.delta_bic:.1f} and the residual RMS from "
+            f"{gap_before * 1e3:.3g} um to {gap_after * 1e3:.3g} um "
+            f"(noise {sigma * 1e3:.3g} um)")
+    if rivals:
+        rv = rivals[0]
+        text += (f"; {rv['name']} changes the traces almost the same way here (cosine "
+                 f"{rv['direction_cosine']:.2f} between their score directions) and its "
+                 f"short refit scored better (BIC {rv['delta_criterion']:.1f}): the two are "
+                 "not clearly distinguished by this campaign")
+    if rep_after.p_value < p_explained:
+        text += ("; the residuals still fail the misspecification test "
+                 f"(p = {rep_after.p_value:.2g}), so something else is missing too")
+    return text
