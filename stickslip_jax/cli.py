@@ -184,7 +184,7 @@ def _persistent_cache() -> None:
 
         jax.config.update("jax_compilation_cache_dir", path)
         if "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
-            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
         # an import may already have compiled (and so settled the cache without a
         # directory): start it again with the directory
         compilation_cache.reset_cache()
@@ -194,8 +194,9 @@ def console_main() -> int:
     """Entry point of the `stickslip` command: `main` with JAX's persistent compilation
     cache on, so a later run on a campaign of the same layout (records, cycles and
     samples are padded to buckets) loads the compiled fit instead of compiling it again.
-    Programs that compiled in under 0.2 s are not kept (JAX's
-    `JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS` overrides that)."""
+    Every program is kept, the small ones of the feature extraction too (together about
+    1 s of a run's compilation; JAX's `JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS` sets a
+    minimum compile time instead)."""
     # the command writes figures to files: a non-interactive backend unless the user
     # chose one (library plotting functions never switch it themselves)
     os.environ.setdefault("MPLBACKEND", "Agg")
