@@ -261,6 +261,11 @@ def fit(
         campaign = load_campaign(given, strict=strict)
         inputs = tuple(str(p) for p in record_paths(given))
 
+    from stickslip_jax.logs import logger
+
+    used, spec = sum(s.status == "used" for s in campaign.screening), loss.spec()
+    logger.info(f"fitting {used} records (objective {objective}"
+                f"{'' if spec == 'gaussian' else ', loss ' + spec}, model {model_name})...")
     kw: dict[str, Any] = dict(hold=hold, modes=modes,
                               objective=objective, records=campaign.records, loss=loss)
     extra = None

@@ -19,12 +19,8 @@ is sampled around without fitting again.
 from __future__ import annotations
 
 import dataclasses
-import math
 import os
-from collections.abc import Mapping
 from typing import TYPE_CHECKING
-
-from stickslip_jax.modes import GaugeOffset, SlipTime
 
 from .campaign import CampaignFit, RecordsSpec
 from ..modes import Objective
@@ -33,9 +29,7 @@ if TYPE_CHECKING:
     import pandas
     from matplotlib.figure import Figure
 
-    from ..objectives.losses import AbstractLoss
     from ..uncertainty.mcmc import McmcResult
-    from ..params import AbstractFrictionParams
 
 __all__ = ["POSTERIOR_COLUMNS", "CampaignPosterior", "objective_of", "sample"]
 
@@ -147,24 +141,28 @@ class CampaignPosterior:
                            units=self.mcmc.units)
 
     def __str__(self) -> str:
-        from ..report.rows import text_table
-
-        rows = []
-        for name, p in self.report["parameters"].items():
-            low, high = p["ci95"]
-            rows.append([name, f"{p['median']:.5g}", p["unit"], f"{p['sd']:.3g}",
-                         f"[{low:.5g}, {high:.5g}]", f"{p['tau_steps']:.1f}",
-                         f"{p['ess']:.0f}"])
-        r = self.report
-        lines = [text_table(["parameter", "median", "unit", "sd", "95 % interval", "tau",
-                             "ESS"], rows, align="lrlrrrr"),
-                 f"prior: {r['prior']}",
-                 f"likelihood: {r['objective']} objective, loss {r['loss']}, chi2 divided "
-                 f"by {r['likelihood_scale']:.3g}",
-                 f"{r['walkers']} walkers x {r['steps']} steps (burn-in {r['burn']}); "
-                 f"acceptance {r['acceptance']:.2f}"]
-        if self.fixed:
-            lines.append("fixed: " + ", ".join(f"{n} = {v:g}" for n, v in self.fixed.items()))
+        """The table `stickslip mcmc` prints: per parameter the median, sd, 95 % interval,
+        autocorrelation time, ESS (and the truth where known), then the prior, the given
+        quantities, the likelihood, the sampler's settings and its warnings."""
+        r, truth = self.report, self.truth
+        head = (f"{'parameter':<10}{'median':>12}{'unit':>7}{'sd':>11}{'95 % interval':>26}"
+                f"{'tau':>8}{'ESS':>8}" + (f"{'truth':>10}" if truth else ""))
+        lines = [head, "-" * len(head)]
+        for name, p in r["parameters"].items():
+            ci = f"[{p['ci95'][0]:.5g}, {p['ci95'][1]:.5g}]"
+            lines.append(f"{name:<10}{p['median']:>12.5g}{p['unit']:>7}{p['sd']:>11.3g}{ci:>26}"
+                         f"{p['tau_steps']:>8.1f}{p['ess']:>8.0f}"
+                         + (f"{truth[name]:>10.4g}" if truth else ""))
+        lines += ["", f"prior: {r['prior']}"]
+        if "given" in r:
+            g = r["given"]
+            lines.append(f"given: eta = {g['eta']['value']:.4g} {g['eta']['unit']}, surface "
+                         f"{g['surface']}")
+        loss = "" if r["loss"] == "gaussian" else f" under the {r['loss']} loss"
+        lines += [f"likelihood: {r['objective']} objective{loss}, chi2 divided by "
+                  f"{r['likelihood_scale']:.3g}",
+                  f"{r['walkers']} walkers x {r['steps']} steps (burn-in {r['burn']}); "
+                  f"acceptance {r['acceptance']:.2f}"]
         return "\n".join(lines + [f"warning: {w}" for w in r["warnings"]])
 
     def __repr__(self) -> str:
@@ -181,25 +179,17 @@ def sample(
     burn: int | None = None,
     seed: int = 0,
     draws: int = 2000,
-    model: str | type[AbstractFrictionParams] = "empirical",
-    objective: Objective | str = Objective.FEATURES,
-    fix: Mapping[str, float] | None = None,
-    loss: AbstractLoss | str = "gaussian",
-    gauge_offset: GaugeOffset | str = GaugeOffset.ZERO,
-    slip_time: SlipTime | str = SlipTime.PAPER,
-    strict: bool = False,
-    eta: float | str | None = None,
-    surface: str = "S1G1",
     progress: bool = False,
+    **fit_options,
 ) -> CampaignPosterior:
     """Sample the posterior of the friction parameters of a campaign, as `stickslip
-    mcmc` does: fit (`stickslip_fitting.fit`, whose options `model`, `objective`, `fix`,
-    `loss`, `gauge_offset`, `slip_time`, `strict`, `eta`, `surface` these are), then run
-    emcee around the optimum (`mcmc.run_mcmc`).
+    mcmc` does: fit (`stickslip_fitting.fit` with `fit_options`, its keywords `model`,
+    `objective`, `fix`, `loss`, `gauge_offset`, `slip_time`, `strict`, `eta`, `surface`),
+    then run emcee around the optimum (`mcmc.run_mcmc`).
 
     - `records`: what `stickslip_fitting.fit` reads (files, a folder, a glob, a list, or
-      `Record` objects), or a `CampaignFit` to sample around (then the fit's options
-      must be left at their defaults: they are the fit's own).
+      `Record` objects), or a `CampaignFit` to sample around (then without
+      `fit_options`: the fit's options are its own).
     - `steps`, `walkers`, `burn` (default steps // 4), `seed`: the sampler's settings, as
       `--steps`, `--walkers`, `--burn`, `--seed` (at least 10 steps; at least twice as
       many walkers as free parameters; seed in 0 to 2**32 - 1).
@@ -214,39 +204,38 @@ def sample(
         raise ValueError(f"draws: need at least 1 draw, got {draws}")
     if steps < 10:
         raise ValueError(f"steps: need at least 10 steps, got {steps}")
-    free = 6 - len(fix or {})
+    free = 6 - len(fit_options.get("fix") or {})
     if walkers < 2 * max(free, 1):
         raise ValueError(f"walkers: need at least {2 * max(free, 1)} walkers (twice the "
                          f"{max(free, 1)} free parameters), got {walkers}")
     if burn is not None and not 0 <= burn < steps:
         raise ValueError(f"burn: must lie in [0, steps), got {burn}")
-    objective = Objective.parse(objective)
     if isinstance(records, CampaignFit):
-        changed = {k: v for k, v in dict(
-            model=model, objective=objective, fix=fix, loss=loss, gauge_offset=gauge_offset,
-            slip_time=slip_time, strict=strict, eta=eta, surface=surface).items()
-            if not _is_default(k, v)}
-        if changed:
-            raise ValueError(f"{', '.join(changed)}: the options of the fit given; give the "
-                             "records to fit with other options")
+        if fit_options:
+            raise ValueError(f"{', '.join(fit_options)}: the options of the fit given; give "
+                             "the records to fit with other options")
         cf = records
     else:
         from .campaign import fit
 
-        cf = fit(records, model=model, objective=objective, fix=fix, loss=loss,
-                 gauge_offset=gauge_offset, slip_time=slip_time, strict=strict, eta=eta,
-                 surface=surface)
-    from ..data.campaign import find_truth
-    from ..uncertainty.mcmc import run_mcmc
-    from ..report.mcmc_document import fixed_misfit, mcmc_document
+        cf = fit(records, **fit_options)
+    from stickslip_jax.logs import logger
 
+    from ..data.campaign import find_truth
+    from ..report.mcmc_document import fixed_misfit, mcmc_document
+    from ..uncertainty.mcmc import run_mcmc
+
+    logger.info(f"sampling: {walkers} walkers x {steps} steps (Ctrl-C stops and keeps the "
+                "chain so far)")
     try:
         res = run_mcmc(cf.fit, walkers=walkers, steps=steps, burn=burn, seed=seed,
-                       progress=progress)
+                       progress=progress, uncertainty=cf.uncertainty)
     except ValueError as err:  # the sampler's own checks name the command's options
         raise ValueError(str(err).replace("--walkers", "walkers").replace("--steps", "steps")
                          ) from None
     res.warnings.extend(fixed_misfit(cf.fit, res.names))
+    logger.info(f"sampling {'interrupted' if res.interrupted else 'done'}: acceptance "
+                f"{res.acceptance:.2f}")
     truth = find_truth(cf.campaign.records, list(cf.fit.values))
     extra = {"given": cf.report["given"]} if "given" in cf.report else None
     doc = mcmc_document(res, cf.fit, cf.campaign, model=cf.model,
@@ -270,17 +259,3 @@ def objective_of(objective) -> Objective:
         if isinstance(objective, kind):
             return member
     raise ValueError(f"no objective option for {type(objective).__name__}")
-
-
-_DEFAULTS = dict(model="empirical", objective=Objective.FEATURES, fix=None, loss="gaussian",
-                 gauge_offset=GaugeOffset.ZERO, slip_time=SlipTime.PAPER, strict=False,
-                 eta=None, surface="S1G1")
-
-
-def _is_default(name: str, value) -> bool:
-    default = _DEFAULTS[name]
-    if name == "fix":
-        return not value
-    if isinstance(value, float) and math.isnan(value):
-        return False
-    return value == default or (isinstance(default, str) and value == default)

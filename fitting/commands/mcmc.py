@@ -13,13 +13,14 @@ arviz InferenceData in netCDF (`McmcResult.save_chain`; chain = walker, draw = s
 and with arviz installed (the extra `stickslip-jax[posterior]`) arviz's ESS and R-hat
 of the walkers are printed, R-hat only indicative for an ensemble's walkers.
 `--plot OUT.png` (or `--corner`) draws the corner plot with the `corner` package.
+The command runs `stickslip_fitting.sample` and prints and writes its `CampaignPosterior`.
 """
 
 from __future__ import annotations
 
 import argparse
 
-from ..report.mcmc_document import JSON_ALIASES, thinned_draws  # noqa: F401  (the JSON's renamed keys)
+from ..report.mcmc_document import JSON_ALIASES  # the JSON's renamed keys
 
 NAME = "mcmc"
 HELP = "sample the posterior of the friction parameters (emcee) for a campaign of records"
@@ -66,92 +67,66 @@ def add_arguments(parser):
     parser.add_argument("--no-progress", action="store_true", help=argparse.SUPPRESS)
 
 
-def _fixed_misfit(fit, free) -> list[str]:
-    from ..report.mcmc_document import fixed_misfit
+SAMPLER_KEYWORDS = ("seed", "draws", "steps", "walkers", "burn", "eta", "surface")
+"""Keywords of `stickslip_fitting.sample` whose errors name the command's option."""
 
-    return fixed_misfit(fit, free)
+
+def posterior(args):
+    """`stickslip_fitting.sample` with the command line's options (errors name them)."""
+    import warnings
+
+    from ..api.posterior import sample
+    from ..microsqueeze_params import MicrosqueezeFriction
+    from ..objectives.losses import parse_loss
+    from .fit import parse_fix
+
+    if args.eta is not None and args.model != "microsqueeze":
+        raise ValueError("--eta: only used with --model microsqueeze")
+    fixed = parse_fix(args.fix, MicrosqueezeFriction if args.model == "microsqueeze" else None)
+    try:
+        with warnings.catch_warnings():  # the table's warnings say it
+            warnings.filterwarnings("ignore", "the fit did not converge", RuntimeWarning)
+            return sample(
+                args.records, steps=args.steps, walkers=args.walkers, burn=args.burn,
+                seed=args.seed, draws=args.draws, model=args.model, objective=args.objective,
+                fix=fixed, loss=parse_loss(args.loss), gauge_offset=args.offset,
+                slip_time=args.slip_time, strict=args.strict, surface=args.surface,
+                eta=None if args.eta is None else f"{args.eta!r} kgf*s/mm^2",
+                progress=not (args.quiet or args.no_progress))
+    except ValueError as err:
+        head, colon, rest = str(err).partition(":")
+        if head not in SAMPLER_KEYWORDS:
+            raise
+        raise ValueError(f"--{head}{colon}{rest}") from None
 
 
 def run(args) -> int:
-    from ..data.campaign import find_truth
-    from ..uncertainty.mcmc import run_mcmc
-    from .fit import fit_from_args
+    import sys
 
-    if not 0 <= args.seed < 2**32:
-        raise ValueError(f"--seed: must lie in 0 to 2**32 - 1, got {args.seed}")
-    if args.draws < 1:
-        raise ValueError(f"--draws: need at least 1 draw, got {args.draws}")
-    if args.steps < 10:
-        raise ValueError(f"--steps: need at least 10 steps, got {args.steps}")
-    free = 6 - len(set(f.split("=")[0].strip() for f in args.fix))
-    if args.walkers < 2 * max(free, 1):  # before the fit (gauge offsets may need more)
-        raise ValueError(f"--walkers: need at least {2 * max(free, 1)} walkers (twice the "
-                         f"{max(free, 1)} free parameters), got {args.walkers}")
-    if args.burn is not None and not 0 <= args.burn < args.steps:
-        raise ValueError(f"--burn: must lie in [0, --steps), got {args.burn}")
     from stickslip_jax.output import check_outputs, versioned, write_json
     from stickslip_jax.records import record_paths
+
+    from ..uncertainty.mcmc import ENSEMBLE_CAVEAT, MissingExtra, import_arviz
 
     check_outputs({"--json": args.json, args.plot_option: args.plot, "--chain": args.chain},
                   record_paths(args.records))
     if args.chain == "-":
         raise ValueError("--chain: give a file name such as chain.nc (netCDF is not written "
                          "to stdout)")
-    from ..uncertainty.mcmc import ENSEMBLE_CAVEAT, MissingExtra, import_arviz
-
     if args.chain:
         import_arviz("--chain")  # before the fit: a one-line error naming the extra
-    fit, campaign, extra = fit_from_args(args, objective=args.objective)
-    records = campaign.records
-    for w in campaign.warnings:
+    post = posterior(args)
+    res, report = post.mcmc, post.report
+    for w in post.campaign_fit.campaign.warnings:
         print("warning: " + w)
-    import sys
-
-    from stickslip_jax.logs import logger
-
-    logger.info(f"sampling: {args.walkers} walkers x {args.steps} steps (Ctrl-C stops and "
-                "keeps the chain so far)")
-    res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, burn=args.burn, seed=args.seed,
-                   progress=not (args.quiet or args.no_progress))
-    res.warnings.extend(_fixed_misfit(fit, res.names))
-    logger.info(f"sampling {'interrupted' if res.interrupted else 'done'}: acceptance "
-                f"{res.acceptance:.2f}")
-    summary = res.summary()
-    units = res.units
-    truth = find_truth(records, list(fit.values))
-    head = (f"{'parameter':<10}{'median':>12}{'unit':>7}{'sd':>11}{'95 % interval':>26}"
-            f"{'tau':>8}{'ESS':>8}" + (f"{'truth':>10}" if truth else ""))
-    print(head)
-    print("-" * len(head))
-    for name, s in summary.items():
-        ci = f"[{s['ci95'][0]:.5g}, {s['ci95'][1]:.5g}]"
-        line = (f"{name:<10}{s['median']:>12.5g}{units[name]:>7}{s['sd']:>11.3g}{ci:>26}"
-                f"{s['tau_steps']:>8.1f}{s['ess']:>8.0f}")
-        if truth:
-            line += f"{truth[name]:>10.4g}"
-        print(line)
-    print(f"\nprior: {res.prior}")
-    if extra:
-        g = extra["given"]
-        print(f"given: eta = {g['eta']['value']:.4g} {g['eta']['unit']}, surface {g['surface']}")
-    loss = "" if args.loss == "gaussian" else f" under the {args.loss} loss"
-    print(f"likelihood: {args.objective} objective{loss}, chi2 divided by "
-          f"{res.likelihood_scale:.3g}")
-    print(f"{res.walkers} walkers x {res.steps} steps (burn-in {res.burn}); "
-          f"acceptance {res.acceptance:.2f}")
-    for w in res.warnings:
-        print("warning: " + w)
-    from ..objectives.losses import loss_of
-
+    print(post)
     # the chain file's attributes besides the result's own (likelihood scale, units, ...)
-    attrs = {"model": args.model, "objective": args.objective,
-             "loss": loss_of(fit.objective).spec(), "seed": args.seed,
-             "record_names": [f.name for f in fit.features],
-             "records": [f.name for f in fit.features],  # old name, one release (JSON)
-             "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
+    attrs = {k: report[k] for k in ("model", "objective", "loss", "record_names")}
+    attrs.update(seed=args.seed, records=report["record_names"],  # old name, one release
+                 fixed=report["fixed"])
     idata = None
     try:
-        idata = res.to_inference_data(attrs, [f.name for f in fit.features])
+        idata = res.to_inference_data(attrs, report["record_names"])
     except MissingExtra:
         pass  # arviz's summary is optional (`--chain` checked for it above)
     if idata is not None:
@@ -163,21 +138,17 @@ def run(args) -> int:
             print(f"{name:<10}{row['ess_bulk']:>10.0f}{row['ess_tail']:>10.0f}"
                   f"{row['r_hat']:>8.3f}")
     if args.json:
-        from ..report.mcmc_document import mcmc_document
-
-        out = mcmc_document(res, fit, campaign, model=args.model, objective=args.objective,
-                            truth=truth, max_draws=args.draws, extra=extra)
-        write_json(args.json, versioned(out, JSON_ALIASES))
+        write_json(args.json, versioned(report, JSON_ALIASES))
         if args.json != "-":
             print(f"wrote {args.json}")
     if args.chain:
         res.save_chain(args.chain, idata=idata)
         print(f"wrote {args.chain}")
     if args.plot:
-        from ..report.posterior_plots import corner_plot
+        from stickslip_jax.logs import logger
 
         logger.info("drawing the corner plot...")
-        corner_plot(res.samples, res.names, args.plot, truth=truth, units=units)
+        post.plot(args.plot)
         print(f"wrote {args.plot}")
     if res.interrupted:
         print("stickslip mcmc: interrupted; the chain so far is summarised above"

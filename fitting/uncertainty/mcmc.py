@@ -60,7 +60,7 @@ from ..microsqueeze_params import MicrosqueezeFriction
 from ..modes import Covariance
 from ..params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, free_mask
 from ..report.rows import ParameterEstimate
-from .laplace import laplace
+from .laplace import Uncertainty, laplace
 
 __all__ = ["PRIOR_BOUNDS", "MissingExtra", "McmcResult", "import_arviz", "likelihood_scale",
            "log_posterior", "run_mcmc", "prior_text"]
@@ -325,14 +325,16 @@ def run_mcmc(
     burn: int | None = None,
     seed: int = 0,
     progress: bool = False,
+    uncertainty: Uncertainty | None = None,
 ) -> McmcResult:
     """Sample the posterior of a fit's free parameters with emcee (module doc).
 
-    `burn` steps (default steps // 4) are discarded; `progress` shows emcee's bar. A
-    Ctrl-C (KeyboardInterrupt) during sampling keeps the chain so far (at least
-    `MIN_KEPT` steps; burn-in at most a quarter of it): the result says `interrupted`.
+    `burn` steps (default steps // 4) are discarded; `progress` shows emcee's bar;
+    `uncertainty`: the fit's `laplace(fit)`, when already computed. A Ctrl-C
+    (KeyboardInterrupt) during sampling keeps the chain so far (at least `MIN_KEPT` steps;
+    burn-in at most a quarter of it): the result says `interrupted`.
     """
-    unc = laplace(fit)
+    unc = laplace(fit) if uncertainty is None else uncertainty
     scale = likelihood_scale(fit, unc)
     logp, theta0, names, n_off = log_posterior(fit, scale)
     dim = theta0.size
