@@ -101,26 +101,11 @@ def plot_discovery(result, path=None, *, records: int = 4):
     ax.set_xscale("log")
     ax.set_xlabel("score statistic (chi-square, dimensionless)")
     recs = getattr(result, "records", None)
-    for row, i in enumerate(pick, start=1):
-        mi = m[i]
-        tt, di, bi, fi = broken_at_gaps(t[i][mi], d[i][mi], base[i][mi], final[i][mi])
-        a = axes[row, 0]
-        a.plot(tt, di, ".", ms=2, color="0.5", label="record")
-        a.plot(tt, bi, lw=1, label="base fit")
-        a.plot(tt, fi, lw=1, ls="--", label="final fit")
-        a.set_ylabel("deflection (mm)")
-        rec = (recs[i] if recs is not None and i < len(recs) else
-               SimpleNamespace(name=f"record {i}", stiffness=float(tr.stiffness[i]),
-                               drive_speed=float(tr.speed[i]), weight=float(tr.weight[i])))
-        a.set_title(record_title(rec, i), fontsize=9)
-        a.legend(fontsize=7)
-        b = axes[row, 1]
-        b.plot(tt, (di - bi) * 1e3, lw=0.8, label="base residual")
-        b.plot(tt, (di - fi) * 1e3, lw=0.8, label="final residual")
-        b.set_ylabel("residual (um)")
-        b.legend(fontsize=7)
-    axes[-1, 0].set_xlabel("time (s)")
-    axes[-1, 1].set_xlabel("time (s)")
+    titles = [record_title(recs[i] if recs is not None and i < len(recs) else SimpleNamespace(
+        name=f"record {i}", stiffness=float(tr.stiffness[i]), drive_speed=float(tr.speed[i]),
+        weight=float(tr.weight[i])), i) for i in pick]
+    _trace_panels(axes, [(title, t[i][m[i]], d[i][m[i]], base[i][m[i]], final[i][m[i]])
+                         for title, i in zip(titles, pick)], "base fit", "final fit")
     fig.tight_layout()
     if path is not None:
         save_figure(fig, str(path), dpi=110)
@@ -193,21 +178,29 @@ def plot_cycle_discovery(result, *, records: int = 4):
         ax.set_title(summary.replace("\n", "; ", 1) + f"\nlearned: gap "
                      f"-> {learned.gap_after * 1e3:.3g} um ({100 * learned.closes:.0f} % of "
                      "the excess)", fontsize=8)
-    for row, g in enumerate(pick, start=1):
-        sel = rec == g
-        tt, xx, m0, m1 = broken_at_gaps(t[sel], x[sel], (x - r0)[sel], (x - r1)[sel])
+    _trace_panels(axes, [(record_title(result.campaign.records[g], g), t[rec == g],
+                          x[rec == g], (x - r0)[rec == g], (x - r1)[rec == g]) for g in pick],
+                  "paper's model", f"with {after}")
+    return fig
+
+
+def _trace_panels(axes, panels, before: str, after: str) -> None:
+    """The rows after the first: per record (`panels`: title, time s, deflection mm, the
+    models `before` and `after`), the deflection with both models (mm) and their
+    residuals (um) against time, the lines broken between fitted windows."""
+    for row, (title, *series) in enumerate(panels, start=1):
+        tt, xx, m0, m1 = broken_at_gaps(*series)
         ax = axes[row, 0]
         ax.plot(tt, xx, ".", ms=1, color="0.5", label="record")
-        ax.plot(tt, m0, lw=0.8, label="paper's model")
-        ax.plot(tt, m1, lw=0.8, label=f"with {after}")
+        ax.plot(tt, m0, lw=0.8, label=before)
+        ax.plot(tt, m1, lw=0.8, label=after)
         ax.set_ylabel("deflection (mm)")
-        ax.set_title(record_title(result.campaign.records[g], g), fontsize=9)
+        ax.set_title(title, fontsize=9)
         ax.legend(fontsize=7)
         ax = axes[row, 1]
-        ax.plot(tt, 1e3 * (xx - m0), lw=0.5, label="paper's model")
-        ax.plot(tt, 1e3 * (xx - m1), lw=0.5, label=f"with {after}")
+        ax.plot(tt, 1e3 * (xx - m0), lw=0.5, label=before)
+        ax.plot(tt, 1e3 * (xx - m1), lw=0.5, label=after)
         ax.set_ylabel("residual (um)")
         ax.legend(fontsize=7)
     for ax in axes[-1]:
         ax.set_xlabel("time (s)")
-    return fig
