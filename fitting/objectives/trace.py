@@ -225,7 +225,7 @@ def trace_simulation(params: CampaignParams, data: TraceData,
         sw = ss.Slideway(friction, w, k, n)
         return simulate_exact(sw, ConstantSpeed(v), ts, initial_deflection=x0, start_time=t0,
                               mask=m, max_events=MAX_EVENTS, slip_time=slip_time,
-                              cycle_table=False)
+                              cycle_table=False, check=False)  # Record checked times, W, k
 
     return jax.vmap(one)(data.weight, data.normal_load, data.stiffness, data.speed,
                          data.start_time,

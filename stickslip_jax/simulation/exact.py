@@ -221,6 +221,7 @@ def simulate_exact(
     mask: ArrayLike | None = None,
     max_events: int = 64,
     cycle_table: bool = True,
+    check: bool = True,
 ) -> Trace:
     r"""Simulate the paper's stick-slip model exactly (events in closed form) on times `ts`.
 
@@ -240,6 +241,10 @@ def simulate_exact(
     - `cycle_table` (static): False leaves out the per-cycle table (`Trace.cycles` is
       None), which callers that need only the trace (the fits) then do not trace,
       differentiate and compile.
+    - `check` (static): False leaves out the run-time checks of `ts` and of the
+      slideway's sizes (`eqx.error_if`, host callbacks), for callers that checked them on
+      the host (the fits): a program without host callbacks can be kept in JAX's
+      persistent compilation cache.
 
     Returns a `Trace` (deflection in mm, slider velocity in mm/s, `Cycles`).
     jit-compatible (wrap in `eqx.filter_jit`), `vmap` over records of padded `ts`
@@ -251,12 +256,12 @@ def simulate_exact(
     if ts.ndim != 1 or ts.shape[0] < 1:
         raise ValueError("ts must be a non-empty 1-D array of times (s); vmap for batches")
     mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
-    if ts.shape[0] > 1:
+    if ts.shape[0] > 1 and check:
         ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
     t_start = ts[0] if start_time is None else jnp.asarray(start_time, dtype=float)
     ev = _events(slideway, drive, t_start, jnp.max(ts), initial_deflection,
                  initial_stick_time, slip_time=slip_time, max_events=max_events,
-                 cycle_table=cycle_table)
+                 cycle_table=cycle_table, check=check)
     # each sample's phase row: how many phase starts are at or before it
     n_rows = ev.row_time.shape[0]
     row = jnp.clip(count_at_or_before(ev.row_time, ts) - 1, 0, n_rows - 1)
@@ -294,18 +299,26 @@ class _Events(eqx.Module):
     num_events: Array
 
 
+def _sizes(slideway, check: bool):
+    """(N, k, W) of `slideway` (kgf, kgf/mm, kgf); with `check`, `eqx.error_if` guards
+    that each is positive."""
+    W, k, weight = slideway.load, slideway.stiffness, slideway.weight
+    if check:
+        W = eqx.error_if(W, ~(W > 0), "normal load N (slider weight W) must be positive")
+        weight = eqx.error_if(weight, ~(weight > 0), "slider weight W must be positive")
+        k = eqx.error_if(k, ~(k > 0), "stiffness k must be positive")
+    return W, k, weight
+
+
 def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_time, *,
-            slip_time, max_events, cycle_table=True) -> _Events:
+            slip_time, max_events, cycle_table=True, check=True) -> _Events:
     """Run the stick/slip events of one record from `t_start` to `t_end` (s)."""
     t_start = jnp.asarray(t_start, dtype=float)
     t_end = jnp.asarray(t_end, dtype=float)
     friction = slideway.friction
     static = friction.static
     # W is the friction load N below (the paper's N = W); the inertia is weight / g
-    W, k, weight = slideway.load, slideway.stiffness, slideway.weight
-    W = eqx.error_if(W, ~(W > 0), "normal load N (slider weight W) must be positive")
-    weight = eqx.error_if(weight, ~(weight > 0), "slider weight W must be positive")
-    k = eqx.error_if(k, ~(k > 0), "stiffness k must be positive")
+    W, k, weight = _sizes(slideway, check)
     omega = jnp.sqrt(9806.65 * k / weight)
     kt, ku, ks = drive.knots()
     bounds = jnp.concatenate([kt, t_end[None]])
