@@ -125,3 +125,45 @@ def test_screening_reports_the_rig_in_its_units():
     assert row["normal_load_kgf"] == pytest.approx(40.0 / KGF_N)
     assert row["friction_radius_mm"] == 20.0 and row["drive_speed_rad_per_s"] == pytest.approx(
         math.pi / 10.0)
+
+
+def test_fit_of_a_rotational_campaign_reports_in_rig_units(tmp_path):
+    """`stickslip fit` on records written in a torsional rig's units gives the fit of their
+    linear twins, and its JSON carries each record's rig quantities and angles."""
+    import json
+
+    import stickslip_jax as ss
+    from stickslip_fitting.data.synthetic import synthetic_campaign
+    from stickslip_jax.cli import main
+    from stickslip_jax.records import write_record
+
+    radius = 50.0  # mm
+    recs = synthetic_campaign(ss.lubricant("A"), conditions=((36.0, 86.9), (36.0, 200.0)),
+                              speed_fractions=(0.05, 0.3), cycles=4, pad_to=40_000, seed=2)
+    lin, rot = [], []
+    for i, r in enumerate(recs):
+        lin.append(write_record(r, tmp_path / f"lin{i}.csv"))
+        head = (f"# stickslip-record: 1\n# friction_radius: {radius} mm\n"
+                f"# torsional_stiffness: {r.stiffness * radius ** 2 * KGF_N / 1e3!r} N*m/rad\n"
+                f"# inertia: {r.weight * (radius / 1e3) ** 2!r} kg*m^2\n"
+                f"# normal_load: {r.weight * KGF_N!r} N\n"
+                f"# drive_speed: {r.drive_speed / radius * 30 / math.pi!r} rpm\n"
+                "# lubricant: A\ntime [s],angle [deg]\n")
+        rot.append(tmp_path / f"rot{i}.csv")
+        rot[-1].write_text(head + _lines(zip(r.time, np.degrees(r.deflection / radius))))
+    docs = []
+    for paths, name in ((lin, "lin"), (rot, "rot")):
+        out = tmp_path / f"{name}.json"
+        assert main(["fit", *map(str, paths), "--json", str(out), "--quiet"]) == 0
+        docs.append(json.loads(out.read_text()))
+    for a, b in zip(docs[0]["parameters"].values(), docs[1]["parameters"].values()):
+        assert b["value"] == pytest.approx(a["value"], rel=1e-7)
+        assert b["ci95"] == pytest.approx(a["ci95"], rel=1e-5)
+    row = docs[1]["records"][0]
+    assert row["friction_radius_mm"] == radius
+    assert row["torsional_stiffness_n_m_per_rad"] == pytest.approx(
+        86.9 * radius ** 2 * KGF_N / 1e3, rel=1e-12)
+    assert row["gauge_offset_rad"] == pytest.approx(row["gauge_offset_mm"] / radius)
+    assert row["noise_rad"] == pytest.approx(docs[0]["records"][0]["noise_mm"] / radius,
+                                             rel=1e-6)
+    assert "friction_radius_mm" not in docs[0]["records"][0]

@@ -119,6 +119,9 @@ def _record_rows(fit, campaign) -> list[dict]:
             if chi is not None:
                 row["features_chi2_per_residual"] = float(chi[i])
                 row["error_scale"] = float(scale[i]) if scale is not None else 1.0
+        if "friction_radius_mm" in row:  # a rotational rig: its lengths as angles too
+            row.update({k[:-3] + "_rad": row[k] / row["friction_radius_mm"]
+                        for k in ("noise_mm", "gauge_offset_mm") if k in row})
         rows.append(row)
     return rows
 
