@@ -133,7 +133,7 @@ def _check(weight, stiffness, speed):
 
 @eqx.filter_jit
 def limit_cycle(friction: Friction, weight, stiffness, speed, rtol: float = 1e-13,
-                max_steps: int = 200, damping_ratio=None) -> LimitCycle:
+                max_steps: int = 200, damping_ratio=None, normal_load=None) -> LimitCycle:
     r"""The fixed point of the one-cycle map (module doc) at W (kgf), k (kgf/mm), v (mm/s);
     scalars (`jax.vmap` for many points).
 
@@ -141,10 +141,20 @@ def limit_cycle(friction: Friction, weight, stiffness, speed, rtol: float = 1e-1
     undamped model, solved by Newton's method): the map of the damped model (module
     section "Damping"), solved by bisection in $\log T_1$ with implicit gradients. Where
     it has no fixed point with a stick (above `boundary_speed`) the result is steady
-    sliding: `regime` `STEADY_SLIDING`, amplitude, stick time and frequency 0."""
+    sliding: `regime` `STEADY_SLIDING`, amplitude, stick time and frequency 0.
+
+    `normal_load` N (kgf; None: the paper's N = W): the cycle of the slideway whose
+    friction is mu N and inertia W/g, which is the cycle at (N, k N/W, v W/N) with its
+    lengths and speeds times N/W (its equation of motion divided by N/W)."""
     if not isinstance(friction, Friction):
         raise ValueError(f"friction must be a Friction, got {type(friction)}")
     weight, stiffness, speed = _check(weight, stiffness, speed)
+    if normal_load is not None:
+        s = _check(normal_load, 1.0, 1.0)[0] / weight
+        c = limit_cycle(friction, weight * s, stiffness * s, speed / s, rtol, max_steps,
+                        damping_ratio)
+        return eqx.tree_at(lambda c: (c.peak, c.trough, c.amplitude, c.critical_speed), c,
+                           (c.peak * s, c.trough * s, c.amplitude * s, c.critical_speed * s))
     if damping_ratio is not None:
         return _damped_limit_cycle(friction, weight, stiffness, speed,
                                    _check_zeta(damping_ratio))

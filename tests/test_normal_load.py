@@ -22,6 +22,7 @@ from stickslip_fitting.uncertainty.laplace import laplace
 
 import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed
+from stickslip_jax.limit_cycle import limit_cycle
 from stickslip_jax.records import Record, format_record, parse_record
 from stickslip_jax.simulation import pad_times, simulate_exact, simulate_smooth
 
@@ -150,3 +151,22 @@ def test_campaign_with_a_normal_load_is_fitted_back():
                         padding=Padding(cycles=8))
     assert 0.5 < both.reduced_chi2 < 2.0
     assert both.values["mu_d"] == pytest.approx(truth["mu_d"], rel=0.01)
+
+
+def test_limit_cycle_with_a_normal_load():
+    """The time-domain limit cycle with N: the exact simulator's last cycle, damped or not."""
+    cyc = limit_cycle(FR, W, K, V, normal_load=N)
+    assert float(cyc.stick_time) == pytest.approx(
+        float(ss.steady_state(FR, W, K, V, normal_load=N).stick_time), rel=1e-9)
+    ts = jnp.linspace(0.0, 60.0, 12001)
+    tr = simulate_exact(ss.Slideway(FR, W, K, normal_load=N), ConstantSpeed(V), ts,
+                        initial_deflection=float(cyc.trough))
+    c = tr.cycles
+    last = int(jnp.sum(c.valid)) - 1
+    assert float(c.peak[last]) == pytest.approx(float(cyc.peak), rel=1e-9)
+    assert float(c.stick_time[last]) == pytest.approx(float(cyc.stick_time), rel=1e-9)
+    damped = limit_cycle(FR, W, K, V, damping_ratio=0.05, normal_load=N)
+    twin = limit_cycle(FR, N, K * N / W, V * W / N, damping_ratio=0.05)
+    assert float(damped.amplitude) == pytest.approx(float(twin.amplitude) * N / W, rel=1e-12)
+    assert float(limit_cycle(FR, W, K, V, normal_load=W).amplitude) == float(
+        limit_cycle(FR, W, K, V).amplitude)
