@@ -121,7 +121,7 @@ def main(argv=None, *, prepare=None) -> int:
     if prepare is not None:
         prepare()
     from .logs import configure, logger
-    from .output import interrupted, json_owns_stdout
+    from .output import interrupted, json_owns_stdout, outputs_together
 
     configure(args.command, quiet=bool(getattr(args, "quiet", False)), debug=args.debug,
               start=start)
@@ -129,7 +129,8 @@ def main(argv=None, *, prepare=None) -> int:
 
     try:
         # `--json -`: stdout carries only the JSON document; the table goes to stderr
-        with json_owns_stdout(getattr(args, "json", None) == "-"):
+        # and every output is renamed into place at the end, all or none
+        with json_owns_stdout(getattr(args, "json", None) == "-"), outputs_together():
             code = int(args.run_command(args) or 0)
         if interrupted():  # a Ctrl-C swallowed on the way (module output)
             raise KeyboardInterrupt

@@ -33,7 +33,7 @@ import tempfile
 
 __all__ = [
     "catch_interrupts", "check_outputs", "interrupted", "json_owns_stdout", "null_reasons",
-    "save_figure", "strict_json", "write_atomic", "write_json", "write_text",
+    "outputs_together", "save_figure", "strict_json", "write_atomic", "write_json", "write_text",
 ]
 
 
@@ -43,6 +43,11 @@ def _same(a: str, b: str) -> bool:
         return os.path.samefile(a, b)
     except OSError:
         return os.path.realpath(a) == os.path.realpath(b)
+
+
+FIGURE_FORMATS = frozenset(("png", "pdf", "svg", "svgz", "eps", "ps", "jpg", "jpeg", "tif",
+                            "tiff", "webp", "pgf"))
+"""The file extensions a figure option (`--plot`) takes: matplotlib's formats."""
 
 
 def check_outputs(outputs: dict[str, str | None], inputs=()) -> None:
@@ -65,6 +70,11 @@ def check_outputs(outputs: dict[str, str | None], inputs=()) -> None:
                              "exist; create it first")
         if not os.access(folder, os.W_OK):
             raise ValueError(f"{option}: cannot write in {folder} (permission denied)")
+        ext = os.path.splitext(path)[1].lower().lstrip(".")
+        if any(w in option for w in ("plot", "figure", "corner")) and ext and (
+                ext not in FIGURE_FORMATS):
+            raise ValueError(f"{option}: cannot draw a figure as .{ext}; end the name in "
+                             f"one of .{', .'.join(sorted(FIGURE_FORMATS))}")
         for src in inputs:
             if _same(path, str(src)):
                 raise ValueError(f"{option}: {path} is one of the input records; it would be "
@@ -212,6 +222,9 @@ def _replace(path: str, suffix: str, write) -> None:
     try:
         write(tmp)
         os.chmod(tmp, _mode(path))
+        if _PENDING is not None:  # inside `outputs_together`: renamed with the others
+            _PENDING.append((tmp, path))
+            return
         if _INTERRUPTED:  # a Ctrl-C that something swallowed: do not finish the output
             raise KeyboardInterrupt
         os.replace(tmp, path)
@@ -222,6 +235,35 @@ def _replace(path: str, suffix: str, write) -> None:
             # name the output, not the temporary file
             raise OSError(exc.errno, f"cannot write ({exc.strerror})", path) from exc
         raise
+
+
+_PENDING: list[tuple[str, str]] | None = None
+"""(temporary file, target) of the outputs written inside `outputs_together`."""
+
+
+@contextlib.contextmanager
+def outputs_together():
+    """The outputs written inside (`write_text`, `write_json`, `save_figure`,
+    `write_atomic`) stay temporary files until the block ends without an exception; then
+    all are renamed into place, otherwise (an error, a Ctrl-C) all are removed: a command's
+    outputs are one transaction, all or none (`stickslip_jax.cli` runs every command in
+    one)."""
+    global _PENDING
+    if _PENDING is not None:  # nested: the outer block renames
+        yield
+        return
+    _PENDING = []
+    try:
+        yield
+        if _INTERRUPTED:
+            raise KeyboardInterrupt
+        for tmp, path in _PENDING:
+            os.replace(tmp, path)
+    finally:
+        for tmp, _ in _PENDING:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+        _PENDING = None
 
 
 def write_atomic(path: str, write, suffix: str | None = None) -> None:

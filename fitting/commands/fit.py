@@ -110,8 +110,23 @@ def add_model_arguments(parser):
                         help="--model microsqueeze: lubricant viscosity, Pa*s unless a unit "
                         "is given: '0.216', '216 cP', '2.2e-8 kgf*s/mm^2', '230 cSt at 870 "
                         "kg/m^3' (default: the records' lubricant in Table 11, else A)")
-    parser.add_argument("--surface", default="S1G1",
+    parser.add_argument("--surface", default=None,
                         help="--model microsqueeze: surface pair of Table 10 (default S1G1)")
+
+
+def check_model_options(args) -> dict[str, float]:
+    """The held parameters of `--fix` (`parse_fix` for `args.model`'s law), with --eta and
+    --surface refused unless `--model microsqueeze` (an option that cannot act): checks
+    of `fit`, `mcmc` and `fit-batch` before any work (and before JAX starts, which
+    `fit-batch --coordinator` needs)."""
+    from ..microsqueeze_params import MicrosqueezeFriction
+
+    micro = args.model == "microsqueeze"
+    for option, value in (("--eta", args.eta), ("--surface", args.surface)):
+        if value is not None and not micro:
+            raise ValueError(f"{option}: only used with --model microsqueeze; add it, or "
+                             f"leave out {option}")
+    return parse_fix(args.fix, MicrosqueezeFriction if micro else None)
 
 
 def fit_from_args(args, *, objective: Objective | str = "features"):
@@ -131,28 +146,25 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
     loss = parse_loss(args.loss)
     modes = ModelModes(offset=GaugeOffset.parse(args.offset, "offset"),
                        slip_time=SlipTime.parse(args.slip_time))
+    fixed = check_model_options(args)
     if args.model == "microsqueeze":
         from stickslip_jax.contact import surface_pair
 
         from ..solve.microsqueeze import default_eta, fit_microsqueeze
-        from ..microsqueeze_params import MicrosqueezeFriction
 
-        fixed = parse_fix(args.fix, MicrosqueezeFriction)
         hold = Hold.named(fixed) if fixed else None
+        surface = args.surface or "S1G1"
         try:
-            pair = surface_pair(args.surface)
+            pair = surface_pair(surface)
         except (KeyError, ValueError) as err:
-            raise ValueError(f"--surface: unknown surface pair {args.surface!r} ({err})") from None
+            raise ValueError(f"--surface: unknown surface pair {surface!r} ({err})") from None
         campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
         eta = args.eta if args.eta is not None else default_eta(campaign.records[0].lubricant)
         _say_fitting(args, campaign, objective)
         fit = fit_microsqueeze(campaign.features, eta=eta, pair=pair, hold=hold, modes=modes,
                                objective=objective, records=campaign.records, loss=loss)
         return fit, campaign, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
-                                        "surface": args.surface}}
-    if args.eta is not None:
-        raise ValueError("--eta: only used with --model microsqueeze")
-    fixed = parse_fix(args.fix)
+                                        "surface": surface}}
     campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
     _say_fitting(args, campaign, objective)
     fit = fit_features(campaign.features, hold=Hold.named(fixed) if fixed else None,
@@ -211,6 +223,23 @@ def parse_fix(items, law=None) -> dict[str, float]:
 
 
 
+def exact_holds(report: dict, fix_items) -> dict:
+    """The report with each `--fix NAME=VALUE` parameter at exactly VALUE (the fit holds
+    its logarithm, which gives 66.99999999999997 back for 67) and its error to the truth
+    from that value."""
+    given = {}
+    for item in fix_items:
+        name, _, value = item.partition("=")
+        given[name.strip()] = float(value)
+    for name, v in given.items():
+        row = report.get("parameters", {}).get(name)
+        if isinstance(row, dict) and row.get("fixed"):
+            row["value"] = v
+            if row.get("truth"):
+                row["relative_error"] = (v - row["truth"]) / row["truth"]
+    return report
+
+
 def run(args) -> int:
     from stickslip_jax.output import check_outputs, versioned, write_json
     from stickslip_jax.records import record_paths
@@ -226,7 +255,8 @@ def run(args) -> int:
     logger.info(f"fit {'converged' if fit.converged else 'did not converge'}; intervals...")
     records = campaign.records
     unc = laplace(fit)
-    report = build_report(fit, unc, campaign, model=args.model, extra=extra)
+    report = exact_holds(build_report(fit, unc, campaign, model=args.model, extra=extra),
+                         args.fix)
     logger.info("report done")
     print(format_table(report))
     for n in campaign.notes:

@@ -15,6 +15,8 @@ campaign fitted and converged, 3 when some did not.
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 
 NAME = "fit-batch"
 HELP = "fit many campaigns (one per folder or glob), across processes with jax.distributed"
@@ -50,6 +52,13 @@ def add_arguments(parser):
                        help="number of processes that share the batch")
     group.add_argument("--process-id", type=int, metavar="I",
                        help="this process's index, 0 ... N-1 (process 0 writes the outputs)")
+    group.add_argument("--join-timeout", type=float, default=None, metavar="SECONDS",
+                       help="how long to wait for every process to join (default 120 s, at "
+                       f"most {MAX_JOIN_S:g})")
+
+
+MAX_JOIN_S = 290.0
+"""Longest --join-timeout: JAX itself ends the process (abort, no message) after 300 s."""
 
 
 def _join(args) -> None:
@@ -57,12 +66,37 @@ def _join(args) -> None:
     given = [args.coordinator is not None, args.num_processes is not None,
              args.process_id is not None]
     if not any(given):
+        if args.join_timeout is not None:
+            raise ValueError("--join-timeout: only used with --coordinator, --num-processes "
+                             "and --process-id")
         return
     if not all(given):
         raise ValueError("--coordinator, --num-processes and --process-id: give all three "
                          "(the same coordinator and count on every process) or none")
+    if args.join_timeout is None:
+        args.join_timeout = 120.0
+    if not 0 < args.join_timeout <= MAX_JOIN_S:
+        raise ValueError(f"--join-timeout: must lie in (0, {MAX_JOIN_S:g}] s, got "
+                         f"{args.join_timeout:g}")
+    import threading
+
     from stickslip_jax.distributed import initialize
 
+    print(f"stickslip fit-batch: process {args.process_id} of {args.num_processes} waiting "
+          f"for the others at {args.coordinator} (up to {args.join_timeout:g} s)...",
+          file=sys.stderr, flush=True)
+    joined = threading.Event()
+
+    def give_up():  # JAX's own timeout aborts the process without a word
+        if not joined.wait(args.join_timeout):
+            print(f"stickslip fit-batch: error: --coordinator {args.coordinator}: not all "
+                  f"{args.num_processes} processes joined within {args.join_timeout:g} s; "
+                  "start the same command with every --process-id 0 ... "
+                  f"{args.num_processes - 1} (or raise --join-timeout)",
+                  file=sys.stderr, flush=True)
+            os._exit(2)
+
+    threading.Thread(target=give_up, daemon=True).start()
     try:
         initialize(args.coordinator, args.num_processes, args.process_id)
     except ValueError as exc:
@@ -70,18 +104,21 @@ def _join(args) -> None:
     except RuntimeError as exc:  # JAX was already in use, or the coordinator is unreachable
         raise ValueError(f"--coordinator {args.coordinator}: cannot join the job ({exc})") \
             from None
+    finally:
+        joined.set()
 
 
 def _fit_one(args):
     """fit_one(spec) of `stickslip_fitting.solve.batch.fit_batch`: `stickslip fit`'s path."""
     from ..uncertainty.laplace import laplace
     from ..report.fit_table import build_report
-    from .fit import fit_from_args
+    from .fit import exact_holds, fit_from_args
 
     def fit_one(spec) -> dict:
         one = argparse.Namespace(**{**vars(args), "records": [spec]})
         fit, campaign, extra = fit_from_args(one, objective=args.objective)
-        report = build_report(fit, laplace(fit), campaign, model=args.model, extra=extra)
+        report = exact_holds(build_report(fit, laplace(fit), campaign, model=args.model,
+                                          extra=extra), args.fix)
         report["notes"] = list(campaign.notes)
         return report
 
@@ -188,8 +225,15 @@ def run(args) -> int:
             pass  # the campaign fails with this message; the batch goes on
     check_outputs({"--json": args.json, "--csv": args.csv, args.plot_option: args.plot},
                   inputs)
+    from .fit import check_model_options
+
+    check_model_options(args)  # a bad --fix is the command's error, not every campaign's
     _join(args)
     import jax
+
+    from ..objectives.losses import parse_loss
+
+    parse_loss(args.loss)  # after joining: it starts JAX
 
     lead = jax.process_index() == 0
     logger.info(f"fitting {len(args.campaigns)} campaigns on {jax.process_count()} "

@@ -76,13 +76,10 @@ def posterior(args):
     import warnings
 
     from ..api.posterior import sample
-    from ..microsqueeze_params import MicrosqueezeFriction
     from ..objectives.losses import parse_loss
-    from .fit import parse_fix
+    from .fit import check_model_options
 
-    if args.eta is not None and args.model != "microsqueeze":
-        raise ValueError("--eta: only used with --model microsqueeze")
-    fixed = parse_fix(args.fix, MicrosqueezeFriction if args.model == "microsqueeze" else None)
+    fixed = check_model_options(args)
     try:
         with warnings.catch_warnings():  # the table's warnings say it
             warnings.filterwarnings("ignore", "the fit did not converge", RuntimeWarning)
@@ -90,7 +87,7 @@ def posterior(args):
                 args.records, steps=args.steps, walkers=args.walkers, burn=args.burn,
                 seed=args.seed, draws=args.draws, model=args.model, objective=args.objective,
                 fix=fixed, loss=parse_loss(args.loss), gauge_offset=args.offset,
-                slip_time=args.slip_time, strict=args.strict, surface=args.surface,
+                slip_time=args.slip_time, strict=args.strict, surface=args.surface or "S1G1",
                 eta=None if args.eta is None else f"{args.eta!r} kgf*s/mm^2",
                 progress=not (args.quiet or args.no_progress))
     except ValueError as err:

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 from pathlib import Path
 
 import numpy as np
@@ -63,9 +65,20 @@ class _JsonOrOldSource(argparse.Action):
 
     def __call__(self, parser, namespace, value, option_string=None):
         namespace.json_source = None
+        if value not in (None, "-") and _is_record(value):
+            raise argparse.ArgumentError(self, f"{value} is a record file (an input); give "
+                                         "the plan a new file name such as plan.json")
         if value not in (None, "-") and _is_source(value):
             namespace.json_source, value = value, "-"
         namespace.json = value
+
+
+def _is_record(value: str) -> bool:
+    try:
+        with open(value, "rb") as fh:
+            return fh.read(40).lstrip().startswith(b"# stickslip-record")
+    except OSError:
+        return False
 
 
 def _is_source(value: str) -> bool:
@@ -87,14 +100,46 @@ def _values(text, dim, unit, arg):
     return parse_grid(text, dim, unit, arg)
 
 
+def _number(value, source, key: str) -> float:
+    """A JSON value as a finite float, or a ValueError naming the file and the key."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if isinstance(value, bool) or not math.isfinite(x):
+        raise ValueError(f"{source}: {key} is {json.dumps(value)[:40]}; give a finite number")
+    return x
+
+
+def _estimate(values: dict, source, key: str) -> np.ndarray:
+    """The parameters of `values` (prior means, posterior medians) as a vector, each a
+    number inside the law's physical range (its MCMC prior support): the design's
+    estimate; a ValueError naming the file, key and range otherwise."""
+    from ..design import PARAMETERS
+    from ..params import EmpiricalFriction
+
+    missing = [p for p in PARAMETERS if p not in values]
+    if missing:
+        raise ValueError(f"{source}: {key} lacks {', '.join(missing)} (held fixed in the "
+                         "fit?); write a prior JSON with all six")
+    out = np.array([_number(values[p], source, f"{key} {p}") for p in PARAMETERS])
+    for p, v in zip(PARAMETERS, out):
+        lo, hi = EmpiricalFriction.PRIOR_BOUNDS[p]
+        if not lo <= v <= hi:
+            raise ValueError(f"{source}: {key} {p} = {v:.4g} lies outside the physical "
+                             f"range {lo:g}-{hi:g} of {p}; a design at such an estimate "
+                             "means nothing: give an estimate inside the range")
+    return out
+
+
 def _sd_vector(sd, params, source):
-    if isinstance(sd, (int, float)):
-        return np.full(len(params), float(sd))
+    if isinstance(sd, (int, float)) and not isinstance(sd, bool):
+        return np.full(len(params), _number(sd, source, "prior 'sd'"))
     if isinstance(sd, dict):
         missing = [p for p in params if p not in sd]
         if missing:
             raise ValueError(f"{source}: prior 'sd' lacks {', '.join(missing)}")
-        return np.array([float(sd[p]) for p in params])
+        return np.array([_number(sd[p], source, f"prior 'sd' {p}") for p in params])
     raise ValueError(f"{source}: prior 'sd' must be a number or an object by parameter")
 
 
@@ -123,6 +168,9 @@ def read_sources(args):
         if head.startswith("# stickslip-record"):
             from stickslip_jax.records import read_record
 
+            if any(os.path.samefile(path, r.source) for r in records):
+                raise ValueError(f"RECORDS-OR-PRIOR: {src} is named twice; give each "
+                                 "record once")
             records.append(read_record(path))
             continue
         if estimate is not None:
@@ -135,33 +183,34 @@ def read_sources(args):
                 raise ValueError(f"{path}: invalid JSON ({exc})") from None
         summary = summary_from_json(obj) if obj is not None else None
         if summary is not None and "samples" not in obj:
-            missing = [p for p in PARAMETERS if p not in summary]
-            if missing:
-                raise ValueError(f"{path}: the posterior summary lacks {', '.join(missing)} "
-                                 "(held fixed in the fit?); write a prior JSON with all six")
-            med = np.array([summary[p][0] for p in PARAMETERS])
+            med = _estimate({p: v[0] for p, v in summary.items()}, path,
+                            "the posterior summary's median")
             check_domain(dict(zip(PARAMETERS, med)), f"{path} (posterior medians)")
             estimate = np.log(med)
             # sd of log(parameter) ~ sd / median (a relative error)
-            sd = np.maximum(np.array([summary[p][1] for p in PARAMETERS]) / med, 1e-6)
+            sd = np.maximum(np.array([_number(summary[p][1], path, f"sd {p}")
+                                      for p in PARAMETERS]) / med, 1e-6)
             desc.append(f"posterior summary {path.name}")
         elif isinstance(obj, dict) and "mean" in obj:
-            mean = obj["mean"]
-            missing = [p for p in PARAMETERS if p not in mean]
-            if missing:
-                raise ValueError(f"{path}: prior 'mean' lacks {', '.join(missing)}")
-            vals = np.array([float(mean[p]) for p in PARAMETERS])
+            if not isinstance(obj["mean"], dict):
+                raise ValueError(f"{path}: prior 'mean' must be an object by parameter")
+            vals = _estimate(obj["mean"], path, "prior 'mean'")
             check_domain(dict(zip(PARAMETERS, vals)), f"{path} (prior means)")
             estimate = np.log(vals)
             if "sd" in obj:
                 sd = _sd_vector(obj["sd"], PARAMETERS, path)
             desc.append(f"prior {path.name}")
         else:
-            sample = load_samples(path)
             from ..design import friction_params
 
-            p = friction_params(sample)
-            logs = np.log(np.column_stack([p[k] for k in PARAMETERS]))
+            try:
+                p = friction_params(load_samples(path))
+                logs = np.log(np.column_stack([np.asarray(p[k], float) for k in PARAMETERS]))
+            except (TypeError, ValueError, KeyError) as exc:
+                if str(exc).startswith(str(path)):
+                    raise
+                raise ValueError(f"{path}: not a posterior sample of {', '.join(PARAMETERS)} "
+                                 f"with one number per draw ({str(exc)[:80]})") from None
             estimate = logs.mean(axis=0)
             sd = logs.std(axis=0, ddof=1) if logs.shape[0] > 1 else None
             desc.append(f"posterior sample {path.name} ({logs.shape[0]} draws)")

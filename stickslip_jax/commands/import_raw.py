@@ -212,6 +212,9 @@ def run(args) -> int:
         raise ValueError(f"--out: {args.out} exists; use --force to replace it")
     if not os.path.isdir(os.path.dirname(out)):
         raise ValueError(f"--out: the folder {os.path.dirname(out)} does not exist")
+    if args.drive_unit is not None and args.drive_col is None:
+        raise ValueError("--drive-unit: only used with --drive-col; add it, or leave out "
+                         "--drive-unit")
     if args.speed is None and args.drive_col is None:
         raise ValueError("--speed: give the drive speed (or a --drive-col)")
     names, units, data, notes = read_raw(args.raw, args.delimiter)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 
 from .options import quantity
 
@@ -34,6 +35,8 @@ def add_arguments(p):
     p.add_argument("--max-events", type=int, default=None,
                    help="event budget of the exact simulator (default: from the steady T1)")
     p.add_argument("--out", required=True, help="output CSV path")
+    p.add_argument("--force", dest="overwrite", action="store_true",
+                   help="replace an existing --out file")
 
 
 def run(args) -> int:
@@ -44,6 +47,8 @@ def run(args) -> int:
     from ..slideway import Slideway
 
     check_outputs({"--out": args.out})
+    if os.path.exists(args.out) and not args.overwrite:
+        raise ValueError(f"--out: {args.out} exists; use --force to replace it")
     if not 0 <= args.seed < 2**63:
         raise ValueError(f"--seed: must be between 0 and 2**63 - 1, got {args.seed}")
     from ..simulation.synthetic import synthetic_record

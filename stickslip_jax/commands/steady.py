@@ -66,6 +66,32 @@ DAMPED_COLUMNS = (
 """Columns added by --damping-ratio: the damped limit cycle (0 above the boundary)."""
 
 
+def _tolerance_speed(friction, args, out) -> float:
+    """The drive speed (mm/min) above which the limit cycle's amplitude stays below
+    --tolerance: 0 when it does at every speed (the amplitude at a speed far below v_c,
+    the largest, is within it); a ValueError naming the option when it is not found."""
+    import optimistix as optx
+
+    from ..limit_cycle import limit_cycle, tolerance_speed
+    from ..units import mm_per_min
+
+    slow = 1e-6 * float(out.critical_speed[0])
+    top = float(limit_cycle(friction, args.weight, args.stiffness, slow).amplitude)
+    if args.tolerance >= top:
+        return 0.0
+    try:
+        v_tol, result = tolerance_speed(friction, args.weight, args.stiffness, args.tolerance)
+    except Exception as exc:  # noqa: BLE001 - the solver's runtime error, said as the option's
+        raise ValueError(f"--tolerance {args.tolerance:g} mm: no drive speed found "
+                         f"({str(exc).splitlines()[0][:80]})") from None
+    v = float(mm_per_min(v_tol))
+    if result != optx.RESULTS.successful or not math.isfinite(v):
+        raise ValueError(f"--tolerance {args.tolerance:g} mm: no drive speed found (the "
+                         "solver did not converge from eq (12)'s v_c); give a larger "
+                         f"tolerance (the largest amplitude is {top:.4g} mm)")
+    return v
+
+
 def run(args) -> int:
     import jax.numpy as jnp
 
@@ -105,7 +131,7 @@ def run(args) -> int:
             "frequency_ratio": float(out.frequency_ratio[i]),
             "critical_speed_mm_per_min": float(mm_per_min(out.critical_speed[i])),
             # the time-domain model's limit cycle (fixed point of the one-cycle map)
-            "cycle_amplitude_mm": float(cyc.amplitude[i]),
+            "cycle_amplitude_mm": max(0.0, float(cyc.amplitude[i])),  # no -1e-18 round-off
             "cycle_stick_time_s": float(cyc.stick_time[i]),
             "cycle_slip_time_s": float(cyc.slip_time[i]),
             "cycle_frequency_hz": float(cyc.frequency[i]),
@@ -120,7 +146,7 @@ def run(args) -> int:
         for i, r in enumerate(rows):  # 0 where the damped model slides steadily
             r.update({
                 "damped_regime": REGIMES[int(dc.regime[i])],
-                "damped_cycle_amplitude_mm": float(dc.amplitude[i]),
+                "damped_cycle_amplitude_mm": max(0.0, float(dc.amplitude[i])),
                 "damped_cycle_stick_time_s": float(dc.stick_time[i]),
                 "damped_cycle_slip_time_s": float(dc.slip_time[i]),
                 "damped_cycle_frequency_hz": float(dc.frequency[i]),
@@ -132,9 +158,8 @@ def run(args) -> int:
     if args.tolerance is not None:
         if not args.tolerance > 0:
             raise ValueError(f"--tolerance: must be positive, got {args.tolerance}")
-        v_tol, _ = tolerance_speed(friction, args.weight, args.stiffness, args.tolerance)
         tol = {"max_amplitude_mm": args.tolerance,
-               "drive_speed_mm_per_min": float(mm_per_min(v_tol))}
+               "drive_speed_mm_per_min": _tolerance_speed(friction, args, out)}
     if args.json:
         from ..output import versioned, write_json
 
@@ -179,7 +204,10 @@ def run(args) -> int:
                  "no boundary speed (a limit cycle at every speed, as without damping)")
         print(f"damping ratio zeta = {zeta:g} (a_damped, T1_damped, f/f0_damped: its limit "
               f"cycle, 0 where it slides steadily): {where}; eq (12)'s v_c = {v_c:.5g} mm/min")
-    if tol is not None:
+    if tol is not None and tol["drive_speed_mm_per_min"] == 0.0:
+        print(f"the limit cycle's amplitude stays below {tol['max_amplitude_mm'] * 1e3:.4g} um "
+              "at every drive speed")
+    elif tol is not None:
         print(f"the limit cycle's amplitude stays below {tol['max_amplitude_mm'] * 1e3:.4g} um "
               f"above v = {tol['drive_speed_mm_per_min']:.5g} mm/min")
     if any(int(r) == RESTICK_FAILURE for r in out.regime):
