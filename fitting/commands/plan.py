@@ -74,6 +74,8 @@ class _JsonOrOldSource(argparse.Action):
 
 
 def _is_record(value: str) -> bool:
+    if not os.path.isfile(value):  # a named pipe would block the read
+        return False
     try:
         with open(value, "rb") as fh:
             return fh.read(40).lstrip().startswith(b"# stickslip-record")
@@ -164,6 +166,9 @@ def read_sources(args):
                 continue
             raise ValueError(f"RECORDS-OR-PRIOR: {src!r} is neither a file nor a lubricant "
                              f"({', '.join(lubricants(args.table))})")
+        if not path.is_file():
+            raise ValueError(f"RECORDS-OR-PRIOR: {src} is not a regular file (a folder, a "
+                             "named pipe or a device); give a record, prior or sample file")
         head = path.read_text(errors="replace")[:200].lstrip()
         if head.startswith("# stickslip-record"):
             from stickslip_jax.records import read_record
