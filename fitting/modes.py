@@ -12,6 +12,7 @@ and `stickslip_fitting.api.campaign`); inside the package members are passed and
 - `Covariance`: how a fit's covariance is computed (`laplace(covariance=...)`).
 - `SmallSample`: the small-sample correction of the cluster-robust covariance.
 - `DiscoveryBase`: the base model of missing-physics discovery (`stickslip discover --base`).
+- `FrictionLaw`: the base friction law of a fit (`stickslip fit --law`).
 
 The option groups of a campaign fit (`stickslip_fitting.solve.fit.fit_features`) are frozen
 dataclasses with defaults: `ModelModes` (gauge offset, slip time, re-slips), `Weighting`
@@ -32,7 +33,8 @@ import dataclasses
 
 from stickslip_jax.modes import AbstractMode, GaugeOffset, SlipTime
 
-__all__ = ["Covariance", "DesignCriterion", "DiscoveryBase", "MapMethod", "ModelModes",
+__all__ = ["Covariance", "DesignCriterion", "DiscoveryBase", "FrictionLaw", "MapMethod",
+           "ModelModes",
            "Objective", "Padding", "SmallSample", "SolverOptions", "Weighting", "check_member"]
 
 
@@ -145,6 +147,28 @@ class DiscoveryBase(AbstractMode):
     @classmethod
     def option(cls) -> str:
         return "base"
+
+
+class FrictionLaw(AbstractMode):
+    """The base friction law of a fit (`stickslip_fitting.solve.laws`, `stickslip fit --law`).
+
+    - `PAPER` ("paper", the default): eqs (1) and (3) (or `--model microsqueeze`).
+    - `RATE_STATE_AGING` ("rate_state_aging"): Dieterich-Ruina, aging evolution law.
+    - `RATE_STATE_SLIP` ("rate_state_slip"): Dieterich-Ruina, slip evolution law.
+    - `LOG_AGING` ("log_aging"): static friction growing with the log of the stick time,
+      kinetic friction falling with the log of the speed.
+
+    All but `PAPER` are fitted through whole records (the smoothed simulator).
+    """
+
+    PAPER = "paper"
+    RATE_STATE_AGING = "rate_state_aging"
+    RATE_STATE_SLIP = "rate_state_slip"
+    LOG_AGING = "log_aging"
+
+    @classmethod
+    def option(cls) -> str:
+        return "law"
 
 
 def check_member(name: str, value, kind: type) -> None:

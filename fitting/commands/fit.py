@@ -16,7 +16,7 @@ import math
 from stickslip_jax.modes import GaugeOffset, SlipTime
 
 from ..report.fit_table import FIXED_MISFIT, build_report, fixed_misfit_warning, format_table  # noqa: F401
-from ..modes import ModelModes, Objective
+from ..modes import FrictionLaw, ModelModes, Objective
 
 NAME = "fit"
 HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"
@@ -44,6 +44,11 @@ def add_arguments(parser):
                        "covariance (per stick phase; per record for smooth)",
         strict_help="refuse the campaign when any record has no usable stick-slip "
                     "(default: fit the records that have it, list the others)")
+    parser.add_argument("--law", choices=FrictionLaw.choices(), default=FrictionLaw.PAPER.value,
+                        help="base friction law: the paper's eqs (1), (3) (default), "
+                        "Dieterich-Ruina rate-and-state with the aging or the slip law, or "
+                        "logarithmic aging with a log-velocity kinetic friction (whole records "
+                        "through the smoothed simulator; docs/friction-laws.md)")
     from stickslip_jax.commands.options import add_json_option, add_plot_option, add_quiet_option
 
     add_json_option(parser, "the result")
@@ -146,6 +151,9 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
     loss = parse_loss(args.loss)
     modes = ModelModes(offset=GaugeOffset.parse(args.offset, "offset"),
                        slip_time=SlipTime.parse(args.slip_time))
+    law = FrictionLaw.parse(getattr(args, "law", FrictionLaw.PAPER))
+    if law is not FrictionLaw.PAPER:
+        return _fit_law_from_args(args, law, objective, modes, loss)
     fixed = check_model_options(args)
     if args.model == "microsqueeze":
         from stickslip_jax.contact import surface_pair
@@ -169,6 +177,27 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
     _say_fitting(args, campaign, objective)
     fit = fit_features(campaign.features, hold=Hold.named(fixed) if fixed else None,
                        modes=modes, objective=objective, records=campaign.records, loss=loss)
+    return fit, campaign, None
+
+
+def _fit_law_from_args(args, law, objective, modes, loss):
+    """`fit_from_args` for a base law other than the paper's (`solve.laws.fit_law`)."""
+    from ..data.campaign import load_campaign
+    from ..objectives.losses import Gaussian
+    from ..params import Hold
+    from ..solve.laws import LAW_PARAMS, fit_law
+
+    if args.model != "empirical" or args.eta is not None:
+        raise ValueError(f"--law {law}: the law replaces --model; leave out --model and --eta")
+    if objective not in (Objective.FEATURES, Objective.SMOOTH) or not isinstance(loss, Gaussian):
+        raise ValueError(f"--law {law}: fitted through whole records (--objective smooth) "
+                         "with the Gaussian --loss only")
+    fixed = parse_fix(args.fix, LAW_PARAMS[law])
+    campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
+    args.model = law.value  # the law's name in the log line and the report's "model"
+    _say_fitting(args, campaign, Objective.SMOOTH)
+    fit = fit_law(campaign.features, campaign.records, law,
+                  hold=Hold.named(fixed) if fixed else None, modes=modes)
     return fit, campaign, None
 
 

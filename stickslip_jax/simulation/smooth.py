@@ -74,6 +74,17 @@ Measured (tests): amplitude error vs exact linear in $\eta$ (1.2 %, 0.10 %, 0.00
 at $\eta$ = 1e-2, 1e-3, 1e-4 at 3 mm/min), the number of steps independent of $\eta$,
 gradients within 1e-4 of finite differences for $\eta$ = 1e-2 ... 1e-4 at rtol 1e-9 and
 1e-10.
+
+**Other friction laws** (`stickslip_jax.friction`). A kinetic law of the slider velocity
+(`AbstractVelocityKinetic`, e.g. `LogVelocityKinetic`) sets $\mu_{sl}$ at $\dot y$ in any
+formulation. A rate-and-state law (`RateStateKinetic`) replaces the stick/slip switch:
+$M\ddot y = k x - N\mu(\dot y, \theta) + \sum_i F_i$ with the regularised law, the state
+$\theta$ (s) in the place of $\tau$ with $\dot\theta$ from its evolution law, the
+fourth state constant; the slider starts with $\theta = D_c/v_s$ plus the initial stick
+time, $v_s = \omega_0 |x_0|$ (at least the drive speed) the speed scale of the slip that left
+the deflection $x_0$ (the state the slip left behind is small against a stick's length), at
+the velocity at which the law balances the spring; solved by Kvaerno5
+whatever the formulation (stiff: the relaxation rate $g a/\dot y$ is large while it creeps).
 """
 
 from __future__ import annotations
@@ -88,6 +99,7 @@ import optimistix as optx
 from jaxtyping import ArrayLike, Float
 
 from ..drives import AbstractDrive
+from ..friction import AbstractVelocityKinetic, RateStateKinetic
 from ..modes import Formulation, SlipTime
 from ..slideway import Slideway
 from ..units import G_MM_S2
@@ -311,7 +323,8 @@ def simulate_smooth(
     if ts.ndim != 1 or ts.shape[0] < 2:
         raise ValueError("ts must be a 1-D array of at least two times (s); vmap for batches")
     mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
-    latch = formulation is Formulation.LATCH
+    rs = isinstance(model.slideway.friction.kinetic, RateStateKinetic)
+    latch = formulation is Formulation.LATCH and not rs
     if latch:  # the rendering from the accepted steps needs sorted sample times
         ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
     if solver is None:
@@ -343,7 +356,8 @@ def simulate_smooth(
             drive_speed=drive.speed(t), eps=eps, normal_load=sw.load,
         )
 
-    rigid = formulation is not Formulation.VELOCITY
+    rigid = formulation is not Formulation.VELOCITY and not rs
+    kinetic = friction.kinetic
 
     def make_core(cv):
         # rigid_stick and latch keep the stick time of the last stick (s) as its 4th state and hands
@@ -361,12 +375,19 @@ def simulate_smooth(
         N = model.load.normal_load(t, core, own[n_force], ctx)
         ctx = eqx.tree_at(lambda c: c.normal_load, ctx, N)
         mu0 = static(core.tau)
-        mu_sl = friction.kinetic(core.mu_0_memory, friction.mu_d, T2)
+        if isinstance(kinetic, AbstractVelocityKinetic):
+            mu_sl = kinetic.at_velocity(core.ydot, core.mu_0_memory, friction.mu_d)
+        else:
+            mu_sl = kinetic(core.mu_0_memory, friction.mu_d, T2)
         tau, memory = y[0][2], y[0][3]
         r = core.ydot / eps
         extra = sum((f.force(t, core, o, ctx) for f, o in zip(model.force_terms, own)),
                     jnp.zeros(()))
-        if latch:
+        if rs:
+            ydd = (k * core.x + extra - N * kinetic.coefficient(core.ydot, tau, friction.mu_d)) / M
+            d_tau = kinetic.state_rate(core.ydot, tau)
+            d_memory = 0.0 * memory
+        elif latch:
             applied = k * core.x + extra
             drop = _drop_scale(mu0)
             v_d = jnp.maximum(jnp.abs(ctx.drive_speed), eps)
@@ -409,8 +430,15 @@ def simulate_smooth(
         return d_core, d_own
 
     tau0 = jnp.asarray(initial_stick_time, dtype=float)
-    core0 = jnp.stack([jnp.asarray(initial_deflection, float) + 0.0 * W, 0.0 * W,
-                       tau0 + 0.0 * W, (tau0 if rigid else static(tau0)) + 0.0 * W])
+    x0 = jnp.asarray(initial_deflection, float) + 0.0 * W
+    if rs:  # module docstring: the state and velocity at which the law holds the spring
+        v_s = jnp.maximum(omega * jnp.abs(x0), smoothing_velocity(drive, 1.0))
+        theta0 = tau0 + kinetic.d_c / v_s
+        v0 = kinetic.velocity_at(k * x0 / W, theta0, friction.mu_d)
+        core0 = jnp.stack([x0, v0, theta0 + 0.0 * W, friction.mu_d + 0.0 * W])
+    else:
+        core0 = jnp.stack([x0, 0.0 * W, tau0 + 0.0 * W,
+                           (tau0 if rigid else static(tau0)) + 0.0 * W])
     ctx0 = context(t0)
     y0 = (core0, tuple(p.init_state(ctx0) for p in parts))
 

@@ -1,0 +1,134 @@
+r"""Which base friction law describes a campaign: the paper's eqs (1), (3) against the other
+laws (`stickslip_fitting.modes.FrictionLaw`) on the same records.
+
+`compare_laws(records, laws)` fits every law through whole records (the smoothed
+simulator, `stickslip_fitting.solve.laws.fit_law`) on the earlier part of each record
+(from the first slip end to `1 - hold_out` of its length) and scores it twice:
+- the information criteria of the fitted samples' whitened residuals (noise sd of each
+  record, `objectives.smooth`): $\mathrm{AIC} = \chi^2 + 2k$,
+  $\mathrm{BIC} = \chi^2 + k\ln n$, $k$ the free parameters, $n$ the residuals;
+- the held-out cycles: $\chi^2/n$ of the later samples, the fitted model run on freely
+  past the fitted part (a law that only bends to the fitted cycles drifts off there).
+
+The preferred law has the lowest BIC. The paper's law is called the wrong base when
+another law beats it by at least `BIC_MARGIN` (strong evidence, a Bayes factor above
+150) and is not worse on the held-out cycles.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..modes import FrictionLaw, ModelModes, SolverOptions
+
+__all__ = ["BIC_MARGIN", "LawComparison", "LawScore", "compare_laws"]
+
+BIC_MARGIN = 10.0
+"""BIC difference above which one law is preferred with strong evidence."""
+
+
+@dataclasses.dataclass(frozen=True)
+class LawScore:
+    """One law's fit: `chi2` of the `n` fitted residuals, `k` free parameters, `aic`,
+    `bic`, `held_out` ($\\chi^2/n$ of the held-out samples), `converged`, `values`
+    ({name: natural value}, the law's units)."""
+
+    law: FrictionLaw
+    chi2: float
+    n: int
+    k: int
+    held_out: float
+    converged: bool
+    values: dict
+
+    @property
+    def aic(self) -> float:
+        return self.chi2 + 2.0 * self.k
+
+    @property
+    def bic(self) -> float:
+        return self.chi2 + self.k * float(np.log(max(self.n, 1)))
+
+
+@dataclasses.dataclass(frozen=True)
+class LawComparison:
+    """The scores of every law (`scores`, in the order given), the `preferred` law (lowest
+    BIC), `paper_wrong_base` (module doc) and a one-paragraph `message`."""
+
+    scores: tuple[LawScore, ...]
+    preferred: FrictionLaw
+    paper_wrong_base: bool
+    message: str
+
+    def score(self, law: FrictionLaw) -> LawScore:
+        return next(s for s in self.scores if s.law is law)
+
+    def to_json(self) -> dict:
+        return {"preferred": self.preferred.value, "paper_wrong_base": self.paper_wrong_base,
+                "message": self.message, "laws": [
+                    {"law": s.law.value, "chi2": s.chi2, "n": s.n, "k": s.k, "aic": s.aic,
+                     "bic": s.bic, "held_out_chi2_per_sample": s.held_out,
+                     "converged": s.converged, "values": s.values} for s in self.scores]}
+
+
+def _verdict(scores) -> tuple[FrictionLaw, bool, str]:
+    best = min(scores, key=lambda s: s.bic)
+    paper = next((s for s in scores if s.law is FrictionLaw.PAPER), None)
+    lines = [f"{s.law.value}: BIC {s.bic:.1f}, held-out chi2/n {s.held_out:.3g}"
+             for s in scores]
+    if paper is None or best is paper:
+        return best.law, False, f"preferred: {best.law.value} ({'; '.join(lines)})"
+    wrong = paper.bic - best.bic >= BIC_MARGIN and best.held_out <= paper.held_out
+    verdict = ("the paper's law is the wrong base" if wrong else
+               "the evidence against the paper's law is not strong")
+    return best.law, wrong, (f"preferred: {best.law.value}, BIC lower by "
+                             f"{paper.bic - best.bic:.1f}; {verdict} ({'; '.join(lines)})")
+
+
+def compare_laws(records, laws=tuple(FrictionLaw), *, hold_out: float = 1 / 3,
+                 features=None, modes: ModelModes = ModelModes(),
+                 solver: SolverOptions = SolverOptions(), pad_to: int = 0) -> LawComparison:
+    """Fit and score each of `laws` (`FrictionLaw` members) on `records` (module doc).
+
+    `hold_out`: the fraction of each record (after its first slip end) kept out of the
+    fit and scored on; `features`: the records' `RecordFeatures` (extracted when None);
+    `modes`, `solver` as in `fit_features`; `pad_to`: samples per record at least (padding,
+    so that campaigns of other lengths reuse the compiled fit). ValueError when `hold_out`
+    is outside [0, 0.8].
+    """
+    import jax.numpy as jnp
+
+    from ..data.features import record_features
+    from ..objectives.smooth import SmoothObjective, smooth_data
+    from ..solve.laws import fit_law
+
+    if not 0.0 <= hold_out <= 0.8:
+        raise ValueError(f"hold_out: a fraction in [0, 0.8], got {hold_out}")
+    features = [record_features(r) for r in records] if features is None else features
+    full = SmoothObjective(smooth_data(records, features), slip_time=modes.slip_time)
+    d = full.data
+    extra = max(pad_to - d.time.shape[1], 0)
+    if extra:
+        def pad(a):
+            return jnp.concatenate([a, jnp.repeat(a[:, -1:], extra, axis=1)], axis=1)
+
+        d = dataclasses.replace(d, time=pad(d.time), deflection=pad(d.deflection),
+                                mask=jnp.pad(d.mask, ((0, 0), (0, extra))))
+        full = SmoothObjective(d, slip_time=modes.slip_time)
+    cut = (1.0 - hold_out) * jnp.max(jnp.where(d.mask, d.time, 0.0), axis=1, keepdims=True)
+    train = d.mask & (d.time <= cut)
+    held = np.asarray(d.mask & ~train).ravel()
+    fit_obj = SmoothObjective(dataclasses.replace(d, mask=train), slip_time=modes.slip_time)
+    scores = []
+    for law in laws:
+        fit = fit_law(features, records, law, modes=modes, solver=solver, objective=fit_obj)
+        r = np.asarray(full.residuals(fit.params))
+        k = int(round(fit_obj.dof())) - fit.dof  # free parameters
+        scores.append(LawScore(
+            law=law, chi2=float(fit.chi2), n=int(np.count_nonzero(np.asarray(train))), k=k,
+            held_out=float(np.mean(r[held] ** 2)) if held.any() else float("nan"),
+            converged=bool(fit.converged), values=fit.values))
+    preferred, wrong, message = _verdict(scores)
+    return LawComparison(tuple(scores), preferred, wrong, message)

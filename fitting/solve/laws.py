@@ -1,0 +1,109 @@
+r"""Campaign fit of another base friction law through whole records (`stickslip fit --law`).
+
+`fit_law(features, records, law)` fits a `stickslip_fitting.modes.FrictionLaw` other than
+the paper's: the features fit of eqs (1), (3) first (its gauge offsets and the measured
+per-cycle levels), starts for the law from the cycle features (`law_starts`), then
+Levenberg-Marquardt of the smoothed-simulator objective (`objectives.smooth`), the only
+objective that expresses a law of the slider velocity or of a state variable.
+
+Starts (the one of least chi-square on the records is fitted), from the per-cycle
+breakaway level $\mu_0 = k x_{peak}/W$, the mid-slip level $\mu_m = k (x_{peak} + x_{trough})/(2W)$, the stick time $T_1$, the drive speed $V$ and the
+slip speed $v_s = \omega_0 (x_{peak} - x_{trough})/2$ (mm/s):
+- rate-and-state: the breakaway level of the aging law at rest,
+  $\mu_0 = \mu_* + a\ln(V/v_0) + b\ln(v_0 T_1/D_c)$, whose slope against $\ln V$ is $a - b$
+  ($T_1 \propto 1/V$), on a grid $a/b \in \{0.3, 0.6\}$, $D_c \in \{1, 4, 16\} \times 10^{-4}$
+  mm, with $\mu_*$ from the mean level;
+- log aging: $t_c$ = (0.01, 0.1, 1) x the shortest stick and $v_c$ = (0.3, 3) x the median
+  slip speed, $\mu_d$ and $\beta$ from the least squares of $\mu_0$ on $\ln(1 + T_1/t_c)$,
+  $c$ from the mean $\mu_m$.
+All clipped into the prior bounds.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+from stickslip_jax.modes import GaugeOffset
+
+from ..law_params import LogAgingFriction, RateStateAgingFriction, RateStateSlipFriction
+from ..modes import FrictionLaw, ModelModes, SolverOptions
+from ..params import CampaignParams, EmpiricalFriction, Hold, free_spec
+from .fit import FitResult, fit_features, fit_objective
+
+__all__ = ["LAW_PARAMS", "fit_law", "law_starts"]
+
+LAW_PARAMS = {FrictionLaw.PAPER: EmpiricalFriction,
+              FrictionLaw.RATE_STATE_AGING: RateStateAgingFriction,
+              FrictionLaw.RATE_STATE_SLIP: RateStateSlipFriction,
+              FrictionLaw.LOG_AGING: LogAgingFriction}
+"""The `AbstractFrictionParams` class of each law."""
+
+
+def _cycles(features, offsets):
+    """Per-cycle (mu_0, mu_m, T1 s, V mm/s, slip speed mm/s) of the complete cycles."""
+    rows = []
+    for f, c in zip(features, offsets):
+        ok = np.asarray(f.complete, bool) & (np.asarray(f.stick_time) > 0)
+        pk, tr = np.asarray(f.peak)[ok] - c, np.asarray(f.trough)[ok] - c
+        k_w = f.stiffness / f.weight
+        rows.append(np.stack([k_w * pk, k_w * 0.5 * (pk + tr), np.asarray(f.stick_time)[ok],
+                              np.full(pk.shape, f.drive_speed),
+                              np.maximum(f.omega0 * 0.5 * (pk - tr), 1e-9)], axis=1))
+    return np.concatenate(rows).T
+
+
+def _clip(law, values):
+    return {n: float(np.clip(values[n], *law.PRIOR_BOUNDS[n])) for n in law.NAMES}
+
+
+def law_starts(law: FrictionLaw, features, offsets=None) -> list:
+    """Starting points of `law`'s parameters from the cycle features (module doc)."""
+    cls = LAW_PARAMS[law]
+    offsets = np.zeros(len(features)) if offsets is None else np.asarray(offsets)
+    mu0, mum, t1, v, vs = _cycles(features, offsets)
+    out = []
+    if law is FrictionLaw.LOG_AGING:
+        for t_c, vf in itertools.product(np.array([0.01, 0.1, 1.0]) * np.min(t1), (0.3, 3.0)):
+            A = np.stack([np.ones_like(t1), np.log1p(t1 / t_c)], axis=1)
+            (mu_d, beta), *_ = np.linalg.lstsq(A, mu0, rcond=None)
+            v_c = vf * np.median(vs)
+            c = (mu_d - np.mean(mum)) / np.mean(np.log1p(vs / v_c))
+            out.append(dict(mu_d=mu_d, beta=max(beta, 1e-3), t_c=t_c, c=max(c, 1e-3), v_c=v_c))
+    else:
+        v0 = 1e-3
+        # the peaks give a - b only (T1 ~ 1/V): a/b and D_c on a grid
+        slope = np.polyfit(np.log(v / v0), mu0, 1)[0] if np.ptp(v) > 0 else -0.005
+        for r, d_c in itertools.product((0.3, 0.6), (1e-4, 4e-4, 1.6e-3)):
+            b = -min(slope, -1e-3) / (1.0 - r)
+            a = r * b
+            mu_ref = np.mean(mu0 - a * np.log(v / v0) - b * np.log(v0 * t1 / d_c))
+            out.append(dict(mu_ref=mu_ref, a=a, b=b, d_c=d_c))
+    return [cls.from_values(**_clip(cls, x)) for x in out]
+
+
+def fit_law(features, records, law: FrictionLaw, *, hold: Hold | None = None,
+            modes: ModelModes = ModelModes(), solver: SolverOptions = SolverOptions(),
+            objective=None) -> FitResult:
+    """Fit `law` (a `FrictionLaw`) to the whole `records` (module doc); `hold`, `modes`,
+    `solver` as in `fit_features`. `FrictionLaw.PAPER` is `fit_features` with
+    `Objective.SMOOTH`. `objective`: a `SmoothObjective` to fit in place of the records'
+    own (a held-out mask, other tolerances)."""
+    from ..objectives.smooth import SmoothObjective, smooth_data
+
+    first = fit_features(features, modes=modes, hold=hold if law is FrictionLaw.PAPER else None,
+                         solver=solver)
+    obj = objective if objective is not None else SmoothObjective(
+        smooth_data(records, features), slip_time=modes.slip_time)
+    starts = [first.params.friction] if law is FrictionLaw.PAPER else law_starts(
+        law, features, first.params.offset)
+    if hold is not None and law is not FrictionLaw.PAPER:
+        starts = [hold.apply(s) for s in starts]
+    chi2 = eqx.filter_jit(lambda p: jnp.sum(obj.residuals(p) ** 2))
+    trials = [CampaignParams(s, first.params.offset) for s in starts]
+    scores = [float(chi2(p)) if len(trials) > 1 else 0.0 for p in trials]
+    params = trials[int(np.nanargmin(np.where(np.isfinite(scores), scores, np.inf)))]
+    spec = free_spec(params, hold=hold, offsets=modes.offset is GaugeOffset.START)
+    return fit_objective(obj, params, spec, solver=solver.refine(), base=first)

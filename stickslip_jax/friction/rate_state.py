@@ -1,0 +1,108 @@
+r"""Dieterich-Ruina rate-and-state friction with the aging and the slip evolution laws.
+
+$$\mu(v, \theta) = \mu_* + a\ln(v/v_0) + b\ln(v_0\theta/D_c)$$
+(Dieterich 1979, J. Geophys. Res. 84, 2161; Ruina 1983, J. Geophys. Res. 88, 10359;
+Marone 1998, Annu. Rev. Earth Planet. Sci. 26, 643), the state $\theta$ (s, the
+contact age) evolving by
+- the aging law (`AgingLaw`): $\dot\theta = 1 - v\theta/D_c$ (it heals at rest:
+  $\theta$ grows like the stick time);
+- the slip law (`SlipLaw`): $\dot\theta = -(v\theta/D_c)\ln(v\theta/D_c)$ (it evolves
+  only with slip).
+
+At $v \to 0$ the logarithm is regularised (Rice and Ben-Zion 1996, Proc. Natl. Acad.
+Sci. 93, 3811; Lapusta et al. 2000, J. Geophys. Res. 105, 23765):
+$\mu = a\,\mathrm{asinh}[v/(2v_0)\,e^{\psi/a}]$, $\psi = \mu_* + b\ln(v_0\theta/D_c)$: odd
+in $v$, with a finite slope at $v = 0$, and equal to the law above to within
+$e^{-2\psi/a}(v_0/v)^2$. The smoothed simulator integrates $\theta$ as an ODE state
+(`stickslip_jax.simulation.simulate_smooth`). Units: $v$, $v_0$ mm/s; $D_c$ mm; $\theta$ s;
+$\mu_*$, $a$, $b$ dimensionless; $\mu_*$ is the steady-state friction at $v_0$.
+
+`rate_state_friction` builds the `Friction` pair: the static law is the aging law's
+healing at rest from the steady state at $v_0$, read at $v_0$ (`LogAgingStatic` with
+$\beta = b$, $t_c = D_c/v_0$), and the kinetic law (`RateStateKinetic`) carries the whole
+law. Its mean-kinetic interface (`__call__`) returns the steady-state friction at $v_0$.
+"""
+
+from __future__ import annotations
+
+import abc
+
+import equinox as eqx
+import jax.numpy as jnp
+
+from ..numerics import as_float
+from .kinetic import AbstractKineticFriction, Friction
+from .log_aging import LogAgingStatic
+from .static import Scalar
+
+PSI_CAP = 500.0
+r"""$\psi/a$ is capped here inside the exponential (friction levels above 500 a)."""
+
+
+class AbstractStateEvolution(eqx.Module):
+    r"""An evolution law $\dot\theta(v, \theta)$ of the rate-and-state variable."""
+
+    @abc.abstractmethod
+    def rate(self, velocity, theta, d_c):
+        r"""$\dot\theta$ (dimensionless) at the velocity (mm/s), state (s) and $D_c$ (mm)."""
+
+
+class AgingLaw(AbstractStateEvolution):
+    r"""Dieterich's aging law, $\dot\theta = 1 - |v|\theta/D_c$."""
+
+    def rate(self, velocity, theta, d_c):
+        return 1.0 - jnp.abs(velocity) * theta / d_c
+
+
+class SlipLaw(AbstractStateEvolution):
+    r"""Ruina's slip law, $\dot\theta = -(|v|\theta/D_c)\ln(|v|\theta/D_c)$ (0 at rest)."""
+
+    def rate(self, velocity, theta, d_c):
+        x = jnp.abs(velocity) * theta / d_c
+        safe = jnp.where(x > 0, x, 1.0)
+        return jnp.where(x > 0, -safe * jnp.log(safe), 0.0)
+
+
+class RateStateKinetic(AbstractKineticFriction):
+    r"""The rate-and-state law (module docstring) with $\mu_* = \mu_d$ (the `Friction`'s
+    shared level): `a`, `b` dimensionless, `d_c` in mm, `v_0` in mm/s, `evolution` an
+    `AbstractStateEvolution`."""
+
+    a: Scalar = eqx.field(converter=as_float)
+    b: Scalar = eqx.field(converter=as_float)
+    d_c: Scalar = eqx.field(converter=as_float)
+    v_0: Scalar = eqx.field(converter=as_float)
+    evolution: AbstractStateEvolution = AgingLaw()
+
+    def psi_over_a(self, theta, mu_d):
+        ratio = jnp.maximum(self.v_0 * theta / self.d_c, 1e-300)
+        return jnp.minimum((mu_d + self.b * jnp.log(ratio)) / self.a, PSI_CAP)
+
+    def coefficient(self, velocity, theta, mu_d):
+        """Regularised friction coefficient at the velocity (mm/s) and state (s)."""
+        z = 0.5 * velocity / self.v_0 * jnp.exp(self.psi_over_a(theta, mu_d))
+        return self.a * jnp.arcsinh(z)
+
+    def velocity_at(self, mu, theta, mu_d):
+        """The velocity (mm/s) at which the regularised law gives `mu` in state `theta`."""
+        s = self.psi_over_a(theta, mu_d)
+        return self.v_0 * (jnp.exp(mu / self.a - s) - jnp.exp(-mu / self.a - s))
+
+    def state_rate(self, velocity, theta):
+        r"""$\dot\theta$ of the evolution law."""
+        return self.evolution.rate(velocity, theta, self.d_c)
+
+    def steady(self, velocity, mu_d):
+        r"""Steady-state friction $\mu_* + (a - b)\ln(v/v_0)$ at the velocity (mm/s)."""
+        return mu_d + (self.a - self.b) * jnp.log(jnp.abs(velocity) / self.v_0)
+
+    def __call__(self, mu_0, mu_d, slip_time):
+        shape = jnp.broadcast_shapes(jnp.shape(mu_0), jnp.shape(slip_time))
+        return jnp.broadcast_to(jnp.asarray(mu_d, dtype=float), shape)
+
+
+def rate_state_friction(mu_ref, a, b, d_c, v_0, evolution=AgingLaw()) -> Friction:
+    r"""The `Friction` of a rate-and-state law (module docstring): $\mu_*$ = `mu_ref`
+    at `v_0` (mm/s), `a`, `b`, `d_c` (mm), `evolution` `AgingLaw()` or `SlipLaw()`."""
+    static = LogAgingStatic(mu_d=mu_ref, beta=b, t_c=as_float(d_c) / as_float(v_0))
+    return Friction(static, RateStateKinetic(a, b, d_c, v_0, evolution))
