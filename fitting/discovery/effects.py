@@ -271,7 +271,7 @@ class LoadCoupling(AbstractLoadCoupling, _Effect):
     kappa: Scalar = eqx.field(converter=_f, default=0.0)
 
     def normal_load(self, t, core, own, ctx):
-        return ctx.weight + self.kappa * ctx.stiffness * core.x
+        return ctx.normal_load + self.kappa * ctx.stiffness * core.x  # N (W) + kappa k x
 
 
 def _load_referred(mu, kappa):
