@@ -49,3 +49,35 @@ def test_a_run_fills_the_cache_and_the_next_reads_it(tmp_path):
     assert _hits(second) > _hits(first)  # and read back (the first run repeats a few itself)
     assert sorted(os.listdir(cache)) == entries  # same programs: nothing new written
     assert (tmp_path / "a.csv").read_bytes() == (tmp_path / "b.csv").read_bytes()
+
+
+def test_the_fit_programs_can_be_kept():
+    """JAX keeps no program with a host callback (an `eqx.error_if` check) in its
+    persistent cache: the features and trace residuals (the programs of every fit) have
+    none, so a later process loads them; the checked simulator has one."""
+    import jax
+    import jax.numpy as jnp
+
+    import stickslip_jax as ss
+    from stickslip_fitting.data.features import record_features
+    from stickslip_fitting.data.synthetic import synthetic_campaign
+    from stickslip_fitting.objectives.cycle_features import feature_data, feature_residuals
+    from stickslip_fitting.objectives.trace import trace_data, trace_residuals
+    from stickslip_fitting.params import CampaignParams, EmpiricalFriction
+    from stickslip_jax.drives import ConstantSpeed
+    from stickslip_jax.simulation import simulate_exact
+
+    fr = ss.lubricant("A")
+    recs = synthetic_campaign(fr, speed_fractions=(0.3,), cycles=3, seed=0)
+    feats = [record_features(r) for r in recs]
+    params = CampaignParams(EmpiricalFriction.from_friction(fr), jnp.zeros(len(recs)))
+
+    def lowered(fn, *args):
+        return jax.jit(fn).lower(*args).as_text()
+
+    assert "callback" not in lowered(trace_residuals, params, trace_data(recs, feats))
+    assert "callback" not in lowered(feature_residuals, params, feature_data(feats))
+    sw = ss.Slideway(fr, 36.0, 86.9)
+    checked = lowered(lambda ts: simulate_exact(sw, ConstantSpeed(0.05), ts).deflection,
+                      jnp.linspace(0.0, 1.0, 10))
+    assert "callback" in checked  # the test would see one
