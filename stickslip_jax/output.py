@@ -70,11 +70,6 @@ def check_outputs(outputs: dict[str, str | None], inputs=()) -> None:
                              "exist; create it first")
         if not os.access(folder, os.W_OK):
             raise ValueError(f"{option}: cannot write in {folder} (permission denied)")
-        ext = os.path.splitext(path)[1].lower().lstrip(".")
-        if any(w in option for w in ("plot", "figure", "corner")) and ext and (
-                ext not in FIGURE_FORMATS):
-            raise ValueError(f"{option}: cannot draw a figure as .{ext}; end the name in "
-                             f"one of .{', .'.join(sorted(FIGURE_FORMATS))}")
         for src in inputs:
             if _same(path, str(src)):
                 raise ValueError(f"{option}: {path} is one of the input records; it would be "
@@ -82,6 +77,11 @@ def check_outputs(outputs: dict[str, str | None], inputs=()) -> None:
         for other, p in seen.items():
             if _same(p, path):
                 raise ValueError(f"{option} and {other} name the same file {path}")
+        ext = os.path.splitext(path)[1].lower().lstrip(".")
+        if any(w in option for w in ("plot", "figure", "corner")) and ext and (
+                ext not in FIGURE_FORMATS):
+            raise ValueError(f"{option}: cannot draw a figure as .{ext}; end the name in "
+                             f"one of .{', .'.join(sorted(FIGURE_FORMATS))}")
         seen[option] = path
 
 
@@ -258,7 +258,10 @@ def outputs_together():
         if _INTERRUPTED:
             raise KeyboardInterrupt
         for tmp, path in _PENDING:
-            os.replace(tmp, path)
+            try:
+                os.replace(tmp, path)
+            except OSError as exc:  # name the output, not the temporary file
+                raise OSError(exc.errno, f"cannot write ({exc.strerror})", path) from exc
     finally:
         for tmp, _ in _PENDING:
             if os.path.exists(tmp):

@@ -96,7 +96,8 @@ def test_full_disk_keeps_the_previous_simulated_record(tmp_path, monkeypatch, ca
     old = copy_records(tmp_path, EXAMPLES[:1])[0]
     _full_disk(monkeypatch)
     _, err = run_checked(["simulate", "--lubricant", "A", "--weight", "36", "--stiffness",
-                          "86.9", "--speed", "10", "--duration", "1", "--out", old],
+                          "86.9", "--speed", "10", "--duration", "1", "--out", old,
+                          "--force"],
                          capsys, tmp_path, 2)
     one_line(err, str(old))
 

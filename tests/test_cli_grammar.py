@@ -65,6 +65,7 @@ MEANINGS = {
     "--seed": r"random seed",
     "--noise": r"noise",  # simulate: the noise added; plan: the noise of a record (sd)
     "--out": r"record|CSV",
+    "--force": r"replace an existing --out file",
     "--csv": r"as a long-format CSV: one row per",  # the record file written (simulate, import)
 }
 """Option names used by more than one command -> a pattern their help text matches in

@@ -47,8 +47,6 @@ def run(args) -> int:
     from ..slideway import Slideway
 
     check_outputs({"--out": args.out})
-    if os.path.exists(args.out) and not args.overwrite:
-        raise ValueError(f"--out: {args.out} exists; use --force to replace it")
     if not 0 <= args.seed < 2**63:
         raise ValueError(f"--seed: must be between 0 and 2**63 - 1, got {args.seed}")
     from ..simulation.synthetic import synthetic_record
@@ -77,6 +75,8 @@ def run(args) -> int:
         if starts[0] > 0:
             starts, speeds = [0.0, *starts], [0.0, *speeds]
         drive = SpeedProgram(starts, speeds)
+    if os.path.exists(args.out) and not args.overwrite:  # after the values, before the work
+        raise ValueError(f"--out: {args.out} exists; use --force to replace it")
     slideway = Slideway(lubricant(args.lubricant), args.weight, args.stiffness)
     record = synthetic_record(
         slideway, drive, args.duration, args.sample_rate, noise_std=args.noise,
