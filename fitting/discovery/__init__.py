@@ -13,7 +13,8 @@ The whole-record workflow on the smoothed simulator (`--base smooth`):
 - `effects`: the candidate-effect library (parts of the smoothed simulator).
 - `model`: campaign traces, the all-effects model and its one compiled
   residual/Jacobian function (`Problem`).
-- (the fits: `stickslip_jax.lsq.solve_host`, the project's one Levenberg-Marquardt driven from Python)
+- (the fits: `subproblems.AbstractProblem.solve`, the project's one Levenberg-Marquardt
+  driven from Python)
 - `residuals`: residual analysis and the misspecification test.
 - `ranking`: score test of every candidate at the base fit (no refit).
 - `selection`: refit the best few, choose by BIC or answer "none".

@@ -42,7 +42,7 @@ from jax.flatten_util import ravel_pytree
 
 from stickslip_jax.simulation.parts import AbstractForceTerm
 
-from stickslip_jax.lsq import HostResult, solve_host
+from stickslip_jax.lsq import HostResult
 
 from .model import (
     CampaignTraces,
@@ -53,6 +53,7 @@ from .model import (
     simulate_campaign,
     simulate_record,
 )
+from .subproblems import AbstractProblem
 
 __all__ = ["FEATURES", "LearnedCorrection", "LearnedForce", "fit_learned_correction",
            "stlsq"]
@@ -127,7 +128,7 @@ def _evaluate_learned(z_base, z_nn, dx0, eff_vec, friction_static, effects_templ
 
 
 @dataclasses.dataclass
-class LearnedProblem:
+class LearnedProblem(AbstractProblem):
     """`Problem` with an MLP force instead of the effect slots (same `evaluate` contract)."""
 
     base: Problem
@@ -257,7 +258,7 @@ def fit_learned_correction(base: Problem, base_fit: HostResult, *, width: int = 
     force0 = make_learned_force(base.traces, width=width, seed=seed)
     eff_vec = np.asarray(base.eff0)
     lp = LearnedProblem(base, force0, eff_vec)
-    fit = solve_host(lp.evaluate, lp.z0_from(base_fit.z), max_evals=max_evals)
+    fit = lp.solve(lp.z0_from(base_fit.z), max_evals=max_evals)
     N, sigma = fit.n_data, float(base.sigma)
     term = lp.force(fit.z)
     params = lp.params(fit.z)

@@ -43,6 +43,7 @@ from stickslip_jax.simulation.smooth import simulate_smooth
 
 from ..params import NAMES, EmpiricalFriction
 from .effects import CANDIDATES, EffectSet, load_referred_friction
+from .subproblems import AbstractProblem
 
 __all__ = [
     "EFFECT_PARAMS",
@@ -307,7 +308,7 @@ def combine_friction(z_base, friction_static: EmpiricalFriction, free_names
 
 
 @dataclasses.dataclass
-class Problem:
+class Problem(AbstractProblem):
     """A campaign and a model structure (which effect the slots drive, if any).
 
     `evaluate(z)` -> (residuals [M], Jacobian [M, P], ok) over the masked samples, with

@@ -34,7 +34,7 @@ import math
 import numpy as np
 import scipy.stats
 
-from stickslip_jax.lsq import HostResult, solve_host
+from stickslip_jax.lsq import HostResult
 
 from ..report.rows import ParameterEstimate
 from .model import Problem
@@ -74,8 +74,7 @@ def refit_candidates(base_problem: Problem, base_fit: HostResult, scores: list[C
         # an effect nearly collinear with the base parameters (load coupling against the
         # friction level: its efficient part is ~1e-3 of its column) would otherwise see
         # its step damped away
-        fit = solve_host(pc.evaluate, base_fit.z, active=pc.active(), max_evals=max_evals,
-                         lam0=1e-9)
+        fit = pc.solve(base_fit.z, max_evals=max_evals, lam0=1e-9)
         # little progress (under a tenth of the drop the score test predicts: a damped
         # crawl of 6750 -> 6749 on the stribeck campaign after the features program
         # changed its rounding) although the score is large: backtrack
@@ -114,8 +113,7 @@ def _backtracked_refit(pc, base_fit: HostResult, fit: HostResult, max_evals: int
             best = (cost, z, (r_t, J_t, ok_t))
     if best is None:
         return fit
-    more = solve_host(pc.evaluate, best[1], active=pc.active(), max_evals=max_evals,
-                      first=best[2])
+    more = pc.solve(best[1], max_evals=max_evals, first=best[2])
     return more if more.rss < fit.rss else fit
 
 

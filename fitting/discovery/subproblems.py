@@ -1,23 +1,45 @@
-"""Sub-problems of the per-cycle model over flat coordinate vectors, for
-`stickslip_jax.lsq.solve_host` (`cycle_workflow`): some of the model's coordinates free
-(`SubProblem`), and the screw error with one amplitude per harmonic and a phase per record
-(`SharedScrewProblem`)."""
+"""The problems discovery fits, over flat coordinate vectors: `AbstractProblem` (its
+`solve` is the one place discovery calls the solver), the per-cycle model with some of
+its coordinates free (`SubProblem`), and the screw error with one amplitude per harmonic
+and a phase per record (`SharedScrewProblem`); the smoothed whole-record base's are
+`model.Problem` and `learned.LearnedProblem`."""
 
 from __future__ import annotations
 
+import abc
 import dataclasses
 
 import numpy as np
 
+from stickslip_jax.lsq import HostResult, solve_host
+
 from .cycle_effects import Shape
 from .cycle_model import CycleModel
 
-__all__ = ["SharedScrewProblem", "SubProblem"]
+__all__ = ["AbstractProblem", "SharedScrewProblem", "SubProblem"]
+
+
+class AbstractProblem(abc.ABC):
+    """A discovery model over a flat coordinate vector z, as Levenberg-Marquardt fits it:
+    `evaluate(z)` -> (whitened residuals, their Jacobian [N, P] over z, whether the model
+    ran), `active()` the coordinates the fit moves (None: all)."""
+
+    @abc.abstractmethod
+    def evaluate(self, z) -> tuple[np.ndarray, np.ndarray, bool]:
+        """Residuals, Jacobian and success at z."""
+
+    def active(self) -> np.ndarray | None:
+        return None
+
+    def solve(self, z0, **options) -> HostResult:
+        """The fit from z0 over `active()` (`stickslip_jax.lsq.solve_host`, `options` its
+        budget, start damping, stall rule and first evaluation)."""
+        return solve_host(self.evaluate, z0, active=self.active(), **options)
 
 
 @dataclasses.dataclass
-class SubProblem:
-    """The model with only `cols` of the full coordinates free (`stickslip_jax.lsq.solve_host`)."""
+class SubProblem(AbstractProblem):
+    """The per-cycle model with only `cols` of the full coordinates free."""
 
     model: CycleModel
     z_full: np.ndarray
@@ -30,9 +52,6 @@ class SubProblem:
         out = self.z_full.copy()
         out[self.cols] = z
         return out
-
-    def active(self):
-        return np.ones(len(self.cols), bool)
 
     def evaluate(self, z):
         r, J, ok = self.model.evaluate(self.full(z), self.cols, self.shape, self.sensor)

@@ -16,7 +16,7 @@ Steps (each timed in `result.timings`):
    starting point for the friction (`stickslip_fitting.solve.fit.fit_features` on the records with at
    least two complete cycles).
 2. `base_fit`: the paper's model (all effects zero) fitted to the full traces by
-   Levenberg-Marquardt (`stickslip_jax.lsq.solve_host`), friction + one initial deflection per record.
+   Levenberg-Marquardt (`Problem.solve`), friction + one initial deflection per record.
 3. `residuals_before`: `residuals.analyse_residuals` (phases, bins, spectrum,
    misspecification test).
 4. `ranking`: score test of every library effect (`ranking.score_candidates`).
@@ -35,8 +35,6 @@ import dataclasses
 import math
 
 import numpy as np
-
-from stickslip_jax.lsq import solve_host
 
 from ..params import EmpiricalFriction
 from ..report.rows import DiscoveryEstimates
@@ -151,7 +149,7 @@ def discover(
     base = Problem(traces, initial_friction(records), effects, settings=settings,
                    fixed=tuple(fixed))
     clock("prepare", f"{traces.n_records} records, {traces.n_samples} samples")
-    base_fit = solve_host(base.evaluate, base.z0(), active=base.active(), max_evals=max_evals)
+    base_fit = base.solve(base.z0(), max_evals=max_evals)
     sigma, N = float(traces.noise), base_fit.n_data
     gap_before = math.sqrt(base_fit.rss / N) * sigma
     clock("base_fit", f"gap {gap_before * 1e3:.3g} um, {base_fit.n_evals} evaluations")
@@ -225,9 +223,8 @@ def _refit_and_choose(base, base_fit, scores, effects, *, top, threshold, collin
     if chosen is None or chosen.fit.converged:
         return refits, chosen, rivals
     # polish the chosen model (the ranking refits are short)
-    more = solve_host(chosen.problem.evaluate, chosen.fit.z, active=chosen.problem.active(),
-                      max_evals=max_evals, first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok),
-                      lam0=chosen.fit.lam)
+    more = chosen.problem.solve(chosen.fit.z, max_evals=max_evals, lam0=chosen.fit.lam,
+                                first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok))
     part = getattr(effects, chosen.name)
     bad = type(part).unphysical(
         {p: float(more.z[chosen.problem.n_base + j] * part.SCALES[j])

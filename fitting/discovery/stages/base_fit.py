@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 
 from stickslip_jax.logs import logger
-from stickslip_jax.lsq import solve_host
 
 from ...solve.fit import fit_features
 from ...objectives.losses import AbstractLoss
@@ -35,13 +34,13 @@ def _solve_base(prep: Prepared, opts: DiscoveryOptions, loss: AbstractLoss | Non
     base_cols = np.arange(model.n_base)
     prep.warm["evaluate", False].result()
     sub = SubProblem(model, prep.z_start, base_cols)
-    fit0 = solve_host(sub.evaluate, prep.z_start[base_cols], max_evals=max_evals)
+    fit0 = sub.solve(prep.z_start[base_cols], max_evals=max_evals)
     z_base = sub.full(fit0.z)
     _, yd, _ = model.residuals(z_base)
     sd_base = sd_at(z_base, data, yd)
     model = CycleModel(data, model.tref, sd_base, G)
     sub = SubProblem(model, z_base, base_cols)
-    fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
+    fit = sub.solve(z_base[base_cols], max_evals=max_evals)
     z_base = sub.full(fit.z)
     robust = np.ones(np.asarray(data.mask).shape)  # per sample: sd multiplier of the loss
     if loss is not None and loss.spec() != "gaussian":
@@ -53,7 +52,7 @@ def _solve_base(prep: Prepared, opts: DiscoveryOptions, loss: AbstractLoss | Non
         sd_base = sd_base * robust
         model = CycleModel(data, model.tref, sd_base, G)
         sub = SubProblem(model, z_base, base_cols)
-        fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
+        fit = sub.solve(z_base[base_cols], max_evals=max_evals)
         z_base = sub.full(fit.z)
         logger.debug(f"{loss.describe()}: {int(np.sum(w < 0.5))} of {w.size} samples "
                      "weigh less than half")
@@ -104,7 +103,7 @@ def _judge_records(prep: Prepared, opts: DiscoveryOptions, model, fit, z_base, s
     fits = []
     for z0 in zs:
         sub = SubProblem(model, z0, base_cols)
-        fit_ = solve_host(sub.evaluate, z0[base_cols], max_evals=2 * max_evals)
+        fit_ = sub.solve(z0[base_cols], max_evals=2 * max_evals)
         fits.append((fit_.rss, fit_, sub.full(fit_.z)))
         logger.debug(f"base fit with {len(suspects)} record(s) set aside: chi2 "
                      f"{fit_.rss:.6g}, {fit_.n_evals} evaluations, converged "
@@ -137,7 +136,7 @@ def _judge_records(prep: Prepared, opts: DiscoveryOptions, model, fit, z_base, s
         factor[g] = (opts.set_aside if g in aside else 1.0) * np.sqrt(c)
     model = CycleModel(data, model.tref, sd_plain * factor[np.asarray(data.record)][:, None], G)
     sub = SubProblem(model, z_base, base_cols)
-    fit = solve_host(sub.evaluate, z_base[base_cols], max_evals=max_evals)
+    fit = sub.solve(z_base[base_cols], max_evals=max_evals)
     z_base = sub.full(fit.z)
     return model, fit, z_base, sd_plain, median_chi2, scaled, aside, yd
 
@@ -167,8 +166,7 @@ def base_fit(prep: Prepared, *, loss: AbstractLoss | None, opts: DiscoveryOption
         # the base fit as the refits would run, from a damped start with more patience
         base_cols = np.arange(model.n_base)
         sub = SubProblem(model, z_base, base_cols)
-        more = solve_host(sub.evaluate, z_base[base_cols], max_evals=opts.max_evals, lam0=1.0,
-                          stall_evals=8)
+        more = sub.solve(z_base[base_cols], max_evals=opts.max_evals, lam0=1.0, stall_evals=8)
         if more.rss < fit.rss:
             fit, z_base = more, sub.full(more.z)
     r0 = fit.r

@@ -11,7 +11,7 @@ import itertools
 import numpy as np
 
 from stickslip_jax.logs import logger
-from stickslip_jax.lsq import gauss_newton_covariance, solve_host
+from stickslip_jax.lsq import gauss_newton_covariance
 
 from ..cycle_effects import DRIVE_ERROR_MAX, drive_error_range, neighbour_shapes
 from ..options import DEFAULTS, DiscoveryOptions
@@ -148,8 +148,7 @@ def _shared_screw(fx: Fits, f, cols, tried, best) -> FamilyRefit:
         shared = SharedScrewProblem(model, z_base.copy(), cols, one.shape, False, None, nb)
         w0 = np.concatenate([one.fit.z[:nb], SharedScrewProblem.start(one.fit.z[nb:nb + 4 * G], G)])
         try:
-            fit = solve_host(shared.evaluate, w0, max_evals=fx.opts.refit_evals, lam0=1e-3,
-                             stall_evals=8)
+            fit = shared.solve(w0, max_evals=fx.opts.refit_evals, lam0=1e-3, stall_evals=8)
         except ValueError:
             continue
         two = judge(fx, f, one.shape, fit, False, shared)
@@ -189,11 +188,11 @@ def refit_family(fx: Fits, sc: FamilyScore) -> FamilyRefit:
         try:
             # from a bent base the Gauss-Newton step overshoots: start damped and allow
             # more rejected trials before calling it stalled
-            fit = solve_host(s1.evaluate, z1[cols], max_evals=refit_evals,
-                             lam0=1.0 if misfit else 1e-6, stall_evals=8 if misfit else 4)
+            fit = s1.solve(z1[cols], max_evals=refit_evals, lam0=1.0 if misfit else 1e-6,
+                           stall_evals=8 if misfit else 4)
         except ValueError:  # the score step left the simulator's domain
             s1 = SubProblem(model, z_base, cols, shape, sensor, prior)
-            fit = solve_host(s1.evaluate, z_base[cols], max_evals=refit_evals)
+            fit = s1.solve(z_base[cols], max_evals=refit_evals)
         one = judge(fx, f, shape, fit, sensor, s1)
         tried.append(one)
         if _better(one, best):
@@ -209,7 +208,7 @@ def refit_family(fx: Fits, sc: FamilyScore) -> FamilyRefit:
         # above it, neither is a result)
         s1 = SubProblem(model, z_base, cols, best.shape, best.sensor, prior)
         try:
-            fit = solve_host(s1.evaluate, z_base[cols], max_evals=refit_evals)
+            fit = s1.solve(z_base[cols], max_evals=refit_evals)
             one = judge(fx, f, best.shape, fit, best.sensor, s1)
             tried.append(one)
             if one.fit.rss < best.fit.rss:
@@ -237,8 +236,8 @@ def refine_shape(fx: Fits, rf: FamilyRefit) -> tuple[FamilyRefit, int]:
             tried += 1
             sub_ = dataclasses.replace(refined.sub, shape=shape_)
             try:
-                fit_ = solve_host(sub_.evaluate, refined.fit.z, max_evals=fx.opts.refit_evals,
-                                  lam0=1e-3, stall_evals=8)
+                fit_ = sub_.solve(refined.fit.z, max_evals=fx.opts.refit_evals, lam0=1e-3,
+                                  stall_evals=8)
             except ValueError:  # this shape leaves the simulator's domain
                 continue
             one = judge(fx, refined.family, shape_, fit_, refined.sensor, sub_)
@@ -256,8 +255,8 @@ def continued(fx: Fits, rf: FamilyRefit, w=None, evals=None, margin=0.0) -> Fami
     None."""
     evals = fx.opts.max_evals if evals is None else evals
     try:
-        more = solve_host(rf.sub.evaluate, rf.fit.z if w is None else w,
-                          max_evals=evals, lam0=1e-3, stall_evals=8)
+        more = rf.sub.solve(rf.fit.z if w is None else w, max_evals=evals, lam0=1e-3,
+                            stall_evals=8)
     except ValueError:  # the start left the simulator's domain
         return None
     one = judge(fx, rf.family, rf.shape, more, rf.sensor, rf.sub)

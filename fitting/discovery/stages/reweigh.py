@@ -7,8 +7,6 @@ import dataclasses
 
 import numpy as np
 
-from stickslip_jax.lsq import solve_host
-
 from ..cycle_model import CycleModel
 from ..decision import rms_gap, chi2_by_record
 from .refit import judge
@@ -40,8 +38,8 @@ def reweigh(fx: Fits, choice: Choice, *, clock: Clock) -> Reweighed:
             data, base.model.tref, base.sd_plain * factor_now[np.asarray(data.record)][:, None],
             G)
         sub_after = dataclasses.replace(chosen.sub, model=model_after)
-        fit_after = solve_host(sub_after.evaluate, chosen.fit.z,
-                               max_evals=2 * opts.max_evals, lam0=1e-3, stall_evals=8)
+        fit_after = sub_after.solve(chosen.fit.z, max_evals=2 * opts.max_evals, lam0=1e-3,
+                                    stall_evals=8)
         one = judge(fx, chosen.family, chosen.shape, fit_after, chosen.sensor, sub_after)
         if one.unphysical is not None:
             break
