@@ -9,14 +9,18 @@ overtakes the drive and $x$ falls fast, $\dot x < 0$:
    nearest a quarter of the natural slip time $T_2 = \pi/\omega_0$, at least 3),
    which averages the measurement noise without smearing a slip; within half a
    window of the ends, the slope of the first (last) full window.
-2. The noise $\sigma$ of $\dot x - \dot u$ is its scaled median absolute deviation
-   $1.4826\,\mathrm{median}|r - \mathrm{median}(r)|$, $r = \dot x - \dot u$ (the stick
-   samples, assumed the majority, set it).
-3. The threshold is $\theta = \max(5\sigma, 0.05 \max|r|, 10^{-9}\max(|\dot x|, |\dot u|))$
-   (the last term only matters for noiseless traces). A sample is **stick** when
-   $|\dot x - \dot u| \le \theta$ (rising at the drive speed), **slip** when
-   $\dot x < -\theta$ (falling fast), and **other** otherwise: the turning points at
-   the ends of a slip, and steady sliding ($x$ constant while the drive moves).
+2. The noise $\sigma$ of $\dot x - \dot u$ is that of a slope through `window` samples
+   of the slider displacement $y = u - x$, whose noise comes from its second differences
+   (`stickslip_jax.slips.robust_sigma`): it does not depend on the share of time in
+   stick (a record that slides most of the time is not taken for one that sticks).
+3. The threshold is $\theta = \max(5\sigma, 0.05 \max|r|, 10^{-9}\max(|\dot x|, |\dot u|))$,
+   $r = \dot x - \dot u$ (the last term only matters for noiseless traces). A sample is
+   **stick** when $|\dot x - \dot u| \le \theta$ (rising at the drive speed), **slip** when
+   $\dot x < -\theta$ within a slip found by the cycle detector of every command
+   (`stickslip_jax.slips.find_slips`, the one `fit` and `discover` use), **other** for the
+   rest of a slip (its turning points), and **sliding** when the slider moves outside
+   every slip (steady sliding, creep). The slips counted are the detector's; a record
+   it finds sliding continuously has none, and `PhaseSplit.verdict` says so.
 
 Two defects of real loggers are handled first (`glitches`, `quantum`), so that they do
 not change the count of slips:
@@ -48,9 +52,11 @@ from pathlib import Path
 import numpy as np
 
 from .records import Record
+from .slips import find_slips, robust_sigma
 
-STICK, SLIP, UNCLASSIFIED = 0, 1, -1
-"""Phase labels of `PhaseSplit.labels` (UNCLASSIFIED is shown as "other")."""
+STICK, SLIP, UNCLASSIFIED, SLIDE = 0, 1, -1, 2
+"""Phase labels of `PhaseSplit.labels` (UNCLASSIFIED is shown as "other", SLIDE as
+"sliding")."""
 
 ROUNDOFF = 1e-9
 """Smallest threshold relative to the largest rate (for noiseless, e.g. synthetic, traces)."""
@@ -104,6 +110,8 @@ class PhaseSplit:
     window: int  # samples in the slope fit
     glitches: int = 0  # single-sample spikes replaced before the slopes (module doc)
     quantum: float = 0.0  # the logger's resolution q in mm when quantised, else 0
+    slips: tuple = ()  # the cycle detector's slips, (first, last + 1) sample indices
+    verdict: str | None = None  # why there is no stick-slip (`slips.find_slips`), or None
 
     def runs(self, label: int) -> list[tuple[int, int]]:
         """(first, last + 1) sample indices of each run of `label`."""
@@ -113,13 +121,18 @@ class PhaseSplit:
 
     @property
     def n_slips(self) -> int:
-        """Number of slip phases."""
-        return len(self.runs(SLIP))
+        """Number of slips (the cycle detector's)."""
+        return len(self.slips)
 
     @property
     def stick_fraction(self) -> float:
         """Fraction of samples in stick."""
         return float(np.mean(self.labels == STICK))
+
+    @property
+    def sliding_fraction(self) -> float:
+        """Fraction of samples sliding outside every slip."""
+        return float(np.mean(self.labels == SLIDE))
 
 
 GLITCH_NOISE = 10.0
@@ -173,20 +186,27 @@ def classify_phases(
         good = ~spikes
         x = x.copy()
         x[spikes] = np.interp(time[spikes], time[good], x[good])
+    drive = record.drive_position()
     rate = _slope(x, time, w)
-    drive_rate = _slope(record.drive_position(), time, w)
+    drive_rate = _slope(drive, time, w)
     q = quantum(x, np.abs(drive_rate) > 0)
     r = rate - drive_rate
-    noise = MAD_SCALE * float(np.median(np.abs(r - np.median(r))))
+    dt = (time[-1] - time[0]) / (time.shape[0] - 1)
+    noise = robust_sigma(drive - x) * math.sqrt(12.0 / max(w * (w * w - 1), 6)) / dt
     roundoff = ROUNDOFF * max(float(np.max(np.abs(rate))), float(np.max(np.abs(drive_rate))))
     threshold = max(k_sigma * noise, fraction * float(np.max(np.abs(r))), roundoff)
     if q > 0:
-        dt = (time[-1] - time[0]) / (time.shape[0] - 1)
         threshold = max(threshold, 3.0 * q / (max(w, 2) * dt))
-    labels = np.full(r.shape, UNCLASSIFIED, dtype=np.int8)
+    found = find_slips(time, record.deflection, drive, record.omega0)
+    slips = () if found.verdict else tuple((a, min(b, r.size)) for a, b in found.events)
+    in_slip = np.zeros(r.shape, dtype=bool)
+    for a, b in slips:
+        in_slip[a:b] = True
+    labels = np.where(in_slip, UNCLASSIFIED, SLIDE).astype(np.int8)
+    labels[in_slip & (rate < -threshold)] = SLIP
     labels[np.abs(r) <= threshold] = STICK
-    labels[rate < -threshold] = SLIP
-    return PhaseSplit(labels, rate, drive_rate, threshold, noise, w, int(spikes.sum()), q)
+    return PhaseSplit(labels, rate, drive_rate, threshold, noise, w, int(spikes.sum()), q,
+                      slips, found.verdict)
 
 
 MAX_SHADED = 2000
@@ -206,14 +226,13 @@ def plot_record(record: Record, phases: PhaseSplit | None = None):
     fig = Figure(figsize=(11, 4.6), layout="constrained")
     FigureCanvasAgg(fig)
     ax, ph = fig.subplots(1, 2, width_ratios=[1.7, 1])
-    colours = {STICK: "tab:blue", SLIP: "tab:red", UNCLASSIFIED: "0.6"}
-    names = {STICK: "stick", SLIP: "slip", UNCLASSIFIED: "other"}
+    colours = {STICK: "tab:blue", SLIP: "tab:red", UNCLASSIFIED: "0.6", SLIDE: "tab:orange"}
+    names = {STICK: "stick", SLIP: "slip", UNCLASSIFIED: "other", SLIDE: "sliding"}
     ax.plot(t, x, color="0.75", lw=0.6, zorder=1)
-    slips = phases.runs(SLIP)
-    if len(slips) <= MAX_SHADED:
-        for a, b in slips:
+    if len(phases.slips) <= MAX_SHADED:
+        for a, b in phases.slips:
             ax.axvspan(t[a], t[min(b, len(t) - 1)], color="tab:red", alpha=0.12, lw=0, zorder=0)
-    for label in (STICK, SLIP, UNCLASSIFIED):
+    for label in (STICK, SLIP, UNCLASSIFIED, SLIDE):
         mask = phases.labels == label
         if mask.any():
             n = int(mask.sum())
@@ -229,7 +248,9 @@ def plot_record(record: Record, phases: PhaseSplit | None = None):
     if record.lubricant:
         title += f", lubricant {record.lubricant}"
     ax.set_title(title, fontsize=9)
-    ax.legend(loc="upper right", fontsize=8, title=f"{phases.n_slips} slips", title_fontsize=8)
+    sliding = phases.verdict is not None and "slides continuously" in phases.verdict
+    ax.legend(loc="upper right", fontsize=8, title_fontsize=8,
+              title="slides continuously" if sliding else f"{phases.n_slips} slips")
     ph.set_xlabel(r"$\dot x/\omega_0$ [mm],  $\omega_0$ = " + f"{record.omega0:.4g} rad/s")
     ph.set_ylabel("x [mm]")
     ph.set_title("phase plane (Figs 34/35)", fontsize=9)

@@ -142,7 +142,7 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
     microsqueeze model ({"given": {"eta": ..., "surface": ...}}). Every user error is a
     ValueError naming the option or file to fix (checked before any fitting).
     """
-    from ..data.campaign import load_campaign
+    from ..data.campaign import load_campaign, one_record_holds
     from ..solve.fit import fit_features
     from ..objectives.losses import parse_loss
     from ..params import Hold
@@ -173,7 +173,8 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
                                objective=objective, records=campaign.records, loss=loss)
         return fit, campaign, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
                                         "surface": surface}}
-    campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
+    campaign = load_campaign(args.records, min_records=1, strict=getattr(args, "strict", False))
+    fixed = {**one_record_holds(campaign), **fixed}
     _say_fitting(args, campaign, objective)
     fit = fit_features(campaign.features, hold=Hold.named(fixed) if fixed else None,
                        modes=modes, objective=objective, records=campaign.records, loss=loss)

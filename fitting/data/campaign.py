@@ -26,8 +26,8 @@ from stickslip_jax.rigs import rig_quantities
 
 from .features import RecordFeatures, record_features
 
-__all__ = ["USED", "NO_STICK_SLIP", "SET_ASIDE", "UNREADABLE", "Campaign", "RecordStatus",
-           "find_truth", "load_campaign", "screen_records"]
+__all__ = ["USED", "NO_STICK_SLIP", "SET_ASIDE", "UNREADABLE", "ONE_RECORD_HOLDS", "Campaign",
+           "RecordStatus", "find_truth", "load_campaign", "one_record_holds", "screen_records"]
 
 USED = "used"
 NO_STICK_SLIP = "no_stick_slip"
@@ -106,7 +106,43 @@ class Campaign:
             if s.status == USED and s.left_out:
                 why = ", ".join(f"{c} {k}" for k, c in s.left_out.items())
                 out.append(f"{s.name}: cycles left out: {why}")
+        held = one_record_holds(self)
+        if held:
+            out.append(
+                f"one record: {', '.join(f'{k} = {v:g}' for k, v in held.items())} held at "
+                f"lubricant {held_lubricant(self)}'s values (Table 6): one stick time and one "
+                "slip time determine mu_s and mu_d only with the rise of eq (1) and the decay "
+                "of eq (3) given (--fix NAME=VALUE holds another value; records at other "
+                "speeds and springs fit them)")
         return out
+
+
+ONE_RECORD_HOLDS = ("gamma", "m", "delta", "n")
+"""What one record cannot determine (one stick time: the rise of mu_0 with it, eq 1; one
+slip time: the decay of eq 3), held by a fit of a single record (`one_record_holds`)."""
+
+
+def held_lubricant(campaign: Campaign) -> str:
+    """The paper's lubricant whose Table 6 values hold `ONE_RECORD_HOLDS`: the record's
+    when it is one of them, else A."""
+    from stickslip_jax.lubricants import lubricants
+
+    name = campaign.records[0].lubricant if campaign.records else None
+    return name if name in lubricants(6) else "A"
+
+
+def one_record_holds(campaign: Campaign) -> dict[str, float]:
+    """{name: value} a fit of a campaign of one used record holds (`ONE_RECORD_HOLDS` at
+    Table 6's values, `held_lubricant`), so that mu_s and mu_d get intervals; {} for
+    a campaign of several records."""
+    if len(campaign.records) != 1:
+        return {}
+    from stickslip_jax.lubricants import lubricant
+
+    f = lubricant(held_lubricant(campaign))
+    values = {"gamma": f.static.gamma, "m": f.static.m, "delta": f.kinetic.delta,
+              "n": f.kinetic.n}
+    return {k: float(values[k]) for k in ONE_RECORD_HOLDS}
 
 
 def _status(f: RecordFeatures, record: Record | None = None) -> RecordStatus:

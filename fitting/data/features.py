@@ -48,6 +48,7 @@ import math
 
 import numpy as np
 
+from stickslip_jax.slips import SlipSearch, find_slips, regions, rest, rest_length
 from stickslip_jax.units import G_MM_S2
 
 from . import sticks
@@ -83,7 +84,9 @@ class RecordFeatures:
     the drive error found in the sticks and corrected, if any; `deflection_used`: the
     deflection (mm, at the record's times) as the features saw it (spikes replaced);
     `drive_fix`: the correction added to the nominal drive (mm, at the record's times)
-    or None.
+    or None; `trough_shift` per cycle: eq (5)'s trough (the slip's swing symmetric about
+    its centre, as under a steady drive) less the measured one, from the slip fitted
+    under a drive whose speed changes during it (`sticks.slip_fit`; 0 otherwise, mm).
     """
 
     name: str
@@ -113,6 +116,7 @@ class RecordFeatures:
     noise_note: str | None = None
     deflection_used: np.ndarray | None = dataclasses.field(default=None, repr=False)
     drive_fix: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    trough_shift: np.ndarray | None = dataclasses.field(default=None, repr=False)
     normal_load: float | None = None
 
     @property
@@ -197,16 +201,17 @@ def extract_cycles(
       corrected drive when the sticks show one (`RecordFeatures.drive_note` says what was
       found).
 
-    Returns `RecordFeatures`; never raises for a record without stick-slip. The stages:
-    `_prepare` (noise, spikes, y = u - x), `_slip_events` (the slips), `_stick_plateaus`
-    (the sticks between them), `_cycle_row` (one cycle's features), `_assemble`.
+    Returns `RecordFeatures`; never raises for a record without stick-slip (a record
+    that slides continuously says so in `message`). The stages: `_prepare` (noise, y =
+    u - x, and the slips of `stickslip_jax.slips.find_slips`, the detector every command
+    uses), `_stick_plateaus` (the sticks between them; a stick shorter than the slips
+    where y rests, `slips.rest`), `_cycle_row` (one cycle's features; a slip under a
+    drive whose speed changes timed by `sticks.slip_fit`), `_assemble`.
     """
-    r = _prepare(time, deflection, weight, stiffness, drive, name)
-    if r.n <= r.h + 2:
-        return r.empty("record shorter than one slip; no stick-slip can be seen")
-    events, thr = _slip_events(r, threshold)
-    if not events:
-        return r.empty(_no_slip_message(r, thr))
+    r = _prepare(time, deflection, weight, stiffness, drive, name, threshold)
+    events, thr = r.found.events, r.found.threshold
+    if not events or r.found.sliding:
+        return r.empty(r.found.verdict)
     plateaus = _stick_plateaus(r, events)
     if correct_drive:
         # A drive error estimated from all the sticks, kept when it is significant, has
@@ -259,6 +264,7 @@ class _Prepared:
     sigma: float
     n_spikes: int
     noise_note: str | None
+    found: SlipSearch
 
     def empty(self, message: str) -> RecordFeatures:
         return _empty(self.name, self.weight, self.stiffness, self.speed, self.omega0,
@@ -270,7 +276,7 @@ class _Prepared:
         return 1e-9 * max(1.0, float(np.max(np.abs(self.x))))
 
 
-def _prepare(time, deflection, weight, stiffness, drive, name) -> _Prepared:
+def _prepare(time, deflection, weight, stiffness, drive, name, threshold) -> _Prepared:
     t = np.asarray(time, dtype=np.float64)
     x = np.asarray(deflection, dtype=np.float64)
     if t.ndim != 1 or x.shape != t.shape or t.size < 2:
@@ -296,63 +302,9 @@ def _prepare(time, deflection, weight, stiffness, drive, name) -> _Prepared:
                       "simulated); its errors use the floor, so the intervals measure no "
                       "better than that")
         sigma = sticks.NOISE_FLOOR
-    x, n_spikes = sticks.despike(x, sigma)
-    h = max(1, int(round(0.5 * t2 / dt)))
-    return _Prepared(name, t, x, u, u - x, speed, weight, stiffness, omega0, t2, dt, t.size,
-                     h, sigma, n_spikes, noise_note)
-
-
-def _slip_events(r: _Prepared, threshold) -> tuple[list[list[int]], float]:
-    """The slips as sample ranges [a, b) and the detection threshold (mm)."""
-    h, x, sigma = r.h, r.x, r.sigma
-    # The fall of x over half a natural period, each end averaged over w samples: its
-    # noise is sigma sqrt(2/w); the threshold grows with the record's length so that a
-    # record of pure noise shows about 0.01 false slips (`detection_z`).
-    w = max(1, h // 2)
-    xs = sticks.moving_mean(x, w)
-    fall = xs[:-h] - xs[h:]  # > 0 while x drops (a slip)
-    z = sticks.detection_z(r.n / h) if threshold is None else float(threshold)
-    thr = max(z * sigma * math.sqrt(2.0 / w), r.floor)
-    # widen each run to cover its slip; runs that then overlap are one slip (runs with
-    # a gap are judged below by whether y rests between them: near the boundary a
-    # stick can be shorter than the slip; measured: C, W 36, k 86.9, 20 mm/min, sticks
-    # of 10 ms, merging runs within two half periods found 41 of its 64 slips)
-    events: list[list[int]] = []
-    for a, b in sticks.runs(fall > thr):
-        a = a + w - 1  # the averaging window lets the fall start w - 1 samples early
-        if events and a - events[-1][1] <= 0:
-            events[-1][1] = b + h
-        else:
-            events.append([a, b + h])
-    if not events:
-        return events, thr
-    margin = max(2, h // 2)
-    # A measurement chain that rings after the slip (a second-order sensor near the
-    # slideway's own frequency) can split one slip into two falls with a few samples
-    # between them: a gap shorter than a natural period that is not flat is no stick,
-    # and the two events are one slip (measured: k 128.5 kgf/mm, 30 Hz sensor, zeta 0.3:
-    # without this, 32 of 56 slips were used, each split slip costing both its cycles).
-    merged: list[list[int]] = [events[0]]
-    for ev in events[1:]:
-        a, b = merged[-1][1] + margin, ev[0] - margin
-        if b - a < 2 * h and (b - a < 3 or not sticks.plateau(r.t, r.y, a, b, sigma,
-                                                              r.floor).flat):
-            merged[-1][1] = ev[1]
-        else:
-            merged.append(ev)
-    return merged, thr
-
-
-def _no_slip_message(r: _Prepared, thr: float) -> str:
-    whole = sticks.plateau(r.t, r.y, 0, r.n, r.sigma, r.floor)
-    rise = float(r.u[-1] - r.u[0])
-    if whole.flat and rise > 10.0 * r.sigma:
-        return ("no slip yet: the slider stuck for the whole record (the deflection follows "
-                f"the drive, rising {rise * 1e3:.3g} um); the record ends before the first "
-                "breakaway: record longer")
-    return ("no stick-slip: the deflection never falls by more than "
-            f"{thr * 1e3:.3g} um within half a natural period (steady sliding, or too little "
-            "motion for the noise)")
+    found = find_slips(t, x, u, omega0, sigma=sigma, threshold=threshold)
+    return _Prepared(name, t, found.x, u, found.y, speed, weight, stiffness, omega0, t2, dt,
+                     t.size, found.h, sigma, found.spikes, noise_note, found)
 
 
 def _stick_plateaus(r: _Prepared, events) -> list[sticks.Plateau | None]:
@@ -361,6 +313,7 @@ def _stick_plateaus(r: _Prepared, events) -> list[sticks.Plateau | None]:
     t, y, sigma, floor, h = r.t, r.y, r.sigma, r.floor, r.h
     margin = max(2, h // 2)
     bounds = [0] + [v for ev in events for v in ev] + [r.n]
+    around = regions(r.x, events, r.n)
     plateaus: list[sticks.Plateau | None] = []
     for j in range(len(events) + 1):
         a, b = bounds[2 * j], bounds[2 * j + 1]
@@ -385,6 +338,9 @@ def _stick_plateaus(r: _Prepared, events) -> list[sticks.Plateau | None]:
             excess = float(np.mean(y[tail])) - p.level
             p = dataclasses.replace(p, creep=max(excess, 0.0),
                                     creep_sd=sigma / math.sqrt(end - tail.start))
+        if p is None or not p.flat:  # a stick shorter than the slips: where y rests
+            q = rest(t, y, r.u, *around[j], sigma, floor, rest_length(h))
+            p = q if q is not None and q.flat else p
         plateaus.append(p)
     return plateaus
 
@@ -454,13 +410,30 @@ def _cycle_row(r: _Prepared, ev, before, after, thr, prev_end, first: bool):
     # is the larger part (measured there: end times scatter by 0.75 ms)
     slip_sd = (v_slip / (omega0 * amp) / (omega0 * amp)
                * math.hypot(before.end_sd, after.sd)) if amp > 0 else 0.0
+    time_sd = math.sqrt(2.0 * tc_sd ** 2 + 0.5 * slip_sd ** 2)
+    peak_sd, trough_sd, shift = before.end_sd, after.sd, 0.0
+    quarters = np.diff(np.interp(np.linspace(t[before.hi - 1], t[after.lo], 5), t, u))
+    if np.ptp(quarters) > 2e-3 * np.max(np.abs(quarters)):  # the drive's speed changes
+        gap = max(after.lo - before.hi, 4)
+        fit = sticks.slip_fit(t, u, y, y_pre, y_post, omega0, (t_b, t[before.hi - 1]),
+                              r.sigma, max(before.lo, before.hi - gap // 2),
+                              min(after.hi, after.lo + gap // 2))
+        if fit is None:  # the constant-speed timing would be wrong by the drive's change
+            return None, "slip not timed"
+        t_b, t_e, sd_b, sd_e, centre = fit
+        u_b, u_e = np.interp([t_b, t_e], t, u)
+        x2, x1 = float(u_b - y_pre), float(u_e - y_post)
+        shift = (2.0 * centre - x2) - x1  # eq (5)'s trough (a steady drive) less the real one
+        v_b, v_e = np.interp([t_b, t_e], t, np.gradient(u, t))
+        peak_sd, trough_sd = math.hypot(peak_sd, v_b * sd_b), math.hypot(trough_sd, v_e * sd_e)
+        time_sd = math.hypot(sd_b, sd_e)
     return dict(
         breakaway_time=t_b, end_time=t_e,
-        stick_time=(t_b - prev_end) if prev_end is not None else float("nan"),
+        stick_time=max(t_b - prev_end, 0.0) if prev_end is not None else float("nan"),
         slip_time=(t90 - t10) / _RISE_10_90 if math.isfinite(t90 - t10) else float("nan"),
-        peak=x2, trough=x1,
-        peak_sd=before.end_sd, trough_sd=after.sd,
-        stick_time_sd=math.sqrt(2.0 * tc_sd ** 2 + 0.5 * slip_sd ** 2),
+        peak=x2, trough=x1, trough_shift=shift,
+        peak_sd=peak_sd, trough_sd=trough_sd,
+        stick_time_sd=time_sd,
         complete=prev_end is not None,
     ), None
 

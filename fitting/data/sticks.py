@@ -1,20 +1,37 @@
 r"""Sticks and slips of one record, the pieces `features.extract_cycles` is built from.
 
-The noise of the deflection (`robust_sigma`, `NOISE_FLOOR`) and its impulsive spikes
-(`despike`); the slip detector's threshold (`detection_z`) and its runs (`runs`); a stick's
-plateau of the slider displacement y = u - x (`plateau`, `settled_start`, `creep_end`,
-`creeping_plateau`); the drive's error seen in the sticks (`drive_error`); the timing of
-a slip from rest to rest with the drive moving (`slip_duration`, `slip_ends`, eq 11).
+The slips and rests themselves come from `stickslip_jax.slips` (the one detector of every
+command; its noise, spike, threshold and plateau pieces are re-exported here). This module
+adds the noise floor of a fit (`NOISE_FLOOR`); a stick's plateau of the slider
+displacement y = u - x refined (`settled_start`, `creep_end`, `creeping_plateau`); the
+drive's error seen in the sticks (`drive_error`); the timing of a slip from rest to rest
+with the drive moving (`slip_duration`, `slip_ends`, eq 11).
 Units: mm, s. Plain NumPy (data preparation, run once before fitting).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
 import scipy.optimize
+
+from stickslip_jax.slips import (
+    CREEP_SPEED,
+    Plateau,
+    clipped_mean,
+    despike,
+    detection_z,
+    moving_mean,
+    plateau,
+    robust_sigma,
+    runs,
+)
+
+__all__ = ["CREEP_SPEED", "NOISE_FLOOR", "Plateau", "clipped_mean", "creep_end",
+           "creeping_plateau", "crossing", "despike", "detection_z", "drive_error",
+           "moving_mean", "plateau", "robust_sigma", "runs", "settled_start", "slip_duration",
+           "slip_ends"]
 
 NOISE_FLOOR = 1e-5
 """Smallest noise standard deviation a record is given (mm; 10 nm): the order of the best
@@ -23,93 +40,6 @@ displacement gauges on slideways (measured records here: 0.5-1.5 um). A noise-fr
 rounding (measured without the floor: delta 73.03 +- 1e-8 for a truth of 67 from
 noise-free records; on noise-free smoothed-simulator records, smoothing 1e-3, the 95 %
 intervals missed mu_s by 0.07 % with a standard error of 3e-5 relative)."""
-
-
-def robust_sigma(x: np.ndarray) -> float:
-    """Noise standard deviation of x from its second differences (white noise).
-
-    1.4826 x the median absolute deviation, refined by the RMS of the second differences
-    within 6 of those deviations: impulsive spikes and the slips fall outside, and a
-    logger that quantises finer than the noise cannot make the estimate collapse to 0
-    (the MAD of mostly-zero differences is 0; the clipped RMS is not). Returns 0 only
-    for a record that is exactly linear."""
-    if x.size < 5:
-        return 0.0
-    d2 = x[2:] - 2.0 * x[1:-1] + x[:-2]
-    mad = 1.4826 * float(np.median(np.abs(d2 - np.median(d2))))
-    step = np.abs(np.diff(x))
-    step = step[step > 1e-12 * max(1.0, float(np.max(np.abs(x))))]
-    quantum = float(np.min(step)) if step.size else 0.0
-    if mad > 2.0 * quantum:  # quantisation well below the noise: the MAD is exact
-        return float(mad / math.sqrt(6.0))
-    cut = 6.0 * max(mad, quantum)
-    if cut <= 0.0:
-        return 0.0
-    inner = d2[np.abs(d2) <= cut]
-    rms = float(np.sqrt(np.mean(inner**2))) if inner.size else mad
-    return float(max(mad, rms) / math.sqrt(6.0))
-
-
-_QUAD_WEIGHTS = np.linalg.lstsq(
-    np.vander(np.array([-3.0, -2.0, -1.0, 1.0, 2.0, 3.0]), 3), np.eye(6), rcond=None)[0][-1]
-"""Weights of the six neighbours (offsets -3..-1, 1..3) in the value at 0 of the
-least-squares quadratic through them."""
-
-
-def despike(x: np.ndarray, sigma: float, half: int = 3, k: float = 6.0) -> tuple[np.ndarray, int]:
-    """Impulsive spikes replaced: a sample more than `k` sigma from both the median of its
-    2 `half` + 1 neighbours (Hampel) and the quadratic through its six neighbours is a
-    spike and gets that median. The quadratic keeps the real signal: the high curvature
-    at a slip's turning points moves a median by several sigma (at 1 kHz and 30 Hz a
-    trough's sample differs from its median by ~15 um) but not a quadratic (third
-    derivative, < 1 um). Returns (x, number of samples replaced)."""
-    if sigma <= 0 or x.size < 2 * half + 1:
-        return x, 0
-    pad = np.pad(x, half, mode="edge")
-    win = np.lib.stride_tricks.sliding_window_view(pad, 2 * half + 1)
-    med = np.median(win, axis=1)
-    bad = np.abs(x - med) > k * sigma
-    if not bad.any():
-        return x, 0
-    if half == 3:
-        pred = win[:, [0, 1, 2, 4, 5, 6]] @ _QUAD_WEIGHTS
-        dev = np.abs(x - pred)
-        bad &= dev > k * sigma * math.sqrt(1.0 + float(_QUAD_WEIGHTS @ _QUAD_WEIGHTS))
-        # a spike also lifts its neighbours' quadratics: keep the largest deviation of
-        # each neighbourhood (spikes are isolated samples)
-        peak = np.max(np.lib.stride_tricks.sliding_window_view(
-            np.pad(np.where(bad, dev, 0.0), half), 2 * half + 1), axis=1)
-        bad &= dev >= peak
-    if not bad.any():
-        return x, 0
-    out = x.copy()
-    out[bad] = med[bad]
-    return out, int(np.count_nonzero(bad))
-
-
-def moving_mean(x: np.ndarray, w: int) -> np.ndarray:
-    """Mean of x over w consecutive samples (length len(x) - w + 1)."""
-    if w <= 1:
-        return x
-    c = np.concatenate([[0.0], np.cumsum(x)])
-    return (c[w:] - c[:-w]) / w
-
-
-def detection_z(n_tests: float, false_rate: float = 0.01) -> float:
-    """Threshold in standard deviations of the fall statistic for about `false_rate`
-    false slips per record of `n_tests` independent fall measurements (Gaussian tail,
-    union bound: P(max > z) ~ n_tests * exp(-z^2/2)), never below 4.5."""
-    return max(4.5, math.sqrt(2.0 * math.log(max(n_tests, 1.0) / false_rate)))
-
-
-def clipped_mean(y: np.ndarray, sigma: float) -> tuple[float, int]:
-    """Mean of y after discarding samples more than 5 sigma from the median."""
-    med = float(np.median(y))
-    if sigma > 0:
-        keep = np.abs(y - med) <= 5.0 * sigma
-        if np.count_nonzero(keep) >= max(1, y.size // 2):
-            y = y[keep]
-    return float(np.mean(y)), int(y.size)
 
 
 def settled_start(y: np.ndarray, lo: int, hi: int, sigma: float, block: int, reach: int,
@@ -160,57 +90,6 @@ def creep_end(t: np.ndarray, y: np.ndarray, lo: int, hi: int, sigma: float, bloc
             break
         hi -= max(1, block // 2)
     return hi
-
-
-@dataclasses.dataclass(frozen=True)
-class Plateau:
-    """The slider's position y during one stick: its level (5-sigma clipped mean) and
-    whether the stick is `flat`: the robust spread about the level within 3 sigma and
-    the drift of y across the stick (a fitted line) within 3 sigma at both ends.
-    `creep`: how far the slider had crept at the stick's end (mm; see `creep_end`)."""
-
-    level: float
-    count: int
-    lo: int
-    hi: int
-    sigma: float
-    flat: bool
-    creep: float = 0.0
-    creep_sd: float = 0.0
-
-    @property
-    def sd(self) -> float:
-        return self.sigma / math.sqrt(self.count)
-
-    @property
-    def end_level(self) -> float:
-        """y where the stick ends (at the breakaway): the level plus the creep."""
-        return self.level + self.creep
-
-    @property
-    def end_sd(self) -> float:
-        return math.hypot(self.sd, self.creep_sd)
-
-
-def plateau(t: np.ndarray, y: np.ndarray, lo: int, hi: int, sigma: float,
-             floor: float) -> Plateau:
-    ts, ys = t[lo:hi], y[lo:hi]
-    level, count = clipped_mean(ys, sigma)
-    resid = ys - level
-    spread = 1.4826 * float(np.median(np.abs(resid - np.median(resid))))
-    tm = float(np.mean(ts))
-    sxx = float(np.sum((ts - tm) ** 2))
-    drift = 0.0
-    if sxx > 0:
-        slope = float(np.sum((ts - tm) * resid) / sxx)
-        drift = abs(slope) * 0.5 * float(ts[-1] - ts[0])
-    flat = spread <= 3.0 * sigma + floor and drift <= 3.0 * sigma + floor
-    return Plateau(level, count, lo, hi, max(sigma, floor), flat)
-
-
-CREEP_SPEED = 0.5
-"""A stick whose slider creeps at more than this fraction of the drive speed is not a
-stick (`creeping_plateau`)."""
 
 
 def creeping_plateau(t: np.ndarray, y: np.ndarray, lo: int, hi: int, sigma: float,
@@ -380,14 +259,6 @@ def slip_ends(t_c: float, t: np.ndarray, u: np.ndarray, y_pre: float, y_post: fl
             max(float(u_e - u_b) / slip, 0.0))
 
 
-def runs(flag: np.ndarray) -> list[tuple[int, int]]:
-    """(start, stop) index pairs (stop exclusive) of the True runs of a bool array."""
-    if flag.size == 0:
-        return []
-    d = np.diff(np.concatenate([[0], flag.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
-
-
 def crossing(t: np.ndarray, y: np.ndarray, level: float) -> float:
     """First time y (rising) reaches `level`, linear interpolation; NaN if it never does."""
     above = np.flatnonzero(y >= level)
@@ -399,3 +270,85 @@ def crossing(t: np.ndarray, y: np.ndarray, level: float) -> float:
     y0, y1 = y[i - 1], y[i]
     frac = 0.0 if y1 == y0 else (level - y0) / (y1 - y0)
     return float(t[i - 1] + frac * (t[i] - t[i - 1]))
+
+
+def slip_fit(t: np.ndarray, u: np.ndarray, y: np.ndarray, y_pre: float, y_post: float,
+             omega0: float, starts, sigma: float, first: int, last: int):
+    r"""A slip under a drive whose speed changes during it, fitted sample by sample:
+    (breakaway t_b, stop t_e, their standard errors (s), the centre c of the swing of the
+    deflection (mm)), or None when it does not fit.
+
+    From rest at y_pre at $t_b$ the slider obeys $\ddot y = \omega_0^2 (u - c - y)$
+    ($c = \mu_m W/k$, constant over the slip as in eq 3) until it stops ($\dot y = 0$,
+    or a minimum of $\dot y$ under 3 % of the drive's speed: a slider that all but stops
+    is held by the friction's rise at low speed). With u linear between samples the
+    motion is exact: $y = u - c + e$, $e + i\dot e/\omega_0$ turning by
+    $\omega_0 \Delta t$ each step and jumping by $-i\,\Delta\dot u/\omega_0$ where the
+    drive's slope changes. $t_b$ and $c$ are the least-squares fit to y over samples
+    `first` to `last` (the slip and the ends of the sticks around it), from each
+    breakaway time of `starts` (s), the best kept. Exact for any drive (a motor whose
+    speed swings, a slip that runs past a stop the constant-speed formula predicts); the
+    plateau levels enter only as the start and the check that the stop lands on y_post
+    within 10 % of the jump."""
+    dt = float(t[1] - t[0])
+    lo, hi = first, last
+    if hi - lo < 8:
+        return None
+    ts, ym = t[lo:hi], y[lo:hi]
+    us = np.convolve(u, np.ones(5) / 5.0, mode="same")[lo:hi]  # the drive's noise off
+    us[:2], us[-2:] = u[lo:lo + 2], u[hi - 2:hi]
+    slope = np.diff(us) / dt
+    rot = np.exp(-1j * omega0 * dt)
+
+    def model(p):
+        tb, c = p
+        k = int(np.clip(np.searchsorted(ts, tb), 1, ts.size - 2))
+        s0 = slope[k - 1]
+        ub = us[k - 1] + s0 * (tb - ts[k - 1])
+        w = (y_pre - (ub - c)) - 1j * s0 / omega0  # e + i e'/omega0 at tb (y' = 0)
+        w = w * np.exp(-1j * omega0 * (ts[k] - tb))
+        ds = np.diff(slope[k - 1:])  # slope changes at ts[k], ts[k+1], ...
+        steps = np.arange(ds.size)
+        turn = rot ** steps
+        ws = turn * (w - 1j / omega0 * np.cumsum(ds / turn))
+        yk = us[k:k + ws.size] - c + ws.real
+        speed = slope[k:k + ws.size] + omega0 * ws.imag  # y' (continuous at the samples)
+        low = np.zeros(speed.size, bool)  # a minimum of y' under 3 % of the drive: a stop
+        low[1:-1] = ((speed[1:-1] <= speed[:-2]) & (speed[1:-1] <= speed[2:])
+                     & (speed[1:-1] <= 0.03 * np.abs(slope[k + 1:k + speed.size - 1])))
+        halt = np.flatnonzero((speed[1:] <= 0.0) | low[1:])
+        out = np.full(ts.size, y_pre)
+        if not halt.size:
+            out[k:k + yk.size] = yk
+            return out, float(ts[-1])
+        j = int(halt[0]) + 1
+        f = speed[j - 1] / (speed[j - 1] - speed[j]) if speed[j] <= 0.0 else 1.0
+        out[k:k + j] = yk[:j]
+        out[k + j:] = yk[j - 1] + f * (yk[j] - yk[j - 1])
+        return out, float(ts[k + j - 1] + f * dt)
+
+    jump = y_post - y_pre
+    best = None
+    inner = (ym > y_pre + 0.02 * jump) & (ym < y_post - 0.02 * jump)
+    c0 = float(np.mean((u[lo:hi] - ym)[inner])) if inner.any() else 0.0  # x swings about c
+    for t_b in starts:
+        try:
+            sol = scipy.optimize.least_squares(
+                lambda p: (model(p)[0] - ym) / sigma, [t_b, c0],
+                x_scale=[0.1 / omega0, 0.1 * jump], diff_step=[1e-4, 1e-4], method="lm")
+        except ValueError:
+            continue
+        if best is None or sol.cost < best.cost:
+            best = sol
+    if best is None:
+        return None
+    sol = best
+    fitted, stop = model(sol.x)
+    if not abs(fitted[-1] - y_post) < 0.1 * abs(jump):
+        return None
+    try:
+        cov = np.linalg.inv(sol.jac.T @ sol.jac)
+    except np.linalg.LinAlgError:
+        return None
+    sd_b = float(math.sqrt(max(cov[0, 0], 0.0)))
+    return float(sol.x[0]), float(stop), sd_b, sd_b, float(sol.x[1])

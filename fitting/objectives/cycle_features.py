@@ -73,6 +73,10 @@ class FeatureData(eqx.Module):
     start_level: Float[Array, " R"]
     start_sd: Float[Array, " R"]
     use_start: Bool[Array, " R"]
+    trough_shift: Float[Array, "R C"]
+    """The trough of a slip symmetric about its centre less the measured one (mm; a drive
+    whose speed changes during the slip, `RecordFeatures.trough_shift`; 0 under a steady
+    drive)."""
     reslip: bool = eqx.field(static=True, default=True)
     """Model re-slips (`_levels`); False leaves that part out of the compiled program."""
 
@@ -115,7 +119,7 @@ def feature_data(
         return np.full((R, C), fill, dtype=dtype)
 
     t1, t1n, t1sd, t1nsd = arr(1.0), arr(1.0), arr(1.0), arr(1.0)
-    tr, trsd, climb = arr(), arr(1.0), arr()
+    tr, trsd, climb, shift = arr(), arr(1.0), arr(), arr()
     has_end, has_next = arr(False, bool), arr(False, bool)
     start, start_sd, use_start = np.zeros(R), np.ones(R), np.zeros(R, bool)
     for r, f in enumerate(features):
@@ -126,6 +130,7 @@ def feature_data(
         has_end[r, :c] = comp
         tr[r, :c] = f.trough
         trsd[r, :c] = f.trough_sd
+        shift[r, :c] = 0.0 if f.trough_shift is None else f.trough_shift
         nxt = np.zeros(c, bool)
         nxt[:-1] = comp[1:]
         has_next[r, :c] = nxt
@@ -149,6 +154,7 @@ def feature_data(
         t1=j(t1), t1_next=j(t1n), t1_sd=j(t1sd), t1_next_sd=j(t1nsd), trough=j(tr),
         trough_sd=j(trsd), climb_next=j(climb), has_end=j(has_end), has_next=j(has_next),
         start_level=j(start), start_sd=j(start_sd), use_start=j(use_start),
+        trough_shift=j(shift),
         reslip=(any(np.mean(f.slipped_on) >= 0.5 for f in features) if reslip is None
                 else bool(reslip)),
     )
@@ -286,7 +292,7 @@ def feature_residuals(
     speeds = (jnp.sum(jnp.where(data.has_next, data.climb_next, 0.0), axis=1)
               / jnp.maximum(jnp.sum(jnp.where(data.has_next, data.t1_next, 0.0), axis=1), 1e-300))
 
-    def one(scale, offset, omega0, v, t1, t1n, t1sd, t1nsd, x1, x1sd, climb, he, hn):
+    def one(scale, offset, omega0, v, t1, t1n, t1sd, t1nsd, x1, x1sd, climb, he, hn, shift):
         def lv(fr, t):
             return _levels(fr, scale, offset, omega0, t, climb, slip_time,
                            speed=v if data.reslip else None)
@@ -297,6 +303,7 @@ def feature_residuals(
         # both stick times in one evaluation (half the program to trace and compile)
         both = jnp.stack([t1, t1n])
         (_, l0n), (l1, _) = lv(friction, both)
+        l1 = l1 - shift  # the trough of the slip under the measured drive
         (_, dl0n), (dl1, _) = slope(both)
         pred_end = jnp.where(he, l1, 0.0)
         pred_next = jnp.where(hn, l0n - climb, 0.0)
@@ -316,9 +323,9 @@ def feature_residuals(
 
     args = (
         data.t1, data.t1_next, data.t1_sd, data.t1_next_sd, data.trough, data.trough_sd,
-        data.climb_next, data.has_end, data.has_next,
+        data.climb_next, data.has_end, data.has_next, data.trough_shift,
     )
-    per_cycle = jax.vmap(one, in_axes=(None, None, None, None) + (0,) * 9)
+    per_cycle = jax.vmap(one, in_axes=(None, None, None, None) + (0,) * 10)
     level, stick = jax.vmap(per_cycle)(scale, params.offset, data.omega0, speeds, *args)
     start = jnp.where(data.use_start, (data.start_level - params.offset) / data.start_sd, 0.0)
     return jnp.concatenate([level.ravel(), stick.ravel(), start])

@@ -227,7 +227,9 @@ def _design_warnings(fit: FitResult, free) -> tuple[dict, list]:
             "or fix n (--fix n=1)."
         )
     t1 = np.concatenate([f.stick_time[f.complete] for f in feats])
-    if t1.size and t1.max() / t1.min() < 1.5:
+    t1 = t1[t1 > 0]  # a slip from rest at once (no stick) says nothing of the rise
+    rise = [s for s in shape if s in names and s not in ("mu_s", "mu_d")]  # held: mu_s known
+    if t1.size and t1.max() / t1.min() < 1.5 and any(free[names.index(s)] for s in rise):
         flagged.update(dict.fromkeys(shape, "all stick times within a factor 1.5 (one drive "
                                      "speed)"))
         msgs.append(

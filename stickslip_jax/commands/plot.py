@@ -45,11 +45,15 @@ def run(args) -> int:
     except OSError as exc:
         raise ValueError(f"{flag}: cannot write {out}: {exc.strerror or exc}") from None
     n = phases.n_slips
+    sliding = (f", {100 * phases.sliding_fraction:.0f} % sliding"
+               if phases.sliding_fraction >= 0.005 else "")
     print(
         f"{out}: {record.n_samples} samples, {n} slip{'' if n == 1 else 's'}, "
-        f"{100 * phases.stick_fraction:.0f} % of samples in stick "
+        f"{100 * phases.stick_fraction:.0f} % of samples in stick{sliding} "
         f"(slip threshold {phases.threshold:.3g} mm/s, window {phases.window} samples)"
     )
+    if phases.verdict:
+        print(f"note: {args.record}: {phases.verdict}")
     if phases.glitches:
         print(f"note: {args.record}: {phases.glitches} single-sample spike(s) (glitches) left "
               "out of the phase detection")

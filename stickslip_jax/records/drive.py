@@ -102,3 +102,11 @@ def format_drive_program(program, speed_unit: str = "mm/s", time_unit: str = "s"
     return "; ".join(
         f"{fmt(encode(s, ft))} {time_unit} {fmt(encode(v, fv))} {speed_unit}" for s, v in segs
     )
+
+
+def speed_position(time, speed) -> np.ndarray:
+    """The drive displacement (mm, 0 at the first sample) of a measured drive speed (mm/s)
+    at `time` (s): the trapezoidal integral, so that every step downstream sees one
+    measured drive whether the rig logs its position or its speed."""
+    time, speed = np.asarray(time, np.float64), np.asarray(speed, np.float64)
+    return np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(time))])

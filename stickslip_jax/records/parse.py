@@ -13,7 +13,7 @@ import numpy as np
 from ..rigs import RIG_COLUMNS, rig_header
 from ..units import G_MM_S2, UnitError, factor
 from .dialects import decode, normalise_dialect, read_bytes, spreadsheet_header, text_lines
-from .drive import parse_program
+from .drive import parse_program, speed_position
 from .errors import RecordError
 from .grammar import (
     COLUMN,
@@ -38,7 +38,8 @@ from .sampling import (
     time_step_deviation,
 )
 
-_DIMENSIONS = {"time": "time", "deflection": "length", "force": "force", "drive": "length"}
+_DIMENSIONS = {"time": "time", "deflection": "length", "force": "force", "drive": "length",
+               "drive_speed": "speed"}
 
 
 def _text_value(key, value, path, line):
@@ -264,10 +265,10 @@ def _conditions(header, columns, path: str, column_line: int) -> dict:
     program = None
     if "drive_program" in header:
         program = parse_program(header["drive_program"][0], path, header["drive_program"][1])
-    if drive_speed is None and program is None and "drive" not in columns:
+    if drive_speed is None and program is None and not {"drive", "drive_speed"} & set(columns):
         raise RecordError(
-            "no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line "
-            "or a 'drive [mm]' column",
+            "no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line, "
+            "a 'drive [mm]' column or a 'drive_speed [mm/s]' column",
             path,
             column_line,
         )
@@ -380,11 +381,15 @@ def parse_record(text: str, source=None, notes=()) -> Record:
         name: data[:, c] for c, name in enumerate(columns) if name not in RESERVED_COLUMNS
     }
     unit_of = dict(zip(columns, units))
+    drive = data[:, columns.index("drive")] if "drive" in columns else None
+    if drive is None and "drive_speed" in columns:  # a tachometer: one drive downstream
+        drive = speed_position(data[:, j], data[:, columns.index("drive_speed")])
+        notes.append("drive displacement integrated from the drive_speed column")
     try:
         return Record(
             time=data[:, j],
             deflection=deflection,
-            drive=data[:, columns.index("drive")] if "drive" in columns else None,
+            drive=drive,
             channels=channels,
             channel_units={name: unit_of[name] for name in channels},
             source=None if source is None else str(source),
