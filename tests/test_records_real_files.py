@@ -164,3 +164,27 @@ def test_jittered_stamps_are_resampled_up_to_a_fifth_of_a_step(jitter):
     assert any("jitter" in n for n in rec.notes)
     assert np.ptp(np.diff(rec.time)) < 1e-12
     np.testing.assert_allclose(rec.deflection, 0.1 + 0.01 * np.sin(rec.time), atol=1e-6)
+
+
+@pytest.mark.parametrize("sep", [",", ";", "\t"])
+def test_a_shipped_record_through_a_spreadsheet_reads_back_equal(sep):
+    """A shipped record (its truth a JSON header with commas and quotes) opened in a
+    spreadsheet and saved: cells written by the csv module as a spreadsheet writes them
+    (quoted where needed, CRLF, padded rows; ';' and tabs with decimal commas)."""
+    import csv
+    import io
+
+    from cli_safety import EXAMPLES
+
+    src = EXAMPLES[0]
+    out = io.StringIO()
+    w = csv.writer(out, delimiter=sep, lineterminator="\r\n")
+    for line in src.read_text().splitlines():
+        header = line.startswith("#")
+        cells = [line] if header and sep != "," else line.split(",")
+        if sep != "," and not header:
+            cells = [c.replace(".", ",") for c in cells]
+        w.writerow(cells + ["", ""])
+    rec = _read(out.getvalue().encode("utf-8-sig"))
+    ref = read_record(src)
+    assert rec == ref and rec.truth == ref.truth

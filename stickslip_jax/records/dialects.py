@@ -111,7 +111,7 @@ def decode(data: bytes, path, notes: list[str] | None = None,
 
 
 _SEP_LINE = re.compile(r'\s*"?sep=([,;\t|])"?[,;\t]*\s*')
-_QUOTED_HEAD = re.compile(r'\s*"((?:[^"]|"")*)"(.*)')
+_QUOTED_HEAD = re.compile(r'\s*"((?:[^"]|"")*)"(.*)', re.DOTALL)
 _PADDING = re.compile(r"[\s,;\t]+$")
 
 
@@ -129,8 +129,10 @@ def spreadsheet_header(lines: list[str], notes: list[str]) -> tuple[list[str], s
             notes.append(f"Excel's 'sep={delim}' line read as the separator")
             continue
         q = _QUOTED_HEAD.fullmatch(line)
-        if q is not None and q.group(1).lstrip().startswith("#"):
-            line = q.group(1).replace('""', '"') + q.group(2)
+        if q is not None and q.group(1).lstrip().startswith("#"):  # cells a spreadsheet quoted
+            rest = q.group(2).lstrip(" ")
+            sep = rest[0] if rest[:1] in (",", ";", "\t") else ","
+            line = sep.join(next(csv.reader([line.strip(" \r\n")], delimiter=sep)))
         if not line.lstrip().startswith("#"):
             break
         out[i], touched = _PADDING.sub("", line), True
