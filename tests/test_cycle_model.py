@@ -137,8 +137,6 @@ def sensor_campaign():
     """A campaign of the independent generator read through a second-order sensor (40 Hz,
     damping ratio 0.7, lfilter on an 8x finer grid): the model's base fitted with the
     sensor's mean delay free, from the truth."""
-    from stickslip_jax.lsq import solve_host
-
     from stickslip_fitting.discovery.subproblems import SubProblem
 
     imp = ir.Imperfections(sensor_order=2, sensor_hz=40.0, sensor_zeta=0.7)
@@ -150,7 +148,7 @@ def sensor_campaign():
     cols = np.concatenate([np.arange(model.n_base), col])
     shape = Shape(order=2, zeta=0.7)
     sub = SubProblem(model, z, cols, shape, True)
-    res = solve_host(sub.evaluate, z[cols], max_evals=20)
+    res = sub.solve(z[cols], max_evals=20)
     return model, sub.full(res.z), shape, tau
 
 
