@@ -188,3 +188,17 @@ def test_a_shipped_record_through_a_spreadsheet_reads_back_equal(sep):
     rec = _read(out.getvalue().encode("utf-8-sig"))
     ref = read_record(src)
     assert rec == ref and rec.truth == ref.truth
+
+
+@SETTINGS
+@given(st.sampled_from(["86.9 kgf/mm", "86,9 kgf/mm", "86.9 kgf / mm", "86.9 kgf/millimeter",
+                        "0.0869 kgf/um", "86900 kgf/m"]),
+       st.sampled_from(["1.5 mm/min", "1,5 mm/min", "0.025 mm/s", "25 um/s", "25 µm/s"]),
+       st.sampled_from(["36.0 kgf", "36 kilogram_force", "36,0 kgf", "353.0394 N"]))
+def test_header_unit_spellings_read_to_the_same_conditions(stiffness, speed, weight):
+    text = (ORIGINAL.replace("86.9 kgf/mm", stiffness).replace("1.5 mm/min", speed)
+            .replace("36.0 kgf", weight))
+    rec = _read(text.encode())
+    assert rec.stiffness == pytest.approx(REFERENCE.stiffness, rel=1e-12)
+    assert rec.drive_speed == pytest.approx(REFERENCE.drive_speed, rel=1e-12)
+    assert rec.weight == pytest.approx(REFERENCE.weight, rel=1e-7)  # 353.0394 N: 7 digits
