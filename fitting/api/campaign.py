@@ -37,6 +37,7 @@ from stickslip_jax.modes import GaugeOffset, SlipTime
 from stickslip_jax.records import Record
 
 from ..modes import ModelModes, Objective
+from .results import ResultDocument, pandas_module
 
 if TYPE_CHECKING:
     import pandas
@@ -58,11 +59,10 @@ SUMMARY_COLUMNS = ("value", "std_err", "low", "high", "unit", "identifiable", "r
 """The columns of `CampaignFit.summary()` (low, high: the 95 % interval)."""
 
 _MODELS = ("empirical", "microsqueeze")
-_PANDAS = 'pip install "stickslip-jax[pandas]"'
 
 
 @dataclasses.dataclass(frozen=True)
-class CampaignFit:
+class CampaignFit(ResultDocument):
     """The result of `fit`: the campaign's friction parameters with their intervals.
 
     - `summary()`: a pandas DataFrame indexed by parameter (`SUMMARY_COLUMNS`);
@@ -139,43 +139,18 @@ class CampaignFit:
         (empty for an estimate; why not, for a parameter that is fixed, at a bound of its
         support, or not identifiable). A parameter the records do not determine has value
         NaN. Needs pandas (the `[pandas]` extra)."""
-        try:
-            import pandas as pd
-        except ImportError:
-            raise ImportError(f"CampaignFit.summary() needs pandas: {_PANDAS} (or pip "
-                              "install pandas)") from None
-        rows = self._rows()
-        frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(SUMMARY_COLUMNS))
+        pd = pandas_module("CampaignFit.summary()")
+        frame = pd.DataFrame.from_dict(self._rows(), orient="index",
+                                       columns=list(SUMMARY_COLUMNS))
         frame.index.name = "parameter"
         return frame
-
-    def to_dict(self) -> dict:
-        """The `stickslip fit --json` document as a dict (strict JSON: NaN as None)."""
-        import json
-
-        return json.loads(self.to_json())
-
-    def to_json(self, path: str | os.PathLike[str] | None = None) -> str:
-        """The `stickslip fit --json` document (with "schema_version"), as text; written
-        to `path` too when given (atomically; never over one of the input records)."""
-        from stickslip_jax.output import check_outputs, dumps, versioned, write_text
-
-        text = dumps(versioned(self.report), indent=2) + "\n"
-        if path is not None:
-            check_outputs({"to_json": os.fspath(path)}, self.inputs)
-            write_text(os.fspath(path), text)
-        return text
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
         """The diagnostic figure of `stickslip fit --plot` (`stickslip_fitting.report.plots.
         fit_figure`): returned, and saved to `path` (closed then) when given."""
         from ..report.plots import fit_figure
 
-        if path is not None:
-            from stickslip_jax.output import check_outputs
-
-            check_outputs({"plot": os.fspath(path)}, self.inputs)
-            path = os.fspath(path)
+        path = self.output_path(path, "plot")
         reasons = {s.name: s.reason for s in self.campaign.screening}
         not_used = [(r, reasons.get(f.name) or "not used") for r, f in self.campaign.not_used]
         return fit_figure(self.fit, self.uncertainty, self.campaign.records, path,

@@ -1,5 +1,6 @@
 r"""One call for a design map: `stickslip_fitting.design_map(weight, stiffness, speed, ...)`
--> `DesignStudy`.
+-> `DesignStudy`, the map of `stickslip design` (which builds the same `MapOptions` and
+calls `map_study`).
 
 ```python
 import stickslip_fitting as sf
@@ -11,14 +12,9 @@ study.plot("map.png")           # the figure of `stickslip design --plot`
 study.to_json("map.json")       # the document of `stickslip design --json`
 ```
 
-The call runs `stickslip design` with the same functions: the lubricant's map through
-`design.design_map` (`method` steady, exact or cycle), a posterior sample's through
-`design.propagate`, and with `max_amplitude` the design to a tolerance
-(`design.tolerance`). The command builds the same `MapOptions` and calls `map_study`.
 Each axis is a string as the command reads it (``"36"``, ``"10:60:50"``,
 ``"0.5:200:40:log um/s"``; default units kgf, kgf/mm, mm/min) or numbers in the
-package's units (kgf, kgf/mm, mm/s).
-"""
+package's units (kgf, kgf/mm, mm/s)."""
 
 from __future__ import annotations
 
@@ -31,6 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..modes import MapMethod
+from .results import ResultDocument, pandas_module
 
 if TYPE_CHECKING:
     import pandas
@@ -130,14 +127,18 @@ def _positive(values, arg, text) -> np.ndarray:
 
 @dataclasses.dataclass(frozen=True)
 class MapOptions:
-    """What a design map computes (the options of `stickslip design`, module doc).
+    """What a design map computes: the options of `stickslip design`, the keywords of
+    `design_map`.
 
-    `weight`, `stiffness`, `speed`: the grid axes; `lubricant`, `table`: the friction
-    parameters of the paper's tables, or `posterior` (a CSV/JSON file of draws, or a
-    `CampaignPosterior`) with its credible `level`; `method`; `damping_ratio` (method
-    cycle); `max_amplitude` (mm) and the probability `meet` of the design to a tolerance;
-    `chunk_size` points a device batch; `progress` a bar; `outputs`: the command's
-    outputs ("--json", "--csv", "--netcdf") the memory check sizes.
+    - `weight`, `stiffness`, `speed`: the grid axes (module doc).
+    - `lubricant`, `table`: the friction parameters of Table 6 (4, 9) of the paper; or
+      `posterior`: a CSV/JSON file of draws (what `stickslip mcmc --json` writes) or a
+      `CampaignPosterior`, giving P(stick-slip) and credible bands at `level` (0.9).
+    - `method`: a `MapMethod` or its name: steady (eqs 5-7, 12), exact (the exact
+      simulator) or cycle (the time-domain limit cycle; `damping_ratio` zeta there).
+    - `max_amplitude` (mm): the design to a tolerance, met with probability `meet` (0.95).
+    - `chunk_size` points a device batch; `progress` a bar; `outputs`: the command's
+      outputs ("--json", "--csv", "--netcdf") that the memory check sizes.
     """
 
     weight: object
@@ -147,13 +148,16 @@ class MapOptions:
     table: int = 6
     posterior: object = None
     level: float | None = None
-    method: MapMethod = MapMethod.STEADY
+    method: MapMethod | str = MapMethod.STEADY
     damping_ratio: float | None = None
     max_amplitude: float | None = None
     meet: float | None = None
     chunk_size: int = 65_536
     progress: bool = False
     outputs: tuple[str, ...] = ()
+
+    def __post_init__(self):
+        object.__setattr__(self, "method", MapMethod.parse(self.method))
 
     def axes(self) -> dict[str, np.ndarray]:
         """{axis: 1-D values in internal units (kgf, kgf/mm, mm/s)}."""
@@ -364,7 +368,7 @@ def figure_axes(axes: dict, option: str = "plot") -> list[str]:
 
 
 @dataclasses.dataclass(frozen=True)
-class DesignStudy:
+class DesignStudy(ResultDocument):
     """The result of `design_map`: stick-slip amplitude and critical speed over W, k, v.
 
     - `summary()`: a pandas DataFrame, one row per grid point (the `--csv` columns);
@@ -380,10 +384,8 @@ class DesignStudy:
 
     maps: dict
     options: MapOptions
-
-    @property
-    def method(self) -> MapMethod:
-        return self.options.method
+    JSON_ALIASES = JSON_ALIASES
+    JSON_INDENT = None
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -432,19 +434,6 @@ class DesignStudy:
             doc["tolerance"] = res["tolerance"]
         return doc
 
-    def to_json(self, path: str | os.PathLike[str] | None = None) -> str:
-        """The `stickslip design --json` document (with "schema_version" and the deprecated
-        keys it still carries) as one line of text; written to `path` too when given."""
-        from stickslip_jax.output import dumps, versioned
-
-        return self._write(path, "to_json", dumps(versioned(self.report, JSON_ALIASES)) + "\n")
-
-    def to_dict(self) -> dict:
-        """The `--json` document as a dict (strict JSON: NaN as None)."""
-        import json
-
-        return json.loads(self.to_json())
-
     def _columns(self) -> dict[str, np.ndarray]:
         """The long-format columns: weight_kgf, stiffness_kgf_per_mm,
         drive_speed_mm_per_min, every quantity the map has (`CSV_COLUMNS`), `regime` by
@@ -471,11 +460,7 @@ class DesignStudy:
     def summary(self) -> pandas.DataFrame:
         """One row per grid point: the `--csv` columns (the JSON's key names and units).
         Needs pandas (the `[pandas]` extra)."""
-        try:
-            import pandas as pd
-        except ImportError:
-            raise ImportError('DesignStudy.summary() needs pandas: pip install '
-                              '"stickslip-jax[pandas]" (or pip install pandas)') from None
+        pd = pandas_module("DesignStudy.summary()")
         return pd.DataFrame(self._columns())
 
     def to_csv(self, path: str | os.PathLike[str] | None = None) -> str:
@@ -486,26 +471,21 @@ class DesignStudy:
         for i in range(len(cols["weight_kgf"])):
             lines.append(",".join(str(c[i]) if isinstance(c[i], str) else f"{c[i]:.10g}"
                                   for c in cols.values()))
-        return self._write(path, "to_csv", "\n".join(lines) + "\n")
+        text, path = "\n".join(lines) + "\n", self.output_path(path, "to_csv")
+        if path is not None:
+            from stickslip_jax.output import write_text
+
+            write_text(path, text)
+        return text
 
     def to_netcdf(self, path: str | os.PathLike[str]) -> None:
         """The map as NetCDF (`design.netcdf.map_dataset`; needs xarray, the `[netcdf]`
         extra)."""
         from ..design.netcdf import map_dataset, write_netcdf
 
-        self._write(path, "to_netcdf", None)
-        write_netcdf(os.fspath(path), map_dataset(self.maps, {
-            "method": self.method.value, "source": self.options.source,
+        write_netcdf(self.output_path(path, "to_netcdf"), map_dataset(self.maps, {
+            "method": self.options.method.value, "source": self.options.source,
             "damping_ratio": self.options.damping_ratio}))
-
-    def _write(self, path, what: str, text: str | None) -> str | None:
-        if path is not None:
-            from stickslip_jax.output import check_outputs, write_text
-
-            check_outputs({what: os.fspath(path)}, self.inputs)
-            if text is not None:
-                write_text(os.fspath(path), text)
-        return text
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
         """Amplitude and v_c maps (two grid axes) or curves (one), with P(stick-slip) for a
@@ -513,10 +493,9 @@ class DesignStudy:
         saved to `path` (closed then) when given."""
         import matplotlib.pyplot as plt
 
-        from stickslip_jax.output import check_outputs, save_figure
+        from stickslip_jax.output import save_figure
 
-        if path is not None:
-            check_outputs({"plot": os.fspath(path)}, self.inputs)
+        path = self.output_path(path, "plot")
         res, o = self.maps, self.options
         axes = res["axes"]
         grid = figure_axes(axes)
@@ -556,7 +535,7 @@ class DesignStudy:
                      f"{boundary}", fontsize=10)
         fig.tight_layout()
         if path is not None:
-            save_figure(fig, os.fspath(path), dpi=120)
+            save_figure(fig, path, dpi=120)
             plt.close(fig)
         return fig
 
@@ -564,7 +543,7 @@ class DesignStudy:
         res = self.maps
         amp, vc, stick = res["amplitude"], res["critical_speed"] * 60.0, res["stick_slip"]
         lines = [f"design map {'x'.join(str(s) for s in amp.shape)} (W x k x v), "
-                 f"{_METHOD_TITLE[self.method.value]}",
+                 f"{_METHOD_TITLE[self.options.method.value]}",
                  f"  stick-slip at {np.mean(stick) * 100:.1f} % of points",
                  f"  amplitude a: {amp.min():.4g} .. {amp.max():.4g} mm",
                  f"  critical speed v_c: {vc.min():.4g} .. {vc.max():.4g} mm/min"]
@@ -587,7 +566,8 @@ class DesignStudy:
 
     def __repr__(self) -> str:
         shape = "x".join(str(s) for s in self.maps["amplitude"].shape)
-        return f"DesignStudy({shape}, method={self.method.value!r}, {self.options.source})"
+        o = self.options
+        return f"DesignStudy({shape}, method={o.method.value!r}, {o.source})"
 
 
 def _map_panel(fig, ax, xy, grid, z, label, edge, double) -> None:
@@ -625,43 +605,15 @@ def _curve_panel(ax, x, name, z, label, edge) -> None:
         ax.set_xscale("log")
 
 
-def design_map(
-    weight,
-    stiffness,
-    speed,
-    *,
-    lubricant: str = "A",
-    table: int = 6,
-    posterior=None,
-    level: float | None = None,
-    method: MapMethod | str = MapMethod.STEADY,
-    damping_ratio: float | None = None,
-    max_amplitude: float | None = None,
-    meet: float | None = None,
-    chunk_size: int = 65_536,
-    progress: bool = False,
-) -> DesignStudy:
+def design_map(weight, stiffness, speed, **options) -> DesignStudy:
     """Stick-slip amplitude and critical speed over a grid of W, k and v, as `stickslip
-    design` computes them.
-
-    - `weight`, `stiffness`, `speed`: each a string as the command reads it (``"36"``,
-      ``"20:200:40"``, ``"0.5:200:40:log"``, a unit after a space; default units kgf,
-      kgf/mm, mm/min) or numbers in kgf, kgf/mm, mm/s.
-    - `lubricant`, `table`: the friction parameters of Table 6 (4, 9) of the paper; or
-      `posterior`: a CSV/JSON file of draws (what `stickslip mcmc --json` writes) or a
-      `CampaignPosterior`, giving P(stick-slip) and credible bands at `level` (0.9).
-    - `method`: a `MapMethod` or its name: steady (eqs 5-7, 12), exact (the exact
-      simulator) or cycle (the time-domain limit cycle; `damping_ratio` zeta there).
-    - `max_amplitude` (mm): the design to a tolerance, met with probability `meet` (0.95).
-
-    Every mistake raises ValueError naming the keyword, before the map.
+    design` computes them: each axis a string as the command reads it (``"36"``,
+    ``"20:200:40"``, ``"0.5:200:40:log"``, a unit after a space; default units kgf,
+    kgf/mm, mm/min) or numbers in kgf, kgf/mm, mm/s; `options` the keywords of
+    `MapOptions`. Every mistake raises ValueError naming the keyword, before the map.
     """
     try:
-        options = MapOptions(weight, stiffness, speed, lubricant=lubricant, table=table,
-                             posterior=posterior, level=level, method=MapMethod.parse(method),
-                             damping_ratio=damping_ratio, max_amplitude=max_amplitude,
-                             meet=meet, chunk_size=chunk_size, progress=progress)
-        return map_study(options)
+        return map_study(MapOptions(weight, stiffness, speed, **options))
     except ValueError as err:  # the command's option names as the keywords
         raise ValueError(re.sub(r"--([a-z]+)-?([a-z]*)",
                                 lambda m: "_".join(filter(None, m.groups())), str(err))

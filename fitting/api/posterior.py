@@ -12,7 +12,7 @@ post.to_json("mcmc.json")    # the document of `stickslip mcmc --json`
 
 The call runs the steps of `stickslip mcmc` with the same functions: the fit of
 `stickslip_fitting.fit` (the same options), then `mcmc.run_mcmc` around its optimum, and
-the document of `mcmc_report.mcmc_document`. A `CampaignFit` given in place of the records
+the document of `report.mcmc_document`. A `CampaignFit` given in place of the records
 is sampled around without fitting again.
 """
 
@@ -23,7 +23,9 @@ import os
 from typing import TYPE_CHECKING
 
 from .campaign import CampaignFit, RecordsSpec
+from .results import ResultDocument, pandas_module
 from ..modes import Objective
+from ..report.mcmc_document import JSON_ALIASES as MCMC_ALIASES
 
 if TYPE_CHECKING:
     import pandas
@@ -37,11 +39,9 @@ POSTERIOR_COLUMNS = ("median", "low", "high", "unit", "sd", "mean", "tau_steps",
 """The columns of `CampaignPosterior.summary()` (low, high: the central 95 % interval;
 tau_steps: the integrated autocorrelation time in steps; ess: the effective sample size)."""
 
-_PANDAS = 'pip install "stickslip-jax[pandas]"'
-
 
 @dataclasses.dataclass(frozen=True)
-class CampaignPosterior:
+class CampaignPosterior(ResultDocument):
     """The result of `sample`: posterior draws of the campaign's free friction parameters.
 
     - `summary()`: a pandas DataFrame indexed by sampled parameter (`POSTERIOR_COLUMNS`);
@@ -62,6 +62,13 @@ class CampaignPosterior:
     mcmc: McmcResult
     campaign_fit: CampaignFit
     truth: dict | None = None
+
+    JSON_ALIASES = MCMC_ALIASES
+
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        """The record files read (an output may not overwrite one of them)."""
+        return self.campaign_fit.inputs
 
     @property
     def names(self) -> list[str]:
@@ -89,11 +96,7 @@ class CampaignPosterior:
         deviation `sd`, the `mean`, the autocorrelation time `tau_steps` and the effective
         sample size `ess`. `attrs["acceptance"]` holds the acceptance fraction. Needs
         pandas (the `[pandas]` extra)."""
-        try:
-            import pandas as pd
-        except ImportError:
-            raise ImportError(f"CampaignPosterior.summary() needs pandas: {_PANDAS} (or pip "
-                              "install pandas)") from None
+        pd = pandas_module("CampaignPosterior.summary()")
         rows = {}
         for name, p in self.report["parameters"].items():
             low, high = p["ci95"]
@@ -105,26 +108,6 @@ class CampaignPosterior:
         frame.attrs["acceptance"] = self.acceptance
         return frame
 
-    def to_dict(self) -> dict:
-        """The `stickslip mcmc --json` document as a dict (strict JSON: NaN as None)."""
-        import json
-
-        return json.loads(self.to_json())
-
-    def to_json(self, path: str | os.PathLike[str] | None = None) -> str:
-        """The `stickslip mcmc --json` document (with "schema_version" and the deprecated
-        keys it still carries), as text; written to `path` too when given (atomically;
-        never over one of the input records)."""
-        from stickslip_jax.output import check_outputs, dumps, versioned, write_text
-
-        from ..report.mcmc_document import JSON_ALIASES
-
-        text = dumps(versioned(self.report, JSON_ALIASES), indent=2) + "\n"
-        if path is not None:
-            check_outputs({"to_json": os.fspath(path)}, self.campaign_fit.inputs)
-            write_text(os.fspath(path), text)
-        return text
-
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
         """The corner plot of `stickslip mcmc --plot` (`stickslip_fitting.report.posterior_plots.
         corner_plot`: histograms, contours, 16/50/84 % quantiles, the truth where known):
@@ -132,12 +115,8 @@ class CampaignPosterior:
         package."""
         from ..report.posterior_plots import corner_plot
 
-        if path is not None:
-            from stickslip_jax.output import check_outputs
-
-            check_outputs({"plot": os.fspath(path)}, self.campaign_fit.inputs)
-            path = os.fspath(path)
-        return corner_plot(self.mcmc.samples, self.mcmc.names, path, truth=self.truth,
+        return corner_plot(self.mcmc.samples, self.mcmc.names,
+                           self.output_path(path, "plot"), truth=self.truth,
                            units=self.mcmc.units)
 
     def __str__(self) -> str:

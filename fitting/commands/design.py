@@ -89,7 +89,8 @@ def options(args):
         args.weight, args.stiffness, args.speed, lubricant=args.lubricant, table=args.table,
         posterior=args.posterior, level=args.level, method=_method(args),
         damping_ratio=args.damping_ratio, max_amplitude=args.max_amplitude, meet=args.meet,
-        chunk_size=args.chunk_size, progress=not args.quiet and (args.progress or sys.stderr.isatty()),
+        chunk_size=args.chunk_size,
+        progress=not args.quiet and (args.progress or sys.stderr.isatty()),
         outputs=tuple(o for o in ("--json", "--csv", "--netcdf") if getattr(args, o[2:])))
 
 
@@ -99,7 +100,7 @@ def plot(study, path):
 
 
 def run(args) -> int:
-    from stickslip_jax.output import check_outputs, versioned, write_json
+    from stickslip_jax.output import check_outputs
 
     from ..api.design import figure_axes, map_study
 
@@ -119,13 +120,11 @@ def run(args) -> int:
 
         logger.info("drawing the figure...")
         plot(study, args.plot)
-    for option, write in (("json", None), ("csv", study.to_csv), ("netcdf", study.to_netcdf)):
+    for option, write in (("json", study.to_json), ("csv", study.to_csv),
+                          ("netcdf", study.to_netcdf)):
         path = getattr(args, option)
         if path:
-            if write is None:
-                write_json(path, versioned(study.report, JSON_ALIASES), indent=None)
-            else:
-                write(path)
+            write(path)
             if path != "-":  # with "-" the summary below goes to stderr
                 print(f"wrote {path}")
     print(study)

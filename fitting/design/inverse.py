@@ -77,21 +77,17 @@ def _check(friction, x, name):
     return eqx.error_if(x, ~(x > 0), f"{name} must be positive")
 
 
-def _answer(friction, weight, stiffness, feed, by_amp, results):
-    s = steady_state(friction, weight, stiffness, feed)
+def _answer(friction, u, other, for_weight, feed, by_amp, results) -> InverseDesign:
+    """The design exp(u) with v_c and a there; the first failed solve's result code."""
+    s = steady_state(friction, *_pair(u, other, for_weight), feed)
     result = results[0]
     for r in results[1:]:
         result = optx.RESULTS.where(result == optx.RESULTS.successful, r, result)
-    return s.critical_speed, s.amplitude, by_amp, result
+    return InverseDesign(jnp.exp(u), s.critical_speed, s.amplitude, by_amp, result)
 
 
-def minimum_stiffness(
-    friction: Friction,
-    weight,
-    feed,
-    amplitude_tolerance=None,
-    rtol: float = 1e-12,
-) -> InverseDesign:
+def minimum_stiffness(friction: Friction, weight, feed, amplitude_tolerance=None,
+                      rtol: float = 1e-12) -> InverseDesign:
     r"""Smallest stiffness k (kgf/mm) that stops stick-slip at feed `feed` (mm/s) for a
     slider of `weight` W (kgf), or that keeps its amplitude under `amplitude_tolerance`
     (mm). Corrected eq (12) and eqs (5)-(7).
@@ -100,13 +96,8 @@ def minimum_stiffness(
                    rtol, False)
 
 
-def maximum_weight(
-    friction: Friction,
-    stiffness,
-    feed,
-    amplitude_tolerance=None,
-    rtol: float = 1e-12,
-) -> InverseDesign:
+def maximum_weight(friction: Friction, stiffness, feed, amplitude_tolerance=None,
+                   rtol: float = 1e-12) -> InverseDesign:
     r"""Largest slider weight W (kgf) that slides smoothly at feed `feed` (mm/s) on a
     drive of `stiffness` k (kgf/mm), or whose stick-slip amplitude stays under
     `amplitude_tolerance` (mm). Corrected eq (12) and eqs (5)-(7).
@@ -137,10 +128,8 @@ def _design(friction, other, feed, amplitude_tolerance, rtol, for_weight: bool):
                     _LOG_MIN, _LOG_MAX, rtol)
     u_c = sol_c.value
     if amplitude_tolerance is None:
-        value = jnp.exp(u_c)
-        vc, amp, by_amp, res = _answer(friction, *_pair(u_c, other, for_weight), feed,
-                                       jnp.asarray(False), [sol_c.result])
-        return InverseDesign(value, vc, amp, by_amp, res)
+        return _answer(friction, u_c, other, for_weight, feed, jnp.asarray(False),
+                       [sol_c.result])
     tol = _check(friction, amplitude_tolerance, "amplitude_tolerance")
     # Just at the critical design the stick time equals the slip time, eq (5): a = v T0 / 2.
     a_edge = 0.5 * feed * slip_time(*_pair(u_c, other, for_weight))
@@ -153,6 +142,4 @@ def _design(friction, other, feed, amplitude_tolerance, rtol, for_weight: bool):
                     lower, upper, rtol)
     u = jnp.where(by_amp, sol_a.value, u_c)
     res_a = optx.RESULTS.where(by_amp, sol_a.result, optx.RESULTS.successful)
-    vc, amp, by_amp, res = _answer(friction, *_pair(u, other, for_weight), feed, by_amp,
-                                   [sol_c.result, res_a])
-    return InverseDesign(jnp.exp(u), vc, amp, by_amp, res)
+    return _answer(friction, u, other, for_weight, feed, by_amp, [sol_c.result, res_a])

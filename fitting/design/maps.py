@@ -132,33 +132,19 @@ def iter_design_map(
     )
 
 
-def design_map(
-    friction: Friction,
-    weight,
-    stiffness,
-    speed,
-    *,
-    method: str = "steady",
-    chunk_size: int = 65_536,
-    mesh=None,
-    progress: bool = False,
-    damping_ratio=None,
-) -> DesignMap:
+def design_map(friction: Friction, weight, stiffness, speed, **options) -> DesignMap:
     r"""Stick-slip characteristics over the broadcast of friction parameters, W, k and v.
 
-    Units in: W kgf, k kgf/mm, v mm/s; out as in `DesignMap`. `method` is ``"steady"``
-    (eqs 5-7, 12; fast) or ``"exact"`` (limit cycle of the event-driven simulator).
-    Runs in chunks of `chunk_size` points, sharded over every device of `mesh`
-    (default: all devices JAX sees); `progress=True` shows a tqdm bar. `damping_ratio`
-    (``method="cycle"`` only): the viscous damping ratio zeta of the damped limit cycle
-    (`stickslip_jax.limit_cycle`), which makes the stick-slip boundary sharp.
+    Units in: W kgf, k kgf/mm, v mm/s; out as in `DesignMap`. The `options` are those of
+    `iter_design_map`: `method` ``"steady"`` (eqs 5-7, 12; fast), ``"cycle"`` or
+    ``"exact"`` (limit cycle of the event-driven simulator); `chunk_size` points a chunk,
+    sharded over every device of `mesh` (default: all devices JAX sees); `progress=True`
+    shows a tqdm bar; `damping_ratio` (``method="cycle"`` only): the viscous damping
+    ratio zeta of the damped limit cycle (`stickslip_jax.limit_cycle`), which makes the
+    stick-slip boundary sharp.
     """
     points = design_points(friction, weight, stiffness, speed)
     if math.prod(points.shape) == 0:
         raise ValueError("empty design map: every axis needs at least one point")
-    return collect(
-        iter_design_map(friction, weight, stiffness, speed, method=method,
-                        chunk_size=chunk_size, mesh=mesh, progress=progress,
-                        damping_ratio=damping_ratio),
-        points.shape,
-    )
+    return collect(iter_design_map(friction, weight, stiffness, speed, **options),
+                   points.shape)

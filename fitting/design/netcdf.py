@@ -41,15 +41,9 @@ BANDS = (("amplitude_band", "amplitude_band", 1.0, "mm", "amplitude credible ban
 def import_xarray(option: str | None = None):
     """The xarray module, or `MissingExtra` (an ImportError and a one-line command-line
     error) naming `NETCDF_EXTRA`, prefixed by the command-line `option` that needs it."""
-    try:
-        import xarray
-    except ImportError:
-        from ..uncertainty.mcmc import MissingExtra
+    from ..uncertainty.mcmc import import_extra
 
-        what = f"{option}: " if option else ""
-        raise MissingExtra(f"{what}needs xarray, which is not installed: {NETCDF_EXTRA}") \
-            from None
-    return xarray
+    return import_extra("xarray", NETCDF_EXTRA, option)
 
 
 def map_dataset(res: dict, attrs: dict | None = None):

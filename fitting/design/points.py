@@ -51,16 +51,23 @@ def design_points(friction: Friction, weight, stiffness, speed) -> DesignPoints:
     if not isinstance(friction, Friction):
         raise ValueError(f"friction must be a stickslip_jax.Friction, got {type(friction)}")
     friction = jax.tree_util.tree_map(lambda x: np.asarray(x, dtype=float), friction)
-    w, k, v = (np.asarray(x, dtype=float) for x in (weight, stiffness, speed))
+    w, k, v = positive(weight, stiffness, speed)
     shapes = [np.shape(x) for x in jax.tree_util.tree_leaves(friction)] + [w.shape, k.shape, v.shape]
     try:
         shape = np.broadcast_shapes(*shapes)
     except ValueError as exc:
         raise ValueError(f"design-map arguments do not broadcast together: {shapes}") from exc
-    for name, x in (("weight W", w), ("stiffness k", k), ("drive speed v", v)):
+    return DesignPoints(friction, w, k, v, tuple(int(s) for s in shape))
+
+
+def positive(weight, stiffness, speed) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """W, k, v as float arrays, or a ValueError naming one that is not finite and
+    positive everywhere."""
+    out = tuple(np.asarray(x, dtype=float) for x in (weight, stiffness, speed))
+    for name, x in zip(("weight W", "stiffness k", "drive speed v"), out):
         if not np.all(np.isfinite(x) & (x > 0)):
             raise ValueError(f"{name} must be finite and positive everywhere")
-    return DesignPoints(friction, w, k, v, tuple(int(s) for s in shape))
+    return out
 
 
 def outer(*axes):

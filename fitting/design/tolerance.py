@@ -41,6 +41,7 @@ import optimistix as optx
 from stickslip_jax import Friction
 from stickslip_jax.limit_cycle import limit_cycle
 
+from .points import positive
 from .uncertainty import sample_size
 
 __all__ = ["ToleranceDesign", "ToleranceFront", "design_front", "meet_probability",
@@ -50,6 +51,16 @@ __all__ = ["ToleranceDesign", "ToleranceFront", "design_front", "meet_probabilit
 def _amplitudes(sample: Friction, weight, stiffness, speed):
     """Limit-cycle amplitude (mm) of every draw at one design point, shape (S,)."""
     return jax.vmap(lambda f: limit_cycle(f, weight, stiffness, speed).amplitude)(sample)
+
+
+def _checked(sample, max_amplitude, meet=0.5) -> int:
+    """The sample's number of draws, once `max_amplitude` (> 0) and `meet` (in (0, 1))
+    are checked."""
+    if not 0 < meet < 1:
+        raise ValueError(f"--meet: must lie between 0 and 1, e.g. 0.95, got {meet}")
+    if not max_amplitude > 0:
+        raise ValueError(f"--max-amplitude: must be positive, got {max_amplitude}")
+    return sample_size(sample)
 
 
 @eqx.filter_jit
@@ -65,13 +76,8 @@ def _meet_grid(sample, w, k, v, max_amplitude):
 def meet_probability(sample: Friction, weight, stiffness, speed, max_amplitude: float):
     """P(amplitude <= `max_amplitude`) over the draws at every broadcast point (module
     doc); a NumPy array of the broadcast shape."""
-    if not max_amplitude > 0:
-        raise ValueError(f"--max-amplitude: must be positive, got {max_amplitude}")
-    size = sample_size(sample)
-    w, k, v = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (weight, stiffness, speed)))
-    for name, x in (("weight W", w), ("stiffness k", k), ("drive speed v", v)):
-        if not np.all(np.isfinite(x) & (x > 0)):
-            raise ValueError(f"{name} must be finite and positive everywhere")
+    size = _checked(sample, max_amplitude)
+    w, k, v = np.broadcast_arrays(*positive(weight, stiffness, speed))
     p = _meet_grid(sample, jnp.asarray(w.ravel()), jnp.asarray(k.ravel()),
                    jnp.asarray(v.ravel()), jnp.asarray(float(max_amplitude)))
     return (np.asarray(p, dtype=float) / size).reshape(w.shape)
@@ -112,11 +118,7 @@ def required_stiffness(sample: Friction, weight: float, speed: float, max_amplit
                        meet: float = 0.95, start: float = 100.0) -> ToleranceDesign:
     """The inverse design of the module doc at one (W kgf, v mm/s); `start`: the first
     stiffness tried (kgf/mm)."""
-    if not 0 < meet < 1:
-        raise ValueError(f"--meet: must lie between 0 and 1, e.g. 0.95, got {meet}")
-    if not max_amplitude > 0:
-        raise ValueError(f"--max-amplitude: must be positive, got {max_amplitude}")
-    size = sample_size(sample)
+    size = _checked(sample, max_amplitude, meet)
     k, met, result = _solve_stiffness(sample, jnp.asarray(float(weight)),
                                        jnp.asarray(float(speed)),
                                        jnp.asarray(float(max_amplitude)), jnp.asarray(meet),
@@ -163,11 +165,7 @@ def design_front(sample: Friction, weights, speed: float, max_amplitude: float, 
                  meet: float = 0.95, start: float = 100.0) -> ToleranceFront:
     """The inverse design over (W, k) of the module doc at drive speed `speed` (mm/s),
     `weights` a 1-D grid (kgf); `start`: the first stiffness tried (kgf/mm)."""
-    if not 0 < meet < 1:
-        raise ValueError(f"--meet: must lie between 0 and 1, e.g. 0.95, got {meet}")
-    if not max_amplitude > 0:
-        raise ValueError(f"--max-amplitude: must be positive, got {max_amplitude}")
-    size = sample_size(sample)
+    size = _checked(sample, max_amplitude, meet)
     w = np.asarray(weights, dtype=float)
     if w.ndim != 1 or not w.size or not np.all(np.isfinite(w) & (w > 0)):
         raise ValueError("weights must be a 1-D grid of positive, finite weights (kgf)")

@@ -19,6 +19,7 @@ from jaxtyping import Array, Float
 from stickslip_jax import Friction, steady_state
 
 from .chunks import collect, map_chunks
+from .points import positive
 from .posterior import sample_size
 
 
@@ -82,11 +83,8 @@ def propagate(
     if not 0 < level < 1:
         raise ValueError(f"level must be in (0, 1), got {level}")
     s = sample_size(sample)
-    w, k, v = (np.asarray(x, dtype=float) for x in (weight, stiffness, speed))
+    w, k, v = positive(weight, stiffness, speed)
     shape = np.broadcast_shapes(w.shape, k.shape, v.shape)
-    for name, x in (("weight W", w), ("stiffness k", k), ("drive speed v", v)):
-        if not np.all(np.isfinite(x) & (x > 0)):
-            raise ValueError(f"{name} must be finite and positive everywhere")
     q = np.array([(1 - level) / 2, 0.5, (1 + level) / 2])
     shared = _Shared(jax.tree_util.tree_map(np.asarray, sample), q)
     out = collect(

@@ -62,8 +62,8 @@ from ..params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, 
 from ..report.rows import ParameterEstimate
 from .laplace import Uncertainty, laplace
 
-__all__ = ["PRIOR_BOUNDS", "MissingExtra", "McmcResult", "import_arviz", "likelihood_scale",
-           "log_posterior", "run_mcmc", "prior_text"]
+__all__ = ["PRIOR_BOUNDS", "MissingExtra", "McmcResult", "import_arviz", "import_extra",
+           "likelihood_scale", "log_posterior", "run_mcmc", "prior_text"]
 
 POSTERIOR_EXTRA = 'pip install "stickslip-jax[posterior]"'
 """How to install arviz (and its netCDF writer) for the chain file and arviz summaries."""
@@ -78,18 +78,24 @@ class MissingExtra(ImportError, ValueError):
     error (exit 2) for the command line, which reports ValueErrors so."""
 
 
-def import_arviz(option: str | None = None):
-    """The arviz module, or `MissingExtra` naming `POSTERIOR_EXTRA` (prefixed by the
-    command-line `option` that needs it). Silences arviz's FutureWarning on import."""
+def import_extra(module: str, extra: str, option: str | None = None):
+    """The optional `module`, or `MissingExtra` naming how to install it (`extra`),
+    prefixed by the command-line `option` that needs it. Silences FutureWarnings on import."""
+    import importlib
+
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", FutureWarning)
-            import arviz
+            return importlib.import_module(module)
     except ImportError:
         what = f"{option}: " if option else ""
-        raise MissingExtra(f"{what}needs arviz, which is not installed: "
-                           f"{POSTERIOR_EXTRA}") from None
-    return arviz
+        raise MissingExtra(f"{what}needs {module}, which is not installed: {extra}") from None
+
+
+def import_arviz(option: str | None = None):
+    """The arviz module, or `MissingExtra` naming `POSTERIOR_EXTRA` (`import_extra`)."""
+    return import_extra("arviz", POSTERIOR_EXTRA, option)
+
 
 PRIOR_BOUNDS = {**EmpiricalFriction.PRIOR_BOUNDS, **MicrosqueezeFriction.PRIOR_BOUNDS}
 """Support of the log-uniform prior of each parameter of both laws (natural units: h_e
