@@ -1,4 +1,16 @@
-"""Shared test set-up: x64, a PRNG key fixture and a tree comparison helper."""
+"""Shared test set-up: x64, a PRNG key fixture, a tree comparison helper, and JAX's
+persistent compilation cache for the session.
+
+The compiled programs of a run are kept in `.pytest_cache/d/jax-compilation` (JAX's
+persistent compilation cache, programs that took over `CACHE_MIN_COMPILE_S` to
+compile): the two processes of `pytest -n 2` load each other's programs instead of both
+compiling them, and a later run loads them all (`pytest --cache-clear` empties it).
+`STICKSLIP_TEST_CACHE_DIR` chooses another folder, or an empty value turns it off. The
+`stickslip` commands the tests start as subprocesses get the same folder through
+`STICKSLIP_CACHE_DIR` (the command's own cache variable), never the user's cache.
+"""
+
+import os
 
 import jax
 
@@ -11,6 +23,17 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 matplotlib.use("Agg")
+
+QUICK_MODULES = ("test_code_size", "test_layering", "test_product_text", "test_units",
+                 "test_friction", "test_tables", "test_drives", "test_contact_boundary",
+                 "test_contact_surfaces", "test_lsq", "test_lsq_pieces", "test_steady")
+"""Modules marked `quick` (`pytest -m "quick and not slow"`): the source checks and the
+model's unit tests (friction laws, tables, drives, contact, the least-squares solver,
+the steady state), without fits, discovery or subprocess commands."""
+
+CACHE_MIN_COMPILE_S = 0.1
+"""Programs that compiled faster than this are not kept (reading one back costs about
+as much)."""
 
 
 @pytest.fixture
@@ -32,5 +55,25 @@ def allclose_tree():
     return tree_allclose
 
 
+def _compilation_cache(config) -> str:
+    """The session's persistent compilation cache folder ("" for off; module doc)."""
+    path = os.environ.get("STICKSLIP_TEST_CACHE_DIR")
+    if path is None:  # off when pytest runs without its cache (-p no:cacheprovider)
+        cache = getattr(config, "cache", None)
+        path = str(cache.mkdir("jax-compilation")) if cache is not None else ""
+    return path
+
+
 def pytest_configure(config):
+    path = _compilation_cache(config)
+    os.environ["STICKSLIP_CACHE_DIR"] = path  # subprocess commands: the same folder
+    if path:
+        jax.config.update("jax_compilation_cache_dir", path)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", CACHE_MIN_COMPILE_S)
     jnp.zeros(())  # initialise the backend once, with x64 on
+
+
+def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if item.path.stem in QUICK_MODULES:
+            item.add_marker(pytest.mark.quick)

@@ -79,6 +79,7 @@ def test_recovers_parameters_within_95_percent_intervals_through_record_files(si
         assert p["stderr"] < 0.01 * abs(true) + 0.05, (name, p)  # and the interval is tight
 
 
+@pytest.mark.slow
 def test_intervals_are_calibrated_over_seeds(simulated):
     """Over 10 noise draws, the 95 % intervals hold the truth in >= 85 % of the cases."""
     template = poor_template()
