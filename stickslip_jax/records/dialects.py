@@ -165,6 +165,10 @@ def normalise_dialect(lines: list[str], notes: list[str], delim: str | None = No
     comma = any("," in c for ln in sample for c in _cells(ln, delim, quoted))
     out = []
     for ln in lines:
+        if not (quoted or padded):  # plain ';' or tabs: text replacements, fast
+            ln = ln.replace(",", ".") if comma else ln
+            out.append(ln.replace(delim, ",") if delim != "," else ln)
+            continue
         if not ln.strip() or ln.lstrip().startswith("#"):
             out.append(ln)
             continue
