@@ -79,7 +79,10 @@ class Physics:
     a Stribeck curve as a rational drop of the kinetic friction with slip speed,
     mu_m - b q / (1 + q), q = (ydot/v_s)^2 (mu_m at rest, b lower at speed); friction drift as linear rates of mu_s and mu_d per
     second (from the record's start); a hardening spring F = k x (1 + h x^2 / x_ref^2),
-    x_ref = mu_s W / k (outside the package's library)."""
+    x_ref = mu_s W / k, and backlash in the drive: the jerk of each slip sets the drive's
+    nut back across its play `backlash_mm`, so the spring's far end stands still for the
+    first `backlash_mm` of drive travel of every stick (lost motion; both outside the
+    package's library; the gauge reads the spring's deflection)."""
 
     damping_ratio: float = 0.0
     stribeck_b: float = 0.0
@@ -87,6 +90,7 @@ class Physics:
     drift_mu_s: float = 0.0  # 1/s
     drift_mu_d: float = 0.0  # 1/s
     hardening: float = 0.0
+    backlash_mm: float = 0.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,6 +129,7 @@ def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, r
     over = 8 if imp.sensor_order else 1
     t_hi = np.arange(int(round(duration * rate_hz)) * over) / (rate_hz * over)
     y_hi = np.full(t_hi.shape, np.nan)
+    lag_hi = np.zeros(t_hi.shape)  # play of the drive not yet taken up (backlash), mm
     breaks, ends = [], []
     if steady:
         x_ss = friction.mu_d * W / k
@@ -139,11 +144,15 @@ def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, r
             return 1.0 + imp.mu_s_jitter * z
         ph = physics
         x_ref = friction.mu_s * W / k
+        u_raw, lost = u, 0.0  # the drive; its motion lost to the backlash so far (mm)
 
         def spring(x):
             return k * x * (1.0 + ph.hardening * (x / x_ref) ** 2)
 
         while ts < duration:
+            if ph.backlash_mm:  # the spring's far end: the drive less the motion it lost
+                def u(t, u_ts=float(u_raw(ts)), lost=lost):
+                    return u_raw(t) - lost - np.clip(u_raw(t) - u_ts, 0.0, ph.backlash_mm)
             f = dataclasses.replace(friction, mu_s=friction.mu_s + ph.drift_mu_s * ts,
                                     mu_d=friction.mu_d + ph.drift_mu_d * ts)
             mu_s = f.mu_s * jitter()
@@ -198,9 +207,14 @@ def simulate(friction: Friction, *, weight, stiffness, speed_mm_min, duration, r
                     break
                 mum = f.mu_d  # slipping on from rest at the kinetic level
             ends.append(t0)
+            cyc = t_hi >= ts
+            lag_hi[cyc] = u_raw(t_hi[cyc]) - u(t_hi[cyc])
+            lost += ph.backlash_mm
+            u = u_raw
             ts = t0
         y_hi[np.isnan(y_hi)] = y
-        x_hi = u(t_hi) - y_hi
+        u = u_raw
+        x_hi = u(t_hi) - lag_hi - y_hi
     clean_hi = x_hi
     if imp.sensor_order:
         wc = 2 * np.pi * imp.sensor_hz

@@ -1,0 +1,298 @@
+r"""Effects outside the library, named by their form: a sparse model of the residual.
+
+When a gap remains that no effect family explains, the per-cycle base (`cycle_model`)
+gets a few terms chosen from a library of candidate forms in the physical coordinates
+of the cycle (`TERMS`), fitted jointly with the base parameters:
+
+- **stick** (the gauge reading, mm, before the breakaway): a constant, powers of the
+  deflection $x$, powers of the time since the last slip $s$ (in s, and as the share
+  $s/T_1$ of the window's stick time), and the approach to the breakaway
+  $e^{-(T_1 - s)/\tau}$ (a creep of the slider before it breaks away);
+- **slip** (a force on the slider, in units of its weight W): powers of the reduced
+  deflection $\xi = k x/W$, the sign and powers of the slider velocity $\dot y$ (over
+  $V = $ `V_REF`), a drift in time; a force $f(t)$ moves the slider by
+  $\delta y(t) = (g/\omega_0)\int_{t_b}^{t}\sin\omega_0(t - t')\,f(t')\,dt'$
+  (its first-order response during the slip, held after the slider stops);
+- **drift**: the reading's drift over the record.
+
+The terms are chosen by sequentially thresholded least squares (`stlsq`, the SINDy
+regression) on the base residuals with the base Jacobian's columns projected out, at
+a path of thresholds; the support with the least chi-square plus a cost per term
+(`TERM_COST` of the excess chi-square, at least 2 ln n) wins, at most `MAX_TERMS`
+terms. The chosen form is refitted with the model's own parameters by Gauss-Newton
+steps through the model (`refit`), and found when it closes at least `FOUND_SHARE` of
+the gap's excess over the noise. Units: mm, s, kgf.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from stickslip_jax.units import G_MM_S2
+
+__all__ = ["FOUND_SHARE", "MAX_TERMS", "SparseForm", "TERMS", "Term", "fit_sparse_form",
+           "library", "stlsq"]
+
+MAX_TERMS = 3
+"""A form of more than three terms is a fit, not a form."""
+TERM_COST = 0.03
+"""Each term must lower chi-square by this share of the excess over the samples' count."""
+FOUND_SHARE = 0.5
+"""The share of the gap's excess over the noise a form must close to be reported."""
+V_REF = 10.0
+"""mm/s: the slider velocity the velocity powers are measured in (a slip's peak speed)."""
+CREEP_TAUS = (0.01, 0.03, 0.1)
+"""s: time constants of the approach-to-breakaway terms."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Term:
+    """One candidate: its `phase` (stick, slip, record), the `variable` it is a power of,
+    its `symbol`, the coefficient's `unit` and what it does in `words` (the sign of the
+    coefficient completes them)."""
+
+    name: str
+    phase: str
+    variable: str
+    symbol: str
+    unit: str
+    words: str
+
+
+def _terms() -> tuple[Term, ...]:
+    out = [Term("stick_level", "stick", "-", "c", "mm",
+                "the reading during the stick is offset from the stick line")]
+    out += [Term(f"stick_x{p}", "stick", "deflection", f"c x^{p}", f"mm^{1 - p}",
+                 f"the reading during the stick changes with the deflection^{p}")
+            for p in (1, 2, 3)]
+    out += [Term(f"stick_s{p}", "stick", "time since the last slip", f"c s^{p}",
+                 f"mm/s^{p}", f"the reading during the stick changes with (time since "
+                 f"the last slip)^{p}") for p in (1, 2)]
+    out += [Term(f"stick_phase{p}", "stick", "time since the last slip",
+                 f"c (s/T1)^{p}", "mm", f"the reading during the stick changes with (time "
+                 f"since the last slip / stick time)^{p}") for p in (1, 2, 4, 8)]
+    out += [Term(f"stick_creep{int(tau * 1e3)}ms", "stick", "time to the breakaway",
+                 f"c exp(-(T1 - s)/{tau * 1e3:g} ms)", "mm",
+                 "the slider creeps before it breaks away (the reading changes just "
+                 "before the breakaway)") for tau in CREEP_TAUS]
+    out += [Term(f"slip_xi{p}", "slip", "deflection", f"c W (k x/W)^{p}", "-",
+                 f"a force on the slider during the slip grows with the deflection^{p}"
+                 + (" (a spring that stiffens with deflection)" if p == 3 else ""))
+            for p in (1, 2, 3)]
+    out += [Term("slip_sign", "slip", "sign of the slider velocity", "c W sign(ydot)", "-",
+                 "a force along the slip (a kinetic friction offset)")]
+    out += [Term(f"slip_v{p}", "slip", "slider velocity", f"c W (ydot/{V_REF:g} mm/s)^{p}",
+                 "-", f"a force on the slider during the slip grows with the slider "
+                 f"velocity^{p}") for p in (1, 2, 3)]
+    out += [Term("slip_drift", "slip", "time", "c W (t - t_mid)", "1/s",
+                 "a force during the slip drifts over the record"),
+            Term("drift", "record", "time", "c (t - t_mid)", "mm/s",
+                 "the reading drifts over the record")]
+    return tuple(out)
+
+
+TERMS = _terms()
+
+
+def _coordinates(model, z, r, sd) -> dict:
+    """Per masked sample, sorted window by window in time (`order`): the coordinates of
+    the cycle at the model's trace (module doc)."""
+    data, mask = model.data, np.asarray(model.data.mask)
+    row = {f: np.broadcast_to(np.asarray(getattr(data, f))[:, None], mask.shape)[mask]
+           for f in ("record", "window", "start_time", "stick_time", "speed", "stiffness",
+                     "weight")}
+    t_all = np.asarray(data.time)
+    dt = np.broadcast_to((t_all[:, 1] - t_all[:, 0])[:, None], mask.shape)[mask]
+    t = t_all[mask]
+    offset = (np.asarray(z) * model.scales)[6:model.n_base]
+    x = np.asarray(data.deflection)[mask] - r * sd - offset[row["record"]]
+    _, yd, _ = model.residuals(z)
+    yd = np.asarray(yd)[mask]
+    order = np.lexsort((t, row["window"]))
+    c = {k: v[order] for k, v in row.items()}
+    c.update(t=t[order], dt=np.abs(dt[order]), x=x[order], yd=yd[order], order=order)
+    win, slip = c["window"], c["yd"] > 0
+    first = np.r_[True, win[1:] != win[:-1]]
+    start_idx = np.maximum.accumulate(np.where(first, np.arange(win.size), 0))
+    cum = np.cumsum(slip)
+    seen = (cum - np.r_[0, cum][start_idx]) > 0
+    c.update(slip=slip, stick=~seen, after=seen & ~slip, start_idx=start_idx)
+    t_mid = np.zeros(int(c["record"].max()) + 1)
+    for g in np.unique(c["record"]):
+        tt = c["t"][c["record"] == g]
+        t_mid[g] = 0.5 * (tt.min() + tt.max())
+    c["t_rel"] = c["t"] - t_mid[c["record"]]
+    return c
+
+
+def _slip_response(c: dict, f: np.ndarray) -> np.ndarray:
+    """The reading's change (mm) under a force W f (f per unit weight) during the slips
+    (module doc): the first-order response, held after the slider stops."""
+    w0 = np.sqrt(c["stiffness"] * G_MM_S2 / c["weight"])
+    tau = c["t"] - c["t"][c["start_idx"]]
+    fj = np.where(c["slip"], f, 0.0) * c["dt"]
+    parts = []
+    for trig in (np.cos, np.sin):
+        cum = np.cumsum(fj * trig(w0 * tau))
+        parts.append(cum - np.r_[0.0, cum][c["start_idx"]])
+    dy = G_MM_S2 / w0 * (np.sin(w0 * tau) * parts[0] - np.cos(w0 * tau) * parts[1])
+    last = np.maximum.accumulate(np.where(c["slip"], np.arange(f.size), 0))
+    dy = np.where(c["after"], dy[last], np.where(c["stick"], 0.0, dy))
+    return -dy
+
+
+def library(model, z, r, sd) -> np.ndarray:
+    """The columns of `TERMS` (mm of reading per unit coefficient) at the model's trace
+    at z, in the masked samples' order (`r`, `sd`: whitened residuals and their standard
+    errors, mm)."""
+    c = _coordinates(model, z, r, sd)
+    stick, s, T1, x = c["stick"], c["t"] - c["start_time"], c["stick_time"], c["x"]
+    xi, v = c["stiffness"] * x / c["weight"], np.maximum(c["yd"], 0.0) / V_REF
+    cols = {"stick_level": np.ones_like(x), "drift": c["t_rel"]}
+    cols.update({f"stick_x{p}": x ** p for p in (1, 2, 3)})
+    cols.update({f"stick_s{p}": s ** p for p in (1, 2)})
+    cols.update({f"stick_phase{p}": np.clip(s / T1, 0.0, 1.5) ** p for p in (1, 2, 4, 8)})
+    cols.update({f"stick_creep{int(tau * 1e3)}ms": np.exp(-np.maximum(T1 - s, 0.0) / tau)
+                 for tau in CREEP_TAUS})
+    force = {f"slip_xi{p}": xi ** p for p in (1, 2, 3)}
+    force.update({f"slip_v{p}": v ** p for p in (1, 2, 3)})
+    force.update(slip_sign=np.ones_like(x), slip_drift=c["t_rel"])
+    out = np.empty((x.size, len(TERMS)))
+    for j, term in enumerate(TERMS):
+        if term.phase == "slip":
+            col = _slip_response(c, force[term.name])
+        else:
+            col = cols[term.name] * (stick if term.phase == "stick" else 1.0)
+        out[c["order"], j] = col
+    return out
+
+
+def stlsq(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: int = MAX_TERMS,
+          cost: float | None = None) -> tuple[np.ndarray, float]:
+    """Sequentially thresholded least squares of b on the columns C (whitened) with the
+    columns `base` always in (projected out): at every threshold of a path (a share of
+    the excess chi-square each standardised coefficient must explain), drop the terms
+    below it and refit until the support settles; keep the support (at most
+    `max_terms`) with the least chi-square + `cost` per term (default `TERM_COST` of the
+    excess, at least 2 ln n). Returns the support (column indices) and its chi-square."""
+    n = b.size
+    Q = np.linalg.qr(base)[0] if base.size else np.zeros((n, 0))
+    Cp, bp = C - Q @ (Q.T @ C), b - Q @ (Q.T @ b)
+    norm = np.linalg.norm(Cp, axis=0)
+    live = norm > 1e-9 * max(norm.max(), 1e-300)
+    Cs = np.where(live, Cp / np.where(live, norm, 1.0), 0.0)
+    rss0 = float(bp @ bp)
+    excess = max(rss0 - n, 0.0)
+    cost = max(TERM_COST * excess, 2.0 * np.log(n)) if cost is None else cost
+
+    def rss_of(S):
+        if not S.size:
+            return rss0, np.zeros(0)
+        beta = np.linalg.lstsq(Cs[:, S], bp, rcond=None)[0]
+        res = bp - Cs[:, S] @ beta
+        return float(res @ res), beta
+
+    best, best_score = np.zeros(0, int), rss0
+    for share in (0.5, 0.3, 0.2, 0.1, 0.05, 0.02, 0.01, 0.005):
+        S = np.flatnonzero(live)
+        for _ in range(20):
+            _, beta = rss_of(S)
+            keep = np.abs(beta) >= np.sqrt(share * excess)
+            if keep.sum() > max_terms:  # the largest standardised coefficients
+                keep = np.isin(np.arange(S.size), np.argsort(-np.abs(beta))[:max_terms])
+            if keep.all():
+                break
+            S = S[keep]
+        rss, _ = rss_of(S)
+        if rss + cost * S.size < best_score:
+            best, best_score = S, rss + cost * S.size
+    return best, rss_of(best)[0]
+
+
+@dataclasses.dataclass(frozen=True)
+class SparseForm:
+    """The sparse form of the residual (module doc): its `terms` (dicts: name, phase,
+    variable, symbol, coefficient, stderr, unit, words), the gaps (residual RMS, mm)
+    before and after its refit with the base parameters, the `noise` (mm), whether it
+    was `found` (closes at least `FOUND_SHARE` of the excess), the model coordinates
+    after the refit `z`, and the refit's whitened residuals `r`."""
+
+    terms: tuple
+    gap_before: float
+    gap_after: float
+    noise: float
+    found: bool
+    z: np.ndarray = dataclasses.field(repr=False)
+    r: np.ndarray = dataclasses.field(repr=False)
+
+    @property
+    def closes(self) -> float:
+        excess = self.gap_before - self.noise
+        return float((self.gap_before - self.gap_after) / excess) if excess > 0 else 0.0
+
+    @property
+    def formula(self) -> str:
+        """The terms in words and symbols, e.g. "slip: a force on the slider during the
+        slip grows with the deflection^3, +0.31 W (k x/W)^3 (-)"."""
+        return "; ".join(f"{t['phase']}: {t['words']}, {t['coefficient']:+.3g} "
+                         f"{t['symbol'][2:]} (c in {t['unit']})" for t in self.terms) or "-"
+
+    def to_json(self) -> dict:
+        return {"found": self.found, "formula": self.formula, "terms": list(self.terms),
+                "gap_before": self.gap_before, "gap_after": self.gap_after,
+                "noise": self.noise, "gap_unit": "mm", "closes": self.closes,
+                "library": [t.name for t in TERMS],
+                "method": "sequentially thresholded least squares over the library, "
+                          f"at most {MAX_TERMS} terms, each worth {TERM_COST:g} of the "
+                          "excess chi-square; refitted with the base parameters"}
+
+
+def _gap(r, sd, use) -> float:
+    return float(np.sqrt(np.mean((r * sd)[use] ** 2)))
+
+
+def fit_sparse_form(model, z, r, J, noise: float, use=None, *,
+                    iterations: int = 3) -> SparseForm:
+    """Choose the sparse form of the residual `r` (whitened, at the base coordinates z
+    with the base Jacobian J over the base coordinates `model.n_base`) and refit it with
+    the base parameters by Gauss-Newton steps through `model` (module doc); `use`: the
+    residuals the gaps are measured over (default all)."""
+    sd = np.asarray(model.sd).ravel()[model.mask]
+    use = np.ones(r.size, bool) if use is None else np.asarray(use, bool)
+    C = library(model, z, r, sd)
+    w = use.astype(float)
+    S, _ = stlsq(J * w[:, None], r * w, C / sd[:, None] * w[:, None])
+    cols = np.arange(model.n_base)
+    z_k, r_k, Jk = np.array(z, float), np.asarray(r, float), np.asarray(J, float)
+    best = (_gap(r, sd, use), z_k, r_k, np.zeros(S.size), None)
+    for _ in range(iterations if S.size else 0):
+        A = np.hstack([Jk, C[:, S] / sd[:, None]]) * w[:, None]
+        beta, *_ = np.linalg.lstsq(A, r_k * w, rcond=None)
+        z_k = z_k.copy()
+        z_k[cols] -= beta[:cols.size]
+        coef = beta[cols.size:]
+        r_k, Jk, ok = model.evaluate(z_k, cols)
+        r_k, Jk = np.asarray(r_k), np.asarray(Jk)
+        r_new = r_k - C[:, S] @ coef / sd
+        if not np.all(ok) or not np.isfinite(r_new).all():
+            break
+        gap = _gap(r_new, sd, use)
+        if gap < best[0]:
+            A = np.hstack([Jk, C[:, S] / sd[:, None]]) * w[:, None]
+            cov = np.linalg.pinv(A.T @ A) * max(float(np.sum((r_new * w) ** 2))
+                                                / max(w.sum() - A.shape[1], 1.0), 1.0)
+            best = (gap, z_k, r_new, coef, np.sqrt(np.diag(cov))[cols.size:])
+    gap_after, z_after, r_after, coef, se = best
+    terms = tuple({"name": TERMS[j].name, "phase": TERMS[j].phase,
+                   "variable": TERMS[j].variable, "symbol": TERMS[j].symbol,
+                   "coefficient": float(coef[i]),
+                   "stderr": float(se[i]) if se is not None else float("nan"),
+                   "unit": TERMS[j].unit, "words": TERMS[j].words}
+                  for i, j in enumerate(S)) if se is not None else ()
+    gap_before = _gap(r, sd, use)
+    closes = (gap_before - gap_after) / max(gap_before - noise, 1e-300)
+    return SparseForm(terms=terms, gap_before=gap_before, gap_after=gap_after,
+                      noise=float(noise), found=bool(terms) and closes >= FOUND_SHARE,
+                      z=z_after, r=r_after)

@@ -1,0 +1,129 @@
+"""Sparse forms of the residual (`discovery.sparse`): the regression recovers planted
+terms exactly, the slip terms are the slider's response to a force, and (slow) on
+campaigns with effects outside the library, from the independent generator, discovery
+answers with the form, in words naming the right phase and variable.
+
+`python tests/test_sparse_forms.py [SEEDS]` prints the campaign table.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+import types
+
+import numpy as np
+import pytest
+
+from stickslip_fitting.discovery import sparse
+
+sys.path.insert(0, os.path.dirname(__file__))
+import independent_records as ir  # noqa: E402
+
+
+def _planted(seed: int, j: int, size: float):
+    """Whitened residuals: unit noise + a base combination + `size` x the column j of a
+    correlated library (every column a smooth function plus a shared part)."""
+    rng = np.random.default_rng(seed)
+    n, p, K = 3000, 7, len(sparse.TERMS)
+    t = np.linspace(0.0, 1.0, n)
+    base = np.stack([np.cos(np.pi * i * t) for i in range(p)], axis=1)
+    shared = rng.standard_normal(n)
+    C = np.stack([np.sin((3 + 1.7 * k) * np.pi * t + k) ** (1 + k % 3) + 0.3 * shared
+                  for k in range(K)], axis=1)
+    b = rng.standard_normal(n) + base @ rng.standard_normal(p) + size * C[:, j]
+    return base, b, C
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_stlsq_recovers_a_planted_term_exactly(seed):
+    j = seed * 3 % len(sparse.TERMS)
+    base, b, C = _planted(seed, j, size=0.8)
+    S, rss = sparse.stlsq(base, b, C)
+    assert list(S) == [j]
+    beta = np.linalg.lstsq(np.hstack([base, C[:, S]]), b, rcond=None)[0]
+    assert beta[-1] == pytest.approx(0.8, abs=0.1)
+    assert rss < 1.1 * b.size
+
+
+def test_stlsq_keeps_nothing_in_noise():
+    rng = np.random.default_rng(5)
+    base, _, C = _planted(5, 0, 0.0)
+    hits = sum(sparse.stlsq(base, rng.standard_normal(base.shape[0]), C)[0].size > 0
+               for _ in range(20))
+    assert hits <= 1
+
+
+def _one_slip_model(W=36.0, k=86.9, rate=20000.0):
+    """A stand-in for the per-cycle model: one window, the slider slipping from 50 ms for
+    half a period pi/omega_0, then at rest."""
+    w0 = np.sqrt(k * 9806.65 / W)
+    t = np.arange(0.0, 0.2, 1.0 / rate)[None, :]
+    slip = (t >= 0.05) & (t < 0.05 + np.pi / w0)
+    yd = np.where(slip, np.sin(w0 * (t - 0.05)), 0.0)
+    row = lambda v: np.array([v])  # noqa: E731
+    data = types.SimpleNamespace(
+        mask=np.ones_like(t, bool), record=row(0), window=row(0), start_time=row(0.0),
+        stick_time=row(0.05), speed=row(0.1), stiffness=row(k), weight=row(W),
+        time=t, deflection=np.zeros_like(t))
+    return types.SimpleNamespace(data=data, scales=np.ones(7), n_base=7,
+                                 residuals=lambda z: (None, yd, None)), w0, t.ravel()
+
+
+def test_slip_terms_are_the_response_to_a_force():
+    """A constant force W c during a half-period slip moves the slider by
+    (g c / omega_0^2)(1 - cos omega_0 tau), and it stays there once the slider stops."""
+    model, w0, t = _one_slip_model()
+    C = sparse.library(model, np.zeros(7), np.zeros(t.size), np.ones(t.size))
+    col = C[:, [term.name for term in sparse.TERMS].index("slip_sign")]
+    tau = np.clip(t - 0.05, 0.0, np.pi / w0)
+    expected = -9806.65 / w0 ** 2 * (1.0 - np.cos(w0 * tau))
+    assert np.max(np.abs(col - expected)) < 0.01 * np.max(np.abs(expected))
+    stick = [term.name for term in sparse.TERMS].index("stick_level")
+    assert np.all(C[t <= 0.05, stick] == 1.0) and np.all(C[t > 0.05, stick] == 0.0)
+
+
+# ---- campaigns with effects outside the library (slow) --------------------------------
+
+OUTSIDE = {
+    # (generator arguments, the phase and the variable the words must name)
+    "creep": (dict(imp=ir.Imperfections(creep_mm=0.003)), "stick", "breakaway"),
+    "hardening": (dict(physics=ir.Physics(hardening=0.1)), "slip", "deflection"),
+    "backlash": (dict(physics=ir.Physics(backlash_mm=0.005)), "stick", "time since"),
+}
+
+
+def run_one(kind: str, seed: int) -> dict:
+    from stickslip_fitting.discovery.cycle_workflow import discover_cycles
+
+    kw, phase, variable = OUTSIDE[kind]
+    res = discover_cycles(ir.campaign(ir.LUBRICANT_A, seed=seed, cycles=4.0, **kw))
+    form = res.sparse_form
+    words_ok = bool(form is not None and form.terms
+                    and form.terms[0]["phase"] == phase
+                    and variable in (form.terms[0]["variable"] + form.terms[0]["words"]))
+    return dict(kind=kind, seed=seed, effect=res.effect, confidence=res.confidence,
+                gap_before=res.gap_before / res.noise, gap_after=res.gap_after / res.noise,
+                closes=form.closes if form is not None else None,
+                formula=form.formula if form is not None else "", words_ok=words_ok)
+
+
+@pytest.mark.slow
+def test_outside_effects_are_answered_by_their_form():
+    rows = [run_one(kind, seed) for kind in OUTSIDE for seed in range(2)]
+    for r in rows:
+        print(r)
+    assert not [r for r in rows if r["confidence"] == "high"
+                and r["effect"] not in ("none", "unexplained", "sparse_form")]
+    for kind in OUTSIDE:
+        mine = [r for r in rows if r["kind"] == kind]
+        assert all(r["effect"] != "none" for r in mine), kind
+    by_form = [r for r in rows if r["effect"] == "sparse_form"]
+    assert len(by_form) >= 2 / 3 * len(rows)
+    assert all(r["closes"] >= 0.7 and r["words_ok"] for r in by_form)
+
+
+if __name__ == "__main__":
+    for kind in OUTSIDE:
+        for seed in range(int(sys.argv[1]) if len(sys.argv) > 1 else 2):
+            print(run_one(kind, seed), flush=True)
