@@ -133,3 +133,21 @@ def test_a_fixed_value_is_reported_exactly():
     assert got["parameters"]["delta"]["value"] == 67.0
     assert got["parameters"]["delta"]["relative_error"] == 0.0
     assert got["parameters"]["n"]["value"] == 0.99999
+
+
+def test_ctrl_c_while_drawing_leaves_neither_output(tmp_path, capsys, monkeypatch):
+    """`fit --json out.json --plot fit.png` interrupted while the figure is drawn: exit 130
+    and no output at all (an existing out.json kept), not a new JSON without its figure."""
+    import stickslip_fitting.report.plots as plots
+
+    copy_records(tmp_path, EXAMPLES[:3])
+    old = tmp_path / "out.json"
+    old.write_text('{"previous": true}')
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(plots, "fit_figure", interrupted)
+    run_checked(["fit", tmp_path, "--json", old, "--plot", tmp_path / "fit.png"], capsys,
+                tmp_path, 130)
+    assert old.read_text() == '{"previous": true}'
