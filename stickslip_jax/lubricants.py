@@ -83,10 +83,3 @@ def experimental_conditions() -> tuple[tuple[float, float], ...]:
     t = load_table(1)
     return tuple((r.slider_weight, r.stiffness) for r in t.rows)
 
-
-def table1_weights() -> tuple[float, ...]:
-    return load_table(1).column("slider_weight")
-
-
-def table1_stiffnesses() -> tuple[float, ...]:
-    return load_table(1).column("stiffness")

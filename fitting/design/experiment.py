@@ -85,11 +85,6 @@ class Campaign(eqx.Module):
         idx = np.asarray(idx)
         return Campaign(*(np.asarray(x)[idx] for x in (self.weight, self.stiffness, self.speed)))
 
-    def concat(self, other: Campaign) -> Campaign:
-        return Campaign(*(np.concatenate([np.asarray(a), np.asarray(b)])
-                          for a, b in zip((self.weight, self.stiffness, self.speed),
-                                          (other.weight, other.stiffness, other.speed))))
-
 
 def log_params(friction: Friction) -> np.ndarray:
     """$u = \\log$ of the six eq (1) + eq (3) parameters, in the order of `PARAMETERS`."""

@@ -34,7 +34,6 @@ stored coordinates (so asymmetric for log-stored parameters).
 from __future__ import annotations
 
 import dataclasses
-import re
 
 import equinox as eqx
 import jax
@@ -397,10 +396,3 @@ def _data_scale(runs):
 def _residuals_jit(objective, params):
     return objective.residuals(params)
 
-
-_CHANNEL = re.compile(r"(pitch|yaw)_(\d+)$")
-
-
-def channel_names(record) -> list[str]:
-    """The `pitch_N`/`yaw_N` channels a record carries."""
-    return [n for n in record.channels if _CHANNEL.match(n)]

@@ -40,7 +40,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.flatten_util import ravel_pytree
 
 from stickslip_jax.lsq import gauss_newton_covariance
 
@@ -135,12 +134,6 @@ def jacobian_log(fit: FitResult, objective=None):
     J, r = _jacobian_log(theta0, logs0, jnp.asarray(idx), p.friction, off0,
                          fit.objective if objective is None else objective, fit_offsets)
     return np.asarray(J), np.asarray(r), free, idx
-
-
-def fisher_log(fit: FitResult):
-    """(F, names, free mask): Fisher information in (log friction, free offsets) coordinates."""
-    J, _, free, idx = jacobian_log(fit)
-    return J.T @ J, free, idx
 
 
 def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
@@ -462,14 +455,3 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         units=dict(fit.params.friction.UNITS), covariance=covariance, reasons=reasons,
     )
 
-
-def filter_free(fit: FitResult):
-    """(free, static) partition of the fitted params by their spec (helper)."""
-    return eqx.partition(fit.params, fit.spec)
-
-
-def flat_free(fit: FitResult):
-    """Flat vector of the free leaves and the function that rebuilds the params."""
-    free, static = filter_free(fit)
-    flat, unravel = ravel_pytree(free)
-    return flat, lambda v: eqx.combine(unravel(v), static)

@@ -132,18 +132,6 @@ class MeasuringPoints(eqx.Module):
     def is_pitch(self) -> tuple[bool, ...]:
         return tuple(p == PITCH for p in self.planes)
 
-    def select(self, names) -> MeasuringPoints:
-        """The subset of points with the given channel names (in that order)."""
-        missing = [n for n in names if n not in self.names]
-        if missing:
-            raise ValueError(f"no measuring point named {missing}; have {list(self.names)}")
-        idx = [self.names.index(n) for n in names]
-        return MeasuringPoints(
-            positions=self.positions[jnp.asarray(idx)],
-            planes=tuple(self.planes[i] for i in idx),
-            names=tuple(names),
-        )
-
 
 def paper_points(length: float = 240.0, point2: float = 10.0) -> MeasuringPoints:
     """Five points laid out like Fig 42: 1-3 vertical (front, near the pivot, rear),

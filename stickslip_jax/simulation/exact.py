@@ -332,9 +332,6 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
     def u_at(t):
         return _drive_at(knot_table, t)
 
-    def mu0_and_slope(T):
-        return jax.jvp(static, (T,), (jnp.ones_like(T),))
-
     def model_t2(x_b, v_b, mu0, active):
         if slip_time == SlipTime.PAPER:
             return jnp.pi / omega
