@@ -188,8 +188,9 @@ def _fit_law_from_args(args, law, objective, modes, loss):
     from ..params import Hold
     from ..solve.laws import LAW_PARAMS, fit_law
 
-    if args.model != "empirical" or args.eta is not None:
-        raise ValueError(f"--law {law}: the law replaces --model; leave out --model and --eta")
+    if args.model != "empirical" or args.eta is not None or args.surface is not None:
+        raise ValueError(f"--law {law}: the law replaces --model; leave out --model, --eta "
+                         "and --surface")
     if objective not in (Objective.FEATURES, Objective.SMOOTH) or not isinstance(loss, Gaussian):
         raise ValueError(f"--law {law}: fitted through whole records (--objective smooth) "
                          "with the Gaussian --loss only")
