@@ -151,3 +151,12 @@ def test_ctrl_c_while_drawing_leaves_neither_output(tmp_path, capsys, monkeypatc
     run_checked(["fit", tmp_path, "--json", old, "--plot", tmp_path / "fit.png"], capsys,
                 tmp_path, 130)
     assert old.read_text() == '{"previous": true}'
+
+
+def test_plan_counts_a_copy_of_a_record_once(tmp_path, capsys):
+    rec = copy_records(tmp_path, EXAMPLES[:1])[0]
+    copy = tmp_path / "copy.csv"
+    copy.write_bytes(rec.read_bytes().replace(b"\n", b"\r\n"))
+    assert main(["plan", "A", str(rec), str(copy), "--budget", "1", "--weights", "36",
+                 "--stiffnesses", "86.9", "--speeds", "1,5"]) == 0
+    assert "1 existing record(s)" in capsys.readouterr().out

@@ -230,6 +230,9 @@ def read_sources(args):
         raise ValueError("prior sd must be finite and positive for every parameter")
     existing = None
     if records:
+        from stickslip_jax.records.campaign import count_once
+
+        records = count_once(records)  # the same run under two names counts once
         existing = Campaign(np.array([r.weight for r in records]),
                             np.array([r.stiffness for r in records]),
                             np.array([r.nominal_drive_speed for r in records]))

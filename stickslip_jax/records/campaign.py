@@ -79,7 +79,7 @@ def _data_key(record: Record) -> str:
     return h.hexdigest()
 
 
-def _once(records: list[Record]) -> list[Record]:
+def count_once(records: list[Record]) -> list[Record]:
     """The records with the same data counted once: the first keeps a note naming the
     others (a copy under another name would count its run twice)."""
     first: dict[str, int] = {}
@@ -121,7 +121,7 @@ def read_campaign_files(spec, *, max_bytes: int = MAX_FILE_BYTES,
             records.append(read_record(f, max_bytes=max_bytes))
         except RecordError as err:
             unreadable.append(err)
-    records = _once(records)
+    records = count_once(records)
     if same is not None:
         problems = [p for field in same for p in
                     _mixed([r for r in records if getattr(r, field) is not None], field)]
