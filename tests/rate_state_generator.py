@@ -4,8 +4,9 @@ Shares no code with `stickslip_jax` but the `Record` container: the slider of we
 (kgf) on a spring k (kgf/mm), pulled at the constant speed V (mm/s), obeys
 (W/g) v' = k x - W mu, x' = V - v, with the Dieterich-Ruina law
 mu = a asinh(v / (2 v0) exp(psi / a)), psi = mu_ref + b ln(v0 theta / Dc), integrated in the
-log of the state, L = ln(theta / s), by the implicit Radau method of
-`scipy.integrate.solve_ivp` from rest at x = 0 (the record keeps the start-up stick):
+log of the state, L = ln(theta / s), by the implicit Radau method (BDF where Radau
+fails) of `scipy.integrate.solve_ivp` with the analytic Jacobian, from rest at x = 0 (the
+record keeps the start-up stick):
 aging law L' = exp(-L) - v / Dc, slip law L' = -(v / Dc) ln(v exp(L) / Dc).
 Units kgf, mm, s; g = 9806.65 mm/s^2.
 """
@@ -49,10 +50,28 @@ def simulate(law: RateState, *, weight, stiffness, speed, duration, rate_hz, noi
             dL = -(abs(v) / dc) * math.log(q) if q > 0 else 0.0
         return [V - v, (k * x - W * mu) / mass, dL]
 
+    def jac(t, s):
+        x, v, L = s
+        e = math.exp(min((law.mu_ref + b * (math.log(v0 / dc) + L)) / a, 500.0))
+        z = 0.5 * v / v0 * e
+        h = math.hypot(1.0, z)
+        sv = math.copysign(1.0, v) if v else 0.0
+        if law.aging:
+            row = [0.0, -sv / dc, -math.exp(-L)]
+        else:
+            lq = math.log(abs(v) / dc) + L if v else 0.0
+            row = [0.0, -sv / dc * (lq + 1.0), -abs(v) / dc]
+        return [[0.0, -1.0, 0.0], [k / mass, -W * a * 0.5 * e / (v0 * h) / mass,
+                                   -W * b * z / h / mass], row]
+
     t = np.arange(int(round(duration * rate_hz))) / rate_hz
-    sol = integrate.solve_ivp(rhs, (0.0, t[-1]), [0.0, 0.0, math.log(dc / V)], method="Radau",
-                              t_eval=t, rtol=1e-9, atol=[1e-11, 1e-11, 1e-9])
-    if not sol.success:
+    for method in ("Radau", "BDF"):
+        sol = integrate.solve_ivp(rhs, (0.0, t[-1]), [0.0, 0.0, math.log(dc / V)],
+                                  method=method, jac=jac, t_eval=t, rtol=1e-9,
+                                  atol=[1e-11, 1e-11, 1e-9])
+        if sol.success:
+            break
+    else:
         raise RuntimeError(sol.message)
     rng = np.random.default_rng(seed)
     return t, sol.y[0] + noise_mm * rng.standard_normal(t.size)

@@ -15,6 +15,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from stickslip_fitting.law_params import (
+    LogAgingFriction,
+    RateStateAgingFriction,
+    RateStateSlipFriction,
+)
+from stickslip_fitting.modes import FrictionLaw
+from stickslip_fitting.params import EmpiricalFriction
+from stickslip_fitting.solve.laws import LAW_PARAMS
 
 import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed
@@ -26,14 +34,6 @@ from stickslip_jax.friction import (
     rate_state_friction,
 )
 from stickslip_jax.simulation import simulate_smooth
-from stickslip_fitting.law_params import (
-    LogAgingFriction,
-    RateStateAgingFriction,
-    RateStateSlipFriction,
-)
-from stickslip_fitting.modes import FrictionLaw
-from stickslip_fitting.params import EmpiricalFriction
-from stickslip_fitting.solve.laws import LAW_PARAMS
 
 sys.path.insert(0, str(Path(__file__).parent))
 import rate_state_generator as gen  # noqa: E402

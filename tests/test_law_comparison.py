@@ -10,9 +10,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from stickslip_fitting.discovery.laws import LawComparison, compare_laws
-from stickslip_fitting.modes import FrictionLaw
+from stickslip_fitting.modes import FrictionLaw, SolverOptions
 
 sys.path.insert(0, str(Path(__file__).parent))
 import independent_records as paper_gen  # noqa: E402
@@ -20,23 +19,31 @@ import rate_state_generator as rs_gen  # noqa: E402
 
 LAWS = (FrictionLaw.PAPER, FrictionLaw.RATE_STATE_AGING)
 PAD = 10_000  # samples per record: every campaign below reuses one compilation
+SOLVER = SolverOptions(max_steps=40)  # Levenberg-Marquardt steps per round
 W, K = 36.0, 86.9
 
 
 def rate_state_campaign(seed: int):
-    """Two records (2 and 6 mm/min, 10 s, 1 kHz, noise 0.5 um) of a rate-and-state law
-    (aging) drawn from mu_ref U(0.15, 0.25), a U(0.006, 0.012), b/a U(1.6, 2.4), D_c
-    log-uniform 0.2-1 um."""
+    """Two records (2.5 and 6 mm/min, 10 s, 1 kHz, noise 0.5 um) of a rate-and-state law
+    (aging) drawn from mu_ref U(0.18, 0.25), a U(0.007, 0.010), b/a U(1.7, 2.1), D_c
+    log-uniform 0.45-1 um; a draw the generator cannot integrate (a slip that overshoots
+    far past the drive, where the implicit solver stalls) is drawn again."""
     rng = np.random.default_rng(seed)
-    a = rng.uniform(0.006, 0.012)
-    law = rs_gen.RateState(mu_ref=rng.uniform(0.15, 0.25), a=a, b=a * rng.uniform(1.6, 2.4),
-                           d_c=float(np.exp(rng.uniform(np.log(2e-4), np.log(1e-3)))))
-    return rs_gen.campaign(law, runs=((W, K),), speeds=(2.0, 6.0), duration=10.0,
-                           seed=seed)
+    for _ in range(5):
+        a = rng.uniform(0.007, 0.010)
+        law = rs_gen.RateState(mu_ref=rng.uniform(0.18, 0.25), a=a,
+                               b=a * rng.uniform(1.7, 2.1),
+                               d_c=float(np.exp(rng.uniform(np.log(4.5e-4), np.log(1e-3)))))
+        try:
+            return rs_gen.campaign(law, runs=((W, K),), speeds=(2.5, 6.0), duration=10.0,
+                                   seed=seed)
+        except RuntimeError:
+            continue
+    raise RuntimeError(f"seed {seed}: no integrable draw")
 
 
 def paper_campaign(seed: int):
-    """Two records (6 and 20 mm/min, 10 s, 1 kHz, noise 0.5 um) of eqs (1), (3) drawn from
+    """Two records (1 and 3 mm/min, 10 s, 1 kHz, noise 0.5 um) of eqs (1), (3) drawn from
     mu_d U(0.15, 0.25), mu_s - mu_d U(0.15, 0.3), gamma log-uniform 0.1-1, m U(0.3, 0.6),
     delta log-uniform 30-100, n U(0.8, 1.2)."""
     from stickslip_jax.records import Record
@@ -48,7 +55,7 @@ def paper_campaign(seed: int):
                             float(np.exp(rng.uniform(np.log(30.0), np.log(100.0)))),
                             rng.uniform(0.8, 1.2))
     out = []
-    for i, v in enumerate((6.0, 20.0)):
+    for i, v in enumerate((1.0, 3.0)):
         tr = paper_gen.simulate(fr, weight=W, stiffness=K, speed_mm_min=v, duration=10.0,
                                 rate_hz=1000.0, seed=100 * seed + i)
         out.append(Record.from_arrays(tr.time, tr.deflection, stiffness=K, weight=W,
@@ -65,13 +72,13 @@ def _check(cmp: LawComparison, truth: FrictionLaw):
 
 
 def test_rate_state_records_prefer_rate_state():
-    cmp = compare_laws(rate_state_campaign(0), LAWS, pad_to=PAD)
+    cmp = compare_laws(rate_state_campaign(0), LAWS, pad_to=PAD, solver=SOLVER)
     assert _check(cmp, FrictionLaw.RATE_STATE_AGING), cmp.message
     assert cmp.paper_wrong_base and "wrong base" in cmp.message
 
 
 def test_paper_records_prefer_the_paper():
-    cmp = compare_laws(paper_campaign(0), LAWS, pad_to=PAD)
+    cmp = compare_laws(paper_campaign(0), LAWS, pad_to=PAD, solver=SOLVER)
     assert _check(cmp, FrictionLaw.PAPER), cmp.message
     assert not cmp.paper_wrong_base
 
@@ -86,5 +93,6 @@ def test_hold_out_is_checked():
                                         (paper_campaign, FrictionLaw.PAPER)])
 def test_preference_rates(make, truth):
     # >= 90 % of 10 campaigns (seeds 1-10) prefer the law that made the records
-    hits = [_check(compare_laws(make(seed), LAWS, pad_to=PAD), truth) for seed in range(1, 11)]
+    hits = [_check(compare_laws(make(seed), LAWS, pad_to=PAD, solver=SOLVER), truth)
+            for seed in range(1, 11)]
     assert np.mean(hits) >= 0.9, hits
