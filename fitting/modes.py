@@ -72,10 +72,7 @@ class DesignCriterion(AbstractMode):
 
     D = "D"
     A = "A"
-
-    @classmethod
-    def option(cls) -> str:
-        return "criterion"
+    option = classmethod(lambda cls: "criterion")
 
 
 class MapMethod(AbstractMode):
@@ -91,10 +88,7 @@ class MapMethod(AbstractMode):
     STEADY = "steady"
     EXACT = "exact"
     CYCLE = "cycle"
-
-    @classmethod
-    def option(cls) -> str:
-        return "method"
+    option = classmethod(lambda cls: "method")
 
 
 class Covariance(AbstractMode):
@@ -143,10 +137,7 @@ class DiscoveryBase(AbstractMode):
 
     CYCLE = "cycle"
     SMOOTH = "smooth"
-
-    @classmethod
-    def option(cls) -> str:
-        return "base"
+    option = classmethod(lambda cls: "base")
 
 
 class FrictionLaw(AbstractMode):
@@ -165,10 +156,7 @@ class FrictionLaw(AbstractMode):
     RATE_STATE_AGING = "rate_state_aging"
     RATE_STATE_SLIP = "rate_state_slip"
     LOG_AGING = "log_aging"
-
-    @classmethod
-    def option(cls) -> str:
-        return "law"
+    option = classmethod(lambda cls: "law")
 
 
 def check_member(name: str, value, kind: type) -> None:

@@ -87,12 +87,6 @@ def cycle_kernel(points: DesignPoints, shared=None) -> DesignMap:
     )
 
 
-METHODS = MapMethod.choices()
-"""Design-map kernels (`stickslip_fitting.modes.MapMethod`): eqs (5)-(7), (12)
-(`steady_kernel`), the exact simulator run to its limit cycle (`exact.exact_kernel`), the
-one-cycle map's fixed point (`cycle_kernel`)."""
-
-
 def _kernel(method: MapMethod):
     if method is MapMethod.EXACT:
         return exact_kernel

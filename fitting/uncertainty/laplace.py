@@ -233,10 +233,6 @@ def _design_warnings(fit: FitResult, free) -> tuple[dict, list]:
     return flagged, msgs
 
 
-COVARIANCES = Covariance.choices()
-"""The covariance options' values (kept for callers of the string tuple)."""
-
-
 def _two_level(cov_stick, J, r, record) -> np.ndarray:
     r"""Covariance for records the model does not describe to their noise: per parameter
     the larger variance of the stick-phase sandwich (`cov_stick`) and the record-level

@@ -47,7 +47,7 @@ trace.deflection, trace.slider_velocity, trace.cycles.amplitude()
 """
 
 from ..modes import SlipTime
-from .exact import SLIP_TIME_MODES, simulate_exact, simulate_exact_campaign
+from .exact import simulate_exact, simulate_exact_campaign
 from .parts import (
     AbstractForceTerm,
     AbstractLoadCoupling,
@@ -79,7 +79,6 @@ __all__ = [
     "cycles_from_samples",
     "simulate_smooth",
     "synthetic_record",
-    "SLIP_TIME_MODES",
     "SlipTime",
     "SimulationResult",
     "Trace",

@@ -59,8 +59,6 @@ from ..modes import SlipTime
 from ..slideway import Slideway
 from .trace import Cycles, SimulationResult, Trace
 
-SLIP_TIME_MODES = SlipTime.choices()
-"""The values of `SlipTime` (kept for callers that list the choices)."""
 _TWO_PI = 2.0 * jnp.pi
 
 
