@@ -199,12 +199,18 @@ def classify_phases(
         threshold = max(threshold, 3.0 * q / (max(w, 2) * dt))
     found = find_slips(time, record.deflection, drive, record.omega0)
     slips = () if found.verdict else tuple((a, min(b, r.size)) for a, b in found.events)
+    stick = np.abs(r) <= threshold
     in_slip = np.zeros(r.shape, dtype=bool)
     for a, b in slips:
         in_slip[a:b] = True
+    moving = np.concatenate([[False], ~stick, [False]]).astype(np.int8)
+    edges = np.flatnonzero(np.diff(moving))
+    for a, b in zip(edges[::2], edges[1::2]):  # a slip runs from stick to stick
+        if in_slip[a:b].any():
+            in_slip[a:b] = True
     labels = np.where(in_slip, UNCLASSIFIED, SLIDE).astype(np.int8)
     labels[in_slip & (rate < -threshold)] = SLIP
-    labels[np.abs(r) <= threshold] = STICK
+    labels[stick] = STICK
     return PhaseSplit(labels, rate, drive_rate, threshold, noise, w, int(spikes.sum()), q,
                       slips, found.verdict)
 

@@ -226,15 +226,14 @@ def fit(
     given = as_list(records)
     inputs: tuple[str, ...]
     if given and all(isinstance(r, Record) for r in given):
-        campaign, inputs = _campaign_of_records(given, strict, model_name), ()
+        campaign, inputs = _campaign_of_records(given, strict), ()
     elif any(isinstance(r, Record) for r in given):
         raise ValueError("records: give paths (files, folders, globs) or Record objects, "
                          "not both in one campaign")
     else:
         from stickslip_jax.records import record_paths
 
-        campaign = load_campaign(given, strict=strict,
-                                 min_records=1 if model_name == "empirical" else 2)
+        campaign = load_campaign(given, strict=strict)
         inputs = tuple(str(p) for p in record_paths(given))
 
     from stickslip_jax.logs import logger
@@ -254,11 +253,8 @@ def fit(
         extra = {"given": {"eta": {"value": eta_value, "unit": "kgf*s/mm^2"},
                            "surface": surface}}
     else:
-        from ..data.campaign import one_record_holds
         from ..solve.fit import fit_features
 
-        if one_record_holds(campaign):  # one record: the rise and decay held (its notes)
-            kw["hold"] = _hold({**one_record_holds(campaign), **dict(fix or {})}, law)
         result = fit_features(campaign.features, **kw)
     unc = laplace(result)
     report = build_report(result, unc, campaign, model=model_name, extra=extra)
@@ -280,20 +276,18 @@ def as_list(records) -> list:
                      f"{records!r}")
 
 
-def _campaign_of_records(records: list[Record], strict: bool, model: str) -> Campaign:
-    """The screened campaign of `Record` objects (`load_campaign`'s checks without files;
-    one record is enough for the empirical law, `one_record_holds`)."""
+def _campaign_of_records(records: list[Record], strict: bool) -> Campaign:
+    """The screened campaign of `Record` objects (`load_campaign`'s checks without files)."""
     from stickslip_jax.records import check_campaign
 
     from ..data.campaign import screen_records
 
-    least = 1 if model == "empirical" else 2
-    if len(records) < least:
+    if len(records) < 2:
         raise ValueError(
-            f"a campaign needs at least {least} records (got {len(records)}): one run cannot "
+            f"a campaign needs at least 2 records (got {len(records)}): one run cannot "
             "separate the six friction parameters; give records at several speeds")
     check_campaign(records, same=("lubricant",))
-    return screen_records(records, min_records=least, strict=strict)
+    return screen_records(records, min_records=2, strict=strict)
 
 
 def _law(model) -> tuple[type[AbstractFrictionParams], str]:

@@ -173,7 +173,8 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
                                objective=objective, records=campaign.records, loss=loss)
         return fit, campaign, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
                                         "surface": surface}}
-    campaign = load_campaign(args.records, min_records=1, strict=getattr(args, "strict", False))
+    campaign = load_campaign(args.records, min_records=None,
+                             strict=getattr(args, "strict", False))
     fixed = {**one_record_holds(campaign), **fixed}
     _say_fitting(args, campaign, objective)
     fit = fit_features(campaign.features, hold=Hold.named(fixed) if fixed else None,

@@ -190,14 +190,17 @@ def screen_records(records: list[Record], *, min_records: int = 2,
         not_used=[(records[i], features[i]) for i in range(len(records)) if i not in used])
 
 
-def load_campaign(specs, *, min_records: int = 2, strict: bool = False) -> Campaign:
+def load_campaign(specs, *, min_records: int | None = 2, strict: bool = False) -> Campaign:
     """Read record files, directories or globs, check they form one campaign (one
     lubricant) and screen them (`screen_records`). A file that cannot be read is listed
     as UNREADABLE and the rest are fitted (`strict`: its error is raised, as is the only
-    file's). Raises ValueError naming what to fix."""
+    file's). `min_records` None: 1 for a single file (`one_record_holds`), else 2.
+    Raises ValueError naming what to fix."""
     files = read_campaign_files(list(specs))
     records = files.records
     files.check(strict)
+    if min_records is None:
+        min_records = 1 if len(records) + len(files.unreadable) == 1 else 2
     if len(records) + len(files.unreadable) < min_records:
         raise ValueError(
             f"a campaign needs at least {min_records} records (got {len(records)}): one run "

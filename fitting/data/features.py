@@ -48,7 +48,7 @@ import math
 
 import numpy as np
 
-from stickslip_jax.slips import SlipSearch, find_slips, regions, rest, rest_length
+from stickslip_jax.slips import SlipSearch, find_slips, regions, rest
 from stickslip_jax.units import G_MM_S2
 
 from . import sticks
@@ -338,8 +338,8 @@ def _stick_plateaus(r: _Prepared, events) -> list[sticks.Plateau | None]:
             excess = float(np.mean(y[tail])) - p.level
             p = dataclasses.replace(p, creep=max(excess, 0.0),
                                     creep_sd=sigma / math.sqrt(end - tail.start))
-        if p is None or not p.flat:  # a stick shorter than the slips: where y rests
-            q = rest(t, y, r.u, *around[j], sigma, floor, rest_length(h))
+        if (p is None or not p.flat) and (r.found.short or end - lo < 2 * h):  # y at rest
+            q = rest(t, y, r.u, *around[j], sigma, floor, h)
             p = q if q is not None and q.flat else p
         plateaus.append(p)
     return plateaus
