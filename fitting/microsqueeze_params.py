@@ -76,9 +76,8 @@ class MicrosqueezeFriction(AbstractFrictionParams):
     MODEL: ClassVar[str] = "microsqueeze"
     NAMES: ClassVar[tuple[str, ...]] = MICROSQUEEZE_NAMES
     UNITS: ClassVar[dict[str, str]] = MICROSQUEEZE_UNITS
-    LEAVES: ClassVar[dict[str, str]] = {
-        "mu_s": "log_gap", "mu_d": "log_mu_d", "h_e": "log_margin", "Q": "log_Q",
-        "delta": "log_delta", "n": "log_n"}
+    LEAVES: ClassVar[dict[str, str]] = {"mu_s": "log_gap", "mu_d": "log_mu_d", "h_e": "log_margin",
+                                        "Q": "log_Q", "delta": "log_delta", "n": "log_n"}
     SHAPE_NAMES: ClassVar[tuple[str, ...]] = ("mu_s", "h_e", "Q")
     PRIOR_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = {
         **{k: PRIOR_BOUNDS[k] for k in ("mu_s", "mu_d", "delta", "n")},
@@ -106,11 +105,10 @@ class MicrosqueezeFriction(AbstractFrictionParams):
         margin = float(h_e) - float(t_b) - float(a_d)
         if not margin > 0:
             raise ValueError(f"h_e = {h_e} mm must exceed t_b + a_d = {float(t_b + a_d):.4g} mm")
-        return cls(
-            log_mu_d=np.log(float(mu_d)), log_gap=np.log(float(mu_s) - float(mu_d)),
-            log_margin=np.log(margin), log_Q=np.log(float(Q)), log_delta=np.log(float(delta)),
-            log_n=np.log(float(n)), eta=eta, pair=pair, contact=contact,
-        )
+        return cls(log_mu_d=np.log(float(mu_d)), log_gap=np.log(float(mu_s) - float(mu_d)),
+                   log_margin=np.log(margin), log_Q=np.log(float(Q)),
+                   log_delta=np.log(float(delta)), log_n=np.log(float(n)), eta=eta, pair=pair,
+                   contact=contact)
 
     @classmethod
     def from_friction(cls, friction: Friction) -> MicrosqueezeFriction:
@@ -168,10 +166,8 @@ class MicrosqueezeFriction(AbstractFrictionParams):
         """Natural parameters (mu_s, mu_d, h_e mm, Q mm^4, delta s^-n, n)."""
         mu_s, mu_d = self.static_levels()
         _, _, t_b, a_d = self._parts()
-        return jnp.stack([
-            mu_s, mu_d, t_b + a_d + jnp.exp(self.log_margin),
-            jnp.exp(self.log_Q), jnp.exp(self.log_delta), jnp.exp(self.log_n),
-        ])
+        return jnp.stack([mu_s, mu_d, t_b + a_d + jnp.exp(self.log_margin), jnp.exp(self.log_Q),
+                          jnp.exp(self.log_delta), jnp.exp(self.log_n)])
 
     def from_log_values(self, logs) -> MicrosqueezeFriction:
         """Same eta, pair, contact at log natural values (near the optimum: no clipping)."""
@@ -182,9 +178,8 @@ class MicrosqueezeFriction(AbstractFrictionParams):
         a_d = approach_for(self.pair, self.contact, mu_d, t_b)
         gap = jnp.maximum(mu_s - mu_d, _TINY)
         margin = jnp.maximum(h_e - t_b - a_d, _TINY)
-        return MicrosqueezeFriction(
-            log_mu_d=logs[1], log_gap=jnp.log(gap), log_margin=jnp.log(margin),
-            log_Q=logs[3], log_delta=logs[4], log_n=logs[5], eta=self.eta, pair=self.pair,
-            contact=self.contact, fixed_mu_s=self.fixed_mu_s,
-        )
+        return MicrosqueezeFriction(log_mu_d=logs[1], log_gap=jnp.log(gap),
+                                    log_margin=jnp.log(margin), log_Q=logs[3], log_delta=logs[4],
+                                    log_n=logs[5], eta=self.eta, pair=self.pair,
+                                    contact=self.contact, fixed_mu_s=self.fixed_mu_s)
 

@@ -31,13 +31,8 @@ import numpy as np
 
 from .units import G_MM_S2, RIG_UNITS, UnitError, factor
 
-ROTATIONAL = {
-    "length": ("angle", 1),
-    "speed": ("angular_speed", 1),
-    "force": ("torque", -1),
-    "stiffness": ("torsional_stiffness", -2),
-    "mass": ("inertia", -2),
-}
+ROTATIONAL = {"length": ("angle", 1), "speed": ("angular_speed", 1), "force": ("torque", -1),
+              "stiffness": ("torsional_stiffness", -2), "mass": ("inertia", -2)}
 """Linear dimension -> (rotational dimension, p): linear value = rotational value * R**p
 (R in mm, internal units on both sides)."""
 

@@ -105,15 +105,9 @@ def _check_positive(x, name):
     return eqx.error_if(x, ~(x > 0), f"{name} must be positive")
 
 
-def steady_state(
-    friction: Friction,
-    weight: Float[ArrayLike, ""],
-    stiffness: Float[ArrayLike, ""],
-    speed: Float[ArrayLike, ""],
-    rtol: float = 1e-13,
-    max_steps: int = 100,
-    normal_load: Float[ArrayLike, ""] | None = None,
-) -> SteadyState:
+def steady_state(friction: Friction, weight: Float[ArrayLike, ""], stiffness: Float[ArrayLike, ""],
+                 speed: Float[ArrayLike, ""], rtol: float = 1e-13, max_steps: int = 100,
+                 normal_load: Float[ArrayLike, ""] | None = None) -> SteadyState:
     r"""Steady stick-slip of eqs (5)-(7) and (12) at one design point.
 
     `weight` W in kgf, `stiffness` k in kgf/mm, `speed` v in mm/s (all scalars; use
@@ -125,15 +119,10 @@ def steady_state(
     W, k and v are converted to arrays before the (cached) compiled call, so new
     Python-float values do not trigger recompilation.
     """
-    return _steady_state(
-        _strong_floats(friction),
-        jnp.asarray(weight, dtype=float),
-        jnp.asarray(stiffness, dtype=float),
-        jnp.asarray(speed, dtype=float),
-        rtol,
-        max_steps,
-        None if normal_load is None else jnp.asarray(normal_load, dtype=float),
-    )
+    return _steady_state(_strong_floats(friction), jnp.asarray(weight, dtype=float),
+                         jnp.asarray(stiffness, dtype=float), jnp.asarray(speed, dtype=float), rtol,
+                         max_steps,
+                         None if normal_load is None else jnp.asarray(normal_load, dtype=float))
 
 
 def _strong_floats(tree):
@@ -165,14 +154,9 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps,
     # Above v_c solve at a safe speed and mask (double-where: finite gradients).
     v_solve = jnp.where(stick, speed, 0.5 * v_c)
     solver = optx.Newton(rtol=rtol, atol=rtol)
-    sol = optx.root_find(
-        _log_residual,
-        solver,
-        _LOG_T_START,
-        args=(friction, load, stiffness, v_solve, t2),
-        max_steps=max_steps,
-        throw=False,
-    )
+    sol = optx.root_find(_log_residual, solver, _LOG_T_START,
+                         args=(friction, load, stiffness, v_solve, t2), max_steps=max_steps,
+                         throw=False)
     t1 = jnp.exp(sol.value)
     mu_0 = friction.static(t1)
     mu_m = friction.kinetic(mu_0, friction.mu_d, t2)
@@ -187,28 +171,16 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps,
     result = optx.RESULTS.where(stick, sol.result, optx.RESULTS.successful)
     fails = restick_failure(friction, mu_0, t2)
     regime = jnp.where(stick, jnp.where(fails, RESTICK_FAILURE, STICK_SLIP), STEADY_SLIDING)
-    return SteadyState(
-        stick_time=t1,
-        slip_time=t2,
-        amplitude=amplitude,
-        amplitude_ratio=amplitude * stiffness / load,
-        frequency=freq,
-        natural_frequency=f0,
-        frequency_ratio=freq / f0,
-        critical_speed=v_c,
-        mu_0=mu_0_out,
-        mu_m=mu_m_out,
-        stick_slip=stick,
-        result=result,
-        regime=regime,
-    )
+    return SteadyState(stick_time=t1, slip_time=t2, amplitude=amplitude,
+                       amplitude_ratio=amplitude * stiffness / load, frequency=freq,
+                       natural_frequency=f0, frequency_ratio=freq / f0, critical_speed=v_c,
+                       mu_0=mu_0_out, mu_m=mu_m_out, stick_slip=stick, result=result, regime=regime)
 
 
 def steady_map(friction: Friction, weight, stiffness, speed) -> SteadyState:
     """`steady_state` under `jax.vmap` over broadcast arrays of W (kgf), k (kgf/mm), v (mm/s)."""
-    w, k, v = jnp.broadcast_arrays(
-        jnp.asarray(weight, float), jnp.asarray(stiffness, float), jnp.asarray(speed, float)
-    )
+    w, k, v = jnp.broadcast_arrays(jnp.asarray(weight, float), jnp.asarray(stiffness, float),
+                                   jnp.asarray(speed, float))
     shape = w.shape
     out = _vmapped_steady(_strong_floats(friction), w.ravel(), k.ravel(), v.ravel())
     return jax.tree_util.tree_map(lambda x: x.reshape(shape) if hasattr(x, "reshape") else x, out)
@@ -216,9 +188,8 @@ def steady_map(friction: Friction, weight, stiffness, speed) -> SteadyState:
 
 @eqx.filter_jit
 def _vmapped_steady(friction, w, k, v):
-    return jax.vmap(_steady_state, in_axes=(None, 0, 0, 0, None, None))(
-        friction, w, k, v, 1e-13, 100
-    )
+    return jax.vmap(_steady_state, in_axes=(None, 0, 0, 0, None, None))(friction, w, k, v, 1e-13,
+                                                                        100)
 
 
 class SlipTrajectory(eqx.Module):

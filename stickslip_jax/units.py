@@ -40,28 +40,13 @@ UNITS: dict[str, dict[str, float]] = {
     "time": {"s": 1.0, "ms": 1e-3, "us": 1e-6, "min": 60.0},
     "length": {"mm": 1.0, "um": 1e-3, "µm": 1e-3, "m": 1e3, "cm": 10.0, "nm": 1e-6},
     "force": {"kgf": 1.0, "N": 1.0 / KGF_N, "kN": 1e3 / KGF_N},
-    "speed": {
-        "mm/s": 1.0,
-        "mm/min": 1.0 / 60.0,
-        "um/s": 1e-3,
-        "µm/s": 1e-3,
-        "m/s": 1e3,
-        "m/min": 1e3 / 60.0,
-    },
+    "speed": {"mm/s": 1.0, "mm/min": 1.0 / 60.0, "um/s": 1e-3, "µm/s": 1e-3, "m/s": 1e3,
+              "m/min": 1e3 / 60.0},
     "stiffness": {"kgf/mm": 1.0, "N/mm": 1.0 / KGF_N, "N/m": 1e-3 / KGF_N, "kN/m": 1.0 / KGF_N},
     "mass": {"kg": 1.0 / (G_MM_S2), "kgf*s^2/mm": 1.0},
-    "viscosity": {
-        "kgf*s/mm^2": 1.0,
-        "Pa*s": 1.0 / (KGF_N * 1e6),
-        "mPa*s": 1e-3 / (KGF_N * 1e6),
-        "cP": 1e-3 / (KGF_N * 1e6),
-    },
-    "pressure": {
-        "kgf/mm^2": 1.0,
-        "kgf/cm^2": 1e-2,
-        "Pa": 1.0 / (KGF_N * 1e6),
-        "MPa": 1.0 / KGF_N,
-    },
+    "viscosity": {"kgf*s/mm^2": 1.0, "Pa*s": 1.0 / (KGF_N * 1e6), "mPa*s": 1e-3 / (KGF_N * 1e6),
+                  "cP": 1e-3 / (KGF_N * 1e6)},
+    "pressure": {"kgf/mm^2": 1.0, "kgf/cm^2": 1e-2, "Pa": 1.0 / (KGF_N * 1e6), "MPa": 1.0 / KGF_N},
     "dimensionless": {"": 1.0, "-": 1.0, "1": 1.0},
 }
 
@@ -75,27 +60,13 @@ RIG_UNITS: dict[str, dict[str, float]] = {
 """Quantities of rotational rigs (`stickslip_jax.rigs`), internal units rad, rad/s, kgf*mm,
 kgf*mm/rad and kgf*mm*s^2; apart from `UNITS` so that no extra column is read as one."""
 
-INTERNAL_UNIT = {
-    "time": "s",
-    "length": "mm",
-    "force": "kgf",
-    "speed": "mm/s",
-    "stiffness": "kgf/mm",
-    "mass": "kgf*s^2/mm",
-    "viscosity": "kgf*s/mm^2",
-    "pressure": "kgf/mm^2",
-    "dimensionless": "",
-}
+INTERNAL_UNIT = {"time": "s", "length": "mm", "force": "kgf", "speed": "mm/s",
+                 "stiffness": "kgf/mm", "mass": "kgf*s^2/mm", "viscosity": "kgf*s/mm^2",
+                 "pressure": "kgf/mm^2", "dimensionless": ""}
 
 
-DEFAULT_UNIT = {
-    "time": "s",
-    "length": "mm",
-    "force": "kgf",
-    "speed": "mm/min",
-    "stiffness": "kgf/mm",
-    "viscosity": "Pa*s",
-}
+DEFAULT_UNIT = {"time": "s", "length": "mm", "force": "kgf", "speed": "mm/min",
+                "stiffness": "kgf/mm", "viscosity": "Pa*s"}
 """The unit of a bare number on the command line, one per quantity in every command
 (`stickslip_jax.commands.options.quantity`). Viscosity is in Pa*s, the SI unit labs use
 (a bare viscosity below 1e-5 Pa*s, thinner than air, is refused: it is a value in the
@@ -138,12 +109,11 @@ def factor(unit: str, dimension: str) -> float:
     return got
 
 
-_PINT_INTERNAL = {
-    "time": "s", "length": "mm", "force": "kgf", "speed": "mm/s", "stiffness": "kgf/mm",
-    "mass": "kgf*s**2/mm", "viscosity": "kgf*s/mm**2", "pressure": "kgf/mm**2",
-    "dimensionless": "dimensionless", "angle": "rad", "angular_speed": "rad/s",
-    "torque": "kgf*mm", "torsional_stiffness": "kgf*mm/rad", "inertia": "kgf*mm*s**2",
-}
+_PINT_INTERNAL = {"time": "s", "length": "mm", "force": "kgf", "speed": "mm/s",
+                  "stiffness": "kgf/mm", "mass": "kgf*s**2/mm", "viscosity": "kgf*s/mm**2",
+                  "pressure": "kgf/mm**2", "dimensionless": "dimensionless", "angle": "rad",
+                  "angular_speed": "rad/s", "torque": "kgf*mm", "torsional_stiffness": "kgf*mm/rad",
+                  "inertia": "kgf*mm*s**2"}
 
 
 def _pint_factor(unit: str, dimension: str) -> float | None:

@@ -100,9 +100,8 @@ class CampaignPosterior(ResultDocument):
         rows = {}
         for name, p in self.report["parameters"].items():
             low, high = p["ci95"]
-            rows[name] = (float(p["median"]), float(low), float(high), p["unit"],
-                          float(p["sd"]), float(p["mean"]), float(p["tau_steps"]),
-                          float(p["ess"]))
+            rows[name] = (float(p["median"]), float(low), float(high), p["unit"], float(p["sd"]),
+                          float(p["mean"]), float(p["tau_steps"]), float(p["ess"]))
         frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(POSTERIOR_COLUMNS))
         frame.index.name = "parameter"
         frame.attrs["acceptance"] = self.acceptance
@@ -115,9 +114,8 @@ class CampaignPosterior(ResultDocument):
         package."""
         from ..report.posterior_plots import corner_plot
 
-        return corner_plot(self.mcmc.samples, self.mcmc.names,
-                           self.output_path(path, "plot"), truth=self.truth,
-                           units=self.mcmc.units)
+        return corner_plot(self.mcmc.samples, self.mcmc.names, self.output_path(path, "plot"),
+                           truth=self.truth, units=self.mcmc.units)
 
     def __str__(self) -> str:
         """The table `stickslip mcmc` prints: per parameter the median, sd, 95 % interval,
@@ -150,17 +148,9 @@ class CampaignPosterior(ResultDocument):
                 f"acceptance={self.acceptance:.2f}, {medians})")
 
 
-def sample(
-    records: RecordsSpec | CampaignFit,
-    *,
-    steps: int = 3000,
-    walkers: int = 32,
-    burn: int | None = None,
-    seed: int = 0,
-    draws: int = 2000,
-    progress: bool = False,
-    **fit_options,
-) -> CampaignPosterior:
+def sample(records: RecordsSpec | CampaignFit, *, steps: int = 3000, walkers: int = 32,
+           burn: int | None = None, seed: int = 0, draws: int = 2000, progress: bool = False,
+           **fit_options) -> CampaignPosterior:
     """Sample the posterior of the friction parameters of a campaign, as `stickslip
     mcmc` does: fit (`stickslip_fitting.fit` with `fit_options`, its keywords `model`,
     `objective`, `fix`, `loss`, `gauge_offset`, `slip_time`, `strict`, `eta`, `surface`),

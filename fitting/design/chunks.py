@@ -146,9 +146,8 @@ def collect(chunks: Iterator[tuple[int, int, object]], shape: tuple[int, ...]):
     out = None
     for start, stop, res in chunks:
         if out is None:
-            out = jax.tree_util.tree_map(
-                lambda x: np.empty((total,) + x.shape[1:], dtype=x.dtype), res
-            )
+            out = jax.tree_util.tree_map(lambda x: np.empty((total,) + x.shape[1:], dtype=x.dtype),
+                                         res)
         jax.tree_util.tree_map(lambda o, x: o.__setitem__(slice(start, stop), x), out, res)
     if out is None:
         raise ValueError("empty map: every axis needs at least one point")

@@ -157,17 +157,9 @@ class Plan(eqx.Module):
     sd_after: np.ndarray
 
 
-def greedy_design(
-    u,
-    candidates: Campaign,
-    budget: int,
-    *,
-    noise: Noise = Noise(),
-    prior_sd=1.0,
-    existing: Campaign | None = None,
-    repeats: bool = True,
-    criterion: DesignCriterion = DesignCriterion.D,
-) -> Plan:
+def greedy_design(u, candidates: Campaign, budget: int, *, noise: Noise = Noise(), prior_sd=1.0,
+                  existing: Campaign | None = None, repeats: bool = True,
+                  criterion: DesignCriterion = DesignCriterion.D) -> Plan:
     """Choose `budget` records from `candidates`, each maximising log det of the
     posterior precision (prior + `existing` records + records chosen so far).
 

@@ -39,19 +39,12 @@ __all__ = ["DesignMap", "DesignPoints", "design_map", "design_points", "iter_des
 def steady_kernel(points: DesignPoints, shared=None) -> DesignMap:
     """`steady_state` vmapped over a chunk of design points (leaves of shape (n,))."""
     s = jax.vmap(steady_state)(points.friction, points.weight, points.stiffness, points.speed)
-    return DesignMap(
-        amplitude=s.amplitude,
-        amplitude_ratio=s.amplitude_ratio,
-        frequency=s.frequency,
-        frequency_ratio=s.frequency_ratio,
-        stick_time=s.stick_time,
-        slip_time=s.slip_time,
-        natural_frequency=s.natural_frequency,
-        critical_speed=s.critical_speed,
-        stick_slip=s.stick_slip,
-        converged=jnp.asarray(s.result == optx.RESULTS.successful),
-        regime=s.regime,
-    )
+    return DesignMap(amplitude=s.amplitude, amplitude_ratio=s.amplitude_ratio,
+                     frequency=s.frequency, frequency_ratio=s.frequency_ratio,
+                     stick_time=s.stick_time, slip_time=s.slip_time,
+                     natural_frequency=s.natural_frequency, critical_speed=s.critical_speed,
+                     stick_slip=s.stick_slip,
+                     converged=jnp.asarray(s.result == optx.RESULTS.successful), regime=s.regime)
 
 
 def cycle_kernel(points: DesignPoints, shared=None) -> DesignMap:
@@ -120,10 +113,9 @@ def iter_design_map(
         if not 0 <= float(damping_ratio) < 1:
             raise ValueError(f"damping ratio must lie in [0, 1), got {damping_ratio}")
         shared = jnp.asarray(float(damping_ratio))
-    yield from map_chunks(
-        _kernel(method), batch, points.shape, shared=shared, chunk_size=chunk_size, mesh=mesh,
-        progress=progress, desc=f"{method.value} map",
-    )
+    yield from map_chunks(_kernel(method), batch, points.shape, shared=shared,
+                          chunk_size=chunk_size, mesh=mesh, progress=progress,
+                          desc=f"{method.value} map")
 
 
 def design_map(friction: Friction, weight, stiffness, speed, **options) -> DesignMap:

@@ -38,10 +38,8 @@ def friction_from_params(params: Mapping[str, object]) -> Friction:
     if missing:
         raise ValueError(f"friction parameters missing: {', '.join(missing)} (need {PARAMETERS})")
     g = {p: np.asarray(params[p], dtype=float) for p in PARAMETERS}
-    f = Friction(
-        KatoStatic(mu_s=g["mu_s"], mu_d=g["mu_d"], gamma=g["gamma"], m=g["m"]),
-        KatoKinetic(delta=g["delta"], n=g["n"]),
-    )
+    f = Friction(KatoStatic(mu_s=g["mu_s"], mu_d=g["mu_d"], gamma=g["gamma"], m=g["m"]),
+                 KatoKinetic(delta=g["delta"], n=g["n"]))
     return jax.tree_util.tree_map(np.asarray, f)
 
 

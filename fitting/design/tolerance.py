@@ -119,10 +119,9 @@ def required_stiffness(sample: Friction, weight: float, speed: float, max_amplit
     """The inverse design of the module doc at one (W kgf, v mm/s); `start`: the first
     stiffness tried (kgf/mm)."""
     size = _checked(sample, max_amplitude, meet)
-    k, met, result = _solve_stiffness(sample, jnp.asarray(float(weight)),
-                                       jnp.asarray(float(speed)),
-                                       jnp.asarray(float(max_amplitude)), jnp.asarray(meet),
-                                       jnp.asarray(float(start)))
+    k, met, result = _solve_stiffness(sample, jnp.asarray(float(weight)), jnp.asarray(float(speed)),
+                                      jnp.asarray(float(max_amplitude)), jnp.asarray(meet),
+                                      jnp.asarray(float(start)))
     return ToleranceDesign(float(weight), float(speed), float(max_amplitude), float(meet),
                            float(k), float(met) / size,
                            bool(result == optx.RESULTS.successful) and bool(np.isfinite(k)))

@@ -53,27 +53,14 @@ def _kernel(points: _Points, shared: _Shared):
     def one(w, k, v):
         s = jax.vmap(steady_state, in_axes=(0, None, None, None))(shared.sample, w, k, v)
         q = shared.quantiles
-        return (
-            jnp.mean(s.stick_slip.astype(float)),
-            jnp.quantile(s.critical_speed, q),
-            jnp.quantile(s.amplitude, q),
-            jnp.mean(s.amplitude),
-        )
+        return (jnp.mean(s.stick_slip.astype(float)), jnp.quantile(s.critical_speed, q),
+                jnp.quantile(s.amplitude, q), jnp.mean(s.amplitude))
 
     return jax.vmap(one)(points.weight, points.stiffness, points.speed)
 
 
-def propagate(
-    sample: Friction,
-    weight,
-    stiffness,
-    speed,
-    *,
-    level: float = 0.9,
-    chunk_size: int = 262_144,
-    mesh=None,
-    progress: bool = False,
-) -> UncertainMap:
+def propagate(sample: Friction, weight, stiffness, speed, *, level: float = 0.9,
+              chunk_size: int = 262_144, mesh=None, progress: bool = False) -> UncertainMap:
     """Probability of stick-slip and credible bands of v_c and a over a W, k, v map.
 
     `sample`: a `Friction` with leaves of shape (S,) (`posterior.load_samples`);

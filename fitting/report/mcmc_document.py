@@ -42,9 +42,8 @@ def fixed_misfit(fit, free) -> list[str]:
                                 fit.record_chi2, "the posterior of the others is not meaningful")
 
 
-def mcmc_document(res, fit, campaign, *, model: str, objective: str,
-                  truth: dict | None = None, max_draws: int = 2000,
-                  extra: dict | None = None) -> dict:
+def mcmc_document(res, fit, campaign, *, model: str, objective: str, truth: dict | None = None,
+                  max_draws: int = 2000, extra: dict | None = None) -> dict:
     """The `stickslip mcmc --json` document (module doc) before versioning: `res` the
     `mcmc.McmcResult`, `fit` the `fit.FitResult` it sampled around, `campaign` the
     screened `campaign.Campaign`, `model` the law's name, `objective` the objective's

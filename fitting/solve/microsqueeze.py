@@ -53,10 +53,9 @@ def _half_rise_time(law) -> float:
     return float(np.interp(0.5, (mu - lo) / max(hi - lo, 1e-300), grid))
 
 
-def microsqueeze_starts(
-    features: list[RecordFeatures], *, eta: float, pair: SurfacePair | str = "S1G1",
-    contact: BoundaryContact | None = None, offsets=None,
-) -> list[MicrosqueezeFriction]:
+def microsqueeze_starts(features: list[RecordFeatures], *, eta: float,
+                        pair: SurfacePair | str = "S1G1", contact: BoundaryContact | None = None,
+                        offsets=None) -> list[MicrosqueezeFriction]:
     """Starting points of the microsqueeze fit (module doc)."""
     pair = surface_pair(pair) if isinstance(pair, str) else pair
     contact = BoundaryContact() if contact is None else contact
@@ -84,10 +83,9 @@ def microsqueeze_starts(
     return starts
 
 
-def fit_microsqueeze(
-    features: list[RecordFeatures], *, eta: float, pair: SurfacePair | str = "S1G1",
-    contact: BoundaryContact | None = None, modes: ModelModes = ModelModes(), **kwargs,
-) -> FitResult:
+def fit_microsqueeze(features: list[RecordFeatures], *, eta: float,
+                     pair: SurfacePair | str = "S1G1", contact: BoundaryContact | None = None,
+                     modes: ModelModes = ModelModes(), **kwargs) -> FitResult:
     """Fit mu_s, mu_d, h_e (mm), Q (mm^4), delta, n to a campaign's cycle features.
 
     `eta` (kgf s/mm^2), `pair` (name in Table 10 or a `SurfacePair`) and `contact` are

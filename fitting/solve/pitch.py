@@ -49,15 +49,8 @@ from .lsq import AbstractResiduals, jacobian, least_squares
 from stickslip_jax import pitching as pt
 from stickslip_jax.units import UnitError, parse_quantity
 
-__all__ = [
-    "PitchFit",
-    "PitchObjective",
-    "PitchParams",
-    "PitchRun",
-    "fit_pitching",
-    "pitch_run",
-    "record_drive_point",
-]
+__all__ = ["PitchFit", "PitchObjective", "PitchParams", "PitchRun", "fit_pitching", "pitch_run",
+           "record_drive_point"]
 
 NAMES = ("compliance_pitch", "neutral_height", "tau_pitch",
          "compliance_yaw", "neutral_offset", "tau_yaw")
@@ -133,12 +126,9 @@ class PitchParams(eqx.Module):
 
     @classmethod
     def from_model(cls, model: pt.PitchingModel) -> PitchParams:
-        return cls(
-            jnp.log(model.pitch.compliance), model.pitch.neutral,
-            jnp.log(model.pitch.lag.time_constants[0]),
-            jnp.log(model.yaw.compliance), model.yaw.neutral,
-            jnp.log(model.yaw.lag.time_constants[0]),
-        )
+        return cls(jnp.log(model.pitch.compliance), model.pitch.neutral,
+                   jnp.log(model.pitch.lag.time_constants[0]), jnp.log(model.yaw.compliance),
+                   model.yaw.neutral, jnp.log(model.yaw.lag.time_constants[0]))
 
     def into(self, model: pt.PitchingModel) -> pt.PitchingModel:
         """`model` with these values (single-mode lags; time constants at the reference
@@ -149,9 +139,8 @@ class PitchParams(eqx.Module):
                        m.yaw.compliance, m.yaw.neutral, m.yaw.lag.time_constants),
             model,
             (jnp.exp(self.log_compliance_pitch), self.neutral_height,
-             jnp.exp(self.log_tau_pitch)[None] / ratio,
-             jnp.exp(self.log_compliance_yaw), self.neutral_offset,
-             jnp.exp(self.log_tau_yaw)[None] / ratio),
+             jnp.exp(self.log_tau_pitch)[None] / ratio, jnp.exp(self.log_compliance_yaw),
+             self.neutral_offset, jnp.exp(self.log_tau_yaw)[None] / ratio),
         )
 
     def natural(self) -> dict[str, float]:
@@ -304,15 +293,8 @@ def _plane_start(template, runs, plane, taus):
     return c, neutral, tau, False
 
 
-def fit_pitching(
-    runs,
-    template: pt.PitchingModel | None = None,
-    noise=None,
-    taus=None,
-    rtol: float = 1e-10,
-    atol: float = 1e-10,
-    max_steps: int = 200,
-) -> PitchFit:
+def fit_pitching(runs, template: pt.PitchingModel | None = None, noise=None, taus=None,
+                 rtol: float = 1e-10, atol: float = 1e-10, max_steps: int = 200) -> PitchFit:
     """Fit compliance, neutral point and squeeze time constant of each observed plane to
     `runs` (`PitchRun`s, see `pitch_run`), starting from the grid start described in the
     module docstring. `template`: geometry and viscosity (default `pt.default_model()`);
@@ -372,18 +354,9 @@ def fit_pitching(
             name, UNITS[name], float(stored[name]), sd_of.get(name))
         parameters[name] = {"value": row.value, "unit": row.unit, "free": free_flags[name],
                             "stderr": row.stderr, "ci95": row.ci95}
-    return PitchFit(
-        model=fitted.into(template),
-        parameters=parameters,
-        residual_rms_mm=rms,
-        sigma_mm=sigma,
-        n_data=n_data,
-        n_free=len(free_names),
-        free_names=free_names,
-        covariance=cov,
-        result=sol.result,
-        notes=tuple(notes),
-    )
+    return PitchFit(model=fitted.into(template), parameters=parameters, residual_rms_mm=rms,
+                    sigma_mm=sigma, n_data=n_data, n_free=len(free_names), free_names=free_names,
+                    covariance=cov, result=sol.result, notes=tuple(notes))
 
 
 def _data_scale(runs):

@@ -139,9 +139,8 @@ def film_from_mu_s(pair: SurfacePair, contact: BoundaryContact, mu_s) -> FilmEst
                 f"C1 = S_m/p_m = {float(contact.C1)}; got {np.asarray(mu_s)}"
             )
     else:
-        mu_s = eqx.error_if(
-            mu_s, (mu_s <= contact.C3) | (mu_s >= contact.C1), "film_from_mu_s: mu_s outside (C3, C1)"
-        )
+        mu_s = eqx.error_if(mu_s, (mu_s <= contact.C3) | (mu_s >= contact.C1),
+                            "film_from_mu_s: mu_s outside (C3, C1)")
     K = pair.area_factor
     C1, C2, C3 = contact.C1, contact.C2, contact.C3
     scale = contact.W / contact.p_m

@@ -173,16 +173,8 @@ class MicrosqueezeStatic(AbstractStaticFriction):
             a_d = eqx.error_if(a_d, a_s <= a_d, "MicrosqueezeStatic: mu_d is not below mu_0(a_s)")
             a_d = eqx.error_if(a_d, (self.eta <= 0) | (self.Q <= 0), "MicrosqueezeStatic: eta and Q must be > 0")
         a_end = jnp.minimum(a_s, gap_limit)
-        return Kinematics(
-            K=self.pair.area_factor,
-            a_d=a_d,
-            a_s=a_s,
-            gap_limit=gap_limit,
-            a_end=a_end,
-            span=a_end - a_d,
-            d_s=a_s - a_end,
-            d_g=gap_limit - a_end,
-        )
+        return Kinematics(K=self.pair.area_factor, a_d=a_d, a_s=a_s, gap_limit=gap_limit,
+                          a_end=a_end, span=a_end - a_d, d_s=a_s - a_end, d_g=gap_limit - a_end)
 
     def approach(self, s, kin: Kinematics):
         """Approach a (mm) at log-gap s."""
@@ -293,15 +285,9 @@ def _rhs(tau, s, law_kin):
 
 
 @eqx.filter_jit
-def microsqueeze_curve(
-    law: MicrosqueezeStatic,
-    stick_time: Float[ArrayLike, " n"],
-    *,
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
-    max_steps: int = 4096,
-    adjoint: diffrax.AbstractAdjoint | None = None,
-) -> MicrosqueezeSolution:
+def microsqueeze_curve(law: MicrosqueezeStatic, stick_time: Float[ArrayLike, " n"], *,
+                       rtol: float = 1e-10, atol: float = 1e-12, max_steps: int = 4096,
+                       adjoint: diffrax.AbstractAdjoint | None = None) -> MicrosqueezeSolution:
     r"""$\mu_0(T_1)$ of the microsqueeze model by integrating eq (28) with diffrax.
 
     Integrates the log-gap $s$ against $\tau = \log t$ (Tsit5, PID control with

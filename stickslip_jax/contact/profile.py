@@ -89,16 +89,9 @@ def _crossing(h: np.ndarray, i: int, level: float, step: int) -> float | None:
     return None
 
 
-def estimate_surface(
-    heights,
-    spacing: float,
-    *,
-    height_unit: str = "um",
-    length_unit: str = "mm",
-    cut_depth: float | None = None,
-    min_prominence: float | None = None,
-    fit_fraction: float = 0.5,
-) -> SurfaceEstimate:
+def estimate_surface(heights, spacing: float, *, height_unit: str = "um", length_unit: str = "mm",
+                     cut_depth: float | None = None, min_prominence: float | None = None,
+                     fit_fraction: float = 0.5) -> SurfaceEstimate:
     """Estimate H_max, R, z, D (Table 10) from a profile sampled every `spacing`.
 
     `heights` 1-D, in `height_unit`; `spacing` in `length_unit`; `cut_depth` and

@@ -47,14 +47,8 @@ def _stick_fractions(n_stick: int):
     return jnp.sort(jnp.concatenate([lin, geo]))
 
 
-def steady_force_cycle(
-    friction: Friction,
-    weight,
-    stiffness,
-    speed,
-    n_stick: int = 256,
-    n_slip: int = 48,
-) -> ForceCycle:
+def steady_force_cycle(friction: Friction, weight, stiffness, speed, n_stick: int = 256,
+                       n_slip: int = 48) -> ForceCycle:
     r"""The steady stick-slip force cycle of eqs (5)-(7), (11) at drive speed `speed` (mm/s),
     slider weight `weight` (kgf), spring stiffness `stiffness` (kgf/mm); scalars (vmap for
     many). Returns a `ForceCycle` with `n_stick + n_slip` samples whose last force equals
@@ -75,12 +69,6 @@ def steady_force_cycle(
     phase = jnp.linspace(0.0, jnp.pi, n_slip + 1)[1:]
     ts_slip = t1 + phase / jnp.pi * t2
     f_slip = ((mu_0 - mu_m) * jnp.cos(phase) + mu_m) * w
-    return ForceCycle(
-        time=jnp.concatenate([ts_stick, ts_slip]),
-        force=jnp.concatenate([f_stick, f_slip]),
-        f0=f0,
-        f1=f1,
-        period=t1 + t2,
-        stick_slip=stick,
-        steady=st,
-    )
+    return ForceCycle(time=jnp.concatenate([ts_stick, ts_slip]),
+                      force=jnp.concatenate([f_stick, f_slip]), f0=f0, f1=f1, period=t1 + t2,
+                      stick_slip=stick, steady=st)

@@ -28,20 +28,14 @@ class DesignPoint(eqx.Module):
     yaw_arm: Float[Array, ""]
 
 
-def best_drive_point(
-    model: PitchingModel,
-    height_range=(-jnp.inf, jnp.inf),
-    offset_range=(-jnp.inf, jnp.inf),
-) -> DesignPoint:
+def best_drive_point(model: PitchingModel, height_range=(-jnp.inf, jnp.inf),
+                     offset_range=(-jnp.inf, jnp.inf)) -> DesignPoint:
     r"""Drive point minimising pitching and yawing within the box `height_range` x
     `offset_range` (mm): $(\mathrm{clip}(h_{Mv}), \mathrm{clip}(l_{Mh}))$ (Fig 63's C1*)."""
     h = jnp.clip(model.pitch.neutral, height_range[0], height_range[1])
     l_ = jnp.clip(model.yaw.neutral, offset_range[0], offset_range[1])
-    return DesignPoint(
-        drive=DrivePoint(height=h, offset=l_),
-        pitch_arm=model.pitch.arm(h),
-        yaw_arm=model.yaw.arm(l_),
-    )
+    return DesignPoint(drive=DrivePoint(height=h, offset=l_), pitch_arm=model.pitch.arm(h),
+                       yaw_arm=model.yaw.arm(l_))
 
 
 class TiltMap(eqx.Module):
@@ -55,15 +49,8 @@ class TiltMap(eqx.Module):
     speeds: Float[Array, " speeds"]
 
 
-def variation_map(
-    model: PitchingModel,
-    friction: Friction,
-    weight,
-    stiffness,
-    speeds,
-    positions,
-    point: str = "pitch_1",
-) -> TiltMap:
+def variation_map(model: PitchingModel, friction: Friction, weight, stiffness, speeds, positions,
+                  point: str = "pitch_1") -> TiltMap:
     r"""$\varepsilon'$ and $\Delta\varepsilon$ (mm) at `point` over drive `speeds` (mm/s) and
     drive `positions` (mm: heights $h$ for a pitch point, offsets $l$ for a yaw point; the
     other coordinate stays at its neutral value). Figs 52-53 and the design map of $\Delta
@@ -74,10 +61,8 @@ def variation_map(
         raise ValueError(f"point must be one of {names}, got {point!r}")
     idx = names.index(point)
     pitch = model.points.planes[idx] == "pitch"
-    unit = DrivePoint(
-        height=model.pitch.neutral + (1.0 if pitch else 0.0),
-        offset=model.yaw.neutral + (0.0 if pitch else 1.0),
-    )
+    unit = DrivePoint(height=model.pitch.neutral + (1.0 if pitch else 0.0),
+                      offset=model.yaw.neutral + (0.0 if pitch else 1.0))
     sweep: SteadyTilt = tilt_against_speed(model, friction, weight, stiffness, speeds, unit)
     positions = jnp.asarray(positions, dtype=float)
     neutral = model.pitch.neutral if pitch else model.yaw.neutral

@@ -71,11 +71,9 @@ def _points_summary(model: PitchingModel, pitch: PlaneSummary, yaw: PlaneSummary
     def pick(a, b):
         return jnp.where(is_pitch, jnp.asarray(a)[..., None], jnp.asarray(b)[..., None])
 
-    return PlaneSummary(
-        peak=pick(pitch.peak, yaw.peak) * lever,
-        mean=pick(pitch.mean, yaw.mean) * lever,
-        variation=pick(pitch.variation, yaw.variation) * jnp.abs(lever),
-    )
+    return PlaneSummary(peak=pick(pitch.peak, yaw.peak) * lever,
+                        mean=pick(pitch.mean, yaw.mean) * lever,
+                        variation=pick(pitch.variation, yaw.variation) * jnp.abs(lever))
 
 
 def cycle_tilt(model: PitchingModel, cycle: ForceCycle, drive: DrivePoint) -> SteadyTilt:
@@ -87,27 +85,13 @@ def cycle_tilt(model: PitchingModel, cycle: ForceCycle, drive: DrivePoint) -> St
     gh = model.yaw.compliance * model.yaw.arm(drive.offset)
     pitch = _summarise(gv * fv, cycle.time)
     yaw = _summarise(gh * fh, cycle.time)
-    return SteadyTilt(
-        pitch=pitch,
-        yaw=yaw,
-        points=_points_summary(model, pitch, yaw),
-        cycle=cycle,
-        filtered_pitch=fv,
-        filtered_yaw=fh,
-    )
+    return SteadyTilt(pitch=pitch, yaw=yaw, points=_points_summary(model, pitch, yaw), cycle=cycle,
+                      filtered_pitch=fv, filtered_yaw=fh)
 
 
 @eqx.filter_jit
-def steady_tilt(
-    model: PitchingModel,
-    friction: Friction,
-    weight,
-    stiffness,
-    speed,
-    drive: DrivePoint,
-    n_stick: int = 256,
-    n_slip: int = 48,
-) -> SteadyTilt:
+def steady_tilt(model: PitchingModel, friction: Friction, weight, stiffness, speed,
+                drive: DrivePoint, n_stick: int = 256, n_slip: int = 48) -> SteadyTilt:
     r"""Steady pitching and yawing at drive speed `speed` (mm/s) for a slider of weight
     `weight` (kgf) on a spring `stiffness` (kgf/mm) with `friction` (eqs 1, 3), driven at
     `drive` (mm). Scalars; see `tilt_against_speed` for a sweep. Section 6.3's calculation
@@ -117,16 +101,9 @@ def steady_tilt(
 
 
 @eqx.filter_jit
-def tilt_against_speed(
-    model: PitchingModel,
-    friction: Friction,
-    weight,
-    stiffness,
-    speeds: Float[Array, " s"],
-    drive: DrivePoint,
-    n_stick: int = 256,
-    n_slip: int = 48,
-) -> SteadyTilt:
+def tilt_against_speed(model: PitchingModel, friction: Friction, weight, stiffness,
+                       speeds: Float[Array, " s"], drive: DrivePoint, n_stick: int = 256,
+                       n_slip: int = 48) -> SteadyTilt:
     """`steady_tilt` vmapped over drive speeds (mm/s); fields gain a leading speed axis
     (Figs 48-51, 58, 60-61, 63)."""
     speeds = jnp.asarray(speeds, dtype=float)
@@ -187,14 +164,9 @@ def critical_pitch_speed(
     g_lo = excess(lo, None)
     g_hi = excess(hi, None)
     bracketed = (g_lo > 0) & (g_hi <= 0)
-    sol = optx.root_find(
-        excess,
-        optx.Bisection(rtol=1e-10, atol=1e-6, flip="detect"),
-        0.5 * (lo + hi),
-        options=dict(lower=lo, upper=hi),
-        throw=False,
-        max_steps=200,
-    )
+    sol = optx.root_find(excess, optx.Bisection(rtol=1e-10, atol=1e-6, flip="detect"),
+                         0.5 * (lo + hi), options=dict(lower=lo, upper=hi), throw=False,
+                         max_steps=200)
     v_p = jnp.where(bracketed, jnp.exp(sol.value), jnp.where(g_lo <= 0, jnp.exp(lo), v_0))
     return CriticalSpeeds(v_p=v_p, v_0=v_0, bracketed=bracketed, result=sol.result)
 

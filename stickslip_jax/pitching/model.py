@@ -140,11 +140,9 @@ def paper_points(length: float = 240.0, point2: float = 10.0) -> MeasuringPoints
     near the intimate-contact point d and moves little). Positions are illustrative:
     the paper's drawing is lost."""
     half = 0.5 * length
-    return MeasuringPoints(
-        positions=(half, point2, -half, half, -half),
-        planes=(PITCH, PITCH, PITCH, YAW, YAW),
-        names=("pitch_1", "pitch_2", "pitch_3", "yaw_4", "yaw_5"),
-    )
+    return MeasuringPoints(positions=(half, point2, -half, half, -half),
+                           planes=(PITCH, PITCH, PITCH, YAW, YAW),
+                           names=("pitch_1", "pitch_2", "pitch_3", "yaw_4", "yaw_5"))
 
 
 class PitchingModel(eqx.Module):
@@ -193,21 +191,15 @@ def default_model(viscosity: float = ETA_A) -> PitchingModel:
     1e-7 rad/(kgf mm) with a 10 s lag (only a slight restoring moment sideways, section
     6.4, so the yaw recovers slowly and its per-cycle variation is small, Fig 61).
     """
-    return PitchingModel(
-        pitch=TiltPlane(compliance=8e-8, neutral=30.0, lag=first_order(1.0)),
-        yaw=TiltPlane(compliance=1e-7, neutral=5.0, lag=first_order(10.0)),
-        points=paper_points(),
-        viscosity=viscosity,
-        reference_viscosity=ETA_A,
-    )
+    return PitchingModel(pitch=TiltPlane(compliance=8e-8, neutral=30.0, lag=first_order(1.0)),
+                         yaw=TiltPlane(compliance=1e-7, neutral=5.0, lag=first_order(10.0)),
+                         points=paper_points(), viscosity=viscosity, reference_viscosity=ETA_A)
 
 
-PAPER_DRIVE_POINTS = {
-    "C1": DrivePoint(height=20.0, offset=0.0),
-    "C2": DrivePoint(height=45.0, offset=0.0),
-    "C3": DrivePoint(height=70.0, offset=0.0),
-    "V": DrivePoint(height=45.0, offset=40.0),
-    "F": DrivePoint(height=45.0, offset=-40.0),
-}
+PAPER_DRIVE_POINTS = {"C1": DrivePoint(height=20.0, offset=0.0),
+                      "C2": DrivePoint(height=45.0, offset=0.0),
+                      "C3": DrivePoint(height=70.0, offset=0.0),
+                      "V": DrivePoint(height=45.0, offset=40.0),
+                      "F": DrivePoint(height=45.0, offset=-40.0)}
 """Illustrative drive points with the layout of Fig 42 (heights/offsets in mm): C1-C3 one
 above the other through the centre of gravity (C2 at it), V and F sideways."""

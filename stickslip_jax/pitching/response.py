@@ -49,13 +49,8 @@ def _mode_response(u, ts, tau, initial):
     return jnp.concatenate([initial[None], theta])
 
 
-def lag_response(
-    lag: LinearLag,
-    u: Float[Array, " n"],
-    ts: Float[Array, " n"],
-    time_scale=1.0,
-    periodic: bool = False,
-) -> Float[Array, " n"]:
+def lag_response(lag: LinearLag, u: Float[Array, " n"], ts: Float[Array, " n"], time_scale=1.0,
+                 periodic: bool = False) -> Float[Array, " n"]:
     r"""Response of `lag` to the input history `u` sampled at times `ts` (s).
 
     `u` is the static tilt (any unit; the output has the same unit). The time constants
@@ -119,9 +114,7 @@ def point_displacements(model: PitchingModel, pitch, yaw) -> Float[Array, "... p
     points (rad)."""
     pts = model.points
     is_pitch = jnp.asarray(pts.is_pitch)
-    lever = jnp.where(
-        is_pitch, pts.positions - model.pitch.pivot, pts.positions - model.yaw.pivot
-    )
+    lever = jnp.where(is_pitch, pts.positions - model.pitch.pivot, pts.positions - model.yaw.pivot)
     pitch = jnp.asarray(pitch)[..., None]
     yaw = jnp.asarray(yaw)[..., None]
     return jnp.where(is_pitch, pitch, yaw) * lever
@@ -133,13 +126,8 @@ def plane_tilt(plane: TiltPlane, arm, filtered) -> Float[Array, "..."]:
 
 
 @eqx.filter_jit
-def tilt_history(
-    model: PitchingModel,
-    ts: Float[Array, " n"],
-    force: Float[Array, " n"],
-    drive: DrivePoint,
-    periodic: bool = False,
-) -> TiltTrace:
+def tilt_history(model: PitchingModel, ts: Float[Array, " n"], force: Float[Array, " n"],
+                 drive: DrivePoint, periodic: bool = False) -> TiltTrace:
     r"""Pitching and yawing of the slider under the spring force history `force` (kgf,
     $F = kx$) sampled at `ts` (s), driven at `drive` (mm). Works on any trace, simulated or
     measured. Moments $M_v = F(h - h_{Mv})$, $M_h = F(l - l_{Mh})$ (section 6.2, 6.4),
@@ -153,14 +141,10 @@ def tilt_history(
     arm_h = model.yaw.arm(drive.offset)
     pitch = plane_tilt(model.pitch, arm_v, fv)
     yaw = plane_tilt(model.yaw, arm_h, fh)
-    return TiltTrace(
-        time=ts,
-        pitch=pitch,
-        yaw=yaw,
-        static_pitch=plane_tilt(model.pitch, arm_v, force),
-        static_yaw=plane_tilt(model.yaw, arm_h, force),
-        displacement=point_displacements(model, pitch, yaw),
-    )
+    return TiltTrace(time=ts, pitch=pitch, yaw=yaw,
+                     static_pitch=plane_tilt(model.pitch, arm_v, force),
+                     static_yaw=plane_tilt(model.yaw, arm_h, force),
+                     displacement=point_displacements(model, pitch, yaw))
 
 
 def rise_curve(lag: LinearLag, force_rate, ts, time_scale=1.0) -> Float[Array, " n"]:

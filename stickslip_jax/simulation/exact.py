@@ -207,20 +207,12 @@ class _State(eqx.Module):
     slip_start: Array
 
 
-def simulate_exact(
-    slideway: Slideway,
-    drive: AbstractDrive,
-    ts: Float[ArrayLike, " N"],
-    *,
-    slip_time: SlipTime | str = SlipTime.PAPER,
-    initial_deflection: Float[ArrayLike, ""] = 0.0,
-    initial_stick_time: Float[ArrayLike, ""] = 0.0,
-    start_time: Float[ArrayLike, ""] | None = None,
-    mask: ArrayLike | None = None,
-    max_events: int = 64,
-    cycle_table: bool = True,
-    check: bool = True,
-) -> Trace:
+def simulate_exact(slideway: Slideway, drive: AbstractDrive, ts: Float[ArrayLike, " N"], *,
+                   slip_time: SlipTime | str = SlipTime.PAPER,
+                   initial_deflection: Float[ArrayLike, ""] = 0.0,
+                   initial_stick_time: Float[ArrayLike, ""] = 0.0,
+                   start_time: Float[ArrayLike, ""] | None = None, mask: ArrayLike | None = None,
+                   max_events: int = 64, cycle_table: bool = True, check: bool = True) -> Trace:
     r"""Simulate the paper's stick-slip model exactly (events in closed form) on times `ts`.
 
     - `slideway`: friction laws, weight W (kgf), stiffness k (kgf/mm), normal load N (kgf).
@@ -257,19 +249,16 @@ def simulate_exact(
     if ts.shape[0] > 1 and check:
         ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
     t_start = ts[0] if start_time is None else jnp.asarray(start_time, dtype=float)
-    ev = _events(slideway, drive, t_start, jnp.max(ts), initial_deflection,
-                 initial_stick_time, slip_time=slip_time, max_events=max_events,
-                 cycle_table=cycle_table, check=check)
+    ev = _events(slideway, drive, t_start, jnp.max(ts), initial_deflection, initial_stick_time,
+                 slip_time=slip_time, max_events=max_events, cycle_table=cycle_table, check=check)
     # each sample's phase row: how many phase starts are at or before it
     n_rows = ev.row_time.shape[0]
     row = jnp.clip(count_at_or_before(ev.row_time, ts) - 1, 0, n_rows - 1)
     u = _drive_at(ev.knot_table, ts)[0]
     deflection, velocity, sticking = _render(ts, row, ev.coef, ev.omega, u)
-    return Trace(
-        time=ts, deflection=deflection, slider_velocity=velocity, sticking=sticking,
-        mask=mask, cycles=ev.cycles, steady_sliding=ev.steady_sliding, result=ev.result,
-        num_events=ev.num_events,
-    )
+    return Trace(time=ts, deflection=deflection, slider_velocity=velocity, sticking=sticking,
+                 mask=mask, cycles=ev.cycles, steady_sliding=ev.steady_sliding, result=ev.result,
+                 num_events=ev.num_events)
 
 
 def _check_arguments(slideway, drive, slip_time, max_events) -> SlipTime:
@@ -386,9 +375,8 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         t_cap = jnp.where(use_cap, t_cap, hi_sg)
         hi_sg = jnp.where(use_cap & (fun(t_cap, p_sg) >= 0), t_cap, hi_sg)
         run = active & found & ~immediate
-        root = _newton_root(
-            lambda tp: fun(tp, p_sg), lambda tp: dfun(tp, p_sg), lo_sg, hi_sg, active=run,
-        )
+        root = _newton_root(lambda tp: fun(tp, p_sg), lambda tp: dfun(tp, p_sg), lo_sg, hi_sg,
+                            active=run)
         t_b = _implicit(root, fun, dfun)
         t_b = jnp.where(immediate, s.t, jnp.where(found, t_b, t_end))
         x_b = jnp.where(immediate, s.x, x_lo + v_seg * (t_b - lo_safe))
@@ -398,21 +386,11 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         mu0 = static(T1)
         T2 = model_t2(x_b, v_b, mu0, active & breaks)
         mum = friction.kinetic(mu0, friction.mu_d, T2)
-        new = _State(
-            t=t_b,
-            x=x_b,
-            yd=jnp.zeros_like(s.yd),
-            sticking=~breaks,
-            t_stick=s.t_stick,
-            c=jnp.where(breaks, mum * W / k, s.c),
-            done=~breaks,
-            steady=s.steady,
-            slip_start=jnp.where(breaks, t_b, s.slip_start),
-        )
-        info = dict(
-            is_break=breaks & active, t_b=t_b, x2=x_b, T1=T1, mu0=mu0, mum=mum, T2model=T2,
-            is_end=jnp.asarray(False), t_stop=t_b, x1=x_b, restick=jnp.asarray(False),
-        )
+        new = _State(t=t_b, x=x_b, yd=jnp.zeros_like(s.yd), sticking=~breaks, t_stick=s.t_stick,
+                     c=jnp.where(breaks, mum * W / k, s.c), done=~breaks, steady=s.steady,
+                     slip_start=jnp.where(breaks, t_b, s.slip_start))
+        info = dict(is_break=breaks & active, t_b=t_b, x2=x_b, T1=T1, mu0=mu0, mum=mum, T2model=T2,
+                    is_end=jnp.asarray(False), t_stop=t_b, x1=x_b, restick=jnp.asarray(False))
         return new, info, u_t, v_t
 
     def slip_step(s: _State, active):
@@ -433,22 +411,13 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         yd_new = jnp.where(stop_here, 0.0, yd_new)
         restick = stop_here & (k * x_new > W * mu_restick)
         never = ~stops & ~(t_next < t_end)
-        new = _State(
-            t=t_new,
-            x=x_new,
-            yd=yd_new,
-            sticking=stop_here,
-            t_stick=jnp.where(stop_here, t_new, s.t_stick),
-            c=s.c,
-            done=~stop_here & (t_new >= t_end),
-            steady=s.steady | restick | never,
-            slip_start=s.slip_start,
-        )
-        info = dict(
-            is_break=jnp.asarray(False), t_b=s.slip_start, x2=s.x, T1=jnp.zeros_like(s.t),
-            mu0=jnp.zeros_like(s.t), mum=s.c * k / W, T2model=jnp.zeros_like(s.t),
-            is_end=stop_here & active, t_stop=t_new, x1=x_new, restick=restick & active,
-        )
+        new = _State(t=t_new, x=x_new, yd=yd_new, sticking=stop_here,
+                     t_stick=jnp.where(stop_here, t_new, s.t_stick), c=s.c,
+                     done=~stop_here & (t_new >= t_end), steady=s.steady | restick | never,
+                     slip_start=s.slip_start)
+        info = dict(is_break=jnp.asarray(False), t_b=s.slip_start, x2=s.x, T1=jnp.zeros_like(s.t),
+                    mu0=jnp.zeros_like(s.t), mum=s.c * k / W, T2model=jnp.zeros_like(s.t),
+                    is_end=stop_here & active, t_stop=t_new, x1=x_new, restick=restick & active)
         return new, info, u_t, v
 
     def keep(active, new, old):
@@ -466,12 +435,8 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         S = (v_t - s.yd) / omega
         phase = omega * jnp.where(jnp.isfinite(t), t, t_end)
         c_row, s_row = jnp.cos(phase), jnp.sin(phase)
-        coef = jnp.stack([
-            jnp.where(st, s.x - u_t, s.c),
-            jnp.where(st, z, Q * c_row - S * s_row),
-            jnp.where(st, z, Q * s_row + S * c_row),
-            jnp.where(st, z, v_t),
-        ])
+        coef = jnp.stack([jnp.where(st, s.x - u_t, s.c), jnp.where(st, z, Q * c_row - S * s_row),
+                          jnp.where(st, z, Q * s_row + S * c_row), jnp.where(st, z, v_t)])
         return dict(t=t, active=active, coef=coef)
 
     def step(s: _State, _):
@@ -487,11 +452,9 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
 
     zero = jnp.zeros(())
     x0 = jnp.asarray(initial_deflection, dtype=float) + zero
-    init = _State(
-        t=t_start + zero, x=x0, yd=zero, sticking=jnp.asarray(True),
-        t_stick=t_start - jnp.asarray(initial_stick_time, dtype=float), c=zero,
-        done=t_start >= t_end, steady=jnp.asarray(False), slip_start=t_start + zero,
-    )
+    init = _State(t=t_start + zero, x=x0, yd=zero, sticking=jnp.asarray(True),
+                  t_stick=t_start - jnp.asarray(initial_stick_time, dtype=float), c=zero,
+                  done=t_start >= t_end, steady=jnp.asarray(False), slip_start=t_start + zero)
     n_steps = (max_events + 1) // 2
     final, (rows, info) = jax.lax.scan(step, init, None, length=n_steps)
     # interleave the stick and slip halves of each step: phase order
@@ -529,18 +492,11 @@ def _cycle_table(info, max_events: int) -> Cycles:
     t_stop = put(eid, info["t_stop"])
     valid = broke & ended
     v = lambda a: jnp.where(valid, a, 0.0)  # noqa: E731
-    return Cycles(
-        breakaway_time=v(t_b),
-        peak=v(put(bid, info["x2"])),
-        trough=v(put(eid, info["x1"])),
-        stick_time=v(put(bid, info["T1"])),
-        slip_time=v(t_stop - t_b),
-        model_slip_time=v(put(bid, info["T2model"])),
-        mu_0=v(put(bid, info["mu0"])),
-        mu_m=v(put(bid, info["mum"])),
-        restick_failed=valid & (put(eid, info["restick"].astype(float)) > 0),
-        valid=valid,
-    )
+    return Cycles(breakaway_time=v(t_b), peak=v(put(bid, info["x2"])),
+                  trough=v(put(eid, info["x1"])), stick_time=v(put(bid, info["T1"])),
+                  slip_time=v(t_stop - t_b), model_slip_time=v(put(bid, info["T2model"])),
+                  mu_0=v(put(bid, info["mu0"])), mu_m=v(put(bid, info["mum"])),
+                  restick_failed=valid & (put(eid, info["restick"].astype(float)) > 0), valid=valid)
 
 
 def simulate_exact_campaign(
@@ -635,8 +591,6 @@ def simulate_exact_campaign(
         u = jax.vmap(lambda kn, t: _drive_at(kn, t)[0])(knots, ts)
     deflection, velocity, sticking = _render(
         ts, row, ev.coef.reshape(n_rec * n_rows, 4), ev.omega[rec], u)
-    return Trace(
-        time=ts, deflection=deflection, slider_velocity=velocity, sticking=sticking,
-        mask=jnp.ones((n,), bool), cycles=ev.cycles, steady_sliding=ev.steady_sliding,
-        result=ev.result, num_events=ev.num_events,
-    )
+    return Trace(time=ts, deflection=deflection, slider_velocity=velocity, sticking=sticking,
+                 mask=jnp.ones((n,), bool), cycles=ev.cycles, steady_sliding=ev.steady_sliding,
+                 result=ev.result, num_events=ev.num_events)

@@ -46,19 +46,10 @@ _exact = eqx.filter_jit(simulate_exact)
 _smooth = eqx.filter_jit(simulate_smooth)
 
 
-def synthetic_record(
-    slideway: Slideway,
-    drive: AbstractDrive,
-    duration: float,
-    sample_rate: float,
-    *,
-    noise_std: float = 0.0,
-    seed: int = 0,
-    smoothing: float | None = None,
-    max_events: int | None = None,
-    lubricant: str | None = None,
-    note: str | None = None,
-):
+def synthetic_record(slideway: Slideway, drive: AbstractDrive, duration: float, sample_rate: float,
+                     *, noise_std: float = 0.0, seed: int = 0, smoothing: float | None = None,
+                     max_events: int | None = None, lubricant: str | None = None,
+                     note: str | None = None):
     """Simulate `duration` s sampled at `sample_rate` Hz and return a noisy `Record`.
 
     `noise_std` in mm; `seed` for `jax.random.PRNGKey`; `smoothing` None = exact
@@ -84,20 +75,14 @@ def synthetic_record(
         trace = _smooth(slideway, drive, ts, smoothing=jnp.asarray(smoothing),
                         formulation=Formulation.LATCH)
         simulator = {"name": "smooth", "formulation": Formulation.LATCH.value,
-                     "smoothing": float(smoothing),
-                     "slip_time": SlipTime.PAPER.value}
+                     "smoothing": float(smoothing), "slip_time": SlipTime.PAPER.value}
     if not bool(trace.result == SimulationResult.successful):
         raise ValueError(f"simulation failed: {trace.result}")
     x = np.asarray(trace.deflection)
     noise = noise_std * np.asarray(jax.random.normal(jax.random.PRNGKey(seed), x.shape))
-    truth = {
-        "friction": friction_truth(slideway),
-        "noise_mm": float(noise_std),
-        "seed": int(seed),
-        "simulator": simulator,
-        "steady_sliding": bool(trace.steady_sliding),
-        "cycles": int(np.sum(np.asarray(trace.cycles.valid))),
-    }
+    truth = {"friction": friction_truth(slideway), "noise_mm": float(noise_std), "seed": int(seed),
+             "simulator": simulator, "steady_sliding": bool(trace.steady_sliding),
+             "cycles": int(np.sum(np.asarray(trace.cycles.valid)))}
     kwargs = {}
     if isinstance(drive, ConstantSpeed):
         kwargs["drive_speed"] = float(drive.v)
@@ -107,12 +92,10 @@ def synthetic_record(
         )
     else:
         kwargs["drive"] = np.asarray(drive.position(ts))
-    return Record(
-        time=np.asarray(ts), deflection=x + noise, stiffness=float(slideway.stiffness),
-        weight=float(slideway.weight), lubricant=lubricant, note=note, truth=truth,
-        normal_load=None if slideway.normal_load is None else float(slideway.normal_load),
-        **kwargs,
-    )
+    return Record(time=np.asarray(ts), deflection=x + noise, stiffness=float(slideway.stiffness),
+                  weight=float(slideway.weight), lubricant=lubricant, note=note, truth=truth,
+                  normal_load=None if slideway.normal_load is None else float(slideway.normal_load),
+                  **kwargs)
 
 
 def _event_budget(slideway: Slideway, drive: AbstractDrive, duration: float) -> int:
