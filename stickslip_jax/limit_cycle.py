@@ -175,11 +175,10 @@ def limit_cycle(friction: Friction, weight, stiffness, speed, rtol: float = 1e-1
     first = _slip_from_rest(peak - c, speed, omega)
     second = _slip_from_rest((2.0 * c - peak) - c_d, speed, omega)
     slip = first + jnp.where(double, second, 0.0)
-    return LimitCycle(
-        stick_time=t1, slip_time=slip, peak=peak, trough=trough,
-        amplitude=0.5 * (peak - trough), frequency=1.0 / (t1 + slip),
-        critical_speed=critical_speed(friction, weight, stiffness),
-        regime=jnp.where(double, RESTICK_FAILURE, STICK_SLIP), result=sol.result)
+    return LimitCycle(stick_time=t1, slip_time=slip, peak=peak, trough=trough,
+                      amplitude=0.5 * (peak - trough), frequency=1.0 / (t1 + slip),
+                      critical_speed=critical_speed(friction, weight, stiffness),
+                      regime=jnp.where(double, RESTICK_FAILURE, STICK_SLIP), result=sol.result)
 
 
 def cycle_map(friction: Friction, weight, stiffness, speed, trough, damping_ratio=None):
@@ -197,14 +196,7 @@ def cycle_map(friction: Friction, weight, stiffness, speed, trough, damping_rati
         return stiffness * (x1 + speed * t1) - weight * friction.static(t1)
 
     hi = (weight * friction.static.asymptote() / stiffness - x1) / speed + 1.0
-
-    def body(_, lohi):
-        lo, hi = lohi
-        mid = 0.5 * (lo + hi)
-        below = margin(mid) < 0
-        return jnp.where(below, mid, lo), jnp.where(below, hi, mid)
-
-    lo, hi = jax.lax.fori_loop(0, 200, body, (jnp.zeros_like(x1), jnp.maximum(hi, 0.0)))
+    lo, hi = _bisect(lambda t: margin(t) >= 0, jnp.zeros_like(x1), jnp.maximum(hi, 0.0), n=200)
     t1 = jnp.where(margin(0.0) >= 0, 0.0, 0.5 * (lo + hi))
     x2 = x1 + speed * t1
     mu_0 = friction.static(t1)

@@ -61,12 +61,10 @@ POSTERIOR_WARN = 3e8
 _BYTES_PER_POINT = {"map": 128, "--json": 1_600, "--csv": 300, "--netcdf": 100}
 _BYTES_PER_POINT_DRAW = 64  # --max-amplitude
 
-JSON_ALIASES = {
-    "stiffness_kgf_per_mm": "stiffness_kgf_mm",
-    "drive_speed_mm_per_min": "speed_mm_min",
-    "critical_speed_mm_per_min": "critical_speed_mm_min",
-    "critical_speed_band_mm_per_min": "critical_speed_band_mm_min",
-}
+JSON_ALIASES = {"stiffness_kgf_per_mm": "stiffness_kgf_mm",
+                "drive_speed_mm_per_min": "speed_mm_min",
+                "critical_speed_mm_per_min": "critical_speed_mm_min",
+                "critical_speed_band_mm_per_min": "critical_speed_band_mm_min"}
 """JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
 their old names, still written beside them for one release (`deprecated_keys`). The CSV
 columns have the same names (`CSV_COLUMNS`) and no aliases (a CSV header cannot carry
@@ -351,8 +349,7 @@ def _tolerance(options: MapOptions, axes, sample, grid) -> dict:
             rows.append({"weight_kgf": d.weight, "drive_speed_mm_per_min": d.speed * 60.0,
                          "stiffness_kgf_per_mm": d.stiffness if d.converged else None,
                          "probability": d.probability, "converged": d.converged})
-    return {"max_amplitude_mm": float(options.max_amplitude), "meet": meet,
-            "draws": _draws(sample),
+    return {"max_amplitude_mm": float(options.max_amplitude), "meet": meet, "draws": _draws(sample),
             "amplitude": "time-domain limit cycle (stickslip_jax.limit_cycle)",
             "probability_met": prob.tolist(), "required_stiffness": rows}
 
@@ -428,8 +425,7 @@ class DesignStudy(ResultDocument):
             doc.update(amplitude_ratio=res["amplitude_ratio"].tolist(),
                        frequency_hz=res["frequency"].tolist(),
                        frequency_ratio=res["frequency_ratio"].tolist(),
-                       stick_time_s=res["stick_time"].tolist(),
-                       converged=res["converged"].tolist())
+                       stick_time_s=res["stick_time"].tolist(), converged=res["converged"].tolist())
         if "tolerance" in res:
             doc["tolerance"] = res["tolerance"]
         return doc
@@ -493,7 +489,7 @@ class DesignStudy(ResultDocument):
         saved to `path` (closed then) when given."""
         import matplotlib.pyplot as plt
 
-        from stickslip_jax.output import save_figure
+        from ..report.plots import finish_figure
 
         path = self.output_path(path, "plot")
         res, o = self.maps, self.options
@@ -534,10 +530,7 @@ class DesignStudy(ResultDocument):
         fig.suptitle(f"{_METHOD_TITLE[o.method.value]}{'; ' + fixed if fixed else ''}"
                      f"{boundary}", fontsize=10)
         fig.tight_layout()
-        if path is not None:
-            save_figure(fig, path, dpi=120)
-            plt.close(fig)
-        return fig
+        return finish_figure(fig, path, 120)
 
     def __str__(self) -> str:
         res = self.maps

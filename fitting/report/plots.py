@@ -16,7 +16,7 @@ from .posterior_plots import corner_plot  # noqa: F401 (this module's name for i
 
 import numpy as np
 
-__all__ = ["batch_figure", "corner_plot", "fit_figure", "fitted_traces", "friction_curves", "residual_panel"]
+__all__ = ["batch_figure", "corner_plot", "finish_figure", "fit_figure", "fitted_traces", "friction_curves", "residual_panel"]
 
 
 def _plt():
@@ -25,13 +25,12 @@ def _plt():
     return plt
 
 
-def _finish(fig, path, dpi):
-    """Save and close `fig` when a `path` is given; return the figure either way."""
+def finish_figure(fig, path, dpi):
+    """Save `fig` to `path` (atomically) and close it when a `path` is given; return the
+    figure either way."""
     if path is not None:
-        import matplotlib.pyplot as plt
-
         save_figure(fig, str(path), dpi=dpi)
-        plt.close(fig)
+        _plt().close(fig)
     return fig
 
 
@@ -217,7 +216,7 @@ def fit_figure(fit, unc, records, path=None, max_traces: int | None = None, *,
     _kinetic_panel(fig.add_subplot(mid[1], label="kinetic friction"), fit, colour)
     _parameter_box(fig.add_subplot(mid[2], label="parameters"), fit, unc)
     residual_panel(adequacy(fit), ax=fig.add_subplot(outer[2], label="residuals"))
-    return _finish(fig, path, 110)
+    return finish_figure(fig, path, 110)
 
 
 def _record_panels(fig, specs, fit, records, extra, colour) -> None:
@@ -252,9 +251,8 @@ def _record_panels(fig, specs, fit, records, extra, colour) -> None:
         ax = fig.add_subplot(specs[n + j], label=f"record {name}")
         ax.plot(r.time, r.deflection * 1e3, lw=0.5, color="0.6")
         ax.set_title(f"{name[:36]}\nnot fitted", fontsize=7, color="0.35")
-        ax.text(0.02, 0.97, "\n".join(textwrap.wrap(str(reason), 48)[:4]),
-                transform=ax.transAxes, va="top", fontsize=5.5, color="0.25",
-                bbox=dict(fc="white", ec="0.7", alpha=0.85))
+        ax.text(0.02, 0.97, "\n".join(textwrap.wrap(str(reason), 48)[:4]), transform=ax.transAxes,
+                va="top", fontsize=5.5, color="0.25", bbox=dict(fc="white", ec="0.7", alpha=0.85))
     panels = [a for a in fig.axes if a.get_label().startswith("record ")]
     for a, r in zip(panels, list(records) + [r for r, _ in extra]):
         a.set_xlim(float(r.time[0]), float(r.time[-1]))  # each record over its own time
@@ -459,4 +457,4 @@ def batch_figure(batch, path=None, dpi: int = 120):
     if failed:
         title += "; not fitted: " + ", ".join(failed)
     fig.suptitle(title, fontsize=9)
-    return _finish(fig, path, dpi)
+    return finish_figure(fig, path, dpi)

@@ -157,11 +157,6 @@ def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int 
                 axis.set_major_locator(_inner_locator(n_ticks))
             if isinstance(axis.get_major_formatter(), ScalarFormatter):
                 axis.set_major_formatter(_tick_formatter())
-    if path is not None:
-        import matplotlib.pyplot as plt
+    from .plots import finish_figure
 
-        from stickslip_jax.output import save_figure
-
-        save_figure(fig, str(path), dpi=100)
-        plt.close(fig)
-    return fig
+    return finish_figure(fig, path, 100)
