@@ -47,16 +47,8 @@ from jaxtyping import Array, Float
 from stickslip_jax.friction import Friction, KatoKinetic, KatoStatic
 from stickslip_jax.lsq import free_filter
 
-__all__ = [
-    "AbstractFrictionParams",
-    "NAMES",
-    "UNITS",
-    "CampaignParams",
-    "EmpiricalFriction",
-    "Hold",
-    "free_spec",
-    "natural_values",
-]
+__all__ = ["AbstractFrictionParams", "NAMES", "UNITS", "CampaignParams", "EmpiricalFriction",
+           "Hold", "free_spec"]
 
 NAMES = ("mu_s", "mu_d", "gamma", "m", "delta", "n")
 """Friction parameters of the empirical model (eqs 1 and 3), in reporting order."""
@@ -64,10 +56,8 @@ NAMES = ("mu_s", "mu_d", "gamma", "m", "delta", "n")
 UNITS = {"mu_s": "-", "mu_d": "-", "gamma": "s^-m", "m": "-", "delta": "s^-n", "n": "-"}
 """Unit of each parameter (internal units; dimensionless shown as -)."""
 
-PRIOR_BOUNDS = {
-    "mu_s": (1e-3, 2.0), "mu_d": (1e-3, 2.0), "gamma": (1e-4, 1e3), "m": (0.02, 5.0),
-    "delta": (1e-3, 1e5), "n": (0.02, 5.0),
-}
+PRIOR_BOUNDS = {"mu_s": (1e-3, 2.0), "mu_d": (1e-3, 2.0), "gamma": (1e-4, 1e3), "m": (0.02, 5.0),
+                "delta": (1e-3, 1e5), "n": (0.02, 5.0)}
 """Support of the log-uniform MCMC prior of each parameter of eqs (1), (3) (natural
 units: gamma s^-m, delta s^-n)."""
 
@@ -198,10 +188,8 @@ class EmpiricalFriction(AbstractFrictionParams):
     MODEL: ClassVar[str] = "empirical"
     NAMES: ClassVar[tuple[str, ...]] = NAMES
     UNITS: ClassVar[dict[str, str]] = UNITS
-    LEAVES: ClassVar[dict[str, str]] = {
-        "mu_s": "log_gap", "mu_d": "log_mu_d", "gamma": "log_gamma",
-        "m": "log_m", "delta": "log_delta", "n": "log_n",
-    }
+    LEAVES: ClassVar[dict[str, str]] = {"mu_s": "log_gap", "mu_d": "log_mu_d", "gamma": "log_gamma",
+                                        "m": "log_m", "delta": "log_delta", "n": "log_n"}
     SHAPE_NAMES: ClassVar[tuple[str, ...]] = ("mu_s", "gamma", "m")
     PRIOR_BOUNDS: ClassVar[dict[str, tuple[float, float]]] = PRIOR_BOUNDS
     REGION: ClassVar[str] = ""
@@ -220,11 +208,9 @@ class EmpiricalFriction(AbstractFrictionParams):
                 raise ValueError(f"parameters must be positive: {', '.join(bad)}")
             if not fv["mu_s"] > fv["mu_d"]:
                 raise ValueError(f"need mu_s > mu_d, got mu_s={fv['mu_s']}, mu_d={fv['mu_d']}")
-        return cls(
-            log_mu_d=jnp.log(_f(mu_d)), log_gap=jnp.log(_f(mu_s) - _f(mu_d)),
-            log_gamma=jnp.log(_f(gamma)), log_m=jnp.log(_f(m)),
-            log_delta=jnp.log(_f(delta)), log_n=jnp.log(_f(n)),
-        )
+        return cls(log_mu_d=jnp.log(_f(mu_d)), log_gap=jnp.log(_f(mu_s) - _f(mu_d)),
+                   log_gamma=jnp.log(_f(gamma)), log_m=jnp.log(_f(m)), log_delta=jnp.log(_f(delta)),
+                   log_n=jnp.log(_f(n)))
 
     @classmethod
     def from_friction(cls, friction: Friction) -> EmpiricalFriction:
@@ -235,18 +221,15 @@ class EmpiricalFriction(AbstractFrictionParams):
 
     def friction(self) -> Friction:
         mu_s, mu_d = self.static_levels()
-        static = KatoStatic(
-            mu_s=mu_s, mu_d=mu_d, gamma=jnp.exp(self.log_gamma), m=jnp.exp(self.log_m),
-        )
+        static = KatoStatic(mu_s=mu_s, mu_d=mu_d, gamma=jnp.exp(self.log_gamma),
+                            m=jnp.exp(self.log_m))
         return Friction(static, KatoKinetic(delta=jnp.exp(self.log_delta), n=jnp.exp(self.log_n)))
 
     def values(self) -> Float[Array, "6"]:
         """Natural parameters (mu_s, mu_d, gamma, m, delta, n)."""
         mu_s, mu_d = self.static_levels()
-        return jnp.stack([
-            mu_s, mu_d, jnp.exp(self.log_gamma), jnp.exp(self.log_m),
-            jnp.exp(self.log_delta), jnp.exp(self.log_n),
-        ])
+        return jnp.stack([mu_s, mu_d, jnp.exp(self.log_gamma), jnp.exp(self.log_m),
+                          jnp.exp(self.log_delta), jnp.exp(self.log_n)])
 
     def from_log_values(self, logs) -> EmpiricalFriction:
         """From log natural values (mu_s > mu_d assumed: the gap is floored at 1e-300)."""
@@ -268,10 +251,6 @@ class CampaignParams(eqx.Module):
 
     friction: AbstractFrictionParams
     offset: Float[Array, " R"] = eqx.field(converter=_f)
-
-
-def natural_values(params: CampaignParams) -> Float[Array, " P"]:
-    return params.friction.values()
 
 
 def _floats(values) -> tuple[float, ...]:

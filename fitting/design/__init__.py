@@ -15,6 +15,16 @@
 `stickslip_jax.simulation.simulate_exact`). Units: kgf, mm, s; speeds mm/s.
 """
 
+__all__ = ["Campaign", "LaplaceFit", "Noise", "Plan", "SteadyObservables", "TanhBounded",
+           "candidate_grid", "even_design", "fisher_information", "friction_of", "greedy_design",
+           "laplace_fit", "log_params", "observables", "posterior_sd", "prior_precision",
+           "record_information", "sequential_campaign", "simulate_observations", "PARAMETERS",
+           "DesignMap", "DesignPoints", "InverseDesign", "UncertainMap", "batch_mesh", "collect",
+           "design_map", "design_points", "friction_from_params", "friction_params",
+           "iter_design_map", "load_samples", "map_chunks", "maximum_weight", "minimum_stiffness",
+           "outer", "pad_batch", "propagate", "replicate", "samples_from_csv", "samples_from_json",
+           "save_samples", "shard_batch", "to_host"]
+
 from .chunks import collect, map_chunks
 from .experiment import (
     Campaign,
@@ -50,13 +60,3 @@ from .posterior import (
 )
 from .sharding import batch_mesh, pad_batch, replicate, shard_batch, to_host
 from .uncertainty import UncertainMap, propagate
-
-__all__ = ["Campaign", "LaplaceFit", "Noise", "Plan", "SteadyObservables", "TanhBounded",
-           "candidate_grid", "even_design", "fisher_information", "friction_of", "greedy_design",
-           "laplace_fit", "log_params", "observables", "posterior_sd", "prior_precision",
-           "record_information", "sequential_campaign", "simulate_observations", "PARAMETERS",
-           "DesignMap", "DesignPoints", "InverseDesign", "UncertainMap", "batch_mesh", "collect",
-           "design_map", "design_points", "friction_from_params", "friction_params",
-           "iter_design_map", "load_samples", "map_chunks", "maximum_weight", "minimum_stiffness",
-           "outer", "pad_batch", "propagate", "replicate", "samples_from_csv", "samples_from_json",
-           "save_samples", "shard_batch", "to_host"]

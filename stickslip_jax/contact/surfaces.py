@@ -64,11 +64,6 @@ class Surface(eqx.Module):
         dimensionless; `unit_length` $L_u$ in mm (1 mm in the paper)."""
         return self.D * (self.R / self.H_max) * self.z * unit_length
 
-    def distribution(self, x: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
-        r"""Distribution function $\phi(x) = D x / H_{max}$ (eq 29, linear, m = 1): the
-        fraction of asperities whose tips lie within depth `x` (mm) of the highest tip."""
-        return self.D * jnp.asarray(x, dtype=float) / self.H_max
-
     @classmethod
     def from_table(cls, name: str) -> Surface:
         """A surface of Table 10 by name (S1-S5 sliders, G1-G5 slideways)."""
