@@ -23,7 +23,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
-from .numerics import as_float
+from .numerics import as_float, is_concrete
 
 
 class AbstractDrive(eqx.Module):
@@ -77,14 +77,7 @@ class SpeedProgram(AbstractDrive):
     speeds: Float[Array, " K"] = eqx.field(converter=as_float)
 
     def __check_init__(self):
-        if self.start_times.ndim != 1 or self.speeds.shape != self.start_times.shape:
-            raise ValueError(
-                "SpeedProgram: start_times and speeds must be 1-D arrays of the same length"
-            )
-        if self.start_times.shape[0] < 1:
-            raise ValueError("SpeedProgram: needs at least one (start_time, speed) pair")
-        if _concrete(self.start_times) and np.any(np.diff(np.asarray(self.start_times)) <= 0):
-            raise ValueError("SpeedProgram: start_times must increase strictly")
+        _check_knots("SpeedProgram", ("start_times", "speeds"), self.start_times, self.speeds, 1)
 
     def knots(self):
         dt = jnp.diff(self.start_times)
@@ -103,24 +96,22 @@ class MeasuredDrive(AbstractDrive):
     positions: Float[Array, " N"] = eqx.field(converter=as_float)
 
     def __check_init__(self):
-        if self.times.ndim != 1 or self.positions.shape != self.times.shape:
-            raise ValueError("MeasuredDrive: times and positions must be 1-D, same length")
-        if self.times.shape[0] < 2:
-            raise ValueError("MeasuredDrive: needs at least two samples")
-        if _concrete(self.times) and np.any(np.diff(np.asarray(self.times)) <= 0):
-            raise ValueError("MeasuredDrive: times must increase strictly")
+        _check_knots("MeasuredDrive", ("times", "positions"), self.times, self.positions, 2)
 
     def knots(self):
         s = jnp.diff(self.positions) / jnp.diff(self.times)
         return self.times, self.positions, jnp.concatenate([s, jnp.zeros((1,))])
 
 
-def _concrete(x) -> bool:
-    try:
-        np.asarray(x)
-        return True
-    except Exception:  # a tracer
-        return False
+def _check_knots(owner: str, names, times, values, least: int) -> None:
+    """ValueError unless `times` and `values` are 1-D of one length, at least `least`
+    samples, with `times` increasing strictly (where concrete)."""
+    if times.ndim != 1 or values.shape != times.shape:
+        raise ValueError(f"{owner}: {' and '.join(names)} must be 1-D arrays of the same length")
+    if times.shape[0] < least:
+        raise ValueError(f"{owner}: needs at least {least} sample{'s' * (least > 1)}")
+    if is_concrete(times) and np.any(np.diff(np.asarray(times)) <= 0):
+        raise ValueError(f"{owner}: {names[0]} must increase strictly")
 
 
 def drive_from_record(record) -> AbstractDrive:

@@ -36,7 +36,7 @@ def test_bad_drives_raise():
         SpeedProgram([0.0, 0.0], [1.0, 2.0])
     with pytest.raises(ValueError, match="same length"):
         SpeedProgram([0.0, 1.0], [1.0])
-    with pytest.raises(ValueError, match="two samples"):
+    with pytest.raises(ValueError, match="at least 2 samples"):
         MeasuredDrive([0.0], [0.0])
 
 
