@@ -43,7 +43,7 @@ def rate_state_campaign(seed: int):
 
 
 def paper_campaign(seed: int):
-    """Two records (1 and 3 mm/min, 10 s, 1 kHz, noise 0.5 um) of eqs (1), (3) drawn from
+    """Two records (3 and 6 mm/min, 10 s, 1 kHz, noise 0.5 um) of eqs (1), (3) drawn from
     mu_d U(0.15, 0.25), mu_s - mu_d U(0.15, 0.3), gamma log-uniform 0.1-1, m U(0.3, 0.6),
     delta log-uniform 30-100, n U(0.8, 1.2)."""
     from stickslip_jax.records import Record
@@ -55,7 +55,7 @@ def paper_campaign(seed: int):
                             float(np.exp(rng.uniform(np.log(30.0), np.log(100.0)))),
                             rng.uniform(0.8, 1.2))
     out = []
-    for i, v in enumerate((1.0, 3.0)):
+    for i, v in enumerate((3.0, 6.0)):
         tr = paper_gen.simulate(fr, weight=W, stiffness=K, speed_mm_min=v, duration=10.0,
                                 rate_hz=1000.0, seed=100 * seed + i)
         out.append(Record.from_arrays(tr.time, tr.deflection, stiffness=K, weight=W,

@@ -265,6 +265,32 @@ def latch_acceleration(applied, r, N, mu0, mu_slip, drop, smoothing, shift=0.0):
     return s_w, force
 
 
+def slip_friction(friction, memory, ydot, slip_time):
+    """Kinetic friction coefficient of a slip: a law of the velocity at `ydot` (mm/s), else
+    the mean kinetic friction of the breakaway level `memory` and the slip time (s)."""
+    if isinstance(friction.kinetic, AbstractVelocityKinetic):
+        return friction.kinetic.at_velocity(ydot, memory, friction.mu_d)
+    return friction.kinetic(memory, friction.mu_d, slip_time)
+
+
+def rate_state_rates(friction, core: Core, applied, N, M):
+    r"""Rate-and-state law (module docstring): $\ddot y$ (mm/s^2) under the applied force
+    (kgf) and normal load N (kgf), $\dot\theta$, and 0 for the constant fourth state."""
+    kin = friction.kinetic
+    mu = kin.coefficient(core.ydot, core.tau, friction.mu_d)
+    return (applied - N * mu) / M, kin.state_rate(core.ydot, core.tau), 0.0 * core.mu_0_memory
+
+
+def rate_state_start(slideway: Slideway, omega, v_drive, x0, stick_time):
+    r"""Initial core state of a rate-and-state law (module docstring): $\theta = D_c/v_s$ plus
+    `stick_time` (s), $v_s = \max(\omega_0|x_0|, v_{drive})$, and the velocity (mm/s) at
+    which the law balances the spring's $k x_0$ (mm, kgf/mm)."""
+    fr = slideway.friction
+    theta0 = stick_time + fr.kinetic.d_c / jnp.maximum(omega * jnp.abs(x0), v_drive)
+    v0 = fr.kinetic.velocity_at(slideway.stiffness * x0 / slideway.load, theta0, fr.mu_d)
+    return jnp.stack([x0, v0, theta0, fr.mu_d + 0.0 * x0])
+
+
 def simulate_smooth(
     model: SmoothModel | Slideway,
     drive: AbstractDrive,
@@ -285,27 +311,24 @@ def simulate_smooth(
 ) -> Trace:
     r"""Simulate the smoothed model (module docstring) on the sample times `ts` (s).
 
-    - `model`: a `SmoothModel`, or a `Slideway` (then no extra parts).
-    - `drive`: any `AbstractDrive`; its knots are step-size jump points when there are
-      at most 256 of them.
+    - `model`: a `SmoothModel`, or a `Slideway` (then no extra parts); `drive`: any
+      `AbstractDrive` (its knots are step-size jump points when there are at most 256).
     - `smoothing`: dimensionless $\eta$ (default `DEFAULT_SMOOTHING` = 1e-3; gradients are
       verified against finite differences: rigid stick at 1e-3 with rtol 1e-10, velocity
       for $\eta \ge$ 0.03 at rtol <= 1e-9, latch for 1e-4 ... 1e-2 at rtol <= 1e-9);
       `slip_time`: `SlipTime.PAPER` ("paper") or seconds.
-    - `rtol`, `atol` (mm, mm/s), `solver` (default Kvaerno5; Tsit5 for "latch"),
-      `max_steps`, `adjoint` (default `RecursiveCheckpointAdjoint`), `dt0` (s, default
-      automatic).
-    - `formulation`: a `stickslip_jax.modes.Formulation` or its value: "latch" (default),
-      "rigid_stick" or "velocity" (module docstring;
-      "latch" is not stiff and 45-60 times cheaper than "rigid_stick" on the benchmark
-      campaign; its cost grows with `max_steps`, size that to the need).
+    - `rtol`, `atol` (mm, mm/s), `solver` (default Kvaerno5; Tsit5 for "latch"), `max_steps`,
+      `adjoint` (default `RecursiveCheckpointAdjoint`), `dt0` (s, default automatic).
+    - `formulation`: a `Formulation` or its value: "latch" (default; not stiff, 45-60 times
+      cheaper than "rigid_stick" on the benchmark campaign, its cost grows with `max_steps`),
+      "rigid_stick" or "velocity" (module docstring).
     - The slider starts at rest with `initial_deflection` (mm), stuck for
-      `initial_stick_time` (s), at `ts[0]`.
+      `initial_stick_time` (s), at `ts[0]` (a rate-and-state law: module docstring).
 
-    Returns a `Trace`: `deflection` is what the measurement part observes (mm,
-    noise-free), `slider_velocity` (mm/s), `sticking` = $|\dot y| < 3\varepsilon$,
-    `cycles` estimated from the samples (`cycles_from_samples`), `result`
-    (`solver_failed` if diffrax did not succeed), `num_events` = accepted steps.
+    Returns a `Trace`: `deflection` is what the measurement part observes (mm, noise-free),
+    `slider_velocity` (mm/s), `sticking` = $|\dot y| < 3\varepsilon$, `cycles` estimated from
+    the samples (`cycles_from_samples`), `result` (`solver_failed` if diffrax did not
+    succeed), `num_events` = accepted steps.
     """
     if isinstance(model, Slideway):
         model = SmoothModel(model)
@@ -357,7 +380,6 @@ def simulate_smooth(
         )
 
     rigid = formulation is not Formulation.VELOCITY and not rs
-    kinetic = friction.kinetic
 
     def make_core(cv):
         # rigid_stick and latch keep the stick time of the last stick (s) as its 4th state and hands
@@ -375,18 +397,13 @@ def simulate_smooth(
         N = model.load.normal_load(t, core, own[n_force], ctx)
         ctx = eqx.tree_at(lambda c: c.normal_load, ctx, N)
         mu0 = static(core.tau)
-        if isinstance(kinetic, AbstractVelocityKinetic):
-            mu_sl = kinetic.at_velocity(core.ydot, core.mu_0_memory, friction.mu_d)
-        else:
-            mu_sl = kinetic(core.mu_0_memory, friction.mu_d, T2)
+        mu_sl = slip_friction(friction, core.mu_0_memory, core.ydot, T2)
         tau, memory = y[0][2], y[0][3]
         r = core.ydot / eps
         extra = sum((f.force(t, core, o, ctx) for f, o in zip(model.force_terms, own)),
                     jnp.zeros(()))
         if rs:
-            ydd = (k * core.x + extra - N * kinetic.coefficient(core.ydot, tau, friction.mu_d)) / M
-            d_tau = kinetic.state_rate(core.ydot, tau)
-            d_memory = 0.0 * memory
+            ydd, d_tau, d_memory = rate_state_rates(friction, core, k * core.x + extra, N, M)
         elif latch:
             applied = k * core.x + extra
             drop = _drop_scale(mu0)
@@ -429,16 +446,9 @@ def simulate_smooth(
         d_own = tuple(p.state_derivative(t, core, o, ctx) for p, o in zip(parts, own))
         return d_core, d_own
 
-    tau0 = jnp.asarray(initial_stick_time, dtype=float)
-    x0 = jnp.asarray(initial_deflection, float) + 0.0 * W
-    if rs:  # module docstring: the state and velocity at which the law holds the spring
-        v_s = jnp.maximum(omega * jnp.abs(x0), smoothing_velocity(drive, 1.0))
-        theta0 = tau0 + kinetic.d_c / v_s
-        v0 = kinetic.velocity_at(k * x0 / W, theta0, friction.mu_d)
-        core0 = jnp.stack([x0, v0, theta0 + 0.0 * W, friction.mu_d + 0.0 * W])
-    else:
-        core0 = jnp.stack([x0, 0.0 * W, tau0 + 0.0 * W,
-                           (tau0 if rigid else static(tau0)) + 0.0 * W])
+    tau0, x0 = (jnp.asarray(v, float) + 0.0 * W for v in (initial_stick_time, initial_deflection))
+    core0 = rate_state_start(sw, omega, smoothing_velocity(drive, 1.0), x0, tau0) if rs else (
+        jnp.stack([x0, 0.0 * W, tau0 + 0.0 * W, (tau0 if rigid else static(tau0)) + 0.0 * W]))
     ctx0 = context(t0)
     y0 = (core0, tuple(p.init_state(ctx0) for p in parts))
 
