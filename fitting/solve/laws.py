@@ -116,8 +116,16 @@ def fit_law(features, records, law: FrictionLaw, *, hold: Hold | None = None,
     spec = free_spec(trials[0], hold=hold, offsets=modes.offset is GaugeOffset.START)
     best = None
     for i in order[:RETRIES]:  # the next start only while the fit misses the records far
-        fit = fit_objective(obj, trials[i], spec, solver=solver.refine(), base=first)
+        if not np.isfinite(scores[i]):
+            break
+        try:
+            fit = fit_objective(obj, trials[i], spec, solver=solver.refine(), base=first)
+        except eqx.EquinoxRuntimeError:  # the simulation failed inside the solve (non-finite)
+            continue
         best = fit if best is None or fit.chi2 < best.chi2 else best
         if best.reduced_chi2 < FAR_MISS:
             break
+    if best is None:
+        raise ValueError(f"--law {law}: no start of the law could be simulated through the "
+                         "records (the smoothed simulator failed at every start)")
     return best
