@@ -16,7 +16,8 @@ from .posterior_plots import corner_plot  # noqa: F401 (this module's name for i
 
 import numpy as np
 
-__all__ = ["batch_figure", "corner_plot", "finish_figure", "fit_figure", "fitted_traces", "friction_curves", "residual_panel"]
+__all__ = ["batch_figure", "corner_plot", "finish_figure", "fit_figure", "fitted_traces",
+           "friction_curves", "residual_panel"]
 
 
 def _plt():
