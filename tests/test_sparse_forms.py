@@ -83,12 +83,26 @@ def test_slip_terms_are_the_response_to_a_force():
     assert np.all(C[t <= 0.05, stick] == 1.0) and np.all(C[t > 0.05, stick] == 0.0)
 
 
+def test_backlash_holds_the_spring_for_the_play_after_every_slip():
+    """The independent generator's backlash: after each slip the deflection stays flat
+    while the drive takes up its play b (b/v), then climbs at the drive speed."""
+    b, v = 0.005, 5.0 / 60.0
+    tr = ir.simulate(ir.LUBRICANT_A, weight=36.0, stiffness=86.9, speed_mm_min=5.0,
+                     duration=6.0, rate_hz=1000.0, physics=ir.Physics(backlash_mm=b))
+    for te in tr.slip_ends[1:3]:
+        i = int(np.ceil(te * 1000.0)) + 1
+        flat = tr.clean[i:i + int(0.9 * b / v * 1000.0)]
+        assert np.ptp(flat) < 1e-9
+        climb = tr.clean[i + int(1.2 * b / v * 1000.0):][:100]
+        assert np.diff(climb).mean() == pytest.approx(v / 1000.0, rel=1e-3)
+
+
 # ---- campaigns with effects outside the library (slow) --------------------------------
 
 OUTSIDE = {
     # (generator arguments, the phase and the variable the words must name)
     "creep": (dict(imp=ir.Imperfections(creep_mm=0.003)), "stick", "breakaway"),
-    "hardening": (dict(physics=ir.Physics(hardening=0.1)), "slip", "deflection"),
+    "hardening": (dict(physics=ir.Physics(hardening=0.5)), "slip", "deflection"),
     "backlash": (dict(physics=ir.Physics(backlash_mm=0.005)), "stick", "time since"),
 }
 

@@ -109,6 +109,8 @@ class CycleDiscovery(Discovery):
     records_scaled: list = dataclasses.field(default_factory=list)
     windows_set_aside: list = dataclasses.field(default_factory=list)
     learned: CycleLearned | None = None
+    sparse_form: object = None
+    """The sparse form of the residual (`sparse.SparseForm`), where one was fitted."""
     gap_all_before: float = float("nan")
     gap_all_after: float = float("nan")
     """The residual RMS (mm) over every record used, those weighed by their scatter
@@ -140,7 +142,9 @@ class CycleDiscovery(Discovery):
                 "records_scaled": self.records_scaled,
                 "windows_set_aside": self.windows_set_aside,
                 "learned_correction": (self.learned.to_json() if self.learned is not None
-                                       else None)}
+                                       else None),
+                "sparse_form": (self.sparse_form.to_json() if self.sparse_form is not None
+                                else None)}
 
 
 @dataclasses.dataclass(kw_only=True)

@@ -12,6 +12,7 @@ from ..decision import rms_by_phase, rms_gap
 from ..flips import FLIPS
 from ..result import CycleDiscovery, effect_estimate, explanation_text, phase_misfit, phase_text
 from .base_fit import friction_values
+from .form import form_text, outside_form
 from .state import Choice, Clock, Fits, Refitted, Reweighed
 
 __all__ = ["conclude"]
@@ -123,11 +124,17 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
     gap_after = rms_gap(r1[described], sd_after[described])
     gap_all_after = rms_gap(r1, sd_after)
     effect, confidence = _verdict(fx, choice, chosen, gap_after)
+    form, by_form = outside_form(fx, effect, confidence, gap_after)
+    if by_form:  # answered by its form (`stages.form`): the base with the form's terms
+        named, effect, confidence, chosen, sd_after = effect, "sparse_form", "low", None, sd
+        z_after, r1, final_fit, shape, sensor = form.z, form.r, base.fit, Shape(), False
+        gap_after, gap_all_after = form.gap_after, rms_gap(form.r, sd)
     phases_before = rms_by_phase(r0 * sd, base.slipping, sd)
     phases_after = rms_by_phase(r1 * sd_after, base.slipping, sd_after)
     pattern = max(phases_before, key=lambda k: phases_before[k]["rms"] or 0.0)
-    explanation = explanation_text(effect, chosen, choice.decision, gap_before, gap_after, noise,
-                           pattern, phases_before, opts.explained_gap)
+    explanation = (form_text(form, named) if by_form else explanation_text(
+        effect, chosen, choice.decision, gap_before, gap_after, noise, pattern, phases_before,
+        opts.explained_gap))
     if effect != "unexplained":
         # a phase the answer leaves above the noise, said (and "none" is then not certain
         # where that phase exceeds its own standard errors)
@@ -145,7 +152,7 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
                         f"{learned.signature}.")
         clock("learned", f"gap {gap_before * 1e3:.3g} -> {learned.gap_after * 1e3:.3g} um "
                          f"({100 * learned.closes:.0f} % of the excess)")
-    explanation += _notes(fx, chosen, after.reweighed, gap_all_after)
+    explanation += _notes(fx, chosen, after.reweighed if chosen else [], gap_all_after)
     cand_json = _candidates(fx.ranking.scores, refitted.refits, choice.compared)
     rows_before, rows_after = (DiscoveryEstimates.value_rows(friction_values(z),
                                                              EmpiricalFriction.UNITS)
@@ -168,10 +175,11 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
         effect_estimates=_effect_rows(chosen, prep.G),
         effect_of=chosen.family.name if chosen is not None else "",
         # partners of a named effect only (an unexplained gap has no name to share)
-        indistinguishable_from=choice.rivals if effect not in ("none", "unexplained") else [],
+        indistinguishable_from=(choice.rivals if effect not in ("none", "unexplained",
+                                                                 "sparse_form") else []),
         phases_before=phases_before,
         phases_after=phases_after, timings=clock.timings, base_fit=base.fit,
         final_fit=final_fit, campaign=prep.campaign, model=base.model, z_before=base.z,
         z_after=z_after, shape=shape, sensor=sensor, records_scaled=base.scaled_notes,
-        windows_set_aside=prep.windows_set_aside, learned=learned,
+        windows_set_aside=prep.windows_set_aside, learned=learned, sparse_form=form,
         gap_all_before=base.gap_all_before, gap_all_after=gap_all_after)

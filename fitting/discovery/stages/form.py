@@ -1,0 +1,34 @@
+"""The answer by its form (`discovery.sparse`), within stage 7 (`learn.conclude`): when
+the gap is unexplained, or a family is named with low confidence, the sparse form of the
+base residual is fitted; it answers ("sparse_form") when it is found and leaves less
+than the family named."""
+
+from __future__ import annotations
+
+from ..sparse import SparseForm, fit_sparse_form
+from .state import Fits
+
+__all__ = ["form_text", "outside_form"]
+
+
+def outside_form(fx: Fits, effect: str, confidence: str, gap_after: float
+                 ) -> tuple[SparseForm | None, bool]:
+    """The sparse form where the answer asks for one (module doc), else None, and
+    whether it answers."""
+    base = fx.base
+    if effect == "none" or (effect != "unexplained" and confidence == "high"):
+        return None, False
+    form = fit_sparse_form(base.model, base.z, base.r, base.fit.J[:base.n], base.noise,
+                           base.described)
+    return form, form.found and (effect == "unexplained" or form.gap_after < gap_after)
+
+
+def form_text(form: SparseForm, named: str) -> str:
+    """The answer in words: the form, the gaps, and the family it outdoes."""
+    um = 1e3
+    return (f"A form outside the library: {form.formula}. Refitted with the base "
+            f"parameters it lowers the residual RMS from {form.gap_before * um:.3g} um to "
+            f"{form.gap_after * um:.3g} um (noise {form.noise * um:.3g} um), closing "
+            f"{100 * form.closes:.0f} % of its excess"
+            + ("" if named == "unexplained" else
+               f"; more than the best library family, {named}") + ".")
