@@ -1,7 +1,7 @@
 """The comparison of base friction laws (`stickslip_fitting.discovery.laws.compare_laws`) on
 records from independent generators: rate-and-state records (tests/rate_state_generator.py)
-and records of the paper's law (tests/independent_records.py). One campaign each way here;
-the rates over many campaigns are @pytest.mark.slow."""
+and records of the paper's law (tests/independent_records.py). One campaign each way in the
+slow step; the rates over many campaigns are marked `targets` (too long for CI)."""
 
 from __future__ import annotations
 
@@ -71,12 +71,14 @@ def _check(cmp: LawComparison, truth: FrictionLaw):
     return cmp.preferred is truth
 
 
+@pytest.mark.slow  # several minutes each on 2 cores: a rate-and-state fit per campaign
 def test_rate_state_records_prefer_rate_state():
     cmp = compare_laws(rate_state_campaign(0), LAWS, pad_to=PAD, solver=SOLVER)
     assert _check(cmp, FrictionLaw.RATE_STATE_AGING), cmp.message
     assert cmp.paper_wrong_base and "wrong base" in cmp.message
 
 
+@pytest.mark.slow
 def test_paper_records_prefer_the_paper():
     cmp = compare_laws(paper_campaign(0), LAWS, pad_to=PAD, solver=SOLVER)
     assert _check(cmp, FrictionLaw.PAPER), cmp.message
@@ -89,6 +91,7 @@ def test_hold_out_is_checked():
 
 
 @pytest.mark.slow
+@pytest.mark.targets  # 20 campaigns: about 20 minutes on 16 cores, hours on 2; not in CI
 @pytest.mark.parametrize("make,truth", [(rate_state_campaign, FrictionLaw.RATE_STATE_AGING),
                                         (paper_campaign, FrictionLaw.PAPER)])
 def test_preference_rates(make, truth):
