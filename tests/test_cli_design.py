@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.commands.design import parse_grid
+from stickslip_fitting.api.design import parse_grid
 from stickslip_fitting.design import design_map, friction_from_params, friction_params, outer, save_samples
 from stickslip_jax.cli import main
 

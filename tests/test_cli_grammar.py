@@ -308,21 +308,17 @@ print(json.dumps({"times": times, "heavy": heavy}))
 
 def test_help_is_built_without_jax():
     """`stickslip SUB --help` imports neither JAX nor the model code (importing JAX
-    to build the parser would take 2-3 s)."""
+    to build the parser would take 2-3 s; the time itself is a benchmark's job, not a
+    test's)."""
     import subprocess
     import sys
-    import time
 
-    t0 = time.perf_counter()
     run = subprocess.run([sys.executable, "-c", _HELP_EVERYWHERE, *sorted(COMMANDS)],
                          capture_output=True, text=True, timeout=120)
-    wall = time.perf_counter() - t0
     assert run.returncode == 0, run.stderr
     doc = json.loads(run.stdout.strip().splitlines()[-1])
     assert doc["heavy"] == [], doc["heavy"]
-    # the first help includes the imports of the package and every command module
-    assert max(doc["times"].values()) < 1.0, doc["times"]
-    assert wall < 5.0, wall
+    assert set(doc["times"]) == set(COMMANDS)
 
 
 @pytest.mark.parametrize("jax_first", [False, True])

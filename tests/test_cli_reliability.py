@@ -57,6 +57,8 @@ def test_a_figure_name_is_checked_before_the_fit(tmp_path, capsys):
     (["mcmc", "{d}", "--surface", "S2G2"], ["--surface", "--model microsqueeze"]),
     (["fit-batch", "{d}", "--fix", "mu_s=5"], ["--fix", "mu_s", "physical range"]),
     (["fit-batch", "{d}", "--surface", "S1G1"], ["--surface", "--model microsqueeze"]),
+    (["discover", "{d}", "--threshold", "5"], ["--threshold", "--base smooth"]),
+    (["discover", "{d}", "--crop", "none"], ["--crop", "--base smooth"]),
 ])
 def test_options_that_cannot_act_or_are_out_of_range_exit_2(tmp_path, capsys, argv, words):
     copy_records(tmp_path, EXAMPLES[:2])

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..api.design import CSV_COLUMNS, JSON_ALIASES, parse_grid  # noqa: F401  (the map's contract)
 from ..modes import MapMethod
 
 NAME = "design"

@@ -49,11 +49,11 @@ def add_arguments(parser):
     add_quiet_option(parser)
     parser.add_argument("--top", type=int, default=3,
                         help="how many candidates to refit after the score test (default 3)")
-    parser.add_argument("--threshold", type=float, default=10.0,
+    parser.add_argument("--threshold", type=float, default=None,
                         help="--base smooth: BIC drop needed to name an effect (default 10)")
     parser.add_argument("--only", action="append", choices=CHOICES, default=None,
                         metavar="EFFECT", help="consider only these effects (repeatable)")
-    parser.add_argument("--crop", choices=("slip_end", "none"), default="slip_end",
+    parser.add_argument("--crop", choices=("slip_end", "none"), default=None,
                         help="--base smooth: start each record at its first slip end "
                         "(default) or use it whole (it must start just after a slip)")
     parser.add_argument("--max-evals", type=int, default=80,
@@ -69,6 +69,11 @@ def add_arguments(parser):
                         "the cycle phase (always fitted when the answer is 'unexplained'; "
                         "--learn fits it whatever the answer); with --base smooth an MLP "
                         "friction force, when no effect explains the data")
+    parser.add_argument("--compare-laws", action="store_true",
+                        help="also fit the base friction laws (the paper's eqs 1 and 3, "
+                        "rate-and-state with aging, logarithmic aging) to the same records "
+                        "on the smoothed simulator and say which describes them best (BIC "
+                        "and held-out cycles; minutes); JSON key 'laws'")
 
 
 def run(args) -> int:
@@ -78,7 +83,14 @@ def run(args) -> int:
         raise ValueError(f"--top: must be at least 1, got {args.top}")
     if args.max_evals < 2:
         raise ValueError(f"--max-evals: must be at least 2, got {args.max_evals}")
-    if not args.threshold >= 0:
+    from stickslip_fitting.modes import DiscoveryBase
+
+    cycle = DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE
+    for option, value in (("--threshold", args.threshold), ("--crop", args.crop)):
+        if cycle and value is not None:
+            raise ValueError(f"{option}: acts only with --base smooth; add --base smooth or "
+                             f"leave {option} out")
+    if args.threshold is not None and not args.threshold >= 0:
         raise ValueError(f"--threshold: must be >= 0, got {args.threshold}")
     if not 0 < args.alpha < 1:
         raise ValueError(f"--alpha: must be between 0 and 1, got {args.alpha}")
@@ -91,14 +103,16 @@ def run(args) -> int:
                   [r.source for r in records if r.source] + [e.path for e in unreadable])
     if len(records) + len(unreadable) < 2:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
-    from stickslip_fitting.modes import DiscoveryBase
-
     from ..objectives.losses import parse_loss
 
     loss = parse_loss(args.loss)
-    cycle = DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE
-    result, extra = (_run_cycle if cycle else _run_smooth)(args, records, loss, unreadable)
+    result, extra, campaign = (_run_cycle if cycle else _run_smooth)(args, records, loss,
+                                                                      unreadable)
     print(answer_text(result))
+    if args.compare_laws:
+        laws = _compare_laws(campaign)
+        print(laws.message)
+        extra["laws"] = laws.to_json()
     if args.json:
         write_json(args.json, {**json_document(result), **extra})
     if args.plot:
@@ -176,7 +190,7 @@ def candidate_table(candidates) -> str:
 def _run_smooth(args, records, loss, unreadable):
     """The whole-record discovery on the smoothed simulator (`--base smooth`), on the
     records with usable stick-slip (the others listed on stderr): the result and the
-    keys the command adds to its document."""
+    keys the command adds to its document, and the screened campaign."""
     import sys
 
     from stickslip_jax.logs import logger
@@ -193,10 +207,24 @@ def _run_smooth(args, records, loss, unreadable):
         print("warning: " + w, file=sys.stderr)
     logger.info(f"discovery on {len(campaign.records)} records (base smooth: minutes)...")
     result = discover(campaign.records, candidates=tuple(args.only or CANDIDATES),
-                      top=args.top, threshold=args.threshold, crop=args.crop,
+                      top=args.top, threshold=10.0 if args.threshold is None else args.threshold,
+                      crop=args.crop or "slip_end",
                       learn=args.learn, max_evals=args.max_evals,
                       progress=None if args.quiet else logger.info)
-    return result, {"records_screened": [x.to_json() for x in campaign.screening]}
+    return result, {"records_screened": [x.to_json() for x in campaign.screening]}, campaign
+
+
+def _compare_laws(campaign):
+    """The base friction laws fitted to the records discovery used
+    (`discovery.laws.compare_laws`)."""
+    from stickslip_jax.logs import logger
+
+    from ..discovery.laws import compare_laws
+    from ..modes import FrictionLaw
+
+    logger.info("comparing the base friction laws on the smoothed simulator (minutes)...")
+    return compare_laws(campaign.records, (FrictionLaw.PAPER, FrictionLaw.RATE_STATE_AGING,
+                                           FrictionLaw.LOG_AGING), features=campaign.features)
 
 
 def answer_text(result) -> str:
@@ -225,7 +253,8 @@ def smooth_candidate_table(candidates) -> str:
 
 def _run_cycle(args, records, loss, unreadable=()):
     """The per-cycle discovery (`--base cycle`), the records it does not use listed on
-    stderr: the result and the keys the command adds to its document."""
+    stderr: the result, the keys the command adds to its document and the screened
+    campaign."""
     import sys
 
     from ..discovery.cycle_effects import FAMILIES
@@ -250,4 +279,4 @@ def _run_cycle(args, records, loss, unreadable=()):
         if s.status != "used":
             print(f"warning: {s.name}: {s.status.replace('_', ' ')} ({s.reason}); not used",
                   file=sys.stderr)
-    return result, {"loss": loss.spec()}
+    return result, {"loss": loss.spec()}, result.campaign

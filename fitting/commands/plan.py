@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from ..modes import DesignCriterion
-from .design import parse_grid
+from ..api.design import parse_grid
 
 NAME = "plan"
 HELP = ("propose the next records (W, k, v) that best identify mu_s, mu_d, gamma, m, delta, n "
