@@ -125,16 +125,13 @@ def test_fit_batch_says_it_waits_and_gives_up_with_one_line(tmp_path):
     assert "not all 2 processes joined within 3 s" in lines[-1] and len(lines) == 2
 
 
-def test_a_fixed_value_is_reported_exactly():
-    from stickslip_fitting.commands.fit import exact_holds
-
-    report = {"parameters": {"delta": {"value": 66.99999999999997, "fixed": True,
-                                       "truth": 67.0, "relative_error": -4e-16},
-                             "n": {"value": 0.99999, "fixed": False}}}
-    got = exact_holds(report, ["delta=67"])
-    assert got["parameters"]["delta"]["value"] == 67.0
-    assert got["parameters"]["delta"]["relative_error"] == 0.0
-    assert got["parameters"]["n"]["value"] == 0.99999
+def test_a_fixed_value_is_reported_exactly(tmp_path, capsys):
+    """A held value is stored as its logarithm; the report gives back the value given."""
+    copy_records(tmp_path, EXAMPLES[:2])
+    out = tmp_path / "fit.json"
+    assert main(["fit", str(tmp_path), "--fix", "delta=67", "--json", str(out)]) == 0
+    row = json.loads(out.read_text())["parameters"]["delta"]
+    assert row["fixed"] and row["value"] == 67.0
 
 
 def test_ctrl_c_while_drawing_leaves_neither_output(tmp_path, capsys, monkeypatch):

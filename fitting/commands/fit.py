@@ -253,25 +253,6 @@ def parse_fix(items, law=None) -> dict[str, float]:
     return out
 
 
-
-
-def exact_holds(report: dict, fix_items) -> dict:
-    """The report with each `--fix NAME=VALUE` parameter at exactly VALUE (the fit holds
-    its logarithm, which gives 66.99999999999997 back for 67) and its error to the truth
-    from that value."""
-    given = {}
-    for item in fix_items:
-        name, _, value = item.partition("=")
-        given[name.strip()] = float(value)
-    for name, v in given.items():
-        row = report.get("parameters", {}).get(name)
-        if isinstance(row, dict) and row.get("fixed"):
-            row["value"] = v
-            if row.get("truth"):
-                row["relative_error"] = (v - row["truth"]) / row["truth"]
-    return report
-
-
 def run(args) -> int:
     from stickslip_jax.output import check_outputs, versioned, write_json
     from stickslip_jax.records import record_paths
@@ -287,8 +268,7 @@ def run(args) -> int:
     logger.info(f"fit {'converged' if fit.converged else 'did not converge'}; intervals...")
     records = campaign.records
     unc = laplace(fit)
-    report = exact_holds(build_report(fit, unc, campaign, model=args.model, extra=extra),
-                         args.fix)
+    report = build_report(fit, unc, campaign, model=args.model, extra=extra)
     logger.info("report done")
     print(format_table(report))
     for n in campaign.notes:

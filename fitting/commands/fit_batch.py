@@ -112,13 +112,12 @@ def _fit_one(args):
     """fit_one(spec) of `stickslip_fitting.solve.batch.fit_batch`: `stickslip fit`'s path."""
     from ..uncertainty.laplace import laplace
     from ..report.fit_table import build_report
-    from .fit import exact_holds, fit_from_args
+    from .fit import fit_from_args
 
     def fit_one(spec) -> dict:
         one = argparse.Namespace(**{**vars(args), "records": [spec]})
         fit, campaign, extra = fit_from_args(one, objective=args.objective)
-        report = exact_holds(build_report(fit, laplace(fit), campaign, model=args.model,
-                                          extra=extra), args.fix)
+        report = build_report(fit, laplace(fit), campaign, model=args.model, extra=extra)
         report["notes"] = list(campaign.notes)
         return report
 

@@ -90,8 +90,11 @@ class Uncertainty:
         for i, n in enumerate(self.identifiable):
             ok = bool(self.identifiable[n])
             shown = ok and bool(self.free[i])
+            # a held value is stored as its logarithm: 15 digits give back the value
+            # given (67, not 66.99999999999997)
+            value = float(self.value[i]) if self.free[i] else float(f"{self.value[i]:.15g}")
             rows.append(ParameterEstimate(
-                name=n, unit=self.units[n], value=float(self.value[i]),
+                name=n, unit=self.units[n], value=value,
                 stderr=float(self.stderr[i]) if shown else None,
                 ci95=(float(self.ci95[i, 0]), float(self.ci95[i, 1])) if shown else None,
                 fixed=not bool(self.free[i]), identifiable=ok,
