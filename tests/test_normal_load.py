@@ -170,3 +170,17 @@ def test_limit_cycle_with_a_normal_load():
     assert float(damped.amplitude) == pytest.approx(float(twin.amplitude) * N / W, rel=1e-12)
     assert float(limit_cycle(FR, W, K, V, normal_load=W).amplitude) == float(
         limit_cycle(FR, W, K, V).amplitude)
+
+
+def test_simulate_command_takes_a_normal_load(tmp_path):
+    """`stickslip simulate --normal-load` writes a record whose load is N and whose truth
+    carries it; W stays the moving weight."""
+    from stickslip_jax.cli import main
+    from stickslip_jax.records import read_record
+
+    out = tmp_path / "n.csv"
+    assert main(["simulate", "--weight", "36", "--normal-load", "588.4 N", "--stiffness",
+                 "86.9", "--speed", "5", "--duration", "1", "--out", str(out)]) == 0
+    rec = read_record(out)
+    assert rec.weight == 36.0 and abs(rec.normal_load - 60.0) < 1e-3
+    assert abs(rec.truth["friction"]["normal_load_kgf"] - 60.0) < 1e-3

@@ -18,6 +18,10 @@ def add_arguments(p):
                    help="slider weight W (kgf, or with unit: '353 N')")
     p.add_argument("--stiffness", type=quantity("stiffness", "kgf/mm"), required=True,
                    help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
+    p.add_argument("--normal-load", type=quantity("force", "kgf"), default=None,
+                   help="normal load N pressing the slider on the slideway, when a dead "
+                        "weight or a cylinder sets it apart from the moving weight (kgf, or "
+                        "with unit; default W)")
     p.add_argument("--speed", type=quantity("speed", "mm/min"),
                    help="constant drive speed v (mm/min unless a unit is given)")
     p.add_argument("--drive-program", default=None,
@@ -77,7 +81,10 @@ def run(args) -> int:
         drive = SpeedProgram(starts, speeds)
     if os.path.exists(args.out) and not args.overwrite:  # after the values, before the work
         raise ValueError(f"--out: {args.out} exists; use --force to replace it")
-    slideway = Slideway(lubricant(args.lubricant), args.weight, args.stiffness)
+    if args.normal_load is not None and not args.normal_load > 0:
+        raise ValueError(f"--normal-load: must be positive, got {args.normal_load:g} kgf")
+    slideway = Slideway(lubricant(args.lubricant), args.weight, args.stiffness,
+                        normal_load=args.normal_load)
     record = synthetic_record(
         slideway, drive, args.duration, args.sample_rate, noise_std=args.noise,
         seed=args.seed, smoothing=args.smooth, max_events=args.max_events,
