@@ -1,5 +1,5 @@
 """Shared test set-up: x64, a PRNG key fixture, a tree comparison helper, and JAX's
-persistent compilation cache for the session.
+persistent compilation cache for the test run.
 
 The compiled programs of a run are kept in `.pytest_cache/d/jax-compilation` (JAX's
 persistent compilation cache, programs that took over `CACHE_MIN_COMPILE_S` to
@@ -56,7 +56,7 @@ def allclose_tree():
 
 
 def _compilation_cache(config) -> str:
-    """The session's persistent compilation cache folder ("" for off; module doc)."""
+    """The test run's persistent compilation cache folder ("" for off; module doc)."""
     path = os.environ.get("STICKSLIP_TEST_CACHE_DIR")
     if path is None:  # off when pytest runs without its cache (-p no:cacheprovider)
         cache = getattr(config, "cache", None)
