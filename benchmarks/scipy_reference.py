@@ -73,7 +73,7 @@ def friction_values(friction) -> tuple[float, ...]:
 def values_from_free(v) -> np.ndarray:
     """Natural (mu_s, mu_d, gamma, m, delta, n) from the flat free vector of the fit.
 
-    The fit (`stickslip_fitting.fit`) flattens the free part of `CampaignParams` with
+    The fit (`stickslip_fitting.solve.fit`) flattens the free part of `CampaignParams` with
     `jax.flatten_util.ravel_pytree`: the `EmpiricalFriction` leaves in field order
     (log mu_d, log(mu_s - mu_d), log gamma, log m, log delta, log n), then the gauge
     offsets (mm) if they are free. Entries after the sixth are ignored here.

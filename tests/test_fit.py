@@ -1,4 +1,4 @@
-"""Recovery of the friction parameters from exact-simulator campaigns with noise (stickslip_fitting.fit)."""
+"""Recovery of the friction parameters from exact-simulator campaigns with noise (stickslip_fitting.solve.fit)."""
 
 import dataclasses
 import os

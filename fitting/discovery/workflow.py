@@ -50,7 +50,7 @@ __all__ = ["discover", "initial_friction"]
 
 
 def initial_friction(records) -> EmpiricalFriction:
-    """Features-first starting friction (stickslip_fitting.fit on records with >= 2 complete cycles).
+    """Features-first starting friction (stickslip_fitting.solve.fit on records with >= 2 complete cycles).
 
     Where the campaign cannot separate mu_s from gamma (a degenerate features fit,
     mu_s > 1.5), mu_s is set to 1.5 and gamma chosen to keep mu_0 at the median stick time.
