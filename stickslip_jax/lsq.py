@@ -35,13 +35,16 @@ algorithm, assembled from public optimistix pieces:
 - `least_squares(fn, params, free)` -> `LeastSquaresSolution` (fitted parameters,
   result code, step count, aux): the verb, over the leaves of a parameter pytree that
   `free` selects;
-- `solve_host(evaluate, z0, ...)`: the same rules driven from Python for objectives that
-  are not one traceable function (the discovery workflow evaluates its residuals and
-  Jacobian blocks by several compiled programs).
+- options as objects: `Stall` (stop at an objective's noise floor), `HostResiduals` (an
+  objective that is not one traceable function: the discovery models evaluate residuals
+  and Jacobian blocks by several compiled programs; the verb then drives the same rules
+  from Python), a start damping `lam0` (a warm restart from a solution's `stats["lam"]`);
+  `linearise=True` returns the residuals and Jacobian at the optimum;
+- `solve_host(evaluate, z0, ...)`: the verb over a `HostResiduals`, as a `HostResult`.
 
 Each rule is one function over an array namespace `xp` (`damped_step`,
 `gauss_newton_decrease`, `acceptance`, `nielsen_update`): `jax.numpy` in the pieces,
-`numpy` in `solve_host` (no program compiled per parameter count).
+`numpy` for a `HostResiduals` (no program compiled per parameter count).
 
 ```python
 sol = least_squares(lambda p, _: model(p) - data, params, lambda p: (p.a, p.b))
@@ -68,6 +71,7 @@ from jaxtyping import Array, Bool, Float, Int, PyTree, Scalar
 
 __all__ = [
     "LAMBDA_MAX",
+    "HostResiduals",
     "HostResult",
     "LeastSquaresSolution",
     "LevenbergMarquardt",
@@ -75,6 +79,7 @@ __all__ = [
     "MarquardtState",
     "NielsenDamping",
     "NielsenState",
+    "Stall",
     "acceptance",
     "damped_step",
     "free_filter",
@@ -299,6 +304,15 @@ class NielsenDamping(optx.AbstractSearch):
 
 
 # ------------------------------------------------------------------------ the solver
+class Stall(eqx.Module):
+    """Stopping at an objective's noise floor (objectives with solver noise: below it
+    steps are not worth their cost): a solve ends, successfully, once its last `evals`
+    evaluations lowered the cost by less than `tol` (a chi-square) together."""
+
+    evals: int = eqx.field(default=4, static=True)
+    tol: float = 0.5
+
+
 class _State(eqx.Module):
     y: Float[Array, " P"]  # the accepted point (flat)
     y_try: Float[Array, " P"]  # the point the next step evaluates
@@ -309,6 +323,7 @@ class _State(eqx.Module):
     first: Bool[Array, ""]
     num_steps: Int[Array, ""]
     terminate: Bool[Array, ""]
+    recent: Float[Array, " S"]  # accepted costs of the last Stall.evals + 1 steps
 
 
 def _model(cost, g, A):
@@ -354,6 +369,7 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
       plain Gauss-Newton step (a start where the quadratic model is trusted).
     - `cap`: stop after this many steps (a traced integer; None: only `max_steps`).
     - `active`: boolean mask of the flattened parameters to move (None: all).
+    - `stall`: a `Stall` rule (None: none).
 
     `options={"jac": "bwd"}` builds the Jacobian by reverse mode (residuals through a
     `jax.custom_vjp`); the default is forward mode.
@@ -367,15 +383,18 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     descent: MarquardtDescent
     search: NielsenDamping
     cap: Int[Array, ""] | None
+    stall: Stall | None
     norm: Callable  # optimistix's interface; unused by the stopping rules
 
     def __init__(self, rtol: float, atol: float, rounding: float = 1e-10, lam0=1e-3,
-                 cap=None, active=None, norm: Callable = optx.max_norm):
+                 cap=None, active=None, stall: Stall | None = None,
+                 norm: Callable = optx.max_norm):
         self.rtol = rtol
         self.atol = atol
         self.descent = MarquardtDescent(active=active)
         self.search = NielsenDamping(lam0=lam0, rounding=rounding)
         self.cap = cap
+        self.stall = stall
         self.norm = norm
 
     def init(self, fn, y, args, options, f_struct, aux_struct, tags):
@@ -386,7 +405,9 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         aux0 = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), aux_struct)
         return _State(y=v, y_try=v, f_info=model, aux=aux0, search=self.search.init(v, model),
                       descent=self.descent.init(v, model), first=jnp.array(True),
-                      num_steps=jnp.array(0), terminate=jnp.array(False))
+                      num_steps=jnp.array(0), terminate=jnp.array(False),
+                      recent=jnp.full(1 + (self.stall.evals if self.stall else 0), jnp.inf,
+                                      v.dtype))
 
     def step(self, fn, y, args, options, state: _State, tags):
         _, unravel = ravel_pytree(y)
@@ -409,9 +430,12 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         stop = (accept & (stationary | search.flat)) | (search.lam > LAMBDA_MAX)
         if self.cap is not None:
             stop = stop | (num_steps >= self.cap)
+        recent = jnp.append(state.recent[1:], 2.0 * f_info.f)
+        if self.stall is not None:
+            stop = stop | (recent[0] - 2.0 * f_info.f < self.stall.tol)
         new = _State(y=y_new, y_try=y_new + step, f_info=f_info, aux=aux, search=search,
                      descent=descent, first=jnp.array(False), num_steps=num_steps,
-                     terminate=stop)
+                     terminate=stop, recent=recent)
         return unravel(y_new), new, aux
 
     def terminate(self, fn, y, args, options, state: _State, tags):
@@ -433,16 +457,33 @@ def free_filter(params: PyTree, free=None) -> PyTree:
     return free
 
 
+class HostResiduals(eqx.Module):
+    """An objective evaluated from Python, not one traceable function (its residuals and
+    Jacobian blocks come from several compiled programs): `evaluate(z) -> (r, J, ok)` at a
+    flat vector z (J: [N, P] over all coordinates; ok False where the model failed).
+    `first`: an (r, J, ok) already evaluated at the start. `least_squares` runs the
+    solver's rules over it in NumPy, one evaluation per step (an accepted trial point
+    already carries the next step's Jacobian)."""
+
+    evaluate: Callable
+    first: tuple | None = None
+
+
 class LeastSquaresSolution(eqx.Module):
     """What `least_squares` returns: the fitted `params` (free leaves at the optimum, the
     others as given), the `result` code (`optimistix.RESULTS`), the solver's `stats`
-    (`num_steps`) and the `aux` output of the residual function at the optimum (None
-    without `has_aux`)."""
+    (`num_steps`; over a `HostResiduals` also `lam`, the damping at the end (a warm
+    restart starts there), `history`, the cost of every evaluation, `seconds` and `ok`),
+    the `aux` output of the residual function at the optimum (None without `has_aux`), and
+    the `residuals` and `jacobian` [N, P] there (with `linearise`, or over a
+    `HostResiduals`; None otherwise)."""
 
     params: PyTree
     result: optx.RESULTS
     stats: dict
     aux: Any = None
+    residuals: Any = None
+    jacobian: Any = None
 
     @property
     def successful(self):
@@ -450,31 +491,88 @@ class LeastSquaresSolution(eqx.Module):
 
 
 @eqx.filter_jit
-def _solve(fn, free, static, args, solver, has_aux, max_steps, jac):
-    return optx.least_squares(lambda f, a: fn(eqx.combine(f, static), a), solver, free,
-                              args=args, has_aux=has_aux, max_steps=max_steps, throw=False,
-                              options=dict(jac=jac))
+def _solve(fn, free, static, args, solver, has_aux, max_steps, jac, linearise):
+    def residual(f, a):
+        out = fn(eqx.combine(f, static), a)
+        return out if has_aux else (out, None)
+
+    sol = optx.least_squares(residual, solver, free, args=args, has_aux=True,
+                             max_steps=max_steps, throw=False, options=dict(jac=jac))
+    if not linearise:
+        return sol, None, None
+    v, unravel = ravel_pytree(sol.value)
+    r, jac_t, _ = _value_and_jacobian(residual, unravel, v, args, jac)
+    return sol, r.ravel(), jac_t.reshape(v.size, -1).T
+
+
+def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, rounding,
+          stall) -> LeastSquaresSolution:
+    t0 = time.perf_counter()
+    z = np.asarray(z0, float).copy()
+    active = np.ones(z.size, bool) if active is None else np.asarray(active, bool)
+    r, J, ok = problem.evaluate(z) if problem.first is None else problem.first
+    n_evals = int(problem.first is None)
+    if not ok or not np.all(np.isfinite(r)):
+        raise ValueError("the model failed at the starting point of the fit; check the "
+                         "records (stick-slip present) and the start")
+    cost = float(r @ r)
+    lam, nu = float(lam0), 2.0
+    converged = False
+    history, best = [cost], [cost]
+    while n_evals < max_steps:
+        A, g = J.T @ J, J.T @ r
+        if float(gauss_newton_decrease(A, g, active, xp=np)) < atol + rtol * cost:
+            converged = True
+            break
+        step, pred = damped_step(A, g, lam, active, xp=np)
+        r_try, J_try, ok_try = problem.evaluate(z + step)
+        n_evals += 1
+        good = bool(ok_try) and bool(np.all(np.isfinite(r_try)))
+        cost_try = float(r_try @ r_try) if good else np.inf
+        history.append(cost_try)
+        accept, flat = (bool(x) for x in acceptance(cost, cost_try, good, rounding, np))
+        rho = (cost - cost_try) / float(pred) if (good and pred > 0) else 0.0
+        lam, nu = (float(x) for x in nielsen_update(lam, nu, accept, rho, xp=np))
+        if accept:
+            z, r, J, ok, cost = z + step, r_try, J_try, ok_try, cost_try
+        best.append(cost)
+        converged = (accept and flat) or lam > LAMBDA_MAX or (
+            stall is not None and len(best) > stall.evals
+            and best[-stall.evals - 1] - cost < stall.tol)
+        if converged:
+            break
+    result = optx.RESULTS.successful if converged else optx.RESULTS.nonlinear_max_steps_reached
+    stats = dict(num_steps=n_evals, lam=lam, history=history, ok=bool(ok),
+                 seconds=time.perf_counter() - t0)
+    return LeastSquaresSolution(z, result, stats, residuals=r, jacobian=J)
 
 
 def least_squares(fn, params: PyTree, free=None, *, args=None, has_aux: bool = False,
                   rtol: float = 1e-10, atol: float = 1e-10, max_steps: int = 200,
-                  jac: str = "fwd", lam0=1e-3, cap=None,
-                  rounding: float = 1e-10) -> LeastSquaresSolution:
+                  jac: str = "fwd", lam0=1e-3, cap=None, rounding: float = 1e-10,
+                  stall: Stall | None = None,
+                  linearise: bool = False) -> LeastSquaresSolution:
     """Minimise the sum of squares of `fn(params, args)` (a residual array; with
     `has_aux`, a pair (residuals, aux)) over the leaves of `params` that `free` selects
-    (`free_filter`), by `LevenbergMarquardt(rtol, atol, rounding, lam0, cap)` in one
-    compiled `optimistix.least_squares` (jit-compatible: `lam0` and `cap` may be traced).
-    `fn` may be an `eqx.Module` (an objective: its arrays are traced, not baked in).
-    `jac="bwd"` builds the Jacobian by reverse mode (residuals through a
-    `jax.custom_vjp`). Never raises on a failed solve: read `result`."""
+    (`free_filter`), by `LevenbergMarquardt(rtol, atol, rounding, lam0, cap, stall=stall)`
+    in one compiled `optimistix.least_squares` (jit-compatible: `lam0` and `cap` may be
+    traced). `fn` may be an `eqx.Module` (an objective: its arrays are traced, not baked
+    in), or a `HostResiduals` over the flat vector `params` (`free`: a boolean mask over
+    it or None; `max_steps` counts evaluations). `jac="bwd"` builds the Jacobian by
+    reverse mode (residuals through a `jax.custom_vjp`). `linearise`: also return the
+    residuals and Jacobian at the optimum. Never raises on a failed solve: read `result`
+    (a `HostResiduals` that fails at its start raises ValueError)."""
+    if isinstance(fn, HostResiduals):
+        return _host(fn, params, free, rtol, atol, max_steps, lam0, rounding, stall)
     free_part, static = eqx.partition(params, free_filter(params, free))
-    solver = LevenbergMarquardt(rtol=rtol, atol=atol, rounding=rounding, lam0=lam0, cap=cap)
-    sol = _solve(fn, free_part, static, args, solver, has_aux, max_steps, jac)
+    solver = LevenbergMarquardt(rtol=rtol, atol=atol, rounding=rounding, lam0=lam0, cap=cap,
+                                stall=stall)
+    sol, r, J = _solve(fn, free_part, static, args, solver, has_aux, max_steps, jac,
+                       linearise)
     return LeastSquaresSolution(eqx.combine(sol.value, static), sol.result, sol.stats,
-                                sol.aux if has_aux else None)
+                                sol.aux if has_aux else None, r, J)
 
 
-# ------------------------------------------------------------------------ host driver
 @dataclasses.dataclass
 class HostResult:
     """`solve_host`'s outcome: z (the optimum, all coordinates), rss = ||r||^2, r and J at
@@ -506,57 +604,18 @@ class HostResult:
 def solve_host(evaluate, z0, *, active=None, max_evals: int = 25, chi2_tol: float = 0.05,
                first=None, lam0: float = 1e-3, stall_evals: int = 4,
                stall_tol: float = 0.5, rounding: float = 1e-10) -> HostResult:
-    r"""The rules of `LevenbergMarquardt` (`damped_step`, `acceptance`, `nielsen_update`,
-    `gauss_newton_decrease`, in NumPy), driven from Python: minimise ||r(z)||^2 over the
-    `active` coordinates of z from `z0`, where `evaluate(z) -> (r, J, ok)` (J: [N, P]
-    over all coordinates; ok False when the objective failed there). One evaluation per
-    iteration: an accepted trial point already carries the Jacobian of the next.
-
-    Converged when the full Gauss-Newton step would lower the cost by less than
-    `chi2_tol` (a chi-square), when an accepted step changed it only within `rounding`,
-    when the damping passed `LAMBDA_MAX`, or when the last `stall_evals` evaluations
-    lowered it by less than `stall_tol` together (objectives with solver noise: below
-    that floor steps are not worth their cost); otherwise it stops after `max_evals`
-    evaluations, not converged. `first`: an (r, J, ok) already evaluated at z0. A small
-    `lam0` (0: the plain Gauss-Newton step) suits a start where the quadratic model is
-    trusted, such as a refit from a base optimum whose Gauss-Newton step is a score
-    test's."""
-    t0 = time.perf_counter()
-    z = np.asarray(z0, float).copy()
-    active = np.ones(z.size, bool) if active is None else np.asarray(active, bool)
-    r, J, ok = evaluate(z) if first is None else first
-    n_evals = 0 if first is not None else 1
-    if not ok or not np.all(np.isfinite(r)):
-        raise ValueError("the model failed at the starting point of the fit; check the "
-                         "records (stick-slip present) and the start")
-    cost = float(r @ r)
-    lam, nu = float(lam0), 2.0
-    converged = False
-    history, best = [cost], [cost]
-    while n_evals < max_evals:
-        A, g = J.T @ J, J.T @ r
-        if float(gauss_newton_decrease(A, g, active, xp=np)) < chi2_tol:
-            converged = True
-            break
-        step, pred = damped_step(A, g, lam, active, xp=np)
-        pred = float(pred)
-        z_try = z + step
-        r_try, J_try, ok_try = evaluate(z_try)
-        n_evals += 1
-        good = bool(ok_try) and bool(np.all(np.isfinite(r_try)))
-        cost_try = float(r_try @ r_try) if good else np.inf
-        history.append(cost_try)
-        accept, flat = (bool(x) for x in acceptance(cost, cost_try, good, rounding, np))
-        rho = (cost - cost_try) / float(pred) if (good and pred > 0) else 0.0
-        lam, nu = (float(x) for x in nielsen_update(lam, nu, accept, rho, xp=np))
-        if accept:
-            z, r, J, ok, cost = z_try, r_try, J_try, ok_try, cost_try
-        best.append(cost)
-        if (accept and flat) or lam > LAMBDA_MAX:
-            converged = True
-            break
-        if len(best) > stall_evals and best[-stall_evals - 1] - cost < stall_tol:
-            converged = True  # stalled at the objective's noise floor
-            break
-    return HostResult(z=z, rss=cost, r=r, J=J, n_evals=n_evals, converged=converged,
-                      seconds=time.perf_counter() - t0, ok=bool(ok), history=history, lam=lam)
+    """`least_squares` over `HostResiduals(evaluate, first)` from z0, the `active`
+    coordinates free, as a `HostResult`: converged when the full Gauss-Newton step would
+    lower the cost by less than `chi2_tol` (a chi-square), when an accepted step changed
+    it only within `rounding`, when the damping passed `LAMBDA_MAX`, or at the
+    `Stall(stall_evals, stall_tol)` floor; otherwise it stops after `max_evals`
+    evaluations, not converged. A small `lam0` (0: the plain Gauss-Newton step) suits a
+    start where the quadratic model is trusted, such as a refit from a base optimum whose
+    Gauss-Newton step is a score test's."""
+    sol = least_squares(HostResiduals(evaluate, first), z0, active, rtol=0.0, atol=chi2_tol,
+                        max_steps=max_evals, lam0=lam0, rounding=rounding,
+                        stall=Stall(stall_evals, stall_tol))
+    st, r = sol.stats, sol.residuals
+    return HostResult(z=sol.params, rss=float(r @ r), r=r, J=sol.jacobian,
+                      n_evals=st["num_steps"], converged=bool(sol.successful),
+                      seconds=st["seconds"], ok=st["ok"], history=st["history"], lam=st["lam"])

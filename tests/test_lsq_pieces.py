@@ -15,9 +15,9 @@ import optimistix as optx
 import pytest
 from scipy.optimize import least_squares as scipy_least_squares
 
-from stickslip_jax.lsq import (LAMBDA_MAX, LeastSquaresSolution, LevenbergMarquardt,
-                               MarquardtDescent, NielsenDamping, acceptance,
-                               least_squares, solve_host)
+from stickslip_jax.lsq import (LAMBDA_MAX, HostResiduals, LeastSquaresSolution,
+                               LevenbergMarquardt, MarquardtDescent, NielsenDamping, Stall,
+                               acceptance, least_squares, solve_host)
 
 RNG = np.random.default_rng(7)
 J = RNG.normal(size=(40, 4)) * np.array([1.0, 30.0, 0.05, 4.0])
@@ -193,19 +193,43 @@ def test_verb_reaches_minpack_and_optimistix_minimum(minpack):
     assert int(sol.stats["num_steps"]) == int(direct.stats["num_steps"])
 
 
+def evaluate(p):
+    """The decay's residuals and Jacobian in NumPy: a `HostResiduals` objective."""
+    e = np.exp(-p[1] * T)
+    return decay(p), np.stack([e, -p[0] * T * e, np.ones_like(T)], axis=1) / 0.01, True
+
+
 def test_jax_and_numpy_drivers_take_the_same_steps():
     """`LevenbergMarquardt` and `solve_host` run the same rules: same trial points, so the
     same number of evaluations and the same optimum."""
-    def evaluate(p):
-        e = np.exp(-p[1] * T)
-        return decay(p), np.stack([e, -p[0] * T * e, np.ones_like(T)], axis=1) / 0.01, True
-
     host = solve_host(evaluate, P0, max_evals=200, chi2_tol=1e-9, stall_tol=-np.inf,
                       rounding=0.0)
     sol = least_squares(decay, jnp.asarray(P0), rtol=0.0, atol=1e-9, rounding=0.0)
     assert host.converged and bool(sol.successful)
     assert int(sol.stats["num_steps"]) == host.n_evals
     np.testing.assert_allclose(np.asarray(sol.params), host.z, rtol=1e-10)
+
+
+def test_stall_rule_linearisation_and_warm_restart_in_both_drivers():
+    """A `Stall` rule ends the traced and the host solve after the same evaluations, both
+    return the residuals and Jacobian at the optimum, and a restart from the host
+    solve's final damping and evaluation goes on to the full optimum."""
+    kw = dict(rtol=0.0, atol=1e-9, rounding=0.0)
+    full = least_squares(HostResiduals(evaluate), P0, **kw)
+    stall = Stall(evals=2, tol=600.0)  # the cost falls 516 -> 43.9 over the last two
+    host = least_squares(HostResiduals(evaluate), P0, stall=stall, **kw)
+    sol = least_squares(decay, jnp.asarray(P0), stall=stall, linearise=True, **kw)
+    assert bool(host.successful) and bool(sol.successful)
+    assert 2 < int(sol.stats["num_steps"]) == host.stats["num_steps"] < full.stats["num_steps"]
+    np.testing.assert_allclose(np.asarray(sol.params), host.params, rtol=1e-10)
+    np.testing.assert_allclose(np.asarray(sol.residuals), host.residuals, rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(sol.jacobian), host.jacobian, rtol=1e-8, atol=1e-9)
+    assert least_squares(decay, jnp.asarray(P0)).jacobian is None  # only when asked
+    first = (host.residuals, host.jacobian, True)
+    more = least_squares(HostResiduals(evaluate, first), host.params, lam0=host.stats["lam"],
+                         **kw)
+    np.testing.assert_allclose(more.params, full.params, rtol=1e-9)
+    assert more.stats["num_steps"] + host.stats["num_steps"] <= full.stats["num_steps"] + 1
 
 
 def test_verb_over_selected_leaves_with_aux_and_a_cap(minpack):
