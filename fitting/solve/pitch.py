@@ -45,7 +45,7 @@ from jaxtyping import Array, Bool, Float
 from stickslip_jax.lsq import gauss_newton_covariance
 
 from ..report.rows import ParameterEstimate
-from .lsq import AbstractResiduals, jacobian, least_squares
+from .lsq import AbstractResiduals, least_squares
 from stickslip_jax import pitching as pt
 from stickslip_jax.units import UnitError, parse_quantity
 
@@ -115,56 +115,39 @@ def pitch_run(record, model: pt.PitchingModel, height=None, offset=None) -> Pitc
 
 
 class PitchParams(eqx.Module):
-    """The fitted parameters in stored (unconstrained) coordinates; see the module table."""
+    """The fitted parameters in stored coordinates (`stored`, in `NAMES` order: log of the
+    compliances and time constants, the neutral points as they are; module table)."""
 
-    log_compliance_pitch: Float[Array, ""]
-    neutral_height: Float[Array, ""]
-    log_tau_pitch: Float[Array, ""]
-    log_compliance_yaw: Float[Array, ""]
-    neutral_offset: Float[Array, ""]
-    log_tau_yaw: Float[Array, ""]
+    stored: tuple
 
     @classmethod
     def from_model(cls, model: pt.PitchingModel) -> PitchParams:
-        return cls(jnp.log(model.pitch.compliance), model.pitch.neutral,
-                   jnp.log(model.pitch.lag.time_constants[0]), jnp.log(model.yaw.compliance),
-                   model.yaw.neutral, jnp.log(model.yaw.lag.time_constants[0]))
+        p, y = model.pitch, model.yaw
+        values = (p.compliance, p.neutral, p.lag.time_constants[0], y.compliance, y.neutral,
+                  y.lag.time_constants[0])
+        return cls(tuple(jnp.log(v) if n in _LOG else v for n, v in zip(NAMES, values)))
+
+    def _values(self):
+        return [jnp.exp(v) if n in _LOG else v for n, v in zip(NAMES, self.stored)]
 
     def into(self, model: pt.PitchingModel) -> pt.PitchingModel:
         """`model` with these values (single-mode lags; time constants at the reference
         viscosity, i.e. the fitted value divided by the model's viscosity ratio)."""
+        c_p, h, tau_p, c_y, o, tau_y = self._values()
         ratio = model.viscosity_ratio
         return eqx.tree_at(
             lambda m: (m.pitch.compliance, m.pitch.neutral, m.pitch.lag.time_constants,
                        m.yaw.compliance, m.yaw.neutral, m.yaw.lag.time_constants),
-            model,
-            (jnp.exp(self.log_compliance_pitch), self.neutral_height,
-             jnp.exp(self.log_tau_pitch)[None] / ratio, jnp.exp(self.log_compliance_yaw),
-             self.neutral_offset, jnp.exp(self.log_tau_yaw)[None] / ratio),
-        )
+            model, (c_p, h, tau_p[None] / ratio, c_y, o, tau_y[None] / ratio))
 
     def natural(self) -> dict[str, float]:
-        return {name: float(jnp.exp(v) if name in _LOG else v)
-                for name, v in zip(NAMES, self.leaves())}
-
-    def leaves(self):
-        return (self.log_compliance_pitch, self.neutral_height, self.log_tau_pitch,
-                self.log_compliance_yaw, self.neutral_offset, self.log_tau_yaw)
+        return {name: float(v) for name, v in zip(NAMES, self._values())}
 
 
-class _Batch(eqx.Module):
-    """Runs padded to one length and stacked (one compiled residual for any number of runs):
-    padding samples repeat the last force and carry `mask` False."""
-
-    time: Float[Array, "r n"]
-    force: Float[Array, "r n"]
-    height: Float[Array, " r"]
-    offset: Float[Array, " r"]
-    displacement: Float[Array, "r n points"]
-    mask: Bool[Array, "r n points"]
-
-
-def _stack(runs) -> _Batch:
+def _stack(runs) -> dict:
+    """Runs padded to one length and stacked (one compiled residual for any number of
+    runs): `time`, `force`, `height`, `offset`, `displacement`, `mask`; padding samples
+    continue the sampling times, repeat the last force and carry `mask` False."""
     n = max(r.time.shape[0] for r in runs)
     cols = {k: [] for k in ("time", "force", "height", "offset", "displacement", "mask")}
     for r in runs:
@@ -180,14 +163,14 @@ def _stack(runs) -> _Batch:
         cols["displacement"].append(np.concatenate([d, np.zeros((k, d.shape[1]))]))
         m = np.zeros(d.shape[:1] + d.shape[1:], dtype=bool) | np.asarray(r.observed)[None, :]
         cols["mask"].append(np.concatenate([m, np.zeros((k, d.shape[1]), dtype=bool)]))
-    return _Batch(**{k: jnp.asarray(np.stack(v)) for k, v in cols.items()})
+    return {k: jnp.asarray(np.stack(v)) for k, v in cols.items()}
 
 
-def _predict(model: pt.PitchingModel, batch: _Batch):
+def _predict(model: pt.PitchingModel, batch: dict):
     def one(t, f, h, o):
         return pt.tilt_history(model, t, f, pt.DrivePoint(h, o)).displacement
 
-    return jax.vmap(one)(batch.time, batch.force, batch.height, batch.offset)
+    return jax.vmap(one)(batch["time"], batch["force"], batch["height"], batch["offset"])
 
 
 class PitchObjective(AbstractResiduals):
@@ -196,21 +179,21 @@ class PitchObjective(AbstractResiduals):
     unobserved channels) in units of `scale` (mm), record after record."""
 
     template: pt.PitchingModel
-    batch: _Batch
+    batch: dict  # `_stack`
     scale: Float[Array, ""] | float = 1.0
 
     def residuals(self, params: PitchParams) -> Float[Array, " N"]:
         model = params.into(self.template)
         b = self.batch
-        r = jnp.where(b.mask, _predict(model, b) - b.displacement, 0.0)
+        r = jnp.where(b["mask"], _predict(model, b) - b["displacement"], 0.0)
         return r.ravel() / self.scale
 
     def blocks(self) -> dict[str, int]:
-        n_runs, n, points = self.batch.displacement.shape
+        n_runs, n, points = self.batch["displacement"].shape
         return {f"record {i}": n * points for i in range(n_runs)}
 
     def dof(self) -> float:
-        return float(np.sum(np.asarray(self.batch.mask)))
+        return float(np.sum(np.asarray(self.batch["mask"])))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -305,8 +288,7 @@ def fit_pitching(runs, template: pt.PitchingModel | None = None, noise=None, tau
         raise ValueError("fit_pitching needs at least one record")
     template = pt.default_model() if template is None else template
     taus = np.geomspace(0.01, 300.0, 15) if taus is None else np.asarray(taus)
-    init = PitchParams.from_model(template)
-    leaves = dict(zip(NAMES, init.leaves()))
+    leaves = dict(zip(NAMES, PitchParams.from_model(template).stored))
     free_flags = {n: False for n in NAMES}
     notes = []
     for plane, c_name, n_name, t_name in (
@@ -327,26 +309,25 @@ def fit_pitching(runs, template: pt.PitchingModel | None = None, noise=None, tau
             notes.append(f"{n_name} fixed at {float(neutral):g} mm: the records have a single "
                          f"drive {'height' if plane == pt.PITCH else 'offset'}, so it cannot be "
                          "separated from the compliance")
-    params = PitchParams(*(jnp.asarray(leaves[n], dtype=float) for n in NAMES))
-    spec = PitchParams(*(free_flags[n] for n in NAMES))
+    params = PitchParams(tuple(jnp.asarray(leaves[n], dtype=float) for n in NAMES))
+    spec = PitchParams(tuple(free_flags[n] for n in NAMES))
     free_names = tuple(n for n in NAMES if free_flags[n])
     if not free_names:
         raise ValueError("no record carries pitch_N or yaw_N channels; nothing to fit")
 
-    objective = PitchObjective(template, _stack(runs), jnp.asarray(1.0))
+    scale = _data_scale(runs)
+    objective = PitchObjective(template, _stack(runs), jnp.asarray(scale))
     n_data = int(objective.dof())
-    sol = least_squares(eqx.tree_at(lambda o: o.scale, objective,
-                                    jnp.asarray(_data_scale(runs))),
-                        params, spec, rtol=rtol, atol=atol, max_steps=max_steps)
+    sol = least_squares(objective, params, spec, rtol=rtol, atol=atol, max_steps=max_steps,
+                        linearise=True)
     fitted = sol.params
-    res = np.asarray(_residuals_jit(objective, fitted))
+    res = np.asarray(sol.residuals) * scale  # mm
     rms = float(np.sqrt(np.sum(res**2) / n_data))
     dof = max(n_data - len(free_names), 1)
     sigma = float(np.sqrt(np.sum(res**2) / dof)) if noise is None else float(noise)
-    jac = np.asarray(jacobian(objective, fitted, spec))
-    cov = gauss_newton_covariance(jac, sigma**2)
+    cov = gauss_newton_covariance(np.asarray(sol.jacobian) * scale, sigma**2)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    stored = dict(zip(NAMES, fitted.leaves()))
+    stored = dict(zip(NAMES, fitted.stored))
     parameters = {}
     sd_of = dict(zip(free_names, map(float, sd)))
     for name in NAMES:
@@ -363,9 +344,4 @@ def _data_scale(runs):
     vals = [np.asarray(r.displacement)[:, np.asarray(r.observed)] for r in runs]
     s = float(np.sqrt(np.mean(np.concatenate([v.ravel() for v in vals]) ** 2)))
     return s if s > 0 else 1.0
-
-
-@eqx.filter_jit
-def _residuals_jit(objective, params):
-    return objective.residuals(params)
 
