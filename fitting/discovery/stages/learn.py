@@ -32,7 +32,11 @@ def _verdict(fx: Fits, choice: Choice, chosen, gap_after) -> tuple[str, str]:
         return ("unexplained", "low") if unexplained else ("none", "high")
     if unexplained:
         return "unexplained", "low"
+    # a gap within the weights' approximations (small excess) is no evidence for one cause
+    # over another: the family is then named by its score test alone, with low confidence
+    # (else a weak stiffening spring at 1.02 x the noise takes rate_state, "high")
     confidence = ("high" if (decided_drop >= opts.explained_share * excess
+                             and excess > opts.small_excess * base.n_used
                              and choice.decision.clear
                              and gap_after <= opts.explained_gap * base.noise) else "low")
     return chosen.family.name, confidence
