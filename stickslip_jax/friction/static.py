@@ -64,23 +64,27 @@ class KatoStatic(AbstractStaticFriction):
         return self.mu_s
 
 
-class HoweStatic(AbstractStaticFriction):
-    r"""Howe et al. (Table 3): $\mu_0 = \mu_d + (\mu_s - \mu_d)(1 - e^{-C T})$; `C` in 1/s."""
+class _RateStatic(AbstractStaticFriction):
+    """A Table 3 law of `mu_s`, `mu_d` (dimensionless) and a rate `C` (1/s), in that
+    positional order as in the table; `mu_s` is its long-stick value."""
 
     mu_s: Scalar = eqx.field(converter=as_float)
     mu_d: Scalar = eqx.field(converter=as_float)
     C: Scalar = eqx.field(converter=as_float)
 
     def __init__(self, mu_s, mu_d, C):
-        # Explicit so that positional order is (mu_s, mu_d, C) as in Table 3.
         self.mu_s, self.mu_d, self.C = mu_s, mu_d, C
+
+    def asymptote(self):
+        return self.mu_s
+
+
+class HoweStatic(_RateStatic):
+    r"""Howe et al. (Table 3): $\mu_0 = \mu_d + (\mu_s - \mu_d)(1 - e^{-C T})$; `C` in 1/s."""
 
     def __call__(self, stick_time):
         t = jnp.maximum(jnp.asarray(stick_time, dtype=float), 0.0)
         return self.mu_d + (self.mu_s - self.mu_d) * one_minus_exp_neg(self.C * t)
-
-    def asymptote(self):
-        return self.mu_s
 
 
 class DerjaguinStatic(AbstractStaticFriction):
@@ -113,22 +117,11 @@ class PowerLawStatic(AbstractStaticFriction):
         return self.mu_d + self.C1 * safe_power(t, self.C2)
 
 
-class OkamuraStatic(AbstractStaticFriction):
+class OkamuraStatic(_RateStatic):
     r"""Okamura's squeeze law (Table 3):
     $\mu_0 = \mu_s / \{(\mu_s/\mu_d - 1)/\sqrt{C T + 1} + 1\}$; `C` in 1/s.
     """
 
-    mu_s: Scalar = eqx.field(converter=as_float)
-    mu_d: Scalar = eqx.field(converter=as_float)
-    C: Scalar = eqx.field(converter=as_float)
-
-    def __init__(self, mu_s, mu_d, C):
-        # Explicit so that positional order is (mu_s, mu_d, C) as in Table 3.
-        self.mu_s, self.mu_d, self.C = mu_s, mu_d, C
-
     def __call__(self, stick_time):
         t = jnp.maximum(jnp.asarray(stick_time, dtype=float), 0.0)
         return self.mu_s / ((self.mu_s / self.mu_d - 1.0) / jnp.sqrt(self.C * t + 1.0) + 1.0)
-
-    def asymptote(self):
-        return self.mu_s
