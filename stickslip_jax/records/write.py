@@ -92,17 +92,10 @@ def format_record(
     return "\n".join(out) + "\n"
 
 
-def write_record(
-    record: Record,
-    path,
-    deflection_unit: str = "mm",
-    time_unit: str = "s",
-    *,
-    force_unit: str | None = None,
-    drive_unit: str = "mm",
-    channel_units: Mapping[str, str] | str | None = None,
-) -> Path:
-    """Write `record` to `path` (UTF-8 CSV, format in the `stickslip_jax.records` docstring).
+def write_record(record: Record, path, *args, **options) -> Path:
+    """Write `record` to `path` (UTF-8 CSV, format in the `stickslip_jax.records` docstring,
+    text by `format_record(record, *args, **options)`; atomic: a full disk leaves no
+    half-written record) and return the path.
 
     Header quantities are written in internal units (kgf/mm, kgf, mm/s) and every
     number with `repr` precision, so reading the file gives the record back exactly
@@ -112,19 +105,10 @@ def write_record(
     of some of them); in other units than mm and s a value comes back exactly whenever
     a float exists that does so, else within one unit in the last place. With
     `force_unit` a `force` column k x replaces the deflection (read back as F/k, within
-    rounding). Returns the path.
+    rounding).
     """
-    text = format_record(
-        record,
-        deflection_unit,
-        time_unit,
-        force_unit=force_unit,
-        drive_unit=drive_unit,
-        channel_units=channel_units,
-    )
     from ..output import write_text
 
     path = Path(path)
-    write_text(str(path), text)  # atomic: a full disk leaves no half-written record
+    write_text(str(path), format_record(record, *args, **options))
     return path
-
