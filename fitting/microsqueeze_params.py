@@ -39,6 +39,7 @@ from jaxtyping import Array, Float
 from stickslip_jax.contact import BoundaryContact, MicrosqueezeStatic, SurfacePair, surface_pair
 from stickslip_jax.contact.boundary import approach_for, film_from_mu_s
 from stickslip_jax.friction import Friction, KatoKinetic
+from stickslip_jax.numerics import as_float
 
 from .params import PRIOR_BOUNDS, AbstractFrictionParams
 
@@ -50,10 +51,6 @@ MICROSQUEEZE_UNITS = {"mu_s": "-", "mu_d": "-", "h_e": "mm", "Q": "mm^4", "delta
 _TINY = 1e-300
 
 
-def _f(x):
-    return jnp.asarray(x, dtype=float)
-
-
 class MicrosqueezeFriction(AbstractFrictionParams):
     r"""Microsqueeze static law + eq (3) kinetic law in unconstrained coordinates.
 
@@ -62,13 +59,13 @@ class MicrosqueezeFriction(AbstractFrictionParams):
     (`SurfacePair`), `contact` (`BoundaryContact`).
     """
 
-    log_mu_d: Float[Array, ""] = eqx.field(converter=_f)
-    log_gap: Float[Array, ""] = eqx.field(converter=_f)
-    log_margin: Float[Array, ""] = eqx.field(converter=_f)
-    log_Q: Float[Array, ""] = eqx.field(converter=_f)
-    log_delta: Float[Array, ""] = eqx.field(converter=_f)
-    log_n: Float[Array, ""] = eqx.field(converter=_f)
-    eta: Float[Array, ""] = eqx.field(converter=_f)
+    log_mu_d: Float[Array, ""] = eqx.field(converter=as_float)
+    log_gap: Float[Array, ""] = eqx.field(converter=as_float)
+    log_margin: Float[Array, ""] = eqx.field(converter=as_float)
+    log_Q: Float[Array, ""] = eqx.field(converter=as_float)
+    log_delta: Float[Array, ""] = eqx.field(converter=as_float)
+    log_n: Float[Array, ""] = eqx.field(converter=as_float)
+    eta: Float[Array, ""] = eqx.field(converter=as_float)
     pair: SurfacePair
     contact: BoundaryContact
     fixed_mu_s: float | None = eqx.field(static=True, default=None)
@@ -91,12 +88,7 @@ class MicrosqueezeFriction(AbstractFrictionParams):
         """From natural values (h_e mm, Q mm^4, eta kgf s/mm^2); ValueError if impossible."""
         pair = surface_pair(pair) if isinstance(pair, str) else pair
         contact = BoundaryContact() if contact is None else contact
-        vals = dict(mu_s=mu_s, mu_d=mu_d, h_e=h_e, Q=Q, delta=delta, n=n, eta=eta)
-        bad = [k for k, v in vals.items() if not float(v) > 0]
-        if bad:
-            raise ValueError(f"parameters must be positive: {', '.join(bad)}")
-        if not float(mu_s) > float(mu_d):
-            raise ValueError(f"need mu_s > mu_d, got mu_s={mu_s}, mu_d={mu_d}")
+        cls.check_values(mu_s=mu_s, mu_d=mu_d, h_e=h_e, Q=Q, delta=delta, n=n, eta=eta)
         t_b = film_from_mu_s(pair, contact, mu_s).t_b  # raises unless C3 < mu_s < C1
         a_d = approach_for(pair, contact, mu_d, t_b)
         if float(a_d) < 0:
@@ -159,8 +151,7 @@ class MicrosqueezeFriction(AbstractFrictionParams):
                                   h_e=h_e, Q=Q, mu_d=mu_d)
 
     def friction(self) -> Friction:
-        return Friction(self.static_law(),
-                        KatoKinetic(delta=jnp.exp(self.log_delta), n=jnp.exp(self.log_n)))
+        return Friction(self.static_law(), self.kinetic())
 
     def values(self) -> Float[Array, "6"]:
         """Natural parameters (mu_s, mu_d, h_e mm, Q mm^4, delta s^-n, n)."""

@@ -46,6 +46,7 @@ from jaxtyping import Array, Float
 
 from stickslip_jax.friction import Friction, KatoKinetic, KatoStatic
 from stickslip_jax.lsq import free_filter
+from stickslip_jax.numerics import as_float
 
 __all__ = ["AbstractFrictionParams", "NAMES", "UNITS", "CampaignParams", "EmpiricalFriction",
            "Hold", "free_spec"]
@@ -60,10 +61,6 @@ PRIOR_BOUNDS = {"mu_s": (1e-3, 2.0), "mu_d": (1e-3, 2.0), "gamma": (1e-4, 1e3), 
                 "delta": (1e-3, 1e5), "n": (0.02, 5.0)}
 """Support of the log-uniform MCMC prior of each parameter of eqs (1), (3) (natural
 units: gamma s^-m, delta s^-n)."""
-
-
-def _f(x):
-    return jnp.asarray(x, dtype=float)
 
 
 class AbstractFrictionParams(eqx.Module):
@@ -114,6 +111,24 @@ class AbstractFrictionParams(eqx.Module):
     def physical(self):
         """True (a traced bool) where no coordinate had to be clipped onto the law's
         physical region: the support of the MCMC prior besides `PRIOR_BOUNDS`."""
+
+    @staticmethod
+    def check_values(**values) -> None:
+        """ValueError naming the natural `values` that are not positive, or when mu_s does
+        not exceed mu_d (traced values are not checked)."""
+        try:
+            fv = {k: float(v) for k, v in values.items()}
+        except (TypeError, jax.errors.ConcretizationTypeError):
+            return
+        bad = [k for k, v in fv.items() if not v > 0]
+        if bad:
+            raise ValueError(f"parameters must be positive: {', '.join(bad)}")
+        if not fv["mu_s"] > fv["mu_d"]:
+            raise ValueError(f"need mu_s > mu_d, got mu_s={fv['mu_s']}, mu_d={fv['mu_d']}")
+
+    def kinetic(self) -> KatoKinetic:
+        """Eq (3)'s kinetic law (`log_delta`, `log_n`), shared by every law here."""
+        return KatoKinetic(delta=jnp.exp(self.log_delta), n=jnp.exp(self.log_n))
 
     def log_values(self) -> Float[Array, " P"]:
         """log of the natural parameters: the coordinates of relative uncertainty."""
@@ -177,12 +192,12 @@ class EmpiricalFriction(AbstractFrictionParams):
     dimensionless; gamma in s^-m; m; delta in s^-n; n).
     """
 
-    log_mu_d: Float[Array, ""] = eqx.field(converter=_f)
-    log_gap: Float[Array, ""] = eqx.field(converter=_f)
-    log_gamma: Float[Array, ""] = eqx.field(converter=_f)
-    log_m: Float[Array, ""] = eqx.field(converter=_f)
-    log_delta: Float[Array, ""] = eqx.field(converter=_f)
-    log_n: Float[Array, ""] = eqx.field(converter=_f)
+    log_mu_d: Float[Array, ""] = eqx.field(converter=as_float)
+    log_gap: Float[Array, ""] = eqx.field(converter=as_float)
+    log_gamma: Float[Array, ""] = eqx.field(converter=as_float)
+    log_m: Float[Array, ""] = eqx.field(converter=as_float)
+    log_delta: Float[Array, ""] = eqx.field(converter=as_float)
+    log_n: Float[Array, ""] = eqx.field(converter=as_float)
     fixed_mu_s: float | None = eqx.field(static=True, default=None)
 
     MODEL: ClassVar[str] = "empirical"
@@ -197,20 +212,10 @@ class EmpiricalFriction(AbstractFrictionParams):
     @classmethod
     def from_values(cls, mu_s, mu_d, gamma, m, delta, n) -> EmpiricalFriction:
         """From natural values; raises ValueError unless 0 < mu_d < mu_s and the rest > 0."""
-        try:
-            fv = dict(mu_s=float(mu_s), mu_d=float(mu_d), gamma=float(gamma), m=float(m),
-                      delta=float(delta), n=float(n))
-        except (TypeError, jax.errors.ConcretizationTypeError):
-            fv = None  # traced values: no checks
-        if fv is not None:
-            bad = [k for k, v in fv.items() if not v > 0]
-            if bad:
-                raise ValueError(f"parameters must be positive: {', '.join(bad)}")
-            if not fv["mu_s"] > fv["mu_d"]:
-                raise ValueError(f"need mu_s > mu_d, got mu_s={fv['mu_s']}, mu_d={fv['mu_d']}")
-        return cls(log_mu_d=jnp.log(_f(mu_d)), log_gap=jnp.log(_f(mu_s) - _f(mu_d)),
-                   log_gamma=jnp.log(_f(gamma)), log_m=jnp.log(_f(m)), log_delta=jnp.log(_f(delta)),
-                   log_n=jnp.log(_f(n)))
+        cls.check_values(mu_s=mu_s, mu_d=mu_d, gamma=gamma, m=m, delta=delta, n=n)
+        return cls(log_mu_d=jnp.log(as_float(mu_d)), log_gap=jnp.log(as_float(mu_s) - as_float(mu_d)),
+                   log_gamma=jnp.log(as_float(gamma)), log_m=jnp.log(as_float(m)), log_delta=jnp.log(as_float(delta)),
+                   log_n=jnp.log(as_float(n)))
 
     @classmethod
     def from_friction(cls, friction: Friction) -> EmpiricalFriction:
@@ -223,7 +228,7 @@ class EmpiricalFriction(AbstractFrictionParams):
         mu_s, mu_d = self.static_levels()
         static = KatoStatic(mu_s=mu_s, mu_d=mu_d, gamma=jnp.exp(self.log_gamma),
                             m=jnp.exp(self.log_m))
-        return Friction(static, KatoKinetic(delta=jnp.exp(self.log_delta), n=jnp.exp(self.log_n)))
+        return Friction(static, self.kinetic())
 
     def values(self) -> Float[Array, "6"]:
         """Natural parameters (mu_s, mu_d, gamma, m, delta, n)."""
@@ -250,7 +255,7 @@ class CampaignParams(eqx.Module):
     """Everything a campaign fit estimates: friction + one gauge offset (mm) per record."""
 
     friction: AbstractFrictionParams
-    offset: Float[Array, " R"] = eqx.field(converter=_f)
+    offset: Float[Array, " R"] = eqx.field(converter=as_float)
 
 
 def _floats(values) -> tuple[float, ...]:
