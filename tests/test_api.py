@@ -134,8 +134,8 @@ def test_records_as_objects_give_the_same_fit(result):
         assert again.values[name] == pytest.approx(result.values[name], rel=1e-9)
     assert again.report["parameters"]["delta"]["ci95"] == pytest.approx(
         result.report["parameters"]["delta"]["ci95"], rel=1e-9)
-    with pytest.raises(ValueError, match="at least 2 records"):
-        sf.fit(records[:1])
+    with pytest.raises(ValueError, match="at least 2 records"):  # one: test_one_record.py
+        sf.fit(records[:1], model="microsqueeze")
 
 
 def test_plot_writes_a_png(result, tmp_path):

@@ -40,3 +40,41 @@ def test_one_record_says_what_it_holds(tmp_path, capsys):
     out = capsys.readouterr().out
     note = [ln for ln in out.splitlines() if ln.startswith("note: one record:")]
     assert len(note) == 1 and "gamma = 0.38" in note[0] and "Table 6" in note[0], out
+
+
+def test_the_python_api_fits_one_record_and_says_what_it_cannot_determine():
+    """`sf.fit` of one record (a path or a `Record`): mu_s and mu_d with intervals holding
+    the truth; gamma, m, delta, n held, not identifiable, each with its reason."""
+    import stickslip_fitting as sf
+    from stickslip_jax.records import read_record
+
+    path = EXAMPLES / "A_W36_k86.9_v5mm-min.csv"
+    for given in (path, read_record(path)):
+        result = sf.fit(given)
+        table = result.summary()
+        for name in ("mu_s", "mu_d"):
+            row = table.loc[name]
+            assert row["identifiable"] and row["low"] < TRUTH_FLAT[name] < row["high"], row
+        for name in ("gamma", "m", "delta", "n"):
+            row = table.loc[name]
+            assert not row["identifiable"] and row["reason"].startswith(
+                "not identifiable from one record: one s"), row
+        assert set(result.report["identifiability"]["not_identifiable"]) == {
+            "gamma", "m", "delta", "n"}
+        assert any(n.startswith("one record:") for n in result.notes)
+
+
+def test_mcmc_samples_one_record(tmp_path, capsys):
+    """`stickslip mcmc` of one record samples mu_s and mu_d (the others held, said in a
+    note and in the JSON's "fixed" and "notes")."""
+    out = tmp_path / "post.json"
+    record = EXAMPLES / "A_W36_k86.9_v5mm-min.csv"
+    assert main(["mcmc", str(record), "--steps", "60", "--walkers", "12", "--quiet",
+                 "--json", str(out)]) == 0
+    doc = json.loads(out.read_text())
+    assert doc["names"] == ["mu_s", "mu_d"] and set(doc["fixed"]) == {"gamma", "m", "delta", "n"}
+    assert any(n.startswith("one record:") for n in doc["notes"])
+    assert "note: one record:" in capsys.readouterr().out
+
+
+TRUTH_FLAT = {**TRUTH["friction"]["static"], **TRUTH["friction"]["kinetic"]}

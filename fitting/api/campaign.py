@@ -225,16 +225,21 @@ def fit(
 
     given = as_list(records)
     inputs: tuple[str, ...]
+    least = None if model_name == "empirical" else 2  # one record: `one_record_holds`
     if given and all(isinstance(r, Record) for r in given):
-        campaign, inputs = _campaign_of_records(given, strict), ()
+        campaign, inputs = _campaign_of_records(given, strict, least), ()
     elif any(isinstance(r, Record) for r in given):
         raise ValueError("records: give paths (files, folders, globs) or Record objects, "
                          "not both in one campaign")
     else:
         from stickslip_jax.records import record_paths
 
-        campaign = load_campaign(given, strict=strict)
+        campaign = load_campaign(given, min_records=least, strict=strict)
         inputs = tuple(str(p) for p in record_paths(given))
+    if model_name == "empirical" and len(campaign.records) == 1:
+        from ..data.campaign import one_record_holds
+
+        hold = _hold({**one_record_holds(campaign), **dict(fix or {})}, law)
 
     from stickslip_jax.logs import logger
 
@@ -276,18 +281,20 @@ def as_list(records) -> list:
                      f"{records!r}")
 
 
-def _campaign_of_records(records: list[Record], strict: bool) -> Campaign:
-    """The screened campaign of `Record` objects (`load_campaign`'s checks without files)."""
+def _campaign_of_records(records: list[Record], strict: bool, least: int | None) -> Campaign:
+    """The screened campaign of `Record` objects (`load_campaign`'s checks without files;
+    `least` as its `min_records`)."""
     from stickslip_jax.records import check_campaign
 
     from ..data.campaign import screen_records
 
-    if len(records) < 2:
+    least = (1 if len(records) == 1 else 2) if least is None else least
+    if len(records) < least:
         raise ValueError(
-            f"a campaign needs at least 2 records (got {len(records)}): one run cannot "
+            f"a campaign needs at least {least} records (got {len(records)}): one run cannot "
             "separate the six friction parameters; give records at several speeds")
     check_campaign(records, same=("lubricant",))
-    return screen_records(records, min_records=2, strict=strict)
+    return screen_records(records, min_records=least, strict=strict)
 
 
 def _law(model) -> tuple[type[AbstractFrictionParams], str]:

@@ -140,7 +140,8 @@ class CampaignPosterior(ResultDocument):
                   f"{r['likelihood_scale']:.3g}",
                   f"{r['walkers']} walkers x {r['steps']} steps (burn-in {r['burn']}); "
                   f"acceptance {r['acceptance']:.2f}"]
-        return "\n".join(lines + [f"warning: {w}" for w in r["warnings"]])
+        return "\n".join(lines + [f"warning: {w}" for w in r["warnings"]]
+                         + [f"note: {n}" for n in r.get("notes", [])])
 
     def __repr__(self) -> str:
         medians = ", ".join(f"{n}={p['median']:.5g}" for n, p in self.report["parameters"].items())

@@ -117,9 +117,11 @@ class Campaign:
         return out
 
 
-ONE_RECORD_HOLDS = ("gamma", "m", "delta", "n")
-"""What one record cannot determine (one stick time: the rise of mu_0 with it, eq 1; one
-slip time: the decay of eq 3), held by a fit of a single record (`one_record_holds`)."""
+_STICK = "one stick time cannot give the rise of mu_0 with stick time (eq 1)"
+_SLIP = "one slip time cannot give the decay of mu_k with slip time (eq 3)"
+ONE_RECORD_HOLDS = {"gamma": _STICK, "m": _STICK, "delta": _SLIP, "n": _SLIP}
+"""What one record cannot determine, with the reason, held by a fit of a single record
+(`one_record_holds`); records at other speeds and springs determine them."""
 
 
 def held_lubricant(campaign: Campaign) -> str:

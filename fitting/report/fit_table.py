@@ -20,7 +20,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     `records` lists every record given, in order: the used ones with their fitted gauge
     offset, the others with `status` and `reason` (`stickslip_fitting.data.campaign`);
     `steady_records` compares records without stick-slip with the fitted boundary."""
-    from ..data.campaign import Campaign, boundary_check, find_truth
+    from ..data.campaign import ONE_RECORD_HOLDS, Campaign, boundary_check, find_truth
 
     if not isinstance(campaign, Campaign):  # a plain list of records: all used
         from ..data.campaign import screen_records
@@ -30,6 +30,10 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     truth = find_truth(records, fit.params.friction.NAMES)
     bounds = fit.params.friction.PRIOR_BOUNDS  # the support: a value there is "at bound"
     params = {e.name: e.with_bounds(bounds).to_json() for e in unc.estimates(truth)}
+    held = [n for n in ONE_RECORD_HOLDS if len(records) == 1 and params.get(n, {}).get("fixed")]
+    for n in held:  # fixed at a value one record cannot check: said with the reason
+        params[n].update(identifiable=False, reason="not identifiable from one record: "
+                         + ONE_RECORD_HOLDS[n])
     from ..uncertainty.adequacy import adequacy
     from ..objectives.combined import FeaturesObjective
     from ..solve.fit import compiled
@@ -58,7 +62,8 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
         "covariance": unc.covariance,
         "covariance_scale": unc.scale,
         "identifiability": {
-            "not_identifiable": [n for n, ok in unc.identifiable.items() if not ok],
+            "not_identifiable": [n for n, ok in unc.identifiable.items()
+                                 if not ok or n in held],
             "fisher_eigenvalues_log": [float(x) for x in unc.fisher_eigenvalues],
             "weakest_direction": unc.weakest_direction,
             "correlation": [[None if not np.isfinite(x) else float(x) for x in row]

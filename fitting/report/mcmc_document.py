@@ -6,7 +6,8 @@ Keys: "model", "parameters" (per parameter the fit's row keys, value = median,
 stderr = sd, ci95, truth_in_ci95 where the truth is known, and the sampler's own:
 median, mean, sd, tau_steps, ess), "prior", "objective", "loss", "interrupted",
 "likelihood_scale", "walkers", "steps", "burn", "acceptance", "warnings",
-"record_names", "records_screened", and the draws in the layout that
+"record_names", "records_screened", "notes" (the campaign's: what reading did, what one
+record holds), and the draws in the layout that
 `stickslip_fitting.design.posterior.load_samples` reads: "names", "samples" (a (draws,
 parameters) matrix thinned to at most `max_draws` rows) and "fixed" (the values of the
 parameters held fixed); for the microsqueeze law also "given" (eta, surface).
@@ -65,7 +66,8 @@ def mcmc_document(res, fit, campaign, *, model: str, objective: str, truth: dict
         "record_names": names,
         "records_screened": [s.to_json() for s in campaign.screening],
         "names": list(res.names), "samples": thinned_draws(res.samples, max_draws).tolist(),
-        "fixed": {n: v for n, v in fit.values.items() if n not in res.names}}
+        "fixed": {n: v for n, v in fit.values.items() if n not in res.names},
+        "notes": campaign.notes}
     if extra:
         out.update(extra)
     return out
