@@ -373,8 +373,13 @@ def find_slips(t, x, u, omega0: float, *, sigma: float | None = None,
     if not short:
         events, thr, _ = slip_events(t, x, y, u, sigma, h, floor, threshold)
     verdict = None if events else no_slip_message(t, y, u, sigma, floor, thr, h)
+    # the sticks of a cycle lie between two falls (around the one fall of a short record):
+    # a rest only before the first fall or after the last makes no cycle (measured: the
+    # shipped real record at 2254 N/m rests once, after the last of its 11 falls; between
+    # them its slider moves at 0.6-1.07 times the drive speed)
+    gaps = regions(x, events, t.size)
     if events and not any(rest(t, y, u, lo, hi, sigma, floor, h, CREEP_SPEED)
-                          is not None for lo, hi in regions(x, events, t.size)):
+                          is not None for lo, hi in (gaps[1:-1] or gaps)):
         verdict = (f"no stick-slip: the record slides continuously ({len(events)} falls of "
                    f"the deflection, but the slider y = u - x never rests between them for "
                    f"{rest_length(h) * dt * 1e3:.3g} ms within {3 * sigma * 1e3:.2g} um)")
