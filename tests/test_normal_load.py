@@ -153,6 +153,35 @@ def test_campaign_with_a_normal_load_is_fitted_back():
     assert both.values["mu_d"] == pytest.approx(truth["mu_d"], rel=0.01)
 
 
+def test_discovery_model_takes_the_normal_load():
+    """The per-cycle discovery model (`discovery.cycle_model`) with every effect at zero
+    on records of W = 36 kgf under N = 60 kgf, at the truth: the exact simulator restarted
+    per window (friction N mu, inertia W/g) to 1e-3 of a sample's standard error, and the
+    residuals are the noise; the same model under N = W misses by many standard errors."""
+    from stickslip_fitting.discovery.cycle_model import CycleModel, drift_origins
+    from stickslip_fitting.objectives.trace import trace_data, trace_sd, trace_simulation
+    from stickslip_fitting.params import CampaignParams, EmpiricalFriction
+
+    records = _campaign(FR, N)[::2]
+    feats = [record_features(r) for r in records]
+    params = CampaignParams(EmpiricalFriction.from_friction(FR), jnp.zeros(len(records)))
+    rms = []
+    plain = [r.replace(normal_load=None) for r in records]
+    for data in (trace_data(records, feats, drive_fix=False),
+                 trace_data(plain, [record_features(r) for r in plain], drive_fix=False)):
+        sim = trace_simulation(params, data)
+        sd = trace_sd(params, data, sim.slider_velocity)
+        model = CycleModel(data, drift_origins(records), sd, len(records))
+        r, _, ok = model.residuals(model.z0(params.friction, np.zeros(len(records))))
+        rms.append(float(np.sqrt(np.mean(r**2))))
+        if len(rms) == 1:
+            exact = ((np.asarray(data.deflection) - np.asarray(sim.deflection))
+                     / np.asarray(sd)).ravel()[model.mask]
+            assert ok[np.asarray(data.mask).any(1)].all()
+            assert np.max(np.abs(r - exact)) < 1e-3
+    assert 0.9 < rms[0] < 1.1 and rms[1] > 10.0, rms
+
+
 def test_limit_cycle_with_a_normal_load():
     """The time-domain limit cycle with N: the exact simulator's last cycle, damped or not."""
     cyc = limit_cycle(FR, W, K, V, normal_load=N)
@@ -184,3 +213,59 @@ def test_simulate_command_takes_a_normal_load(tmp_path):
     rec = read_record(out)
     assert rec.weight == 36.0 and abs(rec.normal_load - 60.0) < 1e-3
     assert abs(rec.truth["friction"]["normal_load_kgf"] - 60.0) < 1e-3
+
+
+def test_steady_command_takes_a_normal_load(tmp_path, capsys):
+    """`stickslip steady --normal-load`: eq (6), the limit cycle and the tolerance speed of
+    the slideway whose friction is mu N (W the moving weight); N = W changes nothing."""
+    import json
+
+    from stickslip_jax.cli import main
+    from stickslip_jax.units import mm_per_min
+
+    def steady(*extra):
+        out = tmp_path / "s.json"
+        assert main(["steady", "--weight", "36", "--stiffness", "86.9", "--speed", "3",
+                     "--tolerance", "5 um", "--json", str(out), *extra]) == 0
+        return json.loads(out.read_text())
+
+    plain, same, rig = steady(), steady("--normal-load", "36"), steady("--normal-load", "588.4 N")
+    assert same["results"] == plain["results"]
+    n = rig["normal_load_kgf"]
+    assert n == pytest.approx(60.0, rel=1e-4) and rig["weight_kgf"] == W
+    row, v = rig["results"][0], 3.0 / 60.0
+    ref = ss.steady_state(FR, W, K, v, normal_load=n)
+    assert row["stick_time_s"] == pytest.approx(float(ref.stick_time), rel=1e-9)
+    assert row["amplitude_mm"] == pytest.approx(float(ref.amplitude), rel=1e-9)
+    assert row["critical_speed_mm_per_min"] == pytest.approx(
+        float(mm_per_min(ref.critical_speed)), rel=1e-9)
+    assert row["cycle_amplitude_mm"] == pytest.approx(
+        float(limit_cycle(FR, W, K, v, normal_load=n).amplitude), rel=1e-9)
+    v_tol = rig["tolerance"]["drive_speed_mm_per_min"] / 60.0
+    assert float(limit_cycle(FR, W, K, v_tol, normal_load=n).amplitude) == pytest.approx(
+        5e-3, rel=1e-6)
+    assert "N = 60" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as refused:
+        main(["steady", "--weight", "36", "--stiffness", "86.9", "--speed", "3",
+              "--normal-load", "-2"])
+    assert refused.value.code == 2 and "--normal-load" in capsys.readouterr().err
+
+
+def test_design_map_takes_a_normal_load(capsys):
+    """`design --normal-load` (and `sf.design_map(normal_load=)`): every point the steady
+    analysis of the slideway under N; refused with --max-amplitude, which holds N = W."""
+    import stickslip_fitting as sf
+    from stickslip_jax.cli import main
+
+    study = sf.design_map("20:60:3", "86.9", "1:30:4", normal_load="588.4 N")
+    n = study.report["normal_load_kgf"]
+    for i, w in enumerate((20.0, 40.0, 60.0)):
+        for j, v in enumerate(np.linspace(1.0, 30.0, 4) / 60.0):
+            ref = ss.steady_state(FR, w, K, v, normal_load=n)
+            assert study.maps["amplitude"][i, 0, j] == pytest.approx(float(ref.amplitude),
+                                                                     rel=1e-9, abs=1e-15)
+            assert study.maps["critical_speed"][i, 0, j] == pytest.approx(
+                float(ref.critical_speed), rel=1e-9)
+    assert main(["design", "--weight", "36", "--stiffness", "86.9", "--speed", "5",
+                 "--normal-load", "60", "--max-amplitude", "1um"]) == 2
+    assert "--normal-load" in capsys.readouterr().err

@@ -137,6 +137,9 @@ class MapOptions:
     - `max_amplitude` (mm): the design to a tolerance, met with probability `meet` (0.95).
     - `chunk_size` points a device batch; `progress` a bar; `outputs`: the command's
       outputs ("--json", "--csv", "--netcdf") that the memory check sizes.
+    - `normal_load` N (kgf, or a string with its unit; None: N = W): the friction load
+      when a dead weight or a cylinder sets it apart from the moving weight W; the map at
+      (W, k, v) is then the paper's at v W/N with lengths and speeds times N/W.
     """
 
     weight: object
@@ -153,6 +156,18 @@ class MapOptions:
     chunk_size: int = 65_536
     progress: bool = False
     outputs: tuple[str, ...] = ()
+    normal_load: object = None
+
+    def load(self) -> float | None:
+        """N in kgf (`normal_load` read with its unit), or None."""
+        if self.normal_load is None:
+            return None
+        values = (parse_grid(self.normal_load, "force", "kgf", "--normal-load")
+                  if isinstance(self.normal_load, str)
+                  else _positive(self.normal_load, "--normal-load", self.normal_load))
+        if values.size != 1:
+            raise ValueError(f"--normal-load: one value, got {self.normal_load!r}")
+        return float(values[0])
 
     def __post_init__(self):
         object.__setattr__(self, "method", MapMethod.parse(self.method))
@@ -190,6 +205,9 @@ class MapOptions:
         _unused_or_in_range("--level", self.level, "--posterior FILE", self.posterior, "0.9")
         _unused_or_in_range("--meet", self.meet, "--max-amplitude AMP", self.max_amplitude,
                             "0.95")
+        if self.load() is not None and self.max_amplitude is not None:
+            raise ValueError("--normal-load: not with --max-amplitude (the design to a "
+                             "tolerance holds N = W); leave one of them out")
         if self.max_amplitude is not None and not self.max_amplitude > 0:
             raise ValueError(f"--max-amplitude: must be positive, got {self.max_amplitude}")
         if self.damping_ratio is not None:
@@ -309,6 +327,8 @@ def map_study(options: MapOptions) -> DesignStudy:
     draws = _draws(sample)
     _check_memory(options, shape, draws)
     w, k, v = outer(*(axes[n] for n in AXES))
+    s = 1.0 if options.load() is None else options.load() / w  # N/W (`MapOptions`)
+    v = v / s
     maps: dict = {"axes": axes}
     if options.posterior is not None:
         _say_posterior_work(shape, draws)
@@ -327,6 +347,9 @@ def map_study(options: MapOptions) -> DesignStudy:
         maps.update({f: getattr(m, f) for f in (
             "amplitude", "amplitude_ratio", "frequency", "frequency_ratio", "stick_time",
             "critical_speed", "stick_slip", "converged", "regime")})
+    for key in ("amplitude", "critical_speed", "amplitude_band", "critical_speed_band"):
+        if key in maps and options.load() is not None:  # lengths and speeds times N/W
+            maps[key] = maps[key] * np.reshape(s, np.shape(s) + (1,) * (maps[key].ndim - 3))
     logger.info("map done")
     if options.max_amplitude is not None:
         logger.info(f"design to a tolerance: {options.max_amplitude * 1e3:g} um...")
@@ -401,6 +424,7 @@ class DesignStudy(ResultDocument):
                        else {"posterior": o.source} if o.posterior is not None
                        else {"lubricant": o.lubricant, "table": o.table}),
             "method": o.method.value,
+            **({} if o.load() is None else {"normal_load_kgf": o.load()}),
             **({"damping_ratio": o.damping_ratio} if o.damping_ratio is not None else {}),
             "axes": {"weight_kgf": axes["weight"].tolist(),
                      "stiffness_kgf_per_mm": axes["stiffness"].tolist(),

@@ -44,6 +44,10 @@ def add_arguments(p):
                    help="drive stiffness k: VALUE or START:STOP:COUNT[:log] [unit] (default kgf/mm)")
     p.add_argument("--speed", required=True,
                    help="drive speed v: VALUE or START:STOP:COUNT[:log] [unit] (default mm/min)")
+    p.add_argument("--normal-load", type=quantity("force", "kgf"), default=None,
+                   help="normal load N pressing the slider on the slideway, when a dead "
+                        "weight or a cylinder sets it apart from the moving weight W (kgf, or "
+                        "with unit; default W)")
     p.add_argument("--posterior", metavar="FILE",
                    help="posterior sample (CSV/JSON with mu_s, mu_d, gamma, m, delta, n) to "
                         "propagate instead of the lubricant: probability of stick-slip, v_c band")
@@ -98,7 +102,7 @@ def options(args):
         args.weight, args.stiffness, args.speed, lubricant=args.lubricant, table=args.table,
         posterior=args.posterior, level=args.level, method=_method(args),
         damping_ratio=args.damping_ratio, max_amplitude=args.max_amplitude, meet=args.meet,
-        chunk_size=args.chunk_size,
+        chunk_size=args.chunk_size, normal_load=args.normal_load,
         progress=not args.quiet and (args.progress or sys.stderr.isatty()),
         outputs=tuple(o for o in ("--json", "--csv", "--netcdf") if getattr(args, o[2:])))
 
@@ -128,7 +132,9 @@ def run(args) -> int:
         from stickslip_jax.logs import logger
 
         logger.info("drawing the figure...")
-        plot(study, args.plot)
+        from ..report.plots import interruptible
+
+        interruptible(plot, study, args.plot)
     for option, write in (("json", study.to_json), ("csv", study.to_csv),
                           ("netcdf", study.to_netcdf)):
         path = getattr(args, option)

@@ -18,6 +18,10 @@ def add_arguments(p):
                    help="slider weight W (kgf, or with unit: '353 N')")
     p.add_argument("--stiffness", type=quantity("stiffness", "kgf/mm"), required=True,
                    help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
+    p.add_argument("--normal-load", type=quantity("force", "kgf"), default=None,
+                   help="normal load N pressing the slider on the slideway, when a dead "
+                        "weight or a cylinder sets it apart from the moving weight W (kgf, or "
+                        "with unit; default W)")
     p.add_argument("--speed", type=quantity("speed", "mm/min"), nargs="+", required=True,
                    help="drive speeds v (mm/min unless a unit is given, e.g. '10 um/s')")
     p.add_argument("--tolerance", type=quantity("length", "mm"), default=None,
@@ -66,25 +70,27 @@ DAMPED_COLUMNS = (
 """Columns added by --damping-ratio: the damped limit cycle (0 above the boundary)."""
 
 
-def _tolerance_speed(friction, args, out) -> float:
+def _tolerance_speed(friction, args, out, s: float) -> float:
     """The drive speed (mm/min) above which the limit cycle's amplitude stays below
     --tolerance: 0 when it does at every speed (the amplitude at a speed far below v_c,
-    the largest, is within it); a ValueError naming the option when it is not found."""
+    the largest, is within it); a ValueError naming the option when it is not found.
+    `s` = N/W: the cycle under the normal load N is the cycle at v/s, lengths times s."""
     import optimistix as optx
 
     from ..limit_cycle import limit_cycle, tolerance_speed
     from ..units import mm_per_min
 
     slow = 1e-6 * float(out.critical_speed[0])
-    top = float(limit_cycle(friction, args.weight, args.stiffness, slow).amplitude)
+    top = s * float(limit_cycle(friction, args.weight, args.stiffness, slow).amplitude)
     if args.tolerance >= top:
         return 0.0
     try:
-        v_tol, result = tolerance_speed(friction, args.weight, args.stiffness, args.tolerance)
+        v_tol, result = tolerance_speed(friction, args.weight, args.stiffness,
+                                        args.tolerance / s)
     except Exception as exc:  # noqa: BLE001 - the solver's runtime error, said as the option's
         raise ValueError(f"--tolerance {args.tolerance:g} mm: no drive speed found "
                          f"({str(exc).splitlines()[0][:80]})") from None
-    v = float(mm_per_min(v_tol))
+    v = s * float(mm_per_min(v_tol))
     if result != optx.RESULTS.successful or not math.isfinite(v):
         raise ValueError(f"--tolerance {args.tolerance:g} mm: no drive speed found (the "
                          "solver did not converge from eq (12)'s v_c); give a larger "
@@ -110,13 +116,17 @@ def run(args) -> int:
             f"Table {args.table} has {', '.join(lubricants(args.table))}"
         )
     friction = lubricant(args.lubricant, table=args.table)
+    load = args.normal_load
+    # N/W: with friction mu N and inertia W/g the motion at v is the paper's (N = W) at v/s
+    # with lengths and speeds times s (`limit_cycle`'s normal_load)
+    s = 1.0 if load is None else load / args.weight
     speeds = jnp.asarray(args.speed)
-    out = steady_map(friction, args.weight, args.stiffness, speeds)
+    out = steady_map(friction, args.weight, args.stiffness, speeds / s)
     import jax
 
-    from ..limit_cycle import limit_cycle, tolerance_speed
+    from ..limit_cycle import limit_cycle
 
-    cyc = jax.vmap(lambda v: limit_cycle(friction, args.weight, args.stiffness, v))(speeds)
+    cyc = jax.vmap(lambda v: limit_cycle(friction, args.weight, args.stiffness, v / s))(speeds)
     rows = []
     for i, v in enumerate(args.speed):
         rows.append({
@@ -125,13 +135,13 @@ def run(args) -> int:
             "stick_slip": bool(out.stick_slip[i]),
             "stick_time_s": float(out.stick_time[i]),
             "slip_time_s": float(out.slip_time[i]),
-            "amplitude_mm": float(out.amplitude[i]),
+            "amplitude_mm": s * float(out.amplitude[i]),
             "amplitude_ratio": float(out.amplitude_ratio[i]),
             "frequency_hz": float(out.frequency[i]),
             "frequency_ratio": float(out.frequency_ratio[i]),
-            "critical_speed_mm_per_min": float(mm_per_min(out.critical_speed[i])),
+            "critical_speed_mm_per_min": s * float(mm_per_min(out.critical_speed[i])),
             # the time-domain model's limit cycle (fixed point of the one-cycle map)
-            "cycle_amplitude_mm": max(0.0, float(cyc.amplitude[i])),  # no -1e-18 round-off
+            "cycle_amplitude_mm": max(0.0, s * float(cyc.amplitude[i])),  # no -1e-18 round-off
             "cycle_stick_time_s": float(cyc.stick_time[i]),
             "cycle_slip_time_s": float(cyc.slip_time[i]),
             "cycle_frequency_hz": float(cyc.frequency[i]),
@@ -141,25 +151,26 @@ def run(args) -> int:
         from ..limit_cycle import boundary_speed
 
         f0 = out.natural_frequency[0]
-        dc = jax.vmap(lambda v: limit_cycle(friction, args.weight, args.stiffness, v,
+        dc = jax.vmap(lambda v: limit_cycle(friction, args.weight, args.stiffness, v / s,
                                             damping_ratio=zeta))(speeds)
         for i, r in enumerate(rows):  # 0 where the damped model slides steadily
             r.update({
                 "damped_regime": REGIMES[int(dc.regime[i])],
-                "damped_cycle_amplitude_mm": max(0.0, float(dc.amplitude[i])),
+                "damped_cycle_amplitude_mm": max(0.0, s * float(dc.amplitude[i])),
                 "damped_cycle_stick_time_s": float(dc.stick_time[i]),
                 "damped_cycle_slip_time_s": float(dc.slip_time[i]),
                 "damped_cycle_frequency_hz": float(dc.frequency[i]),
                 "damped_cycle_frequency_ratio": float(dc.frequency[i] / f0),
             })
         # inf (no boundary: zeta = 0) becomes null with its reason in the JSON
-        damped = float(mm_per_min(boundary_speed(friction, args.weight, args.stiffness, zeta)))
+        damped = s * float(mm_per_min(boundary_speed(friction, args.weight, args.stiffness,
+                                                     zeta)))
     tol = None
     if args.tolerance is not None:
         if not args.tolerance > 0:
             raise ValueError(f"--tolerance: must be positive, got {args.tolerance}")
         tol = {"max_amplitude_mm": args.tolerance,
-               "drive_speed_mm_per_min": _tolerance_speed(friction, args, out)}
+               "drive_speed_mm_per_min": _tolerance_speed(friction, args, out, s)}
     if args.json:
         from ..output import versioned, write_json
 
@@ -167,6 +178,7 @@ def run(args) -> int:
             "lubricant": args.lubricant,
             "table": args.table,
             "weight_kgf": args.weight,
+            **({} if load is None else {"normal_load_kgf": load}),
             "stiffness_kgf_per_mm": args.stiffness,
             "natural_frequency_hz": float(out.natural_frequency[0]),
             "results": rows,
@@ -177,7 +189,7 @@ def run(args) -> int:
         if args.json != "-":  # with "-" the table below goes to stderr
             print(f"wrote {args.json}")
     print(f"lubricant {args.lubricant} (Table {args.table}), W = {args.weight:g} kgf, "
-          f"k = {args.stiffness:g} kgf/mm, f0 = {float(out.natural_frequency[0]):.4g} Hz")
+          + ("" if load is None else f"N = {load:g} kgf, ") + f"k = {args.stiffness:g} kgf/mm, f0 = {float(out.natural_frequency[0]):.4g} Hz")
     columns = COLUMNS + (DAMPED_COLUMNS if zeta is not None else ())
     widths = [max(len(h), 12) for _, h in columns]
     print("  ".join(h.rjust(w) for (_, h), w in zip(columns, widths)))
