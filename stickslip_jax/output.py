@@ -215,20 +215,27 @@ def write_text(path: str, text: str) -> None:
 def _replace(path: str, suffix: str, write) -> None:
     """`write(tmp)` to a temporary file in `path`'s folder, then rename it over `path`
     with the usual permissions; on any failure (full disk, Ctrl-C) the temporary file is
-    removed and `path` is untouched."""
+    removed and `path` is untouched. Inside `outputs_together` the temporary file is
+    listed from its creation, so that a Ctrl-C while another thread writes it (a figure
+    drawn apart, `stickslip_fitting.report.plots.interruptible`) removes it too."""
+    if _INTERRUPTED:  # a Ctrl-C that something swallowed: no output after it
+        raise KeyboardInterrupt
     folder = os.path.dirname(os.path.abspath(path))
     fd, tmp = tempfile.mkstemp(prefix=".stickslip-", suffix=suffix, dir=folder)
     os.close(fd)
+    pending = _PENDING
+    if pending is not None:  # inside `outputs_together`: renamed with the others
+        pending.append((tmp, path))
     try:
         write(tmp)
         os.chmod(tmp, _mode(path))
-        if _PENDING is not None:  # inside `outputs_together`: renamed with the others
-            _PENDING.append((tmp, path))
-            return
-        if _INTERRUPTED:  # a Ctrl-C that something swallowed: do not finish the output
+        if _INTERRUPTED:
             raise KeyboardInterrupt
-        os.replace(tmp, path)
+        if pending is None:
+            os.replace(tmp, path)
     except BaseException as exc:
+        if pending is not None and (tmp, path) in pending:
+            pending.remove((tmp, path))
         if os.path.exists(tmp):
             os.unlink(tmp)
         if isinstance(exc, OSError) and exc.errno is not None:

@@ -71,13 +71,15 @@ def one_line(err: str, *names: str) -> str:
     return lines[0]
 
 
-def interrupt(argv, ready: str | None, wait: float, cwd, timeout: float = 240.0):
+def interrupt(argv, ready: str | None, wait: float, cwd, timeout: float = 240.0,
+              took: list | None = None, prelude: str = ""):
     """Run `python -m stickslip_jax.cli argv` in `cwd`, send SIGINT `wait` seconds after a
     stderr line containing `ready` (None: after the start), and return (returncode,
-    stdout, stderr)."""
+    stdout, stderr); `took` gets the seconds from the SIGINT to the exit, `prelude` is
+    Python run before the command."""
     # `python -m stickslip_jax.cli`, with Python's own Ctrl-C handler put back: a test run
     # started in the background inherits SIGINT ignored, and Python keeps it so
-    start = ("import runpy, signal, sys; signal.signal(signal.SIGINT, "
+    start = (prelude + "import runpy, signal, sys; signal.signal(signal.SIGINT, "
              "signal.default_int_handler); sys.argv[0] = 'stickslip'; "
              "runpy.run_module('stickslip_jax.cli', run_name='__main__', alter_sys=True)")
     proc = subprocess.Popen(
@@ -96,5 +98,8 @@ def interrupt(argv, ready: str | None, wait: float, cwd, timeout: float = 240.0)
     assert ready is None or any(ready in s for s in seen), "".join(seen) + proc.stderr.read()
     time.sleep(wait)
     proc.send_signal(signal.SIGINT)
+    sent = time.time()
     stdout, stderr = proc.communicate(timeout=timeout)
+    if took is not None:
+        took.append(time.time() - sent)
     return proc.returncode, stdout, "".join(seen) + stderr

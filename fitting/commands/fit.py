@@ -279,12 +279,12 @@ def run(args) -> int:
         if args.json != "-":
             print(f"wrote {args.json}")
     if args.plot:
-        from ..report.plots import fit_figure
+        from ..report.plots import fit_figure, interruptible
 
         logger.info("drawing the figure...")
         reasons = {s.name: s.reason for s in campaign.screening}
-        fit_figure(fit, unc, records, args.plot,
-                   not_used=[(r, reasons.get(f.name) or "not used") for r, f in campaign.not_used])
+        interruptible(fit_figure, fit, unc, records, args.plot, not_used=[
+            (r, reasons.get(f.name) or "not used") for r, f in campaign.not_used])
         print(f"wrote {args.plot}")
     if not fit.converged:
         print("stickslip fit: the fit did not converge (see the warnings): the values above "

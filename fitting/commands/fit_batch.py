@@ -256,9 +256,9 @@ def run(args) -> int:
         write_text(args.csv, long_table(batch))
         print(f"wrote {args.csv}")
     if args.plot:
-        from ..report.plots import batch_figure
+        from ..report.plots import batch_figure, interruptible
 
-        batch_figure(batch, args.plot)
+        interruptible(batch_figure, batch, args.plot)
         print(f"wrote {args.plot}")
     if errors:
         print("stickslip fit-batch: internal errors in some campaigns (see the table); run "

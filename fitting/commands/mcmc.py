@@ -145,7 +145,9 @@ def run(args) -> int:
         from stickslip_jax.logs import logger
 
         logger.info("drawing the corner plot...")
-        post.plot(args.plot)
+        from ..report.plots import interruptible
+
+        interruptible(post.plot, args.plot)
         print(f"wrote {args.plot}")
     if res.interrupted:
         print("stickslip mcmc: interrupted; the chain so far is summarised above"

@@ -17,13 +17,38 @@ from .posterior_plots import corner_plot  # noqa: F401 (this module's name for i
 import numpy as np
 
 __all__ = ["batch_figure", "corner_plot", "finish_figure", "fit_figure", "fitted_traces",
-           "friction_curves", "residual_panel"]
+           "friction_curves", "interruptible", "residual_panel"]
 
 
 def _plt():
     import matplotlib.pyplot as plt  # the user's backend, as it is
 
     return plt
+
+
+def interruptible(draw, *args, **kwargs):
+    """`draw(*args, **kwargs)` in a worker thread while this thread waits for it, so that a
+    Ctrl-C reaches a command at once: compiling the fitted simulation and rendering run
+    in C code, which Python interrupts only when it returns (seconds). Returns what
+    `draw` returns and raises what it raises; interrupted, the worker's output is never
+    renamed into place (`stickslip_jax.output`)."""
+    import threading
+
+    box: dict = {}
+
+    def work():
+        try:
+            box["value"] = draw(*args, **kwargs)
+        except BaseException as exc:  # noqa: BLE001 - raised again in the caller's thread
+            box["error"] = exc
+
+    worker = threading.Thread(target=work, name="stickslip-figure", daemon=True)
+    worker.start()
+    while worker.is_alive():
+        worker.join(0.05)
+    if "error" in box:
+        raise box["error"]
+    return box.get("value")
 
 
 def finish_figure(fig, path, dpi):
