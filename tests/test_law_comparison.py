@@ -85,6 +85,28 @@ def test_paper_records_prefer_the_paper():
     assert not cmp.paper_wrong_base
 
 
+def test_records_are_compared_over_their_first_cycles():
+    """`compare_laws` cuts every record after the given number of slip ends following
+    its first (the simulation ends there: its last sample repeats, masked)."""
+    from stickslip_fitting.data.features import record_features
+    from stickslip_fitting.discovery.laws import _crop
+    from stickslip_fitting.objectives.smooth import smooth_data
+
+    recs = paper_campaign(0)
+    feats = [record_features(r) for r in recs]
+    d = smooth_data(recs, feats)
+    c = _crop(d, feats, 1)
+    assert c.time.shape[1] < d.time.shape[1]
+    for i, f in enumerate(feats):
+        cut = f.end_time[1] - f.end_time[0]
+        t = np.asarray(c.time[i])
+        kept = t[np.asarray(c.mask[i])]
+        assert cut - 0.01 < kept.max() <= cut and t.max() <= cut
+        t_all = np.asarray(d.time[i])
+        assert np.array_equal(kept, t_all[np.asarray(d.mask[i]) & (t_all <= cut)])
+    assert _crop(d, feats, 50).mask.sum() == d.mask.sum()
+
+
 def test_hold_out_is_checked():
     with pytest.raises(ValueError, match="hold_out"):
         compare_laws([], LAWS, hold_out=0.9)

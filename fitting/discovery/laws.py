@@ -10,8 +10,12 @@ simulator, `stickslip_fitting.solve.laws.fit_law`) on the earlier part of each r
 - the held-out cycles: $\chi^2/n$ of the later samples, the fitted model run on freely
   past the fitted part (a law that only bends to the fitted cycles drifts off there).
 
-The preferred law has the lowest BIC; a law the smoothed simulator cannot run through the
-records from any of its starts scores an infinite chi-square. The paper's law is called the wrong base when
+Each record is compared over its first `CYCLES` cycles after its first slip end (a long
+record's later cycles add cost, not evidence: a rate-and-state law with a small direct
+effect a takes about 3000 implicit solver steps per cycle, and 30 cycles of a real
+record outran the solver's step budget). The preferred law has the lowest BIC; a law the
+smoothed simulator cannot run through the records from any of its starts scores an
+infinite chi-square, with the `reason` said. The paper's law is called the wrong base when
 another law beats it by at least `BIC_MARGIN` (strong evidence, a Bayes factor above
 150) and is not worse on the held-out cycles.
 """
@@ -28,13 +32,16 @@ __all__ = ["BIC_MARGIN", "LawComparison", "LawScore", "compare_laws"]
 
 BIC_MARGIN = 10.0
 """BIC difference above which one law is preferred with strong evidence."""
+CYCLES = 10
+"""Cycles of each record (after its first slip end) the laws are compared over."""
 
 
 @dataclasses.dataclass(frozen=True)
 class LawScore:
     """One law's fit: `chi2` of the `n` fitted residuals, `k` free parameters, `aic`,
     `bic`, `held_out` ($\\chi^2/n$ of the held-out samples), `converged`, `values`
-    ({name: natural value}, the law's units)."""
+    ({name: natural value}, the law's units), `reason`: why a law has no finite score
+    (else "")."""
 
     law: FrictionLaw
     chi2: float
@@ -43,6 +50,7 @@ class LawScore:
     held_out: float
     converged: bool
     values: dict
+    reason: str = ""
 
     @property
     def aic(self) -> float:
@@ -71,14 +79,15 @@ class LawComparison:
                 "message": self.message, "laws": [
                     {"law": s.law.value, "chi2": s.chi2, "n": s.n, "k": s.k, "aic": s.aic,
                      "bic": s.bic, "held_out_chi2_per_sample": s.held_out,
-                     "converged": s.converged, "values": s.values} for s in self.scores]}
+                     "converged": s.converged, "values": s.values, "reason": s.reason}
+                    for s in self.scores]}
 
 
 def _verdict(scores) -> tuple[FrictionLaw, bool, str]:
     best = min(scores, key=lambda s: s.bic)
     paper = next((s for s in scores if s.law is FrictionLaw.PAPER), None)
     lines = [f"{s.law.value}: BIC {s.bic:.1f}, held-out chi2/n {s.held_out:.3g}"
-             for s in scores]
+             + (f" ({s.reason})" if s.reason else "") for s in scores]
     if paper is None or best is paper:
         return best.law, False, f"preferred: {best.law.value} ({'; '.join(lines)})"
     wrong = paper.bic - best.bic >= BIC_MARGIN and best.held_out <= paper.held_out
@@ -88,16 +97,38 @@ def _verdict(scores) -> tuple[FrictionLaw, bool, str]:
                              f"{paper.bic - best.bic:.1f}; {verdict} ({'; '.join(lines)})")
 
 
+def _crop(d, features, cycles):
+    """`SmoothData` d cut after the `cycles`-th slip end following each record's first (a
+    cut record repeats its last sample, masked: its simulation ends there)."""
+    import jax.numpy as jnp
+
+    t = np.asarray(d.time)
+    ends = [np.asarray(f.end_time, float) for f in features]
+    cut = np.array([e[cycles] - e[0] if e.size > cycles else np.inf for e in ends])
+    keep = t <= cut[:, None]
+    last = np.maximum(keep.sum(1) - 1, 0)
+    n = int(last.max()) + 1
+    j = np.minimum(np.arange(n)[None, :], last[:, None])
+
+    def take(a):
+        return jnp.asarray(np.take_along_axis(np.asarray(a), j, 1))
+
+    return dataclasses.replace(d, time=take(d.time), deflection=take(d.deflection),
+                               mask=jnp.asarray(np.asarray(d.mask)[:, :n] & keep[:, :n]))
+
+
 def compare_laws(records, laws=tuple(FrictionLaw), *, hold_out: float = 1 / 3,
                  features=None, modes: ModelModes = ModelModes(),
-                 solver: SolverOptions = SolverOptions(), pad_to: int = 0) -> LawComparison:
+                 solver: SolverOptions = SolverOptions(), pad_to: int = 0,
+                 cycles: int | None = CYCLES) -> LawComparison:
     """Fit and score each of `laws` (`FrictionLaw` members) on `records` (module doc).
 
     `hold_out`: the fraction of each record (after its first slip end) kept out of the
     fit and scored on; `features`: the records' `RecordFeatures` (extracted when None);
     `modes`, `solver` as in `fit_features`; `pad_to`: samples per record at least (padding,
-    so that campaigns of other lengths reuse the compiled fit). ValueError when `hold_out`
-    is outside [0, 0.8].
+    so that campaigns of other lengths reuse the compiled fit); `cycles`: the cycles of each
+    record compared (module doc; None: whole records). ValueError when `hold_out` is
+    outside [0, 0.8].
     """
     import jax.numpy as jnp
 
@@ -108,8 +139,8 @@ def compare_laws(records, laws=tuple(FrictionLaw), *, hold_out: float = 1 / 3,
     if not 0.0 <= hold_out <= 0.8:
         raise ValueError(f"hold_out: a fraction in [0, 0.8], got {hold_out}")
     features = [record_features(r) for r in records] if features is None else features
-    full = SmoothObjective(smooth_data(records, features), slip_time=modes.slip_time)
-    d = full.data
+    d = smooth_data(records, features)
+    d = _crop(d, features, cycles) if cycles is not None else d
     extra = max(pad_to - d.time.shape[1], 0)
     if extra:
         def pad(a):
@@ -117,11 +148,12 @@ def compare_laws(records, laws=tuple(FrictionLaw), *, hold_out: float = 1 / 3,
 
         d = dataclasses.replace(d, time=pad(d.time), deflection=pad(d.deflection),
                                 mask=jnp.pad(d.mask, ((0, 0), (0, extra))))
-        full = SmoothObjective(d, slip_time=modes.slip_time)
+    full = SmoothObjective(d, slip_time=modes.slip_time)
     cut = (1.0 - hold_out) * jnp.max(jnp.where(d.mask, d.time, 0.0), axis=1, keepdims=True)
     train = d.mask & (d.time <= cut)
     held = np.asarray(d.mask & ~train).ravel()
     fit_obj = SmoothObjective(dataclasses.replace(d, mask=train), slip_time=modes.slip_time)
+    n = int(np.count_nonzero(np.asarray(train)))
     scores = []
     for law in laws:
         # a stiff law (rate-and-state) may take more solver steps than the latch budget
@@ -129,15 +161,18 @@ def compare_laws(records, laws=tuple(FrictionLaw), *, hold_out: float = 1 / 3,
             fit_obj, max_steps=4 * fit_obj.max_steps)
         try:
             fit = fit_law(features, records, law, modes=modes, solver=solver, objective=obj)
-        except ValueError:  # the law cannot be simulated through these records: it loses
-            scores.append(LawScore(law, float("inf"), int(np.count_nonzero(np.asarray(train))),
-                                   0, float("inf"), False, {}))
+        except ValueError as err:  # the law cannot be simulated through these records
+            scores.append(LawScore(law, float("inf"), n, 0, float("inf"), False, {},
+                                   reason=f"{err} within {obj.max_steps} solver steps"))
             continue
-        r = np.asarray(full.residuals(fit.params))
+        r = np.asarray(dataclasses.replace(full, max_steps=obj.max_steps).residuals(fit.params))
         k = int(round(fit_obj.dof())) - fit.dof  # free parameters
+        held_out = float(np.mean(r[held] ** 2)) if held.any() else float("nan")
         scores.append(LawScore(
-            law=law, chi2=float(fit.chi2), n=int(np.count_nonzero(np.asarray(train))), k=k,
-            held_out=float(np.mean(r[held] ** 2)) if held.any() else float("nan"),
-            converged=bool(fit.converged), values=fit.values))
+            law=law, chi2=float(fit.chi2), n=n, k=k, held_out=held_out,
+            converged=bool(fit.converged), values=fit.values,
+            reason="" if np.isfinite(fit.chi2) and not np.isinf(held_out) else
+            f"the fitted law's simulation did not reach the records' end within "
+            f"{obj.max_steps} solver steps"))
     preferred, wrong, message = _verdict(scores)
     return LawComparison(tuple(scores), preferred, wrong, message)
