@@ -54,6 +54,7 @@ def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):
     captured = capsys.readouterr()
     rep = json.loads(out.read_text())
     assert rep["effect"] == "none", rep["explanation"]
+    assert rep["steps"] == []  # the sequential search (3 effects by default) names none
     # --learn: the learned phase correction is fitted whatever the answer (on clean
     # records it has nothing phase-locked to learn)
     learned = rep["learned_correction"]
@@ -99,6 +100,10 @@ def test_strong_damping_is_named():
     named = {res.effect} | {r["name"] for r in res.indistinguishable_from}
     assert "viscous_damping" in named, res.explanation
     assert res.gap_after <= 1.15 * res.noise
+    # the sequential search (3 effects by default) stops after it: no shadow second
+    # effect, and its step is the staircase's one
+    assert [s["effect"] for s in res.steps if s["kept"]] == [res.effect], res.steps
+    assert res.steps[-1]["gap_after"] == pytest.approx(res.gap_after, rel=0.05)
     # the dashpot's c (kgf s/mm) or, in the damping-ratio form, zeta
     size = res.effect_size.get("c") or res.effect_size["zeta"]
     assert size["value"] > 0
@@ -182,7 +187,7 @@ def test_a_measured_drive_column_is_used():
     (each window's displacement as a cubic): its screw error and speed drift are not
     missing physics, so nothing is named and the base fits to the noise; the same records
     with only the nominal speed leave a gap many times the noise. The trace objective
-    still refuses such records (its exact simulator drives at u = v t)."""
+    drives their windows through knots of the measured drive (`TraceData.drive_knots`)."""
     from stickslip_fitting.data.campaign import screen_records
     from stickslip_fitting.objectives.trace import trace_data
 
@@ -192,8 +197,7 @@ def test_a_measured_drive_column_is_used():
     nominal = discover_cycles(_measured_drive_campaign(False), candidates=("gauge_drift",))
     assert nominal.gap_before > 5 * nominal.noise
     c = screen_records(_measured_drive_campaign(True))
-    with pytest.raises(ValueError, match="constant drive speed"):
-        trace_data(c.records, c.features)
+    assert trace_data(c.records, c.features).drive_knots is not None  # windows' own drives
 
 
 def test_lift_mu_d():

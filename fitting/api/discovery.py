@@ -89,10 +89,13 @@ class CampaignDiscovery:
 
     @property
     def named(self) -> list[str]:
-        """The families the answer names: the effect and those the records cannot tell
-        from it (empty for "none" and "unexplained")."""
+        """The families the answer names: the effect, those the records cannot tell
+        from it, and the further effects of the sequential search (empty for "none" and
+        "unexplained")."""
         names = {c["name"] for c in self.result.candidates}
         joint = [self.result.effect] + [r["name"] for r in self.result.indistinguishable_from]
+        joint += [s["effect"] for s in getattr(self.result, "steps", ())
+                  if s["kept"] and s["effect"] not in joint]
         return [n for n in joint if n in names]
 
     def summary(self) -> pandas.DataFrame:
@@ -173,6 +176,7 @@ def discover(
     strict: bool = False,
     learn: bool = False,
     progress=None,
+    max_effects: int = 3,
 ) -> CampaignDiscovery:
     """Find the effect the paper's model misses in a campaign, as `stickslip discover`
     does on its default base (the per-cycle model).
@@ -186,7 +190,9 @@ def discover(
       `loss`: the likelihood ("gaussian", "huber:C", "student-t:NU" or an
       `AbstractLoss`); `strict`: refuse the campaign when a record has no usable
       stick-slip; `learn`: fit the learned phase correction whatever the answer;
-      `progress`: called with one line per finished stage (e.g. `print`).
+      `progress`: called with one line per finished stage (e.g. `print`);
+      `max_effects`: how many effects may be named one after another, as
+      `--max-effects` (1: the single best effect).
 
     Every mistake in the options raises ValueError naming the keyword, before any fit.
     """
@@ -198,6 +204,8 @@ def discover(
         raise ValueError(f"top: must be at least 1, got {top}")
     if max_evals < 2:
         raise ValueError(f"max_evals: must be at least 2, got {max_evals}")
+    if max_effects < 1:
+        raise ValueError(f"max_effects: must be at least 1, got {max_effects}")
     if not 0 < alpha < 1:
         raise ValueError(f"alpha: must be between 0 and 1, got {alpha}")
     if isinstance(only, str):
@@ -232,5 +240,6 @@ def discover(
         raise ValueError("records: discovery needs at least two records (a campaign)")
     result = discover_cycles(recs, candidates=tuple(only) if only else None, top=top,
                              alpha=alpha, max_evals=max_evals, strict=strict, learn=learn,
-                             loss=loss, unreadable=tuple(unreadable), progress=progress)
+                             loss=loss, unreadable=tuple(unreadable), progress=progress,
+                             max_effects=max_effects)
     return CampaignDiscovery(result=result, loss=loss.spec(), inputs=inputs)

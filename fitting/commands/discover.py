@@ -56,6 +56,10 @@ def add_arguments(parser):
     parser.add_argument("--crop", choices=("slip_end", "none"), default=None,
                         help="--base smooth: start each record at its first slip end "
                         "(default) or use it whole (it must start just after a slip)")
+    parser.add_argument("--max-effects", type=int, default=3, metavar="N",
+                        help="--base cycle: name up to N effects one after another, each "
+                        "joining the model before the next search (default 3; 1: the "
+                        "single best effect)")
     parser.add_argument("--max-evals", type=int, default=80,
                         help="evaluation budget of the base fit (default 80; it stops earlier "
                         "when converged)")
@@ -83,6 +87,8 @@ def run(args) -> int:
         raise ValueError(f"--top: must be at least 1, got {args.top}")
     if args.max_evals < 2:
         raise ValueError(f"--max-evals: must be at least 2, got {args.max_evals}")
+    if args.max_effects < 1:
+        raise ValueError(f"--max-effects: must be at least 1, got {args.max_effects}")
     from stickslip_fitting.modes import DiscoveryBase
 
     cycle = DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE
@@ -274,6 +280,7 @@ def _run_cycle(args, records, loss, unreadable=()):
     result = discover_cycles(records, candidates=tuple(only) if only else None, top=args.top,
                              alpha=args.alpha, max_evals=args.max_evals, strict=args.strict,
                              learn=args.learn, loss=loss, unreadable=unreadable,
+                             max_effects=args.max_effects,
                              progress=None if args.quiet else logger.info)
     for s in result.campaign.screening:
         if s.status != "used":

@@ -70,11 +70,24 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    residual is within its own standard errors (a slip's timing error moves the fast
    trace); "none" is "low" when a phase's chi2/n exceeds `phase_chi2`.
 
+6. `more`: the sequential search for several effects at once (`stages.more`, whose
+   module doc justifies the stopping rule). The named effect joins the base (its
+   coordinates base columns, its shape held) and stages 3-5 run again on the extended
+   base over the families not yet in it, until no family is significant or
+   `max_effects` are named; after each new effect every earlier one is tested again
+   given it (drop-one) and dropped when no longer significant (a shadow of the new
+   one). The confidence and the gap after are those of the final model, all effects
+   fitted together; `result.steps` is the staircase (each effect's size, interval,
+   family-wise p, confidence and the gap after it), `result.effect` the first effect kept.
+   The records weighed by their scatter are tried at full weight (`reweigh`) on the
+   final model.
+
 Gaps are residual RMS in mm; `noise` is the campaign's noise level (RMS of the records'
 robust noise estimates, `RecordFeatures.noise`).
 
 Layout: the stages are functions in `stickslip_fitting.discovery.stages` (`prepare`,
-`base_fit`, `rank`, `refit`, `sharpen`, `choose`, `reweigh`, `conclude`) that hand on
+`base_fit`, `rank`, `refit`, `sharpen`, `choose`, `more_effects`, `reweigh`, `conclude`)
+that hand on
 frozen states (`stages.state`); the tuning is `options.DiscoveryOptions` (`DEFAULTS`;
 the lower-case names above are its fields), the statistics and decision rules are in
 `decision`, the sub-problems over flat coordinates in `subproblems`, the result type in `result`.
@@ -90,8 +103,8 @@ from ..objectives.losses import AbstractLoss
 from .cycle_effects import FAMILIES, family
 from .options import DEFAULTS, DiscoveryOptions
 from .result import CycleDiscovery
-from .stages import (Clock, Fits, base_fit, choose, conclude, prepare, rank, refit, reweigh,
-                     sharpen)
+from .stages import (Clock, Fits, base_fit, choose, conclude, more_effects, prepare, rank,
+                     refit, reweigh, settled, sharpen)
 
 __all__ = ["CycleDiscovery", "DiscoveryOptions", "discover_cycles"]
 
@@ -112,6 +125,7 @@ def discover_cycles(
     progress=None,
     loss: AbstractLoss | None = None,
     unreadable=(),
+    max_effects: int = 3,
 ) -> CycleDiscovery:
     """Run the workflow (module doc) on `records` (a campaign of `Record`s).
 
@@ -127,8 +141,12 @@ def discover_cycles(
     likelihood (`stickslip_fitting.objectives.losses`, `--loss`) whose weights at the base fit are
     held fixed through the workflow (None or Gaussian: least squares); `unreadable`: the
     errors of the campaign's files that could not be read (`read_campaign_files`), listed
-    in the screening. The other tuning is `DEFAULTS` (`options.DiscoveryOptions`).
+    in the screening; `max_effects`: how many effects the sequential search may name
+    (stage 6; 1: the first search's answer alone). The other tuning is `DEFAULTS`
+    (`options.DiscoveryOptions`).
     """
+    if max_effects < 1:
+        raise ValueError(f"max_effects: must be at least 1, got {max_effects}")
     # a process that runs many campaigns would reach its memory-map limit, and die in
     # XLA's compiler (`stickslip_jax.programs`)
     released = release_programs()
@@ -145,6 +163,8 @@ def discover_cycles(
     ranking = rank(prep, base, fams, opts=opts, clock=clock)
     fx = Fits(opts=opts, prep=prep, base=base, ranking=ranking)
     refitted = sharpen(fx, refit(fx, clock=clock), clock=clock)
-    choice = choose(fx, refitted, clock=clock)
-    after = reweigh(fx, choice, clock=clock)
-    return conclude(fx, refitted, choice, after, learn=learn, clock=clock)
+    last, choice, steps = more_effects(fx, choose(fx, refitted, clock=clock), fams,
+                                       max_effects=max_effects, clock=clock)
+    after = reweigh(last, choice, clock=clock)
+    return conclude(fx, refitted, choice, after, learn=learn, clock=clock,
+                    steps=settled(last, after.chosen, steps))

@@ -74,11 +74,11 @@ def plot_discovery(result, path=None, *, records: int = 4):
     tr = result.base_problem.traces
     m = np.asarray(tr.mask)
     t = np.asarray(tr.time)
-    d = np.asarray(tr.data)
+    d = np.asarray(tr.deflection)
     # the fitted models' traces (kept from the fits: no new simulation or compilation)
     base = result.base_problem.trajectories(result.base_fit.z)[0]
     final = result.final_problem.trajectories(result.final_fit.z)[0]
-    R = tr.n_records
+    R = tr.time.shape[0]
     pick = _picked(R, records)
     fig, axes = plt.subplots(1 + len(pick), 2, figsize=(11, 2.6 * (1 + len(pick))),
                              squeeze=False)
@@ -119,6 +119,7 @@ def plot_cycle_discovery(result, *, records: int = 4):
     (spread over the campaign) the measured deflection with the paper's model and the
     model with the effect (mm against s) and their residuals (um), each record's panel
     titled by `record_title` and its lines broken between the fitted cycle windows.
+    With the effects named (`steps`), a staircase of the gap after each (`_staircase`).
     Returns the `matplotlib.figure.Figure` (the backend is left as it is)."""
     from matplotlib.figure import Figure
 
@@ -140,7 +141,9 @@ def plot_cycle_discovery(result, *, records: int = 4):
     pos = np.arange(len(names))
     ax.bar(pos - 0.2, [1e3 * (result.phases_before[n]["rms"] or 0) for n in names], 0.4,
            label="paper's model")
-    after = result.effect_of or result.effect  # "unexplained": the best family's refit
+    # "unexplained": the best family's refit; several effects: all of them
+    after = (" + ".join(s["effect"] for s in getattr(result, "steps", None) or () if s["kept"])
+             or result.effect_of or result.effect)
     ax.bar(pos + 0.2, [1e3 * (result.phases_after[n]["rms"] or 0) for n in names], 0.4,
            label=f"with {after}")
     ax.axhline(result.noise * 1e3, color="k", lw=0.8, ls="--", label="noise")
@@ -162,11 +165,19 @@ def plot_cycle_discovery(result, *, records: int = 4):
                f"(noise {result.noise * 1e3:.3g} um)\n"
                f"traces of {len(pick)} of the {G} records used"
                + (f" ({given} given)" if given > G else "") + ", fitted cycle windows only")
-    learned = result.learned
-    if learned is None:
+    learned, steps = result.learned, getattr(result, "steps", None) or []
+    if steps and learned is not None:  # both: the top right panel split in two
+        spec = axes[0, 1].get_subplotspec()
+        axes[0, 1].remove()
+        stair, axes[0, 1] = spec.subgridspec(1, 2).subplots()
+    elif steps:
+        stair = axes[0, 1]
+    if steps:
+        _staircase(stair, result, steps, summary if learned is None else None)
+    if learned is None and not steps:
         axes[0, 1].axis("off")
         axes[0, 1].text(0, 0.5, summary, fontsize=10, va="center")
-    else:  # the learned phase correction over the cycle, at the median climb
+    elif learned is not None:  # the learned phase correction over the cycle, at the median climb
         ax = axes[0, 1]
         phase, corr = learned.correction_at()
         ax.plot(phase, 1e3 * corr, color="C3", label="learned correction")
@@ -182,6 +193,24 @@ def plot_cycle_discovery(result, *, records: int = 4):
                           x[rec == g], (x - r0)[rec == g], (x - r1)[rec == g]) for g in pick],
                   "paper's model", f"with {after}")
     return fig
+
+
+def _staircase(ax, result, steps, title) -> None:
+    """The sequential search's staircase: the gap (um) with the paper's model and after
+    each effect named (a dropped one marked), against the noise."""
+    um = 1e3
+    gaps = [result.gap_before * um] + [s["gap_after"] * um for s in steps]
+    labels = ["paper's model"] + [("+ " if s["kept"] else "(dropped) ") + s["effect"]
+                                  for s in steps]
+    ax.step(range(len(gaps)), gaps, where="mid", color="C0")
+    ax.plot(range(len(gaps)), gaps, "o", color="C0", label="gap after each step")
+    ax.axhline(result.noise * um, color="k", lw=0.8, ls="--", label="noise")
+    ax.set_xticks(range(len(gaps)), labels, rotation=15, fontsize=7, ha="right")
+    ax.set_ylabel("residual RMS (um)")
+    ax.set_ylim(0.0, 1.15 * max(gaps))
+    ax.legend(fontsize=7)
+    if title:
+        ax.set_title(title, fontsize=8)
 
 
 def _trace_panels(axes, panels, before: str, after: str) -> None:

@@ -21,7 +21,7 @@ from .cycle_model import CycleModel
 from .options import DEFAULTS
 
 __all__ = ["NO_STDERR", "CycleDiscovery", "Discovery", "SmoothDiscovery", "effect_estimate",
-           "estimate_text", "phase_misfit", "phase_text"]
+           "estimate_text", "phase_misfit", "phase_text", "steps_text"]
 
 FIT_CRITERION = ("converged when a full Gauss-Newton step would lower chi-square by < 0.05, "
                  "or the last 4 evaluations lowered it by < 0.5 together")
@@ -116,7 +116,18 @@ class CycleDiscovery(Discovery):
     """The residual RMS (mm) over every record used, those weighed by their scatter
     (`records_scaled`) included; `gap_before` and `gap_after` are over the records the
     paper's model describes (the ones the decision uses)."""
+    steps: list = dataclasses.field(default_factory=list)
+    """The staircase of the sequential search (`stages.more`, `Step.to_json`): every
+    effect named, in order, with its values and standard errors (in the final model
+    where kept), the gap after its step, its family-wise p-value and confidence; empty
+    when none is named. With several effects kept, `effect` is the first of them,
+    `effect_size` and `effect_of` its parameters and name, and the others' parameters
+    (`more_estimates`, named "family.parameter") follow its in `parameters_after`."""
+    more_estimates: list = dataclasses.field(default_factory=list)
     BASE: ClassVar[str] = "cycle"
+
+    def estimates(self) -> list[ParameterEstimate]:
+        return super().estimates() + list(self.more_estimates or ())
 
     @property
     def effect_size(self) -> dict[str, dict]:
@@ -144,7 +155,8 @@ class CycleDiscovery(Discovery):
                 "learned_correction": (self.learned.to_json() if self.learned is not None
                                        else None),
                 "sparse_form": (self.sparse_form.to_json() if self.sparse_form is not None
-                                else None)}
+                                else None),
+                "steps": self.steps}
 
 
 @dataclasses.dataclass(kw_only=True)
@@ -242,6 +254,37 @@ def phase_misfit(phases: dict, phase_chi2: float = DEFAULTS.phase_chi2) -> list[
     `phase_chi2`)."""
     return [n for n, ph in phases.items()
             if (ph.get("chi2_per_sample") or 0.0) > phase_chi2]
+
+
+def steps_text(steps, decision, gap_before, gap_after, noise,
+               explained_gap: float = DEFAULTS.explained_gap) -> str:
+    """The answer of the sequential search in words (several effects kept): what each
+    effect is, the staircase of gaps, the effects dropped as another's shadow, and what
+    keeps the confidence low."""
+    um = 1e3
+    named = " + ".join(s.family.name for s in steps)
+    text = (f"{len(steps)} effects named one after another ({named}). "
+            + " ".join(s.family.explanation for s in steps) + " The residual RMS goes from "
+            f"{gap_before * um:.3g} um with the paper's model to " + ", then ".join(
+                f"{s.gap_after * um:.3g} um with {s.family.name} ("
+                + (s.shape.label(s.family) + "; " if s.shape.label(s.family) else "")
+                + (", ".join(estimate_text(effect_estimate(p, u, v, e, b)) for p, u, v, e, b
+                             in zip(*s.family.named(s.shape), s.values, s.stderr,
+                                    s.family.support()))
+                   if not s.family.per_record else "per record") + ")" for s in steps)
+            + f" (noise {noise * um:.3g} um; {gap_after * um:.3g} um in the final fit).")
+    gone = [d for s in steps for d in s.dropped]
+    if gone:
+        text += (f" Dropped as a shadow of a later effect (no longer significant given "
+                 f"it): {', '.join(gone)}.")
+    if gap_after > explained_gap * noise:
+        text += (f" The residual is still {gap_after / noise:.2g} x the noise: something "
+                 "else is missing too.")
+    if decision is not None and decision.unbeaten:
+        text += (" Not certain: " + "; ".join(
+            f"{c.name}{'' if c.physical else ' (unphysical)'} lowers chi-square by "
+            f"{c.drop:.0f} and is not clearly beaten" for c in decision.unbeaten) + ".")
+    return text
 
 
 def explanation_text(effect, chosen, decision, gap_before, gap_after, noise, pattern, phases,

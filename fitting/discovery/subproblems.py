@@ -16,7 +16,20 @@ from stickslip_jax.lsq import HostResult, solve_host
 from .cycle_effects import Shape
 from .cycle_model import CycleModel
 
-__all__ = ["AbstractProblem", "SharedScrewProblem", "SubProblem"]
+__all__ = ["SHAPE_FIELDS", "AbstractProblem", "SharedScrewProblem", "SubProblem", "with_shape"]
+
+SHAPE_FIELDS = {"viscous_damping": ("damping",), "stribeck": ("vs", "p", "form"),
+                "rate_state": ("length",), "drive_periodic_error": ("pitch",),
+                "sensor_lowpass": ("order", "zeta")}
+"""The `Shape` settings each family owns (a family not listed has none): one `Shape`
+holds every family's at once, so the effects named so far keep theirs while another
+family's shapes are scanned (`with_shape`)."""
+
+
+def with_shape(held: Shape, fam, shape: Shape) -> Shape:
+    """`held` with the settings of family `fam` taken from `shape` (`SHAPE_FIELDS`)."""
+    fields = SHAPE_FIELDS.get(fam.name, ())
+    return dataclasses.replace(held, **{k: getattr(shape, k) for k in fields})
 
 
 class AbstractProblem(abc.ABC):
@@ -62,12 +75,16 @@ class SubProblem(AbstractProblem):
         rows[np.arange(rows.shape[0]), np.flatnonzero(on)] = 1.0 / self.prior[on]
         return np.concatenate([r, np.asarray(z)[on] / self.prior[on]]), np.vstack([J, rows]), ok
 
-    def without_effect(self, z) -> np.ndarray:
-        """The free coordinates `z` with the family's effect taken out (its coordinates,
-        after the base's, at 0)."""
+    def without_effect(self, z, k) -> np.ndarray:
+        """The free coordinates `z` with the family's effect taken out (its `k`
+        coordinates, the last, at 0)."""
         w = np.array(z, float)
-        w[self.model.n_base:] = 0.0
+        w[w.size - k:] = 0.0
         return w
+
+    def family_columns(self, J, k) -> np.ndarray:
+        """The family's columns (the last `k` free coordinates) of a Jacobian `J`."""
+        return np.asarray(J)[:, J.shape[1] - k:]
 
     def family_part(self, z, cov, k):
         """The last `k` model coordinates (the family's) at the free coordinates `z`, and
@@ -79,9 +96,10 @@ class SubProblem(AbstractProblem):
 class SharedScrewProblem(SubProblem):
     """The screw error with one amplitude per harmonic and a phase per record (one lead
     screw, records starting at different places on it): free coordinates are the base's
-    `n_base` columns, then A1, A2 (model scale units) and the G first- then G
-    second-harmonic phases (rad). `cols` are the model columns: base, then the family's
-    4 per record (a1_sin = A1 cos phi1, a1_cos = A1 sin phi1, likewise A2, phi2)."""
+    `n_base` columns (friction, offsets and the effects already named), then A1, A2
+    (model scale units) and the G first- then G second-harmonic phases (rad). `cols` are
+    the model columns: base, then the family's 4 per record (a1_sin = A1 cos phi1,
+    a1_cos = A1 sin phi1, likewise A2, phi2)."""
 
     n_base: int = 0
 
@@ -111,7 +129,10 @@ class SharedScrewProblem(SubProblem):
         _, D = self._coef(np.asarray(z)[self.n_base:])
         return r, np.hstack([J[:, :self.n_base], J[:, self.n_base:] @ D]), ok
 
-    def without_effect(self, z) -> np.ndarray:
+    def family_columns(self, J, k) -> np.ndarray:
+        return np.asarray(J)[:, self.n_base:]
+
+    def without_effect(self, z, k) -> np.ndarray:
         """Amplitudes at 0, the records' phases kept."""
         w = np.array(z, float)
         w[self.n_base:self.n_base + 2] = 0.0

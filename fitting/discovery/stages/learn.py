@@ -4,13 +4,16 @@ the result (`cycle_workflow`, module doc)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 from ...params import EmpiricalFriction
 from ...report.rows import DiscoveryEstimates, ParameterEstimate
 from ..cycle_effects import Shape
 from ..cycle_learned import fit_cycle_correction
 from ..decision import rms_by_phase, rms_gap
 from ..flips import FLIPS
-from ..result import CycleDiscovery, effect_estimate, explanation_text, phase_misfit, phase_text
+from ..result import (CycleDiscovery, effect_estimate, explanation_text, phase_misfit,
+                      phase_text, steps_text)
 from .base_fit import friction_values
 from .form import form_text, outside_form
 from .state import Choice, Clock, Fits, Refitted, Reweighed
@@ -23,7 +26,7 @@ def _verdict(fx: Fits, choice: Choice, chosen, gap_after) -> tuple[str, str]:
     excess chi-square over the samples' count is the misfit to explain; below
     `small_excess` x n it is within what the weights' approximations leave on clean data."""
     opts, base = fx.opts, fx.base
-    excess = max(base.fit.rss - base.n_used, 0.0)
+    excess = max(base.fit.rss + base.within - base.n_used, 0.0)
     decided_drop = choice.decided_drop
     explains = chosen is not None and (excess <= opts.small_excess * base.n_used
                                        or decided_drop >= opts.explained_share * excess)
@@ -109,10 +112,13 @@ def _candidates(scores, refits, compared) -> list[dict]:
 
 
 def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, learn: bool,
-             clock: Clock) -> CycleDiscovery:
+             clock: Clock, steps=()) -> CycleDiscovery:
     """The answer, the learned correction where asked or unexplained, and the result
-    (module doc of `cycle_workflow`, stage 5's confidence and the learned correction)."""
+    (module doc of `cycle_workflow`, stage 5's confidence and the learned correction);
+    `steps`: the effects of the sequential search (`more`; `choice` then holds the final
+    model, every effect kept in it)."""
     opts, base, prep = fx.opts, fx.base, fx.prep
+    kept = [s for s in steps if s.kept]
     chosen, sd_after, n, described = after.chosen, after.sd_after, base.n, base.described
     r0, sd, noise, gap_before = base.r, base.sd, base.noise, base.gap_before
     if chosen is not None:
@@ -125,25 +131,33 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
     # named effect describes weighs fully again in the fit, `reweigh`, and counts in
     # `gap_all_after`; counted here it made the gap "grow": a Stribeck drop of 0.16 on C,
     # 0.604 -> 1.08 um, while the records of the gap before went to the noise)
-    gap_after = rms_gap(r1[described], sd_after[described])
-    gap_all_after = rms_gap(r1, sd_after)
+    gap_after = rms_gap(r1[described], sd_after[described], base.samples[described])
+    gap_all_after = rms_gap(r1, sd_after, base.samples)
     effect, confidence = _verdict(fx, choice, chosen, gap_after)
-    form, by_form = outside_form(fx, effect, confidence, gap_after)
+    several = len(kept) > 1 and effect != "unexplained"
+    if several:  # "effect" is the first effect kept; the steps name them all
+        effect = kept[0].family.name
+    form, by_form = (None, False) if several else outside_form(fx, effect, confidence,
+                                                               gap_after)
     if by_form:  # answered by its form (`stages.form`): the base with the form's terms
         named, effect, confidence, chosen, sd_after = effect, "sparse_form", "low", None, sd
         z_after, r1, final_fit, shape, sensor = form.z, form.r, base.fit, Shape(), False
-        gap_after, gap_all_after = form.gap_after, rms_gap(form.r, sd)
-    phases_before = rms_by_phase(r0 * sd, base.slipping, sd)
-    phases_after = rms_by_phase(r1 * sd_after, base.slipping, sd_after)
+        gap_after, gap_all_after = form.gap_after, rms_gap(form.r, sd, base.samples)
+    phases_before = rms_by_phase(r0 * sd, base.slipping, sd, base.samples)
+    phases_after = rms_by_phase(r1 * sd_after, base.slipping, sd_after,
+                                 base.samples)
     pattern = max(phases_before, key=lambda k: phases_before[k]["rms"] or 0.0)
-    explanation = (form_text(form, named) if by_form else explanation_text(
-        effect, chosen, choice.decision, gap_before, gap_after, noise, pattern, phases_before,
-        opts.explained_gap))
+    explanation = (form_text(form, named) if by_form else steps_text(
+        kept, choice.decision, gap_before, gap_after, noise, opts.explained_gap) if several
+        else explanation_text(effect, chosen, choice.decision, gap_before, gap_after, noise,
+                              pattern, phases_before, opts.explained_gap))
     if effect != "unexplained":
         # a phase the answer leaves above the noise, said (and "none" is then not certain
         # where that phase exceeds its own standard errors)
         explanation += phase_text(phases_after, noise, opts.explained_gap, opts.phase_chi2,
-                                  "any family" if effect == "none" else effect)
+                                  "any family" if effect == "none" else
+                                  " + ".join(s.family.name for s in kept) if several
+                                  else effect)
         if effect == "none" and phase_misfit(phases_after, opts.phase_chi2):
             confidence = "low"
     learned = None
@@ -161,7 +175,8 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
     rows_before, rows_after = (DiscoveryEstimates.value_rows(friction_values(z),
                                                              EmpiricalFriction.UNITS)
                                for z in (base.z, z_after))
-    clock("decision", f"{effect} ({confidence}); gap {gap_before * 1e3:.3g} -> "
+    clock("decision", f"{' + '.join(s.family.name for s in kept) if several else effect} "
+                      f"({confidence}); gap {gap_before * 1e3:.3g} -> "
                       f"{gap_after * 1e3:.3g} um")
     clock.timings["total"] = sum(clock.timings.values())
     return CycleDiscovery(
@@ -176,8 +191,11 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
                    "tests; `significant_by` of each candidate); delta_criterion = "
                    "-(chi-square drop of the refit)"),
         candidates=cand_json, estimates_before=rows_before, estimates_after=rows_after,
-        effect_estimates=_effect_rows(chosen, prep.G),
-        effect_of=chosen.family.name if chosen is not None else "",
+        effect_estimates=_effect_rows(kept[0] if several else chosen, prep.G),
+        effect_of=(kept[0].family.name if several
+                   else chosen.family.name if chosen is not None else ""),
+        more_estimates=[dataclasses.replace(e, name=f"{s.family.name}.{e.name}")
+                        for s in (kept[1:] if several else []) for e in _effect_rows(s, prep.G)],
         # partners of a named effect only (an unexplained gap has no name to share)
         indistinguishable_from=(choice.rivals if effect not in ("none", "unexplained",
                                                                  "sparse_form") else []),
@@ -186,4 +204,6 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
         final_fit=final_fit, campaign=prep.campaign, model=base.model, z_before=base.z,
         z_after=z_after, shape=shape, sensor=sensor, records_scaled=base.scaled_notes,
         windows_set_aside=prep.windows_set_aside, learned=learned, sparse_form=form,
-        gap_all_before=base.gap_all_before, gap_all_after=gap_all_after)
+        gap_all_before=base.gap_all_before, gap_all_after=gap_all_after,
+        steps=([] if effect in ("none", "unexplained", "sparse_form")
+               else [s.to_json(prep.G) for s in steps]))

@@ -14,9 +14,10 @@ from ..decision import hotelling, window_scores
 from ..flips import family_wise_p
 from ..options import DiscoveryOptions
 from ..scores import base_basis, project_out
+from ..subproblems import with_shape
 from .state import Base, Clock, FamilyScore, Prepared, Ranking
 
-__all__ = ["rank", "significance_line"]
+__all__ = ["held_p", "rank", "significance_line"]
 
 
 def score_cols(model, f, G) -> np.ndarray:
@@ -35,13 +36,14 @@ def _efficient(Qb, described, Jc) -> np.ndarray:
     return np.full(Jc.shape, np.nan)
 
 
-def _plain_jacobians(model, z_base, fams, G) -> dict:
+def _plain_jacobians(model, base: Base, fams, G) -> dict:
     """The families without shapes share one Jacobian call (one tangent per column)."""
     plain = [f for f in fams if f.shapes == (Shape(),) and f.name != "sensor_lowpass"]
     plain_J = {}
     if plain:
-        _, J_all, _ = model.evaluate(z_base, np.concatenate([score_cols(model, f, G)
-                                                             for f in plain]))
+        _, J_all, _ = model.evaluate(base.z, np.concatenate([score_cols(model, f, G)
+                                                             for f in plain]),
+                                     base.shape, base.sensor)
         a = 0
         for f in plain:
             plain_J[f.name] = J_all[:, a:a + score_cols(model, f, G).size]
@@ -74,6 +76,7 @@ def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, 
     cols = score_cols(model, f, G)
     out = []
     for shape in f.shapes:
+        shape = with_shape(base.shape, f, shape)  # the named effects keep theirs
         test = -1
         if f.name == "sensor_lowpass":
             Jc, sensor_probe[shape], test = _sensor_secant(
@@ -81,7 +84,7 @@ def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, 
         elif f.name in plain_J:
             Jc = plain_J[f.name]
         else:
-            _, Jc, _ = model.evaluate(base.z, cols, shape)
+            _, Jc, _ = model.evaluate(base.z, cols, shape, base.sensor)
         Jp = efficient(Jc)
         finite = np.all(np.isfinite(Jp))
         if not finite:
@@ -94,6 +97,24 @@ def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, 
             Jp, r_rank, starts, window_g[test] if finite and test >= 0 else None)
         out.append(FamilyScore(f, shape, F, p, dof, step, Jp, pred, test=test if finite else -1))
     return out
+
+
+def held_p(base: Base, starts, fit, z, f, shape, sensor: bool, value) -> float:
+    """The robust window test's p-value of family `f`, one of the effects named, at a
+    `fit` (over its free coordinates, full coordinates `z`) that leaves it out: the
+    drop-one test of the sequential search (`stages.more`), the ranking's test of one
+    family in its named shape (the sensor by its secant to its fitted value `value`)."""
+    model, described, n = base.model, base.described, base.n
+    r = fit.r[:n]
+    cols = score_cols(model, f, model.n_records)
+    if f.name == "sensor_lowpass":
+        zp = np.array(z, float)
+        zp[cols] = value
+        Jc = ((model.residuals(zp, shape, sensor=True)[0] - r) / value)[:, None]
+    else:
+        Jc = model.evaluate(z, cols, shape, sensor)[1]
+    Jp = _efficient(base_basis(fit.J[:n] * described[:, None]), described, Jc)
+    return hotelling(Jp, np.where(described, r, 0.0), starts)[1]
 
 
 def significance_line(significant, n_families: int, alpha: float, level: float,
@@ -117,7 +138,7 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
                                    else 1) for f in fams)
     level = alpha / n_tests
     prep.warm["residuals", True].result()
-    plain_J = _plain_jacobians(model, base.z, fams, G)
+    plain_J = _plain_jacobians(model, base, fams, G)
     scores: list[FamilyScore] = []
     shape_scores: dict[str, list[FamilyScore]] = {}
     sensor_probe: dict[Shape, float] = {}
@@ -150,7 +171,8 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
     # `relevant` of the chi-square) that the per-sample score test supports: the robust
     # test loses power where a few windows (slow records, whose breakaway timing is most
     # sensitive) carry most of the signal
-    s2 = float(np.mean(r_rank[described] ** 2)) if described.any() else base.fit.rss / base.n
+    s2 = ((float(np.sum(r_rank[described] ** 2)) + base.within) / n_used if described.any()
+          else base.fit.rss / base.n)
     for sc in scores:
         sc.p_sample = float(scipy.stats.chi2.sf(sc.chi2_predicted / s2, sc.dof))
         if sc.p_family < alpha:

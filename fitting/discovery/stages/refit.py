@@ -13,13 +13,13 @@ import numpy as np
 from stickslip_jax.logs import logger
 from stickslip_jax.lsq import gauss_newton_covariance
 
-from ..cycle_effects import DRIVE_ERROR_MAX, drive_error_range, neighbour_shapes
+from ..cycle_effects import DRIVE_ERROR_MAX, drive_error_range, family, neighbour_shapes
 from ..options import DEFAULTS, DiscoveryOptions
 from ..subproblems import SharedScrewProblem, SubProblem
 from .base_fit import friction_values
 from .state import Clock, FamilyRefit, FamilyScore, Fits, Refitted
 
-__all__ = ["continued", "dead", "judge", "refine_shape", "refit"]
+__all__ = ["continued", "dead", "judge", "prior_of", "refine_shape", "refit"]
 
 
 def _one_screw(coef, recs, pitch, spans, opts: DiscoveryOptions = DEFAULTS) -> str | None:
@@ -83,7 +83,8 @@ def judge(fx: Fits, f, shape, fit, sensor, sub: SubProblem) -> FamilyRefit:
     model, G, recs = fx.base.model, fx.prep.G, fx.prep.recs
     k = len(model.cols(f))
     try:
-        cov = gauss_newton_covariance(fit.J, max(fit.rss / (fx.base.n_used - fit.z.size), 1.0))
+        cov = gauss_newton_covariance(fit.J, max((fit.rss + fx.base.within)
+                                                       / (fx.base.n_used - fit.z.size), 1.0))
     except np.linalg.LinAlgError:
         cov = None
     z_f, cov_f = sub.family_part(fit.z, cov, k)
@@ -100,11 +101,22 @@ def judge(fx: Fits, f, shape, fit, sensor, sub: SubProblem) -> FamilyRefit:
                    f"{DRIVE_ERROR_MAX * 1e3:g} um (a broken drive, not an effect)")
         else:
             bad = _one_screw(vals.reshape(G, -1), recs, shape.pitch, spans, fx.opts)
-    if bad is None and dead(fit.J[:fx.base.n, model.n_base:]):
+    if bad is None and dead(sub.family_columns(fit.J[:fx.base.n], k)):
         bad = (f"the traces do not change with {', '.join(f.params)} at the refit (zero "
                "derivative: the effect's size there stops every slip of the windows, or "
                "leaves the model's reach), so the refit does not determine its size")
     return FamilyRefit(f, shape, fit, fx.base.fit.rss - fit.rss, vals, se, bad, sensor, sub)
+
+
+def prior_of(fx: Fits, cols) -> np.ndarray | None:
+    """Per free coordinate of the model columns `cols`: the prior sd (z units) of the
+    screw coefficients among them (`drive_prior`: a record under a pitch draws huge
+    coefficients of opposite sign), inf elsewhere; None without screw coefficients."""
+    f = family("drive_periodic_error")
+    on = np.isin(cols, fx.base.model.cols(f))
+    if not on.any():
+        return None
+    return np.where(on, fx.opts.drive_prior / f.scales[0], np.inf)
 
 
 def _better(one: FamilyRefit, best: FamilyRefit | None) -> bool:
@@ -116,17 +128,17 @@ def _better(one: FamilyRefit, best: FamilyRefit | None) -> bool:
 def _options(fx: Fits, sc: FamilyScore):
     """The (shape score, sensor) pairs a family is refitted with, and the starts of its
     first coordinate (None: from the score step or the base)."""
-    f, misfit = sc.family, fx.base.misfit
+    f, misfit, held = sc.family, fx.base.misfit, fx.base.sensor  # held: the sensor named
     ranked_shapes = sorted(fx.ranking.shape_scores.get(f.name, [sc]),
                            key=lambda s: -s.chi2_predicted)
     if f.name == "sensor_lowpass":
         options = [(s_, True) for s_ in ranked_shapes[:2]]
     elif f.name == "drive_periodic_error":
-        options = [(s_, False) for s_ in ranked_shapes[:3]]
+        options = [(s_, held) for s_ in ranked_shapes[:3]]
     elif misfit and f.name == "stribeck":
-        options = [(s_, False) for s_ in ranked_shapes[:3]]
+        options = [(s_, held) for s_ in ranked_shapes[:3]]
     else:
-        options = [(sc, False)]
+        options = [(sc, held)]
     starts = [None]
     if misfit and f.signs[0] > 0 and f.name != "sensor_lowpass":
         # far from the data the effect may be large: its first coordinate (physically
@@ -143,9 +155,10 @@ def _shared_screw(fx: Fits, f, cols, tried, best) -> FamilyRefit:
     keeps noise from being named a screw (measured: with the shared form on every
     campaign, 9 of 20 clean campaigns were named drive_periodic_error)."""
     model, z_base, G = fx.base.model, fx.base.z, fx.prep.G
-    nb = model.n_base
+    nb = fx.base.cols.size
     for one in tried:
-        shared = SharedScrewProblem(model, z_base.copy(), cols, one.shape, False, None, nb)
+        shared = SharedScrewProblem(model, z_base.copy(), cols, one.shape, fx.base.sensor,
+                                    None, nb)
         w0 = np.concatenate([one.fit.z[:nb], SharedScrewProblem.start(one.fit.z[nb:nb + 4 * G], G)])
         try:
             fit = shared.solve(w0, max_evals=fx.opts.refit_evals, lam0=1e-3, stall_evals=8)
@@ -165,7 +178,8 @@ def refit_family(fx: Fits, sc: FamilyScore) -> FamilyRefit:
     chi-square wins."""
     f, model, z_base, G = sc.family, fx.base.model, fx.base.z, fx.prep.G
     misfit, refit_evals, base_rss = fx.base.misfit, fx.opts.refit_evals, fx.base.fit.rss
-    cols = np.concatenate([np.arange(model.n_base), model.cols(f)])
+    cols = np.concatenate([fx.base.cols, model.cols(f)])
+    prior = prior_of(fx, cols)
     options, starts = _options(fx, sc)
     best, tried = None, []
     for (option, sensor), start in itertools.product(options, starts):
@@ -180,10 +194,6 @@ def refit_family(fx: Fits, sc: FamilyScore) -> FamilyRefit:
             z1[model.cols(f)[0]] = start
         elif not misfit:  # from the score step
             z1[step_cols] += option.step
-        prior = None
-        if f.name == "drive_periodic_error":
-            prior = np.full(cols.size, np.inf)
-            prior[-model.cols(f).size:] = fx.opts.drive_prior / f.scales[0]
         s1 = SubProblem(model, z1, cols, shape, sensor, prior)
         try:
             # from a bent base the Gauss-Newton step overshoots: start damped and allow

@@ -23,7 +23,8 @@ def _close(refits, eligible) -> list:
 def _gap_of(fx: Fits, rf) -> float:
     """The refit's gap (mm) over the described records."""
     described = fx.base.described
-    return rms_gap(rf.fit.r[:fx.base.n][described], fx.base.sd[described])
+    return rms_gap(rf.fit.r[:fx.base.n][described], fx.base.sd[described],
+                   fx.base.samples[described])
 
 
 def _refine_close(fx: Fits, refits: list, eligible, shaped: set, clock: Clock) -> None:
@@ -85,7 +86,7 @@ def _restart_points(fx: Fits, rf) -> list[np.ndarray]:
         # coefficients: also from none of the effect (measured: a 15 um screw error on
         # A, from the features' friction with no screw error, 0.535 um against 0.5 um
         # noise; from the refit's coefficients, 0.63 um)
-        ws.append(rf.sub.without_effect(rf.fit.z))
+        ws.append(rf.sub.without_effect(rf.fit.z, k))
     for w in ws:
         w[:6] = lift_mu_d(fx.prep.z_start[:6])
     here = lift_mu_d(rf.fit.z[:6])

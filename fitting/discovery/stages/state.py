@@ -24,9 +24,10 @@ from ..cycle_model import CycleModel
 from ..decision import Decision
 from ..options import DiscoveryOptions
 from ..subproblems import SubProblem
+from ..thinning import Samples
 
 __all__ = ["SIGNIFICANT_BY", "Base", "Choice", "Clock", "Fits", "Prepared", "Ranking",
-           "Refitted", "Reweighed"]
+           "Refitted", "Reweighed", "Step"]
 
 
 @dataclasses.dataclass
@@ -37,9 +38,11 @@ class Clock:
     progress: Callable[[str], object] | None = None
     timings: dict = dataclasses.field(default_factory=dict)
     last: float = dataclasses.field(default_factory=time.perf_counter)
+    suffix: str = ""  # added to every stage name (the later effects' stages: ", effect 2")
 
     def __call__(self, name: str, line: str) -> None:
         now = time.perf_counter()
+        name += self.suffix
         self.timings[name] = now - self.last
         self.last = now
         if self.progress is not None:
@@ -67,6 +70,7 @@ class Prepared:
     n_complete: int  # complete cycle windows
     n_reslip: int  # of them, those following a re-slip
     keep_reslips: bool
+    samples: Samples | None = None  # [N, L]: what each entry of `data` stands for (`thinning`)
 
     @property
     def recs(self):
@@ -83,8 +87,10 @@ class Prepared:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Base:
-    """The paper's model fitted to the windows (no effect), with the records it describes
-    worse than their noise weighed by their scatter (`scaled`) or set aside (`aside`)."""
+    """The paper's model fitted to the windows, with the records it describes worse than
+    their noise weighed by their scatter (`scaled`) or set aside (`aside`); with the
+    effects already named (`held`, in the order named; their coordinates are base
+    columns, `cols`, and their shape settings and sensor flag are `shape`, `sensor`)."""
 
     model: CycleModel  # weighted as at the base optimum (records scaled by `factor`)
     fit: HostResult
@@ -103,6 +109,19 @@ class Base:
     gap_all_before: float
     slipping: np.ndarray  # per residual: in a slip
     misfit: bool  # far from the data (chi2/n or gap over `misfit`)
+    samples: Samples | None = None  # per residual: the samples it stands for (`thinning`)
+    within: float = 0.0  # chi-square of the binned sticks' scatter (described records):
+    # the samples' chi-square is the residuals' (`fit.rss`) plus this
+    held: tuple = ()  # the `Family`s named so far, part of the base
+    shape: Shape = Shape()  # their shape settings (`subproblems.with_shape`)
+    sensor: bool = False  # the sensor low-pass is one of them
+
+    @property
+    def cols(self) -> np.ndarray:
+        """The base's model columns: friction, offsets, then the held effects'; `fit.J`
+        and `fit.z` are over these."""
+        return np.concatenate([np.arange(self.model.n_base)]
+                              + [self.model.cols(f) for f in self.held])
 
     @property
     def r(self) -> np.ndarray:
@@ -207,3 +226,38 @@ class Reweighed:
     chosen: FamilyRefit | None
     sd_after: np.ndarray
     reweighed: list
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Step:
+    """One effect of the sequential search (`stages.more`): its family and shape, its
+    values and standard errors (natural units; in the final model, all named effects
+    fitted together, where it is kept), the gap (mm) with it and the effects before it,
+    its family-wise p-value in its ranking, its confidence, its chi-square drop, the
+    families its records cannot tell it from, the effects named before it that its
+    drop-one test removed (`dropped`), and whether it is in the final model."""
+
+    family: Family
+    shape: Shape
+    values: np.ndarray
+    stderr: np.ndarray
+    gap_after: float
+    p_family: float
+    confidence: str
+    drop: float
+    rivals: list
+    dropped: tuple = ()
+    kept: bool = True
+
+    def to_json(self, G: int) -> dict:
+        names, units = self.family.named(self.shape)
+        if self.family.per_record:
+            names = [f"{p}[{g}]" for g in range(G) for p in names]
+            units = list(units) * G
+        return {"effect": self.family.name, "shape": self.shape.label(self.family),
+                "values": dict(zip(names, map(float, self.values))),
+                "stderr": dict(zip(names, map(float, self.stderr))),
+                "units": dict(zip(names, units)), "gap_after": self.gap_after,
+                "p_family": self.p_family, "confidence": self.confidence,
+                "chi2_drop": self.drop, "indistinguishable_from": self.rivals,
+                "dropped": list(self.dropped), "kept": self.kept}

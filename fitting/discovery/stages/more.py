@@ -1,0 +1,177 @@
+r"""Stage 5b of the per-cycle discovery, `more`: the sequential search for several effects
+at once (`cycle_workflow`, module doc).
+
+After an effect is named it joins the base: its coordinates become base columns (free in
+every later fit), its shape settings are held (`subproblems.with_shape`), and the refit
+that named it is the extended base's fit. The ranking, refits and decision run again
+on the extended base over the families not yet in it (nor named as indistinguishable
+from one in it), with the same programs (the same model, shapes traced, the sensor
+program where the sensor is named).
+
+**Stopping rule and the family-wise error.** Every search runs the same test as the
+first: the ranking's sign-flip min-p test over every remaining family-shape test (or its
+per-sample route), on the efficient scores with the extended base projected out. The
+sequence stops at the first search in which no family is significant (or no significant
+family refits physically), or after `max_effects` effects. This is a sequential gate:
+under the paper's model alone, an effect is named only if the first search's min-p falls
+below alpha (probability alpha); once every effect present is in the model, one more is
+named only if that search's min-p does (again alpha), and the sequence stops at the
+first search that does not, so at most one test at level alpha is ever run on a complete
+model and the chance of naming an effect that is not there stays at alpha. (Before the
+model is complete, a wrong family can win a search only by standing in for a missing
+effect: that is the shadow below, not a false alarm.)
+
+**Shadows.** A family can win a search only because another effect was missing (a
+flexible family absorbing part of it). So after each new effect, every effect named
+before it is tested again given it (`drop_one`): the model without it is refitted, and
+its robust window test at that fit (`rank.held_p`) must stay below alpha; an effect that
+no longer helps is dropped (its step is kept, marked). Families once named are never
+candidates again, so the search ends.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from stickslip_jax.lsq import gauss_newton_covariance
+
+from ..decision import Decision, rms_gap
+from ..subproblems import SubProblem
+from .rank import held_p, rank
+from .refit import judge, prior_of, refit
+from .sharpen import sharpen
+from .decide import choose
+from .state import Base, Choice, Clock, FamilyRefit, Fits, Step
+
+__all__ = ["drop_one", "extended", "more_effects", "settled"]
+
+
+def extended(fx: Fits, rf: FamilyRefit, held) -> Base:
+    """The base with the effects `held` (the last of them `rf`'s family) at the refit
+    `rf`: its fit over the base columns, the gap and the misfit there."""
+    base, model, n, opts = fx.base, fx.base.model, fx.base.n, fx.opts
+    new = dataclasses.replace(base, held=tuple(held), shape=rf.shape, sensor=rf.sensor)
+    cols, z = new.cols, rf.sub.full(rf.fit.z)
+    if type(rf.sub) is SubProblem and np.array_equal(rf.sub.cols, cols):
+        J = rf.fit.J[:n]
+    else:  # a shared screw or a reduced fit: the Jacobian over the base columns
+        J = model.evaluate(z, cols, rf.shape, rf.sensor)[1]
+    r, d = rf.fit.r[:n], base.described
+    gap = rms_gap(r[d], base.sd[d], base.samples[d])
+    # rss with the screw's prior rows: the next refits carry them too
+    fit = dataclasses.replace(rf.fit, z=z[cols], r=r, J=J)
+    return dataclasses.replace(
+        new, fit=fit, z=z, gap_before=gap, gap_all_before=rms_gap(r, base.sd, base.samples),
+        misfit=((rf.fit.rss + base.within) / base.n_used > opts.misfit
+                or gap > opts.misfit * base.noise))
+
+
+def drop_one(fx: Fits, rf: FamilyRefit, clock: Clock) -> tuple[FamilyRefit, tuple, list]:
+    """Every effect named before `rf`'s family (`fx.base.held`) tested again given it
+    (module doc): refitted without it from `rf`'s fit, its robust window test there.
+    Returns the fit of the effects kept (`rf` where none went), the effects before the
+    new one that stay, and the dropped ones as (name, p-value)."""
+    model, base, opts = fx.base.model, fx.base, fx.opts
+    held, dropped = list(base.held), []
+    for h in list(held):
+        keep = [f for f in held if f is not h]
+        cols = np.concatenate([np.arange(model.n_base)] + [model.cols(f) for f in keep]
+                              + [model.cols(rf.family)])
+        z_all = rf.sub.full(rf.fit.z)
+        z = z_all.copy()
+        z[model.cols(h)] = 0.0
+        sensor = rf.sensor and h.name != "sensor_lowpass"
+        sub = SubProblem(model, z, cols, rf.shape, sensor, prior_of(fx, cols))
+        try:
+            fit = sub.solve(z[cols], max_evals=opts.refit_evals, lam0=1e-3, stall_evals=8)
+            p = held_p(base, fx.prep.starts, fit, sub.full(fit.z), h, rf.shape, sensor,
+                       z_all[model.cols(h)])
+        except ValueError:  # the model without it leaves the simulator's domain: kept
+            continue
+        one = judge(fx, rf.family, rf.shape, fit, sensor, sub)
+        if not p >= opts.alpha or one.unphysical is not None:
+            continue
+        dropped.append((h.name, p))
+        held, rf = keep, one
+    if dropped:
+        clock("drop-one", ", ".join(f"{name} dropped (p {p:.2g} given {rf.family.name})"
+                                    for name, p in dropped))
+    return rf, tuple(held), dropped
+
+
+def _step(fx: Fits, choice: Choice, rf: FamilyRefit, dropped=()) -> Step:
+    """The step of the effect `rf` named in the search of `fx` (`Step`)."""
+    base, opts = fx.base, fx.opts
+    sc = next(s for s in fx.ranking.scores if s.family.name == rf.family.name)
+    excess = max(base.fit.rss + base.within - base.n_used, 0.0)
+    high = (choice.decision.clear and sc.significant_by == "family-wise"
+            and rf.drop >= opts.explained_share * excess)
+    d = base.described
+    return Step(rf.family, rf.shape, rf.values, rf.stderr,
+                rms_gap(rf.fit.r[:base.n][d], base.sd[d], base.samples[d]), sc.p_family,
+                "high" if high else "low", rf.drop, choice.rivals, tuple(dropped))
+
+
+def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clock
+                 ) -> tuple[Fits, Choice, list[Step]]:
+    """The sequential search (module doc) from the first search's `fx` and `choice` over
+    the families `fams`: the last search's `Fits`, the choice of the final model (its
+    chosen fit holds every effect kept; `decided_drop` against the paper's model, the
+    decision's unbeaten contenders of every search) and the steps."""
+    first, chosen = fx, choice.chosen
+    if chosen is None:
+        return fx, choice, []
+    steps = [_step(fx, choice, chosen)]
+    named = {chosen.family.name} | {c["name"] for c in choice.rivals}
+    held, unbeaten = (chosen.family,), list(choice.decision.unbeaten)
+    while len(held) < max_effects:
+        clock.suffix = f", effect {len(steps) + 1}"
+        base = extended(fx, chosen, held)
+        left = [f for f in fams if f.name not in named]
+        ranking = rank(fx.prep, base, left, opts=fx.opts, clock=clock) if left else None
+        if ranking is None or not ranking.significant:
+            break
+        fx_k = Fits(opts=fx.opts, prep=fx.prep, base=base, ranking=ranking)
+        choice_k = choose(fx_k, sharpen(fx_k, refit(fx_k, clock=clock), clock=clock),
+                          clock=clock)
+        if choice_k.chosen is None:
+            break
+        new, kept, dropped = drop_one(fx_k, choice_k.chosen, clock)
+        gone = {name for name, _ in dropped}
+        steps = [dataclasses.replace(s, kept=False) if s.family.name in gone else s
+                 for s in steps] + [_step(fx_k, choice_k, new, sorted(gone))]
+        named |= {new.family.name} | {c["name"] for c in choice_k.rivals}
+        held, fx, chosen = kept + (new.family,), fx_k, new
+        unbeaten += choice_k.decision.unbeaten
+    clock.suffix = ""
+    lead = next(s for s in steps if s.kept)
+    return fx, Choice(chosen=chosen, decision=Decision(choice.decision.joint, tuple(unbeaten)),
+                      rivals=lead.rivals, compared=choice.compared,
+                      decided_drop=first.base.fit.rss - chosen.fit.rss), steps
+
+
+def settled(fx: Fits, rf: FamilyRefit | None, steps: list[Step]) -> list[Step]:
+    """The steps with every kept effect's values and standard errors those of the final
+    fit `rf` (all effects fitted together; its own family's from `judge`)."""
+    if rf is None:
+        return steps
+    model, z = fx.base.model, rf.sub.full(rf.fit.z)
+    try:
+        cov = gauss_newton_covariance(rf.fit.J, max((rf.fit.rss + fx.base.within) / (fx.base.n_used
+                                                                  - rf.fit.z.size), 1.0))
+    except np.linalg.LinAlgError:
+        cov = None
+    out = []
+    for s in steps:
+        if s.kept and s.family is rf.family:
+            s = dataclasses.replace(s, values=rf.values, stderr=rf.stderr)
+        elif s.kept:
+            cols = model.cols(s.family)
+            at = np.flatnonzero(np.isin(rf.sub.cols, cols))
+            se = (np.full(cols.size, np.nan) if cov is None else
+                  np.sqrt(np.clip(np.diag(cov)[at], 0, None)) * model.scales[cols])
+            s = dataclasses.replace(s, values=z[cols] * model.scales[cols], stderr=se)
+        out.append(s)
+    return out
