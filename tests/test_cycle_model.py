@@ -397,3 +397,35 @@ def test_breakaway_offsets_put_the_breakaways_at_the_measured_stick_times(setup)
     r_new = model.residuals(z2)[0]
     assert np.mean(r_new ** 2) < 0.1 * np.mean(r_old ** 2), (np.mean(r_new ** 2),
                                                               np.mean(r_old ** 2))
+
+
+def test_stick_terms_move_the_breakaway(setup):
+    """A lost motion of the drive (the stick term min(v s, L)/L with coefficient -L) holds
+    the stick line back by min(v s, L) and delays every slip by L/v / (1 - W mu_0'/(k v))
+    (eq (1) is met later on a line shifted down by L; 1.1-1.25 L/v on these records;
+    windows end at the measured slip end, so only the 10 mm/min records, L/v = 12 ms,
+    keep their delayed slip); the stick terms' Jacobian columns match central
+    differences."""
+    from stickslip_fitting.discovery.cycle_effects import STICK_SCALE, STICK_TERMS
+
+    model, z, *_ = setup
+    cols = model.layout.stick_cols()
+    lost = cols[STICK_TERMS.index("stick_lost2um")]
+    z1 = z.copy()
+    z1[lost] = -0.002 / STICK_SCALE
+    (r0, yd0, _), (r1, yd1, ok) = model.residuals(z), model.residuals(z1)
+    assert ok[model._real_rows].all()
+    d = model.data
+    t, win, mask = np.asarray(d.time), np.asarray(d.window), np.asarray(d.mask)
+    delays = []
+    for w in np.unique(win):
+        rows = win == w
+        tt, m0, m1 = (a[rows][mask[rows]] for a in (t, yd0 > 0, yd1 > 0))
+        if m0.any() and m1.any():
+            v = float(np.asarray(d.speed)[rows][0])
+            delays.append((tt[m1].min() - tt[m0].min()) * v / 0.002)
+    assert len(delays) > 10 and 1.0 < np.median(delays) < 1.4, delays
+    pair = cols[[STICK_TERMS.index("stick_creep30ms"), STICK_TERMS.index("stick_lost4um")]]
+    z2 = z.copy()
+    z2[pair] = 2.0
+    _assert_jacobian_matches_fd(model, z2, np.r_[[0, 3], pair], Shape(), "stick")

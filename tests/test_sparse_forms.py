@@ -97,13 +97,33 @@ def test_backlash_holds_the_spring_for_the_play_after_every_slip():
         assert np.diff(climb).mean() == pytest.approx(v / 1000.0, rel=1e-3)
 
 
+def test_a_family_is_not_certain_where_the_gap_is_within_the_weights():
+    """A family named where the base's excess chi-square is within `small_excess` x n
+    (the weights' approximations) rests on its score test alone: low confidence; the same
+    family removing most of a real excess and leaving the noise: high."""
+    from stickslip_fitting.discovery.options import DiscoveryOptions
+    from stickslip_fitting.discovery.stages.learn import _verdict
+
+    n, ns = 100_000, types.SimpleNamespace
+
+    def verdict(chi2_per_sample):
+        excess = (chi2_per_sample - 1.0) * n
+        fx = ns(opts=DiscoveryOptions(), base=ns(fit=ns(rss=chi2_per_sample * n), within=0.0,
+                                                 n_used=n, noise=1e-3))
+        choice = ns(decided_drop=0.9 * excess, decision=ns(clear=True))
+        return _verdict(fx, choice, ns(family=ns(name="rate_state")), 1.0e-3)
+
+    assert verdict(1.03) == ("rate_state", "low")
+    assert verdict(1.5) == ("rate_state", "high")
+
+
 # ---- campaigns with effects outside the library (slow) --------------------------------
 
 OUTSIDE = {
     # (generator arguments, the phase and the variable the words must name)
     "creep": (dict(imp=ir.Imperfections(creep_mm=0.003)), "stick", "breakaway"),
     "hardening": (dict(physics=ir.Physics(hardening=0.5)), "slip", "deflection"),
-    "backlash": (dict(physics=ir.Physics(backlash_mm=0.005)), "stick", "time since"),
+    "backlash": (dict(physics=ir.Physics(backlash_mm=0.005)), "stick", "since the last slip"),
 }
 
 

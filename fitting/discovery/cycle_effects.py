@@ -25,6 +25,14 @@ is reported as unphysical and never named), with the reason in `BOUND_NOTE`. The
 error is bounded on the error itself, not its coefficients (a record that travels less
 than a pitch sees a piece of the sine, which large coefficients of opposite sign draw):
 `drive_error_range` is at most `DRIVE_ERROR_MAX` over every record.
+
+Beside the families the model carries the **stick terms** (`STICK_TERMS`, `stick_terms`):
+a displacement $q(s) = \sum_j c_j\phi_j(s)$ (mm) of the spring's deflection during the
+stick, $s$ the time since the last slip, added to the stick line before the breakaway
+condition, so that a term moves the breakaway and the slip starts from the displaced
+deflection (a pre-slide creep of the slider, a drive's lost motion after each slip). They
+are no family (never scanned or named); the sparse form of the residual
+(`discovery.sparse`) chooses and refits them.
 """
 
 from __future__ import annotations
@@ -34,8 +42,10 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
-__all__ = ["DAMPING_FORMS", "DRIVE_ERROR_MAX", "FAMILIES", "PITCH_STEP", "SHAPE_STEP", "STRIBECK_FORMS", "Family", "Shape",
-           "drive_error", "drive_error_range", "family", "neighbour_shapes"]
+__all__ = ["DAMPING_FORMS", "DRIVE_ERROR_MAX", "FAMILIES", "PITCH_STEP", "SHAPE_STEP",
+           "STICK_SCALE", "STICK_TAUS", "STICK_TERMS", "STICK_TRAVELS", "STRIBECK_FORMS",
+           "Family", "Shape", "drive_error", "drive_error_range", "family", "neighbour_shapes",
+           "stick_terms"]
 
 STRIBECK_FORMS = ("exp", "log", "linear", "rational")
 DAMPING_FORMS = ("dashpot", "ratio")
@@ -54,6 +64,33 @@ DRIVE_ERROR_MAX = 0.1
 """mm: a drive error larger than 100 um over a record is a broken drive, not an effect (a
 worn lead screw's periodic error reaches tens of um: the independent generator's largest,
 20 um with a 30 % second harmonic, spans about 50 um peak to peak)."""
+
+
+STICK_TAUS = (0.01, 0.03, 0.1)
+"""s: time constants of the approach-to-breakaway (creep) stick terms."""
+STICK_TRAVELS = (0.002, 0.004, 0.008, 0.016)
+"""mm: drive travels over which the lost-motion stick terms are taken up."""
+STICK_TERMS = (("stick_level", "stick_x1", "stick_x2", "stick_x3", "stick_s1", "stick_s2")
+               + tuple(f"stick_phase{p}" for p in (1, 2, 4, 8))
+               + tuple(f"stick_creep{int(t * 1e3)}ms" for t in STICK_TAUS)
+               + tuple(f"stick_lost{int(L * 1e3)}um" for L in STICK_TRAVELS))
+"""The stick terms' names, in the order of `stick_terms`' columns (module doc)."""
+STICK_SCALE = 1e-3
+"""Model coordinate of a stick term = its coefficient / this (1 um for the mm terms)."""
+
+
+def stick_terms(s, T1, x, v):
+    """[..., len(STICK_TERMS)] the stick terms at the time since the last slip s (s,
+    clipped at 0), the measured stick time T1 (s), the stick line's deflection x (mm) and
+    the drive speed v (mm/s): 1; x, x^2, x^3; s, s^2; (s/T1)^p, p = 1, 2, 4, 8 (s/T1
+    clipped to [0, 1.5]); exp(-(T1 - s)/tau) (s <= T1), tau `STICK_TAUS`; min(v s, L)/L,
+    L `STICK_TRAVELS`. JAX or NumPy input."""
+    s = jnp.maximum(s, 0.0)
+    ph = jnp.clip(s / T1, 0.0, 1.5)
+    cols = [jnp.ones_like(s), x, x * x, x ** 3, s, s * s, ph, ph ** 2, ph ** 4, ph ** 8]
+    cols += [jnp.exp(-jnp.maximum(T1 - s, 0.0) / tau) for tau in STICK_TAUS]
+    cols += [jnp.minimum(v * s, L) / L for L in STICK_TRAVELS]
+    return jnp.stack(jnp.broadcast_arrays(*cols), axis=-1)
 
 
 def drive_error(coef, t, speed, pitch):

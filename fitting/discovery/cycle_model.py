@@ -47,7 +47,9 @@ variance at the base parameters, held fixed). Units: mm, s, kgf, kgf/mm, mm/s.
 
 Coordinates `z`: the 6 `EmpiricalFriction` logs, one gauge offset per record (mm), then
 the effect parameters divided by their `SCALES`, family by family in `FAMILIES` order
-(per-record families: record-major). `CycleModel.evaluate` gives residuals and the
+(per-record families: record-major), then the stick terms' coefficients over
+`STICK_SCALE` (`cycle_effects.stick_terms`: a displacement added to the stick line
+before the breakaway condition; `stick_cols`). `CycleModel.evaluate` gives residuals and the
 Jacobian of any set of coordinates (forward mode, `BLOCK` tangents per compiled call; the
 gauge offsets of all records share one tangent, as does each coefficient of a per-record
 family: a record's rows depend only on its own, so the base model's 6 + R columns cost
@@ -68,7 +70,8 @@ from stickslip_jax.units import G_MM_S2
 
 from ..params import EmpiricalFriction
 from ..objectives.trace import TraceData
-from .cycle_effects import DAMPING_FORMS, FAMILIES, STRIBECK_FORMS, Family, Shape, drive_error
+from .cycle_effects import (DAMPING_FORMS, FAMILIES, STICK_SCALE, STICK_TERMS, STRIBECK_FORMS,
+                            Family, Shape, drive_error, stick_terms)
 
 __all__ = ["BLOCK", "CycleModel", "N_STEPS", "TAIL_STEPS", "kernel_cdf", "previous_rows",
            "tail_sources", "window_rows"]
@@ -133,6 +136,7 @@ class _Eff(eqx.Module):
     r_d: jax.Array
     r_g: jax.Array
     kappa: jax.Array
+    stick: jax.Array  # [len(STICK_TERMS)] mm (`cycle_effects.stick_terms`)
 
 
 def _drive(eff: _Eff, v, tref, tw, poly, pitch):
@@ -166,6 +170,16 @@ class _Slip(eqx.Module):
     F: jax.Array  # [TAIL_STEPS] the kernel-filtered slip displacement (sensor; else [0])
     Fd: jax.Array  # its slope (mm/s)
     tau: jax.Array  # the sensor's mean delay (s)
+    T1m: jax.Array  # the measured stick time (s)
+
+
+def _stick_line(sl_or_x0, eff: _Eff, u, t0, u0, tw, T1m, v):
+    """The stick line at slider time t with the stick terms' displacement (module doc of
+    `cycle_effects`): x0 + u(t) - u0 + q(t - tw) (mm)."""
+    def line(t):
+        xl = sl_or_x0 + u(t) - u0
+        return xl + stick_terms(t - tw, T1m, xl, v) @ eff.stick
+    return line
 
 
 def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, poly):
@@ -196,8 +210,10 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
     u = _drive(eff, v, tref, tw, poly, pitch)  # speed drift, screw error, measured drive
     u0 = u(t0)
 
+    line = _stick_line(x0, eff, u, t0, u0, tw, T1m, v)
+
     def g(T):
-        x = x0 + u(t0 + T) - u0
+        x = line(t0 + T)
         return k * x - (W + eff.kappa * k * x) * mu0(T)
 
     def g_and_slope(T):
@@ -223,7 +239,7 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
     gv, gd = g_and_slope(T)
     T = jnp.maximum(T - gv / jnp.where(gd > 0, gd, 1.0), 1e-9)  # carries dT/dtheta
     t_b = t0 + T
-    x_b = x0 + u(t_b) - u0
+    x_b = line(t_b)
     mu_0 = mu0(T)
     mu_m = friction.kinetic(mu_0, mu_d + d_d, T2)  # eq (3), T2 = pi / omega0 (eq 7)
     vdrive = jax.jvp(u, (t_b,), (jnp.ones_like(t_b),))[1]
@@ -309,7 +325,7 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
         F = Fd = jnp.zeros(1)
     return _Slip(t0=t0, x0=x0, u0=u0, t_b=t_b, x_b=x_b, u_b=u(t_b), h=h, Y=Y, YD=YD,
                  t_stop=t_stop, x_stop=x_stop, u_stop=u(t_stop), ok=found & stops, F=F,
-                 Fd=Fd, tau=tau)
+                 Fd=Fd, tau=tau, T1m=T1m)
 
 
 def _render(sl: _Slip, eff: _Eff, shape, sensor, v, tref, tw, poly, ts):
@@ -317,6 +333,7 @@ def _render(sl: _Slip, eff: _Eff, shape, sensor, v, tref, tw, poly, ts):
     as read by the gauge, without offset [L] (mm); slider velocity [L] (mm/s); ok)."""
     u = _drive(eff, v, tref, tw, poly, shape[3])
     t0, t_b, h, Y, YD, t_stop = sl.t0, sl.t_b, sl.h, sl.Y, sl.YD, sl.t_stop
+    line = _stick_line(sl.x0, eff, u, t0, sl.u0, tw, sl.T1m, v)
 
     def render(t):
         t = jnp.maximum(t, t0)
@@ -327,7 +344,7 @@ def _render(sl: _Slip, eff: _Eff, shape, sensor, v, tref, tw, poly, ts):
         y = _hermite(y0, y1, m0, m1, f)
         yd = _hermite_slope(y0, y1, m0, m1, f) / h
         ut = u(t)
-        x = jnp.where(t < t_b, sl.x0 + ut - sl.u0,
+        x = jnp.where(t < t_b, line(t),
                       jnp.where(t < t_stop, sl.x_b + ut - sl.u_b - y,
                                 sl.x_stop + ut - sl.u_stop))
         yd = jnp.where((t >= t_b) & (t < t_stop), yd, 0.0)
@@ -340,7 +357,8 @@ def _render(sl: _Slip, eff: _Eff, shape, sensor, v, tref, tw, poly, ts):
         f = jnp.clip(s_ - j, 0.0, 1.0)
         Fv = _hermite(F[j], F[j + 1], Fd[j] * h, Fd[j + 1] * h, f)
         Fv = jnp.where(ts < t_b, 0.0, jnp.where(s_ > last, F[last], Fv))
-        x = sl.x0 + u(ts - sl.tau) - sl.u0 - Fv
+        q_b = sl.x_b - (sl.x0 + sl.u_b - sl.u0)  # the stick terms' part at the breakaway
+        x = jnp.where(ts < t_b, line(ts - sl.tau), sl.x0 + u(ts - sl.tau) - sl.u0 + q_b) - Fv
         yd = render(ts)[1]
     else:
         x, yd = render(ts)
@@ -364,7 +382,11 @@ class _Layout(eqx.Module):
 
     @property
     def size(self) -> int:
-        return self.n_base + sum(f.n_params(self.n_records) for f in FAMILIES)
+        return self.n_base + sum(f.n_params(self.n_records) for f in FAMILIES) + len(STICK_TERMS)
+
+    def stick_cols(self) -> np.ndarray:
+        """The stick terms' coordinates (the last `len(STICK_TERMS)`)."""
+        return np.arange(self.size - len(STICK_TERMS), self.size)
 
     def cols(self, fam: Family) -> np.ndarray:
         a = self.first(fam.name)
@@ -390,7 +412,8 @@ def _effects_of(layout: _Layout, theta, record):
                 b_rs=one("rate_state", 1),
                 drive=drive, s=one("drive_speed_drift"), tau=one("sensor_lowpass"),
                 r_s=one("friction_drift"), r_d=one("friction_drift", 1),
-                r_g=one("gauge_drift"), kappa=one("load_coupling"))
+                r_g=one("gauge_drift"), kappa=one("load_coupling"),
+                stick=theta[theta.shape[0] - len(STICK_TERMS):])
 
 
 def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layout):
@@ -550,6 +573,7 @@ class CycleModel:
         for f in FAMILIES:
             reps = n_records if f.per_record else 1
             self.scales[self.layout.cols(f)] = np.tile(f.scales, reps)
+        self.scales[self.layout.stick_cols()] = STICK_SCALE
         self._scales = jax.device_put(self.scales)
         self.mask = np.asarray(data.mask).ravel()
         self._record = np.broadcast_to(np.asarray(data.record)[:, None],

@@ -4,10 +4,13 @@ When a gap remains that no effect family explains, the per-cycle base (`cycle_mo
 gets a few terms chosen from a library of candidate forms in the physical coordinates
 of the cycle (`TERMS`), fitted jointly with the base parameters:
 
-- **stick** (the gauge reading, mm, before the breakaway): a constant, powers of the
-  deflection $x$, powers of the time since the last slip $s$ (in s, and as the share
-  $s/T_1$ of the window's stick time), and the approach to the breakaway
-  $e^{-(T_1 - s)/\tau}$ (a creep of the slider before it breaks away);
+- **stick** (a displacement of the deflection before the breakaway, mm, carried by the
+  model itself, `cycle_effects.stick_terms`: it moves the breakaway and the slip starts
+  from it): a constant, powers of the deflection $x$, powers of the time since the last
+  slip $s$ (in s, and as the share $s/T_1$ of the window's stick time), the approach to
+  the breakaway $e^{-(T_1 - s)/\tau}$ (a creep of the slider before it breaks away) and
+  a lost motion of the drive taken up over its first $L$ of travel, $\min(v s, L)/L$
+  (backlash);
 - **slip** (a force on the slider, in units of its weight W): powers of the reduced
   deflection $\xi = k x/W$, the sign and powers of the slider velocity $\dot y$ (over
   $V = $ `V_REF`), a drift in time; a force $f(t)$ moves the slider by
@@ -16,7 +19,8 @@ of the cycle (`TERMS`), fitted jointly with the base parameters:
 - **drift**: the reading's drift over the record.
 
 The terms are chosen by sequentially thresholded least squares (`stlsq`, the SINDy
-regression) on the base residuals with the base Jacobian's columns projected out, at
+regression) on the base residuals with the base Jacobian's columns projected out (a stick
+term's column is the model's own Jacobian column, the breakaway's move included), at
 a path of thresholds; the support with the least chi-square plus a cost per term
 (`TERM_COST` of the excess chi-square, at least 2 ln n) wins, at most `MAX_TERMS`
 terms. The chosen form is refitted with the model's own parameters by Gauss-Newton
@@ -32,6 +36,8 @@ import numpy as np
 
 from stickslip_jax.units import G_MM_S2
 
+from .cycle_effects import STICK_SCALE, STICK_TAUS, STICK_TERMS, STICK_TRAVELS, stick_terms
+
 __all__ = ["FOUND_SHARE", "MAX_TERMS", "SparseForm", "TERMS", "Term", "fit_sparse_form",
            "library", "stlsq"]
 
@@ -43,8 +49,6 @@ FOUND_SHARE = 0.5
 """The share of the gap's excess over the noise a form must close to be reported."""
 V_REF = 10.0
 """mm/s: the slider velocity the velocity powers are measured in (a slip's peak speed)."""
-CREEP_TAUS = (0.01, 0.03, 0.1)
-"""s: time constants of the approach-to-breakaway terms."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,7 +80,12 @@ def _terms() -> tuple[Term, ...]:
     out += [Term(f"stick_creep{int(tau * 1e3)}ms", "stick", "time to the breakaway",
                  f"c exp(-(T1 - s)/{tau * 1e3:g} ms)", "mm",
                  "the slider creeps before it breaks away (the reading changes just "
-                 "before the breakaway)") for tau in CREEP_TAUS]
+                 "before the breakaway)") for tau in STICK_TAUS]
+    out += [Term(f"stick_lost{int(L * 1e3)}um", "stick", "drive travel since the last slip",
+                 f"c min(v s, {L * 1e3:g} um)/{L * 1e3:g} um", "mm",
+                 "the drive loses motion after each slip (backlash): the spring's far end "
+                 f"lags by the coefficient, taken up over {L * 1e3:g} um of drive travel "
+                 "since the last slip") for L in STICK_TRAVELS]
     out += [Term(f"slip_xi{p}", "slip", "deflection", f"c W (k x/W)^{p}", "-",
                  f"a force on the slider during the slip grows with the deflection^{p}"
                  + (" (a spring that stiffens with deflection)" if p == 3 else ""))
@@ -148,14 +157,11 @@ def library(model, z, r, sd) -> np.ndarray:
     at z, in the masked samples' order (`r`, `sd`: whitened residuals and their standard
     errors, mm)."""
     c = _coordinates(model, z, r, sd)
-    stick, s, T1, x = c["stick"], c["t"] - c["start_time"], c["stick_time"], c["x"]
+    stick, s, x = c["stick"], c["t"] - c["start_time"], c["x"]
     xi, v = c["stiffness"] * x / c["weight"], np.maximum(c["yd"], 0.0) / V_REF
-    cols = {"stick_level": np.ones_like(x), "drift": c["t_rel"]}
-    cols.update({f"stick_x{p}": x ** p for p in (1, 2, 3)})
-    cols.update({f"stick_s{p}": s ** p for p in (1, 2)})
-    cols.update({f"stick_phase{p}": np.clip(s / T1, 0.0, 1.5) ** p for p in (1, 2, 4, 8)})
-    cols.update({f"stick_creep{int(tau * 1e3)}ms": np.exp(-np.maximum(T1 - s, 0.0) / tau)
-                 for tau in CREEP_TAUS})
+    cols = dict(zip(STICK_TERMS, np.moveaxis(np.asarray(
+        stick_terms(s, c["stick_time"], x, c["speed"])), -1, 0)))
+    cols["drift"] = c["t_rel"]
     force = {f"slip_xi{p}": xi ** p for p in (1, 2, 3)}
     force.update({f"slip_v{p}": v ** p for p in (1, 2, 3)})
     force.update(slip_sign=np.ones_like(x), slip_drift=c["t_rel"])
@@ -253,45 +259,57 @@ def _gap(r, sd, use) -> float:
     return float(np.sqrt(np.mean((r * sd)[use] ** 2)))
 
 
-def fit_sparse_form(model, z, r, J, noise: float, use=None, *,
+def fit_sparse_form(model, z, r, J, noise: float, use=None, *, gap=None,
                     iterations: int = 3) -> SparseForm:
     """Choose the sparse form of the residual `r` (whitened, at the base coordinates z
     with the base Jacobian J over the base coordinates `model.n_base`) and refit it with
-    the base parameters by Gauss-Newton steps through `model` (module doc); `use`: the
-    residuals the gaps are measured over (default all)."""
+    the base parameters by Gauss-Newton steps through `model` (module doc: the stick terms
+    are the model's own coordinates, the others are added to its reading); `use`: the
+    residuals the regression and the gaps use (default all); `gap`: the gap (mm) of
+    whitened residuals over all of them (default the RMS over `use`)."""
     sd = np.asarray(model.sd).ravel()[model.mask]
     use = np.ones(r.size, bool) if use is None else np.asarray(use, bool)
-    C = library(model, z, r, sd)
+    gap_of = gap if gap is not None else (lambda rr: _gap(rr, sd, use))
+    Cw = library(model, z, r, sd) / sd[:, None]
+    stick = np.array([t.phase == "stick" for t in TERMS])
+    scols = model.layout.stick_cols()  # TERMS begin with the stick terms, in their order
+    _, Js, _ = model.evaluate(z, scols)
+    Cw[:, stick] = -np.asarray(Js) / STICK_SCALE  # per mm of coefficient
     w = use.astype(float)
-    S, _ = stlsq(J * w[:, None], r * w, C / sd[:, None] * w[:, None])
-    cols = np.arange(model.n_base)
-    z_k, r_k, Jk = np.array(z, float), np.asarray(r, float), np.asarray(J, float)
-    best = (_gap(r, sd, use), z_k, r_k, np.zeros(S.size), None)
+    S, _ = stlsq(J * w[:, None], r * w, Cw * w[:, None])
+    inside, add = S[stick[S]], S[~stick[S]]
+    cols = np.r_[np.arange(model.n_base), scols[inside]]
+    z_k, r_k = np.array(z, float), np.asarray(r, float)
+    Jk = np.hstack([np.asarray(J, float), -Cw[:, inside] * STICK_SCALE])
+    best = (gap_of(r), z_k, r_k, {}, {})
     for _ in range(iterations if S.size else 0):
-        A = np.hstack([Jk, C[:, S] / sd[:, None]]) * w[:, None]
+        A = np.hstack([Jk, Cw[:, add]]) * w[:, None]
         beta, *_ = np.linalg.lstsq(A, r_k * w, rcond=None)
         z_k = z_k.copy()
         z_k[cols] -= beta[:cols.size]
-        coef = beta[cols.size:]
+        coef_add = beta[cols.size:]
         r_k, Jk, ok = model.evaluate(z_k, cols)
         r_k, Jk = np.asarray(r_k), np.asarray(Jk)
-        r_new = r_k - C[:, S] @ coef / sd
+        r_new = r_k - Cw[:, add] @ coef_add
         if not np.all(ok) or not np.isfinite(r_new).all():
             break
-        gap = _gap(r_new, sd, use)
+        gap = gap_of(r_new)
         if gap < best[0]:
-            A = np.hstack([Jk, C[:, S] / sd[:, None]]) * w[:, None]
+            A = np.hstack([Jk, Cw[:, add]]) * w[:, None]
             cov = np.linalg.pinv(A.T @ A) * max(float(np.sum((r_new * w) ** 2))
                                                 / max(w.sum() - A.shape[1], 1.0), 1.0)
-            best = (gap, z_k, r_new, coef, np.sqrt(np.diag(cov))[cols.size:])
+            se = np.sqrt(np.clip(np.diag(cov), 0.0, None))[model.n_base:]
+            values = np.r_[z_k[scols[inside]] * STICK_SCALE, coef_add]
+            se = np.r_[se[:inside.size] * STICK_SCALE, se[inside.size:]]
+            order = np.r_[inside, add]
+            best = (gap, z_k, r_new, dict(zip(order, values)), dict(zip(order, se)))
     gap_after, z_after, r_after, coef, se = best
     terms = tuple({"name": TERMS[j].name, "phase": TERMS[j].phase,
                    "variable": TERMS[j].variable, "symbol": TERMS[j].symbol,
-                   "coefficient": float(coef[i]),
-                   "stderr": float(se[i]) if se is not None else float("nan"),
+                   "coefficient": float(coef[j]), "stderr": float(se[j]),
                    "unit": TERMS[j].unit, "words": TERMS[j].words}
-                  for i, j in enumerate(S)) if se is not None else ()
-    gap_before = _gap(r, sd, use)
+                  for j in S if j in coef)
+    gap_before = gap_of(r)
     closes = (gap_before - gap_after) / max(gap_before - noise, 1e-300)
     return SparseForm(terms=terms, gap_before=gap_before, gap_after=gap_after,
                       noise=float(noise), found=bool(terms) and closes >= FOUND_SHARE,

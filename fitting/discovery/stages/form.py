@@ -5,6 +5,7 @@ than the family named."""
 
 from __future__ import annotations
 
+from ..decision import rms_gap
 from ..sparse import SparseForm, fit_sparse_form
 from .state import Fits
 
@@ -18,8 +19,14 @@ def outside_form(fx: Fits, effect: str, confidence: str, gap_after: float
     base = fx.base
     if effect == "none" or (effect != "unexplained" and confidence == "high"):
         return None, False
+    use, samples = base.described, getattr(base, "samples", None)
+    within = (samples[use],) if samples is not None else ()
+
+    def gap(r):  # as the answer's gaps: over the records described, the samples they stand for
+        return rms_gap(r[use], base.sd[use], *within)
+
     form = fit_sparse_form(base.model, base.z, base.r, base.fit.J[:base.n], base.noise,
-                           base.described)
+                           use, gap=gap)
     return form, form.found and (effect == "unexplained" or form.gap_after < gap_after)
 
 
