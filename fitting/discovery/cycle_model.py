@@ -9,8 +9,9 @@ the effects of `cycle_effects` enter as parts of it:
 
 - **stick** (closed form): the deflection follows the drive,
   $x(t) = x_0 + u(t) - u(t_0)$, with the drive $u$ of the drive effects (screw error,
-  speed drift); breakaway where $k x = N \mu_0(T_1)$ (eq 1) with $N = W + \kappa k x$
-  (load coupling) and $\mu_s$, $\mu_d$ shifted by friction drift; found by a bracketed
+  speed drift); breakaway where $k x = N \mu_0(T_1)$ (eq 1) with $N = N_0 + \kappa k x$
+  ($N_0$ the record's normal load, W unless it gives one; load coupling $\kappa$) and
+  $\mu_s$, $\mu_d$ shifted by friction drift; found by a bracketed
   Newton iteration whose last step carries the derivative (implicit function theorem);
 - **slip** (RK4, fixed step, `N_STEPS` over 2.5 $\pi/\omega_0$):
   $m\ddot y = k x - N(\mu_m + b_S s(\dot y/v_s) + a \ln(1 + \dot y/V_\mathrm{ref})
@@ -182,9 +183,10 @@ def _stick_line(sl_or_x0, eff: _Eff, u, t0, u0, tw, T1m, v):
     return line
 
 
-def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, poly):
+def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, poly, N0):
     """One cycle window's stick and slip (module doc; `sensor` static: the kernel
-    convolution of the slip on its grid)."""
+    convolution of the slip on its grid): friction under the normal load N0 (kgf), inertia
+    W / g."""
     vs, p, length, pitch, order, zeta, form, damping = (shape[0], shape[1], shape[2],
                                                         shape[3], shape[4], shape[5],
                                                         shape[6], shape[7])
@@ -214,7 +216,7 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
 
     def g(T):
         x = line(t0 + T)
-        return k * x - (W + eff.kappa * k * x) * mu0(T)
+        return k * x - (N0 + eff.kappa * k * x) * mu0(T)
 
     def g_and_slope(T):
         return jax.jvp(g, (T,), (jnp.ones_like(T),))
@@ -252,7 +254,7 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
 
     def rhs(tau, y, yd, lth):
         x = x_b + vdrive * tau - y
-        N = W + eff.kappa * k * x
+        N = N0 + eff.kappa * k * x
         V = jnp.abs(yd)
         # the Stribeck curve (`cycle_effects.STRIBECK_FORMS`): exponential, logarithmic
         # (velocity weakening without a floor, as rate-and-state's steady state),
@@ -430,14 +432,14 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
     theta = nat[layout.n_base:]
     x0 = data.start_level - offset[data.record]
 
-    def one_window(rec, W, k, v, t0, x0, T1m, poly):
+    def one_window(rec, W, k, v, t0, x0, T1m, poly, N0):
         eff = _effects_of(layout, theta, rec)
         return _slip(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], tstart[rec],
-                     poly)
+                     poly, N0)
 
     slips = jax.vmap(one_window)(*(a[first] for a in (
         data.record, data.weight, data.stiffness, data.speed, data.start_time, x0,
-        data.stick_time, data.drive_poly)))
+        data.stick_time, data.drive_poly, data.normal_load)))
 
     def one_row(s, rec, v, tw, poly, ts):
         sl = jax.tree.map(lambda a: a[s], slips)
@@ -616,7 +618,7 @@ class CycleModel:
         """[R]: the gauge offset of every record (mm) that puts the paper's breakaway at
         the measured stick times at the friction `logs` (the six `EmpiricalFriction`
         coordinates): the median over the record's windows of the measured breakaway
-        reading (start level + v T1) minus the breakaway deflection $W \\mu_0(T_1)/k$
+        reading (start level + v T1) minus the breakaway deflection $N \\mu_0(T_1)/k$
         (eq 1). A fit's offsets belong to its friction: started from another friction
         with them, the model's breakaways fall outside the windows, where the residual no
         longer depends on the offset (measured: a Stribeck drop of 0.2 on A, refitted
@@ -627,7 +629,8 @@ class CycleModel:
         has = np.asarray(d.mask).any(1)
         static = EmpiricalFriction(*[float(x) for x in logs]).friction().static
         T1 = np.asarray(d.stick_time, float)
-        x_b = np.asarray(d.weight) * np.asarray(static(jnp.asarray(T1))) / np.asarray(d.stiffness)
+        x_b = (np.asarray(d.normal_load) * np.asarray(static(jnp.asarray(T1)))
+               / np.asarray(d.stiffness))
         est = np.asarray(d.start_level) + np.asarray(d.speed) * T1 - x_b
         rec, win = np.asarray(d.record), np.asarray(d.window)
         out = np.array(current, float)
