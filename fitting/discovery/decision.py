@@ -10,6 +10,7 @@ import numpy as np
 import scipy.stats
 
 from .options import DEFAULTS
+from .thinning import Samples
 
 __all__ = ["Contender", "Decision", "decide", "noise_of", "paired_z"]
 
@@ -119,35 +120,53 @@ def hotelling(Jp, r, starts, g=None):
     return F, float(scipy.stats.f.sf(F, p, n - p)), p, step, predicted
 
 
-def chi2_by_record(r, rec_of, G) -> np.ndarray:
+def _samples(r, samples):
+    """`samples` (`thinning.Samples`), or every residual a sample of its own."""
+    return samples if samples is not None else Samples(np.ones(np.shape(r)),
+                                                       np.zeros(np.shape(r)))
+
+
+def chi2_by_record(r, rec_of, G, samples=None, sd=None) -> np.ndarray:
     """chi2/n of the whitened residuals `r` of every record (`rec_of`: record per
-    residual; NaN for a record without residuals)."""
-    return np.array([np.mean(r[rec_of == g] ** 2) if np.any(rec_of == g) else np.nan
+    residual; NaN for a record without residuals) over the samples they stand for
+    (`samples`, with the residuals' standard errors `sd`, mm: binned sticks)."""
+    if samples is None:
+        return np.array([np.mean(r[rec_of == g] ** 2) if np.any(rec_of == g) else np.nan
+                         for g in range(G)])
+    return np.array([samples[rec_of == g].chi2(r[rec_of == g], sd[rec_of == g])
+                     / samples[rec_of == g].n if np.any(rec_of == g) else np.nan
                      for g in range(G)])
 
 
-def rms_gap(r, sd) -> float:
-    """Residual RMS (mm) of whitened residuals `r` with standard errors `sd`."""
-    return float(np.sqrt(np.mean((r * sd) ** 2)))
+def rms_gap(r, sd, samples=None) -> float:
+    """Residual RMS (mm) of whitened residuals `r` with standard errors `sd`, over the
+    samples they stand for (`samples`, `thinning`: binned sticks)."""
+    return _samples(r, samples).rms(r * sd)
 
 
-def rms_by_phase(r_mm, slipping, sd=None):
+def rms_by_phase(r_mm, slipping, sd=None, samples=None):
     """Residual RMS (mm) and count by phase; with the residuals' standard errors `sd` (mm)
     also the RMS they lead one to expect ("expected_rms", mm) and the whitened residuals'
     chi2/n ("chi2_per_sample"): a slip's timing error moves the fast trace, so a slip
-    phase's residual is larger than the gauge noise and still at its own noise."""
+    phase's residual is larger than the gauge noise and still at its own noise. Over the
+    samples the residuals stand for (`samples`: binned sticks)."""
     out = {}
+    samples = _samples(r_mm, samples)
     for name, sel in (("stick", ~slipping), ("slip", slipping)):
-        out[name] = {"rms": float(np.sqrt(np.mean(r_mm[sel] ** 2))) if sel.any() else None,
-                     "samples": int(sel.sum())}
+        part = samples[sel]
+        out[name] = {"rms": part.rms(r_mm[sel]) if sel.any() else None, "samples": part.n}
         if sd is not None:
             s = np.asarray(sd)[sel]
-            out[name]["expected_rms"] = float(np.sqrt(np.mean(s ** 2))) if sel.any() else None
-            out[name]["chi2_per_sample"] = (float(np.mean((r_mm[sel] / s) ** 2))
+            out[name]["expected_rms"] = (float(np.sqrt(np.sum(part.count ** 2 * s ** 2)
+                                                       / part.n)) if sel.any() else None)
+            out[name]["chi2_per_sample"] = (part.chi2(r_mm[sel] / s, s) / part.n
                                             if sel.any() else None)
     return out
 
 
-def noise_of(data) -> float:
-    """The campaign's noise level (mm): RMS of its windows' record noise estimates."""
-    return float(np.sqrt(np.mean(np.asarray(data.sigma)[np.asarray(data.mask).any(1)] ** 2)))
+def noise_of(data, samples=None) -> float:
+    """The campaign's noise level (mm): RMS of its windows' record noise estimates, each
+    row weighing by its samples (`samples`, [N, L]: binned sticks; else by its count)."""
+    mask = np.asarray(data.mask)
+    n = mask.any(1) if samples is None else np.where(mask, samples.count, 0.0).sum(1)
+    return float(np.sqrt(np.sum(n * np.asarray(data.sigma) ** 2) / np.sum(n)))

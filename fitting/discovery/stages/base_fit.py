@@ -37,7 +37,7 @@ def _solve_base(prep: Prepared, opts: DiscoveryOptions, loss: AbstractLoss | Non
     fit0 = sub.solve(prep.z_start[base_cols], max_evals=max_evals)
     z_base = sub.full(fit0.z)
     _, yd, _ = model.residuals(z_base)
-    sd_base = sd_at(z_base, data, yd)
+    sd_base = sd_at(z_base, data, yd, prep.samples)
     model = CycleModel(data, model.tref, sd_base, G)
     sub = SubProblem(model, z_base, base_cols)
     fit = sub.solve(z_base[base_cols], max_evals=max_evals)
@@ -74,7 +74,9 @@ def _judge_records(prep: Prepared, opts: DiscoveryOptions, model, fit, z_base, s
     data, G, feats, max_evals = prep.data, prep.G, prep.feats, opts.max_evals
     base_cols = np.arange(model.n_base)
     sd_plain = np.asarray(sd_base)
-    chi2_rec = chi2_by_record(fit.r, rec_of, G)
+    samples = prep.samples.flat(model.mask)
+    chi2_rec = chi2_by_record(fit.r, rec_of, G, samples,
+                              np.asarray(model.sd).ravel()[model.mask])
     median_chi2 = float(np.nanmedian(chi2_rec))
     suspects = [g for g, c in enumerate(chi2_rec)
                 if c > max(opts.record_chi2, opts.record_chi2 * median_chi2)]
@@ -114,9 +116,10 @@ def _judge_records(prep: Prepared, opts: DiscoveryOptions, model, fit, z_base, s
     # near the others' level weighs by its scatter and stays in the tests (a 2 um
     # screw error on lubricant C made its fastest record chi2/n 3.0: the evidence)
     _, yd, _ = model.residuals(z_clean)
-    sd_clean = sd_at(z_clean, data, yd) * robust
+    sd_clean = sd_at(z_clean, data, yd, prep.samples) * robust
     plain = CycleModel(data, model.tref, sd_clean, G)
-    chi2_clean = chi2_by_record(plain.residuals(z_clean)[0], rec_of, G)
+    chi2_clean = chi2_by_record(plain.residuals(z_clean)[0], rec_of, G, samples,
+                                np.asarray(plain.sd).ravel()[plain.mask])
     median_clean = float(np.nanmedian(np.delete(chi2_clean, suspects)) if kept
                          else np.nanmedian(chi2_clean))
     if median_clean <= opts.misfit:
@@ -151,7 +154,8 @@ def base_fit(prep: Prepared, *, loss: AbstractLoss | None, opts: DiscoveryOption
     model, fit, z_base, sd_plain, median_chi2, scaled, aside, yd = _judge_records(
         prep, opts, model, fit, z_base, sd_base, robust, yd, rec_of)
     described = ~np.isin(rec_of, list(aside))
-    n_used = int(described.sum())
+    samples = prep.samples.flat(model.mask)
+    n_used = samples[described].n  # samples represented (`thinning`)
     scaled_notes = [f"{recs[g].note or recs[g].source or f'record {g}'}: chi2/n {c:.3g} "
                     f"(campaign median {median_chi2:.3g}); "
                     + ("set aside from the base fit and the tests" if g in aside
@@ -159,8 +163,11 @@ def base_fit(prep: Prepared, *, loss: AbstractLoss | None, opts: DiscoveryOption
                     + ", tried again at full weight with a named effect"
                     for g, c in scaled.items()]
     sd_flat = np.asarray(model.sd).ravel()[model.mask]
-    if (fit.rss / max(n_used, 1) > opts.misfit
-            or rms_gap(fit.r[described], sd_flat[described]) > opts.misfit * noise_of(data)):
+    noise = noise_of(data, prep.samples)
+    within = samples[described].within(sd_flat[described])
+    if ((fit.rss + within) / max(n_used, 1) > opts.misfit
+            or rms_gap(fit.r[described], sd_flat[described], samples[described])
+            > opts.misfit * noise):
         # far from the data, Levenberg-Marquardt's default patience stops early (the
         # refits then each gained the same chi-square, whatever their family): continue
         # the base fit as the refits would run, from a damped start with more patience
@@ -171,23 +178,23 @@ def base_fit(prep: Prepared, *, loss: AbstractLoss | None, opts: DiscoveryOption
             fit, z_base = more, sub.full(more.z)
     r0 = fit.r
     sd = np.asarray(model.sd).ravel()[model.mask]
-    noise = noise_of(data)
+    within = samples[described].within(sd[described])  # the binned sticks' scatter
     # the gap, the misfit test and the score tests are over the records the paper's
     # model describes (`described`)
-    gap_before = rms_gap(r0[described], sd[described])
-    gap_all_before = rms_gap(r0, sd)
+    gap_before = rms_gap(r0[described], sd[described], samples[described])
+    gap_all_before = rms_gap(r0, sd, samples)
     slipping = np.asarray(yd).ravel()[model.mask] > 0
     clock("base_fit", f"gap {gap_before * 1e3:.3g} um, noise {noise * 1e3:.3g} um, "
-                      f"chi2/n {fit.rss / n_used:.3f}, {fit.n_evals} evaluations"
+                      f"chi2/n {(fit.rss + within) / n_used:.3f}, {fit.n_evals} evaluations"
                       + (f"; {len(scaled)} record(s) described worse than their noise "
                          f"({len(aside)} set aside, {len(scaled) - len(aside)} weighed by "
                          "their scatter)" if scaled else ""))
     # a base fit far from the data (chi2/n > misfit): the first-order score test is
     # unreliable (the base parameters have bent to absorb the effect), so every family is
     # refitted, the largest predicted drops first
-    misfit = fit.rss / n_used > opts.misfit or gap_before > opts.misfit * noise
+    misfit = (fit.rss + within) / n_used > opts.misfit or gap_before > opts.misfit * noise
     return Base(model=model, fit=fit, z=z_base, sd_plain=sd_plain, rec_of=rec_of,
                 median_chi2=median_chi2, scaled=scaled, aside=aside,
                 scaled_notes=scaled_notes, described=described, n_used=n_used, sd=sd,
                 noise=noise, gap_before=gap_before, gap_all_before=gap_all_before,
-                slipping=slipping, misfit=misfit)
+                slipping=slipping, misfit=misfit, samples=samples, within=within)

@@ -46,7 +46,8 @@ def choose(fx: Fits, refitted: Refitted, *, clock: Clock) -> Choice:
     described = fx.base.described
     if (chosen is not None and misfit and chosen.family.name not in refitted.shaped
             and neighbour_shapes(chosen.family, chosen.shape)
-            and rms_gap(chosen.fit.r[:n][described], fx.base.sd[described])
+            and rms_gap(chosen.fit.r[:n][described], fx.base.sd[described],
+                      fx.base.samples[described])
             > opts.refine_gap * fx.base.noise):
         # far from the data the named family's grid shape may not be the records' own
         # (a real Stribeck curve is not one of ours): a local search over its continuous

@@ -17,24 +17,28 @@ from ...objectives.trace import cycle_windows, reslip_windows, trace_data, trace
 from ..cycle_model import CycleModel, drift_origins
 from ..options import DiscoveryOptions
 from ..starts import plausible_start
+from ..thinning import Samples, thin_windows
 from .state import Clock, Prepared
 
 __all__ = ["prepare", "sd_at"]
 
 
 @eqx.filter_jit
-def _sd_at(logs, data, slider_velocity):
-    """`trace_sd` (mm, [N, L]) at the friction of the six `EmpiricalFriction` logs,
-    compiled once (run eagerly, each of its small operations compiled a program of its
-    own: 3.7 s of a cold 16 s preparation)."""
+def _sd_at(logs, data, slider_velocity, count):
+    """`trace_sd` (mm, [N, L]) at the friction of the six `EmpiricalFriction` logs, of
+    the means of `count` samples, compiled once (run eagerly, each of its small
+    operations compiled a program of its own: 3.7 s of a cold 16 s preparation)."""
     friction = EmpiricalFriction(*[logs[i] for i in range(6)])
-    return trace_sd(CampaignParams(friction, jnp.zeros(1)), data, slider_velocity)
+    return (trace_sd(CampaignParams(friction, jnp.zeros(1)), data, slider_velocity)
+            / jnp.sqrt(count))
 
 
-def sd_at(z, data, slider_velocity) -> np.ndarray:
-    """`_sd_at` at the first six coordinates of z (the friction logs)."""
+def sd_at(z, data, slider_velocity, samples: Samples) -> np.ndarray:
+    """`_sd_at` at the first six coordinates of z (the friction logs), for the entries of
+    `data` standing for `samples` ([N, L], `thinning`)."""
     return np.asarray(_sd_at(jax.device_put(np.asarray(z, float)[:6]), data,
-                             jax.device_put(np.asarray(slider_velocity, float))))
+                             jax.device_put(np.asarray(slider_velocity, float)),
+                             jax.device_put(samples.count)))
 
 
 def _cancel(warm: dict):
@@ -106,6 +110,7 @@ def prepare(records, *, strict: bool, unreadable, opts: DiscoveryOptions,
     campaign = screen_records(list(records), strict=strict, unreadable=unreadable)
     recs, feats = campaign.records, campaign.features
     data, n_complete, n_reslip, keep_reslips = _windows(recs, feats, opts)
+    data, samples = thin_windows(data)  # the sticks binned: the cost is per window
     G = len(recs)
     # the per-cycle model's programs compile in a background thread meanwhile
     warm = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape),
@@ -132,10 +137,12 @@ def prepare(records, *, strict: bool, unreadable, opts: DiscoveryOptions,
     if np.any(np.diff(window) < 0):
         raise RuntimeError("trace_data rows are not in window order")
     starts = np.flatnonzero(np.r_[True, np.diff(window) != 0])
-    model = CycleModel(data, model.tref, sd_at(z_features, data, yd), G)
+    model = CycleModel(data, model.tref, sd_at(z_features, data, yd, samples), G)
     clock("prepare", f"{G} records used, {len(campaign.not_used)} set aside, "
-                     f"{starts.size} cycle windows, {model.mask.sum()} samples"
+                     f"{starts.size} cycle windows, {samples.flat(model.mask).n} samples "
+                     f"({model.mask.sum()} with the sticks binned)"
                      + (f"; {n_failed} windows set aside" if n_failed else ""))
     return Prepared(campaign=campaign, data=data, warm=warm, model=model, z_start=z_start,
                     t2_of=t2_of, starts=starts, windows_set_aside=windows_set_aside,
+                    samples=samples,
                     n_complete=n_complete, n_reslip=n_reslip, keep_reslips=keep_reslips)

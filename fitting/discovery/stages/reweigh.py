@@ -44,8 +44,9 @@ def reweigh(fx: Fits, choice: Choice, *, clock: Clock) -> Reweighed:
         if one.unphysical is not None:
             break
         sd_one = np.asarray(model_after.sd).ravel()[model_after.mask]
-        before_ = rms_gap(chosen.fit.r[:n][described], sd_chosen[described])
-        after_ = rms_gap(one.fit.r[:n][described], sd_one[described])
+        before_ = rms_gap(chosen.fit.r[:n][described], sd_chosen[described],
+                          base.samples[described])
+        after_ = rms_gap(one.fit.r[:n][described], sd_one[described], base.samples[described])
         if after_ > opts.reweigh_tolerance * before_:
             clock("reweigh", f"not kept: the gap over the records not set aside would "
                              f"go from {before_ * 1e3:.3g} to {after_ * 1e3:.3g} um with "
@@ -54,7 +55,8 @@ def reweigh(fx: Fits, choice: Choice, *, clock: Clock) -> Reweighed:
         chosen, sd_chosen = one, sd_one
         sd_after = sd_one
         r_plain = chosen.fit.r[:n] * factor_now[rec_of]
-        chi2_after = chi2_by_record(r_plain, rec_of, G)
+        chi2_after = chi2_by_record(r_plain, rec_of, G, base.samples,
+                                    sd_one / factor_now[rec_of])
         median_after = float(np.nanmedian(chi2_after))
         limit_after = max(opts.record_chi2, opts.record_chi2 * median_after)
         beyond = chi2_after > limit_after

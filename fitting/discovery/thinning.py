@@ -1,0 +1,158 @@
+r"""The stick phase compressed to the statistics the per-cycle model needs (`cycle_model`).
+
+In a stick the model is a closed form, the deflection following the drive: over a short
+span it is a straight line of the drive's slope, and the standard error of its samples is
+one number per window (`trace_sd`: the slider at rest). The $m$ samples of such a span
+(a **bin**) then enter the chi-square only through their mean,
+
+$$\sum_i \frac{(x_i - f(t_i))^2}{s^2} = \frac{(\bar x - f(\bar t))^2}{s^2/m}
+  + \frac{S}{s^2},$$
+
+with $S$ the bins' scatter about the line of the drive's slope (`spread`, mm$^2$, data
+only; exact for a model linear over the bin). So a bin is one residual: its mean at its
+mean time, standard error $s/\sqrt m$: every chi-square difference, score and window
+sum is that of all samples, and the noise of the statistics is unchanged (the bin mean
+carries the samples' information). Levels (chi2/n, gaps) add the scatter back
+(`Samples`).
+
+Bins grow with the distance to the window's events (`RESOLUTION` of it: the gauge's
+settling after the previous slip at the window start, the breakaway): the samples within
+`RAW` sample steps of an event and every sample from one slip time $\pi/\omega_0$ before
+the measured breakaway to the window's end (the slip) are kept as they are. A stick of
+$T_1$ then holds about $2 \ln(T_1 / 8\Delta t)/\ln(1 + $ `RESOLUTION`$)$ bins: the cost
+of the model grows with the windows, and only logarithmically with the sampling rate.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import equinox as eqx
+import jax
+import numpy as np
+
+from stickslip_jax.units import G_MM_S2
+
+from ..objectives.trace import TraceData
+
+__all__ = ["RAW", "RESOLUTION", "Samples", "thin_windows"]
+
+RESOLUTION = 0.25
+"""A bin's length over its distance to the nearest event of its window (window start,
+breakaway one slip time early)."""
+RAW = 8
+"""Samples (sample steps) from an event kept as they are."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Samples:
+    """What every residual stands for: `count` samples (1: a sample of its own) whose
+    scatter about their bin's line is `spread` (mm^2), flat like the residuals or [N, L]."""
+
+    count: np.ndarray
+    spread: np.ndarray
+
+    def __getitem__(self, sel) -> Samples:
+        return Samples(self.count[sel], self.spread[sel])
+
+    def flat(self, mask) -> Samples:
+        """The residuals' entries ([N, L] arrays at the unpadded samples `mask`, flat)."""
+        return Samples(self.count.ravel()[mask], self.spread.ravel()[mask])
+
+    @property
+    def n(self) -> int:
+        """Samples represented."""
+        return int(self.count.sum())
+
+    def within(self, sd) -> float:
+        """The chi-square of the bins' scatter, for residuals of standard errors `sd` (mm,
+        the bins' own: s / sqrt(m))."""
+        return float(np.sum(self.spread / (np.asarray(sd) ** 2 * self.count)))
+
+    def chi2(self, r, sd) -> float:
+        """The chi-square of all samples represented, from the whitened residuals `r`."""
+        return float(np.sum(np.asarray(r) ** 2)) + self.within(sd)
+
+    def rms(self, r_mm) -> float:
+        """Residual RMS (mm) over all samples represented, from the residuals in mm."""
+        return float(np.sqrt((np.sum(self.count * np.asarray(r_mm) ** 2)
+                              + np.sum(self.spread)) / max(self.count.sum(), 1)))
+
+
+def _bins(t, window, t0, t_end, dt):
+    """Bin index of every sample (contiguous, in time order, one per window event zone)."""
+    d1, d2 = t - t0, t_end - t
+    stick = d2 > 0
+    d = np.where(d1 <= d2, d1, d2)
+    d0 = RAW * dt
+    binned = stick & (d >= d0)
+    k = np.floor(np.log(np.maximum(d, d0) / d0) / np.log1p(RESOLUTION)).astype(np.int64)
+    code = np.where(d1 <= d2, 2 * k, 2 * k + 1)
+    code = np.where(binned, code, -1 - np.arange(t.size))  # kept: a bin of its own
+    new = np.r_[True, (np.diff(window) != 0) | (np.diff(code) != 0)]
+    return np.cumsum(new) - 1
+
+
+def thin_windows(data: TraceData) -> tuple[TraceData, Samples]:
+    """`data` with every window's stick binned (module doc), cut into rows again (a
+    window's bins in one row where they fit), and the `Samples` [N, L] of its entries."""
+    mask = np.asarray(data.mask)
+    rows, cols = np.nonzero(mask)
+    t = np.asarray(data.time)[mask]
+    x = np.asarray(data.deflection)[mask]
+    win = np.asarray(data.window)[rows]
+    per_row = {f: np.asarray(getattr(data, f)) for f in (
+        "record", "weight", "normal_load", "stiffness", "speed", "start_time", "start_level",
+        "start_level_sd", "start_time_sd", "stick_time", "sigma", "window", "drive_poly")}
+    r = rows
+    T2 = np.pi / np.sqrt(per_row["stiffness"][r] * G_MM_S2 / per_row["weight"][r])
+    t0 = per_row["start_time"][r]
+    t_end = t0 + per_row["stick_time"][r] - T2  # binned up to one slip time before
+    first = np.r_[True, np.diff(win) != 0]
+    starts = np.flatnonzero(first)
+    n_w = np.diff(np.r_[starts, t.size])
+    span = np.maximum.reduceat(t, starts) - np.minimum.reduceat(t, starts)
+    dt = np.repeat(span / np.maximum(n_w - 1, 1), n_w)
+    b = _bins(t, win, t0, t_end, dt)
+    edges = np.flatnonzero(np.r_[True, np.diff(b) != 0])
+    count = np.diff(np.r_[edges, t.size]).astype(float)
+    tb = np.add.reduceat(t, edges) / count
+    xb = np.add.reduceat(x, edges) / count
+    y = x - per_row["speed"][r] * (t - t0)  # about the line of the drive's slope
+    yb = np.add.reduceat(y, edges) / count
+    spread = np.add.reduceat(y * y, edges) - count * yb * yb
+    spread = np.maximum(np.where(count > 1, spread, 0.0), 0.0)
+    src = r[edges]  # the original row of every bin (its window's attributes)
+    wb = win[edges]
+    # rows again: a window's bins cut into rows of L (the longest window's bins, at most
+    # 512, rounded up to 64)
+    w_start = np.flatnonzero(np.r_[True, np.diff(wb) != 0])
+    w_len = np.diff(np.r_[w_start, wb.size])
+    L = int(min(512, -(-int(w_len.max()) // 64) * 64))
+    pos = np.arange(wb.size) - np.repeat(w_start, w_len)
+    row_of = np.cumsum(np.r_[0, -(-w_len // L)])[:-1]
+    row = np.repeat(row_of, w_len) + pos // L
+    col = pos % L
+    n_rows = int(row[-1]) + 1
+    N = -(-n_rows // 8) * 8
+    head = np.zeros(N, int)  # every row's original row (dummy rows: copies of the first)
+    head[row] = src
+    shape = (N, L)
+    time, defl, m = np.zeros(shape), np.zeros(shape), np.zeros(shape, bool)
+    cnt, spr = np.ones(shape), np.zeros(shape)
+    time[row, col], defl[row, col], m[row, col] = tb, xb, True
+    cnt[row, col], spr[row, col] = count, spread
+    last = np.zeros(N, int)
+    np.maximum.at(last, row, col)
+    fill = np.arange(L)[None, :] > last[:, None]
+    time = np.where(fill, time[np.arange(N), last][:, None], time)  # padding: last time
+    time[n_rows:] = time[0]
+
+    def j(a):  # device_put: jnp.asarray would compile a small program per shape
+        return jax.device_put(np.asarray(a))
+
+    out = eqx.tree_at(lambda d: [getattr(d, f) for f in per_row] + [d.time, d.deflection,
+                                                                   d.mask],
+                      data, [j(per_row[f][head]) for f in per_row] + [j(time), j(defl),
+                                                                       j(m)])
+    return out, Samples(cnt, spr)
