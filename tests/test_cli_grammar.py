@@ -66,6 +66,7 @@ MEANINGS = {
     "--noise": r"noise",  # simulate: the noise added; plan: the noise of a record (sd)
     "--out": r"record|CSV",
     "--force": r"replace an existing --out file",
+    "--normal-load": r"normal load N pressing the slider on the slideway",
     "--csv": r"as a long-format CSV: one row per",  # the record file written (simulate, import)
 }
 """Option names used by more than one command -> a pattern their help text matches in
