@@ -133,9 +133,10 @@ def run_one(kind: str, seed: int) -> dict:
     kw, phase, variable = OUTSIDE[kind]
     res = discover_cycles(ir.campaign(ir.LUBRICANT_A, seed=seed, cycles=4.0, **kw))
     form = res.sparse_form
+    # the leading (most significant) term in the right phase, a term naming the variable
     words_ok = bool(form is not None and form.terms
                     and form.terms[0]["phase"] == phase
-                    and variable in (form.terms[0]["variable"] + form.terms[0]["words"]))
+                    and any(variable in t["variable"] + t["words"] for t in form.terms))
     return dict(kind=kind, seed=seed, effect=res.effect, confidence=res.confidence,
                 gap_before=res.gap_before / res.noise, gap_after=res.gap_after / res.noise,
                 closes=form.closes if form is not None else None,

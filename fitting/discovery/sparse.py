@@ -19,13 +19,13 @@ of the cycle (`TERMS`), fitted jointly with the base parameters:
 - **drift**: the reading's drift over the record.
 
 The terms are chosen by sequentially thresholded least squares (`stlsq`, the SINDy
-regression) on the base residuals with the base Jacobian's columns projected out (a stick
-term's column is the model's own Jacobian column, the breakaway's move included), at
-a path of thresholds; the support with the least chi-square plus a cost per term
-(`TERM_COST` of the excess chi-square, at least 2 ln n) wins, at most `MAX_TERMS`
-terms. The chosen form is refitted with the model's own parameters by Gauss-Newton
-steps through the model (`refit`), and found when it closes at least `FOUND_SHARE` of
-the gap's excess over the noise. Units: mm, s, kgf.
+regression, with a forward selection beside it) on the base residuals with the base
+Jacobian's columns projected out (a stick term's column is the model's own Jacobian
+column, the breakaway's move included), at a path of thresholds; the support with the
+least chi-square plus a cost per term (`TERM_COST` of the excess chi-square, at least
+2 ln n) wins, at most `MAX_TERMS` terms. The chosen form is refitted with the model's
+own parameters by Gauss-Newton steps through the model (`fit_sparse_form`), and found
+when it closes at least `FOUND_SHARE` of the gap's excess over the noise. Units: mm, s, kgf.
 """
 
 from __future__ import annotations
@@ -180,7 +180,8 @@ def stlsq(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: int = MA
     """Sequentially thresholded least squares of b on the columns C (whitened) with the
     columns `base` always in (projected out): at every threshold of a path (a share of
     the excess chi-square each standardised coefficient must explain), drop the terms
-    below it and refit until the support settles; keep the support (at most
+    below it and refit until the support settles, and along a forward selection (the
+    term that lowers chi-square most, added one at a time); keep the support (at most
     `max_terms`) with the least chi-square + `cost` per term (default `TERM_COST` of the
     excess, at least 2 ln n). Returns the support (column indices) and its chi-square."""
     n = b.size
@@ -214,14 +215,26 @@ def stlsq(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: int = MA
         rss, _ = rss_of(S)
         if rss + cost * S.size < best_score:
             best, best_score = S, rss + cost * S.size
+    S = np.zeros(0, int)
+    for _ in range(max_terms):  # and forward selection: strongly collinear columns (creep
+        # terms of neighbouring time constants) split their coefficients under the joint
+        # fit, so that every threshold dropped them all
+        rest = np.setdiff1d(np.flatnonzero(live), S)
+        if not rest.size:
+            break
+        scores = [rss_of(np.r_[S, j])[0] for j in rest]
+        S = np.r_[S, rest[int(np.argmin(scores))]]
+        if min(scores) + cost * S.size < best_score:
+            best, best_score = S, min(scores) + cost * S.size
     return best, rss_of(best)[0]
 
 
 @dataclasses.dataclass(frozen=True)
 class SparseForm:
     """The sparse form of the residual (module doc): its `terms` (dicts: name, phase,
-    variable, symbol, coefficient, stderr, unit, words), the gaps (residual RMS, mm)
-    before and after its refit with the base parameters, the `noise` (mm), whether it
+    variable, symbol, coefficient, stderr, unit, words; the most significant first), the
+    gaps (residual RMS, mm) before and after its refit with the base parameters, the
+    `noise` (mm), whether it
     was `found` (closes at least `FOUND_SHARE` of the excess), the model coordinates
     after the refit `z`, and the refit's whitened residuals `r`."""
 
@@ -308,7 +321,8 @@ def fit_sparse_form(model, z, r, J, noise: float, use=None, *, gap=None,
                    "variable": TERMS[j].variable, "symbol": TERMS[j].symbol,
                    "coefficient": float(coef[j]), "stderr": float(se[j]),
                    "unit": TERMS[j].unit, "words": TERMS[j].words}
-                  for j in S if j in coef)
+                  for j in sorted(S, key=lambda j: -abs(coef.get(j, 0.0) / (se.get(j) or 1.0)))
+                  if j in coef)
     gap_before = gap_of(r)
     closes = (gap_before - gap_after) / max(gap_before - noise, 1e-300)
     return SparseForm(terms=terms, gap_before=gap_before, gap_after=gap_after,
