@@ -239,6 +239,9 @@ def answer_text(result) -> str:
     noise, the candidate table of the result's base and the parameter table."""
     r = result
     joint = " or ".join([r.effect] + [x["name"] for x in r.indistinguishable_from])
+    kept = [s["effect"] for s in getattr(r, "steps", ()) if s["kept"]]
+    if len(kept) > 1:  # several effects (`effect` is the first): all of them
+        joint = " + ".join([joint] + kept[1:])
     table = candidate_table if r.BASE == "cycle" else smooth_candidate_table
     return "\n".join([
         f"effect: {joint} (confidence {r.confidence})"

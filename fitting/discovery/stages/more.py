@@ -74,7 +74,7 @@ def drop_one(fx: Fits, rf: FamilyRefit, clock: Clock) -> tuple[FamilyRefit, tupl
     Returns the fit of the effects kept (`rf` where none went), the effects before the
     new one that stay, and the dropped ones as (name, p-value)."""
     model, base, opts = fx.base.model, fx.base, fx.opts
-    held, dropped = list(base.held), []
+    held, dropped, said = list(base.held), [], []
     for h in list(held):
         keep = [f for f in held if f is not h]
         cols = np.concatenate([np.arange(model.n_base)] + [model.cols(f) for f in keep]
@@ -91,13 +91,12 @@ def drop_one(fx: Fits, rf: FamilyRefit, clock: Clock) -> tuple[FamilyRefit, tupl
         except ValueError:  # the model without it leaves the simulator's domain: kept
             continue
         one = judge(fx, rf.family, rf.shape, fit, sensor, sub)
-        if not p >= opts.alpha or one.unphysical is not None:
-            continue
-        dropped.append((h.name, p))
-        held, rf = keep, one
-    if dropped:
-        clock("drop-one", ", ".join(f"{name} dropped (p {p:.2g} given {rf.family.name})"
-                                    for name, p in dropped))
+        gone = p >= opts.alpha and one.unphysical is None
+        said.append(f"{h.name} {'dropped' if gone else 'kept'} (p {p:.2g})")
+        if gone:
+            dropped.append((h.name, p))
+            held, rf = keep, one
+    clock("drop-one", f"given {rf.family.name}: " + ", ".join(said))
     return rf, tuple(held), dropped
 
 
@@ -126,6 +125,7 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
     steps = [_step(fx, choice, chosen)]
     named = {chosen.family.name} | {c["name"] for c in choice.rivals}
     held, unbeaten = (chosen.family,), list(choice.decision.unbeaten)
+    joint = {chosen.family.name: choice.decision.joint}  # partners, by the effect named
     while len(held) < max_effects:
         clock.suffix = f", effect {len(steps) + 1}"
         base = extended(fx, chosen, held)
@@ -145,9 +145,10 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
         named |= {new.family.name} | {c["name"] for c in choice_k.rivals}
         held, fx, chosen = kept + (new.family,), fx_k, new
         unbeaten += choice_k.decision.unbeaten
+        joint[new.family.name] = choice_k.decision.joint
     clock.suffix = ""
     lead = next(s for s in steps if s.kept)
-    return fx, Choice(chosen=chosen, decision=Decision(choice.decision.joint, tuple(unbeaten)),
+    return fx, Choice(chosen=chosen, decision=Decision(joint[lead.family.name], tuple(unbeaten)),
                       rivals=lead.rivals, compared=choice.compared,
                       decided_drop=first.base.fit.rss - chosen.fit.rss), steps
 
