@@ -44,14 +44,15 @@ from stickslip_jax.simulation.parts import AbstractForceTerm
 
 from stickslip_jax.lsq import HostResult
 
+from ..objectives.smooth import SmoothData
 from .model import (
-    CampaignTraces,
     DiscoveryParams,
     Problem,
     combine_friction,
     effects_from_vector,
     simulate_campaign,
     simulate_record,
+    stack_records,
 )
 from .subproblems import AbstractProblem
 
@@ -84,15 +85,15 @@ class LearnedForce(AbstractForceTerm):
                                                   ctx.stiffness / ctx.weight)
 
 
-def make_learned_force(traces: CampaignTraces, *, width: int = 8, seed: int = 0) -> LearnedForce:
+def make_learned_force(traces: SmoothData, *, width: int = 8, seed: int = 0) -> LearnedForce:
     """An MLP force with zero output layer and scales from the campaign."""
-    data = np.asarray(traces.data)[np.asarray(traces.mask)]
+    data = np.asarray(traces.deflection)[np.asarray(traces.mask)]
     x_s = float(np.max(np.abs(data)))
     omega = float(np.median(np.sqrt(9806.65 * np.asarray(traces.stiffness)
                                     / np.asarray(traces.weight))))
     t_s = float(np.max(np.asarray(traces.time)))
     kw = np.asarray(traces.stiffness) / np.asarray(traces.weight)
-    f_s = float(np.max(np.abs(np.asarray(traces.data)) * kw[:, None]))
+    f_s = float(np.max(np.abs(np.asarray(traces.deflection)) * kw[:, None]))
     mlp = eqx.nn.MLP(4, 1, width, 1, activation=jnp.tanh, key=jax.random.PRNGKey(seed))
     last = mlp.layers[-1]
     mlp = eqx.tree_at(lambda m: (m.layers[-1].weight, m.layers[-1].bias), mlp,
@@ -123,8 +124,9 @@ def _evaluate_learned(z_base, z_nn, dx0, eff_vec, friction_static, effects_templ
         J, (r, ok) = jax.jacfwd(f, has_aux=True)(q0)
         return r, J, ok
 
-    return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed, traces.x0_guess,
-                             dx0, traces.time, traces.mask, traces.data))
+    return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed,
+                             traces.start_level, dx0, traces.time, traces.mask,
+                             traces.deflection))
 
 
 @dataclasses.dataclass
@@ -144,7 +146,7 @@ class LearnedProblem(AbstractProblem):
 
     @property
     def n_params(self):
-        return self.n_base + self.n_nn + self.base.traces.n_records
+        return self.n_base + self.n_nn + self.base.n_records
 
     def active(self):
         return np.ones(self.n_params, bool)
@@ -164,18 +166,8 @@ class LearnedProblem(AbstractProblem):
         except eqx.EquinoxRuntimeError:
             # a wild trial point (a diverging implicit stage): reject it, never crash
             return np.full(1, np.inf), np.full((1, self.n_params), np.nan), False
-        r, J, ok = np.asarray(r), np.asarray(J), np.asarray(ok)
-        m = np.asarray(b.traces.mask)
-        R = b.traces.n_records
-        rows = [J[i][m[i]] for i in range(R)]
-        Jfull = np.zeros((sum(x.shape[0] for x in rows), self.n_params))
-        o = 0
-        for i, block in enumerate(rows):
-            n = block.shape[0]
-            Jfull[o:o + n, : nb + nn] = block[:, : nb + nn]
-            Jfull[o:o + n, nb + nn + i] = block[:, -1]
-            o += n
-        return np.concatenate([r[i][m[i]] for i in range(R)]), Jfull, bool(np.all(ok))
+        return (*stack_records(np.asarray(r), np.asarray(J), np.asarray(b.traces.mask)),
+                bool(np.all(np.asarray(ok))))
 
     def force(self, z) -> LearnedForce:
         nb, nn = self.n_base, self.n_nn
@@ -186,7 +178,7 @@ class LearnedProblem(AbstractProblem):
         b = self.base
         fr = combine_friction(jnp.asarray(z[:nb]), b.friction0, b.free_names)
         eff = effects_from_vector(b.effects0, jnp.asarray(self.eff_vec))
-        return DiscoveryParams(fr, eff, b.traces.x0_guess + jnp.asarray(z[nb + nn:]))
+        return DiscoveryParams(fr, eff, b.traces.start_level + jnp.asarray(z[nb + nn:]))
 
 
 FEATURES = ("1", "x", "x^2", "x^3", "k x/W", "k x^3/W", "v", "sign(v)", "v|v|", "t",

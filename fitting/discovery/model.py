@@ -1,7 +1,8 @@
 r"""Trace model of a campaign for discovery: the smoothed simulator with every library effect.
 
-A campaign enters as `CampaignTraces` (padded arrays [R records, N samples], mm and s),
-built from `stickslip_jax.records.Record`s by `campaign_traces`. Each record must start
+A campaign enters as padded traces (`stickslip_fitting.objectives.smooth.SmoothData`,
+arrays [R records, N samples], mm and s), built from `stickslip_jax.records.Record`s by
+`campaign_traces`. Each record must start
 at the end of a slip (the slider just stuck, stick time 0): synthetic discovery
 records do, and `campaign_traces(..., crop="slip_end")` cuts a measured record at its
 first detected slip end (`stickslip_fitting.data.features`).
@@ -41,13 +42,13 @@ from stickslip_jax.drives import ConstantSpeed
 from stickslip_jax.modes import Formulation
 from stickslip_jax.simulation.smooth import simulate_smooth
 
+from ..objectives.smooth import SmoothData
 from ..params import NAMES, EmpiricalFriction
 from .effects import CANDIDATES, EffectSet, load_referred_friction
 from .subproblems import AbstractProblem
 
 __all__ = [
     "EFFECT_PARAMS",
-    "CampaignTraces",
     "DiscoveryParams",
     "Problem",
     "Settings",
@@ -95,29 +96,6 @@ class Settings:
         return cls(root_finder=optx.Newton(rtol=self.rtol, atol=self.atol))
 
 
-class CampaignTraces(eqx.Module):
-    """Padded traces of a campaign: time [R, N] s, data [R, N] mm, mask [R, N];
-    weight (kgf), stiffness (kgf/mm), speed (mm/s), x0_guess (mm) per record; `noise` the
-    robust noise estimate (mm) of the whole campaign."""
-
-    time: Float[Array, "R N"]
-    data: Float[Array, "R N"]
-    mask: Array
-    weight: Float[Array, " R"]
-    stiffness: Float[Array, " R"]
-    speed: Float[Array, " R"]
-    x0_guess: Float[Array, " R"]
-    noise: Float[Array, ""]
-
-    @property
-    def n_records(self) -> int:
-        return int(self.time.shape[0])
-
-    @property
-    def n_samples(self) -> int:
-        return int(np.asarray(self.mask).sum())
-
-
 class DiscoveryParams(eqx.Module):
     """friction (log coordinates, `stickslip_fitting.params.EmpiricalFriction`), effects, x0 [R] mm."""
 
@@ -152,8 +130,10 @@ def _crop_at_first_slip_end(record):
 
 
 def campaign_traces(records, *, crop: str = "none", max_samples: int | None = None
-                    ) -> CampaignTraces:
-    """Padded `CampaignTraces` from records with a constant `drive_speed`.
+                    ) -> SmoothData:
+    """Padded traces from records with a constant `drive_speed`: `start_level` the
+    reading at the start (a line through the first samples), `sigma` the campaign's
+    robust noise (mm, the median over records) for every record.
 
     `crop`: "none" (each record starts at a slip end) or "slip_end" (cut at the first
     detected slip end). `max_samples` caps each record's length.
@@ -164,7 +144,7 @@ def campaign_traces(records, *, crop: str = "none", max_samples: int | None = No
         raise ValueError(f"crop must be 'none' or 'slip_end', got {crop!r}")
     if len(records) < 1:
         raise ValueError("discovery needs at least one record")
-    times, xs, w, k, v, x0 = [], [], [], [], [], []
+    times, xs = [], []
     for rec in records:
         if rec.drive is not None or rec.drive_program is not None or rec.drive_speed is None:
             raise ValueError(f"{rec.name or 'record'}: discovery supports constant drive "
@@ -173,21 +153,20 @@ def campaign_traces(records, *, crop: str = "none", max_samples: int | None = No
             t, x = _crop_at_first_slip_end(rec)
         else:
             t, x = np.asarray(rec.time, float) - float(rec.time[0]), np.asarray(rec.deflection)
-        if max_samples is not None:
-            t, x = t[:max_samples], x[:max_samples]
-        if t.shape[0] < 16:
-            raise ValueError(f"{rec.name or 'record'}: too few samples ({t.shape[0]}) left")
-        times.append(t)
-        xs.append(x)
-        w.append(rec.weight)
-        k.append(rec.stiffness)
-        v.append(rec.drive_speed)
-        x0.append(_start_level(t, x, max(6, min(t.shape[0] // 40, 40))))
+        times.append(t[:max_samples])
+        xs.append(x[:max_samples])
+        if times[-1].shape[0] < 16:
+            raise ValueError(f"{rec.name or 'record'}: too few samples "
+                             f"({times[-1].shape[0]}) left")
     ts, data, mask = pad_series(times, xs)
     noise = float(np.median([robust_noise(x) for x in xs]))
     f = lambda a: jnp.asarray(np.asarray(a, float))  # noqa: E731
-    return CampaignTraces(time=f(ts), data=f(data), mask=jnp.asarray(mask), weight=f(w),
-                          stiffness=f(k), speed=f(v), x0_guess=f(x0), noise=f(noise))
+    per = lambda name: f([getattr(rec, name) for rec in records])  # noqa: E731
+    x0 = [_start_level(t, x, max(6, min(t.shape[0] // 40, 40))) for t, x in zip(times, xs)]
+    return SmoothData(time=f(ts), deflection=f(data), mask=jnp.asarray(mask),
+                      weight=per("weight"), normal_load=per("load"), stiffness=per("stiffness"),
+                      speed=per("drive_speed"), start_level=f(x0),
+                      sigma=f(np.full(len(xs), noise)))
 
 
 def simulate_record(friction, effects: EffectSet, weight, stiffness, speed, x0, ts, mask,
@@ -209,7 +188,7 @@ def simulate_record(friction, effects: EffectSet, weight, stiffness, speed, x0, 
 
 
 @eqx.filter_jit
-def simulate_campaign(params: DiscoveryParams, traces: CampaignTraces, settings: Settings,
+def simulate_campaign(params: DiscoveryParams, traces: SmoothData, settings: Settings,
                       extra_force_terms: tuple = (), full: bool = False):
     """Model readings [R, N] (mm) and success flags [R] for every record; with `full`,
     also the slider velocity [R, N] (mm/s) and the sticking flags [R, N]."""
@@ -217,18 +196,8 @@ def simulate_campaign(params: DiscoveryParams, traces: CampaignTraces, settings:
 
     def one(args):
         w, k, v, x0, t, m = args
-        if not full:
-            return simulate_record(fr, params.effects, w, k, v, x0, t, m, settings,
-                                   extra_force_terms)
-        sw = ss.Slideway(fr, w, k)
-        model = params.effects.smooth_model(sw, extra_force_terms)
-        tr = simulate_smooth(model, ConstantSpeed(v), t, smoothing=settings.smoothing,
-                             rtol=settings.rtol, atol=settings.atol,
-                             max_steps=settings.max_steps, initial_deflection=x0, mask=m,
-                             solver=settings.make_solver(),
-                             formulation=settings.formulation)
-        ok = tr.result == ss.simulation.SimulationResult.successful
-        return tr.deflection, ok, tr.slider_velocity, tr.sticking
+        return simulate_record(fr, params.effects, w, k, v, x0, t, m, settings,
+                               extra_force_terms, full=full)
 
     return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed, params.x0,
                              traces.time, traces.mask))
@@ -296,8 +265,24 @@ def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, 
         J, (r, ok, vel, stk) = jax.jacfwd(f, has_aux=True)(q0)
         return r, J, ok, vel, stk
 
-    return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed, traces.x0_guess,
-                             dx0, traces.time, traces.mask, traces.data))
+    return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed,
+                             traces.start_level, dx0, traces.time, traces.mask,
+                             traces.deflection))
+
+
+def stack_records(r, J, mask) -> tuple[np.ndarray, np.ndarray]:
+    """Residuals [M] and Jacobian [M, S + R] over the `mask`ed samples of per-record
+    residuals `r` [R, N] and Jacobians `J` [R, N, S + 1] (S coordinates shared by the
+    records, then the record's own offset dx0)."""
+    R, _, P = J.shape
+    rows = [J[i][mask[i]] for i in range(R)]
+    Jfull = np.zeros((sum(x.shape[0] for x in rows), P - 1 + R))
+    o = 0
+    for i, block in enumerate(rows):
+        Jfull[o:o + block.shape[0], :P - 1] = block[:, :-1]
+        Jfull[o:o + block.shape[0], P - 1 + i] = block[:, -1]
+        o += block.shape[0]
+    return np.concatenate([r[i][mask[i]] for i in range(R)]), Jfull
 
 
 def combine_friction(z_base, friction_static: EmpiricalFriction, free_names
@@ -317,7 +302,7 @@ class Problem(AbstractProblem):
     function (same shapes; `effect` only changes the data matrix S).
     """
 
-    traces: CampaignTraces
+    traces: SmoothData
     friction0: EmpiricalFriction
     effects0: EffectSet
     effect: str | None = None
@@ -330,7 +315,7 @@ class Problem(AbstractProblem):
         self.S = jnp.asarray(slot_matrix(self.effect, self.n_slots))
         self.eff0 = effects_to_vector(self.effects0)
         if self.sigma is None:
-            self.sigma = float(self.traces.noise)
+            self.sigma = float(self.traces.sigma[0])
         self._mask = np.asarray(self.traces.mask)
         bad = [n for n in self.fixed if n not in NAMES]
         if bad:
@@ -339,16 +324,20 @@ class Problem(AbstractProblem):
         self._trajectories = {}  # z bytes -> (model, velocity, sticking) [R, N] of evaluate
 
     @property
+    def n_records(self) -> int:
+        return int(self.traces.time.shape[0])
+
+    @property
     def n_base(self) -> int:
         return len(self.free_names)
 
     @property
     def n_params(self) -> int:
-        return self.n_base + self.n_slots + self.traces.n_records
+        return self.n_base + self.n_slots + self.n_records
 
     def z0(self) -> np.ndarray:
         fb = [float(x) for x in self.friction0.leaves(self.free_names)]
-        return np.concatenate([fb, np.zeros(self.n_slots), np.zeros(self.traces.n_records)])
+        return np.concatenate([fb, np.zeros(self.n_slots), np.zeros(self.n_records)])
 
     def active(self) -> np.ndarray:
         """Which coordinates of z are fitted (unused slots are not)."""
@@ -371,30 +360,18 @@ class Problem(AbstractProblem):
             # a wild trial point (a diverging implicit stage): reject it, never crash
             return np.full(1, np.inf), np.full((1, self.n_params), np.nan), False
         r, J, ok = np.asarray(r), np.asarray(J), np.asarray(ok)
-        model = np.asarray(self.traces.data) + r * self.sigma
+        model = np.asarray(self.traces.deflection) + r * self.sigma
         if len(self._trajectories) >= 8:  # the latest few: LM's accepted point is among them
             self._trajectories.pop(next(iter(self._trajectories)))
         self._trajectories[np.asarray(z, float).tobytes()] = (model, np.asarray(vel),
                                                               np.asarray(stk))
-        R = self.traces.n_records
-        nb, ns = self.n_base, self.n_slots
-        m = self._mask
-        rows = [J[i][m[i]] for i in range(R)]
-        counts = [x.shape[0] for x in rows]
-        Jfull = np.zeros((sum(counts), self.n_params))
-        o = 0
-        for i, block in enumerate(rows):
-            Jfull[o:o + counts[i], : nb + ns] = block[:, : nb + ns]
-            Jfull[o:o + counts[i], nb + ns + i] = block[:, -1]
-            o += counts[i]
-        res = np.concatenate([r[i][m[i]] for i in range(R)])
-        return res, Jfull, bool(np.all(ok))
+        return *stack_records(r, J, self._mask), bool(np.all(ok))
 
     def params(self, z) -> DiscoveryParams:
         zb, zs, dx0 = self.split(z)
         fr = combine_friction(zb, self.friction0, self.free_names)
         eff = effects_from_vector(self.effects0, self.eff0 + self.S @ zs)
-        return DiscoveryParams(fr, eff, self.traces.x0_guess + dx0)
+        return DiscoveryParams(fr, eff, self.traces.start_level + dx0)
 
     def trajectories(self, z):
         """(model reading [R, N] mm, slider velocity [R, N] mm/s, sticking [R, N]) at z,
@@ -410,5 +387,5 @@ class Problem(AbstractProblem):
     def record_residuals(self, z) -> list[np.ndarray]:
         """Unwhitened residuals data - model (mm) per record (masked samples only)."""
         model, _, _ = self.trajectories(z)
-        d, m = np.asarray(self.traces.data), self._mask
-        return [d[i][m[i]] - model[i][m[i]] for i in range(self.traces.n_records)]
+        d, m = np.asarray(self.traces.deflection), self._mask
+        return [d[i][m[i]] - model[i][m[i]] for i in range(self.n_records)]

@@ -116,8 +116,9 @@ def analyse_residuals(residuals, traces, model_velocity, sticking, *, sigma=None
                       window: int = 5, bins: int = 8, edge: int = 2) -> ResidualReport:
     """`ResidualReport` of per-record residuals (data - model, mm, masked samples).
 
-    `traces` is the `CampaignTraces`; `model_velocity`, `sticking` [R, N] from the
-    fitted model (`simulate_campaign(..., full=True)`); `sigma` the noise estimate (mm).
+    `traces` the padded traces (`model.campaign_traces`); `model_velocity`, `sticking`
+    [R, N] from the fitted model (`simulate_campaign(..., full=True)`); `sigma` the noise
+    estimate (mm).
     """
     mask = np.asarray(traces.mask)
     time = np.asarray(traces.time)

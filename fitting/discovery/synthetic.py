@@ -26,7 +26,8 @@ from stickslip_jax.simulation.parts import AbstractForceTerm
 
 from ..data.synthetic import steady_operating_point, truth_values
 from .effects import EffectSet
-from .model import CampaignTraces, DiscoveryParams, Settings, simulate_campaign
+from ..objectives.smooth import SmoothData
+from .model import DiscoveryParams, Settings, simulate_campaign
 
 __all__ = ["CONDITIONS", "SPEED_FRACTIONS", "HardeningSpring", "hidden_effect_campaign"]
 
@@ -74,9 +75,9 @@ def hidden_effect_campaign(
     times = [np.arange(p[4]) / sample_rate for p in plan]
     ts, mask = pad_times(times)
     f = lambda i: jnp.asarray([p[i] for p in plan], dtype=float)  # noqa: E731
-    traces = CampaignTraces(time=jnp.asarray(ts), data=jnp.zeros(ts.shape), mask=jnp.asarray(mask),
-                            weight=f(0), stiffness=f(1), speed=f(2), x0_guess=f(3),
-                            noise=jnp.asarray(noise))
+    traces = SmoothData(time=jnp.asarray(ts), deflection=jnp.zeros(ts.shape),
+                        mask=jnp.asarray(mask), weight=f(0), normal_load=f(0), stiffness=f(1),
+                        speed=f(2), start_level=f(3), sigma=jnp.full(len(plan), noise))
     from ..params import EmpiricalFriction
 
     params = DiscoveryParams(EmpiricalFriction.from_friction(friction), effects, f(3))

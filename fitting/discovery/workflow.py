@@ -96,10 +96,9 @@ def _friction_values(problem: Problem, z) -> dict:
 
 
 def _analyse(problem: Problem, z, sigma):
-    model, vel, stk = problem.trajectories(z)
-    d, m = np.asarray(problem.traces.data), np.asarray(problem.traces.mask)
-    res = [d[i][m[i]] - model[i][m[i]] for i in range(problem.traces.n_records)]
-    return analyse_residuals(res, problem.traces, vel, stk, sigma=sigma)
+    _, vel, stk = problem.trajectories(z)
+    return analyse_residuals(problem.record_residuals(z), problem.traces, vel, stk,
+                             sigma=sigma)
 
 
 def discover(
@@ -148,9 +147,9 @@ def discover(
     effects = EffectSet.zeros() if effects is None else effects
     base = Problem(traces, initial_friction(records), effects, settings=settings,
                    fixed=tuple(fixed))
-    clock("prepare", f"{traces.n_records} records, {traces.n_samples} samples")
+    clock("prepare", f"{traces.time.shape[0]} records, {traces.n_residuals()} samples")
     base_fit = base.solve(base.z0(), max_evals=max_evals)
-    sigma, N = float(traces.noise), base_fit.n_data
+    sigma, N = float(traces.sigma[0]), base_fit.n_data
     gap_before = math.sqrt(base_fit.rss / N) * sigma
     clock("base_fit", f"gap {gap_before * 1e3:.3g} um, {base_fit.n_evals} evaluations")
     rep_before = _analyse(base, base_fit.z, sigma)
