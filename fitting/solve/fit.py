@@ -196,13 +196,29 @@ emitter instead of one MLIR kernel module each. Measured on benchmarks/fit.py's 
 of 94 ms; the trace solve's XLA compilation takes 1.2 instead of 2.4 s at the same run
 time. (An option of XLA's CPU compiler.)"""
 
+QUICK_OPTIONS = {**COMPILER_OPTIONS, "xla_backend_optimization_level": 0}
+"""XLA options of programs whose compilation costs more than their runs: LLVM without
+its optimisation passes. Measured on benchmarks/fit.py's campaign (2 cores): the
+features solve compiles in 1.1 instead of 2.1 s of CPU time and runs in 0.18 instead of
+0.09 s; the trace Jacobian compiles in 1.1 instead of 3.2 s and runs 3.7x slower, so
+the trace solve (ten or more Jacobians) keeps `COMPILER_OPTIONS` and the one-off
+evaluations (`compiled`, the Laplace Jacobian) take these."""
+
 _solve_starts = eqx.filter_jit(_solve_starts_impl, compiler_options=COMPILER_OPTIONS)
+_solve_starts_quick = eqx.filter_jit(_solve_starts_impl, compiler_options=QUICK_OPTIONS)
 
 
-@eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
+def _solver_for(objective):
+    """The compiled multi-start solve for `objective`: `QUICK_OPTIONS` for the cycle
+    features (a solve of milliseconds), `COMPILER_OPTIONS` for objectives that simulate."""
+    quick = getattr(objective, "kind", None) is Objective.FEATURES
+    return _solve_starts_quick if quick else _solve_starts
+
+
+@eqx.filter_jit(compiler_options=QUICK_OPTIONS)
 def compiled(fn, *args):
-    """`fn(*args)` as one compiled program (with `COMPILER_OPTIONS`; the function and
-    non-array arguments are static): for evaluating an objective outside the solve
+    """`fn(*args)` as one compiled program (with `QUICK_OPTIONS`; the function and
+    non-array arguments are static): for evaluating an objective once outside the solve
     instead of dispatching its operations one by one."""
     return fn(*args)
 
@@ -279,7 +295,7 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps):
     total = np.zeros(n_start, int)
     polished = np.ones(n_start, bool)
     for k in range(screen + MAX_ROUNDS):
-        values, chi2s, results, success, steps, flags, vel_opt = _solve_starts(
+        values, chi2s, results, success, steps, flags, vel_opt = _solver_for(objective)(
             free_starts, ref, vel, jax.device_put(caps), lams, static, objective, rtol, atol,
             max_steps)
         total += np.asarray(steps)
@@ -560,7 +576,7 @@ def _features_problem(features, o: _Options, starts=None, loss=None,
     return _FeaturesProblem(data, obj, _stack(frees), statics[0], spec, starts)
 
 
-@eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
+@eqx.filter_jit(compiler_options=QUICK_OPTIONS)
 def _gn_terms(free, static, objective):
     flat, unravel = jax.flatten_util.ravel_pytree(free)
 

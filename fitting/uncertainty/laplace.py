@@ -43,7 +43,7 @@ import numpy as np
 
 from stickslip_jax.lsq import gauss_newton_covariance
 
-from ..solve.fit import COMPILER_OPTIONS, FitResult
+from ..solve.fit import QUICK_OPTIONS, FitResult
 from ..objectives.losses import HeavyTailed
 from ..modes import Covariance, SmallSample, check_member
 from ..params import CampaignParams, free_mask
@@ -108,17 +108,23 @@ class Uncertainty:
                 for e in self.estimates()]
 
 
-@eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
-def _jacobian_log(theta0, logs0, idx, template, offset0, objective, fit_offsets: bool):
-    """(J, r): residuals and their Jacobian in (log friction, free offsets) coordinates.
+@eqx.filter_jit(compiler_options=QUICK_OPTIONS)
+def _jacobian_log(params, idx: tuple, objective, fit_offsets: bool):
+    """(J, r): residuals and their Jacobian in (log friction, free offsets) coordinates
+    at `params`, the friction parameters `idx` (static) free.
 
-    Module level and jitted on its arguments, so fits of one campaign layout share it."""
-    k = idx.size
+    Module level and jitted on its arguments, so fits of one campaign layout share it;
+    the coordinates are built inside (no small program compiled per operation)."""
+    k = len(idx)
+    logs0 = params.friction.log_values()
+    sel = jnp.asarray(idx, dtype=jnp.int32)
+    offset0 = params.offset
+    theta0 = jnp.concatenate([logs0[sel], offset0 if fit_offsets else jnp.zeros(0)])
 
     def residuals(theta):
-        logs = logs0.at[idx].set(theta[:k])
+        logs = logs0.at[sel].set(theta[:k])
         off = theta[k:] if fit_offsets else offset0
-        return objective.residuals(CampaignParams(template.from_log_values(logs), off))
+        return objective.residuals(CampaignParams(params.friction.from_log_values(logs), off))
 
     return jax.jacfwd(residuals)(theta0), residuals(theta0)
 
@@ -127,15 +133,11 @@ def jacobian_log(fit: FitResult, objective=None):
     """(J, r, free mask, idx) at the optimum: whitened residuals r and J = dr/dtheta,
     theta = (log of the free friction parameters, free gauge offsets in mm), of
     `objective` (default the fit's)."""
-    p = fit.params
-    logs0 = p.friction.log_values()
     free = free_mask(fit.spec)
     idx = np.flatnonzero(free)
-    fit_offsets = bool(fit.spec.offset)
-    off0 = p.offset
-    theta0 = jnp.concatenate([logs0[idx], off0 if fit_offsets else jnp.zeros(0)])
-    J, r = _jacobian_log(theta0, logs0, jnp.asarray(idx), p.friction, off0,
-                         fit.objective if objective is None else objective, fit_offsets)
+    J, r = _jacobian_log(fit.params, tuple(int(i) for i in idx),
+                         fit.objective if objective is None else objective,
+                         bool(fit.spec.offset))
     return np.asarray(J), np.asarray(r), free, idx
 
 
