@@ -58,6 +58,8 @@ def test_two_effects_are_both_named(two_effects):
         assert name in res.explanation
     # each search's stages are timed under their own names, reusing the programs
     assert any(k.endswith(", effect 2") for k in res.timings), res.timings
+    # the first effect was tested again given the second (drop-one) and kept
+    assert "drop-one, effect 2" in res.timings and not res.steps[1]["dropped"]
     # the figure: a staircase panel of the gap after each step, with the noise line
     fig = res.figure()
     stair = [ax for ax in fig.axes if any(t.get_text().startswith("+ ")
