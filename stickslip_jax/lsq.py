@@ -5,33 +5,20 @@ Every fit of the project (cycle features, trace, combined, pitching, experiment 
 the contact calibration, the discovery refits) minimises $\|r(y)\|^2$ with this
 algorithm, assembled from public optimistix pieces:
 
-- `MarquardtDescent` (an `optimistix.AbstractDescent`): the damped step
-  $(J^TJ + \lambda D)\,\delta = -J^Tr$ with Marquardt's scaling $D = \mathrm{diag}(J^TJ)$
-  (each parameter on its own scale: log friction parameters and gauge offsets in mm
-  alike), through the eigen-decomposition of the scaled normal matrix, so a
-  rank-deficient problem gives the minimum-norm step; it also gives the cost decrease of
-  the full Gauss-Newton step (the stationarity test);
-- `NielsenDamping` (an `optimistix.AbstractSearch`): a step is accepted when it lowers
-  the cost, or changes it only within rounding (`rounding` of the cost: at the optimum
-  the predicted decreases of a sum of up to a million squares fall below its rounding,
-  and a strict rule would reject steps on the sign of rounding noise); Nielsen's damping
-  update: after an accepted step $\lambda \leftarrow \lambda \max(1/3, 1 - (2\rho - 1)^3)$
-  ($\rho$: actual over predicted decrease), after a rejected one
-  $\lambda \leftarrow \lambda\nu$, $\nu \leftarrow 2\nu$. Its step size is $1/\lambda$,
-  optimistix's convention for damped-Newton descents (`optimistix.DampedNewtonDescent`
-  reads it the same way);
+- `MarquardtDescent` (an `optimistix.AbstractDescent`): the damped step with Marquardt's
+  scaling $D = \mathrm{diag}(J^TJ)$ (each parameter on its own scale: log friction
+  parameters and gauge offsets in mm alike), minimum-norm on a rank-deficient problem;
+- `NielsenDamping` (an `optimistix.AbstractSearch`): acceptance within rounding (at the
+  optimum the predicted decreases of a sum of up to a million squares fall below its
+  rounding, and a strict rule would reject steps on the sign of rounding noise) and
+  Nielsen's damping update;
 - `LevenbergMarquardt` (an `optimistix.AbstractLeastSquaresSolver`, so it runs inside
-  `optimistix.least_squares` and one compiled program): the two composed. The Jacobian
-  is built once per evaluated point, by forward mode with one tangent per parameter (the
-  parameters are few, the residuals many), and only $J^TJ$ and $J^Tr$ are kept between
-  steps. It stops (successfully) when the full Gauss-Newton step would lower the cost by
-  less than `atol + rtol * cost` (stationarity in units of the whitened cost: the cost
-  is a chi-square), when an accepted step changed the cost only within rounding, when
-  the damping has grown past `LAMBDA_MAX` (no descent direction left at this precision),
-  or after `cap` steps when a cap is given (a traced value: screening runs share one
-  compilation with full runs). (Not an `optimistix.AbstractGaussNewton`: that class
-  stops on changes of the iterate and of the residuals, and carries the Jacobian as a
-  linear operator from step to step, the whole linearisation of a trace simulator.)
+  `optimistix.least_squares` and one compiled program): the two composed, the Jacobian
+  built once per evaluated point by forward mode (the parameters are few, the residuals
+  many) and only $J^TJ$ and $J^Tr$ kept between steps. (Not an
+  `optimistix.AbstractGaussNewton`: that class stops on changes of the iterate and of
+  the residuals, and carries the Jacobian as a linear operator from step to step, the
+  whole linearisation of a trace simulator.)
 - `least_squares(fn, params, free)` -> `LeastSquaresSolution` (fitted parameters,
   result code, step count, aux): the verb, over the leaves of a parameter pytree that
   `free` selects;
@@ -137,7 +124,7 @@ def damped_step(A: Float[Array, "P P"], g: Float[Array, " P"], lam, active=None,
     decrease its linear model predicts, $-(2g^T\delta + \delta^TA\delta)$. Through the
     eigen-decomposition of the scaled $A$: a zero eigenvalue (a direction the data do not
     determine) gets no step even at $\lambda = 0$. `xp`: the array namespace (`numpy`
-    for the host driver `solve_host`: no program compiled per parameter count)."""
+    over a `HostResiduals`: no program compiled per parameter count)."""
     active = _mask(active, g.shape, xp)
     step = _damped(_eigen(A, g, active, xp), lam, active, xp)
     return step, -(2.0 * g @ step + step @ (A @ step))
@@ -359,11 +346,15 @@ def _value_and_jacobian(fn, unravel, v, args, jac: str = "fwd"):
 
 
 class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
-    """Levenberg-Marquardt: `MarquardtDescent` and `NielsenDamping` with the stopping
-    rules of the module docstring, for `optimistix.least_squares`.
+    """Levenberg-Marquardt: `MarquardtDescent` and `NielsenDamping`, for
+    `optimistix.least_squares`. It stops (successfully) when the full Gauss-Newton step
+    would lower the cost by less than `atol + rtol * cost` (stationarity in units of the
+    whitened cost: a chi-square), when an accepted step changed the cost only within
+    rounding, when the damping has grown past `LAMBDA_MAX` (no descent direction left at
+    this precision), at a `Stall` rule's floor, or after `cap` steps (a traced value:
+    screening runs share one compilation with full runs).
 
-    - `rtol`, `atol`: stop when the full Gauss-Newton step would lower the cost by less
-      than `atol + rtol * cost` (cost = sum of squared residuals).
+    - `rtol`, `atol`: the stationarity test (cost = sum of squared residuals).
     - `rounding`: relative cost change treated as no change (accepted; ends the solve).
     - `lam0`: the initial damping (relative to Marquardt's scaling); 0 starts with the
       plain Gauss-Newton step (a start where the quadratic model is trusted).

@@ -20,8 +20,8 @@ An objective is also the residual function of the one least-squares verb,
 leaves `free` selects (a function `params -> leaf or tuple of leaves` like
 `eqx.tree_at`'s `where`, a boolean filter spec as for `eqx.partition`, or None: every
 array leaf) with the project's one solver (`stickslip_jax.lsq.LevenbergMarquardt`);
-`jacobian(objective, params, free)` is the Jacobian over the same leaves (for
-`stickslip_jax.lsq.gauss_newton_covariance`). The campaign fit
+with `linearise=True` it also returns the residuals and their Jacobian over the same
+leaves at the optimum (for `stickslip_jax.lsq.gauss_newton_covariance`). The campaign fit
 (`stickslip_fitting.solve.fit.fit_objective`) adds multi-start and reweighting rounds around
 the same verb.
 
@@ -36,15 +36,12 @@ from __future__ import annotations
 import abc
 
 import equinox as eqx
-import jax
 import numpy as np
-from jax.flatten_util import ravel_pytree
-from jaxtyping import Array, Float, PyTree
+from jaxtyping import Array, Float
 
 from stickslip_jax.lsq import LeastSquaresSolution, free_filter, least_squares
 
-__all__ = ["AbstractResiduals", "LeastSquaresSolution", "free_filter", "jacobian",
-           "least_squares"]
+__all__ = ["AbstractResiduals", "LeastSquaresSolution", "free_filter", "least_squares"]
 
 
 class AbstractResiduals(eqx.Module):
@@ -78,11 +75,3 @@ class AbstractResiduals(eqx.Module):
             raise ValueError(f"residual vector of {r.size} entries, blocks of {start}")
         return out
 
-
-@eqx.filter_jit
-def jacobian(objective: AbstractResiduals, params: PyTree, free=None) -> Float[Array, "N P"]:
-    """Jacobian [N, P] of `objective.residuals` against the free leaves (`free_filter`),
-    flattened in leaf order (`jax.flatten_util.ravel_pytree`), by forward mode."""
-    free_part, static = eqx.partition(params, free_filter(params, free))
-    flat, unravel = ravel_pytree(free_part)
-    return jax.jacfwd(lambda x: objective.residuals(eqx.combine(unravel(x), static)))(flat)
