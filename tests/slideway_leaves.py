@@ -1,6 +1,7 @@
 """Shared by the simulator tests: getters of a `Slideway`'s friction parameters by name
 (eqx.tree_at targets, for gradients leaf by leaf), the test slideway and drive speed of
-the smoothed-simulator tests, and the amplitude of a trace's last cycles."""
+the smoothed-simulator tests, and the amplitude of a trace's last cycles and its error
+against the exact simulator's."""
 
 import numpy as np
 
@@ -15,6 +16,23 @@ def amplitude_after(x, ts, t_from):
     sel = np.asarray(ts) >= t_from
     x = np.asarray(x)[sel]
     return 0.5 * (x.max() - x.min())
+
+
+def amplitude_error_against_exact():
+    """Sample times (s) of a 6.5 s run of `SW` at `V`, and a function of a deflection
+    trace on them: the relative error of its last cycle's amplitude against the exact
+    simulator's."""
+    import jax.numpy as jnp
+
+    from stickslip_jax.drives import ConstantSpeed
+    from stickslip_jax.simulation import simulate_exact
+
+    ts = jnp.linspace(0.0, 6.5, 6501)
+    ex = simulate_exact(SW, ConstantSpeed(V), ts, max_events=16)
+    c = ex.cycles
+    t_from = float(c.breakaway_time[int(c.valid.sum()) - 1]) - 0.2  # the last cycle
+    amp = amplitude_after(ex.deflection, ts, t_from)
+    return ts, lambda x: abs(amplitude_after(x, ts, t_from) / amp - 1)
 
 FRICTION_LEAVES = {
     "mu_s": lambda s: s.friction.static.mu_s,

@@ -58,11 +58,17 @@ def test_posterior_summary_columns_and_rows(posterior):
     assert frame.loc["n", "median"] == pytest.approx(1.0, rel=1e-2)
 
 
-def test_posterior_json_is_the_command_document(posterior, mcmc_document, tmp_path):
-    path = tmp_path / "post.json"
-    text = posterior.to_json(path)
+def saved_document(result, path) -> dict:
+    """`result.to_json(path)`'s document, checked to be the text it returned and
+    `to_dict()`."""
+    text = result.to_json(path)
     doc = json.loads(path.read_text())
-    assert json.loads(text) == doc == posterior.to_dict()
+    assert json.loads(text) == doc == result.to_dict()
+    return doc
+
+
+def test_posterior_json_is_the_command_document(posterior, mcmc_document, tmp_path):
+    doc = saved_document(posterior, tmp_path / "post.json")
     assert list(doc) == list(mcmc_document)
     assert list(doc["parameters"]["mu_s"]) == list(mcmc_document["parameters"]["mu_s"])
     assert doc["names"] == mcmc_document["names"] == NAMES
@@ -142,10 +148,7 @@ def test_discovery_summary_lists_every_family(found):
 
 
 def test_discovery_json_is_the_command_document(found, discover_document, tmp_path):
-    path = tmp_path / "found.json"
-    text = found.to_json(path)
-    doc = json.loads(path.read_text())
-    assert json.loads(text) == doc == found.to_dict()
+    doc = saved_document(found, tmp_path / "found.json")
     assert list(doc) == list(discover_document)
     for key in ("effect", "confidence", "base", "loss", "deprecated_keys", "records"):
         assert doc[key] == discover_document[key], key

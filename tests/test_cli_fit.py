@@ -64,20 +64,17 @@ def test_record_without_stick_slip(campaign_dir, tmp_path, capsys):
     assert "flat" in err and "no stick-slip" in err
 
 
-def test_mixed_lubricants(campaign_dir, tmp_path, capsys):
-    _, paths = campaign_dir
-    other = tmp_path / "other.csv"
-    other.write_text(open(paths[1]).read().replace("# lubricant: A", "# lubricant: C"))
-    assert main(["fit", paths[0], str(other)]) == 2
-    assert "mixes lubricants" in _err(capsys)
-
-
-def test_conflicting_units(campaign_dir, tmp_path, capsys):
+@pytest.mark.parametrize("old, new, said", [
+    ("# lubricant: A", "# lubricant: C", "mixes lubricants"),  # mixed lubricants
+    ("deflection [mm]", "deflection [kgf]", "bad.csv"),  # a unit of the wrong dimension
+])
+def test_a_record_that_does_not_fit_the_campaign(campaign_dir, tmp_path, capsys, old, new,
+                                                 said):
     _, paths = campaign_dir
     bad = tmp_path / "bad.csv"
-    bad.write_text(open(paths[1]).read().replace("deflection [mm]", "deflection [kgf]"))
+    bad.write_text(open(paths[1]).read().replace(old, new))
     assert main(["fit", paths[0], str(bad)]) == 2
-    assert "bad.csv" in _err(capsys)
+    assert said in _err(capsys)
 
 
 def test_bad_fix_and_model(campaign_dir, capsys):

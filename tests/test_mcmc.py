@@ -13,6 +13,7 @@ from stickslip_fitting.uncertainty.mcmc import log_posterior, run_mcmc
 from stickslip_fitting.modes import Covariance, Objective
 from stickslip_fitting.data.synthetic import synthetic_campaign, truth_values
 from stickslip_fitting.uncertainty.laplace import laplace
+from record_files import record_files
 
 
 @pytest.fixture(scope="module")
@@ -62,13 +63,9 @@ def test_short_chain_warns(fitted):
 def test_cli_mcmc_and_plots(fitted, tmp_path, capsys):
     from stickslip_fitting.report.plots import fit_figure
     from stickslip_jax.cli import main
-    from stickslip_jax.records import write_record
 
     recs, fit = fitted
-    paths = []
-    for r in recs:
-        write_record(r, tmp_path / f"{r.name}.csv")
-        paths.append(str(tmp_path / f"{r.name}.csv"))
+    paths = record_files(recs, tmp_path)
     out, corner = tmp_path / "m.json", tmp_path / "corner.png"
     rc = main(["mcmc", *paths, "--walkers", "16", "--steps", "60", "--no-progress",
                "--json", str(out), "--corner", str(corner)])
@@ -134,7 +131,6 @@ def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, cap
     cluster-robust Laplace interval (module doc of stickslip_fitting.uncertainty.mcmc)."""
     from stickslip_fitting.uncertainty.mcmc import likelihood_scale
     from stickslip_jax.cli import main
-    from stickslip_jax.records import write_record
 
     recs, ffit = fitted
     tfit = fit_features(ffit.features, objective=Objective.TRACE, records=recs)
@@ -147,10 +143,7 @@ def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, cap
     assert float(np.asarray(logp(jnp.asarray(theta0)[None]))[0]) == pytest.approx(
         -0.5 * tfit.chi2 / scale, rel=1e-6)
     # the CLI: the objective and the tempering travel in the JSON
-    paths = []
-    for r in recs:
-        write_record(r, tmp_path / f"{r.name}.csv")
-        paths.append(str(tmp_path / f"{r.name}.csv"))
+    paths = record_files(recs, tmp_path)
     out = tmp_path / "t.json"
     assert main(["mcmc", *paths, "--objective", "trace", "--walkers", "16", "--steps", "400",
                  "--no-progress", "--json", str(out)]) == 0

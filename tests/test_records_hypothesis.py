@@ -65,27 +65,15 @@ def parse(text: str):
 
 
 @SETTINGS
-@given(st.binary(max_size=400))
-def test_random_bytes(data):
-    read_bytes(data)
+@given(st.sampled_from([b"", VALID.encode()]), st.binary(max_size=400))
+def test_random_bytes_alone_or_after_a_valid_header(head, data):
+    read_bytes(head + data)
 
 
 @SETTINGS
-@given(st.binary(max_size=200))
-def test_random_bytes_after_a_valid_header(data):
-    read_bytes(VALID.encode() + data)
-
-
-@SETTINGS
-@given(st.text(max_size=300))
-def test_random_text(text):
-    parse(text)
-
-
-@SETTINGS
-@given(st.text(max_size=200))
-def test_random_text_after_the_first_line(text):
-    parse("# stickslip-record: 1\n" + text)
+@given(st.sampled_from(["", "# stickslip-record: 1\n"]), st.text(max_size=300))
+def test_random_text_alone_or_after_the_first_line(head, text):
+    parse(head + text)
 
 
 @st.composite

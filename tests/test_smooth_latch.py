@@ -15,10 +15,9 @@ from stickslip_jax.simulation import (
     SmoothModel,
     ViscousDamping,
     pad_times,
-    simulate_exact,
     simulate_smooth,
 )
-from slideway_leaves import FRICTION_LEAVES, SW, V, amplitude_after
+from slideway_leaves import FRICTION_LEAVES, SW, V, amplitude_error_against_exact
 
 a = jnp.asarray
 LATCH = dict(formulation="latch")
@@ -31,17 +30,13 @@ def smooth():
 
 
 def test_latch_converges_to_exact_as_smoothing_shrinks(smooth):
-    ts = jnp.linspace(0.0, 6.5, 6501)
-    ex = simulate_exact(SW, ConstantSpeed(V), ts, max_events=16)
-    c = ex.cycles
-    t_from = float(c.breakaway_time[int(c.valid.sum()) - 1]) - 0.2  # last cycle
-    amp_exact = amplitude_after(ex.deflection, ts, t_from)
+    ts, error = amplitude_error_against_exact()
     errors = []
     for eta in (1e-2, DEFAULT_SMOOTHING, SHARPEST):
         tr = smooth(SW, ConstantSpeed(V), ts, smoothing=a(eta), max_steps=4096, **LATCH)
         assert tr.result == SimulationResult.successful
         assert int(tr.num_events) < 1000  # about 130 steps per cycle, whatever eta
-        errors.append(abs(amplitude_after(tr.deflection, ts, t_from) / amp_exact - 1))
+        errors.append(error(tr.deflection))
     assert errors[0] > errors[1] > errors[2], errors
     assert errors[1] < 0.01, errors  # the default smoothing
     assert errors[2] < 1e-3, errors

@@ -16,6 +16,7 @@ from stickslip_fitting.params import CampaignParams, EmpiricalFriction
 from stickslip_fitting.objectives.smooth import SmoothObjective, smooth_data
 from stickslip_fitting.data.synthetic import synthetic_campaign, truth_values
 from stickslip_fitting.uncertainty.laplace import laplace
+from record_files import record_files
 
 FR = ss.lubricant("A")
 
@@ -73,13 +74,9 @@ def test_smooth_needs_slips_and_a_constant_drive(campaign):
 
 def test_cli_objective_smooth(campaign, tmp_path, capsys):
     from stickslip_jax.cli import main
-    from stickslip_jax.records import write_record
 
     recs, _ = campaign
-    paths = []
-    for r in recs:
-        write_record(r, tmp_path / f"{r.name}.csv")
-        paths.append(str(tmp_path / f"{r.name}.csv"))
+    paths = record_files(recs, tmp_path)
     out = tmp_path / "s.json"
     assert main(["fit", *paths, "--objective", "smooth", "--json", str(out)]) == 0
     rep = json.loads(out.read_text())

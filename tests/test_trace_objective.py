@@ -18,6 +18,7 @@ from stickslip_fitting.data.synthetic import synthetic_campaign, truth_values
 from stickslip_fitting.objectives.trace import (CHUNK, cycle_windows, reslip_windows,
                                                trace_data, trace_residuals, trace_simulation)
 from stickslip_fitting.uncertainty.laplace import laplace
+from record_files import record_files
 
 
 @pytest.fixture(scope="module")
@@ -172,13 +173,9 @@ def test_combined_objective_from_the_cli(campaign, tmp_path, capsys):
     import json
 
     from stickslip_jax.cli import main
-    from stickslip_jax.records import write_record
 
     fr, recs, feats = campaign
-    paths = []
-    for r in recs:
-        write_record(r, tmp_path / f"{r.name}.csv")
-        paths.append(str(tmp_path / f"{r.name}.csv"))
+    paths = record_files(recs, tmp_path)
     out = tmp_path / "both.json"
     assert main(["fit", *paths, "--objective", "both", "--json", str(out)]) == 0
     text = capsys.readouterr().out
