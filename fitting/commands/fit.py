@@ -124,14 +124,14 @@ def check_model_options(args) -> dict[str, float]:
     --surface refused unless `--model microsqueeze` (an option that cannot act): checks
     of `fit`, `mcmc` and `fit-batch` before any work (and before JAX starts, which
     `fit-batch --coordinator` needs)."""
-    from ..microsqueeze_params import MicrosqueezeFriction
-
     micro = args.model == "microsqueeze"
     for option, value in (("--eta", args.eta), ("--surface", args.surface)):
         if value is not None and not micro:
             raise ValueError(f"{option}: only used with --model microsqueeze; add it, or "
                              f"leave out {option}")
-    return parse_fix(args.fix, MicrosqueezeFriction if micro else None)
+    if micro:  # imported only here: it loads the contact model (and diffrax)
+        from ..microsqueeze_params import MicrosqueezeFriction as law
+    return parse_fix(args.fix, law if micro else None)
 
 
 def fit_from_args(args, *, objective: Objective | str = "features"):

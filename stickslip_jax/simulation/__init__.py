@@ -46,6 +46,8 @@ trace.deflection, trace.slider_velocity, trace.cycles.amplitude()
   lengths.
 """
 
+import importlib
+
 from ..modes import SlipTime
 from .exact import simulate_exact, simulate_exact_campaign
 from .parts import (
@@ -59,9 +61,18 @@ from .parts import (
     IdealGauge,
     ViscousDamping,
 )
-from .smooth import DEFAULT_SMOOTHING, SmoothModel, cycles_from_samples, simulate_smooth
-from .synthetic import synthetic_record
 from .trace import Cycles, SimulationResult, Trace, pad_times
+
+_LAZY = {"DEFAULT_SMOOTHING": "smooth", "SmoothModel": "smooth", "cycles_from_samples": "smooth",
+         "simulate_smooth": "smooth", "synthetic_record": "synthetic"}
+"""Names imported on first use: the smoothed simulator loads diffrax, which the exact
+simulator and the fits of the cycle features and traces do not need."""
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "AbstractForceTerm",
