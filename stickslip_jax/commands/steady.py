@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from .options import add_json_option, quantity
+from .options import add_json_option, add_slideway_options, quantity
 
 NAME = "steady"
 HELP = "steady stick-slip (eqs 5-7, 12) for a paper lubricant at given W, k and drive speeds"
@@ -14,14 +14,7 @@ def add_arguments(p):
     p.add_argument("--lubricant", default="A", help="paper lubricant (Table 6: A, C)")
     p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
                    help="table of eq (1) parameters (default 6; 4 and 9 borrow delta, n of A)")
-    p.add_argument("--weight", type=quantity("force", "kgf"), required=True,
-                   help="slider weight W (kgf, or with unit: '353 N')")
-    p.add_argument("--stiffness", type=quantity("stiffness", "kgf/mm"), required=True,
-                   help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
-    p.add_argument("--normal-load", type=quantity("force", "kgf"), default=None,
-                   help="normal load N pressing the slider on the slideway, when a dead "
-                        "weight or a cylinder sets it apart from the moving weight W (kgf, or "
-                        "with unit; default W)")
+    add_slideway_options(p)
     p.add_argument("--speed", type=quantity("speed", "mm/min"), nargs="+", required=True,
                    help="drive speeds v (mm/min unless a unit is given, e.g. '10 um/s')")
     p.add_argument("--tolerance", type=quantity("length", "mm"), default=None,
@@ -189,7 +182,8 @@ def run(args) -> int:
         if args.json != "-":  # with "-" the table below goes to stderr
             print(f"wrote {args.json}")
     print(f"lubricant {args.lubricant} (Table {args.table}), W = {args.weight:g} kgf, "
-          + ("" if load is None else f"N = {load:g} kgf, ") + f"k = {args.stiffness:g} kgf/mm, f0 = {float(out.natural_frequency[0]):.4g} Hz")
+          + ("" if load is None else f"N = {load:g} kgf, ")
+          + f"k = {args.stiffness:g} kgf/mm, f0 = {float(out.natural_frequency[0]):.4g} Hz")
     columns = COLUMNS + (DAMPED_COLUMNS if zeta is not None else ())
     widths = [max(len(h), 12) for _, h in columns]
     print("  ".join(h.rjust(w) for (_, h), w in zip(columns, widths)))
