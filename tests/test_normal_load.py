@@ -254,9 +254,9 @@ def test_steady_command_takes_a_normal_load(tmp_path, capsys):
 def test_design_map_takes_a_normal_load(capsys):
     """`design --normal-load` (and `sf.design_map(normal_load=)`): every point the steady
     analysis of the slideway under N; refused with --max-amplitude, which holds N = W."""
-    from stickslip_jax.cli import main
-
     import stickslip_fitting as sf
+
+    from stickslip_jax.cli import main
 
     study = sf.design_map("20:60:3", "86.9", "1:30:4", normal_load="588.4 N")
     n = study.report["normal_load_kgf"]

@@ -45,9 +45,9 @@ def test_one_record_says_what_it_holds(tmp_path, capsys):
 def test_the_python_api_fits_one_record_and_says_what_it_cannot_determine():
     """`sf.fit` of one record (a path or a `Record`): mu_s and mu_d with intervals holding
     the truth; gamma, m, delta, n held, not identifiable, each with its reason."""
-    from stickslip_jax.records import read_record
-
     import stickslip_fitting as sf
+
+    from stickslip_jax.records import read_record
 
     path = EXAMPLES / "A_W36_k86.9_v5mm-min.csv"
     for given in (path, read_record(path)):
