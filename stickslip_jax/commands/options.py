@@ -31,6 +31,19 @@ def quantity(dimension: str, default_unit: str, positive: bool = True):
     return parse
 
 
+def add_slideway_options(p) -> None:
+    """`--weight` W and `--stiffness` k (required) and `--normal-load` N (default W), each
+    a number in kgf or kgf/mm or a quantity with its unit."""
+    p.add_argument("--weight", type=quantity("force", "kgf"), required=True,
+                   help="slider weight W (kgf, or with unit: '353 N')")
+    p.add_argument("--stiffness", type=quantity("stiffness", "kgf/mm"), required=True,
+                   help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
+    p.add_argument("--normal-load", type=quantity("force", "kgf"), default=None,
+                   help="normal load N pressing the slider on the slideway, when a dead "
+                        "weight or a cylinder sets it apart from the moving weight W (kgf, or "
+                        "with unit; default W)")
+
+
 def add_json_option(parser, what: str, *, bare: bool = False, action=None) -> None:
     """`--json OUT`: write `what` as JSON to the file OUT, or to stdout with `-` (the
     command's table then goes to stderr: `stickslip_jax.output.json_owns_stdout`).

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from .options import quantity
+from .options import add_slideway_options, quantity
 
 NAME = "simulate"
 HELP = ("simulate a run of the slideway (paper's model) and write it as a record CSV "
@@ -14,14 +14,7 @@ HELP = ("simulate a run of the slideway (paper's model) and write it as a record
 
 def add_arguments(p):
     p.add_argument("--lubricant", default="A", help="paper lubricant of Table 6 (A or C)")
-    p.add_argument("--weight", type=quantity("force", "kgf"), required=True,
-                   help="slider weight W (kgf, or with unit: '353 N')")
-    p.add_argument("--stiffness", type=quantity("stiffness", "kgf/mm"), required=True,
-                   help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
-    p.add_argument("--normal-load", type=quantity("force", "kgf"), default=None,
-                   help="normal load N pressing the slider on the slideway, when a dead "
-                        "weight or a cylinder sets it apart from the moving weight (kgf, or "
-                        "with unit; default W)")
+    add_slideway_options(p)
     p.add_argument("--speed", type=quantity("speed", "mm/min"),
                    help="constant drive speed v (mm/min unless a unit is given)")
     p.add_argument("--drive-program", default=None,
