@@ -176,9 +176,8 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
         A = np.zeros((G, p, p))
         Jk = J[keep]
         np.add.at(A, inv, Jk[:, :, None] * Jk[:, None, :])
-        eye = np.eye(p)
-        g = np.stack([np.linalg.lstsq(eye - A[c] @ Hinv, g[c], rcond=1e-12)[0]
-                      for c in range(G)]) if G else g
+        # every cluster's minimum-norm solve at once (pseudo-inverse, as lstsq's rcond)
+        g = np.einsum("cij,cj->ci", np.linalg.pinv(np.eye(p) - A @ Hinv, rcond=1e-12), g)
         factor = (G - 1) / max(G, 1)
     elif small_sample is SmallSample.CR2:  # Bell-McCaffrey: residuals scaled by (I - P_cc)^(-1/2)
         Jk, rk = J[keep], r[keep]
