@@ -137,10 +137,11 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
     several = len(kept) > 1 and effect != "unexplained"
     if several:  # "effect" is the first effect kept; the steps name them all
         effect = kept[0].family.name
-    form, by_form = (None, False) if several else outside_form(fx, effect, confidence,
-                                                               gap_after)
+    # a form outside the library answers where it leaves less than every family named
+    form, by_form = outside_form(fx, effect, confidence, gap_after)
     if by_form:  # answered by its form (`stages.form`): the base with the form's terms
         named, effect, confidence, chosen, sd_after = effect, "sparse_form", "low", None, sd
+        several = False
         z_after, r1, final_fit, shape, sensor = form.z, form.r, base.fit, Shape(), False
         gap_after, gap_all_after = form.gap_after, rms_gap(form.r, sd, base.samples)
     phases_before = rms_by_phase(r0 * sd, base.slipping, sd, base.samples)
