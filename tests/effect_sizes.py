@@ -42,7 +42,7 @@ def trace_rms(records, friction: ir.Friction) -> float:
 
     campaign = screen_records(list(records))
     recs, feats = campaign.records, campaign.features
-    data = trace_data(recs, feats, drive_fix=False, measured_drive=True, keep_reslips=True)
+    data = trace_data(recs, feats, drive_fix=False, keep_reslips=True)
     G = len(recs)
     model = CycleModel(data, drift_origins(recs), np.ones(np.asarray(data.mask).shape), G)
     f = friction

@@ -60,13 +60,15 @@ def test_smooth_fit_recovers_truth(smooth_fit):
     assert abs(fit.values["mu_d"] / truth["mu_d"] - 1) < 0.01
 
 
-def test_smooth_needs_slips_and_a_constant_drive(campaign):
+def test_smooth_needs_slips_and_drives_through_a_program(campaign):
     import dataclasses
 
     recs, feats = campaign
-    prog = dataclasses.replace(recs[0], drive_program=((0.0, recs[0].drive_speed),))
-    with pytest.raises(ValueError, match="constant drive speed"):
-        smooth_data([prog], feats[:1])
+    v = recs[0].drive_speed
+    prog = dataclasses.replace(recs[0], drive_program=((0.0, v),))
+    knots = np.asarray(smooth_data([prog], feats[:1]).drive_knots)[0]  # the drive from t_e
+    np.testing.assert_allclose(knots[:, 1], v * knots[:, 0], rtol=1e-12, atol=1e-12)
+    assert smooth_data(recs[:1], feats[:1]).drive_knots is None
     flat = dataclasses.replace(feats[0], stick_slip=False, message="no stick-slip")
     with pytest.raises(ValueError, match="slip to start from"):
         smooth_data(recs[:1], [flat])

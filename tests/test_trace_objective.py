@@ -225,9 +225,19 @@ def test_bad_inputs(campaign):
         fit_features(feats, objective=Objective.TRACE)
     with pytest.raises(ValueError, match="objective must be one of"):
         fit_features(feats, objective="samples")
+
+
+def test_a_drive_program_drives_the_windows(campaign):
+    """A record driven by a program is simulated through its windows' drive knots; a
+    program of one constant speed gives the residuals of that drive speed."""
+    fr, recs, feats = campaign
     prog = dataclasses.replace(recs[0], drive_program=((0.0, recs[0].drive_speed),))
-    with pytest.raises(ValueError, match="constant drive speed"):
-        trace_data([prog], feats[:1])
+    params = CampaignParams(EmpiricalFriction.from_friction(fr), jnp.zeros(1))
+    res = eqx.filter_jit(trace_residuals)
+    plain, knotted = trace_data(recs[:1], feats[:1]), trace_data([prog], feats[:1])
+    assert plain.drive_knots is None and knotted.drive_knots is not None
+    np.testing.assert_allclose(np.asarray(res(params, knotted)), np.asarray(res(params, plain)),
+                               rtol=0, atol=1e-6)
 
 
 def test_fit_objective_moves_only_the_leaves_chosen(trace_fit):

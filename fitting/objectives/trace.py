@@ -38,8 +38,19 @@ later than the measured slip end and above the measured level, so the restart st
 would be wrong (at the true parameters such windows gave residuals up to 29 standard
 errors). The cycles are still in the features objective, which models the re-slip.
 
-Only constant drive speeds (`drive_speed` records) are supported here; records with a
-drive program or a measured drive column are refused with a ValueError.
+A record whose drive is not $u = v t$ (a measured `drive` column, or a `drive_speed`
+column integrated to one when the record is read, or a `drive_program`) drives every
+window with its own piecewise-linear drive (`drive_knots`, `KNOTS` knots per window):
+`KNOTS` - 2 knots spread evenly from the window's start to its measured breakaway, so
+the stick line and the breakaway follow the measured drive, one at the window's end
+(the slip is driven at the mean speed between the breakaway and the window's end: the
+exact simulator restarts its closed form at every knot it crosses), and one far beyond
+it. The knots' linear interpolation follows a 6 um lead-screw error on a 2 mm pitch
+to 0.07 um where a 60 s stick spans a whole pitch (`KNOTS`); at the truth the residuals
+of such records are the noise (rms 0.995 on the independent generator's records,
+tests/test_drives.py); a drive program's speed step is spread over the interval of the two
+knots about it. A campaign whose drives are all constant speeds is
+simulated with `ConstantSpeed` drives (`TraceData.drive_knots` is None).
 """
 
 from __future__ import annotations
@@ -51,19 +62,23 @@ import numpy as np
 from jaxtyping import Array, Bool, Float, Int
 
 import stickslip_jax as ss
-from stickslip_jax.drives import ConstantSpeed
+from stickslip_jax.drives import ConstantSpeed, MeasuredDrive
 from stickslip_jax.modes import SlipTime
 from stickslip_jax.simulation import SimulationResult, simulate_exact
 
 from ..data.features import RecordFeatures
 from ..params import CampaignParams
 
-__all__ = ["CHUNK", "TraceData", "cycle_windows", "failed_windows", "reslip_windows",
+__all__ = ["CHUNK", "KNOTS", "TraceData", "cycle_windows", "failed_windows", "reslip_windows",
            "trace_data", "trace_residuals", "trace_residuals_and_flags", "trace_sd", "trace_simulation",
            "window_failures"]
 
 MAX_EVENTS = 6
-"""Stick and slip phases simulated per window (stick, slip, and room for an early extra cycle)."""
+"""Stick and slip phases simulated per window (stick, slip, and room for an early extra cycle;
+2 more with `drive_knots`: a slip that starts before the breakaway knot crosses it)."""
+KNOTS = 32
+"""Knots of a window's piecewise-linear drive (module doc): at 32, a 6 um lead-screw error
+(second harmonic 0.3) is interpolated to 0.07 um over a 60 s stick per pitch period."""
 
 
 class TraceData(eqx.Module):
@@ -76,7 +91,9 @@ class TraceData(eqx.Module):
     previous slip), `start_level` (mm, the measured slip-end deflection there, offset
     included), `start_level_sd` (mm) and `start_time_sd` (s) their standard errors,
     `stick_time` (s, the measured stick time of the window), `sigma` (mm, the record's
-    noise); per sample `time` (s), `deflection`
+    noise), `drive_poly` (a measured drive's cubic, `trace_data`), `drive_knots` [N, KNOTS,
+    2] (knot times s, drive positions mm of the window's drive, module doc; None when
+    every record is driven at a constant speed); per sample `time` (s), `deflection`
     (mm), `mask` (False on padding).
     """
 
@@ -96,6 +113,7 @@ class TraceData(eqx.Module):
     time: Float[Array, "N L"]
     deflection: Float[Array, "N L"]
     mask: Bool[Array, "N L"]
+    drive_knots: Float[Array, "N K 2"] | None = None
 
     def n_residuals(self) -> int:
         """Samples that carry data (the padded rest of the residual vector is zero)."""
@@ -108,27 +126,28 @@ CHUNK = 512
 
 def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
                pad_windows: int = 0, chunk: int = CHUNK, drive_fix: bool = True,
-               measured_drive: bool = False, keep_reslips: bool = False) -> TraceData:
+               keep_reslips: bool = False) -> TraceData:
     """Cut every record into its complete cycles (module doc), the cycles into rows of
     `chunk` samples, and pad them into a `TraceData`.
 
-    `records`: `stickslip_jax.records.Record`s with constant drive speeds; `features`:
-    their `RecordFeatures` (same order). `chunk` (multiple of 256 after rounding up):
+    `records`: `stickslip_jax.records.Record`s; `features`: their `RecordFeatures`
+    (same order). `chunk` (multiple of 256 after rounding up):
     samples per row; a cycle window of n samples fills ceil(n / chunk) rows, each
     simulated from the window's own start, so short and long cycles waste little
     padding. `pad_length`: rows at least this long; `pad_windows`: at least this many
     rows (campaigns of other sizes reuse the compilation). `drive_fix`: take out the drive
     error the features found (`RecordFeatures.drive_fix`; False keeps it in the data, for
     a model that has its own drive error, `stickslip_fitting.discovery.cycle_model`).
-    `measured_drive`: a record driven by a `drive` column or a `drive_program` is used:
-    over each window the drive's displacement is least-squares fitted by the cubic
+    A record driven by a `drive` column or a `drive_program` gets its window drives
+    (`drive_knots`, module doc); besides, over each window the drive's displacement is
+    least-squares fitted by the cubic
     $u - u(t_s) = v s + c_2 s^2 + c_3 s^3$ ($s$ = time since the window's start t_s, s),
     v as the row's `speed` and `drive_poly` = (0, c_2, c_3) (mm/s^2, mm/s^3);
     constant-speed records get zeros (a model that reads `drive_poly`:
     `stickslip_fitting.discovery.cycle_model`). `keep_reslips`: keep the windows after
     slips measured as re-slips too (a model whose measurement chain may lengthen every
     slip: `stickslip_fitting.discovery.cycle_workflow`). Raises ValueError for a record
-    without stick-slip, or without a constant drive speed unless `measured_drive`.
+    without stick-slip.
     """
     if len(records) != len(features):
         raise ValueError("trace_data: give one RecordFeatures per record")
@@ -139,14 +158,10 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     for r, (rec, f) in enumerate(zip(records, features)):
         if not f.stick_slip:
             raise ValueError(f"{f.name}: no usable stick-slip ({f.message})")
-        if rec.drive_source != "speed" and not measured_drive:
-            raise ValueError(
-                f"{f.name}: the trace objective needs a constant drive speed (drive_speed); "
-                "this record has a drive program or a drive column; use --objective features")
         t = np.asarray(rec.time, float)
         # the deflection as the features saw it (spikes replaced); a drive error the
         # features corrected is taken out window by window below (the trace model drives
-        # at u = v t from the window's measured start)
+        # at u = v t, or through the drive's knots, from the window's measured start)
         x = np.asarray(rec.deflection if f.deflection_used is None else f.deflection_used,
                        float)
         fix = None if f.drive_fix is None or not drive_fix else np.asarray(f.drive_fix, float)
@@ -171,10 +186,12 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
                 v_win, poly = poly[0], np.array([0.0, poly[1], poly[2]])
             else:
                 v_win = v_rec
+            knots = _window_knots(rec, t_s, float(f.stick_time[j]), float(t[sel[-1]]),
+                                  v_win)
             head = (r, f.weight, f.stiffness, float(v_win), t_s,
                     float(f.trough[j - 1]), float(f.trough_sd[j - 1]),
                     float(f.stick_time_sd[j]) / np.sqrt(2.0), float(f.stick_time[j]),
-                    sigma, n_windows, poly, f.load)
+                    sigma, n_windows, poly, f.load, knots)
             xw = x[sel] if fix is None else x[sel] - (fix[sel] - np.interp(t_s, t, fix))
             for a in range(0, sel.size, L):
                 part = sel[a:a + L]
@@ -191,7 +208,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     time = np.zeros((N, L))
     defl = np.zeros((N, L))
     mask = np.zeros((N, L), bool)
-    cols = [[row[i] for row in rows] for i in range(13)]
+    cols = [[row[i] for row in rows] for i in range(14)]
     for i, row in enumerate(rows):
         n = row[-2].size
         time[i, :n], time[i, n:] = row[-2], row[-2][-1]
@@ -211,7 +228,23 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         sigma=j(cols[9]), window=j(np.asarray(cols[10], np.int32)),
         drive_poly=j(np.asarray(cols[11], float).reshape(-1, 3)), normal_load=j(cols[12]),
         time=j(time), deflection=j(defl), mask=j(mask),
+        drive_knots=(None if all(rec.drive_source == "speed" for rec in records)
+                     else j(np.stack(cols[13]))),
     )
+
+
+def _window_knots(rec, t_s: float, stick: float, t_end: float, v: float) -> np.ndarray:
+    """[KNOTS, 2]: knot times (s) and drive positions (mm) of one window's drive (module
+    doc): from the window's start `t_s` to its measured breakaway `t_s + stick`, its last
+    sample `t_end`, and a knot far beyond on the last segment's line (v: mm/s, a
+    constant-speed record's speed)."""
+    t_b = t_s + min(max(stick, 0.0), 0.95 * (t_end - t_s))
+    t_k = np.concatenate([np.linspace(t_s, t_b, KNOTS - 2), [t_end]])
+    u = v * (t_k - t_s) if rec.drive_source == "speed" else (
+        np.asarray(rec.drive_position(t_k), float) - float(rec.drive_position([t_s])[0]))
+    slope = (u[-1] - u[-2]) / (t_k[-1] - t_k[-2])
+    far = t_end + 1e3 * max(t_end - t_s, 1.0)
+    return np.stack([np.append(t_k, far), np.append(u, u[-1] + slope * (far - t_end))], 1)
 
 
 def trace_simulation(params: CampaignParams, data: TraceData,
@@ -221,15 +254,19 @@ def trace_simulation(params: CampaignParams, data: TraceData,
     friction = params.friction.friction()
     offset = params.offset[data.record]
 
-    def one(w, n, k, v, t0, x0, ts, m):
+    knots = data.drive_knots
+
+    def one(w, n, k, v, t0, x0, ts, m, kn):
         sw = ss.Slideway(friction, w, k, n)
-        return simulate_exact(sw, ConstantSpeed(v), ts, initial_deflection=x0, start_time=t0,
-                              mask=m, max_events=MAX_EVENTS, slip_time=slip_time,
-                              cycle_table=False, check=False)  # Record checked times, W, k
+        drive = ConstantSpeed(v) if kn is None else MeasuredDrive(kn[:, 0], kn[:, 1])
+        return simulate_exact(sw, drive, ts, initial_deflection=x0, start_time=t0, mask=m,
+                              max_events=MAX_EVENTS + 2 * (kn is not None),
+                              slip_time=slip_time, cycle_table=False,
+                              check=False)  # Record checked times, W, k
 
     return jax.vmap(one)(data.weight, data.normal_load, data.stiffness, data.speed,
-                         data.start_time,
-                         data.start_level - offset, data.time, data.mask)
+                         data.start_time, data.start_level - offset, data.time, data.mask,
+                         knots)
 
 
 def trace_residuals(params: CampaignParams, data: TraceData,

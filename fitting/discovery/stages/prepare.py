@@ -60,8 +60,7 @@ def _windows(recs, feats, opts: DiscoveryOptions):
     n_reslip = reslip_windows(feats)
     keep_reslips = n_reslip > 0 and n_reslip >= opts.reslip_systematic * n_complete
     try:
-        data = trace_data(recs, feats, drive_fix=False, measured_drive=True,
-                          keep_reslips=keep_reslips)
+        data = trace_data(recs, feats, drive_fix=False, keep_reslips=keep_reslips)
     except ValueError as e:  # said in discovery's words (the trace objective's advice,
         # "use --objective features", is not an option here)
         raise ValueError("discovery needs complete stick-slip cycles whose restart state is "
