@@ -7,8 +7,8 @@ stick time 0, deflection = the measured trough $x_1$ there minus the record's ga
 offset) to its last sample, driven at its constant drive speed or, for a record with a
 measured `drive` column (a `drive_speed` column is integrated to one when the record is
 read) or a `drive_program`, by its drive interpolated linearly between `KNOTS` knots
-evenly spread over the simulated span (a 6 um lead-screw error on a 2 mm pitch to
-0.01 um at 10 mm/min over 60 s); the residuals are
+evenly spread over the simulated span (a 6 um lead-screw error on a 2 mm pitch, second
+harmonic 0.3, to within 0.0062 um at 10 mm/min over 60 s); the residuals are
 $(x_i - c - x_\mathrm{sim}(t_i)) / \sigma$ with $\sigma$ the record's robust noise
 estimate (mm) and $c$ its gauge offset (`CampaignParams.offset`). Unlike the trace
 objective (`fitting.trace_objective`, restarted at every measured slip end) the model

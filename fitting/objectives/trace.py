@@ -46,7 +46,7 @@ the stick line and the breakaway follow the measured drive, one at the window's 
 (the slip is driven at the mean speed between the breakaway and the window's end: the
 exact simulator restarts its closed form at every knot it crosses), and one far beyond
 it. The knots' linear interpolation follows a 6 um lead-screw error on a 2 mm pitch
-to 0.07 um where a 60 s stick spans a whole pitch (`KNOTS`); at the truth the residuals
+to within 0.08 um where a 60 s stick spans a whole pitch (`KNOTS`); at the truth the residuals
 of such records are the noise (rms 0.995 on the independent generator's records,
 tests/test_drives.py); a drive program's speed step is spread over the interval of the two
 knots about it. A campaign whose drives are all constant speeds is
@@ -78,7 +78,8 @@ MAX_EVENTS = 6
 2 more with `drive_knots`: a slip that starts before the breakaway knot crosses it)."""
 KNOTS = 32
 """Knots of a window's piecewise-linear drive (module doc): at 32, a 6 um lead-screw error
-(second harmonic 0.3) is interpolated to 0.07 um over a 60 s stick per pitch period."""
+(second harmonic 0.3) is interpolated to within 0.077 um (the largest over its phases) where a
+60 s stick spans one pitch period."""
 
 
 class TraceData(eqx.Module):
