@@ -127,6 +127,27 @@ def test_trace_objective_drives_with_the_measured_column(screw_runs):
     np.testing.assert_allclose(b, a, rtol=0, atol=1e-6)
 
 
+def test_trace_objective_drives_with_a_measured_speed(screw_runs):
+    """The same runs written with their measured drive *speed* (a `drive_speed [mm/s]`
+    column, a tachometer's), integrated when read: the trace objective's residuals at the
+    truth are the noise, as with the position column (measured: rms 0.9953 both ways; the
+    integrated drive within 9e-10 mm of the generator's)."""
+    from stickslip_jax.records import parse_record
+
+    recs = []
+    for tr, W, k, v in screw_runs:
+        speed = np.gradient(tr.drive, tr.time)
+        rows = "\n".join(f"{a:.17g},{b:.17g},{c:.17g}"
+                          for a, b, c in zip(tr.time, tr.deflection, speed))
+        recs.append(parse_record(f"# stickslip-record: 1\n# stiffness: {k!r} kgf/mm\n"
+                                 f"# slider_weight: {W!r} kgf\n"
+                                 "time [s],deflection [mm],drive_speed [mm/s]\n" + rows))
+    assert all(r.drive_source == "column" for r in recs)
+    r, data = _trace_rms(recs)
+    assert data.drive_knots is not None
+    assert 0.9 < np.sqrt(np.mean(r**2)) < 1.1 and np.abs(r).max() < 6.0
+
+
 def _smooth_rms(records):
     from stickslip_fitting.data.features import record_features
     from stickslip_fitting.objectives.smooth import SmoothObjective, smooth_data
