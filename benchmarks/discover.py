@@ -1,22 +1,36 @@
-"""Benchmark: the whole discovery workflow on one 12-record campaign, time split by step.
+"""Benchmark: discovery on campaigns of the independent generator, time split by step.
 
     .venv/bin/python benchmarks/discover.py [--base cycle|smooth] [--small] [--effect NAME]
-                                            [--cold-only]
+                                            [--cold-only] [--campaign NAME ...]
+                                            [--scaling samples|cycles] [--quick]
 
-`--base cycle` (default, the per-cycle model of `stickslip discover`): a 12-record
-campaign from the independent SciPy generator (`tests/independent_records.py`; lubricant
-A, 3 (W, k) x 4 speeds, about 7 cycles per record at 2 kHz, noise 0.5 um; about 0.5 M
-samples, a damping ratio of 0.1 hidden), `discover_cycles` timed by stage, compilation
-included (a fresh process), against one `fit --objective trace` of the same campaign
-in the same process afterwards (warm). The cold column is the first run of a fresh
-process (compilation included: the target), the warm one a second run of the same
-campaign in the same process (run time alone). Target: total under 60 s on 2 cores.
-Measured on 2 cores shared with other jobs: 55.2, 48.9 and 46.1 s cold (35.2 s warm),
-10.0-12.4x a 3.9-4.6 s trace fit. What the time rests on: the compressed Jacobian
-(compacted on the device), the FFT sensor kernel, the vectorised pitch scan, a window's
-slip solved once for all its rows, the weights as one compiled program, the host
-Levenberg-Marquardt update in NumPy, and the model's programs compiled in a warm-up
-thread while the campaign is prepared.
+`--base cycle` (default, the per-cycle model of `stickslip discover`): campaigns from the
+independent SciPy generator (`tests/independent_records.py`; 3 (W, k) x 4 speeds, noise
+0.5 um), `discover_cycles` timed by stage, compilation included (a fresh process), each
+against its target (the ratio printed), with the machine's load:
+
+- `damping`: lubricant A, about 7 cycles per record at 2 kHz (0.5 M samples), a damping
+  ratio of 0.1 hidden; with a second, warm run of the same campaign in the same process
+  (run time alone) and one warm `fit --objective trace` of it as the baseline (unless
+  `--cold-only`). Target 60 s;
+- `screw`: lubricant A with a 6 um lead-screw error (2 mm pitch), 0.5 M samples;
+- `drift_c`: lubricant C with long sticks (26 cycles at 4 kHz: 1.7 M samples) and a
+  friction drift (mu_s -1e-4/s, mu_d -5e-5/s);
+- `two`: two effects at once (a damping ratio of 0.1 and a 4 um screw error), 0.4 M
+  samples. Target 120 s each (the small one, `--small`: 30 s).
+
+`--campaign` picks them (default `damping`; `all`: the four). `--scaling samples`: the
+screw campaign at 0.25, 0.5, 1 and 2 M samples (the sampling rate 1, 2, 4, 8 kHz, the
+cycles fixed), `--scaling cycles`: at about 0.5 M samples with 3.5, 7 and 14 cycles per
+record (the rate halved as the cycles double); printed as a table of times and their
+ratio to the first row (target: flat in samples within 1.5x). `--quick`: 4 records
+(`--small`) and the scaling's first two rows only.
+
+The cost rests on: the sticks binned to the statistics the model needs (`thinning`: a
+window's cost grows with its events, not with its samples), the compressed Jacobian, the
+FFT sensor kernel, the vectorised pitch scan, a window's slip solved once for all its
+rows, the weights as one compiled program, the host Levenberg-Marquardt update in NumPy,
+and the model's programs compiled in a warm-up thread while the campaign is prepared.
 
 `--base smooth`, the whole-record workflow:
 Builds a synthetic campaign (lubricant A, 3 (W, k) x 4 speeds, 3 cycles per record,
@@ -32,49 +46,124 @@ Target: the 12-record workflow under 5 minutes.
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
+
+
+def _load() -> str:
+    with open("/proc/loadavg") as fh:
+        return "load " + " ".join(fh.read().split()[:3]) + f" on {os.cpu_count()} cores"
+
+
+def campaigns():
+    """name -> (description, generator keywords, target s)."""
+    import independent_records as ir
+
+    P, I = ir.Physics, ir.Imperfections  # noqa: E741
+    screw = I(screw_amp_mm=0.006, screw_pitch_mm=2.0)
+    return {
+        "damping": ("lubricant A, damping ratio 0.1", dict(
+            friction=ir.LUBRICANT_A, physics=P(damping_ratio=0.1), seed=5, cycles=7.0,
+            rate_hz=2000.0), 60.0),
+        "screw": ("lubricant A, 6 um lead-screw error", dict(
+            friction=ir.LUBRICANT_A, imp=screw, seed=3, cycles=7.0, rate_hz=2000.0), 120.0),
+        "drift_c": ("lubricant C, long sticks, friction drift", dict(
+            friction=ir.LUBRICANT_C, physics=P(drift_mu_s=-1e-4, drift_mu_d=-5e-5), seed=7,
+            cycles=26.0, rate_hz=4000.0), 120.0),
+        "two": ("lubricant A, damping ratio 0.1 and a 4 um screw error", dict(
+            friction=ir.LUBRICANT_A, physics=P(damping_ratio=0.1),
+            imp=I(screw_amp_mm=0.004, screw_pitch_mm=2.0), seed=9, cycles=6.0,
+            rate_hz=2000.0), 120.0),
+    }
+
+
+def _make(kw, small):
+    import independent_records as ir
+
+    kw = dict(kw)
+    friction = kw.pop("friction")
+    if small:
+        kw.update(runs=ir.RUNS[:2], speeds=(5.0, 10.0))
+    return ir.campaign(friction, **kw)
+
+
+def _discover(recs, label, progress=True):
+    """(result, seconds) of one discovery, its stage lines printed."""
+    from stickslip_fitting.discovery.cycle_workflow import discover_cycles
+
+    t = time.perf_counter()
+    res = discover_cycles(recs, progress=(lambda line: print(f"  {label}: {line}", flush=True))
+                          if progress else None)
+    return res, time.perf_counter() - t
+
+
+def _answer(res) -> str:
+    return (f"{res.effect} ({res.confidence}); gap {res.gap_before * 1e3:.3f} -> "
+            f"{res.gap_after * 1e3:.3f} um, noise {res.noise * 1e3:.3f} um")
 
 
 def cycle(args):
-    import os
-    import sys
-
-    sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
-    import independent_records as ir
-
     from stickslip_fitting.data.campaign import screen_records
-    from stickslip_fitting.discovery.cycle_workflow import discover_cycles
     from stickslip_fitting.solve.fit import fit_features
 
-    t = time.perf_counter()
-    kw = dict(runs=ir.RUNS[:2], speeds=(5.0, 10.0)) if args.small else {}
-    recs = ir.campaign(ir.LUBRICANT_A, physics=ir.Physics(damping_ratio=0.1), seed=5,
-                       cycles=7.0, rate_hz=2000.0, **kw)
-    t_make = time.perf_counter() - t
-    n = sum(r.n_samples for r in recs)
-    print(f"campaign: {len(recs)} records, {n} samples, hidden damping ratio 0.1; made in "
-          f"{t_make:.1f} s (independent generator)")
-    res = discover_cycles(recs, progress=lambda line: print("  " + line, flush=True))
-    warm = None
-    if not args.cold_only:  # the same campaign again in this process: run time alone
-        warm = discover_cycles(recs).timings
-    c = screen_records(recs)
-    t = time.perf_counter()
-    fit_features(c.features, records=c.records, objective="trace")
-    t_fit = time.perf_counter() - t
-    print(f"answer: {res.effect} ({res.confidence}); gap {res.gap_before * 1e3:.3f} -> "
-          f"{res.gap_after * 1e3:.3f} um, noise {res.noise * 1e3:.3f} um; "
-          f"{int(res.model.mask.sum())} samples in {res.model.data.window.max() + 1} windows")
-    print(f"{'stage':12s} {'cold s':>9s} {'x one trace fit':>16s}"
-          + (f" {'warm s':>9s} {'x one trace fit':>16s}" if warm else ""))
-    for k, v in res.timings.items():
-        w = (warm or {}).get(k)
-        print(f"{k:12s} {v:9.1f} {v / t_fit:16.1f}"
-              + (f" {w:9.1f} {w / t_fit:16.1f}" if w is not None else ""))
-    print(f"{'trace fit':12s} {t_fit:9.1f} {1.0:16.1f}  (stickslip fit --objective trace, "
-          "warm, same process: baseline)")
-    total = res.timings["total"]
-    print(f"target total < 60 s (compilation included): {'met' if total < 60 else 'MISSED'}")
+    table = campaigns()
+    names = list(table) if "all" in args.campaign else args.campaign
+    small = args.small or args.quick
+    for name in names:
+        what, kw, target = table[name]
+        target = 30.0 if small else target
+        t = time.perf_counter()
+        recs = _make(kw, small)
+        n = sum(r.n_samples for r in recs)
+        print(f"campaign {name}: {len(recs)} records, {n} samples, {what}; made in "
+              f"{time.perf_counter() - t:.1f} s (independent generator); {_load()}",
+              flush=True)
+        res, total = _discover(recs, name)
+        print(f"answer: {_answer(res)}; {_load()}")
+        if name == "damping" and not args.cold_only:
+            warm = _discover(recs, name, progress=False)[0].timings
+            c = screen_records(recs)
+            t = time.perf_counter()
+            fit_features(c.features, records=c.records, objective="trace")
+            t_fit = time.perf_counter() - t
+            print(f"{'stage':12s} {'cold s':>9s} {'x trace fit':>12s} {'warm s':>9s}")
+            for k, v in res.timings.items():
+                print(f"{k:12s} {v:9.1f} {v / t_fit:12.1f} {warm.get(k, float('nan')):9.1f}")
+            print(f"{'trace fit':12s} {t_fit:9.1f} {1.0:12.1f}  (fit --objective trace, warm)")
+        else:
+            print("  ".join(f"{k} {v:.1f}" for k, v in res.timings.items()))
+        print(f"{name}: {total:.1f} s cold, {total / target:.2f} x the target of "
+              f"{target:.0f} s: {'met' if total < target else 'MISSED'}", flush=True)
+
+
+def scaling(args):
+    """Discovery time against samples (the rate) or cycles (module doc)."""
+    _, kw, _ = campaigns()["screw"]
+    if args.scaling == "samples":
+        rows = [(f"{r / 1000:g} kHz", dict(kw, rate_hz=r)) for r in (1000, 2000, 4000, 8000)]
+    else:
+        rows = [(f"{c:g} cycles", dict(kw, cycles=c, rate_hz=2000.0 * 7.0 / c))
+                for c in (3.5, 7.0, 14.0)]
+    rows = rows[:2] if args.quick else rows
+    out = []
+    for label, kw_ in rows:
+        recs = _make(kw_, args.small)
+        n = sum(r.n_samples for r in recs)
+        res, total = _discover(recs, label, progress=False)
+        windows = int(res.model.data.window.max()) + 1
+        out.append((label, n, windows, total))
+        print(f"{label}: {n} samples, {windows} windows, {total:.1f} s; {_answer(res)}; "
+              f"{_load()}", flush=True)
+    print(f"{'':14s} {'samples':>9s} {'windows':>8s} {'seconds':>8s} {'ratio':>6s}")
+    for label, n, w, s_ in out:
+        print(f"{label:14s} {n:9d} {w:8d} {s_:8.1f} {s_ / out[0][3]:6.2f}")
+    worst = max(s_ for *_, s_ in out) / out[0][3]
+    if args.scaling == "samples":
+        print(f"largest / smallest: {worst:.2f} (target <= 1.5 over "
+              f"{out[-1][1] / out[0][1]:.1f}x the samples): {'met' if worst <= 1.5 else 'MISSED'}")
 
 
 def main(argv=None):
@@ -84,9 +173,15 @@ def main(argv=None):
     ap.add_argument("--effect", default="viscous_damping")
     ap.add_argument("--cold-only", action="store_true",
                     help="(--base cycle) skip the second, warm run of the workflow")
+    ap.add_argument("--campaign", nargs="+", default=["damping"],
+                    choices=("damping", "screw", "drift_c", "two", "all"))
+    ap.add_argument("--scaling", choices=("samples", "cycles"),
+                    help="the time against samples or cycles (instead of --campaign)")
+    ap.add_argument("--quick", action="store_true",
+                    help="4 records, and the scaling's first two rows only")
     args = ap.parse_args(argv)
     if args.base == "cycle":
-        return cycle(args)
+        return scaling(args) if args.scaling else cycle(args)
 
     from stickslip_fitting.discovery import discover
     from stickslip_fitting.discovery.synthetic import hidden_effect_campaign

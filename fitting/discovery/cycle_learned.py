@@ -150,14 +150,18 @@ def _profile(coef, n_grid: int = 31) -> dict:
 
 
 def fit_cycle_correction(data, r0: np.ndarray, Jb: np.ndarray, sd: np.ndarray,
-                         noise: float, use: np.ndarray | None = None) -> CycleLearned:
+                         noise: float, use: np.ndarray | None = None,
+                         samples=None) -> CycleLearned:
     """Fit the phase correction jointly with the base parameters (one Gauss-Newton step
     from the base optimum: least squares on [Jb, correction columns / sd]) and report
     the gap it leaves (module doc). `r0`, `Jb`: the base fit's whitened residuals and
     Jacobian over the masked samples; `sd`: their standard errors (mm); `noise`: the
     campaign's noise (mm); `use`: the residuals the gaps are measured over (default all;
-    discovery leaves out the records it set aside)."""
+    discovery leaves out the records it set aside); `samples`: what each residual stands
+    for (`thinning.Samples`: the gaps are over all samples)."""
     from scipy.linalg import block_diag
+
+    from .decision import rms_gap
 
     phi, psi, climb = phase_coordinates(data)
     if phi.size != r0.size:
@@ -182,8 +186,9 @@ def fit_cycle_correction(data, r0: np.ndarray, Jb: np.ndarray, sd: np.ndarray,
     coef = beta[Jb.shape[1]:]
     used = np.any(cols != 0, axis=0)
     use = np.ones(r0.size, bool) if use is None else np.asarray(use, bool)
-    gap_before = float(np.sqrt(np.mean((r0 * sd)[use] ** 2)))
-    gap_after = float(np.sqrt(np.mean((r1 * sd)[use] ** 2)))
+    part = None if samples is None else samples[use]
+    gap_before = rms_gap(r0[use], sd[use], part)
+    gap_after = rms_gap(r1[use], sd[use], part)
     profile = _profile(coef)
     # where the correction (in mm, at the campaign's median climb) is largest
     corr = cols @ coef

@@ -17,10 +17,12 @@ carries the samples' information). Levels (chi2/n, gaps) add the scatter back
 
 Bins grow with the distance to the window's events (`RESOLUTION` of it: the gauge's
 settling after the previous slip at the window start, the breakaway): the samples within
-`RAW` sample steps of an event and every sample from one slip time $\pi/\omega_0$ before
-the measured breakaway to the window's end (the slip) are kept as they are. A stick of
-$T_1$ then holds about $2 \ln(T_1 / 8\Delta t)/\ln(1 + $ `RESOLUTION`$)$ bins: the cost
-of the model grows with the windows, and only logarithmically with the sampling rate.
+`RAW` sample steps of an event are kept as they are, and from one slip time
+$\pi/\omega_0$ before the measured breakaway to the window's end (the slip) only samples
+closer than `SLIP_BIN` slip times are averaged (about their own line). A stick of $T_1$
+then holds about $2 \ln(T_1 / 8\Delta t)/\ln(1 + $ `RESOLUTION`$)$ bins and a slip at
+most about $2/$`SLIP_BIN`: the cost of the model grows with the windows, and only
+logarithmically with the sampling rate.
 """
 
 from __future__ import annotations
@@ -42,6 +44,12 @@ RESOLUTION = 0.25
 breakaway one slip time early)."""
 RAW = 8
 """Samples (sample steps) from an event kept as they are."""
+GUARD = 1.0
+"""Slip times pi/omega_0 before the measured breakaway from which the slip zone runs."""
+SLIP_BIN = 1 / 64
+"""Bin length in the slip zone, in slip times pi/omega_0 (the model's RK4 step is
+2.5/128 of it): samples closer than this are averaged, about the line of their own
+slope (slips sampled well above the model's resolution)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -79,8 +87,9 @@ class Samples:
                               + np.sum(self.spread)) / max(self.count.sum(), 1)))
 
 
-def _bins(t, window, t0, t_end, dt):
-    """Bin index of every sample (contiguous, in time order, one per window event zone)."""
+def _bins(t, window, t0, t_end, dt, T2):
+    """Bin index of every sample (contiguous, in time order) and whether its bin is in
+    the slip zone (from `t_end` on: bins of `SLIP_BIN` T2)."""
     d1, d2 = t - t0, t_end - t
     stick = d2 > 0
     d = np.where(d1 <= d2, d1, d2)
@@ -89,8 +98,18 @@ def _bins(t, window, t0, t_end, dt):
     k = np.floor(np.log(np.maximum(d, d0) / d0) / np.log1p(RESOLUTION)).astype(np.int64)
     code = np.where(d1 <= d2, 2 * k, 2 * k + 1)
     code = np.where(binned, code, -1 - np.arange(t.size))  # kept: a bin of its own
+    code = np.where(stick, code, 10 ** 9 + np.floor(-d2 / (SLIP_BIN * T2)).astype(np.int64))
     new = np.r_[True, (np.diff(window) != 0) | (np.diff(code) != 0)]
-    return np.cumsum(new) - 1
+    return np.cumsum(new) - 1, ~stick
+
+
+def _bucket(n: int) -> int:
+    """The smallest of 8, 16, 24, 32, 40, 56, 72, 96, 120, 152, ... (multiples of 8, each
+    about 1/4 above the one before) holding n."""
+    b = 8
+    while b < n:
+        b = max(b + 8, -(-int(b * 1.25) // 8) * 8)
+    return b
 
 
 def thin_windows(data: TraceData) -> tuple[TraceData, Samples]:
@@ -107,34 +126,44 @@ def thin_windows(data: TraceData) -> tuple[TraceData, Samples]:
     r = rows
     T2 = np.pi / np.sqrt(per_row["stiffness"][r] * G_MM_S2 / per_row["weight"][r])
     t0 = per_row["start_time"][r]
-    t_end = t0 + per_row["stick_time"][r] - T2  # binned up to one slip time before
+    t_end = t0 + per_row["stick_time"][r] - GUARD * T2  # binned up to GUARD slip times before
     first = np.r_[True, np.diff(win) != 0]
     starts = np.flatnonzero(first)
     n_w = np.diff(np.r_[starts, t.size])
     span = np.maximum.reduceat(t, starts) - np.minimum.reduceat(t, starts)
     dt = np.repeat(span / np.maximum(n_w - 1, 1), n_w)
-    b = _bins(t, win, t0, t_end, dt)
+    b, slipping = _bins(t, win, t0, t_end, dt, T2)
     edges = np.flatnonzero(np.r_[True, np.diff(b) != 0])
     count = np.diff(np.r_[edges, t.size]).astype(float)
     tb = np.add.reduceat(t, edges) / count
     xb = np.add.reduceat(x, edges) / count
-    y = x - per_row["speed"][r] * (t - t0)  # about the line of the drive's slope
-    yb = np.add.reduceat(y, edges) / count
-    spread = np.add.reduceat(y * y, edges) - count * yb * yb
+
+    def centred(a, b_):  # sum over every bin of (a - its mean)(b - its mean)
+        return np.add.reduceat(a * b_, edges) - np.add.reduceat(a, edges) * np.add.reduceat(
+            b_, edges) / count
+
+    ts = t - np.repeat(t[edges], count.astype(int))  # from the bin's first sample
+    xs = x - np.repeat(x[edges], count.astype(int))
+    y = xs - per_row["speed"][r] * ts  # a stick bin: about the line of the drive's slope
+    stt = centred(ts, ts)
+    spread = np.where(slipping[edges],  # a slip bin: about its own line
+                      centred(xs, xs) - centred(ts, xs) ** 2 / np.where(stt > 0, stt, 1.0),
+                      centred(y, y))
     spread = np.maximum(np.where(count > 1, spread, 0.0), 0.0)
     src = r[edges]  # the original row of every bin (its window's attributes)
     wb = win[edges]
-    # rows again: a window's bins cut into rows of L (the longest window's bins, at most
-    # 512, rounded up to 64)
+    # rows again: a window's bins cut into rows of L (128 to 512: the longest window's
+    # bins), their number padded to a bucket (`_bucket`): campaigns of a similar
+    # size share their compiled programs (the command's persistent cache)
     w_start = np.flatnonzero(np.r_[True, np.diff(wb) != 0])
     w_len = np.diff(np.r_[w_start, wb.size])
-    L = int(min(512, -(-int(w_len.max()) // 64) * 64))
+    L = next(n for n in (128, 192, 256, 384, 512) if n >= min(int(w_len.max()), 512))
     pos = np.arange(wb.size) - np.repeat(w_start, w_len)
     row_of = np.cumsum(np.r_[0, -(-w_len // L)])[:-1]
     row = np.repeat(row_of, w_len) + pos // L
     col = pos % L
     n_rows = int(row[-1]) + 1
-    N = -(-n_rows // 8) * 8
+    N = _bucket(n_rows)
     head = np.zeros(N, int)  # every row's original row (dummy rows: copies of the first)
     head[row] = src
     shape = (N, L)

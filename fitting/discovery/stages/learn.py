@@ -163,7 +163,8 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
             confidence = "low"
     learned = None
     if learn or effect == "unexplained":
-        learned = fit_cycle_correction(prep.data, r0, base.fit.J[:n], sd, noise, described)
+        learned = fit_cycle_correction(prep.data, r0, base.fit.J[:n], sd, noise, described,
+                                       base.samples)
         explanation += (f" A learned correction over the cycle phase ({learned.n_parameters} "
                         "spline coefficients, fitted with the base parameters) lowers the "
                         f"gap to {learned.gap_after * 1e3:.3g} um, closing "
