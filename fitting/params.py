@@ -213,9 +213,9 @@ class EmpiricalFriction(AbstractFrictionParams):
     def from_values(cls, mu_s, mu_d, gamma, m, delta, n) -> EmpiricalFriction:
         """From natural values; raises ValueError unless 0 < mu_d < mu_s and the rest > 0."""
         cls.check_values(mu_s=mu_s, mu_d=mu_d, gamma=gamma, m=m, delta=delta, n=n)
-        return cls(log_mu_d=jnp.log(as_float(mu_d)), log_gap=jnp.log(as_float(mu_s) - as_float(mu_d)),
-                   log_gamma=jnp.log(as_float(gamma)), log_m=jnp.log(as_float(m)), log_delta=jnp.log(as_float(delta)),
-                   log_n=jnp.log(as_float(n)))
+        mu_s, mu_d, gamma, m, delta, n = map(as_float, (mu_s, mu_d, gamma, m, delta, n))
+        return cls(log_mu_d=jnp.log(mu_d), log_gap=jnp.log(mu_s - mu_d), log_gamma=jnp.log(gamma),
+                   log_m=jnp.log(m), log_delta=jnp.log(delta), log_n=jnp.log(n))
 
     @classmethod
     def from_friction(cls, friction: Friction) -> EmpiricalFriction:
