@@ -238,7 +238,7 @@ def extract_cycles(
             prev_end = None
             continue
         if why == PAUSE:  # the slip that ended in the pause: no single slip's end either
-            rows.pop()
+            rows[-1]["complete"] = False
         rows.append(row)
         prev_end = row["end_time"]
     return _assemble(r, rows, plateaus[0], left_out, len(events), min_cycles, _note)
@@ -435,7 +435,7 @@ def _cycle_row(r: _Prepared, ev, before, after, thr, prev_end, first: bool):
         time_sd = math.hypot(sd_b, sd_e)
     # a stick shorter than the detector's shortest rest is a pause within one slip (a
     # re-slip): its breakaway is no eq (1) level, so the cycle counts as incomplete, and
-    # the slip before it is left out (measured: 0-0.2 ms "sticks" in torsional records
+    # so does the slip before it (measured: 0-0.2 ms "sticks" in torsional records
     # whose slider all but stopped put k x2/W 0.03-0.06 above mu_0(0), the slip before
     # timed 1 ms late, and the fit's chi2/n at 2e5)
     short = prev_end is not None and t_b - prev_end < rest_length(r.h) * r.dt
