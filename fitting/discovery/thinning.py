@@ -37,7 +37,7 @@ from stickslip_jax.units import G_MM_S2
 
 from ..objectives.trace import TraceData
 
-__all__ = ["RAW", "RESOLUTION", "Samples", "thin_windows"]
+__all__ = ["GUARD", "RAW", "RESOLUTION", "SLIP_BIN", "Samples", "thin_windows"]
 
 RESOLUTION = 0.25
 """A bin's length over its distance to the nearest event of its window (window start,
@@ -91,16 +91,18 @@ def _bins(t, window, t0, t_end, dt, T2):
     """Bin index of every sample (contiguous, in time order) and whether its bin is in
     the slip zone (from `t_end` on: bins of `SLIP_BIN` T2)."""
     d1, d2 = t - t0, t_end - t
-    stick = d2 > 0
-    d = np.where(d1 <= d2, d1, d2)
-    d0 = RAW * dt
+    stick = d2 > 0  # False where the stick time is not known (kept as it is)
+    d = np.where(stick, np.minimum(d1, d2), 0.0)
+    d0 = np.maximum(RAW * dt, 1e-12)
     binned = stick & (d >= d0)
     k = np.floor(np.log(np.maximum(d, d0) / d0) / np.log1p(RESOLUTION)).astype(np.int64)
     code = np.where(d1 <= d2, 2 * k, 2 * k + 1)
     code = np.where(binned, code, -1 - np.arange(t.size))  # kept: a bin of its own
-    code = np.where(stick, code, 10 ** 9 + np.floor(-d2 / (SLIP_BIN * T2)).astype(np.int64))
+    slip = (d2 <= 0) & np.isfinite(d2)
+    code = np.where(slip, 10 ** 9 + np.floor(-np.where(slip, d2, 0.0) / (SLIP_BIN * T2))
+                    .astype(np.int64), code)
     new = np.r_[True, (np.diff(window) != 0) | (np.diff(code) != 0)]
-    return np.cumsum(new) - 1, ~stick
+    return np.cumsum(new) - 1, slip
 
 
 def _bucket(n: int) -> int:
