@@ -22,9 +22,9 @@ against its target (the ratio printed), with the machine's load:
 `--campaign` picks them (default `damping`; `all`: the four). `--scaling samples`: the
 screw campaign at 0.25, 0.5, 1 and 2 M samples (the sampling rate 1, 2, 4, 8 kHz, the
 cycles fixed), `--scaling cycles`: at about 0.5 M samples with 3.5, 7 and 14 cycles per
-record (the rate halved as the cycles double); printed as a table of times and their
-ratio to the first row (target: flat in samples within 1.5x). `--quick`: 4 records
-(`--small`) and the scaling's first two rows only.
+record (the rate halved as the cycles double), each in a fresh process (cold); printed
+as a table of times and their ratio to the first row (target: flat in samples within
+1.5x). `--quick`: 4 records (`--small`) and the scaling's first two rows only.
 
 The cost rests on: the sticks binned to the statistics the model needs (`thinning`: a
 window's cost grows with its events, not with its samples), the compressed Jacobian, the
@@ -139,8 +139,20 @@ def cycle(args):
               f"{target:.0f} s: {'met' if total < target else 'MISSED'}", flush=True)
 
 
+def _timed(kw, small):
+    """(samples, windows, seconds, answer) of one discovery (run in a fresh process)."""
+    recs = _make(kw, small)
+    res, total = _discover(recs, "", progress=False)
+    return (sum(r.n_samples for r in recs), int(res.model.data.window.max()) + 1, total,
+            _answer(res))
+
+
 def scaling(args):
-    """Discovery time against samples (the rate) or cycles (module doc)."""
+    """Discovery time against samples (the rate) or cycles (module doc); every row cold,
+    in a fresh process."""
+    import concurrent.futures
+    import multiprocessing
+
     _, kw, _ = campaigns()["screw"]
     if args.scaling == "samples":
         rows = [(f"{r / 1000:g} kHz", dict(kw, rate_hz=r)) for r in (1000, 2000, 4000, 8000)]
@@ -150,12 +162,11 @@ def scaling(args):
     rows = rows[:2] if args.quick else rows
     out = []
     for label, kw_ in rows:
-        recs = _make(kw_, args.small)
-        n = sum(r.n_samples for r in recs)
-        res, total = _discover(recs, label, progress=False)
-        windows = int(res.model.data.window.max()) + 1
+        with concurrent.futures.ProcessPoolExecutor(
+                1, mp_context=multiprocessing.get_context("spawn")) as pool:
+            n, windows, total, answer = pool.submit(_timed, kw_, args.small).result()
         out.append((label, n, windows, total))
-        print(f"{label}: {n} samples, {windows} windows, {total:.1f} s; {_answer(res)}; "
+        print(f"{label}: {n} samples, {windows} windows, {total:.1f} s; {answer}; "
               f"{_load()}", flush=True)
     print(f"{'':14s} {'samples':>9s} {'windows':>8s} {'seconds':>8s} {'ratio':>6s}")
     for label, n, w, s_ in out:
