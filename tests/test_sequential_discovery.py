@@ -72,6 +72,10 @@ def test_max_effects_is_checked_before_any_fit(capsys):
 
     assert main(["discover", "nothing*.csv", "--max-effects", "0"]) == 2
     assert "--max-effects: must be at least 1" in capsys.readouterr().err
+    import stickslip_fitting as sf
+
+    with pytest.raises(ValueError, match="max_effects"):
+        sf.discover(["a.csv", "b.csv"], max_effects=0)
 
 
 def test_with_shape_keeps_the_named_effects_settings():
