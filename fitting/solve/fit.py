@@ -197,22 +197,14 @@ of 94 ms; the trace solve's XLA compilation takes 1.2 instead of 2.4 s at the sa
 time. (An option of XLA's CPU compiler.)"""
 
 QUICK_OPTIONS = {**COMPILER_OPTIONS, "xla_backend_optimization_level": 0}
-"""XLA options of programs whose compilation costs more than their runs: LLVM without
-its optimisation passes. Measured on benchmarks/fit.py's campaign (2 cores): the
-features solve compiles in 1.1 instead of 2.1 s of CPU time and runs in 0.18 instead of
-0.09 s; the trace Jacobian compiles in 1.1 instead of 3.2 s and runs 3.7x slower, so
-the trace solve (ten or more Jacobians) keeps `COMPILER_OPTIONS` and the one-off
-evaluations (`compiled`, the Laplace Jacobian) take these."""
+"""XLA options of programs run once (`compiled`, the Gauss-Newton terms, the Laplace
+Jacobian): LLVM without its optimisation passes. Measured on benchmarks/fit.py's
+campaign (2 cores): the trace Jacobian compiles in 1.1 instead of 3.2 s of CPU time and
+runs in 0.13 instead of 0.036 s. The solves keep `COMPILER_OPTIONS`: they run the
+Jacobian ten times or more, and the features solve, which would compile in 1.1 instead
+of 2.1 s, would run twice as long (0.18 instead of 0.09 s)."""
 
 _solve_starts = eqx.filter_jit(_solve_starts_impl, compiler_options=COMPILER_OPTIONS)
-_solve_starts_quick = eqx.filter_jit(_solve_starts_impl, compiler_options=QUICK_OPTIONS)
-
-
-def _solver_for(objective):
-    """The compiled multi-start solve for `objective`: `QUICK_OPTIONS` for the cycle
-    features (a solve of milliseconds), `COMPILER_OPTIONS` for objectives that simulate."""
-    quick = getattr(objective, "kind", None) is Objective.FEATURES
-    return _solve_starts_quick if quick else _solve_starts
 
 
 @eqx.filter_jit(compiler_options=QUICK_OPTIONS)
@@ -295,7 +287,7 @@ def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps):
     total = np.zeros(n_start, int)
     polished = np.ones(n_start, bool)
     for k in range(screen + MAX_ROUNDS):
-        values, chi2s, results, success, steps, flags, vel_opt = _solver_for(objective)(
+        values, chi2s, results, success, steps, flags, vel_opt = _solve_starts(
             free_starts, ref, vel, jax.device_put(caps), lams, static, objective, rtol, atol,
             max_steps)
         total += np.asarray(steps)
