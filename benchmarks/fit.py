@@ -50,7 +50,7 @@ a fast NumPy version of this model (the exact simulator uses the same closed for
 its whole trace fit is again the strict features fit plus its trace part. The chi2 and
 parameters of the optima are printed so that it can be seen they solve the same problem.
 
-Usage: python benchmarks/fit.py [--small] [--repeat N] [--no-cli]
+Usage: python benchmarks/fit.py [--small] [--repeat N] [--no-cli] [--no-native]
 """
 
 import argparse
@@ -145,6 +145,8 @@ def main():
     ap.add_argument("--small", action="store_true", help="quick smoke run (fewer samples/steps)")
     ap.add_argument("--repeat", type=int, default=2, help="rounds per timing (best counts)")
     ap.add_argument("--no-cli", action="store_true", help="leave out the stickslip fit runs")
+    ap.add_argument("--no-native", action="store_true",
+                    help="leave out the SciPy-native (solve_ivp) trace fit, the slowest part")
     args = ap.parse_args()
 
     import equinox as eqx
@@ -299,7 +301,9 @@ def main():
                                   / np.asarray(tfit.params.friction.values()) - 1)))
         return t, t_eval, out, dev
 
-    t_nat, t_nat_eval, (_, nat_chi2, nat_n, nat_rounds), nat_dev = native_fit("ode")
+    nan = float("nan")  # --no-native: the solve_ivp fit (minutes) left out
+    t_nat, t_nat_eval, (_, nat_chi2, nat_n, nat_rounds), nat_dev = (
+        (nan, nan, (None, nan, 0, 0), nan) if args.no_native else native_fit("ode"))
     t_cf, t_cf_eval, (_, cf_chi2, cf_n, cf_rounds), cf_dev = native_fit("closed_form")
     # our trace part alone: the whole trace fit minus the features fit it starts with
     t_tr_only_first = t_tr_first - t_fit_first
