@@ -160,8 +160,8 @@ def settled(fx: Fits, rf: FamilyRefit | None, steps: list[Step]) -> list[Step]:
         return steps
     model, z = fx.base.model, rf.sub.full(rf.fit.z)
     try:
-        cov = gauss_newton_covariance(rf.fit.J, max((rf.fit.rss + fx.base.within) / (fx.base.n_used
-                                                                  - rf.fit.z.size), 1.0))
+        scale = (rf.fit.rss + fx.base.within) / (fx.base.n_used - rf.fit.z.size)
+        cov = gauss_newton_covariance(rf.fit.J, max(scale, 1.0))
     except np.linalg.LinAlgError:
         cov = None
     out = []
