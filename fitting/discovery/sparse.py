@@ -273,13 +273,15 @@ def _gap(r, sd, use) -> float:
 
 
 def fit_sparse_form(model, z, r, J, noise: float, use=None, *, gap=None,
-                    iterations: int = 3) -> SparseForm:
+                    iterations: int = 8) -> SparseForm:
     """Choose the sparse form of the residual `r` (whitened, at the base coordinates z
     with the base Jacobian J over the base coordinates `model.n_base`) and refit it with
     the base parameters by Gauss-Newton steps through `model` (module doc: the stick terms
-    are the model's own coordinates, the others are added to its reading); `use`: the
-    residuals the regression and the gaps use (default all); `gap`: the gap (mm) of
-    whitened residuals over all of them (default the RMS over `use`)."""
+    are the model's own coordinates, the others are added to its reading), at most
+    `iterations`, a step that does not lower the gap halved, until a step closes less
+    than 0.5 % of the excess; `use`: the residuals the regression and the gaps use
+    (default all); `gap`: the gap (mm) of whitened residuals over all of them (default
+    the RMS over `use`)."""
     sd = np.asarray(model.sd).ravel()[model.mask]
     use = np.ones(r.size, bool) if use is None else np.asarray(use, bool)
     gap_of = gap if gap is not None else (lambda rr: _gap(rr, sd, use))
@@ -295,27 +297,33 @@ def fit_sparse_form(model, z, r, J, noise: float, use=None, *, gap=None,
     z_k, r_k = np.array(z, float), np.asarray(r, float)
     Jk = np.hstack([np.asarray(J, float), -Cw[:, inside] * STICK_SCALE])
     best = (gap_of(r), z_k, r_k, {}, {})
+    at, step = (z_k, r_k, Jk), 1.0  # the best point's residuals and Jacobian; the step share
     for _ in range(iterations if S.size else 0):
+        z_k, r_k, Jk = at
         A = np.hstack([Jk, Cw[:, add]]) * w[:, None]
         beta, *_ = np.linalg.lstsq(A, r_k * w, rcond=None)
         z_k = z_k.copy()
-        z_k[cols] -= beta[:cols.size]
+        z_k[cols] -= step * beta[:cols.size]
         coef_add = beta[cols.size:]
         r_k, Jk, ok = model.evaluate(z_k, cols)
         r_k, Jk = np.asarray(r_k), np.asarray(Jk)
         r_new = r_k - Cw[:, add] @ coef_add
-        if not np.all(ok) or not np.isfinite(r_new).all():
+        gap = gap_of(r_new) if np.all(ok) and np.isfinite(r_new).all() else np.inf
+        if not gap < best[0]:  # a step too long for the breakaways' nonlinearity: halve it
+            step *= 0.5
+            continue
+        A = np.hstack([Jk, Cw[:, add]]) * w[:, None]
+        cov = np.linalg.pinv(A.T @ A) * max(float(np.sum((r_new * w) ** 2))
+                                            / max(w.sum() - A.shape[1], 1.0), 1.0)
+        se = np.sqrt(np.clip(np.diag(cov), 0.0, None))[model.n_base:]
+        values = np.r_[z_k[scols[inside]] * STICK_SCALE, coef_add]
+        se = np.r_[se[:inside.size] * STICK_SCALE, se[inside.size:]]
+        order = np.r_[inside, add]
+        small = best[0] - gap < 0.005 * max(best[0] - noise, 0.0)
+        best, at = (gap, z_k, r_new, dict(zip(order, values)), dict(zip(order, se))), (
+            z_k, r_k, Jk)
+        if small:
             break
-        gap = gap_of(r_new)
-        if gap < best[0]:
-            A = np.hstack([Jk, Cw[:, add]]) * w[:, None]
-            cov = np.linalg.pinv(A.T @ A) * max(float(np.sum((r_new * w) ** 2))
-                                                / max(w.sum() - A.shape[1], 1.0), 1.0)
-            se = np.sqrt(np.clip(np.diag(cov), 0.0, None))[model.n_base:]
-            values = np.r_[z_k[scols[inside]] * STICK_SCALE, coef_add]
-            se = np.r_[se[:inside.size] * STICK_SCALE, se[inside.size:]]
-            order = np.r_[inside, add]
-            best = (gap, z_k, r_new, dict(zip(order, values)), dict(zip(order, se)))
     gap_after, z_after, r_after, coef, se = best
     terms = tuple({"name": TERMS[j].name, "phase": TERMS[j].phase,
                    "variable": TERMS[j].variable, "symbol": TERMS[j].symbol,
