@@ -26,7 +26,11 @@ flexible family absorbing part of it). So after each new effect, every effect na
 before it is tested again given it (`drop_one`): the model without it is refitted, and
 its robust window test at that fit (`rank.held_p`) must stay below alpha; an effect that
 no longer helps is dropped (its step is kept, marked). Families once named are never
-candidates again, so the search ends.
+candidates again, so the search ends. Nor are the families that describe the same physics
+as one in the model (`ALTERNATIVES`: a Stribeck curve and rate-and-state friction are two
+laws of one kinetic friction that depends on the slip speed): with one of them named, the
+other fits what the first one's shape leaves (measured: a rational Stribeck drop b = 0.1,
+4 records, named stribeck, then rate_state for 744 of the remaining chi-square).
 """
 
 from __future__ import annotations
@@ -45,7 +49,15 @@ from .sharpen import sharpen
 from .decide import choose
 from .state import Base, Choice, Clock, FamilyRefit, Fits, Step
 
-__all__ = ["drop_one", "extended", "more_effects", "settled"]
+__all__ = ["ALTERNATIVES", "drop_one", "extended", "more_effects", "settled"]
+
+ALTERNATIVES = (frozenset({"stribeck", "rate_state"}),)
+"""Families that describe one physical effect in two laws (module doc): never both named."""
+
+
+def _same_physics(name: str) -> set:
+    """`name` and its alternatives (`ALTERNATIVES`)."""
+    return set().union({name}, *(a for a in ALTERNATIVES if name in a))
 
 
 def extended(fx: Fits, rf: FamilyRefit, held) -> Base:
@@ -123,7 +135,7 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
     if chosen is None:
         return fx, choice, []
     steps = [_step(fx, choice, chosen)]
-    named = {chosen.family.name} | {c["name"] for c in choice.rivals}
+    named = _same_physics(chosen.family.name) | {c["name"] for c in choice.rivals}
     held, unbeaten = (chosen.family,), list(choice.decision.unbeaten)
     joint = {chosen.family.name: choice.decision.joint}  # partners, by the effect named
     while len(held) < max_effects:
@@ -142,7 +154,7 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
         gone = {name for name, _ in dropped}
         steps = [dataclasses.replace(s, kept=False) if s.family.name in gone else s
                  for s in steps] + [_step(fx_k, choice_k, new, sorted(gone))]
-        named |= {new.family.name} | {c["name"] for c in choice_k.rivals}
+        named |= _same_physics(new.family.name) | {c["name"] for c in choice_k.rivals}
         held, fx, chosen = kept + (new.family,), fx_k, new
         unbeaten += choice_k.decision.unbeaten
         joint[new.family.name] = choice_k.decision.joint
