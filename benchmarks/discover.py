@@ -164,7 +164,7 @@ def scaling(args):
     for label, kw_ in rows:
         with concurrent.futures.ProcessPoolExecutor(
                 1, mp_context=multiprocessing.get_context("spawn")) as pool:
-            n, windows, total, answer = pool.submit(_timed, kw_, args.small).result()
+            n, windows, total, answer = pool.submit(_timed, kw_, args.small or args.quick).result()
         out.append((label, n, windows, total))
         print(f"{label}: {n} samples, {windows} windows, {total:.1f} s; {answer}; "
               f"{_load()}", flush=True)
