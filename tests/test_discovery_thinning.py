@@ -86,3 +86,31 @@ def test_chi_square_and_gap_of_all_samples(windows):
     np.testing.assert_allclose(c_t, c_f, rtol=2e-3)
     np.testing.assert_allclose(gap_t, gap_f, rtol=2e-3)
     np.testing.assert_allclose(c_t[1:] - c_t[0], c_f[1:] - c_f[0], rtol=1e-2)
+
+
+def test_a_measured_drive_follows_its_windows(tmp_path):
+    """Records with a `drive` column: every binned row carries its own window's drive
+    knots (`TraceData.drive_knots`), as the unbinned rows do."""
+    from stickslip_fitting.data.campaign import screen_records
+    from stickslip_fitting.discovery.thinning import thin_windows
+    from stickslip_fitting.objectives.trace import trace_data
+    from stickslip_jax.records import read_record
+
+    imp = ir.Imperfections(screw_amp_mm=0.006, screw_pitch_mm=2.0)
+    recs = []
+    for i, (W, k, v) in enumerate(((36.0, 86.9, 5.0), (20.0, 27.3, 10.0))):
+        tr = ir.simulate(ir.LUBRICANT_A, weight=W, stiffness=k, speed_mm_min=v,
+                         duration=6.0, rate_hz=1000.0, imp=imp, seed=40 + i)
+        path = tmp_path / f"r{i}.csv"
+        ir.write_record(path, tr, friction=ir.LUBRICANT_A, weight=W, stiffness=k,
+                        speed_mm_min=v, drive_column=True)
+        recs.append(read_record(path))
+    c = screen_records(recs)
+    full = trace_data(c.records, c.features, drive_fix=False)
+    assert full.drive_knots is not None
+    thin, _ = thin_windows(full)
+    knots, tknots = np.asarray(full.drive_knots), np.asarray(thin.drive_knots)
+    assert tknots.shape[0] == np.asarray(thin.mask).shape[0]
+    first_row = {w: i for i, w in reversed(list(enumerate(np.asarray(full.window))))}
+    for row, w in enumerate(np.asarray(thin.window)):
+        np.testing.assert_array_equal(tknots[row], knots[first_row[w]])

@@ -122,9 +122,10 @@ def thin_windows(data: TraceData) -> tuple[TraceData, Samples]:
     t = np.asarray(data.time)[mask]
     x = np.asarray(data.deflection)[mask]
     win = np.asarray(data.window)[rows]
-    per_row = {f: np.asarray(getattr(data, f)) for f in (
-        "record", "weight", "normal_load", "stiffness", "speed", "start_time", "start_level",
-        "start_level_sd", "start_time_sd", "stick_time", "sigma", "window", "drive_poly")}
+    fields = ("record", "weight", "normal_load", "stiffness", "speed", "start_time",
+              "start_level", "start_level_sd", "start_time_sd", "stick_time", "sigma",
+              "window", "drive_poly") + (() if data.drive_knots is None else ("drive_knots",))
+    per_row = {f: np.asarray(getattr(data, f)) for f in fields}
     r = rows
     T2 = np.pi / np.sqrt(per_row["stiffness"][r] * G_MM_S2 / per_row["weight"][r])
     t0 = per_row["start_time"][r]
