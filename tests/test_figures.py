@@ -234,7 +234,7 @@ def _smooth_result():
     t = np.tile(np.r_[np.linspace(0, 1, 50), np.linspace(6, 7, 50), np.zeros(20)], (R, 1))
     mask = np.tile(np.r_[np.ones(100, bool), np.zeros(20, bool)], (R, 1))
     data = 0.1 + 0.01 * np.sin(t)
-    traces = types.SimpleNamespace(time=t, data=data, mask=mask, n_records=R,
+    traces = types.SimpleNamespace(time=t, deflection=data, mask=mask, n_records=R,
                                    stiffness=np.array([27.3, 86.9, 128.5]),
                                    speed=np.array([5.0, 10.0, 20.0]) / 60.0,
                                    weight=np.full(R, 36.0))

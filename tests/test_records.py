@@ -550,3 +550,13 @@ def test_epoch_time_stamps(tmp_path):
                           + rows + "\n"))
     assert r.time[0] == 0.0 and abs(r.time[-1] - 499e-4) < 1e-6
     assert any("first time stamp" in n for n in r.notes)
+
+
+def test_a_text_field_ending_in_a_separator_is_refused():
+    """A header value ending in ',' or ';' cannot be told from a spreadsheet's padding of
+    the line, so it could not read back: refused when the record is made."""
+    from stickslip_jax.records import Record, RecordError
+
+    with pytest.raises(RecordError, match="must not end in"):
+        Record(time=np.array([0.0, 1.0]), deflection=np.zeros(2), stiffness=1.0,
+               weight=1.0, drive_speed=0.0, note="run 3,")

@@ -221,7 +221,6 @@ def run(args) -> int:
     import numpy as np
 
     from ..records import Record, RecordError, write_record
-    from ..output import write_atomic
 
     raw, out = os.path.abspath(args.raw), os.path.abspath(args.out)
     if raw == out:
@@ -276,7 +275,7 @@ def run(args) -> int:
             note=f"imported from {os.path.basename(args.raw)}", notes=tuple(notes), **kw)
     except RecordError as exc:
         raise ValueError(f"{args.raw}: {exc}") from None
-    write_atomic(out, lambda tmp: write_record(rec, tmp), ".csv")
+    write_record(rec, out)  # atomic (`stickslip_jax.output.write_text`)
     print(f"wrote {args.out}: {rec.time.size} samples, {rec.time[-1] - rec.time[0]:.6g} s, "
           f"k = {rec.stiffness:.6g} kgf/mm, W = {rec.weight:.6g} kgf")
     for n in rec.notes:

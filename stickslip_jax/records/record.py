@@ -68,6 +68,9 @@ def _text(name, value):
             f"{name} must be one line of printable text without surrounding spaces, "
             f"got {value!r}"
         )
+    if value.endswith((",", ";")):
+        raise RecordError(f"{name} must not end in ',' or ';' (a spreadsheet's padding of a "
+                          f"header line reads the same), got {value!r}")
     return value
 
 
