@@ -88,6 +88,26 @@ def test_with_shape_keeps_the_named_effects_settings():
     assert with_shape(held, family("gauge_drift"), Shape(vs=1.0)) == held
 
 
+def test_a_later_effect_joins_only_when_its_refit_confirms_it():
+    """The refit's chi-square drop must pass the chi-square quantile at alpha for its
+    parameter count, scaled by the extended base's chi2/n above 1 (`more.confirmed`)."""
+    import types
+
+    from scipy.stats import chi2
+
+    from stickslip_fitting.discovery.stages.more import confirmed
+
+    base = types.SimpleNamespace(fit=types.SimpleNamespace(rss=3500.0), within=0.0,
+                                 n_used=100)  # chi2/n 35: a campaign far from the model
+    level = 35.0 * chi2.ppf(0.99, 2)
+    for drop, ok in ((0.0, False), (0.99 * level, False), (1.01 * level, True)):
+        rf = types.SimpleNamespace(drop=drop, values=np.zeros(2))
+        assert confirmed(base, rf, 0.01) is ok
+    near = types.SimpleNamespace(fit=types.SimpleNamespace(rss=90.0), within=0.0, n_used=100)
+    rf = types.SimpleNamespace(drop=1.01 * chi2.ppf(0.99, 2), values=np.zeros(2))
+    assert confirmed(near, rf, 0.01)  # chi2/n below 1: the plain quantile
+
+
 # -- rates over pairs of four common families (slow, targets) --
 
 PAIRS_OF = {

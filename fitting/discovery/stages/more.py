@@ -31,6 +31,13 @@ as one in the model (`ALTERNATIVES`: a Stribeck curve and rate-and-state frictio
 laws of one kinetic friction that depends on the slip speed): with one of them named, the
 other fits what the first one's shape leaves (measured: a rational Stribeck drop b = 0.1,
 4 records, named stribeck, then rate_state for 744 of the remaining chi-square).
+
+**Confirmation.** A later effect joins only when its refit confirms the score test
+(`confirmed`): its chi-square drop exceeds the chi-square quantile at `alpha` for its
+parameter count, scaled by the extended base's chi2/n when that is above 1 (far from the
+data every chi-square is that much larger). A family whose score passed but whose refit
+changes nothing (a per-record screw whose coefficients stay at 1e-8 um on a campaign the
+model misses by 6 x the noise) is not named and the search stops.
 """
 
 from __future__ import annotations
@@ -49,7 +56,7 @@ from .sharpen import sharpen
 from .decide import choose
 from .state import Base, Choice, Clock, FamilyRefit, Fits, Step
 
-__all__ = ["ALTERNATIVES", "drop_one", "extended", "more_effects", "settled"]
+__all__ = ["ALTERNATIVES", "confirmed", "drop_one", "extended", "more_effects", "settled"]
 
 ALTERNATIVES = (frozenset({"stribeck", "rate_state"}),)
 """Families that describe one physical effect in two laws (module doc): never both named."""
@@ -148,7 +155,10 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
         fx_k = Fits(opts=fx.opts, prep=fx.prep, base=base, ranking=ranking)
         choice_k = choose(fx_k, sharpen(fx_k, refit(fx_k, clock=clock), clock=clock),
                           clock=clock)
-        if choice_k.chosen is None:
+        if choice_k.chosen is None or not confirmed(base, choice_k.chosen, fx.opts.alpha):
+            clock.say("stop: no physical refit lowers chi-square" if choice_k.chosen is None
+                      else f"stop: {choice_k.chosen.family.name} lowers chi-square by only "
+                      f"{choice_k.chosen.drop:.3g}, below its confirmation level")
             break
         new, kept, dropped = drop_one(fx_k, choice_k.chosen, clock)
         gone = {name for name, _ in dropped}
@@ -163,6 +173,17 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
     return fx, Choice(chosen=chosen, decision=Decision(joint[lead.family.name], tuple(unbeaten)),
                       rivals=lead.rivals, compared=choice.compared,
                       decided_drop=first.base.fit.rss - chosen.fit.rss), steps
+
+
+def confirmed(base: Base, rf: FamilyRefit, alpha: float) -> bool:
+    """Whether the refit `rf` on the extended `base` lowers chi-square by more than the
+    chi-square quantile at `alpha` for its parameter count, times the base's chi2/n where
+    that is above 1 (module doc)."""
+    from scipy.stats import chi2
+
+    scale = max((base.fit.rss + base.within) / max(base.n_used, 1), 1.0)
+    dof = max(int(np.size(rf.values)), 1)
+    return bool(rf.drop > scale * chi2.ppf(1.0 - alpha, dof))
 
 
 def settled(fx: Fits, rf: FamilyRefit | None, steps: list[Step]) -> list[Step]:
