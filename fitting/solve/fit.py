@@ -189,12 +189,14 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, caps, lams, static, ob
     return jax.lax.map(solve, (flat_starts, ref_starts, velocity, caps, lams))
 
 
-COMPILER_OPTIONS = {"xla_cpu_use_fusion_emitters": False}
+COMPILER_OPTIONS = ({"xla_cpu_use_fusion_emitters": False}
+                    if tuple(int(p) for p in jax.__version__.split(".")[:2]) < (0, 11) else {})
 """XLA options of the compiled solves: on CPU, fusions emitted by the classic elemental
 emitter instead of one MLIR kernel module each. Measured on benchmarks/fit.py's campaign
 (2 cores): the features solve compiles in 1.8 s instead of 2.3 s and runs in 66 instead
 of 94 ms; the trace solve's XLA compilation takes 1.2 instead of 2.4 s at the same run
-time. (An option of XLA's CPU compiler.)"""
+time. (An option of XLA's CPU compiler up to JAX 0.10; JAX 0.11's XLA refuses it, so
+there the solves compile with XLA's defaults.)"""
 
 QUICK_OPTIONS = {**COMPILER_OPTIONS, "xla_backend_optimization_level": 0}
 """XLA options of programs run once (`compiled`, the Gauss-Newton terms, the Laplace
