@@ -25,15 +25,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
-from stickslip_jax.friction import (
-    AbstractStateEvolution,
-    AgingLaw,
-    Friction,
-    LogAgingStatic,
-    LogVelocityKinetic,
-    SlipLaw,
-    rate_state_friction,
-)
+from stickslip_jax.friction import (AbstractStateEvolution, AgingLaw, Friction, LogAgingStatic,
+                                    LogVelocityKinetic, SlipLaw, rate_state_friction)
 
 from .params import AbstractFrictionParams
 

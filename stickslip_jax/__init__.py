@@ -73,21 +73,18 @@ def _enable_x64() -> None:
 
 _enable_x64()
 
-_HOME = {
-    "AbstractKineticFriction": "friction", "AbstractStaticFriction": "friction",
-    "DerjaguinStatic": "friction", "Friction": "friction", "HoweStatic": "friction",
-    "KatoKinetic": "friction", "KatoStatic": "friction", "OkamuraStatic": "friction",
-    "PowerLawStatic": "friction",
-    "experimental_conditions": "lubricants", "lubricant": "lubricants",
-    "static_law": "lubricants",
-    "REGIMES": "steady", "SteadyState": "steady", "restick_failure": "steady",
-    "critical_speed": "steady", "natural_angular_frequency": "steady",
-    "slip_time": "steady", "slip_trajectory": "steady", "steady_map": "steady",
-    "steady_state": "steady",
-    "Slideway": "slideway",
-    "Formulation": "modes", "GaugeOffset": "modes", "SlipTime": "modes",
-    "load_table": "tables",
-}
+_HOME = {"AbstractKineticFriction": "friction", "AbstractStaticFriction": "friction",
+         "DerjaguinStatic": "friction", "Friction": "friction", "HoweStatic": "friction",
+         "KatoKinetic": "friction", "KatoStatic": "friction", "OkamuraStatic": "friction",
+         "PowerLawStatic": "friction",
+         "experimental_conditions": "lubricants", "lubricant": "lubricants",
+         "static_law": "lubricants",
+         "REGIMES": "steady", "SteadyState": "steady", "restick_failure": "steady",
+         "critical_speed": "steady", "natural_angular_frequency": "steady",
+         "slip_time": "steady", "slip_trajectory": "steady", "steady_map": "steady",
+         "steady_state": "steady", "Slideway": "slideway",
+         "Formulation": "modes", "GaugeOffset": "modes", "SlipTime": "modes",
+         "load_table": "tables"}
 """Public name -> the module that defines it (imported on first use)."""
 
 
@@ -107,32 +104,9 @@ def __dir__():
     return sorted(set(globals()) | set(__all__))
 
 
-__all__ = [
-    "AbstractKineticFriction",
-    "AbstractStaticFriction",
-    "DerjaguinStatic",
-    "Formulation",
-    "Friction",
-    "GaugeOffset",
-    "HoweStatic",
-    "KatoKinetic",
-    "KatoStatic",
-    "OkamuraStatic",
-    "PowerLawStatic",
-    "Slideway",
-    "SlipTime",
-    "SteadyState",
-    "critical_speed",
-    "experimental_conditions",
-    "load_table",
-    "lubricant",
-    "natural_angular_frequency",
-    "slip_time",
-    "slip_trajectory",
-    "static_law",
-    "steady_map",
-    "steady_state",
-    "units",
-    "REGIMES",
-    "restick_failure",
-]
+__all__ = ["AbstractKineticFriction", "AbstractStaticFriction", "DerjaguinStatic", "Formulation",
+           "Friction", "GaugeOffset", "HoweStatic", "KatoKinetic", "KatoStatic", "OkamuraStatic",
+           "PowerLawStatic", "Slideway", "SlipTime", "SteadyState", "critical_speed",
+           "experimental_conditions", "load_table", "lubricant", "natural_angular_frequency",
+           "slip_time", "slip_trajectory", "static_law", "steady_map", "steady_state", "units",
+           "REGIMES", "restick_failure"]

@@ -18,12 +18,8 @@ import re
 import os
 import sys
 
-SUBCOMMANDS = (
-    "stickslip_jax.commands.steady",
-    "stickslip_jax.commands.simulate",
-    "stickslip_jax.commands.plot",
-    "stickslip_jax.commands.import_raw",
-)
+SUBCOMMANDS = ("stickslip_jax.commands.steady", "stickslip_jax.commands.simulate",
+               "stickslip_jax.commands.plot", "stickslip_jax.commands.import_raw")
 """The model package's subcommands (modules)."""
 
 COMMAND_GROUP = "stickslip.commands"

@@ -9,15 +9,8 @@
 
 from __future__ import annotations
 
-from .friction import (
-    DerjaguinStatic,
-    Friction,
-    HoweStatic,
-    KatoKinetic,
-    KatoStatic,
-    OkamuraStatic,
-    PowerLawStatic,
-)
+from .friction import (DerjaguinStatic, Friction, HoweStatic, KatoKinetic, KatoStatic,
+                       OkamuraStatic, PowerLawStatic)
 from .tables import load_table
 
 STATIC_LAWS = ("kato", "howe", "derjaguin", "power_law", "okamura")

@@ -301,11 +301,9 @@ SCHEMA_VERSION = 1
 """Version of the JSON documents the commands write (the key "schema_version" of each):
 raised when a key changes meaning or goes away; new keys do not raise it."""
 
-UNIT_SUFFIXES = {
-    "_kgf": "kgf", "_mm": "mm", "_um": "um", "_s": "s", "_hz": "Hz",
-    "_mm_per_min": "mm/min", "_mm_per_s": "mm/s", "_kgf_per_mm": "kgf/mm",
-    "_pa_s": "Pa*s",
-}
+UNIT_SUFFIXES = {"_kgf": "kgf", "_mm": "mm", "_um": "um", "_s": "s", "_hz": "Hz",
+                 "_mm_per_min": "mm/min", "_mm_per_s": "mm/s", "_kgf_per_mm": "kgf/mm",
+                 "_pa_s": "Pa*s"}
 """The JSON key convention: a quantity with a unit ends in its unit, compound units with
 `_per_` (`stiffness_kgf_per_mm`, `drive_speed_mm_per_min`); a dimensionless quantity
 (`amplitude_ratio`, `frequency_ratio`, `mu_s`) has no suffix. Rows of parameter estimates

@@ -168,19 +168,11 @@ class CampaignFit(ResultDocument):
                 f"{self.converged}, {values})")
 
 
-def fit(
-    records: RecordsSpec,
-    *,
-    model: str | type[AbstractFrictionParams] = "empirical",
-    objective: Objective | str = Objective.FEATURES,
-    fix: Mapping[str, float] | None = None,
-    loss: AbstractLoss | str = "gaussian",
-    gauge_offset: GaugeOffset | str = GaugeOffset.ZERO,
-    slip_time: SlipTime | str = SlipTime.PAPER,
-    strict: bool = False,
-    eta: float | str | None = None,
-    surface: str = "S1G1",
-) -> CampaignFit:
+def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "empirical",
+        objective: Objective | str = Objective.FEATURES, fix: Mapping[str, float] | None = None,
+        loss: AbstractLoss | str = "gaussian", gauge_offset: GaugeOffset | str = GaugeOffset.ZERO,
+        slip_time: SlipTime | str = SlipTime.PAPER, strict: bool = False,
+        eta: float | str | None = None, surface: str = "S1G1") -> CampaignFit:
     """Fit the friction parameters to a campaign of records, as `stickslip fit` does.
 
     - `records`: a file, a folder (its *.csv), a glob ("data/examples/*.csv"), a list of

@@ -165,19 +165,10 @@ class CampaignDiscovery:
                 f"families={len(self.result.candidates)})")
 
 
-def discover(
-    records: RecordsSpec,
-    *,
-    only: tuple[str, ...] | list[str] | None = None,
-    top: int = 3,
-    alpha: float = 0.01,
-    max_evals: int = 80,
-    loss: AbstractLoss | str = "gaussian",
-    strict: bool = False,
-    learn: bool = False,
-    progress=None,
-    max_effects: int = 3,
-) -> CampaignDiscovery:
+def discover(records: RecordsSpec, *, only: tuple[str, ...] | list[str] | None = None, top: int = 3,
+             alpha: float = 0.01, max_evals: int = 80, loss: AbstractLoss | str = "gaussian",
+             strict: bool = False, learn: bool = False, progress=None,
+             max_effects: int = 3) -> CampaignDiscovery:
     """Find the effect the paper's model misses in a campaign, as `stickslip discover`
     does on its default base (the per-cycle model).
 

@@ -21,10 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from stickslip_jax.commands.options import (
-    add_json_option,
-    add_plot_option,
-    quantity,
-    viscosity,
+    add_json_option, add_plot_option, quantity, viscosity,
 )
 
 NAME = "pitch"

@@ -304,14 +304,10 @@ def run(args) -> int:
     before, after = ([ParameterEstimate.from_log(p, UNITS[p], x, s)
                       for p, x, s in zip(PARAMETERS, u, sds)]
                      for sds in (plan.sd_before, plan.sd_after))
-    doc = {
-        "source": desc,
-        "criterion": args.criterion,
-        "estimate": {e.name: e.value for e in before},
-        "relative_sd_before": {e.name: e.log_sd for e in before},
-        "relative_sd_after": {e.name: e.log_sd for e in after},
-        "records": rows,
-    }
+    doc = {"source": desc, "criterion": args.criterion,
+           "estimate": {e.name: e.value for e in before},
+           "relative_sd_before": {e.name: e.log_sd for e in before},
+           "relative_sd_after": {e.name: e.log_sd for e in after}, "records": rows}
     if args.json:
         from stickslip_jax.output import versioned, write_json
 

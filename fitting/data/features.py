@@ -172,19 +172,9 @@ def _empty(name, weight, stiffness, speed, omega0, noise, n, message):
     )
 
 
-def extract_cycles(
-    time,
-    deflection,
-    *,
-    weight: float,
-    stiffness: float,
-    drive,
-    name: str = "record",
-    threshold: float | None = None,
-    min_cycles: int = 2,
-    correct_drive: bool = True,
-    _note: str | None = None,
-) -> RecordFeatures:
+def extract_cycles(time, deflection, *, weight: float, stiffness: float, drive,
+                   name: str = "record", threshold: float | None = None, min_cycles: int = 2,
+                   correct_drive: bool = True, _note: str | None = None) -> RecordFeatures:
     r"""Find the stick-slip cycles of one record and measure their features.
 
     - `time` (s), `deflection` x (mm): 1-D arrays of equal length, uniform time step.
@@ -439,15 +429,12 @@ def _cycle_row(r: _Prepared, ev, before, after, thr, prev_end, first: bool):
     # whose slider all but stopped put k x2/W 0.03-0.06 above mu_0(0), the slip before
     # timed 1 ms late, and the fit's chi2/n at 2e5)
     short = prev_end is not None and t_b - prev_end < rest_length(r.h) * r.dt
-    return dict(
-        breakaway_time=t_b, end_time=t_e,
-        stick_time=max(t_b - prev_end, 0.0) if prev_end is not None else float("nan"),
-        slip_time=(t90 - t10) / _RISE_10_90 if math.isfinite(t90 - t10) else float("nan"),
-        peak=x2, trough=x1, trough_shift=shift,
-        peak_sd=peak_sd, trough_sd=trough_sd,
-        stick_time_sd=time_sd,
-        complete=prev_end is not None and not short,
-    ), (PAUSE if short else None)
+    return dict(breakaway_time=t_b, end_time=t_e,
+                stick_time=max(t_b - prev_end, 0.0) if prev_end is not None else float("nan"),
+                slip_time=(t90 - t10) / _RISE_10_90 if math.isfinite(t90 - t10) else float("nan"),
+                peak=x2, trough=x1, trough_shift=shift, peak_sd=peak_sd, trough_sd=trough_sd,
+                stick_time_sd=time_sd,
+                complete=prev_end is not None and not short), (PAUSE if short else None)
 
 
 def _assemble(r: _Prepared, rows, first, left_out, n_events, min_cycles, drive_note):
@@ -484,11 +471,6 @@ def _assemble(r: _Prepared, rows, first, left_out, n_events, min_cycles, drive_n
 def record_features(record, **kwargs) -> RecordFeatures:
     """`extract_cycles` on a `stickslip_jax.records.Record` (its drive, W, k, N and name)."""
     return dataclasses.replace(extract_cycles(
-        record.time,
-        record.deflection,
-        weight=record.weight,
-        stiffness=record.stiffness,
-        drive=record.drive_position(),
-        name=record.name or "record",
-        **kwargs,
+        record.time, record.deflection, weight=record.weight, stiffness=record.stiffness,
+        drive=record.drive_position(), name=record.name or "record", **kwargs,
     ), normal_load=record.normal_load)

@@ -70,21 +70,11 @@ def truth_values(friction) -> dict[str, float]:
     return EmpiricalFriction.from_friction(friction).named_values()
 
 
-def synthetic_campaign(
-    friction,
-    *,
-    conditions=SPREAD_CONDITIONS,
-    speed_fractions=(0.03, 0.1, 0.3),
-    cycles: int = 6,
-    noise: float = 5e-4,
-    sample_rate: float = 1000.0,
-    seed: int = 0,
-    lubricant: str = "A",
-    from_rest: bool = False,
-    slip_time: SlipTime | str = SlipTime.PAPER,
-    max_samples: int | None = None,
-    pad_to: int = 0,
-) -> list[Record]:
+def synthetic_campaign(friction, *, conditions=SPREAD_CONDITIONS, speed_fractions=(0.03, 0.1, 0.3),
+                       cycles: int = 6, noise: float = 5e-4, sample_rate: float = 1000.0,
+                       seed: int = 0, lubricant: str = "A", from_rest: bool = False,
+                       slip_time: SlipTime | str = SlipTime.PAPER, max_samples: int | None = None,
+                       pad_to: int = 0) -> list[Record]:
     """Records of every (W, k) in `conditions` at speeds `speed_fractions` x v_c(W, k).
 
     Each record lasts about `cycles` stick-slip cycles (eq 6 steady state) at

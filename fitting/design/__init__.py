@@ -26,37 +26,14 @@ __all__ = ["Campaign", "LaplaceFit", "Noise", "Plan", "SteadyObservables", "Tanh
            "save_samples", "shard_batch", "to_host"]
 
 from .chunks import collect, map_chunks
-from .experiment import (
-    Campaign,
-    LaplaceFit,
-    Noise,
-    Plan,
-    SteadyObservables,
-    TanhBounded,
-    candidate_grid,
-    even_design,
-    fisher_information,
-    friction_of,
-    greedy_design,
-    laplace_fit,
-    log_params,
-    observables,
-    posterior_sd,
-    prior_precision,
-    record_information,
-    sequential_campaign,
-    simulate_observations,
-)
+from .experiment import (Campaign, LaplaceFit, Noise, Plan, SteadyObservables, TanhBounded,
+                         candidate_grid, even_design, fisher_information, friction_of,
+                         greedy_design, laplace_fit, log_params, observables, posterior_sd,
+                         prior_precision, record_information, sequential_campaign,
+                         simulate_observations)
 from .inverse import InverseDesign, maximum_weight, minimum_stiffness
 from .maps import DesignMap, DesignPoints, design_map, design_points, iter_design_map, outer
-from .posterior import (
-    PARAMETERS,
-    friction_from_params,
-    friction_params,
-    load_samples,
-    samples_from_csv,
-    samples_from_json,
-    save_samples,
-)
+from .posterior import (PARAMETERS, friction_from_params, friction_params, load_samples,
+                        samples_from_csv, samples_from_json, save_samples)
 from .sharding import batch_mesh, pad_batch, replicate, shard_batch, to_host
 from .uncertainty import UncertainMap, propagate

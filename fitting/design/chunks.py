@@ -42,17 +42,9 @@ def _progress(total: int, enabled: bool, desc: str):
     return tqdm(total=total, desc=desc, unit="pt", unit_scale=True, leave=False)
 
 
-def map_chunks(
-    kernel: Callable,
-    batch,
-    shape: tuple[int, ...],
-    *,
-    shared=None,
-    chunk_size: int = 65_536,
-    mesh=None,
-    progress: bool = False,
-    desc: str = "design map",
-) -> Iterator[tuple[int, int, object]]:
+def map_chunks(kernel: Callable, batch, shape: tuple[int, ...], *, shared=None,
+               chunk_size: int = 65_536, mesh=None, progress: bool = False,
+               desc: str = "design map") -> Iterator[tuple[int, int, object]]:
     """Yield ``(start, stop, result)`` for consecutive chunks of the flattened batch.
 
     `kernel(chunk, shared)` must be vmapped over the leading axis of `chunk` and return

@@ -86,18 +86,9 @@ def _kernel(method: MapMethod):
     return cycle_kernel if method is MapMethod.CYCLE else steady_kernel
 
 
-def iter_design_map(
-    friction: Friction,
-    weight,
-    stiffness,
-    speed,
-    *,
-    method: str = "steady",
-    chunk_size: int = 65_536,
-    mesh=None,
-    progress: bool = False,
-    damping_ratio=None,
-):
+def iter_design_map(friction: Friction, weight, stiffness, speed, *, method: str = "steady",
+                    chunk_size: int = 65_536, mesh=None, progress: bool = False,
+                    damping_ratio=None):
     """Yield ``(start, stop, DesignMap)`` chunks of the flattened map (NumPy leaves).
 
     Use it to stream maps larger than memory to disk or into a reduction; the map's

@@ -323,16 +323,9 @@ MIN_KEPT = 10
 """Steps a chain interrupted by Ctrl-C must have to be kept (fewer: the interrupt goes on)."""
 
 
-def run_mcmc(
-    fit: FitResult,
-    *,
-    walkers: int = 32,
-    steps: int = 2000,
-    burn: int | None = None,
-    seed: int = 0,
-    progress: bool = False,
-    uncertainty: Uncertainty | None = None,
-) -> McmcResult:
+def run_mcmc(fit: FitResult, *, walkers: int = 32, steps: int = 2000, burn: int | None = None,
+             seed: int = 0, progress: bool = False,
+             uncertainty: Uncertainty | None = None) -> McmcResult:
     """Sample the posterior of a fit's free parameters with emcee (module doc).
 
     `burn` steps (default steps // 4) are discarded; `progress` shows emcee's bar;

@@ -41,25 +41,15 @@ JSON_ALIASES = {
 """JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
 their old names, still written beside them for one release (`deprecated_keys`)."""
 
-COLUMNS = (
-    ("drive_speed_mm_per_min", "v [mm/min]"),
-    ("stick_slip", "stick-slip"),
-    ("stick_time_s", "T1 [s]"),
-    ("slip_time_s", "T2 [s]"),
-    ("amplitude_mm", "a [mm]"),
-    ("amplitude_ratio", "ak/W [-]"),
-    ("frequency_hz", "f [Hz]"),
-    ("frequency_ratio", "f/f0 [-]"),
-    ("critical_speed_mm_per_min", "v_c [mm/min]"),
-    ("cycle_amplitude_mm", "a_cycle [mm]"),
-    ("cycle_stick_time_s", "T1_cycle [s]"),
-)
+COLUMNS = (("drive_speed_mm_per_min", "v [mm/min]"), ("stick_slip", "stick-slip"),
+           ("stick_time_s", "T1 [s]"), ("slip_time_s", "T2 [s]"), ("amplitude_mm", "a [mm]"),
+           ("amplitude_ratio", "ak/W [-]"), ("frequency_hz", "f [Hz]"),
+           ("frequency_ratio", "f/f0 [-]"), ("critical_speed_mm_per_min", "v_c [mm/min]"),
+           ("cycle_amplitude_mm", "a_cycle [mm]"), ("cycle_stick_time_s", "T1_cycle [s]"))
 
-DAMPED_COLUMNS = (
-    ("damped_cycle_amplitude_mm", "a_damped [mm]"),
-    ("damped_cycle_stick_time_s", "T1_damped [s]"),
-    ("damped_cycle_frequency_ratio", "f/f0_damped [-]"),
-)
+DAMPED_COLUMNS = (("damped_cycle_amplitude_mm", "a_damped [mm]"),
+                  ("damped_cycle_stick_time_s", "T1_damped [s]"),
+                  ("damped_cycle_frequency_ratio", "f/f0_damped [-]"))
 """Columns added by --damping-ratio: the damped limit cycle (0 above the boundary)."""
 
 
@@ -147,14 +137,12 @@ def run(args) -> int:
         dc = jax.vmap(lambda v: limit_cycle(friction, args.weight, args.stiffness, v / s,
                                             damping_ratio=zeta))(speeds)
         for i, r in enumerate(rows):  # 0 where the damped model slides steadily
-            r.update({
-                "damped_regime": REGIMES[int(dc.regime[i])],
-                "damped_cycle_amplitude_mm": max(0.0, s * float(dc.amplitude[i])),
-                "damped_cycle_stick_time_s": float(dc.stick_time[i]),
-                "damped_cycle_slip_time_s": float(dc.slip_time[i]),
-                "damped_cycle_frequency_hz": float(dc.frequency[i]),
-                "damped_cycle_frequency_ratio": float(dc.frequency[i] / f0),
-            })
+            r.update({"damped_regime": REGIMES[int(dc.regime[i])],
+                      "damped_cycle_amplitude_mm": max(0.0, s * float(dc.amplitude[i])),
+                      "damped_cycle_stick_time_s": float(dc.stick_time[i]),
+                      "damped_cycle_slip_time_s": float(dc.slip_time[i]),
+                      "damped_cycle_frequency_hz": float(dc.frequency[i]),
+                      "damped_cycle_frequency_ratio": float(dc.frequency[i] / f0)})
         # inf (no boundary: zeta = 0) becomes null with its reason in the JSON
         damped = s * float(mm_per_min(boundary_speed(friction, args.weight, args.stiffness,
                                                      zeta)))

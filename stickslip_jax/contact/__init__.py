@@ -9,28 +9,13 @@
 - `profile`: `estimate_surface` (H_max, R, z, D from a measured 1-D profile).
 """
 
-from .boundary import (
-    BoundaryContact,
-    FilmEstimate,
-    approach_for,
-    film_from_mu_s,
-    final_approach,
-    load_shares,
-    static_coefficient,
-    static_limit,
-)
+from .boundary import (BoundaryContact, FilmEstimate, approach_for, film_from_mu_s, final_approach,
+                       load_shares, static_coefficient, static_limit)
 from .bridge import KatoFit, default_stick_times, fit_kato
 from .microsqueeze import Kinematics, MicrosqueezeSolution, MicrosqueezeStatic, microsqueeze_curve
 from .profile import SurfaceEstimate, estimate_surface, synthetic_profile
-from .surfaces import (
-    MODEL_APPARENT_AREA,
-    MODEL_CONTACT_PRESSURE,
-    MODEL_SLIDER_WEIGHT,
-    Surface,
-    SurfacePair,
-    surface_pair,
-    symmetric_pair,
-)
+from .surfaces import (MODEL_APPARENT_AREA, MODEL_CONTACT_PRESSURE, MODEL_SLIDER_WEIGHT, Surface,
+                       SurfacePair, surface_pair, symmetric_pair)
 
 __all__ = ["MODEL_APPARENT_AREA", "MODEL_CONTACT_PRESSURE", "MODEL_SLIDER_WEIGHT",
            "BoundaryContact", "FilmEstimate", "KatoFit", "SurfaceEstimate", "Kinematics",

@@ -37,15 +37,9 @@ def default_stick_times(n: int = 41, lo: float = 1e-2, hi: float = 1e3) -> Array
 
 
 @eqx.filter_jit
-def fit_kato(
-    law: AbstractStaticFriction,
-    stick_time: Float[Array, " n"] | None = None,
-    *,
-    rtol: float = 1e-10,
-    atol: float = 1e-12,
-    max_steps: int = 256,
-    fix_mu_s: bool = False,
-) -> KatoFit:
+def fit_kato(law: AbstractStaticFriction, stick_time: Float[Array, " n"] | None = None, *,
+             rtol: float = 1e-10, atol: float = 1e-12, max_steps: int = 256,
+             fix_mu_s: bool = False) -> KatoFit:
     r"""Fit eq (1), $(\mu_s, \gamma, m)$ with $\mu_d$ = `law.mu_d`, to `law` on `stick_time`
     (s, default `default_stick_times()`). Returns a `KatoFit` (dimensionless mu_s, m;
     gamma in s$^{-m}$). With `fix_mu_s=True`, $\mu_s$ is held at `law.asymptote()` (the

@@ -16,12 +16,8 @@ class AbstractKineticFriction(eqx.Module):
     r"""Base class of mean-kinetic-friction laws $\mu_m(\mu_0, \mu_d, T_2)$."""
 
     @abc.abstractmethod
-    def __call__(
-        self,
-        mu_0: Float[ArrayLike, "..."],
-        mu_d: Float[ArrayLike, "..."],
-        slip_time: Float[ArrayLike, "..."],
-    ) -> Float[Array, "..."]:
+    def __call__(self, mu_0: Float[ArrayLike, "..."], mu_d: Float[ArrayLike, "..."],
+                 slip_time: Float[ArrayLike, "..."]) -> Float[Array, "..."]:
         """Mean kinetic friction coefficient of a slip of `slip_time` s that began at `mu_0`."""
 
 

@@ -10,39 +10,12 @@ coordinates and units.
 
 from .cycle import ForceCycle, steady_force_cycle
 from .design import DesignPoint, TiltMap, best_drive_point, variation_map
-from .metrics import (
-    CriticalSpeeds,
-    PlaneSummary,
-    SteadyTilt,
-    critical_pitch_speed,
-    cycle_tilt,
-    steady_tilt,
-    tilt_against_speed,
-    window_summary,
-)
-from .model import (
-    ETA_A,
-    PAPER_DRIVE_POINTS,
-    PITCH,
-    YAW,
-    DrivePoint,
-    LinearLag,
-    MeasuringPoints,
-    PitchingModel,
-    TiltPlane,
-    default_model,
-    first_order,
-    paper_points,
-)
-from .response import (
-    TiltTrace,
-    filtered_force,
-    lag_response,
-    point_displacements,
-    recovery_curve,
-    rise_curve,
-    tilt_history,
-)
+from .metrics import (CriticalSpeeds, PlaneSummary, SteadyTilt, critical_pitch_speed, cycle_tilt,
+                      steady_tilt, tilt_against_speed, window_summary)
+from .model import (ETA_A, PAPER_DRIVE_POINTS, PITCH, YAW, DrivePoint, LinearLag, MeasuringPoints,
+                    PitchingModel, TiltPlane, default_model, first_order, paper_points)
+from .response import (TiltTrace, filtered_force, lag_response, point_displacements, recovery_curve,
+                       rise_curve, tilt_history)
 
 __all__ = ["CriticalSpeeds", "DesignPoint", "TiltMap", "DrivePoint", "ETA_A", "ForceCycle",
            "LinearLag", "MeasuringPoints", "PAPER_DRIVE_POINTS", "PITCH", "PitchingModel",

@@ -129,19 +129,10 @@ class CriticalSpeeds(eqx.Module):
 
 
 @eqx.filter_jit
-def critical_pitch_speed(
-    model: PitchingModel,
-    friction: Friction,
-    weight,
-    stiffness,
-    drive: DrivePoint,
-    point: str = "pitch_1",
-    ratio: float = 0.05,
-    resolution: float = 0.0,
-    v_low=None,
-    n_stick: int = 256,
-    n_slip: int = 48,
-) -> CriticalSpeeds:
+def critical_pitch_speed(model: PitchingModel, friction: Friction, weight, stiffness,
+                         drive: DrivePoint, point: str = "pitch_1", ratio: float = 0.05,
+                         resolution: float = 0.0, v_low=None, n_stick: int = 256,
+                         n_slip: int = 48) -> CriticalSpeeds:
     r"""Critical speed $v_p$ (Fig 49) of the measuring point `point`: the speed at which the
     per-cycle variation $\Delta\varepsilon$ falls to `ratio` $\cdot|\varepsilon'|$ or to
     `resolution` (mm), whichever is larger; found by bisection in $\log v$ between `v_low`

@@ -54,32 +54,17 @@ cell dialects), `rows` (the data rows), `parse` (reading a file), `write` (writi
 
 from __future__ import annotations
 
-from .campaign import (
-    CampaignFiles,
-    check_campaign,
-    read_campaign,
-    read_campaign_files,
-    record_paths,
-)
+from .campaign import (CampaignFiles, check_campaign, read_campaign, read_campaign_files,
+                       record_paths)
 from .drive import format_drive_program, parse_drive_program, program_position, program_speed
 from .errors import RecordError
 from .grammar import FORMAT_VERSION, KNOWN_KEYS, MAX_FILE_BYTES, RESERVED_COLUMNS
 from .parse import parse_record, read_record
 from .quantities import channel_dimension, unit_dimension
 from .record import Record
-from .sampling import (
-    EPOCH_SECONDS,
-    JITTER_MIN_SAMPLES,
-    JITTER_RTOL,
-    JITTER_STAMP,
-    JITTER_STEP,
-    MISSING_RUN,
-    MISSING_SHARE,
-    TIME_STEP_RTOL,
-    jittered_clock,
-    missing_samples,
-    time_step_deviation,
-)
+from .sampling import (EPOCH_SECONDS, JITTER_MIN_SAMPLES, JITTER_RTOL, JITTER_STAMP, JITTER_STEP,
+                       MISSING_RUN, MISSING_SHARE, TIME_STEP_RTOL, jittered_clock, missing_samples,
+                       time_step_deviation)
 from .write import format_record, write_record
 
 __all__ = [

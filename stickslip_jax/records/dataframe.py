@@ -220,34 +220,23 @@ def record_to_dataframe(record):
         raise ImportError(f"Record.to_dataframe needs pandas: {_INSTALL} (or pip install "
                           "pandas)") from None
     channel_columns = _channel_columns(record)
-    columns = {
-        "time_s": np.array(record.time),
-        "x_mm": np.array(record.deflection),
-        "force_kgf": np.array(record.force),
-        "drive_mm": np.array(record.drive_position(), dtype=np.float64),
-    }
+    columns = {"time_s": np.array(record.time), "x_mm": np.array(record.deflection),
+               "force_kgf": np.array(record.force),
+               "drive_mm": np.array(record.drive_position(), dtype=np.float64)}
     for name, column in channel_columns.items():
         columns[column] = np.array(record.channels[name])
     df = pd.DataFrame(columns)
-    df.attrs.update({
-        _MARK: FORMAT_VERSION,
-        "stiffness_kgf_per_mm": record.stiffness,
-        "weight_kgf": record.weight,
-        "normal_load_kgf": record.normal_load,
-        "friction_radius_mm": record.friction_radius,
-        "drive_source": record.drive_source,
-        "drive_speed_mm_per_s": record.drive_speed,
-        "drive_program": record.drive_program,
-        "lubricant": record.lubricant,
-        "surface": record.surface,
-        "note": record.note,
-        "truth": None if record.truth is None else dict(record.truth),
-        "source": record.source,
-        "extra_header": dict(record.extra_header),
-        "notes": tuple(record.notes),
-        "channel_units": dict(record.channel_units),
-        "channel_columns": channel_columns,
-    })
+    df.attrs.update({_MARK: FORMAT_VERSION, "stiffness_kgf_per_mm": record.stiffness,
+                     "weight_kgf": record.weight, "normal_load_kgf": record.normal_load,
+                     "friction_radius_mm": record.friction_radius,
+                     "drive_source": record.drive_source,
+                     "drive_speed_mm_per_s": record.drive_speed,
+                     "drive_program": record.drive_program, "lubricant": record.lubricant,
+                     "surface": record.surface, "note": record.note,
+                     "truth": None if record.truth is None else dict(record.truth),
+                     "source": record.source, "extra_header": dict(record.extra_header),
+                     "notes": tuple(record.notes), "channel_units": dict(record.channel_units),
+                     "channel_columns": channel_columns})
     return df
 
 

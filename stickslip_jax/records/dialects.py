@@ -92,11 +92,8 @@ def decode(data: bytes, path, notes: list[str] | None = None,
         data = data[3:]
     nul = data.find(b"\x00")
     if nul >= 0:
-        raise RecordError(
-            f"binary file (NUL byte at offset {nul}); a record is UTF-8 CSV text",
-            path,
-            data.count(b"\n", 0, nul) + 1,
-        )
+        raise RecordError(f"binary file (NUL byte at offset {nul}); a record is UTF-8 CSV text",
+                          path, data.count(b"\n", 0, nul) + 1)
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -12,22 +12,9 @@ MAX_FILE_BYTES = 200 * 1024 * 1024
 """Largest record file read (200 MiB, about 10 million samples of two columns)."""
 
 RESERVED_COLUMNS = ("time", "deflection", "force", "drive")
-KNOWN_KEYS = (
-    "stickslip-record",
-    "stiffness",
-    "slider_weight",
-    "slider_mass",
-    "normal_load",
-    "friction_radius",
-    "torsional_stiffness",
-    "inertia",
-    "drive_speed",
-    "drive_program",
-    "lubricant",
-    "surface",
-    "note",
-    "truth",
-)
+KNOWN_KEYS = ("stickslip-record", "stiffness", "slider_weight", "slider_mass", "normal_load",
+              "friction_radius", "torsional_stiffness", "inertia", "drive_speed", "drive_program",
+              "lubricant", "surface", "note", "truth")
 
 NUM = r"[-+]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][-+]?\d+)?"
 NUMBER = re.compile(NUM)

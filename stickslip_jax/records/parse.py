@@ -15,28 +15,13 @@ from ..units import G_MM_S2, UnitError, factor
 from .dialects import decode, normalise_dialect, read_bytes, spreadsheet_header, text_lines
 from .drive import parse_program, speed_position
 from .errors import RecordError
-from .grammar import (
-    COLUMN,
-    FORMAT_VERSION,
-    HEADER,
-    KEY,
-    KNOWN_KEYS,
-    MAX_FILE_BYTES,
-    NUMBER,
-    QUANTITY,
-    RESERVED_COLUMNS,
-    UNIT_CELL,
-)
+from .grammar import (COLUMN, FORMAT_VERSION, HEADER, KEY, KNOWN_KEYS, MAX_FILE_BYTES, NUMBER,
+                      QUANTITY, RESERVED_COLUMNS, UNIT_CELL)
 from .quantities import channel_factor, quantity, unit_choices
 from .record import Record
 from .rows import parse_data, resolution_of
-from .sampling import (
-    EPOCH_SECONDS,
-    TIME_STEP_RTOL,
-    jitter_grid,
-    missing_samples,
-    time_step_deviation,
-)
+from .sampling import (EPOCH_SECONDS, TIME_STEP_RTOL, jitter_grid, missing_samples,
+                       time_step_deviation)
 
 _DIMENSIONS = {"time": "time", "deflection": "length", "force": "force", "drive": "length",
                "drive_speed": "speed"}
@@ -224,11 +209,8 @@ def _column_row(lines: list[str], i: int, header, path: str, rig=None):
 def _weight(header, path: str, column_line: int) -> float:
     """The slider weight W in kgf from `slider_weight` or `slider_mass` (W = m g)."""
     if "slider_weight" in header and "slider_mass" in header:
-        raise RecordError(
-            "both slider_weight and slider_mass given; keep one",
-            path,
-            header["slider_mass"][1],
-        )
+        raise RecordError("both slider_weight and slider_mass given; keep one", path,
+                          header["slider_mass"][1])
     if "slider_mass" in header:
         m_text, w_line = header["slider_mass"]
         mm = QUANTITY.fullmatch(m_text)
@@ -296,11 +278,8 @@ def _data(lines, start, columns, factors, path: str, column_line: int):
     """(data rows in internal units, their line numbers) after the column row."""
     data, rows = parse_data(lines, start, columns, path)
     if data.shape[0] < 2:
-        raise RecordError(
-            f"{data.shape[0]} data row(s); a record needs at least two samples",
-            path,
-            rows[-1] if rows else column_line,
-        )
+        raise RecordError(f"{data.shape[0]} data row(s); a record needs at least two samples", path,
+                          rows[-1] if rows else column_line)
     with np.errstate(over="ignore", invalid="ignore"):
         data = data * np.array(factors)
     if not np.all(np.isfinite(data)):
@@ -386,17 +365,10 @@ def parse_record(text: str, source=None, notes=()) -> Record:
         drive = speed_position(data[:, j], data[:, columns.index("drive_speed")])
         notes.append("drive displacement integrated from the drive_speed column")
     try:
-        return Record(
-            time=data[:, j],
-            deflection=deflection,
-            drive=drive,
-            channels=channels,
-            channel_units={name: unit_of[name] for name in channels},
-            source=None if source is None else str(source),
-            notes=tuple(notes),
-            **fields,
-            **rig_fields,
-        )
+        return Record(time=data[:, j], deflection=deflection, drive=drive, channels=channels,
+                      channel_units={name: unit_of[name] for name in channels},
+                      source=None if source is None else str(source), notes=tuple(notes), **fields,
+                      **rig_fields)
     except RecordError as exc:
         raise RecordError(exc.reason, path) from None
 

@@ -19,14 +19,8 @@ from .drive import check_program, program_position, program_speed
 from .errors import RecordError
 from .grammar import KEY, KNOWN_KEYS, NAME, RESERVED_COLUMNS
 from .quantities import channel_dimension
-from .sampling import (
-    EPOCH_SECONDS,
-    TIME_STEP_RTOL,
-    jitter_grid,
-    missing_samples,
-    resample_to,
-    time_step_deviation,
-)
+from .sampling import (EPOCH_SECONDS, TIME_STEP_RTOL, jitter_grid, missing_samples, resample_to,
+                       time_step_deviation)
 
 if TYPE_CHECKING:
     import pandas as pd

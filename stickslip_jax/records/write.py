@@ -16,15 +16,9 @@ from .quantities import channel_dimension, channel_factor, encode, fmt, internal
 from .record import Record
 
 
-def format_record(
-    record: Record,
-    deflection_unit: str = "mm",
-    time_unit: str = "s",
-    *,
-    force_unit: str | None = None,
-    drive_unit: str = "mm",
-    channel_units: Mapping[str, str] | str | None = None,
-) -> str:
+def format_record(record: Record, deflection_unit: str = "mm", time_unit: str = "s", *,
+                  force_unit: str | None = None, drive_unit: str = "mm",
+                  channel_units: Mapping[str, str] | str | None = None) -> str:
     """The text of a record file. See `write_record`."""
     if not isinstance(record, Record):
         raise TypeError(f"format_record needs a Record, got {type(record).__name__}")

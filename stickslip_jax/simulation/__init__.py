@@ -50,17 +50,8 @@ import importlib
 
 from ..modes import SlipTime
 from .exact import simulate_exact, simulate_exact_campaign
-from .parts import (
-    AbstractForceTerm,
-    AbstractLoadCoupling,
-    AbstractMeasurement,
-    AbstractPart,
-    ConstantLoad,
-    Context,
-    Core,
-    IdealGauge,
-    ViscousDamping,
-)
+from .parts import (AbstractForceTerm, AbstractLoadCoupling, AbstractMeasurement, AbstractPart,
+                    ConstantLoad, Context, Core, IdealGauge, ViscousDamping)
 from .trace import Cycles, SimulationResult, Trace, pad_times
 
 _LAZY = {"DEFAULT_SMOOTHING": "smooth", "SmoothModel": "smooth", "cycles_from_samples": "smooth",
@@ -74,26 +65,8 @@ def __getattr__(name):
         return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
-__all__ = [
-    "AbstractForceTerm",
-    "AbstractLoadCoupling",
-    "AbstractMeasurement",
-    "AbstractPart",
-    "ConstantLoad",
-    "Context",
-    "Core",
-    "Cycles",
-    "DEFAULT_SMOOTHING",
-    "IdealGauge",
-    "SmoothModel",
-    "ViscousDamping",
-    "cycles_from_samples",
-    "simulate_smooth",
-    "synthetic_record",
-    "SlipTime",
-    "SimulationResult",
-    "Trace",
-    "pad_times",
-    "simulate_exact",
-    "simulate_exact_campaign",
-]
+__all__ = ["AbstractForceTerm", "AbstractLoadCoupling", "AbstractMeasurement", "AbstractPart",
+           "ConstantLoad", "Context", "Core", "Cycles", "DEFAULT_SMOOTHING", "IdealGauge",
+           "SmoothModel", "ViscousDamping", "cycles_from_samples", "simulate_smooth",
+           "synthetic_record", "SlipTime", "SimulationResult", "Trace", "pad_times",
+           "simulate_exact", "simulate_exact_campaign"]

@@ -499,17 +499,11 @@ def _cycle_table(info, max_events: int) -> Cycles:
                   restick_failed=valid & (put(eid, info["restick"].astype(float)) > 0), valid=valid)
 
 
-def simulate_exact_campaign(
-    slideway: Slideway,
-    drive: AbstractDrive,
-    ts: Float[ArrayLike, " N"],
-    record_index: ArrayLike,
-    *,
-    slip_time: SlipTime | str = SlipTime.PAPER,
-    initial_deflection: Float[ArrayLike, "..."] = 0.0,
-    initial_stick_time: Float[ArrayLike, "..."] = 0.0,
-    max_events: int = 64,
-) -> Trace:
+def simulate_exact_campaign(slideway: Slideway, drive: AbstractDrive, ts: Float[ArrayLike, " N"],
+                            record_index: ArrayLike, *, slip_time: SlipTime | str = SlipTime.PAPER,
+                            initial_deflection: Float[ArrayLike, "..."] = 0.0,
+                            initial_stick_time: Float[ArrayLike, "..."] = 0.0,
+                            max_events: int = 64) -> Trace:
     r"""Simulate a campaign of B records of different lengths exactly, without padding.
 
     The samples of all records are given as ONE flat array: `ts` (s, shape [N]) holds
