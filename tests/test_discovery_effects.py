@@ -141,3 +141,32 @@ def test_load_referred_friction_keeps_the_breakaway_and_slip_centre_forces():
     # kappa = 0 is the same law
     same = load_referred_friction(FR, 0.0)
     np.testing.assert_allclose(same.mean_kinetic(T1, T2), FR.mean_kinetic(T1, T2), rtol=1e-14)
+
+
+def test_smooth_base_drives_a_record_by_its_measured_drive():
+    """`--base smooth` takes a record whose drive is measured (a `drive` column, or a
+    `drive_speed` column integrated on reading): its traces carry the drive's knots, and
+    a measured drive u = v t gives the constant speed's model readings."""
+    from stickslip_fitting.discovery.model import (DiscoveryParams, Settings, campaign_traces,
+                                                   simulate_campaign)
+    from stickslip_fitting.params import EmpiricalFriction
+    from stickslip_jax.records import Record, parse_record
+
+    t = np.arange(0.0, 0.6, 2e-3)
+    x = 0.05 + 0.01 * np.sin(7.0 * t)
+    kw = dict(time=t, deflection=x, stiffness=K, weight=W)
+    speed = campaign_traces([Record(drive_speed=V, **kw)] * 2)
+    column = campaign_traces([Record(drive=V * t, **kw)] * 2)
+    assert speed.drive_knots is None and column.drive_knots.shape == (2, 513, 2)
+    rows = "\n".join(f"{a:.3f},{b:.6f},{V}" for a, b in zip(t, x))
+    tacho = parse_record(f"# stickslip-record: 1\n# stiffness: {K} kgf/mm\n# slider_weight: "
+                         f"{W} kgf\ntime [s],deflection [mm],drive_speed [mm/s]\n{rows}\n")
+    knots = np.asarray(campaign_traces([tacho] * 2).drive_knots)
+    np.testing.assert_allclose(knots[0, :-1, 1], V * knots[0, :-1, 0], atol=1e-9)  # mm
+    params = DiscoveryParams(EmpiricalFriction.from_friction(FR), EffectSet.zeros(),
+                             speed.start_level)
+    a, ok_a = simulate_campaign(params, speed, Settings())
+    b, ok_b = simulate_campaign(params, column, Settings())
+    assert bool(np.all(ok_a)) and bool(np.all(ok_b))
+    gap = float(jnp.max(jnp.abs(a - b)))
+    assert gap < 1e-5, gap  # mm: the solver's tolerance, far below a gauge's 0.5 um noise

@@ -50,6 +50,7 @@ from .model import (
     Problem,
     combine_friction,
     effects_from_vector,
+    record_drive,
     simulate_campaign,
     simulate_record,
     stack_records,
@@ -110,13 +111,13 @@ def _evaluate_learned(z_base, z_nn, dx0, eff_vec, friction_static, effects_templ
     eff = effects_from_vector(effects_template, eff_vec)
 
     def one(args):
-        w, k, v, x0g, dxr, t, m, d = args
+        w, k, v, kn, x0g, dxr, t, m, d = args
 
         def f(q):
             fr = combine_friction(q[:nb], friction_static, free_names)
             term = eqx.combine(unravel(q[nb:nb + nn]), static)
-            model, ok = simulate_record(fr.friction(), eff, w, k, v, x0g + q[-1], t, m,
-                                        settings, (term,))
+            model, ok = simulate_record(fr.friction(), eff, w, k, record_drive(v, kn),
+                                        x0g + q[-1], t, m, settings, (term,))
             r = jnp.where(m, (model - d) / sigma, 0.0)
             return r, (r, ok)
 
@@ -125,8 +126,8 @@ def _evaluate_learned(z_base, z_nn, dx0, eff_vec, friction_static, effects_templ
         return r, J, ok
 
     return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed,
-                             traces.start_level, dx0, traces.time, traces.mask,
-                             traces.deflection))
+                             traces.drive_knots, traces.start_level, dx0, traces.time,
+                             traces.mask, traces.deflection))
 
 
 @dataclasses.dataclass

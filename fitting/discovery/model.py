@@ -8,8 +8,9 @@ records do, and `campaign_traces(..., crop="slip_end")` cuts a measured record a
 first detected slip end (`stickslip_fitting.data.features`).
 
 The model of record $r$ is `simulate_smooth` (Kvaerno5, `Settings`) of
-`EffectSet.smooth_model(Slideway(friction, W_r, k_r))` with the constant drive speed
-$v_r$, started at rest at the deflection $x_{0,r}$ (a per-record nuisance; its initial
+`EffectSet.smooth_model(Slideway(friction, W_r, k_r))` driven at its constant drive speed
+$v_r$ or, for a record with a measured `drive` (or `drive_speed`) column or a
+`drive_program`, by its drive through `SmoothData.drive_knots`, started at rest at the deflection $x_{0,r}$ (a per-record nuisance; its initial
 guess is a line fitted to the first samples). Parameters live in one typed pytree,
 `DiscoveryParams` (friction in the log coordinates of `stickslip_fitting.params`, the
 `EffectSet`, the $x_0$).
@@ -38,11 +39,11 @@ import numpy as np
 from jaxtyping import Array, Float
 
 import stickslip_jax as ss
-from stickslip_jax.drives import ConstantSpeed
+from stickslip_jax.drives import ConstantSpeed, MeasuredDrive
 from stickslip_jax.modes import Formulation
 from stickslip_jax.simulation.smooth import simulate_smooth
 
-from ..objectives.smooth import SmoothData
+from ..objectives.smooth import SmoothData, drive_knots
 from ..params import NAMES, EmpiricalFriction
 from .effects import CANDIDATES, EffectSet, load_referred_friction
 from .subproblems import AbstractProblem
@@ -126,14 +127,15 @@ def _crop_at_first_slip_end(record):
     # a little after the slip end, so that the slider has settled
     t_end = float(f.end_time[0]) + 0.1 * math.pi / f.omega0
     keep = record.time >= t_end
-    return record.time[keep] - record.time[keep][0], record.deflection[keep]
+    return np.asarray(record.time[keep], float), record.deflection[keep]
 
 
 def campaign_traces(records, *, crop: str = "none", max_samples: int | None = None
                     ) -> SmoothData:
-    """Padded traces from records with a constant `drive_speed`: `start_level` the
-    reading at the start (a line through the first samples), `sigma` the campaign's
-    robust noise (mm, the median over records) for every record.
+    """Padded traces from records: `start_level` the reading at the start (a line
+    through the first samples), `sigma` the campaign's robust noise (mm, the median over
+    records) for every record, `drive_knots` each record's drive from its start where a
+    record's drive is measured or programmed (`objectives.smooth.drive_knots`).
 
     `crop`: "none" (each record starts at a slip end) or "slip_end" (cut at the first
     detected slip end). `max_samples` caps each record's length.
@@ -144,39 +146,44 @@ def campaign_traces(records, *, crop: str = "none", max_samples: int | None = No
         raise ValueError(f"crop must be 'none' or 'slip_end', got {crop!r}")
     if len(records) < 1:
         raise ValueError("discovery needs at least one record")
-    times, xs = [], []
+    times, xs, knots = [], [], []
     for rec in records:
-        if rec.drive is not None or rec.drive_program is not None or rec.drive_speed is None:
-            raise ValueError(f"{rec.name or 'record'}: discovery supports constant drive "
-                             "speeds only (no drive column or drive_program)")
         if crop == "slip_end":
             t, x = _crop_at_first_slip_end(rec)
         else:
-            t, x = np.asarray(rec.time, float) - float(rec.time[0]), np.asarray(rec.deflection)
-        times.append(t[:max_samples])
-        xs.append(x[:max_samples])
-        if times[-1].shape[0] < 16:
-            raise ValueError(f"{rec.name or 'record'}: too few samples "
-                             f"({times[-1].shape[0]}) left")
+            t, x = np.asarray(rec.time, float), np.asarray(rec.deflection)
+        t0, t, x = float(t[0]), t[:max_samples] - float(t[0]), x[:max_samples]
+        if t.shape[0] < 16:
+            raise ValueError(f"{rec.name or 'record'}: too few samples ({t.shape[0]}) left")
+        times.append(t)
+        xs.append(x)
+        knots.append(drive_knots(rec, t0, t[-1]))
     ts, data, mask = pad_series(times, xs)
     noise = float(np.median([robust_noise(x) for x in xs]))
     f = lambda a: jnp.asarray(np.asarray(a, float))  # noqa: E731
     per = lambda name: f([getattr(rec, name) for rec in records])  # noqa: E731
+    steady = all(rec.drive_source == "speed" for rec in records)
     x0 = [_start_level(t, x, max(6, min(t.shape[0] // 40, 40))) for t, x in zip(times, xs)]
     return SmoothData(time=f(ts), deflection=f(data), mask=jnp.asarray(mask),
                       weight=per("weight"), normal_load=per("load"), stiffness=per("stiffness"),
-                      speed=per("drive_speed"), start_level=f(x0),
-                      sigma=f(np.full(len(xs), noise)))
+                      speed=per("nominal_drive_speed"), start_level=f(x0),
+                      sigma=f(np.full(len(xs), noise)), drive_knots=None if steady else f(knots))
 
 
-def simulate_record(friction, effects: EffectSet, weight, stiffness, speed, x0, ts, mask,
+def record_drive(speed, knots):
+    """A record's drive: its constant `speed` (mm/s), or its measured `knots` (s, mm)."""
+    return ConstantSpeed(speed) if knots is None else MeasuredDrive(knots[:, 0], knots[:, 1])
+
+
+def simulate_record(friction, effects: EffectSet, weight, stiffness, drive, x0, ts, mask,
                     settings: Settings, extra_force_terms: tuple = (),
                     adjoint=None, full: bool = False):
-    """Model reading (mm) of one record on `ts` (s) and the solver success flag; with
-    `full`, also the slider velocity (mm/s) and the sticking flags."""
+    """Model reading (mm) of one record on `ts` (s) driven by `drive` (`record_drive`)
+    and the solver success flag; with `full`, also the slider velocity (mm/s) and the
+    sticking flags."""
     sw = ss.Slideway(friction, weight, stiffness)
     model = effects.smooth_model(sw, extra_force_terms)
-    tr = simulate_smooth(model, ConstantSpeed(speed), ts, smoothing=settings.smoothing,
+    tr = simulate_smooth(model, drive, ts, smoothing=settings.smoothing,
                          rtol=settings.rtol, atol=settings.atol, max_steps=settings.max_steps,
                          initial_deflection=x0, mask=mask, solver=settings.make_solver(),
                          adjoint=dfx.ForwardMode() if adjoint is None else adjoint,
@@ -195,12 +202,12 @@ def simulate_campaign(params: DiscoveryParams, traces: SmoothData, settings: Set
     fr = params.friction.friction()
 
     def one(args):
-        w, k, v, x0, t, m = args
-        return simulate_record(fr, params.effects, w, k, v, x0, t, m, settings,
-                               extra_force_terms, full=full)
+        w, k, v, kn, x0, t, m = args
+        return simulate_record(fr, params.effects, w, k, record_drive(v, kn), x0, t, m,
+                               settings, extra_force_terms, full=full)
 
-    return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed, params.x0,
-                             traces.time, traces.mask))
+    return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed,
+                             traces.drive_knots, params.x0, traces.time, traces.mask))
 
 
 def effects_to_vector(effects: EffectSet) -> Float[Array, " E"]:
@@ -248,7 +255,7 @@ def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, 
     nb = z_base.shape[0]
 
     def one(args):
-        w, k, v, x0g, dxr, t, m, d = args
+        w, k, v, kn, x0g, dxr, t, m, d = args
 
         def f(q):
             zb, zs, dx = q[:nb], q[nb:-1], q[-1]
@@ -256,8 +263,8 @@ def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, 
             eff = effects_from_vector(effects_template, eff0 + S @ zs)
             # friction coordinates are apparent (referred to W): see effects.LoadCoupling
             phys = load_referred_friction(fr.friction(), eff.load_coupling.kappa)
-            model, ok, vel, stk = simulate_record(phys, eff, w, k, v, x0g + dx, t, m,
-                                                  settings, full=True)
+            model, ok, vel, stk = simulate_record(phys, eff, w, k, record_drive(v, kn),
+                                                  x0g + dx, t, m, settings, full=True)
             r = jnp.where(m, (model - d) / sigma, 0.0)
             return r, (r, ok, vel, stk)
 
@@ -266,8 +273,8 @@ def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, 
         return r, J, ok, vel, stk
 
     return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed,
-                             traces.start_level, dx0, traces.time, traces.mask,
-                             traces.deflection))
+                             traces.drive_knots, traces.start_level, dx0, traces.time,
+                             traces.mask, traces.deflection))
 
 
 def stack_records(r, J, mask) -> tuple[np.ndarray, np.ndarray]:

@@ -48,7 +48,7 @@ from stickslip_jax.simulation.trace import pad_series
 from .combined import AbstractObjective
 from ..modes import Objective
 
-__all__ = ["KNOTS", "SmoothData", "SmoothObjective", "smooth_data"]
+__all__ = ["KNOTS", "SmoothData", "SmoothObjective", "drive_knots", "smooth_data"]
 
 KNOTS = 512
 """Knots of a record's piecewise-linear drive when it is not a constant speed (module doc)."""
@@ -103,14 +103,7 @@ def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothD
         n.append(rec.load)
         k.append(rec.stiffness)
         v.append(rec.nominal_drive_speed)
-        # the drive from t_e on, origin there: KNOTS knots over the span, one far beyond
-        tk = np.linspace(0.0, t[-1], KNOTS)
-        uk = (rec.drive_speed * tk if rec.drive_source == "speed"
-              else rec.drive_position(tk + t_e) - rec.drive_position([t_e])[0])
-        far = 1e3 * max(t[-1], 1.0)
-        slope = (uk[-1] - uk[-2]) / (tk[-1] - tk[-2])
-        knots.append(np.stack([np.append(tk, far),
-                               np.append(uk, uk[-1] + slope * (far - tk[-1]))], 1))
+        knots.append(drive_knots(rec, t_e, t[-1]))
         x1.append(float(f.trough[0]))
         sig.append(float(f.noise))  # floored at sticks.NOISE_FLOOR
     ts, data, mask = pad_series(times, xs)
@@ -122,6 +115,17 @@ def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothD
     return SmoothData(time=ts, deflection=arr(data), mask=mask, weight=arr(w),
                       normal_load=arr(n), stiffness=arr(k), speed=arr(v), start_level=arr(x1),
                       sigma=arr(sig), drive_knots=None if steady else arr(knots))
+
+
+def drive_knots(rec, t_e: float, span: float) -> np.ndarray:
+    """[KNOTS + 1, 2] knots (s, mm) of `rec`'s drive from its time `t_e` on, origin there:
+    `KNOTS` over `span` (s), one far beyond on the last slope."""
+    tk = np.linspace(0.0, span, KNOTS)
+    uk = (rec.drive_speed * tk if rec.drive_source == "speed"
+          else rec.drive_position(tk + t_e) - rec.drive_position([t_e])[0])
+    far = 1e3 * max(span, 1.0)
+    slope = (uk[-1] - uk[-2]) / (tk[-1] - tk[-2])
+    return np.stack([np.append(tk, far), np.append(uk, uk[-1] + slope * (far - tk[-1]))], 1)
 
 
 class SmoothObjective(AbstractObjective):
