@@ -65,8 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="stickslip",
         description="Stick-slip on machine-tool slideways (Kato et al.): analysis, simulation, "
-        "identification and design. Units: kgf, mm, s unless an argument says otherwise.",
-    )
+        "identification and design. Units: kgf, mm, s unless an argument says otherwise.")
     parser.add_argument("--version", action="version", version=f"stickslip {_version()}")
     parser.add_argument("--debug", action="store_true",
                         help="show the full Python traceback of an error instead of one line "

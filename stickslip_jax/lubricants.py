@@ -45,8 +45,7 @@ def lubricant(name: str, table: int = 6, kinetic_from: str = "A") -> Friction:
     names = lubricants(table)
     if name not in names:
         raise ValueError(
-            f"unknown lubricant {name!r} for Table {table}; available: {', '.join(names)}"
-        )
+            f"unknown lubricant {name!r} for Table {table}; available: {', '.join(names)}")
     static = kato_static(name, table)
     kin_name = name if table == 6 else kinetic_from
     return Friction(static=static, kinetic=kato_kinetic(kin_name))

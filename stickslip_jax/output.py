@@ -33,8 +33,7 @@ import tempfile
 
 __all__ = [
     "catch_interrupts", "check_outputs", "interrupted", "json_owns_stdout", "null_reasons",
-    "outputs_together", "save_figure", "strict_json", "write_atomic", "write_json", "write_text",
-]
+    "outputs_together", "save_figure", "strict_json", "write_atomic", "write_json", "write_text"]
 
 
 def _same(a: str, b: str) -> bool:

@@ -137,13 +137,11 @@ def rig_quantities(record) -> dict:
     if rig is None:
         return {}
     v = record.drive_speed
-    return {
-        "friction_radius_mm": rig.radius,
-        "torsional_stiffness_n_m_per_rad": rig.to_rig(record.stiffness, "stiffness",
-                                                      "N*m/rad"),
-        "inertia_kg_m2": rig.to_rig(record.weight / G_MM_S2, "mass", "kg*m^2"),
-        "drive_speed_rad_per_s": None if v is None else rig.to_rig(v, "speed"),
-    }
+    return {"friction_radius_mm": rig.radius,
+            "torsional_stiffness_n_m_per_rad": rig.to_rig(record.stiffness, "stiffness",
+                                                          "N*m/rad"),
+            "inertia_kg_m2": rig.to_rig(record.weight / G_MM_S2, "mass", "kg*m^2"),
+            "drive_speed_rad_per_s": None if v is None else rig.to_rig(v, "speed")}
 
 
 def rotational_record(time, angle=None, *, torque=None, torsional_stiffness, inertia,

@@ -127,12 +127,10 @@ def steady_state(friction: Friction, weight: Float[ArrayLike, ""], stiffness: Fl
 
 def _strong_floats(tree):
     """Floating leaves (Python floats, weak-typed arrays) as float64 arrays: one compilation."""
-    return jax.tree_util.tree_map(
-        lambda x: jnp.asarray(x, dtype=float)
-        if isinstance(x, float) or eqx.is_inexact_array(x)
-        else x,
-        tree,
-    )
+    return jax.tree_util.tree_map(lambda x: jnp.asarray(x, dtype=float)
+                                  if isinstance(x, float) or eqx.is_inexact_array(x)
+                                  else x,
+                                  tree)
 
 
 @eqx.filter_jit
@@ -201,8 +199,7 @@ class SlipTrajectory(eqx.Module):
 
 
 def slip_trajectory(
-    friction: Friction, weight, stiffness, stick_time, num: int = 101
-) -> SlipTrajectory:
+    friction: Friction, weight, stiffness, stick_time, num: int = 101) -> SlipTrajectory:
     r"""Eq (11): $x = \{(\mu_0 - \mu_m)\cos\omega_0 t + \mu_m\} W/k$ for $0 \le t \le \pi/\omega_0$.
 
     The v -> 0 limit of the slip (NOTES.md item 7); the phase plane of Figs 34-35 plots

@@ -47,16 +47,14 @@ UNITS: dict[str, dict[str, float]] = {
     "viscosity": {"kgf*s/mm^2": 1.0, "Pa*s": 1.0 / (KGF_N * 1e6), "mPa*s": 1e-3 / (KGF_N * 1e6),
                   "cP": 1e-3 / (KGF_N * 1e6)},
     "pressure": {"kgf/mm^2": 1.0, "kgf/cm^2": 1e-2, "Pa": 1.0 / (KGF_N * 1e6), "MPa": 1.0 / KGF_N},
-    "dimensionless": {"": 1.0, "-": 1.0, "1": 1.0},
-}
+    "dimensionless": {"": 1.0, "-": 1.0, "1": 1.0}}
 
 RIG_UNITS: dict[str, dict[str, float]] = {
     "angle": {"rad": 1.0, "deg": math.pi / 180.0},
     "angular_speed": {"rad/s": 1.0, "rpm": math.pi / 30.0, "deg/s": math.pi / 180.0},
     "torque": {"kgf*mm": 1.0, "N*m": 1e3 / KGF_N, "N*mm": 1.0 / KGF_N},
     "torsional_stiffness": {"kgf*mm/rad": 1.0, "N*m/rad": 1e3 / KGF_N},
-    "inertia": {"kgf*mm*s^2": 1.0, "kg*m^2": 1e6 / G_MM_S2},
-}
+    "inertia": {"kgf*mm*s^2": 1.0, "kg*m^2": 1e6 / G_MM_S2}}
 """Quantities of rotational rigs (`stickslip_jax.rigs`), internal units rad, rad/s, kgf*mm,
 kgf*mm/rad and kgf*mm*s^2; apart from `UNITS` so that no extra column is read as one."""
 
@@ -104,8 +102,7 @@ def factor(unit: str, dimension: str) -> float:
     if got is None:
         raise UnitError(
             f"unknown {dimension} unit {unit!r}; use one of: {', '.join(k for k in table if k)} "
-            "(or any unit of that dimension that pint knows, e.g. 'N/um', 'in/min', 'lbf')"
-        )
+            "(or any unit of that dimension that pint knows, e.g. 'N/um', 'in/min', 'lbf')")
     return got
 
 

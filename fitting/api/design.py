@@ -419,22 +419,20 @@ class DesignStudy(ResultDocument):
         name)."""
         o, res = self.options, self.maps
         axes = res["axes"]
-        doc = {
-            "source": ({"posterior": os.fspath(o.posterior)} if _is_path(o.posterior)
-                       else {"posterior": o.source} if o.posterior is not None
-                       else {"lubricant": o.lubricant, "table": o.table}),
-            "method": o.method.value,
-            **({} if o.load() is None else {"normal_load_kgf": o.load()}),
-            **({"damping_ratio": o.damping_ratio} if o.damping_ratio is not None else {}),
-            "axes": {"weight_kgf": axes["weight"].tolist(),
-                     "stiffness_kgf_per_mm": axes["stiffness"].tolist(),
-                     "drive_speed_mm_per_min": (axes["speed"] * 60.0).tolist()},
-            "shape": list(res["amplitude"].shape),
-            "index_order": list(AXES),
-            "amplitude_mm": res["amplitude"].tolist(),
-            "critical_speed_mm_per_min": (res["critical_speed"] * 60.0).tolist(),
-            "stick_slip": res["stick_slip"].tolist(),
-        }
+        doc = {"source": ({"posterior": os.fspath(o.posterior)} if _is_path(o.posterior)
+                          else {"posterior": o.source} if o.posterior is not None
+                          else {"lubricant": o.lubricant, "table": o.table}),
+               "method": o.method.value,
+               **({} if o.load() is None else {"normal_load_kgf": o.load()}),
+               **({"damping_ratio": o.damping_ratio} if o.damping_ratio is not None else {}),
+               "axes": {"weight_kgf": axes["weight"].tolist(),
+                        "stiffness_kgf_per_mm": axes["stiffness"].tolist(),
+                        "drive_speed_mm_per_min": (axes["speed"] * 60.0).tolist()},
+               "shape": list(res["amplitude"].shape),
+               "index_order": list(AXES),
+               "amplitude_mm": res["amplitude"].tolist(),
+               "critical_speed_mm_per_min": (res["critical_speed"] * 60.0).tolist(),
+               "stick_slip": res["stick_slip"].tolist()}
         if "regime" in res:
             from stickslip_jax.steady import REGIMES
 

@@ -20,9 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from stickslip_jax.commands.options import (
-    add_json_option, add_plot_option, quantity, viscosity,
-)
+from stickslip_jax.commands.options import (add_json_option, add_plot_option, quantity, viscosity)
 
 NAME = "pitch"
 HELP = "pitching/yawing (chapter 6) of the slider from records: tilt, its variation, fit"
@@ -69,8 +67,7 @@ def _um(x):
 JSON_ALIASES = {
     "drive_height_mm": "height_mm", "drive_offset_mm": "offset_mm",
     "eps_prime_um": "eps_prime", "mean_um": "mean", "d_eps_um": "d_eps",
-    "measured_eps_prime_um": "measured_eps_prime", "measured_d_eps_um": "measured_d_eps",
-}
+    "measured_eps_prime_um": "measured_eps_prime", "measured_d_eps_um": "measured_d_eps"}
 """JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
 their old names, still written beside them for one release (`deprecated_keys`)."""
 

@@ -166,10 +166,8 @@ class RecordFeatures:
 
 def _empty(name, weight, stiffness, speed, omega0, noise, n, message):
     e = np.zeros(0)
-    return RecordFeatures(
-        name, weight, stiffness, speed, omega0, noise, n, False, message,
-        e, e, e, e, e, e, e, e, e, np.zeros(0, bool),
-    )
+    return RecordFeatures(name, weight, stiffness, speed, omega0, noise, n, False, message,
+                          e, e, e, e, e, e, e, e, e, np.zeros(0, bool))
 
 
 def extract_cycles(time, deflection, *, weight: float, stiffness: float, drive,
@@ -457,14 +455,12 @@ def _assemble(r: _Prepared, rows, first, left_out, n_events, min_cycles, drive_n
         name=r.name, weight=r.weight, stiffness=r.stiffness, drive_speed=r.speed,
         omega0=r.omega0, noise=r.sigma, n_samples=r.n, stick_slip=True, message=None,
         start_level=start_level, start_level_sd=start_sd, deflection_used=r.x,
-        **notes, **cols,
-    )
+        **notes, **cols)
     if feats.n_complete < min_cycles:
         return dataclasses.replace(
             feats, stick_slip=False,
             message=f"only {feats.n_complete} complete stick-slip cycle(s) (need {min_cycles}); "
-            + (f"cycles left out: {why}" if why else "record longer"),
-        )
+            + (f"cycles left out: {why}" if why else "record longer"))
     return feats
 
 

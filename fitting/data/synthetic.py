@@ -33,13 +33,11 @@ def draw_prior_friction(rng: np.random.Generator) -> ss.Friction:
     mu_d ~ U(0.15, 0.25), mu_s - mu_d ~ U(0.15, 0.4), gamma log-uniform in [0.1, 1] s^-m,
     m ~ U(0.3, 0.6), delta log-uniform in [30, 100] s^-n, n ~ U(0.8, 1.2)."""
     mu_d = rng.uniform(0.15, 0.25)
-    return ss.Friction(
-        ss.KatoStatic(mu_s=mu_d + rng.uniform(0.15, 0.4), mu_d=mu_d,
-                      gamma=np.exp(rng.uniform(np.log(0.1), np.log(1.0))),
-                      m=rng.uniform(0.3, 0.6)),
-        ss.KatoKinetic(delta=np.exp(rng.uniform(np.log(30.0), np.log(100.0))),
-                       n=rng.uniform(0.8, 1.2)),
-    )
+    return ss.Friction(ss.KatoStatic(mu_s=mu_d + rng.uniform(0.15, 0.4), mu_d=mu_d,
+                                     gamma=np.exp(rng.uniform(np.log(0.1), np.log(1.0))),
+                                     m=rng.uniform(0.3, 0.6)),
+                       ss.KatoKinetic(delta=np.exp(rng.uniform(np.log(30.0), np.log(100.0))),
+                                      n=rng.uniform(0.8, 1.2)))
 
 
 SPREAD_CONDITIONS = ((36.0, 40.0), (36.0, 86.9), (36.0, 200.0))
@@ -107,10 +105,8 @@ def synthetic_campaign(friction, *, conditions=SPREAD_CONDITIONS, speed_fraction
     for i, (w, k, v, _, n, _) in enumerate(plan):
         x = np.asarray(trace.deflection[i, :n]) + rng.normal(0.0, noise, n)
         name = f"W{w:g}_k{k:g}_v{v * 60:.4g}mmpmin".replace(".", "p")
-        records.append(Record(
-            time=times[i], deflection=x, stiffness=k, weight=w, drive_speed=v,
-            lubricant=lubricant, truth=truth, source=f"{name}.csv",
-        ))
+        records.append(Record(time=times[i], deflection=x, stiffness=k, weight=w, drive_speed=v,
+                              lubricant=lubricant, truth=truth, source=f"{name}.csv"))
     return records
 
 

@@ -102,8 +102,7 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
         stick_slip=stick,
         converged=((n_valid >= 2) & settled) | sliding,
         regime=jnp.where(stick, jnp.where(restick_failure(friction, friction.static(t1), t2),
-                                          RESTICK_FAILURE, STICK_SLIP), STEADY_SLIDING),
-    )
+                                          RESTICK_FAILURE, STICK_SLIP), STEADY_SLIDING))
 
 
 def exact_kernel(points: DesignPoints, shared=None) -> DesignMap:

@@ -321,8 +321,7 @@ def sequential_campaign(
     *,
     noise: Noise = Noise(),
     prior_sd=1.0,
-    criterion: DesignCriterion = DesignCriterion.D,
-) -> tuple[Campaign, LaplaceFit]:
+    criterion: DesignCriterion = DesignCriterion.D) -> tuple[Campaign, LaplaceFit]:
     """Simulate a sequential campaign on synthetic data (what `stickslip plan` is for).
 
     Record the `pilot` campaign, then `n_next` times: fit all records so far

@@ -76,8 +76,7 @@ def cycle_kernel(points: DesignPoints, shared=None) -> DesignMap:
         critical_speed=c.critical_speed,
         stick_slip=stick,
         converged=jnp.asarray(ok),
-        regime=jnp.where(stick, c.regime, STEADY_SLIDING),
-    )
+        regime=jnp.where(stick, c.regime, STEADY_SLIDING))
 
 
 def _kernel(method: MapMethod):

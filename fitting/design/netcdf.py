@@ -60,8 +60,7 @@ def map_dataset(res: dict, attrs: dict | None = None):
         "k": ("k", np.asarray(axes["stiffness"], float), {"units": "kgf/mm",
                                                             "long_name": "drive stiffness k"}),
         "v": ("v", np.asarray(axes["speed"], float) * 60.0, {"units": "mm/min",
-                                                               "long_name": "drive speed v"}),
-    }
+                                                               "long_name": "drive speed v"})}
     data = {}
     for key, name, factor, units, long in VARIABLES:
         if key in res:

@@ -74,8 +74,7 @@ def shard_batch(batch, mesh: Mesh):
         if np.ndim(leaf) == 0 or np.shape(leaf)[0] % ndev:
             raise ValueError(
                 f"leading axis {np.shape(leaf)} is not a multiple of the {ndev} devices; "
-                "pad it with pad_batch first"
-            )
+                "pad it with pad_batch first")
     sharding = NamedSharding(mesh, P(AXIS))
     return jax.tree_util.tree_map(lambda x: _put(x, sharding), batch)
 

@@ -74,11 +74,9 @@ def propagate(sample: Friction, weight, stiffness, speed, *, level: float = 0.9,
     shape = np.broadcast_shapes(w.shape, k.shape, v.shape)
     q = np.array([(1 - level) / 2, 0.5, (1 + level) / 2])
     shared = _Shared(jax.tree_util.tree_map(np.asarray, sample), q)
-    out = collect(
-        map_chunks(_kernel, _Points(w, k, v), shape, shared=shared,
-                   chunk_size=max(1, chunk_size // s), mesh=mesh, progress=progress,
-                   desc="posterior map"),
-        shape,
-    )
+    out = collect(map_chunks(_kernel, _Points(w, k, v), shape, shared=shared,
+                             chunk_size=max(1, chunk_size // s), mesh=mesh, progress=progress,
+                             desc="posterior map"),
+                  shape)
     prob, vc, amp, amp_mean = out
     return UncertainMap(prob, vc, amp, amp_mean, float(level))

@@ -92,8 +92,7 @@ class FeatureData(eqx.Module):
 
 def feature_data(
     features: list[RecordFeatures], *, offset_from_start: bool = False, pad_cycles: int = 0,
-    reslip: bool | None = None,
-) -> FeatureData:
+    reslip: bool | None = None) -> FeatureData:
     """Stack the features of a campaign's records (see `FeatureData`).
 
     `pad_cycles`: pad the cycle axis to at least this length (one compilation for
@@ -141,8 +140,7 @@ def feature_data(
             if not math.isfinite(f.start_level):
                 raise ValueError(
                     f"{f.name}: the record does not start in a stick, so its gauge offset "
-                    "cannot be read from the first sample; drop --offset start"
-                )
+                    "cannot be read from the first sample; drop --offset start")
             start[r], start_sd[r], use_start[r] = f.start_level, f.start_level_sd, True
     def j(x):  # device_put: jnp.asarray would compile a small program per shape
         return jax.device_put(np.asarray(x))
@@ -156,8 +154,7 @@ def feature_data(
         start_level=j(start), start_sd=j(start_sd), use_start=j(use_start),
         trough_shift=j(shift),
         reslip=(any(np.mean(f.slipped_on) >= 0.5 for f in features) if reslip is None
-                else bool(reslip)),
-    )
+                else bool(reslip)))
 
 
 SHIFT_ITERATIONS = 1
@@ -272,8 +269,7 @@ def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time, speed=No
 
 def feature_residuals(
     params: CampaignParams, data: FeatureData, slip_time: SlipTime = SlipTime.PAPER,
-    weights_at: CampaignParams | None = None,
-) -> Float[Array, " N"]:
+    weights_at: CampaignParams | None = None) -> Float[Array, " N"]:
     """Whitened residuals of the features objective (module doc); padded entries are 0.
 
     Shape: (2 R C + R,), fixed by the data, so one compilation serves every parameter
@@ -321,10 +317,8 @@ def feature_residuals(
         stick = jnp.where(he & hn, (l0n - l1 - climb) / sd, 0.0)
         return level, stick
 
-    args = (
-        data.t1, data.t1_next, data.t1_sd, data.t1_next_sd, data.trough, data.trough_sd,
-        data.climb_next, data.has_end, data.has_next, data.trough_shift,
-    )
+    args = (data.t1, data.t1_next, data.t1_sd, data.t1_next_sd, data.trough, data.trough_sd,
+            data.climb_next, data.has_end, data.has_next, data.trough_shift)
     per_cycle = jax.vmap(one, in_axes=(None, None, None, None) + (0,) * 10)
     level, stick = jax.vmap(per_cycle)(scale, params.offset, data.omega0, speeds, *args)
     start = jnp.where(data.use_start, (data.start_level - params.offset) / data.start_sd, 0.0)

@@ -45,34 +45,31 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     levels = FeaturesObjective(fit.data).split(res)["levels"].reshape(level_sd.shape) * level_sd
     mask = np.asarray(fit.data.has_end | fit.data.has_next)
     rms = float(np.sqrt(np.mean(levels[mask] ** 2))) if mask.any() else float("nan")
-    out = {
-        "model": model,
-        "parameters": params,
-        "records": _record_rows(fit, campaign),
-        "records_not_used": sum(s.status != "used" for s in campaign.screening),
-        "steady_records": boundary_check(fit.params.friction.friction(), campaign),
-        "residual_rms_mm": rms,
-        "chi2": fit.chi2,
-        "dof": fit.dof,
-        "reduced_chi2": fit.reduced_chi2,
-        "converged": fit.converged,
-        "objective": fit.objective.describe(),
-        "loss": loss_of(fit.objective).spec(),
-        "slip_time": str(fit.slip_time),
-        "covariance": unc.covariance,
-        "covariance_scale": unc.scale,
-        "identifiability": {
-            "not_identifiable": [n for n, ok in unc.identifiable.items()
-                                 if not ok or n in held],
-            "fisher_eigenvalues_log": [float(x) for x in unc.fisher_eigenvalues],
-            "weakest_direction": unc.weakest_direction,
-            "correlation": [[None if not np.isfinite(x) else float(x) for x in row]
-                            for row in unc.corr],
-            "warnings": list(unc.warnings) + _fixed_misfit(fit, unc),
-        },
-        "truth_available": truth is not None,
-        "adequacy": adequacy(fit).to_json(),
-    }
+    out = {"model": model,
+           "parameters": params,
+           "records": _record_rows(fit, campaign),
+           "records_not_used": sum(s.status != "used" for s in campaign.screening),
+           "steady_records": boundary_check(fit.params.friction.friction(), campaign),
+           "residual_rms_mm": rms,
+           "chi2": fit.chi2,
+           "dof": fit.dof,
+           "reduced_chi2": fit.reduced_chi2,
+           "converged": fit.converged,
+           "objective": fit.objective.describe(),
+           "loss": loss_of(fit.objective).spec(),
+           "slip_time": str(fit.slip_time),
+           "covariance": unc.covariance,
+           "covariance_scale": unc.scale,
+           "identifiability": {
+               "not_identifiable": [n for n, ok in unc.identifiable.items()
+                                    if not ok or n in held],
+               "fisher_eigenvalues_log": [float(x) for x in unc.fisher_eigenvalues],
+               "weakest_direction": unc.weakest_direction,
+               "correlation": [[None if not np.isfinite(x) else float(x) for x in row]
+                               for row in unc.corr],
+               "warnings": list(unc.warnings) + _fixed_misfit(fit, unc)},
+           "truth_available": truth is not None,
+           "adequacy": adequacy(fit).to_json()}
     td = fit.objective.trace_data()
     if td is not None:
         from ..objectives.trace import reslip_windows, trace_residuals
@@ -161,12 +158,10 @@ def format_table(report) -> str:
     lines = text_table(header, rows, align).splitlines()
     lines.append("")
     used = [r for r in report["records"] if r.get("status", "used") == "used"]
-    lines.append(
-        f"{len(used)} records, "
-        f"{sum(r['complete_cycles'] for r in used)} complete cycles; "
-        f"residual rms {report['residual_rms_mm'] * 1e3:.3g} um; chi2/dof = "
-        f"{report['reduced_chi2']:.3g}; converged: {report['converged']}"
-    )
+    lines.append(f"{len(used)} records, "
+                 f"{sum(r['complete_cycles'] for r in used)} complete cycles; "
+                 f"residual rms {report['residual_rms_mm'] * 1e3:.3g} um; chi2/dof = "
+                 f"{report['reduced_chi2']:.3g}; converged: {report['converged']}")
     worst = max((r.get("features_chi2_per_residual", 0.0) for r in used), default=0.0)
     if any(r.get("error_scale", 1.0) > 1.0 for r in used):
         lines[-1] += (f" (after scaling record errors to their scatter; before, chi2/n up to "
@@ -178,8 +173,7 @@ def format_table(report) -> str:
             + (f"; {report['trace_window_failures']} cycle simulations failed"
                if report["trace_window_failures"] else "")
             + (f"; {report['trace_windows_after_reslip']} cycles after a re-slip left out"
-               " of the trace (features only)" if report["trace_windows_after_reslip"] else "")
-        )
+               " of the trace (features only)" if report["trace_windows_after_reslip"] else ""))
     if report.get("loss", "gaussian") != "gaussian":
         lines.append(f"likelihood: {report['loss']} loss (heavy-tailed; the intervals are "
                      f"the M-estimator's sandwich, covariance {report['covariance']})")

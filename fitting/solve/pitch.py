@@ -88,8 +88,7 @@ def record_drive_point(record, height=None, offset=None) -> pt.DrivePoint:
     h = height if height is not None else _header_length(record, "drive_height")
     if h is None:
         raise ValueError(
-            "drive height unknown: give --height (mm) or a '# drive_height: 45 mm' header line"
-        )
+            "drive height unknown: give --height (mm) or a '# drive_height: 45 mm' header line")
     o = offset if offset is not None else _header_length(record, "drive_offset")
     return pt.DrivePoint(height=float(h), offset=0.0 if o is None else float(o))
 
@@ -110,8 +109,7 @@ def pitch_run(record, model: pt.PitchingModel, height=None, offset=None) -> Pitc
         force=jnp.asarray(record.stiffness * np.asarray(record.deflection), dtype=float),
         drive=record_drive_point(record, height, offset),
         displacement=jnp.asarray(disp),
-        observed=jnp.asarray(observed),
-    )
+        observed=jnp.asarray(observed))
 
 
 class PitchParams(eqx.Module):
@@ -262,8 +260,7 @@ def _plane_start(template, runs, plane, taus):
             raise ValueError(
                 f"{plane}: the tilt does not grow with the drive "
                 f"{'height' if plane == pt.PITCH else 'offset'} (slope {slope:.3g}); check the "
-                "sign convention of the channels and the drive positions"
-            )
+                "sign convention of the channels and the drive positions")
         return slope, -icpt / slope, tau, True
     neutral = float(tp.neutral)
     arm = positions[0] - neutral
@@ -293,8 +290,7 @@ def fit_pitching(runs, template: pt.PitchingModel | None = None, noise=None, tau
     notes = []
     for plane, c_name, n_name, t_name in (
         (pt.PITCH, "compliance_pitch", "neutral_height", "tau_pitch"),
-        (pt.YAW, "compliance_yaw", "neutral_offset", "tau_yaw"),
-    ):
+        (pt.YAW, "compliance_yaw", "neutral_offset", "tau_yaw")):
         idx = [i for i, p in enumerate(template.points.planes) if p == plane]
         if not any(bool(np.asarray(r.observed)[idx].any()) for r in runs):
             notes.append(f"no {plane} channels: {plane} parameters fixed at the template values")

@@ -51,8 +51,7 @@ PHASE_HINT = {
     "trace_stick": "the stick phase is not the straight ramp of the model (a drive error, "
                    "creep, sensor dynamics)",
     "trace_slip": "the slips' shape differs from the model's half cosine (damping, "
-                  "Stribeck, sensor dynamics): `stickslip discover` names the effect",
-}
+                  "Stribeck, sensor dynamics): `stickslip discover` names the effect"}
 
 
 @dataclasses.dataclass(frozen=True)

@@ -221,8 +221,7 @@ def _design_warnings(fit: FitResult, free) -> tuple[dict, list]:
         msgs.append(
             f"n, delta: every record has the same slip time T2 = {t2.mean():.4g} s (one k/W), "
             "so only delta*T2^n is determined; use springs or weights with different k/W, "
-            "or fix n (--fix n=1)."
-        )
+            "or fix n (--fix n=1).")
     t1 = np.concatenate([f.stick_time[f.complete] for f in feats])
     t1 = t1[t1 > 0]  # a slip from rest at once (no stick) says nothing of the rise
     rise = [s for s in shape if s in names and s not in ("mu_s", "mu_d")]  # held: mu_s known
@@ -395,8 +394,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         elif bad_num and n not in flagged:
             warnings.append(
                 f"{n}: not identifiable from this campaign (relative standard error "
-                f"{log_se[i]:.2g} > {max_relative_se}); its value is only a placeholder."
-            )
+                f"{log_se[i]:.2g} > {max_relative_se}); its value is only a placeholder.")
     # a parameter with a share in a direction the records do not see at all (a zero
     # eigenvalue of the information: e.g. m = 0 makes mu_s and gamma one number) has no
     # standard error, whatever the pseudo-inverse gives it
@@ -428,8 +426,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
             if free[a] and free[b] and abs(corr[a, b]) > 0.95:
                 warnings.append(
                     f"{names[a]} and {names[b]} are strongly correlated (r = {corr[a, b]:+.3f}): "
-                    "the campaign determines a combination of them better than either."
-                )
+                    "the campaign determines a combination of them better than either.")
     if not fit.converged:
         warnings.append("the optimiser did not report convergence; treat the values with care.")
     if covariance is Covariance.FISHER and fit.objective is not None and fit.objective.robust:
@@ -452,6 +449,5 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         value=value, stderr=stderr, log_se=log_se, ci95=ci95, free=free, corr=corr,
         cov_log=cov_log, fisher_eigenvalues=eig, weakest_direction=weakest,
         identifiable=identifiable, warnings=warnings, scale=scale,
-        units=dict(fit.params.friction.UNITS), covariance=covariance, reasons=reasons,
-    )
+        units=dict(fit.params.friction.UNITS), covariance=covariance, reasons=reasons)
 

@@ -368,8 +368,7 @@ def run_mcmc(fit: FitResult, *, walkers: int = 32, steps: int = 2000, burn: int 
             "the walkers cannot start: around the fit's optimum they are not linearly "
             "independent (the fit's covariance is degenerate: parameters not identifiable "
             "or at a bound, or --fix values the records contradict); check `stickslip fit` "
-            "with the same records and options, and fix fewer parameters or add records"
-        ) from None
+            "with the same records and options, and fix fewer parameters or add records") from None
     if interrupted:
         # Ctrl-C: keep the chain so far (at least MIN_KEPT steps), say so
         done = int(sampler.iteration)
@@ -390,8 +389,7 @@ def run_mcmc(fit: FitResult, *, walkers: int = 32, steps: int = 2000, burn: int 
     if np.any(kept < 50 * tau):
         warnings.append(
             f"the chain is too short to trust: {kept} steps after burn-in, less than 50 "
-            f"autocorrelation times (max tau = {tau.max():.3g} steps); run more --steps."
-        )
+            f"autocorrelation times (max tau = {tau.max():.3g} steps); run more --steps.")
     logs = chain[:, : len(names)]
     values = np.exp(logs)
     return McmcResult(
@@ -400,5 +398,4 @@ def run_mcmc(fit: FitResult, *, walkers: int = 32, steps: int = 2000, burn: int 
         burn=burn, prior=prior_text(fit.params.friction, names), warnings=warnings,
         units=dict(fit.params.friction.UNITS), likelihood_scale=scale, interrupted=interrupted,
         chain=np.exp(np.transpose(full[:, :, : len(names)], (1, 0, 2))), log_prob=log_prob,
-        offsets=np.transpose(full[:, :, len(names):], (1, 0, 2)) if n_off else None,
-    )
+        offsets=np.transpose(full[:, :, len(names):], (1, 0, 2)) if n_off else None)

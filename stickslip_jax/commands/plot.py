@@ -47,11 +47,9 @@ def run(args) -> int:
     n = phases.n_slips
     sliding = (f", {100 * phases.sliding_fraction:.0f} % sliding"
                if phases.sliding_fraction >= 0.005 else "")
-    print(
-        f"{out}: {record.n_samples} samples, {n} slip{'' if n == 1 else 's'}, "
-        f"{100 * phases.stick_fraction:.0f} % of samples in stick{sliding} "
-        f"(slip threshold {phases.threshold:.3g} mm/s, window {phases.window} samples)"
-    )
+    print(f"{out}: {record.n_samples} samples, {n} slip{'' if n == 1 else 's'}, "
+          f"{100 * phases.stick_fraction:.0f} % of samples in stick{sliding} "
+          f"(slip threshold {phases.threshold:.3g} mm/s, window {phases.window} samples)")
     if phases.verdict:
         print(f"note: {args.record}: {phases.verdict}")
     if phases.glitches:

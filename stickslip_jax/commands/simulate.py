@@ -81,8 +81,7 @@ def run(args) -> int:
     record = synthetic_record(
         slideway, drive, args.duration, args.sample_rate, noise_std=args.noise,
         seed=args.seed, smoothing=args.smooth, max_events=args.max_events,
-        lubricant=args.lubricant,
-    )
+        lubricant=args.lubricant)
     path = write_record(record, args.out)
     truth = record.truth
     print(f"wrote {path}: {record.time.size} samples, {truth['cycles']} cycles, "

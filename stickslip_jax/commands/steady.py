@@ -94,10 +94,8 @@ def run(args) -> int:
     if zeta is not None and not 0 <= zeta < 1:
         raise ValueError(f"--damping-ratio: must lie in [0, 1), e.g. 0.05, got {zeta}")
     if args.lubricant not in lubricants(args.table):
-        raise ValueError(
-            f"--lubricant: unknown lubricant {args.lubricant!r}; "
-            f"Table {args.table} has {', '.join(lubricants(args.table))}"
-        )
+        raise ValueError(f"--lubricant: unknown lubricant {args.lubricant!r}; "
+                         f"Table {args.table} has {', '.join(lubricants(args.table))}")
     friction = lubricant(args.lubricant, table=args.table)
     load = args.normal_load
     # N/W: with friction mu N and inertia W/g the motion at v is the paper's (N = W) at v/s
@@ -127,8 +125,7 @@ def run(args) -> int:
             "cycle_amplitude_mm": max(0.0, s * float(cyc.amplitude[i])),  # no -1e-18 round-off
             "cycle_stick_time_s": float(cyc.stick_time[i]),
             "cycle_slip_time_s": float(cyc.slip_time[i]),
-            "cycle_frequency_hz": float(cyc.frequency[i]),
-        })
+            "cycle_frequency_hz": float(cyc.frequency[i])})
     damped = None
     if zeta is not None:
         from ..limit_cycle import boundary_speed
@@ -165,8 +162,7 @@ def run(args) -> int:
             "results": rows,
             "tolerance": tol,
             **({} if zeta is None else {"damping_ratio": zeta,
-                                        "boundary_speed_mm_per_min": damped}),
-        }, JSON_ALIASES))
+                                        "boundary_speed_mm_per_min": damped})}, JSON_ALIASES))
         if args.json != "-":  # with "-" the table below goes to stderr
             print(f"wrote {args.json}")
     print(f"lubricant {args.lubricant} (Table {args.table}), W = {args.weight:g} kgf, "

@@ -45,8 +45,7 @@ class BoundaryContact(eqx.Module):
         if is_concrete(self.C1, self.C3) and np.any(np.asarray(self.C2 * self.C3) >= np.asarray(self.C1)):
             raise ValueError(
                 "BoundaryContact: the film must be weaker in shear than the metal, "
-                f"C2*C3 = S_b/p_m < C1 = S_m/p_m; got C2*C3 = {self.C2 * self.C3}, C1 = {self.C1}"
-            )
+                f"C2*C3 = S_b/p_m < C1 = S_m/p_m; got C2*C3 = {self.C2 * self.C3}, C1 = {self.C1}")
 
 
 def load_shares(pair: SurfacePair, contact: BoundaryContact, a, t_b):
@@ -136,8 +135,7 @@ def film_from_mu_s(pair: SurfacePair, contact: BoundaryContact, mu_s) -> FilmEst
         if np.any(bad):
             raise ValueError(
                 f"film_from_mu_s: mu_s must lie between C3 = S_b/p_b = {float(contact.C3)} and "
-                f"C1 = S_m/p_m = {float(contact.C1)}; got {np.asarray(mu_s)}"
-            )
+                f"C1 = S_m/p_m = {float(contact.C1)}; got {np.asarray(mu_s)}")
     else:
         mu_s = eqx.error_if(mu_s, (mu_s <= contact.C3) | (mu_s >= contact.C1),
                             "film_from_mu_s: mu_s outside (C3, C1)")

@@ -137,8 +137,7 @@ class MicrosqueezeStatic(AbstractStaticFriction):
         if np.any(np.asarray(self.h_e) <= np.asarray(self.t_b + kin.a_d)):
             raise ValueError(
                 f"MicrosqueezeStatic: h_e = {np.asarray(self.h_e)} mm must exceed t_b + a_d = "
-                f"{np.asarray(self.t_b + kin.a_d)} mm (a_d: approach at which mu_0 = mu_d)"
-            )
+                f"{np.asarray(self.t_b + kin.a_d)} mm (a_d: approach at which mu_0 = mu_d)")
         if np.any(np.asarray(kin.a_s) <= np.asarray(kin.a_d)):
             raise ValueError(
                 f"MicrosqueezeStatic: mu_d = {np.asarray(self.mu_d)} must be below the static limit "
@@ -320,8 +319,7 @@ def microsqueeze_curve(law: MicrosqueezeStatic, stick_time: Float[ArrayLike, " n
         stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol),
         max_steps=max_steps,
         throw=False,
-        adjoint=diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint,
-    )
+        adjoint=diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint)
     s_sorted = jnp.where(Ts < t0, Ts / rate0, sol.ys)
     s_out = jnp.empty_like(s_sorted).at[order].set(s_sorted)
     a = law.approach(s_out, kin)

@@ -123,8 +123,7 @@ def estimate_surface(heights, spacing: float, *, height_unit: str = "um", length
     if peaks.size < 3:
         raise ValueError(
             f"estimate_surface: found {peaks.size} asperities (need >= 3); profile too short "
-            "or min_prominence too large"
-        )
+            "or min_prominence too large")
     length = dx * (h.size - 1)
     z = peaks.size / length
 
@@ -143,8 +142,7 @@ def estimate_surface(heights, spacing: float, *, height_unit: str = "um", length
     if np.median(widths) < 4.0:
         raise ValueError(
             f"estimate_surface: tips are only {np.median(widths):.1f} samples wide at cut_depth; "
-            "the profile is too coarse (reduce spacing) or raise cut_depth"
-        )
+            "the profile is too coarse (reduce spacing) or raise cut_depth")
     R = float(np.mean(radii))
 
     tips = np.sort(h[peaks].max() - h[peaks])  # depth of each tip below the highest, ascending

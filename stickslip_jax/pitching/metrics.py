@@ -147,8 +147,7 @@ def critical_pitch_speed(model: PitchingModel, friction: Friction, weight, stiff
 
     def excess(logv, _):
         pts = steady_tilt(
-            model, friction, weight, stiffness, jnp.exp(logv), drive, n_stick, n_slip
-        ).points
+            model, friction, weight, stiffness, jnp.exp(logv), drive, n_stick, n_slip).points
         limit = jnp.maximum(ratio * jnp.abs(pts.peak[idx]), resolution)
         return pts.variation[idx] - limit
 

@@ -58,8 +58,7 @@ class LinearLag(eqx.Module):
         if self.time_constants.ndim != 1 or self.time_constants.shape != self.weights.shape:
             raise ValueError(
                 "LinearLag: time_constants and weights must be 1-D of the same length, got "
-                f"{self.time_constants.shape} and {self.weights.shape}"
-            )
+                f"{self.time_constants.shape} and {self.weights.shape}")
 
     @property
     def instantaneous_weight(self) -> Float[Array, ""]:
@@ -120,10 +119,8 @@ class MeasuringPoints(eqx.Module):
     def __check_init__(self):
         n = self.positions.shape[0]
         if len(self.planes) != n or len(self.names) != n:
-            raise ValueError(
-                f"MeasuringPoints: {n} positions but {len(self.planes)} planes and "
-                f"{len(self.names)} names"
-            )
+            raise ValueError(f"MeasuringPoints: {n} positions but {len(self.planes)} planes and "
+                             f"{len(self.names)} names")
         bad = [p for p in self.planes if p not in (PITCH, YAW)]
         if bad:
             raise ValueError(f"MeasuringPoints: planes must be 'pitch' or 'yaw', got {bad}")

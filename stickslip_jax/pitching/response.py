@@ -86,8 +86,7 @@ def _lag_response(lag, u, ts, time_scale, periodic):
 
 
 def filtered_force(
-    model: PitchingModel, plane: str, force, ts, periodic: bool = False
-) -> Float[Array, " n"]:
+    model: PitchingModel, plane: str, force, ts, periodic: bool = False) -> Float[Array, " n"]:
     r"""The spring force (kgf) seen through the squeeze lag of `plane`: $\tilde F(t)$ with
     tilt $\varepsilon = c\,(\text{arm})\,\tilde F$. Independent of the drive point, so one
     call serves every height and offset."""

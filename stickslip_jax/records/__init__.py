@@ -76,5 +76,4 @@ __all__ = [
     "Record",
     "program_speed", "program_position", "parse_drive_program", "format_drive_program",
     "parse_record", "read_record", "format_record", "write_record",
-    "record_paths", "CampaignFiles", "read_campaign_files", "read_campaign", "check_campaign",
-]
+    "record_paths", "CampaignFiles", "read_campaign_files", "read_campaign", "check_campaign"]

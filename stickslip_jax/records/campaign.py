@@ -185,8 +185,7 @@ def read_campaign(spec, *, max_bytes: int = MAX_FILE_BYTES) -> list[Record]:
 
 
 def check_campaign(
-    records, *, same: Iterable[str] = ("lubricant", "surface"), strict: bool = True
-) -> list[str]:
+    records, *, same: Iterable[str] = ("lubricant", "surface"), strict: bool = True) -> list[str]:
     """Problems with fitting `records` together: a field of `same` that differs between
     them (a field missing, None, in some records but given in others too), or records of
     another rig (`rig_problems`). Returns

@@ -272,8 +272,7 @@ def _from_own_frame(cls, df, given: dict, fields: dict):
             truth=a["truth"],
             source=a["source"],
             extra_header=dict(a["extra_header"]),
-            notes=tuple(a["notes"]),
-        )
+            notes=tuple(a["notes"]))
     except KeyError as exc:
         raise RecordError(f"the frame's attrs lack {exc.args[0]!r}, which "
                           "Record.to_dataframe writes; give stiffness= and the other "

@@ -18,8 +18,7 @@ def check_program(program) -> tuple[tuple[float, float], ...]:
         segs = tuple((float(s), float(v)) for s, v in program)
     except (TypeError, ValueError):
         raise RecordError(
-            f"drive_program must be ((start s, speed mm/s), ...), got {program!r}"
-        ) from None
+            f"drive_program must be ((start s, speed mm/s), ...), got {program!r}") from None
     if not segs:
         raise RecordError("drive_program needs at least one segment")
     for s, v in segs:
@@ -57,12 +56,10 @@ def _segment_value(number: str, unit: str, dimension: str, path, line: int) -> f
     try:
         return float(number) * factor(unit, dimension)
     except UnitError:
-        raise RecordError(
-            f"drive_program: unknown {dimension} unit {unit!r}; use one of "
-            f"{unit_choices(dimension)}",
-            path,
-            line,
-        ) from None
+        raise RecordError(f"drive_program: unknown {dimension} unit {unit!r}; use one of "
+                          f"{unit_choices(dimension)}",
+                          path,
+                          line) from None
 
 
 def parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]:
@@ -71,12 +68,10 @@ def parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]
     for part in text.split(";"):
         m = SEGMENT.fullmatch(part)
         if m is None:
-            raise RecordError(
-                f"drive_program: cannot read segment {part.strip()!r} as "
-                f"'start-time unit speed unit'; {hint}",
-                path,
-                line,
-            )
+            raise RecordError(f"drive_program: cannot read segment {part.strip()!r} as "
+                              f"'start-time unit speed unit'; {hint}",
+                              path,
+                              line)
         start = _segment_value(m.group(1), m.group(2), "time", path, line)
         speed = _segment_value(m.group(3), m.group(4), "speed", path, line)
         segs.append((start, speed))
@@ -100,8 +95,7 @@ def format_drive_program(program, speed_unit: str = "mm/s", time_unit: str = "s"
     segs = check_program(program)
     ft, fv = factor(time_unit, "time"), factor(speed_unit, "speed")
     return "; ".join(
-        f"{fmt(encode(s, ft))} {time_unit} {fmt(encode(v, fv))} {speed_unit}" for s, v in segs
-    )
+        f"{fmt(encode(s, ft))} {time_unit} {fmt(encode(v, fv))} {speed_unit}" for s, v in segs)
 
 
 def speed_position(time, speed) -> np.ndarray:

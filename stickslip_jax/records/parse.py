@@ -49,12 +49,10 @@ def _split_lines(text: str, path: str, notes: list[str]) -> tuple[list[str], str
     first = next((i for i, ln in enumerate(lines) if ln.strip()), 0)
     m = HEADER.fullmatch(lines[first].strip())
     if m is None or _key(m.group(1)) != "stickslip-record":
-        raise RecordError(
-            f"the first line must be '# stickslip-record: {FORMAT_VERSION}', "
-            f"got {lines[first][:60]!r}",
-            path,
-            first + 1,
-        )
+        raise RecordError(f"the first line must be '# stickslip-record: {FORMAT_VERSION}', "
+                          f"got {lines[first][:60]!r}",
+                          path,
+                          first + 1)
     return lines, delim
 
 
@@ -88,8 +86,7 @@ def _header(lines: list[str], path: str, notes: list[str]):
         value = m.group(2).strip()
         if key in header:
             raise RecordError(
-                f"{key} given twice (also at line {header[key][1]}); keep one", path, i + 1
-            )
+                f"{key} given twice (also at line {header[key][1]}); keep one", path, i + 1)
         header[key] = (value, i + 1)
         i += 1
     if comments:
@@ -97,18 +94,15 @@ def _header(lines: list[str], path: str, notes: list[str]):
                      "'# key: value'; free text belongs in '# note: ...')")
     version = header["stickslip-record"][0]
     if version != FORMAT_VERSION:
-        raise RecordError(
-            f"unsupported format version {version!r}; this reader knows "
-            f"'stickslip-record: {FORMAT_VERSION}'",
-            path,
-            header["stickslip-record"][1],
-        )
+        raise RecordError(f"unsupported format version {version!r}; this reader knows "
+                          f"'stickslip-record: {FORMAT_VERSION}'",
+                          path,
+                          header["stickslip-record"][1])
     if i >= len(lines):
         raise RecordError(
             "no column row after the header; add e.g. 'time [s],deflection [mm]' and the data",
             path,
-            max(j + 1 for j, ln in enumerate(lines) if ln.strip()),
-        )
+            max(j + 1 for j, ln in enumerate(lines) if ln.strip()))
     return header, i
 
 
@@ -122,17 +116,14 @@ def _column_factor(name: str, unit: str, path: str, column_line: int, rig=None) 
                 f"column {name!r}: unknown {_DIMENSIONS[name]} unit {unit!r}; use one of "
                 f"{unit_choices(_DIMENSIONS[name])}",
                 path,
-                column_line,
-            ) from None
+                column_line) from None
     try:
         return channel_factor(unit)
     except UnitError:
-        raise RecordError(
-            f"column {name!r}: unknown unit {unit!r}; use a unit of length, time, "
-            "force, speed, ... (e.g. um) or '-' for a pure number",
-            path,
-            column_line,
-        ) from None
+        raise RecordError(f"column {name!r}: unknown unit {unit!r}; use a unit of length, time, "
+                          "force, speed, ... (e.g. um) or '-' for a pure number",
+                          path,
+                          column_line) from None
 
 
 def _units_row(lines: list[str], i: int) -> list[str] | None:
@@ -161,15 +152,12 @@ def _column_row(lines: list[str], i: int, header, path: str, rig=None):
                 f"the column row {row.strip()[:60]!r} has no ',', ';' or tab between "
                 "its columns; separate them (and the values) with ',' (or ';' or tabs)",
                 path,
-                column_line,
-            )
+                column_line)
         if cm is None:
-            raise RecordError(
-                f"column {cell.strip()[:40]!r} must be 'name [unit]' "
-                "(e.g. 'time [s]', '[-]' for a pure number)",
-                path,
-                column_line,
-            )
+            raise RecordError(f"column {cell.strip()[:40]!r} must be 'name [unit]' "
+                              "(e.g. 'time [s]', '[-]' for a pure number)",
+                              path,
+                              column_line)
         name = cm.group(1).lower() if cm.group(1).lower() in RESERVED_COLUMNS else cm.group(1)
         name = name if rig is None else RIG_COLUMNS.get(name, name)  # angle, torque
         given = {"column row": cm.group(2) if cm.group(2) is not None else cm.group(3)}
@@ -183,8 +171,7 @@ def _column_row(lines: list[str], i: int, header, path: str, rig=None):
                 f"column {cell.strip()[:40]!r} must be 'name [unit]' (e.g. 'time [s]', "
                 f"'[-]' for a pure number), or give its unit in '# {name}_unit: ...'",
                 path,
-                column_line,
-            )
+                column_line)
         if len(set(given.values())) > 1:
             raise RecordError(f"column {name!r}: the units disagree ("
                               + ", ".join(f"{u!r} in the {w}" for w, u in given.items())
@@ -196,13 +183,11 @@ def _column_row(lines: list[str], i: int, header, path: str, rig=None):
     factors = [_column_factor(n, u, path, column_line, rig) for n, u in zip(columns, units)]
     if "time" not in columns:
         raise RecordError(
-            f"no 'time [s]' column (columns: {', '.join(columns)})", path, column_line
-        )
+            f"no 'time [s]' column (columns: {', '.join(columns)})", path, column_line)
     if ("deflection" in columns) == ("force" in columns):
         what = "both" if "deflection" in columns else "neither"
         raise RecordError(
-            f"{what} of 'deflection' and 'force' columns; give exactly one", path, column_line
-        )
+            f"{what} of 'deflection' and 'force' columns; give exactly one", path, column_line)
     return columns, units, factors
 
 
@@ -248,12 +233,10 @@ def _conditions(header, columns, path: str, column_line: int) -> dict:
     if "drive_program" in header:
         program = parse_program(header["drive_program"][0], path, header["drive_program"][1])
     if drive_speed is None and program is None and not {"drive", "drive_speed"} & set(columns):
-        raise RecordError(
-            "no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line, "
-            "a 'drive [mm]' column or a 'drive_speed [mm/s]' column",
-            path,
-            column_line,
-        )
+        raise RecordError("no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line, "
+                          "a 'drive [mm]' column or a 'drive_speed [mm/s]' column",
+                          path,
+                          column_line)
     fields = dict(stiffness=stiffness, weight=weight, drive_speed=drive_speed,
                   drive_program=program)
     for key in ("lubricant", "surface", "note"):
@@ -284,9 +267,7 @@ def _data(lines, start, columns, factors, path: str, column_line: int):
         data = data * np.array(factors)
     if not np.all(np.isfinite(data)):
         r, c = np.argwhere(~np.isfinite(data))[0]
-        raise RecordError(
-            f"column {columns[c]!r} overflows after unit conversion", path, rows[r]
-        )
+        raise RecordError(f"column {columns[c]!r} overflows after unit conversion", path, rows[r])
     return data, rows
 
 
@@ -303,8 +284,7 @@ def _clock(data, rows, lines, j: int, time_factor: float, path: str, notes: list
             f"time does not increase: {float(time[r + 1]):.10g} s after {float(time[r]):.10g} s "
             f"(line {rows[r]}); sort the rows and remove duplicates",
             path,
-            rows[r + 1],
-        )
+            rows[r + 1])
     if time[0] > EPOCH_SECONDS:  # logger epoch stamps: count from the first sample
         notes.append(f"time counted from the first time stamp ({float(time[0])!r} s)")
         time = time - time[0]
@@ -320,17 +300,13 @@ def _clock(data, rows, lines, j: int, time_factor: float, path: str, notes: list
         time = data[:, j]  # uniform now: the line numbers below are not needed again
     dev, r, dt = time_step_deviation(time)
     if not dev <= TIME_STEP_RTOL:
-        msg = (
-            f"time is uneven: the step to this line is {steps[r]:.6g} s against the mean "
-            f"step {dt:.6g} s (relative deviation {dev:.3g}, tolerance {TIME_STEP_RTOL:g}); "
-        )
+        msg = (f"time is uneven: the step to this line is {steps[r]:.6g} s against the mean "
+               f"step {dt:.6g} s (relative deviation {dev:.3g}, tolerance {TIME_STEP_RTOL:g}); ")
         cells = [lines[rows[r] - 1].split(",")[j], lines[rows[r + 1] - 1].split(",")[j]]
         rounding = 0.5 * sum(resolution_of(c) for c in cells) * time_factor  # of a written step
         if abs(steps[r] - dt) <= 1.01 * rounding:
-            msg += (
-                "this is within the rounding of the written digits: if the time stamps "
-                "were rounded, write them with more digits, else resample uniformly"
-            )
+            msg += ("this is within the rounding of the written digits: if the time stamps "
+                    "were rounded, write them with more digits, else resample uniformly")
         else:
             msg += "resample the run to a uniform step (or split it at the gap)"
         raise RecordError(msg, path, rows[r + 1])
@@ -356,9 +332,7 @@ def parse_record(text: str, source=None, notes=()) -> Record:
         deflection = data[:, columns.index("deflection")]
     else:
         deflection = data[:, columns.index("force")] / fields["stiffness"]
-    channels = {
-        name: data[:, c] for c, name in enumerate(columns) if name not in RESERVED_COLUMNS
-    }
+    channels = {name: data[:, c] for c, name in enumerate(columns) if name not in RESERVED_COLUMNS}
     unit_of = dict(zip(columns, units))
     drive = data[:, columns.index("drive")] if "drive" in columns else None
     if drive is None and "drive_speed" in columns:  # a tachometer: one drive downstream

@@ -58,10 +58,8 @@ def _text(name, value):
     if not isinstance(value, str):
         raise RecordError(f"{name} must be a string, got {type(value).__name__}")
     if value == "" or value != value.strip() or not value.isprintable():
-        raise RecordError(
-            f"{name} must be one line of printable text without surrounding spaces, "
-            f"got {value!r}"
-        )
+        raise RecordError(f"{name} must be one line of printable text without surrounding spaces, "
+                          f"got {value!r}")
     if value.endswith((",", ";")):
         raise RecordError(f"{name} must not end in ',' or ';' (a spreadsheet's padding of a "
                           f"header line reads the same), got {value!r}")
@@ -129,15 +127,13 @@ class Record:
             i = int(np.flatnonzero(~(steps > 0))[0])
             raise RecordError(
                 f"time must increase strictly: time[{i + 1}] = {float(time[i + 1]):.10g} s "
-                f"follows time[{i}] = {float(time[i]):.10g} s"
-            )
+                f"follows time[{i}] = {float(time[i]):.10g} s")
         dev, i, dt = time_step_deviation(time)
         if not dev <= TIME_STEP_RTOL:
             raise RecordError(
                 f"time is uneven: step {i} is {float(steps[i]):.10g} s against the mean step "
                 f"{float(dt):.10g} s "
-                f"(relative deviation {dev:.3g} > {TIME_STEP_RTOL:g}); resample uniformly"
-            )
+                f"(relative deviation {dev:.3g} > {TIME_STEP_RTOL:g}); resample uniformly")
         put("time", time)
         put("deflection", _array("deflection", self.deflection, n))
         put("stiffness", _positive("stiffness", self.stiffness))
@@ -167,14 +163,12 @@ class Record:
         if set(self.channels) != set(self.channel_units):
             raise RecordError(
                 "channel_units must give the unit of every channel and no other: "
-                f"channels {sorted(self.channels)}, units {sorted(self.channel_units)}"
-            )
+                f"channels {sorted(self.channels)}, units {sorted(self.channel_units)}")
         for name, values in self.channels.items():
             if not isinstance(name, str) or not NAME.fullmatch(name) or name in RESERVED_COLUMNS:
                 raise RecordError(
                     f"channel name {name!r} must be an identifier (letters, digits, _) "
-                    f"other than {', '.join(RESERVED_COLUMNS)}"
-                )
+                    f"other than {', '.join(RESERVED_COLUMNS)}")
             unit = self.channel_units[name]
             if not isinstance(unit, str) or "[" in unit or "]" in unit or "," in unit:
                 raise RecordError(f"channel {name!r}: unit {unit!r} is not a unit")
@@ -197,8 +191,7 @@ class Record:
             if not isinstance(key, str) or not KEY.fullmatch(key) or key in KNOWN_KEYS:
                 raise RecordError(
                     f"extra header key {key!r} must be lowercase letters, digits, _ or - "
-                    f"and not one of {', '.join(KNOWN_KEYS)}"
-                )
+                    f"and not one of {', '.join(KNOWN_KEYS)}")
             extra[key] = _text(f"extra header {key!r}", value)
         put("extra_header", extra)
 
@@ -433,27 +426,23 @@ class Record:
                 return a is None and b is None
             return np.array_equal(a, b)
 
-        return (
-            same(self.time, other.time)
-            and same(self.deflection, other.deflection)
-            and same(self.drive, other.drive)
-            and self.stiffness == other.stiffness
-            and self.weight == other.weight
-            and self.normal_load == other.normal_load
-            and self.friction_radius == other.friction_radius
-            and self.drive_speed == other.drive_speed
-            and self.drive_program == other.drive_program
-            and (self.lubricant, self.surface, self.note)
-            == (other.lubricant, other.surface, other.note)
-            and self.channels.keys() == other.channels.keys()
-            and all(same(v, other.channels[k]) for k, v in self.channels.items())
-            and all(
-                channel_dimension(u) == channel_dimension(other.channel_units[k])
-                for k, u in self.channel_units.items()
-            )
-            and self.truth == other.truth
-            and self.extra_header == other.extra_header
-        )
+        return (same(self.time, other.time)
+                and same(self.deflection, other.deflection)
+                and same(self.drive, other.drive)
+                and self.stiffness == other.stiffness
+                and self.weight == other.weight
+                and self.normal_load == other.normal_load
+                and self.friction_radius == other.friction_radius
+                and self.drive_speed == other.drive_speed
+                and self.drive_program == other.drive_program
+                and (self.lubricant, self.surface, self.note)
+                == (other.lubricant, other.surface, other.note)
+                and self.channels.keys() == other.channels.keys()
+                and all(same(v, other.channels[k]) for k, v in self.channels.items())
+                and all(channel_dimension(u) == channel_dimension(other.channel_units[k])
+                        for k, u in self.channel_units.items())
+                and self.truth == other.truth
+                and self.extra_header == other.extra_header)
 
     __hash__ = None
 

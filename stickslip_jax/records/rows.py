@@ -69,17 +69,14 @@ def parse_data_checked(lines, start, columns, path):
             raise RecordError(
                 "header line after the column row; move every '# key: value' line above it",
                 path,
-                i + 1,
-            )
+                i + 1)
         cells = line.split(",")
         if len(cells) != ncol:
             hint = " (a decimal comma? use '.' for decimals)" if len(cells) > ncol else ""
-            raise RecordError(
-                f"{len(cells)} cells but the column row has {ncol} "
-                f"({', '.join(columns)}){hint}",
-                path,
-                i + 1,
-            )
+            raise RecordError(f"{len(cells)} cells but the column row has {ncol} "
+                              f"({', '.join(columns)}){hint}",
+                              path,
+                              i + 1)
         for c, name in zip(cells, columns):
             if not NUMBER.fullmatch(c.strip()):
                 raise RecordError(_cell_problem(c, name), path, i + 1)
@@ -93,8 +90,7 @@ def parse_data_checked(lines, start, columns, path):
         raise RecordError(
             f"{numbers[r][c].strip()!r} in column {columns[c]!r} is out of the float range",
             path,
-            rows[r],
-        )
+            rows[r])
     return data, rows
 
 

@@ -39,10 +39,8 @@ def format_record(record: Record, deflection_unit: str = "mm", time_unit: str = 
             if n not in ch_units:
                 raise RecordError(f"write_record: no channel {n!r}")
             if channel_dimension(u) != channel_dimension(record.channel_units[n]):
-                raise RecordError(
-                    f"write_record: channel {n!r} unit {u!r} is not a "
-                    f"{channel_dimension(record.channel_units[n])} unit"
-                )
+                raise RecordError(f"write_record: channel {n!r} unit {u!r} is not a "
+                                  f"{channel_dimension(record.channel_units[n])} unit")
             ch_units[n] = u
     out = [f"# stickslip-record: {FORMAT_VERSION}"]
     out.append(f"# stiffness: {fmt(record.stiffness)} kgf/mm")

@@ -469,8 +469,7 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         steady_sliding=final.steady,
         result=SimulationResult.where(
             final.done, SimulationResult.successful, SimulationResult.max_events_reached),
-        num_events=jnp.sum(rows["active"]).astype(int),
-    )
+        num_events=jnp.sum(rows["active"]).astype(int))
 
 
 def _cycle_table(info, max_events: int) -> Cycles:

@@ -32,14 +32,12 @@ def friction_truth(slideway: Slideway) -> dict:
                 out[name] = float(value)
         return out
 
-    return {
-        "static": fields(slideway.friction.static),
-        "kinetic": fields(slideway.friction.kinetic),
-        "weight_kgf": float(slideway.weight),
-        "stiffness_kgf_mm": float(slideway.stiffness),
-        **({} if slideway.normal_load is None
-           else {"normal_load_kgf": float(slideway.normal_load)}),
-    }
+    return {"static": fields(slideway.friction.static),
+            "kinetic": fields(slideway.friction.kinetic),
+            "weight_kgf": float(slideway.weight),
+            "stiffness_kgf_mm": float(slideway.stiffness),
+            **({} if slideway.normal_load is None
+               else {"normal_load_kgf": float(slideway.normal_load)})}
 
 
 _exact = eqx.filter_jit(simulate_exact)
@@ -88,8 +86,7 @@ def synthetic_record(slideway: Slideway, drive: AbstractDrive, duration: float, 
         kwargs["drive_speed"] = float(drive.v)
     elif isinstance(drive, SpeedProgram):
         kwargs["drive_program"] = tuple(
-            (float(a), float(b)) for a, b in zip(drive.start_times, drive.speeds)
-        )
+            (float(a), float(b)) for a, b in zip(drive.start_times, drive.speeds))
     else:
         kwargs["drive"] = np.asarray(drive.position(ts))
     return Record(time=np.asarray(ts), deflection=x + noise, stiffness=float(slideway.stiffness),

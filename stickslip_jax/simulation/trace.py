@@ -18,8 +18,7 @@ class SimulationResult(eqx.Enumeration):
     successful = ""
     max_events_reached = (
         "the exact simulator ran out of events (max_events) before the last sample time; "
-        "the rest of the trace continues the last phase. Raise max_events."
-    )
+        "the rest of the trace continues the last phase. Raise max_events.")
     solver_failed = "the ODE solver of the smoothed simulator failed (step budget or step size)"
 
 
