@@ -154,6 +154,7 @@ def test_both_bases_answer_with_one_document():
     assert set(s) & set(c) == shared and (c["base"], s["base"]) == ("cycle", "smooth")
     assert set(c) - shared == {"gap_all_records_before_mm", "gap_all_records_after_mm",
                                "records", "records_scaled", "windows_set_aside",
-                               "learned_correction", "sparse_form", "steps"}
+                               "learned_correction", "sparse_form", "misfit_left",
+                               "steps"}
     assert set(s) - shared == {"misspecification_before", "misspecification_after"}
     assert s["misspecification_after"] == {"p_value": 0.5} and c["learned_correction"] is None

@@ -134,8 +134,13 @@ def plot_cycle_discovery(result, *, records: int = 4):
     r1 = model.residuals(result.z_after, result.shape, result.sensor)[0] * sd
     G = model.n_records
     pick = _picked(G, records)
-    fig = Figure(figsize=(11, 2.6 * (1 + len(pick))), layout="constrained")
-    axes = fig.subplots(1 + len(pick), 2, squeeze=False)
+    left = getattr(result, "misfit_left", None)
+    rows = 1 + len(pick) + (left is not None)
+    fig = Figure(figsize=(11, 2.6 * rows), layout="constrained")
+    axes = fig.subplots(rows, 2, squeeze=False)
+    if left is not None:
+        _misfit_panels(axes[-1], left)
+        axes = axes[:-1]
     ax = axes[0, 0]
     names = list(result.phases_before)
     pos = np.arange(len(names))
@@ -193,6 +198,28 @@ def plot_cycle_discovery(result, *, records: int = 4):
                           x[rec == g], (x - r0)[rec == g], (x - r1)[rec == g]) for g in pick],
                   "paper's model", f"with {after}")
     return fig
+
+
+def _misfit_panels(axes, left) -> None:
+    """The misfit the final model leaves (`misfit.MisfitLeft`): the phase's residual (um)
+    against its own clock (s) with the forms fitted, and every phase's share of the excess
+    with the forms' shares."""
+    p, um = left.profile, 1e3
+    ax = axes[0]
+    ax.plot(p["clock"], um * p["residual"], ".", ms=1.5, color="0.5", label="residual")
+    ax.plot(p["clock"], um * p["fit"], ".", ms=1.5, color="C3",
+            label="level + ramp + oscillation")
+    ax.set_xlabel(f"{p['clock_words']} (s)")
+    ax.set_ylabel(f"{left.phase} residual (um)")
+    ax.legend(fontsize=7, markerscale=4)
+    ax.set_title(f"misfit left: {left.phase} phases", fontsize=9)
+    ax = axes[1]
+    names = list(left.shares) + [f"{left.phase}: {f['name']}" for f in left.forms]
+    ax.bar(range(len(names)), [100 * v for v in left.shares.values()]
+           + [100 * f["share"] for f in left.forms],
+           color=["C0"] * len(left.shares) + ["C3"] * len(left.forms))
+    ax.set_xticks(range(len(names)), names, rotation=15, fontsize=7, ha="right")
+    ax.set_ylabel("share of the excess over the noise (%)")
 
 
 def _staircase(ax, result, steps, title) -> None:

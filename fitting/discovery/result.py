@@ -111,6 +111,9 @@ class CycleDiscovery(Discovery):
     learned: CycleLearned | None = None
     sparse_form: object = None
     """The sparse form of the residual (`sparse.SparseForm`), where one was fitted."""
+    misfit_left: object = None
+    """The misfit the final model leaves by phase and form (`misfit.MisfitLeft`), where
+    it leaves more than `misfit.LEFT` x the noise."""
     gap_all_before: float = float("nan")
     gap_all_after: float = float("nan")
     """The residual RMS (mm) over every record used, those weighed by their scatter
@@ -155,6 +158,8 @@ class CycleDiscovery(Discovery):
                 "learned_correction": (self.learned.to_json() if self.learned is not None
                                        else None),
                 "sparse_form": (self.sparse_form.to_json() if self.sparse_form is not None
+                                else None),
+                "misfit_left": (self.misfit_left.to_json() if self.misfit_left is not None
                                 else None),
                 "steps": self.steps}
 

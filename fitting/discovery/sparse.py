@@ -38,7 +38,8 @@ from stickslip_jax.units import G_MM_S2
 
 from .cycle_effects import STICK_SCALE, STICK_TAUS, STICK_TERMS, STICK_TRAVELS, stick_terms
 
-__all__ = ["FOUND_SHARE", "MAX_TERMS", "SparseForm", "TERMS", "Term", "fit_sparse_form",
+__all__ = ["FOUND_SHARE", "MAX_TERMS", "SparseForm", "TERMS", "Term", "coordinates",
+           "fit_sparse_form",
            "library", "stlsq"]
 
 MAX_TERMS = 3
@@ -105,9 +106,10 @@ def _terms() -> tuple[Term, ...]:
 TERMS = _terms()
 
 
-def _coordinates(model, z, r, sd) -> dict:
+def coordinates(model, z, r, sd, shape=None, sensor: bool = False) -> dict:
     """Per masked sample, sorted window by window in time (`order`): the coordinates of
-    the cycle at the model's trace (module doc)."""
+    the cycle at the model's trace (module doc; with the effects' `shape` and `sensor`
+    where given)."""
     data, mask = model.data, np.asarray(model.data.mask)
     row = {f: np.broadcast_to(np.asarray(getattr(data, f))[:, None], mask.shape)[mask]
            for f in ("record", "window", "start_time", "stick_time", "speed", "stiffness",
@@ -117,7 +119,8 @@ def _coordinates(model, z, r, sd) -> dict:
     t = t_all[mask]
     offset = (np.asarray(z) * model.scales)[6:model.n_base]
     x = np.asarray(data.deflection)[mask] - r * sd - offset[row["record"]]
-    _, yd, _ = model.residuals(z)
+    _, yd, _ = (model.residuals(z) if shape is None else
+                model.residuals(z, shape, sensor))
     yd = np.asarray(yd)[mask]
     order = np.lexsort((t, row["window"]))
     c = {k: v[order] for k, v in row.items()}
@@ -156,7 +159,7 @@ def library(model, z, r, sd) -> np.ndarray:
     """The columns of `TERMS` (mm of reading per unit coefficient) at the model's trace
     at z, in the masked samples' order (`r`, `sd`: whitened residuals and their standard
     errors, mm)."""
-    c = _coordinates(model, z, r, sd)
+    c = coordinates(model, z, r, sd)
     stick, s, x = c["stick"], c["t"] - c["start_time"], c["x"]
     xi, v = c["stiffness"] * x / c["weight"], np.maximum(c["yd"], 0.0) / V_REF
     cols = dict(zip(STICK_TERMS, np.moveaxis(np.asarray(

@@ -12,6 +12,7 @@ from ..cycle_effects import Shape
 from ..cycle_learned import fit_cycle_correction
 from ..decision import rms_by_phase, rms_gap
 from ..flips import FLIPS
+from ..misfit import LEFT, misfit_left
 from ..result import (CycleDiscovery, effect_estimate, explanation_text, phase_misfit,
                       phase_text, steps_text)
 from .base_fit import friction_values
@@ -161,6 +162,11 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
                                   else effect)
         if effect == "none" and phase_misfit(phases_after, opts.phase_chi2):
             confidence = "low"
+    left = None
+    if gap_after > LEFT * noise:  # where the final model still misses, and in what form
+        left = misfit_left(base.model, z_after, r1, sd_after, noise, described,
+                           base.samples, shape, sensor)
+        explanation += " " + left.words
     learned = None
     if learn or effect == "unexplained":
         learned = fit_cycle_correction(prep.data, r0, base.fit.J[:n], sd, noise, described,
@@ -206,6 +212,7 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
         final_fit=final_fit, campaign=prep.campaign, model=base.model, z_before=base.z,
         z_after=z_after, shape=shape, sensor=sensor, records_scaled=base.scaled_notes,
         windows_set_aside=prep.windows_set_aside, learned=learned, sparse_form=form,
+        misfit_left=left,
         gap_all_before=base.gap_all_before, gap_all_after=gap_all_after,
         steps=([] if effect in ("none", "unexplained", "sparse_form")
                else [s.to_json(prep.G) for s in steps]))
