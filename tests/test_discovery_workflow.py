@@ -124,9 +124,14 @@ def test_direction_cosine_is_the_smallest_principal_angle():
 
 
 def test_bad_input_is_one_clear_error():
-    with pytest.raises(ValueError, match="constant drive"):
-        recs = hidden_effect_campaign(FRICTION_A, **TINY)
-        dmodel.campaign_traces([recs[0].replace(drive_speed=None, drive=recs[0].time * 0.01)])
+    from stickslip_jax.records import Record
+
+    t = np.arange(10) * 0.01
+    short = Record(time=t, deflection=0.01 * t, stiffness=86.9, weight=36.0, drive=0.01 * t)
+    with pytest.raises(ValueError, match="too few samples"):
+        dmodel.campaign_traces([short])
+    with pytest.raises(ValueError, match="crop must be"):
+        dmodel.campaign_traces([short], crop="start")
 
 
 @pytest.mark.slow
