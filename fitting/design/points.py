@@ -10,6 +10,8 @@ from jaxtyping import Array, Bool, Float
 
 from stickslip_jax import Friction
 
+Grid, Flags = Float[Array, "..."], Bool[Array, "..."]  # one value per design point
+
 
 class DesignMap(eqx.Module):
     r"""Stick-slip characteristics at every design point (arrays of the map's shape).
@@ -22,16 +24,16 @@ class DesignMap(eqx.Module):
     failure, where eq (6)'s amplitude is not the motion's).
     """
 
-    amplitude: Float[Array, "..."]
-    amplitude_ratio: Float[Array, "..."]
-    frequency: Float[Array, "..."]
-    frequency_ratio: Float[Array, "..."]
-    stick_time: Float[Array, "..."]
-    slip_time: Float[Array, "..."]
-    natural_frequency: Float[Array, "..."]
-    critical_speed: Float[Array, "..."]
-    stick_slip: Bool[Array, "..."]
-    converged: Bool[Array, "..."]
+    amplitude: Grid
+    amplitude_ratio: Grid
+    frequency: Grid
+    frequency_ratio: Grid
+    stick_time: Grid
+    slip_time: Grid
+    natural_frequency: Grid
+    critical_speed: Grid
+    stick_slip: Flags
+    converged: Flags
     regime: Array
 
 
@@ -73,7 +75,5 @@ def positive(weight, stiffness, speed) -> tuple[np.ndarray, np.ndarray, np.ndarr
 def outer(*axes):
     """1-D axes reshaped to broadcast as an outer grid: ``outer(W, k, v)`` -> W x k x v."""
     n = len(axes)
-    return tuple(
-        np.asarray(a, dtype=float).reshape([-1 if i == j else 1 for j in range(n)])
-        for i, a in enumerate(axes)
-    )
+    return tuple(np.asarray(a, dtype=float).reshape([-1 if i == j else 1 for j in range(n)])
+                 for i, a in enumerate(axes))

@@ -1,45 +1,26 @@
 r"""The objective of a campaign fit: an `eqx.Module` whose `residuals(params)` are the
 whitened residuals the Levenberg-Marquardt fit minimises (sum of squares = -2 log
-likelihood up to a constant).
+likelihood up to a constant). `AbstractObjective` (over `solve.lsq.AbstractResiduals`)
+with final subclasses:
 
-`AbstractObjective` with final subclasses:
+- `FeaturesObjective`: `objectives.cycle_features.feature_residuals` (plateau levels and
+  eq (6) per cycle; robust, fast);
+- `TraceObjective`: `objectives.trace.trace_residuals` (every sample against the exact
+  simulator restarted per cycle);
+- `WeightedSum`: terms concatenated, each scaled by $\sqrt{w}$ (sum of squares
+  $\sum w \chi^2$). `--objective both` is the features and the trace at weights 1/2: both
+  read the same samples, and the cluster-robust covariance of `uncertainty.laplace`
+  measures that overlap instead of assuming it.
 
-- `FeaturesObjective`: `stickslip_fitting.objectives.cycle_features.feature_residuals` (plateau levels and eq (6)
-  per cycle; robust, fast);
-- `TraceObjective`: `stickslip_fitting.objectives.trace.trace_residuals` (every sample against the
-  exact simulator restarted per cycle);
-- `WeightedSum`: terms concatenated, each scaled by $\sqrt{w}$, so that the sum of
-  squares is $\sum w \chi^2$ (`--objective both` is the features and the trace with
-  weights 1/2 each: both read the same samples, so if they carried the same information
-  the combined Fisher information would equal either one's; the intervals come from the
-  cluster-robust covariance of `stickslip_fitting.uncertainty.laplace`, which measures the overlap instead
-  of assuming it).
-
-Every objective offers the same interface, so the solver, the uncertainty, the sampler
-and the report never ask which one they have. `AbstractObjective` extends the package's
-objective interface `stickslip_fitting.solve.lsq.AbstractResiduals` (`residuals(params)`,
-`blocks()`, `dof()`, `split(r)`; the pitching and steady-observables objectives are
-its other subclasses); the full interface:
-`residuals_and_aux(params, weights_at, slider_velocity)` (the effective-variance weights
-frozen at `weights_at`, the trace's slider velocity given; aux: the simulations' success
-flags and the slider velocity at `params`), `velocity_shape()` (None when no trace),
-`dof()` (weighted number of residuals with data), `blocks()` (named lengths of the
-residual vector, in order), `clusters(features)` (the stick phase each residual reads,
-for the robust covariance), `robust` (True: samples of one stick phase share errors, so
-the default covariance is the cluster sandwich), `describe()` and `kind` (the name on the
-command line and in JSON: a `stickslip_fitting.modes.Objective`, "features", "trace",
-"both", "smooth"; a weighted sum of other terms is named by theirs joined with "+").
-`make_objective(kind, features, trace, weights=..., slip_time=...)` builds one from an
-`Objective` member; `CampaignObjective(features, trace, kind=value, ...)` from its value.
-`slip_time` is a `stickslip_jax.modes.SlipTime` (the field converts its string once, when
-the objective is built).
-
-`residual_cycles(objective, features)` labels every residual with the stick phase
-whose samples it reads, (record, cycle $j$) = the stick after slip $j$ (and the slip
-that ends it): the level and eq (6) residuals of cycle $j$ and the trace window that
-starts at the end of slip $j$. Residuals of different stick phases share no samples
-(only the timing of the slip between neighbours), which is what the cluster-robust
-(sandwich) covariance of `stickslip_fitting.uncertainty.laplace` needs for the combined objective.
+The interface the solver, uncertainty, sampler and report use: `residuals_and_aux(params,
+weights_at, slider_velocity)` (aux: the simulations' success flags and the slider
+velocity), `velocity_shape()`, `dof()`, `blocks()`, `clusters(features)` (module function
+`residual_cycles`: the stick phase, (record, cycle $j$) = the stick after slip $j$, whose
+samples each residual reads; phases share no samples, which the sandwich covariance
+needs), `robust` (True: the default covariance is the cluster sandwich), `describe()`,
+`kind` (a `modes.Objective`; a weighted sum of other terms joins theirs with "+") and
+`slip_time` (a `stickslip_jax.modes.SlipTime`, its string converted once).
+`make_objective(kind, features, trace, weights=..., slip_time=...)` builds one.
 """
 
 from __future__ import annotations
@@ -55,16 +36,22 @@ import numpy as np
 from stickslip_jax.modes import SlipTime
 
 from ..modes import Objective, check_member
-from .cycle_features import FeatureData, feature_residuals
 from ..solve.lsq import AbstractResiduals
+from .cycle_features import FeatureData, feature_residuals
 from .trace import TraceData, failed_windows, trace_residuals_and_flags
 
 __all__ = ["OBJECTIVES", "AbstractObjective", "CampaignObjective", "FeaturesObjective",
-           "TraceObjective", "WeightedSum", "make_objective", "residual_cycles"]
+           "TraceObjective", "WeightedSum", "make_objective", "residual_cycles",
+           "slip_time_field"]
 
 OBJECTIVES = (Objective.FEATURES.value, Objective.TRACE.value, Objective.BOTH.value)
 """The objectives `make_objective` builds (values of `stickslip_fitting.modes.Objective`;
 "smooth" is `stickslip_fitting.objectives.smooth.SmoothObjective`, built from the records)."""
+
+
+def slip_time_field():
+    """An objective's `slip_time` field: a `SlipTime`, or its value converted once."""
+    return eqx.field(static=True, default=SlipTime.PAPER, converter=SlipTime.parse)
 
 
 class AbstractObjective(AbstractResiduals):
@@ -109,8 +96,7 @@ class FeaturesObjective(AbstractObjective):
     """The cycle features: plateau levels and eq (6) per cycle (`stickslip_fitting.objectives.cycle_features`)."""
 
     features: FeatureData
-    slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,
-                                    converter=SlipTime.parse)
+    slip_time: SlipTime = slip_time_field()
     kind: ClassVar[Objective] = Objective.FEATURES
     robust: ClassVar[bool] = False
 
@@ -160,8 +146,7 @@ class TraceObjective(AbstractObjective):
     (`stickslip_fitting.objectives.trace`)."""
 
     trace: TraceData
-    slip_time: SlipTime = eqx.field(static=True, default=SlipTime.PAPER,
-                                    converter=SlipTime.parse)
+    slip_time: SlipTime = slip_time_field()
     kind: ClassVar[Objective] = Objective.TRACE
     robust: ClassVar[bool] = True
 
@@ -302,18 +287,15 @@ def make_objective(kind: Objective, features: FeatureData,
 
 
 def CampaignObjective(features, trace=None, kind: Objective | str = Objective.FEATURES,
-                      weight_features: float = 0.5,
-                      weight_trace: float = 0.5,
+                      weight_features: float = 0.5, weight_trace: float = 0.5,
                       slip_time: SlipTime | str = SlipTime.PAPER) -> AbstractObjective:
     """`make_objective` with the kind given by its value and two weights."""
-    return make_objective(Objective.parse(kind), features, trace, weights=(weight_features, weight_trace),
-                          slip_time=slip_time)
+    return make_objective(Objective.parse(kind), features, trace,
+                          weights=(weight_features, weight_trace), slip_time=slip_time)
 
 
 def residual_cycles(objective: AbstractObjective, features) -> tuple[np.ndarray, np.ndarray]:
-    """(record, cycle) of every entry of `objective.residuals(...)` (module doc); -1 for both
-    on padding. The gauge-offset residual of `--offset start` (first plateau) gets cycle -2.
-
-    `features`: the campaign's `RecordFeatures` (their slip-end times place the trace windows).
-    """
+    """(record, cycle) of every residual (module doc); -1 for both on padding, cycle -2 for
+    the first plateau's gauge offset (`--offset start`). `features`: the campaign's
+    `RecordFeatures` (their slip-end times place the trace windows)."""
     return objective.clusters(features)

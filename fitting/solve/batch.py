@@ -36,10 +36,7 @@ import numpy as np
 __all__ = ["BatchEntry", "BatchResult", "FITTED", "NOT_CONVERGED", "FAILED", "ERROR",
            "campaign_name", "exchange", "fit_batch", "shares"]
 
-FITTED = "fitted"
-NOT_CONVERGED = "not_converged"
-FAILED = "failed"
-ERROR = "error"
+FITTED, NOT_CONVERGED, FAILED, ERROR = "fitted", "not_converged", "failed", "error"
 
 
 @dataclasses.dataclass(frozen=True)

@@ -19,22 +19,24 @@ from jaxtyping import Array, Bool, Float
 from ..friction import Friction
 from ..steady import SteadyState, steady_state
 
+Series, Scalar = Float[Array, " n"], Float[Array, ""]
+
 
 class ForceCycle(eqx.Module):
     """One steady cycle: `time` (s, from the start of the stick to the end of the slip),
     `force` (kgf, $F = kx$), peak `f0` = $F_0$ and trough `f1` = $F_1$ (kgf), `period`
     (s), `stick_slip` flag and the `steady` analysis it came from."""
 
-    time: Float[Array, " n"]
-    force: Float[Array, " n"]
-    f0: Float[Array, ""]
-    f1: Float[Array, ""]
-    period: Float[Array, ""]
+    time: Series
+    force: Series
+    f0: Scalar
+    f1: Scalar
+    period: Scalar
     stick_slip: Bool[Array, ""]
     steady: SteadyState
 
     @property
-    def force_drop(self) -> Float[Array, ""]:
+    def force_drop(self) -> Scalar:
         r"""$\Delta F = F_0 - F_1$ in kgf (Fig 47, Fig 53's parameter)."""
         return self.f0 - self.f1
 
