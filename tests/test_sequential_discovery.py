@@ -108,6 +108,35 @@ def test_a_later_effect_joins_only_when_its_refit_confirms_it():
     assert confirmed(near, rf, 0.01)  # chi2/n below 1: the plain quantile
 
 
+def test_a_named_effects_shape_is_a_nuisance_of_the_later_tests():
+    """The later searches' score tests project out the derivatives over the named
+    effects' continuous shape parameters (`rank.shape_columns`): the Stribeck speed scale
+    (relative step) and exponent (rational and exponential forms only), the screw pitch,
+    the second-order sensor's damping ratio; none for a family without shape."""
+    import types
+
+    from stickslip_fitting.discovery.cycle_effects import Shape, family
+    from stickslip_fitting.discovery.stages.rank import shape_columns
+
+    t = np.linspace(0.0, 1.0, 50)
+
+    def residuals(z, shape, sensor=False):  # depends on vs, p and the pitch
+        return (np.exp(-t * shape.vs / 10.0) * shape.p + np.sin(t / shape.pitch), None, True)
+
+    model = types.SimpleNamespace(residuals=residuals)
+    shape = Shape(vs=10.0, p=2.0, form="rational", pitch=2.0)
+    S = shape_columns(model, None, shape, False, (family("stribeck"),))
+    assert S.shape == (50, 2)
+    # d r / d ln vs and d r / d p, forward differences
+    assert np.allclose(S[:, 0], -t * np.exp(-t) * 2.0, atol=0.05)
+    assert np.allclose(S[:, 1], np.exp(-t), atol=1e-9)
+    S = shape_columns(model, None, Shape(form="log"), False, (family("stribeck"),))
+    assert S.shape == (50, 1)  # the logarithmic form has no exponent
+    S = shape_columns(model, None, shape, False, (family("drive_periodic_error"),))
+    assert np.allclose(S[:, 0], -np.cos(t / 2.0) * t / 2.0, atol=0.01)
+    assert shape_columns(model, None, shape, False, (family("friction_drift"),)).size == 0
+
+
 # -- rates over pairs of four common families (slow, targets) --
 
 PAIRS_OF = {

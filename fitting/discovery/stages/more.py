@@ -31,6 +31,15 @@ as one in the model (`ALTERNATIVES`: a Stribeck curve and rate-and-state frictio
 laws of one kinetic friction that depends on the slip speed): with one of them named, the
 other fits what the first one's shape leaves (measured: a rational Stribeck drop b = 0.1,
 4 records, named stribeck, then rate_state for 744 of the remaining chi-square).
+A named effect's shape was chosen on the records too (a grid shape, refined locally far
+from the data), and what the chosen shape leaves of the records' own is a residual that
+other families fit: every later test, the ranking's and drop-one's, counts the named
+effects' continuous shape parameters among the base's (`rank.shape_columns`, their
+derivatives projected out with the base columns). A later family that only takes up the
+shape's remainder is then no longer significant (measured: a rational Stribeck drop b = 0.1
+alone, 4 records, fitted as the library's rational curve at v_s 6.25 mm/s; with the shape
+free the best later family, load coupling, has family-wise p 0.2 instead of 0.00025, and
+stribeck alone is the answer, where a sensor low-pass and load coupling followed it).
 
 **Confirmation.** A later effect joins only when its refit confirms the score test
 (`confirmed`): its chi-square drop exceeds the chi-square quantile at `alpha` for its
@@ -106,7 +115,7 @@ def drop_one(fx: Fits, rf: FamilyRefit, clock: Clock) -> tuple[FamilyRefit, tupl
         try:
             fit = sub.solve(z[cols], max_evals=opts.refit_evals, lam0=1e-3, stall_evals=8)
             p = held_p(base, fx.prep.starts, fit, sub.full(fit.z), h, rf.shape, sensor,
-                       z_all[model.cols(h)])
+                       z_all[model.cols(h)], others=(*keep, rf.family))
         except ValueError:  # the model without it leaves the simulator's domain: kept
             continue
         one = judge(fx, rf.family, rf.shape, fit, sensor, sub)

@@ -4,6 +4,8 @@ the sign flips (`cycle_workflow`, module doc)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import scipy.stats
 
@@ -17,7 +19,14 @@ from ..scores import base_basis, project_out
 from ..subproblems import with_shape
 from .state import Base, Clock, FamilyScore, Prepared, Ranking
 
-__all__ = ["held_p", "rank", "significance_line"]
+__all__ = ["held_p", "rank", "shape_columns", "significance_line"]
+
+_SHAPE_STEPS = {"stribeck": (("vs", 0.05, True), ("p", 0.1, False)),
+                "rate_state": (("length", 0.05, True),),
+                "drive_periodic_error": (("pitch", 0.01, True),),
+                "sensor_lowpass": (("zeta", -0.03, False),)}
+"""Per family: its continuous shape parameters (`cycle_effects.Shape` fields), the
+finite-difference step of each and whether the step is relative (`shape_columns`)."""
 
 
 def score_cols(model, f, G) -> np.ndarray:
@@ -25,6 +34,37 @@ def score_cols(model, f, G) -> np.ndarray:
     family (dof 2 per record)."""
     cols = model.cols(f)
     return cols.reshape(G, -1)[:, :2].ravel() if f.per_record else cols
+
+
+def shape_columns(model, z, shape: Shape, sensor: bool, held) -> np.ndarray:
+    """The derivatives [n, k] of the residuals at `z` over the continuous shape parameters
+    of the named effects `held` (Stribeck speed scale and exponent, rate-and-state slip
+    distance, screw pitch, second-order sensor damping ratio; forward differences). A named
+    effect's shape was chosen on the records, so it is a nuisance parameter of every later
+    test: a family that only fits what the named effect's shape leaves (a rational Stribeck
+    drop fitted by the library's nearest shape, the rest taken up by a sensor low-pass and
+    load coupling) lies in their span and is no evidence of a further effect."""
+    moved = []
+    for f in held:
+        for field, h, relative in _SHAPE_STEPS.get(f.name, ()):
+            if ((field == "p" and shape.form not in ("exp", "rational"))
+                    or (field == "zeta" and shape.order != 2)):
+                continue
+            v = getattr(shape, field)
+            moved.append((dataclasses.replace(shape, **{field: v * (1.0 + h) if relative
+                                                        else v + h}), h))
+    if not moved:
+        return np.zeros((0, 0))
+    r0 = model.residuals(z, shape, sensor)[0]
+    cols = [(model.residuals(z, s, sensor)[0] - r0) / h for s, h in moved]
+    return np.stack([c for c in cols if np.all(np.isfinite(c))] or [0.0 * r0], axis=1)
+
+
+def _nuisance(J, model, z, shape, sensor, held, described) -> np.ndarray:
+    """The basis of the base columns `J` and the named effects' shape columns
+    (`shape_columns`) over the described records."""
+    S = shape_columns(model, z, shape, sensor, held)
+    return base_basis((np.hstack([J, S]) if S.size else J) * described[:, None])
 
 
 def _efficient(Qb, described, Jc) -> np.ndarray:
@@ -99,11 +139,12 @@ def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, 
     return out
 
 
-def held_p(base: Base, starts, fit, z, f, shape, sensor: bool, value) -> float:
+def held_p(base: Base, starts, fit, z, f, shape, sensor: bool, value, others=()) -> float:
     """The robust window test's p-value of family `f`, one of the effects named, at a
     `fit` (over its free coordinates, full coordinates `z`) that leaves it out: the
     drop-one test of the sequential search (`stages.more`), the ranking's test of one
-    family in its named shape (the sensor by its secant to its fitted value `value`)."""
+    family in its named shape (the sensor by its secant to its fitted value `value`),
+    the shapes of the effects `others` in the fit free (`shape_columns`)."""
     model, described, n = base.model, base.described, base.n
     r = fit.r[:n]
     cols = score_cols(model, f, model.n_records)
@@ -113,8 +154,8 @@ def held_p(base: Base, starts, fit, z, f, shape, sensor: bool, value) -> float:
         Jc = ((model.residuals(zp, shape, sensor=True)[0] - r) / value)[:, None]
     else:
         Jc = model.evaluate(z, cols, shape, sensor)[1]
-    Jp = _efficient(base_basis(fit.J[:n] * described[:, None]), described, Jc)
-    return hotelling(Jp, np.where(described, r, 0.0), starts)[1]
+    Qb = _nuisance(fit.J[:n], model, z, shape, sensor, others, described)
+    return hotelling(_efficient(Qb, described, Jc), np.where(described, r, 0.0), starts)[1]
 
 
 def significance_line(significant, n_families: int, alpha: float, level: float,
@@ -133,7 +174,7 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
     model, described, starts, G = base.model, base.described, prep.starts, prep.G
     alpha, n_used = opts.alpha, base.n_used
     r_rank = np.where(described, base.r, 0.0)
-    Qb = base_basis(base.fit.J * described[:, None])
+    Qb = _nuisance(base.fit.J, model, base.z, base.shape, base.sensor, base.held, described)
     n_tests = sum(len(f.shapes) * (len(opts.sensor_probes) if f.name == "sensor_lowpass"
                                    else 1) for f in fams)
     level = alpha / n_tests
