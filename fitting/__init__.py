@@ -27,20 +27,8 @@ Beside them: `params` and `modes` (the vocabulary every step shares), `discovery
 (missing physics, in stages) and `design/` (steady maps, exact cycle maps, experiment
 planning, tolerances).
 
-Where new things go:
-- a new friction law to fit: a final subclass of `params.AbstractFrictionParams`
-  (names, units, leaves, prior support; `from_log_values`, `with_values`, `physical`);
-- a new objective: a final subclass of `objectives.combined.AbstractObjective` in a module
-  of `objectives/`, with residuals of `params.CampaignParams` whitened by their standard
-  errors (an objective over other parameters: a final subclass of
-  `solve.lsq.AbstractResiduals`); to offer it as `--objective NAME`, a member of
-  `modes.Objective` and its branch in `solve.fit.fit_features`;
-- a new effect for discovery: a family in `discovery.cycle_effects` and its term in
-  `discovery.cycle_model`;
-- a new mode option: a member of its enum in `modes` (or a new `AbstractMode` there),
-  validated once with `.parse` where it enters;
-- a new subcommand: a module in `commands/` (NAME, HELP, add_arguments, run) and an
-  entry point in the `stickslip.commands` group of pyproject.toml.
+Where a new friction law, objective, effect family, option or command goes:
+docs/architecture.md ("Where new things go").
 
 Importing this package enables `jax_enable_x64` (through `stickslip_jax`): every
 computation here is in float64.
@@ -53,15 +41,6 @@ import stickslip_jax  # noqa: F401  (enables x64)
 
 if TYPE_CHECKING:  # for type checkers, `stickslip_fitting.fit(...)` is the one-call fit
     from .api.campaign import fit as fit
-
-__all__ = ["AbstractFrictionParams", "AbstractResiduals", "Campaign", "CampaignDiscovery",
-           "CampaignFit", "CampaignParams", "CampaignPosterior", "Covariance", "DesignCriterion",
-           "DesignStudy", "EmpiricalFriction", "FitResult", "Hold", "McmcResult",
-           "MicrosqueezeFriction", "ModelModes", "Objective", "Padding", "RecordFeatures",
-           "SmallSample", "SolverOptions", "Uncertainty", "Weighting", "design_map", "discover",
-           "discover_cycles", "fit", "fit_features", "fit_microsqueeze", "fit_objective",
-           "fit_records", "free_spec", "laplace", "least_squares", "load_campaign",
-           "record_features", "run_mcmc", "sample"]
 
 _HOME = {"AbstractFrictionParams": "params", "CampaignParams": "params",
          "EmpiricalFriction": "params", "free_spec": "params", "Hold": "params",
@@ -80,6 +59,7 @@ _HOME = {"AbstractFrictionParams": "params", "CampaignParams": "params",
          "CampaignPosterior": "api.posterior", "sample": "api.posterior",
          "CampaignDiscovery": "api.discovery", "discover": "api.discovery",
          "DesignStudy": "api.design", "design_map": "api.design"}
+__all__ = sorted(_HOME)
 
 
 def __getattr__(name):

@@ -104,9 +104,4 @@ def __dir__():
     return sorted(set(globals()) | set(__all__))
 
 
-__all__ = ["AbstractKineticFriction", "AbstractStaticFriction", "DerjaguinStatic", "Formulation",
-           "Friction", "GaugeOffset", "HoweStatic", "KatoKinetic", "KatoStatic", "OkamuraStatic",
-           "PowerLawStatic", "Slideway", "SlipTime", "SteadyState", "critical_speed",
-           "experimental_conditions", "load_table", "lubricant", "natural_angular_frequency",
-           "slip_time", "slip_trajectory", "static_law", "steady_map", "steady_state", "units",
-           "REGIMES", "restick_failure"]
+__all__ = [*sorted(_HOME), "units"]

@@ -1,46 +1,32 @@
 r"""Stick and slip phases detected in a measured record, and its figure (trace + phase plane).
 
-Phase rule (`classify_phases`). In the stick phase the slider rests, so the spring
-deflection rises with the drive, $\dot x = \dot u$; in the slip phase the slider
-overtakes the drive and $x$ falls fast, $\dot x < 0$:
+Phase rule (`classify_phases`): in a stick the slider rests, so the spring deflection
+rises with the drive, $\dot x = \dot u$; in a slip $x$ falls fast, $\dot x < 0$.
 
-1. $\dot x$ and $\dot u$ are the slopes of least-squares straight lines through
-   `window` samples centred on each sample (default: the odd number of samples
-   nearest a quarter of the natural slip time $T_2 = \pi/\omega_0$, at least 3),
-   which averages the measurement noise without smearing a slip; within half a
-   window of the ends, the slope of the first (last) full window.
-2. The noise $\sigma$ of $\dot x - \dot u$ is that of a slope through `window` samples
-   of the slider displacement $y = u - x$, whose noise comes from its second differences
-   (`stickslip_jax.slips.robust_sigma`): it does not depend on the share of time in
-   stick (a record that slides most of the time is not taken for one that sticks).
-3. The threshold is $\theta = \max(5\sigma, 0.05 \max|r|, 10^{-9}\max(|\dot x|, |\dot u|))$,
-   $r = \dot x - \dot u$ (the last term only matters for noiseless traces). A sample is
-   **stick** when $|\dot x - \dot u| \le \theta$ (rising at the drive speed), **slip** when
-   $\dot x < -\theta$ within a slip found by the cycle detector of every command
-   (`stickslip_jax.slips.find_slips`, the one `fit` and `discover` use), **other** for the
-   rest of a slip (its turning points), and **sliding** when the slider moves outside
-   every slip (steady sliding, creep). The slips counted are the detector's; a record
-   it finds sliding continuously has none, and `PhaseSplit.verdict` says so.
+1. $\dot x$ and $\dot u$ are least-squares slopes through `window` samples about each
+   sample (default: the odd count nearest a quarter of $T_2 = \pi/\omega_0$, at least 3);
+   near the ends, the slope of the first (last) full window.
+2. The noise $\sigma$ of $\dot x - \dot u$ is that of a slope through `window` samples of
+   $y = u - x$, from its second differences (`stickslip_jax.slips.robust_sigma`): it does
+   not depend on the share of time in stick.
+3. With $r = \dot x - \dot u$ and $\theta = \max(5\sigma, 0.05 \max|r|,
+   10^{-9}\max(|\dot x|, |\dot u|))$, a sample is **stick** when $|r| \le \theta$, **slip**
+   when $\dot x < -\theta$ within a slip of the detector every command uses
+   (`stickslip_jax.slips.find_slips`), **other** for the rest of a slip, and **sliding**
+   when the slider moves outside every slip (`PhaseSplit.verdict` says when the detector
+   finds the record sliding continuously).
 
-Two defects of real loggers are handled first (`glitches`, `quantum`), so that they do
-not change the count of slips:
+Two logger defects are handled first, so that they do not change the count of slips:
+**glitches** (a sample further from the median of the 5 about it than half the record's
+1st-99th percentile range and 10 noise sd is a spike, replaced by the line through its
+neighbours and counted in `PhaseSplit.glitches`; one 10 mm spike otherwise made a 6-slip
+record show 1 slip) and **quantisation** (when every change is a whole number of a step
+q and x stays constant while the drive moves, $\theta \ge 3q/(w\,\Delta t)$,
+`PhaseSplit.quantum`; a 5 um-quantised record otherwise counted 81 slips instead of 6).
 
-- **Glitches**: a sample further from the median of the 5 samples about it than half the
-  record's range (1st to 99th percentile of x) and 10 noise sd is a single-sample spike
-  (a slip falls over several samples and never comes back within two); it is replaced
-  by the line through its good neighbours before the slopes are taken, and counted
-  (`PhaseSplit.glitches`). Without this one 10 mm spike set $0.05\max|r|$ so high that
-  a 6-slip record showed 1 slip.
-- **Quantisation**: when every change between samples is a whole number of one step q
-  and x stays exactly constant for many samples while the drive moves (a staircase: the
-  logger resolves less than the motion per sample), one step within the slope window
-  is not a slip: $\theta \ge 3q/(w\,\Delta t)$, twice the slope of a one-step change in
-  a window of w samples (`PhaseSplit.quantum`). Without it a 5 um-quantised record
-  counted every downward step (81 slips in a 6-slip record).
-
-The phase plane is that of the paper's Figs 34/35: the deflection $x$ (mm) against
-$\dot x/\omega_0$ (mm), $\omega_0 = \sqrt{g k / W}$, on equal axes, so a slip under
-constant kinetic friction is a half circle about $\mu_m W/k$.
+The phase plane is that of the paper's Figs 34/35: $x$ (mm) against $\dot x/\omega_0$
+(mm), $\omega_0 = \sqrt{g k / W}$, on equal axes: a slip under constant kinetic friction
+is a half circle about $\mu_m W/k$.
 """
 
 from __future__ import annotations

@@ -1,34 +1,28 @@
 r"""Laplace (Gauss-Newton) uncertainty and identifiability of a campaign fit.
 
-At the least-squares optimum the whitened residuals $r(\theta)$ give the Fisher
-information $F = J^\top J$, $J = \partial r/\partial\theta$, and the Laplace
-covariance $F^{-1}$, scaled by $\max(1, \chi^2/\mathrm{dof})$ so that a model or
-noise estimate that does not fit does not shrink the intervals. The coordinates
-$\theta$ are the **logarithms** of the natural parameters ($\log\mu_s, \log\mu_d,
-\log\gamma, \ldots$) and the free gauge offsets, so eigenvalues and standard errors
-are relative: a standard error of 0.1 in $\log\gamma$ is about 10 % of $\gamma$.
-Intervals are log-normal, $p\,e^{\pm z\,\mathrm{se}}$: positive, like the parameters.
+At the optimum the whitened residuals $r(\theta)$ give the Fisher information
+$F = J^\top J$ and the covariance $F^{-1}$, scaled by $\max(1, \chi^2/\mathrm{dof})$ so
+that a misfit does not shrink the intervals. $\theta$ are the logarithms of the natural
+parameters and the free gauge offsets, so standard errors are relative (0.1 in
+$\log\gamma$ is about 10 % of $\gamma$) and intervals log-normal, $p\,e^{\pm z\,\mathrm{se}}$.
 
-For the trace and combined objectives ("trace", "both") $F^{-1}$ is too narrow: the
-samples of one stick phase share the error of the measured restart state (slip-end
-level and time), and "both" reads every sample twice (features and trace). Their
-covariance is the cluster-robust sandwich $H^{-1} M H^{-1}$ (`sandwich_covariance`):
-the score of each stick phase (`stickslip_fitting.objectives.combined.residual_cycles`) is one cluster,
-neighbouring phases of a record are allowed to correlate (lag 1), and jackknife
-(leave-one-cluster-out) scores remove the small-sample bias. Measured on campaigns
-drawn from a prior (tests/test_combined.py, slow; 18 of 20 counted, two features fits
-ended in a local minimum with chi2/dof 25 and 1769): 90 % intervals covered the truth
-in 92 % ("both") and 89 % ("trace") of 108 cases, against 55 % and 62 % with $F^{-1}$.
+For the trace and combined objectives $F^{-1}$ is too narrow: the samples of one stick
+phase share the error of the measured restart state, and "both" reads every sample
+twice. Their covariance is the cluster-robust sandwich $H^{-1} M H^{-1}$
+(`sandwich_covariance`): one cluster per stick phase (`objectives.combined.residual_cycles`),
+neighbouring phases of a record correlated (lag 1), jackknife scores against the
+small-sample bias. Measured on campaigns drawn from a prior (tests/test_combined.py,
+slow; 18 of 20 counted, two features fits in a local minimum): 90 % intervals covered
+the truth in 92 % ("both") and 89 % ("trace") of 108 cases, against 55 % and 62 % with
+$F^{-1}$.
 
-Identifiability is judged two ways and reported in plain language:
-- by the numbers: a parameter whose relative standard error exceeds
-  `max_relative_se` (default 0.5, a 95 % interval wider than a factor 2.7 either
-  way), and pairs with |correlation| > 0.95; the eigenvalues of the friction block of
-  $F$ (offsets marginalised) with the direction of the weakest one;
-- by the design: one slip time $T_2 = \pi/\omega_0$ for all records (a single $k/W$)
-  leaves only $\delta T_2^n$ determined, so $n$ (and $\delta$ apart from it) cannot be
-  found; stick times within a factor 1.5 of each other (one speed) leave the rise of
-  $\mu_0(T_1)$, that is $\mu_s$, $\gamma$ and $m$, undetermined.
+Identifiability, reported in plain language: by the numbers, a relative standard error
+over `max_relative_se` (0.5: a 95 % interval wider than a factor 2.7 either way), pairs
+with |correlation| > 0.95, and the eigenvalues of the friction block of $F$ (offsets
+marginalised) with the weakest direction; by the design, one slip time $T_2 =
+\pi/\omega_0$ for all records (one $k/W$) determines only $\delta T_2^n$ ($n$ and
+$\delta$ apart from it cannot be found), and stick times within a factor 1.5 (one speed)
+leave $\mu_s$, $\gamma$ and $m$ undetermined.
 """
 
 from __future__ import annotations
@@ -47,11 +41,9 @@ from ..solve.fit import QUICK_OPTIONS, FitResult
 from ..objectives.losses import HeavyTailed
 from ..modes import Covariance, SmallSample, check_member
 from ..params import CampaignParams, free_mask
-from ..report.rows import ParameterEstimate
+from ..report.rows import Z95, ParameterEstimate
 
 __all__ = ["Uncertainty", "laplace", "Z95"]
-
-Z95 = 1.959963984540054
 
 
 @dataclasses.dataclass(frozen=True)

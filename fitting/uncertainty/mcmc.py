@@ -1,46 +1,33 @@
 r"""Posterior sampling of the friction parameters with emcee (affine-invariant ensemble).
 
-The log-posterior is the fit's objective (`stickslip_fitting.objectives.combined`: features, trace or
-both) as a Gaussian likelihood, $\log L = -\tfrac12 \sum r^2 / s$ ($s = \max(1, \chi^2/\mathrm{dof})$ at
-the optimum, the same widening as the Laplace intervals), plus the **prior**: uniform
-in the logarithm of each free parameter inside `PRIOR_BOUNDS` (a scale-free prior
-for positive quantities), with $\mu_s > \mu_d$; gauge offsets (when fitted) flat.
-The microsqueeze model (`stickslip_fitting.microsqueeze_params`: h_e, Q in place of gamma, m)
-adds its physical region to the support: $C_3 < \mu_s < C_1$, $\mu_d$ above the
-film-only friction and $h_e > t_b + a_d$ (`MicrosqueezeFriction.physical`; a point
-outside has zero prior density).
+The log-posterior is the fit's objective (`objectives.combined`: features, trace or both)
+as a Gaussian likelihood, $\log L = -\tfrac12 \sum r^2 / s$ ($s = \max(1,
+\chi^2/\mathrm{dof})$ at the optimum, as for the Laplace intervals), plus a prior uniform
+in the logarithm of each free parameter inside `PRIOR_BOUNDS`, with $\mu_s > \mu_d$;
+gauge offsets flat. The microsqueeze law adds its physical region to the support
+($C_3 < \mu_s < C_1$, $\mu_d$ above the film-only friction, $h_e > t_b + a_d$:
+`MicrosqueezeFriction.physical`).
 
-For the trace and combined objectives (and features fits the model does not describe
-to their noise) the samples of one stick phase share errors, and a likelihood that
-treats them as independent is too narrow, as the Fisher intervals are (see
-`stickslip_fitting.uncertainty.laplace`). There the likelihood is tempered: $s$ is multiplied by the
-largest ratio, over the free friction parameters, of the cluster-robust (sandwich)
-variance to the scaled Fisher variance (`likelihood_scale`, reported), so that no
-parameter's posterior is narrower than its robust Laplace interval. The sampler then
-draws from the same objective the fit minimised (`stickslip mcmc --objective trace`).
+Where the samples of one stick phase share errors (trace and combined objectives, and
+features fits the model does not describe to their noise) the likelihood is tempered:
+$s$ is multiplied by the largest ratio over the free parameters of the cluster-robust to
+the scaled Fisher variance (`likelihood_scale`, reported), so no posterior is narrower
+than its robust Laplace interval (`uncertainty.laplace`).
 
-It is written for emcee's `vectorize=True`: one call evaluates the whole ensemble,
-a `jax.vmap` of the residuals inside one `jax.jit`, over a flat (walkers, dim) array
-of (log parameters, offsets); the flattening happens only here, at the sampler
-boundary. Walkers start in a small ball around the least-squares optimum, shaped by
-the Laplace covariance. The integrated autocorrelation time $\tau$ of every
-parameter and the effective sample size $N_\mathrm{walkers} (N_\mathrm{steps} -
-\mathrm{burn}) / \tau$ are reported, with a warning when the chain is shorter than
-50 $\tau$ (emcee's rule of thumb) or the estimate is unreliable.
+Written for emcee's `vectorize=True`: one `jax.jit` of a `jax.vmap` of the residuals
+evaluates the whole ensemble over a flat (walkers, dim) array of (log parameters,
+offsets), flattened only here. Walkers start in a small ball around the optimum, shaped
+by the Laplace covariance. The integrated autocorrelation time $\tau$ and the effective
+sample size $N_\mathrm{walkers}(N_\mathrm{steps} - \mathrm{burn})/\tau$ are reported,
+with a warning under 50 $\tau$ (emcee's rule of thumb).
 
-The full chain after burn-in (every walker, every step) is kept in the result
-(`McmcResult.chain`, `log_prob`) and converts to an arviz `InferenceData`
-(`McmcResult.to_inference_data`, saved as netCDF by `McmcResult.save_chain`): the
-posterior group has chain = walker and draw = step (numbered from the burn-in on), one
-variable per parameter in natural units (a `units` attribute each; `gauge_offset` in mm
-over `record` when offsets are sampled), sample_stats has `lp` (the log-posterior), and
-the attributes hold the likelihood scale, the units and the run's settings. arviz is
-the optional extra `stickslip-jax[posterior]` (`import_arviz`).
-`McmcResult.arviz_summary` gives arviz's ESS (bulk, tail) and R-hat with the walkers
-as chains. **Caveat**: the walkers of an affine-invariant ensemble are not independent
-chains (each move uses the other walkers' positions), so R-hat across walkers is only
-indicative: a value near 1 says the walkers agree, not that independent runs would;
-the integrated autocorrelation time above is emcee's own diagnostic of the ensemble.
+The chain after burn-in (`McmcResult.chain`, `log_prob`) converts to an arviz
+`InferenceData` (`to_inference_data`, netCDF by `save_chain`; chain = walker, draw =
+step, one variable per parameter in natural units with a `units` attribute,
+`gauge_offset` in mm over `record`, `lp` in sample_stats; the optional extra
+`stickslip-jax[posterior]`). `arviz_summary` gives ESS and R-hat with the walkers as
+chains; the walkers of an ensemble are not independent chains, so R-hat across them is
+only indicative (`ENSEMBLE_CAVEAT`).
 """
 
 from __future__ import annotations
