@@ -33,21 +33,17 @@ def _method(args) -> MapMethod:
 
 
 def add_arguments(p):
-    from stickslip_jax.commands.options import quantity
+    from stickslip_jax.commands.options import (add_lubricant_options, add_normal_load_option,
+                                                quantity)
 
-    p.add_argument("--lubricant", default="A", help="paper lubricant (Table 6: A, C)")
-    p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
-                   help="table of eq (1) parameters (default 6; 4 and 9 borrow delta, n of A)")
+    add_lubricant_options(p)
     p.add_argument("--weight", required=True,
                    help="slider weight W: VALUE or START:STOP:COUNT[:log] [unit] (default kgf)")
     p.add_argument("--stiffness", required=True,
                    help="drive stiffness k: VALUE or START:STOP:COUNT[:log] [unit] (default kgf/mm)")
     p.add_argument("--speed", required=True,
                    help="drive speed v: VALUE or START:STOP:COUNT[:log] [unit] (default mm/min)")
-    p.add_argument("--normal-load", type=quantity("force", "kgf"), default=None,
-                   help="normal load N pressing the slider on the slideway, when a dead "
-                        "weight or a cylinder sets it apart from the moving weight W (kgf, or "
-                        "with unit; default W)")
+    add_normal_load_option(p)
     p.add_argument("--posterior", metavar="FILE",
                    help="posterior sample (CSV/JSON with mu_s, mu_d, gamma, m, delta, n) to "
                         "propagate instead of the lubricant: probability of stick-slip, v_c band")

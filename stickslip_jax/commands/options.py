@@ -38,6 +38,18 @@ def add_slideway_options(p) -> None:
                    help="slider weight W (kgf, or with unit: '353 N')")
     p.add_argument("--stiffness", type=quantity("stiffness", "kgf/mm"), required=True,
                    help="drive stiffness k (kgf/mm, or with unit: '852 N/mm')")
+    add_normal_load_option(p)
+
+
+def add_lubricant_options(p) -> None:
+    """`--lubricant` (a paper lubricant) and `--table` (the table of eq (1)'s parameters)."""
+    p.add_argument("--lubricant", default="A", help="paper lubricant (Table 6: A, C)")
+    p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
+                   help="table of eq (1) parameters (default 6; 4 and 9 borrow delta, n of A)")
+
+
+def add_normal_load_option(p) -> None:
+    """`--normal-load` N (kgf or a quantity with its unit; default None: N = W)."""
     p.add_argument("--normal-load", type=quantity("force", "kgf"), default=None,
                    help="normal load N pressing the slider on the slideway, when a dead "
                         "weight or a cylinder sets it apart from the moving weight W (kgf, or "

@@ -4,16 +4,14 @@ from __future__ import annotations
 
 import math
 
-from .options import add_json_option, add_slideway_options, quantity
+from .options import add_json_option, add_lubricant_options, add_slideway_options, quantity
 
 NAME = "steady"
 HELP = "steady stick-slip (eqs 5-7, 12) for a paper lubricant at given W, k and drive speeds"
 
 
 def add_arguments(p):
-    p.add_argument("--lubricant", default="A", help="paper lubricant (Table 6: A, C)")
-    p.add_argument("--table", type=int, default=6, choices=(4, 6, 9),
-                   help="table of eq (1) parameters (default 6; 4 and 9 borrow delta, n of A)")
+    add_lubricant_options(p)
     add_slideway_options(p)
     p.add_argument("--speed", type=quantity("speed", "mm/min"), nargs="+", required=True,
                    help="drive speeds v (mm/min unless a unit is given, e.g. '10 um/s')")
