@@ -136,3 +136,25 @@ def test_ctrl_c_while_drawing_is_prompt_and_writes_nothing(camp, tmp_path):
     # sent 0.5-7 s into the drawing; drawn in the command's own thread (DRAWN_INLINE)
     # 0.23-0.57 s, but 102.5 s when the SIGINT landed in the figure's compilation
     assert took[0] < 2.0, took
+
+
+@pytest.mark.slow  # a discovery and the figure's compilation without the cache: minutes
+def test_discover_ctrl_c_while_drawing_is_prompt_and_writes_nothing(camp, tmp_path):
+    """Ctrl-C while `discover --json --plot` draws its figure: exit 130 within 2 s, the
+    JSON it wrote before is not renamed into place, no figure and no temporary file (the
+    figure is drawn in a worker thread inside the command's output transaction, as for
+    `fit`)."""
+    from cli_safety import interrupt, snapshot
+
+    old = tmp_path / "out.json"
+    old.write_text('{"previous": true}')
+    before = snapshot(tmp_path)
+    took: list[float] = []
+    code, _, err = interrupt(["discover", *camp, "--max-effects", "1", "--only",
+                              "viscous_damping", "--top", "1", "--json", old, "--plot",
+                              tmp_path / "discover.png"],
+                             "drawing the figure", 0.5, tmp_path, timeout=900.0, took=took)
+    assert code == 130, err[-2000:]
+    assert "Traceback" not in err and err.strip().splitlines()[-1].endswith("interrupted")
+    assert snapshot(tmp_path) == before
+    assert took[0] < 2.0, took

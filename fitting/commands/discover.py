@@ -122,7 +122,14 @@ def run(args) -> int:
     if args.json:
         write_json(args.json, {**json_document(result), **extra})
     if args.plot:
-        save_figure(result.figure(), args.plot, dpi=120)
+        from stickslip_jax.logs import logger
+
+        from ..report.plots import interruptible
+
+        logger.info("drawing the figure...")
+        # in a worker thread: a Ctrl-C in the figure's compilation or rendering takes
+        # effect at once, and the JSON above is renamed into place only with the figure
+        interruptible(lambda: save_figure(result.figure(), args.plot, dpi=120))
     return 0
 
 
