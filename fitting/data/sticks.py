@@ -168,9 +168,11 @@ def drive_error(t: np.ndarray, u: np.ndarray, y: np.ndarray, plateaus, sigma: fl
     travel = float(u[-1] - u[0])
     best = (rss_poly, None)
     if travel > 2.0 * min_pitch:
-        # all pitches at once, at the sampled sticks only: the screw columns with the
-        # stick means and the polynomial taken out, rss = |y_p|^2 - |Q^T y_p|^2 (Q: an
-        # orthonormal basis of those columns; the least squares of `rss` by projection)
+        # all pitches at once, at the sampled sticks only: the screw columns a with the
+        # stick means and the polynomial (orthonormal basis Qp) taken out, W, give
+        # rss = |y_p|^2 - b^T (W^T W)^+ b with b = W^T y_p = a^T y_p (y_p is free of both
+        # already) and W^T W = a^T a - (stick sums)^2 / counts - (a^T Qp)(a^T Qp)^T:
+        # 4 x 4 normal matrices instead of W itself (the least squares of `rss`)
         Qp = np.linalg.qr(np.stack([within(c[idx]) for c in poly.T], axis=1))[0]
         yp = yw - Qp @ (Qp.T @ yw)
         pitches = np.geomspace(min_pitch, travel, 80)
@@ -179,11 +181,13 @@ def drive_error(t: np.ndarray, u: np.ndarray, y: np.ndarray, plateaus, sigma: fl
         a[:, 0], a[:, 1] = np.sin(q), np.cos(q)
         a[:, 2], a[:, 3] = 2.0 * a[:, 0] * a[:, 1], a[:, 1] ** 2 - a[:, 0] ** 2
         cuts = np.flatnonzero(np.r_[True, np.diff(grp) != 0])  # grp is sorted
-        a -= np.repeat(np.add.reduceat(a, cuts, axis=2) / np.diff(np.r_[cuts, grp.size]),
-                       np.diff(np.r_[cuts, grp.size]), axis=2)
-        a -= (a @ Qp) @ Qp.T
-        proj = np.linalg.qr(a.transpose(0, 2, 1))[0].transpose(0, 2, 1) @ yp
-        scan = float(yp @ yp) - np.sum(proj**2, axis=1)
+        sums, aq = np.add.reduceat(a, cuts, axis=2), a @ Qp
+        gram = (a @ a.transpose(0, 2, 1) - (sums / np.diff(np.r_[cuts, grp.size]))
+                @ sums.transpose(0, 2, 1) - aq @ aq.transpose(0, 2, 1))
+        b = a @ yp
+        proj2 = np.einsum("pi,pij,pj->p", b, np.linalg.pinv(gram, rcond=1e-13,
+                                                              hermitian=True), b)
+        scan = float(yp @ yp) - proj2
         i = int(np.argmin(scan))
         if scan[i] < best[0]:
             best = (float(scan[i]), float(pitches[i]))
