@@ -1,90 +1,46 @@
-r"""Smoothed, differentiable simulator: the paper's stick-slip model as one smooth stiff ODE.
+r"""Smoothed, differentiable simulator: the paper's stick-slip model as one smooth ODE.
 
 State: spring deflection $x$ (mm), slider velocity $\dot y$ (mm/s), a stick-time state
-$\tau$ (s), the breakaway-friction memory $q$ (dimensionless) and the states of the
-parts (parts.py). With drive speed $\dot u(t)$, normal load $N$ (= W for the paper),
-$r = \dot y/\varepsilon$:
+$\tau$ (s), the breakaway-friction memory and the states of the parts (parts.py). With
+drive speed $\dot u(t)$, normal load $N$ (= W for the paper), $\varepsilon = \eta\,v_{ref}$
+(mm/s; $\eta$ = `smoothing`, $v_{ref}$ the largest drive speed), $r = \dot y/\varepsilon$,
+$\sigma = e^{-(r/4)^8}$ (1 while the slider rests), $t_r = T_0/40$, $T_0 = \pi/\omega_0$,
+and $\mu_{sl} = \mu_m(q, \mu_d, T_2)$ of eq (3), $T_2 = \pi/\omega_0$ (eq 7,
+`SlipTime.PAPER`) or given in s. Three formulations (`Formulation`):
 
-$$\dot x = \dot u - \dot y,\qquad
-M\ddot y = k x - N\,[\mu_{sl}\,\tanh(8r) + (\mu_0(\tau) - \mu_{sl})\,r\,e^{(1-r^2)/2}]
-          + \textstyle\sum_i F_i,$$
-$$\dot\tau = \sigma - (1-\sigma)\,\tau/t_r,\qquad \dot q = \sigma\,(\mu_0(\tau) - q)/t_r,\qquad
-\sigma = \exp(-(r/4)^8),\qquad \mu_{sl} = \mu_m(q, \mu_d, T_2)\ \text{(eq 3)}.$$
+- **latch** (default; not stiff, explicit `diffrax.Tsit5`): with the net force of eq (2)
+  $F = F_a - N\mu_{sl}$, $F_a = k x + \sum_i F_i$ (kgf),
+  $M\ddot y = s_w(r)\min(F, 0) + [s_a(r/K) + (1 - s_a(r/K))\,s_F]\max(F, 0)$
+  (`latch_acceleration`): a slip ends by an algebraic decay, a resting slider does not
+  creep and breaks away once $F_a$ reaches $N\mu_0(\tau)$; slips run forward only. The
+  clock and the memory stop once the slider moves, $\tau$ resets in a slip at rate
+  $20/T_0$, the memory catches up after a restick at rate $4/(\tau + T_0/20)$; the
+  step-size controller's error norm leaves these two states out. Samples are rendered
+  from the accepted steps by cubic Hermite interpolation, so a run costs more the larger
+  `max_steps` is (about 130-150 steps per cycle at rtol 1e-8). Measured (tests): amplitude
+  error vs exact linear in $\eta$ (1.2 %, 0.10 %, 0.008 % at $\eta$ = 1e-2, 1e-3, 1e-4
+  at 3 mm/min), steps independent of $\eta$, gradients within 1e-4 of finite differences
+  for $\eta$ = 1e-2 ... 1e-4 at rtol 1e-9 and 1e-10.
+- **rigid_stick** (stiff, Kvaerno5): friction balances $F_a$ and pins $\dot y$ to 0 while
+  $|F_a| < N\mu_0(\tau)$ and the slider rests (`rigid_stick_friction`); the memory holds
+  the last stick time. Amplitude within 0.15 % of the exact simulator at $\eta = 10^{-3}$
+  on the benchmark campaign, error linear in $\eta$ (1.3 % at $10^{-2}$, 30 mm/min);
+  gradients at $\eta = 10^{-3}$ need rtol 1e-10.
+- **velocity** (stiff, Kvaerno5): $M\ddot y = k x - N\,[\mu_{sl}\tanh(8r) + (\mu_0(\tau) -
+  \mu_{sl})\,r\,e^{(1-r^2)/2}] + \sum_i F_i$ (`friction_curve`: peak $N\mu_0$ at $r = 1$),
+  $\dot\tau = \sigma - (1-\sigma)\tau/t_r$, $\dot q = \sigma(\mu_0(\tau) - q)/t_r$; the
+  breakaway is late by about $\sqrt{2\eta}/\omega_0$ (5 % amplitude near $v_c$ at
+  $\eta = 0.03$), gradients match finite differences to 1e-4 for $\eta \ge 0.03$.
 
-- The friction curve against $r$ rises steeply from 0, peaks at $r \approx 1$ at
-  $N\mu_0(\tau)$ (the bump $r e^{(1-r^2)/2}$ has its maximum 1 at $r = 1$) and falls to
-  the kinetic level $N\mu_{sl}$ for $r \gtrsim 5$.
-- While the slider sticks ($|r| \lesssim 1$, $\sigma = 1$) it creeps at $\dot y \le \varepsilon$;
-  $\tau$ grows at rate 1 (it *is* the stick time $T_1$) and $q$ follows $\mu_0(\tau)$.
-- When $k x$ exceeds $N\mu_0(\tau)$ the slider breaks away; for $|r| \gg 1$ friction is the
-  constant mean kinetic friction $\mu_m N$ of eq (3), with the memory $q = \mu_0(T_1)$
-  frozen ($\sigma = 0$), and $\tau$ decays to 0 (time constant $t_r = T_0/40$,
-  $T_0 = \pi/\omega_0$) so that the next stick starts afresh.
-- $T_2$ in eq (3) is $\pi/\omega_0$ (eq 7, `slip_time=SlipTime.PAPER` or "paper") or a
-  given value in s.
+Gradients are taken through the solver (discretise-then-optimise). Parts with fast states
+(a 10 us sensor low-pass) make any formulation stiff: pass an implicit `solver`.
 
-**Three formulations.** The default is `formulation="latch"` (below: not stiff, explicit
-solver, 10-15x the exact simulator's cost). The equations above are `formulation="velocity"`.
-`formulation="rigid_stick"` (`rigid_stick_friction`) switches in the force instead: the
-slider sticks while $|F_a| = |k x + \sum_i F_i| < N\mu_0(\tau)$ *and* it rests
-($e^{-r^2}$), with friction $= F_a$ plus a term pinning $\dot y$ to 0, so the stick is
-rigid (no creep); the switch $\tfrac12[1+\tanh z]$ has width $\eta$ times the friction drop
-$N(\mu_0 - \mu_m)$; the stick clock $\tau$ runs while $\sigma(r) = e^{-(r/4)^8} \approx 1$
-(it stops only once the slider moves), and the memory holds the last stick time
-($\tau$ itself while sticking, frozen while slipping, relaxing to the new $\tau$ in
-$t_r/10$ after a restick).
-
-**Smoothing scale.** One dimensionless number `smoothing` $=\eta$ sets the velocity
-scale $\varepsilon = \eta\, v_{ref}$ (mm/s), $v_{ref}$ the largest drive speed, and (rigid
-stick) the relative width of the force switch. Rigid stick, default $\eta = 10^{-3}$:
-limit-cycle amplitude within 0.15 % of the exact simulator on the benchmark campaign,
-error linear in $\eta$ (1.3 % at $\eta = 10^{-2}$, 30 mm/min). Velocity formulation: the
-breakaway is late by about $\sqrt{2\eta}/\omega_0$, 5 % amplitude error near $v_c$ at
-$\eta = 0.03$; its gradients match finite differences to 1e-4 for $\eta \ge 0.03$ at
-rtol 1e-9 and 1e-10 (tests). Rigid-stick gradients at $\eta = 10^{-3}$ need rtol 1e-10.
-
-The ODE is stiff (relaxation rate $\sim g\mu_0/\varepsilon$ while sticking), so the
-default solver is the L-stable implicit `diffrax.Kvaerno5` with a PID step-size
-controller; gradients are taken through the solver (discretise-then-optimise), which
-matches finite differences when the tolerances resolve the switching layers (tests).
-
-**Latch formulation** (`formulation="latch"`, the default): the same physics as an ODE that
-is *not* stiff, solved by the explicit `diffrax.Tsit5`. With $F = F_a - N\mu_{sl}$ the
-net force of eq (2) (kinetic friction of eq 3) and $r = \dot y/\varepsilon$:
-$$M\ddot y = s_w(r)\min(F, 0) + [s_a(r/K) + (1 - s_a(r/K))\,s_F]\max(F, 0),$$
-$s_w = 1 - e^{-r^2}$ ($r > 0$, else 0; `slip_weight`), $s_a = e^{-1/r^2}$ ($r > 0$, else 0;
-`drive_weight`), $K$ = `LATCH_ONSET` = 10, and the breakaway switch
-$s_F = \tfrac12[1 + \tanh((F_a - N\mu_0(\tau))/(\eta N D) + z_0)]$ (`latch_acceleration`).
-A slip that ends decays algebraically ($s_w \approx r^2$: $\dot y \sim \varepsilon^2/(Ct)$,
-Jacobian $O(1/t)$ instead of $O(1/\varepsilon)$); a resting slider stays at rest (no
-creep, $s_a$ is flat to all orders at 0) until $F_a$ reaches $N\mu_0(\tau)$; slips run
-forward only. The switch tail lets the slider creep just before the breakaway; the offset
-$z_0$ (`latch_shift`, from the drive speed, M, k and the friction drop) places the onset of
-the slip at $F_a = N\mu_0$ to first order. The clock $\tau$ and the memory stop once the
-slider moves ($\sigma(r) = e^{-(r/4)^8}$), $\tau$ resets in a slip at rate $20/T_0$, the
-memory catches up with $\tau$ after a restick at rate $4/(\tau + T_0/20)$ (algebraic, not
-stiff); the step-size controller's error norm leaves out these two states (their resets
-end at the same values however coarsely they are followed), but not x, $\dot y$ and the
-parts' states. The samples are rendered from the accepted steps by cubic Hermite
-interpolation (`SaveAt(steps=True)`, the vector field at the step ends), so the cost of a
-run grows with `max_steps` (its step buffer): size it to the need (about 130-150 steps per
-stick-slip cycle at rtol 1e-8). Parts with fast states of their own (a sensor low-pass of
-10 us) make any formulation stiff: pass an implicit `solver` for them.
-Measured (tests): amplitude error vs exact linear in $\eta$ (1.2 %, 0.10 %, 0.008 %
-at $\eta$ = 1e-2, 1e-3, 1e-4 at 3 mm/min), the number of steps independent of $\eta$,
-gradients within 1e-4 of finite differences for $\eta$ = 1e-2 ... 1e-4 at rtol 1e-9 and
-1e-10.
-
-**Other friction laws** (`stickslip_jax.friction`). A kinetic law of the slider velocity
-(`AbstractVelocityKinetic`, e.g. `LogVelocityKinetic`) sets $\mu_{sl}$ at $\dot y$ in any
-formulation. A rate-and-state law (`RateStateKinetic`) replaces the stick/slip switch:
-$M\ddot y = k x - N\mu(\dot y, \theta) + \sum_i F_i$ with the regularised law, the state
-$\theta$ (s) in the place of $\tau$ with $\dot\theta$ from its evolution law, the
-fourth state constant; the slider starts with $\theta = D_c/v_s$ plus the initial stick
-time, $v_s = \omega_0 |x_0|$ (at least the drive speed) the speed scale of the slip that left
-the deflection $x_0$ (the state the slip left behind is small against a stick's length), at
-the velocity at which the law balances the spring; solved by Kvaerno5
-whatever the formulation (stiff: the relaxation rate $g a/\dot y$ is large while it creeps).
+**Other friction laws** (`stickslip_jax.friction`). A kinetic law of the velocity
+(`AbstractVelocityKinetic`) sets $\mu_{sl}$ at $\dot y$ in any formulation. A rate-and-state
+law (`RateStateKinetic`) replaces the switch: $M\ddot y = k x - N\mu(\dot y, \theta) +
+\sum_i F_i$, the state $\theta$ (s) in the place of $\tau$, solved by Kvaerno5 (stiff while
+it creeps); the slider starts at $\theta = D_c/v_s$ plus the initial stick time,
+$v_s = \max(\omega_0|x_0|, \dot u)$, at the velocity where the law balances the spring.
 """
 
 from __future__ import annotations
@@ -103,24 +59,14 @@ from ..friction import AbstractVelocityKinetic, RateStateKinetic
 from ..modes import Formulation, SlipTime
 from ..slideway import Slideway
 from ..units import G_MM_S2
-from .parts import (
-    AbstractForceTerm,
-    AbstractLoadCoupling,
-    AbstractMeasurement,
-    ConstantLoad,
-    Context,
-    Core,
-    IdealGauge,
-)
 from .exact import count_at_or_before
+from .parts import (AbstractForceTerm, AbstractLoadCoupling, AbstractMeasurement,
+                    ConstantLoad, Context, Core, IdealGauge)
 from .trace import Cycles, SimulationResult, Trace
 
-
-FORMULATIONS = Formulation.choices()
-"""The values of `stickslip_jax.modes.Formulation` (old name, kept)."""
 DEFAULT_SMOOTHING = 1e-3
-"""Default smoothing (all formulations; rigid stick: the sharpest whose gradients the tests
-verify (limit-cycle amplitude within 0.2 % of the exact simulator on the benchmark)."""
+"""Default $\eta$ (all formulations): the sharpest rigid stick whose gradients the tests
+verify (amplitude within 0.2 % of the exact simulator on the benchmark)."""
 
 
 class SmoothModel(eqx.Module):
@@ -140,8 +86,7 @@ class SmoothModel(eqx.Module):
         if not isinstance(self.slideway, Slideway):
             raise ValueError(f"slideway must be a Slideway, got {type(self.slideway)}")
         if not isinstance(self.force_terms, tuple) or not all(
-            isinstance(f, AbstractForceTerm) for f in self.force_terms
-        ):
+            isinstance(f, AbstractForceTerm) for f in self.force_terms):
             raise ValueError("force_terms must be a tuple of AbstractForceTerm")
         if not isinstance(self.load, AbstractLoadCoupling):
             raise ValueError("load must be an AbstractLoadCoupling")
@@ -153,18 +98,9 @@ class SmoothModel(eqx.Module):
 
 
 def default_solver(rtol: float = 1e-8, atol: float = 1e-10):
-    """Kvaerno5 (5th-order ESDIRK, L-stable) with a full Newton solve of each stage.
-
-    The default chord iteration (Jacobian reused) fails near breakaway, where the
-    Jacobian changes fast, and takes ten times more steps; full Newton does not.
-    """
+    """Kvaerno5 (5th-order ESDIRK, L-stable) with a full Newton solve of each stage (the
+    chord iteration fails near breakaway, where the Jacobian changes fast)."""
     return dfx.Kvaerno5(root_finder=optx.Newton(rtol=rtol, atol=atol))
-
-
-def explicit_solver():
-    """Tsit5 (5th-order explicit Runge-Kutta), the default of `formulation="latch"`,
-    whose equations are not stiff (module docstring)."""
-    return dfx.Tsit5()
 
 
 def smoothing_velocity(drive: AbstractDrive, smoothing):
@@ -185,16 +121,11 @@ def stick_weight(r):
 
 
 def rigid_stick_friction(applied, r, N, mu0, mu_slip, drop, smoothing):
-    r"""Stick weight $\sigma$ and friction force (kgf) of the rigid-stick formulation.
-
-    $\sigma = s_F\,s_v$, $s_F = \tfrac12[1 + \tanh z]$, $z = (N\mu_0 - |F_a|)/(\eta N D)$,
-    $s_v = e^{-r^2}$: sticking needs both the applied force $F_a$ (kgf) below the
-    breakaway force $N\mu_0(\tau)$ (switch width $\eta$ times the friction drop $N D$) and
-    the slider at rest ($r = \dot y/\varepsilon$). Friction
-    $F = \sigma\,(F_a + N\mu_0 r) + (1 - \sigma)\,N\mu_{sl}\tanh(8 r)$: while sticking
-    it balances $F_a$ and pins $\dot y$ to 0 (relaxation time $\varepsilon/(g\mu_0)$);
-    while slipping it is the kinetic friction of eq (3).
-    """
+    r"""Stick weight $\sigma = s_F e^{-r^2}$, $s_F = \tfrac12[1 + \tanh z]$,
+    $z = (N\mu_0 - |F_a|)/(\eta N D)$, and friction (kgf) $F = \sigma(F_a + N\mu_0 r) +
+    (1 - \sigma)N\mu_{sl}\tanh(8r)$ of the rigid stick: it balances the applied force $F_a$
+    (kgf) and pins $\dot y$ to 0 while sticking, is eq (3)'s kinetic friction while
+    slipping; $N D$ the friction drop (kgf)."""
     z = (N * mu0 - jnp.abs(applied)) / (smoothing * N * drop)
     sig = 0.5 * (1.0 + jnp.tanh(z)) * jnp.exp(-r * r)
     f = sig * (applied + N * mu0 * r) + (1.0 - sig) * N * mu_slip * jnp.tanh(8.0 * r)
@@ -202,24 +133,17 @@ def rigid_stick_friction(applied, r, N, mu0, mu_slip, drop, smoothing):
 
 
 def slip_weight(r):
-    r"""$s_w = 1 - e^{-r^2}$ for $r = \dot y/\varepsilon > 0$, 0 for $r \le 0$ (latch formulation):
-    the weight of the kinetic friction that brakes a moving slider.
-
-    Flat at $r = 0$ ($s_w \approx r^2$), so a slip that comes to rest decays algebraically,
-    $\dot y \sim \varepsilon^2/(C t)$, with a Jacobian of order $1/t$ (not $1/\varepsilon$).
-    """
+    r"""Latch: $s_w = 1 - e^{-r^2}$ ($r > 0$, else 0), the weight of the kinetic friction
+    on a moving slider; flat at 0, so a slip comes to rest algebraically,
+    $\dot y \sim \varepsilon^2/(C t)$ (Jacobian $O(1/t)$, not $O(1/\varepsilon)$)."""
     rp = jnp.maximum(r, 0.0)
     return -jnp.expm1(-rp * rp)
 
 
 def drive_weight(r):
-    r"""$s_a = e^{-1/r^2}$ for $r > 0$, 0 for $r \le 0$ (latch formulation): the weight with which
-    a *positive* net force accelerates a slider that already moves.
-
-    Flat to all orders at $r = 0$, so the tiny velocity left by the algebraic decay of the
-    last slip ($r \ll 1$) cannot run away while the slider sticks; only the breakaway
-    switch $s_F$ starts a slip.
-    """
+    r"""Latch: $s_a = e^{-1/r^2}$ ($r > 0$, else 0), the weight with which a positive net
+    force drives a moving slider; flat to all orders at 0, so only the breakaway switch
+    $s_F$ starts a slip."""
     rp = jnp.maximum(r, 0.0)
     safe = jnp.where(rp > 0, rp, 1.0)
     return jnp.where(rp > 0, jnp.exp(-1.0 / (safe * safe)), 0.0)
@@ -231,32 +155,18 @@ slip takes over (`drive_weight(r / LATCH_ONSET)`)."""
 
 
 def latch_shift(M, k, v, force_drop):
-    r"""Offset of the latch's breakaway switch, $\tfrac12\ln(2 K M k v^2 / (N D)^2)$ with
-    $K$ = `LATCH_ONSET`, M (kgf s^2/mm), k (kgf/mm), drive speed v (mm/s), force drop $N D$
-    (kgf).
-
-    Before the breakaway the switch tail $s_F \approx e^{2z}$ lets the slider creep:
-    $\dot y \approx \int s_F\,(N D/M)\,dt = \tfrac12 (N D/M)\,\Delta t\,e^{2z}$ with
-    $\Delta t = \eta N D/(k v)$ the time the applied force takes to cross one switch width.
-    The slip takes over once $\dot y \approx K\varepsilon = K\eta v$, i.e. at
-    $e^{2z} = 2K M k v^2/(N D)^2$, which for slow drives is deep in the tail (z near -4 at
-    3 mm/min): without the offset the breakaway would come early by about 4 switch widths.
-    """
+    r"""Offset $z_0 = \tfrac12\ln(2 K M k v^2 / (N D)^2)$ of the latch's breakaway switch
+    ($K$ = `LATCH_ONSET`, M kgf s^2/mm, k kgf/mm, v mm/s, force drop $N D$ kgf): the switch
+    tail $s_F \approx e^{2z}$ lets the slider creep to $K\varepsilon$ at
+    $e^{2z} = 2KMkv^2/(ND)^2$ (z near -4 at 3 mm/min); the offset moves that onset to
+    $F_a = N\mu_0$."""
     return 0.5 * jnp.log(2.0 * LATCH_ONSET * M * k * v * v / (force_drop * force_drop))
 
 
 def latch_acceleration(applied, r, N, mu0, mu_slip, drop, smoothing, shift=0.0):
-    r"""Weight of slipping $s_w$ and the slider's net force (kgf) of the latch formulation
-    (module docstring).
-
-    $M\ddot y = s_w(r)\,\min(F, 0) + [s_a + (1 - s_a)\,s_F]\,\max(F, 0)$, $s_a = s_a(r/K)$
-    ($K$ = `LATCH_ONSET`), with the net force of eq (2) $F = F_a - N\mu_{sl}$ (kinetic
-    friction of eq 3) and the breakaway switch
-    $s_F = \tfrac12[1 + \tanh((F_a - N\mu_0)/(\eta N D) + z_0)]$ ($z_0$ = `shift`, see
-    `latch_shift`): a moving slider feels $F$; one at rest moves only once the applied force
-    $F_a$ (kgf) exceeds the breakaway force $N\mu_0(\tau)$ (switch width $\eta$ times the
-    friction drop $N D$, kgf), and only forward. `r` = slider velocity / eps.
-    """
+    r"""$s_w$ and the net force (kgf) $M\ddot y$ of the latch (module docstring), with the
+    breakaway switch $s_F = \tfrac12[1 + \tanh((F_a - N\mu_0)/(\eta N D) + z_0)]$
+    ($z_0$ = `shift`, `latch_shift`; $F_a$, $N D$ in kgf; `r` = $\dot y/\varepsilon$)."""
     s_w = slip_weight(r)
     s_a = drive_weight(r / LATCH_ONSET)
     s_f = 0.5 * (1.0 + jnp.tanh((applied - N * mu0) / (smoothing * N * drop) + shift))
@@ -291,24 +201,14 @@ def rate_state_start(slideway: Slideway, omega, v_drive, x0, stick_time):
     return jnp.stack([x0, v0, theta0, fr.mu_d + 0.0 * x0])
 
 
-def simulate_smooth(
-    model: SmoothModel | Slideway,
-    drive: AbstractDrive,
-    ts: Float[ArrayLike, " N"],
-    *,
-    smoothing: float = DEFAULT_SMOOTHING,
-    slip_time: SlipTime | str | float = SlipTime.PAPER,
-    rtol: float = 1e-8,
-    atol: float = 1e-10,
-    solver: dfx.AbstractSolver | None = None,
-    max_steps: int = 16384,
-    initial_deflection: Float[ArrayLike, ""] = 0.0,
-    initial_stick_time: Float[ArrayLike, ""] = 0.0,
-    mask: ArrayLike | None = None,
-    adjoint: dfx.AbstractAdjoint | None = None,
-    dt0: float | None = None,
-    formulation: Formulation | str = Formulation.LATCH,
-) -> Trace:
+def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Float[ArrayLike, " N"],
+                    *, smoothing: float = DEFAULT_SMOOTHING,
+                    slip_time: SlipTime | str | float = SlipTime.PAPER, rtol: float = 1e-8,
+                    atol: float = 1e-10, solver: dfx.AbstractSolver | None = None,
+                    max_steps: int = 16384, initial_deflection: Float[ArrayLike, ""] = 0.0,
+                    initial_stick_time: Float[ArrayLike, ""] = 0.0, mask: ArrayLike | None = None,
+                    adjoint: dfx.AbstractAdjoint | None = None, dt0: float | None = None,
+                    formulation: Formulation | str = Formulation.LATCH) -> Trace:
     r"""Simulate the smoothed model (module docstring) on the sample times `ts` (s).
 
     - `model`: a `SmoothModel`, or a `Slideway` (then no extra parts); `drive`: any
@@ -351,7 +251,7 @@ def simulate_smooth(
     if latch:  # the rendering from the accepted steps needs sorted sample times
         ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
     if solver is None:
-        solver = explicit_solver() if latch else default_solver(rtol, atol)
+        solver = dfx.Tsit5() if latch else default_solver(rtol, atol)
 
     sw = model.slideway
     friction, static = sw.friction, sw.friction.static
@@ -368,22 +268,18 @@ def simulate_smooth(
     parts = model.parts()
     floor = 1e-2 * (static.asymptote() - friction.mu_d)
 
-    def _drop_scale(mu0):
-        # the breakaway-to-slip friction drop mu_0 - mu_m of a stick of the current length,
-        # floored (it is 0 at tau = 0)
+    def _drop_scale(mu0):  # the friction drop mu_0 - mu_m, floored (0 at tau = 0)
         return mu0 - friction.kinetic(mu0, friction.mu_d, T2) + floor
 
     def context(t):
-        return Context(
-            weight=W, stiffness=k, mass=M, omega0=omega, drive_position=drive.position(t),
-            drive_speed=drive.speed(t), eps=eps, normal_load=sw.load,
-        )
+        return Context(weight=W, stiffness=k, mass=M, omega0=omega, eps=eps,
+                       drive_position=drive.position(t), drive_speed=drive.speed(t),
+                       normal_load=sw.load)
 
     rigid = formulation is not Formulation.VELOCITY and not rs
 
     def make_core(cv):
-        # rigid_stick and latch keep the stick time of the last stick (s) as its 4th state and hands
-        # the parts mu_0 of it; "velocity" keeps mu_0 itself
+        # 4th state: rigid_stick and latch the last stick time (s), "velocity" mu_0 itself
         return Core(cv[0], cv[1], cv[2], static(cv[3]) if rigid else cv[3])
 
     def split(y):
@@ -412,12 +308,9 @@ def simulate_smooth(
             s_w, f_net = latch_acceleration(applied, r, N, mu0, mu_sl, drop, smoothing,
                                             shift)
             ydd = f_net / M
-            # the clock stops and the memory freezes only once the slip is under way
-            # (r > 2), so they do not feed back into the breakaway itself
+            # clock and memory stop once the slip is under way (r > 2); after a restick
+            # the memory catches up with tau algebraically (not stiff)
             rest = stick_weight(r)
-            # the memory runs with tau while the slider rests and is frozen while it slips;
-            # after a restick it catches up with the new tau algebraically (rate
-            # 4 / (tau + T0/20), so the Jacobian stays O(1/t): not stiff)
             d_memory = rest * (1.0 + 4.0 * (tau - memory) / (tau + t_r_latch))
             d_tau = rest - (1.0 - rest) * tau / t_r_latch
         elif formulation is Formulation.VELOCITY:
@@ -432,17 +325,12 @@ def simulate_smooth(
             sig, f_fric = rigid_stick_friction(applied, r, N, mu0, mu_sl,
                                                _drop_scale(mu0), smoothing)
             ydd = (applied - f_fric) / M
-            # the memory equals tau while sticking (exactly, once settled) and is frozen
-            # while slipping; after a restick it relaxes to the new tau in t_r / 10
-            rest = stick_weight(r)  # the slider rests (flat for r < 2): the stick clock runs
+            # the memory equals tau while sticking, is frozen while slipping and relaxes
+            # to the new tau in t_r / 10 after a restick
+            rest = stick_weight(r)
             d_memory = rest * (1.0 + (tau - memory) / t_reset)
             d_tau = rest - (1.0 - rest) * tau / t_r
-        d_core = jnp.stack([
-            ctx.drive_speed - core.ydot,
-            ydd,
-            d_tau,
-            d_memory,
-        ])
+        d_core = jnp.stack([ctx.drive_speed - core.ydot, ydd, d_tau, d_memory])
         d_own = tuple(p.state_derivative(t, core, o, ctx) for p, o in zip(parts, own))
         return d_core, d_own
 
@@ -454,10 +342,7 @@ def simulate_smooth(
 
     kt, _, _ = drive.knots()
     if latch:
-        # the error norm leaves out the stick clock and the memory: their resets (during a
-        # slip, after a restick) are stable for the steps the slider's motion allows and
-        # end at the same values however coarsely they are followed, so resolving them to
-        # rtol would only cost steps (module docstring)
+        # the error norm leaves out the clock and the memory (module docstring)
         def norm(err):
             core_err, own_err = err
             return optx.rms_norm((core_err[:2], own_err))
@@ -471,11 +356,9 @@ def simulate_smooth(
         dfx.ODETerm(vector_field), solver, t0=t0, t1=t1, dt0=dt0, y0=y0,
         saveat=dfx.SaveAt(steps=True) if latch else dfx.SaveAt(ts=ts),
         stepsize_controller=controller, max_steps=max_steps,
-        adjoint=dfx.RecursiveCheckpointAdjoint() if adjoint is None else adjoint, throw=False,
-    )
+        adjoint=dfx.RecursiveCheckpointAdjoint() if adjoint is None else adjoint, throw=False)
     if latch:
-        # the latch takes few, long steps: evaluating the solver's own interpolant at all
-        # sample times at once is much cheaper than SaveAt(ts) (a loop over the samples)
+        # few, long steps: interpolating all samples at once beats SaveAt(ts)'s loop
         core_ts, own_ts = _hermite_at(vector_field, t0, y0, sol, ts)
     else:
         core_ts, own_ts = sol.ys
@@ -494,11 +377,9 @@ def simulate_smooth(
                                  max_cycles=64, t_start=t0 - tau0)
     late = ts >= 0.5 * (t0 + t1)
     steady = ~jnp.any(sticking & mask & late)  # no stick in the second half of the run
-    return Trace(
-        time=ts, deflection=deflection, slider_velocity=ydot, sticking=sticking, mask=mask,
-        cycles=cycles, steady_sliding=steady, result=result,
-        num_events=jnp.asarray(sol.stats["num_accepted_steps"]).astype(int),
-    )
+    return Trace(time=ts, deflection=deflection, slider_velocity=ydot, sticking=sticking, mask=mask,
+                 cycles=cycles, steady_sliding=steady, result=result,
+                 num_events=jnp.asarray(sol.stats["num_accepted_steps"]).astype(int))
 
 
 def _hermite_at(vector_field, t0, y0, sol, ts):
@@ -597,5 +478,4 @@ def cycles_from_samples(time, deflection, sticking, mask, friction, slip_time, *
     return Cycles(
         breakaway_time=v(t_b), peak=v(peak), trough=v(trough), stick_time=v(t1),
         slip_time=v(t_e - t_b), model_slip_time=v(jnp.broadcast_to(slip_time, z.shape)),
-        mu_0=v(mu0), mu_m=v(mum), restick_failed=jnp.zeros((max_cycles,), bool), valid=valid,
-    )
+        mu_0=v(mu0), mu_m=v(mum), restick_failed=jnp.zeros((max_cycles,), bool), valid=valid)
