@@ -2,23 +2,28 @@ r"""The misfit a discovery's final model leaves, said by its phase and its form.
 
 When the final model leaves more than `LEFT` x the noise, its residual is split by the
 phase of the model's cycle: the **stick** (from the window's start to the last
-`TAIL` of the stick time), the **breakaway** (that last part of the stick, where a
-wrong breakaway time or a creep shows) and the **slip** (from the model's slip start to
+`TAIL` of the stick time), the **breakaway** (that last part of the stick, and
+whatever the model still sticks after the record's breakaway: a wrong breakaway time or a
+creep shows there) and the **slip** (from the model's slip start to
 the window's end). The phase holding the largest share of the excess sum of squares over
 the noise is described by three simple forms fitted one after another by weighted least
 squares (each residual weighs by the samples it stands for):
 
 1. a **level** per cycle (the phase's mean residual differs from cycle to cycle);
 2. a **ramp** per cycle, linear in the phase's own time (the time since the last slip in
-   the stick, the time to the breakaway at the breakaway, the time since the breakaway in
-   the slip; mm/s);
+   the stick, the time since the record's breakaway at the breakaway, negative before
+   it, the time since the model's breakaway in the slip; mm/s);
 3. an **oscillation**: the sinusoid in time (its amplitude and phase per record) at the
    frequency of a grid (`FREQUENCIES`, Hz) that lowers the sum of squares most.
 
 Each form's share is the part of the phase's excess it removes; the words name the phase,
 the form with the largest share and the others worth at least `WORTH` of it, with their
 sizes and units (um, um/s, Hz). What the three leave is said too: irregular from cycle to
-cycle, or a shape within the phase that no form of these describes.
+cycle, or a shape within the phase that no form of these describes. At the breakaway the
+words also give the model's **breakaway delay** per cycle (the model's stick time minus
+the record's, ms), with the deflection v dt (um) and the static friction k v dt / W it
+stands for: a delay that changes sign from cycle to cycle is a breakaway level mu_0 that
+scatters, which no smooth law follows.
 """
 
 from __future__ import annotations
@@ -39,7 +44,8 @@ WORTH = 0.1
 """A form's share of the phase's excess from which the words name it."""
 FREQUENCIES = np.geomspace(0.5, 200.0, 160)
 """Hz: the oscillation's grid."""
-_CLOCK = {"stick": "the time since the last slip", "breakaway": "the time to the breakaway",
+_CLOCK = {"stick": "the time since the last slip",
+          "breakaway": "the time since the record's breakaway",
           "slip": "the time since the breakaway"}
 
 
@@ -47,7 +53,8 @@ _CLOCK = {"stick": "the time since the last slip", "breakaway": "the time to the
 class MisfitLeft:
     """The misfit left (module doc): the `phase` described, every phase's residual RMS
     (`rms`, mm) and share of the excess (`shares`), the `forms` fitted in the phase (dicts:
-    name, share, and their sizes in um, um/s, Hz), the `words`; `profile`: per residual of
+    name, share, and their sizes in um, um/s, Hz), the `words`, the breakaway `delay`
+    (`_delay`); `profile`: per residual of
     the phase, its clock (s), residual (mm), the three forms' fit (mm) and its cycle, for
     the figure."""
 
@@ -56,11 +63,12 @@ class MisfitLeft:
     shares: dict
     forms: tuple
     words: str
+    delay: dict
     profile: dict = dataclasses.field(repr=False, default_factory=dict)
 
     def to_json(self) -> dict:
         return {"phase": self.phase, "rms_mm": self.rms, "excess_share": self.shares,
-                "forms": list(self.forms), "words": self.words,
+                "forms": list(self.forms), "breakaway_delay": self.delay, "words": self.words,
                 "method": "per cycle level, per cycle ramp in the phase's time, then the "
                           "best sinusoid in time (weighted least squares, one after "
                           "another), each form's share of the phase's excess sum of "
@@ -120,7 +128,27 @@ def _forms(clock, win, t, rec, e, w, excess) -> tuple[list, np.ndarray]:
     return forms, ramp + wave
 
 
-def _words(phase, share, forms, rest) -> str:
+def _delay(c) -> dict:
+    """The model's breakaway delay per cycle (module doc): its quartiles (ms), the share of
+    cycles it breaks away late, and the median deflection (um) and static friction (-)
+    the delay stands for at the drive speed."""
+    first = c["slip"] & ~np.r_[False, c["slip"][:-1]]
+    win = c["window"]
+    t1 = np.full(int(win.max()) + 1, np.inf)
+    np.minimum.at(t1, win[first], (c["t"] - c["start_time"])[first])
+    at = np.flatnonzero(np.r_[True, win[1:] != win[:-1]])  # each window's first sample
+    at = at[np.isfinite(t1[win[at]])]
+    if not at.size:
+        return {}
+    dt = t1[win[at]] - c["stick_time"][at]
+    climb = c["speed"][at] * dt  # mm
+    return {"quartiles_ms": [float(1e3 * q) for q in np.percentile(dt, (25, 50, 75))],
+            "late": float(np.mean(dt > 0)), "deflection_um": float(1e3 * np.median(climb)),
+            "mu_0": float(np.median(c["stiffness"][at] * climb / c["weight"][at])),
+            "cycles": int(dt.size)}
+
+
+def _words(phase, share, forms, rest, delay) -> str:
     """The phase and its forms in words (module doc)."""
     said = {
         "level": lambda f: (f"a level that differs from cycle to cycle (RMS "
@@ -135,8 +163,14 @@ def _words(phase, share, forms, rest) -> str:
                                   f"{f['amplitude_um']:.3g} um)")}
     top = max(forms, key=lambda f: f["share"])
     named = [top] + [f for f in forms if f is not top and f["share"] >= WORTH]
+    q = delay.get("quartiles_ms")
+    late = ("" if phase != "breakaway" or not q else
+            f"; the model breaks away later than the record in {100 * delay['late']:.0f} % "
+            f"of the {delay['cycles']} cycles (delay {q[1]:.3g} ms, median; quartiles "
+            f"{q[0]:.3g} to {q[2]:.3g} ms; at the drive speed {delay['deflection_um']:.3g} um "
+            f"of deflection, a static friction mu_0 off by {delay['mu_0']:.2g})")
     return (f"The misfit left sits in the {phase} phases ({100 * share:.0f} % of the excess "
-            "over the noise): mostly " + "; then ".join(
+            f"over the noise{late}): mostly " + "; then ".join(
                 f"{said[f['name']](f)}, {100 * f['share']:.0f} % of it" for f in named)
             + f"; {100 * max(rest, 0.0):.0f} % is left by these forms"
             + (" (irregular from cycle to cycle or shaped within the phase)."
@@ -155,10 +189,10 @@ def misfit_left(model, z, r, sd, noise: float, use, samples=None, shape=None,
     w = w * np.asarray(use, bool)[o]
     s = c["t"] - c["start_time"]
     to_break = c["stick_time"] - s
-    tail = c["stick"] & (to_break <= TAIL * c["stick_time"])
+    tail = c["stick"] & (to_break <= TAIL * c["stick_time"])  # and past it, stuck on
     since = c["t"] - c["t"][np.maximum.accumulate(np.where(
         c["slip"] & ~np.r_[False, c["slip"][:-1]], np.arange(e.size), 0))]
-    phases = {"stick": (c["stick"] & ~tail, s), "breakaway": (tail, to_break),
+    phases = {"stick": (c["stick"] & ~tail, s), "breakaway": (tail, -to_break),
               "slip": (~c["stick"], since)}
     ex = {k: max(float(np.sum(w[on] * e[on] ** 2) - np.sum(w[on]) * noise ** 2), 0.0)
           for k, (on, _) in phases.items()}
@@ -170,8 +204,9 @@ def misfit_left(model, z, r, sd, noise: float, use, samples=None, shape=None,
     on = on & (w > 0)
     forms, fit = _forms(clock[on], c["window"][on], c["t"][on], c["record"][on], e[on],
                         w[on], ex[phase])
-    rest = 1.0 - sum(f["share"] for f in forms)
+    rest, delay = 1.0 - sum(f["share"] for f in forms), _delay(c)
     return MisfitLeft(phase=phase, rms=rms, shares={k: v / total for k, v in ex.items()},
-                      forms=tuple(forms), words=_words(phase, ex[phase] / total, forms, rest),
+                      forms=tuple(forms), delay=delay,
+                      words=_words(phase, ex[phase] / total, forms, rest, delay),
                       profile={"clock": clock[on], "residual": e[on], "fit": fit,
                                "cycle": c["window"][on], "clock_words": _CLOCK[phase]})
