@@ -71,17 +71,11 @@ from jaxtyping import Array, Float
 
 from .friction import Friction
 from .steady import (RESTICK_FAILURE, STEADY_SLIDING, STICK_SLIP, critical_speed,
-                     natural_angular_frequency, restick_failure, slip_time)
+                     natural_angular_frequency, restick_failure, slip_from_rest, slip_time)
 
 __all__ = ["LimitCycle", "boundary_speed", "cycle_map", "limit_cycle", "tolerance_speed"]
 
-_TWO_PI = 2.0 * math.pi
 _LOG_T_START = math.log(1e12)
-
-
-def _slip_from_rest(d, v, omega):
-    """Duration (s) of a slip from rest whose deflection starts `d` mm above its centre."""
-    return (_TWO_PI - 2.0 * jnp.arctan2(omega * d, v)) / omega
 
 
 def _double(friction: Friction, t2):
@@ -172,8 +166,8 @@ def limit_cycle(friction: Friction, weight, stiffness, speed, rtol: float = 1e-1
     trough = peak - speed * t1
     c = mu_m * weight / stiffness
     c_d = friction.mu_d * weight / stiffness
-    first = _slip_from_rest(peak - c, speed, omega)
-    second = _slip_from_rest((2.0 * c - peak) - c_d, speed, omega)
+    first = slip_from_rest(peak - c, speed, omega)
+    second = slip_from_rest((2.0 * c - peak) - c_d, speed, omega)
     slip = first + jnp.where(double, second, 0.0)
     return LimitCycle(stick_time=t1, slip_time=slip, peak=peak, trough=trough,
                       amplitude=0.5 * (peak - trough), frequency=1.0 / (t1 + slip),

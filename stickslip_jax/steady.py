@@ -42,6 +42,13 @@ def slip_time(weight, stiffness):
     return jnp.pi / natural_angular_frequency(weight, stiffness)
 
 
+def slip_from_rest(d, v, omega):
+    r"""Duration (s) of a slip from rest that starts `d` mm above its centre $\mu_m W/k$,
+    drive at v (mm/s), $\omega_0$ (1/s): $(2\pi - 2\arctan(\omega_0 d/v))/\omega_0$ (eq 10
+    in closed form)."""
+    return (2.0 * jnp.pi - 2.0 * jnp.arctan2(omega * d, v)) / omega
+
+
 def critical_speed(friction: Friction, weight, stiffness, normal_load=None):
     r"""Critical drive speed $v_c$ in mm/s, corrected eq (12) (NOTES.md item 3).
 

@@ -42,15 +42,13 @@ import numpy as np
 from jaxtyping import Array, Bool, Float
 
 from stickslip_jax.modes import SlipTime
+from stickslip_jax.steady import slip_from_rest
 
 from ..data.features import RecordFeatures
 from ..modes import check_member
 from ..params import CampaignParams
 
-__all__ = ["FeatureData", "feature_data", "feature_residuals", "SLIP_TIME_MODES"]
-
-SLIP_TIME_MODES = SlipTime.choices()
-"""The values of `SlipTime` (kept for callers that list the choices)."""
+__all__ = ["FeatureData", "feature_data", "feature_residuals"]
 
 
 class FeatureData(eqx.Module):
@@ -251,7 +249,7 @@ def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time, speed=No
     def reslip(mu0, mum):
         e = scale * (2.0 * mum - mu0 - friction.mu_d)  # first slip's end above mu_d W/k
         on = e > 0
-        t2r = (2.0 * jnp.pi - 2.0 * jnp.arctan2(omega0 * jnp.where(on, e, 0.0), speed)) / omega0
+        t2r = slip_from_rest(jnp.where(on, e, 0.0), speed, omega0)
         return on, e, jnp.where(on, t2r, 0.0)
 
     for _ in range(3):

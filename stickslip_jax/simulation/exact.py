@@ -33,16 +33,14 @@ always moves forward. A slip that can never end (the drive outruns the slider af
 speed increase) also sets `steady_sliding`.
 
 Events run in a `lax.scan` of `ceil(max_events / 2)` steps, each one cycle (the stick,
-if the slider rests, then the slip up to its end or the next drive knot); unused steps
-are masked, so the simulator is jit/vmap/grad compatible. Rendering on the sample
-times places the phase starts among the (sorted) samples, a count gives each sample its
-phase and one table gather its closed-form coefficients; the slip's
-$\cos\omega_0(t - t_s)$, $\sin\omega_0(t - t_s)$ are expanded by the angle-addition formulas
-into the phase's coefficients, so the samples need only $\cos\omega_0 t$, $\sin\omega_0 t$
-from a short series (`_cos_sin`). Most of the cost is this rendering (about 10 ns per
-sample, padding included); the event loop is a few hundred microseconds per campaign. Event times are differentiated by the
-implicit function theorem (one Newton step with live parameters at the stopped root);
-gradients are exact between bifurcations (a change in the number of cycles).
+then the slip up to its end or the next drive knot); unused steps are masked, so the
+simulator is jit/vmap/grad compatible. Rendering places the phase starts among the sorted
+samples and gathers each sample's closed-form coefficients; the slip's trigonometric
+terms are expanded by the angle-addition formulas so that the samples need only
+$\cos\omega_0 t$, $\sin\omega_0 t$ (`_cos_sin`, about 10 ns a sample; the event loop
+costs a few hundred microseconds a campaign). Event times are differentiated by the
+implicit function theorem; gradients are exact between bifurcations (a change in the
+number of cycles).
 """
 
 from __future__ import annotations
@@ -57,6 +55,7 @@ from jaxtyping import Array, ArrayLike, Float
 from ..drives import AbstractDrive
 from ..modes import SlipTime
 from ..slideway import Slideway
+from ..steady import slip_from_rest
 from .trace import Cycles, SimulationResult, Trace
 
 _TWO_PI = 2.0 * jnp.pi
@@ -190,11 +189,6 @@ def _cos_sin(phi):
     return sh * sh - ch * ch, -2.0 * sh * ch
 
 
-def _slip_duration_from_rest(d, v, omega):
-    r"""Slip that starts at rest with x2 - c = d (mm): $T_2 = (2\pi - 2\arctan(\omega d/v))/\omega$."""
-    return (_TWO_PI - 2.0 * jnp.arctan2(omega * d, v)) / omega
-
-
 class _State(eqx.Module):
     t: Array
     x: Array
@@ -224,17 +218,13 @@ def simulate_exact(slideway: Slideway, drive: AbstractDrive, ts: Float[ArrayLike
     - `initial_deflection` (mm) and `initial_stick_time` (s): the slider starts at rest,
       having stuck for `initial_stick_time` already.
     - `mask`: optional bool array like `ts` (False on padding), copied into the trace.
-    - `max_events` (static): stick and slip phases simulated, 2 per cycle at constant
-      speed (a drive knot crossed during a slip costs 2 more; an odd budget is rounded
-      up). Running out gives
-      `result = max_events_reached`.
-    - `cycle_table` (static): False leaves out the per-cycle table (`Trace.cycles` is
-      None), which callers that need only the trace (the fits) then do not trace,
-      differentiate and compile.
-    - `check` (static): False leaves out the run-time checks of `ts` and of the
-      slideway's sizes (`eqx.error_if`, host callbacks), for callers that checked them on
-      the host (the fits): a program without host callbacks can be kept in JAX's
-      persistent compilation cache.
+    - `max_events` (static): stick and slip phases, 2 per cycle at constant speed (a drive
+      knot crossed in a slip costs 2 more); running out gives `max_events_reached`.
+    - `cycle_table` (static): False leaves out the per-cycle table (`Trace.cycles` None),
+      which the fits do not need to trace, differentiate or compile.
+    - `check` (static): False leaves out the run-time checks (`eqx.error_if`, host
+      callbacks) for callers that checked on the host: a program without host callbacks
+      can be kept in JAX's persistent compilation cache.
 
     Returns a `Trace` (deflection in mm, slider velocity in mm/s, `Cycles`).
     jit-compatible (wrap in `eqx.filter_jit`), `vmap` over records of padded `ts`
@@ -328,7 +318,7 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         def g(T2, p=p):
             x_b, v_b, mu0, friction, W, k, omega = p
             mum = friction.kinetic(mu0, friction.mu_d, T2)
-            return T2 - _slip_duration_from_rest(x_b - mum * W / k, v_b, omega)
+            return T2 - slip_from_rest(x_b - mum * W / k, v_b, omega)
 
         def dg(T2):
             return jax.jvp(g, (T2,), (jnp.ones_like(T2),))[1]
