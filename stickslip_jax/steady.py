@@ -136,8 +136,7 @@ def _strong_floats(tree):
     """Floating leaves (Python floats, weak-typed arrays) as float64 arrays: one compilation."""
     return jax.tree_util.tree_map(lambda x: jnp.asarray(x, dtype=float)
                                   if isinstance(x, float) or eqx.is_inexact_array(x)
-                                  else x,
-                                  tree)
+                                  else x, tree)
 
 
 @eqx.filter_jit

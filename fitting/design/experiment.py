@@ -311,17 +311,10 @@ def laplace_fit(y, mask, campaign: Campaign, noise: Noise, prior_mean, prior_sd=
     return LaplaceFit(u_hat, cov, np.sqrt(np.diag(cov)), result)
 
 
-def sequential_campaign(
-    truth,
-    start,
-    candidates: Campaign,
-    pilot: Campaign,
-    n_next: int,
-    key,
-    *,
-    noise: Noise = Noise(),
-    prior_sd=1.0,
-    criterion: DesignCriterion = DesignCriterion.D) -> tuple[Campaign, LaplaceFit]:
+def sequential_campaign(truth, start, candidates: Campaign, pilot: Campaign, n_next: int, key,
+                        *, noise: Noise = Noise(), prior_sd=1.0,
+                        criterion: DesignCriterion = DesignCriterion.D
+                        ) -> tuple[Campaign, LaplaceFit]:
     """Simulate a sequential campaign on synthetic data (what `stickslip plan` is for).
 
     Record the `pilot` campaign, then `n_next` times: fit all records so far

@@ -72,8 +72,7 @@ __all__ = [
     "JITTER_MIN_SAMPLES", "EPOCH_SECONDS", "FORMAT_VERSION", "MAX_FILE_BYTES", "TIME_STEP_RTOL",
     "KNOWN_KEYS", "RESERVED_COLUMNS",
     "RecordError", "unit_dimension", "channel_dimension",
-    "jittered_clock", "missing_samples", "time_step_deviation",
-    "Record",
+    "jittered_clock", "missing_samples", "time_step_deviation", "Record",
     "program_speed", "program_position", "parse_drive_program", "format_drive_program",
     "parse_record", "read_record", "format_record", "write_record",
     "record_paths", "CampaignFiles", "read_campaign_files", "read_campaign", "check_campaign"]

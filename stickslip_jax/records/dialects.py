@@ -30,8 +30,7 @@ def read_bytes(path: Path, max_bytes: int) -> bytes:
         if size > max_bytes:
             raise RecordError(
                 f"file is {size / 1e6:.1f} MB, over the {max_bytes / 1e6:.0f} MB limit; "
-                "split the run into several records or decimate it",
-                path)
+                "split the run into several records or decimate it", path)
         with open(path, "rb") as fh:
             data = fh.read(max_bytes + 1)
     except OSError as exc:

@@ -57,8 +57,7 @@ def _segment_value(number: str, unit: str, dimension: str, path, line: int) -> f
         return float(number) * factor(unit, dimension)
     except UnitError:
         raise RecordError(f"drive_program: unknown {dimension} unit {unit!r}; use one of "
-                          f"{unit_choices(dimension)}",
-                          path,
+                          f"{unit_choices(dimension)}", path,
                           line) from None
 
 
@@ -69,9 +68,7 @@ def parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]
         m = SEGMENT.fullmatch(part)
         if m is None:
             raise RecordError(f"drive_program: cannot read segment {part.strip()!r} as "
-                              f"'start-time unit speed unit'; {hint}",
-                              path,
-                              line)
+                              f"'start-time unit speed unit'; {hint}", path, line)
         start = _segment_value(m.group(1), m.group(2), "time", path, line)
         speed = _segment_value(m.group(3), m.group(4), "speed", path, line)
         segs.append((start, speed))

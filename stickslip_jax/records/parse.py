@@ -50,8 +50,7 @@ def _split_lines(text: str, path: str, notes: list[str]) -> tuple[list[str], str
     m = HEADER.fullmatch(lines[first].strip())
     if m is None or _key(m.group(1)) != "stickslip-record":
         raise RecordError(f"the first line must be '# stickslip-record: {FORMAT_VERSION}', "
-                          f"got {lines[first][:60]!r}",
-                          path,
+                          f"got {lines[first][:60]!r}", path,
                           first + 1)
     return lines, delim
 
@@ -95,8 +94,7 @@ def _header(lines: list[str], path: str, notes: list[str]):
     version = header["stickslip-record"][0]
     if version != FORMAT_VERSION:
         raise RecordError(f"unsupported format version {version!r}; this reader knows "
-                          f"'stickslip-record: {FORMAT_VERSION}'",
-                          path,
+                          f"'stickslip-record: {FORMAT_VERSION}'", path,
                           header["stickslip-record"][1])
     if i >= len(lines):
         raise RecordError(
@@ -114,15 +112,13 @@ def _column_factor(name: str, unit: str, path: str, column_line: int, rig=None) 
         except UnitError:
             raise RecordError(
                 f"column {name!r}: unknown {_DIMENSIONS[name]} unit {unit!r}; use one of "
-                f"{unit_choices(_DIMENSIONS[name])}",
-                path,
+                f"{unit_choices(_DIMENSIONS[name])}", path,
                 column_line) from None
     try:
         return channel_factor(unit)
     except UnitError:
         raise RecordError(f"column {name!r}: unknown unit {unit!r}; use a unit of length, time, "
-                          "force, speed, ... (e.g. um) or '-' for a pure number",
-                          path,
+                          "force, speed, ... (e.g. um) or '-' for a pure number", path,
                           column_line) from None
 
 
@@ -150,14 +146,11 @@ def _column_row(lines: list[str], i: int, header, path: str, rig=None):
         if cm is None and cell.count("[") > 1:
             raise RecordError(
                 f"the column row {row.strip()[:60]!r} has no ',', ';' or tab between "
-                "its columns; separate them (and the values) with ',' (or ';' or tabs)",
-                path,
+                "its columns; separate them (and the values) with ',' (or ';' or tabs)", path,
                 column_line)
         if cm is None:
             raise RecordError(f"column {cell.strip()[:40]!r} must be 'name [unit]' "
-                              "(e.g. 'time [s]', '[-]' for a pure number)",
-                              path,
-                              column_line)
+                              "(e.g. 'time [s]', '[-]' for a pure number)", path, column_line)
         name = cm.group(1).lower() if cm.group(1).lower() in RESERVED_COLUMNS else cm.group(1)
         name = name if rig is None else RIG_COLUMNS.get(name, name)  # angle, torque
         given = {"column row": cm.group(2) if cm.group(2) is not None else cm.group(3)}
@@ -169,8 +162,7 @@ def _column_row(lines: list[str], i: int, header, path: str, rig=None):
         if not given:
             raise RecordError(
                 f"column {cell.strip()[:40]!r} must be 'name [unit]' (e.g. 'time [s]', "
-                f"'[-]' for a pure number), or give its unit in '# {name}_unit: ...'",
-                path,
+                f"'[-]' for a pure number), or give its unit in '# {name}_unit: ...'", path,
                 column_line)
         if len(set(given.values())) > 1:
             raise RecordError(f"column {name!r}: the units disagree ("
@@ -234,8 +226,7 @@ def _conditions(header, columns, path: str, column_line: int) -> dict:
         program = parse_program(header["drive_program"][0], path, header["drive_program"][1])
     if drive_speed is None and program is None and not {"drive", "drive_speed"} & set(columns):
         raise RecordError("no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line, "
-                          "a 'drive [mm]' column or a 'drive_speed [mm/s]' column",
-                          path,
+                          "a 'drive [mm]' column or a 'drive_speed [mm/s]' column", path,
                           column_line)
     fields = dict(stiffness=stiffness, weight=weight, drive_speed=drive_speed,
                   drive_program=program)
@@ -282,8 +273,7 @@ def _clock(data, rows, lines, j: int, time_factor: float, path: str, notes: list
         r = int(bad[0])
         raise RecordError(
             f"time does not increase: {float(time[r + 1]):.10g} s after {float(time[r]):.10g} s "
-            f"(line {rows[r]}); sort the rows and remove duplicates",
-            path,
+            f"(line {rows[r]}); sort the rows and remove duplicates", path,
             rows[r + 1])
     if time[0] > EPOCH_SECONDS:  # logger epoch stamps: count from the first sample
         notes.append(f"time counted from the first time stamp ({float(time[0])!r} s)")

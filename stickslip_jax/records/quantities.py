@@ -60,21 +60,17 @@ def quantity(text: str, dimension: str, key: str, path, line: int) -> float:
     m = QUANTITY.fullmatch(text)
     if m is None:
         raise RecordError(f"{key}: cannot read 'number unit' from {text.strip()!r}; "
-                          f"write e.g. '{key}: 1.5 {INTERNAL_UNIT[dimension]}'",
-                          path,
-                          line)
+                          f"write e.g. '{key}: 1.5 {INTERNAL_UNIT[dimension]}'", path, line)
     value, unit = float(m.group(1)), m.group(2)
     if unit == "":
         raise RecordError(
-            f"{key}: {text.strip()!r} has no unit; add one of {unit_choices(dimension)}",
-            path,
+            f"{key}: {text.strip()!r} has no unit; add one of {unit_choices(dimension)}", path,
             line)
     try:
         f = factor(unit, dimension)
     except UnitError:
         raise RecordError(
-            f"{key}: unknown {dimension} unit {unit!r}; use one of {unit_choices(dimension)}",
-            path,
+            f"{key}: unknown {dimension} unit {unit!r}; use one of {unit_choices(dimension)}", path,
             line) from None
     if not math.isfinite(value):
         raise RecordError(f"{key}: {m.group(1)!r} is out of range", path, line)

@@ -67,15 +67,13 @@ def parse_data_checked(lines, start, columns, path):
             continue
         if line.lstrip().startswith("#"):
             raise RecordError(
-                "header line after the column row; move every '# key: value' line above it",
-                path,
+                "header line after the column row; move every '# key: value' line above it", path,
                 i + 1)
         cells = line.split(",")
         if len(cells) != ncol:
             hint = " (a decimal comma? use '.' for decimals)" if len(cells) > ncol else ""
             raise RecordError(f"{len(cells)} cells but the column row has {ncol} "
-                              f"({', '.join(columns)}){hint}",
-                              path,
+                              f"({', '.join(columns)}){hint}", path,
                               i + 1)
         for c, name in zip(cells, columns):
             if not NUMBER.fullmatch(c.strip()):
@@ -88,8 +86,7 @@ def parse_data_checked(lines, start, columns, path):
     if not np.all(np.isfinite(data)):
         r, c = np.argwhere(~np.isfinite(data))[0]
         raise RecordError(
-            f"{numbers[r][c].strip()!r} in column {columns[c]!r} is out of the float range",
-            path,
+            f"{numbers[r][c].strip()!r} in column {columns[c]!r} is out of the float range", path,
             rows[r])
     return data, rows
 
