@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.optimize
 
 from stickslip_jax.slips import (
     CREEP_SPEED,
@@ -245,11 +244,26 @@ def slip_duration(t_c: float, t: np.ndarray, u: np.ndarray, y_pre: float, y_post
         return T - (math.pi + 2.0 * math.atan(v / (omega0 * amp))) / omega0
 
     lo, hi = math.pi / omega0, 2.0 * math.pi / omega0
-    if excess(lo) >= 0.0:
+    f_lo, f_hi = excess(lo), excess(hi)
+    if f_lo >= 0.0:
         return lo
-    if excess(hi) <= 0.0:
+    if f_hi <= 0.0:
         return hi
-    return float(scipy.optimize.brentq(excess, lo, hi, xtol=1e-9 * lo))
+    # the Illinois variant of regula falsi on the bracket (NumPy only: SciPy's root
+    # finders would cost every command the import of scipy.optimize, about 0.5 s)
+    tol, side = 1e-9 * lo, 0
+    for _ in range(100):
+        T = hi - f_hi * (hi - lo) / (f_hi - f_lo)
+        f = excess(T)
+        if f < 0.0:
+            lo, f_lo, f_hi = T, f, 0.5 * f_hi if side < 0 else f_hi
+            side = -1
+        else:
+            hi, f_hi, f_lo = T, f, 0.5 * f_lo if side > 0 else f_lo
+            side = 1
+        if f == 0.0 or hi - lo < tol:
+            break
+    return T
 
 
 def slip_ends(t_c: float, t: np.ndarray, u: np.ndarray, y_pre: float, y_post: float,
@@ -294,6 +308,8 @@ def slip_fit(t: np.ndarray, u: np.ndarray, y: np.ndarray, y_pre: float, y_post: 
     speed swings, a slip that runs past a stop the constant-speed formula predicts); the
     plateau levels enter only as the start and the check that the stop lands on y_post
     within 10 % of the jump."""
+    from scipy.optimize import least_squares  # here: only records with a varying drive
+
     dt = float(t[1] - t[0])
     lo, hi = first, last
     if hi - lo < 8:
@@ -337,7 +353,7 @@ def slip_fit(t: np.ndarray, u: np.ndarray, y: np.ndarray, y_pre: float, y_post: 
     c0 = float(np.mean((u[lo:hi] - ym)[inner])) if inner.any() else 0.0  # x swings about c
     for t_b in starts:
         try:
-            sol = scipy.optimize.least_squares(
+            sol = least_squares(
                 lambda p: (model(p)[0] - ym) / sigma, [t_b, c0],
                 x_scale=[0.1 / omega0, 0.1 * jump], diff_step=[1e-4, 1e-4], method="lm")
         except ValueError:

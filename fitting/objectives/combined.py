@@ -120,8 +120,8 @@ class FeaturesObjective(AbstractObjective):
     def clusters(self, features):
         fd = self.features
         R, C = fd.t1.shape
-        has = np.asarray(fd.has_end | fd.has_next)
-        both = np.asarray(fd.has_end & fd.has_next)
+        end, nxt = np.asarray(fd.has_end), np.asarray(fd.has_next)  # on the host
+        has, both = end | nxt, end & nxt
         use = np.asarray(fd.use_start)
         rec = np.concatenate([np.where(has, np.arange(R)[:, None], -1).ravel(),
                               np.where(both, np.arange(R)[:, None], -1).ravel(),

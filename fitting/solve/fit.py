@@ -129,10 +129,10 @@ def initial_guesses(features: list[RecordFeatures], offsets=None) -> list[Empiri
     top = float(np.max(mu0))
     mu_s = max(top + 0.2 * (top - mu_d), mu_d * 1.05 + 1e-3)
     t2 = float(np.median([np.pi / f.omega0 for f in features]))
-    starts = []
-    for gamma, m, dt2 in itertools.product((0.05, 0.5, 3.0), (0.35, 0.8), (0.3, 1.5)):
-        starts.append(EmpiricalFriction.from_values(mu_s, mu_d, gamma, m, dt2 / t2, 1.0))
-    return starts
+    EmpiricalFriction.check_values(mu_s=mu_s, mu_d=mu_d, delta=0.3 / t2)
+    # on the host (`from_values` would compile a small program per operation)
+    return [EmpiricalFriction(*jax.device_put(list(np.log([mu_d, mu_s - mu_d, g, m, d / t2, 1.0]))))
+            for g, m, d in itertools.product((0.05, 0.5, 3.0), (0.35, 0.8), (0.3, 1.5))]
 
 
 def _stack(trees):
