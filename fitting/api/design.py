@@ -52,12 +52,9 @@ POSTERIOR_WARN = 3e8
 """Grid points x draws above which a posterior map warns before it starts (about
 2 minutes at `POSTERIOR_RATE`)."""
 
-# Peak memory of a map, measured with /usr/bin/time on 1.25e5-8e6 point grids (posterior
-# maps, 2-200 draws): about 70-90 bytes a grid point for the map itself, plus 1,570 a
-# point for --json (Python lists of every array, then the text; 700 without a posterior),
-# 260 for --csv, 80 for --netcdf, and 59 a point and draw for --max-amplitude (its meet
-# probability holds every draw's limit cycle at every point). A 300^3 grid with 2 draws
-# and --json had reached 6.8 GB when it was stopped.
+# Peak memory a grid point, measured with /usr/bin/time on 1.25e5-8e6 points (2-200 draws):
+# 70-90 bytes for the map, 1,570 for --json (700 without a posterior), 260 for --csv, 80
+# for --netcdf; 59 a point and draw for --max-amplitude (every draw's limit cycle).
 _BYTES_PER_POINT = {"map": 128, "--json": 1_600, "--csv": 300, "--netcdf": 100}
 _BYTES_PER_POINT_DRAW = 64  # --max-amplitude
 
@@ -66,21 +63,15 @@ JSON_ALIASES = {"stiffness_kgf_per_mm": "stiffness_kgf_mm",
                 "critical_speed_mm_per_min": "critical_speed_mm_min",
                 "critical_speed_band_mm_per_min": "critical_speed_band_mm_min"}
 """JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
-their old names, still written beside them for one release (`deprecated_keys`). The CSV
-columns have the same names (`CSV_COLUMNS`) and no aliases (a CSV header cannot carry
-them)."""
+their old names, still written beside them for one release (`deprecated_keys`); the CSV
+columns (`CSV_COLUMNS`) have the new names only."""
 
 CSV_COLUMNS = (  # (key in the map, column, factor from internal units)
-    ("amplitude", "amplitude_mm", 1.0),
-    ("amplitude_ratio", "amplitude_ratio", 1.0),
-    ("frequency", "frequency_hz", 1.0),
-    ("frequency_ratio", "frequency_ratio", 1.0),
-    ("stick_time", "stick_time_s", 1.0),
-    ("critical_speed", "critical_speed_mm_per_min", 60.0),
-    ("probability", "probability_stick_slip", 1.0),
-    ("stick_slip", "stick_slip", 1),
-    ("converged", "converged", 1),
-)
+    ("amplitude", "amplitude_mm", 1.0), ("amplitude_ratio", "amplitude_ratio", 1.0),
+    ("frequency", "frequency_hz", 1.0), ("frequency_ratio", "frequency_ratio", 1.0),
+    ("stick_time", "stick_time_s", 1.0), ("critical_speed", "critical_speed_mm_per_min", 60.0),
+    ("probability", "probability_stick_slip", 1.0), ("stick_slip", "stick_slip", 1),
+    ("converged", "converged", 1))
 
 
 def parse_grid(text: str, dimension: str, default_unit: str, arg: str) -> np.ndarray:
