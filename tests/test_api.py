@@ -183,14 +183,15 @@ def test_typed_options_are_accepted():
     from stickslip_fitting.api import campaign as api
     from stickslip_fitting.objectives.losses import Huber
     from stickslip_fitting.microsqueeze_params import MicrosqueezeFriction
-    from stickslip_fitting.params import EmpiricalFriction
+    from stickslip_fitting.params import EmpiricalFriction, Hold
 
     assert api._law(EmpiricalFriction) == (EmpiricalFriction, "empirical")
     assert api._law("microsqueeze") == (MicrosqueezeFriction, "microsqueeze")
     assert api._loss(Huber(2.0)) == Huber(2.0) and api._loss("huber:2").spec() == "huber:2"
     start = EmpiricalFriction.from_values(0.4, 0.3, 1.0, 0.5, 2.0, 1.3)
-    assert api._hold({"n": 1}, EmpiricalFriction).natural(start) == {"n": 1.0}
-    assert api._hold({}, EmpiricalFriction) is None
+    assert api._fixed({"n": 1}, EmpiricalFriction) == {"n": 1.0}
+    assert Hold.named(api._fixed({"n": 1}, EmpiricalFriction)).natural(start) == {"n": 1.0}
+    assert api._fixed({}, EmpiricalFriction) == {}
     assert api._viscosity("216 cP") == pytest.approx(api._viscosity(0.216))
 
 

@@ -10,14 +10,11 @@ result.to_json("fit.json")               # the document of `stickslip fit --json
 ```
 
 The call runs the steps of `stickslip fit` with the same functions, so it gives the same
-numbers and the same document: read and screen the campaign
-(`campaign.load_campaign`; `campaign.screen_records` for `Record` objects), fit
-(`fit.fit_features`, or `microsqueeze_fit.fit_microsqueeze` for the microsqueeze law),
-the Laplace intervals (`uncertainty.laplace`) and the report
-(`fit_report.build_report`). The options are the command's: `model`, `objective`,
-`fix`, `loss`, `gauge_offset`, `slip_time`, `strict`, `eta`, `surface`, each given as the
-object it names (`Objective.TRACE`, `{"n": 1.0}`, `Huber(2.0)`, `EmpiricalFriction`) or
-as the command line's string for it.
+numbers and document: `data.campaign.load_campaign` (`screen_records` for `Record`
+objects), `solve.fit.fit_features` (`solve.microsqueeze.fit_microsqueeze` for the
+microsqueeze law), `uncertainty.laplace` and `report.fit_table.build_report`. The options
+are the command's, each the object it names (`Objective.TRACE`, `{"n": 1.0}`,
+`Huber(2.0)`, `EmpiricalFriction`) or the command line's string for it.
 
 Units are the internal ones (kgf, mm, s; mu dimensionless, gamma s^-m, delta s^-n). A
 parameter the records do not determine has no value: NaN in `summary()`, null with a
@@ -46,7 +43,7 @@ if TYPE_CHECKING:
     from ..data.campaign import Campaign
     from ..solve.fit import FitResult
     from ..objectives.losses import AbstractLoss
-    from ..params import AbstractFrictionParams, Hold
+    from ..params import AbstractFrictionParams
     from ..uncertainty.laplace import Uncertainty
 
 __all__ = ["CampaignFit", "RecordsSpec", "SUMMARY_COLUMNS", "fit"]
@@ -64,19 +61,11 @@ _MODELS = ("empirical", "microsqueeze")
 @dataclasses.dataclass(frozen=True)
 class CampaignFit(ResultDocument):
     """The result of `fit`: the campaign's friction parameters with their intervals.
-
-    - `summary()`: a pandas DataFrame indexed by parameter (`SUMMARY_COLUMNS`);
-    - `plot(path)`: the diagnostic figure of `stickslip fit --plot`;
-    - `to_json(path)`: the document of `stickslip fit --json` (written to `path`, and
-      returned as text); `to_dict()` the same as a dict;
-    - `str(result)`: the table `stickslip fit` prints, with its warnings and notes.
-
-    The parts: `report` (the JSON document before strict encoding), `fit`
-    (`stickslip_fitting.solve.fit.FitResult`: the optimum, the objective, chi2),
-    `uncertainty` (`stickslip_fitting.uncertainty.laplace.Uncertainty`: covariance,
-    identifiability), `campaign` (`stickslip_fitting.data.campaign.Campaign`: the records
-    used and the screening of every record) and `model` ("empirical" or "microsqueeze").
-    For the posterior, `stickslip_fitting.run_mcmc(result.fit)`.
+    `summary()` (pandas, `SUMMARY_COLUMNS`), `plot(path)` (`stickslip fit --plot`),
+    `to_json(path)` / `to_dict()` (`stickslip fit --json`), `str(result)` (the table the
+    command prints). Parts: `report` (the JSON document), `fit` (`solve.fit.FitResult`),
+    `uncertainty` (`uncertainty.laplace.Uncertainty`), `campaign` (`data.campaign.Campaign`)
+    and `model` ("empirical" or "microsqueeze"); `run_mcmc(result.fit)` for the posterior.
     """
 
     report: dict
@@ -199,7 +188,6 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
     (a glob that matches no file names the pattern), before any fitting. A fit that does
     not converge gives a RuntimeWarning (`CampaignFit.converged` is then False).
     """
-    from ..data.campaign import load_campaign
     from ..report.fit_table import build_report
     from ..uncertainty.laplace import laplace
 
@@ -208,51 +196,23 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
                        slip_time=SlipTime.parse(slip_time))
     law, model_name = _law(model)
     loss = _loss(loss)
-    hold = _hold(fix, law)
+    fixed = _fixed(fix, law)
+    pair = eta_value = None
     if model_name == "microsqueeze":
         pair = _surface(surface)
         eta_value = None if eta is None else _viscosity(eta)
     elif eta is not None:
         raise ValueError("eta: only used with model='microsqueeze'")
-
     given = as_list(records)
-    inputs: tuple[str, ...]
-    least = None if model_name == "empirical" else 2  # one record: `one_record_holds`
-    if given and all(isinstance(r, Record) for r in given):
-        campaign, inputs = _campaign_of_records(given, strict, least), ()
-    elif any(isinstance(r, Record) for r in given):
-        raise ValueError("records: give paths (files, folders, globs) or Record objects, "
-                         "not both in one campaign")
-    else:
+    result, campaign, extra = fit_campaign(
+        given, law, fixed, objective=objective, loss=loss, modes=modes, strict=strict,
+        eta=eta_value, pair=pair, surface=surface, loss_text=loss.spec(),
+        check=lambda held: _fixed(held, law))
+    inputs: tuple[str, ...] = ()
+    if not isinstance(given[0], Record):
         from stickslip_jax.records import record_paths
 
-        campaign = load_campaign(given, min_records=least, strict=strict)
         inputs = tuple(str(p) for p in record_paths(given))
-    if model_name == "empirical" and len(campaign.records) == 1:
-        from ..data.campaign import one_record_holds
-
-        hold = _hold({**one_record_holds(campaign), **dict(fix or {})}, law)
-
-    from stickslip_jax.logs import logger
-
-    used, spec = sum(s.status == "used" for s in campaign.screening), loss.spec()
-    logger.info(f"fitting {used} records (objective {objective}"
-                f"{'' if spec == 'gaussian' else ', loss ' + spec}, model {model_name})...")
-    kw: dict[str, Any] = dict(hold=hold, modes=modes,
-                              objective=objective, records=campaign.records, loss=loss)
-    extra = None
-    if model_name == "microsqueeze":
-        from ..solve.microsqueeze import default_eta, fit_microsqueeze
-
-        if eta_value is None:
-            eta_value = default_eta(campaign.records[0].lubricant)
-        result = fit_microsqueeze(campaign.features, eta=eta_value, pair=pair, **kw)
-        extra = {"given": {"eta": {"value": eta_value, "unit": "kgf*s/mm^2"},
-                           "surface": surface}}
-    else:
-        from ..solve.fit import fit_features
-
-        result = fit_features(campaign.features, **kw)
     unc = laplace(result)
     report = build_report(result, unc, campaign, model=model_name, extra=extra)
     out = CampaignFit(report=report, fit=result, uncertainty=unc, campaign=campaign,
@@ -263,30 +223,57 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
     return out
 
 
+def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Objective,
+                 loss: AbstractLoss, modes: ModelModes, strict: bool = False,
+                 eta: float | None = None, pair=None, surface: str = "S1G1",
+                 loss_text: str = "gaussian", check=None):
+    """The steps of `stickslip fit` and `fit` up to the optimum: the campaign of `records`
+    (paths or `Record` objects) read and screened (`data.campaign.load_campaign`), the law
+    `law` fitted (`solve.fit.fit_features`, `solve.microsqueeze.fit_microsqueeze`) with
+    `fixed` {name: value} held; a single record holds `one_record_holds` too (the merged
+    holds checked by `check` when given). `eta` (kgf*s/mm^2; None: the records'
+    lubricant's) and `pair` (the surface pair `surface`): the microsqueeze law's givens.
+    Returns (FitResult, Campaign, None or the microsqueeze givens for the report)."""
+    from stickslip_jax.logs import logger
+
+    from ..data.campaign import load_campaign, one_record_holds
+    from ..params import Hold
+
+    micro = law.MODEL == "microsqueeze"
+    campaign = load_campaign(records, min_records=2 if micro else None, strict=strict)
+    held = {} if micro else one_record_holds(campaign)
+    if held:
+        fixed = {**held, **fixed}
+        fixed = fixed if check is None else check(fixed)
+    used = sum(s.status == "used" for s in campaign.screening)
+    logger.info(f"fitting {used} records (objective {objective}"
+                f"{'' if loss_text == 'gaussian' else ', loss ' + loss_text}, model {law.MODEL})...")
+    kw: dict[str, Any] = dict(hold=Hold.named(fixed) if fixed else None, modes=modes,
+                              objective=objective, records=campaign.records, loss=loss)
+    if not micro:
+        from ..solve.fit import fit_features
+
+        return fit_features(campaign.features, **kw), campaign, None
+    from ..solve.microsqueeze import default_eta, fit_microsqueeze
+
+    eta = default_eta(campaign.records[0].lubricant) if eta is None else eta
+    return (fit_microsqueeze(campaign.features, eta=eta, pair=pair, **kw), campaign,
+            {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"}, "surface": surface}})
+
+
 def as_list(records) -> list:
-    """`records` as a list of specs or Records (a single one in a list)."""
+    """`records` as a list of specs or of `Record`s (a single one in a list); a list that
+    mixes the two is refused."""
     if isinstance(records, (str, os.PathLike, Record)):
         return [records]
-    if isinstance(records, Iterable):
-        return list(records)
-    raise ValueError(f"records: a path, a folder, a glob, a Record or a list of them, got "
-                     f"{records!r}")
-
-
-def _campaign_of_records(records: list[Record], strict: bool, least: int | None) -> Campaign:
-    """The screened campaign of `Record` objects (`load_campaign`'s checks without files;
-    `least` as its `min_records`)."""
-    from stickslip_jax.records import check_campaign
-
-    from ..data.campaign import screen_records
-
-    least = (1 if len(records) == 1 else 2) if least is None else least
-    if len(records) < least:
-        raise ValueError(
-            f"a campaign needs at least {least} records (got {len(records)}): one run cannot "
-            "separate the six friction parameters; give records at several speeds")
-    check_campaign(records, same=("lubricant",))
-    return screen_records(records, min_records=least, strict=strict)
+    if not isinstance(records, Iterable):
+        raise ValueError(f"records: a path, a folder, a glob, a Record or a list of them, "
+                         f"got {records!r}")
+    out = list(records)
+    if any(isinstance(r, Record) for r in out) and not all(isinstance(r, Record) for r in out):
+        raise ValueError("records: give paths (files, folders, globs) or Record objects, "
+                         "not both in one campaign")
+    return out
 
 
 def _law(model) -> tuple[type[AbstractFrictionParams], str]:
@@ -318,11 +305,10 @@ def _loss(loss) -> AbstractLoss:
         raise _keyword(err, "loss") from None
 
 
-def _hold(fix, law) -> Hold | None:
-    """The `Hold` of {name: value}, checked by the command's own `parse_fix` (names,
-    ranges, one free); None when nothing is held."""
+def _fixed(fix, law) -> dict[str, float]:
+    """{name: value} held, checked by the command's own `parse_fix` (names, ranges, one
+    free)."""
     from ..commands.fit import parse_fix
-    from ..params import Hold
 
     if fix is None:
         fix = {}
@@ -336,10 +322,9 @@ def _hold(fix, law) -> Hold | None:
             raise ValueError(f"fix {name}: {value!r} is not a number") from None
         items.append(f"{name}={number!r}")
     try:
-        fixed = parse_fix(items, law)
+        return parse_fix(items, law)
     except ValueError as err:
         raise _keyword(err, "fix") from None
-    return Hold.named(fixed) if fixed else None
 
 
 def _surface(name: str):

@@ -215,11 +215,8 @@ def discover(records: RecordsSpec, *, only: tuple[str, ...] | list[str] | None =
     given = as_list(records)
     unreadable: list = []
     inputs: tuple[str, ...] = ()
-    if given and all(isinstance(r, Record) for r in given):
+    if given and isinstance(given[0], Record):
         recs = given
-    elif any(isinstance(r, Record) for r in given):
-        raise ValueError("records: give paths (files, folders, globs) or Record objects, "
-                         "not both in one campaign")
     else:
         from stickslip_jax.records import read_campaign_files
 

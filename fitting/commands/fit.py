@@ -12,11 +12,10 @@ from __future__ import annotations
 
 import math
 
-
 from stickslip_jax.modes import GaugeOffset, SlipTime
 
-from ..report.fit_table import FIXED_MISFIT, build_report, fixed_misfit_warning, format_table  # noqa: F401
 from ..modes import FrictionLaw, ModelModes, Objective
+from ..report.fit_table import build_report, format_table
 
 NAME = "fit"
 HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"
@@ -135,17 +134,12 @@ def check_model_options(args) -> dict[str, float]:
 
 
 def fit_from_args(args, *, objective: Objective | str = "features"):
-    """Read the campaign of `args.records`, screen it and fit `args.model` to the records
-    with usable stick-slip (`stickslip_fitting.data.campaign`; all of them with `args.strict`).
-
-    Returns (fit, campaign, extra): `extra` is None or the given quantities of the
-    microsqueeze model ({"given": {"eta": ..., "surface": ...}}). Every user error is a
-    ValueError naming the option or file to fix (checked before any fitting).
-    """
-    from ..data.campaign import load_campaign, one_record_holds
-    from ..solve.fit import fit_features
+    """Read the campaign of `args.records`, screen it and fit `args.model` (or `args.law`)
+    to the records with usable stick-slip (all of them with `args.strict`):
+    `api.campaign.fit_campaign`. Returns (fit, campaign, extra): `extra` None or the
+    microsqueeze givens. Every user error is a ValueError naming the option or file."""
+    from ..api.campaign import fit_campaign
     from ..objectives.losses import parse_loss
-    from ..params import Hold
 
     objective = Objective.parse(objective)
     loss = parse_loss(args.loss)
@@ -155,35 +149,28 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
     if law is not FrictionLaw.PAPER:
         return _fit_law_from_args(args, law, objective, modes, loss)
     fixed = check_model_options(args)
-    if args.model == "microsqueeze":
+    from ..params import EmpiricalFriction as friction_law
+
+    pair = None
+    if args.model == "microsqueeze":  # imported only here: the contact model loads diffrax
         from stickslip_jax.contact import surface_pair
 
-        from ..solve.microsqueeze import default_eta, fit_microsqueeze
+        from ..microsqueeze_params import MicrosqueezeFriction as friction_law
 
-        hold = Hold.named(fixed) if fixed else None
-        surface = args.surface or "S1G1"
         try:
-            pair = surface_pair(surface)
+            pair = surface_pair(args.surface or "S1G1")
         except (KeyError, ValueError) as err:
-            raise ValueError(f"--surface: unknown surface pair {surface!r} ({err})") from None
-        campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
-        eta = args.eta if args.eta is not None else default_eta(campaign.records[0].lubricant)
-        _say_fitting(args, campaign, objective)
-        fit = fit_microsqueeze(campaign.features, eta=eta, pair=pair, hold=hold, modes=modes,
-                               objective=objective, records=campaign.records, loss=loss)
-        return fit, campaign, {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"},
-                                        "surface": surface}}
-    campaign = load_campaign(args.records, min_records=None,
-                             strict=getattr(args, "strict", False))
-    fixed = {**one_record_holds(campaign), **fixed}
-    _say_fitting(args, campaign, objective)
-    fit = fit_features(campaign.features, hold=Hold.named(fixed) if fixed else None,
-                       modes=modes, objective=objective, records=campaign.records, loss=loss)
-    return fit, campaign, None
+            raise ValueError(f"--surface: unknown surface pair {args.surface!r} ({err})") \
+                from None
+    return fit_campaign(args.records, friction_law, fixed, objective=objective, loss=loss,
+                        modes=modes, strict=getattr(args, "strict", False), eta=args.eta,
+                        pair=pair, surface=args.surface or "S1G1", loss_text=args.loss)
 
 
 def _fit_law_from_args(args, law, objective, modes, loss):
     """`fit_from_args` for a base law other than the paper's (`solve.laws.fit_law`)."""
+    from stickslip_jax.logs import logger
+
     from ..data.campaign import load_campaign
     from ..objectives.losses import Gaussian
     from ..params import Hold
@@ -198,20 +185,13 @@ def _fit_law_from_args(args, law, objective, modes, loss):
     fixed = parse_fix(args.fix, LAW_PARAMS[law])
     campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
     args.model = law.value  # the law's name in the log line and the report's "model"
-    _say_fitting(args, campaign, Objective.SMOOTH)
+    n = sum(s.status == "used" for s in campaign.screening)
+    loss_text = "" if args.loss == "gaussian" else f", loss {args.loss}"
+    logger.info(f"fitting {n} records (objective {Objective.SMOOTH}{loss_text}, model "
+                f"{args.model})...")
     fit = fit_law(campaign.features, campaign.records, law,
                   hold=Hold.named(fixed) if fixed else None, modes=modes)
     return fit, campaign, None
-
-
-def _say_fitting(args, campaign, objective) -> None:
-    """One stage line (the `stickslip` logger: stderr unless --quiet) once the inputs are
-    read and checked."""
-    from stickslip_jax.logs import logger
-
-    n = sum(s.status == "used" for s in campaign.screening)
-    loss = "" if args.loss == "gaussian" else f", loss {args.loss}"
-    logger.info(f"fitting {n} records (objective {objective}{loss}, model {args.model})...")
 
 
 def parse_fix(items, law=None) -> dict[str, float]:

@@ -29,10 +29,7 @@ from .features import RecordFeatures, record_features
 __all__ = ["USED", "NO_STICK_SLIP", "SET_ASIDE", "UNREADABLE", "ONE_RECORD_HOLDS", "Campaign",
            "RecordStatus", "find_truth", "load_campaign", "one_record_holds", "screen_records"]
 
-USED = "used"
-NO_STICK_SLIP = "no_stick_slip"
-SET_ASIDE = "set_aside"
-UNREADABLE = "unreadable"
+USED, NO_STICK_SLIP, SET_ASIDE, UNREADABLE = "used", "no_stick_slip", "set_aside", "unreadable"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -184,8 +181,7 @@ def screen_records(records: list[Record], *, min_records: int = 2,
     if len(used) < min_records:
         raise ValueError(
             f"only {len(used)} of {len(screening)} records have usable stick-slip (a fit "
-            f"needs {min_records}): " + (" | ".join(bad) if bad else "")
-        )
+            f"needs {min_records}): " + (" | ".join(bad) if bad else ""))
     return Campaign(
         records=[records[i] for i in used], features=[features[i] for i in used],
         screening=screening,
@@ -193,23 +189,27 @@ def screen_records(records: list[Record], *, min_records: int = 2,
 
 
 def load_campaign(specs, *, min_records: int | None = 2, strict: bool = False) -> Campaign:
-    """Read record files, directories or globs, check they form one campaign (one
-    lubricant) and screen them (`screen_records`). A file that cannot be read is listed
-    as UNREADABLE and the rest are fitted (`strict`: its error is raised, as is the only
-    file's). `min_records` None: 1 for a single file (`one_record_holds`), else 2.
-    Raises ValueError naming what to fix."""
-    files = read_campaign_files(list(specs))
-    records = files.records
-    files.check(strict)
+    """Read record files, directories or globs (or take `Record` objects), check they form
+    one campaign (one lubricant) and screen them (`screen_records`). A file that cannot be
+    read is listed as UNREADABLE and the rest are fitted (`strict`: its error is raised, as
+    is the only file's). `min_records` None: 1 for a single record (`one_record_holds`),
+    else 2. Raises ValueError naming what to fix."""
+    specs = list(specs)
+    if specs and all(isinstance(s, Record) for s in specs):
+        records, unreadable = specs, ()
+    else:
+        files = read_campaign_files(specs)
+        records, unreadable = files.records, files.unreadable
+        files.check(strict)
     if min_records is None:
-        min_records = 1 if len(records) + len(files.unreadable) == 1 else 2
-    if len(records) + len(files.unreadable) < min_records:
+        min_records = 1 if len(records) + len(unreadable) == 1 else 2
+    if len(records) + len(unreadable) < min_records:
         raise ValueError(
             f"a campaign needs at least {min_records} records (got {len(records)}): one run "
             "cannot separate the six friction parameters; give records at several speeds")
     check_campaign(records, same=("lubricant",))
     return screen_records(records, min_records=min_records, strict=strict,
-                          unreadable=files.unreadable)
+                          unreadable=unreadable)
 
 
 def find_truth(records, names=None) -> dict[str, float] | None:
