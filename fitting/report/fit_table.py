@@ -45,20 +45,13 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     levels = FeaturesObjective(fit.data).split(res)["levels"].reshape(level_sd.shape) * level_sd
     mask = np.asarray(fit.data.has_end | fit.data.has_next)
     rms = float(np.sqrt(np.mean(levels[mask] ** 2))) if mask.any() else float("nan")
-    out = {"model": model,
-           "parameters": params,
-           "records": _record_rows(fit, campaign),
+    out = {"model": model, "parameters": params, "records": _record_rows(fit, campaign),
            "records_not_used": sum(s.status != "used" for s in campaign.screening),
            "steady_records": boundary_check(fit.params.friction.friction(), campaign),
-           "residual_rms_mm": rms,
-           "chi2": fit.chi2,
-           "dof": fit.dof,
-           "reduced_chi2": fit.reduced_chi2,
-           "converged": fit.converged,
-           "objective": fit.objective.describe(),
-           "loss": loss_of(fit.objective).spec(),
-           "slip_time": str(fit.slip_time),
-           "covariance": unc.covariance,
+           "residual_rms_mm": rms, "chi2": fit.chi2, "dof": fit.dof,
+           "reduced_chi2": fit.reduced_chi2, "converged": fit.converged,
+           "objective": fit.objective.describe(), "loss": loss_of(fit.objective).spec(),
+           "slip_time": str(fit.slip_time), "covariance": unc.covariance,
            "covariance_scale": unc.scale,
            "identifiability": {
                "not_identifiable": [n for n, ok in unc.identifiable.items()
