@@ -91,15 +91,10 @@ def exact_point(friction, weight, stiffness, speed, n_cycles: int = N_CYCLES):
     freq = jnp.where(stick, 1.0 / jnp.where(stick, t1 + t2_actual, 1.0), zero)
     amp = jnp.where(stick, amp, zero)
     return DesignMap(
-        amplitude=amp,
-        amplitude_ratio=amp * stiffness / weight,
-        frequency=freq,
-        frequency_ratio=freq / f0,
-        stick_time=jnp.where(stick, t1, zero),
-        slip_time=jnp.where(stick, t2_actual, t2),
-        natural_frequency=f0,
-        critical_speed=critical_speed(friction, weight, stiffness),
-        stick_slip=stick,
+        amplitude=amp, amplitude_ratio=amp * stiffness / weight, frequency=freq,
+        frequency_ratio=freq / f0, stick_time=jnp.where(stick, t1, zero),
+        slip_time=jnp.where(stick, t2_actual, t2), natural_frequency=f0,
+        critical_speed=critical_speed(friction, weight, stiffness), stick_slip=stick,
         converged=((n_valid >= 2) & settled) | sliding,
         regime=jnp.where(stick, jnp.where(restick_failure(friction, friction.static(t1), t2),
                                           RESTICK_FAILURE, STICK_SLIP), STEADY_SLIDING))

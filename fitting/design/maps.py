@@ -70,13 +70,9 @@ def cycle_kernel(points: DesignPoints, shared=None) -> DesignMap:
         amplitude_ratio=jnp.where(stick, c.amplitude * points.stiffness / points.weight, zero),
         frequency=jnp.where(stick, c.frequency, zero),
         frequency_ratio=jnp.where(stick, c.frequency / f0, zero),
-        stick_time=jnp.where(stick, c.stick_time, zero),
-        slip_time=c.slip_time,
-        natural_frequency=f0,
-        critical_speed=c.critical_speed,
-        stick_slip=stick,
-        converged=jnp.asarray(ok),
-        regime=jnp.where(stick, c.regime, STEADY_SLIDING))
+        stick_time=jnp.where(stick, c.stick_time, zero), slip_time=c.slip_time,
+        natural_frequency=f0, critical_speed=c.critical_speed, stick_slip=stick,
+        converged=jnp.asarray(ok), regime=jnp.where(stick, c.regime, STEADY_SLIDING))
 
 
 def _kernel(method: MapMethod):

@@ -308,17 +308,10 @@ def microsqueeze_curve(law: MicrosqueezeStatic, stick_time: Float[ArrayLike, " n
     tau0 = jnp.log(t0)
     tau1 = jnp.maximum(tau_save[-1], tau0 + 1.0)
     sol = diffrax.diffeqsolve(
-        diffrax.ODETerm(_rhs),
-        diffrax.Tsit5(),
-        t0=tau0,
-        t1=tau1,
-        dt0=None,
-        y0=jnp.asarray(s0),
-        args=(law, kin),
-        saveat=diffrax.SaveAt(ts=tau_save),
+        diffrax.ODETerm(_rhs), diffrax.Tsit5(), t0=tau0, t1=tau1, dt0=None,
+        y0=jnp.asarray(s0), args=(law, kin), saveat=diffrax.SaveAt(ts=tau_save),
         stepsize_controller=diffrax.PIDController(rtol=rtol, atol=atol),
-        max_steps=max_steps,
-        throw=False,
+        max_steps=max_steps, throw=False,
         adjoint=diffrax.RecursiveCheckpointAdjoint() if adjoint is None else adjoint)
     s_sorted = jnp.where(Ts < t0, Ts / rate0, sol.ys)
     s_out = jnp.empty_like(s_sorted).at[order].set(s_sorted)

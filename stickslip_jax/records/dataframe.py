@@ -254,25 +254,17 @@ def _from_own_frame(cls, df, given: dict, fields: dict):
             raise RecordError(f"the frame made by Record.to_dataframe lacks the column(s) "
                               f"{', '.join(map(repr, missing))}")
         record = cls(
-            time=df["time_s"].to_numpy(np.float64),
-            deflection=df["x_mm"].to_numpy(np.float64),
-            stiffness=a["stiffness_kgf_per_mm"],
-            weight=a["weight_kgf"],
-            normal_load=a.get("normal_load_kgf"),
-            friction_radius=a.get("friction_radius_mm"),
+            time=df["time_s"].to_numpy(np.float64), deflection=df["x_mm"].to_numpy(np.float64),
+            stiffness=a["stiffness_kgf_per_mm"], weight=a["weight_kgf"],
+            normal_load=a.get("normal_load_kgf"), friction_radius=a.get("friction_radius_mm"),
             drive_speed=a["drive_speed_mm_per_s"],
             drive=(df["drive_mm"].to_numpy(np.float64) if a["drive_source"] == "column"
                    else None),
-            drive_program=a["drive_program"],
-            lubricant=a["lubricant"],
-            surface=a["surface"],
+            drive_program=a["drive_program"], lubricant=a["lubricant"], surface=a["surface"],
             note=a["note"],
             channels={n: df[c].to_numpy(np.float64) for n, c in a["channel_columns"].items()},
-            channel_units=dict(a["channel_units"]),
-            truth=a["truth"],
-            source=a["source"],
-            extra_header=dict(a["extra_header"]),
-            notes=tuple(a["notes"]))
+            channel_units=dict(a["channel_units"]), truth=a["truth"], source=a["source"],
+            extra_header=dict(a["extra_header"]), notes=tuple(a["notes"]))
     except KeyError as exc:
         raise RecordError(f"the frame's attrs lack {exc.args[0]!r}, which "
                           "Record.to_dataframe writes; give stiffness= and the other "
