@@ -6,50 +6,32 @@ uniform step, with the run's conditions: stiffness $k$, slider weight $W$ and th
 displacement $u(t)$). Everything is held in the internal units kgf, mm, s; the file may
 use any unit that `stickslip_jax.units` knows, converted on the way in.
 
-File format (UTF-8, version 1)::
+File format (UTF-8, version 1; the full description is docs/records.md)::
 
     # stickslip-record: 1
     # drive_speed: 1.0 mm/min
     # stiffness: 86.9 kgf/mm
     # slider_weight: 36.0 kgf
-    # lubricant: A
-    # surface: S1G1
     time [s],deflection [mm]
     0.000,0.1203
-    0.001,0.1204
 
-- The first line is `# stickslip-record: 1`. Header lines are `# key: value` with a
-  lowercase key; quantities are `number unit` (`86.9 kgf/mm`, `852 N/mm`); a bare
-  number is an error (no unit is guessed).
-- Required: `stiffness`; `slider_weight` or `slider_mass` (in kg: W = m g, so 1 kg
-  weighs 1 kgf); a `time` column; a `deflection` or a `force` column (x = F/k); and at
-  least one drive: `drive_speed`, `drive_program` or a `drive` column. When several
-  are given, the drive is the `drive` column, else the `drive_program`, else
-  `drive_speed` (which then stays as the nominal speed).
-- `drive_program: 0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min` lists segments
-  `start-time speed` separated by `;`: the speed holds from its start time to the next
-  start (the last holds for ever). A hold is speed 0. Starts increase strictly, speeds
-  are >= 0; before the first start the drive rests. The drive displacement is
-  $u(t) = \int_0^t v(s)\,ds$ (zero at t = 0, like `drive_speed`'s $u = vt$).
-- Optional: `lubricant`, `surface`, `note` (one line of free text), `truth: {json}`
-  (parameters a synthetic record was made from), any other `key: value` (kept as
-  raw text), and more columns `name [unit]` (e.g. `pitch_1 [um]`; `[-]` for a pure
-  number) stored in `Record.channels` in internal units.
-- Data rows: one number per column, `.` as decimal point. Time must increase strictly
-  and be uniform: every step within `TIME_STEP_RTOL` (1e-3) of the mean step.
-  Blank lines are ignored; `#` lines after the column row are an error.
-- Files over `MAX_FILE_BYTES` (200 MB) are refused.
+Header lines are `# key: value`; quantities are `number unit` (a bare number is an error:
+no unit is guessed). Required: `stiffness`, `slider_weight` (or `slider_mass`), a `time`
+and a `deflection` (or `force`) column, and a drive: `drive_speed`, `drive_program`
+(`0 s 1 mm/min; 30 s 0 mm/min`: segments `start-time speed`) or a `drive` column (the
+first present of column, program, speed is the drive). Optional: `lubricant`, `surface`,
+`note`, `truth: {json}`, other `key: value` (kept as text) and more columns `name [unit]`
+(`Record.channels`). Time must increase strictly and be uniform within `TIME_STEP_RTOL`;
+files over `MAX_FILE_BYTES` are refused.
 
 Reading never guesses and never crashes: every problem is one `RecordError` (a
 `ValueError`) whose message names the file, the line and what to fix. Writing with the
 defaults (internal units, `repr` precision) then reading gives the record back exactly.
 
-The package's modules, by job: `record` (the `Record` type and its checks), `sampling`
-(the clock: even steps, jitter, dropped samples, epoch stamps), `drive` (drive
-programs), `quantities` (units of quantities and columns), `dialects` (bytes to lines,
-cell dialects), `rows` (the data rows), `parse` (reading a file), `write` (writing one),
-`campaign` (reading campaigns), `dataframe` (pandas DataFrames both ways), `grammar`
-(the format's constants and regular expressions) and `errors` (`RecordError`).
+Modules: `record` (the `Record` type and its checks), `sampling` (the clock), `drive`
+(drive programs), `quantities` (units), `dialects` (bytes to lines, cell dialects), `rows`
+(data rows), `parse` and `write` (one file), `campaign` (campaigns), `dataframe` (pandas),
+`grammar` (the format's constants) and `errors` (`RecordError`).
 """
 
 from __future__ import annotations
