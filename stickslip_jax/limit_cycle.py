@@ -24,13 +24,10 @@ eq (3) ($e^{-\delta T_2^n} > 1/2$). It is solved for $\log T_1$ by Newton's meth
 (optimistix) from above, with implicit-function gradients, so `limit_cycle` is
 differentiable in the friction parameters and the design (W, k, v) and vmaps.
 
-Against eq (12): the paper's $v_c$ is the speed where this $T_1$ equals $T_0 = T_2$, not
-where the fixed point disappears. For eq (1) with $m < 1$ the fixed point exists at every
-speed (the static friction rises faster than linearly from $T_1 = 0$), with an amplitude
-that falls smoothly: the undamped model has no sharp stick-slip boundary, only the speed
-where the amplitude falls below a tolerance (`tolerance_speed`). Lubricant A, W 36 kgf,
-k 86.9 kgf/mm: $v_c$ = 48.9 mm/min, the limit cycle 8.01 / 7.32 / 5.66 um at 52 / 60 / 90
-mm/min (the exact simulator's values to 1e-12).
+Eq (12)'s $v_c$ is where this $T_1$ equals $T_0 = T_2$, not where the fixed point
+disappears: for eq (1) with $m < 1$ it exists at every speed, its amplitude falling
+smoothly (`tolerance_speed`: where it falls below a tolerance; docs/model.md gives the
+numbers for lubricant A, equal to the exact simulator's to 1e-12).
 
 **Damping** (`limit_cycle(..., damping_ratio=zeta)`, `cycle_map(..., damping_ratio=zeta)`,
 `boundary_speed`). The paper's equation of motion (eq 2) has no damping, so a small limit
@@ -53,10 +50,8 @@ implicit-function gradient); if that minimum is positive the slider never stops 
 point is found by bisection in $\log T_1$ on "the slider stops and the residual is
 positive"; where the stopping region begins with a positive residual there is no limit
 cycle with a stick. Unlike the undamped model this happens at a finite speed,
-`boundary_speed`, where a finite cycle vanishes at once: the boundary is sharp (lubricant
-A, W 36 kgf, k 86.9 kgf/mm: $\zeta$ = 0.01, 0.05, 0.1 end stick-slip at 97.9, 54.7,
-39.0 mm/min with 3.0, 4.1, 5.0 um cycles just below; eq (12)'s $v_c$ is 48.9 mm/min).
-`damping_ratio=0` reproduces the undamped map to 1e-11.
+`boundary_speed`, where a finite cycle vanishes at once (docs/model.md: lubricant A at
+$\zeta$ = 0.01, 0.05, 0.1). `damping_ratio=0` reproduces the undamped map to 1e-11.
 """
 
 from __future__ import annotations
