@@ -1,17 +1,8 @@
 """One internal unit system and the conversions at the edges.
 
-Internally every quantity is in **kgf, mm, s** (the paper's system):
-
-| quantity        | internal unit      |
-|-----------------|--------------------|
-| force, weight   | kgf                |
-| length          | mm                 |
-| time            | s                  |
-| speed           | mm/s               |
-| stiffness       | kgf/mm             |
-| mass            | kgf*s^2/mm (= W/g) |
-| viscosity       | kgf*s/mm^2         |
-| pressure        | kgf/mm^2           |
+Internally every quantity is in **kgf, mm, s** (the paper's system): force kgf, length
+mm, time s, speed mm/s, stiffness kgf/mm, mass kgf*s^2/mm (= W/g), viscosity kgf*s/mm^2,
+pressure kgf/mm^2 (docs/units.md).
 
 The paper quotes drive speeds in mm/min; they are converted to mm/s on the way in
 and back on the way out. Only code at the edges (records, CLI, plots) calls the
