@@ -17,16 +17,8 @@ tables and figures show "-" with the reason (`value_text`, `note_text`). A value
 relative 1e-6 of a bound of its support is "at bound" (`at_bound`: "lower", "upper" or
 None): its standard error says nothing about the parameter, only about the bound.
 
-- `ParameterEstimate.from_log(name, unit, u, sd)`: value exp(u), interval
-  exp(u -+ 1.96 sd); `from_normal(name, unit, value, sd)`: value -+ 1.96 sd.
-- `to_json()`: the fit report's entry; `to_json(keys)` only those keys (e.g. discovery's
-  effect sizes: value, stderr, unit).
-- `DiscoveryEstimates`: the rows of the discovery results and the dicts of their JSON.
-- `value_text(entry)`, `note_text(entry)`: the cells of a parameter's JSON entry in a
-  text table ("-" for no value; "fixed", "not identifiable: <reason>", "at upper bound 5").
-- `text_table(header, rows, align)`: columns padded to their widest cell and separated by
-  two spaces (no cell has two spaces in a row, so splitting a line at runs of two spaces or
-  more gives its cells back), a rule under the header.
+Beside the row: `DiscoveryEstimates` (the rows of the discovery results), `value_text`
+and `note_text` (a JSON entry's cells in a text table), `text_table`.
 """
 
 from __future__ import annotations
