@@ -26,8 +26,9 @@ algorithm, assembled from public optimistix pieces:
   objective that is not one traceable function: the discovery models evaluate residuals
   and Jacobian blocks by several compiled programs; the verb then drives the same rules
   from Python), a start damping `lam0` (a warm restart from a solution's `stats["lam"]`);
-  `linearise=True` returns the residuals and Jacobian at the optimum;
-- `solve_host(evaluate, z0, ...)`: the verb over a `HostResiduals`, as a `HostResult`.
+  `linearise=True` returns the residuals and Jacobian at the optimum (a solve over a
+  `HostResiduals` always has them, and reads as a flat vector: `z`, `r`, `J`, `rss`,
+  `covariance`).
 
 Each rule is one function over an array namespace `xp` (`damped_step`,
 `gauss_newton_decrease`, `acceptance`, `nielsen_update`): `jax.numpy` in the pieces,
@@ -41,7 +42,6 @@ sol.params, sol.result, sol.stats["num_steps"]
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Callable
 from typing import Any
@@ -59,7 +59,6 @@ from jaxtyping import Array, Bool, Float, Int, PyTree, Scalar
 __all__ = [
     "LAMBDA_MAX",
     "HostResiduals",
-    "HostResult",
     "LeastSquaresSolution",
     "LevenbergMarquardt",
     "MarquardtDescent",
@@ -74,7 +73,6 @@ __all__ = [
     "gauss_newton_decrease",
     "least_squares",
     "nielsen_update",
-    "solve_host",
 ]
 
 LAMBDA_MIN = 1e-12
@@ -464,7 +462,8 @@ class LeastSquaresSolution(eqx.Module):
     """What `least_squares` returns: the fitted `params` (free leaves at the optimum, the
     others as given), the `result` code (`optimistix.RESULTS`), the solver's `stats`
     (`num_steps`; over a `HostResiduals` also `lam`, the damping at the end (a warm
-    restart starts there), `history`, the cost of every evaluation, `seconds` and `ok`),
+    restart starts there), `cost` there, `history`, the cost of every evaluation,
+    `seconds` and `ok`),
     the `aux` output of the residual function at the optimum (None without `has_aux`), and
     the `residuals` and `jacobian` [N, P] there (with `linearise`, or over a
     `HostResiduals`; None otherwise)."""
@@ -479,6 +478,23 @@ class LeastSquaresSolution(eqx.Module):
     @property
     def successful(self):
         return self.result == optx.RESULTS.successful
+
+    # the flat-vector reading of a solve over a `HostResiduals` (or with `linearise`)
+    z = property(lambda self: self.params)
+    r = property(lambda self: self.residuals)
+    J = property(lambda self: self.jacobian)
+    converged = property(lambda self: bool(self.successful))
+    n_evals = property(lambda self: int(self.stats["num_steps"]))
+    lam = property(lambda self: self.stats["lam"])  # the damping at the end: a warm lam0
+    ok = property(lambda self: self.stats["ok"])
+    rss = property(lambda self: float(self.stats.get("cost", self.residuals @ self.residuals)))
+    n_data = property(lambda self: int(self.residuals.shape[0]))
+
+    def covariance(self, active: np.ndarray) -> np.ndarray:
+        r"""Gauss-Newton covariance of the `active` coordinates, $(J^TJ)^{-1}$ scaled by
+        the reduced chi-square (so it holds whatever the true noise level)."""
+        scale = self.rss / max(self.n_data - int(active.sum()), 1)
+        return gauss_newton_covariance(self.jacobian[:, active], scale)
 
 
 @eqx.filter_jit
@@ -533,7 +549,7 @@ def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, round
         if converged:
             break
     result = optx.RESULTS.successful if converged else optx.RESULTS.nonlinear_max_steps_reached
-    stats = dict(num_steps=n_evals, lam=lam, history=history, ok=bool(ok),
+    stats = dict(num_steps=n_evals, lam=lam, history=history, ok=bool(ok), cost=cost,
                  seconds=time.perf_counter() - t0)
     return LeastSquaresSolution(z, result, stats, residuals=r, jacobian=J)
 
@@ -562,51 +578,3 @@ def least_squares(fn, params: PyTree, free=None, *, args=None, has_aux: bool = F
                        linearise)
     return LeastSquaresSolution(eqx.combine(sol.value, static), sol.result, sol.stats,
                                 sol.aux if has_aux else None, r, J)
-
-
-@dataclasses.dataclass
-class HostResult:
-    """`solve_host`'s outcome: z (the optimum, all coordinates), rss = ||r||^2, r and J at
-    z, n_evals, converged, seconds, ok (the objective succeeded at z), history (cost of
-    every evaluation), lam (the damping at the end: a later continuation starts there)."""
-
-    z: np.ndarray
-    rss: float
-    r: np.ndarray
-    J: np.ndarray
-    n_evals: int
-    converged: bool
-    seconds: float
-    ok: bool
-    history: list = dataclasses.field(default_factory=list)
-    lam: float = 1e-3
-
-    @property
-    def n_data(self) -> int:
-        return int(self.r.shape[0])
-
-    def covariance(self, active: np.ndarray) -> np.ndarray:
-        r"""Gauss-Newton covariance of the active coordinates, $(J^TJ)^{-1}$ scaled by the
-        reduced chi-square (so it holds whatever the true noise level)."""
-        scale = self.rss / max(self.n_data - int(active.sum()), 1)
-        return gauss_newton_covariance(self.J[:, active], scale)
-
-
-def solve_host(evaluate, z0, *, active=None, max_evals: int = 25, chi2_tol: float = 0.05,
-               first=None, lam0: float = 1e-3, stall_evals: int = 4,
-               stall_tol: float = 0.5, rounding: float = 1e-10) -> HostResult:
-    """`least_squares` over `HostResiduals(evaluate, first)` from z0, the `active`
-    coordinates free, as a `HostResult`: converged when the full Gauss-Newton step would
-    lower the cost by less than `chi2_tol` (a chi-square), when an accepted step changed
-    it only within `rounding`, when the damping passed `LAMBDA_MAX`, or at the
-    `Stall(stall_evals, stall_tol)` floor; otherwise it stops after `max_evals`
-    evaluations, not converged. A small `lam0` (0: the plain Gauss-Newton step) suits a
-    start where the quadratic model is trusted, such as a refit from a base optimum whose
-    Gauss-Newton step is a score test's."""
-    sol = least_squares(HostResiduals(evaluate, first), z0, active, rtol=0.0, atol=chi2_tol,
-                        max_steps=max_evals, lam0=lam0, rounding=rounding,
-                        stall=Stall(stall_evals, stall_tol))
-    st, r = sol.stats, sol.residuals
-    return HostResult(z=sol.params, rss=float(r @ r), r=r, J=sol.jacobian,
-                      n_evals=st["num_steps"], converged=bool(sol.successful),
-                      seconds=st["seconds"], ok=st["ok"], history=st["history"], lam=st["lam"])

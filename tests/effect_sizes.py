@@ -38,7 +38,6 @@ def trace_rms(records, friction: ir.Friction) -> float:
     from stickslip_fitting.discovery.subproblems import SubProblem
     from stickslip_fitting.params import EmpiricalFriction
     from stickslip_fitting.objectives.trace import trace_data
-    from stickslip_jax.lsq import solve_host
 
     campaign = screen_records(list(records))
     recs, feats = campaign.records, campaign.features
@@ -56,7 +55,7 @@ def trace_rms(records, friction: ir.Friction) -> float:
     model = CycleModel(data, model.tref, np.ones(mask.shape), G)
     cols = np.arange(6, model.n_base)  # the offsets only
     sub = SubProblem(model, z, cols)
-    fit = solve_host(sub.evaluate, z[cols], max_evals=10)
+    fit = sub.solve(z[cols], max_evals=10)
     r, _, ok = model.residuals(sub.full(fit.z))
     mask = np.asarray(data.mask)
     row = np.broadcast_to(np.arange(mask.shape[0])[:, None], mask.shape).ravel()[mask.ravel()]

@@ -4,7 +4,8 @@ structure; phases; the sparse regression of the learned correction."""
 import numpy as np
 
 from stickslip_fitting.discovery.learned import FEATURES, feature_matrix, stlsq
-from stickslip_fitting.discovery.residuals import misspecification_test, phase_labels
+from stickslip_fitting.discovery.residuals import (analyse_residuals, misspecification_test,
+                                                   phase_labels)
 
 
 def test_misspecification_test_is_calibrated_on_white_noise():
@@ -29,6 +30,18 @@ def test_phase_labels():
     lab = phase_labels(s, edge=2)
     assert lab[0] == 0 and lab[8] == 1 and lab[10] == 1 and lab[12] == 2
     assert lab[14] == 3 and lab[17] == 3 and lab[25] == 0
+
+
+def test_residuals_by_phase_over_the_masked_samples():
+    s = np.array([1] * 10 + [0] * 6 + [1] * 10, bool)
+    mask = np.ones((2, 26), bool)
+    mask[1, 20:] = False  # the second record is shorter
+    sign = (-1.0) ** np.arange(26)
+    rep = analyse_residuals([sign, 2.0 * sign[:20]], mask, np.stack([s, s]))
+    assert sum(ph["n"] for ph in rep.phases.values()) == 46
+    assert rep.phases["slip"]["n"] == 4  # samples 12, 13 of both records
+    assert np.isclose(rep.phases["slip"]["rms"], np.sqrt(2.5))
+    assert 0.0 <= rep.p_value <= 1.0 and rep.worst_phase() in rep.phases
 
 
 def test_stlsq_names_the_true_terms():

@@ -10,8 +10,9 @@ import optimistix as optx
 import pytest
 from scipy.optimize import least_squares
 
-from stickslip_jax.lsq import (LevenbergMarquardt, damped_step, gauss_newton_decrease,
-                               nielsen_update, solve_host)
+from stickslip_jax.lsq import (HostResiduals, LevenbergMarquardt, Stall, damped_step,
+                               gauss_newton_decrease, nielsen_update)
+from stickslip_jax.lsq import least_squares as lsq
 
 T = np.linspace(0.0, 3.0, 200)
 TRUE = np.array([1.0, 1.3, 2.0, 1.2])
@@ -45,20 +46,22 @@ def scipy_ref():
 
 
 def test_host_driver_reaches_scipy_minimum(scipy_ref):
-    fit = solve_host(evaluate, Z0, max_evals=400, stall_tol=0.0, chi2_tol=1e-10)
+    fit = lsq(HostResiduals(evaluate), Z0, rtol=0.0, atol=1e-10, max_steps=400,
+              stall=Stall(4, 0.0))
     assert fit.converged
     assert fit.rss == pytest.approx(2 * scipy_ref.cost, rel=1e-9)
     np.testing.assert_allclose(canonical(fit.z), canonical(scipy_ref.x), rtol=1e-6)
     # the default stop at the noise floor (< 0.5 gained over 4 evaluations) ends earlier,
     # within a few chi-square units of the minimum
-    early = solve_host(evaluate, Z0, max_evals=400)
+    early = lsq(HostResiduals(evaluate), Z0, rtol=0.0, atol=0.05, max_steps=400, stall=Stall())
     assert early.converged and early.n_evals < fit.n_evals
     assert early.rss < 2 * scipy_ref.cost + 5.0
 
 
 def test_host_driver_respects_active_mask():
     active = np.array([True, True, False, True])
-    fit = solve_host(evaluate, Z0, active=active, max_evals=200, stall_tol=0.0)
+    fit = lsq(HostResiduals(evaluate), Z0, active, rtol=0.0, atol=0.05, max_steps=200,
+              stall=Stall(4, 0.0))
     assert fit.z[2] == Z0[2]
     # the best fit with z2 held: every free gradient component vanishes
     r, J, _ = evaluate(fit.z)
@@ -120,7 +123,7 @@ def test_nielsen_update():
 
 
 def test_host_namespace_gives_the_same_update():
-    """`solve_host` runs the shared update in NumPy (`xp=np`: no program compiled per
+    """The host driver runs the shared update in NumPy (`xp=np`: no program compiled per
     parameter count); it is the same update as the JAX one."""
     rng = np.random.default_rng(3)
     J = rng.normal(size=(50, 5)) * np.array([1.0, 10.0, 1e-3, 2.0, 1.0])

@@ -17,7 +17,7 @@ from scipy.optimize import least_squares as scipy_least_squares
 
 from stickslip_jax.lsq import (LAMBDA_MAX, HostResiduals, LeastSquaresSolution,
                                LevenbergMarquardt, MarquardtDescent, NielsenDamping, Stall,
-                               acceptance, least_squares, solve_host)
+                               acceptance, least_squares)
 
 RNG = np.random.default_rng(7)
 J = RNG.normal(size=(40, 4)) * np.array([1.0, 30.0, 0.05, 4.0])
@@ -200,10 +200,9 @@ def evaluate(p):
 
 
 def test_jax_and_numpy_drivers_take_the_same_steps():
-    """`LevenbergMarquardt` and `solve_host` run the same rules: same trial points, so the
-    same number of evaluations and the same optimum."""
-    host = solve_host(evaluate, P0, max_evals=200, chi2_tol=1e-9, stall_tol=-np.inf,
-                      rounding=0.0)
+    """`LevenbergMarquardt` and the host driver run the same rules: same trial points, so
+    the same number of evaluations and the same optimum."""
+    host = least_squares(HostResiduals(evaluate), P0, rtol=0.0, atol=1e-9, rounding=0.0)
     sol = least_squares(decay, jnp.asarray(P0), rtol=0.0, atol=1e-9, rounding=0.0)
     assert host.converged and bool(sol.successful)
     assert int(sol.stats["num_steps"]) == host.n_evals

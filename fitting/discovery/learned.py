@@ -38,24 +38,12 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-from jax.flatten_util import ravel_pytree
 
+from stickslip_jax.lsq import LeastSquaresSolution as Solution
 from stickslip_jax.simulation.parts import AbstractForceTerm
 
-from stickslip_jax.lsq import HostResult
-
 from ..objectives.smooth import SmoothData
-from .model import (
-    DiscoveryParams,
-    Problem,
-    combine_friction,
-    effects_from_vector,
-    record_drive,
-    simulate_campaign,
-    simulate_record,
-    stack_records,
-)
-from .subproblems import AbstractProblem
+from .model import Problem
 
 __all__ = ["FEATURES", "LearnedCorrection", "LearnedForce", "fit_learned_correction",
            "stlsq"]
@@ -102,86 +90,6 @@ def make_learned_force(traces: SmoothData, *, width: int = 8, seed: int = 0) -> 
     return LearnedForce(mlp, x_scale=x_s, f_scale=f_s, v_scale=omega * x_s, t_scale=t_s)
 
 
-@eqx.filter_jit
-def _evaluate_learned(z_base, z_nn, dx0, eff_vec, friction_static, effects_template,
-                      force_template, traces, settings, sigma, free_names):
-    nb, nn = z_base.shape[0], z_nn.shape[0]
-    params0, static = eqx.partition(force_template, eqx.is_inexact_array)
-    _, unravel = ravel_pytree(params0)
-    eff = effects_from_vector(effects_template, eff_vec)
-
-    def one(args):
-        w, k, v, kn, x0g, dxr, t, m, d = args
-
-        def f(q):
-            fr = combine_friction(q[:nb], friction_static, free_names)
-            term = eqx.combine(unravel(q[nb:nb + nn]), static)
-            model, ok = simulate_record(fr.friction(), eff, w, k, record_drive(v, kn),
-                                        x0g + q[-1], t, m, settings, (term,))
-            r = jnp.where(m, (model - d) / sigma, 0.0)
-            return r, (r, ok)
-
-        q0 = jnp.concatenate([z_base, z_nn, dxr[None]])
-        J, (r, ok) = jax.jacfwd(f, has_aux=True)(q0)
-        return r, J, ok
-
-    return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed,
-                             traces.drive_knots, traces.start_level, dx0, traces.time,
-                             traces.mask, traces.deflection))
-
-
-@dataclasses.dataclass
-class LearnedProblem(AbstractProblem):
-    """`Problem` with an MLP force instead of the effect slots (same `evaluate` contract)."""
-
-    base: Problem
-    force0: LearnedForce
-    eff_vec: np.ndarray
-
-    def __post_init__(self):
-        params0, self._static = eqx.partition(self.force0, eqx.is_inexact_array)
-        flat, self._unravel = ravel_pytree(params0)
-        self.nn0 = np.asarray(flat)
-        self.n_base = self.base.n_base
-        self.n_nn = self.nn0.shape[0]
-
-    @property
-    def n_params(self):
-        return self.n_base + self.n_nn + self.base.n_records
-
-    def active(self):
-        return np.ones(self.n_params, bool)
-
-    def z0_from(self, base_z):
-        nb, ns = self.base.n_base, self.base.n_slots
-        return np.concatenate([base_z[:nb], self.nn0, base_z[nb + ns:]])
-
-    def evaluate(self, z):
-        nb, nn = self.n_base, self.n_nn
-        b = self.base
-        try:
-            r, J, ok = _evaluate_learned(
-                jnp.asarray(z[:nb]), jnp.asarray(z[nb:nb + nn]), jnp.asarray(z[nb + nn:]),
-                jnp.asarray(self.eff_vec), b.friction0, b.effects0, self.force0, b.traces,
-                b.settings, jnp.asarray(b.sigma), b.free_names)
-        except eqx.EquinoxRuntimeError:
-            # a wild trial point (a diverging implicit stage): reject it, never crash
-            return np.full(1, np.inf), np.full((1, self.n_params), np.nan), False
-        return (*stack_records(np.asarray(r), np.asarray(J), np.asarray(b.traces.mask)),
-                bool(np.all(np.asarray(ok))))
-
-    def force(self, z) -> LearnedForce:
-        nb, nn = self.n_base, self.n_nn
-        return eqx.combine(self._unravel(jnp.asarray(z[nb:nb + nn])), self._static)
-
-    def params(self, z) -> DiscoveryParams:
-        nb, nn = self.n_base, self.n_nn
-        b = self.base
-        fr = combine_friction(jnp.asarray(z[:nb]), b.friction0, b.free_names)
-        eff = effects_from_vector(b.effects0, jnp.asarray(self.eff_vec))
-        return DiscoveryParams(fr, eff, b.traces.start_level + jnp.asarray(z[nb + nn:]))
-
-
 FEATURES = ("1", "x", "x^2", "x^3", "k x/W", "k x^3/W", "v", "sign(v)", "v|v|", "t",
             "t sign(v)", "x sign(v)")
 """Sparse-regression library: x deflection, k/W stiffness per weight, v slider velocity,
@@ -225,8 +133,8 @@ def stlsq(A, y, *, threshold: float = 0.1, iterations: int = 10):
 class LearnedCorrection:
     """The fitted learned correction: fit, gaps (mm), named terms and their coefficients."""
 
-    fit: HostResult
-    problem: LearnedProblem
+    fit: Solution
+    problem: Problem
     gap_before: float
     gap_after: float
     named_terms: list
@@ -237,10 +145,10 @@ class LearnedCorrection:
         return {"gap_before": self.gap_before, "gap_after": self.gap_after,
                 "depends_on": self.named_terms, "coefficients": self.coefficients,
                 "sparse_fit_r2": self.explained_variance,
-                "n_parameters": int(self.problem.n_nn)}
+                "n_parameters": int(self.problem.extra0.size)}
 
 
-def fit_learned_correction(base: Problem, base_fit: HostResult, *, width: int = 6,
+def fit_learned_correction(base: Problem, base_fit: Solution, *, width: int = 6,
                            max_evals: int = 40, threshold: float = 0.1, seed: int = 0
                            ) -> LearnedCorrection:
     """Fit the MLP friction correction (module docstring) from the base fit, then STLSQ.
@@ -248,14 +156,12 @@ def fit_learned_correction(base: Problem, base_fit: HostResult, *, width: int = 
     `max_evals` 40: on the hardening-spring campaign (12 records) the gap fell from 1.378
     to 0.930 um after 20 evaluations and to 0.839 um after 40 (noise 0.506 um).
     """
-    force0 = make_learned_force(base.traces, width=width, seed=seed)
-    eff_vec = np.asarray(base.eff0)
-    lp = LearnedProblem(base, force0, eff_vec)
-    fit = lp.solve(lp.z0_from(base_fit.z), max_evals=max_evals)
+    lp = dataclasses.replace(base, extra=make_learned_force(base.traces, width=width,
+                                                            seed=seed))
+    fit = lp.solve(lp.z0(base_fit.z), max_evals=max_evals)
     N, sigma = fit.n_data, float(base.sigma)
-    term = lp.force(fit.z)
-    params = lp.params(fit.z)
-    model, ok, vel, _ = simulate_campaign(params, base.traces, base.settings, (term,), full=True)
+    term = lp.extra_term(fit.z)
+    model, vel, _ = lp.trajectories(fit.z)
     m = np.asarray(base.traces.mask)
     x = np.asarray(model)[m]
     v = np.asarray(vel)[m]

@@ -36,11 +36,13 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Float
 
 import stickslip_jax as ss
 from stickslip_jax.drives import ConstantSpeed, MeasuredDrive
 from stickslip_jax.modes import Formulation
+from stickslip_jax.simulation.parts import AbstractForceTerm
 from stickslip_jax.simulation.smooth import simulate_smooth
 
 from ..objectives.smooth import SmoothData, drive_knots
@@ -89,11 +91,8 @@ class Settings:
         """The implicit diffrax solver named by `solver` (full Newton stages)."""
         import optimistix as optx
 
-        name, _, root = self.solver.partition("_")
         cls = {"kvaerno3": dfx.Kvaerno3, "kvaerno4": dfx.Kvaerno4,
-               "kvaerno5": dfx.Kvaerno5}[name]
-        if root == "chord":
-            return cls()
+               "kvaerno5": dfx.Kvaerno5}[self.solver]
         return cls(root_finder=optx.Newton(rtol=self.rtol, atol=self.atol))
 
 
@@ -176,35 +175,29 @@ def record_drive(speed, knots):
 
 
 def simulate_record(friction, effects: EffectSet, weight, stiffness, drive, x0, ts, mask,
-                    settings: Settings, extra_force_terms: tuple = (),
-                    adjoint=None, full: bool = False):
-    """Model reading (mm) of one record on `ts` (s) driven by `drive` (`record_drive`)
-    and the solver success flag; with `full`, also the slider velocity (mm/s) and the
-    sticking flags."""
+                    settings: Settings, extra_force_terms: tuple = ()):
+    """Model reading (mm) of one record on `ts` (s) driven by `drive` (`record_drive`),
+    the solver success flag, the slider velocity (mm/s) and the sticking flags."""
     sw = ss.Slideway(friction, weight, stiffness)
     model = effects.smooth_model(sw, extra_force_terms)
     tr = simulate_smooth(model, drive, ts, smoothing=settings.smoothing,
                          rtol=settings.rtol, atol=settings.atol, max_steps=settings.max_steps,
                          initial_deflection=x0, mask=mask, solver=settings.make_solver(),
-                         adjoint=dfx.ForwardMode() if adjoint is None else adjoint,
-                         formulation=settings.formulation)
+                         adjoint=dfx.ForwardMode(), formulation=settings.formulation)
     ok = tr.result == ss.simulation.SimulationResult.successful
-    if full:
-        return tr.deflection, ok, tr.slider_velocity, tr.sticking
-    return tr.deflection, ok
+    return tr.deflection, ok, tr.slider_velocity, tr.sticking
 
 
 @eqx.filter_jit
 def simulate_campaign(params: DiscoveryParams, traces: SmoothData, settings: Settings,
-                      extra_force_terms: tuple = (), full: bool = False):
-    """Model readings [R, N] (mm) and success flags [R] for every record; with `full`,
-    also the slider velocity [R, N] (mm/s) and the sticking flags [R, N]."""
+                      extra_force_terms: tuple = ()):
+    """Model readings [R, N] (mm) and success flags [R] for every record."""
     fr = params.friction.friction()
 
     def one(args):
         w, k, v, kn, x0, t, m = args
         return simulate_record(fr, params.effects, w, k, record_drive(v, kn), x0, t, m,
-                               settings, extra_force_terms, full=full)
+                               settings, extra_force_terms)[:2]
 
     return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed,
                              traces.drive_knots, params.x0, traces.time, traces.mask))
@@ -247,34 +240,44 @@ per campaign shape, whatever the candidate)."""
 
 
 @eqx.filter_jit
-def _evaluate(z_base, z_slots, dx0, S, eff0, friction_static, effects_template, traces,
-              settings, sigma, free_names):
-    """Whitened residuals [R, N], per-record Jacobians [R, N, nb + ns + 1], success flags
-    [R], and the model's slider velocity [R, N] (mm/s) and sticking flags [R, N]."""
+def _evaluate(z_base, z_slots, z_extra, dx0, S, eff0, friction_static, effects_template,
+              extra, traces, settings, sigma, free_names):
+    """Whitened residuals [R, N], per-record Jacobians [R, N, nb + ns + ne + 1], success
+    flags [R], and the model's slider velocity [R, N] (mm/s) and sticking flags [R, N]."""
     TRACE_COUNT["evaluate"] += 1
-    nb = z_base.shape[0]
+    nb, ns = z_base.shape[0], z_slots.shape[0]
+    static, unravel = extra_parts(extra)
 
     def one(args):
         w, k, v, kn, x0g, dxr, t, m, d = args
 
         def f(q):
-            zb, zs, dx = q[:nb], q[nb:-1], q[-1]
+            zb, zs, ze, dx = q[:nb], q[nb:nb + ns], q[nb + ns:-1], q[-1]
             fr = combine_friction(zb, friction_static, free_names)
             eff = effects_from_vector(effects_template, eff0 + S @ zs)
+            terms = () if extra is None else (eqx.combine(unravel(ze), static),)
             # friction coordinates are apparent (referred to W): see effects.LoadCoupling
             phys = load_referred_friction(fr.friction(), eff.load_coupling.kappa)
             model, ok, vel, stk = simulate_record(phys, eff, w, k, record_drive(v, kn),
-                                                  x0g + dx, t, m, settings, full=True)
+                                                  x0g + dx, t, m, settings, terms)
             r = jnp.where(m, (model - d) / sigma, 0.0)
             return r, (r, ok, vel, stk)
 
-        q0 = jnp.concatenate([z_base, z_slots, dxr[None]])
+        q0 = jnp.concatenate([z_base, z_slots, z_extra, dxr[None]])
         J, (r, ok, vel, stk) = jax.jacfwd(f, has_aux=True)(q0)
         return r, J, ok, vel, stk
 
     return jax.lax.map(one, (traces.weight, traces.stiffness, traces.speed,
                              traces.drive_knots, traces.start_level, dx0, traces.time,
                              traces.mask, traces.deflection))
+
+
+def extra_parts(extra):
+    """(static part, unravel of the flat arrays) of a force term `extra` (None: none)."""
+    if extra is None:
+        return None, None
+    arrays, static = eqx.partition(extra, eqx.is_inexact_array)
+    return static, ravel_pytree(arrays)[1]
 
 
 def stack_records(r, J, mask) -> tuple[np.ndarray, np.ndarray]:
@@ -301,12 +304,14 @@ def combine_friction(z_base, friction_static: EmpiricalFriction, free_names
 
 @dataclasses.dataclass
 class Problem(AbstractProblem):
-    """A campaign and a model structure (which effect the slots drive, if any).
+    """A campaign and a model structure (which effect the slots drive, if any, and an
+    `extra` force term whose arrays are fitted too, such as the learned correction's).
 
     `evaluate(z)` -> (residuals [M], Jacobian [M, P], ok) over the masked samples, with
-    $z$ = [free friction coordinates (log, `NAMES` order less `fixed`), slots, dx0 (R)];
-    `params(z)` the `DiscoveryParams`. All Problems of a campaign share one compiled
-    function (same shapes; `effect` only changes the data matrix S).
+    $z$ = [free friction coordinates (log, `NAMES` order less `fixed`), slots, the extra
+    term's arrays (flat), dx0 (R)]; `params(z)` the `DiscoveryParams`, `extra_term(z)` the
+    term. All Problems of a campaign without an extra term share one compiled function
+    (same shapes; `effect` only changes the data matrix S).
     """
 
     traces: SmoothData
@@ -317,6 +322,7 @@ class Problem(AbstractProblem):
     n_slots: int = 2
     sigma: float | None = None
     fixed: tuple[str, ...] = ()
+    extra: AbstractForceTerm | None = None
 
     def __post_init__(self):
         self.S = jnp.asarray(slot_matrix(self.effect, self.n_slots))
@@ -329,6 +335,9 @@ class Problem(AbstractProblem):
             raise ValueError(f"unknown friction parameter(s) {bad}; choose from {NAMES}")
         self.free_names = tuple(n for n in NAMES if n not in self.fixed)
         self._trajectories = {}  # z bytes -> (model, velocity, sticking) [R, N] of evaluate
+        arrays = eqx.filter(self.extra, eqx.is_inexact_array)
+        self.extra0 = (np.zeros(0) if self.extra is None
+                       else np.asarray(ravel_pytree(arrays)[0]))
 
     @property
     def n_records(self) -> int:
@@ -340,11 +349,16 @@ class Problem(AbstractProblem):
 
     @property
     def n_params(self) -> int:
-        return self.n_base + self.n_slots + self.n_records
+        return self.n_base + self.n_slots + self.extra0.size + self.n_records
 
-    def z0(self) -> np.ndarray:
-        fb = [float(x) for x in self.friction0.leaves(self.free_names)]
-        return np.concatenate([fb, np.zeros(self.n_slots), np.zeros(self.n_records)])
+    def z0(self, base_z=None) -> np.ndarray:
+        """The start: the friction's, no effect, the extra term's arrays and no offset, or
+        the coordinates of `base_z` (a Problem's without an extra term) with the term's."""
+        nb, ns = self.n_base, self.n_slots
+        if base_z is None:
+            fb = [float(x) for x in self.friction0.leaves(self.free_names)]
+            base_z = np.concatenate([fb, np.zeros(ns), np.zeros(self.n_records)])
+        return np.concatenate([base_z[:nb + ns], self.extra0, base_z[nb + ns:]])
 
     def active(self) -> np.ndarray:
         """Which coordinates of z are fitted (unused slots are not)."""
@@ -354,15 +368,17 @@ class Problem(AbstractProblem):
         return act
 
     def split(self, z):
-        nb, ns = self.n_base, self.n_slots
-        return (jnp.asarray(z[:nb]), jnp.asarray(z[nb:nb + ns]), jnp.asarray(z[nb + ns:]))
+        """z's friction, slot, extra-term and offset coordinates."""
+        cut = np.cumsum([self.n_base, self.n_slots, self.extra0.size])
+        return tuple(jnp.asarray(p) for p in np.split(np.asarray(z, float), cut))
 
     def evaluate(self, z):
-        zb, zs, dx0 = self.split(z)
+        zb, zs, ze, dx0 = self.split(z)
         try:
-            r, J, ok, vel, stk = _evaluate(zb, zs, dx0, self.S, self.eff0, self.friction0,
-                                           self.effects0, self.traces, self.settings,
-                                           jnp.asarray(self.sigma), self.free_names)
+            r, J, ok, vel, stk = _evaluate(zb, zs, ze, dx0, self.S, self.eff0, self.friction0,
+                                           self.effects0, self.extra, self.traces,
+                                           self.settings, jnp.asarray(self.sigma),
+                                           self.free_names)
         except eqx.EquinoxRuntimeError:
             # a wild trial point (a diverging implicit stage): reject it, never crash
             return np.full(1, np.inf), np.full((1, self.n_params), np.nan), False
@@ -375,10 +391,15 @@ class Problem(AbstractProblem):
         return *stack_records(r, J, self._mask), bool(np.all(ok))
 
     def params(self, z) -> DiscoveryParams:
-        zb, zs, dx0 = self.split(z)
+        zb, zs, _, dx0 = self.split(z)
         fr = combine_friction(zb, self.friction0, self.free_names)
         eff = effects_from_vector(self.effects0, self.eff0 + self.S @ zs)
         return DiscoveryParams(fr, eff, self.traces.start_level + dx0)
+
+    def extra_term(self, z):
+        """The extra force term at z."""
+        static, unravel = extra_parts(self.extra)
+        return eqx.combine(unravel(self.split(z)[2]), static)
 
     def trajectories(self, z):
         """(model reading [R, N] mm, slider velocity [R, N] mm/s, sticking [R, N]) at z,

@@ -1,20 +1,14 @@
-r"""Where does a fitted model disagree with the records? Residuals by phase, by variable,
-in frequency, and a calibrated misspecification test.
+r"""Where does a fitted model disagree with the records? Residuals by phase and a
+calibrated misspecification test.
 
-`analyse_residuals(residuals, traces, model_velocity, sticking, sigma)` takes the
-residuals data - model (mm, one array per record, masked samples only) and the fitted
-model's slider velocity and sticking flags, and returns a `ResidualReport`:
+`analyse_residuals(residuals, mask, sticking)` takes the residuals data - model (mm, one
+array per record, the samples of `mask` [R, N] only) and the fitted model's sticking
+flags [R, N], and returns a `ResidualReport`:
 
 - **phases**: each sample is *stick*, *breakaway* (the last `edge` samples of a stick
   before a slip and the first `edge` samples of the slip), *slip*, or *end of slip*
   (the last `edge` samples of a slip and the first `edge` of the next stick); per
   phase the RMS, the mean and the number of samples (mm).
-- **bins** of the residual RMS and mean against the model slip velocity (mm/s), the
-  drive position (mm), the time within the record (fraction of its length), and per
-  record against drive speed (mm/s) and W/k (mm).
-- **spectrum**: the periodogram of the residuals averaged over records (against
-  frequency in Hz), its peak, and the fraction of residual power below a tenth of the
-  Nyquist frequency (white noise: 0.1).
 - **misspecification test** (`misspecification_test`): residuals are cut into windows
   of `window` consecutive samples; if they are white noise the window means carry only
   noise and $F = \frac{w\sum_b \bar r_b^2 / B}{\sum (r - \bar r_b)^2/(N-B)}$ follows an
@@ -74,30 +68,12 @@ def misspecification_test(residuals: list[np.ndarray], window: int = 5) -> dict:
             "window": window}
 
 
-def _binned(x, r, edges):
-    idx = np.clip(np.digitize(x, edges) - 1, 0, len(edges) - 2)
-    out = []
-    for b in range(len(edges) - 1):
-        sel = idx == b
-        if np.any(sel):
-            out.append({"low": float(edges[b]), "high": float(edges[b + 1]),
-                        "rms": float(np.sqrt(np.mean(r[sel] ** 2))),
-                        "mean": float(np.mean(r[sel])), "n": int(sel.sum())})
-    return out
-
-
 @dataclasses.dataclass
 class ResidualReport:
-    """Residual summaries (mm unless stated); see the module docstring."""
+    """The residuals by phase ({phase: rms mm, mean mm, n}) and the misspecification
+    `test` (module doc)."""
 
-    rms: float
-    noise: float
     phases: dict
-    by_slip_velocity: list
-    by_drive_position: list
-    by_time: list
-    by_record: list
-    spectrum: dict
     test: dict
 
     @property
@@ -108,69 +84,17 @@ class ResidualReport:
         """The phase whose RMS exceeds the noise most (relative)."""
         return max(self.phases, key=lambda p: self.phases[p]["rms"] if self.phases[p]["n"] else 0)
 
-    def to_json(self) -> dict:
-        return dataclasses.asdict(self)
 
-
-def analyse_residuals(residuals, traces, model_velocity, sticking, *, sigma=None,
-                      window: int = 5, bins: int = 8, edge: int = 2) -> ResidualReport:
-    """`ResidualReport` of per-record residuals (data - model, mm, masked samples).
-
-    `traces` the padded traces (`model.campaign_traces`); `model_velocity`, `sticking`
-    [R, N] from the fitted model (`simulate_campaign(..., full=True)`); `sigma` the noise
-    estimate (mm).
-    """
-    mask = np.asarray(traces.mask)
-    time = np.asarray(traces.time)
-    speed = np.asarray(traces.speed)
-    wk = np.asarray(traces.weight) / np.asarray(traces.stiffness)
-    vel = np.asarray(model_velocity)
-    stk = np.asarray(sticking)
-    all_r, all_v, all_u, all_tf, all_ph = [], [], [], [], []
-    by_record = []
-    for i, r in enumerate(residuals):
-        m = mask[i]
-        t = time[i][m]
-        all_r.append(r)
-        all_v.append(vel[i][m])
-        all_u.append(speed[i] * t)
-        all_tf.append((t - t[0]) / max(t[-1] - t[0], 1e-12))
-        all_ph.append(phase_labels(stk[i][m], edge))
-        by_record.append({"record": i, "drive_speed": float(speed[i]), "W_over_k": float(wk[i]),
-                          "rms": float(np.sqrt(np.mean(r ** 2))), "mean": float(np.mean(r))})
-    r = np.concatenate(all_r)
-    v = np.concatenate(all_v)
-    u = np.concatenate(all_u)
-    tf = np.concatenate(all_tf)
-    ph = np.concatenate(all_ph)
+def analyse_residuals(residuals, mask, sticking, *, window: int = 5, edge: int = 2
+                      ) -> ResidualReport:
+    """`ResidualReport` of per-record residuals (data - model, mm, the samples of `mask`)
+    with the fitted model's sticking flags [R, N]."""
+    r = np.concatenate(residuals)
+    ph = np.concatenate([phase_labels(np.asarray(s)[np.asarray(m)], edge)
+                         for s, m in zip(sticking, mask)])
     phases = {}
     for k, name in enumerate(PHASES):
         sel = ph == k
         phases[name] = {"rms": float(np.sqrt(np.mean(r[sel] ** 2))) if sel.any() else 0.0,
                         "mean": float(np.mean(r[sel])) if sel.any() else 0.0, "n": int(sel.sum())}
-    vmax = max(float(np.max(np.abs(v))), 1e-9)
-    # spectrum: mean periodogram over records, on a common frequency grid
-    dt = float(np.median(np.diff(time[0][mask[0]])))
-    nfft = 256
-    power = np.zeros(nfft // 2 + 1)
-    for x in all_r:
-        seg = x[: (len(x) // nfft) * nfft].reshape(-1, nfft) if len(x) >= nfft else (
-            np.pad(x, (0, nfft - len(x)))[None, :])
-        power += np.mean(np.abs(np.fft.rfft(seg - seg.mean(axis=1, keepdims=True), axis=1))
-                         ** 2, axis=0)
-    freq = np.fft.rfftfreq(nfft, dt)
-    low = freq <= 0.1 * freq[-1]
-    spectrum = {"frequency_hz": freq.tolist(), "power": (power / len(all_r)).tolist(),
-                "peak_hz": float(freq[1:][np.argmax(power[1:])]),
-                "low_frequency_fraction": float(power[low].sum() / max(power.sum(), 1e-300))}
-    return ResidualReport(
-        rms=float(np.sqrt(np.mean(r ** 2))),
-        noise=float(sigma) if sigma is not None else float("nan"),
-        phases=phases,
-        by_slip_velocity=_binned(np.abs(v), r, np.linspace(0.0, vmax * (1 + 1e-9), bins + 1)),
-        by_drive_position=_binned(u, r, np.linspace(0.0, float(u.max()) * (1 + 1e-9), bins + 1)),
-        by_time=_binned(tf, r, np.linspace(0.0, 1.0 + 1e-9, bins + 1)),
-        by_record=by_record,
-        spectrum=spectrum,
-        test=misspecification_test(all_r, window),
-    )
+    return ResidualReport(phases=phases, test=misspecification_test(residuals, window))

@@ -11,7 +11,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from stickslip_jax.lsq import HostResult
+from stickslip_jax.lsq import LeastSquaresSolution as Solution
 
 from ..data.campaign import Campaign
 from ..report.rows import DiscoveryEstimates, ParameterEstimate
@@ -25,7 +25,7 @@ __all__ = ["NO_STDERR", "CycleDiscovery", "Discovery", "SmoothDiscovery", "effec
 
 FIT_CRITERION = ("converged when a full Gauss-Newton step would lower chi-square by < 0.05, "
                  "or the last 4 evaluations lowered it by < 0.5 together")
-"""When the base fit counts as converged (`stickslip_jax.lsq.solve_host`'s defaults)."""
+"""When the base fit counts as converged (`subproblems.AbstractProblem.solve`'s defaults)."""
 
 
 @dataclasses.dataclass(kw_only=True)
@@ -50,8 +50,8 @@ class Discovery(DiscoveryEstimates, abc.ABC):
     estimates_after: list[ParameterEstimate]
     effect_estimates: list[ParameterEstimate]
     timings: dict
-    base_fit: HostResult
-    final_fit: HostResult
+    base_fit: Solution
+    final_fit: Solution
     indistinguishable_from: list = dataclasses.field(default_factory=list)
     effect_of: str = ""
     learned: object = None

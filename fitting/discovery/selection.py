@@ -34,7 +34,7 @@ import math
 import numpy as np
 import scipy.stats
 
-from stickslip_jax.lsq import HostResult
+from stickslip_jax.lsq import LeastSquaresSolution as Solution
 
 from ..report.rows import ParameterEstimate
 from .model import Problem
@@ -45,26 +45,37 @@ __all__ = ["Refit", "choose", "effect_rows", "refit_candidates"]
 
 @dataclasses.dataclass
 class Refit:
-    """A candidate refitted: name, problem, fit (HostResult), delta_bic, lr, lr_p_value,
+    """A candidate refitted: name, problem, fit (Solution), delta_bic, lr, lr_p_value,
     dof, and `unphysical` (None, or why the fitted size breaks a required sign)."""
 
     name: str
     problem: Problem
-    fit: HostResult
+    fit: Solution
     delta_bic: float
     lr: float
     lr_p_value: float
     dof: int
     unphysical: str | None = None
 
+    @classmethod
+    def judged(cls, name: str, problem: Problem, fit: Solution, base_fit: Solution,
+               dof: int) -> Refit:
+        """The refit `fit` of effect `name` against the base fit (module doc: LR, BIC,
+        and no LR where the fitted size breaks a required sign)."""
+        from .effects import EffectSet
 
-def refit_candidates(base_problem: Problem, base_fit: HostResult, scores: list[CandidateScore],
+        N, part = base_fit.n_data, getattr(EffectSet(), name)
+        bad = part.unphysical({p: float(fit.z[problem.n_base + j] * part.SCALES[j])
+                               for j, p in enumerate(part.PARAMS)})
+        lr = 0.0 if bad else N * math.log(base_fit.rss / min(fit.rss, base_fit.rss))
+        return cls(name, problem, fit, -lr + dof * math.log(N), lr,
+                   float(scipy.stats.chi2.sf(lr, dof)), dof, bad)
+
+
+def refit_candidates(base_problem: Problem, base_fit: Solution, scores: list[CandidateScore],
                      *, top: int = 3, max_evals: int = 12) -> list[Refit]:
     """Refit the `top` candidates by score (those whose predicted size is physical);
     sorted by delta BIC (best first)."""
-    from .effects import EffectSet
-
-    N = base_fit.n_data
     out = []
     for sc in [s for s in scores if not s.unphysical][:top]:
         pc = dataclasses.replace(base_problem, effect=sc.name)
@@ -80,19 +91,11 @@ def refit_candidates(base_problem: Problem, base_fit: HostResult, scores: list[C
         # changed its rounding) although the score is large: backtrack
         if base_fit.rss - fit.rss < 0.1 * sc.statistic and sc.statistic > 10.0 * sc.dof:
             fit = _backtracked_refit(pc, base_fit, fit, max_evals)
-        rss0, rss = base_fit.rss, min(fit.rss, base_fit.rss)
-        part = getattr(EffectSet(), sc.name)
-        fitted = {p: float(fit.z[pc.n_base + j] * part.SCALES[j])
-                  for j, p in enumerate(part.PARAMS)}
-        bad = type(part).unphysical(fitted)
-        lr = 0.0 if bad else N * math.log(rss0 / rss)
-        dbic = -lr + sc.dof * math.log(N)
-        out.append(Refit(sc.name, pc, fit, dbic, lr, float(scipy.stats.chi2.sf(lr, sc.dof)),
-                         sc.dof, bad))
+        out.append(Refit.judged(sc.name, pc, fit, base_fit, sc.dof))
     return sorted(out, key=lambda c: c.delta_bic)
 
 
-def _backtracked_refit(pc, base_fit: HostResult, fit: HostResult, max_evals: int) -> HostResult:
+def _backtracked_refit(pc, base_fit: Solution, fit: Solution, max_evals: int) -> Solution:
     """A refit that made little progress although the score test predicts a large drop: its
     Gauss-Newton step overshoots (the model is quadratic only over a few per cent of it,
     e.g. stribeck against the friction law's valley) and Marquardt's damping turns the

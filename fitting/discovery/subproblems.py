@@ -1,8 +1,8 @@
 """The problems discovery fits, over flat coordinate vectors: `AbstractProblem` (its
 `solve` is the one place discovery calls the solver), the per-cycle model with some of
 its coordinates free (`SubProblem`), and the screw error with one amplitude per harmonic
-and a phase per record (`SharedScrewProblem`); the smoothed whole-record base's are
-`model.Problem` and `learned.LearnedProblem`."""
+and a phase per record (`SharedScrewProblem`); the smoothed whole-record base's is
+`model.Problem` (its learned correction an extra force term of it)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import dataclasses
 
 import numpy as np
 
-from stickslip_jax.lsq import HostResult, solve_host
+from stickslip_jax.lsq import HostResiduals, LeastSquaresSolution, Stall, least_squares
 
 from .cycle_effects import Shape
 from .cycle_model import CycleModel
@@ -44,10 +44,19 @@ class AbstractProblem(abc.ABC):
     def active(self) -> np.ndarray | None:
         return None
 
-    def solve(self, z0, **options) -> HostResult:
-        """The fit from z0 over `active()` (`stickslip_jax.lsq.solve_host`, `options` its
-        budget, start damping, stall rule and first evaluation)."""
-        return solve_host(self.evaluate, z0, active=self.active(), **options)
+    def solve(self, z0, *, max_evals: int = 25, chi2_tol: float = 0.05, first=None,
+              lam0: float = 1e-3, stall_evals: int = 4, stall_tol: float = 0.5
+              ) -> LeastSquaresSolution:
+        """The fit from z0 over `active()` (`stickslip_jax.lsq.least_squares` over a
+        `HostResiduals`): converged when the full Gauss-Newton step would lower the cost
+        by less than `chi2_tol` (a chi-square), when the last `stall_evals` evaluations
+        lowered it by < `stall_tol` together, or where no step can lower it; else
+        it stops after `max_evals` evaluations. `first`: (r, J, ok) at z0 already; a
+        small `lam0` (0: the plain Gauss-Newton step) suits a start where the quadratic
+        model is trusted, such as a refit from a base optimum whose step is a score test's."""
+        return least_squares(HostResiduals(self.evaluate, first), z0, self.active(), rtol=0.0,
+                             atol=chi2_tol, max_steps=max_evals, lam0=lam0,
+                             stall=Stall(stall_evals, stall_tol))
 
 
 @dataclasses.dataclass

@@ -17,8 +17,7 @@ Steps (each timed in `result.timings`):
    least two complete cycles).
 2. `base_fit`: the paper's model (all effects zero) fitted to the full traces by
    Levenberg-Marquardt (`Problem.solve`), friction + one initial deflection per record.
-3. `residuals_before`: `residuals.analyse_residuals` (phases, bins, spectrum,
-   misspecification test).
+3. `residuals_before`: `residuals.analyse_residuals` (phases, misspecification test).
 4. `ranking`: score test of every library effect (`ranking.score_candidates`).
 5. `refit`: the `top` candidates refitted; BIC choice or "none" (`selection`).
 6. `residuals_after`: the analysis again with the chosen effect.
@@ -31,7 +30,6 @@ Gaps are residual RMS in mm (the noise level is `noise`, estimated from the data
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np
@@ -43,7 +41,7 @@ from .model import Problem, Settings, campaign_traces
 from .ranking import direction_cosine, score_candidates
 from .residuals import analyse_residuals
 from .result import SmoothDiscovery
-from .selection import choose, effect_rows, refit_candidates
+from .selection import Refit, choose, effect_rows, refit_candidates
 from .stages.state import Clock
 
 __all__ = ["discover", "initial_friction"]
@@ -95,10 +93,9 @@ def _friction_values(problem: Problem, z) -> dict:
     return v
 
 
-def _analyse(problem: Problem, z, sigma):
-    _, vel, stk = problem.trajectories(z)
-    return analyse_residuals(problem.record_residuals(z), problem.traces, vel, stk,
-                             sigma=sigma)
+def _analyse(problem: Problem, z):
+    return analyse_residuals(problem.record_residuals(z), problem.traces.mask,
+                             problem.trajectories(z)[2])
 
 
 def discover(
@@ -152,17 +149,17 @@ def discover(
     sigma, N = float(traces.sigma[0]), base_fit.n_data
     gap_before = math.sqrt(base_fit.rss / N) * sigma
     clock("base_fit", f"gap {gap_before * 1e3:.3g} um, {base_fit.n_evals} evaluations")
-    rep_before = _analyse(base, base_fit.z, sigma)
+    rep_before = _analyse(base, base_fit.z)
     clock("residuals_before", f"misspecification p = {rep_before.p_value:.2g}")
     scores = score_candidates(base, base_fit.z, base_fit.rss, candidates)
     clock("ranking", f"first {scores[0].name}" if scores else "no candidates")
-    refits, chosen, rivals = _refit_and_choose(base, base_fit, scores, effects, top=top,
+    refits, chosen, rivals = _refit_and_choose(base, base_fit, scores, top=top,
                                                threshold=threshold, collinear=collinear,
                                                refit_evals=refit_evals, max_evals=max_evals)
     clock("refit", chosen.name if chosen is not None else "none")
     final_problem, final_fit = (base, base_fit) if chosen is None else (chosen.problem,
                                                                          chosen.fit)
-    rep_after = rep_before if chosen is None else _analyse(final_problem, final_fit.z, sigma)
+    rep_after = rep_before if chosen is None else _analyse(final_problem, final_fit.z)
     gap_after = math.sqrt(final_fit.rss / N) * sigma
     rows = [] if chosen is None else effect_rows(chosen)
     if chosen is not None:
@@ -205,7 +202,7 @@ def discover(
     )
 
 
-def _refit_and_choose(base, base_fit, scores, effects, *, top, threshold, collinear,
+def _refit_and_choose(base, base_fit, scores, *, top, threshold, collinear,
                       refit_evals, max_evals):
     """The `top` refits, the one named (None: "none") and its rivals (`discover`'s
     disagreement rule); a chosen refit that has not converged is polished first."""
@@ -224,17 +221,10 @@ def _refit_and_choose(base, base_fit, scores, effects, *, top, threshold, collin
     # polish the chosen model (the ranking refits are short)
     more = chosen.problem.solve(chosen.fit.z, max_evals=max_evals, lam0=chosen.fit.lam,
                                 first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok))
-    part = getattr(effects, chosen.name)
-    bad = type(part).unphysical(
-        {p: float(more.z[chosen.problem.n_base + j] * part.SCALES[j])
-         for j, p in enumerate(part.PARAMS)})
-    N = base_fit.n_data
-    lr = 0.0 if bad else N * math.log(base_fit.rss / min(more.rss, base_fit.rss))
-    chosen = dataclasses.replace(chosen, fit=more, lr=lr, unphysical=bad,
-                                 delta_bic=-lr + chosen.dof * math.log(N))
+    chosen = Refit.judged(chosen.name, chosen.problem, more, base_fit, chosen.dof)
     refits = sorted([chosen] + [r for r in refits if r.name != chosen.name],
                     key=lambda c: c.delta_bic)
-    if bad:  # the polish crossed into an unphysical sign: not an explanation
+    if chosen.unphysical:  # the polish crossed into an unphysical sign: not an explanation
         chosen = choose(refits, threshold=threshold)
     return refits, chosen, rivals
 

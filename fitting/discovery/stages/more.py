@@ -89,7 +89,7 @@ def extended(fx: Fits, rf: FamilyRefit, held) -> Base:
     r, d = rf.fit.r[:n], base.described
     gap = rms_gap(r[d], base.sd[d], base.samples[d])
     # rss with the screw's prior rows: the next refits carry them too
-    fit = dataclasses.replace(rf.fit, z=z[cols], r=r, J=J)
+    fit = dataclasses.replace(rf.fit, params=z[cols], residuals=r, jacobian=J)
     return dataclasses.replace(
         new, fit=fit, z=z, gap_before=gap, gap_all_before=rms_gap(r, base.sd, base.samples),
         misfit=((rf.fit.rss + base.within) / base.n_used > opts.misfit

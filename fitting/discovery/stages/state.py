@@ -16,7 +16,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from stickslip_jax.lsq import HostResult
+from stickslip_jax.lsq import LeastSquaresSolution as Solution
 
 from ...data.campaign import Campaign
 from ..cycle_effects import Family, Shape
@@ -93,7 +93,7 @@ class Base:
     columns, `cols`, and their shape settings and sensor flag are `shape`, `sensor`)."""
 
     model: CycleModel  # weighted as at the base optimum (records scaled by `factor`)
-    fit: HostResult
+    fit: Solution
     z: np.ndarray  # the model's coordinates at the base fit
     sd_plain: np.ndarray  # [N, L] standard errors before the records' scaling
     rec_of: np.ndarray  # per residual: its record
@@ -174,7 +174,7 @@ class Ranking:
 class FamilyRefit:
     family: Family
     shape: Shape
-    fit: HostResult
+    fit: Solution
     drop: float  # chi-square drop against the base fit
     values: np.ndarray  # natural values of the family's parameters
     stderr: np.ndarray
