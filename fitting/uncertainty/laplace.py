@@ -116,9 +116,10 @@ def _jacobian_log(params, idx: tuple, objective, fit_offsets: bool):
     def residuals(theta):
         logs = logs0.at[sel].set(theta[:k])
         off = theta[k:] if fit_offsets else offset0
-        return objective.residuals(CampaignParams(params.friction.from_log_values(logs), off))
+        r = objective.residuals(CampaignParams(params.friction.from_log_values(logs), off))
+        return r, r
 
-    return jax.jacfwd(residuals)(theta0), residuals(theta0)
+    return jax.jacfwd(residuals, has_aux=True)(theta0)  # one trace of the residuals
 
 
 def jacobian_log(fit: FitResult, objective=None):
