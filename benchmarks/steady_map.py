@@ -3,7 +3,9 @@
 JAX: `jit(vmap(steady_state))` over N points (default 100 x 100 x 100 = 1,000,000), timed
 after compilation (best of `--repeat`). Baseline, in the same process: a Python loop of
 SciPy `brentq` on eq (6) + the corrected eq (12) over a random subset (default 10,000
-points). Prints a table with the per-point time ratio and the agreement on the subset.
+points). Prints a table with the per-point time ratio (wall, and CPU time of this
+process, every thread: on a shared machine the CPU times vary less) and the agreement on
+the subset.
 
     python benchmarks/steady_map.py            # full size
     python benchmarks/steady_map.py --small    # quick smoke run (10^4 map, 500 brentq)
@@ -73,16 +75,16 @@ def main(argv=None):
     t_compile = time.perf_counter() - t
     times = []
     for _ in range(args.repeat):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         a, vc, res = jax.block_until_ready(amp_vc(friction, Wj, Kj, Vj))
-        times.append(time.perf_counter() - t)
-    t_jax = min(times)
+        times.append((time.perf_counter() - t, time.process_time() - c))
+    t_jax, c_jax = min(times)
     a, vc, res = np.asarray(a), np.asarray(vc), np.asarray(res)
 
     idx = np.random.default_rng(0).choice(n, size=n_ref, replace=False)
-    t = time.perf_counter()
+    t, c = time.perf_counter(), time.process_time()
     ref = np.array([scipy_point(W[i], K[i], V[i], p) for i in idx])
-    t_ref = time.perf_counter() - t
+    t_ref, c_ref = time.perf_counter() - t, time.process_time() - c
 
     stick = ref[:, 0] > 0
     err_a = np.max(np.abs(a[idx][stick] - ref[stick, 0]) / ref[stick, 0])
@@ -92,10 +94,12 @@ def main(argv=None):
     per_jax, per_ref = t_jax / n, t_ref / n_ref
     print(f"steady map, lubricant {args.lubricant}: W 5-60 kgf x k 20-140 kgf/mm x "
           f"v 0.0022-92 mm/min; {jax.devices()[0].platform}, x64")
-    print(f"{'method':<28}{'points':>10}{'total [s]':>12}{'per point [us]':>16}{'ratio':>8}")
-    print(f"{'scipy brentq loop':<28}{n_ref:>10,}{t_ref:>12.3f}{per_ref * 1e6:>16.3f}{1.0:>8.1f}")
+    print(f"{'method':<28}{'points':>10}{'total [s]':>12}{'per point [us]':>16}{'ratio':>8}"
+          f"{'CPU [s]':>10}{'CPU ratio':>11}")
+    print(f"{'scipy brentq loop':<28}{n_ref:>10,}{t_ref:>12.3f}{per_ref * 1e6:>16.3f}{1.0:>8.1f}"
+          f"{c_ref:>10.3f}{1.0:>11.1f}")
     print(f"{'jax jit(vmap) (compiled)':<28}{n:>10,}{t_jax:>12.3f}{per_jax * 1e6:>16.4f}"
-          f"{per_ref / per_jax:>8.1f}")
+          f"{per_ref / per_jax:>8.1f}{c_jax:>10.3f}{(c_ref / n_ref) / (c_jax / n):>11.1f}")
     print(f"compile {t_compile:.2f} s; stick-slip at {np.mean(a > 0):.1%} of points; "
           f"non-converged {int(np.sum(~res))}")
     print(f"agreement on the subset: max rel. error a {err_a:.1e}, v_c {err_vc:.1e}")
