@@ -487,7 +487,8 @@ class LeastSquaresSolution(eqx.Module):
     n_evals = property(lambda self: int(self.stats["num_steps"]))
     lam = property(lambda self: self.stats["lam"])  # the damping at the end: a warm lam0
     ok = property(lambda self: self.stats["ok"])
-    rss = property(lambda self: float(self.stats.get("cost", self.residuals @ self.residuals)))
+    rss = property(lambda self: float(self.stats["cost"] if "cost" in self.stats
+                                      else self.residuals @ self.residuals))
     n_data = property(lambda self: int(self.residuals.shape[0]))
 
     def covariance(self, active: np.ndarray) -> np.ndarray:

@@ -81,9 +81,6 @@ class _Effect:
     SCALES: ClassVar[tuple[float, ...]]
     SIGNS: ClassVar[tuple[int, ...]]
 
-    def values(self) -> dict[str, float]:
-        return {p: float(getattr(self, p)) for p in self.PARAMS}
-
     @classmethod
     def unphysical(cls, values: dict[str, float]) -> str | None:
         """Why `values` ({param: natural value}) break a sign that physics requires, or

@@ -31,9 +31,8 @@ def reweigh(fx: Fits, choice: Choice, *, clock: Clock) -> Reweighed:
     if chosen is None or not base.scaled:
         return Reweighed(chosen=chosen, sd_after=sd_after, reweighed=reweighed)
     scaled, rec_of = base.scaled, base.rec_of
-    factor_now, aside_now = np.ones(G), np.zeros(G, bool)
-    sd_chosen = sd
-    for round_ in range(opts.reweigh_rounds):
+    factor_now = np.ones(G)
+    for _ in range(opts.reweigh_rounds):
         model_after = CycleModel(
             data, base.model.tref, base.sd_plain * factor_now[np.asarray(data.record)][:, None],
             G)
@@ -44,7 +43,7 @@ def reweigh(fx: Fits, choice: Choice, *, clock: Clock) -> Reweighed:
         if one.unphysical is not None:
             break
         sd_one = np.asarray(model_after.sd).ravel()[model_after.mask]
-        before_ = rms_gap(chosen.fit.r[:n][described], sd_chosen[described],
+        before_ = rms_gap(chosen.fit.r[:n][described], sd_after[described],
                           base.samples[described])
         after_ = rms_gap(one.fit.r[:n][described], sd_one[described], base.samples[described])
         if after_ > opts.reweigh_tolerance * before_:
@@ -52,8 +51,7 @@ def reweigh(fx: Fits, choice: Choice, *, clock: Clock) -> Reweighed:
                              f"go from {before_ * 1e3:.3g} to {after_ * 1e3:.3g} um with "
                              f"the records weighed by their scatter weighed fully")
             break
-        chosen, sd_chosen = one, sd_one
-        sd_after = sd_one
+        chosen, sd_after = one, sd_one
         r_plain = chosen.fit.r[:n] * factor_now[rec_of]
         chi2_after = chi2_by_record(r_plain, rec_of, G, base.samples,
                                     sd_one / factor_now[rec_of])
@@ -70,5 +68,5 @@ def reweigh(fx: Fits, choice: Choice, *, clock: Clock) -> Reweighed:
                                factor_now)
         if np.array_equal(factor_next, factor_now) and chosen.fit.converged:
             break
-        factor_now, aside_now = factor_next, aside_now | (again & far)
+        factor_now = factor_next
     return Reweighed(chosen=chosen, sd_after=sd_after, reweighed=reweighed)
