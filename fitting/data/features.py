@@ -48,7 +48,7 @@ import math
 
 import numpy as np
 
-from stickslip_jax.slips import SlipSearch, find_slips, regions, rest, rest_length
+from stickslip_jax.slips import SlipSearch, find_slips, paused, regions, rest, rest_length
 from stickslip_jax.units import G_MM_S2
 
 from . import sticks
@@ -228,7 +228,8 @@ def extract_cycles(time, deflection, *, weight: float, stiffness: float, drive,
         if why == PAUSE:  # the slip that ended in the pause: no single slip's end either
             rows[-1]["complete"] = False
         rows.append(row)
-        prev_end = row["end_time"]
+        # the slip after a pause slides on from it: its end is timed as no rest either
+        prev_end = None if why == PAUSE else row["end_time"]
     return _assemble(r, rows, plateaus[0], left_out, len(events), min_cycles, _note)
 
 
@@ -425,8 +426,11 @@ def _cycle_row(r: _Prepared, ev, before, after, thr, prev_end, first: bool):
     # re-slip): its breakaway is no eq (1) level, so the cycle counts as incomplete, and
     # so does the slip before it (measured: 0-0.2 ms "sticks" in torsional records
     # whose slider all but stopped put k x2/W 0.03-0.06 above mu_0(0), the slip before
-    # timed 1 ms late, and the fit's chi2/n at 2e5)
-    short = prev_end is not None and t_b - prev_end < rest_length(r.h) * r.dt
+    # timed 1 ms late, and the fit's chi2/n at 2e5); so is a longer stick whose y has
+    # a pause's shape (`slips.paused`: 6-14 ms within the noise band)
+    short = prev_end is not None and (t_b - prev_end < rest_length(r.h) * r.dt or (
+        before.hi - before.lo < 8 * rest_length(r.h)
+        and paused(t, y, before.lo, before.hi, r.sigma)))
     return dict(breakaway_time=t_b, end_time=t_e,
                 stick_time=max(t_b - prev_end, 0.0) if prev_end is not None else float("nan"),
                 slip_time=(t90 - t10) / _RISE_10_90 if math.isfinite(t90 - t10) else float("nan"),
