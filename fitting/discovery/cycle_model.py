@@ -263,11 +263,11 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
         # friction the slip starts against and b > 0 lowers it with speed (anchored at
         # speed instead, a drop of 0.2 on lubricant A needed mu_m 0.2 lower, mu_d -> 0,
         # where the fit's log mu_d has no gradient left: gap after 18.5x the noise)
-        fall = jnp.where(form == 1, -jnp.log1p(V / vs),
-                         jnp.where(form == 2, -V / vs,
-                                   jnp.where(form == 3,
-                                             1.0 / (1.0 + safe_power(V / vs, p)) - 1.0,
-                                             jnp.exp(-safe_power(V / vs, p)) - 1.0)))
+        # (one form a program run: `form` is the same in every window, so the switch
+        # stays a branch and the RK4 step computes one curve, not four, per stage)
+        fall = jax.lax.switch(form.astype(jnp.int32), (
+            lambda x: jnp.exp(-safe_power(x, p)) - 1.0, lambda x: -jnp.log1p(x),
+            lambda x: -x, lambda x: 1.0 / (1.0 + safe_power(x, p)) - 1.0), V / vs)
         mu = (mu_m + eff.b_st * fall
               + eff.a_rs * jnp.log1p(V / DR_V_REF) + eff.b_rs * lth)
         dl = jnp.exp(-jnp.maximum(lth, -30.0)) / theta_b - V / length
