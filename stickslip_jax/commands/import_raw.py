@@ -14,7 +14,6 @@ to a temporary file and renamed, and an existing output is kept unless `--force`
 
 from __future__ import annotations
 
-import csv
 import math
 import os
 import re
@@ -75,9 +74,9 @@ def _number(cell: str, comma: bool) -> float:
 
 
 def _split(line: str, delim: str | None) -> list[str]:
-    if delim is None:
-        return line.split()
-    return next(csv.reader([line], delimiter=delim)) if '"' in line else line.split(delim)
+    from ..records.dialects import split_cells
+
+    return split_cells(line, delim, '"' in line)
 
 
 def _numeric(cells: list[str], comma: bool) -> bool:
@@ -90,65 +89,51 @@ def _numeric(cells: list[str], comma: bool) -> bool:
 
 
 def _layout(lines: list[str], delimiter: str | None):
-    """(separator, decimal comma, index of the first data row): the separator (given, or
-    the first of `;`, tab, `,`, blanks) and decimal convention under which three rows in a
-    row have the same number (2 or more) of numeric cells."""
+    """(separator, index of the first data row): the separator (given, or the first of
+    `;`, tab, `,`, blanks) and decimal convention under which three rows in a row have the
+    same number (2 or more) of numeric cells."""
     delims = [delimiter] if delimiter is not None else [";", "\t", ",", None]
+    rows = [i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")]
     for delim in delims:
         for comma in ((False, True) if delim != "," else (False,)):
-            rows = [i for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip()
-                    .startswith("#")]
-            for k in range(len(rows)):
+            for k in range(min(len(rows), 202)):
                 window = [_split(lines[i], delim) for i in rows[k:k + 3]]
                 if all(len(w) == len(window[0]) and _numeric(w, comma) for w in window):
-                    return delim, comma, rows[k]
-                if k > 200:
-                    break
+                    return delim, rows[k]
     return None
 
 
-def _fast(lines: list[str], delim: str | None, comma: bool, width: int):
-    """The rows of plain numbers through NumPy's C parser, or None (the checked loop of
-    `read_raw` then names the bad line)."""
-    import numpy as np
-
-    body = [ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")]
-    if any('"' in ln for ln in body[:50]):
-        return None
-    if comma:
-        body = [ln.replace(",", ".") for ln in body]
-    try:
-        data = np.loadtxt(body, delimiter=delim, comments=None, ndmin=2)
-    except ValueError:
-        return None
-    return data if data.shape == (len(body), width) and np.isfinite(data).all() else None
+def _seconds(line: str, clock: list[int]) -> str:
+    """A data row with its `hh:mm:ss.fff` cells in columns `clock` written as seconds."""
+    cells = line.split(",")
+    for k in clock:
+        if k < len(cells) and _CLOCK.fullmatch(cells[k]):
+            cells[k] = repr(_number(cells[k], True))
+    return ",".join(cells)
 
 
 def read_raw(path: str, delimiter: str | None = None):
     """(names, units, data, notes) of a raw text table: lines above its column row
     (a logger's preamble, with or without '#') are skipped, a units row under it is read,
-    `hh:mm:ss.fff` stamps are seconds; the file may be gzip-compressed, UTF-16 or
-    Latin-1. Raises ValueError naming the file and line."""
+    `hh:mm:ss.fff` stamps are seconds; the file's bytes, Excel's `sep=` line, separators
+    and decimal commas go through `stickslip_jax.records`' reader (`dialects`), its data
+    rows through `records.rows.parse_data`. Raises ValueError naming the file and line."""
     from pathlib import Path
 
-    import numpy as np
-
-    from ..records.dialects import decode, read_bytes
+    from ..records.dialects import decode, normalise_dialect, read_bytes, spreadsheet_header
     from ..records.grammar import MAX_FILE_BYTES
+    from ..records.rows import parse_data
 
     notes: list[str] = []
-    lines = decode(read_bytes(Path(path), MAX_FILE_BYTES), path, notes).splitlines()
-    sep = next((ln for ln in lines if ln.strip()), "").strip(' \r\n"')
-    if re.fullmatch(r"sep=[,;\t|]", sep):  # Excel's separator line
-        delimiter = delimiter or sep[4]
-        lines = [ln for ln in lines if ln.strip(' \r\n"') != sep]
+    text = decode(read_bytes(Path(path), MAX_FILE_BYTES), path, notes)
+    lines, sep = spreadsheet_header(text.splitlines(), notes)
     if delimiter is not None:
         delimiter = {"tab": "\t", "\\t": "\t"}.get(delimiter, delimiter)
-    found = _layout(lines, delimiter)
+    found = _layout(lines, delimiter or sep)
     if found is None:
         raise ValueError(f"{path}: no rows of numbers found (three rows in a row with the "
                          "same number of numeric cells); set --delimiter, or check the file")
-    delim, comma, first = found
+    delim, first = found
     width = len(_split(lines[first], delim))
     above = [i for i in range(first) if lines[i].strip() and not lines[i].lstrip()
              .startswith("#") and len(_split(lines[i], delim)) == width]
@@ -159,8 +144,9 @@ def read_raw(path: str, delimiter: str | None = None):
     if len(above) > 1 and above[-1] == first - 1 and above[-2] < above[-1]:
         head, unit_row = above[-2], _split(lines[above[-1]], delim)
         notes.append(f"units row read from line {above[-1] + 1}")
-    if head > 0:
-        notes.append(f"column row at line {head + 1}; the {head} line(s) above it skipped")
+    skipped = sum(1 for ln in lines[:head] if ln.strip())
+    if skipped:
+        notes.append(f"column row at line {head + 1}; the {skipped} line(s) above it skipped")
     names, units = [], []
     for k, cell in enumerate(_split(lines[head], delim)):
         m = _UNIT.match(cell.strip().strip('"'))
@@ -169,31 +155,14 @@ def read_raw(path: str, delimiter: str | None = None):
             unit = unit_row[k].strip().strip('"').strip("[]()").strip()
         names.append(m.group(1).lower())
         units.append(unit or None)
-    if comma:
-        notes.append("decimal commas read as points")
-    clock = [k for k in range(width) if _CLOCK.fullmatch(_split(lines[first], delim)[k]
-                                                         .strip().strip('"'))]
-    data = None if clock else _fast(lines[first:], delim, comma, width)
-    if data is not None:
-        return names, units, data, notes
-    rows, numbers = [], []
-    for i in range(first, len(lines)):
-        if not lines[i].strip() or lines[i].lstrip().startswith("#"):
-            continue
-        cells = _split(lines[i], delim)
-        if len(cells) != width:
-            raise ValueError(f"{path}: line {i + 1}: {len(cells)} cells but the column row "
-                             f"(line {head + 1}) has {width}; set --delimiter, or remove "
-                             "the row")
-        try:
-            numbers.append([_number(c, comma) for c in cells])
-        except ValueError:
-            bad = next(k for k, c in enumerate(cells) if not _numeric([c, "0"], comma))
-            raise ValueError(f"{path}: line {i + 1}: {cells[bad].strip()[:40]!r} in column "
-                             f"{names[bad]!r} is not a finite number; fix or remove the "
-                             "row") from None
-        rows.append(i + 1)
-    data = np.array(numbers, dtype=np.float64)
+    clock = [k for k, c in enumerate(_split(lines[first], delim))
+             if _CLOCK.fullmatch(c.strip().strip('"'))]
+    body = ["" if ln.lstrip().startswith("#") else ln for ln in lines[head:]]
+    body = ([",".join(ln.split()) for ln in body] if delim is None
+            else normalise_dialect(body, notes, delim))
+    if clock:
+        body = [_seconds(ln, clock) if ln.strip() else ln for ln in body]
+    data, _ = parse_data(lines[:head] + body, first, names, path)
     for k in clock:
         units[k] = units[k] or "s"
         data[:, k] -= data[:, k].min()

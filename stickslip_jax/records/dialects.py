@@ -134,7 +134,11 @@ def spreadsheet_header(lines: list[str], notes: list[str]) -> tuple[list[str], s
     return out, delim
 
 
-def _cells(line: str, delim: str, quoted: bool) -> list[str]:
+def split_cells(line: str, delim: str | None, quoted: bool) -> list[str]:
+    """The cells of a line: split at `delim` (blanks when None), through the csv module
+    when cells are `quoted`."""
+    if delim is None:
+        return line.split()
     return next(csv.reader([line], delimiter=delim)) if quoted else line.split(delim)
 
 
@@ -150,14 +154,14 @@ def normalise_dialect(lines: list[str], notes: list[str], delim: str | None = No
         delim = "," if "," in head else ";" if ";" in head else "\t" if "\t" in head else ","
     sample = [ln for ln in lines[1:50] if ln.strip() and not ln.lstrip().startswith("#")]
     quoted = any('"' in ln for ln in sample) or '"' in head
-    names = _cells(head, delim, quoted)
+    names = split_cells(head, delim, quoted)
     ncol = len(names)
     while ncol > 1 and not names[ncol - 1].strip():
         ncol -= 1
     padded = ncol < len(names)
     if delim == "," and not quoted and not padded:
         return lines
-    comma = any("," in c for ln in sample for c in _cells(ln, delim, quoted))
+    comma = any("," in c for ln in sample for c in split_cells(ln, delim, quoted))
     out = []
     for ln in lines:
         if not (quoted or padded):  # plain ';' or tabs: text replacements, fast
@@ -167,7 +171,7 @@ def normalise_dialect(lines: list[str], notes: list[str], delim: str | None = No
         if not ln.strip() or ln.lstrip().startswith("#"):
             out.append(ln)
             continue
-        cells = _cells(ln, delim, quoted)
+        cells = split_cells(ln, delim, quoted)
         if padded and len(cells) > ncol and not "".join(cells[ncol:]).strip():
             cells = cells[:ncol]
         if comma:
