@@ -170,11 +170,12 @@ class TraceObjective(AbstractObjective):
         N, _ = td.mask.shape
         mask = np.asarray(td.mask)
         rec_w = np.asarray(td.record).astype(int)
+        start = np.asarray(td.start_time)  # on the host: no device indexing per window
         cyc_w = np.full(N, -1)
         for w in range(N):
             if mask[w].any():
                 ends = np.asarray(features[rec_w[w]].end_time, float)
-                cyc_w[w] = int(np.nanargmin(np.abs(ends - float(td.start_time[w]))))
+                cyc_w[w] = int(np.nanargmin(np.abs(ends - start[w])))
         return (np.where(mask, rec_w[:, None], -1).ravel(),
                 np.where(mask, cyc_w[:, None], -1).ravel())
 
