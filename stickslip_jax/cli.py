@@ -47,8 +47,22 @@ def registered() -> list[str]:
     return names
 
 
-def _load():
-    return [importlib.import_module(name) for name in registered()]
+def _name_and_help(module: str) -> tuple[str, str] | None:
+    """`NAME` and `HELP` of a subcommand module read from its source without importing it
+    (its header up to `HELP`'s assignment); None where they are not plain literals."""
+    import ast
+    from importlib.util import find_spec
+
+    try:
+        with open(find_spec(module).origin, encoding="utf-8") as f:
+            src = f.read()
+        head = ast.parse(src[:src.index("\n\n", src.index("\nHELP = "))]).body
+        found = {t.id: ast.literal_eval(node.value) for node in head
+                 if isinstance(node, ast.Assign) for t in node.targets
+                 if isinstance(t, ast.Name) and t.id in ("NAME", "HELP")}
+        return found["NAME"], found["HELP"]
+    except (AttributeError, ImportError, KeyError, OSError, SyntaxError, TypeError, ValueError):
+        return None
 
 
 def _version() -> str:
@@ -61,7 +75,10 @@ def _version() -> str:
         return "unknown (not installed)"
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The `stickslip` parser. With `command` given (`main`: the first word of the command
+    line, '' for none), only that subcommand's module is imported; the others are listed
+    with their one-line help read from their source."""
     parser = _Parser(
         prog="stickslip",
         description="Stick-slip on machine-tool slideways (Kato et al.): analysis, simulation, "
@@ -71,7 +88,12 @@ def build_parser() -> argparse.ArgumentParser:
                         help="show the full Python traceback of an error instead of one line "
                         "(give it before the command: stickslip --debug fit ...)")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
-    for mod in _load():
+    for name in registered():
+        head = None if command is None else _name_and_help(name)
+        if head is not None and head[0] != command:
+            sub.add_parser(head[0], help=head[1], description=head[1])
+            continue
+        mod = importlib.import_module(name)
         p = sub.add_parser(mod.NAME, help=mod.HELP, description=mod.HELP)
         mod.add_arguments(p)
         p.set_defaults(run_command=mod.run)
@@ -107,8 +129,8 @@ def main(argv=None, *, prepare=None) -> int:
     import time
 
     start = time.time()
-    parser = build_parser()
     argv = _join_negative_values(list(sys.argv[1:] if argv is None else argv))
+    parser = build_parser(next((a for a in argv if not a.startswith("-")), ""))
     args = parser.parse_args(argv)
     if not getattr(args, "run_command", None):
         parser.print_help()

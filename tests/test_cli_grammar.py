@@ -322,6 +322,33 @@ def test_help_is_built_without_jax():
     assert set(doc["times"]) == set(COMMANDS)
 
 
+_ONE_COMMAND = """
+import sys
+from stickslip_jax.cli import build_parser, registered
+build_parser("steady").parse_args(["steady", "--weight", "36", "--stiffness", "86.9",
+                                  "--speed", "1"])
+print(" ".join(m for m in registered() if m in sys.modules))
+"""
+
+
+def test_a_command_line_imports_only_its_own_command():
+    """`main` builds the parser for the command it runs: the other subcommands are listed
+    with their one-line help (read from their source) but not imported, and the help of
+    `stickslip --help` is that of the parser of every command."""
+    import subprocess
+    import sys
+
+    assert build_parser("").format_help() == build_parser().format_help()
+    lazy = dict(next(a for a in build_parser("fit")._actions
+                     if isinstance(a, argparse._SubParsersAction)).choices)
+    assert {n: p.description for n, p in lazy.items()} == {
+        n: p.description for n, p in SUBS.items()}
+    run = subprocess.run([sys.executable, "-c", _ONE_COMMAND], capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["stickslip_jax.commands.steady"]
+
+
 @pytest.mark.parametrize("jax_first", [False, True])
 def test_importing_the_package_still_enables_x64(jax_first):
     """The package imports its names on first use; x64 is on whether JAX comes before
