@@ -43,7 +43,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     res = compiled(feature_residuals, fit.params, fit.data, fit.slip_time)
     level_sd = np.asarray(fit.data.trough_sd)
     levels = FeaturesObjective(fit.data).split(res)["levels"].reshape(level_sd.shape) * level_sd
-    mask = np.asarray(fit.data.has_end | fit.data.has_next)
+    mask = np.asarray(fit.data.has_end) | np.asarray(fit.data.has_next)  # on the host
     rms = float(np.sqrt(np.mean(levels[mask] ** 2))) if mask.any() else float("nan")
     out = {"model": model, "parameters": params, "records": _record_rows(fit, campaign),
            "records_not_used": sum(s.status != "used" for s in campaign.screening),
