@@ -93,18 +93,19 @@ def stick_terms(s, T1, x, v):
     return jnp.stack(jnp.broadcast_arrays(*cols), axis=-1)
 
 
-def drive_error(coef, t, speed, pitch):
+def drive_error(coef, t, speed, pitch, xp=jnp):
     """The drive error (mm) of `drive_periodic_error` at times t (s) of a record driven
-    at `speed` (mm/s): coef = (a1_sin, a1_cos, a2_sin, a2_cos) mm, `pitch` mm. JAX
-    (traced inside `cycle_model`) or NumPy input alike."""
-    ph = 2.0 * jnp.pi * speed * t / pitch
-    s, c = jnp.sin(ph), jnp.cos(ph)  # the second harmonic by the double-angle formulas
+    at `speed` (mm/s): coef = (a1_sin, a1_cos, a2_sin, a2_cos) mm, `pitch` mm; `xp`
+    `jax.numpy` (traced inside `cycle_model`) or `numpy` (on the host: eager JAX
+    compiles a program per record length)."""
+    ph = 2.0 * xp.pi * speed * t / pitch
+    s, c = xp.sin(ph), xp.cos(ph)  # the second harmonic by the double-angle formulas
     return coef[0] * s + coef[1] * c + coef[2] * (2.0 * s * c) + coef[3] * (c * c - s * s)
 
 
 def drive_error_range(coef, t, speed, pitch) -> float:
     """Peak-to-peak of `drive_error` over the times t (mm)."""
-    e = np.asarray(drive_error(np.asarray(coef, float), np.asarray(t, float), speed, pitch))
+    e = drive_error(np.asarray(coef, float), np.asarray(t, float), speed, pitch, np)
     return float(e.max() - e.min())
 
 
