@@ -114,9 +114,9 @@ def _batch() -> BatchResult:
 
 
 def test_batch_table_columns_never_fuse_and_unknowns_show_dashes():
-    from stickslip_fitting.commands.fit_batch import format_table
+    from stickslip_fitting.report.fit_table import batch_table
 
-    text = format_table(_batch())
+    text = batch_table(_batch())
     lines = text.splitlines()
     header = cells(lines[0])
     assert header == ["campaign", "status", "records", "mu_d", "delta [s^-n]", "n",
@@ -136,9 +136,9 @@ def test_batch_table_columns_never_fuse_and_unknowns_show_dashes():
 
 
 def test_batch_csv_has_no_placeholder_and_gives_the_reason():
-    from stickslip_fitting.commands.fit_batch import long_table
+    from stickslip_fitting.report.fit_table import batch_csv
 
-    rows = list(csv.DictReader(io.StringIO(long_table(_batch()))))
+    rows = list(csv.DictReader(io.StringIO(batch_csv(_batch()))))
     n = next(r for r in rows if r["campaign"] == "real" and r["parameter"] == "n")
     assert n["value"] == "" and n["message"].startswith("not identifiable: the fit left")
     good = next(r for r in rows if r["campaign"] == "examples" and r["parameter"] == "n")

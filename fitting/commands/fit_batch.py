@@ -124,96 +124,12 @@ def _fit_one(args):
     return fit_one
 
 
-def format_table(batch) -> str:
-    """One row per campaign: status, records used, parameter values (headed with their
-    units), chi2/dof, time; columns padded to their widest cell. A parameter the campaign
-    does not determine shows "-" and is listed with the reason below the table; a value at
-    a bound of its support or fixed says so in its cell; a campaign not fitted has "-"
-    everywhere and its message below."""
-    from ..report.rows import note_text, text_table, value_text
-
-    names = list(dict.fromkeys(p for e in batch.entries if e.report
-                               for p in e.report["parameters"]))
-    units = {}
-    for e in batch.entries:
-        for n, p in (e.report or {}).get("parameters", {}).items():
-            units.setdefault(n, p.get("unit", "-"))
-    header = (["campaign", "status", "records"]
-              + [n if units[n] in ("-", "") else f"{n} [{units[n]}]" for n in names]
-              + ["chi2/dof", "s"])
-    rows, below = [], []
-    for e in batch.entries:
-        row = [e.name, e.status.replace("_", " ")]
-        if e.report is None:
-            rows.append(row + ["-"] * (len(header) - 3) + [f"{e.seconds:.1f}"])
-            below.append(f"{e.name}: {e.status.replace('_', ' ')}: {e.message}")
-            continue
-        used = sum(r.get("status", "used") == "used" for r in e.report["records"])
-        row.append(str(used))
-        unknown: dict[str, list[str]] = {}
-        for n in names:
-            p = e.report["parameters"].get(n)
-            if p is None:
-                row.append("-")
-                continue
-            cell, note = value_text(p), note_text(p)
-            if p.get("value") is None:
-                unknown.setdefault(note.removeprefix("not identifiable: "), []).append(n)
-            elif note:
-                cell += " (fixed)" if p.get("fixed") else " (at bound)"
-            row.append(cell)
-        rows.append(row + [f"{e.report['reduced_chi2']:.3g}", f"{e.seconds:.1f}"])
-        for reason, which in unknown.items():
-            below.append(f"{e.name}: {', '.join(which)} not identifiable (-): {reason}")
-    lines = text_table(header, rows, "ll" + "r" * (len(header) - 2)).splitlines()
-    lines += [""] + below if below else []
-    n = len(batch.entries)
-    lines.append("")
-    lines.append(f"{batch.count('fitted')} of {n} campaigns fitted"
-                 + (f", {batch.count('not_converged')} did not converge"
-                    if batch.count("not_converged") else "")
-                 + (f", {batch.count('failed') + batch.count('error')} could not be fitted"
-                    if batch.count("failed") + batch.count("error") else "")
-                 + f"; {batch.processes} process{'es' if batch.processes > 1 else ''}, "
-                 f"{batch.seconds:.1f} s")
-    return "\n".join(lines)
-
-
-def _num(x) -> str:
-    """A number for the CSV: full precision, empty when there is none."""
-    return "" if x is None else repr(float(x))
-
-
-def long_table(batch) -> str:
-    """CSV text, one row per campaign and parameter (a campaign not fitted: one row with
-    its message). A parameter the campaign does not determine has an empty value and its
-    reason in `message` ("not identifiable: ..."), as has a value at a bound."""
-    import csv
-    import io
-
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["campaign", "status", "parameter", "value", "unit", "stderr", "ci95_low",
-                "ci95_high", "fixed", "reduced_chi2", "message"])
-    for e in batch.entries:
-        if e.report is None:
-            w.writerow([e.name, e.status, "", "", "", "", "", "", "", "", e.message])
-            continue
-        for name, p in e.report["parameters"].items():
-            ci = p.get("ci95") or [None, None]
-            w.writerow([e.name, e.status, name, _num(p["value"]), p["unit"],
-                        _num(p.get("stderr")), _num(ci[0]), _num(ci[1]), bool(p["fixed"]),
-                        _num(e.report["reduced_chi2"]), p.get("reason") or ""])
-    return buf.getvalue()
-
-
 def run(args) -> int:
-    import sys
-
     from stickslip_jax.logs import logger
     from stickslip_jax.output import check_outputs, versioned, write_json, write_text
     from stickslip_jax.records import RecordError, record_paths
 
+    from ..report.fit_table import batch_csv, batch_table
     from ..solve.batch import ERROR, fit_batch
 
     inputs = []
@@ -242,7 +158,7 @@ def run(args) -> int:
     code = 1 if errors else 0 if batch.all_fitted else 3
     if not lead:  # every process ends with the batch and its exit code; one writes
         return code
-    print(format_table(batch))
+    print(batch_table(batch))
     for e in batch.entries:
         for note in (e.report or {}).get("notes", []):
             print(f"note: {e.name}: {note}")
@@ -253,7 +169,7 @@ def run(args) -> int:
         if args.json != "-":
             print(f"wrote {args.json}")
     if args.csv:
-        write_text(args.csv, long_table(batch))
+        write_text(args.csv, batch_csv(batch))
         print(f"wrote {args.csv}")
     if args.plot:
         from ..report.plots import batch_figure, interruptible

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 from pathlib import Path
 
@@ -102,144 +101,6 @@ def _values(text, dim, unit, arg):
     return parse_grid(text, dim, unit, arg)
 
 
-def _number(value, source, key: str) -> float:
-    """A JSON value as a finite float, or a ValueError naming the file and the key."""
-    try:
-        x = float(value)
-    except (TypeError, ValueError):
-        x = math.nan
-    if isinstance(value, bool) or not math.isfinite(x):
-        raise ValueError(f"{source}: {key} is {json.dumps(value)[:40]}; give a finite number")
-    return x
-
-
-def _estimate(values: dict, source, key: str) -> np.ndarray:
-    """The parameters of `values` (prior means, posterior medians) as a vector, each a
-    number inside the law's physical range (its MCMC prior support): the design's
-    estimate; a ValueError naming the file, key and range otherwise."""
-    from ..design import PARAMETERS
-    from ..params import EmpiricalFriction
-
-    missing = [p for p in PARAMETERS if p not in values]
-    if missing:
-        raise ValueError(f"{source}: {key} lacks {', '.join(missing)} (held fixed in the "
-                         "fit?); write a prior JSON with all six")
-    out = np.array([_number(values[p], source, f"{key} {p}") for p in PARAMETERS])
-    for p, v in zip(PARAMETERS, out):
-        lo, hi = EmpiricalFriction.PRIOR_BOUNDS[p]
-        if not lo <= v <= hi:
-            raise ValueError(f"{source}: {key} {p} = {v:.4g} lies outside the physical "
-                             f"range {lo:g}-{hi:g} of {p}; a design at such an estimate "
-                             "means nothing: give an estimate inside the range")
-    return out
-
-
-def _sd_vector(sd, params, source):
-    if isinstance(sd, (int, float)) and not isinstance(sd, bool):
-        return np.full(len(params), _number(sd, source, "prior 'sd'"))
-    if isinstance(sd, dict):
-        missing = [p for p in params if p not in sd]
-        if missing:
-            raise ValueError(f"{source}: prior 'sd' lacks {', '.join(missing)}")
-        return np.array([_number(sd[p], source, f"prior 'sd' {p}") for p in params])
-    raise ValueError(f"{source}: prior 'sd' must be a number or an object by parameter")
-
-
-def read_sources(args):
-    """(estimate u, prior sd of u, existing Campaign or None, description)."""
-    from stickslip_jax.lubricants import lubricant, lubricants
-
-    from ..design import PARAMETERS, Campaign, load_samples, log_params
-    from ..design.posterior import check_domain, summary_from_json
-
-    estimate = sd = None
-    desc = []
-    records = []
-    for src in args.sources:
-        path = Path(src)
-        if not path.exists():
-            if src in lubricants(args.table):
-                if estimate is not None:
-                    raise ValueError("RECORDS-OR-PRIOR: give only one lubricant, prior or sample")
-                estimate = log_params(lubricant(src, table=args.table))
-                desc.append(f"lubricant {src} (Table {args.table})")
-                continue
-            raise ValueError(f"RECORDS-OR-PRIOR: {src!r} is neither a file nor a lubricant "
-                             f"({', '.join(lubricants(args.table))})")
-        if not path.is_file():
-            raise ValueError(f"RECORDS-OR-PRIOR: {src} is not a regular file (a folder, a "
-                             "named pipe or a device); give a record, prior or sample file")
-        head = path.read_text(errors="replace")[:200].lstrip()
-        if head.startswith("# stickslip-record"):
-            from stickslip_jax.records import read_record
-
-            if any(os.path.samefile(path, r.source) for r in records):
-                raise ValueError(f"RECORDS-OR-PRIOR: {src} is named twice; give each "
-                                 "record once")
-            records.append(read_record(path))
-            continue
-        if estimate is not None:
-            raise ValueError("RECORDS-OR-PRIOR: give only one lubricant, prior or sample")
-        obj = None
-        if path.suffix.lower() == ".json":
-            try:
-                obj = json.loads(path.read_text())
-            except json.JSONDecodeError as exc:
-                raise ValueError(f"{path}: invalid JSON ({exc})") from None
-        summary = summary_from_json(obj) if obj is not None else None
-        if summary is not None and "samples" not in obj:
-            med = _estimate({p: v[0] for p, v in summary.items()}, path,
-                            "the posterior summary's median")
-            check_domain(dict(zip(PARAMETERS, med)), f"{path} (posterior medians)")
-            estimate = np.log(med)
-            # sd of log(parameter) ~ sd / median (a relative error)
-            sd = np.maximum(np.array([_number(summary[p][1], path, f"sd {p}")
-                                      for p in PARAMETERS]) / med, 1e-6)
-            desc.append(f"posterior summary {path.name}")
-        elif isinstance(obj, dict) and "mean" in obj:
-            if not isinstance(obj["mean"], dict):
-                raise ValueError(f"{path}: prior 'mean' must be an object by parameter")
-            vals = _estimate(obj["mean"], path, "prior 'mean'")
-            check_domain(dict(zip(PARAMETERS, vals)), f"{path} (prior means)")
-            estimate = np.log(vals)
-            if "sd" in obj:
-                sd = _sd_vector(obj["sd"], PARAMETERS, path)
-            desc.append(f"prior {path.name}")
-        else:
-            from ..design import friction_params
-
-            try:
-                p = friction_params(load_samples(path))
-                logs = np.log(np.column_stack([np.asarray(p[k], float) for k in PARAMETERS]))
-            except (TypeError, ValueError, KeyError) as exc:
-                if str(exc).startswith(str(path)):
-                    raise
-                raise ValueError(f"{path}: not a posterior sample of {', '.join(PARAMETERS)} "
-                                 f"with one number per draw ({str(exc)[:80]})") from None
-            estimate = logs.mean(axis=0)
-            sd = logs.std(axis=0, ddof=1) if logs.shape[0] > 1 else None
-            desc.append(f"posterior sample {path.name} ({logs.shape[0]} draws)")
-    if estimate is None:
-        raise ValueError("RECORDS-OR-PRIOR: give a lubricant name, a prior JSON or a "
-                         "posterior sample for the parameter estimate (records alone are not enough)")
-    if sd is None:
-        if not args.prior_sd > 0:
-            raise ValueError("--prior-sd: must be positive")
-        sd = np.full(len(PARAMETERS), args.prior_sd)
-    if not np.all(np.isfinite(sd) & (sd > 0)):
-        raise ValueError("prior sd must be finite and positive for every parameter")
-    existing = None
-    if records:
-        from stickslip_jax.records.campaign import count_once
-
-        records = count_once(records)  # the same run under two names counts once
-        existing = Campaign(np.array([r.weight for r in records]),
-                            np.array([r.stiffness for r in records]),
-                            np.array([r.nominal_drive_speed for r in records]))
-        desc.append(f"{len(records)} existing record(s)")
-    return estimate, sd, existing, "; ".join(desc)
-
-
 MAX_BUDGET = 1000
 """Most records one plan proposes (the greedy design adds them one at a time)."""
 
@@ -254,6 +115,7 @@ def run(args) -> int:
     from stickslip_jax.output import check_outputs
 
     from ..design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
+    from ..design.posterior import plan_sources
 
     if args.json_source is not None:  # `plan --json SOURCE ...`: the old bare --json
         args.sources = [args.json_source, *args.sources]
@@ -266,7 +128,7 @@ def run(args) -> int:
                          f"records one at a time), got {args.budget}")
     if not all(x > 0 for x in args.noise):
         raise ValueError("--noise: every noise level must be positive")
-    u, sd, existing, desc = read_sources(args)
+    u, sd, existing, desc = plan_sources(args.sources, args.table, args.prior_sd)
     axes = (_values(args.weights, "force", "kgf", "--weights"),
             _values(args.stiffnesses, "stiffness", "kgf/mm", "--stiffnesses"),
             _values(args.speeds, "speed", "mm/min", "--speeds"))

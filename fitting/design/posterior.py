@@ -14,6 +14,9 @@ rest dimensionless. Files read by `load_samples`:
   or the same objects without the ``"samples"`` wrapper / under ``"posterior"``.
   Parameters that were held fixed (not sampled) come from an optional
   ``"fixed": {"delta": 67, "n": 1}`` object next to the samples.
+
+`plan_sources` reads the estimate and prior of `stickslip plan` from such a sample, a
+posterior summary, a prior JSON or a lubricant name, with the records already measured.
 """
 
 from __future__ import annotations
@@ -21,6 +24,8 @@ from __future__ import annotations
 import csv
 import io
 import json
+import math
+import os
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -200,3 +205,141 @@ def save_samples(sample: Friction, path) -> None:
     params = friction_params(sample)
     mat = np.column_stack([np.atleast_1d(params[p]) for p in PARAMETERS])
     np.savetxt(path, mat, delimiter=",", header=",".join(PARAMETERS), comments="", fmt="%.17g")
+
+
+def _number(value, source, key: str) -> float:
+    """A JSON value as a finite float, or a ValueError naming the file and the key."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        x = math.nan
+    if isinstance(value, bool) or not math.isfinite(x):
+        raise ValueError(f"{source}: {key} is {json.dumps(value)[:40]}; give a finite number")
+    return x
+
+
+def _estimate(values: dict, source, key: str) -> np.ndarray:
+    """The parameters of `values` (prior means, posterior medians) as a vector, each a
+    number inside the law's physical range (its MCMC prior support): the design's
+    estimate; a ValueError naming the file, key and range otherwise."""
+    from ..params import EmpiricalFriction
+
+    missing = [p for p in PARAMETERS if p not in values]
+    if missing:
+        raise ValueError(f"{source}: {key} lacks {', '.join(missing)} (held fixed in the "
+                         "fit?); write a prior JSON with all six")
+    out = np.array([_number(values[p], source, f"{key} {p}") for p in PARAMETERS])
+    for p, v in zip(PARAMETERS, out):
+        lo, hi = EmpiricalFriction.PRIOR_BOUNDS[p]
+        if not lo <= v <= hi:
+            raise ValueError(f"{source}: {key} {p} = {v:.4g} lies outside the physical "
+                             f"range {lo:g}-{hi:g} of {p}; a design at such an estimate "
+                             "means nothing: give an estimate inside the range")
+    return out
+
+
+def _sd_vector(sd, source) -> np.ndarray:
+    """A prior's 'sd' (one number, or one per parameter) as a vector in `PARAMETERS` order."""
+    if isinstance(sd, (int, float)) and not isinstance(sd, bool):
+        return np.full(len(PARAMETERS), _number(sd, source, "prior 'sd'"))
+    if isinstance(sd, dict):
+        missing = [p for p in PARAMETERS if p not in sd]
+        if missing:
+            raise ValueError(f"{source}: prior 'sd' lacks {', '.join(missing)}")
+        return np.array([_number(sd[p], source, f"prior 'sd' {p}") for p in PARAMETERS])
+    raise ValueError(f"{source}: prior 'sd' must be a number or an object by parameter")
+
+
+def plan_sources(sources, table: int = 6, prior_sd: float = 0.5):
+    """(estimate u, prior sd of u, existing `experiment.Campaign` or None, description)
+    of `stickslip plan`'s sources (its RECORDS-OR-PRIOR, named in the errors): a
+    lubricant name of Table `table`, a posterior summary, a prior JSON or a posterior
+    sample, and record files already measured; `prior_sd` where the source gives none."""
+    from stickslip_jax.lubricants import lubricant, lubricants
+
+    from .experiment import Campaign, log_params
+
+    estimate = sd = None
+    desc = []
+    records = []
+    for src in sources:
+        path = Path(src)
+        if not path.exists():
+            if src in lubricants(table):
+                if estimate is not None:
+                    raise ValueError("RECORDS-OR-PRIOR: give only one lubricant, prior or sample")
+                estimate = log_params(lubricant(src, table=table))
+                desc.append(f"lubricant {src} (Table {table})")
+                continue
+            raise ValueError(f"RECORDS-OR-PRIOR: {src!r} is neither a file nor a lubricant "
+                             f"({', '.join(lubricants(table))})")
+        if not path.is_file():
+            raise ValueError(f"RECORDS-OR-PRIOR: {src} is not a regular file (a folder, a "
+                             "named pipe or a device); give a record, prior or sample file")
+        head = path.read_text(errors="replace")[:200].lstrip()
+        if head.startswith("# stickslip-record"):
+            from stickslip_jax.records import read_record
+
+            if any(os.path.samefile(path, r.source) for r in records):
+                raise ValueError(f"RECORDS-OR-PRIOR: {src} is named twice; give each "
+                                 "record once")
+            records.append(read_record(path))
+            continue
+        if estimate is not None:
+            raise ValueError("RECORDS-OR-PRIOR: give only one lubricant, prior or sample")
+        obj = None
+        if path.suffix.lower() == ".json":
+            try:
+                obj = json.loads(path.read_text())
+            except json.JSONDecodeError as exc:
+                raise ValueError(f"{path}: invalid JSON ({exc})") from None
+        summary = summary_from_json(obj) if obj is not None else None
+        if summary is not None and "samples" not in obj:
+            med = _estimate({p: v[0] for p, v in summary.items()}, path,
+                            "the posterior summary's median")
+            check_domain(dict(zip(PARAMETERS, med)), f"{path} (posterior medians)")
+            estimate = np.log(med)
+            # sd of log(parameter) ~ sd / median (a relative error)
+            sd = np.maximum(np.array([_number(summary[p][1], path, f"sd {p}")
+                                      for p in PARAMETERS]) / med, 1e-6)
+            desc.append(f"posterior summary {path.name}")
+        elif isinstance(obj, dict) and "mean" in obj:
+            if not isinstance(obj["mean"], dict):
+                raise ValueError(f"{path}: prior 'mean' must be an object by parameter")
+            vals = _estimate(obj["mean"], path, "prior 'mean'")
+            check_domain(dict(zip(PARAMETERS, vals)), f"{path} (prior means)")
+            estimate = np.log(vals)
+            if "sd" in obj:
+                sd = _sd_vector(obj["sd"], path)
+            desc.append(f"prior {path.name}")
+        else:
+            try:
+                p = friction_params(load_samples(path))
+                logs = np.log(np.column_stack([np.asarray(p[k], float) for k in PARAMETERS]))
+            except (TypeError, ValueError, KeyError) as exc:
+                if str(exc).startswith(str(path)):
+                    raise
+                raise ValueError(f"{path}: not a posterior sample of {', '.join(PARAMETERS)} "
+                                 f"with one number per draw ({str(exc)[:80]})") from None
+            estimate = logs.mean(axis=0)
+            sd = logs.std(axis=0, ddof=1) if logs.shape[0] > 1 else None
+            desc.append(f"posterior sample {path.name} ({logs.shape[0]} draws)")
+    if estimate is None:
+        raise ValueError("RECORDS-OR-PRIOR: give a lubricant name, a prior JSON or a "
+                         "posterior sample for the parameter estimate (records alone are not enough)")
+    if sd is None:
+        if not prior_sd > 0:
+            raise ValueError("--prior-sd: must be positive")
+        sd = np.full(len(PARAMETERS), prior_sd)
+    if not np.all(np.isfinite(sd) & (sd > 0)):
+        raise ValueError("prior sd must be finite and positive for every parameter")
+    existing = None
+    if records:
+        from stickslip_jax.records.campaign import count_once
+
+        records = count_once(records)  # the same run under two names counts once
+        existing = Campaign(np.array([r.weight for r in records]),
+                            np.array([r.stiffness for r in records]),
+                            np.array([r.nominal_drive_speed for r in records]))
+        desc.append(f"{len(records)} existing record(s)")
+    return estimate, sd, existing, "; ".join(desc)
