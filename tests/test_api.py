@@ -187,7 +187,8 @@ def test_typed_options_are_accepted():
 
     assert api._law(EmpiricalFriction) == (EmpiricalFriction, "empirical")
     assert api._law("microsqueeze") == (MicrosqueezeFriction, "microsqueeze")
-    assert api._loss(Huber(2.0)) == Huber(2.0) and api._loss("huber:2").spec() == "huber:2"
+    assert api.loss_option(Huber(2.0)) == Huber(2.0)
+    assert api.loss_option("huber:2").spec() == "huber:2"
     start = EmpiricalFriction.from_values(0.4, 0.3, 1.0, 0.5, 2.0, 1.3)
     assert api._fixed({"n": 1}, EmpiricalFriction) == {"n": 1.0}
     assert Hold.named(api._fixed({"n": 1}, EmpiricalFriction)).natural(start) == {"n": 1.0}

@@ -46,7 +46,7 @@ if TYPE_CHECKING:
     from ..params import AbstractFrictionParams
     from ..uncertainty.laplace import Uncertainty
 
-__all__ = ["CampaignFit", "RecordsSpec", "SUMMARY_COLUMNS", "fit"]
+__all__ = ["CampaignFit", "RecordsSpec", "SUMMARY_COLUMNS", "fit", "loss_option"]
 
 RecordsSpec = Union[str, "os.PathLike[str]", Record, Iterable[Union[str, "os.PathLike[str]", Record]]]
 """What `fit` reads: a file, a folder (its *.csv), a glob, or a list of these; or
@@ -195,7 +195,7 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
     modes = ModelModes(offset=GaugeOffset.parse(gauge_offset, "gauge_offset"),
                        slip_time=SlipTime.parse(slip_time))
     law, model_name = _law(model)
-    loss = _loss(loss)
+    loss = loss_option(loss)
     fixed = _fixed(fix, law)
     pair = eta_value = None
     if model_name == "microsqueeze":
@@ -294,7 +294,9 @@ def _keyword(err: ValueError, option: str) -> ValueError:
     return ValueError(str(err).replace(f"--{option}", option))
 
 
-def _loss(loss) -> AbstractLoss:
+def loss_option(loss) -> AbstractLoss:
+    """The `loss` keyword of `fit`, `sample` and `discover`: an `AbstractLoss` as it is,
+    a spec ("huber:1.345") parsed, a ValueError naming the keyword otherwise."""
     from ..objectives.losses import AbstractLoss, parse_loss
 
     if isinstance(loss, AbstractLoss):

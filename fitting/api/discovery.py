@@ -26,7 +26,8 @@ from typing import TYPE_CHECKING
 
 from stickslip_jax.records import Record
 
-from .campaign import RecordsSpec, as_list
+from .campaign import RecordsSpec, as_list, loss_option
+from .results import ResultDocument, pandas_module
 
 if TYPE_CHECKING:
     import pandas
@@ -45,15 +46,12 @@ family-shape test), whether and by which test it is significant, the refit's chi
 drop (NaN when not refitted), whether the refit left the physical range, and whether the
 answer names it."""
 
-_PANDAS = 'pip install "stickslip-jax[pandas]"'
-
-
 def _number(x) -> float:
     return float("nan") if x is None else float(x)
 
 
 @dataclasses.dataclass(frozen=True)
-class CampaignDiscovery:
+class CampaignDiscovery(ResultDocument):
     """The result of `discover`: the effect the paper's model misses in a campaign.
 
     - `effect`, `confidence`, `explanation`: the answer (a family's name, "none" or
@@ -101,11 +99,7 @@ class CampaignDiscovery:
     def summary(self) -> pandas.DataFrame:
         """One row per effect family tested, indexed by its name (`FAMILY_COLUMNS`), in
         the order of the candidate table. Needs pandas (the `[pandas]` extra)."""
-        try:
-            import pandas as pd
-        except ImportError:
-            raise ImportError(f"CampaignDiscovery.summary() needs pandas: {_PANDAS} (or pip "
-                              "install pandas)") from None
+        pd = pandas_module("CampaignDiscovery.summary()")
         named = set(self.named)
         rows = {}
         for c in self.result.candidates:
@@ -126,33 +120,16 @@ class CampaignDiscovery:
 
         return {**json_document(self.result), "loss": self.loss}
 
-    def to_dict(self) -> dict:
-        """The `stickslip discover --json` document as a dict (strict JSON: NaN as None)."""
-        import json
-
-        return json.loads(self.to_json())
-
-    def to_json(self, path: str | os.PathLike[str] | None = None) -> str:
-        """The `stickslip discover --json` document, as text; written to `path` too when
-        given (atomically; never over one of the input records)."""
-        from stickslip_jax.output import check_outputs, dumps, write_text
-
-        text = dumps(self.report, indent=2) + "\n"
-        if path is not None:
-            check_outputs({"to_json": os.fspath(path)}, self.inputs)
-            write_text(os.fspath(path), text)
-        return text
-
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
         """The figure of `stickslip discover --plot` (`discovery.plots.
         plot_cycle_discovery`: residual RMS by phase before and after, traces and
         residuals of up to four records): returned, and saved to `path` when given."""
+        path = self.output_path(path, "plot")
         fig = self.result.figure()
         if path is not None:
-            from stickslip_jax.output import check_outputs, save_figure
+            from stickslip_jax.output import save_figure
 
-            check_outputs({"plot": os.fspath(path)}, self.inputs)
-            save_figure(fig, os.fspath(path), dpi=120)
+            save_figure(fig, path, dpi=120)
         return fig
 
     def __str__(self) -> str:
@@ -189,7 +166,6 @@ def discover(records: RecordsSpec, *, only: tuple[str, ...] | list[str] | None =
     """
     from ..discovery.cycle_effects import FAMILIES
     from ..discovery.cycle_workflow import discover_cycles
-    from ..objectives.losses import AbstractLoss, parse_loss
 
     if top < 1:
         raise ValueError(f"top: must be at least 1, got {top}")
@@ -206,11 +182,7 @@ def discover(records: RecordsSpec, *, only: tuple[str, ...] | list[str] | None =
     if bad:
         raise ValueError(f"only: unknown effect families {', '.join(bad)}; the families are "
                          f"{', '.join(names)}")
-    if not isinstance(loss, AbstractLoss):
-        try:
-            loss = parse_loss(loss)
-        except ValueError as err:
-            raise ValueError(str(err).replace("--loss", "loss")) from None
+    loss = loss_option(loss)
 
     given = as_list(records)
     unreadable: list = []
