@@ -139,7 +139,7 @@ def test_mcmc_option_errors(campaign_dir, capsys):
 
 
 def test_truth_in_stickslip_simulate_layout():
-    from stickslip_fitting.commands.fit import find_truth
+    from stickslip_fitting.data.campaign import find_truth
     from stickslip_jax.records import Record
 
     truth = {"friction": {"static": {"law": "KatoStatic", "mu_s": 0.56, "mu_d": 0.21,

@@ -10,16 +10,6 @@ import argparse
 
 from ..modes import MapMethod
 
-
-def __getattr__(name):
-    """The map's contract (`CSV_COLUMNS`, `JSON_ALIASES`, `parse_grid`), from
-    `api.design` on first use: building the parser does not import the map code."""
-    if name in ("CSV_COLUMNS", "JSON_ALIASES", "parse_grid"):
-        from ..api import design
-
-        return getattr(design, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
 NAME = "design"
 HELP = ("design map of stick-slip amplitude and critical speed over grids of W, k, v "
         "(steady analysis, or the exact simulator with --exact; a posterior with --posterior)")

@@ -21,16 +21,6 @@ NAME = "fit"
 HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"
 
 
-def __getattr__(name):
-    # imported where used, so the parser is built without the fitting code; the old
-    # module-level names still resolve
-    if name in ("find_truth", "load_campaign"):
-        from ..data import campaign
-
-        return getattr(campaign, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 def add_arguments(parser):
     parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
     add_campaign_fit_arguments(
