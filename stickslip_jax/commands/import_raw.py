@@ -21,8 +21,6 @@ import re
 NAME = "import"
 HELP = "convert a raw logger file (CSV/TSV/';', decimal commas) into a record file"
 
-_UNIT = re.compile(r"^\s*(.*?)\s*(?:\[(.*)\]|\((.*)\))?\s*$")
-
 
 def add_arguments(parser):
     parser.add_argument("raw", help="the raw file (text: CSV, TSV or ';'-separated)")
@@ -121,7 +119,7 @@ def read_raw(path: str, delimiter: str | None = None):
     from pathlib import Path
 
     from ..records.dialects import decode, normalise_dialect, read_bytes, spreadsheet_header
-    from ..records.grammar import MAX_FILE_BYTES
+    from ..records.grammar import MAX_FILE_BYTES, column_label
     from ..records.rows import parse_data
 
     notes: list[str] = []
@@ -149,12 +147,11 @@ def read_raw(path: str, delimiter: str | None = None):
         notes.append(f"column row at line {head + 1}; the {skipped} line(s) above it skipped")
     names, units = [], []
     for k, cell in enumerate(_split(lines[head], delim)):
-        m = _UNIT.match(cell.strip().strip('"'))
-        unit = (m.group(2) or m.group(3) or "").strip()
-        if not unit and unit_row is not None:
-            unit = unit_row[k].strip().strip('"').strip("[]()").strip()
-        names.append(m.group(1).lower())
-        units.append(unit or None)
+        name, unit = column_label(cell.strip().strip('"'))
+        if unit is None and unit_row is not None:
+            unit = unit_row[k].strip().strip('"').strip("[]()").strip() or None
+        names.append(name.lower())
+        units.append(unit)
     clock = [k for k, c in enumerate(_split(lines[first], delim))
              if _CLOCK.fullmatch(c.strip().strip('"'))]
     body = ["" if ln.lstrip().startswith("#") else ln for ln in lines[head:]]
@@ -177,7 +174,9 @@ def _column(spec: str, names: list[str], option: str, path: str) -> int:
         if j >= len(names):
             raise ValueError(f"{option}: column {j} does not exist ({len(names)} columns)")
         return j
-    key = _UNIT.match(spec).group(1).lower()
+    from ..records.grammar import column_label
+
+    key = column_label(spec)[0].lower()
     hits = [j for j, n in enumerate(names) if n == key] or [
         j for j, n in enumerate(names) if n.startswith(key)]
     if len(hits) != 1:

@@ -12,10 +12,8 @@ import numpy as np
 
 from ..units import UnitError
 from .errors import RecordError
-from .grammar import FORMAT_VERSION, NAME, RESERVED_COLUMNS
+from .grammar import FORMAT_VERSION, NAME, RESERVED_COLUMNS, column_label
 from .quantities import channel_factor, internal_channel_unit
-
-_LABEL = re.compile(r"^\s*(.*?)\s*(?:\[(.*)\]|\((.*)\))?\s*$", re.DOTALL)
 
 _INSTALL = 'pip install "stickslip-jax[pandas]"'
 
@@ -23,12 +21,6 @@ _MARK = "stickslip-record"
 """The `attrs` key that marks a frame made by `Record.to_dataframe` (the format version)."""
 
 _OWN_COLUMNS = ("time_s", "x_mm", "force_kgf", "drive_mm")
-
-
-def _label(label) -> tuple[str, str | None]:
-    """(name, unit or None) of a column label: `"force [N]"`, `"Force (N)"`, `"force"`."""
-    m = _LABEL.match(str(label))
-    return m.group(1), ((m.group(2) or m.group(3) or "").strip() or None)
 
 
 def _unit_suffix(unit: str) -> str:
@@ -45,7 +37,7 @@ class _Columns:
     def __init__(self, pd, df, notes: list[str]):
         self.pd, self.df, self.notes = pd, df, notes
         self.labels = list(df.columns)
-        self.parsed = {i: _label(c) for i, c in enumerate(self.labels)}
+        self.parsed = {i: column_label(c) for i, c in enumerate(self.labels)}
         self.listing = ", ".join(repr(str(c)) for c in self.labels)
 
     def find(self, spec, what, *, index_ok=False, required=True):
@@ -55,13 +47,13 @@ class _Columns:
         df = self.df
         hits = [i for i, c in enumerate(self.labels) if c == spec]
         if not hits:
-            key = _label(spec)[0].lower()
+            key = column_label(spec)[0].lower()
             hits = [i for i, (name, _) in self.parsed.items() if name.lower() == key]
         if len(hits) == 1:
             return hits[0]
         if not hits and index_ok and df.index.name is not None and (
                 df.index.name == spec
-                or _label(df.index.name)[0].lower() == _label(spec)[0].lower()):
+                or column_label(df.index.name)[0].lower() == column_label(spec)[0].lower()):
             return "index"
         if not hits and not required:
             return None
@@ -86,10 +78,10 @@ class _Columns:
             raise RecordError(f"column {label!r} ({what}) is not numeric (dtype "
                               f"{col.dtype}); convert it first, e.g. pd.to_numeric or "
                               "read_csv(..., decimal=',')")
-        unit = given_unit or (self.parsed[j][1] if j != "index" else _label(label)[1])
+        unit = given_unit or (self.parsed[j][1] if j != "index" else column_label(label)[1])
         if unit is None:
             raise RecordError(f"column {label!r} has no unit in its label: give "
-                              f"{what}_unit=..., or name it '{_label(label)[0]} [unit]'")
+                              f"{what}_unit=..., or name it '{column_label(label)[0]} [unit]'")
         return col.to_numpy(np.float64), unit
 
 

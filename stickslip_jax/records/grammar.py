@@ -29,3 +29,11 @@ UNIT_CELL = re.compile(r"-|[A-Za-z\u00b5\u03bc%][A-Za-z0-9\u00b5\u03bc/*^.\u00b0
 NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 KEY = re.compile(r"[a-z][a-z0-9_-]*")
 NONFINITE = {"nan", "+nan", "-nan", "inf", "+inf", "-inf", "infinity", "+infinity", "-infinity"}
+LABEL = re.compile(r"^\s*(.*?)\s*(?:\[(.*)\]|\((.*)\))?\s*$", re.DOTALL)
+
+
+def column_label(label) -> tuple[str, str | None]:
+    """(name, unit or None) of a table's column label: `"force [N]"`, `"Force (N)"`,
+    `"force"` (a DataFrame's, a raw logger file's)."""
+    m = LABEL.match(str(label))
+    return m.group(1), ((m.group(2) or m.group(3) or "").strip() or None)
