@@ -8,6 +8,11 @@ compiling them, and a later run loads them all (`pytest --cache-clear` empties i
 `STICKSLIP_TEST_CACHE_DIR` chooses another folder, or an empty value turns it off. The
 `stickslip` commands the tests start as subprocesses get the same folder through
 `STICKSLIP_CACHE_DIR` (the command's own cache variable), never the user's cache.
+
+Under `pytest -n 2` without the slow tests, each worker takes whole test modules
+(`pytest_xdist_make_scheduler`), the longest first (`LONG_MODULES`): a module's fixtures
+(its fitted campaigns and discoveries) are built once, not once on each worker, and the
+two workers end together. `--dist` on the command line chooses another distribution.
 """
 
 import os
@@ -30,6 +35,12 @@ QUICK_MODULES = ("test_code_size", "test_layering", "test_product_text", "test_u
 """Modules marked `quick` (`pytest -m "quick and not slow"`): the source checks and the
 model's unit tests (friction laws, tables, drives, contact, the least-squares solver,
 the steady state), without fits, discovery or subprocess commands."""
+
+LONG_MODULES = ("test_sequential_discovery", "test_cycle_discovery", "test_api_results",
+                "test_json_keys", "test_sparse_forms")
+"""Test modules that take longest in the default run, longest first (seconds of the
+module, summed from `pytest --durations`): they run first, so that under `pytest -n 2`
+the short modules fill the end of both workers."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about
@@ -77,3 +88,19 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.path.stem in QUICK_MODULES:
             item.add_marker(pytest.mark.quick)
+    rank = {stem: i for i, stem in enumerate(LONG_MODULES)}
+    items.sort(key=lambda item: rank.get(item.path.stem, len(rank)))  # stable: file order kept
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_make_scheduler(config, log):
+    """Whole modules per worker, in collection order (module doc), for a run without the
+    slow tests; None (xdist's own choice: test by test) when the command line names
+    `--dist` or the run takes the slow tests (long campaigns, each on its own)."""
+    named = any(a.startswith(("--dist", "-d")) for a in config.invocation_params.args)
+    if named or "not slow" not in (config.option.markexpr or ""):
+        return None
+    from xdist.scheduler import LoadFileScheduling
+
+    config.option.loadscopereorder = False  # keep LONG_MODULES first
+    return LoadFileScheduling(config, log)
