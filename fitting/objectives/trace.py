@@ -42,10 +42,15 @@ A record whose drive is not $u = v t$ (a measured `drive` column, or a `drive_sp
 column integrated to one when the record is read, or a `drive_program`) drives every
 window with its own piecewise-linear drive (`drive_knots`, `KNOTS` knots per window):
 `KNOTS` - 2 knots spread evenly from the window's start to its measured breakaway, so
-the stick line and the breakaway follow the measured drive, one at the window's end
-(the slip is driven at the mean speed between the breakaway and the window's end: the
-exact simulator restarts its closed form at every knot it crosses), and one far beyond
-it. The knots' linear interpolation follows a 6 um lead-screw error on a 2 mm pitch
+the stick line and the breakaway follow the measured drive, one at the window's end,
+and one far beyond it. Where a campaign's measured drive bends within a slip (the
+parabola fitted to it from the measured breakaway to the window's end departs from its
+chord by more than the record's noise: a torsional rig's motor whose speed swings),
+`SLIP_KNOTS` more are spread evenly over every window's slip, so the slider is driven
+through the drive's own speed profile and its stop follows it (the exact simulator
+restarts its closed form at every knot it crosses); elsewhere the slip is driven at the
+mean speed between the breakaway and the window's end. The knots' linear interpolation
+follows a 6 um lead-screw error on a 2 mm pitch
 to within 0.08 um where a 60 s stick spans a whole pitch (`KNOTS`); at the truth the residuals
 of such records are the noise (rms 0.995 on the independent generator's records,
 tests/test_drives.py); a drive program's speed step is spread over the interval of the two
@@ -69,9 +74,9 @@ from stickslip_jax.simulation import SimulationResult, simulate_exact
 from ..data.features import RecordFeatures
 from ..params import CampaignParams
 
-__all__ = ["CHUNK", "KNOTS", "TraceData", "cycle_windows", "failed_windows", "reslip_windows",
-           "trace_data", "trace_residuals", "trace_residuals_and_flags", "trace_sd", "trace_simulation",
-           "window_failures"]
+__all__ = ["CHUNK", "KNOTS", "SLIP_KNOTS", "TraceData", "cycle_windows", "failed_windows",
+           "reslip_windows", "trace_data", "trace_residuals", "trace_residuals_and_flags",
+           "trace_sd", "trace_simulation", "window_failures"]
 
 MAX_EVENTS = 6
 """Stick and slip phases simulated per window (stick, slip, and room for an early extra cycle;
@@ -80,6 +85,9 @@ KNOTS = 32
 """Knots of a window's piecewise-linear drive (module doc): at 32, a 6 um lead-screw error
 (second harmonic 0.3) is interpolated to within 0.077 um (the largest over its phases) where a
 60 s stick spans one pitch period."""
+SLIP_KNOTS = 16
+"""Knots added inside every window's slip when a campaign's measured drive bends within its
+slips (module doc); each crossed knot costs the exact simulator 2 events."""
 
 
 class TraceData(eqx.Module):
@@ -92,9 +100,9 @@ class TraceData(eqx.Module):
     previous slip), `start_level` (mm, the measured slip-end deflection there, offset
     included), `start_level_sd` (mm) and `start_time_sd` (s) their standard errors,
     `stick_time` (s, the measured stick time of the window), `sigma` (mm, the record's
-    noise), `drive_poly` (a measured drive's cubic, `trace_data`), `drive_knots` [N, KNOTS,
-    2] (knot times s, drive positions mm of the window's drive, module doc; None when
-    every record is driven at a constant speed); per sample `time` (s), `deflection`
+    noise), `drive_poly` (a measured drive's cubic, `trace_data`), `drive_knots` [N, KNOTS
+    (+ SLIP_KNOTS), 2] (knot times s, drive positions mm of the window's drive, module doc;
+    None when every record is driven at a constant speed); per sample `time` (s), `deflection`
     (mm), `mask` (False on padding).
     """
 
@@ -156,6 +164,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     L = -(-L // 256) * 256
     rows = []
     n_windows = 0
+    bends = False
     for r, (rec, f) in enumerate(zip(records, features)):
         if not f.stick_slip:
             raise ValueError(f"{f.name}: no usable stick-slip ({f.message})")
@@ -187,8 +196,8 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
                 v_win, poly = poly[0], np.array([0.0, poly[1], poly[2]])
             else:
                 v_win = v_rec
-            knots = _window_knots(rec, t_s, float(f.stick_time[j]), float(t[sel[-1]]),
-                                  v_win)
+            knots = (rec, t_s, float(f.stick_time[j]), float(t[sel[-1]]), v_win)
+            bends |= u_meas is not None and _bends(t[sel], u_meas[sel], knots, sigma)
             head = (r, f.weight, f.stiffness, float(v_win), t_s,
                     float(f.trough[j - 1]), float(f.trough_sd[j - 1]),
                     float(f.stick_time_sd[j]) / np.sqrt(2.0), float(f.stick_time[j]),
@@ -210,6 +219,11 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     defl = np.zeros((N, L))
     mask = np.zeros((N, L), bool)
     cols = [[row[i] for row in rows] for i in range(14)]
+    made = {}  # one knot table per window, SLIP_KNOTS more inside the slips where they bend
+    for k in cols[13]:
+        if id(k) not in made:
+            made[id(k)] = _window_knots(*k, slip=SLIP_KNOTS * bends)
+    cols[13] = [made[id(k)] for k in cols[13]]
     for i, row in enumerate(rows):
         n = row[-2].size
         time[i, :n], time[i, n:] = row[-2], row[-2][-1]
@@ -234,13 +248,29 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     )
 
 
-def _window_knots(rec, t_s: float, stick: float, t_end: float, v: float) -> np.ndarray:
-    """[KNOTS, 2]: knot times (s) and drive positions (mm) of one window's drive (module
-    doc): from the window's start `t_s` to its measured breakaway `t_s + stick`, its last
-    sample `t_end`, and a knot far beyond on the last segment's line (v: mm/s, a
-    constant-speed record's speed)."""
+def _bends(t, u, knots, sigma: float) -> bool:
+    """Whether the drive u (mm) at times t (s) of one window departs from its chord over the
+    slip (from the measured breakaway to the window's end) by more than `sigma` (mm): the
+    largest departure of the parabola fitted to it there."""
+    _, t_s, stick, t_end, _ = knots
     t_b = t_s + min(max(stick, 0.0), 0.95 * (t_end - t_s))
-    t_k = np.concatenate([np.linspace(t_s, t_b, KNOTS - 2), [t_end]])
+    sel = t >= t_b
+    if np.count_nonzero(sel) < 4:
+        return False
+    curve = np.polyfit(t[sel] - t_b, u[sel], 2)[0]
+    return bool(abs(curve) * (t_end - t_b) ** 2 / 4.0 > sigma)
+
+
+def _window_knots(rec, t_s: float, stick: float, t_end: float, v: float, slip: int = 0
+                  ) -> np.ndarray:
+    """[KNOTS + slip, 2]: knot times (s) and drive positions (mm) of one window's drive
+    (module doc): from the window's start `t_s` to its measured breakaway `t_s + stick`,
+    `slip` more spread evenly from there to its last sample `t_end`, that sample, and a
+    knot far beyond on the last segment's line (v: mm/s, a constant-speed record's
+    speed)."""
+    t_b = t_s + min(max(stick, 0.0), 0.95 * (t_end - t_s))
+    t_k = np.concatenate([np.linspace(t_s, t_b, KNOTS - 2),
+                          np.linspace(t_b, t_end, slip + 2)[1:]])
     u = v * (t_k - t_s) if rec.drive_source == "speed" else (
         np.asarray(rec.drive_position(t_k), float) - float(rec.drive_position([t_s])[0]))
     slope = (u[-1] - u[-2]) / (t_k[-1] - t_k[-2])
@@ -260,8 +290,9 @@ def trace_simulation(params: CampaignParams, data: TraceData,
     def one(w, n, k, v, t0, x0, ts, m, kn):
         sw = ss.Slideway(friction, w, k, n)
         drive = ConstantSpeed(v) if kn is None else MeasuredDrive(kn[:, 0], kn[:, 1])
+        slip_knots = 0 if kn is None else kn.shape[0] - KNOTS
         return simulate_exact(sw, drive, ts, initial_deflection=x0, start_time=t0, mask=m,
-                              max_events=MAX_EVENTS + 2 * (kn is not None),
+                              max_events=MAX_EVENTS + 2 * (kn is not None) + 2 * slip_knots,
                               slip_time=slip_time, cycle_table=False,
                               check=False)  # Record checked times, W, k
 
