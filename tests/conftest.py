@@ -36,11 +36,16 @@ QUICK_MODULES = ("test_code_size", "test_layering", "test_product_text", "test_u
 model's unit tests (friction laws, tables, drives, contact, the least-squares solver,
 the steady state), without fits, discovery or subprocess commands."""
 
-LONG_MODULES = ("test_sequential_discovery", "test_cycle_discovery", "test_api_results",
-                "test_json_keys", "test_sparse_forms")
-"""Test modules that take longest in the default run, longest first (seconds of the
-module, summed from `pytest --durations`): they run first, so that under `pytest -n 2`
-the short modules fill the end of both workers."""
+LONG_MODULES = ("test_notebooks", "test_limit_cycle", "test_real_world_records",
+                "test_exact_campaign", "test_smooth", "test_drives", "test_microsqueeze",
+                "test_fit_microsqueeze", "test_sequential_discovery", "test_normal_load",
+                "test_json_keys", "test_friction_laws", "test_exact", "test_short_sticks",
+                "test_cli_steady", "test_mcmc", "test_cycle_discovery", "test_api_results",
+                "test_experiment_design", "test_smooth_objective", "test_cli_tracebacks",
+                "test_cycle_model")
+"""Test modules that take longest in the default run, longest first (each module's
+seconds summed from `pytest -n 2 --durations=200`): they run first, so that under
+`pytest -n 2` the short modules fill the end of both workers."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about
