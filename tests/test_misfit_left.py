@@ -77,4 +77,9 @@ def test_a_late_breakaway_is_named_with_its_delay_and_the_friction_it_stands_for
     assert left.delay["late"] == 1.0 and left.delay["cycles"] == N
     assert left.delay["deflection_um"] == pytest.approx(2.0, abs=0.5)  # 0.1 mm/s x 20 ms
     assert left.delay["mu_0"] == pytest.approx(86.9 * 0.002 / 36.0, rel=0.3)
-    assert "breaks away later than the record in 100 % of the 12 cycles" in left.words
+    assert "breaks away later than the record in 100 % of the 12 cycles, 0 of them" in left.words
+    # a model that does not slip within its windows: their ends count, a lower bound
+    left = _left(lambda t, tau: np.where(tau >= 0.98 * STICK, -30e-3, 0.0), lag=0.5,
+                 upto=np.inf)
+    assert left.delay["no_slip"] == N and left.delay["late"] == 1.0
+    assert left.delay["quartiles_ms"][1] == pytest.approx(200.0, abs=5.0)

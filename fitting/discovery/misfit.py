@@ -131,21 +131,24 @@ def _forms(clock, win, t, rec, e, w, excess) -> tuple[list, np.ndarray]:
 def _delay(c) -> dict:
     """The model's breakaway delay per cycle (module doc): its quartiles (ms), the share of
     cycles it breaks away late, and the median deflection (um) and static friction (-)
-    the delay stands for at the drive speed."""
+    the delay stands for at the drive speed; a window in which the model does not slip
+    counts its end as the model's breakaway (a lower bound; `no_slip` of them)."""
     first = c["slip"] & ~np.r_[False, c["slip"][:-1]]
     win = c["window"]
     t1 = np.full(int(win.max()) + 1, np.inf)
     np.minimum.at(t1, win[first], (c["t"] - c["start_time"])[first])
     at = np.flatnonzero(np.r_[True, win[1:] != win[:-1]])  # each window's first sample
-    at = at[np.isfinite(t1[win[at]])]
+    end = np.zeros_like(t1)
+    np.maximum.at(end, win, c["t"] - c["start_time"])
+    stuck = ~np.isfinite(t1[win[at]])  # no slip of the model in the window: its end, at least
     if not at.size:
         return {}
-    dt = t1[win[at]] - c["stick_time"][at]
+    dt = np.where(stuck, end[win[at]], t1[win[at]]) - c["stick_time"][at]
     climb = c["speed"][at] * dt  # mm
     return {"quartiles_ms": [float(1e3 * q) for q in np.percentile(dt, (25, 50, 75))],
             "late": float(np.mean(dt > 0)), "deflection_um": float(1e3 * np.median(climb)),
             "mu_0": float(np.median(c["stiffness"][at] * climb / c["weight"][at])),
-            "cycles": int(dt.size)}
+            "cycles": int(dt.size), "no_slip": int(stuck.sum())}
 
 
 def _words(phase, share, forms, rest, delay) -> str:
@@ -166,7 +169,8 @@ def _words(phase, share, forms, rest, delay) -> str:
     q = delay.get("quartiles_ms")
     late = ("" if phase != "breakaway" or not q else
             f"; the model breaks away later than the record in {100 * delay['late']:.0f} % "
-            f"of the {delay['cycles']} cycles (delay {q[1]:.3g} ms, median; quartiles "
+            f"of the {delay['cycles']} cycles, {delay['no_slip']} of them not within the "
+            f"window (counted at its end) (delay {q[1]:.3g} ms, median; quartiles "
             f"{q[0]:.3g} to {q[2]:.3g} ms; at the drive speed {delay['deflection_um']:.3g} um "
             f"of deflection, a static friction mu_0 off by {delay['mu_0']:.2g})")
     return (f"The misfit left sits in the {phase} phases ({100 * share:.0f} % of the excess "
