@@ -65,7 +65,7 @@ from .parts import (AbstractForceTerm, AbstractLoadCoupling, AbstractMeasurement
 from .trace import Cycles, SimulationResult, Trace
 
 DEFAULT_SMOOTHING = 1e-3
-"""Default $\eta$ (all formulations): the sharpest rigid stick whose gradients the tests
+r"""Default $\eta$ (all formulations): the sharpest rigid stick whose gradients the tests
 verify (amplitude within 0.2 % of the exact simulator on the benchmark)."""
 
 
