@@ -21,6 +21,9 @@ runs those too), keeping the default suite under 10 minutes."""
                                   else p for p in NOTEBOOKS], ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs_headless(path, tmp_path):
     env = dict(os.environ, MPLBACKEND="Agg", STICKSLIP_SMALL="1", STICKSLIP_FIGDIR=str(tmp_path))
+    if os.environ.get("STICKSLIP_CACHE_DIR"):  # the test run's compilation cache (conftest)
+        env.update(JAX_COMPILATION_CACHE_DIR=os.environ["STICKSLIP_CACHE_DIR"],
+                   JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS="0.1")
     proc = subprocess.run(
         [sys.executable, str(path)], cwd=ROOT, env=env, capture_output=True, text=True, timeout=600
     )
