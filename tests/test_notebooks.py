@@ -12,9 +12,11 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
-SLOW = {"05_missing_physics"}
-"""Notebooks that take over a minute at small size: run with the slow tests (`.ci/run`
-runs those too), keeping the default suite under 10 minutes."""
+SLOW = {"04_design", "05_missing_physics"}
+"""Notebooks that take about a minute or more at small size (04_design: 56 s of CPU time,
+its functions each checked by test_experiment_design, test_inverse_design and
+test_design_maps): run with the slow tests (`.ci/run` runs those too), keeping the
+default suite short."""
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem in SLOW
