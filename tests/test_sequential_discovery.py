@@ -90,7 +90,8 @@ def test_with_shape_keeps_the_named_effects_settings():
 
 def test_a_later_effect_joins_only_when_its_refit_confirms_it():
     """The refit's chi-square drop must pass the chi-square quantile at alpha for its
-    parameter count, scaled by the extended base's chi2/n above 1 (`more.confirmed`)."""
+    parameter count, scaled by the extended base's chi2/n above 1, and remove a share of the
+    excess chi-square over the noise (`more.confirmed`)."""
     import types
 
     from scipy.stats import chi2
@@ -106,6 +107,12 @@ def test_a_later_effect_joins_only_when_its_refit_confirms_it():
     near = types.SimpleNamespace(fit=types.SimpleNamespace(rss=90.0), within=0.0, n_used=100)
     rf = types.SimpleNamespace(drop=1.01 * chi2.ppf(0.99, 2), values=np.zeros(2))
     assert confirmed(near, rf, 0.01)  # chi2/n below 1: the plain quantile
+    # significant but irrelevant: chi2/n 100, the drop passes its level (921) but removes
+    # 1 % of the excess over the noise, below a 5 % share
+    far = types.SimpleNamespace(fit=types.SimpleNamespace(rss=1e6), within=0.0, n_used=10_000)
+    for drop, ok in ((0.01 * 990_000, False), (0.06 * 990_000, True)):
+        rf = types.SimpleNamespace(drop=drop, values=np.zeros(2))
+        assert confirmed(far, rf, 0.01) and confirmed(far, rf, 0.01, 0.05) is ok
 
 
 def test_a_named_effects_shape_is_a_nuisance_of_the_later_tests():

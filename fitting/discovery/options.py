@@ -84,6 +84,10 @@ class DiscoveryOptions:
     # a phase's chi2/n (residuals over their own standard errors) above which "none" is "low"
     phase_chi2: float = 2.0
 
+    # share of the excess chi2 over the noise a later effect must remove to be named (real
+    # records: later effects removed 0.8 % and 1.8 % of it; named pairs of effects 40-44 %)
+    later_share: float = 0.05
+
     # -- re-weighing (stage 6) --
     # continuations of the winner while the records weighed by their scatter weigh fully again
     reweigh_rounds: int = 3
