@@ -108,7 +108,7 @@ def test_a_later_effect_joins_only_when_its_refit_confirms_it():
     rf = types.SimpleNamespace(drop=1.01 * chi2.ppf(0.99, 2), values=np.zeros(2))
     assert confirmed(near, rf, 0.01)  # chi2/n below 1: the plain quantile
     # significant but irrelevant: chi2/n 100, the drop passes its level (921) but removes
-    # 1 % of the excess over the noise, below a 5 % share
+    # 1 % of the excess over the noise, below a 5 % share (the option's default: 3 %)
     far = types.SimpleNamespace(fit=types.SimpleNamespace(rss=1e6), within=0.0, n_used=10_000)
     for drop, ok in ((0.01 * 990_000, False), (0.06 * 990_000, True)):
         rf = types.SimpleNamespace(drop=drop, values=np.zeros(2))

@@ -85,8 +85,9 @@ class DiscoveryOptions:
     phase_chi2: float = 2.0
 
     # share of the excess chi2 over the noise a later effect must remove to be named (real
-    # records: later effects removed 0.8 % and 1.8 % of it; named pairs of effects 40-44 %)
-    later_share: float = 0.05
+    # records: irrelevant later effects removed 0.8 % and 1.8 %; the second effect of 4-record
+    # pair campaigns 5.1-44 %)
+    later_share: float = 0.03
 
     # -- re-weighing (stage 6) --
     # continuations of the winner while the records weighed by their scatter weigh fully again
