@@ -191,7 +191,7 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
     from ..report.fit_table import build_report
     from ..uncertainty.laplace import laplace
 
-    objective = Objective.parse(objective)
+    goal = Objective.parse(objective)
     modes = ModelModes(offset=GaugeOffset.parse(gauge_offset, "gauge_offset"),
                        slip_time=SlipTime.parse(slip_time))
     law, model_name = _law(model)
@@ -205,7 +205,7 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
         raise ValueError("eta: only used with model='microsqueeze'")
     given = as_list(records)
     result, campaign, extra = fit_campaign(
-        given, law, fixed, objective=objective, loss=loss, modes=modes, strict=strict,
+        given, law, fixed, objective=goal, loss=loss, modes=modes, strict=strict,
         eta=eta_value, pair=pair, surface=surface, loss_text=loss.spec(),
         check=lambda held: _fixed(held, law))
     inputs: tuple[str, ...] = ()
