@@ -86,7 +86,7 @@ class DiscoveryOptions:
 
     # share of the excess chi2 over the noise a later effect must remove to be named (real
     # records: irrelevant later effects removed 0.8 % and 1.8 %; the second effect of 4-record
-    # pair campaigns 5.1-44 %)
+    # pair campaigns 5.1-44 %, read from their residual RMS gaps)
     later_share: float = 0.03
 
     # -- re-weighing (stage 6) --
