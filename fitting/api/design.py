@@ -33,7 +33,7 @@ if TYPE_CHECKING:
     import pandas
     from matplotlib.figure import Figure
 
-__all__ = ["CSV_COLUMNS", "DesignStudy", "JSON_ALIASES", "MapOptions", "design_map",
+__all__ = ["DesignStudy", "JSON_ALIASES", "MapOptions", "design_map",
            "figure_axes", "map_study", "parse_grid"]
 
 DIMENSIONS = {"weight": ("force", "kgf"), "stiffness": ("stiffness", "kgf/mm"),
@@ -64,14 +64,7 @@ JSON_ALIASES = {"stiffness_kgf_per_mm": "stiffness_kgf_mm",
                 "critical_speed_band_mm_per_min": "critical_speed_band_mm_min"}
 """JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
 their old names, still written beside them for one release (`deprecated_keys`); the CSV
-columns (`CSV_COLUMNS`) have the new names only."""
-
-CSV_COLUMNS = (  # (key in the map, column, factor from internal units)
-    ("amplitude", "amplitude_mm", 1.0), ("amplitude_ratio", "amplitude_ratio", 1.0),
-    ("frequency", "frequency_hz", 1.0), ("frequency_ratio", "frequency_ratio", 1.0),
-    ("stick_time", "stick_time_s", 1.0), ("critical_speed", "critical_speed_mm_per_min", 60.0),
-    ("probability", "probability_stick_slip", 1.0), ("stick_slip", "stick_slip", 1),
-    ("converged", "converged", 1))
+columns (`design.netcdf.VARIABLES`) have the new names only."""
 
 
 def parse_grid(text: str, dimension: str, default_unit: str, arg: str) -> np.ndarray:
@@ -445,18 +438,19 @@ class DesignStudy(ResultDocument):
 
     def _columns(self) -> dict[str, np.ndarray]:
         """The long-format columns: weight_kgf, stiffness_kgf_per_mm,
-        drive_speed_mm_per_min, every quantity the map has (`CSV_COLUMNS`), `regime` by
+        drive_speed_mm_per_min, every quantity the map has (`design.netcdf.VARIABLES`), `regime` by
         name and, with a tolerance, `probability_met`."""
         from stickslip_jax.steady import REGIMES
 
         from ..design import outer
+        from ..design.netcdf import VARIABLES
 
         res = self.maps
         axes = res["axes"]
         w, k, v = (np.broadcast_to(a, res["amplitude"].shape).ravel()
                    for a in outer(*(axes[n] for n in AXES)))
         cols = {"weight_kgf": w, "stiffness_kgf_per_mm": k, "drive_speed_mm_per_min": v * 60.0}
-        for key, name, factor in CSV_COLUMNS:
+        for key, _, factor, _, _, name in VARIABLES:
             if key in res:
                 x = np.asarray(res[key]).ravel()
                 cols[name] = x.astype(int) if factor == 1 and x.dtype == bool else x * factor

@@ -21,17 +21,19 @@ __all__ = ["NETCDF_EXTRA", "VARIABLES", "import_xarray", "map_dataset", "write_n
 NETCDF_EXTRA = 'pip install "stickslip-jax[netcdf]"'
 """How to install xarray for `--netcdf`."""
 
-VARIABLES = (  # (key in the map, variable, factor from internal units, units, long name)
-    ("amplitude", "amplitude", 1.0, "mm", "stick-slip amplitude a (eq 5)"),
-    ("amplitude_ratio", "amplitude_ratio", 1.0, "1", "a k / W"),
-    ("frequency", "frequency", 1.0, "Hz", "stick-slip frequency f"),
-    ("frequency_ratio", "frequency_ratio", 1.0, "1", "f / f0"),
-    ("stick_time", "stick_time", 1.0, "s", "stick time T1"),
-    ("critical_speed", "v_c", 60.0, "mm/min", "critical speed v_c (eq 12)"),
+VARIABLES = (  # (key in the map, variable, factor from internal units, units, long name,
+    #             column of the long CSV map: the JSON key)
+    ("amplitude", "amplitude", 1.0, "mm", "stick-slip amplitude a (eq 5)", "amplitude_mm"),
+    ("amplitude_ratio", "amplitude_ratio", 1.0, "1", "a k / W", "amplitude_ratio"),
+    ("frequency", "frequency", 1.0, "Hz", "stick-slip frequency f", "frequency_hz"),
+    ("frequency_ratio", "frequency_ratio", 1.0, "1", "f / f0", "frequency_ratio"),
+    ("stick_time", "stick_time", 1.0, "s", "stick time T1", "stick_time_s"),
+    ("critical_speed", "v_c", 60.0, "mm/min", "critical speed v_c (eq 12)",
+     "critical_speed_mm_per_min"),
     ("probability", "probability_stick_slip", 1.0, "1",
-     "posterior probability of stick-slip"),
-    ("stick_slip", "stick_slip", 1, "1", "stick-slip (1) or not (0)"),
-    ("converged", "converged", 1, "1", "the solve or simulation converged (1)"),
+     "posterior probability of stick-slip", "probability_stick_slip"),
+    ("stick_slip", "stick_slip", 1, "1", "stick-slip (1) or not (0)", "stick_slip"),
+    ("converged", "converged", 1, "1", "the solve or simulation converged (1)", "converged"),
 )
 
 BANDS = (("amplitude_band", "amplitude_band", 1.0, "mm", "amplitude credible band"),
@@ -62,7 +64,7 @@ def map_dataset(res: dict, attrs: dict | None = None):
         "v": ("v", np.asarray(axes["speed"], float) * 60.0, {"units": "mm/min",
                                                                "long_name": "drive speed v"})}
     data = {}
-    for key, name, factor, units, long in VARIABLES:
+    for key, name, factor, units, long, _ in VARIABLES:
         if key in res:
             x = np.asarray(res[key])
             x = x.astype(np.int8) if x.dtype == bool else x * factor
@@ -88,9 +90,8 @@ def map_dataset(res: dict, attrs: dict | None = None):
         prob = np.full_like(need, np.nan)
         for row in tol["required_stiffness"]:
             i = w_index[float(row["weight_kgf"])]
-            speed = row.get("drive_speed_mm_per_min", row.get("speed_mm_min"))
-            j = v_index[round(float(speed), 9)]
-            k = row.get("stiffness_kgf_per_mm", row.get("stiffness_kgf_mm"))
+            j = v_index[round(float(row["drive_speed_mm_per_min"]), 9)]
+            k = row["stiffness_kgf_per_mm"]
             need[i, j] = np.nan if k is None else k
             prob[i, j] = row["probability"]
         data["required_stiffness"] = (("W", "v"), need, {
