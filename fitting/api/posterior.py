@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 
     from ..uncertainty.mcmc import McmcResult
 
-__all__ = ["POSTERIOR_COLUMNS", "CampaignPosterior", "objective_of", "sample"]
+__all__ = ["POSTERIOR_COLUMNS", "CampaignPosterior", "sample"]
 
 POSTERIOR_COLUMNS = ("median", "low", "high", "unit", "sd", "mean", "tau_steps", "ess")
 """The columns of `CampaignPosterior.summary()` (low, high: the central 95 % interval;
@@ -209,23 +209,7 @@ def sample(records: RecordsSpec | CampaignFit, *, steps: int = 3000, walkers: in
     truth = find_truth(cf.campaign.records, list(cf.fit.values))
     extra = {"given": cf.report["given"]} if "given" in cf.report else None
     doc = mcmc_document(res, cf.fit, cf.campaign, model=cf.model,
-                        objective=objective_of(cf.fit.objective).value,
+                        objective=Objective.parse(cf.fit.objective.kind).value,
                         truth=truth, max_draws=draws, extra=extra)
     return CampaignPosterior(report=doc, mcmc=res, campaign_fit=cf, truth=truth)
 
-
-def objective_of(objective) -> Objective:
-    """The `Objective` member of a fit's objective (a heavy-tailed loss's wrapper read
-    through): the name `stickslip mcmc --json` writes under "objective"."""
-    from ..objectives.combined import FeaturesObjective, TraceObjective, WeightedSum
-    from ..objectives.losses import HeavyTailed
-    from ..objectives.smooth import SmoothObjective
-
-    if isinstance(objective, HeavyTailed):
-        objective = objective.inner
-    kinds = ((FeaturesObjective, Objective.FEATURES), (TraceObjective, Objective.TRACE),
-             (WeightedSum, Objective.BOTH), (SmoothObjective, Objective.SMOOTH))
-    for kind, member in kinds:
-        if isinstance(objective, kind):
-            return member
-    raise ValueError(f"no objective option for {type(objective).__name__}")
