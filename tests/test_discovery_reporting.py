@@ -140,7 +140,8 @@ def test_both_bases_answer_with_one_document():
     analysis = NS(phases={}, test={"p_value": 0.5})
     smooth = SmoothDiscovery(**common, residuals_before=analysis, residuals_after=analysis,
                              test_before=analysis.test, test_after=analysis.test,
-                             base_problem=None, final_problem=None)
+                             base_problem=None, final_problem=None,
+                             campaign=NS(screening=[]))
     cycle = CycleDiscovery(**common, phases_before={}, phases_after={},
                            campaign=NS(screening=[]), model=None, z_before=None,
                            z_after=None, shape=None, sensor=False)
@@ -156,5 +157,6 @@ def test_both_bases_answer_with_one_document():
                                "records", "records_scaled", "windows_set_aside",
                                "learned_correction", "sparse_form", "misfit_left",
                                "steps"}
-    assert set(s) - shared == {"misspecification_before", "misspecification_after"}
+    assert set(s) - shared == {"misspecification_before", "misspecification_after",
+                               "records_screened"}
     assert s["misspecification_after"] == {"p_value": 0.5} and c["learned_correction"] is None

@@ -55,12 +55,12 @@ def test_the_campaign_verbs_release_first(monkeypatch):
     """fit_features and discover_cycles check the maps before anything else (a campaign
     that is refused still checked them)."""
     from stickslip_fitting.solve import fit as fit_module
-    from stickslip_fitting.discovery import cycle_workflow
+    from stickslip_fitting.discovery import cycle_workflow, engine
 
     calls = []
     spy = lambda *a, **k: calls.append(1) or release_programs(1.0)  # noqa: E731
     monkeypatch.setattr(fit_module, "release_programs", spy)
-    monkeypatch.setattr(cycle_workflow, "release_programs", spy)
+    monkeypatch.setattr(engine, "release_programs", spy)
     with pytest.raises(ValueError, match="no records to fit"):
         fit_module.fit_features([])
     assert len(calls) == 1

@@ -81,6 +81,8 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
+    import sys
+
     from stickslip_jax.records import read_campaign_files
 
     if args.top < 1:
@@ -112,18 +114,26 @@ def run(args) -> int:
     from ..objectives.losses import parse_loss
 
     loss = parse_loss(args.loss)
-    result, extra, campaign = (_run_cycle if cycle else _run_smooth)(args, records, loss,
-                                                                      unreadable)
+    base = _base(args, cycle, loss, unreadable)
+    from stickslip_jax.logs import logger
+
+    from ..discovery.engine import discover
+
+    logger.info(f"discovery on {len(records)} records (base {base.NAME})...")
+    result = discover(records, base, progress=None if args.quiet else logger.info)
+    for s in result.campaign.screening:
+        if s.status != "used":
+            print(f"warning: {s.name}: {s.status.replace('_', ' ')} ({s.reason}); not used",
+                  file=sys.stderr)
+    extra = {"loss": loss.spec()} if cycle else {}
     print(answer_text(result))
     if args.compare_laws:
-        laws = _compare_laws(campaign)
+        laws = _compare_laws(result.campaign)
         print(laws.message)
         extra["laws"] = laws.to_json()
     if args.json:
         write_json(args.json, {**json_document(result), **extra})
     if args.plot:
-        from stickslip_jax.logs import logger
-
         from ..report.plots import interruptible
 
         logger.info("drawing the figure...")
@@ -200,33 +210,6 @@ def candidate_table(candidates) -> str:
             + "; ".join(f"{k}: {v}" for k, v in SIGNIFICANT_BY.items()))
 
 
-def _run_smooth(args, records, loss, unreadable):
-    """The whole-record discovery on the smoothed simulator (`--base smooth`), on the
-    records with usable stick-slip (the others listed on stderr): the result and the
-    keys the command adds to its document, and the screened campaign."""
-    import sys
-
-    from stickslip_jax.logs import logger
-
-    from ..data.campaign import screen_records
-    from ..discovery import discover
-    from ..discovery.effects import CANDIDATES
-
-    if loss.spec() != "gaussian":
-        raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
-                         "fits least squares); drop --loss or use --base cycle")
-    campaign = screen_records(records, strict=args.strict, unreadable=unreadable)
-    for w in campaign.warnings:
-        print("warning: " + w, file=sys.stderr)
-    logger.info(f"discovery on {len(campaign.records)} records (base smooth: minutes)...")
-    result = discover(campaign.records, candidates=tuple(args.only or CANDIDATES),
-                      top=args.top, threshold=10.0 if args.threshold is None else args.threshold,
-                      crop=args.crop or "slip_end",
-                      learn=args.learn, max_evals=args.max_evals,
-                      progress=None if args.quiet else logger.info)
-    return result, {"records_screened": [x.to_json() for x in campaign.screening]}, campaign
-
-
 def _compare_laws(campaign):
     """The base friction laws fitted to the records discovery used
     (`discovery.laws.compare_laws`)."""
@@ -267,33 +250,34 @@ def smooth_candidate_table(candidates) -> str:
     return "\n".join(lines)
 
 
-def _run_cycle(args, records, loss, unreadable=()):
-    """The per-cycle discovery (`--base cycle`), the records it does not use listed on
-    stderr: the result, the keys the command adds to its document and the screened
-    campaign."""
-    import sys
+def _base(args, cycle: bool, loss, unreadable):
+    """The base model of `--base` with the command's options (`engine.AbstractBaseModel`:
+    `CycleBase` or `SmoothBase`)."""
+    import dataclasses
 
+    only = tuple(args.only) if args.only else None
+    if not cycle:
+        from ..discovery.effects import CANDIDATES
+        from ..discovery.workflow import SmoothBase
+
+        if loss.spec() != "gaussian":
+            raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
+                             "fits least squares); drop --loss or use --base cycle")
+        return SmoothBase(candidates=only or CANDIDATES, top=args.top,
+                          threshold=10.0 if args.threshold is None else args.threshold,
+                          crop=args.crop or "slip_end", learn=args.learn,
+                          max_evals=args.max_evals, strict=args.strict,
+                          unreadable=tuple(unreadable))
     from ..discovery.cycle_effects import FAMILIES
-    from ..discovery.cycle_workflow import discover_cycles
+    from ..discovery.cycle_workflow import CycleBase
+    from ..discovery.options import DEFAULTS
 
     names = {f.name for f in FAMILIES}
-    only = args.only or None
-    if only:
-        bad = [n for n in only if n not in names]
-        if bad:
-            raise ValueError(f"--only: {', '.join(bad)} exist only with --base smooth; the "
-                             f"cycle base has {', '.join(sorted(names))}")
-
-    from stickslip_jax.logs import logger
-
-    logger.info(f"discovery on {len(records)} records (base cycle)...")
-    result = discover_cycles(records, candidates=tuple(only) if only else None, top=args.top,
-                             alpha=args.alpha, max_evals=args.max_evals, strict=args.strict,
-                             learn=args.learn, loss=loss, unreadable=unreadable,
-                             max_effects=args.max_effects,
-                             progress=None if args.quiet else logger.info)
-    for s in result.campaign.screening:
-        if s.status != "used":
-            print(f"warning: {s.name}: {s.status.replace('_', ' ')} ({s.reason}); not used",
-                  file=sys.stderr)
-    return result, {"loss": loss.spec()}, result.campaign
+    bad = [n for n in only or () if n not in names]
+    if bad:
+        raise ValueError(f"--only: {', '.join(bad)} exist only with --base smooth; the "
+                         f"cycle base has {', '.join(sorted(names))}")
+    opts = dataclasses.replace(DEFAULTS, top=args.top, alpha=args.alpha,
+                               max_evals=args.max_evals)
+    return CycleBase(candidates=only, opts=opts, strict=args.strict, learn=args.learn,
+                     loss=loss, unreadable=tuple(unreadable), max_effects=args.max_effects)

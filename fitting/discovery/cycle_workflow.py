@@ -85,93 +85,102 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
 Gaps are residual RMS in mm; `noise` is the campaign's noise level (RMS of the records'
 robust noise estimates, `RecordFeatures.noise`).
 
-Layout: the stages are functions in `stickslip_fitting.discovery.stages` (`prepare`,
-`base_fit`, `rank`, `refit`, `sharpen`, `choose`, `more_effects`, `reweigh`, `conclude`)
-that hand on
-frozen states (`stages.state`); the tuning is `options.DiscoveryOptions` (`DEFAULTS`;
-the lower-case names above are its fields), the statistics and decision rules are in
-`decision`, the sub-problems over flat coordinates in `subproblems`, the result type in `result`.
+Layout: `CycleBase` is the per-cycle base model of the one pipeline (`engine.discover`);
+its stages are functions in `stickslip_fitting.discovery.stages` (`prepare`, `base_fit`,
+`rank`, `refit` and `sharpen`, `choose`, `more_effects` and `reweigh`, `conclude`) that
+hand on frozen states (`stages.state`); the tuning is `options.DiscoveryOptions`
+(`DEFAULTS`; the lower-case names above are its fields), the statistics and decision rules
+are in `decision`, the sub-problems over flat coordinates in `subproblems`, the result
+type in `result`.
 """
 
 from __future__ import annotations
 
 import dataclasses
-
-import threadpoolctl
-
-from stickslip_jax.programs import release_programs
+from typing import ClassVar
 
 from ..objectives.losses import AbstractLoss
 from .cycle_effects import FAMILIES, family
+from .engine import AbstractBaseModel, discover
 from .options import DEFAULTS, DiscoveryOptions
 from .result import CycleDiscovery
-from .stages import (Clock, Fits, base_fit, choose, conclude, more_effects, prepare, rank,
-                     refit, reweigh, settled, sharpen)
+from .stages import (Clock, Fits, Prepared, Refitted, base_fit, choose, conclude, more_effects,
+                     prepare, rank, refit, reweigh, settled, sharpen)
+from .stages.state import Decided
 
-__all__ = ["CycleDiscovery", "DiscoveryOptions", "discover_cycles"]
+__all__ = ["CycleBase", "CycleDiscovery", "DiscoveryOptions", "discover_cycles"]
 
 
-def discover_cycles(
-    records,
-    *,
-    candidates: tuple[str, ...] | None = None,
-    top: int = 3,
-    alpha: float = 0.01,
-    collinear: float = DEFAULTS.collinear,
-    joint: float = DEFAULTS.joint,
-    clear: float = DEFAULTS.clear,
-    max_evals: int = 30,
-    refit_evals: int = 15,
-    strict: bool = False,
-    learn: bool = False,
-    progress=None,
-    loss: AbstractLoss | None = None,
-    unreadable=(),
-    max_effects: int = 3,
-) -> CycleDiscovery:
-    """Run the workflow (module doc) on `records` (a campaign of `Record`s).
+@dataclasses.dataclass(frozen=True)
+class CycleBase(AbstractBaseModel):
+    """The per-cycle base (module doc) and its options.
 
-    `candidates`: family names (default all of `cycle_effects.FAMILIES`); `top`: how
-    many significant families to refit; `alpha`: false-alarm rate of the whole test
-    (Bonferroni over the family-shape tests); `collinear`, `joint`, `clear`: when two
-    families are named together and when the winner beats a contender clearly
-    (`decide`); `max_evals`, `refit_evals`: Levenberg-Marquardt budgets of the base fit
-    and of each refit; `strict`: refuse the campaign when a record has no
+    `candidates`: family names (default all of `cycle_effects.FAMILIES`); `opts`: the
+    tuning (`options.DiscoveryOptions`: how many significant families to refit, the
+    family-wise false-alarm rate, the rules that name two families together, the
+    Levenberg-Marquardt budgets); `strict`: refuse the campaign when a record has no
     usable stick-slip; `learn`: fit the learned phase correction (`cycle_learned`) even
     when a family explains the residual (it is always fitted for "unexplained");
-    `progress`: called with one line per finished stage; `loss`: a heavy-tailed
-    likelihood (`stickslip_fitting.objectives.losses`, `--loss`) whose weights at the base fit are
-    held fixed through the workflow (None or Gaussian: least squares); `unreadable`: the
-    errors of the campaign's files that could not be read (`read_campaign_files`), listed
-    in the screening; `max_effects`: how many effects the sequential search may name
-    (stage 6; 1: the first search's answer alone). The other tuning is `DEFAULTS`
-    (`options.DiscoveryOptions`).
+    `loss`: a heavy-tailed likelihood (`stickslip_fitting.objectives.losses`, `--loss`)
+    whose weights at the base fit are held fixed through the workflow (None or Gaussian:
+    least squares); `unreadable`: the errors of the campaign's files that could not be
+    read (`read_campaign_files`), listed in the screening; `max_effects`: how many effects
+    the sequential search may name (stage 6; 1: the first search's answer alone).
     """
-    if max_effects < 1:
-        raise ValueError(f"max_effects: must be at least 1, got {max_effects}")
-    # the host's linear algebra (Levenberg-Marquardt's J^T J, the score tests' projections)
-    # on one BLAS thread: its tall, thin products gain nothing from a second thread, and
-    # on a busy machine OpenBLAS's waiting threads made each product 20-40 times slower
-    # (26 columns x 11,522 rows: 220-420 ms against 10 ms at load 14 on 2 cores)
-    with threadpoolctl.threadpool_limits(1, user_api="blas"):
-        # a process that runs many campaigns would reach its memory-map limit, and die in
-        # XLA's compiler (`stickslip_jax.programs`)
-        released = release_programs()
-        fams = [family(n) for n in candidates] if candidates else list(FAMILIES)
-        opts = dataclasses.replace(DEFAULTS, top=top, alpha=alpha, collinear=collinear,
-                                   joint=joint, clear=clear, max_evals=max_evals,
-                                   refit_evals=refit_evals)
-        clock = Clock(progress)
-        if released.released:
-            clock.say(f"memory: JAX's compiled programs dropped ({released.maps_before} -> "
-                      f"{released.maps_after} memory maps, limit {released.limit})")
-        prep = prepare(records, strict=strict, unreadable=unreadable, opts=opts, clock=clock)
-        base = base_fit(prep, loss=loss, opts=opts, clock=clock)
-        ranking = rank(prep, base, fams, opts=opts, clock=clock)
-        fx = Fits(opts=opts, prep=prep, base=base, ranking=ranking)
-        refitted = sharpen(fx, refit(fx, clock=clock), clock=clock)
-        last, choice, steps = more_effects(fx, choose(fx, refitted, clock=clock), fams,
-                                           max_effects=max_effects, clock=clock)
+
+    candidates: tuple[str, ...] | None = None
+    opts: DiscoveryOptions = DEFAULTS
+    strict: bool = False
+    learn: bool = False
+    loss: AbstractLoss | None = None
+    unreadable: tuple = ()
+    max_effects: int = 3
+    NAME: ClassVar[str] = "cycle"
+
+    def __post_init__(self):
+        if self.max_effects < 1:
+            raise ValueError(f"max_effects: must be at least 1, got {self.max_effects}")
+
+    @property
+    def families(self) -> list:
+        return [family(n) for n in self.candidates] if self.candidates else list(FAMILIES)
+
+    def prepare(self, records, clock: Clock) -> Prepared:
+        return prepare(records, strict=self.strict, unreadable=self.unreadable,
+                       opts=self.opts, clock=clock)
+
+    def base_fit(self, prepared: Prepared, clock: Clock) -> Fits:
+        base = base_fit(prepared, loss=self.loss, opts=self.opts, clock=clock)
+        return Fits(opts=self.opts, prep=prepared, base=base)
+
+    def rank(self, fitted: Fits, clock: Clock) -> Fits:
+        return dataclasses.replace(fitted, ranking=rank(fitted.prep, fitted.base,
+                                                        self.families, opts=self.opts,
+                                                        clock=clock))
+
+    def refit(self, ranked: Fits, clock: Clock) -> Refitted:
+        return sharpen(ranked, refit(ranked, clock=clock), clock=clock)
+
+    def decide(self, ranked: Fits, refitted: Refitted, clock: Clock) -> Decided:
+        last, choice, steps = more_effects(ranked, choose(ranked, refitted, clock=clock),
+                                           self.families, max_effects=self.max_effects,
+                                           clock=clock)
         after = reweigh(last, choice, clock=clock)
-        return conclude(fx, refitted, choice, after, learn=learn, clock=clock,
-                        steps=settled(last, after.chosen, steps))
+        return Decided(choice=choice, after=after, steps=settled(last, after.chosen, steps))
+
+    def conclude(self, ranked: Fits, refitted: Refitted, decided: Decided,
+                 clock: Clock) -> CycleDiscovery:
+        return conclude(ranked, refitted, decided.choice, decided.after, learn=self.learn,
+                        clock=clock, steps=decided.steps)
+
+
+def discover_cycles(records, *, progress=None, **options) -> CycleDiscovery:
+    """Run the workflow (module doc) on `records` (a campaign of `Record`s): the one
+    pipeline (`engine.discover`) on the per-cycle base; `options` are the fields of
+    `CycleBase` and of its tuning `DiscoveryOptions` (`top`, `alpha`, `collinear`, `joint`,
+    `clear`, `max_evals`, `refit_evals`, ...); `progress` is called with one line per
+    finished stage."""
+    tuning = {k: options.pop(k) for k in list(options)
+              if k in DiscoveryOptions.__dataclass_fields__}
+    return discover(records, CycleBase(opts=dataclasses.replace(DEFAULTS, **tuning), **options),
+                    progress=progress)

@@ -32,9 +32,9 @@ import scipy.stats
 
 from .effects import CANDIDATES, EffectSet
 from .model import Problem
-from .scores import base_basis, principal_cosine, project_out
+from .scores import base_basis, project_out
 
-__all__ = ["CandidateScore", "direction_cosine", "efficient_score", "score_candidates"]
+__all__ = ["CandidateScore", "score_candidates"]
 
 
 @dataclasses.dataclass
@@ -57,23 +57,6 @@ class CandidateScore:
         return 0.0 if self.unphysical else self.statistic
 
 
-def direction_cosine(a: CandidateScore, b: CandidateScore) -> float:
-    """Largest |cosine| between the efficient-score directions of two candidates (the
-    cosine of the smallest principal angle of their column spaces): near 1, the two
-    effects change the traces in the same way once the base parameters have adjusted."""
-    return principal_cosine(a.direction, b.direction)
-
-
-def efficient_score(r, J, base_cols, cand_cols):
-    """(S * s^2, Gauss-Newton step of the candidate coordinates, J_c^perp) from r, J
-    (see module doc)."""
-    Jp = project_out(base_basis(J[:, base_cols]), J[:, cand_cols])
-    U = Jp.T @ r
-    info = Jp.T @ Jp
-    step = -np.linalg.lstsq(info, U, rcond=1e-12)[0]
-    return float(-U @ step), step, Jp
-
-
 def score_candidates(base_problem: Problem, base_z: np.ndarray, base_rss: float,
                      candidates=CANDIDATES) -> list[CandidateScore]:
     """Score test of every candidate at the base fit `base_z`, sorted by
@@ -86,9 +69,11 @@ def score_candidates(base_problem: Problem, base_z: np.ndarray, base_rss: float,
         nb, ns = pc.n_base, pc.n_slots
         cand = [nb + j for j in range(ns) if act[nb + j]]
         base = [i for i in range(J.shape[1]) if act[i] and i not in cand]
-        s_raw, step, Jp = efficient_score(r, J, base, cand)
-        s2 = base_rss / r.shape[0]
-        stat = s_raw / s2
+        # the efficient score (module doc) and its Gauss-Newton step
+        Jp = project_out(base_basis(J[:, base]), J[:, cand])
+        U = Jp.T @ r
+        step = -np.linalg.lstsq(Jp.T @ Jp, U, rcond=1e-12)[0]
+        stat = float(-U @ step) / (base_rss / r.shape[0])
         part = getattr(EffectSet(), name)
         pred = {p: float(step[j] * part.SCALES[j]) for j, p in enumerate(part.PARAMS)}
         out.append(CandidateScore(name, stat, len(cand), float(scipy.stats.chi2.sf(stat, len(cand))),

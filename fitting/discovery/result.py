@@ -168,8 +168,9 @@ class CycleDiscovery(Discovery):
 class SmoothDiscovery(Discovery):
     """The answer on the smoothed whole-record base (`workflow.discover`): with the
     residual analyses before and after (`residuals.analyse_residuals`: phases and the
-    misspecification test) and the problems (`model.Problem`) of the base and final
-    fits; `learned` is the MLP friction correction (`learned`), when fitted."""
+    misspecification test), the problems (`model.Problem`) of the base and final fits and
+    the screened `campaign`; `learned` is the MLP friction correction (`learned`), when
+    fitted."""
 
     residuals_before: object
     residuals_after: object
@@ -177,6 +178,7 @@ class SmoothDiscovery(Discovery):
     test_after: dict  # ... of the final fit's
     base_problem: object
     final_problem: object
+    campaign: Campaign
     BASE: ClassVar[str] = "smooth"
 
     def figure(self):
@@ -188,7 +190,8 @@ class SmoothDiscovery(Discovery):
         out = {"misspecification_before": self.test_before,
                "misspecification_after": self.test_after,
                "residuals_by_phase_before": self.residuals_before.phases,
-               "residuals_by_phase_after": self.residuals_after.phases}
+               "residuals_by_phase_after": self.residuals_after.phases,
+               "records_screened": [s.to_json() for s in self.campaign.screening]}
         if self.learned is not None:
             out["learned_correction"] = self.learned.to_json()
         return out

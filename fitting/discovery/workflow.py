@@ -1,5 +1,6 @@
-r"""The missing-physics workflow: fit the base model, find the disagreement, name the
-missing effect, add it and show the gap shrink.
+r"""The smoothed whole-record base of discovery (`stickslip discover --base smooth`): fit
+the paper's model through whole records, find the disagreement, name the missing effect,
+add it and show the gap shrink.
 
 ```python
 from stickslip_jax.records import read_campaign
@@ -10,18 +11,21 @@ result.effect, result.explanation, result.gap_before, result.gap_after
 result.to_json()          # the `stickslip discover --json` contract
 ```
 
-Steps (each timed in `result.timings`):
+`SmoothBase` is a base model of the one pipeline (`engine.discover`); its stages (each
+timed in `result.timings`):
 
 1. `prepare`: records -> padded traces (`model.campaign_traces`); a features-first
    starting point for the friction (`stickslip_fitting.solve.fit.fit_features` on the records with at
    least two complete cycles).
 2. `base_fit`: the paper's model (all effects zero) fitted to the full traces by
-   Levenberg-Marquardt (`Problem.solve`), friction + one initial deflection per record.
-3. `residuals_before`: `residuals.analyse_residuals` (phases, misspecification test).
-4. `ranking`: score test of every library effect (`ranking.score_candidates`).
-5. `refit`: the `top` candidates refitted; BIC choice or "none" (`selection`).
-6. `residuals_after`: the analysis again with the chosen effect.
-7. `learned` (only when `learn` is set and the final residuals still fail the
+   Levenberg-Marquardt (`Problem.solve`), friction + one initial deflection per record;
+   `residuals_before`: `residuals.analyse_residuals` (phases, misspecification test).
+3. `rank` ("ranking"): score test of every library effect (`ranking.score_candidates`).
+4. `refit`: the `top` candidates refitted (`selection.refit_candidates`).
+5. `decide` ("decision"): BIC choice or "none" (`selection.choose`, the disagreement rule
+   of `SmoothBase`), the chosen model polished.
+6. `conclude` ("residuals_after"): the analysis again with the chosen effect, the
+   answer; "learned" (only when `learn` is set and the final residuals still fail the
    misspecification test): the learned correction, from the base fit
    (`learned.fit_learned_correction`) and its sparse regression.
 
@@ -30,34 +34,41 @@ Gaps are residual RMS in mm (the noise level is `noise`, estimated from the data
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from typing import ClassVar
 
 import numpy as np
 
+from stickslip_jax.lsq import LeastSquaresSolution as Solution
+
+from ..data.campaign import Campaign, screen_records
 from ..params import EmpiricalFriction
 from ..report.rows import DiscoveryEstimates
+from . import engine
 from .effects import CANDIDATES, EffectSet
+from .engine import AbstractBaseModel
 from .model import Problem, Settings, campaign_traces
-from .ranking import direction_cosine, score_candidates
-from .residuals import analyse_residuals
+from .ranking import score_candidates
+from .residuals import ResidualReport, analyse_residuals
 from .result import SmoothDiscovery
+from .scores import principal_cosine
 from .selection import Refit, choose, effect_rows, refit_candidates
 from .stages.state import Clock
 
-__all__ = ["discover", "initial_friction"]
+__all__ = ["SmoothBase", "discover", "initial_friction"]
 
 
-def initial_friction(records) -> EmpiricalFriction:
-    """Features-first starting friction (stickslip_fitting.solve.fit on records with >= 2 complete cycles).
+def initial_friction(features) -> EmpiricalFriction:
+    """Features-first starting friction (stickslip_fitting.solve.fit on the records'
+    `features` with >= 2 complete cycles).
 
     Where the campaign cannot separate mu_s from gamma (a degenerate features fit,
     mu_s > 1.5), mu_s is set to 1.5 and gamma chosen to keep mu_0 at the median stick time.
     """
-    from ..data.features import record_features
     from ..solve.fit import fit_features
 
-    feats = [record_features(r) for r in records]
-    good = [f for f in feats if f.stick_slip and f.n_complete >= 2]
+    good = [f for f in features if f.stick_slip and f.n_complete >= 2]
     if len(good) < 2:
         raise ValueError("discovery needs at least two records with two or more complete "
                          "stick-slip cycles (record longer or slower)")
@@ -98,27 +109,31 @@ def _analyse(problem: Problem, z):
                              problem.trajectories(z)[2])
 
 
-def discover(
-    records,
-    *,
-    candidates=CANDIDATES,
-    top: int = 3,
-    threshold: float = 10.0,
-    p_explained: float = 1e-3,
-    margin: float = 20.0,
-    learn: bool = False,
-    crop: str = "none",
-    settings: Settings = Settings(),
-    effects: EffectSet | None = None,
-    max_evals: int = 80,
-    refit_evals: int = 12,
-    collinear: float = 0.8,
-    fixed: tuple[str, ...] = (),
-    progress=None,
-) -> SmoothDiscovery:
-    """Run the workflow (module docstring) on `records` (a campaign of `Record`s).
+@dataclasses.dataclass(frozen=True, eq=False)
+class SmoothFit:
+    """A fit of the smoothed base: the screened campaign, the problem and its solution,
+    the residual analysis
+    (`residuals.analyse_residuals`) and, once ranked, the score tests (`ranking`)."""
 
-    `candidates`: library names to consider; `top`: how many to refit; `threshold`:
+    campaign: Campaign
+    problem: Problem
+    fit: Solution
+    analysis: ResidualReport
+    scores: tuple = ()
+
+    @property
+    def gap(self) -> float:
+        """Residual RMS (mm)."""
+        return math.sqrt(self.fit.rss / self.fit.n_data) * float(self.problem.traces.sigma[0])
+
+
+@dataclasses.dataclass(frozen=True)
+class SmoothBase(AbstractBaseModel):
+    """The smoothed whole-record base (module doc) and its options.
+
+    `strict`: refuse the campaign when a record has no usable stick-slip (else it is set
+    aside and listed, `data.campaign.screen_records`; `unreadable`: the files that could
+    not be read); `candidates`: library names to consider; `top`: how many to refit; `threshold`:
     BIC margin needed to name an effect; `p_explained`, `margin`: for "high" confidence;
     `learn`: fit the learned correction when nothing explains the residuals; `crop`:
     see `model.campaign_traces`; `effects`: fixed shape settings (`EffectSet.zeros`);
@@ -126,8 +141,7 @@ def discover(
     of the base fit and of the chosen model's polish (LM stops earlier at convergence:
     a full Gauss-Newton step would lower chi-square by < 0.05, or 4 evaluations gained
     < 0.5 together); `refit_evals`: budget
-    of each ranking refit; `collinear`: see "disagreement" below; `progress`: called
-    with one line per finished step.
+    of each ranking refit; `collinear`: see "disagreement" below.
 
     Disagreement: when the score test's winner (all statistics at the same converged
     base fit, so comparable) and the refits' BIC winner differ, their efficient-score
@@ -139,94 +153,136 @@ def discover(
     test prefers stribeck (170 vs 130), 40-evaluation refits prefer rate_state, and the
     true parameters give the chi-square drop the score test predicted (166).
     """
-    clock = Clock(progress)
-    traces = campaign_traces(records, crop=crop)
-    effects = EffectSet.zeros() if effects is None else effects
-    base = Problem(traces, initial_friction(records), effects, settings=settings,
-                   fixed=tuple(fixed))
-    clock("prepare", f"{traces.time.shape[0]} records, {traces.n_residuals()} samples")
-    base_fit = base.solve(base.z0(), max_evals=max_evals)
-    sigma, N = float(traces.sigma[0]), base_fit.n_data
-    gap_before = math.sqrt(base_fit.rss / N) * sigma
-    clock("base_fit", f"gap {gap_before * 1e3:.3g} um, {base_fit.n_evals} evaluations")
-    rep_before = _analyse(base, base_fit.z)
-    clock("residuals_before", f"misspecification p = {rep_before.p_value:.2g}")
-    scores = score_candidates(base, base_fit.z, base_fit.rss, candidates)
-    clock("ranking", f"first {scores[0].name}" if scores else "no candidates")
-    refits, chosen, rivals = _refit_and_choose(base, base_fit, scores, top=top,
-                                               threshold=threshold, collinear=collinear,
-                                               refit_evals=refit_evals, max_evals=max_evals)
-    clock("refit", chosen.name if chosen is not None else "none")
-    final_problem, final_fit = (base, base_fit) if chosen is None else (chosen.problem,
-                                                                         chosen.fit)
-    rep_after = rep_before if chosen is None else _analyse(final_problem, final_fit.z)
-    gap_after = math.sqrt(final_fit.rss / N) * sigma
-    rows = [] if chosen is None else effect_rows(chosen)
-    if chosen is not None:
-        runner = refits[1].delta_bic if len(refits) > 1 else 0.0
-        # high: the residuals pass, the cheap ranking and the refits agree on the winner
-        confident = (rep_after.p_value >= p_explained and scores[0].name == chosen.name
-                     and not rivals and (runner - chosen.delta_bic) >= margin)
-        effect, confidence = chosen.name, "high" if confident else "low"
-    else:
-        effect, confidence = "none", "high" if rep_before.p_value >= p_explained else "low"
-    explanation = _explanation(chosen, rows, rivals, rep_before, rep_after, gap_before,
-                               gap_after, sigma, effects, p_explained)
-    clock("residuals_after", f"{effect} ({confidence}); gap {gap_before * 1e3:.3g} -> "
-                             f"{gap_after * 1e3:.3g} um")
-    learned = None
-    if learn and rep_after.p_value < p_explained:
-        from .learned import fit_learned_correction
 
-        learned = fit_learned_correction(base, base_fit)
-        explanation += (" A learned correction lowers the residual RMS to "
-                        f"{learned.gap_after * 1e3:.3g} um; it depends mostly on "
-                        f"{', '.join(learned.named_terms) or 'nothing identifiable'}.")
-        clock("learned", f"gap {learned.gap_after * 1e3:.3g} um")
-    clock.timings["total"] = sum(clock.timings.values())
-    value_rows = DiscoveryEstimates.value_rows
-    return SmoothDiscovery(
-        effect=effect, explanation=explanation, confidence=confidence,
-        gap_before=gap_before, gap_after=gap_after, noise=sigma,
-        criterion="BIC (Gaussian likelihood, noise profiled); delta_criterion = "
-                  "BIC(with effect) - BIC(base), named if < -%g" % threshold,
-        candidates=_candidates(scores, refits, effects),
-        estimates_before=value_rows(_friction_values(base, base_fit.z), EmpiricalFriction.UNITS),
-        estimates_after=value_rows(_friction_values(final_problem, final_fit.z),
-                                   EmpiricalFriction.UNITS),
-        effect_estimates=rows, effect_of=effect if rows else "",
-        residuals_before=rep_before, residuals_after=rep_after, test_before=rep_before.test,
-        test_after=rep_after.test, timings=clock.timings,
-        base_fit=base_fit, final_fit=final_fit, base_problem=base, final_problem=final_problem,
-        learned=learned, indistinguishable_from=rivals,
-    )
+    candidates: tuple[str, ...] = CANDIDATES
+    top: int = 3
+    threshold: float = 10.0
+    p_explained: float = 1e-3
+    margin: float = 20.0
+    learn: bool = False
+    crop: str = "none"
+    settings: Settings = Settings()
+    effects: EffectSet | None = None
+    max_evals: int = 80
+    refit_evals: int = 12
+    collinear: float = 0.8
+    fixed: tuple[str, ...] = ()
+    strict: bool = False
+    unreadable: tuple = ()
+    NAME: ClassVar[str] = "smooth"
 
+    def prepare(self, records, clock: Clock) -> tuple[Campaign, Problem]:
+        campaign = screen_records(list(records), strict=self.strict,
+                                  unreadable=self.unreadable)
+        traces = campaign_traces(campaign.records, crop=self.crop)
+        effects = EffectSet.zeros() if self.effects is None else self.effects
+        base = Problem(traces, initial_friction(campaign.features), effects,
+                       settings=self.settings, fixed=tuple(self.fixed))
+        clock("prepare", f"{traces.time.shape[0]} records, {traces.n_residuals()} samples")
+        return campaign, base
 
-def _refit_and_choose(base, base_fit, scores, *, top, threshold, collinear,
-                      refit_evals, max_evals):
-    """The `top` refits, the one named (None: "none") and its rivals (`discover`'s
-    disagreement rule); a chosen refit that has not converged is polished first."""
-    refits = refit_candidates(base, base_fit, scores, top=top, max_evals=refit_evals)
-    chosen = choose(refits, threshold=threshold)
-    rivals = []
-    if chosen is not None and scores[0].name != chosen.name:
-        first = {r.name: r for r in refits}.get(scores[0].name)
-        cos = direction_cosine(scores[0], next(c for c in scores if c.name == chosen.name))
-        if first is not None and first.delta_bic < -threshold and cos > collinear:
-            rivals = [{"name": chosen.name, "direction_cosine": cos,
-                       "delta_criterion": chosen.delta_bic}]
-            chosen = first
-    if chosen is None or chosen.fit.converged:
+    def base_fit(self, prepared: tuple[Campaign, Problem], clock: Clock) -> SmoothFit:
+        campaign, problem = prepared
+        fit = problem.solve(problem.z0(), max_evals=self.max_evals)
+        clock("base_fit", f"gap {math.sqrt(fit.rss / fit.n_data) * problem.sigma * 1e3:.3g} "
+                          f"um, {fit.n_evals} evaluations")
+        fitted = SmoothFit(campaign, problem, fit, _analyse(problem, fit.z))
+        clock("residuals_before", f"misspecification p = {fitted.analysis.p_value:.2g}")
+        return fitted
+
+    def rank(self, fitted: SmoothFit, clock: Clock) -> SmoothFit:
+        scores = score_candidates(fitted.problem, fitted.fit.z, fitted.fit.rss,
+                                  self.candidates)
+        clock("ranking", f"first {scores[0].name}" if scores else "no candidates")
+        return dataclasses.replace(fitted, scores=tuple(scores))
+
+    def refit(self, ranked: SmoothFit, clock: Clock) -> list[Refit]:
+        refits = refit_candidates(ranked.problem, ranked.fit, list(ranked.scores),
+                                  top=self.top, max_evals=self.refit_evals)
+        clock("refit", ", ".join(f"{r.name} dBIC {r.delta_bic:.1f}" for r in refits)
+              or "nothing to refit")
+        return refits
+
+    def decide(self, ranked: SmoothFit, refitted: list[Refit], clock: Clock):
+        """The refits, the one named (None: "none") and its rivals (the disagreement rule);
+        a chosen refit that has not converged is polished first."""
+        scores, threshold, refits = ranked.scores, self.threshold, refitted
+        chosen, rivals = choose(refits, threshold=threshold), []
+        if chosen is not None and scores[0].name != chosen.name:
+            first = {r.name: r for r in refits}.get(scores[0].name)
+            cos = principal_cosine(scores[0].direction, next(
+                c for c in scores if c.name == chosen.name).direction)
+            if first is not None and first.delta_bic < -threshold and cos > self.collinear:
+                rivals = [{"name": chosen.name, "direction_cosine": cos,
+                           "delta_criterion": chosen.delta_bic}]
+                chosen = first
+        if chosen is not None and not chosen.fit.converged:
+            # polish the chosen model (the ranking refits are short)
+            more = chosen.problem.solve(chosen.fit.z, max_evals=self.max_evals,
+                                        lam0=chosen.fit.lam,
+                                        first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok))
+            chosen = Refit.judged(chosen.name, chosen.problem, more, ranked.fit, chosen.dof)
+            refits = sorted([chosen] + [r for r in refits if r.name != chosen.name],
+                            key=lambda c: c.delta_bic)
+            if chosen.unphysical:  # the polish crossed into an unphysical sign
+                chosen = choose(refits, threshold=threshold)
+        clock("decision", chosen.name if chosen is not None else "none")
         return refits, chosen, rivals
-    # polish the chosen model (the ranking refits are short)
-    more = chosen.problem.solve(chosen.fit.z, max_evals=max_evals, lam0=chosen.fit.lam,
-                                first=(chosen.fit.r, chosen.fit.J, chosen.fit.ok))
-    chosen = Refit.judged(chosen.name, chosen.problem, more, base_fit, chosen.dof)
-    refits = sorted([chosen] + [r for r in refits if r.name != chosen.name],
-                    key=lambda c: c.delta_bic)
-    if chosen.unphysical:  # the polish crossed into an unphysical sign: not an explanation
-        chosen = choose(refits, threshold=threshold)
-    return refits, chosen, rivals
+
+    def conclude(self, ranked: SmoothFit, refitted, decided, clock: Clock) -> SmoothDiscovery:
+        refits, chosen, rivals = decided
+        base, effects = ranked, ranked.problem.effects0
+        final = base if chosen is None else SmoothFit(
+            base.campaign, chosen.problem, chosen.fit, _analyse(chosen.problem, chosen.fit.z))
+        rep_before, rep_after = base.analysis, final.analysis
+        rows = [] if chosen is None else effect_rows(chosen)
+        p_explained, sigma = self.p_explained, base.problem.sigma
+        if chosen is not None:
+            runner = refits[1].delta_bic if len(refits) > 1 else 0.0
+            # high: the residuals pass, the cheap ranking and the refits agree on the winner
+            confident = (rep_after.p_value >= p_explained
+                         and base.scores[0].name == chosen.name and not rivals
+                         and (runner - chosen.delta_bic) >= self.margin)
+            effect, confidence = chosen.name, "high" if confident else "low"
+        else:
+            effect, confidence = "none", "high" if rep_before.p_value >= p_explained else "low"
+        explanation = _explanation(chosen, rows, rivals, rep_before, rep_after, base.gap,
+                                   final.gap, sigma, effects, p_explained)
+        clock("residuals_after", f"{effect} ({confidence}); gap {base.gap * 1e3:.3g} -> "
+                                 f"{final.gap * 1e3:.3g} um")
+        learned = None
+        if self.learn and rep_after.p_value < p_explained:
+            from .learned import fit_learned_correction
+
+            learned = fit_learned_correction(base.problem, base.fit)
+            explanation += (" A learned correction lowers the residual RMS to "
+                            f"{learned.gap_after * 1e3:.3g} um; it depends mostly on "
+                            f"{', '.join(learned.named_terms) or 'nothing identifiable'}.")
+            clock("learned", f"gap {learned.gap_after * 1e3:.3g} um")
+        value_rows = DiscoveryEstimates.value_rows
+        return SmoothDiscovery(
+            effect=effect, explanation=explanation, confidence=confidence,
+            gap_before=base.gap, gap_after=final.gap, noise=sigma,
+            criterion="BIC (Gaussian likelihood, noise profiled); delta_criterion = "
+                      "BIC(with effect) - BIC(base), named if < -%g" % self.threshold,
+            candidates=_candidates(base.scores, refits, effects),
+            estimates_before=value_rows(_friction_values(base.problem, base.fit.z),
+                                        EmpiricalFriction.UNITS),
+            estimates_after=value_rows(_friction_values(final.problem, final.fit.z),
+                                       EmpiricalFriction.UNITS),
+            effect_estimates=rows, effect_of=effect if rows else "",
+            residuals_before=rep_before, residuals_after=rep_after,
+            test_before=rep_before.test, test_after=rep_after.test, timings=clock.timings,
+            base_fit=base.fit, final_fit=final.fit, base_problem=base.problem,
+            final_problem=final.problem, learned=learned, indistinguishable_from=rivals,
+            campaign=base.campaign)
+
+
+def discover(records, *, progress=None, **options) -> SmoothDiscovery:
+    """Run the workflow (module doc) on `records` (a campaign of `Record`s): the one
+    pipeline (`engine.discover`) on the smoothed base with the `options` of `SmoothBase`;
+    `progress` is called with one line per finished stage."""
+    return engine.discover(records, SmoothBase(**options), progress=progress)
 
 
 def _candidates(scores, refits, effects) -> list[dict]:

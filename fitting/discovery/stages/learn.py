@@ -186,7 +186,6 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
     clock("decision", f"{' + '.join(s.family.name for s in kept) if several else effect} "
                       f"({confidence}); gap {gap_before * 1e3:.3g} -> "
                       f"{gap_after * 1e3:.3g} um")
-    clock.timings["total"] = sum(clock.timings.values())
     return CycleDiscovery(
         effect=effect, explanation=explanation, confidence=confidence,
         gap_before=gap_before, gap_after=gap_after, noise=noise,

@@ -6,7 +6,7 @@ and its cycle windows (`prepare`), `Base` the paper's model fitted to them (`bas
 `Ranking` the score tests (`rank`), `Fits` what every refit needs (the states so far and
 the options), `Refitted` the refits (`refit`, `sharpen`), `Choice` the winner and the
 decision (`decide`), `Reweighed` the winner with the records tried at full weight
-(`reweigh`)."""
+(`reweigh`), `Decided` the two with the sequential search's steps."""
 
 from __future__ import annotations
 
@@ -26,8 +26,8 @@ from ..options import DiscoveryOptions
 from ..subproblems import SubProblem
 from ..thinning import Samples
 
-__all__ = ["SIGNIFICANT_BY", "Base", "Choice", "Clock", "Fits", "Prepared", "Ranking",
-           "Refitted", "Reweighed", "Step"]
+__all__ = ["SIGNIFICANT_BY", "Base", "Choice", "Clock", "Decided", "Fits", "Prepared",
+           "Ranking", "Refitted", "Reweighed", "Step"]
 
 
 @dataclasses.dataclass
@@ -186,12 +186,13 @@ class FamilyRefit:
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Fits:
-    """What a refit needs: the options, the campaign, the base and the ranking."""
+    """What a refit needs: the options, the campaign, the base and the ranking (None
+    before `rank`)."""
 
     opts: DiscoveryOptions
     prep: Prepared
     base: Base
-    ranking: Ranking
+    ranking: Ranking | None = None
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
@@ -226,6 +227,17 @@ class Reweighed:
     chosen: FamilyRefit | None
     sd_after: np.ndarray
     reweighed: list
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Decided:
+    """What the decision hands on: the choice of the final model (`more_effects`), the
+    winner tried with the records at full weight (`reweigh`) and the sequential search's
+    steps (`settled`)."""
+
+    choice: Choice
+    after: Reweighed
+    steps: list
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
