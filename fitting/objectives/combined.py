@@ -66,9 +66,9 @@ class AbstractObjective(AbstractResiduals):
     def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
         """(whitened residuals, (success flags, slider velocity at `params` or None))."""
 
-    @abc.abstractmethod
     def velocity_shape(self) -> tuple[int, ...] | None:
         """Shape of the slider velocity the residuals take (None: they take none)."""
+        return None
 
     @abc.abstractmethod
     def clusters(self, features) -> tuple[np.ndarray, np.ndarray]:
@@ -78,14 +78,14 @@ class AbstractObjective(AbstractResiduals):
     def describe(self) -> str:
         """One line for reports."""
 
-    @abc.abstractmethod
     def trace_data(self) -> TraceData | None:
         """The trace data the residuals read (None: none)."""
+        return None
 
-    @abc.abstractmethod
     def failures(self, ok) -> int:
         """How many simulations failed, from the success flags of `residuals_and_aux`
-        (cycle windows of a trace, records of a whole-record simulation)."""
+        (cycle windows of a trace, records of a whole-record simulation; 0: none run)."""
+        return 0
 
     def residuals(self, params):
         """Whitened residuals (sum of squares = -2 log likelihood up to a constant)."""
@@ -103,9 +103,6 @@ class FeaturesObjective(AbstractObjective):
     def residuals_and_aux(self, params, weights_at=None, slider_velocity=None):
         r = feature_residuals(params, self.features, self.slip_time, weights_at=weights_at)
         return r, (jnp.ones((1,), bool), None)
-
-    def velocity_shape(self):
-        return None
 
     def dof(self) -> float:
         return float(self.features.n_residuals())
@@ -133,12 +130,6 @@ class FeaturesObjective(AbstractObjective):
 
     def describe(self) -> str:
         return "cycle features (plateau levels and eq (6) per cycle)"
-
-    def trace_data(self):
-        return None
-
-    def failures(self, ok) -> int:
-        return 0
 
 
 class TraceObjective(AbstractObjective):

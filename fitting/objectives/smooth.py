@@ -168,9 +168,6 @@ class SmoothObjective(AbstractObjective):
         r = (d.deflection - params.offset[:, None] - x) / d.sigma[:, None]
         return jnp.where(d.mask, r, 0.0).ravel(), (ok, None)
 
-    def velocity_shape(self):
-        return None
-
     def dof(self) -> float:
         return float(self.data.n_residuals())
 
@@ -186,9 +183,6 @@ class SmoothObjective(AbstractObjective):
     def describe(self) -> str:
         return (f"whole records, smoothed simulator from the first slip end "
                 f"({self.formulation}, smoothing {self.smoothing:g})")
-
-    def trace_data(self):
-        return None
 
     def failures(self, ok) -> int:
         return int(np.count_nonzero(~np.asarray(ok, bool)))
