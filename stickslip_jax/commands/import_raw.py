@@ -188,17 +188,12 @@ def _column(spec: str, names: list[str], option: str, path: str) -> int:
 def run(args) -> int:
     import numpy as np
 
+    from ..output import check_outputs
     from ..records import Record, RecordError, write_record
 
-    raw, out = os.path.abspath(args.raw), os.path.abspath(args.out)
-    if raw == out:
-        raise ValueError("--out: names the raw input file; choose another name")
-    if os.path.isdir(out):
-        raise ValueError(f"--out: {args.out} is a directory; give a file name")
-    if os.path.exists(out) and not args.overwrite:
+    check_outputs({"--out": args.out}, [args.raw])  # a writable place, not the raw file
+    if os.path.exists(args.out) and not args.overwrite:
         raise ValueError(f"--out: {args.out} exists; use --force to replace it")
-    if not os.path.isdir(os.path.dirname(out)):
-        raise ValueError(f"--out: the folder {os.path.dirname(out)} does not exist")
     if args.drive_unit is not None and args.drive_col is None:
         raise ValueError("--drive-unit: only used with --drive-col; add it, or leave out "
                          "--drive-unit")
@@ -243,7 +238,7 @@ def run(args) -> int:
             note=f"imported from {os.path.basename(args.raw)}", notes=tuple(notes), **kw)
     except RecordError as exc:
         raise ValueError(f"{args.raw}: {exc}") from None
-    write_record(rec, out)  # atomic (`stickslip_jax.output.write_text`)
+    write_record(rec, args.out)  # atomic (`stickslip_jax.output.write_text`)
     print(f"wrote {args.out}: {rec.time.size} samples, {rec.time[-1] - rec.time[0]:.6g} s, "
           f"k = {rec.stiffness:.6g} kgf/mm, W = {rec.weight:.6g} kgf")
     for n in rec.notes:

@@ -7,10 +7,10 @@ import math
 
 import numpy as np
 
-from ..units import UnitError, factor
+from ..units import factor
 from .errors import RecordError
 from .grammar import SEGMENT
-from .quantities import encode, fmt, unit_choices
+from .quantities import encode, fmt, quantity
 
 
 def check_program(program) -> tuple[tuple[float, float], ...]:
@@ -51,16 +51,6 @@ def program_position(program, t) -> np.ndarray:
     return u
 
 
-def _segment_value(number: str, unit: str, dimension: str, path, line: int) -> float:
-    """A program segment's `number unit` in internal units."""
-    try:
-        return float(number) * factor(unit, dimension)
-    except UnitError:
-        raise RecordError(f"drive_program: unknown {dimension} unit {unit!r}; use one of "
-                          f"{unit_choices(dimension)}", path,
-                          line) from None
-
-
 def parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]:
     segs = []
     hint = "write e.g. 'drive_program: 0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min'"
@@ -69,9 +59,8 @@ def parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]
         if m is None:
             raise RecordError(f"drive_program: cannot read segment {part.strip()!r} as "
                               f"'start-time unit speed unit'; {hint}", path, line)
-        start = _segment_value(m.group(1), m.group(2), "time", path, line)
-        speed = _segment_value(m.group(3), m.group(4), "speed", path, line)
-        segs.append((start, speed))
+        segs.append(tuple(quantity(f"{m.group(i)} {m.group(i + 1)}", dim, "drive_program",
+                                   path, line) for i, dim in ((1, "time"), (3, "speed"))))
     try:
         return check_program(segs)
     except RecordError as exc:
