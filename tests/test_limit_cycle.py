@@ -19,6 +19,25 @@ from stickslip_jax.limit_cycle import boundary_speed, cycle_map, limit_cycle, to
 from stickslip_jax.simulation import simulate_exact
 from stickslip_jax.steady import RESTICK_FAILURE, STICK_SLIP, critical_speed, steady_state
 
+
+def _lc(fr, W, k, v, zeta=None):
+    """`limit_cycle` with array arguments: one compiled program serves every point (a
+    Python number is compiled in as a constant, one program per value)."""
+    a = jnp.asarray
+    return limit_cycle(fr, a(W), a(k), a(v), damping_ratio=None if zeta is None else a(zeta))
+
+
+@eqx.filter_jit
+def _map(fr, W, k, v, trough, zeta=None):
+    """`cycle_map` compiled once (array arguments, as `_lc`)."""
+    return cycle_map(fr, W, k, v, trough, damping_ratio=zeta)
+
+
+def _cycle_map(fr, W, k, v, trough, zeta=None):
+    a = jnp.asarray
+    return _map(fr, a(W), a(k), a(v), trough, None if zeta is None else a(zeta))
+
+
 # (lubricant, W kgf, k kgf/mm): one-slip cycles for A and C, re-slips for C at 11.3 kgf
 POINTS = [("A", 36.0, 86.9), ("C", 36.0, 27.3), ("C", 11.3, 86.9)]
 FACTORS = (0.2, 0.5, 0.8, 1.3, 2.0, 5.0, 12.0)  # drive speed / v_c: both sides
@@ -58,7 +77,7 @@ def test_fixed_point_is_the_exact_limit_cycle(lub, W, k):
     fr = ss.lubricant(lub)
     vc = float(critical_speed(fr, W, k))
     speeds = [f * vc for f in FACTORS]
-    cycles = [limit_cycle(fr, W, k, v) for v in speeds]
+    cycles = [_lc(fr, W, k, v) for v in speeds]
     exact = _exact_cycles(fr, W, k, speeds, [float(c.stick_time) for c in cycles])
     for v, lc, (t1, amp, t2) in zip(speeds, cycles, exact):
         assert lc.result == optx.RESULTS.successful
@@ -66,7 +85,7 @@ def test_fixed_point_is_the_exact_limit_cycle(lub, W, k):
         np.testing.assert_allclose(float(lc.amplitude), amp, rtol=1e-6)
         np.testing.assert_allclose(float(lc.slip_time), t2, rtol=1e-6)
         # and it is the one-cycle map's fixed point
-        nxt, _ = cycle_map(fr, W, k, v, lc.trough)
+        nxt, _ = _cycle_map(fr, W, k, v, lc.trough)
         assert abs(float(nxt - lc.trough)) < 1e-12 * float(lc.peak)
     expect = RESTICK_FAILURE if (lub, W) == ("C", 11.3) else STICK_SLIP
     assert int(lc.regime) == expect
@@ -76,11 +95,11 @@ def test_below_v_c_it_is_eq_6_and_above_it_goes_on():
     fr = ss.lubricant("A")
     W, k = 36.0, 86.9
     vc = float(critical_speed(fr, W, k))
-    below = limit_cycle(fr, W, k, 0.5 * vc)
+    below = _lc(fr, W, k, 0.5 * vc)
     st = steady_state(fr, W, k, 0.5 * vc)
     np.testing.assert_allclose(float(below.amplitude), float(st.amplitude), rtol=1e-10)
     np.testing.assert_allclose(float(below.stick_time), float(st.stick_time), rtol=1e-10)
-    above = [float(limit_cycle(fr, W, k, f * vc).amplitude) for f in (1.06, 1.23, 1.84)]
+    above = [float(_lc(fr, W, k, f * vc).amplitude) for f in (1.06, 1.23, 1.84)]
     # reference amplitudes: 8.0, 7.3 and 5.7 um at 52, 60 and 90 mm/min
     np.testing.assert_allclose(above, [8.0e-3, 7.3e-3, 5.7e-3], atol=0.06e-3)
     assert above[0] > above[1] > above[2] > 0
@@ -91,9 +110,9 @@ def test_tolerance_speed_and_gradients():
     W, k = 36.0, 86.9
     v, res = tolerance_speed(fr, W, k, 0.005)
     assert res == optx.RESULTS.successful
-    np.testing.assert_allclose(float(limit_cycle(fr, W, k, v).amplitude), 0.005, rtol=1e-9)
+    np.testing.assert_allclose(float(_lc(fr, W, k, v).amplitude), 0.005, rtol=1e-9)
     # d amplitude / d k by the implicit function theorem against central differences
-    amp = lambda kk: limit_cycle(fr, W, kk, 0.5).amplitude  # noqa: E731
+    amp = lambda kk: _lc(fr, W, kk, 0.5).amplitude  # noqa: E731
     g = float(jax.grad(amp)(jnp.asarray(k)))
     h = 1e-4 * k
     fd = (float(amp(k + h)) - float(amp(k - h))) / (2 * h)
@@ -195,7 +214,7 @@ DAMPED = [("A", 36.0, 86.9, 0.01, 1.0, 1), ("A", 36.0, 86.9, 0.01, 90.0, 1),
 @pytest.mark.parametrize("lub, W, k, zeta, v, regime", DAMPED)
 def test_damped_fixed_point_is_the_damped_motion(lub, W, k, zeta, v, regime):
     fr = ss.lubricant(lub)
-    lc = limit_cycle(fr, W, k, v / 60.0, damping_ratio=zeta)
+    lc = _lc(fr, W, k, v / 60.0, zeta)
     ref = _ivp_limit_cycle(_params(fr), W, k, v / 60.0, zeta)
     assert int(lc.regime) == regime
     if regime == 0:  # the motion ends in steady sliding
@@ -207,7 +226,7 @@ def test_damped_fixed_point_is_the_damped_motion(lub, W, k, zeta, v, regime):
     np.testing.assert_allclose(float(lc.slip_time), t2, rtol=1e-6)
     assert regime == (RESTICK_FAILURE if slips > 1 else STICK_SLIP)
     # the damped one-cycle map maps the fixed point's trough onto itself
-    nxt, _ = cycle_map(fr, W, k, v / 60.0, lc.trough, damping_ratio=zeta)
+    nxt, _ = _cycle_map(fr, W, k, v / 60.0, lc.trough, zeta)
     assert abs(float(nxt - lc.trough)) < 1e-10 * float(lc.peak)
 
 
@@ -216,12 +235,14 @@ def test_zero_damping_is_the_undamped_cycle():
         fr = ss.lubricant(lub)
         for f in (0.5, 3.0):
             v = f * float(critical_speed(fr, W, k))
-            a, b = limit_cycle(fr, W, k, v), limit_cycle(fr, W, k, v, damping_ratio=0.0)
+            a, b = _lc(fr, W, k, v), _lc(fr, W, k, v, 0.0)
             for q in ("amplitude", "stick_time", "slip_time", "peak", "regime"):
                 np.testing.assert_allclose(float(getattr(b, q)), float(getattr(a, q)),
                                            rtol=1e-11)
 
 
+@pytest.mark.slow  # compiles boundary_speed vmapped (a third of this module's time); the
+# default run checks the boundary at zeta = 0.05 and 0 (tests/test_cli_steady.py)
 def test_damping_makes_the_boundary_sharp():
     fr = ss.lubricant("A")
     W, k = 36.0, 86.9
@@ -233,8 +254,8 @@ def test_damping_makes_the_boundary_sharp():
     vc = float(critical_speed(fr, W, k)) * 60.0
     assert vb[3] < vc < vb[2]  # zeta = 0.1 ends stick-slip below eq (12)'s v_c
     for z, v in zip((0.01, 0.05, 0.1), vb[1:]):
-        below = limit_cycle(fr, W, k, 0.995 * v / 60.0, damping_ratio=z)
-        above = limit_cycle(fr, W, k, 1.005 * v / 60.0, damping_ratio=z)
+        below = _lc(fr, W, k, 0.995 * v / 60.0, z)
+        above = _lc(fr, W, k, 1.005 * v / 60.0, z)
         # a finite cycle (3-5 um) just below, none just above: a sharp boundary
         assert int(below.regime) == STICK_SLIP and float(below.amplitude) > 2.5e-3
         assert int(above.regime) == 0 and float(above.amplitude) == 0.0
@@ -250,7 +271,7 @@ def test_damped_gradients():
 
     def amp(v, mu_s):
         f = eqx.tree_at(lambda f: f.static.mu_s, fr, mu_s)
-        return limit_cycle(f, W, k, v, damping_ratio=z).amplitude
+        return _lc(f, W, k, v, z).amplitude
 
     v0, m0 = 0.5, float(fr.static.mu_s)
     g = jax.grad(amp, argnums=(0, 1))(jnp.asarray(v0), jnp.asarray(m0))
