@@ -162,19 +162,12 @@ def discover(records: RecordsSpec, *, only: tuple[str, ...] | list[str] | None =
       `max_effects`: how many effects may be named one after another, as
       `--max-effects` (1: the single best effect).
 
-    Every mistake in the options raises ValueError naming the keyword, before any fit.
+    Every mistake in the options raises ValueError naming the keyword, before any fit
+    (the checks of `cycle_workflow.CycleBase`).
     """
     from ..discovery.cycle_effects import FAMILIES
     from ..discovery.cycle_workflow import discover_cycles
 
-    if top < 1:
-        raise ValueError(f"top: must be at least 1, got {top}")
-    if max_evals < 2:
-        raise ValueError(f"max_evals: must be at least 2, got {max_evals}")
-    if max_effects < 1:
-        raise ValueError(f"max_effects: must be at least 1, got {max_effects}")
-    if not 0 < alpha < 1:
-        raise ValueError(f"alpha: must be between 0 and 1, got {alpha}")
     if isinstance(only, str):
         only = [only]
     names = [f.name for f in FAMILIES]

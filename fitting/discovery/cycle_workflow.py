@@ -138,8 +138,12 @@ class CycleBase(AbstractBaseModel):
     NAME: ClassVar[str] = "cycle"
 
     def __post_init__(self):
-        if self.max_effects < 1:
-            raise ValueError(f"max_effects: must be at least 1, got {self.max_effects}")
+        for key, value, low in (("top", self.opts.top, 1), ("max_evals", self.opts.max_evals, 2),
+                                ("max_effects", self.max_effects, 1)):
+            if value < low:
+                raise ValueError(f"{key}: must be at least {low}, got {value}")
+        if not 0 < self.opts.alpha < 1:
+            raise ValueError(f"alpha: must be between 0 and 1, got {self.opts.alpha}")
 
     @property
     def families(self) -> list:

@@ -112,8 +112,8 @@ def _analyse(problem: Problem, z):
 @dataclasses.dataclass(frozen=True, eq=False)
 class SmoothFit:
     """A fit of the smoothed base: the screened campaign, the problem and its solution,
-    the residual analysis
-    (`residuals.analyse_residuals`) and, once ranked, the score tests (`ranking`)."""
+    the residual analysis (`residuals.analyse_residuals`) and, once ranked, the score
+    tests (`ranking`)."""
 
     campaign: Campaign
     problem: Problem
@@ -133,8 +133,8 @@ class SmoothBase(AbstractBaseModel):
 
     `strict`: refuse the campaign when a record has no usable stick-slip (else it is set
     aside and listed, `data.campaign.screen_records`; `unreadable`: the files that could
-    not be read); `candidates`: library names to consider; `top`: how many to refit; `threshold`:
-    BIC margin needed to name an effect; `p_explained`, `margin`: for "high" confidence;
+    not be read); `candidates`: library names to consider; `top`: how many to refit;
+    `threshold`: BIC margin needed to name an effect; `p_explained`, `margin`: for "high" confidence;
     `learn`: fit the learned correction when nothing explains the residuals; `crop`:
     see `model.campaign_traces`; `effects`: fixed shape settings (`EffectSet.zeros`);
     `fixed`: friction parameters held at their features-fit value; `max_evals`: budget
