@@ -134,8 +134,9 @@ class SmoothBase(AbstractBaseModel):
     `strict`: refuse the campaign when a record has no usable stick-slip (else it is set
     aside and listed, `data.campaign.screen_records`; `unreadable`: the files that could
     not be read); `candidates`: library names to consider; `top`: how many to refit;
-    `threshold`: BIC margin needed to name an effect; `p_explained`, `margin`: for "high" confidence;
-    `learn`: fit the learned correction when nothing explains the residuals; `crop`:
+    `threshold`: BIC margin needed to name an effect; `p_explained`, `margin`: for
+    "high" confidence; `learn`: fit the learned correction when nothing explains the
+    residuals; `crop`:
     see `model.campaign_traces`; `effects`: fixed shape settings (`EffectSet.zeros`);
     `fixed`: friction parameters held at their features-fit value; `max_evals`: budget
     of the base fit and of the chosen model's polish (LM stops earlier at convergence:
