@@ -7,6 +7,8 @@ The default (`stickslip discover`) works on the per-cycle model of the trace obj
   forward-mode Jacobian blocks); equal to the trace objective at zero effects.
 - `cycle_workflow`: `discover_cycles(records) -> CycleDiscovery` (robust score test,
   refits, decision, "unexplained").
+- `engine`: the one pipeline both bases run through (`discover(records, base)` over an
+  `AbstractBaseModel`: `cycle_workflow.CycleBase`, `workflow.SmoothBase`).
 
 The whole-record workflow on the smoothed simulator (`--base smooth`):
 
