@@ -12,11 +12,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
-SLOW = {"04_design", "05_missing_physics"}
-"""Notebooks that take about a minute or more at small size (04_design: 56 s of CPU time,
-its functions each checked by test_experiment_design, test_inverse_design and
-test_design_maps): run with the slow tests (`.ci/run` runs those too), keeping the
-default suite short."""
+SLOW = {"02_contact_microsqueeze", "04_design", "05_missing_physics", "06_pitching"}
+"""The longest notebooks at small size (04_design: 56 s of CPU time; 02 and 06: 31 and
+24 s on the quiet 2-core machine, compiling most of it), their functions each checked
+by their own modules (04: test_experiment_design, test_inverse_design, test_design_maps;
+02: test_microsqueeze, test_contact_boundary, test_contact_surfaces; 06: test_pitching):
+run with the slow tests (`.ci/run` runs those too), keeping the default suite short."""
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem in SLOW
