@@ -194,13 +194,18 @@ def compilation_cache_dir() -> str | None:
 
 
 def _persistent_cache() -> None:
-    """JAX's persistent compilation cache in `compilation_cache_dir()` (if on)."""
+    """JAX's persistent compilation cache in `compilation_cache_dir()` (if on), and the
+    fit's programs stored in its `programs` folder (`stored_programs`: loaded without
+    tracing them again)."""
     path = compilation_cache_dir()
     if path:
         import jax
         from jax.experimental.compilation_cache import compilation_cache
 
+        from . import stored_programs
+
         jax.config.update("jax_compilation_cache_dir", path)
+        stored_programs.use(os.path.join(path, "programs"))
         if "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS" not in os.environ:
             jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
         # an import may already have compiled (and so settled the cache without a

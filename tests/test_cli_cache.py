@@ -82,3 +82,66 @@ def test_the_fit_programs_can_be_kept():
                                                 max_events=4).deflection,
                       jnp.linspace(0.0, 1.0, 10))
     assert "callback" in checked  # the test would see one
+
+
+TRACED = []
+"""Calls of `_scaled` that traced it (a stored program runs without tracing)."""
+
+
+def _scaled(x, factor):
+    TRACED.append(factor)
+    return {"y": x * factor, "n": 3}
+
+
+def test_stored_programs_run_without_tracing_again(tmp_path):
+    """With the store on, a program compiled once is loaded by a later caller (a new
+    `stored_jit`, as in a new process) and run without tracing; the outputs, arrays and
+    the rest, are those of `eqx.filter_jit`; another static argument is another program;
+    with the store off nothing is written."""
+    import equinox as eqx
+    import jax.numpy as jnp
+    import numpy as np
+
+    from stickslip_jax import stored_programs
+
+    x = jnp.arange(4.0)
+    try:
+        stored_programs.use(tmp_path)
+        first = stored_programs.stored_jit(_scaled)(x, 2.0)
+        assert len(TRACED) == 1 and len(os.listdir(tmp_path)) == 1
+        second = stored_programs.stored_jit(_scaled)(x, 2.0)
+        assert len(TRACED) == 1  # loaded, not traced
+        expected = eqx.filter_jit(_scaled)(x, 2.0)
+        for out in (first, second):
+            assert out["n"] == 3
+            np.testing.assert_array_equal(out["y"], expected["y"])
+        stored_programs.stored_jit(_scaled)(x, 3.0)
+        assert len(os.listdir(tmp_path)) == 2
+        stored_programs.use(None)
+        stored_programs.stored_jit(_scaled)(x, 4.0)
+        assert len(os.listdir(tmp_path)) == 2
+    finally:
+        stored_programs.use(None)
+
+
+def test_a_fit_from_stored_programs_gives_the_same_document(tmp_path):
+    """`stickslip fit` keeps its solve and intervals' programs in the cache folder; a second
+    run loads them (nothing new stored) and writes the same JSON document."""
+    import glob
+
+    files = sorted(glob.glob(os.path.join(os.path.dirname(__file__), "..", "data", "examples",
+                                          "*.csv")))[:3]
+    env = dict(os.environ, **{CACHE_ENV: str(tmp_path / "cache")})
+    docs = []
+    for name in ("a.json", "b.json"):
+        run = subprocess.run([sys.executable, "-m", "stickslip_jax.cli", "fit", "-q", *files,
+                              "--json", str(tmp_path / name)], env=env, capture_output=True,
+                             text=True, timeout=600)
+        assert run.returncode == 0, run.stderr
+        docs.append((tmp_path / name).read_text())
+        stored = sorted(os.listdir(tmp_path / "cache" / "programs"))
+        assert stored
+        if name == "a.json":
+            first = stored
+    assert stored == first
+    assert docs[0] == docs[1]

@@ -48,6 +48,7 @@ import optimistix as optx
 from stickslip_jax.lsq import free_filter, gauss_newton_decrease, least_squares
 from stickslip_jax.modes import GaugeOffset, SlipTime
 from stickslip_jax.programs import release_programs
+from stickslip_jax.stored_programs import stored_jit
 
 from ..objectives.combined import AbstractObjective, FeaturesObjective, make_objective
 from ..data.features import RecordFeatures, record_features
@@ -206,10 +207,10 @@ runs in 0.13 instead of 0.036 s. The solves keep `COMPILER_OPTIONS`: they run th
 Jacobian ten times or more, and the features solve, which would compile in 1.1 instead
 of 2.1 s, would run twice as long (0.18 instead of 0.09 s)."""
 
-_solve_starts = eqx.filter_jit(_solve_starts_impl, compiler_options=COMPILER_OPTIONS)
+_solve_starts = stored_jit(_solve_starts_impl, compiler_options=COMPILER_OPTIONS)
 
 
-@eqx.filter_jit(compiler_options=QUICK_OPTIONS)
+@stored_jit(compiler_options=QUICK_OPTIONS)
 def compiled(fn, *args):
     """`fn(*args)` as one compiled program (with `QUICK_OPTIONS`; the function and
     non-array arguments are static): for evaluating an objective once outside the solve
@@ -570,7 +571,7 @@ def _features_problem(features, o: _Options, starts=None, loss=None,
     return _FeaturesProblem(data, obj, _stack(frees), statics[0], spec, starts)
 
 
-@eqx.filter_jit(compiler_options=QUICK_OPTIONS)
+@stored_jit(compiler_options=QUICK_OPTIONS)
 def _gn_terms(free, static, objective):
     flat, unravel = jax.flatten_util.ravel_pytree(free)
 

@@ -30,12 +30,12 @@ from __future__ import annotations
 import dataclasses
 import math
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from stickslip_jax.lsq import gauss_newton_covariance
+from stickslip_jax.stored_programs import stored_jit
 
 from ..solve.fit import QUICK_OPTIONS, FitResult
 from ..objectives.losses import HeavyTailed
@@ -100,7 +100,7 @@ class Uncertainty:
                 for e in self.estimates()]
 
 
-@eqx.filter_jit(compiler_options=QUICK_OPTIONS)
+@stored_jit(compiler_options=QUICK_OPTIONS)
 def _jacobian_log(params, idx: tuple, objective, fit_offsets: bool):
     """(J, r): residuals and their Jacobian in (log friction, free offsets) coordinates
     at `params`, the friction parameters `idx` (static) free.
