@@ -27,10 +27,11 @@ rounds because the machine is shared):
    residual function); then the same again with the slips in closed form
    (`slip="closed_form"`: NumPy, no ODE solver, brentq for the breakaway); plus the
    combined objective ("both"), ours only;
-3. the same fits from JAX's persistent compilation cache (what the `stickslip` command
-   does, cache on by default): the cache filled once, then the in-memory caches emptied
-   and the fits timed again: Python tracing and loading the compiled programs, no XLA
-   compilation (a later process on a campaign of the same layout);
+3. the same fits from the cache folder of the `stickslip` command (on by default: JAX's
+   persistent compilation cache and the stored programs, `stickslip_jax.stored_programs`):
+   the folder filled once, then the in-memory caches and loaded programs dropped and the
+   fits timed again: loading the stored programs, no tracing and no XLA compilation (a
+   later process on a campaign of the same layout);
 4. the main job, `stickslip fit -q data/examples/*.csv` in a new process (imports
    included): from an empty cache folder, then again from the filled one (`--no-cli`
    leaves it out);
@@ -113,21 +114,31 @@ def scipy_rounds(res_fn, aux_fn, y0, ref0, vel0, tol, max_rounds, round_tol, max
 
 
 def cached_fits(features_fit, trace_fit, repeat):
-    """(features fit, trace fit) times [s] from JAX's persistent compilation cache: a
-    temporary cache folder filled by one run of each, then every in-memory cache emptied
-    before each timed run (tracing and loading remain, as in a later process); the
-    cache is turned off again afterwards."""
+    """(features fit, trace fit) times [s] from the cache folder of the `stickslip`
+    command (JAX's persistent compilation cache and the stored programs,
+    `stickslip_jax.stored_programs`): a temporary folder filled by one run of each, then
+    every in-memory cache and loaded program dropped before each timed run (loading
+    remains, as in a later process); both are turned off again afterwards."""
     import jax
     from jax.experimental.compilation_cache import compilation_cache
+
+    from stickslip_jax import stored_programs
+
+    def later_process(fit):
+        def run():
+            stored_programs.use(os.path.join(folder, "programs"))  # drops the loaded ones
+            return fit()
+        return run
 
     with tempfile.TemporaryDirectory() as folder:
         jax.config.update("jax_compilation_cache_dir", folder)
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
         compilation_cache.reset_cache()
         jax.clear_caches()
-        trace_fit()  # fills the cache (the features solve too: the trace fit starts with it)
-        t_feat, _ = best_of(features_fit, repeat, clear=True)
-        t_trace, _ = best_of(trace_fit, repeat, clear=True)
+        later_process(trace_fit)()  # fills it (the trace fit starts with the features solve)
+        t_feat, _ = best_of(later_process(features_fit), repeat, clear=True)
+        t_trace, _ = best_of(later_process(trace_fit), repeat, clear=True)
+        stored_programs.use(None)
         jax.config.update("jax_compilation_cache_dir", None)
         compilation_cache.reset_cache()
     return t_feat, t_trace
@@ -346,8 +357,8 @@ def main():
         ("trace part, SciPy-native (NumPy/SciPy model), same start", t_nat),
         ("trace part, SciPy closed-form (NumPy model), same start", t_cf),
         ("both objectives, ours: incl. compilation", t_both_first),
-        ("features fit, ours: from the persistent cache", t_fit_cached),
-        ("trace fit, ours: features + trace, from the persistent cache", t_tr_cached),
+        ("features fit, ours: from the cache folder", t_fit_cached),
+        ("trace fit, ours: features + trace, from the cache folder", t_tr_cached),
     ]
     for name, t in rows:
         print(f"{name:<58}{t:>10.3f}{getattr(t, 'cpu', float('nan')):>10.3f}")
@@ -394,10 +405,10 @@ def main():
     sp_cpu = t_sp_feat.cpu + t_cf.cpu
     print(f"  the same in CPU time (SciPy {sp_cpu:.2f} s): compiled "
           f"{sp_cpu / whole_ours_c.cpu:.1f}x, incl. our compilation "
-          f"{sp_cpu / whole_ours.cpu:.2f}x, ours from the persistent cache "
+          f"{sp_cpu / whole_ours.cpu:.2f}x, ours from the cache folder "
           f"{sp_cpu / t_tr_cached.cpu:.2f}x")
-    print(f"  whole trace fit vs SciPy closed-form, ours from the persistent cache (tracing "
-          f"and loading, a later process): {(t_sp_feat + t_cf) / t_tr_cached:.1f}x; vs "
+    print(f"  whole trace fit vs SciPy closed-form, ours from the cache folder (stored "
+          f"programs loaded, a later process): {(t_sp_feat + t_cf) / t_tr_cached:.1f}x; vs "
           f"SciPy strict incl. its compilation {whole_sp_c / t_tr_cached:.1f}x")
     print(f"target: a converged 6-parameter fit in < 30 s incl. compilation: "
           f"{max(t_fit_first, t_tr_first) < 30} (features {t_fit_first:.1f} s, trace "
@@ -415,7 +426,7 @@ def main():
     print("recovered (trace):   ", ", ".join(f"{k}={v:.4g}" for k, v in tfit.values.items()))
     print(">= 3x faster than the SciPy closed-form fit (whole trace fit) incl. our "
           f"compilation: empty caches {(t_sp_feat + t_cf) / whole_ours >= 3} "
-          f"({(t_sp_feat + t_cf) / whole_ours:.1f}x), from the persistent cache "
+          f"({(t_sp_feat + t_cf) / whole_ours:.1f}x), from the cache folder "
           f"{(t_sp_feat + t_cf) / t_tr_cached >= 3} ({(t_sp_feat + t_cf) / t_tr_cached:.1f}x)")
     if not args.no_cli:
         t_cli_cold, t_cli_warm = cli_main_job()
