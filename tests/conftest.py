@@ -12,7 +12,8 @@ compiling them, and a later run loads them all (`pytest --cache-clear` empties i
 Under `pytest -n 2` without the slow tests, each worker takes whole test modules
 (`pytest_xdist_make_scheduler`), the longest first (`LONG_MODULES`): a module's fixtures
 (its fitted campaigns and discoveries) are built once, not once on each worker, and the
-two workers end together. `--dist` on the command line chooses another distribution.
+two workers end together; modules that compile the same programs run on one worker
+(`SHARED_PROGRAMS`). `--dist` on the command line chooses another distribution.
 """
 
 import os
@@ -30,22 +31,33 @@ import pytest  # noqa: E402
 matplotlib.use("Agg")
 
 QUICK_MODULES = ("test_code_size", "test_layering", "test_product_text", "test_units",
-                 "test_friction", "test_tables", "test_drives", "test_contact_boundary",
+                 "test_friction", "test_tables", "test_contact_boundary",
                  "test_contact_surfaces", "test_lsq", "test_lsq_pieces", "test_steady")
-"""Modules marked `quick` (`pytest -m "quick and not slow"`): the source checks and the
-model's unit tests (friction laws, tables, drives, contact, the least-squares solver,
-the steady state), without fits, discovery or subprocess commands."""
+"""Modules whose tests are marked `quick` (`pytest -m quick`): the source checks and the
+model's unit tests (friction laws, tables, contact, the least-squares solver, the steady
+state), without fits, discovery or subprocess commands. A test of theirs marked `slow`
+is not marked `quick` (`-m quick` replaces the default `-m 'not slow'`)."""
 
-LONG_MODULES = ("test_notebooks", "test_limit_cycle", "test_real_world_records",
-                "test_exact_campaign", "test_smooth", "test_drives", "test_microsqueeze",
-                "test_fit_microsqueeze", "test_sequential_discovery", "test_normal_load",
-                "test_json_keys", "test_friction_laws", "test_exact", "test_short_sticks",
-                "test_cli_steady", "test_mcmc", "test_cycle_discovery", "test_api_results",
+LONG_MODULES = ("test_real_world_records", "test_json_keys", "test_cli_steady",
+                "test_notebooks", "test_smooth", "test_drives", "test_microsqueeze",
+                "test_fit_microsqueeze", "test_exact_campaign", "test_sequential_discovery",
+                "test_normal_load", "test_friction_laws", "test_exact", "test_short_sticks",
+                "test_limit_cycle", "test_mcmc", "test_cycle_discovery", "test_api_results",
                 "test_experiment_design", "test_smooth_objective", "test_cli_tracebacks",
                 "test_cycle_model")
 """Test modules that take longest in the default run, longest first (each module's
-seconds summed from `pytest -n 2 --durations=200`): they run first, so that under
-`pytest -n 2` the short modules fill the end of both workers."""
+seconds summed from `pytest -n 2 --durations=200`, or single-process `--durations=0`
+for the modules whose tests changed since; a module of `SHARED_PROGRAMS` right after
+the module it runs with): they run first, so that under `pytest -n 2` the short modules
+fill the end of both workers."""
+
+SHARED_PROGRAMS = {"test_cli_steady": "test_json_keys"}
+"""Modules that run on the worker of another (module -> that module) under `pytest -n 2`:
+both run a command at the same design point, so the second finds the first's compiled
+programs in memory (at load 13, test_json_keys's `steady --damping-ratio 0.05
+--tolerance 1um` took 220 s, test_cli_steady's runs with --damping-ratio 0.05 and with
+--tolerance after it 3.8 and 0.8 s). Programs with eqx.error_if checks (host callbacks)
+are not kept in the persistent cache, so only the one process shares them."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about
@@ -91,7 +103,7 @@ def pytest_configure(config):
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        if item.path.stem in QUICK_MODULES:
+        if item.path.stem in QUICK_MODULES and item.get_closest_marker("slow") is None:
             item.add_marker(pytest.mark.quick)
     rank = {stem: i for i, stem in enumerate(LONG_MODULES)}
     items.sort(key=lambda item: rank.get(item.path.stem, len(rank)))  # stable: file order kept
@@ -107,5 +119,14 @@ def pytest_xdist_make_scheduler(config, log):
         return None
     from xdist.scheduler import LoadFileScheduling
 
+    class ModuleScheduling(LoadFileScheduling):
+        def _split_scope(self, nodeid: str) -> str:
+            """A test's work unit: its module's, or the module it shares programs with
+            (`SHARED_PROGRAMS`)."""
+            path = super()._split_scope(nodeid)
+            stem = path.rpartition("/")[2].removesuffix(".py")
+            host = SHARED_PROGRAMS.get(stem)
+            return path if host is None else f"{path[:-len(stem) - 3]}{host}.py"
+
     config.option.loadscopereorder = False  # keep LONG_MODULES first
-    return LoadFileScheduling(config, log)
+    return ModuleScheduling(config, log)
