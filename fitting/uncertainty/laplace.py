@@ -102,11 +102,13 @@ class Uncertainty:
 
 @stored_jit(compiler_options=QUICK_OPTIONS)
 def _jacobian_log(params, idx: tuple, objective, fit_offsets: bool):
-    """(J, r): residuals and their Jacobian in (log friction, free offsets) coordinates
-    at `params`, the friction parameters `idx` (static) free.
+    """(J, r, values): residuals and their Jacobian in (log friction, free offsets)
+    coordinates at `params`, the friction parameters `idx` (static) free, and the natural
+    values of `params`.
 
     Module level and jitted on its arguments, so fits of one campaign layout share it;
-    the coordinates are built inside (no small program compiled per operation)."""
+    the coordinates and values are computed inside (no small program compiled per
+    operation)."""
     k = len(idx)
     logs0 = params.friction.log_values()
     sel = jnp.asarray(idx, dtype=jnp.int32)
@@ -119,19 +121,20 @@ def _jacobian_log(params, idx: tuple, objective, fit_offsets: bool):
         r = objective.residuals(CampaignParams(params.friction.from_log_values(logs), off))
         return r, r
 
-    return jax.jacfwd(residuals, has_aux=True)(theta0)  # one trace of the residuals
+    J, r = jax.jacfwd(residuals, has_aux=True)(theta0)  # one trace of the residuals
+    return J, r, params.friction.values()
 
 
 def jacobian_log(fit: FitResult, objective=None):
-    """(J, r, free mask, idx) at the optimum: whitened residuals r and J = dr/dtheta,
-    theta = (log of the free friction parameters, free gauge offsets in mm), of
-    `objective` (default the fit's)."""
+    """(J, r, free mask, idx, values) at the optimum: whitened residuals r and
+    J = dr/dtheta, theta = (log of the free friction parameters, free gauge offsets in
+    mm), of `objective` (default the fit's), and the natural friction values."""
     free = free_mask(fit.spec)
     idx = np.flatnonzero(free)
-    J, r = _jacobian_log(fit.params, tuple(int(i) for i in idx),
-                         fit.objective if objective is None else objective,
-                         bool(fit.spec.offset))
-    return np.asarray(J), np.asarray(r), free, idx
+    J, r, value = _jacobian_log(fit.params, tuple(int(i) for i in idx),
+                                fit.objective if objective is None else objective,
+                                bool(fit.spec.offset))
+    return np.asarray(J), np.asarray(r), free, idx, np.asarray(value)
 
 
 def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
@@ -317,10 +320,10 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         covariance = (Covariance.TWO_LEVEL if heavy and many else Covariance.SANDWICH if traced
                       else Covariance.TWO_LEVEL if misfit and many else Covariance.FISHER)
     if isinstance(fit.objective, HeavyTailed):  # Huber's sandwich (`AbstractLoss.score_form`)
-        J, r, free, idx = jacobian_log(fit, fit.objective.inner)
+        J, r, free, idx, value = jacobian_log(fit, fit.objective.inner)
         J, r = fit.objective.loss.score_form(J, r)
     else:
-        J, r, free, idx = jacobian_log(fit)
+        J, r, free, idx, value = jacobian_log(fit)
     F = J.T @ J
     k = idx.size
     if covariance.robust:
@@ -338,7 +341,6 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
     P = len(names)
     cov_log = np.full((P, P), np.nan)
     cov_log[np.ix_(idx, idx)] = cov[:k, :k]
-    value = np.asarray(fit.params.friction.values())
     log_se = np.zeros(P)
     log_se[idx] = np.sqrt(np.maximum(np.diag(cov[:k, :k]), 0.0))
     stderr = value * log_se
