@@ -237,6 +237,34 @@ def test_plausible_start():
     assert np.isclose(rise, 9.16e5 * -np.expm1(-5.1e-8), rtol=1e-6) and np.exp(z[1]) < 10
 
 
+def test_a_fit_that_cannot_reach_its_target_stops():
+    """`AbstractProblem.solve(target=)`: a fit whose best point cannot get below the
+    target (HOPE x the Gauss-Newton decrease left) stops there, marked `hopeless`, with
+    the residuals and Jacobian of that point; a reachable target leaves the fit as it is."""
+    from stickslip_fitting.discovery.subproblems import HOPE_AFTER, AbstractProblem
+
+    class Curve(AbstractProblem):  # r = (z0 - 1, 10 (z1 - z0^2)): Rosenbrock's valley
+        def __init__(self):
+            self.calls = 0
+
+        def evaluate(self, z):
+            self.calls += 1
+            r = np.array([z[0] - 1.0, 10.0 * (z[1] - z[0] ** 2)])
+            return r, np.array([[1.0, 0.0], [-20.0 * z[0], 10.0]]), True
+
+    kw = dict(max_evals=60, chi2_tol=1e-12, stall_tol=0.0)
+    free = Curve().solve(np.array([-1.2, 1.0]), **kw)
+    reachable = Curve().solve(np.array([-1.2, 1.0]), target=1e-3, **kw)
+    assert np.array_equal(free.z, reachable.z) and free.n_evals == reachable.n_evals
+    assert not reachable.stats.get("hopeless") and free.rss < 1e-10
+    p = Curve()
+    stopped = p.solve(np.array([-1.2, 1.0]), target=-1e3, **kw)
+    assert stopped.stats["hopeless"] and p.calls == HOPE_AFTER == stopped.n_evals
+    r, J, _ = Curve().evaluate(stopped.z)  # the best point so far, with its own r and J
+    assert np.allclose(stopped.r, r) and np.allclose(stopped.J, J)
+    assert np.isclose(stopped.rss, r @ r) and not stopped.converged
+
+
 def test_a_non_finite_derivative_is_not_tested():
     """A family whose derivative is not finite at the base fit gets no test (p NaN,
     never significant) instead of stopping the ranking (measured: "SVD did not

@@ -10,13 +10,23 @@ import abc
 import dataclasses
 
 import numpy as np
+import optimistix as optx
 
-from stickslip_jax.lsq import HostResiduals, LeastSquaresSolution, Stall, least_squares
+from stickslip_jax.lsq import (HostResiduals, LeastSquaresSolution, Stall,
+                               gauss_newton_decrease, least_squares)
 
 from .cycle_effects import Shape
 from .cycle_model import CycleModel
 
-__all__ = ["SHAPE_FIELDS", "AbstractProblem", "SharedScrewProblem", "SubProblem", "with_shape"]
+__all__ = ["HOPE", "SHAPE_FIELDS", "AbstractProblem", "SharedScrewProblem", "SubProblem",
+           "with_shape"]
+
+HOPE = 4.0
+"""A fit with a `target` (`AbstractProblem.solve`) stops once its best point, lowered by
+this many times the full Gauss-Newton step's predicted decrease there, stays above the
+target (checked from its `HOPE_AFTER`-th evaluation: the first steps from a bent start
+gain more than the linear model says)."""
+HOPE_AFTER = 4
 
 SHAPE_FIELDS = {"viscous_damping": ("damping",), "stribeck": ("vs", "p", "form"),
                 "rate_state": ("length",), "drive_periodic_error": ("pitch",),
@@ -45,18 +55,64 @@ class AbstractProblem(abc.ABC):
         return None
 
     def solve(self, z0, *, max_evals: int = 25, chi2_tol: float = 0.05, first=None,
-              lam0: float = 1e-3, stall_evals: int = 4, stall_tol: float = 0.5
-              ) -> LeastSquaresSolution:
+              lam0: float = 1e-3, stall_evals: int = 4, stall_tol: float = 0.5,
+              target: float | None = None) -> LeastSquaresSolution:
         """The fit from z0 over `active()` (`stickslip_jax.lsq.least_squares` over a
         `HostResiduals`): converged when the full Gauss-Newton step would lower the cost
         by less than `chi2_tol` (a chi-square), when the last `stall_evals` evaluations
         lowered it by < `stall_tol` together, or where no step can lower it; else
         it stops after `max_evals` evaluations. `first`: (r, J, ok) at z0 already; a
         small `lam0` (0: the plain Gauss-Newton step) suits a start where the quadratic
-        model is trusted, such as a refit from a base optimum whose step is a score test's."""
-        return least_squares(HostResiduals(self.evaluate, first), z0, self.active(), rtol=0.0,
-                             atol=chi2_tol, max_steps=max_evals, lam0=lam0,
-                             stall=Stall(stall_evals, stall_tol))
+        model is trusted, such as a refit from a base optimum whose step is a score test's.
+        `target`: a chi-square the fit is worth running for only if it can end below it
+        (a refit that cannot win): the fit stops at its best point so far once that point
+        cannot get there (`HOPE`; the solution's `stats["hopeless"]` True)."""
+        watch = _Watch(self.evaluate, target, first, z0)
+        try:
+            return least_squares(HostResiduals(watch if target is not None else self.evaluate,
+                                               first), z0, self.active(), rtol=0.0,
+                                 atol=chi2_tol, max_steps=max_evals, lam0=lam0,
+                                 stall=Stall(stall_evals, stall_tol))
+        except _Hopeless:
+            return LeastSquaresSolution(
+                watch.z, optx.RESULTS.nonlinear_max_steps_reached,
+                dict(num_steps=watch.n, lam=lam0, history=[], ok=watch.ok, cost=watch.cost,
+                     hopeless=True), residuals=watch.r, jacobian=watch.J)
+
+
+class _Hopeless(Exception):
+    """A watched fit cannot reach its target (`_Watch`)."""
+
+
+class _Watch:
+    """An `evaluate` that keeps the best point of a fit and raises `_Hopeless` once that
+    point, lowered by `HOPE` times the Gauss-Newton decrease predicted there, stays above
+    `target` (from the `HOPE_AFTER`-th evaluation on)."""
+
+    def __init__(self, evaluate, target, first, z0):
+        self.evaluate, self.target, self.n = evaluate, target, 0
+        self.cost, self.floor = np.inf, -np.inf
+        self.z = self.r = self.J = None
+        self.ok = False
+        if first is not None:
+            self._keep(np.array(z0, float), *first)
+
+    def _keep(self, z, r, J, ok):
+        cost = float(r @ r) if ok and np.all(np.isfinite(r)) else np.inf
+        if cost < self.cost:
+            self.z, self.r, self.J, self.ok, self.cost = z, r, J, ok, cost
+            J = np.asarray(J)
+            self.floor = cost - HOPE * float(gauss_newton_decrease(
+                J.T @ J, J.T @ np.asarray(r), xp=np))
+
+    def __call__(self, z):
+        r, J, ok = self.evaluate(z)
+        self.n += 1
+        self._keep(np.array(z, float), r, J, ok)
+        if (self.n >= HOPE_AFTER and self.z is not None and np.isfinite(self.cost)
+                and self.floor > self.target):
+            raise _Hopeless
+        return r, J, ok
 
 
 @dataclasses.dataclass

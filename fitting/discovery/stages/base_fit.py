@@ -173,7 +173,8 @@ def base_fit(prep: Prepared, *, loss: AbstractLoss | None, opts: DiscoveryOption
         # the base fit as the refits would run, from a damped start with more patience
         base_cols = np.arange(model.n_base)
         sub = SubProblem(model, z_base, base_cols)
-        more = sub.solve(z_base[base_cols], max_evals=opts.max_evals, lam0=1.0, stall_evals=8)
+        more = sub.solve(z_base[base_cols], max_evals=opts.max_evals, lam0=1.0, stall_evals=8,
+                         first=(fit.r, fit.J, fit.ok))  # the fit's own point
         if more.rss < fit.rss:
             fit, z_base = more, sub.full(more.z)
     r0 = fit.r

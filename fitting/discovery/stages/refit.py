@@ -19,7 +19,14 @@ from ..subproblems import SharedScrewProblem, SubProblem
 from .base_fit import friction_values
 from .state import Clock, FamilyRefit, FamilyScore, Fits, Refitted
 
-__all__ = ["continued", "dead", "judge", "prior_of", "refine_shape", "refit"]
+__all__ = ["CANNOT_WIN", "continued", "dead", "judge", "prior_of", "refine_shape", "refit"]
+
+CANNOT_WIN = 0.5
+"""Far from the data, a refit stops once it cannot lower chi-square by this share of
+`joint` x the lead (the largest physical drop of an eligible family so far; `HOPE`
+times the Gauss-Newton decrease left at its best point): it could neither win nor make
+the answer uncertain (a contender counts from `joint` x the winner's drop), and far from
+the data every family is refitted, most of them to a small share of the lead."""
 
 
 def _one_screw(coef, recs, pitch, spans, opts: DiscoveryOptions = DEFAULTS) -> str | None:
@@ -57,7 +64,8 @@ def _one_screw(coef, recs, pitch, spans, opts: DiscoveryOptions = DEFAULTS) -> s
 
 def _said(rf: FamilyRefit) -> str:
     """A refit in a progress line: its chi-square drop and why it is not a result."""
-    why = " (refit failed)" if rf.failed else " (unphysical)" if rf.unphysical else ""
+    why = (" (refit failed)" if rf.failed else " (unphysical)" if rf.unphysical
+           else " (stopped: cannot win)" if rf.fit.stats.get("hopeless") else "")
     return f"{rf.family.name} chi2 {-rf.drop:+.0f}{why}"
 
 
@@ -147,7 +155,7 @@ def _options(fx: Fits, sc: FamilyScore):
     return options, starts
 
 
-def _shared_screw(fx: Fits, f, cols, tried, best) -> FamilyRefit:
+def _shared_screw(fx: Fits, f, cols, tried, best, target) -> FamilyRefit:
     """Far from the data (a large screw error bends the base): each shape again with one
     amplitude per harmonic and a phase per record (`SharedScrewProblem`), from the per-record
     fit's coefficients (records that travel a fraction of a pitch can no longer bend
@@ -160,8 +168,12 @@ def _shared_screw(fx: Fits, f, cols, tried, best) -> FamilyRefit:
         shared = SharedScrewProblem(model, z_base.copy(), cols, one.shape, fx.base.sensor,
                                     None, nb)
         w0 = np.concatenate([one.fit.z[:nb], SharedScrewProblem.start(one.fit.z[nb:nb + 4 * G], G)])
+        aim = target  # kept only if it beats the best so far
+        if best.unphysical is None:
+            aim = best.fit.rss if aim is None else min(aim, best.fit.rss)
         try:
-            fit = shared.solve(w0, max_evals=fx.opts.refit_evals, lam0=1e-3, stall_evals=8)
+            fit = shared.solve(w0, max_evals=fx.opts.refit_evals, lam0=1e-3, stall_evals=8,
+                               target=aim)
         except ValueError:
             continue
         two = judge(fx, f, one.shape, fit, False, shared)
@@ -171,19 +183,27 @@ def _shared_screw(fx: Fits, f, cols, tried, best) -> FamilyRefit:
     return best
 
 
-def refit_family(fx: Fits, sc: FamilyScore) -> FamilyRefit:
+def refit_family(fx: Fits, sc: FamilyScore, lead: float = 0.0) -> FamilyRefit:
     """The family of `sc` refitted with the base: the sensor with its two kernels whose
     secants predicted the largest drops, the screw error with its three best pitches, the
     others with their best shape; a physical fit beats an unphysical one, then the lower
-    chi-square wins."""
+    chi-square wins. Far from the data, each fit stops once it cannot lower chi-square by
+    `CANNOT_WIN` x `joint` x `lead` (the largest drop so far)."""
     f, model, z_base, G = sc.family, fx.base.model, fx.base.z, fx.prep.G
     misfit, refit_evals, base_rss = fx.base.misfit, fx.opts.refit_evals, fx.base.fit.rss
+    target = base_rss - CANNOT_WIN * fx.opts.joint * lead if misfit and lead > 0 else None
     cols = np.concatenate([fx.base.cols, model.cols(f)])
     prior = prior_of(fx, cols)
     options, starts = _options(fx, sc)
     best, tried = None, []
     for (option, sensor), start in itertools.product(options, starts):
         shape = option.shape
+        aim = target
+        if (misfit and best is not None and best.unphysical is None
+                and f.name != "drive_periodic_error"):
+            # a later start is kept only if it beats the family's best so far (the
+            # screw's starts are each continued as one screw: `_shared_screw`)
+            aim = best.fit.rss if aim is None else min(aim, best.fit.rss)
         z1 = z_base.copy()
         step_cols = model.cols(f)
         if f.per_record:
@@ -199,16 +219,16 @@ def refit_family(fx: Fits, sc: FamilyScore) -> FamilyRefit:
             # from a bent base the Gauss-Newton step overshoots: start damped and allow
             # more rejected trials before calling it stalled
             fit = s1.solve(z1[cols], max_evals=refit_evals, lam0=1.0 if misfit else 1e-6,
-                           stall_evals=8 if misfit else 4)
+                           stall_evals=8 if misfit else 4, target=aim)
         except ValueError:  # the score step left the simulator's domain
             s1 = SubProblem(model, z_base, cols, shape, sensor, prior)
-            fit = s1.solve(z_base[cols], max_evals=refit_evals)
+            fit = s1.solve(z_base[cols], max_evals=refit_evals, target=aim)
         one = judge(fx, f, shape, fit, sensor, s1)
         tried.append(one)
         if _better(one, best):
             best = one
     if f.name == "drive_periodic_error" and misfit:
-        best = _shared_screw(fx, f, cols, tried, best)
+        best = _shared_screw(fx, f, cols, tried, best, target)
     if best.fit.rss > base_rss:
         # every start ended above the base fit (a score step or a large start into a
         # basin the solver cannot leave; measured: load coupling "lowered" chi-square by
@@ -218,7 +238,7 @@ def refit_family(fx: Fits, sc: FamilyScore) -> FamilyRefit:
         # above it, neither is a result)
         s1 = SubProblem(model, z_base, cols, best.shape, best.sensor, prior)
         try:
-            fit = s1.solve(z_base[cols], max_evals=refit_evals)
+            fit = s1.solve(z_base[cols], max_evals=refit_evals, target=target)
             one = judge(fx, f, best.shape, fit, best.sensor, s1)
             tried.append(one)
             if one.fit.rss < best.fit.rss:
@@ -246,8 +266,9 @@ def refine_shape(fx: Fits, rf: FamilyRefit) -> tuple[FamilyRefit, int]:
             tried += 1
             sub_ = dataclasses.replace(refined.sub, shape=shape_)
             try:
+                # a shape is worth its polish only if it can end below the best so far
                 fit_ = sub_.solve(refined.fit.z, max_evals=fx.opts.refit_evals, lam0=1e-3,
-                                  stall_evals=8)
+                                  stall_evals=8, target=(better or refined).fit.rss)
             except ValueError:  # this shape leaves the simulator's domain
                 continue
             one = judge(fx, refined.family, shape_, fit_, refined.sensor, sub_)
@@ -260,20 +281,25 @@ def refine_shape(fx: Fits, rf: FamilyRefit) -> tuple[FamilyRefit, int]:
 
 
 def continued(fx: Fits, rf: FamilyRefit, w=None, evals=None, margin=0.0) -> FamilyRefit | None:
-    """`rf`'s problem solved on from its fit (or from `w`; `evals` evaluations, default
-    `max_evals`): the physical result if it lowers chi-square by more than `margin`, else
-    None."""
+    """`rf`'s problem solved on from its fit (its residuals and Jacobian there reused), or
+    from `w` (stopped once it cannot end `margin` below `rf`: `HOPE`); `evals` evaluations,
+    default `max_evals`: the physical result if it lowers chi-square by more than
+    `margin`, else None."""
     evals = fx.opts.max_evals if evals is None else evals
+    here = w is None
     try:
-        more = rf.sub.solve(rf.fit.z if w is None else w, max_evals=evals, lam0=1e-3,
-                            stall_evals=8)
+        more = rf.sub.solve(rf.fit.z if here else w, max_evals=evals, lam0=1e-3,
+                            stall_evals=8, first=(rf.fit.r, rf.fit.J, rf.fit.ok) if here else None,
+                            target=None if here else rf.fit.rss - margin)
     except ValueError:  # the start left the simulator's domain
         return None
     one = judge(fx, rf.family, rf.shape, more, rf.sensor, rf.sub)
     if w is not None:
         logger.debug(f"restart {rf.family.name} from "
                      f"{friction_values(rf.sub.full(w))}: chi2 -{one.drop:.0f}, "
-                     f"{more.n_evals} evaluations, {one.unphysical or 'physical'}, at "
+                     f"{more.n_evals} evaluations"
+                     f"{' (stopped: cannot win)' if more.stats.get('hopeless') else ''}, "
+                     f"{one.unphysical or 'physical'}, at "
                      f"{friction_values(rf.sub.full(more.z))}")
     return one if one.unphysical is None and more.rss < rf.fit.rss - margin else None
 
@@ -286,7 +312,21 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
     to_refit = (sorted(scores, key=lambda s: -s.chi2_predicted) if fx.base.misfit
                 else significant[:fx.opts.top])
     fx.prep.warm["evaluate", True].result()
-    refits = [refit_family(fx, sc) for sc in to_refit]
+    # the winner: the physical refit that lowers chi-square most among the families the
+    # calibrated test let through (the first refits, and contenders that are significant
+    # themselves: a significant family ranked below `top` by its p-value may explain most)
+    eligible = frozenset({sc.family.name for sc in significant}
+                         | {sc.family.name for sc in to_refit})
+    refits = []
+
+    def more_refits(scores_):  # each refit knows the lead so far (`refit_family`)
+        for sc in scores_:
+            lead = max([rf.drop for rf in ranked_refits(refits)
+                        if rf.family.name in eligible], default=0.0)
+            refits.append(refit_family(fx, sc, lead))
+        return refits[len(refits) - len(scores_):]
+
+    more_refits(to_refit)
     clock("refit", ", ".join(_said(rf) for rf in refits) or "nothing to refit")
     physical = ranked_refits(refits)
     if not physical:
@@ -297,9 +337,8 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
         done = {rf.family.name for rf in refits}
         more = [sc for sc in significant if sc.family.name not in done]
         if more:
-            refits += [refit_family(fx, sc) for sc in more]
             clock("refit", "the next significant: " + ", ".join(
-                _said(rf) for rf in refits[-len(more):]))
+                _said(rf) for rf in more_refits(more)))
             physical = ranked_refits(refits)
     if physical:
         # contenders: every family with nominal evidence (robust p < alpha without the
@@ -312,11 +351,5 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
                  and (sc in significant
                       or np.nan_to_num(sc.p_value, nan=1.0) < fx.opts.alpha)]
         if extra:
-            refits += [refit_family(fx, sc) for sc in extra]
-            clock("contenders", ", ".join(_said(rf) for rf in refits[-len(extra):]))
-    # the winner: the physical refit that lowers chi-square most among the families the
-    # calibrated test let through (the first refits, and contenders that are significant
-    # themselves: a significant family ranked below `top` by its p-value may explain most)
-    eligible = frozenset({sc.family.name for sc in significant}
-                         | {sc.family.name for sc in to_refit})
+            clock("contenders", ", ".join(_said(rf) for rf in more_refits(extra)))
     return Refitted(refits=refits, eligible=eligible)
