@@ -65,6 +65,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from .friction import Friction
+from .numerics import bisect
 from .steady import (RESTICK_FAILURE, STEADY_SLIDING, STICK_SLIP, critical_speed,
                      natural_angular_frequency, restick_failure, slip_from_rest, slip_time)
 
@@ -185,7 +186,7 @@ def cycle_map(friction: Friction, weight, stiffness, speed, trough, damping_rati
         return stiffness * (x1 + speed * t1) - weight * friction.static(t1)
 
     hi = (weight * friction.static.asymptote() / stiffness - x1) / speed + 1.0
-    lo, hi = _bisect(lambda t: margin(t) >= 0, jnp.zeros_like(x1), jnp.maximum(hi, 0.0), n=200)
+    lo, hi = bisect(lambda t: margin(t) >= 0, jnp.zeros_like(x1), jnp.maximum(hi, 0.0), n=200)
     t1 = jnp.where(margin(0.0) >= 0, 0.0, 0.5 * (lo + hi))
     x2 = x1 + speed * t1
     mu_0 = friction.static(t1)
@@ -229,7 +230,6 @@ def tolerance_speed(friction: Friction, weight, stiffness, amplitude, rtol: floa
 # Viscous damping: the one-cycle map of the damped model and its sharp boundary
 # --------------------------------------------------------------------------------------
 
-_N_BISECT = 100  # float64 bisection steps (interval widths reach adjacent floats)
 _N_RESLIP = 4  # re-slips from rest followed after one slip at most
 _LOG_T_LO, _LOG_T_HI = math.log(1e-12), math.log(1e12)
 
@@ -240,18 +240,6 @@ def _with_implicit_gradient(root, fn):
     root = jax.lax.stop_gradient(root)
     value, slope = jax.jvp(fn, (root,), (jnp.ones_like(root),))
     return root - (value - jax.lax.stop_gradient(value)) / jax.lax.stop_gradient(slope)
-
-
-def _bisect(predicate, lo, hi, n=_N_BISECT):
-    """The transition of a predicate (False at `lo`, True at `hi`): (lo, hi) after `n`
-    halvings."""
-    def body(_, lohi):
-        lo, hi = lohi
-        mid = 0.5 * (lo + hi)
-        up = predicate(mid)
-        return jnp.where(up, lo, mid), jnp.where(up, mid, hi)
-
-    return jax.lax.fori_loop(0, n, body, (lo, hi))
 
 
 def _damped_slip(x_start, mu, weight, stiffness, speed, omega, zeta):
@@ -276,7 +264,7 @@ def _damped_slip(x_start, mu, weight, stiffness, speed, omega, zeta):
     t_max = jnp.arctan2(a, b) / wd  # the velocity's first maximum, then its minimum
     t_min = t_max + jnp.pi / wd
     stopped = velocity(t_min) <= 0.0
-    lo, hi = _bisect(lambda t: velocity(t) <= 0.0, t_max, t_min)
+    lo, hi = bisect(lambda t: velocity(t) <= 0.0, t_max, t_min)
     t_end = jnp.where(stopped, 0.5 * (lo + hi), t_min)
     t_end = _with_implicit_gradient(t_end, velocity)
     z = jnp.exp(-zeta * omega * t_end) * (
@@ -332,7 +320,7 @@ def _damped_limit_cycle(friction, weight, stiffness, speed, zeta) -> LimitCycle:
         r, (_, _, stopped, _) = _damped_residual(log_t1, *args)
         return stopped & (r > 0)
 
-    lo, hi = _bisect(settles_above, jnp.asarray(_LOG_T_LO), jnp.asarray(_LOG_T_HI))
+    lo, hi = bisect(settles_above, jnp.asarray(_LOG_T_LO), jnp.asarray(_LOG_T_HI))
     r_lo, (_, n_lo, stop_lo, peak_lo) = _damped_residual(lo, *args)
     r_hi, (_, n_hi, stop_hi, _) = _damped_residual(hi, *args)
     # a root: the map stops on both sides of the transition, with the same slips, and
@@ -376,6 +364,6 @@ def boundary_speed(friction: Friction, weight, stiffness, damping_ratio,
         return c.regime == STEADY_SLIDING
 
     lo, hi = (jnp.log(jnp.asarray(x, dtype=float)) for x in speed_range)
-    a, b = _bisect(sliding, lo, hi, n=60)
+    a, b = bisect(sliding, lo, hi, n=60)
     v = jnp.exp(0.5 * (a + b))
     return jnp.where(sliding(lo), 0.0, jnp.where(sliding(hi), v, jnp.inf))

@@ -1,5 +1,5 @@
 """Numerical helpers shared by the physics modules (NaN-safe powers and logs, float
-conversion and construction-time checks of concrete values). Public: the fitting
+conversion, construction-time checks of concrete values and bisection). Public: the fitting
 package's effect families use `safe_power` too."""
 
 import jax
@@ -25,6 +25,18 @@ def check_positive(owner: str, **values):
         arr = np.asarray(v)
         if not np.all(np.isfinite(arr)) or np.any(arr <= 0):
             raise ValueError(f"{owner}: {name} must be finite and > 0, got {arr}")
+
+
+def bisect(predicate, lo, hi, n: int = 100):
+    """The transition of a predicate (False at `lo`, True at `hi`): (lo, hi) after `n`
+    halvings (100: float64 interval widths reach adjacent floats); values only."""
+    def body(_, lohi):
+        lo, hi = lohi
+        mid = 0.5 * (lo + hi)
+        up = predicate(mid)
+        return jnp.where(up, lo, mid), jnp.where(up, mid, hi)
+
+    return jax.lax.fori_loop(0, n, body, (lo, hi))
 
 
 def safe_power(t, p):

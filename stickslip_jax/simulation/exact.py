@@ -54,6 +54,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ..drives import AbstractDrive
 from ..modes import SlipTime
+from ..numerics import bisect
 from ..slideway import Slideway
 from ..steady import slip_from_rest
 from .trace import Cycles, SimulationResult, Trace
@@ -138,19 +139,6 @@ def _render(ts, row, coef, omega, u):
     deflection = P + jnp.where(sticking, u, 0.0) + A * cs + Bs * sn
     velocity = V + omega * (A * sn - Bs * cs)
     return deflection, velocity, sticking
-
-
-def _bisect(fun, lo, hi, iters=64):
-    """Root of an increasing `fun` on [lo, hi] by bisection (values only)."""
-
-    def body(_, c):
-        lo, hi = c
-        mid = 0.5 * (lo + hi)
-        neg = fun(mid) < 0
-        return jnp.where(neg, mid, lo), jnp.where(neg, hi, mid)
-
-    lo, hi = jax.lax.fori_loop(0, iters, body, (lo, hi))
-    return 0.5 * (lo + hi)
 
 
 def _implicit(root_value, fun, dfun):
@@ -325,7 +313,9 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
 
         p_sg = jax.lax.stop_gradient(p)
         lo, hi = jax.lax.stop_gradient((jnp.pi / omega, _TWO_PI / omega))
-        root = _bisect(lambda T2: g(T2, p_sg), lo, jnp.where(active, hi, lo))
+        # the root of the increasing g by bisection
+        lo, hi = bisect(lambda T2: ~(g(T2, p_sg) < 0), lo, jnp.where(active, hi, lo), 64)
+        root = 0.5 * (lo + hi)
         return _implicit(root, g, dg)
 
     def stick_step(s: _State, active):
