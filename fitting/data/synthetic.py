@@ -71,12 +71,11 @@ def truth_values(friction) -> dict[str, float]:
 def synthetic_campaign(friction, *, conditions=SPREAD_CONDITIONS, speed_fractions=(0.03, 0.1, 0.3),
                        cycles: int = 6, noise: float = 5e-4, sample_rate: float = 1000.0,
                        seed: int = 0, lubricant: str = "A", from_rest: bool = False,
-                       slip_time: SlipTime | str = SlipTime.PAPER, max_samples: int | None = None,
-                       pad_to: int = 0) -> list[Record]:
+                       slip_time: SlipTime | str = SlipTime.PAPER, pad_to: int = 0) -> list[Record]:
     """Records of every (W, k) in `conditions` at speeds `speed_fractions` x v_c(W, k).
 
     Each record lasts about `cycles` stick-slip cycles (eq 6 steady state) at
-    `sample_rate` Hz (at most `max_samples` samples); `noise` in mm; `seed` for the
+    `sample_rate` Hz; `noise` in mm; `seed` for the
     noise; `pad_to`: simulate on at least this many (padded) samples so that campaigns
     of other parameters reuse one compilation. Units: W kgf, k kgf/mm, speeds mm/s.
     """
@@ -90,8 +89,6 @@ def synthetic_campaign(friction, *, conditions=SPREAD_CONDITIONS, speed_fraction
             lead = float(st.mu_0) * w / (k * v) if from_rest else 0.0
             duration = lead + cycles * (t1 + t2) + 0.5 * t1
             n = int(math.ceil(duration * sample_rate)) + 1
-            if max_samples is not None:
-                n = min(n, max_samples)
             plan.append((w, k, v, x0, n, duration))
     times = [np.arange(p[4]) / sample_rate for p in plan]
     ts, mask = pad_times(times + [np.zeros(max(int(pad_to), 1))])

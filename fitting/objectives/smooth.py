@@ -77,7 +77,7 @@ class SmoothData(eqx.Module):
         return int(np.asarray(self.mask).sum())
 
 
-def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothData:
+def smooth_data(records, features) -> SmoothData:
     """`SmoothData` of `records` with their `RecordFeatures` (the first slip end and its
     trough level start each simulation). ValueError naming the record when it has no
     slip to start from."""
@@ -93,8 +93,6 @@ def smooth_data(records, features, *, max_samples: int | None = None) -> SmoothD
         keep = np.asarray(rec.time) >= t_e
         t = np.asarray(rec.time, float)[keep] - t_e
         x = np.asarray(rec.deflection, float)[keep]
-        if max_samples is not None:
-            t, x = t[:max_samples], x[:max_samples]
         if t.size < 16:
             raise ValueError(f"{name}: fewer than 16 samples after the first slip end")
         times.append(t)

@@ -203,7 +203,7 @@ def note_text(entry: dict) -> str:
     return ""
 
 
-def text_table(header, rows, align: str | None = None, rule: bool = True) -> str:
+def text_table(header, rows, align: str | None = None) -> str:
     """Lines of a table: every column padded to its widest cell (header included),
     columns separated by two spaces, `align` one letter per column ("l" left, "r" right;
     default: the first left, the others right), a rule of dashes under the header. Runs of
@@ -228,8 +228,6 @@ def text_table(header, rows, align: str | None = None, rule: bool = True) -> str
         return "  ".join(c.ljust(w) if a == "l" else c.rjust(w)
                          for c, w, a in zip(cells, widths, align)).rstrip()
 
-    out = [line(header)]
-    if rule:
-        out.append("-" * (sum(widths) + 2 * (ncol - 1)))
+    out = [line(header), "-" * (sum(widths) + 2 * (ncol - 1))]
     out += [line(r) for r in rows]
     return "\n".join(out)

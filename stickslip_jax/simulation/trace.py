@@ -98,14 +98,12 @@ def pad_series(times_list, values_list):
     return ts, jnp.asarray(data), mask
 
 
-def pad_times(times_list, *, fill: str = "edge"):
+def pad_times(times_list):
     """Stack sample-time arrays of different lengths for `jax.vmap`.
 
     Pads each array by repeating its last time (so the simulated horizon is unchanged)
     and returns `(times [B, N], mask [B, N])` with `mask` False on the padding.
     """
-    if fill != "edge":
-        raise ValueError("pad_times: only fill='edge' is supported")
     arrays = [np.asarray(t, dtype=float) for t in times_list]
     if not arrays or any(a.ndim != 1 or a.size < 1 for a in arrays):
         raise ValueError("pad_times: give a non-empty list of non-empty 1-D time arrays")
