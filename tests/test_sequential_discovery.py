@@ -6,7 +6,8 @@ figure; `--max-effects 1` gives the single best effect. The one-effect and clean
 campaigns of `test_cycle_discovery.py` run with the default (3 effects) and check that
 no second effect (a shadow of the first) and no effect at all are named there.
 
-`python tests/test_sequential_discovery.py` prints the table of the pair rates (slow).
+`python tests/test_sequential_discovery.py [SEEDS] [--reduced]` prints a row per pair
+campaign (slow; `--reduced`: 4 records each).
 """
 
 from __future__ import annotations
@@ -25,6 +26,10 @@ SMALL = dict(runs=((36.0, 86.9), (20.0, 27.3)), speeds=(5.0, 10.0), cycles=5.0)
 TWO = dict(physics=ir.Physics(damping_ratio=0.15),
            imp=ir.Imperfections(screw_amp_mm=0.004))
 """A small campaign with a damping ratio and a lead-screw error at once."""
+CHEAP = dict(runs=((20.0, 27.3),), speeds=(5.0, 10.0), cycles=5.0)
+THREE = ("viscous_damping", "drive_periodic_error", "friction_drift")
+"""The default run's campaign: two of `SMALL`'s records, three candidate families (the
+two effects and a drift that stands in for the screw)."""
 
 
 def kept(res) -> list[str]:
@@ -35,10 +40,26 @@ def kept(res) -> list[str]:
 def two_effects():
     from stickslip_fitting.discovery.cycle_workflow import discover_cycles
 
-    return discover_cycles(ir.campaign(seed=12, **SMALL, **TWO))
+    return discover_cycles(ir.campaign(seed=12, **CHEAP, **TWO), candidates=THREE)
 
 
-def test_two_effects_are_both_named(two_effects):
+@pytest.mark.slow
+def test_two_effects_are_both_named_among_every_family():
+    """`SMALL` over the whole library: the screw, then the damping, then nothing
+    significant."""
+    from stickslip_fitting.discovery.cycle_workflow import discover_cycles
+
+    res = discover_cycles(ir.campaign(seed=12, **SMALL, **TWO))
+    assert set(kept(res)) == {"viscous_damping", "drive_periodic_error"}, res.explanation
+    gaps = [res.gap_before] + [s["gap_after"] for s in res.steps if s["kept"]]
+    assert all(b < a for a, b in zip(gaps, gaps[1:])), gaps
+    assert res.gap_after < 0.5 * res.gap_before
+
+
+def test_two_effects_make_a_staircase(two_effects):
+    """The sequential search's output on a small campaign (`CHEAP`, `THREE`): both
+    effects named one after another, a staircase of falling gaps in the JSON, the
+    explanation and the figure, the first effect tested again given the second."""
     res = two_effects
     assert set(kept(res)) == {"viscous_damping", "drive_periodic_error"}, res.explanation
     # the staircase: every step lowers the gap, and the JSON says so
@@ -177,11 +198,16 @@ def pair_campaigns(seeds: int = 5):
     return out
 
 
-def run_pair(pair, seed, lube, kw):
+REDUCED = dict(runs=SMALL["runs"], speeds=SMALL["speeds"])
+"""The reduced pair campaigns (`--reduced`): 4 records instead of 12, as measured on a
+loaded 2-core machine (docs/validation.md)."""
+
+
+def run_pair(pair, seed, lube, kw, design=None):
     from stickslip_fitting.discovery.cycle_workflow import discover_cycles
 
     t = time.perf_counter()
-    res = discover_cycles(ir.campaign(lube, seed=seed, cycles=4.0, **kw))
+    res = discover_cycles(ir.campaign(lube, seed=seed, cycles=4.0, **(design or {}), **kw))
     names = set(kept(res))
     found = [bool(names & ALSO.get(n, {n})) for n in pair]
     return dict(pair=pair, seed=seed, named=sorted(names), both=all(found),
@@ -205,5 +231,7 @@ def test_pairs_of_effects_are_both_named():
 
 
 if __name__ == "__main__":
-    for c in pair_campaigns(int(sys.argv[1]) if len(sys.argv) > 1 else 1):
-        print(run_pair(*c), flush=True)
+    # `python tests/test_sequential_discovery.py [SEEDS] [--reduced]`
+    args = [a for a in sys.argv[1:] if a != "--reduced"]
+    for c in pair_campaigns(int(args[0]) if args else 1):
+        print(run_pair(*c, REDUCED if "--reduced" in sys.argv else None), flush=True)

@@ -4,13 +4,38 @@ the winner's fit continued and its shape refined (`cycle_workflow`, module doc).
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..cycle_effects import neighbour_shapes
 from ..decision import Contender, rms_gap, decide, paired_z
 from ..scores import principal_cosine
 from .refit import ranked_refits, continued, refine_shape
 from .state import Choice, Clock, Fits, Refitted
 
-__all__ = ["choose"]
+__all__ = ["choose", "price"]
+
+
+def price(fx: Fits, rf) -> float:
+    """What the refit `rf`'s flexibility costs in chi-square: ln n for each parameter it
+    adds to the base (Schwarz's criterion over the `n_used` samples), times the base's
+    chi2/n where that is above 1 (far from the data every chi-square is that much larger).
+    A per-record family (the screw: four harmonic coefficients per record, on records
+    shorter than a pitch a smooth drive error of its own in each) fits part of any slow
+    residual; its drop is judged net of this price."""
+    base = fx.base
+    k = max(int(np.size(rf.fit.z)) - int(np.size(base.cols)), 1)
+    scale = max((base.fit.rss + base.within) / max(base.n_used, 1), 1.0)
+    return float(k * np.log(max(base.n_used, 2)) * scale)
+
+
+def _winner(fx: Fits, physical: list):
+    """The refit named among the eligible physical ones: a family the robust window test
+    found significant (`significant_by` "family-wise") before one that only the per-sample
+    test admitted (it counts the samples of a window as independent, and a flexible family
+    fits their shared errors), then the largest chi-square drop net of its `price`."""
+    by = {sc.family.name: sc.significant_by for sc in fx.ranking.scores}
+    return min(physical, default=None, key=lambda rf: (
+        by.get(rf.family.name) != "family-wise", -(rf.drop - price(fx, rf))))
 
 
 def choose(fx: Fits, refitted: Refitted, *, clock: Clock) -> Choice:
@@ -18,7 +43,7 @@ def choose(fx: Fits, refitted: Refitted, *, clock: Clock) -> Choice:
     opts, n, misfit = fx.opts, fx.base.n, fx.base.misfit
     refits = refitted.refits
     physical = [rf for rf in ranked_refits(refits) if rf.family.name in refitted.eligible]
-    chosen = physical[0] if physical else None
+    chosen = _winner(fx, physical)
     rivals, decision, compared = [], None, {}
     if chosen is not None:
         direction = {sc.family.name: sc.direction for sc in fx.ranking.scores}

@@ -67,6 +67,18 @@ def _nuisance(J, model, z, shape, sensor, held, described) -> np.ndarray:
     return base_basis((np.hstack([J, S]) if S.size else J) * described[:, None])
 
 
+def _leads(sc: FamilyScore) -> tuple[bool, float]:
+    """The order of a family's shapes: the shape that would explain most (its predicted
+    chi-square drop), a one-sided family's (damping, Stribeck b, rate-and-state a, the
+    sensor) among the shapes whose score step points to its physical side where any
+    does. A step to the other side is no evidence for the effect: a Stribeck curve's
+    b < 0 is a friction that rises with speed (damping's sign), and its refit from there
+    ends unphysical (measured: damping and a Stribeck drop at once, 4 records, the
+    Stribeck refits at b -0.015 to -0.10 in every search)."""
+    wrong = sc.family.signs[0] > 0 and np.size(sc.step) > 0 and sc.step[0] < 0
+    return not wrong, sc.chi2_predicted
+
+
 def _efficient(Qb, described, Jc) -> np.ndarray:
     """The columns `Jc` over the described records with the base projected out (NaN
     where they are not finite)."""
@@ -191,11 +203,7 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
     for f in fams:
         shape_scores[f.name] = _family_scores(f, model, base, opts, G, plain_J, efficient,
                                               r_rank, starts, window_g, sensor_probe)
-        # the shape that would explain most (its predicted chi-square drop)
-        best = None
-        for sc in shape_scores[f.name]:
-            if best is None or sc.chi2_predicted > best.chi2_predicted:
-                best = sc
+        best = max(shape_scores[f.name], key=_leads)
         if len(f.shapes) > 1:
             logger.debug(f"{f.name}: predicted chi2 drop by shape: " + ", ".join(
                 f"{s_.shape.label(f)} {s_.chi2_predicted:.4g} (p {s_.p_value:.2g})"
