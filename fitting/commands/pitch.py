@@ -152,10 +152,9 @@ def run(args) -> int:
 
 
 def _plot(out, paths, runs, traces, names):
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+
+    from ..report.plots import finish_figure
 
     fig, axes = plt.subplots(3, len(runs), figsize=(4.5 * len(runs), 8), squeeze=False,
                              sharex="col")
@@ -177,7 +176,4 @@ def _plot(out, paths, runs, traces, names):
             ax.legend(fontsize=7)
     fig.suptitle("pitching (points 1-3) and yawing (4-5): model lines, measured dots")
     fig.tight_layout()
-    from stickslip_jax.output import save_figure
-
-    save_figure(fig, out, dpi=110)
-    plt.close(fig)
+    finish_figure(fig, out, 110)
