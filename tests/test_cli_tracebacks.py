@@ -69,7 +69,8 @@ def _machine_memory(monkeypatch, gib: float) -> None:
 def test_design_memory_counts_points_times_draws(tmp_path, capsys, monkeypatch):
     """`design --posterior --max-amplitude` holds every draw's limit cycle at every grid
     point: points x draws (10^3 x 20,000 draws, about 1.2 GiB), not the grid alone
-    (8 MB), is what the check must weigh."""
+    (8 MB), is what the check must weigh; without --max-amplitude the draws are not
+    weighed."""
     _machine_memory(monkeypatch, 1.0)
     post = tmp_path / "post.csv"
     post.write_text("mu_s,mu_d,gamma,m,delta,n\n"
@@ -80,7 +81,14 @@ def test_design_memory_counts_points_times_draws(tmp_path, capsys, monkeypatch):
     line = one_line(err, "--weight/--stiffness/--speed", "10 x 10 x 10", "20000 draws",
                     "--max-amplitude", "GiB", "fewer draws")
     assert "needs about 1.19 GiB" in line  # 1000 x 20000 x 64 bytes, plus the grid's share
-    # the same grid without --max-amplitude streams the draws in chunks: not refused
+    # without --max-amplitude the draws stream in chunks: the same grid with a tenth of
+    # the draws on a fifth of the memory is refused with --max-amplitude (0.12 GiB against
+    # 0.1) and not refused without it
+    _machine_memory(monkeypatch, 0.2)
+    post.write_text("mu_s,mu_d,gamma,m,delta,n\n" + "0.58,0.21,0.38,0.39,67,1\n" * 2_000)
+    _, err = run_checked(["design", "--posterior", post, *grid, "--max-amplitude", "1um",
+                          "--quiet"], capsys, tmp_path, 2)
+    assert "2000 draws" in one_line(err, "--weight/--stiffness/--speed", "GiB")
     assert run_checked(["design", "--posterior", post, *grid, "--quiet"], capsys, tmp_path,
                        0)
 
