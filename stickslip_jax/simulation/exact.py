@@ -313,9 +313,7 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
 
         p_sg = jax.lax.stop_gradient(p)
         lo, hi = jax.lax.stop_gradient((jnp.pi / omega, _TWO_PI / omega))
-        # the root of the increasing g by bisection
-        lo, hi = bisect(lambda T2: ~(g(T2, p_sg) < 0), lo, jnp.where(active, hi, lo), 64)
-        root = 0.5 * (lo + hi)
+        root = 0.5 * sum(bisect(lambda T2: ~(g(T2, p_sg) < 0), lo, jnp.where(active, hi, lo), 64))
         return _implicit(root, g, dg)
 
     def stick_step(s: _State, active):
