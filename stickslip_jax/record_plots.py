@@ -15,6 +15,12 @@ rises with the drive, $\dot x = \dot u$; in a slip $x$ falls fast, $\dot x < 0$.
    (`stickslip_jax.slips.find_slips`), **other** for the rest of a slip, and **sliding**
    when the slider moves outside every slip (`PhaseSplit.verdict` says when the detector
    finds the record sliding continuously).
+4. A stick with motion on both sides is a **pause** within a slip (the slider all but
+   stops, or stops for a moment, and slips on) when neither it nor the rest the cycle
+   detector finds about it (`stickslip_jax.slips.rest`, within `window` samples each
+   side) is a stick to the detector: each is shorter than the shortest rest
+   (`stickslip_jax.slips.rest_length`) or has y's shape of a pause
+   (`stickslip_jax.slips.paused`). The slip runs on through it.
 
 Two logger defects are handled first, so that they do not change the count of slips:
 **glitches** (a sample further from the median of the 5 about it than half the record's
@@ -38,11 +44,11 @@ from pathlib import Path
 import numpy as np
 
 from .records import Record
-from .slips import find_slips, robust_sigma
+from .slips import find_slips, paused, rest, rest_length, robust_sigma, runs
 
-STICK, SLIP, UNCLASSIFIED, SLIDE = 0, 1, -1, 2
+STICK, SLIP, UNCLASSIFIED, SLIDE, PAUSE = 0, 1, -1, 2, 3
 """Phase labels of `PhaseSplit.labels` (UNCLASSIFIED is shown as "other", SLIDE as
-"sliding")."""
+"sliding", PAUSE as "pause": a moment at rest within a slip, module doc)."""
 
 ROUNDOFF = 1e-9
 """Smallest threshold relative to the largest rate (for noiseless, e.g. synthetic, traces)."""
@@ -88,7 +94,7 @@ def deflection_rate(record: Record, window: int | None = None) -> np.ndarray:
 class PhaseSplit:
     """Stick/slip labels of every sample of a record (see the module docstring for the rule)."""
 
-    labels: np.ndarray  # int8: STICK, SLIP or UNCLASSIFIED per sample
+    labels: np.ndarray  # int8: STICK, SLIP, UNCLASSIFIED, SLIDE or PAUSE per sample
     rate: np.ndarray  # dx/dt, mm/s
     drive_rate: np.ndarray  # du/dt (same slope fit), mm/s
     threshold: float  # theta, mm/s
@@ -114,6 +120,11 @@ class PhaseSplit:
     def stick_fraction(self) -> float:
         """Fraction of samples in stick."""
         return float(np.mean(self.labels == STICK))
+
+    @property
+    def pause_fraction(self) -> float:
+        """Fraction of samples in pauses within slips (module doc)."""
+        return float(np.mean(self.labels == PAUSE))
 
     @property
     def sliding_fraction(self) -> float:
@@ -186,6 +197,20 @@ def classify_phases(
     found = find_slips(time, record.deflection, drive, record.omega0)
     slips = () if found.verdict else tuple((a, min(b, r.size)) for a, b in found.events)
     stick = np.abs(r) <= threshold
+    pause = np.zeros(r.shape, dtype=bool)
+    floor, shortest = 1e-9 * max(1.0, float(np.max(np.abs(found.x)))), rest_length(found.h)
+
+    def no_rest(a, b):  # shorter than the shortest rest, or with a pause's shape
+        return b - a < shortest or (b - a < 8 * shortest and paused(time, found.y, a, b,
+                                                                     found.sigma))
+
+    for a, b in runs(stick) if slips else ():  # a stick between two motions: a pause?
+        if a == 0 or b == r.size or not no_rest(a, b):
+            continue
+        at = rest(time, found.y, drive, max(a - w, 0), min(b + w, r.size), found.sigma, floor,
+                  found.h)
+        if at is None or no_rest(at.lo, at.hi):
+            pause[a:b], stick[a:b] = True, False
     in_slip = np.zeros(r.shape, dtype=bool)
     for a, b in slips:
         in_slip[a:b] = True
@@ -197,6 +222,7 @@ def classify_phases(
     labels = np.where(in_slip, UNCLASSIFIED, SLIDE).astype(np.int8)
     labels[in_slip & (rate < -threshold)] = SLIP
     labels[stick] = STICK
+    labels[pause] = PAUSE
     return PhaseSplit(labels, rate, drive_rate, threshold, noise, w, int(spikes.sum()), q,
                       slips, found.verdict)
 
@@ -218,13 +244,15 @@ def plot_record(record: Record, phases: PhaseSplit | None = None):
     fig = Figure(figsize=(11, 4.6), layout="constrained")
     FigureCanvasAgg(fig)
     ax, ph = fig.subplots(1, 2, width_ratios=[1.7, 1])
-    colours = {STICK: "tab:blue", SLIP: "tab:red", UNCLASSIFIED: "0.6", SLIDE: "tab:orange"}
-    names = {STICK: "stick", SLIP: "slip", UNCLASSIFIED: "other", SLIDE: "sliding"}
+    colours = {STICK: "tab:blue", SLIP: "tab:red", UNCLASSIFIED: "0.6", SLIDE: "tab:orange",
+               PAUSE: "tab:purple"}
+    names = {STICK: "stick", SLIP: "slip", UNCLASSIFIED: "other", SLIDE: "sliding",
+             PAUSE: "pause"}
     ax.plot(t, x, color="0.75", lw=0.6, zorder=1)
     if len(phases.slips) <= MAX_SHADED:
         for a, b in phases.slips:
             ax.axvspan(t[a], t[min(b, len(t) - 1)], color="tab:red", alpha=0.12, lw=0, zorder=0)
-    for label in (STICK, SLIP, UNCLASSIFIED, SLIDE):
+    for label in (STICK, SLIP, UNCLASSIFIED, SLIDE, PAUSE):
         mask = phases.labels == label
         if mask.any():
             n = int(mask.sum())

@@ -67,7 +67,7 @@ def rates():
 
 def test_short_sticks_are_found(rates):
     """>= 90 % of the slips found, <= 1 false slip in any record (measured on 40
-    records: 94.4 % found (420 of 445), 0.03 false slips per record, at most 1)."""
+    records: 98.0 % found (436 of 445), 0.03 false slips per record, at most 1)."""
     total = sum(r[0] for r in rates)
     found = sum(r[1] for r in rates)
     false = [r[2] for r in rates]
@@ -80,7 +80,7 @@ def test_short_sticks_are_found(rates):
 
 def test_breakaway_friction_of_short_sticks(rates):
     """The breakaway friction mu_0 = k x2/W of every found cycle: median error 0.1 %,
-    95 % of cycles within 1 % (measured: median 0.021 %, 95th percentile 0.65 %)."""
+    95 % of cycles within 1 % (measured: median 0.018 %, 95th percentile 0.098 %)."""
     errs = np.abs(np.concatenate([r[3] for r in rates]))
     print(f"\nmu_0: median error {100 * np.median(errs):.3f} %, "
           f"95th percentile {100 * np.quantile(errs, 0.95):.3f} %")
@@ -123,3 +123,31 @@ def test_continuous_sliding_is_said_in_one_line(tmp_path, capsys):
         assert main(command) == 2
         err = capsys.readouterr().err.strip().splitlines()
         assert len(err) == 1 and "slides continuously" in err[0], err
+
+
+@pytest.mark.parametrize("seed", [11, 13])
+def test_a_slide_with_stops_keeps_its_breakaway(seed):
+    """The torsional coverage campaigns 11 and 13 (`torsional_rig.campaign`): slides of
+    up to 10 natural periods in which the rotor stops and slips on (a stop and a
+    breakaway at once, eq (1) at T1 = 0) are fitted slip by slip from stop to stop
+    (`stickslip_fitting.data.sticks.slip_fit`), so every complete cycle keeps its
+    breakaway where the stick ends and its stick time from the slide's last stop:
+    k x2/W within 2e-3 of the truth, breakaway and stick time within 0.5 ms. Measured
+    (fitted as one slip, the breakaway was placed up to 16 ms late: k x2/W 0.06 high in
+    campaign 11, 0.02 low in 13; 8 slips of the two not timed): every complete cycle
+    within those bounds, 26 complete cycles in each campaign."""
+    complete = 0
+    for i, (w0, share) in enumerate([(22.0, 0.06), (22.0, 0.18), (36.0, 0.06), (36.0, 0.18)]):
+        rig = tr.random_rig(1000 * seed + i, omega0=w0, stick_share=share, law=tr.CAMPAIGN_LAW)
+        run = tr.simulate(rig)
+        m = tr.measured(rig, run)
+        f = extract_cycles(m["time"], m["deflection"], weight=rig.weight,
+                           stiffness=rig.stiffness, drive=m["drive"])
+        breaks, stops = run["breaks"], run["stops"]
+        for c in np.flatnonzero(f.complete):
+            j = int(np.argmin(np.abs(breaks - f.breakaway_time[c])))
+            assert abs(f.breakaway_time[c] - breaks[j]) < 5e-4, (i, c)
+            assert abs(f.mu_0[c] - run["mu_0"][j]) < 2e-3, (i, c, f.mu_0[c], run["mu_0"][j])
+            assert abs(f.stick_time[c] - (breaks[j] - stops[j - 1])) < 5e-4, (i, c)
+        complete += f.n_complete
+    assert complete >= 24

@@ -37,7 +37,7 @@ def _residuals_at_truth(paths, slip_knots, monkeypatch):
 
 
 def test_the_slip_follows_the_measured_drive(tmp_path, monkeypatch):
-    """At the truth, median |residual| 2.6 standard errors with the slip's knots and
+    """At the truth, median |residual| 2.8 standard errors with the slip's knots and
     every window simulated (measured; rms 7.3: the generator's stop at 3 % of the motor
     speed and the knots' linear interpolation of the motor's swing), 98 without them
     (rms 119, over the windows whose simulation succeeds: one does not)."""

@@ -45,8 +45,9 @@ def run(args) -> int:
     except OSError as exc:
         raise ValueError(f"{flag}: cannot write {out}: {exc.strerror or exc}") from None
     n = phases.n_slips
-    sliding = (f", {100 * phases.sliding_fraction:.0f} % sliding"
-               if phases.sliding_fraction >= 0.005 else "")
+    sliding = "".join(f", {100 * share:.0f} % {name}" for share, name in (
+        (phases.pause_fraction, "in pauses within slips"), (phases.sliding_fraction, "sliding"))
+        if share >= 0.005)
     print(f"{out}: {record.n_samples} samples, {n} slip{'' if n == 1 else 's'}, "
           f"{100 * phases.stick_fraction:.0f} % of samples in stick{sliding} "
           f"(slip threshold {phases.threshold:.3g} mm/s, window {phases.window} samples)")
