@@ -240,13 +240,6 @@ def _unused_or_in_range(option, value, needs, given, example) -> None:
                          f"{option} out")
 
 
-def _draws(sample) -> int:
-    """The number of draws of a sample (a pytree of equal-length arrays)."""
-    import jax
-
-    return int(np.size(jax.tree_util.tree_leaves(sample)[0]))
-
-
 def _say_map(shape, how) -> None:
     """The stage line of the map (the `stickslip` logger: silent unless configured)."""
     from stickslip_jax.logs import logger
@@ -303,12 +296,13 @@ def map_study(options: MapOptions) -> DesignStudy:
     from stickslip_jax.logs import logger
 
     from ..design import design_map as map_of, outer, propagate
+    from ..design.posterior import sample_size
 
     options.check()
     axes = options.axes()
     shape = tuple(axes[n].size for n in AXES)
     sample = options.sample()
-    draws = _draws(sample)
+    draws = sample_size(sample)
     _check_memory(options, shape, draws)
     w, k, v = outer(*(axes[n] for n in AXES))
     s = 1.0 if options.load() is None else options.load() / w  # N/W (`MapOptions`)
@@ -344,6 +338,7 @@ def map_study(options: MapOptions) -> DesignStudy:
 def _tolerance(options: MapOptions, axes, sample, grid) -> dict:
     """The meet probability on the grid and, per (W, v), the stiffness that meets the
     tolerance (`stickslip_fitting.design.tolerance`)."""
+    from ..design.posterior import sample_size
     from ..design.tolerance import meet_probability, required_stiffness
 
     meet = 0.95 if options.meet is None else options.meet
@@ -356,7 +351,7 @@ def _tolerance(options: MapOptions, axes, sample, grid) -> dict:
             rows.append({"weight_kgf": d.weight, "drive_speed_mm_per_min": d.speed * 60.0,
                          "stiffness_kgf_per_mm": d.stiffness if d.converged else None,
                          "probability": d.probability, "converged": d.converged})
-    return {"max_amplitude_mm": float(options.max_amplitude), "meet": meet, "draws": _draws(sample),
+    return {"max_amplitude_mm": float(options.max_amplitude), "meet": meet, "draws": sample_size(sample),
             "amplitude": "time-domain limit cycle (stickslip_jax.limit_cycle)",
             "probability_met": prob.tolist(), "required_stiffness": rows}
 

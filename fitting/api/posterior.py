@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING
 
 from .campaign import CampaignFit, RecordsSpec
 from .results import ResultDocument, pandas_module
-from ..modes import Objective
 from ..report.mcmc_document import JSON_ALIASES as MCMC_ALIASES
 
 if TYPE_CHECKING:
@@ -209,7 +208,5 @@ def sample(records: RecordsSpec | CampaignFit, *, steps: int = 3000, walkers: in
     truth = find_truth(cf.campaign.records, list(cf.fit.values))
     extra = {"given": cf.report["given"]} if "given" in cf.report else None
     doc = mcmc_document(res, cf.fit, cf.campaign, model=cf.model,
-                        objective=Objective.parse(cf.fit.objective.kind).value,
                         truth=truth, max_draws=draws, extra=extra)
     return CampaignPosterior(report=doc, mcmc=res, campaign_fit=cf, truth=truth)
-

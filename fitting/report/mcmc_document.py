@@ -43,21 +43,22 @@ def fixed_misfit(fit, free) -> list[str]:
                                 fit.record_chi2, "the posterior of the others is not meaningful")
 
 
-def mcmc_document(res, fit, campaign, *, model: str, objective: str, truth: dict | None = None,
+def mcmc_document(res, fit, campaign, *, model: str, truth: dict | None = None,
                   max_draws: int = 2000, extra: dict | None = None) -> dict:
     """The `stickslip mcmc --json` document (module doc) before versioning: `res` the
     `mcmc.McmcResult`, `fit` the `fit.FitResult` it sampled around, `campaign` the
-    screened `campaign.Campaign`, `model` the law's name, `objective` the objective's
-    name, `truth` the parameters the records were made from (or None), `max_draws` the
+    screened `campaign.Campaign`, `model` the law's name (the objective's and the loss's
+    are the fit's), `truth` the parameters the records were made from (or None), `max_draws` the
     most rows of "samples", `extra` the microsqueeze law's {"given": ...}. Written with
     `stickslip_jax.output.versioned(doc, JSON_ALIASES)`."""
+    from ..modes import Objective
     from ..objectives.losses import loss_of
 
     summary = res.summary()
     names = [f.name for f in fit.features]
     out = {"model": model, "parameters": {
         e.name: {**e.to_json(), **summary[e.name]} for e in res.estimates(truth)},
-        "prior": res.prior, "objective": objective,
+        "prior": res.prior, "objective": Objective.parse(fit.objective.kind).value,
         "loss": loss_of(fit.objective).spec(),
         "interrupted": res.interrupted,
         "likelihood_scale": res.likelihood_scale, "walkers": res.walkers,
