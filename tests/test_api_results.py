@@ -2,14 +2,15 @@
 `CampaignPosterior` and `stickslip_fitting.discover(records, ...)` -> `CampaignDiscovery`:
 the shape of `CampaignFit` (a summary DataFrame, the command's figure, the command's JSON
 document), checked against `stickslip mcmc --json` and `stickslip discover --json` run in
-this process on the same records."""
+this process on the same records; the smoothed whole-record base chosen as an object
+(`base=SmoothBase(...)`) on a two-record campaign."""
 
 import json
 import pathlib
 
 import pytest
 import stickslip_fitting as sf
-from stickslip_fitting.api.discovery import FAMILY_COLUMNS, CampaignDiscovery
+from stickslip_fitting.api.discovery import FAMILY_COLUMNS, SMOOTH_COLUMNS, CampaignDiscovery
 from stickslip_fitting.api.posterior import POSTERIOR_COLUMNS, CampaignPosterior
 
 from stickslip_jax.cli import main
@@ -178,3 +179,39 @@ def test_discover_errors_name_the_keyword(kw, word):
 def test_discover_needs_two_records():
     with pytest.raises(ValueError, match="two records"):
         sf.discover(DISCOVERY_FILES[:1])
+
+
+@pytest.mark.parametrize("kw, word", [
+    (dict(base="smooth"), "base"), (dict(base=sf.SmoothBase(), top=2), "top"),
+    (dict(base=sf.CycleBase(), only=["stribeck"], strict=True), "only, strict"),
+])
+def test_discover_base_is_an_object_that_carries_its_options(kw, word):
+    with pytest.raises(ValueError, match=word):
+        sf.discover(DISCOVERY_FILES, **kw)
+
+
+def test_discover_on_the_smooth_base(tmp_path):
+    """`base=SmoothBase(...)` runs `stickslip discover --base smooth` through the same
+    result: two short records with a drifting gauge zero, one candidate beside it."""
+    from stickslip_fitting.discovery.synthetic import hidden_effect_campaign
+
+    from stickslip_jax.lubricants import lubricant
+
+    recs = hidden_effect_campaign(lubricant("A"), effect="gauge_drift", values={"rate": 4e-3},
+                                  seed=3, conditions=((36.0, 86.9),), speed_fractions=(0.26, 0.36),
+                                  cycles=3)
+    base = sf.SmoothBase(candidates=("gauge_drift", "viscous_damping"), top=1, max_evals=8,
+                         refit_evals=4, crop="none")
+    found = sf.discover(recs, base=base)
+    assert found.result.BASE == "smooth" and found.effect == "gauge_drift"
+    assert found.named == ["gauge_drift"] and found.result.gap_after < found.result.gap_before
+    frame = found.summary()
+    assert tuple(frame.columns) == SMOOTH_COLUMNS and frame.index.name == "effect"
+    assert list(frame.index) == ["gauge_drift", "viscous_damping"]
+    assert frame.loc["gauge_drift", "delta_bic"] < -10 and frame["delta_bic"].isna().sum() == 1
+    assert not frame.loc["gauge_drift", "unphysical"] and list(frame["named"]) == [True, False]
+    doc = saved_document(found, tmp_path / "smooth.json")
+    assert doc["base"] == "smooth" and "loss" not in doc and "misspecification_after" in doc
+    found.plot(tmp_path / "smooth.png")
+    assert (tmp_path / "smooth.png").read_bytes()[:8] == PNG
+    assert str(found).startswith("effect: gauge_drift") and "dBIC" in str(found)

@@ -6,16 +6,18 @@ import stickslip_fitting as sf
 
 found = sf.discover("data/examples/*.csv")
 print(found.effect, found.confidence)
-print(found.summary())          # pandas DataFrame: one row per effect family tested
+print(found.summary())          # pandas DataFrame: one row per effect tested
 found.plot("discover.png")      # the figure of `stickslip discover --plot`
 found.to_json("discover.json")  # the document of `stickslip discover --json`
+
+smooth = sf.discover("data/examples", base=sf.SmoothBase(top=2, crop="slip_end"))  # --base smooth
 ```
 
-The call runs `stickslip discover` on its default base (the per-cycle model, `--base
-cycle`) with the same functions: the records read as the command reads them (a file that
-cannot be read is set aside and listed), `discovery.cycle_workflow.discover_cycles`, the
-figure of `discovery.plots.plot_cycle_discovery` and the document of the command's
-`json_document`.
+The call runs `stickslip discover` with the same functions: the records read as the
+command reads them (a file that cannot be read is set aside and listed), the one pipeline
+`discovery.engine.discover` on the base model (the per-cycle `CycleBase` built from the
+keywords, or the base given), the figure of the result's base (`discovery.plots`) and the
+document of the command's `json_document`.
 """
 
 from __future__ import annotations
@@ -33,10 +35,12 @@ if TYPE_CHECKING:
     import pandas
     from matplotlib.figure import Figure
 
-    from ..discovery.result import CycleDiscovery
+    from ..discovery.cycle_workflow import CycleBase
+    from ..discovery.result import Discovery
+    from ..discovery.workflow import SmoothBase
     from ..objectives.losses import AbstractLoss
 
-__all__ = ["FAMILY_COLUMNS", "CampaignDiscovery", "discover"]
+__all__ = ["FAMILY_COLUMNS", "SMOOTH_COLUMNS", "CampaignDiscovery", "discover"]
 
 FAMILY_COLUMNS = ("shape", "score", "p_value", "family_wise_p_value", "significant",
                   "significant_by", "chi2_drop", "unphysical", "named")
@@ -46,29 +50,34 @@ family-shape test), whether and by which test it is significant, the refit's chi
 drop (NaN when not refitted), whether the refit left the physical range, and whether the
 answer names it."""
 
-def _number(x) -> float:
-    return float("nan") if x is None else float(x)
+SMOOTH_COLUMNS = ("score", "p_value", "dof", "delta_bic", "lr_p_value", "unphysical", "named")
+"""The columns of `summary()` on the smoothed whole-record base (`SmoothBase`): the
+effect's score test at the base fit (statistic, p-value, degrees of freedom), the refit's
+BIC change and likelihood-ratio p-value (NaN when not refitted), whether the score step
+or the refit left the physical range, and whether the answer names it."""
 
 
 @dataclasses.dataclass(frozen=True)
 class CampaignDiscovery(ResultDocument):
     """The result of `discover`: the effect the paper's model misses in a campaign.
 
-    - `effect`, `confidence`, `explanation`: the answer (a family's name, "none" or
-      "unexplained"); `named`: the families the answer names (the effect and those the
+    - `effect`, `confidence`, `explanation`: the answer (an effect's name, "none" or
+      "unexplained"); `named`: the effects the answer names (the effect and those the
       records cannot tell from it);
-    - `summary()`: a pandas DataFrame indexed by family (`FAMILY_COLUMNS`);
+    - `summary()`: a pandas DataFrame, one row per effect tested (`FAMILY_COLUMNS` on the
+      per-cycle base, `SMOOTH_COLUMNS` on the smoothed one);
     - `plot(path)`: the figure of `stickslip discover --plot`;
     - `to_json(path)`: the document of `stickslip discover --json`; `to_dict()` the same
       as a dict;
     - `str(result)`: the answer, the gap, the candidate table and the parameters, as the
       command prints them.
 
-    `result` is the workflow's `discovery.result.CycleDiscovery` (fits, residuals by
-    phase, the screened campaign, the learned correction).
+    `result` is the pipeline's `discovery.result.Discovery` (`CycleDiscovery` or
+    `SmoothDiscovery`, after the base: fits, residuals by phase, the screened campaign,
+    the learned correction).
     """
 
-    result: CycleDiscovery
+    result: Discovery
     loss: str = "gaussian"
     inputs: tuple[str, ...] = ()
     """The record files read (an output may not overwrite one of them)."""
@@ -87,8 +96,8 @@ class CampaignDiscovery(ResultDocument):
 
     @property
     def named(self) -> list[str]:
-        """The families the answer names: the effect, those the records cannot tell
-        from it, and the further effects of the sequential search (empty for "none" and
+        """The effects the answer names: the effect, those the records cannot tell from
+        it, and the further effects of the sequential search (empty for "none" and
         "unexplained")."""
         names = {c["name"] for c in self.result.candidates}
         joint = [self.result.effect] + [r["name"] for r in self.result.indistinguishable_from]
@@ -97,20 +106,26 @@ class CampaignDiscovery(ResultDocument):
         return [n for n in joint if n in names]
 
     def summary(self) -> pandas.DataFrame:
-        """One row per effect family tested, indexed by its name (`FAMILY_COLUMNS`), in
-        the order of the candidate table. Needs pandas (the `[pandas]` extra)."""
+        """One row per effect tested, indexed by its name, in the order of the candidate
+        table: the columns `FAMILY_COLUMNS` (index "family") on the per-cycle base,
+        `SMOOTH_COLUMNS` (index "effect") on the smoothed one. Needs pandas (the
+        `[pandas]` extra)."""
         pd = pandas_module("CampaignDiscovery.summary()")
+        cycle = self.result.BASE == "cycle"
+        columns = FAMILY_COLUMNS if cycle else SMOOTH_COLUMNS
+        keys = {"p_value": "score_p_value", "delta_bic": "delta_criterion"}
+        kinds = dict(shape=str, significant_by=str, dof=int, significant=bool,
+                     unphysical=bool, named=bool)
         named = set(self.named)
-        rows = {}
-        for c in self.result.candidates:
-            rows[c["name"]] = (c.get("shape") or "", _number(c.get("score")),
-                               _number(c.get("score_p_value")),
-                               _number(c.get("family_wise_p_value")),
-                               bool(c.get("significant")), c.get("significant_by") or "",
-                               _number(c.get("chi2_drop")), bool(c.get("unphysical")),
-                               c["name"] in named)
-        frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(FAMILY_COLUMNS))
-        frame.index.name = "family"
+
+        def cell(c, k):  # None: NaN for a number, "" for a text, False for a flag
+            v = c["name"] in named if k == "named" else c.get(keys.get(k, k))
+            kind = kinds.get(k, float)
+            return float("nan") if v is None and kind is float else kind(v or kind())
+
+        rows = {c["name"]: [cell(c, k) for k in columns] for c in self.result.candidates}
+        frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(columns))
+        frame.index.name = "family" if cycle else "effect"
         return frame
 
     @property
@@ -118,12 +133,13 @@ class CampaignDiscovery(ResultDocument):
         """The `stickslip discover --json` document before strict encoding."""
         from ..commands.discover import json_document
 
-        return {**json_document(self.result), "loss": self.loss}
+        loss = {"loss": self.loss} if self.result.BASE == "cycle" else {}
+        return {**json_document(self.result), **loss}
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
-        """The figure of `stickslip discover --plot` (`discovery.plots.
-        plot_cycle_discovery`: residual RMS by phase before and after, traces and
-        residuals of up to four records): returned, and saved to `path` when given."""
+        """The figure of `stickslip discover --plot` (`discovery.plots`: residual RMS by
+        phase before and after, traces and residuals of the records): returned, and
+        saved to `path` when given."""
         path = self.output_path(path, "plot")
         fig = self.result.figure()
         if path is not None:
@@ -139,18 +155,24 @@ class CampaignDiscovery(ResultDocument):
 
     def __repr__(self) -> str:
         return (f"CampaignDiscovery(effect={self.effect!r}, confidence={self.confidence!r}, "
-                f"families={len(self.result.candidates)})")
+                f"base={self.result.BASE!r}, effects={len(self.result.candidates)})")
 
 
-def discover(records: RecordsSpec, *, only: tuple[str, ...] | list[str] | None = None, top: int = 3,
+def discover(records: RecordsSpec, *, base: CycleBase | SmoothBase | None = None,
+             only: tuple[str, ...] | list[str] | None = None, top: int = 3,
              alpha: float = 0.01, max_evals: int = 80, loss: AbstractLoss | str = "gaussian",
              strict: bool = False, learn: bool = False, progress=None,
              max_effects: int = 3) -> CampaignDiscovery:
     """Find the effect the paper's model misses in a campaign, as `stickslip discover`
-    does on its default base (the per-cycle model).
+    does.
 
     - `records`: a file, a folder (its *.csv), a glob, a list of these, or `Record`
       objects; at least two.
+    - `base`: the base model with its options, as `--base`: None for the per-cycle
+      model built from the keywords below (`--base cycle`, seconds), or a base object
+      from `stickslip_fitting`: `CycleBase(...)` or `SmoothBase(...)` (the smoothed
+      simulator over whole records, `--base smooth`, minutes). A base given carries its
+      own options (its fields): the keywords below then keep their defaults.
     - `only`: the effect families to consider (`discovery.cycle_effects.FAMILIES`'
       names; default all), as `--only`.
     - `top`: how many significant families to refit; `alpha`: the false-alarm rate of
@@ -158,41 +180,58 @@ def discover(records: RecordsSpec, *, only: tuple[str, ...] | list[str] | None =
       `loss`: the likelihood ("gaussian", "huber:C", "student-t:NU" or an
       `AbstractLoss`); `strict`: refuse the campaign when a record has no usable
       stick-slip; `learn`: fit the learned phase correction whatever the answer;
-      `progress`: called with one line per finished stage (e.g. `print`);
       `max_effects`: how many effects may be named one after another, as
       `--max-effects` (1: the single best effect).
+    - `progress`: called with one line per finished stage (e.g. `print`).
 
     Every mistake in the options raises ValueError naming the keyword, before any fit
     (the checks of `cycle_workflow.CycleBase`).
     """
     from ..discovery.cycle_effects import FAMILIES
-    from ..discovery.cycle_workflow import discover_cycles
+    from ..discovery.cycle_workflow import CycleBase
+    from ..discovery.engine import AbstractBaseModel
+    from ..discovery.engine import discover as run
+    from ..discovery.options import DEFAULTS
 
-    if isinstance(only, str):
-        only = [only]
-    names = [f.name for f in FAMILIES]
-    bad = [n for n in only or () if n not in names]
-    if bad:
-        raise ValueError(f"only: unknown effect families {', '.join(bad)}; the families are "
-                         f"{', '.join(names)}")
-    loss = loss_option(loss)
+    if base is None:
+        if isinstance(only, str):
+            only = [only]
+        names = [f.name for f in FAMILIES]
+        bad = [n for n in only or () if n not in names]
+        if bad:
+            raise ValueError(f"only: unknown effect families {', '.join(bad)}; the families "
+                             f"are {', '.join(names)}")
+        opts = dataclasses.replace(DEFAULTS, top=top, alpha=alpha, max_evals=max_evals)
+        base = CycleBase(candidates=tuple(only) if only else None, opts=opts, strict=strict,
+                         learn=learn, loss=loss_option(loss), max_effects=max_effects)
+    elif not isinstance(base, AbstractBaseModel):
+        raise ValueError(f"base: a CycleBase or SmoothBase (from stickslip_fitting), got "
+                         f"{base!r}")
+    else:
+        keywords = dict(only=only, top=top, alpha=alpha, max_evals=max_evals, loss=loss,
+                        strict=strict, learn=learn, max_effects=max_effects)
+        defaults = discover.__kwdefaults__ or {}
+        set_ = [k for k, v in keywords.items() if v != defaults[k]]
+        if set_:
+            raise ValueError(f"{', '.join(set_)}: with base given, set it as a field of "
+                             f"{type(base).__name__} (or leave base out)")
 
     given = as_list(records)
     unreadable: list = []
     inputs: tuple[str, ...] = ()
     if given and isinstance(given[0], Record):
-        recs = given
+        recs: list[Record] = given
     else:
         from stickslip_jax.records import read_campaign_files
 
         files = read_campaign_files([os.fspath(g) for g in given])
         recs, unreadable = files.records, list(files.unreadable)
-        files.check(strict)
+        files.check(base.strict)
         inputs = tuple([r.source for r in recs if r.source] + [e.path for e in unreadable])
     if len(recs) + len(unreadable) < 2:
         raise ValueError("records: discovery needs at least two records (a campaign)")
-    result = discover_cycles(recs, candidates=tuple(only) if only else None, top=top,
-                             alpha=alpha, max_evals=max_evals, strict=strict, learn=learn,
-                             loss=loss, unreadable=tuple(unreadable), progress=progress,
-                             max_effects=max_effects)
-    return CampaignDiscovery(result=result, loss=loss.spec(), inputs=inputs)
+    result = run(recs, dataclasses.replace(base, unreadable=tuple(unreadable)),
+                 progress=progress)
+    used = getattr(base, "loss", None)
+    return CampaignDiscovery(result=result, loss=used.spec() if used else "gaussian",
+                             inputs=inputs)
