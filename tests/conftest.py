@@ -39,25 +39,29 @@ state), without fits, discovery or subprocess commands. A test of theirs marked 
 is not marked `quick` (`-m quick` replaces the default `-m 'not slow'`)."""
 
 LONG_MODULES = ("test_real_world_records", "test_json_keys", "test_cli_steady",
-                "test_logging", "test_notebooks", "test_smooth", "test_drives",
-                "test_microsqueeze", "test_fit_microsqueeze", "test_exact_campaign",
-                "test_sequential_discovery", "test_normal_load", "test_friction_laws",
-                "test_exact", "test_short_sticks", "test_limit_cycle", "test_mcmc",
-                "test_cycle_discovery", "test_api_results", "test_experiment_design",
-                "test_smooth_objective", "test_cli_tracebacks", "test_cycle_model")
+                "test_logging", "test_design_netcdf", "test_cli_design", "test_notebooks",
+                "test_smooth", "test_drives", "test_microsqueeze", "test_fit_microsqueeze",
+                "test_exact_campaign", "test_sequential_discovery", "test_normal_load",
+                "test_friction_laws", "test_exact", "test_short_sticks", "test_limit_cycle",
+                "test_mcmc", "test_cycle_discovery", "test_api_results",
+                "test_experiment_design", "test_smooth_objective", "test_cli_tracebacks",
+                "test_cycle_model")
 """Test modules that take longest in the default run, longest first (each module's
 seconds summed from `pytest -n 2 --durations=200`, or single-process `--durations=0`
 for the modules whose tests changed since; a module of `SHARED_PROGRAMS` right after
 the module it runs with): they run first, so that under `pytest -n 2` the short modules
 fill the end of both workers."""
 
-SHARED_PROGRAMS = {"test_cli_steady": "test_json_keys", "test_logging": "test_json_keys"}
+SHARED_PROGRAMS = {module: "test_json_keys" for module in (
+    "test_cli_steady", "test_logging", "test_design_netcdf", "test_cli_design")}
 """Modules that run on the worker of another (module -> that module) under `pytest -n 2`:
 both run commands at the same design points and shapes, so the second finds the first's
 compiled programs in memory (at load 11-13, test_json_keys's `steady --damping-ratio 0.05
 --tolerance 1um` took 220 s, test_cli_steady's runs with --damping-ratio 0.05 and with
 --tolerance after it 3.8 and 0.8 s; test_logging's plan, fit and mcmc took 0.1, 3.1
-and 0.9 s after test_json_keys's, 14.9, 6.6 and 12.4 s in a process of their own).
+and 0.9 s after test_json_keys's, 14.9, 6.6 and 12.4 s in a process of their own;
+test_design_netcdf's cycle map 9.7 s after json_keys's design, 17.3 s without, and
+test_cli_design's same map 0.1 s after it).
 Programs with eqx.error_if checks (host callbacks) are not kept in the persistent cache,
 so only the one process shares them."""
 
