@@ -43,8 +43,8 @@ LONG_MODULES = ("test_real_world_records", "test_json_keys", "test_cli_steady",
                 "test_smooth", "test_drives", "test_microsqueeze", "test_fit_microsqueeze",
                 "test_exact_campaign", "test_sequential_discovery", "test_normal_load",
                 "test_friction_laws", "test_exact", "test_short_sticks", "test_limit_cycle",
-                "test_mcmc", "test_cycle_discovery", "test_api_results",
-                "test_experiment_design", "test_smooth_objective", "test_cli_tracebacks",
+                "test_mcmc", "test_smooth_objective", "test_cycle_discovery",
+                "test_api_results", "test_experiment_design", "test_cli_tracebacks",
                 "test_cycle_model")
 """Test modules that take longest in the default run, longest first (each module's
 seconds summed from `pytest -n 2 --durations=200`, or single-process `--durations=0`
@@ -52,18 +52,24 @@ for the modules whose tests changed since; a module of `SHARED_PROGRAMS` right a
 the module it runs with): they run first, so that under `pytest -n 2` the short modules
 fill the end of both workers."""
 
-SHARED_PROGRAMS = {module: "test_json_keys" for module in (
-    "test_cli_steady", "test_logging", "test_design_netcdf", "test_cli_design")}
+SHARED_PROGRAMS = {
+    **dict.fromkeys(("test_cli_steady", "test_logging", "test_design_netcdf",
+                     "test_cli_design"), "test_json_keys"),
+    **dict.fromkeys(("test_smooth_objective", "test_combined", "test_trace_objective",
+                     "test_fit_figure"), "test_mcmc"),
+}
 """Modules that run on the worker of another (module -> that module) under `pytest -n 2`:
-both run commands at the same design points and shapes, so the second finds the first's
-compiled programs in memory (at load 11-13, test_json_keys's `steady --damping-ratio 0.05
---tolerance 1um` took 220 s, test_cli_steady's runs with --damping-ratio 0.05 and with
---tolerance after it 3.8 and 0.8 s; test_logging's plan, fit and mcmc took 0.1, 3.1
-and 0.9 s after test_json_keys's, 14.9, 6.6 and 12.4 s in a process of their own;
-test_design_netcdf's cycle map 9.7 s after json_keys's design, 17.3 s without, and
-test_cli_design's same map 0.1 s after it).
-Programs with eqx.error_if checks (host callbacks) are not kept in the persistent cache,
-so only the one process shares them."""
+they run the same commands or fits at the same design points and shapes, so the later
+modules find the first's compiled programs in memory. Measured in one process at load
+10-13: test_json_keys's `steady --damping-ratio 0.05 --tolerance 1um` took 220 s,
+test_cli_steady's runs with --damping-ratio 0.05 and with --tolerance after it 3.8 and
+0.8 s; test_logging's plan, fit and mcmc took 0.1, 3.1 and 0.9 s after test_json_keys's,
+14.9, 6.6 and 12.4 s in a process of their own; test_design_netcdf's cycle map 9.7 s
+after json_keys's design, 17.3 s without, and test_cli_design's same map 0.1 s after
+it; the synthetic campaign of lubricant A at speed fractions 0.05 and 0.3 (4 cycles,
+padded to 40,000 samples) with its features and trace fits 78 s the first time, 5 s for
+another seed. Programs with eqx.error_if checks (host callbacks) are not kept in the
+persistent cache, so only the one process shares them."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about
