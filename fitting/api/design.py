@@ -351,7 +351,8 @@ def _tolerance(options: MapOptions, axes, sample, grid) -> dict:
             rows.append({"weight_kgf": d.weight, "drive_speed_mm_per_min": d.speed * 60.0,
                          "stiffness_kgf_per_mm": d.stiffness if d.converged else None,
                          "probability": d.probability, "converged": d.converged})
-    return {"max_amplitude_mm": float(options.max_amplitude), "meet": meet, "draws": sample_size(sample),
+    return {"max_amplitude_mm": float(options.max_amplitude), "meet": meet,
+            "draws": sample_size(sample),
             "amplitude": "time-domain limit cycle (stickslip_jax.limit_cycle)",
             "probability_met": prob.tolist(), "required_stiffness": rows}
 
@@ -396,6 +397,8 @@ class DesignStudy(ResultDocument):
     def report(self) -> dict:
         """The `--json` document before versioning (internal arrays in the units its keys
         name)."""
+        from ..design.netcdf import BANDS, VARIABLES
+
         o, res = self.options, self.maps
         axes = res["axes"]
         doc = {"source": ({"posterior": os.fspath(o.posterior)} if _is_path(o.posterior)
@@ -409,24 +412,16 @@ class DesignStudy(ResultDocument):
                         "drive_speed_mm_per_min": (axes["speed"] * 60.0).tolist()},
                "shape": list(res["amplitude"].shape),
                "index_order": list(AXES),
-               "amplitude_mm": res["amplitude"].tolist(),
-               "critical_speed_mm_per_min": (res["critical_speed"] * 60.0).tolist(),
-               "stick_slip": res["stick_slip"].tolist()}
+               **({} if o.posterior is None else {"level": o.level or 0.9})}
+        for key, _, factor, _, _, name in VARIABLES + BANDS:  # the quantities the map has
+            if key in res:
+                x = np.asarray(res[key])
+                doc[name] = (x if x.dtype == bool else x * factor).tolist()
         if "regime" in res:
             from stickslip_jax.steady import REGIMES
 
             doc["regime"] = np.asarray(res["regime"]).tolist()
             doc["regimes"] = list(REGIMES)  # the names of the codes in "regime"
-        if o.posterior is not None:
-            doc["level"] = o.level or 0.9
-            doc["probability_stick_slip"] = res["probability"].tolist()
-            doc["critical_speed_band_mm_per_min"] = (res["critical_speed_band"] * 60.0).tolist()
-            doc["amplitude_band_mm"] = res["amplitude_band"].tolist()
-        else:
-            doc.update(amplitude_ratio=res["amplitude_ratio"].tolist(),
-                       frequency_hz=res["frequency"].tolist(),
-                       frequency_ratio=res["frequency_ratio"].tolist(),
-                       stick_time_s=res["stick_time"].tolist(), converged=res["converged"].tolist())
         if "tolerance" in res:
             doc["tolerance"] = res["tolerance"]
         return doc

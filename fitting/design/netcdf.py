@@ -36,8 +36,10 @@ VARIABLES = (  # (key in the map, variable, factor from internal units, units, l
     ("converged", "converged", 1, "1", "the solve or simulation converged (1)", "converged"),
 )
 
-BANDS = (("amplitude_band", "amplitude_band", 1.0, "mm", "amplitude credible band"),
-         ("critical_speed_band", "v_c_band", 60.0, "mm/min", "v_c credible band"))
+BANDS = (("amplitude_band", "amplitude_band", 1.0, "mm", "amplitude credible band",
+          "amplitude_band_mm"),
+         ("critical_speed_band", "v_c_band", 60.0, "mm/min", "v_c credible band",
+          "critical_speed_band_mm_per_min"))
 
 
 def import_xarray(option: str | None = None):
@@ -73,7 +75,7 @@ def map_dataset(res: dict, attrs: dict | None = None):
         data["regime"] = (dims, np.asarray(res["regime"]).astype(np.int8), {
             "long_name": "regime", "flag_values": np.arange(len(REGIMES), dtype=np.int8),
             "flag_meanings": " ".join(r.replace(" ", "_") for r in REGIMES)})
-    for key, name, factor, units, long in BANDS:
+    for key, name, factor, units, long, _ in BANDS:
         if key in res:
             data[name] = (dims + ("band",), np.asarray(res[key]) * factor,
                           {"units": units, "long_name": long})
