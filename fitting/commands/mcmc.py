@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import argparse
 
-from ..report.mcmc_document import JSON_ALIASES  # the JSON's renamed keys
-
 NAME = "mcmc"
 HELP = "sample the posterior of the friction parameters (emcee) for a campaign of records"
 
@@ -100,7 +98,7 @@ def posterior(args):
 def run(args) -> int:
     import sys
 
-    from stickslip_jax.output import check_outputs, versioned, write_json
+    from stickslip_jax.output import check_outputs
     from stickslip_jax.records import record_paths
 
     from ..uncertainty.mcmc import ENSEMBLE_CAVEAT, MissingExtra, import_arviz
@@ -135,7 +133,7 @@ def run(args) -> int:
             print(f"{name:<10}{row['ess_bulk']:>10.0f}{row['ess_tail']:>10.0f}"
                   f"{row['r_hat']:>8.3f}")
     if args.json:
-        write_json(args.json, versioned(report, JSON_ALIASES))
+        post.to_json(args.json)  # the document with its renamed keys' old names
         if args.json != "-":
             print(f"wrote {args.json}")
     if args.chain:
