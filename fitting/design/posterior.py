@@ -192,12 +192,16 @@ def load_samples(path) -> Friction:
     path = Path(path)
     text = path.read_text()
     if path.suffix.lower() == ".json" or text.lstrip().startswith(("{", "[")):
-        try:
-            obj = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"{path}: invalid JSON ({exc})") from None
-        return samples_from_json(obj, str(path))
+        return samples_from_json(_json(text, path), str(path))
     return samples_from_csv(text, str(path))
+
+
+def _json(text: str, path):
+    """The JSON document `text` of the file `path`; a ValueError naming the file."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: invalid JSON ({exc})") from None
 
 
 def save_samples(sample: Friction, path) -> None:
@@ -287,12 +291,7 @@ def plan_sources(sources, table: int = 6, prior_sd: float = 0.5):
             continue
         if estimate is not None:
             raise ValueError("RECORDS-OR-PRIOR: give only one lubricant, prior or sample")
-        obj = None
-        if path.suffix.lower() == ".json":
-            try:
-                obj = json.loads(path.read_text())
-            except json.JSONDecodeError as exc:
-                raise ValueError(f"{path}: invalid JSON ({exc})") from None
+        obj = _json(path.read_text(), path) if path.suffix.lower() == ".json" else None
         summary = summary_from_json(obj) if obj is not None else None
         if summary is not None and "samples" not in obj:
             med = _estimate({p: v[0] for p, v in summary.items()}, path,
