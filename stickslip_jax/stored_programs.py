@@ -12,8 +12,8 @@ and the devices. A stored program is loaded and called directly
 (`jax.experimental.serialize_executable`); a new one is traced, compiled and stored.
 
 A call is not stored where an argument's text does not name its value exactly (an object
-printed with its address, an elided array), or where the program cannot be serialised:
-it then runs as `eqx.filter_jit` would. The store is off by default: a program is kept
+printed with its address, an elided array), where the program has a host callback (an
+`eqx.error_if` check) or cannot be serialised: it then runs as `eqx.filter_jit` would. The store is off by default: a program is kept
 for the package's files as they are, so code that patches the package at run time (tests)
 would store what it patched.
 """
@@ -118,10 +118,12 @@ def _cache_hit(event: str, **_) -> None:
 
 def _compile(key, fn, options, dynamic, static):
     """(program over the flat arrays, skeleton of its outputs, whether it calls LAPACK,
-    True: compiled here). The program is named after its key, so JAX's persistent cache
-    holds it only when it was compiled for the store before; a program that cache gives
-    back cannot be stored (serialised again it no longer loads: "Function ... not
-    found"), so it is compiled again under a name of its own."""
+    True: compiled here), or None for a program with a host callback (an `eqx.error_if`
+    check: it runs as `eqx.filter_jit`'s, which reports its errors). The program is
+    named after its key, so JAX's persistent cache holds it only when it was compiled for
+    the store before; a program that cache gives back cannot be stored (serialised again
+    it no longer loads: "Function ... not found"), so it is compiled again under a name
+    of its own."""
     if "hits" not in _STATE:
         _STATE["hits"] = 0
         jax.monitoring.register_event_listener(_cache_hit)
@@ -137,11 +139,14 @@ def _compile(key, fn, options, dynamic, static):
     for name in (key[:16], f"{key[:16]}_{os.getpid()}_{time.time_ns()}"):
         flat.__name__ = flat.__qualname__ = f"stored_{name}"
         lowered = jax.jit(flat, compiler_options=options).lower(*leaves)
+        text = lowered.as_text()
+        if "callback" in text:
+            return None
         hits = _STATE["hits"]
         program = lowered.compile()
         if hits == _STATE["hits"]:  # compiled here
             break
-    return program, out_skeleton[0], "lapack_" in lowered.as_text(), True
+    return program, out_skeleton[0], "lapack_" in text, True
 
 
 def _load(path):
@@ -204,11 +209,13 @@ def stored_jit(fn=None, *, compiler_options: dict | None = None):
             found = _load(path) if os.path.exists(path) else None
             if found is None:
                 found = _compile(key, fn, compiler_options, dynamic, static)
-                if found[3]:
+                if found is not None:
                     _save(path, found[0], len(jax.tree_util.tree_leaves(dynamic)), *found[1:3])
             while len(loaded) >= MEMORY:
                 loaded.pop(next(iter(loaded)))
             loaded[key] = found
+        if loaded[key] is None:
+            return jitted(*args)
         program, skeleton, _, fresh = loaded[key]
         try:
             out = iter(jax.block_until_ready(program(*jax.tree_util.tree_leaves(dynamic))))

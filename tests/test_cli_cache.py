@@ -124,6 +124,32 @@ def test_stored_programs_run_without_tracing_again(tmp_path):
         stored_programs.use(None)
 
 
+def _checked(x):
+    import equinox as eqx
+
+    return eqx.error_if(x, x < 0, "negative entry")
+
+
+def test_a_program_with_a_check_is_not_stored(tmp_path):
+    """A program with a host callback (`eqx.error_if`) runs as `eqx.filter_jit`'s: its
+    check still reports, and nothing is stored."""
+    import jax.numpy as jnp
+    import numpy as np
+    import pytest
+
+    from stickslip_jax import stored_programs
+
+    try:
+        stored_programs.use(tmp_path)
+        checked = stored_programs.stored_jit(_checked)
+        np.testing.assert_array_equal(checked(jnp.ones(2)), 1.0)
+        with pytest.raises(Exception, match="negative entry"):
+            checked(-jnp.ones(2))
+        assert not os.listdir(tmp_path)
+    finally:
+        stored_programs.use(None)
+
+
 def test_a_fit_from_stored_programs_gives_the_same_document(tmp_path):
     """`stickslip fit` keeps its solve and intervals' programs in the cache folder; a second
     run loads them (nothing new stored) and writes the same JSON document."""
