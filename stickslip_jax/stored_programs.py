@@ -7,15 +7,15 @@ CPU time of a 4.5 s run. `stored_jit(fn)` is `eqx.filter_jit(fn)` that, once `us
 has turned the store on (the `stickslip` command does, in its compilation cache folder),
 keys a call by what determines its program without tracing it: the function's name, the
 arrays' shapes and dtypes, every other argument (static fields included) by its exact
-text, the package's files, the libraries' versions, JAX's configuration, `XLA_FLAGS`
-and the devices. A stored program is loaded and called directly
+text, the package's files, the libraries' versions, JAX's configuration, `XLA_FLAGS`,
+the devices and the host's CPU. A stored program is loaded and called directly
 (`jax.experimental.serialize_executable`); a new one is traced, compiled and stored.
 
 A call is not stored where an argument's text does not name its value exactly (an object
 printed with its address, an elided array), where the program has a host callback (an
-`eqx.error_if` check) or cannot be serialised: it then runs as `eqx.filter_jit` would. The store is off by default: a program is kept
-for the package's files as they are, so code that patches the package at run time (tests)
-would store what it patched.
+`eqx.error_if` check) or cannot be serialised: it then runs as `eqx.filter_jit` would.
+The store is off by default: a program is kept for the package's files as they are, so
+code that patches the package at run time (tests) would store what it patched.
 """
 
 from __future__ import annotations
@@ -26,6 +26,7 @@ import importlib.metadata
 import os
 import pathlib
 import pickle
+import platform
 import sys
 import tempfile
 import time
@@ -81,7 +82,12 @@ def _environment(package: str) -> str:
                 versions.append(f"{lib} {importlib.metadata.version(lib)}")
             except importlib.metadata.PackageNotFoundError:
                 versions.append(f"{lib} absent")
-        files[package] = repr((h.hexdigest(), versions, sys.version))
+        try:  # the CPU's instruction sets: XLA compiles for the host it runs on
+            with open("/proc/cpuinfo", encoding="utf-8") as fh:
+                cpu = sorted({line for line in fh if line.startswith(("flags", "model name"))})
+        except OSError:
+            cpu = [platform.processor()]
+        files[package] = repr((h.hexdigest(), versions, sys.version, platform.machine(), cpu))
     config = sorted((k, repr(v)) for k, v in jax.config.values.items()
                     if "cache" not in k and "log" not in k)
     devices = [(d.platform, d.device_kind) for d in jax.devices()]
