@@ -7,17 +7,9 @@ from __future__ import annotations
 import os
 from typing import ClassVar
 
+from stickslip_jax.records.dataframe import pandas_module
+
 __all__ = ["ResultDocument", "pandas_module"]
-
-
-def pandas_module(what: str):
-    """pandas, or an ImportError naming `what` needs it and the extra that installs it."""
-    try:
-        import pandas
-    except ImportError:
-        raise ImportError(f'{what} needs pandas: pip install "stickslip-jax[pandas]" (or pip '
-                          "install pandas)") from None
-    return pandas
 
 
 class ResultDocument:

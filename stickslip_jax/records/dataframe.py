@@ -15,8 +15,6 @@ from .errors import RecordError
 from .grammar import FORMAT_VERSION, NAME, RESERVED_COLUMNS, column_label
 from .quantities import channel_factor, internal_channel_unit
 
-_INSTALL = 'pip install "stickslip-jax[pandas]"'
-
 _MARK = "stickslip-record"
 """The `attrs` key that marks a frame made by `Record.to_dataframe` (the format version)."""
 
@@ -204,13 +202,19 @@ def _channel_columns(record) -> dict[str, str]:
     return out
 
 
+def pandas_module(what: str):
+    """pandas, or an ImportError naming `what` needs it and the extra that installs it."""
+    try:
+        import pandas
+    except ImportError:
+        raise ImportError(f'{what} needs pandas: pip install "stickslip-jax[pandas]" (or pip '
+                          "install pandas)") from None
+    return pandas
+
+
 def record_to_dataframe(record):
     """`Record.to_dataframe` (its docstring lists the columns and `attrs`)."""
-    try:
-        import pandas as pd
-    except ImportError:
-        raise ImportError(f"Record.to_dataframe needs pandas: {_INSTALL} (or pip install "
-                          "pandas)") from None
+    pd = pandas_module("Record.to_dataframe")
     channel_columns = _channel_columns(record)
     columns = {"time_s": np.array(record.time), "x_mm": np.array(record.deflection),
                "force_kgf": np.array(record.force),
