@@ -288,3 +288,18 @@ def test_design_map_takes_a_normal_load(capsys):
     assert main(["design", "--weight", "36", "--stiffness", "86.9", "--speed", "5",
                  "--normal-load", "60", "--max-amplitude", "1um"]) == 2
     assert "--normal-load" in capsys.readouterr().err
+
+
+def test_law_starts_read_the_normal_load():
+    """The starting points of the other friction laws (`solve.laws.law_starts`) take mu
+    from k x / N: records of W = 36 kgf under N = 60 kgf give the starts of the same
+    records with W = N (the weight only sets the inertia)."""
+    import dataclasses
+
+    from stickslip_fitting.modes import FrictionLaw
+    from stickslip_fitting.solve.laws import law_starts
+
+    feats = [record_features(r) for r in _campaign(FR, N)[::2]]
+    same = [dataclasses.replace(f, weight=N, normal_load=None) for f in feats]
+    for law in (FrictionLaw.LOG_AGING, FrictionLaw.RATE_STATE_AGING):
+        assert law_starts(law, feats) == law_starts(law, same)

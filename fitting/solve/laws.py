@@ -56,7 +56,7 @@ def _cycles(features, offsets):
     for f, c in zip(features, offsets):
         ok = np.asarray(f.complete, bool) & (np.asarray(f.stick_time) > 0)
         pk, tr = np.asarray(f.peak)[ok] - c, np.asarray(f.trough)[ok] - c
-        k_w = f.stiffness / f.weight
+        k_w = f.stiffness / f.load  # the normal load, which may differ from the weight
         rows.append(np.stack([k_w * pk, k_w * 0.5 * (pk + tr), np.asarray(f.stick_time)[ok],
                               np.full(pk.shape, f.drive_speed),
                               np.maximum(f.omega0 * 0.5 * (pk - tr), 1e-9)], axis=1))
