@@ -48,7 +48,7 @@ CAPTIONS = {
                 "which the paper's model lacks (tests/independent_records.py).",
     "record": "Data: data/examples/A_W36_k86.9_v5mm-min.csv (synthetic, lubricant A).",
     "pitch": "Data: 2 synthetic records of the chapter-6 tilt model, drive points (20, 30) "
-             "and (60, -30) mm, 2e-5 mm noise.",
+             "and (60, -30) mm, 2e-5 mm noise; measured channels pitch_1 and pitch_3 only.",
     "fit_batch": "Data: data/examples as one campaign and split by spring (k = 27.3, 86.9, "
                  "128.5 kgf/mm).",
 }

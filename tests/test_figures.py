@@ -193,6 +193,20 @@ def test_cycle_discovery_figure_titles_records_and_breaks_lines_at_gaps():
     assert all(ax.get_xlabel() == "time (s)" for ax in axes[-1])
     summary = axes[0, 1].texts[0].get_text()
     assert "viscous_damping or stribeck (low)" in summary and "3 given" in summary
+    for ax in axes[1:, 1]:  # the residuals over the noise band, +-1 um (noise 1e-3 mm)
+        band = [p for p in ax.patches if p.get_label() == "+-1 noise sd"]
+        assert len(band) == 1 and "+-1 noise sd" in ax.get_legend_handles_labels()[1]
+        y = ax.transData.inverted().transform(band[0].get_verts())[:, 1]
+        assert y.min() == pytest.approx(-1.0) and y.max() == pytest.approx(1.0)
+
+
+def test_discovery_figure_of_no_effect_names_no_effect():
+    from stickslip_fitting.discovery.plots import plot_cycle_discovery
+
+    fig = plot_cycle_discovery(types.SimpleNamespace(**{**vars(_cycle_result()),
+                                                        "effect": "none"}))
+    labels = {t for ax in fig.axes for t in ax.get_legend_handles_labels()[1]}
+    assert "final model (no effect named)" in labels and "with none" not in labels
 
 
 # --- the design map -------------------------------------------------------------------

@@ -153,15 +153,15 @@ def test_batch_figure_draws_no_unknown_and_uses_log_axes_across_decades():
     fig = batch_figure(_batch())
     try:
         axes = {a.get_ylabel(): a for a in fig.axes if a.get_visible()}
-        assert set(axes) == {"mu_d", "delta [s^-n]", "n"}
+        assert set(axes) == {"mu_d [-]", "delta [s^-n]", "n [-]"}  # [-]: dimensionless
         for label, ax in axes.items():
             drawn = [y for line in ax.get_lines() if line.get_marker() == "o"
                      for y in np.atleast_1d(line.get_ydata())]
             assert all(y < 1e100 for y in drawn), label  # no placeholder drawn
         # n: 1.0001 drawn, the unknown marked by a cross at the foot, not a value
-        crosses = [ln for ln in axes["n"].get_lines() if ln.get_marker() == "x"]
+        crosses = [ln for ln in axes["n [-]"].get_lines() if ln.get_marker() == "x"]
         assert len(crosses) == 1
-        assert axes["mu_d"].get_yscale() == "linear"
+        assert axes["mu_d [-]"].get_yscale() == "linear"
         # delta: one value 2e12 with a +-20 % interval: linear; values spanning decades: log
         wide = _batch_report({"mu_d": 0.2, "delta": 67.0, "n": 1.0})
         batch = _batch()

@@ -54,6 +54,11 @@ def broken_at_gaps(t, *ys, factor: float = 1.5):
     return (np.insert(t, cut, np.nan), *(np.insert(y, cut, np.nan) for y in ys))
 
 
+def _after_label(effects: str) -> str:
+    """The final model's legend label: "with EFFECTS", or that no effect was named."""
+    return "final model (no effect named)" if effects == "none" else f"with {effects}"
+
+
 def _picked(n: int, records: int) -> list[int]:
     """Up to `records` record indices spread evenly over `n` (all when n <= records)."""
     if n <= records:
@@ -87,7 +92,7 @@ def plot_discovery(result, path=None, *, records: int = 4):
     rb = [result.residuals_before.phases[p]["rms"] * 1e3 for p in PHASES]
     ra = [result.residuals_after.phases[p]["rms"] * 1e3 for p in PHASES]
     ax.bar(x - 0.2, rb, 0.4, label="base model")
-    ax.bar(x + 0.2, ra, 0.4, label=f"with {result.effect}")
+    ax.bar(x + 0.2, ra, 0.4, label=_after_label(result.effect))
     ax.axhline(result.noise * 1e3, color="k", ls="--", lw=1, label="noise")
     ax.set_xticks(x, PHASES)
     ax.set_xlabel("phase of the cycle")
@@ -105,7 +110,8 @@ def plot_discovery(result, path=None, *, records: int = 4):
         name=f"record {i}", stiffness=float(tr.stiffness[i]), drive_speed=float(tr.speed[i]),
         weight=float(tr.weight[i])), i) for i in pick]
     _trace_panels(axes, [(title, t[i][m[i]], d[i][m[i]], base[i][m[i]], final[i][m[i]])
-                         for title, i in zip(titles, pick)], "base fit", "final fit")
+                         for title, i in zip(titles, pick)], "base fit", "final fit",
+                  result.noise)
     fig.tight_layout()
     if path is not None:
         save_figure(fig, str(path), dpi=110)
@@ -149,8 +155,9 @@ def plot_cycle_discovery(result, *, records: int = 4):
     # "unexplained": the best family's refit; several effects: all of them
     after = (" + ".join(s["effect"] for s in getattr(result, "steps", None) or () if s["kept"])
              or result.effect_of or result.effect)
+    after = _after_label(after)
     ax.bar(pos + 0.2, [1e3 * (result.phases_after[n]["rms"] or 0) for n in names], 0.4,
-           label=f"with {after}")
+           label=after)
     ax.axhline(result.noise * 1e3, color="k", lw=0.8, ls="--", label="noise")
     expected = [result.phases_after[n].get("expected_rms") for n in names]
     if all(e is not None for e in expected):
@@ -160,8 +167,8 @@ def plot_cycle_discovery(result, *, records: int = 4):
     ax.set_xticks(pos, names)
     ax.set_xlabel("phase of the cycle")
     ax.set_ylabel("residual RMS (um)")
-    ax.set_ylim(0.0, 1.45 * ax.get_ylim()[1])  # room for the legend above the bars
-    ax.legend(fontsize=8, ncols=3, loc="upper center")
+    ax.set_ylim(0.0, 1.6 * ax.get_ylim()[1])  # room for the legend above the bars
+    ax.legend(fontsize=7, ncols=2, loc="upper center")
     given = len(getattr(result.campaign, "screening", ()) or ()) or G
     joint = " or ".join([result.effect] + [r["name"] for r in
                                            getattr(result, "indistinguishable_from", ()) or ()])
@@ -196,7 +203,7 @@ def plot_cycle_discovery(result, *, records: int = 4):
                      "the excess)", fontsize=8)
     _trace_panels(axes, [(record_title(result.campaign.records[g], g), t[rec == g],
                           x[rec == g], (x - r0)[rec == g], (x - r1)[rec == g]) for g in pick],
-                  "paper's model", f"with {after}")
+                  "paper's model", after, result.noise)
     return fig
 
 
@@ -240,10 +247,11 @@ def _staircase(ax, result, steps, title) -> None:
         ax.set_title(title, fontsize=8)
 
 
-def _trace_panels(axes, panels, before: str, after: str) -> None:
+def _trace_panels(axes, panels, before: str, after: str, noise: float) -> None:
     """The rows after the first: per record (`panels`: title, time s, deflection mm, the
     models `before` and `after`), the deflection with both models (mm) and their
-    residuals (um) against time, the lines broken between fitted windows."""
+    residuals (um) against time over the band of +-1 `noise` (mm), the lines broken
+    between fitted windows."""
     for row, (title, *series) in enumerate(panels, start=1):
         tt, xx, m0, m1 = broken_at_gaps(*series)
         ax = axes[row, 0]
@@ -254,8 +262,9 @@ def _trace_panels(axes, panels, before: str, after: str) -> None:
         ax.set_title(title, fontsize=9)
         ax.legend(fontsize=7)
         ax = axes[row, 1]
+        ax.axhspan(-1e3 * noise, 1e3 * noise, color="0.85", zorder=0, label="+-1 noise sd")
         ax.plot(tt, 1e3 * (xx - m0), lw=0.5, label=before)
-        ax.plot(tt, 1e3 * (xx - m1), lw=0.5, label=after)
+        ax.plot(tt, 1e3 * (xx - m1), lw=0.5, alpha=0.7, label=after)
         ax.set_ylabel("residual (um)")
         ax.legend(fontsize=7)
     for ax in axes[-1]:

@@ -435,7 +435,7 @@ def batch_figure(batch, path=None, dpi: int = 120):
             p = (e.report or {}).get("parameters", {}).get(name)
             if p is None:
                 continue
-            unit = "" if p["unit"] in ("-", "") else f" [{p['unit']}]"
+            unit = f" [{p['unit'] or '-'}]"  # [-]: dimensionless
             if p["value"] is None:  # not identifiable: no value to draw
                 seen.add("unknown")
                 ax.plot(i, 0.04, "x", color="0.45", ms=6, mew=1.2,
