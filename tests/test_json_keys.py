@@ -218,13 +218,16 @@ def test_old_keys_are_kept_for_one_release(documents):
 @pytest.mark.parametrize("name", JSON_COMMANDS)
 def test_aliases_are_declared_by_the_command(documents, name):
     """The deprecated keys a document lists are the JSON_ALIASES its command declares (in
-    the command module, or for design in the map's contract, stickslip_fitting.api.design)."""
+    the command module, or in the module that writes the document: for design the map's
+    contract, stickslip_fitting.api.design; for mcmc stickslip_fitting.report.mcmc_document)."""
     from stickslip_jax.cli import registered
 
     module = next(importlib.import_module(m) for m in registered()
                   if importlib.import_module(m).NAME == name)
-    if name == "design":
-        module = importlib.import_module("stickslip_fitting.api.design")
+    writer = {"design": "stickslip_fitting.api.design",
+              "mcmc": "stickslip_fitting.report.mcmc_document"}.get(name)
+    if writer:
+        module = importlib.import_module(writer)
     aliases = getattr(module, "JSON_ALIASES", {})
     listed = documents[name].get("deprecated_keys", {})
     assert listed == {aliases[new]: new for new in listed.values()}
