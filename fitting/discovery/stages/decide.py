@@ -28,29 +28,12 @@ def price(fx: Fits, rf) -> float:
     return float(k * np.log(max(base.n_used, 2)) * scale)
 
 
-def _winner(fx: Fits, physical: list):
-    """The refit named among the eligible physical ones: the largest chi-square drop net
-    of its `price`; where that is a family only the per-sample test admitted (it counts
-    the samples of a window as independent, and a flexible family fits their shared
-    errors), one the robust window test found significant that it does not beat clearly
-    (`paired_z` < `clear`) is named instead, the largest net drop of those."""
-    if not physical:
-        return None
-    net = sorted(physical, key=lambda rf: -(rf.drop - price(fx, rf)))
-    by = {sc.family.name: sc.significant_by for sc in fx.ranking.scores}
-    lead, n, starts = net[0], fx.base.n, fx.prep.starts
-    if by.get(lead.family.name) == "family-wise":
-        return lead
-    return next((rf for rf in net[1:] if by.get(rf.family.name) == "family-wise"
-                 and paired_z(lead.fit.r[:n], rf.fit.r[:n], starts) < fx.opts.clear), lead)
-
-
 def choose(fx: Fits, refitted: Refitted, *, clock: Clock) -> Choice:
     """The winner and the decision (module doc of `cycle_workflow`, stage 5)."""
     opts, n, misfit = fx.opts, fx.base.n, fx.base.misfit
     refits = refitted.refits
     physical = [rf for rf in ranked_refits(refits) if rf.family.name in refitted.eligible]
-    chosen = _winner(fx, physical)
+    chosen = max(physical, default=None, key=lambda rf: rf.drop - price(fx, rf))
     rivals, decision, compared = [], None, {}
     if chosen is not None:
         direction = {sc.family.name: sc.direction for sc in fx.ranking.scores}
