@@ -28,6 +28,23 @@ def test_singleton_clusters_reduce_to_the_hc_formula():
                                rtol=1e-8)
 
 
+def test_cr2_is_the_bell_mccaffrey_formula():
+    # each cluster's residuals scaled by (I - P_cc)^(-1/2), written out densely here
+    rng = np.random.default_rng(1)
+    J, r = rng.normal(size=(90, 3)), rng.normal(size=90)
+    rec, cyc = np.repeat(np.arange(3), 30), np.zeros(90, int)
+    Hinv = np.linalg.inv(J.T @ J)
+    g = []
+    for c in range(3):
+        Jc, rc = J[rec == c], r[rec == c]
+        w, V = np.linalg.eigh(np.eye(30) - Jc @ Hinv @ Jc.T)
+        g.append(Jc.T @ ((V / np.sqrt(w)) @ V.T @ rc))
+    meat = sum(np.outer(x, x) for x in g)
+    np.testing.assert_allclose(sandwich_covariance(J, r, rec, cyc, lag=0,
+                                                   small_sample=SmallSample.CR2),
+                               Hinv @ meat @ Hinv, rtol=1e-10)
+
+
 def _clustered_design(rng, records=2, cycles=30, per=8):
     n = records * cycles * per
     rec = np.repeat(np.arange(records), cycles * per)

@@ -180,11 +180,15 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
         g = np.zeros((G, p))
         for c in range(G):
             sel = inv == c
-            Jc = Jk[sel]
-            P = Jc @ Hinv @ Jc.T
-            w, V = np.linalg.eigh(np.eye(Jc.shape[0]) - 0.5 * (P + P.T))
-            root = (V / np.sqrt(np.maximum(w, 1e-12))) @ V.T
-            g[c] = Jc.T @ (root @ rk[sel])
+            Jc, rc = Jk[sel], rk[sel]
+            # P_cc = Jc Hinv Jc^T has rank <= p: with Jc = Q R and R Hinv R^T = W lam W^T,
+            # (I - P_cc)^(-1/2) is 1 plus (1 - lam)^(-1/2) - 1 along U = Q W (n p^2 work
+            # instead of an n x n eigendecomposition per cluster: n is a record's samples)
+            Q, R = np.linalg.qr(Jc)
+            lam, W = np.linalg.eigh(R @ (0.5 * (Hinv + Hinv.T)) @ R.T)
+            U = Q @ W
+            scale = 1.0 / np.sqrt(np.maximum(1.0 - lam, 1e-12)) - 1.0
+            g[c] = Jc.T @ (rc + U @ (scale * (U.T @ rc)))
         factor = 1.0
     else:
         factor = G / max(G - 1, 1)
