@@ -50,7 +50,8 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    significant families are refitted too.
 5. `decision`: every other family with nominal evidence (robust p < `alpha` without
    the family-wise adjustment) is refitted as a contender. The physical refit with the
-   largest chi-square drop wins; each other refit is compared with it by the **paired
+   largest chi-square drop net of its parameters' price wins (ln n each,
+   `stages.decide.price`); each other refit is compared with it by the **paired
    window test** (`paired_z`: the difference of their chi-squares over its window-level
    standard error) and the principal cosine of their efficient-score directions
    (`decide`; the winner stays a significant family). A contender that is not clearly
