@@ -9,8 +9,8 @@ from one in it), with the same programs (the same model, shapes traced, the sens
 program where the sensor is named).
 
 **Stopping rule and the family-wise error.** Every search runs the same test as the
-first: the ranking's sign-flip min-p test over every remaining family-shape test (or its
-per-sample route), on the efficient scores with the extended base projected out. The
+first: the ranking's sign-flip min-p test over every remaining family-shape test, on
+the efficient scores with the extended base projected out. The
 sequence stops at the first search in which no family is significant (or no significant
 family refits physically), or after `max_effects` effects. This is a sequential gate:
 under the paper's model alone, an effect is named only if the first search's min-p falls
