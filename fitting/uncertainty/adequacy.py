@@ -17,6 +17,9 @@ Phases (chi2/n of whitened residuals, so 1 is "to the noise"):
 - "trace_stick", "trace_slip": the trace objective's samples (trace and combined fits)
   while the fitted slider sticks and while it slips.
 
+A fit is judged on what it fitted: a trace fit (`--objective trace`) on its samples only,
+a combined fit on both.
+
 Which phase misses names the likely cause: scattered levels (irregular slips, a drive or
 gauge error), stick times off eq (6) (creep before breakaway, a drive speed error), a
 slip shape the model lacks (damping, Stribeck, sensor dynamics: `stickslip discover`).
@@ -226,7 +229,13 @@ def adequacy(fit) -> Adequacy:
     names = [f.name or f"record {i}" for i, f in enumerate(fit.features)]
     scale = (np.ones(len(names)) if fit.record_scale is None
              else np.asarray(fit.record_scale, float))
-    rows = _features_rows(fit, names, scale)
+    from ..modes import Objective
+
+    # the phases the fit fitted: a trace-only fit is judged on its samples, not on the
+    # cycle features, whose stick times are far more precise than the trace determines
+    # the parameters (clean records at the trace optimum reach chi2/n 1e4 there)
+    trace_only = fit.objective is not None and fit.objective.kind is Objective.TRACE
+    rows = [] if trace_only else _features_rows(fit, names, scale)
     td = fit.objective.trace_data() if fit.objective is not None else None
     if td is not None:
         rows += _trace_rows(fit, names, td)
