@@ -19,8 +19,9 @@
 # $\mu_0 = \mu_s - (\mu_s-\mu_d)e^{-\gamma T_1^m}$, and the mean kinetic friction of a
 # slip, eq (3), $\mu_m = \mu_d + (\mu_0-\mu_d)e^{-\delta T_2^n}$. Chapter 5 combines
 # them into the stick time of eq (6), the amplitude of eq (5) and the critical speed
-# of eq (12) (with the corrections of `NOTES.md`). This notebook redraws the paper's
-# calculated curves: Figs 16/17, 32/33 (+ frequency), 34 (phase plane), 36 and 37-41.
+# of eq (12) (in its corrected form, eq (6) at $T_1 = T_2 = T_0$; docs/model.md). This
+# notebook redraws the paper's calculated curves: Figs 16/17, 32/33 (+ frequency), 34
+# (phase plane), 36 and 37-41.
 #
 # Units: kgf, mm, s inside the package; speeds are plotted in mm/min like the paper.
 # `STICKSLIP_SMALL=1` shrinks the grids; figures go to `$STICKSLIP_FIGDIR`
@@ -71,7 +72,7 @@ for ax, lub in zip(axes, ("A", "C")):
     ax.set_title(f"lubricant {lub}")
     ax.set_xlabel("stick time $T_1$ [s]")
     ax.grid(alpha=0.3)
-axes[0].set_ylabel(r"static friction $\mu_0$")
+axes[0].set_ylabel(r"static friction $\mu_0$ [-]")
 axes[0].legend()
 save(fig, "fig16_17_static_laws")
 for lub in ("A", "C"):
@@ -105,10 +106,10 @@ for col, (lub, (title, curves)) in enumerate(
     axes[1, col].set_xlabel("drive speed v [mm/min]")
     for ax in axes[:, col]:
         ax.grid(alpha=0.3, which="both")
-axes[0, 0].set_ylabel("ak/W")
-axes[1, 0].set_ylabel("f/f0")
-axes[0, 0].legend(fontsize=8)
-axes[0, 2].legend(fontsize=8)
+axes[0, 0].set_ylabel("amplitude ratio $ak/W$ [-]")
+axes[1, 0].set_ylabel("frequency ratio $f/f_0$ [-]")
+for ax in axes[0]:  # each column varies W or k: its own legend
+    ax.legend(fontsize=8)
 save(fig, "fig32_33_amplitude_frequency")
 
 r = ss.steady_map(LUBS["A"], W2, K2, from_mm_per_min(jnp.asarray([0.01, 1.0, 10.0])))
@@ -152,7 +153,8 @@ for lub, fr in LUBS.items():
     ax.loglog(f0, vc, label=f"lubricant {lub}")
     for W, K in CONDITIONS:  # the Table 1 systems
         ax.plot(float(ss.natural_angular_frequency(W, K)) / (2 * np.pi),
-                mm_per_min(float(ss.critical_speed(fr, W, K))), "k.", ms=4)
+                mm_per_min(float(ss.critical_speed(fr, W, K))), "k.", ms=4,
+                label="Table 1 systems" if lub == "C" and (W, K) == CONDITIONS[0] else None)
 ax.set_xlabel("natural frequency $f_0$ [Hz]")
 ax.set_ylabel("critical speed $v_c$ [mm/min]")
 ax.legend()
@@ -171,11 +173,11 @@ for lub, fr in LUBS.items():
 # %%
 base = LUBS["A"]
 sweeps = [
-    (r"$\mu_s-\mu_d$ (Fig 37)", lambda f: f.static.mu_s, np.linspace(0.22, 0.9, N), 0.21),
-    (r"$\gamma$ (Fig 38)", lambda f: f.static.gamma, np.geomspace(0.01, 5.0, N), 0.0),
-    ("$m$ (Fig 39)", lambda f: f.static.m, np.linspace(0.1, 1.5, N), 0.0),
-    (r"$\delta$ (Fig 40)", lambda f: f.kinetic.delta, np.geomspace(1.0, 500.0, N), 0.0),
-    ("$n$ (Fig 41)", lambda f: f.kinetic.n, np.linspace(0.2, 1.5, N), 0.0),
+    (r"$\mu_s-\mu_d$ [-] (Fig 37)", lambda f: f.static.mu_s, np.linspace(0.22, 0.9, N), 0.21),
+    (r"$\gamma$ [s$^{-m}$] (Fig 38)", lambda f: f.static.gamma, np.geomspace(0.01, 5.0, N), 0.0),
+    ("$m$ [-] (Fig 39)", lambda f: f.static.m, np.linspace(0.1, 1.5, N), 0.0),
+    (r"$\delta$ [s$^{-n}$] (Fig 40)", lambda f: f.kinetic.delta, np.geomspace(1.0, 500.0, N), 0.0),
+    ("$n$ [-] (Fig 41)", lambda f: f.kinetic.n, np.linspace(0.2, 1.5, N), 0.0),
 ]
 fig, axes = plt.subplots(1, 5, figsize=(18, 3.6), sharey=True)
 for ax, (label, where, values, offset) in zip(axes, sweeps):
@@ -187,6 +189,6 @@ for ax, (label, where, values, offset) in zip(axes, sweeps):
     trend = "rises" if vc[-1] > vc[0] else "falls"
     lo, hi = mm_per_min(float(vc[0])), mm_per_min(float(vc[-1]))
     print(f"v_c {trend} with {label}: {lo:.3g} -> {hi:.3g} mm/min")
-axes[0].set_ylabel("$v_c$ [mm/min]")
+axes[0].set_ylabel("critical speed $v_c$ [mm/min]")
 save(fig, "fig37_41_vc_parameters")
 print("figures in", FIGDIR)
