@@ -136,6 +136,44 @@ def test_a_later_effect_joins_only_when_its_refit_confirms_it():
         assert confirmed(far, rf, 0.01) and confirmed(far, rf, 0.01, 0.05) is ok
 
 
+def test_a_later_effect_pays_for_its_flexibility():
+    """The confirmation level is raised by the family's price (`decide.price_of`: ln n per
+    parameter, times chi2/n above 1): a per-record screw of 16 coefficients on 4 records
+    needs a drop 16 ln n above its chi-square quantile, a one-parameter family ln n."""
+    import types
+
+    from scipy.stats import chi2
+
+    from stickslip_fitting.discovery.stages.decide import price_of
+    from stickslip_fitting.discovery.stages.more import confirmed, level
+
+    base = types.SimpleNamespace(fit=types.SimpleNamespace(rss=20_000.0), within=0.0,
+                                 n_used=20_000)
+    assert np.isclose(price_of(base, 16), 16 * np.log(20_000))
+    assert np.isclose(price_of(base, 0), np.log(20_000))  # at least one parameter
+    screw = types.SimpleNamespace(drop=chi2.ppf(0.99, 16) + 100.0, values=np.zeros(16))
+    assert confirmed(base, screw, 0.01)
+    assert not confirmed(base, screw, 0.01, 0.0, price_of(base, 16))
+    one = types.SimpleNamespace(drop=level(base, 1, 0.01) + 11.0, values=np.zeros(1))
+    assert confirmed(base, one, 0.01, 0.0, price_of(base, 1))
+
+
+def test_confirmed_effects_that_explain_the_records_are_not_replaced_by_a_form():
+    """Several effects the sequential search confirmed, leaving at most `explained_gap` x
+    the noise together, are the answer: no sparse form is fitted in their place
+    (`stages.form.outside_form`); a single low-confidence family still meets it."""
+    import types
+
+    from stickslip_fitting.discovery.options import DEFAULTS
+    from stickslip_fitting.discovery.stages.form import outside_form
+
+    fx = types.SimpleNamespace(opts=DEFAULTS, base=types.SimpleNamespace(noise=0.5))
+    assert outside_form(fx, "viscous_damping", "low", 0.51, several=True) == (None, False)
+    assert outside_form(fx, "viscous_damping", "high", 0.9) == (None, False)
+    with pytest.raises(AttributeError):  # the form is fitted (no records here)
+        outside_form(fx, "viscous_damping", "low", 0.9, several=True)
+
+
 def test_a_named_effects_shape_is_a_nuisance_of_the_later_tests():
     """The later searches' score tests project out the derivatives over the named
     effects' continuous shape parameters (`rank.shape_columns`): the Stribeck speed scale

@@ -12,7 +12,7 @@ from ..scores import principal_cosine
 from .refit import ranked_refits, continued, refine_shape
 from .state import Choice, Clock, Fits, Refitted
 
-__all__ = ["choose", "price"]
+__all__ = ["choose", "price", "price_of"]
 
 
 def price(fx: Fits, rf) -> float:
@@ -22,10 +22,13 @@ def price(fx: Fits, rf) -> float:
     A per-record family (the screw: four harmonic coefficients per record, on records
     shorter than a pitch a smooth drive error of its own in each) fits part of any slow
     residual; its drop is judged net of this price."""
-    base = fx.base
-    k = max(int(np.size(rf.fit.z)) - int(np.size(base.cols)), 1)
+    return price_of(fx.base, int(np.size(rf.fit.z)) - int(np.size(fx.base.cols)))
+
+
+def price_of(base, k: int) -> float:
+    """`price` of `k` parameters added to `base` (at least one)."""
     scale = max((base.fit.rss + base.within) / max(base.n_used, 1), 1.0)
-    return float(k * np.log(max(base.n_used, 2)) * scale)
+    return float(max(int(k), 1) * np.log(max(base.n_used, 2)) * scale)
 
 
 def choose(fx: Fits, refitted: Refitted, *, clock: Clock) -> Choice:

@@ -139,7 +139,7 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
     if several:  # "effect" is the first effect kept; the steps name them all
         effect = kept[0].family.name
     # a form outside the library answers where it leaves less than every family named
-    form, by_form = outside_form(fx, effect, confidence, gap_after)
+    form, by_form = outside_form(fx, effect, confidence, gap_after, several)
     if by_form:  # answered by its form (`stages.form`): the base with the form's terms
         named, effect, confidence, chosen, sd_after = effect, "sparse_form", "low", None, sd
         several = False

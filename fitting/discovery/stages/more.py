@@ -57,6 +57,12 @@ share (`DiscoveryOptions.later_share`) of the excess chi-square the extended bas
 the noise: far from the data a significant drop can still be irrelevant (on the real records
 a Stribeck curve and a friction drift after a gauge drift removed 0.8 % and 1.8 % of it, a
 gap of 7.77 -> 7.67 um against 1.26 um of noise), and such an effect is not what is missing.
+The level is raised by the family's price (`decide.price`, ln n per parameter), the same
+price the decision charges: a flexible family stands in for any effect whose own refit
+fails beside the named ones (a per-record screw, four coefficients per record, in the
+place of a Stribeck drop or damping beside a sensor low-pass, 4 records), and it joins
+only where its drop pays for its parameters. Drop-one keeps an earlier effect by the same
+measure: its removal must raise chi-square beyond its level plus its price.
 """
 
 from __future__ import annotations
@@ -72,7 +78,7 @@ from ..subproblems import SubProblem
 from .rank import held_p, rank
 from .refit import judge, prior_of, refit
 from .sharpen import sharpen
-from .decide import choose
+from .decide import choose, price, price_of
 from .state import Base, Choice, Clock, FamilyRefit, Fits, Step
 
 __all__ = ["ALTERNATIVES", "confirmed", "drop_one", "extended", "level", "more_effects",
@@ -134,7 +140,8 @@ def drop_one(fx: Fits, rf: FamilyRefit, clock: Clock) -> tuple[FamilyRefit, tupl
         # per-record screw's window test has little power on a few records: measured, a
         # screw dropped given a Stribeck drop, the gap 1.05 -> 2.2 x the noise)
         gone = (p >= opts.alpha and one.unphysical is None
-                and fit.rss - rf.fit.rss <= level(base, len(model.cols(h)), opts.alpha))
+                and fit.rss - rf.fit.rss <= level(base, len(model.cols(h)), opts.alpha)
+                + price_of(base, len(model.cols(h))))
         said.append(f"{h.name} {'dropped' if gone else 'kept'} (p {p:.2g})")
         if gone:
             dropped.append((h.name, p))
@@ -183,11 +190,12 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
         choice_k = choose(fx_k, sharpen(fx_k, refit(fx_k, clock=clock), clock=clock),
                           clock=clock)
         if choice_k.chosen is None or not confirmed(
-                base, choice_k.chosen, fx.opts.alpha, fx.opts.later_share):
+                base, choice_k.chosen, fx.opts.alpha, fx.opts.later_share,
+                price(fx_k, choice_k.chosen)):
             clock.say("stop: no physical refit lowers chi-square" if choice_k.chosen is None
                       else f"stop: {choice_k.chosen.family.name} lowers chi-square by only "
-                      f"{choice_k.chosen.drop:.3g}, below its confirmation level or "
-                      f"{fx.opts.later_share:.0%} of the excess left")
+                      f"{choice_k.chosen.drop:.3g}, below its confirmation level and price "
+                      f"or {fx.opts.later_share:.0%} of the excess left")
             break
         new, kept, dropped = drop_one(fx_k, choice_k.chosen, clock)
         gone = {name for name, _ in dropped}
@@ -213,12 +221,14 @@ def level(base: Base, dof: int, alpha: float) -> float:
     return float(scale * chi2.ppf(1.0 - alpha, max(int(dof), 1)))
 
 
-def confirmed(base: Base, rf: FamilyRefit, alpha: float, share: float = 0.0) -> bool:
+def confirmed(base: Base, rf: FamilyRefit, alpha: float, share: float = 0.0,
+              cost: float = 0.0) -> bool:
     """Whether the refit `rf` on the extended `base` lowers chi-square by more than its
-    `level` and by at least `share` of the base's excess chi-square over the noise (module
-    doc)."""
+    `level` plus its flexibility's `cost` (`decide.price`) and by at least `share` of the
+    base's excess chi-square over the noise (module doc)."""
     excess = max(base.fit.rss + base.within - base.n_used, 0.0)
-    return bool(rf.drop > level(base, np.size(rf.values), alpha) and rf.drop >= share * excess)
+    return bool(rf.drop - cost > level(base, np.size(rf.values), alpha)
+                and rf.drop >= share * excess)
 
 
 def settled(fx: Fits, rf: FamilyRefit | None, steps: list[Step]) -> list[Step]:
