@@ -10,6 +10,7 @@ import dataclasses
 import re
 
 import numpy as np
+import pytest
 
 from stickslip_fitting.commands.discover import candidate_table, parameter_table
 from stickslip_fitting.discovery.cycle_effects import family
@@ -60,7 +61,7 @@ def test_a_value_at_its_bound_says_so_never_plus_minus_zero():
     assert at.to_json()["at_bound"] and "bound" in at.to_json()["reason"]
     # inside the range but no variance from the Gauss-Newton covariance: no "+- 0"
     flat = effect_estimate("c", "kgf*s/mm", 0.1, 0.0, (lo, hi))
-    assert estimate_text(flat) == "c = 0.1 kgf*s/mm (no standard error)"
+    assert estimate_text(flat) == "c = - (no standard error)"
     assert flat.to_json()["value"] is None and flat.to_json()["reason"]
     ok = effect_estimate("c", "kgf*s/mm", 0.02, 0.003, (lo, hi))
     assert estimate_text(ok) == "c = 0.02 +- 0.003 kgf*s/mm"
@@ -150,7 +151,7 @@ def test_both_bases_answer_with_one_document():
     shared = {"effect", "explanation", "confidence", "indistinguishable_from", "base",
               "base_fit", "final_fit", "gap_before", "gap_after", "gap_unit", "noise",
               "criterion", "candidates", "parameters_before", "parameters_after",
-              "effect_size", "residuals_by_phase_before", "residuals_by_phase_after",
+              "estimates_before", "estimates_after", "effect_size", "residuals_by_phase_before", "residuals_by_phase_after",
               "timings_s"}
     assert set(s) & set(c) == shared and (c["base"], s["base"]) == ("cycle", "smooth")
     assert set(c) - shared == {"gap_all_records_before_mm", "gap_all_records_after_mm",
@@ -160,3 +161,102 @@ def test_both_bases_answer_with_one_document():
     assert set(s) - shared == {"misspecification_before", "misspecification_after",
                                "records_screened"}
     assert s["misspecification_after"] == {"p_value": 0.5} and c["learned_correction"] is None
+
+
+def _cycle_fit(values, offsets=(0.01, -0.02), seed=0):
+    """A per-cycle fit's solution at the friction `values` (mu_s, mu_d, gamma, m, delta,
+    n): coordinates the six `EmpiricalFriction` logs, the offsets and one effect, a
+    well-conditioned Jacobian of 400 rows, residuals at chi2/n about 1."""
+    from types import SimpleNamespace as NS
+
+    mu_s, mu_d, gamma, m, delta, n = values
+    z = np.r_[np.log([mu_d, mu_s - mu_d, gamma, m, delta, n]), offsets, 0.3]
+    rng = np.random.default_rng(seed)
+    r = rng.normal(size=400)
+    return NS(z=z, J=rng.normal(size=(400, z.size)) * 30.0, r=r, rss=float(r @ r),
+              result=None, converged=True, n_evals=5)
+
+
+def _features(omega0=(40.0, 90.0), sticks=((0.5, 0.8), (5.0, 9.0))):
+    from types import SimpleNamespace as NS
+
+    return [NS(omega0=w, stick_time=np.asarray(t), complete=np.ones(len(t), bool))
+            for w, t in zip(omega0, sticks)]
+
+
+def test_unidentified_friction_after_the_refit_prints_dashes_and_null():
+    """The final fit's friction goes through the one covariance path (`laplace`): delta
+    and n far outside their physical range (as the real records' refit leaves them)
+    have no value in the table ("-" and the reason) nor in the JSON (null with a
+    reason); the others keep value, standard error and unit."""
+    from types import SimpleNamespace as NS
+
+    from stickslip_fitting.discovery.cycle_workflow import with_uncertainty
+    from stickslip_fitting.discovery.result import friction_rows
+
+    wild = (0.35, 0.3, 2.0, 0.5, 1.8e7, 1.1e-5)
+    good = (0.35, 0.3, 2.0, 0.5, 60.0, 1.0)
+    rows = {e.name: e for e in friction_rows(_cycle_fit(wild), _features(), chi2=400.0,
+                                             dof=391)}
+    assert not rows["delta"].identifiable and not rows["n"].identifiable
+    assert "physical range" in rows["delta"].reason
+    assert rows["mu_d"].identifiable and 0 < rows["mu_d"].stderr < 0.01
+    assert rows["mu_d"].value == pytest.approx(0.3) and rows["mu_s"].value == pytest.approx(0.35)
+    base, final = _cycle_fit(good, seed=1), _cycle_fit(wild)
+    res = _result({}, {}, [effect_estimate("c", "kgf*s/mm", 0.02, 0.003, (0.0, 1.0))])
+    res = dataclasses.replace(res, base_fit=base, final_fit=final,
+                              campaign=NS(features=_features(), screening=[]))
+    res = with_uncertainty(res, NS(within=0.0, n_used=400))
+    text = parameter_table(res)
+    lines = text.splitlines()
+    assert re.split(r"\s{2,}", lines[0]) == ["parameter", "unit", "before", "after",
+                                              "std err", "note"]
+    table = {ln.split()[0]: re.split(r"\s{2,}", ln) for ln in lines[2:]}
+    for name in ("delta", "n"):
+        assert table[name][3] == "-" and table[name][4] == "-", table[name]
+        assert table[name][5].startswith("not identifiable: the fit left the physical range")
+    assert table["delta"][1] == "s^-n" and table["delta"][2] == "60"  # before: determined
+    assert table["mu_d"][3] == "0.3" and float(table["mu_d"][4]) > 0
+    assert table["viscous_damping.c"][3:5] == ["0.02", "0.003"]
+    assert "1.8e+07" not in text and "1.1e-05" not in text and "unchanged" not in text
+    doc = res.to_json()
+    assert doc["parameters_after"]["delta"] is None and doc["parameters_after"]["n"] is None
+    assert doc["parameters_before"]["delta"] == pytest.approx(60.0)
+    entry = doc["estimates_after"]["n"]
+    assert entry["value"] is None and entry["reason"].startswith("not identifiable")
+    assert doc["estimates_after"]["mu_d"]["stderr"] > 0
+    assert doc["estimates_after"]["viscous_damping.c"]["unit"] == "kgf*s/mm"
+    assert set(doc["estimates_before"]) == set(doc["parameters_before"])
+
+
+def test_the_figure_gives_the_parameters_with_dashes_for_unknowns(tmp_path):
+    """The figure's parameter box: value +- standard error with the unit, "at bound", and
+    "-" with the reason for a value the data do not determine; never the placeholder."""
+    from types import SimpleNamespace as NS
+
+    from stickslip_fitting.discovery.plots import plot_cycle_discovery
+    from stickslip_fitting.discovery.result import friction_rows
+
+    rows = friction_rows(_cycle_fit((0.35, 0.3, 2.0, 0.5, 1.8e7, 1.1e-5)), _features(),
+                         chi2=400.0, dof=391)
+    res = _result({}, {}, [effect_estimate("c", "kgf*s/mm", 1.0, 0.0, (0.0, 1.0))])
+    mask = np.ones((2, 50), bool)
+    time = np.linspace(0, 1, 100).reshape(2, 50)
+    data = NS(mask=mask, time=time, deflection=np.sin(time), record=np.array([0, 1]))
+    model = NS(data=data, sd=np.full((2, 50), 1e-3), n_records=2,
+               residuals=lambda z, *a: (np.zeros(100),))
+    phases = {"stick": {"rms": 2e-3}, "slip": {"rms": 1e-3}}
+    res = dataclasses.replace(
+        res, estimates_after=rows, model=model, phases_before=phases,
+        phases_after=phases, noise=1e-3, gap_before=2e-3, gap_after=1e-3, confidence="low",
+        campaign=NS(records=[NS(name=f"r{g}") for g in range(2)], screening=[]), learned=None,
+        steps=[], misfit_left=None, candidates=[], indistinguishable_from=[])
+    fig = plot_cycle_discovery(res)
+    (box,) = [t for a in fig.axes for t in a.texts if t.get_label() == "parameters"]
+    text = box.get_text().replace("\n    ", " ")  # wrapped lines joined
+    assert "delta = - (the fit left the physical range 0.001-100000)" in text
+    assert "n = - (the fit left" in text and "e+07" not in text and "e-05" not in text
+    assert re.search(r"mu_d = 0\.3 \+- [0-9.e-]+\n", text)
+    assert "viscous_damping.c = 1 kgf*s/mm (at bound)" in text
+    fig.savefig(tmp_path / "d.png")
+    assert box.get_window_extent().x1 <= fig.bbox.x1  # on the page

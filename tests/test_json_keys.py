@@ -279,3 +279,20 @@ def test_the_check_catches_synonyms_and_missing_versions():
         problems({"x": doc})
     assert problems({"x": {"schema_version": SCHEMA_VERSION, "speed_mm_s": 1.0}})  # synonym
     assert problems({"x": {"schema_version": SCHEMA_VERSION, "load_kgf_mm": 1.0}})  # no _per_
+
+
+def test_discovery_parameters_follow_the_fit_convention(documents):
+    """`discover`'s friction and effect parameters before and after: one entry each in
+    `estimates_before` / `estimates_after` with the keys of `fit`'s `parameters` entries
+    (a value the records do not determine is null with a "reason"); `parameters_before`
+    and `parameters_after` give the same values, null where the entry's is."""
+    fit_keys = set(next(iter(documents["fit"]["parameters"].values())))
+    doc = documents["discover"]
+    for when in ("before", "after"):
+        entries, values = doc[f"estimates_{when}"], doc[f"parameters_{when}"]
+        assert set(entries) == set(values) and {"mu_s", "mu_d", "delta", "n"} <= set(entries)
+        for name, e in entries.items():
+            assert set(e) == fit_keys, name
+            assert values[name] == e["value"], name
+            assert (e["value"] is None) == (e["reason"] or "").startswith("not identifiable")
+            assert e["value"] is None or e["stderr"] is None or e["stderr"] >= 0

@@ -160,23 +160,26 @@ def json_document(result) -> dict:
 
 def parameter_table(result) -> str:
     """The parameter table, from the result's typed rows (`stickslip_fitting.report.rows.
-    ParameterEstimate`): each parameter before and after (effect parameters after only),
-    "-" for a value the data do not determine, and a note ("at upper bound 1", "no
-    standard error: ..."); when the final fit kept every friction parameter of the base
-    fit, a line says so."""
+    ParameterEstimate`): each parameter's unit, its value before and after (effect
+    parameters after only) and the standard error after, "-" for a value the data do not
+    determine, and a note (the reason it is not determined, "at upper bound 1"); when
+    the final fit kept every friction parameter of the base fit, a line says so."""
     from ..report.rows import note_text, text_table, value_text
 
-    before = {e.name: e.value for e in result.estimates_before}
+    before = {e.name: e.to_json() for e in result.estimates_before}
     rows = []
     for e in result.estimates():
-        b = before.get(e.name)
-        entry = e.to_json()
-        rows.append([e.name, "-" if b is None else format(b, ".5g"), value_text(entry),
-                     note_text(entry) or ""])
-    out = text_table(["parameter", "before", "after", "note"], rows, align="lrrl")
+        entry, b = e.to_json(), before.get(e.name)
+        note = note_text(entry) or (b is not None and note_text(b) and "before: "
+                                    + note_text(b)) or ""
+        rows.append([e.name, e.unit or "-", "-" if b is None else value_text(b),
+                     value_text(entry), "-" if entry["value"] is None or entry["stderr"] is
+                     None else format(entry["stderr"], ".2g"), note])
+    out = text_table(["parameter", "unit", "before", "after", "std err", "note"], rows,
+                     align="llrrrl")
     after = {e.name: e.value for e in result.estimates_after}
     if (getattr(result, "effect_of", "") and before and after
-            and all(after.get(k) == v for k, v in before.items())):
+            and all(after.get(e.name) == e.value for e in result.estimates_before)):
         out += ("\nfriction parameters unchanged by the refit: the final fit kept the base "
                 "fit's values")
     return out

@@ -104,7 +104,7 @@ from ..objectives.losses import AbstractLoss
 from .cycle_effects import FAMILIES, family
 from .engine import AbstractBaseModel, discover
 from .options import DEFAULTS, DiscoveryOptions
-from .result import CycleDiscovery
+from .result import CycleDiscovery, friction_rows
 from .stages import (Clock, Fits, Prepared, Refitted, base_fit, choose, conclude, more_effects,
                      prepare, rank, refit, reweigh, settled, sharpen)
 from .stages.state import Decided
@@ -175,8 +175,27 @@ class CycleBase(AbstractBaseModel):
 
     def conclude(self, ranked: Fits, refitted: Refitted, decided: Decided,
                  clock: Clock) -> CycleDiscovery:
-        return conclude(ranked, refitted, decided.choice, decided.after, learn=self.learn,
-                        clock=clock, steps=decided.steps)
+        result = conclude(ranked, refitted, decided.choice, decided.after, learn=self.learn,
+                          clock=clock, steps=decided.steps)
+        return with_uncertainty(result, ranked.base)
+
+
+def with_uncertainty(result: CycleDiscovery, base) -> CycleDiscovery:
+    """The friction rows before and after with their standard errors and identifiability
+    (`result.friction_rows` of the base and the final fit, chi-square as the refits
+    count it). Without a refit of its own (no effect, or a form outside the library) the
+    final friction is the base's: a value the form moved keeps the base's verdict and
+    has no standard error."""
+    def rows(fit):
+        return friction_rows(fit, result.campaign.features, chi2=fit.rss + base.within,
+                             dof=base.n_used - fit.z.size)
+
+    before = rows(result.base_fit)
+    after = (rows(result.final_fit) if result.final_fit is not result.base_fit else
+             [b if b.value == a.value else dataclasses.replace(b, value=a.value, stderr=None,
+                                                                ci95=None)
+              for b, a in zip(before, result.estimates_after)])
+    return dataclasses.replace(result, estimates_before=before, estimates_after=after)
 
 
 def discover_cycles(records, *, progress=None, **options) -> CycleDiscovery:

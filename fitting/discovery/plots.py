@@ -158,7 +158,7 @@ def plot_cycle_discovery(result, *, records: int = 4):
     after = _after_label(after)
     ax.bar(pos + 0.2, [1e3 * (result.phases_after[n]["rms"] or 0) for n in names], 0.4,
            label=after)
-    ax.axhline(result.noise * 1e3, color="k", lw=0.8, ls="--", label="noise")
+    ax.axhline(result.noise * 1e3, xmax=0.6, color="k", lw=0.8, ls="--", label="noise")
     expected = [result.phases_after[n].get("expected_rms") for n in names]
     if all(e is not None for e in expected):
         # a slip's timing error moves the fast trace: the slip phase's own scatter
@@ -167,8 +167,10 @@ def plot_cycle_discovery(result, *, records: int = 4):
     ax.set_xticks(pos, names)
     ax.set_xlabel("phase of the cycle")
     ax.set_ylabel("residual RMS (um)")
-    ax.set_ylim(0.0, 1.6 * ax.get_ylim()[1])  # room for the legend above the bars
-    ax.legend(fontsize=7, ncols=2, loc="upper center")
+    ax.set_ylim(0.0, 1.9 * ax.get_ylim()[1])  # room for the legend above the bars
+    ax.set_xlim(-0.5, -0.5 + len(names) / 0.6)  # the right 40 %: the parameters
+    ax.legend(fontsize=7, loc="upper left")
+    _parameter_box(ax, result, after)
     given = len(getattr(result.campaign, "screening", ()) or ()) or G
     joint = " or ".join([result.effect] + [r["name"] for r in
                                            getattr(result, "indistinguishable_from", ()) or ()])
@@ -188,7 +190,7 @@ def plot_cycle_discovery(result, *, records: int = 4):
         _staircase(stair, result, steps, summary if learned is None else None)
     if learned is None and not steps:
         axes[0, 1].axis("off")
-        axes[0, 1].text(0, 0.5, summary, fontsize=10, va="center")
+        axes[0, 1].text(0, 0.5, summary, fontsize=9, va="center")
     elif learned is not None:  # the learned phase correction over the cycle, at the median climb
         ax = axes[0, 1]
         phase, corr = learned.correction_at()
@@ -205,6 +207,22 @@ def plot_cycle_discovery(result, *, records: int = 4):
                           x[rec == g], (x - r0)[rec == g], (x - r1)[rec == g]) for g in pick],
                   "paper's model", after, result.noise)
     return fig
+
+
+def _parameter_box(ax, result, after: str) -> None:
+    """The final model's parameters (`result.estimate_text`: value +- standard error
+    and unit, "at bound", or "-" with the reason the data do not determine it), wrapped,
+    in the right 40 % of the axes `ax`; the text's label is "parameters"."""
+    import textwrap
+
+    from .result import estimate_text
+
+    lines = [textwrap.fill(text, 32, subsequent_indent="    ") for text in
+             [f"parameters ({after}):"] + [estimate_text(e) for e in
+                                           getattr(result, "estimates", list)()]]
+    ax.axvline(ax.get_xlim()[0] + 0.6 * np.ptp(ax.get_xlim()), color="0.7", lw=0.6)
+    ax.text(0.62, 0.97, "\n".join(lines), va="top", fontsize=6.5, family="monospace",
+            transform=ax.transAxes, label="parameters")
 
 
 def _misfit_panels(axes, left) -> None:

@@ -21,7 +21,7 @@ from .cycle_model import CycleModel
 from .options import DEFAULTS
 
 __all__ = ["NO_STDERR", "CycleDiscovery", "Discovery", "SmoothDiscovery", "effect_estimate",
-           "estimate_text", "phase_misfit", "phase_text", "steps_text"]
+           "estimate_text", "friction_rows", "phase_misfit", "phase_text", "steps_text"]
 
 FIT_CRITERION = ("converged when a full Gauss-Newton step would lower chi-square by < 0.05, "
                  "or the last 4 evaluations lowered it by < 0.5 together")
@@ -86,6 +86,8 @@ class Discovery(DiscoveryEstimates, abc.ABC):
             "candidates": self.candidates,
             "parameters_before": self.parameters_before,
             "parameters_after": self.parameters_after,
+            **{f"estimates_{when}": {e.name: e.to_json() for e in rows} for when, rows in
+               (("before", self.estimates_before), ("after", self.estimates()))},
             "effect_size": self.effect_size, **self.base_json(), "timings_s": self.timings,
         }
 
@@ -216,14 +218,45 @@ def effect_estimate(name: str, unit: str, value: float, stderr: float,
     return dataclasses.replace(at, identifiable=False, reason=NO_STDERR)
 
 
+def friction_rows(fit: Solution, features, *, chi2: float, dof: int) -> list[ParameterEstimate]:
+    """The friction parameters of a per-cycle fit (`fit.z` and `fit.J` over its
+    coordinates: the six `EmpiricalFriction` logs, then the offsets and effects) with the
+    uncertainty and identifiability of the one covariance path (`uncertainty.laplace`:
+    Fisher's, scaled by max(1, `chi2`/`dof`), the other coordinates marginalised; the
+    design checks on the records' `features`). A value the records do not determine
+    (outside its physical range, a relative error over 0.5, one slip time) is a row
+    without one: "-" and the reason."""
+    from ..modes import Covariance
+    from ..params import CampaignParams, EmpiricalFriction
+    from ..solve.fit import FitResult
+    from ..uncertainty.laplace import laplace
+
+    z, J = np.asarray(fit.z, float), np.array(fit.J, float)
+    friction = EmpiricalFriction(*z[:6])
+    values = np.asarray(friction.values(), float)
+    mu_s, mu_d = values[:2]
+    # (log mu_d, log(mu_s - mu_d)) -> laplace's coordinates (log mu_s, log mu_d)
+    J[:, :2] = np.stack([J[:, 1] * mu_s / (mu_s - mu_d),
+                         J[:, 0] - J[:, 1] * mu_d / (mu_s - mu_d)], axis=1)
+    as_fit = FitResult(params=CampaignParams(friction, np.zeros(0)), spec=None, data=None,
+                       features=list(features), chi2=float(chi2), dof=int(dof),
+                       result=fit.result, converged=fit.converged, n_starts=1,
+                       n_steps=fit.n_evals, slip_time=None, start_chi2=np.array([chi2]))
+    return laplace(as_fit, covariance=Covariance.FISHER, jacobian=(
+        J, np.asarray(fit.r, float), np.ones(6, bool), np.arange(6), values)).estimates()
+
+
 def estimate_text(e: ParameterEstimate) -> str:
     """"name = value +- stderr unit", or "name = value unit (at bound)" for a value on
-    an end of its range, or "(no standard error)": never "+- 0"."""
+    an end of its range, or "name = - (reason)" for a value the data do not determine
+    ("no standard error", "the fit left the physical range ..."): never "+- 0"."""
     unit = f" {e.unit}" if e.unit and e.unit != "-" else ""
+    if not e.determined:  # the reason's head: "no standard error", "the fit left ..."
+        return f"{e.name} = - ({(e.reason or 'not identifiable').split(':')[0]})"
     if e.at_bound is not None:
         return f"{e.name} = {e.value:.3g}{unit} (at bound)"
     if e.stderr is None or not e.stderr > 0:
-        return f"{e.name} = {e.value:.3g}{unit} (no standard error)"
+        return f"{e.name} = - (no standard error)"
     return f"{e.name} = {e.value:.3g} +- {e.stderr:.2g}{unit}"
 
 

@@ -169,12 +169,13 @@ class DiscoveryEstimates:
             for e in self.effect_estimates]
 
     @property
-    def parameters_before(self) -> dict[str, float]:
-        return {e.name: e.value for e in self.estimates_before}
+    def parameters_before(self) -> dict[str, float | None]:
+        """{name: value}, null for a value the data do not determine."""
+        return {e.name: e.to_json()["value"] for e in self.estimates_before}
 
     @property
-    def parameters_after(self) -> dict[str, float]:
-        return {e.name: e.value for e in self.estimates()}
+    def parameters_after(self) -> dict[str, float | None]:
+        return {e.name: e.to_json()["value"] for e in self.estimates()}
 
     @property
     def effect_size(self) -> dict[str, dict]:

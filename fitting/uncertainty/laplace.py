@@ -128,7 +128,10 @@ def _jacobian_log(params, idx: tuple, objective, fit_offsets: bool):
 def jacobian_log(fit: FitResult, objective=None):
     """(J, r, free mask, idx, values) at the optimum: whitened residuals r and
     J = dr/dtheta, theta = (log of the free friction parameters, free gauge offsets in
-    mm), of `objective` (default the fit's), and the natural friction values."""
+    mm), of `objective` (default the fit's), and the natural friction values. A fit of
+    another model of these parameters (discovery's per-cycle fits) passes its own as
+    `laplace(fit, jacobian=...)`: its further coordinates, after the offsets, are then
+    marginalised as the offsets are."""
     free = free_mask(fit.spec)
     idx = np.flatnonzero(free)
     J, r, value = _jacobian_log(fit.params, tuple(int(i) for i in idx),
@@ -295,7 +298,7 @@ def _null_share(F) -> np.ndarray:
 
 def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
             covariance: Covariance = Covariance.AUTO, lag: int = 1,
-            small_sample: SmallSample = SmallSample.JACKKNIFE) -> Uncertainty:
+            small_sample: SmallSample = SmallSample.JACKKNIFE, jacobian=None) -> Uncertainty:
     """Laplace covariance, intervals and identifiability report of a fit (module doc).
 
     `covariance` (a `modes.Covariance`): FISHER ($F^{-1}$ scaled by max(1, chi2/dof)),
@@ -323,11 +326,11 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         many = len(fit.features) >= 3
         covariance = (Covariance.TWO_LEVEL if heavy and many else Covariance.SANDWICH if traced
                       else Covariance.TWO_LEVEL if misfit and many else Covariance.FISHER)
-    if isinstance(fit.objective, HeavyTailed):  # Huber's sandwich (`AbstractLoss.score_form`)
+    if isinstance(fit.objective, HeavyTailed) and jacobian is None:  # Huber's sandwich
         J, r, free, idx, value = jacobian_log(fit, fit.objective.inner)
         J, r = fit.objective.loss.score_form(J, r)
     else:
-        J, r, free, idx, value = jacobian_log(fit)
+        J, r, free, idx, value = jacobian_log(fit) if jacobian is None else jacobian
     F = J.T @ J
     k = idx.size
     if covariance.robust:
