@@ -151,7 +151,8 @@ def test_both_bases_answer_with_one_document():
     shared = {"effect", "explanation", "confidence", "indistinguishable_from", "base",
               "base_fit", "final_fit", "gap_before", "gap_after", "gap_unit", "noise",
               "criterion", "candidates", "parameters_before", "parameters_after",
-              "estimates_before", "estimates_after", "effect_size", "residuals_by_phase_before", "residuals_by_phase_after",
+              "estimates_before", "estimates_after", "effect_size",
+              "residuals_by_phase_before", "residuals_by_phase_after",
               "timings_s"}
     assert set(s) & set(c) == shared and (c["base"], s["base"]) == ("cycle", "smooth")
     assert set(c) - shared == {"gap_all_records_before_mm", "gap_all_records_after_mm",

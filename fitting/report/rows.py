@@ -4,11 +4,12 @@
 `ParameterEstimate(name, unit, value, stderr, ci95, fixed, identifiable, truth, log_sd,
 reason, bounds)`: units are the internal ones (`AbstractFrictionParams.UNITS`); `stderr`
 and `ci95` are None for a fixed or unidentifiable parameter, or where only a value is
-reported (discovery's parameters); `truth` only when the records carry the values they
-were made from; `log_sd` the standard deviation of log(value) (a relative error) for an
-estimate made in log coordinates (`from_log`: pitching, `stickslip plan`); `reason` why
-the data do not determine a parameter that is not identifiable; `bounds` (low, high) the
-support of the parameter, when it has one (`PRIOR_BOUNDS` of the friction law).
+reported (the smoothed discovery base's parameters); `truth` only when the records carry
+the values they were made from; `log_sd` the standard deviation of log(value) (a
+relative error) for an estimate made in log coordinates (`from_log`: pitching,
+`stickslip plan`); `reason` why the data do not determine a parameter that is not
+identifiable; `bounds` (low, high) the support of the parameter, when it has one
+(`PRIOR_BOUNDS` of the friction law).
 
 **Unknowns look unknown.** A free parameter the data do not determine has no value: its
 `value` holds the optimiser's last point (a placeholder, kept for code that restarts from
@@ -150,7 +151,9 @@ class DiscoveryEstimates:
     the dicts of the `--json` contract are derived from them.
 
     The result dataclass holds `estimates_before` and `estimates_after` (the friction
-    parameters of the base fit and of the final fit, values only), `effect_estimates`
+    parameters of the base fit and of the final fit: with standard errors and
+    identifiability on the per-cycle base, `discovery.result.friction_rows`; values only
+    on the smoothed base), `effect_estimates`
     (the refitted effect's parameters, unprefixed names, with standard errors and units)
     and `effect_of` (that effect's name)."""
 
