@@ -203,6 +203,10 @@ def test_unidentified_friction_after_the_refit_prints_dashes_and_null():
     assert "physical range" in rows["delta"].reason
     assert rows["mu_d"].identifiable and 0 < rows["mu_d"].stderr < 0.01
     assert rows["mu_d"].value == pytest.approx(0.3) and rows["mu_s"].value == pytest.approx(0.35)
+    broken = _cycle_fit(good)
+    broken.J[3, 2] = np.nan  # a model that did not run somewhere: no covariance, no value
+    assert all(e.to_json()["value"] is None and "not finite" in e.reason
+               for e in friction_rows(broken, _features(), chi2=400.0, dof=391))
     base, final = _cycle_fit(good, seed=1), _cycle_fit(wild)
     res = _result({}, {}, [effect_estimate("c", "kgf*s/mm", 0.02, 0.003, (0.0, 1.0))])
     res = dataclasses.replace(res, base_fit=base, final_fit=final,

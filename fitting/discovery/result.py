@@ -234,6 +234,10 @@ def friction_rows(fit: Solution, features, *, chi2: float, dof: int) -> list[Par
     z, J = np.asarray(fit.z, float), np.array(fit.J, float)
     friction = EmpiricalFriction(*z[:6])
     values = np.asarray(friction.values(), float)
+    if not (np.all(np.isfinite(J)) and np.all(np.isfinite(fit.r))):  # no covariance
+        return [ParameterEstimate(name, friction.UNITS[name], float(v), None, None,
+                                  identifiable=False, reason="the fit's derivatives are "
+                                  "not finite") for name, v in zip(friction.NAMES, values)]
     mu_s, mu_d = values[:2]
     # (log mu_d, log(mu_s - mu_d)) -> laplace's coordinates (log mu_s, log mu_d)
     J[:, :2] = np.stack([J[:, 1] * mu_s / (mu_s - mu_d),
