@@ -178,6 +178,10 @@ def _cycle_fit(values, offsets=(0.01, -0.02), seed=0):
               result=None, converged=True, n_evals=5)
 
 
+CLUSTERS = (np.repeat([0, 1], 200), np.arange(400) // 20)
+"""(record, cycle window) of every residual of `_cycle_fit`: two records of 10 windows."""
+
+
 def _features(omega0=(40.0, 90.0), sticks=((0.5, 0.8), (5.0, 9.0))):
     from types import SimpleNamespace as NS
 
@@ -197,19 +201,24 @@ def test_unidentified_friction_after_the_refit_prints_dashes_and_null():
 
     wild = (0.35, 0.3, 2.0, 0.5, 1.8e7, 1.1e-5)
     good = (0.35, 0.3, 2.0, 0.5, 60.0, 1.0)
-    rows = {e.name: e for e in friction_rows(_cycle_fit(wild), _features(), chi2=400.0,
-                                             dof=391)}
+    rows = {e.name: e for e in friction_rows(_cycle_fit(wild), _features(), CLUSTERS,
+                                             chi2=400.0, dof=391)}
     assert not rows["delta"].identifiable and not rows["n"].identifiable
     assert "physical range" in rows["delta"].reason
     assert rows["mu_d"].identifiable and 0 < rows["mu_d"].stderr < 0.01
     assert rows["mu_d"].value == pytest.approx(0.3) and rows["mu_s"].value == pytest.approx(0.35)
+    prior = _cycle_fit(good)  # a prior's rows after the data's: in no cluster
+    prior.J, prior.r = np.vstack([prior.J, 10.0 * np.eye(9)[-2:]]), np.r_[prior.r, 0.1, 0.1]
+    assert all(e.identifiable and e.stderr > 0
+               for e in friction_rows(prior, _features(), CLUSTERS, chi2=400.0, dof=391))
     broken = _cycle_fit(good)
     broken.J[3, 2] = np.nan  # a model that did not run somewhere: no covariance, no value
     assert all(e.to_json()["value"] is None and "not finite" in e.reason
-               for e in friction_rows(broken, _features(), chi2=400.0, dof=391))
+               for e in friction_rows(broken, _features(), CLUSTERS, chi2=400.0, dof=391))
     base, final = _cycle_fit(good, seed=1), _cycle_fit(wild)
     res = _result({}, {}, [effect_estimate("c", "kgf*s/mm", 0.02, 0.003, (0.0, 1.0))])
-    res = dataclasses.replace(res, base_fit=base, final_fit=final,
+    data = NS(mask=np.ones((20, 20), bool), record=np.repeat([0, 1], 10), window=np.arange(20))
+    res = dataclasses.replace(res, base_fit=base, final_fit=final, model=NS(data=data),
                               campaign=NS(features=_features(), screening=[]))
     res = with_uncertainty(res, NS(within=0.0, n_used=400))
     text = parameter_table(res)
@@ -243,7 +252,7 @@ def test_the_figure_gives_the_parameters_with_dashes_for_unknowns(tmp_path):
     from stickslip_fitting.discovery.result import friction_rows
 
     rows = friction_rows(_cycle_fit((0.35, 0.3, 2.0, 0.5, 1.8e7, 1.1e-5)), _features(),
-                         chi2=400.0, dof=391)
+                         CLUSTERS, chi2=400.0, dof=391)
     res = _result({}, {}, [effect_estimate("c", "kgf*s/mm", 1.0, 0.0, (0.0, 1.0))])
     mask = np.ones((2, 50), bool)
     time = np.linspace(0, 1, 100).reshape(2, 50)
@@ -258,10 +267,12 @@ def test_the_figure_gives_the_parameters_with_dashes_for_unknowns(tmp_path):
         steps=[], misfit_left=None, candidates=[], indistinguishable_from=[])
     fig = plot_cycle_discovery(res)
     (box,) = [t for a in fig.axes for t in a.texts if t.get_label() == "parameters"]
-    text = box.get_text().replace("\n    ", " ")  # wrapped lines joined
+    text = box.get_text().replace("\n  ", " ")  # wrapped lines joined
     assert "delta = - (the fit left the physical range 0.001-100000)" in text
     assert "n = - (the fit left" in text and "e+07" not in text and "e-05" not in text
     assert re.search(r"mu_d = 0\.3 \+- [0-9.e-]+\n", text)
     assert "viscous_damping.c = 1 kgf*s/mm (at bound)" in text
     fig.savefig(tmp_path / "d.png")
-    assert box.get_window_extent().x1 <= fig.bbox.x1  # on the page
+    panel = box.axes.get_window_extent()  # inside its panel
+    assert panel.x0 < box.get_window_extent().x0 and box.get_window_extent().x1 <= panel.x1
+    assert box.get_window_extent().y0 >= panel.y0

@@ -100,6 +100,8 @@ from __future__ import annotations
 import dataclasses
 from typing import ClassVar
 
+import numpy as np
+
 from ..objectives.losses import AbstractLoss
 from .cycle_effects import FAMILIES, family
 from .engine import AbstractBaseModel, discover
@@ -182,13 +184,18 @@ class CycleBase(AbstractBaseModel):
 
 def with_uncertainty(result: CycleDiscovery, base) -> CycleDiscovery:
     """The friction rows before and after with their standard errors and identifiability
-    (`result.friction_rows` of the base and the final fit, chi-square as the refits
-    count it). Without a refit of its own (no effect, or a form outside the library) the
+    (`result.friction_rows` of the base and the final fit, one cluster per cycle window
+    of the model's data, chi-square as the refits count it). Without a refit of its own (no effect, or a form outside the library) the
     final friction is the base's: a value the form moved keeps the base's verdict and
     has no standard error."""
+    data = result.model.data
+    mask = np.asarray(data.mask)
+    clusters = [np.broadcast_to(np.asarray(a)[:, None], mask.shape)[mask]
+                for a in (data.record, data.window)]
+
     def rows(fit):
-        return friction_rows(fit, result.campaign.features, chi2=fit.rss + base.within,
-                             dof=base.n_used - fit.z.size)
+        return friction_rows(fit, result.campaign.features, clusters,
+                             chi2=fit.rss + base.within, dof=base.n_used - fit.z.size)
 
     before = rows(result.base_fit)
     after = (rows(result.final_fit) if result.final_fit is not result.base_fit else

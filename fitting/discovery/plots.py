@@ -142,8 +142,8 @@ def plot_cycle_discovery(result, *, records: int = 4):
     pick = _picked(G, records)
     left = getattr(result, "misfit_left", None)
     rows = 1 + len(pick) + (left is not None)
-    fig = Figure(figsize=(11, 2.6 * rows), layout="constrained")
-    axes = fig.subplots(rows, 2, squeeze=False)
+    fig = Figure(figsize=(11, 2.6 * rows + 1.3), layout="constrained")  # a taller top row
+    axes = fig.subplots(rows, 2, squeeze=False, height_ratios=[1.5] + [1] * (rows - 1))
     if left is not None:
         _misfit_panels(axes[-1], left)
         axes = axes[:-1]
@@ -217,11 +217,11 @@ def _parameter_box(ax, result, after: str) -> None:
 
     from .result import estimate_text
 
-    lines = [textwrap.fill(text, 32, subsequent_indent="    ") for text in
+    lines = [textwrap.fill(text, 36, subsequent_indent="  ") for text in
              [f"parameters ({after}):"] + [estimate_text(e) for e in
                                            getattr(result, "estimates", list)()]]
     ax.axvline(ax.get_xlim()[0] + 0.6 * np.ptp(ax.get_xlim()), color="0.7", lw=0.6)
-    ax.text(0.62, 0.97, "\n".join(lines), va="top", fontsize=6.5, family="monospace",
+    ax.text(0.61, 0.97, "\n".join(lines), va="top", fontsize=6, family="monospace",
             transform=ax.transAxes, label="parameters")
 
 

@@ -218,14 +218,17 @@ def effect_estimate(name: str, unit: str, value: float, stderr: float,
     return dataclasses.replace(at, identifiable=False, reason=NO_STDERR)
 
 
-def friction_rows(fit: Solution, features, *, chi2: float, dof: int) -> list[ParameterEstimate]:
+def friction_rows(fit: Solution, features, clusters, *, chi2: float,
+                  dof: int) -> list[ParameterEstimate]:
     """The friction parameters of a per-cycle fit (`fit.z` and `fit.J` over its
     coordinates: the six `EmpiricalFriction` logs, then the offsets and effects) with the
     uncertainty and identifiability of the one covariance path (`uncertainty.laplace`:
-    Fisher's, scaled by max(1, `chi2`/`dof`), the other coordinates marginalised; the
-    design checks on the records' `features`). A value the records do not determine
-    (outside its physical range, a relative error over 0.5, one slip time) is a row
-    without one: "-" and the reason."""
+    the cluster-robust sandwich of the trace objective, one cluster per cycle window,
+    `clusters` = (record, window) of every data residual; the other coordinates
+    marginalised; the design checks on the records' `features`; `chi2` over `dof` for its
+    warnings). A value the records do not determine (outside its physical range, a
+    relative error over 0.5, one slip time, a direction the residuals do not see) is a
+    row without one: "-" and the reason."""
     from ..modes import Covariance
     from ..params import CampaignParams, EmpiricalFriction
     from ..solve.fit import FitResult
@@ -242,12 +245,15 @@ def friction_rows(fit: Solution, features, *, chi2: float, dof: int) -> list[Par
     # (log mu_d, log(mu_s - mu_d)) -> laplace's coordinates (log mu_s, log mu_d)
     J[:, :2] = np.stack([J[:, 1] * mu_s / (mu_s - mu_d),
                          J[:, 0] - J[:, 1] * mu_d / (mu_s - mu_d)], axis=1)
+    extra = J.shape[0] - len(clusters[0])  # a prior's rows: in no cluster
+    record, window = (np.r_[np.asarray(c), -np.ones(extra, int)] for c in clusters)
     as_fit = FitResult(params=CampaignParams(friction, np.zeros(0)), spec=None, data=None,
                        features=list(features), chi2=float(chi2), dof=int(dof),
                        result=fit.result, converged=fit.converged, n_starts=1,
                        n_steps=fit.n_evals, slip_time=None, start_chi2=np.array([chi2]))
-    return laplace(as_fit, covariance=Covariance.FISHER, jacobian=(
-        J, np.asarray(fit.r, float), np.ones(6, bool), np.arange(6), values)).estimates()
+    return laplace(as_fit, covariance=Covariance.SANDWICH, jacobian=(
+        J, np.asarray(fit.r, float), np.ones(6, bool), np.arange(6), values, record,
+        window)).estimates()
 
 
 def estimate_text(e: ParameterEstimate) -> str:

@@ -129,8 +129,9 @@ def jacobian_log(fit: FitResult, objective=None):
     """(J, r, free mask, idx, values) at the optimum: whitened residuals r and
     J = dr/dtheta, theta = (log of the free friction parameters, free gauge offsets in
     mm), of `objective` (default the fit's), and the natural friction values. A fit of
-    another model of these parameters (discovery's per-cycle fits) passes its own as
-    `laplace(fit, jacobian=...)`: its further coordinates, after the offsets, are then
+    another model of these parameters (discovery's per-cycle fits) passes its own, with
+    every residual's (record, cycle) cluster, as `laplace(fit, jacobian=(J, r, free, idx,
+    values, record, cycle))`: its further coordinates, after the offsets, are then
     marginalised as the offsets are."""
     free = free_mask(fit.spec)
     idx = np.flatnonzero(free)
@@ -330,13 +331,14 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         J, r, free, idx, value = jacobian_log(fit, fit.objective.inner)
         J, r = fit.objective.loss.score_form(J, r)
     else:
-        J, r, free, idx, value = jacobian_log(fit) if jacobian is None else jacobian
+        J, r, free, idx, value = jacobian_log(fit) if jacobian is None else jacobian[:5]
     F = J.T @ J
     k = idx.size
     if covariance.robust:
         from ..objectives.combined import residual_cycles
 
-        rec, cyc = residual_cycles(fit.objective, fit.features)
+        rec, cyc = (residual_cycles(fit.objective, fit.features) if jacobian is None
+                    else jacobian[5:])
         cov = sandwich_covariance(J, r, rec, cyc, lag=lag, small_sample=small_sample)
         if covariance is Covariance.TWO_LEVEL:
             cov = _two_level(cov, J, r, rec)
