@@ -2,7 +2,10 @@
 count agrees with the candidate table, a parameter on an end of its range says "at
 bound" and a standard error of zero is never printed as "+- 0", a refit whose traces do
 not change with the family's parameters is no result, a friction table the refit left
-as it was says so, and a phase left above the noise is named in the explanation."""
+as it was says so, a phase left above the noise is named in the explanation, and the
+friction parameters before and after carry the one covariance path's standard errors
+and identifiability: a value the records do not determine is "-" in the table and the
+figure and null with a reason in the JSON."""
 
 from __future__ import annotations
 
