@@ -9,8 +9,9 @@ Progress lines go to stderr (`--quiet` turns them off). Prints the answer,
 the gap (residual RMS) before and after, the candidate table and the parameters
 before and after. `--json OUT` writes {"effect", "explanation", "gap_before",
 "gap_after", "criterion", "candidates": [{"name", "score", "delta_criterion"}...],
-"parameters_before", "parameters_after", ...} (gaps in mm); `--plot OUT.png` the
-residuals by phase before and after and the traces.
+"parameters_before", "parameters_after", "estimates_before", "estimates_after", ...}
+(gaps in mm; a parameter the records do not determine is null with a reason);
+`--plot OUT.png` the residuals by phase before and after, the parameters and the traces.
 """
 
 from __future__ import annotations
