@@ -70,6 +70,7 @@ from stickslip_jax.numerics import safe_power
 from stickslip_jax.units import G_MM_S2
 
 from ..params import EmpiricalFriction
+from ..solve.fit import COMPILER_OPTIONS
 from ..objectives.trace import TraceData
 from .cycle_effects import (DAMPING_FORMS, FAMILIES, STICK_SCALE, STICK_TERMS, STRIBECK_FORMS,
                             Family, Shape, drive_error, stick_terms)
@@ -530,27 +531,21 @@ def tail_sources(data: TraceData) -> tuple[np.ndarray, np.ndarray]:
     return rows, began
 
 
-@eqx.filter_jit
-def _value(z, scales, shape, sensor, data, tref, prev, sd, layout):
-    read, yd, ok = _model(z, scales, shape, sensor, data, tref, prev, layout)
-    r = jnp.where(data.mask, (data.deflection - read) / sd, 0.0)
-    return r, yd, ok
-
-
-@eqx.filter_jit
+@eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
 def _value_and_block(z, T, scales, shape, sensor, data, tref, prev, sd, layout, idx):
-    """(r [n], J [n, B], ok [N]): the residuals of the samples `idx` (flat indices of
-    the unpadded samples) and their derivatives along the B tangents T [size, B]."""
+    """(r [n], J [n, B], ok [N], slider velocity [N, L]): the residuals of the samples
+    `idx` (flat indices of the unpadded samples) and their derivatives along the B
+    tangents T [size, B]."""
     def f(zz):
-        read, _, ok = _model(zz, scales, shape, sensor, data, tref, prev, layout)
-        return ((data.deflection - read) / sd).ravel()[idx], ok
+        read, yd, ok = _model(zz, scales, shape, sensor, data, tref, prev, layout)
+        return ((data.deflection - read) / sd).ravel()[idx], (ok, yd)
 
     def col(t):
         return jax.jvp(f, (z,), (t,), has_aux=True)
 
     # the primal does not depend on the tangent: computed once, not per column
-    r, J, ok = jax.vmap(col, in_axes=1, out_axes=(None, -1, None))(T)
-    return r, J, ok
+    r, J, (ok, yd) = jax.vmap(col, in_axes=1, out_axes=(None, -1, None))(T)
+    return r, J, ok, yd
 
 
 class CycleModel:
@@ -642,10 +637,10 @@ class CycleModel:
         return out
 
     def warm(self) -> dict:
-        """Compile the programs of `residuals` and `evaluate` in a background thread while
-        the caller works (XLA compiles without the GIL; on a campaign of 0.4 M samples
-        each takes 1.5-5 s): without the sensor kernel first (`residuals`, then
-        `evaluate`), then with it. Returns {("evaluate" | "residuals", sensor): Future};
+        """Compile the program of `evaluate` (which `residuals` runs too) in a background
+        thread while the caller works (XLA compiles without the GIL; on a campaign of
+        0.4 M samples it takes 1.5-5 s): without the sensor kernel first, then with it.
+        Returns {("evaluate" | "residuals", sensor): Future};
         wait for a program's future before its first call (a call while it is still
         compiling compiles it a second time).
 
@@ -654,20 +649,32 @@ class CycleModel:
         the thread."""
         z = np.zeros(self.layout.size)
         pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="stickslip-warm")
-        jobs = {("residuals", False): lambda: self.residuals(z),
-                ("evaluate", False): lambda: self.evaluate(z, [0]),
-                ("residuals", True): lambda: self.residuals(z, sensor=True),
-                ("evaluate", True): lambda: self.evaluate(z, [0], sensor=True)}
-        futures = {k: pool.submit(job) for k, job in jobs.items()}
+        futures = {}
+        for sensor in (False, True):  # `residuals` runs `evaluate`'s program
+            futures["evaluate", sensor] = futures["residuals", sensor] = pool.submit(
+                self.evaluate, z, [0], sensor=sensor)
         pool.shutdown(wait=False)
         return futures
 
     def residuals(self, z, shape: Shape = Shape(), sensor: bool = False):
         """(whitened residuals flat [n], slider velocity [N, L], ok [N]); `sensor`: the
-        kernel convolution (else a pure delay by tau, module doc)."""
-        r, yd, ok = _value(jnp.asarray(z), self._scales, self._shape(shape), bool(sensor),
-                           self.data, self.tref, self._prev, self.sd, self.layout)
-        return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
+        kernel convolution (else a pure delay by tau, module doc). From `evaluate`'s
+        program, no tangent asked: discovery asks for few residuals without their
+        Jacobian (measured on 4 records, 111 windows: 4 calls, and 48 with the sensor,
+        its secant probes), and a program of their own took 10 s of CPU time to compile
+        to save 0.04 s a call (0.17 s with the sensor)."""
+        r, _, ok, yd = self._block(jnp.asarray(z), np.zeros((self.layout.size, 1)),
+                                   self._shape(shape), sensor)
+        return np.asarray(r), np.asarray(yd), np.asarray(ok)
+
+    def _block(self, zj, part, sh, sensor: bool):
+        """`_value_and_block` at zj along the tangents `part` [size, <= BLOCK] (padded
+        with zero tangents to one compiled shape)."""
+        T = np.zeros((self.layout.size, BLOCK))
+        T[:, :part.shape[1]] = part
+        return _value_and_block(zj, jax.device_put(T), self._scales, sh, bool(sensor),
+                                self.data, self.tref, self._prev, self.sd, self.layout,
+                                self._idx)
 
     def _tangents(self, cols):
         """Group `cols` into tangents (Jacobian compression): a record's rows depend only
@@ -704,12 +711,8 @@ class CycleModel:
         blocks, r, ok = [], None, True
         n_t = T_all.shape[1]
         for a in range(0, max(n_t, 1), BLOCK):
-            T = np.zeros((self.layout.size, BLOCK))
             part = T_all[:, a:a + BLOCK]
-            T[:, :part.shape[1]] = part
-            r_, J_, ok_ = _value_and_block(zj, jax.device_put(T), self._scales, sh,
-                                           bool(sensor), self.data, self.tref, self._prev,
-                                           self.sd, self.layout, self._idx)
+            r_, J_, ok_, _ = self._block(zj, part, sh, sensor)
             blocks.append(np.asarray(J_)[:, :part.shape[1]])
             r, ok = r_, ok and bool(np.all(np.asarray(ok_)[self._real_rows]))
         Jt = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=1)
