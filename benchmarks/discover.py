@@ -35,7 +35,10 @@ window's cost grows with its events, not with its samples), far from the data th
 stopped once they cannot win (`refit.CANNOT_WIN`), the compressed Jacobian, the
 FFT sensor kernel, the vectorised pitch scan, a window's slip solved once for all its
 rows, the weights as one compiled program, the host Levenberg-Marquardt update in NumPy,
-and the model's programs compiled in a warm-up thread while the campaign is prepared.
+and the model's programs compiled in a warm-up thread while the campaign is prepared:
+two of them (the Jacobian block without and with the sensor kernel; residuals alone run
+it with a zero tangent block), with XLA's classic CPU emitter (`fit.COMPILER_OPTIONS`).
+Run with `JAX_LOG_COMPILES=1` to see each program's compilation time.
 
 `--base smooth`, the whole-record workflow:
 Builds a synthetic campaign (lubricant A, 3 (W, k) x 4 speeds, 3 cycles per record,
