@@ -192,16 +192,18 @@ def test_discover_base_is_an_object_that_carries_its_options(kw, word):
 
 def test_discover_on_the_smooth_base(tmp_path):
     """`base=SmoothBase(...)` runs `stickslip discover --base smooth` through the same
-    result: two short records with a drifting gauge zero, one candidate beside it."""
-    from stickslip_fitting.discovery.synthetic import hidden_effect_campaign
+    result: two short records of the exact simulator with a drifting gauge zero added (no
+    smoothed simulation of its own to compile), one candidate beside it."""
+    from stickslip_fitting.data.synthetic import synthetic_campaign
 
     from stickslip_jax.lubricants import lubricant
 
-    recs = hidden_effect_campaign(lubricant("A"), effect="gauge_drift", values={"rate": 4e-3},
-                                  seed=3, conditions=((36.0, 86.9),), speed_fractions=(0.26, 0.36),
-                                  cycles=3)
+    recs = [r.replace(deflection=r.deflection + 4e-3 * r.time)  # mm/s of gauge drift
+            for r in synthetic_campaign(lubricant("A"), conditions=((36.0, 86.9),),
+                                        speed_fractions=(0.26, 0.36), cycles=3,
+                                        sample_rate=500.0, seed=3)]
     base = sf.SmoothBase(candidates=("gauge_drift", "viscous_damping"), top=1, max_evals=8,
-                         refit_evals=4, crop="none")
+                         refit_evals=4, crop="slip_end")
     found = sf.discover(recs, base=base)
     assert found.result.BASE == "smooth" and found.effect == "gauge_drift"
     assert found.named == ["gauge_drift"] and found.result.gap_after < found.result.gap_before

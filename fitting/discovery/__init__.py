@@ -18,8 +18,8 @@ The whole-record workflow on the smoothed simulator (`--base smooth`):
 - (the fits: `subproblems.AbstractProblem.solve`, the project's one Levenberg-Marquardt
   driven from Python)
 - `residuals`: residual analysis and the misspecification test.
-- `ranking`: score test of every candidate at the base fit (no refit).
-- `selection`: refit the best few, choose by BIC or answer "none".
+- `ranking`: score test of every candidate at the base fit, refits of the best few,
+  the choice by BIC or "none".
 - `learned`: a learned (MLP) friction correction and a sparse regression naming its
   variables, for when no candidate explains the residuals.
 - `synthetic`: campaigns with a hidden effect, for tests and benchmarks.

@@ -27,7 +27,7 @@ make the fitted coordinates O(1) (the fit works with `value / scale`), and `SIGN
 +1 where physics requires the parameter to be >= 0 (a passive damper dissipates,
 c >= 0; a recording chain is causal, time constant >= 0; rate-and-state friction is
 highest at breakaway and decays, b >= 0), 0 where either sign is physical. A fitted
-value of the wrong sign is never named (`selection`).
+value of the wrong sign is never named (`ranking`).
 """
 
 from __future__ import annotations
@@ -405,15 +405,13 @@ class EffectSet(eqx.Module):
             part = eqx.tree_at(lambda p: getattr(p, k), part, _f(v))
         return eqx.tree_at(lambda s: getattr(s, effect_field(name)), self, part)
 
-    def extra_force_terms(self) -> tuple:
-        return (self.viscous_damping, self.stribeck, self.drive_periodic_error,
-                self.friction_drift, self.rate_state)
-
     def smooth_model(self, slideway: Slideway, extra_force_terms: tuple = ()) -> SmoothModel:
         """The `SmoothModel` with every effect of the set (plus `extra_force_terms`)."""
         gauge = EffectGauge(lowpass=self.sensor_lowpass, drift=self.gauge_drift,
                             drive_error=self.drive_periodic_error)
-        return SmoothModel(slideway, force_terms=self.extra_force_terms() + tuple(extra_force_terms),
+        forces = (self.viscous_damping, self.stribeck, self.drive_periodic_error,
+                  self.friction_drift, self.rate_state)
+        return SmoothModel(slideway, force_terms=forces + tuple(extra_force_terms),
                            load=self.load_coupling, measurement=gauge)
 
 

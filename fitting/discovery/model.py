@@ -40,12 +40,12 @@ from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Float
 
 import stickslip_jax as ss
-from stickslip_jax.drives import ConstantSpeed, MeasuredDrive
 from stickslip_jax.modes import Formulation
 from stickslip_jax.simulation.parts import AbstractForceTerm
 from stickslip_jax.simulation.smooth import simulate_smooth
+from stickslip_jax.slips import robust_sigma
 
-from ..objectives.smooth import SmoothData, drive_knots
+from ..objectives.smooth import SmoothData, pack_records, record_drive
 from ..params import NAMES, EmpiricalFriction
 from .effects import CANDIDATES, EffectSet, load_referred_friction
 from .subproblems import AbstractProblem
@@ -56,7 +56,6 @@ __all__ = [
     "Problem",
     "Settings",
     "campaign_traces",
-    "robust_noise",
     "simulate_campaign",
 ]
 
@@ -104,12 +103,6 @@ class DiscoveryParams(eqx.Module):
     x0: Float[Array, " R"]
 
 
-def robust_noise(x: np.ndarray) -> float:
-    """Noise standard deviation (mm) from the median absolute second difference."""
-    d2 = np.diff(np.asarray(x, float), 2)
-    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
-
-
 def _start_level(t, x, n0):
     """Intercept at t[0] of a line through the first n0 samples (mm)."""
     a = np.polyfit(t[:n0] - t[0], x[:n0], 1)
@@ -139,13 +132,11 @@ def campaign_traces(records, *, crop: str = "none", max_samples: int | None = No
     `crop`: "none" (each record starts at a slip end) or "slip_end" (cut at the first
     detected slip end). `max_samples` caps each record's length.
     """
-    from stickslip_jax.simulation.trace import pad_series
-
     if crop not in ("none", "slip_end"):
         raise ValueError(f"crop must be 'none' or 'slip_end', got {crop!r}")
     if len(records) < 1:
         raise ValueError("discovery needs at least one record")
-    times, xs, knots = [], [], []
+    times, xs, starts = [], [], []
     for rec in records:
         if crop == "slip_end":
             t, x = _crop_at_first_slip_end(rec)
@@ -156,22 +147,10 @@ def campaign_traces(records, *, crop: str = "none", max_samples: int | None = No
             raise ValueError(f"{rec.name or 'record'}: too few samples ({t.shape[0]}) left")
         times.append(t)
         xs.append(x)
-        knots.append(drive_knots(rec, t0, t[-1]))
-    ts, data, mask = pad_series(times, xs)
-    noise = float(np.median([robust_noise(x) for x in xs]))
-    f = lambda a: jnp.asarray(np.asarray(a, float))  # noqa: E731
-    per = lambda name: f([getattr(rec, name) for rec in records])  # noqa: E731
-    steady = all(rec.drive_source == "speed" for rec in records)
+        starts.append(t0)
+    noise = float(np.median([robust_sigma(np.asarray(x, float)) for x in xs]))
     x0 = [_start_level(t, x, max(6, min(t.shape[0] // 40, 40))) for t, x in zip(times, xs)]
-    return SmoothData(time=f(ts), deflection=f(data), mask=jnp.asarray(mask),
-                      weight=per("weight"), normal_load=per("load"), stiffness=per("stiffness"),
-                      speed=per("nominal_drive_speed"), start_level=f(x0),
-                      sigma=f(np.full(len(xs), noise)), drive_knots=None if steady else f(knots))
-
-
-def record_drive(speed, knots):
-    """A record's drive: its constant `speed` (mm/s), or its measured `knots` (s, mm)."""
-    return ConstantSpeed(speed) if knots is None else MeasuredDrive(knots[:, 0], knots[:, 1])
+    return pack_records(records, times, xs, starts, x0, np.full(len(xs), noise))
 
 
 def simulate_record(friction, effects: EffectSet, weight, stiffness, drive, x0, ts, mask,

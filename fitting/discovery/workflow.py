@@ -21,8 +21,8 @@ timed in `result.timings`):
    Levenberg-Marquardt (`Problem.solve`), friction + one initial deflection per record;
    `residuals_before`: `residuals.analyse_residuals` (phases, misspecification test).
 3. `rank` ("ranking"): score test of every library effect (`ranking.score_candidates`).
-4. `refit`: the `top` candidates refitted (`selection.refit_candidates`).
-5. `decide` ("decision"): BIC choice or "none" (`selection.choose`, the disagreement rule
+4. `refit`: the `top` candidates refitted (`ranking.refit_candidates`).
+5. `decide` ("decision"): BIC choice or "none" (`ranking.choose`, the disagreement rule
    of `SmoothBase`), the chosen model polished.
 6. `conclude` ("residuals_after"): the analysis again with the chosen effect, the
    answer; "learned" (only when `learn` is set and the final residuals still fail the
@@ -49,11 +49,10 @@ from . import engine
 from .effects import CANDIDATES, EffectSet
 from .engine import AbstractBaseModel
 from .model import Problem, Settings, campaign_traces
-from .ranking import score_candidates
+from .ranking import Refit, choose, effect_rows, refit_candidates, score_candidates
 from .residuals import ResidualReport, analyse_residuals
-from .result import SmoothDiscovery
+from .result import SmoothDiscovery, estimate_text
 from .scores import principal_cosine
-from .selection import Refit, choose, effect_rows, refit_candidates
 from .stages.state import Clock
 
 __all__ = ["SmoothBase", "discover", "initial_friction"]
@@ -314,7 +313,7 @@ def _explanation(chosen, rows, rivals, rep_before, rep_after, gap_before, gap_af
         return ("The residuals are more than noise (misspecification test p = "
                 f"{rep_before.p_value:.2g}, worst in the {rep_before.worst_phase()} "
                 "phase) but no library effect explains them.")
-    sizes = ", ".join(f"{e.name} = {e.value:.3g} +- {e.stderr:.2g} {e.unit}" for e in rows)
+    sizes = ", ".join(map(estimate_text, rows))
     text = (f"{getattr(effects, chosen.name).EXPLANATION} Adding {chosen.name} ({sizes}) "
             f"lowers BIC by {-chosen.delta_bic:.1f} and the residual RMS from "
             f"{gap_before * 1e3:.3g} um to {gap_after * 1e3:.3g} um "

@@ -48,7 +48,8 @@ from stickslip_jax.simulation.trace import pad_series
 from .combined import AbstractObjective
 from ..modes import Objective
 
-__all__ = ["KNOTS", "SmoothData", "SmoothObjective", "drive_knots", "smooth_data"]
+__all__ = ["KNOTS", "SmoothData", "SmoothObjective", "drive_knots", "pack_records", "record_drive",
+           "smooth_data"]
 
 KNOTS = 512
 """Knots of a record's piecewise-linear drive when it is not a constant speed (module doc)."""
@@ -83,7 +84,7 @@ def smooth_data(records, features) -> SmoothData:
     slip to start from."""
     if len(records) != len(features):
         raise ValueError("smooth_data: one RecordFeatures per record")
-    times, xs, w, k, v, x1, sig, n, knots = [], [], [], [], [], [], [], [], []
+    times, xs, starts, x1, sig = [], [], [], [], []
     for rec, f in zip(records, features):
         name = rec.name or "record"
         if not f.stick_slip or len(f.end_time) == 0 or not np.isfinite(f.trough[0]):
@@ -97,22 +98,32 @@ def smooth_data(records, features) -> SmoothData:
             raise ValueError(f"{name}: fewer than 16 samples after the first slip end")
         times.append(t)
         xs.append(x)
-        w.append(rec.weight)
-        n.append(rec.load)
-        k.append(rec.stiffness)
-        v.append(rec.nominal_drive_speed)
-        knots.append(drive_knots(rec, t_e, t[-1]))
+        starts.append(t_e)
         x1.append(float(f.trough[0]))
         sig.append(float(f.noise))  # floored at sticks.NOISE_FLOOR
+    return pack_records(records, times, xs, starts, x1, sig)
+
+
+def pack_records(records, times, xs, starts, start_level, sigma) -> SmoothData:
+    """`SmoothData` of `records`' samples, padded: `times` (s, each from its record's
+    time `starts`) and readings `xs` (mm), with each record's `start_level` and noise
+    `sigma` (mm), its weight, load, stiffness and speed and, unless every record is
+    driven at a constant speed, its drive knots from its start (`drive_knots`)."""
     ts, data, mask = pad_series(times, xs)
 
     def arr(a):
         return jnp.asarray(np.asarray(a, float))
 
+    def per(name):
+        return arr([getattr(rec, name) for rec in records])
+
     steady = all(rec.drive_source == "speed" for rec in records)
-    return SmoothData(time=ts, deflection=arr(data), mask=mask, weight=arr(w),
-                      normal_load=arr(n), stiffness=arr(k), speed=arr(v), start_level=arr(x1),
-                      sigma=arr(sig), drive_knots=None if steady else arr(knots))
+    knots = None if steady else arr([drive_knots(rec, t0, t[-1])
+                                     for rec, t0, t in zip(records, starts, times)])
+    return SmoothData(time=ts, deflection=data, mask=mask, weight=per("weight"),
+                      normal_load=per("load"), stiffness=per("stiffness"),
+                      speed=per("nominal_drive_speed"), start_level=arr(start_level),
+                      sigma=arr(sigma), drive_knots=knots)
 
 
 def drive_knots(rec, t_e: float, span: float) -> np.ndarray:
@@ -124,6 +135,11 @@ def drive_knots(rec, t_e: float, span: float) -> np.ndarray:
     far = 1e3 * max(span, 1.0)
     slope = (uk[-1] - uk[-2]) / (tk[-1] - tk[-2])
     return np.stack([np.append(tk, far), np.append(uk, uk[-1] + slope * (far - tk[-1]))], 1)
+
+
+def record_drive(speed, knots):
+    """A record's drive: its constant `speed` (mm/s), or its `knots` (s, mm; `drive_knots`)."""
+    return ConstantSpeed(speed) if knots is None else MeasuredDrive(knots[:, 0], knots[:, 1])
 
 
 class SmoothObjective(AbstractObjective):
@@ -149,8 +165,7 @@ class SmoothObjective(AbstractObjective):
 
         def one(args):
             w, n, k, v, x_start, t, m, kn = args
-            drive = ConstantSpeed(v) if kn is None else MeasuredDrive(kn[:, 0], kn[:, 1])
-            tr = simulate_smooth(ss.Slideway(fr, w, k, n), drive, t,
+            tr = simulate_smooth(ss.Slideway(fr, w, k, n), record_drive(v, kn), t,
                                  smoothing=self.smoothing, slip_time=self.slip_time,
                                  rtol=self.rtol, atol=self.atol, max_steps=self.max_steps,
                                  initial_deflection=x_start, mask=m,
