@@ -42,13 +42,14 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from stickslip_jax import Friction, KatoKinetic, KatoStatic, steady_state
+from stickslip_jax import Friction, steady_state
 from stickslip_jax.lsq import gauss_newton_covariance
 from stickslip_jax.steady import STICK_SLIP
 
 from ..modes import DesignCriterion, check_member
+from ..params import EmpiricalFriction
 from ..solve.lsq import AbstractResiduals, least_squares
-from .posterior import PARAMETERS, friction_params
+from .posterior import PARAMETERS
 
 N_OBS = 4
 
@@ -88,15 +89,12 @@ class Campaign(eqx.Module):
 
 def log_params(friction: Friction) -> np.ndarray:
     """$u = \\log$ of the six eq (1) + eq (3) parameters, in the order of `PARAMETERS`."""
-    p = friction_params(friction)
-    return np.log(np.array([p[k] for k in PARAMETERS], dtype=float))
+    return np.asarray(EmpiricalFriction.from_friction(friction).log_values())
 
 
 def friction_of(u: Float[Array, " 6"]) -> Friction:
     """Eq (1) + eq (3) `Friction` from $u = \\log$ parameters (order `PARAMETERS`)."""
-    p = jnp.exp(u)
-    return Friction(KatoStatic(mu_s=p[0], mu_d=p[1], gamma=p[2], m=p[3]),
-                    KatoKinetic(delta=p[4], n=p[5]))
+    return EmpiricalFriction.from_values(*jnp.exp(u)).friction()
 
 
 def observables(u, weight, stiffness, speed):
