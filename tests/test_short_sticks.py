@@ -20,6 +20,10 @@ from stickslip_jax.record_plots import SLIDE, classify_phases
 from stickslip_jax.records import Record, read_record
 
 N_RECORDS = 40
+RATES = pytest.mark.slow
+"""The rates over N_RECORDS records (30 s) run with the slow tests; by default the
+detector on short sticks is checked cycle by cycle in
+`test_a_slide_with_stops_keeps_its_breakaway`."""
 
 
 def counted(run, rig):
@@ -65,6 +69,7 @@ def rates():
     return out
 
 
+@RATES
 def test_short_sticks_are_found(rates):
     """>= 90 % of the slips found, <= 1 false slip in any record (measured on 40
     records: 98.0 % found (436 of 445), 0.03 false slips per record, at most 1)."""
@@ -78,6 +83,7 @@ def test_short_sticks_are_found(rates):
     assert max(false) <= 1
 
 
+@RATES
 def test_breakaway_friction_of_short_sticks(rates):
     """The breakaway friction mu_0 = k x2/W of every found cycle: median error 0.1 %,
     95 % of cycles within 1 % (measured: median 0.018 %, 95th percentile 0.098 %)."""
@@ -88,6 +94,7 @@ def test_breakaway_friction_of_short_sticks(rates):
     assert np.quantile(errs, 0.95) < 1e-2
 
 
+@RATES
 def test_plot_counts_the_same_slips_and_never_calls_them_stuck(rates):
     """`plot` uses the same detector: its slip count is off the true one by under 10 %
     over the records (measured 6.5 %; a slip that runs past a stop counts once), and a
