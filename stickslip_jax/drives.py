@@ -11,7 +11,7 @@ slip a closed form); the smoothed simulator calls `position(t)` and `speed(t)`.
   slide-hold-slide tests (speed 0 during a hold). $u(\text{start\_times}[0]) = 0$.
 - `MeasuredDrive(times, positions)`: a measured $u(t)$ (for example a record's
   `drive` column), linearly interpolated; held constant after the last sample.
-- `drive_from_record(record)`: the drive of a record (its `drive` column, its
+- `drive_from_record(record)`: the drive of a `Record` (its `drive` column, its
   `drive_program`, or its constant `drive_speed`).
 """
 
@@ -24,6 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 from .numerics import as_float, is_concrete
+from .records import Record
 
 
 class AbstractDrive(eqx.Module):
@@ -114,22 +115,16 @@ def _check_knots(owner: str, names, times, values, least: int) -> None:
         raise ValueError(f"{owner}: {names[0]} must increase strictly")
 
 
-def drive_from_record(record) -> AbstractDrive:
-    """The drive of a `stickslip_jax.records.Record`.
-
-    Uses, in this order, the record's measured `drive` column (mm), its
-    `drive_program` ((start s, speed mm/s), ...) or its constant `drive_speed` (mm/s).
+def drive_from_record(record: Record) -> AbstractDrive:
+    """The drive of a `stickslip_jax.records.Record`, as `record.drive_source` says: its
+    measured `drive` column (mm), its `drive_program` (the record's `drive_velocity` from
+    each start, s; at rest before the first, u(0) = 0) or its constant `drive_speed` (mm/s).
     """
-    drive = getattr(record, "drive", None)
-    if drive is not None:
-        return MeasuredDrive(record.time, drive)
-    program = getattr(record, "drive_program", None)
-    if program:
-        starts, speeds = (list(v) for v in zip(*program))
-        if starts[0] > 0:  # records: the drive rests before the first start, u(0) = 0
-            starts, speeds = [0.0, *starts], [0.0, *speeds]
-        return SpeedProgram(starts, speeds)
-    speed = getattr(record, "drive_speed", None)
-    if speed is None:
-        raise ValueError("record has neither a drive column, a drive_program nor a drive_speed")
-    return ConstantSpeed(speed)
+    if record.drive_source == "column":
+        return MeasuredDrive(record.time, record.drive)
+    if record.drive_source == "speed":
+        return ConstantSpeed(record.drive_speed)
+    starts = [s for s, _ in record.drive_program]
+    if starts[0] > 0:
+        starts = [0.0, *starts]
+    return SpeedProgram(starts, record.drive_velocity(starts))
