@@ -67,19 +67,33 @@ def test_jacobian_matches_finite_differences(setup, name):
     _assert_jacobian_matches_fd(model, z1, cols, shape, name)
 
 
-def _assert_jacobian_matches_fd(model, z1, cols, shape, name=""):
+def _assert_jacobian_matches_fd(model, z1, cols, shape, name="", sensor=False):
     """The model's Jacobian columns against central differences (step 1e-5)."""
-    r, J, ok = model.evaluate(z1, cols, shape)
+    r, J, ok = model.evaluate(z1, cols, shape, sensor)
     for j, c in enumerate(cols):
         h = 1e-5
         zp, zm = z1.copy(), z1.copy()
         zp[c] += h
         zm[c] -= h
-        fd = (model.residuals(zp, shape)[0] - model.residuals(zm, shape)[0]) / (2 * h)
+        fd = (model.residuals(zp, shape, sensor)[0]
+              - model.residuals(zm, shape, sensor)[0]) / (2 * h)
         scale = max(np.abs(fd).max(), 1e-9)
         # samples next to an event may sit on either side of it in the two evaluations
         close = np.abs(J[:, j] - fd) <= 1e-4 * scale
         assert close.mean() > 0.999, (name, c, close.mean())
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_sensor_jacobian_matches_finite_differences(setup, order):
+    """With the sensor kernel (its spectrum computed per record and shared by the
+    record's windows): the delay's column and a friction column against central
+    differences."""
+    model, z, *_ = setup
+    col = model.cols(family("sensor_lowpass"))
+    z1 = z.copy()
+    z1[col] = 1.0  # ms (the family's scale): away from zero, where its derivative is 0
+    _assert_jacobian_matches_fd(model, z1, np.concatenate([[0], col]), Shape(order=order),
+                                "sensor_lowpass", sensor=True)
 
 
 def test_per_record_columns_match_finite_differences(setup):

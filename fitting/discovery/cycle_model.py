@@ -184,10 +184,26 @@ def _stick_line(sl_or_x0, eff: _Eff, u, t0, u0, tw, T1m, v):
     return line
 
 
-def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, poly, N0):
+def _grid(W, k):
+    """(mass W / g, T2 = pi / omega_0 (s), the RK4 step h (s)) of a slideway."""
+    mass = W / G_MM_S2
+    T2 = jnp.pi / jnp.sqrt(k / mass)
+    return mass, T2, 2.5 * T2 / N_STEPS
+
+
+def _kernel_spectrum(h, tau, order, zeta):
+    """The sensor kernel's bin masses on a slip grid of step h (s; their CDF at the bin
+    edges, `kernel_cdf`) over `TAIL_STEPS` nodes, as their FFT of `FFT_SIZE`."""
+    cdf = kernel_cdf(jnp.maximum((jnp.arange(TAIL_STEPS + 1) - 0.5) * h, 0.0), tau, order,
+                     zeta)
+    return jnp.fft.rfft(jnp.diff(cdf), FFT_SIZE)
+
+
+def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart, poly, N0,
+          wf):
     """One cycle window's stick and slip (module doc; `sensor` static: the kernel
-    convolution of the slip on its grid): friction under the normal load N0 (kgf), inertia
-    W / g."""
+    convolution of the slip on its grid, with the kernel's spectrum `wf`,
+    `_kernel_spectrum`): friction under the normal load N0 (kgf), inertia W / g."""
     vs, p, length, pitch, order, zeta, form, damping = (shape[0], shape[1], shape[2],
                                                         shape[3], shape[4], shape[5],
                                                         shape[6], shape[7])
@@ -196,9 +212,7 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
     if sensor:
         # the measured restart state is a reading: the slider's own clock is tau earlier
         t0 = t0 - tau
-    mass = W / G_MM_S2
-    omega = jnp.sqrt(k / mass)
-    T2 = jnp.pi / omega
+    mass, T2, h = _grid(W, k)
     # viscous damping: one dashpot c, or one damping ratio (c = 2 zeta sqrt(k m))
     c = eff.c * jnp.where(damping == 1, 2.0 * jnp.sqrt(k * mass), 1.0)
     static = friction.static
@@ -246,7 +260,6 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
     mu_0 = mu0(T)
     mu_m = friction.kinetic(mu_0, mu_d + d_d, T2)  # eq (3), T2 = pi / omega0 (eq 7)
     vdrive = jax.jvp(u, (t_b,), (jnp.ones_like(t_b),))[1]
-    h = 2.5 * T2 / N_STEPS
 
     # rate-and-state (Dieterich-Ruina, aging law): the state theta grew through the stick
     # (theta_b = T1 + D_c / V_REF at the breakaway) and relaxes towards D_c / V in the
@@ -315,13 +328,9 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
         moving = n * h < t_stop - t_b
         D = jnp.where(moving, Yx, y_stop)
         Dd = jnp.where(moving, YDx, 0.0)
-        cdf = kernel_cdf(jnp.maximum((jnp.arange(TAIL_STEPS + 1) - 0.5) * h, 0.0), tau,
-                         order, zeta)
-        w = jnp.diff(cdf)
-        # causal convolution F[n] = sum_{l <= n} w[l] D[n - l] by FFT (zero-padded to
-        # FFT_SIZE >= 2 TAIL_STEPS - 1: no wrap-around): a matrix of lags would carry a
-        # [TAIL_STEPS]^2 tangent per row and Jacobian column
-        wf = jnp.fft.rfft(w, FFT_SIZE)
+        # causal convolution F[n] = sum_{l <= n} w[l] D[n - l] with the kernel's bin
+        # masses w by FFT (zero-padded to FFT_SIZE >= 2 TAIL_STEPS - 1: no wrap-around):
+        # a matrix of lags would carry a [TAIL_STEPS]^2 tangent per row and Jacobian column
         F = jnp.fft.irfft(jnp.fft.rfft(D, FFT_SIZE) * wf, FFT_SIZE)[:TAIL_STEPS]
         Fd = jnp.fft.irfft(jnp.fft.rfft(Dd, FFT_SIZE) * wf, FFT_SIZE)[:TAIL_STEPS]
     else:
@@ -436,8 +445,17 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
     def one_window(rec, W, k, v, t0, x0, T1m, poly, N0):
         eff = _effects_of(layout, theta, rec)
         return _slip(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], tstart[rec],
-                     poly, N0)
+                     poly, N0, wf[rec])
 
+    wf = jnp.zeros((layout.n_records, 1))
+    if sensor:
+        # the kernel's spectrum depends on the slip grid (a record's W and k) and the
+        # sensor alone: computed per record, not per window
+        h = _grid(jnp.zeros(layout.n_records).at[data.record].set(data.weight),
+                  jnp.ones(layout.n_records).at[data.record].set(data.stiffness))[2]
+        tau = jnp.maximum(_effects_of(layout, theta, 0).tau, 1e-7)
+        wf = jax.vmap(_kernel_spectrum, in_axes=(0, None, None, None))(h, tau, shape[4],
+                                                                        shape[5])
     slips = jax.vmap(one_window)(*(a[first] for a in (
         data.record, data.weight, data.stiffness, data.speed, data.start_time, x0,
         data.stick_time, data.drive_poly, data.normal_load)))
