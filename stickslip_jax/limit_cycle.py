@@ -65,7 +65,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from .friction import Friction
-from .numerics import bisect
+from .numerics import bisect, check_positive, is_concrete
 from .steady import (RESTICK_FAILURE, STEADY_SLIDING, STICK_SLIP, critical_speed,
                      natural_angular_frequency, restick_failure, slip_from_rest, slip_time)
 
@@ -111,17 +111,21 @@ class LimitCycle(eqx.Module):
     result: optx.RESULTS
 
 
-def _check(weight, stiffness, speed):
-    out = []
-    for x, name in ((weight, "weight W"), (stiffness, "stiffness k"), (speed, "drive speed v")):
-        x = jnp.asarray(x, dtype=float)
-        if x.ndim:
-            raise ValueError(f"limit_cycle takes scalars ({name}); use jax.vmap over points")
-        out.append(eqx.error_if(x, ~(x > 0), f"{name} must be positive"))
+_WKV = ("weight W", "stiffness k", "drive speed v")
+
+
+def _check(owner, names, *values):
+    """The values (named `names`) as float scalars; a concrete value that is not finite
+    and > 0 raises ValueError here, on the host. A value the caller's jit, vmap or grad
+    traces is the caller's to check: the compiled programs have no host callbacks, so
+    JAX's persistent compilation cache keeps them."""
+    out = [jnp.asarray(x, dtype=float) for x in values]
+    if any(x.ndim for x in out):
+        raise ValueError(f"{owner} takes scalars ({', '.join(names)}); use jax.vmap over points")
+    check_positive(owner, **dict(zip(names, out)))
     return out
 
 
-@eqx.filter_jit
 def limit_cycle(friction: Friction, weight, stiffness, speed, rtol: float = 1e-13,
                 max_steps: int = 200, damping_ratio=None, normal_load=None) -> LimitCycle:
     r"""The fixed point of the one-cycle map (module doc) at W (kgf), k (kgf/mm), v (mm/s);
@@ -135,19 +139,24 @@ def limit_cycle(friction: Friction, weight, stiffness, speed, rtol: float = 1e-1
 
     `normal_load` N (kgf; None: the paper's N = W): the cycle of the slideway whose
     friction is mu N and inertia W/g, which is the cycle at (N, k N/W, v W/N) with its
-    lengths and speeds times N/W (its equation of motion divided by N/W)."""
+    lengths and speeds times N/W (its equation of motion divided by N/W). Concrete values
+    are checked on the host (`_check`); new values do not compile the program again."""
     if not isinstance(friction, Friction):
         raise ValueError(f"friction must be a Friction, got {type(friction)}")
-    weight, stiffness, speed = _check(weight, stiffness, speed)
-    if normal_load is not None:
-        s = _check(normal_load, 1.0, 1.0)[0] / weight
-        c = limit_cycle(friction, weight * s, stiffness * s, speed / s, rtol, max_steps,
-                        damping_ratio)
-        return eqx.tree_at(lambda c: (c.peak, c.trough, c.amplitude, c.critical_speed), c,
-                           (c.peak * s, c.trough * s, c.amplitude * s, c.critical_speed * s))
-    if damping_ratio is not None:
-        return _damped_limit_cycle(friction, weight, stiffness, speed,
-                                   _check_zeta(damping_ratio))
+    weight, stiffness, speed = _check("limit_cycle", _WKV, weight, stiffness, speed)
+    zeta = None if damping_ratio is None else _check_zeta(damping_ratio)
+    if normal_load is None:
+        return _limit_cycle(friction, weight, stiffness, speed, rtol, max_steps, zeta)
+    s = _check("limit_cycle", ("normal load N",), normal_load)[0] / weight
+    c = _limit_cycle(friction, weight * s, stiffness * s, speed / s, rtol, max_steps, zeta)
+    return eqx.tree_at(lambda c: (c.peak, c.trough, c.amplitude, c.critical_speed), c,
+                       (c.peak * s, c.trough * s, c.amplitude * s, c.critical_speed * s))
+
+
+@eqx.filter_jit
+def _limit_cycle(friction, weight, stiffness, speed, rtol, max_steps, zeta) -> LimitCycle:
+    if zeta is not None:
+        return _damped_limit_cycle(friction, weight, stiffness, speed, zeta)
     t2 = slip_time(weight, stiffness)
     omega = natural_angular_frequency(weight, stiffness)
     double = _double(friction, t2)
@@ -178,7 +187,7 @@ def cycle_map(friction: Friction, weight, stiffness, speed, trough, damping_rati
     `limit_cycle`, not a differentiable path). With `damping_ratio` $\zeta$: the damped
     model's cycle (module section "Damping"); the deflection is NaN where the slider
     never stops again (steady sliding)."""
-    weight, stiffness, speed = _check(weight, stiffness, speed)
+    weight, stiffness, speed = _check("cycle_map", _WKV, weight, stiffness, speed)
     t2 = slip_time(weight, stiffness)
     x1 = jnp.asarray(trough, dtype=float)
 
@@ -202,17 +211,20 @@ def cycle_map(friction: Friction, weight, stiffness, speed, trough, damping_rati
     return jnp.where(stiffness * after > weight * friction.mu_d, 2.0 * c_d - after, after), t1
 
 
-@eqx.filter_jit
 def tolerance_speed(friction: Friction, weight, stiffness, amplitude, rtol: float = 1e-12,
                     max_steps: int = 200):
     r"""The drive speed (mm/s) above which the limit cycle's amplitude (mm) stays below
     `amplitude`: the time-domain model's stick-slip boundary for a tolerance (module
     doc). The amplitude $vT_1/2$ falls with $v$; solved in $\log v$ by Newton's method
     from eq (12)'s $v_c$, differentiable by the implicit function theorem. Returns
-    (speed, `optimistix.RESULTS`)."""
-    amplitude = jnp.asarray(amplitude, dtype=float)
-    amplitude = eqx.error_if(amplitude, ~(amplitude > 0), "amplitude tolerance must be positive")
+    (speed, `optimistix.RESULTS`). Values checked as in `limit_cycle`."""
+    names = (*_WKV[:2], "amplitude tolerance")
+    return _tolerance_speed(friction, *_check("tolerance_speed", names, weight, stiffness,
+                                              amplitude), rtol, max_steps)
 
+
+@eqx.filter_jit
+def _tolerance_speed(friction, weight, stiffness, amplitude, rtol, max_steps):
     def residual(log_v, args):
         fr, w, k, a = args
         cyc = limit_cycle(fr, w, k, jnp.exp(log_v))
@@ -220,8 +232,7 @@ def tolerance_speed(friction: Friction, weight, stiffness, amplitude, rtol: floa
 
     v0 = jnp.log(critical_speed(friction, weight, stiffness))
     sol = optx.root_find(residual, optx.Newton(rtol=rtol, atol=rtol), v0,
-                         args=(friction, jnp.asarray(weight, float),
-                               jnp.asarray(stiffness, float), amplitude),
+                         args=(friction, weight, stiffness, amplitude),
                          max_steps=max_steps, throw=False)
     return jnp.exp(sol.value), sol.result
 
@@ -307,8 +318,9 @@ def _check_zeta(zeta):
     zeta = jnp.asarray(zeta, dtype=float)
     if zeta.ndim:
         raise ValueError("damping_ratio takes a scalar; use jax.vmap over values")
-    return eqx.error_if(zeta, ~((zeta >= 0) & (zeta < 1)),
-                        "damping ratio zeta must lie in [0, 1)")
+    if is_concrete(zeta) and not 0 <= float(zeta) < 1:
+        raise ValueError(f"damping ratio zeta must lie in [0, 1), got {float(zeta)}")
+    return zeta
 
 
 def _damped_limit_cycle(friction, weight, stiffness, speed, zeta) -> LimitCycle:
@@ -344,7 +356,6 @@ def _damped_limit_cycle(friction, weight, stiffness, speed, zeta) -> LimitCycle:
         result=optx.RESULTS.successful)
 
 
-@eqx.filter_jit
 def boundary_speed(friction: Friction, weight, stiffness, damping_ratio,
                    speed_range=(1e-6, 1e5)):
     r"""The damped model's sharp stick-slip boundary (mm/s): the drive speed above which
@@ -352,11 +363,16 @@ def boundary_speed(friction: Friction, weight, stiffness, damping_ratio,
     slider, once it slips, never stops again: steady sliding), at W (kgf), k (kgf/mm).
     Bisection in $\log v$ over `speed_range` (mm/s); `inf` where a limit cycle exists at
     its top (the undamped model, $\zeta = 0$, for eq (1) with $m < 1$), 0 where none exists
-    at its bottom. Scalars (`jax.vmap` over $\zeta$ or design points); values only."""
+    at its bottom. Scalars (`jax.vmap` over $\zeta$ or design points); values only,
+    checked as in `limit_cycle`."""
     if not isinstance(friction, Friction):
         raise ValueError(f"friction must be a Friction, got {type(friction)}")
-    weight, stiffness, _ = _check(weight, stiffness, 1.0)
-    zeta = _check_zeta(damping_ratio)
+    weight, stiffness = _check("boundary_speed", _WKV[:2], weight, stiffness)
+    return _boundary_speed(friction, weight, stiffness, _check_zeta(damping_ratio), speed_range)
+
+
+@eqx.filter_jit
+def _boundary_speed(friction, weight, stiffness, zeta, speed_range):
     friction, weight, stiffness, zeta = jax.lax.stop_gradient((friction, weight, stiffness, zeta))
 
     def sliding(log_v):

@@ -27,6 +27,7 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .friction import Friction
+from .numerics import check_positive
 from .units import G_MM_S2
 
 _LOG_T_START = math.log(1e12)
@@ -108,8 +109,7 @@ class SteadyState(eqx.Module):
     regime: Array
 
 
-def _check_positive(x, name):
-    return eqx.error_if(x, ~(x > 0), f"{name} must be positive")
+_NAMES = ("weight W", "stiffness k", "drive speed v")
 
 
 def steady_state(friction: Friction, weight: Float[ArrayLike, ""], stiffness: Float[ArrayLike, ""],
@@ -124,12 +124,14 @@ def steady_state(friction: Friction, weight: Float[ArrayLike, ""], stiffness: Fl
     derivative follows from the implicit function theorem.
 
     W, k and v are converted to arrays before the (cached) compiled call, so new
-    Python-float values do not trigger recompilation.
+    Python-float values do not trigger recompilation; concrete values are checked here
+    (ValueError), traced ones are the caller's to check (no host callbacks in the program).
     """
-    return _steady_state(_strong_floats(friction), jnp.asarray(weight, dtype=float),
-                         jnp.asarray(stiffness, dtype=float), jnp.asarray(speed, dtype=float), rtol,
-                         max_steps,
-                         None if normal_load is None else jnp.asarray(normal_load, dtype=float))
+    values = [jnp.asarray(x, dtype=float) for x in (weight, stiffness, speed)]
+    load = None if normal_load is None else jnp.asarray(normal_load, dtype=float)
+    check_positive("steady_state", **dict(zip(_NAMES, values)),
+                   **({} if load is None else {"normal load N": load}))
+    return _steady_state(_strong_floats(friction), *values, rtol, max_steps, load)
 
 
 def _strong_floats(tree):
@@ -144,12 +146,10 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps,
                   normal_load=None) -> SteadyState:
     if not isinstance(friction, Friction):
         raise ValueError(f"friction must be a Friction, got {type(friction)}")
-    weight = _check_positive(jnp.asarray(weight, dtype=float), "weight W")
-    stiffness = _check_positive(jnp.asarray(stiffness, dtype=float), "stiffness k")
-    speed = _check_positive(jnp.asarray(speed, dtype=float), "drive speed v")
+    weight, stiffness, speed = (jnp.asarray(x, dtype=float) for x in (weight, stiffness, speed))
     if weight.ndim or stiffness.ndim or speed.ndim:
         raise ValueError("steady_state takes scalars; use jax.vmap over design points")
-    load = weight if normal_load is None else _check_positive(normal_load, "normal load N")
+    load = weight if normal_load is None else normal_load
 
     t2 = slip_time(weight, stiffness)
     omega0 = jnp.pi / t2
@@ -186,6 +186,7 @@ def steady_map(friction: Friction, weight, stiffness, speed) -> SteadyState:
     w, k, v = jnp.broadcast_arrays(jnp.asarray(weight, float), jnp.asarray(stiffness, float),
                                    jnp.asarray(speed, float))
     shape = w.shape
+    check_positive("steady_map", **dict(zip(_NAMES, (w, k, v))))
     out = _vmapped_steady(_strong_floats(friction), w.ravel(), k.ravel(), v.ravel())
     return jax.tree_util.tree_map(lambda x: x.reshape(shape) if hasattr(x, "reshape") else x, out)
 

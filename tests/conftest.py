@@ -68,8 +68,9 @@ test_cli_steady's runs with --damping-ratio 0.05 and with --tolerance after it 3
 after json_keys's design, 17.3 s without, and test_cli_design's same map 0.1 s after
 it; the synthetic campaign of lubricant A at speed fractions 0.05 and 0.3 (4 cycles,
 padded to 40,000 samples) with its features and trace fits 78 s the first time, 5 s for
-another seed. Programs with eqx.error_if checks (host callbacks) are not kept in the
-persistent cache, so only the one process shares them."""
+another seed. Programs with host callbacks (the `eqx.error_if` checks of traced values:
+the microsqueeze law's, diffrax's of `SaveAt(ts=...)`, lineax's in implicit gradients)
+are not kept in the persistent cache, so only the one process shares them."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about

@@ -127,9 +127,11 @@ def test_bad_inputs():
     fr = ss.lubricant("A")
     with pytest.raises(ValueError, match="scalars"):
         limit_cycle(fr, 36.0, 86.9, jnp.ones(3))
-    with pytest.raises(Exception, match="drive speed v must be positive"):
+    with pytest.raises(ValueError, match="drive speed v must be finite and > 0"):
         limit_cycle(fr, 36.0, 86.9, -1.0)
-    with pytest.raises(Exception, match="amplitude tolerance"):
+    with pytest.raises(ValueError, match="drive speed v must be finite and > 0"):
+        limit_cycle(fr, 36.0, 86.9, jnp.asarray(-1.0))  # an array: checked before compiling
+    with pytest.raises(ValueError, match="amplitude tolerance must be finite and > 0"):
         tolerance_speed(fr, 36.0, 86.9, 0.0)
 
 

@@ -106,8 +106,8 @@ def test_latch_parts_plug_in_vmap_and_failure_code(smooth):
                                np.asarray(one.deflection[:81]), atol=1e-7)
     np.testing.assert_allclose(np.asarray(out.deflection[1]), np.asarray(base.deflection),
                                atol=1e-7)
-    with pytest.raises(Exception, match="non-decreasing"):
-        smooth(SW, ConstantSpeed(V), TS_GRAD[::-1], smoothing=std[0], rtol=std[1],
+    with pytest.raises(ValueError, match="non-decreasing"):  # checked before compiling
+        simulate_smooth(SW, ConstantSpeed(V), TS_GRAD[::-1], smoothing=std[0], rtol=std[1],
                atol=std[2], initial_deflection=a(0.12), initial_stick_time=a(2.0),
                max_steps=4096, **LATCH)
     # a step budget too small for the run is reported, not silent

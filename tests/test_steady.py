@@ -135,7 +135,7 @@ def test_no_stick_slip_above_vc_is_finite_and_flagged():
 def test_bad_inputs():
     fr = ss.lubricant("A")
     for bad in ((0.0, 86.9, 0.1), (36.0, -1.0, 0.1), (36.0, 86.9, 0.0), (float("nan"), 86.9, 0.1)):
-        with pytest.raises(Exception, match="must be positive"):
+        with pytest.raises(ValueError, match="must be finite and > 0"):
             jax.block_until_ready(ss.steady_state(fr, *bad))
     with pytest.raises(ValueError, match="scalars"):
         ss.steady_state(fr, jnp.ones(2), 86.9, 0.1)

@@ -26,6 +26,7 @@ import optimistix as optx
 from jaxtyping import Array, Bool, Float
 
 from stickslip_jax import Friction, critical_speed, slip_time, steady_state
+from stickslip_jax.numerics import check_positive
 
 _LOG_MIN, _LOG_MAX = jnp.log(1e-6), jnp.log(1e9)
 _EDGE = 1e-9
@@ -68,15 +69,6 @@ def _log_a(u, args):
     return jnp.log(steady_state(friction, *_pair(u, other, for_weight), speed).amplitude) - log_tol
 
 
-def _check(friction, x, name):
-    if not isinstance(friction, Friction):
-        raise ValueError(f"friction must be a Friction, got {type(friction)}")
-    x = jnp.asarray(x, dtype=float)
-    if x.ndim:
-        raise ValueError(f"{name} must be a scalar; use jax.vmap for many designs")
-    return eqx.error_if(x, ~(x > 0), f"{name} must be positive")
-
-
 def _answer(friction, u, other, for_weight, feed, by_amp, results) -> InverseDesign:
     """The design exp(u) with v_c and a there; the first failed solve's result code."""
     s = steady_state(friction, *_pair(u, other, for_weight), feed)
@@ -92,7 +84,8 @@ def minimum_stiffness(friction: Friction, weight, feed, amplitude_tolerance=None
     slider of `weight` W (kgf), or that keeps its amplitude under `amplitude_tolerance`
     (mm). Corrected eq (12) and eqs (5)-(7).
     """
-    return _design(_leaves(friction), _arr(weight), _arr(feed), _arr(amplitude_tolerance),
+    return _design(_leaves(friction), *_arrays({"weight W": weight, "feed rate v": feed,
+                                                "amplitude_tolerance": amplitude_tolerance}),
                    rtol, False)
 
 
@@ -102,35 +95,42 @@ def maximum_weight(friction: Friction, stiffness, feed, amplitude_tolerance=None
     drive of `stiffness` k (kgf/mm), or whose stick-slip amplitude stays under
     `amplitude_tolerance` (mm). Corrected eq (12) and eqs (5)-(7).
     """
-    return _design(_leaves(friction), _arr(stiffness), _arr(feed), _arr(amplitude_tolerance),
+    return _design(_leaves(friction), *_arrays({"stiffness k": stiffness, "feed rate v": feed,
+                                                "amplitude_tolerance": amplitude_tolerance}),
                    rtol, True)
 
 
 def _leaves(friction):
+    if not isinstance(friction, Friction):
+        raise ValueError(f"friction must be a Friction, got {type(friction)}")
     return jax.tree_util.tree_map(
         lambda x: jnp.asarray(x, dtype=float) if isinstance(x, (int, float)) else x, friction)
 
 
-def _arr(x):
-    # arrays, not Python floats, so that new values do not recompile
-    return None if x is None else jnp.asarray(x, dtype=float)
+def _arrays(values: dict):
+    """The values as float scalars (arrays: new values do not recompile; None stays None),
+    checked > 0 where concrete (a traced one is the caller's to check: no host callbacks
+    in the program, so JAX's persistent compilation cache keeps it)."""
+    out = {k: None if x is None else jnp.asarray(x, dtype=float) for k, x in values.items()}
+    for name, x in out.items():
+        if x is not None and x.ndim:
+            raise ValueError(f"{name} must be a scalar; use jax.vmap for many designs")
+    check_positive("inverse design", **{k: x for k, x in out.items() if x is not None})
+    return out.values()
 
 
 @eqx.filter_jit
-def _design(friction, other, feed, amplitude_tolerance, rtol, for_weight: bool):
+def _design(friction, other, feed, tol, rtol, for_weight: bool):
     """The weight (`for_weight`) or the stiffness at which v_c reaches the feed, or with a
     tolerance the amplitude reaches it. v_c and a rise with W and fall with k, so the
     amplitude's root lies above the critical weight and below the critical stiffness."""
-    other = _check(friction, other, "stiffness k" if for_weight else "weight W")
-    feed = _check(friction, feed, "feed rate v")
     u0 = jnp.log(30.0) if for_weight else jnp.log(100.0)
     sol_c = _newton(_log_vc, u0, (friction, other, jnp.log(feed), for_weight),
                     _LOG_MIN, _LOG_MAX, rtol)
     u_c = sol_c.value
-    if amplitude_tolerance is None:
+    if tol is None:
         return _answer(friction, u_c, other, for_weight, feed, jnp.asarray(False),
                        [sol_c.result])
-    tol = _check(friction, amplitude_tolerance, "amplitude_tolerance")
     # Just at the critical design the stick time equals the slip time, eq (5): a = v T0 / 2.
     a_edge = 0.5 * feed * slip_time(*_pair(u_c, other, for_weight))
     by_amp = tol >= a_edge

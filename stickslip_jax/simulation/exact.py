@@ -50,11 +50,12 @@ import math
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ..drives import AbstractDrive
 from ..modes import SlipTime
-from ..numerics import bisect
+from ..numerics import bisect, check_positive, is_concrete
 from ..slideway import Slideway
 from ..steady import slip_from_rest
 from .trace import Cycles, SimulationResult, Trace
@@ -210,9 +211,8 @@ def simulate_exact(slideway: Slideway, drive: AbstractDrive, ts: Float[ArrayLike
       knot crossed in a slip costs 2 more); running out gives `max_events_reached`.
     - `cycle_table` (static): False leaves out the per-cycle table (`Trace.cycles` None),
       which the fits do not need to trace, differentiate or compile.
-    - `check` (static): False leaves out the run-time checks (`eqx.error_if`, host
-      callbacks) for callers that checked on the host: a program without host callbacks
-      can be kept in JAX's persistent compilation cache.
+    - `check` (static): False leaves out the checks of concrete inputs (`check_inputs`)
+      for callers that checked them.
 
     Returns a `Trace` (deflection in mm, slider velocity in mm/s, `Cycles`).
     jit-compatible (wrap in `eqx.filter_jit`), `vmap` over records of padded `ts`
@@ -224,11 +224,11 @@ def simulate_exact(slideway: Slideway, drive: AbstractDrive, ts: Float[ArrayLike
     if ts.ndim != 1 or ts.shape[0] < 1:
         raise ValueError("ts must be a non-empty 1-D array of times (s); vmap for batches")
     mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
-    if ts.shape[0] > 1 and check:
-        ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
+    if check:
+        check_inputs("simulate_exact", slideway, ts)
     t_start = ts[0] if start_time is None else jnp.asarray(start_time, dtype=float)
     ev = _events(slideway, drive, t_start, jnp.max(ts), initial_deflection, initial_stick_time,
-                 slip_time=slip_time, max_events=max_events, cycle_table=cycle_table, check=check)
+                 slip_time=slip_time, max_events=max_events, cycle_table=cycle_table)
     # each sample's phase row: how many phase starts are at or before it
     n_rows = ev.row_time.shape[0]
     row = jnp.clip(count_at_or_before(ev.row_time, ts) - 1, 0, n_rows - 1)
@@ -264,26 +264,26 @@ class _Events(eqx.Module):
     num_events: Array
 
 
-def _sizes(slideway, check: bool):
-    """(N, k, W) of `slideway` (kgf, kgf/mm, kgf); with `check`, `eqx.error_if` guards
-    that each is positive."""
-    W, k, weight = slideway.load, slideway.stiffness, slideway.weight
-    if check:
-        W = eqx.error_if(W, ~(W > 0), "normal load N (slider weight W) must be positive")
-        weight = eqx.error_if(weight, ~(weight > 0), "slider weight W must be positive")
-        k = eqx.error_if(k, ~(k > 0), "stiffness k must be positive")
-    return W, k, weight
+def check_inputs(owner: str, slideway: Slideway, ts=None) -> None:
+    """ValueError where a concrete input of a simulator is impossible: W, k or N (kgf,
+    kgf/mm) not finite and > 0, sample times `ts` (s) that go back. Values the caller's
+    jit, vmap or grad traces are the caller's to check: the simulators' programs have no
+    host callbacks, so JAX's persistent compilation cache keeps them."""
+    check_positive(owner, **{"weight W": slideway.weight, "stiffness k": slideway.stiffness,
+                             "normal load N": slideway.load})
+    if ts is not None and is_concrete(ts) and np.any(np.diff(np.asarray(ts)) < 0):
+        raise ValueError(f"{owner}: ts must be non-decreasing (sample times, s)")
 
 
 def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_time, *,
-            slip_time, max_events, cycle_table=True, check=True) -> _Events:
+            slip_time, max_events, cycle_table=True) -> _Events:
     """Run the stick/slip events of one record from `t_start` to `t_end` (s)."""
     t_start = jnp.asarray(t_start, dtype=float)
     t_end = jnp.asarray(t_end, dtype=float)
     friction = slideway.friction
     static = friction.static
     # W is the friction load N below (the paper's N = W); the inertia is weight / g
-    W, k, weight = _sizes(slideway, check)
+    W, k, weight = slideway.load, slideway.stiffness, slideway.weight
     omega = jnp.sqrt(9806.65 * k / weight)
     kt, ku, ks = drive.knots()
     bounds = jnp.concatenate([kt, t_end[None]])
@@ -522,17 +522,20 @@ def simulate_exact_campaign(slideway: Slideway, drive: AbstractDrive, ts: Float[
     if any(x.shape[0] != n_rec for x in leaves):
         raise ValueError(f"every array leaf of slideway and drive needs leading axis "
                          f"B = {n_rec} (records)")
+    check_inputs("simulate_exact_campaign", slideway)
+    if is_concrete(ts, rec):
+        r, t = np.asarray(rec), np.asarray(ts)
+        if np.any(np.diff(r) < 0) or r[0] < 0 or r[-1] >= n_rec:
+            raise ValueError("record_index must be non-decreasing with values 0..B-1")
+        if np.unique(r).size < n_rec:
+            raise ValueError("every record needs at least one sample (record_index)")
+        if np.any((np.diff(r) == 0) & (np.diff(t) < 0)):
+            raise ValueError("ts must be non-decreasing within each record (s)")
     rec = rec.astype(jnp.int32)
     n = ts.shape[0]
-    same = rec[1:] == rec[:-1]
-    rec = eqx.error_if(rec, jnp.any(rec[1:] < rec[:-1]) | (rec[0] < 0) | (rec[-1] >= n_rec),
-                       "record_index must be non-decreasing with values 0..B-1")
-    ts = eqx.error_if(ts, jnp.any(same & (ts[1:] < ts[:-1])),
-                      "ts must be non-decreasing within each record")
     ids = jnp.arange(n_rec, dtype=jnp.int32)
     first = jnp.searchsorted(rec, ids, side="left").astype(jnp.int32)
     stop = jnp.searchsorted(rec, ids, side="right").astype(jnp.int32)
-    first = eqx.error_if(first, jnp.any(stop <= first), "every record needs at least one sample")
     x0 = jnp.broadcast_to(jnp.asarray(initial_deflection, dtype=float), (n_rec,))
     T0 = jnp.broadcast_to(jnp.asarray(initial_stick_time, dtype=float), (n_rec,))
 

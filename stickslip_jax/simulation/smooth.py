@@ -59,7 +59,7 @@ from ..friction import AbstractVelocityKinetic, RateStateKinetic
 from ..modes import Formulation, SlipTime
 from ..slideway import Slideway
 from ..units import G_MM_S2
-from .exact import count_at_or_before
+from .exact import check_inputs, count_at_or_before
 from .parts import (AbstractForceTerm, AbstractLoadCoupling, AbstractMeasurement,
                     ConstantLoad, Context, Core, IdealGauge)
 from .trace import Cycles, SimulationResult, Trace
@@ -248,15 +248,15 @@ def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Flo
     mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
     rs = isinstance(model.slideway.friction.kinetic, RateStateKinetic)
     latch = formulation is Formulation.LATCH and not rs
-    if latch:  # the rendering from the accepted steps needs sorted sample times
-        ts = eqx.error_if(ts, jnp.any(ts[1:] < ts[:-1]), "ts must be non-decreasing")
+    # concrete inputs checked (`check_inputs`); the latch's rendering from the accepted
+    # steps needs sorted sample times
+    check_inputs("simulate_smooth", model.slideway, ts if latch else None)
     if solver is None:
         solver = dfx.Tsit5() if latch else default_solver(rtol, atol)
 
     sw = model.slideway
     friction, static = sw.friction, sw.friction.static
-    W = eqx.error_if(sw.weight, ~(sw.weight > 0), "slider weight W must be positive")
-    k = eqx.error_if(sw.stiffness, ~(sw.stiffness > 0), "stiffness k must be positive")
+    W, k = sw.weight, sw.stiffness
     M = W / G_MM_S2
     omega = jnp.sqrt(G_MM_S2 * k / W)
     t0, t1 = ts[0], jnp.max(ts)
