@@ -58,11 +58,12 @@ the noise: far from the data a significant drop can still be irrelevant (on the 
 a Stribeck curve and a friction drift after a gauge drift removed 0.8 % and 1.8 % of it, a
 gap of 7.77 -> 7.67 um against 1.26 um of noise), and such an effect is not what is missing.
 The level is raised by the family's price (`decide.price`, ln n per parameter), the same
-price the decision charges: a flexible family stands in for any effect whose own refit
-fails beside the named ones (a per-record screw, four coefficients per record, in the
-place of a Stribeck drop or damping beside a sensor low-pass, 4 records), and it joins
-only where its drop pays for its parameters. Drop-one keeps an earlier effect by the same
-measure: its removal must raise chi-square beyond its level plus its price.
+price the decision charges: a flexible family (a per-record screw, four coefficients per
+record) joins only where its drop pays for its parameters. Drop-one keeps an earlier
+effect by the same measure: its removal must raise chi-square beyond its level plus its
+price. The price does not stop a screw that stands in for a partner the first effect
+absorbed (measured, 4 records: after a 12 Hz sensor the screw lowered chi-square by 202
+and 264 where the damping or the Stribeck drop was missing, both above level and price).
 """
 
 from __future__ import annotations

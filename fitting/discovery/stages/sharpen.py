@@ -9,8 +9,7 @@ import numpy as np
 from ..cycle_effects import neighbour_shapes
 from ..decision import rms_gap
 from ..starts import lift_mu_d
-from ..subproblems import SharedScrewProblem
-from .refit import continued, judge, ranked_refits, refine_shape
+from .refit import ranked_refits, continued, refine_shape
 from .state import Clock, Fits, Refitted
 
 __all__ = ["sharpen"]
@@ -127,71 +126,13 @@ def _restart_close(fx: Fits, refits: list, eligible, shaped: set, clock: Clock) 
         clock("restart", "from the start's friction: " + ", ".join(fresh_))
 
 
-def _physical_side(fx: Fits, rf):
-    """A later search's refit `rf` that ended unphysical, refitted on its physical side
-    (`_beside_named`): a one-sided family from `large_starts` of its bound, the
-    per-record screw as one shared screw from its coefficients (`SharedScrewProblem`).
-    Returns the physical refit that lowers chi-square most, or None."""
-    f, model, base = rf.family, fx.base.model, fx.base
-    k, nb = len(model.cols(f)), base.cols.size
-    tries = []
-    if f.per_record and f.name == "drive_periodic_error":
-        sub = SharedScrewProblem(model, base.z.copy(), rf.sub.cols, rf.shape, rf.sensor,
-                                 None, nb)
-        tries = [(sub, np.concatenate([rf.fit.z[:nb], SharedScrewProblem.start(
-            rf.fit.z[nb:nb + k], fx.prep.G)]))]
-    elif f.signs[0] > 0 and f.name != "sensor_lowpass" and rf.values[0] < 0:
-        for frac in fx.opts.large_starts:
-            w = np.array(base.z[rf.sub.cols], float)
-            w[-k] = frac * f.bound[0] / f.scales[0]
-            tries.append((rf.sub, w))
-    best = None
-    for sub, w in tries:
-        try:
-            fit = sub.solve(w, max_evals=fx.opts.refit_evals, lam0=1e-3, stall_evals=8)
-        except ValueError:  # the start left the simulator's domain
-            continue
-        one = judge(fx, f, rf.shape, fit, rf.sensor, sub)
-        if one.unphysical is None and one.drop > 0 and (best is None
-                                                         or one.fit.rss < best.fit.rss):
-            best = one
-    return best
-
-
-def _beside_named(fx: Fits, refits: list, clock: Clock) -> None:
-    """In a later search the named effects are free beside each refit, and a family
-    whose effect overlaps theirs (damping beside a sensor low-pass, a Stribeck drop
-    beside damping) is refitted from the score step, which the named effects' own excess
-    points to their far side: the refit ends unphysical (measured, 4 records: damping
-    at c < 0 beside a 12 Hz sensor, a Stribeck drop at b < 0 beside damping) and a
-    flexible family takes its place. The per-record screw there fits each record's own
-    share (97.5 um in one record beside a Stribeck drop, its bound 50 um) where the
-    records share one lead screw. So an unphysical refit of a later search is refitted
-    on its physical side (`_physical_side`), and that fit is the family's refit.
-    Updates `refits`."""
-    said = []
-    for i, rf in enumerate(refits):
-        if rf.unphysical is None or rf.failed:
-            continue
-        one = _physical_side(fx, rf)
-        if one is not None:
-            refits[i] = one
-            said.append(f"{one.family.name} chi2 -{one.drop:.0f}")
-    if said:
-        clock("physical side", ", ".join(said))
-
-
 def sharpen(fx: Fits, refitted: Refitted, *, clock: Clock) -> Refitted:
     """Far from the data (`Base.misfit`), the close refits made comparable before the
-    decision: shapes refined, fits continued, restarts from the start's friction. In a
-    later search, the unphysical refits refitted on their physical side first
-    (`_beside_named`). Near the data the refits are handed on as they are."""
-    refits = list(refitted.refits)
-    if fx.base.held:
-        _beside_named(fx, refits, clock)
+    decision: shapes refined, fits continued, restarts from the start's friction. Near
+    the data the refits are handed on as they are."""
     if not fx.base.misfit:
-        return Refitted(refits=refits, eligible=refitted.eligible, shaped=refitted.shaped)
-    eligible, shaped = refitted.eligible, set()
+        return refitted
+    refits, eligible, shaped = list(refitted.refits), refitted.eligible, set()
     _refine_close(fx, refits, eligible, shaped, clock)
     _continue_close(fx, refits, eligible, clock)
     _restart_close(fx, refits, eligible, shaped, clock)
