@@ -677,10 +677,9 @@ class CycleModel:
     def residuals(self, z, shape: Shape = Shape(), sensor: bool = False):
         """(whitened residuals flat [n], slider velocity [N, L], ok [N]); `sensor`: the
         kernel convolution (else a pure delay by tau, module doc). From `evaluate`'s
-        program, no tangent asked: discovery asks for few residuals without their
-        Jacobian (measured on 4 records, 111 windows: 4 calls, and 48 with the sensor,
-        its secant probes), and a program of their own took 10 s of CPU time to compile
-        to save 0.04 s a call (0.17 s with the sensor)."""
+        program, no tangent asked: discovery asks for few residuals alone (4 records,
+        111 windows: 4 calls, 48 with the sensor), and a program of their own takes 10 s
+        of CPU time to compile to save 0.04 s a call (0.17 s with the sensor)."""
         r, _, ok, yd = self._block(jnp.asarray(z), np.zeros((self.layout.size, 1)),
                                    self._shape(shape), sensor)
         return np.asarray(r), np.asarray(yd), np.asarray(ok)
