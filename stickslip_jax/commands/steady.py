@@ -62,7 +62,8 @@ def _tolerance_speed(friction, args, out, s: float) -> float:
     from ..units import mm_per_min
 
     slow = 1e-6 * float(out.critical_speed[0])
-    top = s * float(limit_cycle(friction, args.weight, args.stiffness, slow).amplitude)
+    top = float(limit_cycle(friction, args.weight, args.stiffness, slow,
+                            normal_load=args.normal_load).amplitude)
     if args.tolerance >= top:
         return 0.0
     try:
@@ -84,7 +85,7 @@ def run(args) -> int:
 
     from ..lubricants import lubricant, lubricants
     from ..output import check_outputs
-    from ..steady import REGIMES, RESTICK_FAILURE, steady_map
+    from ..steady import REGIMES, RESTICK_FAILURE, steady_state
     from ..units import mm_per_min
 
     check_outputs({"--json": args.json})
@@ -96,16 +97,19 @@ def run(args) -> int:
                          f"Table {args.table} has {', '.join(lubricants(args.table))}")
     friction = lubricant(args.lubricant, table=args.table)
     load = args.normal_load
-    # N/W: with friction mu N and inertia W/g the motion at v is the paper's (N = W) at v/s
-    # with lengths and speeds times s (`limit_cycle`'s normal_load)
+    # N/W for boundary_speed and tolerance_speed (no normal load): under N the motion at v
+    # is the paper's (N = W) at v/s with lengths and speeds times s
     s = 1.0 if load is None else load / args.weight
     speeds = jnp.asarray(args.speed)
-    out = steady_map(friction, args.weight, args.stiffness, speeds / s)
     import jax
 
     from ..limit_cycle import limit_cycle
 
-    cyc = jax.vmap(lambda v: limit_cycle(friction, args.weight, args.stiffness, v / s))(speeds)
+    def each(law, **kw):  # `law` under the normal load at every drive speed
+        return jax.vmap(lambda v: law(friction, args.weight, args.stiffness, v,
+                                      normal_load=load, **kw))(speeds)
+
+    out, cyc = each(steady_state), each(limit_cycle)
     rows = []
     for i, v in enumerate(args.speed):
         rows.append({
@@ -114,13 +118,13 @@ def run(args) -> int:
             "stick_slip": bool(out.stick_slip[i]),
             "stick_time_s": float(out.stick_time[i]),
             "slip_time_s": float(out.slip_time[i]),
-            "amplitude_mm": s * float(out.amplitude[i]),
+            "amplitude_mm": float(out.amplitude[i]),
             "amplitude_ratio": float(out.amplitude_ratio[i]),
             "frequency_hz": float(out.frequency[i]),
             "frequency_ratio": float(out.frequency_ratio[i]),
-            "critical_speed_mm_per_min": s * float(mm_per_min(out.critical_speed[i])),
+            "critical_speed_mm_per_min": float(mm_per_min(out.critical_speed[i])),
             # the time-domain model's limit cycle (fixed point of the one-cycle map)
-            "cycle_amplitude_mm": max(0.0, s * float(cyc.amplitude[i])),  # no -1e-18 round-off
+            "cycle_amplitude_mm": max(0.0, float(cyc.amplitude[i])),  # no -1e-18 round-off
             "cycle_stick_time_s": float(cyc.stick_time[i]),
             "cycle_slip_time_s": float(cyc.slip_time[i]),
             "cycle_frequency_hz": float(cyc.frequency[i])})
@@ -129,11 +133,10 @@ def run(args) -> int:
         from ..limit_cycle import boundary_speed
 
         f0 = out.natural_frequency[0]
-        dc = jax.vmap(lambda v: limit_cycle(friction, args.weight, args.stiffness, v / s,
-                                            damping_ratio=zeta))(speeds)
+        dc = each(limit_cycle, damping_ratio=zeta)
         for i, r in enumerate(rows):  # 0 where the damped model slides steadily
             r.update({"damped_regime": REGIMES[int(dc.regime[i])],
-                      "damped_cycle_amplitude_mm": max(0.0, s * float(dc.amplitude[i])),
+                      "damped_cycle_amplitude_mm": max(0.0, float(dc.amplitude[i])),
                       "damped_cycle_stick_time_s": float(dc.stick_time[i]),
                       "damped_cycle_slip_time_s": float(dc.slip_time[i]),
                       "damped_cycle_frequency_hz": float(dc.frequency[i]),
@@ -192,12 +195,10 @@ def run(args) -> int:
                  "no boundary speed (a limit cycle at every speed, as without damping)")
         print(f"damping ratio zeta = {zeta:g} (a_damped, T1_damped, f/f0_damped: its limit "
               f"cycle, 0 where it slides steadily): {where}; eq (12)'s v_c = {v_c:.5g} mm/min")
-    if tol is not None and tol["drive_speed_mm_per_min"] == 0.0:
+    if tol is not None:
+        v_tol = tol["drive_speed_mm_per_min"]
         print(f"the limit cycle's amplitude stays below {tol['max_amplitude_mm'] * 1e3:.4g} um "
-              "at every drive speed")
-    elif tol is not None:
-        print(f"the limit cycle's amplitude stays below {tol['max_amplitude_mm'] * 1e3:.4g} um "
-              f"above v = {tol['drive_speed_mm_per_min']:.5g} mm/min")
+              + ("at every drive speed" if v_tol == 0.0 else f"above v = {v_tol:.5g} mm/min"))
     if any(int(r) == RESTICK_FAILURE for r in out.regime):
         print("double: re-stick failure, a slip ends with the spring force above mu_d W (exp(-delta "
               "T2^n) > 1/2), so the slider slips again at once (double slips); eqs (5)-(6) "
