@@ -52,6 +52,14 @@ def test_drive_from_record():
                                atol=1e-15)
     meas = drive_from_record(Record(**base, drive=0.2 * t))
     np.testing.assert_allclose(meas.position(jnp.asarray(0.55)), 0.11)
+    # the object is the record's drive: the same u(t) over the record's span
+    tq = np.linspace(0.0, 1.0, 37)
+    for drive in ({"drive_speed": 0.1}, {"drive": 0.2 * t**2},
+                  {"drive_program": ((0.0, 0.1), (0.35, 0.0), (0.6, 0.3))},
+                  {"drive_program": ((0.5, 0.1), (0.8, 0.0))}):
+        rec = Record(**base, **drive)
+        np.testing.assert_allclose(drive_from_record(rec).position(jnp.asarray(tq)),
+                                   rec.drive_position(tq), rtol=1e-14, atol=1e-15)
 
 
 # --- a measured drive through the trace and smooth objectives ------------------------
