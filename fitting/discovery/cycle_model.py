@@ -550,6 +550,13 @@ def tail_sources(data: TraceData) -> tuple[np.ndarray, np.ndarray]:
 
 
 @eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
+def _value(z, scales, shape, sensor, data, tref, prev, sd, layout):
+    read, yd, ok = _model(z, scales, shape, sensor, data, tref, prev, layout)
+    r = jnp.where(data.mask, (data.deflection - read) / sd, 0.0)
+    return r, yd, ok
+
+
+@eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
 def _value_and_block(z, T, scales, shape, sensor, data, tref, prev, sd, layout, idx):
     """(r [n], J [n, B], ok [N], slider velocity [N, L]): the residuals of the samples
     `idx` (flat indices of the unpadded samples) and their derivatives along the B
@@ -655,9 +662,10 @@ class CycleModel:
         return out
 
     def warm(self) -> dict:
-        """Compile the program of `evaluate` (which `residuals` runs too) in a background
-        thread while the caller works (XLA compiles without the GIL; on a campaign of
-        0.4 M samples it takes 1.5-5 s): without the sensor kernel first, then with it.
+        """Compile the programs of `evaluate` (which `residuals` runs without the sensor
+        too) and `residuals` with the sensor in a background thread while the caller
+        works (XLA compiles without the GIL; on a campaign of 0.4 M samples each takes
+        1.5-5 s): without the sensor kernel first, then with it.
         Returns {("evaluate" | "residuals", sensor): Future};
         wait for a program's future before its first call (a call while it is still
         compiling compiles it a second time).
@@ -667,21 +675,26 @@ class CycleModel:
         the thread."""
         z = np.zeros(self.layout.size)
         pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="stickslip-warm")
-        futures = {}
-        for sensor in (False, True):  # `residuals` runs `evaluate`'s program
-            futures["evaluate", sensor] = futures["residuals", sensor] = pool.submit(
-                self.evaluate, z, [0], sensor=sensor)
+        futures = {("residuals", False): pool.submit(self.evaluate, z, [0])}
+        futures["evaluate", False] = futures["residuals", False]  # one program
+        futures["evaluate", True] = pool.submit(self.evaluate, z, [0], sensor=True)
+        futures["residuals", True] = pool.submit(self.residuals, z, sensor=True)
         pool.shutdown(wait=False)
         return futures
 
     def residuals(self, z, shape: Shape = Shape(), sensor: bool = False):
         """(whitened residuals flat [n], slider velocity [N, L], ok [N]); `sensor`: the
-        kernel convolution (else a pure delay by tau, module doc). From `evaluate`'s
-        program, no tangent asked: discovery asks for few residuals alone (4 records,
-        111 windows: 4 calls, 48 with the sensor), and a program of their own takes 10 s
-        of CPU time to compile to save 0.04 s a call (0.17 s with the sensor)."""
+        kernel convolution (else a pure delay by tau, module doc). Without the sensor
+        from `evaluate`'s program, no tangent asked: discovery asks for few residuals
+        alone (4 records, 111 windows: 4 calls), and a program of their own takes 7 s of
+        CPU time to compile to save 0.04 s a call; with the sensor (its secant probes:
+        48 calls) a program of its own."""
+        if sensor:
+            r, yd, ok = _value(jnp.asarray(z), self._scales, self._shape(shape), True,
+                               self.data, self.tref, self._prev, self.sd, self.layout)
+            return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
         r, _, ok, yd = self._block(jnp.asarray(z), np.zeros((self.layout.size, 1)),
-                                   self._shape(shape), sensor)
+                                   self._shape(shape), False)
         return np.asarray(r), np.asarray(yd), np.asarray(ok)
 
     def _block(self, zj, part, sh, sensor: bool):
