@@ -36,8 +36,9 @@ stopped once they cannot win (`refit.CANNOT_WIN`), the compressed Jacobian, the
 FFT sensor kernel, the vectorised pitch scan, a window's slip solved once for all its
 rows, the weights as one compiled program, the host Levenberg-Marquardt update in NumPy,
 and the model's programs compiled in a warm-up thread while the campaign is prepared:
-two of them (the Jacobian block without and with the sensor kernel; residuals alone run
-it with a zero tangent block), with XLA's classic CPU emitter (`fit.COMPILER_OPTIONS`).
+three of them (the Jacobian block without and with the sensor kernel, whose spectrum is
+computed once per record; the sensor's residuals; the other residuals run the Jacobian
+block with a zero tangent block), with XLA's classic CPU emitter (`fit.COMPILER_OPTIONS`).
 Run with `JAX_LOG_COMPILES=1` to see each program's compilation time.
 
 `--base smooth`, the whole-record workflow:
