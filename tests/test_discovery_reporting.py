@@ -71,6 +71,22 @@ def test_a_value_at_its_bound_says_so_never_plus_minus_zero():
     assert ok.to_json()["reason"] is None and not ok.to_json()["at_bound"]
 
 
+def test_a_step_of_the_staircase_gives_no_value_it_does_not_determine():
+    """The JSON's "steps": a value without a standard error is null with its reason."""
+    from stickslip_fitting.discovery.cycle_effects import Shape
+    from stickslip_fitting.discovery.stages.state import Step
+
+    f = family("viscous_damping")
+    step = Step(family=f, shape=Shape(), values=np.array([0.1]), stderr=np.array([0.0]),
+                gap_after=1e-3, p_family=0.01, confidence="low", drop=50.0, rivals=[])
+    doc = step.to_json(G=2)
+    assert doc["values"] == {"c": None} and doc["stderr"] == {"c": None}
+    assert doc["units"] == {"c": "kgf*s/mm"}
+    assert doc["estimates"]["c"]["reason"].startswith("not identifiable: no standard error")
+    sized = dataclasses.replace(step, stderr=np.array([0.02])).to_json(G=2)
+    assert sized["values"] == {"c": 0.1} and sized["stderr"] == {"c": 0.02}
+
+
 def _result(before, after, effect_rows):
     rows = DiscoveryEstimates.value_rows
     units = {k: "-" for k in before}

@@ -21,7 +21,8 @@ from .cycle_model import CycleModel
 from .options import DEFAULTS
 
 __all__ = ["NO_STDERR", "CycleDiscovery", "Discovery", "SmoothDiscovery", "effect_estimate",
-           "estimate_text", "friction_rows", "phase_misfit", "phase_text", "steps_text"]
+           "effect_rows", "estimate_text", "friction_rows", "phase_misfit", "phase_text",
+           "steps_text"]
 
 FIT_CRITERION = ("converged when a full Gauss-Newton step would lower chi-square by < 0.05, "
                  "or the last 4 evaluations lowered it by < 0.5 together")
@@ -216,6 +217,23 @@ def effect_estimate(name: str, unit: str, value: float, stderr: float,
     if at.at_bound is not None:  # the value the range stopped at: said as such
         return at
     return dataclasses.replace(at, identifiable=False, reason=NO_STDERR)
+
+
+def effect_rows(refit, G: int) -> list[ParameterEstimate]:
+    """The parameters of an effect fitted in a refit or a step (`family`, `shape`,
+    `values`, `stderr`; per record: `name[g]` over the `G` records), each with its
+    physical range (`effect_estimate`)."""
+    if refit is None:
+        return []
+    f = refit.family
+    params, f_units = f.named(refit.shape)
+    names = ([f"{p}[{i}]" for i in range(G) for p in params] if f.per_record
+             else list(params))
+    reps = G if f.per_record else 1
+    units = [u for _ in range(reps) for u in f_units]
+    support = [b for _ in range(reps) for b in f.support()]
+    return [effect_estimate(nm, u, v, s, b)
+            for nm, v, s, u, b in zip(names, refit.values, refit.stderr, units, support)]
 
 
 def friction_rows(fit: Solution, features, clusters, *, chi2: float,

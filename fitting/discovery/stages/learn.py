@@ -7,13 +7,13 @@ from __future__ import annotations
 import dataclasses
 
 from ...params import EmpiricalFriction
-from ...report.rows import DiscoveryEstimates, ParameterEstimate
+from ...report.rows import DiscoveryEstimates
 from ..cycle_effects import Shape
 from ..cycle_learned import fit_cycle_correction
 from ..decision import rms_by_phase, rms_gap
 from ..flips import FLIPS
 from ..misfit import LEFT, misfit_left
-from ..result import (CycleDiscovery, effect_estimate, explanation_text, phase_misfit,
+from ..result import (CycleDiscovery, effect_rows, explanation_text, phase_misfit,
                       phase_text, steps_text)
 from .base_fit import friction_values
 from .form import form_text, outside_form
@@ -44,21 +44,6 @@ def _verdict(fx: Fits, choice: Choice, chosen, gap_after) -> tuple[str, str]:
                              and choice.decision.clear
                              and gap_after <= opts.explained_gap * base.noise) else "low")
     return chosen.family.name, confidence
-
-
-def _effect_rows(chosen, G) -> list[ParameterEstimate]:
-    """The named family's parameters (per record: `name[g]`)."""
-    if chosen is None:
-        return []
-    f = chosen.family
-    params, f_units = f.named(chosen.shape)
-    names = ([f"{p}[{i}]" for i in range(G) for p in params] if f.per_record
-             else list(params))
-    reps = G if f.per_record else 1
-    units = [u for _ in range(reps) for u in f_units]
-    support = [b for _ in range(reps) for b in f.support()]
-    return [effect_estimate(nm, u, v, s, b)
-            for nm, v, s, u, b in zip(names, chosen.values, chosen.stderr, units, support)]
 
 
 def _notes(fx: Fits, chosen, reweighed, gap_all_after) -> str:
@@ -198,11 +183,11 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
                    "tests; `significant_by` of each candidate); delta_criterion = "
                    "-(chi-square drop of the refit)"),
         candidates=cand_json, estimates_before=rows_before, estimates_after=rows_after,
-        effect_estimates=_effect_rows(kept[0] if several else chosen, prep.G),
+        effect_estimates=effect_rows(kept[0] if several else chosen, prep.G),
         effect_of=(kept[0].family.name if several
                    else chosen.family.name if chosen is not None else ""),
         more_estimates=[dataclasses.replace(e, name=f"{s.family.name}.{e.name}")
-                        for s in (kept[1:] if several else []) for e in _effect_rows(s, prep.G)],
+                        for s in (kept[1:] if several else []) for e in effect_rows(s, prep.G)],
         # partners of a named effect only (an unexplained gap has no name to share)
         indistinguishable_from=(choice.rivals if effect not in ("none", "unexplained",
                                                                  "sparse_form") else []),

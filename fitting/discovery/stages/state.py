@@ -23,6 +23,7 @@ from ..cycle_effects import Family, Shape
 from ..cycle_model import CycleModel
 from ..decision import Decision
 from ..options import DiscoveryOptions
+from ..result import effect_rows
 from ..subproblems import SubProblem
 from ..thinning import Samples
 
@@ -262,14 +263,16 @@ class Step:
     kept: bool = True
 
     def to_json(self, G: int) -> dict:
-        names, units = self.family.named(self.shape)
-        if self.family.per_record:
-            names = [f"{p}[{g}]" for g in range(G) for p in names]
-            units = list(units) * G
+        """The step's entry of the JSON's "steps": a value the records do not determine
+        is null in "values" and "stderr", with its reason in "estimates" (the
+        parameter-entry keys of `stickslip fit`)."""
+        rows = {e.name: e.to_json() for e in effect_rows(self, G)}
         return {"effect": self.family.name, "shape": self.shape.label(self.family),
-                "values": dict(zip(names, map(float, self.values))),
-                "stderr": dict(zip(names, map(float, self.stderr))),
-                "units": dict(zip(names, units)), "gap_after": self.gap_after,
+                "values": {n: e["value"] for n, e in rows.items()},
+                "stderr": {n: e["stderr"] if e["value"] is not None else None
+                           for n, e in rows.items()},
+                "units": {n: e["unit"] for n, e in rows.items()}, "estimates": rows,
+                "gap_after": self.gap_after,
                 "p_family": self.p_family, "confidence": self.confidence,
                 "chi2_drop": self.drop, "indistinguishable_from": self.rivals,
                 "dropped": list(self.dropped), "kept": self.kept}
