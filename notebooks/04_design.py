@@ -94,10 +94,10 @@ for row, lub in enumerate(("A", "C")):
     K, V2 = outer(stiffs, speeds)
     m_k = design_map(f, 36.0, K, V2)
     panels = [
-        (m_w, weights, "W [kgf]", "amplitude_ratio", "ak/W", "Fig 10"),
-        (m_w, weights, "W [kgf]", "frequency_ratio", "f/f0", "Fig 11"),
-        (m_k, stiffs, "k [kgf/mm]", "amplitude_ratio", "ak/W", "Fig 12"),
-        (m_k, stiffs, "k [kgf/mm]", "frequency_ratio", "f/f0", "Fig 13"),
+        (m_w, weights, "W [kgf]", "amplitude_ratio", "ak/W [-]", "Fig 10"),
+        (m_w, weights, "W [kgf]", "frequency_ratio", "f/f0 [-]", "Fig 11"),
+        (m_k, stiffs, "k [kgf/mm]", "amplitude_ratio", "ak/W [-]", "Fig 12"),
+        (m_k, stiffs, "k [kgf/mm]", "frequency_ratio", "f/f0 [-]", "Fig 13"),
     ]
     for ax, (m, y, ylabel, field, label, fig_name) in zip(axs[row], panels):
         z = getattr(m, field)
@@ -173,7 +173,7 @@ u = propagate(sample, W, K, feed, level=0.9)
 fig, axs = plt.subplots(1, 2, figsize=(11, 4))
 mesh = axs[0].pcolormesh(stiffs, weights, u.probability, shading="auto", cmap="coolwarm",
                          vmin=0, vmax=1)
-fig.colorbar(mesh, ax=axs[0], label="P(stick-slip)")
+fig.colorbar(mesh, ax=axs[0], label="P(stick-slip) [-]")
 axs[0].contour(stiffs, weights, u.probability, levels=[0.05, 0.5, 0.95], colors="k",
                linewidths=[0.8, 1.5, 0.8])
 axs[0].set_xlabel("k [kgf/mm]")
@@ -284,7 +284,7 @@ x = np.arange(6)
 for i, (k, v) in enumerate(mean_sd.items()):
     ax.bar(x + 0.27 * i - 0.27, v, 0.27, label=f"{k} (mean {v.mean():.3f})")
 ax.set_xticks(x, PARAMETERS)
-ax.set_ylabel("posterior sd of log(parameter)")
+ax.set_ylabel("posterior sd of log(parameter) [-]")
 ax.set_yscale("log")
 ax.set_title(f"{budget} records, Laplace fits over {reps} noise realisations", fontsize=9)
 ax.legend(fontsize=8)

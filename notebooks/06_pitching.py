@@ -215,5 +215,5 @@ im = ax[1].pcolormesh(np.asarray(heights), speeds_mm_min, UM * np.asarray(hmap.v
 ax[1].set_yscale("log")
 ax[1].set(xlabel="drive height h [mm]", ylabel="v [mm/min]",
           title=r"$\Delta\varepsilon$ point 1 [um]")
-fig.colorbar(im, ax=ax[1])
+fig.colorbar(im, ax=ax[1], label=r"$\Delta\varepsilon$ point 1 [um]")
 save(fig, "fig63_design")
