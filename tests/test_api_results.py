@@ -148,6 +148,27 @@ def test_discovery_summary_lists_every_family(found):
     assert frame["significant"].dtype == bool
 
 
+def test_discovery_parameters_are_a_frame_with_unknowns_as_nan(found):
+    """`parameters()`: the fit summary's columns; a value the windows do not determine
+    (the friction level, which the per-record gauge offsets follow) is NaN with its
+    reason, never a number."""
+    import math
+
+    from stickslip_fitting.api.campaign import SUMMARY_COLUMNS
+
+    after, before = found.parameters(), found.parameters("before")
+    assert tuple(after.columns) == SUMMARY_COLUMNS and after.index.name == "parameter"
+    assert list(before.index) == ["mu_s", "mu_d", "gamma", "m", "delta", "n"]
+    for name, row in after.iterrows():
+        entry = found.to_dict()["estimates_after"][name]
+        if entry["value"] is None:
+            assert math.isnan(row["value"]) and row["reason"].startswith("not identifiable")
+        else:
+            assert row["value"] == entry["value"]
+    with pytest.raises(ValueError, match="when"):
+        found.parameters("later")
+
+
 def test_discovery_json_is_the_command_document(found, discover_document, tmp_path):
     doc = saved_document(found, tmp_path / "found.json")
     assert list(doc) == list(discover_document)

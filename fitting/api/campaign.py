@@ -55,6 +55,42 @@ RecordsSpec = Union[str, "os.PathLike[str]", Record, Iterable[Union[str, "os.Pat
 SUMMARY_COLUMNS = ("value", "std_err", "low", "high", "unit", "identifiable", "reason")
 """The columns of `CampaignFit.summary()` (low, high: the 95 % interval)."""
 
+def parameter_rows(entries: dict) -> dict[str, tuple]:
+    """{name: (value, std_err, low, high, unit, identifiable, reason)} (`SUMMARY_COLUMNS`)
+    of a report's parameter entries ({name: entry}, the `--json` parameter keys)."""
+    nan = math.nan
+    rows = {}
+    for name, p in entries.items():
+        fixed = bool(p.get("fixed", False))
+        known = bool(p.get("identifiable", True)) or fixed
+        value = p.get("value")
+        value = nan if value is None or not known else float(value)
+        reason = p.get("reason")
+        if not known and not reason:
+            reason = "not identifiable: the records do not determine it"
+        if fixed and not reason:
+            reason = "fixed (given, not fitted)"
+        interval = p.get("ci95")
+        shown = (known and not fixed and not p.get("at_bound", False)
+                 and p.get("stderr") is not None and interval is not None)
+        rows[name] = (value,
+                      float(p["stderr"]) if shown else nan,
+                      float(interval[0]) if shown else nan,
+                      float(interval[1]) if shown else nan,
+                      p["unit"], bool(p.get("identifiable", True)), reason or "")
+    return rows
+
+
+def parameter_frame(entries: dict, owner: str) -> pandas.DataFrame:
+    """`parameter_rows` as a DataFrame indexed by "parameter"; `owner` names the call in
+    the error when pandas is missing."""
+    pd = pandas_module(owner)
+    frame = pd.DataFrame.from_dict(parameter_rows(entries), orient="index",
+                                   columns=list(SUMMARY_COLUMNS))
+    frame.index.name = "parameter"
+    return frame
+
+
 _MODELS = ("empirical", "microsqueeze")
 
 
@@ -90,37 +126,12 @@ class CampaignFit(ResultDocument):
     @property
     def values(self) -> dict[str, float]:
         """{name: value}; NaN for a parameter the records do not determine."""
-        return {name: row[0] for name, row in self._rows().items()}
+        return {name: row[0] for name, row in parameter_rows(self.report["parameters"]).items()}
 
     @property
     def notes(self) -> list[str]:
         """What reading and cycle extraction did to each record (`Campaign.notes`)."""
         return list(self.campaign.notes)
-
-    def _rows(self) -> dict[str, tuple]:
-        """{name: (value, std_err, low, high, unit, identifiable, reason)} from the
-        report's parameter entries."""
-        nan = math.nan
-        rows = {}
-        for name, p in self.report["parameters"].items():
-            fixed = bool(p.get("fixed", False))
-            known = bool(p.get("identifiable", True)) or fixed
-            value = p.get("value")
-            value = nan if value is None or not known else float(value)
-            reason = p.get("reason")
-            if not known and not reason:
-                reason = "not identifiable: the records do not determine it"
-            if fixed and not reason:
-                reason = "fixed (given, not fitted)"
-            interval = p.get("ci95")
-            shown = (known and not fixed and not p.get("at_bound", False)
-                     and p.get("stderr") is not None and interval is not None)
-            rows[name] = (value,
-                          float(p["stderr"]) if shown else nan,
-                          float(interval[0]) if shown else nan,
-                          float(interval[1]) if shown else nan,
-                          p["unit"], bool(p.get("identifiable", True)), reason or "")
-        return rows
 
     def summary(self) -> pandas.DataFrame:
         """One row per parameter, indexed by its name: `value`, `std_err` and the 95 %
@@ -128,11 +139,7 @@ class CampaignFit(ResultDocument):
         (empty for an estimate; why not, for a parameter that is fixed, at a bound of its
         support, or not identifiable). A parameter the records do not determine has value
         NaN. Needs pandas (the `[pandas]` extra)."""
-        pd = pandas_module("CampaignFit.summary()")
-        frame = pd.DataFrame.from_dict(self._rows(), orient="index",
-                                       columns=list(SUMMARY_COLUMNS))
-        frame.index.name = "parameter"
-        return frame
+        return parameter_frame(self.report["parameters"], "CampaignFit.summary()")
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
         """The diagnostic figure of `stickslip fit --plot` (`stickslip_fitting.report.plots.

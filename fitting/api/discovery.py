@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 
 from stickslip_jax.records import Record
 
-from .campaign import RecordsSpec, as_list, loss_option
+from .campaign import RecordsSpec, as_list, loss_option, parameter_frame
 from .results import ResultDocument, pandas_module
 
 if TYPE_CHECKING:
@@ -65,7 +65,8 @@ class CampaignDiscovery(ResultDocument):
       "unexplained"); `named`: the effects the answer names (the effect and those the
       records cannot tell from it);
     - `summary()`: a pandas DataFrame, one row per effect tested (`FAMILY_COLUMNS` on the
-      per-cycle base, `SMOOTH_COLUMNS` on the smoothed one);
+      per-cycle base, `SMOOTH_COLUMNS` on the smoothed one); `parameters(when)`: one row
+      per parameter before or after, as `CampaignFit.summary()`;
     - `plot(path)`: the figure of `stickslip discover --plot`;
     - `to_json(path)`: the document of `stickslip discover --json`; `to_dict()` the same
       as a dict;
@@ -127,6 +128,16 @@ class CampaignDiscovery(ResultDocument):
         frame = pd.DataFrame.from_dict(rows, orient="index", columns=list(columns))
         frame.index.name = "family" if cycle else "effect"
         return frame
+
+    def parameters(self, when: str = "after") -> pandas.DataFrame:
+        """The friction parameters (and the named effects' as "effect.name") `when` =
+        "after" the named effects were added, or "before": one row per parameter with
+        the columns of `CampaignFit.summary()` (value NaN with the reason where the
+        records do not determine it). Needs pandas (the `[pandas]` extra)."""
+        if when not in ("before", "after"):
+            raise ValueError(f"when: 'before' or 'after', got {when!r}")
+        return parameter_frame(self.report[f"estimates_{when}"],
+                               "CampaignDiscovery.parameters()")
 
     @property
     def report(self) -> dict:
