@@ -185,9 +185,9 @@ class CycleBase(AbstractBaseModel):
 def with_uncertainty(result: CycleDiscovery, base) -> CycleDiscovery:
     """The friction rows before and after with their standard errors and identifiability
     (`result.friction_rows` of the base and the final fit, one cluster per cycle window
-    of the model's data, chi-square as the refits count it). Without a refit of its own (no effect, or a form outside the library) the
-    final friction is the base's: a value the form moved keeps the base's verdict and
-    has no standard error."""
+    of the model's data, chi-square as the refits count it). Without a refit of its own
+    (no effect, or a form outside the library) the final friction is the base's: a value
+    the form moved keeps the base's verdict and has no standard error."""
     data = result.model.data
     mask = np.asarray(data.mask)
     clusters = [np.broadcast_to(np.asarray(a)[:, None], mask.shape)[mask]

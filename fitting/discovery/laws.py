@@ -16,9 +16,10 @@ effect a takes about 3000 implicit solver steps per cycle, and 30 cycles of a re
 record outran the solver's step budget; 4 cycles cost 1.5-2.6 CPU minutes a campaign of
 two records, and a law other than the paper's is solved at `LAW_TOLERANCES`). The
 preferred law has the lowest BIC; a law the smoothed simulator cannot run through the
-records from any of its starts scores an infinite chi-square, with the `reason` said. The paper's law is called the wrong base when
-another law beats it by at least `BIC_MARGIN` (strong evidence, a Bayes factor above
-150) and is not worse on the held-out cycles.
+records from any of its starts scores an infinite chi-square, with the `reason` said.
+The paper's law is called the wrong base when another law beats it by at least
+`BIC_MARGIN` (strong evidence, a Bayes factor above 150) and is not worse on the
+held-out cycles.
 """
 
 from __future__ import annotations
