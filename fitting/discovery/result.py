@@ -250,7 +250,7 @@ def friction_rows(fit: Solution, features, clusters, *, chi2: float,
     from ..modes import Covariance
     from ..params import CampaignParams, EmpiricalFriction
     from ..solve.fit import FitResult
-    from ..uncertainty.laplace import laplace
+    from ..uncertainty.laplace import LogJacobian, laplace
 
     z, J = np.asarray(fit.z, float), np.array(fit.J, float)
     friction = EmpiricalFriction(*z[:6])
@@ -269,7 +269,7 @@ def friction_rows(fit: Solution, features, clusters, *, chi2: float,
                        features=list(features), chi2=float(chi2), dof=int(dof),
                        result=fit.result, converged=fit.converged, n_starts=1,
                        n_steps=fit.n_evals, slip_time=None, start_chi2=np.array([chi2]))
-    return laplace(as_fit, covariance=Covariance.SANDWICH, jacobian=(
+    return laplace(as_fit, covariance=Covariance.SANDWICH, jacobian=LogJacobian(
         J, np.asarray(fit.r, float), np.ones(6, bool), np.arange(6), values, record,
         window)).estimates()
 

@@ -43,7 +43,25 @@ from ..modes import Covariance, SmallSample, check_member
 from ..params import CampaignParams, free_mask
 from ..report.rows import Z95, ParameterEstimate
 
-__all__ = ["Uncertainty", "laplace", "Z95"]
+__all__ = ["Uncertainty", "LogJacobian", "laplace", "Z95"]
+
+
+@dataclasses.dataclass(frozen=True)
+class LogJacobian:
+    """Whitened residuals `r` and their Jacobian `J` = dr/dtheta at an optimum, theta =
+    (logs of the free friction parameters, then free gauge offsets in mm, then any
+    further coordinates of the fitted model); `free` (P bools) and `idx` (their indices)
+    say which friction parameters are free, `values` (P) their natural values. `record`
+    and `cycle` label every residual's stick-phase cluster (-1: in none) for the robust
+    covariances; None takes them from the fit's objective."""
+
+    J: np.ndarray
+    r: np.ndarray
+    free: np.ndarray
+    idx: np.ndarray
+    values: np.ndarray
+    record: np.ndarray | None = None
+    cycle: np.ndarray | None = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -125,20 +143,17 @@ def _jacobian_log(params, idx: tuple, objective, fit_offsets: bool):
     return J, r, params.friction.values()
 
 
-def jacobian_log(fit: FitResult, objective=None):
-    """(J, r, free mask, idx, values) at the optimum: whitened residuals r and
-    J = dr/dtheta, theta = (log of the free friction parameters, free gauge offsets in
-    mm), of `objective` (default the fit's), and the natural friction values. A fit of
+def jacobian_log(fit: FitResult, objective=None) -> LogJacobian:
+    """The `LogJacobian` of `objective` (default the fit's) at the fit's optimum. A fit of
     another model of these parameters (discovery's per-cycle fits) passes its own, with
-    every residual's (record, cycle) cluster, as `laplace(fit, jacobian=(J, r, free, idx,
-    values, record, cycle))`: its further coordinates, after the offsets, are then
-    marginalised as the offsets are."""
+    every residual's (record, cycle) cluster, as `laplace(fit, jacobian=LogJacobian(...))`:
+    its further coordinates, after the offsets, are then marginalised as the offsets are."""
     free = free_mask(fit.spec)
     idx = np.flatnonzero(free)
     J, r, value = _jacobian_log(fit.params, tuple(int(i) for i in idx),
                                 fit.objective if objective is None else objective,
                                 bool(fit.spec.offset))
-    return np.asarray(J), np.asarray(r), free, idx, np.asarray(value)
+    return LogJacobian(np.asarray(J), np.asarray(r), free, idx, np.asarray(value))
 
 
 def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
@@ -299,7 +314,8 @@ def _null_share(F) -> np.ndarray:
 
 def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
             covariance: Covariance = Covariance.AUTO, lag: int = 1,
-            small_sample: SmallSample = SmallSample.JACKKNIFE, jacobian=None) -> Uncertainty:
+            small_sample: SmallSample = SmallSample.JACKKNIFE,
+            jacobian: LogJacobian | None = None) -> Uncertainty:
     """Laplace covariance, intervals and identifiability report of a fit (module doc).
 
     `covariance` (a `modes.Covariance`): FISHER ($F^{-1}$ scaled by max(1, chi2/dof)),
@@ -313,6 +329,8 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
     missed mu_s).
     A fit under a heavy-tailed loss (`stickslip_fitting.objectives.losses.HeavyTailed`) gets the
     two-level covariance with 3 records or more, the stick-phase sandwich otherwise.
+    `jacobian` (a `LogJacobian`): the residuals and Jacobian of another model of these
+    parameters at its optimum (default: the fit's objective at `fit.params`).
     """
     check_member("covariance", covariance, Covariance)
     if covariance is Covariance.AUTO:
@@ -328,17 +346,18 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         covariance = (Covariance.TWO_LEVEL if heavy and many else Covariance.SANDWICH if traced
                       else Covariance.TWO_LEVEL if misfit and many else Covariance.FISHER)
     if isinstance(fit.objective, HeavyTailed) and jacobian is None:  # Huber's sandwich
-        J, r, free, idx, value = jacobian_log(fit, fit.objective.inner)
-        J, r = fit.objective.loss.score_form(J, r)
-    else:
-        J, r, free, idx, value = jacobian_log(fit) if jacobian is None else jacobian[:5]
+        inner = jacobian_log(fit, fit.objective.inner)
+        J, r = fit.objective.loss.score_form(inner.J, inner.r)
+        jacobian = dataclasses.replace(inner, J=J, r=r)
+    jacobian = jacobian_log(fit) if jacobian is None else jacobian
+    J, r, free, idx, value = jacobian.J, jacobian.r, jacobian.free, jacobian.idx, jacobian.values
     F = J.T @ J
     k = idx.size
     if covariance.robust:
         from ..objectives.combined import residual_cycles
 
-        rec, cyc = (residual_cycles(fit.objective, fit.features) if jacobian is None
-                    else jacobian[5:])
+        rec, cyc = (residual_cycles(fit.objective, fit.features) if jacobian.record is None
+                    else (jacobian.record, jacobian.cycle))
         cov = sandwich_covariance(J, r, rec, cyc, lag=lag, small_sample=small_sample)
         if covariance is Covariance.TWO_LEVEL:
             cov = _two_level(cov, J, r, rec)
