@@ -79,7 +79,11 @@ LAMBDA_MIN = 1e-12
 """Smallest damping (relative to Marquardt's scaling)."""
 
 LAMBDA_MAX = 1e16
-"""Damping beyond which no step can lower the cost at this precision: the solve stops."""
+"""Damping beyond which no step can lower the cost at this precision: the solve stops,
+successfully when the last trial cost was finite (steps down to round-off along the
+descent direction raise the cost: a minimum of the cost as computed), with
+`RESULTS.nonfinite` when the model failed there (the point is at the edge of the region
+where the model runs, not at a minimum)."""
 
 LAMBDA_AFTER_REJECT = 1e-3
 """A rejected step raises a smaller damping to at least this."""
@@ -291,11 +295,30 @@ class NielsenDamping(optx.AbstractSearch):
 # ------------------------------------------------------------------------ the solver
 class Stall(eqx.Module):
     """Stopping at an objective's noise floor (objectives with solver noise: below it
-    steps are not worth their cost): a solve ends, successfully, once its last `evals`
-    evaluations lowered the cost by less than `tol` (a chi-square) together."""
+    steps are not worth their cost): a solve ends, successfully, on an accepted step
+    when its last `evals` accepted steps lowered the cost by less than `tol` (a
+    chi-square) together. Rejected trial points do not count: a run of rejections (the
+    damping rising after failed or worse evaluations) says nothing about the floor, and
+    ends a solve only by the damping limit or the step budget.
+
+    `window` and `update` are the rule for both drivers over an array namespace `xp`:
+    the accepted costs of the last `evals + 1` accepted points, oldest first."""
 
     evals: int = eqx.field(default=4, static=True)
     tol: float = 0.5
+
+    def window(self, dtype=float, xp=jnp):
+        """No accepted point yet: `evals + 1` infinite costs."""
+        return xp.full(self.evals + 1, xp.inf, dtype)
+
+    def update(self, window, cost, accept, xp=jnp):
+        """(window, stalled): `cost` appended to the `window` when the step is accepted
+        (else the window as it was), and whether this accepted step ends the solve."""
+        window = xp.where(accept, xp.append(window[1:], cost), window)
+        return window, accept & (window[0] - cost < self.tol)
+
+
+_NO_STALL = Stall(0, -np.inf)  # no stall rule: the window never stops a solve
 
 
 class _State(eqx.Module):
@@ -308,7 +331,8 @@ class _State(eqx.Module):
     first: Bool[Array, ""]
     num_steps: Int[Array, ""]
     terminate: Bool[Array, ""]
-    recent: Float[Array, " S"]  # accepted costs of the last Stall.evals + 1 steps
+    failed: Bool[Array, ""]  # stopped at the damping limit after a failed evaluation
+    recent: Float[Array, " S"]  # the Stall rule's window of accepted costs
 
 
 def _model(cost, g, A):
@@ -348,9 +372,11 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     `optimistix.least_squares`. It stops (successfully) when the full Gauss-Newton step
     would lower the cost by less than `atol + rtol * cost` (stationarity in units of the
     whitened cost: a chi-square), when an accepted step changed the cost only within
-    rounding, when the damping has grown past `LAMBDA_MAX` (no descent direction left at
-    this precision), at a `Stall` rule's floor, or after `cap` steps (a traced value:
-    screening runs share one compilation with full runs).
+    rounding, when the damping has grown past `LAMBDA_MAX` after a finite trial cost
+    (no descent direction left at this precision), at a `Stall` rule's floor (counted
+    over accepted steps only), or after `cap` steps (a traced value: screening runs
+    share one compilation with full runs). Past `LAMBDA_MAX` after a failed evaluation
+    (non-finite residuals or gradient) it stops with `RESULTS.nonfinite`.
 
     - `rtol`, `atol`: the stationarity test (cost = sum of squared residuals).
     - `rounding`: relative cost change treated as no change (accepted; ends the solve).
@@ -364,7 +390,8 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     `jax.custom_vjp`); the default is forward mode.
 
     Its `Solution.stats` add `num_steps`; `Solution.result` is `RESULTS.successful` when a
-    stopping rule above ended the solve, `max_steps_reached` otherwise.
+    stopping rule above ended the solve, `nonfinite` at the damping limit after a failed
+    evaluation, `nonlinear_max_steps_reached` after `max_steps`.
     """
 
     rtol: float
@@ -386,6 +413,10 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         self.stall = stall
         self.norm = norm
 
+    @property
+    def _stall(self) -> Stall:
+        return _NO_STALL if self.stall is None else self.stall
+
     def init(self, fn, y, args, options, f_struct, aux_struct, tags):
         v, _ = ravel_pytree(y)
         P = v.size
@@ -395,8 +426,8 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         return _State(y=v, y_try=v, f_info=model, aux=aux0, search=self.search.init(v, model),
                       descent=self.descent.init(v, model), first=jnp.array(True),
                       num_steps=jnp.array(0), terminate=jnp.array(False),
-                      recent=jnp.full(1 + (self.stall.evals if self.stall else 0), jnp.inf,
-                                      v.dtype))
+                      failed=jnp.array(False),
+                      recent=self._stall.window(v.dtype))
 
     def step(self, fn, y, args, options, state: _State, tags):
         _, unravel = ravel_pytree(y)
@@ -416,19 +447,20 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         step, _ = self.descent.step(step_size, descent)
         num_steps = state.num_steps + 1
         stationary = descent.newton_decrease < self.atol + self.rtol * (2.0 * f_info.f)
-        stop = (accept & (stationary | search.flat)) | (search.lam > LAMBDA_MAX)
+        limit = search.lam > LAMBDA_MAX
+        stop = (accept & (stationary | search.flat)) | limit
         if self.cap is not None:
             stop = stop | (num_steps >= self.cap)
-        recent = jnp.append(state.recent[1:], 2.0 * f_info.f)
-        if self.stall is not None:
-            stop = stop | (recent[0] - 2.0 * f_info.f < self.stall.tol)
+        recent, stalled = self._stall.update(state.recent, 2.0 * f_info.f, accept)
+        stop = stop | stalled
         new = _State(y=y_new, y_try=y_new + step, f_info=f_info, aux=aux, search=search,
                      descent=descent, first=jnp.array(False), num_steps=num_steps,
-                     terminate=stop, recent=recent)
+                     terminate=stop, failed=limit & ~_finite(trial), recent=recent)
         return unravel(y_new), new, aux
 
     def terminate(self, fn, y, args, options, state: _State, tags):
-        return state.terminate, optx.RESULTS.successful
+        return state.terminate, optx.RESULTS.where(state.failed, optx.RESULTS.nonfinite,
+                                                   optx.RESULTS.successful)
 
     def postprocess(self, fn, y, aux, args, options, state: _State, tags, result):
         return y, aux, {}
@@ -525,8 +557,9 @@ def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, round
                          "records (stick-slip present) and the start")
     cost = float(r @ r)
     lam, nu = float(lam0), 2.0
-    converged = False
-    history, best = [cost], [cost]
+    converged = failed = False
+    stall = _NO_STALL if stall is None else stall
+    history, (window, _) = [cost], stall.update(stall.window(xp=np), cost, True, xp=np)
     while n_evals < max_steps:
         A, g = J.T @ J, J.T @ r
         if float(gauss_newton_decrease(A, g, active, xp=np)) < atol + rtol * cost:
@@ -543,13 +576,13 @@ def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, round
         lam, nu = (float(x) for x in nielsen_update(lam, nu, accept, rho, xp=np))
         if accept:
             z, r, J, ok, cost = z + step, r_try, J_try, ok_try, cost_try
-        best.append(cost)
-        converged = (accept and flat) or lam > LAMBDA_MAX or (
-            stall is not None and len(best) > stall.evals
-            and best[-stall.evals - 1] - cost < stall.tol)
+        window, stalled = stall.update(window, cost, accept, xp=np)
+        failed = lam > LAMBDA_MAX and not good
+        converged = (accept and flat) or lam > LAMBDA_MAX or bool(stalled)
         if converged:
             break
-    result = optx.RESULTS.successful if converged else optx.RESULTS.nonlinear_max_steps_reached
+    result = (optx.RESULTS.nonlinear_max_steps_reached if not converged
+              else optx.RESULTS.nonfinite if failed else optx.RESULTS.successful)
     stats = dict(num_steps=n_evals, lam=lam, history=history, ok=bool(ok), cost=cost,
                  seconds=time.perf_counter() - t0)
     return LeastSquaresSolution(z, result, stats, residuals=r, jacobian=J)

@@ -69,6 +69,59 @@ def test_host_driver_respects_active_mask():
     assert np.all(np.abs(g[active]) < 1e-3 * np.abs(J.T @ evaluate(Z0)[0])[active])
 
 
+RATE_MIN = 0.7
+"""The failing model below runs only where the second rate exceeds this (s^-1): the first
+four trial points from Z0 (damping 1e-3 to 0.06) lie beyond it, the fifth (damping 1)
+inside."""
+
+
+def evaluate_or_fail(z):
+    """`evaluate`, failing (ok False) where the second rate is below `RATE_MIN`."""
+    r, J, _ = evaluate(z)
+    return r, J, bool(z[1] > RATE_MIN)
+
+
+def residuals_or_nan(z, _=None):
+    """`residuals`, non-finite where the second rate is below `RATE_MIN`."""
+    return jnp.where(z[1] > RATE_MIN, residuals(z), jnp.nan)
+
+
+def accepted_costs(history):
+    """The costs of the accepted points of a solve without rounding (strict decreases)."""
+    kept = [history[0]]
+    for cost in history[1:]:
+        if cost < kept[-1]:
+            kept.append(cost)
+    return np.array(kept)
+
+
+def test_rejected_steps_never_end_a_solve_by_the_stall_rule(scipy_ref):
+    """Four failed trial points in a row from the start: the stall rule counts accepted
+    steps only, so both drivers go on to the minimum (instead of ending at the start as
+    converged), and a looser rule still ends the solve at its floor on an accepted step."""
+    kw = dict(rtol=0.0, atol=0.0, rounding=0.0, max_steps=400)  # no other rule can stop
+    for stall in (Stall(4, 1e-3), Stall(4, 0.5)):
+        host = lsq(HostResiduals(evaluate_or_fail), Z0, stall=stall, **kw)
+        traced = lsq(residuals_or_nan, jnp.asarray(Z0), stall=stall, **kw)
+        history = host.stats["history"]
+        assert np.all(np.isinf(history[1:5])) and np.any(np.isfinite(history[5:]))
+        assert host.converged and bool(traced.successful)
+        assert host.n_evals == int(traced.stats["num_steps"]) < 400
+        np.testing.assert_allclose(np.asarray(traced.params), host.z, rtol=1e-8)
+        # ended by the rule: on an accepted step, whose last `evals` accepted steps
+        # lowered the cost by less than `tol` together, and not one accepted step earlier
+        kept = accepted_costs(history)
+        assert history[-1] == kept[-1] == host.rss
+        assert kept[-5] - kept[-1] < stall.tol <= kept[-6] - kept[-2]
+        assert host.lam < 1.0
+        if stall.tol < 0.5:
+            assert host.rss == pytest.approx(2 * scipy_ref.cost, rel=1e-9)
+            np.testing.assert_allclose(canonical(host.z), canonical(scipy_ref.x), rtol=1e-6)
+        else:  # the floor: a few chi-square units above the minimum, in fewer steps
+            assert 2 * scipy_ref.cost < host.rss < 2 * scipy_ref.cost + 5.0
+            assert host.n_evals < 30
+
+
 @pytest.mark.parametrize("jac", ["fwd", "bwd"])
 def test_optimistix_solver_reaches_scipy_minimum(scipy_ref, jac):
     solver = LevenbergMarquardt(rtol=1e-12, atol=1e-10)

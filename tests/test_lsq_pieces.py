@@ -250,19 +250,29 @@ def test_verb_over_selected_leaves_with_aux_and_a_cap(minpack):
     assert stuck.result == optx.RESULTS.nonlinear_max_steps_reached
 
 
-def test_damping_limit_ends_a_solve_without_descent():
-    """Every trial point fails (non-finite residuals away from the start): each rejection
-    multiplies the damping by a doubling factor, and the solve stops once it passes
-    LAMBDA_MAX instead of running out of steps."""
-    def fails_away(p, _):
-        return jnp.where(p == 0.3, 1e3 + p, jnp.nan)
+@pytest.mark.parametrize("away, result", [(jnp.nan, optx.RESULTS.nonfinite),
+                                           (2e3, optx.RESULTS.successful)])
+def test_damping_limit_ends_a_solve_without_descent(away, result):
+    """Every trial point is rejected (away from the start the residual is `away`): each
+    rejection multiplies the damping by a doubling factor, and the solve stops once it
+    passes LAMBDA_MAX instead of running out of steps, in both drivers. Where the model
+    fails there (non-finite), the start is not a minimum: `RESULTS.nonfinite`; where the
+    cost rises, the start is a minimum of the cost as computed: successful."""
+    def residual(p, _=None):
+        return jnp.where(p == 0.3, 1e3 + p, away)
 
-    sol = optx.least_squares(fails_away, LevenbergMarquardt(rtol=0.0, atol=0.0),
+    def evaluate(z):
+        r = np.where(z == 0.3, 1e3 + z, away)
+        return r, np.ones((1, 1)), bool(np.all(np.isfinite(r)))
+
+    sol = optx.least_squares(residual, LevenbergMarquardt(rtol=0.0, atol=0.0),
                              jnp.asarray([0.3]), max_steps=500, throw=False)
-    assert sol.result == optx.RESULTS.successful
-    assert float(sol.state.search.lam) > LAMBDA_MAX
-    assert int(sol.stats["num_steps"]) < 20
-    assert float(sol.value[0]) == 0.3
+    host = least_squares(HostResiduals(evaluate), np.array([0.3]), rtol=0.0, atol=0.0,
+                         max_steps=500)
+    assert sol.result == result and host.result == result
+    assert float(sol.state.search.lam) > LAMBDA_MAX and host.stats["lam"] > LAMBDA_MAX
+    assert int(sol.stats["num_steps"]) == host.n_evals < 20
+    assert float(sol.value[0]) == 0.3 == host.z[0]
 
 
 def test_fitting_exports_the_same_verb():

@@ -59,8 +59,8 @@ class AbstractProblem(abc.ABC):
               target: float | None = None) -> LeastSquaresSolution:
         """The fit from z0 over `active()` (`stickslip_jax.lsq.least_squares` over a
         `HostResiduals`): converged when the full Gauss-Newton step would lower the cost
-        by less than `chi2_tol` (a chi-square), when the last `stall_evals` evaluations
-        lowered it by < `stall_tol` together, or where no step can lower it; else
+        by less than `chi2_tol` (a chi-square), when the last `stall_evals` accepted
+        steps lowered it by < `stall_tol` together, or where no step can lower it; else
         it stops after `max_evals` evaluations. `first`: (r, J, ok) at z0 already; a
         small `lam0` (0: the plain Gauss-Newton step) suits a start where the quadratic
         model is trusted, such as a refit from a base optimum whose step is a score test's.
