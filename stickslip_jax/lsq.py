@@ -399,7 +399,7 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     descent: MarquardtDescent
     search: NielsenDamping
     cap: Int[Array, ""] | None
-    stall: Stall | None
+    stall: Stall
     norm: Callable  # optimistix's interface; unused by the stopping rules
 
     def __init__(self, rtol: float, atol: float, rounding: float = 1e-10, lam0=1e-3,
@@ -410,12 +410,8 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         self.descent = MarquardtDescent(active=active)
         self.search = NielsenDamping(lam0=lam0, rounding=rounding)
         self.cap = cap
-        self.stall = stall
+        self.stall = _NO_STALL if stall is None else stall
         self.norm = norm
-
-    @property
-    def _stall(self) -> Stall:
-        return _NO_STALL if self.stall is None else self.stall
 
     def init(self, fn, y, args, options, f_struct, aux_struct, tags):
         v, _ = ravel_pytree(y)
@@ -427,7 +423,7 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
                       descent=self.descent.init(v, model), first=jnp.array(True),
                       num_steps=jnp.array(0), terminate=jnp.array(False),
                       failed=jnp.array(False),
-                      recent=self._stall.window(v.dtype))
+                      recent=self.stall.window(v.dtype))
 
     def step(self, fn, y, args, options, state: _State, tags):
         _, unravel = ravel_pytree(y)
@@ -451,7 +447,7 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         stop = (accept & (stationary | search.flat)) | limit
         if self.cap is not None:
             stop = stop | (num_steps >= self.cap)
-        recent, stalled = self._stall.update(state.recent, 2.0 * f_info.f, accept)
+        recent, stalled = self.stall.update(state.recent, 2.0 * f_info.f, accept)
         stop = stop | stalled
         new = _State(y=y_new, y_try=y_new + step, f_info=f_info, aux=aux, search=search,
                      descent=descent, first=jnp.array(False), num_steps=num_steps,
