@@ -139,8 +139,8 @@ class SmoothBase(AbstractBaseModel):
     see `model.campaign_traces`; `effects`: fixed shape settings (`EffectSet.zeros`);
     `fixed`: friction parameters held at their features-fit value; `max_evals`: budget
     of the base fit and of the chosen model's polish (LM stops earlier at convergence:
-    a full Gauss-Newton step would lower chi-square by < 0.05, or 4 evaluations gained
-    < 0.5 together); `refit_evals`: budget
+    a full Gauss-Newton step would lower chi-square by < 0.05, or 4 accepted steps
+    gained < 0.5 together); `refit_evals`: budget
     of each ranking refit; `collinear`: see "disagreement" below.
 
     Disagreement: when the score test's winner (all statistics at the same converged
