@@ -158,6 +158,30 @@ def test_a_later_effect_pays_for_its_flexibility():
     assert confirmed(base, one, 0.01, 0.0, price_of(base, 1))
 
 
+def test_a_later_effect_must_clearly_beat_its_physical_rivals():
+    """A later effect is not named where a physical contender that explains a comparable
+    share is not clearly beaten (`more.unbeaten_rival`); an unphysical one, or a law of
+    the same physics (rate-and-state beside a Stribeck drop), does not stop it."""
+    import types
+
+    from stickslip_fitting.discovery.decision import Contender, decide
+    from stickslip_fitting.discovery.stages.more import unbeaten_rival
+
+    def choice(name, others):
+        return types.SimpleNamespace(chosen=types.SimpleNamespace(
+            family=types.SimpleNamespace(name=name)), decision=decide(162.0, others))
+
+    shadow = Contender("stribeck", 88.0, 0.4, 1.2)
+    assert unbeaten_rival(choice("load_coupling", [shadow])) is shadow
+    assert unbeaten_rival(choice("load_coupling", [Contender("stribeck", 88.0, 0.4, 3.5)])
+                          ) is None  # beaten clearly
+    assert unbeaten_rival(choice("load_coupling", [Contender("stribeck", 40.0, 0.4, 1.2)])
+                          ) is None  # not a comparable share
+    assert unbeaten_rival(choice("viscous_damping", [
+        Contender("stribeck", 120.0, 0.4, 1.2, physical=False)])) is None
+    assert unbeaten_rival(choice("stribeck", [Contender("rate_state", 150.0, 0.5, 0.3)])) is None
+
+
 def test_confirmed_effects_that_explain_the_records_are_not_replaced_by_a_form():
     """Several effects the sequential search confirmed, leaving at most `explained_gap` x
     the noise together, are the answer: no sparse form is fitted in their place

@@ -64,6 +64,16 @@ effect by the same measure: its removal must raise chi-square beyond its level p
 price. The price does not stop a screw that stands in for a partner the first effect
 absorbed (measured, 4 records: after a 12 Hz sensor the screw lowered chi-square by 202
 and 264 where the damping or the Stribeck drop was missing, both above level and price).
+
+A later effect must also beat clearly every physical contender that explains a comparable
+share (the decision's `unbeaten`: paired z below `clear`, a drop from `joint` x the
+winner's; a law of the same physics aside): where it does not, the records do not say
+which family is missing, and the one that lowers chi-square most is often the flexible
+one standing in for the partner the first effect bent (measured, 4 records: load coupling
+-162 against the Stribeck drop's -88 beside a 20 Hz sensor; rate-and-state friction -261
+named third against load coupling's -244 after a sensor and a screw). The search stops
+there: the first effect is still named when it is not clear (with low confidence), a
+later one is not.
 """
 
 from __future__ import annotations
@@ -83,7 +93,7 @@ from .decide import choose, price, price_of
 from .state import Base, Choice, Clock, FamilyRefit, Fits, Step
 
 __all__ = ["ALTERNATIVES", "confirmed", "drop_one", "extended", "level", "more_effects",
-           "settled"]
+           "settled", "unbeaten_rival"]
 
 ALTERNATIVES = (frozenset({"stribeck", "rate_state"}),)
 """Families that describe one physical effect in two laws (module doc): never both named."""
@@ -198,6 +208,12 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
                       f"{choice_k.chosen.drop:.3g}, below its confirmation level and price "
                       f"or {fx.opts.later_share:.0%} of the excess left")
             break
+        rival = unbeaten_rival(choice_k)
+        if rival is not None:
+            clock.say(f"stop: {choice_k.chosen.family.name} (chi2 -{choice_k.chosen.drop:.0f}) "
+                      f"does not clearly beat {rival.name} (chi2 -{rival.drop:.0f}, paired z "
+                      f"{rival.z:.2g}): the records do not say which effect is missing")
+            break
         new, kept, dropped = drop_one(fx_k, choice_k.chosen, clock)
         gone = {name for name, _ in dropped}
         steps = [dataclasses.replace(s, kept=False) if s.family.name in gone else s
@@ -211,6 +227,15 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
     return fx, Choice(chosen=chosen, decision=Decision(joint[lead.family.name], tuple(unbeaten)),
                       rivals=lead.rivals, compared=choice.compared,
                       decided_drop=first.base.fit.rss - chosen.fit.rss), steps
+
+
+def unbeaten_rival(choice: Choice):
+    """The physical contender (`decision.Contender`) a later effect does not beat clearly
+    although it explains a comparable share (the decision's `unbeaten`, not a law of the
+    same physics, `ALTERNATIVES`), or None (module doc, Confirmation)."""
+    same = _same_physics(choice.chosen.family.name)
+    return next((c for c in choice.decision.unbeaten if c.physical and c.name not in same),
+                None)
 
 
 def level(base: Base, dof: int, alpha: float) -> float:
