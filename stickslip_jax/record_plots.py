@@ -269,7 +269,7 @@ def plot_record(record: Record, phases: PhaseSplit | None = None):
         title += f", lubricant {record.lubricant}"
     ax.set_title(title, fontsize=9)
     sliding = phases.verdict is not None and "slides continuously" in phases.verdict
-    ax.legend(loc="upper right", fontsize=8, title_fontsize=8,
+    ax.legend(loc="best", fontsize=8, title_fontsize=8,
               title="slides continuously" if sliding else f"{phases.n_slips} slips")
     ph.set_xlabel(r"$\dot x/\omega_0$ [mm],  $\omega_0$ = " + f"{record.omega0:.4g} rad/s")
     ph.set_ylabel("x [mm]")

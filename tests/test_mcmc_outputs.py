@@ -102,7 +102,8 @@ def test_corner_plot_made_by_corner(run):
     assert isinstance(fig, Figure) and len(fig.axes) == len(NAMES) ** 2
     assert np.asarray(samples).shape == (WALKERS * (STEPS - BURN), len(NAMES))
     assert kwargs["quantiles"] == [0.16, 0.5, 0.84]
-    assert kwargs["labels"] == ["mu_s", "mu_d", "gamma [s^-m]", "m", "delta [s^-n]", "n"]
+    assert kwargs["labels"] == ["mu_s [-]", "mu_d [-]", "gamma [s^-m]", "m [-]", "delta [s^-n]",
+                                "n [-]"]
     truth = json.loads((ROOT / "data" / "examples" / "truth.json").read_text())["friction"]
     expected = {**truth["static"], **truth["kinetic"]}
     assert kwargs["truths"] == pytest.approx([expected[n] for n in NAMES])

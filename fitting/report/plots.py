@@ -214,8 +214,9 @@ def fit_figure(fit, unc, records, path=None, max_traces: int | None = None, *,
       `friction_curves`; over the measured stick times only when a parameter of eq (1) is
       not identifiable), and under it mu_0 less the fitted curve with the same band;
       mu_m against T2 with the fitted eq (3); points coloured by spring and weight
-      (legend); the parameters with units, "-" and the reason for one the records do not
-      determine, "at bound" for one at a bound of its support.
+      (legends above the panels, `above_axes`); the parameters with units, "-" and the
+      reason for one the records do not determine, "at bound" for one at a bound of its
+      support.
     - Bottom: chi2/n of the residuals by record and phase (`residual_panel`, every record).
 
     Record panels are the axes labelled "record NAME" (`Axes.get_label`), in the order of
@@ -277,6 +278,8 @@ def _record_panels(fig, specs, fit, records, extra, colour) -> None:
         ax = fig.add_subplot(specs[n + j], label=f"record {name}")
         ax.plot(r.time, r.deflection * 1e3, lw=0.5, color="0.6")
         ax.set_title(f"{name[:36]}\nnot fitted", fontsize=7, color="0.35")
+        low, high = ax.get_ylim()  # the reason in the top 40 %, above the trace
+        ax.set_ylim(low, high + 0.7 * (high - low))
         ax.text(0.02, 0.97, "\n".join(textwrap.wrap(str(reason), 48)[:4]), transform=ax.transAxes,
                 va="top", fontsize=5.5, color="0.25", bbox=dict(fc="white", ec="0.7", alpha=0.85))
     panels = [a for a in fig.axes if a.get_label().startswith("record ")]
@@ -337,11 +340,10 @@ def _static_panels(fig, spec, fit, unc, colour) -> None:
         ax_res.plot(f.stick_time[c], measured - fitted, ".", ms=3, color=colour[key], zorder=2)
     for k in colour:
         ax.plot([], [], ".", color=colour[k], label=_group_label(*k))
-    ax.set(xscale="log", ylabel="static friction mu_0 [-]",
-           title="static friction at breakaway (eq 1)")
+    ax.set(xscale="log", ylabel="static friction mu_0 [-]")
     ax.tick_params(labelbottom=False)
     ax_res.set(xlabel="stick time T1 [s]", ylabel="mu_0 - fit [-]")
-    ax.legend(fontsize=6)
+    above_axes(ax, "static friction at breakaway (eq 1)")
 
 
 def _kinetic_panel(ax, fit, colour) -> None:
@@ -372,11 +374,17 @@ def _kinetic_panel(ax, fit, colour) -> None:
             ax.plot(t2_grid, np.asarray(curve), style, lw=0.8,
                     label=f"fitted eq (3) at mu_0 = {mu0:.3g}")
     for k in colour:
-        ax.plot([], [], ".", color=colour[k], label=_group_label(*k) + ", per cycle (eq 5)")
+        ax.plot([], [], ".", color=colour[k], label=_group_label(*k))
     ax.plot([], [], "ko", mfc="none", mew=0.7, label="fitted eq (3) at each cycle's mu_0")
-    ax.set(xlabel="slip time T2 = pi/omega0 [s]", ylabel="mean kinetic friction mu_m [-]",
-           title="mean kinetic friction during slip (eq 3, eq 5)")
-    ax.legend(fontsize=6)
+    ax.set(xlabel="slip time T2 = pi/omega0 [s]", ylabel="mean kinetic friction mu_m [-]")
+    above_axes(ax, "mean kinetic friction during slip (eq 3; points: eq 5 per cycle)")
+
+
+def above_axes(ax, title: str) -> None:
+    """The legend of `ax` above its axes, under `title` (in place of the axes' title), so
+    that it never hides a point."""
+    ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncols=2, fontsize=6,
+              title=title, title_fontsize=10, frameon=False, borderaxespad=0.2)
 
 
 def _parameter_box(ax, fit, unc) -> None:

@@ -99,9 +99,9 @@ def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int 
     84 % quantiles on the diagonal (median and interval in the titles, with units), 2-D
     histograms with density contours below, the truth as red lines where `truth` names a
     parameter (the axes widened to show it, see `TRUTH_REACH`), axes labelled
-    `name [unit]` from `units` (the parameter family's `UNITS`; "-" for dimensionless
-    shows no unit), ticks without offset text. Other keywords go to `corner.corner` (a
-    `range` given there is kept as it is). Example, for an `McmcResult`:
+    `name [unit]` from `units` (the parameter family's `UNITS`; `name [-]` for a
+    dimensionless one or one without a unit), ticks without offset text. Other keywords go
+    to `corner.corner` (a `range` given there is kept as it is). Example, for an `McmcResult`:
     `corner_plot(res.samples, res.names, truth=truth, units=res.units)`.
     """
     import corner  # draws through pyplot with the user's backend, as it is
@@ -110,10 +110,6 @@ def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int 
     names = list(names)
     units = units or {}
     truth = truth or {}
-
-    def label(n):
-        u = units.get(n, "-")
-        return n if u in ("-", "") else f"{n} [{u}]"
 
     truths = None
     if any(truth.get(n) is not None for n in names):
@@ -135,7 +131,8 @@ def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int 
             margin = 0.04 * (hi[i] - lo[i])  # the truth line clear of the frame
             lo[i], hi[i] = (lo[i] - margin if t == lo[i] else lo[i],
                             hi[i] + margin if t == hi[i] else hi[i])
-    options = dict(bins=bins, labels=[label(n) for n in names], quantiles=[0.16, 0.5, 0.84],
+    labels = [f"{n} [{units.get(n) or '-'}]" for n in names]
+    options = dict(bins=bins, labels=labels, quantiles=[0.16, 0.5, 0.84],
                    show_titles=False, truths=truths, truth_color="tab:red",
                    label_kwargs={"fontsize": 9}, range=list(zip(lo, hi)), labelpad=0.1,
                    max_n_ticks=4)
