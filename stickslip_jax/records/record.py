@@ -42,13 +42,15 @@ def _array(name, value, n=None):
     return a
 
 
-def _positive(name, value):
+def _positive(name, value, zero: bool = False):
+    """`value` as a finite number > 0 (>= 0 with `zero`), else a RecordError naming it."""
     try:
         v = float(value)
     except (TypeError, ValueError):
         raise RecordError(f"{name} must be a number, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise RecordError(f"{name} must be positive and finite, got {v}")
+    if not (math.isfinite(v) and (v >= 0 if zero else v > 0)):
+        rule = "finite and >= 0" if zero else "positive and finite"
+        raise RecordError(f"{name} must be {rule}, got {v}")
     return v
 
 
@@ -142,13 +144,7 @@ class Record:
             if getattr(self, name) is not None:
                 put(name, _positive(name, getattr(self, name)))
         if self.drive_speed is not None:
-            try:
-                v = float(self.drive_speed)
-            except (TypeError, ValueError):
-                raise RecordError(f"drive_speed must be a number, got {self.drive_speed!r}")
-            if not (math.isfinite(v) and v >= 0):
-                raise RecordError(f"drive_speed must be finite and >= 0, got {v}")
-            put("drive_speed", v)
+            put("drive_speed", _positive("drive_speed", self.drive_speed, zero=True))
         if self.drive is not None:
             put("drive", _array("drive", self.drive, n))
         if self.drive_program is not None:
