@@ -29,12 +29,10 @@ def format_record(record: Record, deflection_unit: str = "mm", time_unit: str = 
         f_force = None if force_unit is None else factor(force_unit, "force")
     except UnitError as exc:
         raise RecordError(f"write_record: {exc}") from None
-    if channel_units is None:
-        ch_units = {n: internal_channel_unit(u) for n, u in record.channel_units.items()}
-    elif channel_units == "original":
+    ch_units = {n: internal_channel_unit(u) for n, u in record.channel_units.items()}
+    if channel_units == "original":
         ch_units = dict(record.channel_units)
-    else:
-        ch_units = {n: internal_channel_unit(u) for n, u in record.channel_units.items()}
+    elif channel_units is not None:
         for n, u in dict(channel_units).items():
             if n not in ch_units:
                 raise RecordError(f"write_record: no channel {n!r}")
@@ -45,12 +43,9 @@ def format_record(record: Record, deflection_unit: str = "mm", time_unit: str = 
     out = [f"# stickslip-record: {FORMAT_VERSION}"]
     out.append(f"# stiffness: {fmt(record.stiffness)} kgf/mm")
     out.append(f"# slider_weight: {fmt(record.weight)} kgf")
-    if record.normal_load is not None:
-        out.append(f"# normal_load: {fmt(record.normal_load)} kgf")
-    if record.friction_radius is not None:
-        out.append(f"# friction_radius: {fmt(record.friction_radius)} mm")
-    if record.drive_speed is not None:
-        out.append(f"# drive_speed: {fmt(record.drive_speed)} mm/s")
+    for key, unit in (("normal_load", "kgf"), ("friction_radius", "mm"), ("drive_speed", "mm/s")):
+        if getattr(record, key) is not None:
+            out.append(f"# {key}: {fmt(getattr(record, key))} {unit}")
     if record.drive_program is not None:
         out.append(f"# drive_program: {format_drive_program(record.drive_program)}")
     for key in ("lubricant", "surface", "note"):
@@ -61,7 +56,6 @@ def format_record(record: Record, deflection_unit: str = "mm", time_unit: str = 
         out.append(f"# truth: {json.dumps(record.truth)}")
     for key, value in record.extra_header.items():
         out.append(f"# {key}: {value}")
-    names = ["time"]
     cols = [encode(record.time, f_time)]
     heads = [f"time [{time_unit}]"]
     if f_force is None:
@@ -70,7 +64,6 @@ def format_record(record: Record, deflection_unit: str = "mm", time_unit: str = 
     else:
         cols.append(record.force / f_force)
         heads.append(f"force [{force_unit}]")
-    names.append("x")
     if record.drive is not None:
         cols.append(encode(record.drive, f_drive))
         heads.append(f"drive [{drive_unit}]")
