@@ -11,9 +11,10 @@
 | `pitch.png` | `stickslip pitch --fit` on two synthetic records with tilt channels |
 | `fit_batch.png` | `stickslip fit-batch` of the shipped campaign, whole and per spring |
 
-Each figure gets a caption strip at its foot saying what data made it (`CAPTIONS`; the
-pixels above it are the command's own). The script first prints the machine (CPU model,
-cores, date, jax version and backend), then the time and size of each figure.
+Each figure gets a caption strip at its foot saying what data made it (`CAPTIONS`) and on
+which machine (CPU model, cores, date, jax version and backend); the pixels above it are
+the command's own. The script first prints the machine, then the time and size of each
+figure.
 
     .venv/bin/python docs/make_figures.py [NAME ...]   # all, or only these (fit, design, ...)
 """
@@ -86,16 +87,16 @@ def png_dpi(path: pathlib.Path) -> int:
 
 
 def add_caption(path: pathlib.Path, text: str) -> None:
-    """Append a caption strip with `text` below the PNG at `path`; the pixels above are
-    copied unchanged (`figimage` at the PNG's own size and resolution), then the whole
-    stored with a 256-colour palette (`compact`)."""
+    """Append a caption strip with `text` (one or more lines) below the PNG at `path`; the
+    pixels above are copied unchanged (`figimage` at the PNG's own size and resolution),
+    then the whole stored with a 256-colour palette (`compact`)."""
     import matplotlib.image as mpimg
     from matplotlib.figure import Figure
 
     dpi = png_dpi(path)
     img = mpimg.imread(str(path))
     h, w = img.shape[:2]
-    strip = int(round(0.3 * dpi))  # one line of 8-point text and its margins
+    strip = int(round((0.15 + 0.15 * (text.count("\n") + 1)) * dpi))  # 8-point lines, margins
     fig = Figure(figsize=(w / dpi, (h + strip) / dpi), dpi=dpi, facecolor="white")
     fig.figimage(img, 0, strip, origin="upper")
     fig.text(0.01, 0.5 * strip / (h + strip), text, fontsize=8, va="center", ha="left",
@@ -226,7 +227,7 @@ def main(argv=None) -> int:
                 raise SystemExit(f"{name}: stickslip exited {rc}")
             if name == "mcmc_corner":
                 _corner(pathlib.Path(tmp), out)
-            add_caption(out, CAPTIONS[name])
+            add_caption(out, f"{CAPTIONS[name]}\nDrawn by docs/make_figures.py; {machine()}.")
             print(f"{name}: {time.perf_counter() - t0:.1f} s, {out.stat().st_size / 1024:.0f} KiB",
                   flush=True)
     print(f"all: {time.perf_counter() - total:.1f} s", flush=True)
