@@ -67,12 +67,15 @@ their old names, still written beside them for one release (`deprecated_keys`); 
 columns (`design.netcdf.VARIABLES`) have the new names only."""
 
 
-def parse_grid(text: str, dimension: str, default_unit: str, arg: str) -> np.ndarray:
+def parse_grid(text, dimension: str, default_unit: str, arg: str) -> np.ndarray:
     """``"36"``, ``"10:60:50"``, ``"0.01:50:30:log"``, each optionally followed by a unit
-    (``"0.5:20:10 um/s"``) -> 1-D array in internal units (linear or log spacing)."""
+    (``"0.5:20:10 um/s"``) -> 1-D array in internal units (linear or log spacing); numbers
+    (not text) are taken in internal units. Values must be finite and positive."""
     from stickslip_jax.units import UnitError, parse_quantity
 
-    text = str(text).strip()
+    if not isinstance(text, str):
+        return _positive(text, arg, text)
+    text = text.strip()
     parts = text.split(None, 1)
     spec, unit = parts[0], (parts[1] if len(parts) > 1 else default_unit)
     fields = spec.split(":")
@@ -146,9 +149,7 @@ class MapOptions:
         """N in kgf (`normal_load` read with its unit), or None."""
         if self.normal_load is None:
             return None
-        values = (parse_grid(self.normal_load, "force", "kgf", "--normal-load")
-                  if isinstance(self.normal_load, str)
-                  else _positive(self.normal_load, "--normal-load", self.normal_load))
+        values = parse_grid(self.normal_load, "force", "kgf", "--normal-load")
         if values.size != 1:
             raise ValueError(f"--normal-load: one value, got {self.normal_load!r}")
         return float(values[0])
@@ -158,14 +159,8 @@ class MapOptions:
 
     def axes(self) -> dict[str, np.ndarray]:
         """{axis: 1-D values in internal units (kgf, kgf/mm, mm/s)}."""
-        out = {}
-        for name, (dim, unit) in DIMENSIONS.items():
-            value = getattr(self, name)
-            if isinstance(value, str):
-                out[name] = parse_grid(value, dim, unit, f"--{name}")
-            else:
-                out[name] = _positive(value, f"--{name}", value)
-        return out
+        return {name: parse_grid(getattr(self, name), dim, unit, f"--{name}")
+                for name, (dim, unit) in DIMENSIONS.items()}
 
     @property
     def source(self) -> str:
