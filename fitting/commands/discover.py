@@ -29,7 +29,6 @@ that they agree)."""
 
 
 def add_arguments(parser):
-    CHOICES = EFFECTS
     parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
     parser.add_argument("--strict", action="store_true",
                         help="refuse the campaign when any record has no usable stick-slip "
@@ -52,7 +51,7 @@ def add_arguments(parser):
                         help="how many candidates to refit after the score test (default 3)")
     parser.add_argument("--threshold", type=float, default=None,
                         help="--base smooth: BIC drop needed to name an effect (default 10)")
-    parser.add_argument("--only", action="append", choices=CHOICES, default=None,
+    parser.add_argument("--only", action="append", choices=EFFECTS, default=None,
                         metavar="EFFECT", help="consider only these effects (repeatable)")
     parser.add_argument("--crop", choices=("slip_end", "none"), default=None,
                         help="--base smooth: start each record at its first slip end "
@@ -86,12 +85,10 @@ def run(args) -> int:
 
     from stickslip_jax.records import read_campaign_files
 
-    if args.top < 1:
-        raise ValueError(f"--top: must be at least 1, got {args.top}")
-    if args.max_evals < 2:
-        raise ValueError(f"--max-evals: must be at least 2, got {args.max_evals}")
-    if args.max_effects < 1:
-        raise ValueError(f"--max-effects: must be at least 1, got {args.max_effects}")
+    for option, value, least in (("--top", args.top, 1), ("--max-evals", args.max_evals, 2),
+                                 ("--max-effects", args.max_effects, 1)):
+        if value < least:
+            raise ValueError(f"{option}: must be at least {least}, got {value}")
     from stickslip_fitting.modes import DiscoveryBase
 
     cycle = DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE
