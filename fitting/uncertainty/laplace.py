@@ -399,10 +399,6 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         lo_hi = PHYSICAL_RANGE.get(n)
         wild = bool(free[i]) and lo_hi is not None and not lo_hi[0] <= value[i] <= lo_hi[1]
         if wild:  # the value is not printed: it is no estimate
-            warnings.append(
-                f"{n}: the fit left the physical range {lo_hi[0]:g}-{lo_hi[1]:g}: "
-                "the campaign does not determine it (or the model does not describe the "
-                "records); not identifiable.")
             reasons.setdefault(n, f"the fit left the physical range {lo_hi[0]:g}-{lo_hi[1]:g}")
         identifiable[n] = not (bad_num or flat or wild or (n in flagged and free[i]))
         if flat:
@@ -410,14 +406,6 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
         elif bad_num:
             reasons.setdefault(n, f"relative standard error {log_se[i]:.2g} > "
                                   f"{max_relative_se}")
-        if flat and n not in flagged:
-            warnings.append(
-                f"{n}: not identifiable from this campaign (the residuals do not change with "
-                "it at the fitted point); its value is only a placeholder.")
-        elif bad_num and n not in flagged:
-            warnings.append(
-                f"{n}: not identifiable from this campaign (relative standard error "
-                f"{log_se[i]:.2g} > {max_relative_se}); its value is only a placeholder.")
     # a parameter with a share in a direction the records do not see at all (a zero
     # eigenvalue of the information: e.g. m = 0 makes mu_s and gamma one number) has no
     # standard error, whatever the pseudo-inverse gives it
@@ -427,11 +415,6 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
             partners = [names[b] for jj, b in enumerate(idx) if b != a and null[jj] > NULL_SHARE]
             reasons[names[a]] = ("determined only together with " + ", ".join(partners)
                                  if partners else "the residuals do not change with it")
-            warnings.append(
-                f"{names[a]}: the records do not determine it"
-                + (f" apart from {', '.join(partners)}" if partners else "")
-                + " (a direction of the parameters the residuals do not change along at "
-                "all); not identifiable.")
     # a parameter tied (|r| > 0.999) to one the campaign does not determine is not
     # determined either (the pseudo-inverse gives it the other's sliver of variance)
     for a in range(P):
@@ -441,12 +424,13 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
             if tied:
                 identifiable[names[a]] = False
                 reasons[names[a]] = f"determined only together with {', '.join(tied)}"
-                warnings.append(f"{names[a]}: determined only together with {', '.join(tied)} "
-                                "(|r| > 0.999), which this campaign does not determine; "
-                                "not identifiable.")
+    # one line per parameter the records do not determine (the design's own lines above
+    # say why for those it flagged); its value is never given
+    warnings += [f"{n}: not identifiable ({why}); no value is given."
+                 for n, why in reasons.items() if n not in flagged]
     for a in range(P):
         for b in range(a + 1, P):
-            if free[a] and free[b] and abs(corr[a, b]) > 0.95:
+            if identifiable[names[a]] and identifiable[names[b]] and abs(corr[a, b]) > 0.95:
                 warnings.append(
                     f"{names[a]} and {names[b]} are strongly correlated (r = {corr[a, b]:+.3f}): "
                     "the campaign determines a combination of them better than either.")
