@@ -20,8 +20,7 @@ from .grammar import (COLUMN, FORMAT_VERSION, HEADER, KEY, KNOWN_KEYS, MAX_FILE_
 from .quantities import channel_factor, quantity, unit_choices
 from .record import Record
 from .rows import parse_data, resolution_of
-from .sampling import (EPOCH_SECONDS, TIME_STEP_RTOL, jitter_grid, missing_samples,
-                       time_step_deviation)
+from .sampling import TIME_STEP_RTOL, time_step_deviation, uniform_clock
 
 _DIMENSIONS = {"time": "time", "deflection": "length", "force": "force", "drive": "length",
                "drive_speed": "speed"}
@@ -275,19 +274,11 @@ def _clock(data, rows, lines, j: int, time_factor: float, path: str, notes: list
             f"time does not increase: {float(time[r + 1]):.10g} s after {float(time[r]):.10g} s "
             f"(line {rows[r]}); sort the rows and remove duplicates", path,
             rows[r + 1])
-    if time[0] > EPOCH_SECONDS:  # logger epoch stamps: count from the first sample
-        notes.append(f"time counted from the first time stamp ({float(time[0])!r} s)")
-        time = time - time[0]
-        data[:, j] = time
-    for regrid in (missing_samples, jitter_grid):  # a logger's dropped samples, jitter
-        got = regrid(time)
-        if got is None:
-            continue
-        grid, note = got
-        data = np.column_stack([grid if c == j else np.interp(grid, time, data[:, c])
-                                for c in range(data.shape[1])])
-        notes.append(note)
-        time = data[:, j]  # uniform now: the line numbers below are not needed again
+    # epoch stamps, a logger's dropped samples and jitter; if resampled, the clock is
+    # uniform now: the line numbers below are not needed again
+    time, cols = uniform_clock(time, [data[:, c] for c in range(data.shape[1]) if c != j],
+                               notes)
+    data = np.column_stack(cols[:j] + [time] + cols[j:])
     dev, r, dt = time_step_deviation(time)
     if not dev <= TIME_STEP_RTOL:
         msg = (f"time is uneven: the step to this line is {steps[r]:.6g} s against the mean "

@@ -19,8 +19,7 @@ from .drive import check_program, program_position, program_speed
 from .errors import RecordError
 from .grammar import KEY, KNOWN_KEYS, NAME, RESERVED_COLUMNS
 from .quantities import channel_dimension
-from .sampling import (EPOCH_SECONDS, TIME_STEP_RTOL, jitter_grid, missing_samples, resample_to,
-                       time_step_deviation)
+from .sampling import TIME_STEP_RTOL, time_step_deviation, uniform_clock
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -321,22 +320,12 @@ class Record:
             float(mass) * G_MM_S2 if not isinstance(mass, str) else
             q(mass, "mass", "mass") * G_MM_S2)
         notes = list(fields.pop("notes", ()))
-        if t.ndim == 1 and t.size and t[0] > EPOCH_SECONDS:
-            notes.append(f"time counted from the first time stamp ({float(t[0])!r} s)")
-            t = t - t[0]
-        if t.ndim == 1 and t.size > 2 and np.all(np.diff(t) > 0) and x.shape == t.shape:
-            for regrid in (missing_samples, jitter_grid):  # dropped samples, then jitter
-                got = regrid(t)
-                if got is None:
-                    continue
-                grid, note = got
-                x = np.interp(grid, t, x)
-                u = None if u is None else np.interp(grid, t, u)
-                if isinstance(fields.get("channels"), Mapping):
-                    fields["channels"] = {k: resample_to(grid, t, v)
-                                          for k, v in fields["channels"].items()}
-                notes.append(note)
-                t = grid
+        if t.ndim == 1 and x.shape == t.shape:  # epoch stamps, dropped samples, jitter
+            channels = fields.get("channels")
+            names = list(channels) if isinstance(channels, Mapping) else []
+            t, (x, u, *values) = uniform_clock(t, [x, u, *(channels[k] for k in names)], notes)
+            if names:
+                fields["channels"] = dict(zip(names, values))
         return cls(time=t, deflection=x, stiffness=k, weight=w,
                    drive_speed=q(drive_speed, "speed", "drive_speed"), drive=u,
                    normal_load=q(normal_load, "force", "normal_load"),

@@ -130,6 +130,25 @@ def missing_samples(time: np.ndarray) -> tuple[np.ndarray, str] | None:
                   + jitter)
 
 
+def uniform_clock(time: np.ndarray, columns: list, notes: list[str]) -> tuple[np.ndarray, list]:
+    """(time, columns) with a logger's clock read as it was meant, each repair said in
+    `notes`: epoch stamps counted from the first (`EPOCH_SECONDS`), then, for strictly
+    increasing stamps, dropped samples put back (`missing_samples`) and jitter evened out
+    (`jitter_grid`), the `columns` (arrays at the stamps) linearly interpolated to the new
+    grid (anything else passed on, `resample_to`)."""
+    if time.size and time[0] > EPOCH_SECONDS:
+        notes.append(f"time counted from the first time stamp ({float(time[0])!r} s)")
+        time = time - time[0]
+    if time.size > 2 and np.all(np.diff(time) > 0):
+        for regrid in (missing_samples, jitter_grid):
+            got = regrid(time)
+            if got is not None:
+                columns = [resample_to(got[0], time, c) for c in columns]
+                notes.append(got[1])
+                time = got[0]
+    return time, columns
+
+
 def time_step_deviation(time: np.ndarray) -> tuple[float, int, float]:
     """(max relative deviation |dt_i - dt|/dt, index i of the worst step, mean step dt)."""
     dt = (time[-1] - time[0]) / (time.shape[0] - 1)
