@@ -337,9 +337,7 @@ def steps_text(steps, decision, gap_before, gap_after, noise,
             f"{gap_before * um:.3g} um with the paper's model to " + ", then ".join(
                 f"{s.gap_after * um:.3g} um with {s.family.name} ("
                 + (s.shape.label(s.family) + "; " if s.shape.label(s.family) else "")
-                + (", ".join(estimate_text(effect_estimate(p, u, v, e, b)) for p, u, v, e, b
-                             in zip(*s.family.named(s.shape), s.values, s.stderr,
-                                    s.family.support()))
+                + (", ".join(map(estimate_text, effect_rows(s, 1)))
                    if not s.family.per_record else "per record") + ")" for s in steps)
             + f" (noise {noise * um:.3g} um; {gap_after * um:.3g} um in the final fit).")
     gone = [d for s in steps for d in s.dropped]
@@ -375,8 +373,7 @@ def explanation_text(effect, chosen, decision, gap_before, gap_after, noise, pat
                      f"{gap_after * um:.3g} um")
         return text + "."
     f = chosen.family
-    sizes = ", ".join(estimate_text(effect_estimate(p, u, v, s, b)) for p, u, v, s, b in
-                      zip(*f.named(chosen.shape), chosen.values, chosen.stderr, f.support()))
+    sizes = ", ".join(map(estimate_text, effect_rows(chosen, 1)))
     text = (f"{f.explanation} Adding {f.name} ({chosen.shape.label(f) or 'no shape'}"
             f"{'; ' + sizes if not f.per_record else ''}) lowers chi-square by "
             f"{chosen.drop:.0f} and the residual RMS from {gap_before * um:.3g} um to "
