@@ -125,11 +125,6 @@ def check_domain(values: Mapping[str, np.ndarray], source: str) -> None:
                          "mu_s > mu_d")
 
 
-def samples_from_json(obj, source: str = "JSON") -> Friction:
-    """A sample from a parsed JSON object in one of the layouts of the module docstring."""
-    return _from_json(obj, source, None)
-
-
 def summary_from_json(obj) -> dict[str, tuple[float, float]] | None:
     """``{name: (median, sd)}`` from a posterior *summary* such as `stickslip mcmc --json`
     writes (``{"parameters": {"mu_s": {"median": .., "sd": ..}, ...}}``), else None."""
@@ -141,7 +136,9 @@ def summary_from_json(obj) -> dict[str, tuple[float, float]] | None:
     return {str(k): (float(v["median"]), float(v["sd"])) for k, v in params.items()}
 
 
-def _from_json(obj, source, fixed):
+def samples_from_json(obj, source: str = "JSON", fixed=None) -> Friction:
+    """A sample from a parsed JSON object in one of the layouts of the module docstring
+    (`fixed`: the values of parameters held fixed, where the object does not say)."""
     if isinstance(obj, Mapping) and "samples" not in obj and summary_from_json(obj):
         raise ValueError(
             f"{source}: a posterior summary (median, sd per parameter) without draws; "
@@ -156,7 +153,7 @@ def _from_json(obj, source, fixed):
             if key in obj:
                 inner = obj[key]
                 if isinstance(inner, Mapping) or names is None:
-                    return _from_json(inner, source, fixed)
+                    return samples_from_json(inner, source, fixed)
                 names = list(names)
                 try:
                     mat = np.asarray(inner, dtype=float)
