@@ -19,10 +19,6 @@ from .record import Record
 
 def record_paths(spec) -> list[Path]:
     """The record files a campaign spec names (files, folders, globs; `read_campaign`)."""
-    return _expand(spec)
-
-
-def _expand(spec) -> list[Path]:
     if isinstance(spec, (str, os.PathLike)):
         p = Path(spec)
         if p.is_dir():
@@ -43,7 +39,7 @@ def _expand(spec) -> list[Path]:
         for item in spec:
             if not isinstance(item, (str, os.PathLike)):
                 raise RecordError(f"campaign entries must be paths, got {item!r}")
-            out.extend(_expand(item))
+            out.extend(record_paths(item))
         return out
     raise RecordError(f"a campaign is a path, a glob or a list of them, got {spec!r}")
 
@@ -106,7 +102,7 @@ def read_campaign_files(spec, *, max_bytes: int = MAX_FILE_BYTES,
     raises `RecordError` (the campaign as given is wrong), and so do records of another
     rig (`rig_problems`) or of another value of a field in `same` where given (`same=None`:
     no such check)."""
-    files = _expand(spec)
+    files = record_paths(spec)
     if not files:
         raise RecordError("the campaign is empty; give at least one record file")
     seen = {}

@@ -51,10 +51,17 @@ def program_position(program, t) -> np.ndarray:
     return u
 
 
-def parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]:
+def parse_drive_program(text: str, path=None, line: int | None = None
+                        ) -> tuple[tuple[float, float], ...]:
+    """Parse `"0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min"` into ((start s, speed mm/s), ...).
+
+    The syntax of the `drive_program` header (also for a command-line option); raises
+    `RecordError` (a `ValueError`) saying what to fix (and the file `path` and `line` where
+    the header stands).
+    """
     segs = []
     hint = "write e.g. 'drive_program: 0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min'"
-    for part in text.split(";"):
+    for part in str(text).split(";"):
         m = SEGMENT.fullmatch(part)
         if m is None:
             raise RecordError(f"drive_program: cannot read segment {part.strip()!r} as "
@@ -65,15 +72,6 @@ def parse_program(text: str, path, line: int) -> tuple[tuple[float, float], ...]
         return check_program(segs)
     except RecordError as exc:
         raise RecordError(f"{exc.reason}; {hint}", path, line) from None
-
-
-def parse_drive_program(text: str) -> tuple[tuple[float, float], ...]:
-    """Parse `"0 s 1 mm/min; 30 s 0 mm/min; 60 s 1 mm/min"` into ((start s, speed mm/s), ...).
-
-    The syntax of the `drive_program` header (also for a command-line option); raises
-    `RecordError` (a `ValueError`) saying what to fix.
-    """
-    return parse_program(str(text), None, None)
 
 
 def format_drive_program(program, speed_unit: str = "mm/s", time_unit: str = "s") -> str:

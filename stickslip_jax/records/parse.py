@@ -13,7 +13,7 @@ import numpy as np
 from ..rigs import RIG_COLUMNS, rig_header
 from ..units import G_MM_S2, UnitError, factor
 from .dialects import decode, normalise_dialect, read_bytes, spreadsheet_header, text_lines
-from .drive import parse_program, speed_position
+from .drive import parse_drive_program, speed_position
 from .errors import RecordError
 from .grammar import (COLUMN, FORMAT_VERSION, HEADER, KEY, KNOWN_KEYS, MAX_FILE_BYTES, NUMBER,
                       QUANTITY, RESERVED_COLUMNS, UNIT_CELL)
@@ -222,7 +222,7 @@ def _conditions(header, columns, path: str, column_line: int) -> dict:
             raise RecordError("drive_speed must be >= 0", path, v_line)
     program = None
     if "drive_program" in header:
-        program = parse_program(header["drive_program"][0], path, header["drive_program"][1])
+        program = parse_drive_program(header["drive_program"][0], path, header["drive_program"][1])
     if drive_speed is None and program is None and not {"drive", "drive_speed"} & set(columns):
         raise RecordError("no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line, "
                           "a 'drive [mm]' column or a 'drive_speed [mm/s]' column", path,
