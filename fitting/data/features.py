@@ -164,12 +164,6 @@ class RecordFeatures:
         return int(np.count_nonzero(self.complete))
 
 
-def _empty(name, weight, stiffness, speed, omega0, noise, n, message):
-    e = np.zeros(0)
-    return RecordFeatures(name, weight, stiffness, speed, omega0, noise, n, False, message,
-                          e, e, e, e, e, e, e, e, e, np.zeros(0, bool))
-
-
 def extract_cycles(time, deflection, *, weight: float, stiffness: float, drive,
                    name: str = "record", threshold: float | None = None, min_cycles: int = 2,
                    correct_drive: bool = True, _note: str | None = None) -> RecordFeatures:
@@ -258,8 +252,11 @@ class _Prepared:
     found: SlipSearch
 
     def empty(self, message: str) -> RecordFeatures:
-        return _empty(self.name, self.weight, self.stiffness, self.speed, self.omega0,
-                      self.sigma, self.n, message)
+        """The features of a record without stick-slip cycles, `message` saying why."""
+        e = np.zeros(0)
+        return RecordFeatures(self.name, self.weight, self.stiffness, self.speed, self.omega0,
+                              self.sigma, self.n, False, message, e, e, e, e, e, e, e, e, e,
+                              np.zeros(0, bool))
 
     @property
     def floor(self) -> float:
