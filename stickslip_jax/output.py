@@ -92,41 +92,35 @@ infinite, its place and why (`null_reasons`)."""
 def null_reasons(obj, where: str = "") -> dict[str, str]:
     """{place of the value ("results[0].critical_speed_mm_min"): why it is null} for every
     NaN or infinity in `obj` (which `strict_json` writes as null)."""
-    if isinstance(obj, float):
-        if math.isnan(obj):
-            return {where: "not defined for these inputs (NaN)"}
-        if math.isinf(obj):
-            return {where: ("infinite" if obj > 0 else "minus infinite") + " for these inputs"}
-        return {}
-    out = {}
-    if isinstance(obj, dict):
-        for k, v in obj.items():
-            out.update(null_reasons(v, f"{where}.{k}" if where else str(k)))
-    elif isinstance(obj, (list, tuple)):
-        for i, v in enumerate(obj):
-            out.update(null_reasons(v, f"{where}[{i}]"))
-    return out
+    reasons: dict[str, str] = {}
+    strict_json(obj, reasons, where)
+    return reasons
 
 
 def _explained(obj):
     """`strict_json(obj)`, and a document (dict) with nulls made of NaN or infinity gets
     `NULL_REASONS`: where each is and why (strict JSON has no NaN; a bare null would not
     say whether a value is missing or undefined)."""
-    reasons = null_reasons(obj) if isinstance(obj, dict) else {}
-    out = strict_json(obj)
+    reasons: dict[str, str] = {}
+    out = strict_json(obj, reasons if isinstance(obj, dict) else None)
     if reasons:
         out[NULL_REASONS] = {**out.get(NULL_REASONS, {}), **reasons}
     return out
 
 
-def strict_json(obj):
-    """`obj` with every NaN or infinity replaced by None (strict JSON has neither)."""
+def strict_json(obj, reasons: dict[str, str] | None = None, where: str = ""):
+    """`obj` with every NaN or infinity replaced by None (strict JSON has neither); each
+    one's place (`where` the place of `obj`) and why are added to `reasons` when given."""
     if isinstance(obj, float):
+        if not math.isfinite(obj) and reasons is not None:
+            reasons[where] = ("not defined for these inputs (NaN)" if math.isnan(obj) else
+                              ("infinite" if obj > 0 else "minus infinite") + " for these inputs")
         return obj if math.isfinite(obj) else None
     if isinstance(obj, dict):
-        return {k: strict_json(v) for k, v in obj.items()}
+        return {k: strict_json(v, reasons, f"{where}.{k}" if where else str(k))
+                for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
-        return [strict_json(v) for v in obj]
+        return [strict_json(v, reasons, f"{where}[{i}]") for i, v in enumerate(obj)]
     return obj
 
 
