@@ -47,9 +47,16 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     levels = FeaturesObjective(fit.data).split(res)["levels"].reshape(level_sd.shape) * level_sd
     mask = np.asarray(fit.data.has_end) | np.asarray(fit.data.has_next)  # on the host
     rms = float(np.sqrt(np.mean(levels[mask] ** 2))) if mask.any() else float("nan")
+    steady = boundary_check(fit.params.friction.friction(), campaign)
+    unknown = [n for n, ok in unc.identifiable.items() if not ok]
+    if unknown:  # the boundary of a model the records do not determine predicts nothing
+        steady = [dict(s, predicted_amplitude_um=None, critical_speed_mm_per_min=None,
+                       misfit=None, message=f"{s['name']}: slides steadily; not compared with "
+                       f"the fitted model ({', '.join(unknown)} not identifiable)")
+                  for s in steady]
     out = {"model": model, "parameters": params, "records": _record_rows(fit, campaign),
            "records_not_used": sum(s.status != "used" for s in campaign.screening),
-           "steady_records": boundary_check(fit.params.friction.friction(), campaign),
+           "steady_records": steady,
            "residual_rms_mm": rms, "chi2": fit.chi2, "dof": fit.dof,
            "reduced_chi2": fit.reduced_chi2, "converged": fit.converged,
            "objective": fit.objective.describe(), "loss": loss_of(fit.objective).spec(),
