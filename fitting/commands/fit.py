@@ -48,49 +48,26 @@ def add_arguments(parser):
 def add_campaign_fit_arguments(parser, *, objective_help: str, strict_help: str,
                                old_offset_name: bool = True):
     """The options of one campaign's fit (--model, --gauge-offset, --slip-time,
-    --objective, --strict, --fix, --loss, --eta, --surface): shared by `stickslip fit`
-    and `fit-batch`, each with its own help for --objective and --strict."""
-    parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
-                        help="static-friction law: eq (1) (default) or the microsqueeze law")
-    add_gauge_offset_argument(parser, old_name=old_offset_name)
-    add_slip_time_argument(parser)
-    add_objective_argument(parser, help=objective_help)
-    parser.add_argument("--strict", action="store_true", help=strict_help)
-    add_model_arguments(parser)
-
-
-def add_objective_argument(parser, help: str):
-    """--objective (`stickslip_fitting.modes.Objective`'s values, default "features"):
-    shared by `fit` and `mcmc`, each with its own help."""
-    parser.add_argument("--objective", choices=Objective.choices(),
-                        default=Objective.FEATURES.value, help=help)
-
-
-def add_slip_time_argument(parser):
-    """--slip-time (`stickslip_jax.modes.SlipTime`'s values): shared by `fit` and `mcmc`."""
-    parser.add_argument("--slip-time", choices=SlipTime.choices(), default=SlipTime.PAPER.value,
-                        help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
-
-
-def add_gauge_offset_argument(parser, old_name: bool = True):
-    """--gauge-offset (old name --offset, hidden, unless `old_name` is False: a command
-    newer than the rename; `stickslip_jax.modes.GaugeOffset`'s values): shared by
-    `stickslip fit`, `mcmc` and `fit-batch`."""
+    --objective, --strict, --fix, --loss, --eta, --surface): shared by `stickslip fit`,
+    `mcmc` and `fit-batch`, each with its own help for --objective and --strict; the
+    hidden old name --offset of --gauge-offset unless `old_offset_name` is False (a
+    command newer than the rename)."""
     import argparse
 
+    parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
+                        help="static-friction law: eq (1) (default) or the microsqueeze law")
     parser.add_argument("--gauge-offset", dest="offset", choices=GaugeOffset.choices(),
                         default=GaugeOffset.ZERO.value,
                         help="gauge offset: trust the zero (default), or read it from the first "
                         "sample of records that start with the spring relaxed")
-    if not old_name:
-        return
-    # the old name (`stickslip pitch --drive-offset` is a length: one name per concept)
-    parser.add_argument("--offset", dest="offset", choices=GaugeOffset.choices(),
-                        default=argparse.SUPPRESS, help=argparse.SUPPRESS)
-
-
-def add_model_arguments(parser):
-    """--fix, --eta, --surface: shared by `stickslip fit` and `stickslip mcmc`."""
+    if old_offset_name:  # the old name (pitch's --drive-offset is a length: one name a concept)
+        parser.add_argument("--offset", dest="offset", choices=GaugeOffset.choices(),
+                            default=argparse.SUPPRESS, help=argparse.SUPPRESS)
+    parser.add_argument("--slip-time", choices=SlipTime.choices(), default=SlipTime.PAPER.value,
+                        help="T2 in eq (3): pi/omega0 (eq 7, default) or the actual slip time")
+    parser.add_argument("--objective", choices=Objective.choices(),
+                        default=Objective.FEATURES.value, help=objective_help)
+    parser.add_argument("--strict", action="store_true", help=strict_help)
     parser.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                         help="hold a parameter fixed, e.g. --fix n=1 (repeatable)")
     parser.add_argument("--loss", default="gaussian", metavar="NAME[:PARAMETER]",

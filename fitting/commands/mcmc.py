@@ -25,29 +25,20 @@ HELP = "sample the posterior of the friction parameters (emcee) for a campaign o
 
 
 def add_arguments(parser):
+    from .fit import add_campaign_fit_arguments
+
     parser.add_argument("records", nargs="+", help="record CSV files, directories or globs")
-    parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
-                        help="static-friction law: eq (1) (default) or the microsqueeze law")
+    add_campaign_fit_arguments(
+        parser, objective_help="the likelihood: the cycle features (default), every sample "
+        "of the traces (exact simulator restarted per cycle), both, or whole records "
+        "(smoothed simulator); all but features are tempered to the cluster-robust intervals",
+        strict_help="refuse the campaign when any record has no usable stick-slip (default: "
+                    "sample with the records that have it, list the others)")
     parser.add_argument("--walkers", type=int, default=32, help="ensemble size (default 32)")
     parser.add_argument("--steps", type=int, default=3000, help="steps per walker (default 3000)")
     parser.add_argument("--burn", type=int, default=None, help="steps discarded (default steps/4)")
     parser.add_argument("--seed", type=int, default=0,
                         help="random seed of the walkers' start and moves (0 to 2**32 - 1)")
-    from .fit import add_gauge_offset_argument, add_objective_argument, add_slip_time_argument
-
-    add_gauge_offset_argument(parser)
-    add_slip_time_argument(parser)
-    add_objective_argument(
-        parser, help="the likelihood: the cycle features (default), every sample of "
-                  "the traces (exact simulator restarted per cycle), both, or whole "
-                  "records (smoothed simulator); all but features are tempered to the "
-                  "cluster-robust intervals")
-    parser.add_argument("--strict", action="store_true",
-                        help="refuse the campaign when any record has no usable stick-slip "
-                        "(default: sample with the records that have it, list the others)")
-    from .fit import add_model_arguments
-
-    add_model_arguments(parser)
     from stickslip_jax.commands.options import add_json_option, add_plot_option, add_quiet_option
 
     add_json_option(parser, "the summary and the (thinned) posterior draws (`stickslip "
