@@ -71,7 +71,8 @@ class DiscoveryOptions:
     refine_gap: float = 1.15
 
     # -- decision (stage 5) --
-    # contender's chi2 drop / winner's from which it is comparable (drifts vs screw: 0.59-0.60)
+    # contender's chi2 drop / winner's from which it is comparable (drifts vs screw: 0.59-0.60);
+    # a later effect must beat such a physical one clearly (Stribeck vs load coupling: 0.54)
     joint: float = 0.5
     # principal cosine above which two families change the traces in nearly the same way
     collinear: float = 0.9

@@ -72,8 +72,8 @@ which family is missing, and the one that lowers chi-square most is often the fl
 one standing in for the partner the first effect bent (measured, 4 records: load coupling
 -162 against the Stribeck drop's -88 beside a 20 Hz sensor; rate-and-state friction -261
 named third against load coupling's -244 after a sensor and a screw). The search stops
-there: the first effect is still named when it is not clear (with low confidence), a
-later one is not.
+there, and the answer is not certain (both are listed as not clearly beaten): the first
+effect is still named when it is not clear (with low confidence), a later one is not.
 """
 
 from __future__ import annotations
@@ -84,7 +84,7 @@ import numpy as np
 
 from stickslip_jax.lsq import gauss_newton_covariance
 
-from ..decision import Decision, rms_gap
+from ..decision import Contender, Decision, rms_gap
 from ..subproblems import SubProblem
 from .rank import held_p, rank
 from .refit import judge, prior_of, refit
@@ -213,6 +213,8 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
             clock.say(f"stop: {choice_k.chosen.family.name} (chi2 -{choice_k.chosen.drop:.0f}) "
                       f"does not clearly beat {rival.name} (chi2 -{rival.drop:.0f}, paired z "
                       f"{rival.z:.2g}): the records do not say which effect is missing")
+            unbeaten += [Contender(choice_k.chosen.family.name, choice_k.chosen.drop, 1.0,
+                                   0.0), rival]  # something significant is left unnamed
             break
         new, kept, dropped = drop_one(fx_k, choice_k.chosen, clock)
         gone = {name for name, _ in dropped}
