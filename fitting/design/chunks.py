@@ -13,6 +13,7 @@ host transfers overlap. Chunks are split over all devices by
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Iterator
 
@@ -122,14 +123,10 @@ def _gather(x, across_processes: bool) -> np.ndarray:
     return np.asarray(multihost_utils.process_allgather(x, tiled=True))
 
 
-_JIT_CACHE: dict = {}
-
-
+@functools.cache
 def _jitted(kernel):
-    fn = _JIT_CACHE.get(kernel)
-    if fn is None:
-        fn = _JIT_CACHE[kernel] = eqx.filter_jit(kernel)
-    return fn
+    """`kernel` jitted once per kernel object (its compilation reused by every map)."""
+    return eqx.filter_jit(kernel)
 
 
 def collect(chunks: Iterator[tuple[int, int, object]], shape: tuple[int, ...]):
