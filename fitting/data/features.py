@@ -126,11 +126,6 @@ class RecordFeatures:
         return self.weight if self.normal_load is None else self.normal_load
 
     @property
-    def model_slip_time(self) -> float:
-        r"""Eq (7): $T_2 = \pi/\omega_0$ in s."""
-        return math.pi / self.omega0
-
-    @property
     def mu_0(self) -> np.ndarray:
         r"""$\mu_0 = k x_2 / N$ per cycle (section 3.1, N = W; no gauge-offset correction)."""
         return self.stiffness * self.peak / self.load
