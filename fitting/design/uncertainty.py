@@ -19,7 +19,7 @@ from jaxtyping import Array, Float
 from stickslip_jax import Friction, steady_state
 
 from .chunks import collect, map_chunks
-from .points import positive
+from .points import DesignPoints, positive
 from .posterior import sample_size
 
 
@@ -38,18 +38,13 @@ class UncertainMap(eqx.Module):
     level: float = eqx.field(static=True)
 
 
-class _Points(eqx.Module):
-    weight: np.ndarray
-    stiffness: np.ndarray
-    speed: np.ndarray
-
-
 class _Shared(eqx.Module):
     sample: Friction
     quantiles: Array
 
 
-def _kernel(points: _Points, shared: _Shared):
+def _kernel(points: DesignPoints, shared: _Shared):
+    """The draws of `shared.sample` (the points carry no friction) at every point of a chunk."""
     def one(w, k, v):
         s = jax.vmap(steady_state, in_axes=(0, None, None, None))(shared.sample, w, k, v)
         q = shared.quantiles
@@ -74,7 +69,7 @@ def propagate(sample: Friction, weight, stiffness, speed, *, level: float = 0.9,
     shape = np.broadcast_shapes(w.shape, k.shape, v.shape)
     q = np.array([(1 - level) / 2, 0.5, (1 + level) / 2])
     shared = _Shared(jax.tree_util.tree_map(np.asarray, sample), q)
-    out = collect(map_chunks(_kernel, _Points(w, k, v), shape, shared=shared,
+    out = collect(map_chunks(_kernel, DesignPoints(None, w, k, v, ()), shape, shared=shared,
                              chunk_size=max(1, chunk_size // s), mesh=mesh, progress=progress,
                              desc="posterior map"),
                   shape)
