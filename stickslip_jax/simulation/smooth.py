@@ -15,9 +15,8 @@ and $\mu_{sl} = \mu_m(q, \mu_d, T_2)$ of eq (3), $T_2 = \pi/\omega_0$ (eq 7,
   creep and breaks away once $F_a$ reaches $N\mu_0(\tau)$; slips run forward only. The
   clock and the memory stop once the slider moves, $\tau$ resets in a slip at rate
   $20/T_0$, the memory catches up after a restick at rate $4/(\tau + T_0/20)$; the
-  step-size controller's error norm leaves these two states out. Samples are rendered
-  from the accepted steps by cubic Hermite interpolation, so a run costs more the larger
-  `max_steps` is (about 130-150 steps per cycle at rtol 1e-8). Measured (tests): amplitude
+  step-size controller's error norm leaves these two states out. About 130-150 steps
+  per cycle at rtol 1e-8. Measured (tests): amplitude
   error vs exact linear in $\eta$ (1.2 %, 0.10 %, 0.008 % at $\eta$ = 1e-2, 1e-3, 1e-4
   at 3 mm/min), steps independent of $\eta$, gradients within 1e-4 of finite differences
   for $\eta$ = 1e-2 ... 1e-4 at rtol 1e-9 and 1e-10.
@@ -32,6 +31,10 @@ and $\mu_{sl} = \mu_m(q, \mu_d, T_2)$ of eq (3), $T_2 = \pi/\omega_0$ (eq 7,
   breakaway is late by about $\sqrt{2\eta}/\omega_0$ (5 % amplitude near $v_c$ at
   $\eta = 0.03$), gradients match finite differences to 1e-4 for $\eta \ge 0.03$.
 
+Every formulation renders its samples from the accepted steps by cubic Hermite
+interpolation (Kvaerno5's own interpolant), so a run costs more the larger
+`max_steps` is; the simulator's program has no host callback (its concrete inputs are
+checked on the host, `check_inputs`), so JAX's persistent compilation cache keeps it.
 Gradients are taken through the solver (discretise-then-optimise). Parts with fast states
 (a 10 us sensor low-pass) make any formulation stiff: pass an implicit `solver`.
 
@@ -248,9 +251,9 @@ def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Flo
     mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
     rs = isinstance(model.slideway.friction.kinetic, RateStateKinetic)
     latch = formulation is Formulation.LATCH and not rs
-    # concrete inputs checked (`check_inputs`); the latch's rendering from the accepted
-    # steps needs sorted sample times
-    check_inputs("simulate_smooth", model.slideway, ts if latch else None)
+    # concrete inputs checked (`check_inputs`); the rendering from the accepted steps
+    # needs sorted sample times
+    check_inputs("simulate_smooth", model.slideway, ts)
     if solver is None:
         solver = dfx.Tsit5() if latch else default_solver(rtol, atol)
 
@@ -354,14 +357,11 @@ def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Flo
     controller = dfx.ClipStepSizeController(pid, jump_ts=kt) if clip else pid
     sol = dfx.diffeqsolve(
         dfx.ODETerm(vector_field), solver, t0=t0, t1=t1, dt0=dt0, y0=y0,
-        saveat=dfx.SaveAt(steps=True) if latch else dfx.SaveAt(ts=ts),
-        stepsize_controller=controller, max_steps=max_steps,
+        saveat=dfx.SaveAt(steps=True), stepsize_controller=controller, max_steps=max_steps,
         adjoint=dfx.RecursiveCheckpointAdjoint() if adjoint is None else adjoint, throw=False)
-    if latch:
-        # few, long steps: interpolating all samples at once beats SaveAt(ts)'s loop
-        core_ts, own_ts = _hermite_at(vector_field, t0, y0, sol, ts)
-    else:
-        core_ts, own_ts = sol.ys
+    # all samples at once from the steps: no loop over the samples, and no `SaveAt(ts)`,
+    # whose run-time check of the times is a host callback
+    core_ts, own_ts = _hermite_at(vector_field, t0, y0, sol, ts)
 
     def observe(t, cv, ov):
         core = make_core(cv)
