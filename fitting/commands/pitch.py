@@ -152,12 +152,16 @@ def run(args) -> int:
 
 
 def _plot(out, paths, runs, traces, names):
+    """Per record (a column): the spring force, the vertical (pitch) and horizontal (yaw)
+    displacements, model lines and measured dots, one colour per point; the legend of
+    every point below the panels, where it hides nothing."""
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
     from ..report.plots import finish_figure
 
-    fig, axes = plt.subplots(3, len(runs), figsize=(4.5 * len(runs), 8), squeeze=False,
-                             sharex="col")
+    fig, axes = plt.subplots(3, len(runs), figsize=(4.5 * len(runs), 8.4), squeeze=False,
+                             sharex="col", layout="constrained")
     for j, (path, run_, tr) in enumerate(zip(paths, runs, traces)):
         t = np.asarray(run_.time)
         axes[0, j].plot(t, np.asarray(run_.force), "k", lw=0.8)
@@ -165,15 +169,17 @@ def _plot(out, paths, runs, traces, names):
         axes[0, j].set_title(path.name, fontsize=9)
         for i, name in enumerate(names):
             ax = axes[1 if name.startswith("pitch") else 2, j]
-            (line,) = ax.plot(t, 1e3 * np.asarray(tr.displacement[:, i]), lw=1.0, label=name)
+            ax.plot(t, 1e3 * np.asarray(tr.displacement[:, i]), lw=1.0, color=f"C{i}")
             if bool(run_.observed[i]):
                 ax.plot(t, 1e3 * np.asarray(run_.displacement[:, i]), ".", ms=1.5,
-                        color=line.get_color())
+                        color=f"C{i}")
         axes[1, j].set_ylabel("vertical displacement [um]")
         axes[2, j].set_ylabel("horizontal displacement [um]")
         axes[2, j].set_xlabel("time [s]")
-        for ax in axes[1:, j]:
-            ax.legend(fontsize=7)
-    fig.suptitle("pitching (points 1-3) and yawing (4-5): model lines, measured dots")
-    fig.tight_layout()
+    handles = [Line2D([], [], lw=1.0, color=f"C{i}", label=name) for i, name in enumerate(names)]
+    handles.append(Line2D([], [], ls="none", marker=".", color="0.3", label="measured"))
+    fig.legend(handles=handles, loc="outside lower center", ncols=min(len(handles), 3 * len(runs)),
+               fontsize=8)
+    fig.suptitle("pitching (points 1-3) and yawing (4-5):" + ("\n" if len(runs) == 1 else " ")
+                 + "model lines, measured dots")
     finish_figure(fig, out, 110)

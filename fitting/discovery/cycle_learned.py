@@ -192,14 +192,14 @@ def fit_cycle_correction(data, r0: np.ndarray, Jb: np.ndarray, sd: np.ndarray,
     profile = _profile(coef)
     # where the correction (in mm, at the campaign's median climb) is largest
     corr = cols @ coef
-    parts = {"stick, early (phase 0-0.5)": (phi >= 0) & (phi < 0.5) & (psi < 0),
-             "stick, late (phase 0.5-1, before breakaway)": (phi >= 0.5) & (psi < 0),
-             "slip": (psi >= 0) & (psi <= 1.0),
+    parts = {"in the stick, early (phase 0-0.5)": (phi >= 0) & (phi < 0.5) & (psi < 0),
+             "in the stick, late (phase 0.5-1, before breakaway)": (phi >= 0.5) & (psi < 0),
+             "in the slip": (psi >= 0) & (psi <= 1.0),
              "after the slip (phase 1-1.5: settling)": (psi > 1.0)}
     rms = {k: float(np.sqrt(np.mean(corr[s] ** 2))) if s.any() else 0.0
            for k, s in parts.items()}
     where = max(rms, key=rms.get)
-    signature = (f"the correction is largest in the {where} (RMS {rms[where] * 1e3:.3g} um; "
+    signature = (f"the correction is largest {where} (RMS {rms[where] * 1e3:.3g} um; "
                  f"median climb {a_med * 1e3:.3g} um)")
     return CycleLearned(gap_before=gap_before, gap_after=gap_after, noise=float(noise),
                         n_parameters=int(used.sum()), signature=signature, profile=profile,
