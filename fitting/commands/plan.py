@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..modes import DesignCriterion
-from ..api.design import parse_grid
+from ..api.design import JSON_ALIASES, parse_grid  # the renamed keys: design's W, k, v
 
 NAME = "plan"
 HELP = ("propose the next records (W, k, v) that best identify mu_s, mu_d, gamma, m, delta, n "
@@ -103,12 +103,6 @@ def _values(text, dim, unit, arg):
 
 MAX_BUDGET = 1000
 """Most records one plan proposes (the greedy design adds them one at a time)."""
-
-
-JSON_ALIASES = {"stiffness_kgf_per_mm": "stiffness_kgf_mm",
-                "drive_speed_mm_per_min": "speed_mm_min"}
-"""JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
-their old names, still written beside them for one release (`deprecated_keys`)."""
 
 
 def run(args) -> int:
