@@ -136,11 +136,8 @@ def record_from_dataframe(cls, df, *, time, deflection, force, drive, stiffness,
                           drive_unit, extra_columns, **fields):
     """`Record.from_dataframe` (its docstring says what each argument does); `cls` is the
     record class whose `from_arrays` builds the result."""
-    try:
-        import pandas as pd
-    except ImportError:
-        raise ImportError("Record.from_dataframe needs pandas: pip install pandas "
-                          "(or pass the columns' arrays to Record.from_arrays)") from None
+    pd = pandas_module("Record.from_dataframe", "pip install pandas (or pass the columns' "
+                       "arrays to Record.from_arrays)")
     if not isinstance(df, pd.DataFrame):
         raise RecordError(f"from_dataframe needs a pandas DataFrame, got "
                           f"{type(df).__name__}")
@@ -202,13 +199,13 @@ def _channel_columns(record) -> dict[str, str]:
     return out
 
 
-def pandas_module(what: str):
-    """pandas, or an ImportError naming `what` needs it and the extra that installs it."""
+def pandas_module(what: str, how: str = 'pip install "stickslip-jax[pandas]" (or pip '
+                                         "install pandas)"):
+    """pandas, or an ImportError naming `what` needs it and `how` to install it."""
     try:
         import pandas
     except ImportError:
-        raise ImportError(f'{what} needs pandas: pip install "stickslip-jax[pandas]" (or pip '
-                          "install pandas)") from None
+        raise ImportError(f"{what} needs pandas: {how}") from None
     return pandas
 
 
