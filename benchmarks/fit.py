@@ -26,7 +26,9 @@ rounds because the machine is shared):
    rounds and tolerances, the weights of each round from our `trace_sd` (outside the
    residual function); then the same again with the slips in closed form
    (`slip="closed_form"`: NumPy, no ODE solver, brentq for the breakaway); plus the
-   combined objective ("both"), ours only;
+   combined objective ("both"), ours only; what the cold trace fit compiles (its programs
+   and the seconds of tracing, lowering and XLA compilation, from JAX's monitoring
+   events: `compile_census`);
 3. the same fits from the cache folder of the `stickslip` command (on by default: JAX's
    persistent compilation cache and the stored programs, `stickslip_jax.stored_programs`):
    the folder filled once, then the in-memory caches and loaded programs dropped and the
@@ -88,6 +90,35 @@ def best_of(fn, repeat, clear=False):
         out = fn()
         times.append(Timed(time.perf_counter() - t0, time.process_time() - c0))
     return min(times), out
+
+
+COMPILE_EVENTS = {"/jax/core/compile/jaxpr_trace_duration": "tracing",
+                  "/jax/core/compile/jaxpr_to_mlir_module_duration": "lowering",
+                  "/jax/core/compile/backend_compile_duration": "XLA"}
+"""JAX's monitoring events of a compilation and the step each times."""
+
+
+def compile_census(fn, repeat):
+    """`best_of(fn, repeat, clear=True)` and what one of those runs compiles, from JAX's
+    monitoring events (wall times): (time, result, [(program, XLA seconds)] in order,
+    {step: seconds} of tracing, lowering to StableHLO and XLA's compilation); programs
+    and seconds per run (the mean over the `repeat` runs)."""
+    from jax import monitoring
+
+    events = []
+
+    def listen(event, secs, fun_name="?", **_):
+        if event in COMPILE_EVENTS and events is not None:
+            events.append((COMPILE_EVENTS[event], fun_name, secs))
+
+    monitoring.register_event_duration_secs_listener(listen)
+    t, out = best_of(fn, repeat, clear=True)
+    found, events = events, None  # the listener stays registered, silent from here
+    per_run = len([e for e in found if e[0] == "XLA"]) // repeat
+    programs = [(name, secs) for step, name, secs in found if step == "XLA"][:per_run]
+    steps = {step: sum(s for k, _, s in found if k == step) / repeat
+             for step in COMPILE_EVENTS.values()}
+    return t, out, programs, steps
 
 
 def scipy_rounds(res_fn, aux_fn, y0, ref0, vel0, tol, max_rounds, round_tol, max_nfev=4000,
@@ -259,7 +290,8 @@ def main():
 
     # 2. trace fit: ours (features first + trace) vs SciPy from the same start
     trace, both = (dict(objective=o, records=recs) for o in (Objective.TRACE, Objective.BOTH))
-    t_tr_first, tfit = best_of(lambda: fit_features(feats, **trace), R, clear=True)
+    t_tr_first, tfit, tr_programs, tr_steps = compile_census(
+        lambda: fit_features(feats, **trace), R)
     t_tr_again, tfit = best_of(lambda: fit_features(feats, **trace), max(R, 3))
     t_both_first, bfit = best_of(lambda: fit_features(feats, **both), 1, clear=True)
     t_fit_cached, t_tr_cached = cached_fits(lambda: fit_features(feats),
@@ -370,6 +402,10 @@ def main():
           f" cycle windows, {tdata.mask.shape[0]} rows of {tdata.mask.shape[1]} "
           f"({tdata.mask.size / tdata.n_residuals():.2f}x padding); one evaluation "
           f"{t_eval * 1e3:.1f} ms")
+    print(f"cold trace fit compiles {len(tr_programs)} programs ("
+          + ", ".join(f"{n} {s:.2f} s" for n, s in tr_programs)
+          + " in XLA): " + ", ".join(f"{k} {v:.2f} s" for k, v in tr_steps.items())
+          + f" of its {t_tr_first:.2f} s (wall)")
     print(f"trace: ours {tfit.n_steps} LM steps in {tfit.n_rounds} rounds, chi2 {tfit.chi2:.3f}"
           f" (converged {tfit.converged}); SciPy {sp_tn} residual evaluations in "
           f"{sp_trounds} rounds, chi2 {sp_tchi2:.3f}; largest parameter difference "
