@@ -185,10 +185,11 @@ def parameter_table(result) -> str:
 
 def candidate_table(candidates) -> str:
     """The cycle base's candidate table: each family's robust window test (F, its p and
-    the family-wise p over every family-shape test), which test made it significant
-    ("family-wise", "per-sample" or "no": the count of the ranking's progress line) and
-    the refit's chi-square drop; then how many are significant and what the two ways of
-    being significant mean."""
+    the family-wise p over every family-shape test), its per-sample score test (p and the
+    chi-square drop it predicts), which test made it significant ("family-wise",
+    "per-sample" or "no": the count of the ranking's progress line) and the refit's
+    chi-square drop; then how many are significant by each test and what the columns
+    mean."""
     from ..discovery.stages.state import SIGNIFICANT_BY
     from ..report.rows import text_table
 
@@ -200,15 +201,24 @@ def candidate_table(candidates) -> str:
         d = "-" if c["chi2_drop"] is None else f"{c['chi2_drop']:.1f}"
         if c["unphysical"]:
             d += " unphysical"
+        predicted = c.get("chi2_drop_predicted")
         rows.append([c["name"], c["shape"] or "-", f"{c['score']:.2f}",
                      p_text(c["score_p_value"]), p_text(c.get("family_wise_p_value")),
+                     p_text(c.get("per_sample_p_value")),
+                     "-" if predicted is None else format(predicted, ".3g"),
                      c.get("significant_by") or "no", d])
     n = sum(bool(c.get("significant")) for c in candidates)
-    return (text_table(["family", "shape", "F", "p", "p family-wise", "significant",
-                        "chi2 drop"], rows, align="llrrrrr")
-            + f"\n{n} of {len(candidates)} families significant (p: the robust window "
-              "test of the family; p family-wise: over every family-shape test); "
-            + "; ".join(f"{k}: {v}" for k, v in SIGNIFICANT_BY.items()))
+    wise = sum(c.get("significant_by") == "family-wise" for c in candidates)
+    return (text_table(["family", "shape", "F", "p", "p family-wise", "p per-sample",
+                        "predicted drop", "significant", "chi2 drop"], rows,
+                       align="llrrrrrrr")
+            + f"\n{n} of {len(candidates)} families significant: {wise} family-wise, "
+              f"{n - wise} per-sample; "
+            + "; ".join(f"{k}: {v}" for k, v in SIGNIFICANT_BY.items())
+            + "\np: the robust window test of the family; p family-wise: over every "
+              "family-shape test; p per-sample and predicted drop: the per-sample score "
+              "test and the chi-square drop it predicts; chi2 drop: the refit's (0.0: the "
+              "refit did not lower it)")
 
 
 def _compare_laws(campaign):
