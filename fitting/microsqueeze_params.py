@@ -124,7 +124,7 @@ class MicrosqueezeFriction(AbstractFrictionParams):
         mu_s, mu_d = self.static_levels()
         lo, hi = c.C3 * (1 + 1e-6), c.C1 * (1 - 1e-6)
         mu_s = jnp.clip(mu_s, lo, hi)
-        t_b = film_from_mu_s(self.pair, c, mu_s).t_b
+        t_b = film_from_mu_s(self.pair, c, mu_s, check=False).t_b  # clipped inside
         mu_0_contact = c.C2 * c.C3 * c.p_m * self.pair.area_factor * t_b**3 / c.W
         mu_d = jnp.clip(mu_d, mu_0_contact * (1 + 1e-6), mu_s * (1 - 1e-6))
         a_d = approach_for(self.pair, c, mu_d, t_b)
@@ -148,7 +148,7 @@ class MicrosqueezeFriction(AbstractFrictionParams):
         h_e = base + jnp.maximum(jnp.exp(self.log_margin), 1e-9 * base)
         Q = jnp.exp(jnp.clip(self.log_Q, -200.0, 200.0))
         return MicrosqueezeStatic(pair=self.pair, contact=self.contact, t_b=t_b, eta=self.eta,
-                                  h_e=h_e, Q=Q, mu_d=mu_d)
+                                  h_e=h_e, Q=Q, mu_d=mu_d, check_traced=False)  # clipped inside
 
     def friction(self) -> Friction:
         return Friction(self.static_law(), self.kinetic())
@@ -165,7 +165,7 @@ class MicrosqueezeFriction(AbstractFrictionParams):
         mu_s, mu_d, h_e = jnp.exp(logs[0]), jnp.exp(logs[1]), jnp.exp(logs[2])
         c = self.contact
         mu_s = jnp.clip(mu_s, c.C3 * (1 + 1e-6), c.C1 * (1 - 1e-6))  # no raise off the region
-        t_b = film_from_mu_s(self.pair, self.contact, mu_s).t_b
+        t_b = film_from_mu_s(self.pair, self.contact, mu_s, check=False).t_b
         a_d = approach_for(self.pair, self.contact, mu_d, t_b)
         gap = jnp.maximum(mu_s - mu_d, _TINY)
         margin = jnp.maximum(h_e - t_b - a_d, _TINY)

@@ -69,8 +69,9 @@ after json_keys's design, 17.3 s without, and test_cli_design's same map 0.1 s a
 it; the synthetic campaign of lubricant A at speed fractions 0.05 and 0.3 (4 cycles,
 padded to 40,000 samples) with its features and trace fits 78 s the first time, 5 s for
 another seed. Programs with host callbacks (the `eqx.error_if` checks of traced values:
-the microsqueeze law's, diffrax's of `SaveAt(ts=...)`, lineax's in implicit gradients)
-are not kept in the persistent cache, so only the one process shares them."""
+lineax's in the implicit gradients of the stiff solvers, a microsqueeze law's unless built
+with `check_traced=False`) are not kept in the persistent cache, so only the one process
+shares them."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about

@@ -121,22 +121,26 @@ class FilmEstimate(eqx.Module):
     A_bs: Scalar
 
 
-def film_from_mu_s(pair: SurfacePair, contact: BoundaryContact, mu_s) -> FilmEstimate:
+def film_from_mu_s(pair: SurfacePair, contact: BoundaryContact, mu_s, *,
+                   check: bool = True) -> FilmEstimate:
     r"""Adsorbed film thickness $t_b$ and final approach $a_s$ from $\mu_s$ (eqs 31-35).
 
     With $W_s = 0$ (eq 33, 34): $A_{ms} = (W/p_m)(C_3 - \mu_s)/(C_3 - C_1)$ and
     $A_{bs} = (W/p_m)(\mu_s - C_1)/(C_2 (C_3 - C_1))$ (eq 35); then $a_s = (A_{ms}/K)^{1/3}$
     (eq 31) and $t_b = (A_{bs}/K + a_s^3)^{1/3} - a_s$ (eq 32). Needs $C_3 < \mu_s < C_1$.
-    Lengths in mm; Table 11 lists the result for lubricants A-G on S1G1.
+    Lengths in mm; Table 11 lists the result for lubricants A-G on S1G1. A concrete
+    `mu_s` outside raises ValueError, a traced one `eqx.error_if` (a host callback, which
+    keeps the caller's program out of JAX's persistent compilation cache); `check=False`
+    leaves the check out for callers that keep `mu_s` inside.
     """
     mu_s = jnp.asarray(mu_s, dtype=float)
-    if is_concrete(mu_s, contact.C1, contact.C3):
+    if check and is_concrete(mu_s, contact.C1, contact.C3):
         bad = (np.asarray(mu_s) <= np.asarray(contact.C3)) | (np.asarray(mu_s) >= np.asarray(contact.C1))
         if np.any(bad):
             raise ValueError(
                 f"film_from_mu_s: mu_s must lie between C3 = S_b/p_b = {float(contact.C3)} and "
                 f"C1 = S_m/p_m = {float(contact.C1)}; got {np.asarray(mu_s)}")
-    else:
+    elif check:
         mu_s = eqx.error_if(mu_s, (mu_s <= contact.C3) | (mu_s >= contact.C1),
                             "film_from_mu_s: mu_s outside (C3, C1)")
     K = pair.area_factor

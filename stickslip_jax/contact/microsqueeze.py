@@ -98,7 +98,10 @@ class MicrosqueezeStatic(AbstractStaticFriction):
     initial film thickness (mm), `Q` squeeze factor (mm$^4$), `mu_d` (dimensionless).
 
     Physically impossible concrete parameters raise `ValueError` at construction
-    (naming which); traced values are checked with `eqx.error_if` when used.
+    (naming which); traced values are checked with `eqx.error_if` when used, unless
+    `check_traced` is False (for callers that keep the values inside the law's domain, such
+    as the fitting's parameterisation: a run-time check is a host callback, which keeps
+    the program out of JAX's persistent compilation cache).
 
     ```python
     >>> law = MicrosqueezeStatic.from_table11("A")
@@ -115,6 +118,7 @@ class MicrosqueezeStatic(AbstractStaticFriction):
     mu_d: Scalar = eqx.field(converter=as_float)
     n_small: int = eqx.field(static=True, default=32)
     n_large: int = eqx.field(static=True, default=96)
+    check_traced: bool = eqx.field(static=True, default=True)
 
     def __check_init__(self):
         values = (self.t_b, self.eta, self.h_e, self.Q, self.mu_d)
@@ -162,11 +166,12 @@ class MicrosqueezeStatic(AbstractStaticFriction):
 
     # ------------------------------------------------------------------ physics
     def kinematics(self, check: bool = True) -> Kinematics:
-        """Start, end and span of the approach (mm); with `check`, `eqx.error_if` guards."""
+        """Start, end and span of the approach (mm); with `check` and `check_traced`,
+        `eqx.error_if` guards."""
         a_d = approach_for(self.pair, self.contact, self.mu_d, self.t_b)
         a_s = final_approach(self.pair, self.contact, self.t_b)
         gap_limit = self.h_e - self.t_b
-        if check:
+        if check and self.check_traced:
             a_d = eqx.error_if(a_d, a_d < 0, "MicrosqueezeStatic: mu_d is below mu_0(a=0) (film-only friction)")
             a_d = eqx.error_if(a_d, gap_limit <= a_d, "MicrosqueezeStatic: h_e <= t_b + a_d (no squeeze film left)")
             a_d = eqx.error_if(a_d, a_s <= a_d, "MicrosqueezeStatic: mu_d is not below mu_0(a_s)")
