@@ -665,10 +665,12 @@ class CycleModel:
         """Compile the programs of `evaluate` (which `residuals` runs without the sensor
         too) and `residuals` with the sensor in a background thread while the caller
         works (XLA compiles without the GIL; on a campaign of 0.4 M samples each takes
-        1.5-5 s): without the sensor kernel first, then with it.
-        Returns {("evaluate" | "residuals", sensor): Future};
-        wait for a program's future before its first call (a call while it is still
-        compiling compiles it a second time).
+        1.5-5 s), in the order discovery needs them: the Jacobian program without the
+        sensor kernel (the start's residuals, the base fit), the sensor's residuals (the
+        ranking's secant probes), then its Jacobian program (a refit with the sensor).
+        Returns {("evaluate" | "residuals", sensor): Future}; wait for a program's future
+        before its first call (a call while it is still compiling compiles it a second
+        time).
 
         The thread is not what crashes XLA's compiler in a long process: that is the
         process's memory-map limit (`stickslip_jax.programs`), reached with or without
@@ -677,8 +679,8 @@ class CycleModel:
         pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="stickslip-warm")
         futures = {("residuals", False): pool.submit(self.evaluate, z, [0])}
         futures["evaluate", False] = futures["residuals", False]  # one program
-        futures["evaluate", True] = pool.submit(self.evaluate, z, [0], sensor=True)
         futures["residuals", True] = pool.submit(self.residuals, z, sensor=True)
+        futures["evaluate", True] = pool.submit(self.evaluate, z, [0], sensor=True)
         pool.shutdown(wait=False)
         return futures
 

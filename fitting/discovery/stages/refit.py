@@ -195,6 +195,8 @@ def refit_family(fx: Fits, sc: FamilyScore, lead: float = 0.0) -> FamilyRefit:
     cols = np.concatenate([fx.base.cols, model.cols(f)])
     prior = prior_of(fx, cols)
     options, starts = _options(fx, sc)
+    if any(sensor for _, sensor in options):  # its program compiles while others refit
+        fx.prep.warm["evaluate", True].result()
     best, tried = None, []
     for (option, sensor), start in itertools.product(options, starts):
         shape = option.shape
@@ -311,7 +313,6 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
     scores, significant = fx.ranking.scores, fx.ranking.significant
     to_refit = (sorted(scores, key=lambda s: -s.chi2_predicted) if fx.base.misfit
                 else significant[:fx.opts.top])
-    fx.prep.warm["evaluate", True].result()
     # the winner: the physical refit that lowers chi-square most among the families the
     # calibrated test let through (the first refits, and contenders that are significant
     # themselves: a significant family ranked below `top` by its p-value may explain most)
