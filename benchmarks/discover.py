@@ -3,6 +3,7 @@
     .venv/bin/python benchmarks/discover.py [--base cycle|smooth] [--small] [--effect NAME]
                                             [--cold-only] [--campaign NAME ...]
                                             [--scaling samples|cycles] [--quick]
+                                            [--cache DIR]
 
 `--base cycle` (default, the per-cycle model of `stickslip discover`): campaigns from the
 independent SciPy generator (`tests/independent_records.py`; 3 (W, k) x 4 speeds, noise
@@ -28,7 +29,10 @@ record (the rate halved as the cycles double), each in a fresh process (cold); p
 as a table of wall and CPU times and their ratios to the first row (target: flat in
 samples within 1.5x, judged on the CPU time). `--small`: every campaign and scaling row
 with 4 records (2 (W, k) x 2 speeds); `--quick`: 4 records and the scaling's first two
-rows only.
+rows only. `--cache DIR`: JAX's persistent compilation cache and the stored programs in
+DIR, as the `stickslip` command keeps them (`stickslip_jax.cli.compilation_cache_dir`):
+a second run on a campaign of the same layout loads the compiled programs instead of
+compiling them (a user's later campaigns), the first fills DIR.
 
 The cost rests on: the sticks binned to the statistics the model needs (`thinning`: a
 window's cost grows with its events, not with its samples), far from the data the refits
@@ -65,6 +69,21 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
 def _load() -> str:
     with open("/proc/loadavg") as fh:
         return "load " + " ".join(fh.read().split()[:3]) + f" on {os.cpu_count()} cores"
+
+
+def _cache(path):
+    """The `stickslip` command's persistent compilation cache and program store in
+    `path` (module doc, `--cache`); None: off."""
+    if path:
+        import jax
+        from jax.experimental.compilation_cache import compilation_cache
+
+        from stickslip_jax import stored_programs
+
+        jax.config.update("jax_compilation_cache_dir", path)
+        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+        stored_programs.use(os.path.join(path, "programs"))
+        compilation_cache.reset_cache()
 
 
 def campaigns():
@@ -163,9 +182,10 @@ def cycle(args):
               flush=True)
 
 
-def _timed(kw, small):
+def _timed(kw, small, cache=None):
     """(samples, windows, seconds, CPU seconds, answer) of one discovery (run in a fresh
-    process)."""
+    process; `cache`: `--cache`)."""
+    _cache(cache)
     recs = _make(kw, small)
     res, total, cpu, _ = _discover(recs, "", progress=False)
     return (sum(r.n_samples for r in recs), int(res.model.data.window.max()) + 1, total,
@@ -190,7 +210,7 @@ def scaling(args):
         with concurrent.futures.ProcessPoolExecutor(
                 1, mp_context=multiprocessing.get_context("spawn")) as pool:
             n, windows, total, cpu, answer = pool.submit(
-                _timed, kw_, args.small or args.quick).result()
+                _timed, kw_, args.small or args.quick, args.cache).result()
         out.append((label, n, windows, total, cpu))
         print(f"{label}: {n} samples, {windows} windows, {total:.1f} s ({cpu:.1f} s CPU); "
               f"{answer}; {_load()}", flush=True)
@@ -218,7 +238,10 @@ def main(argv=None):
                     help="the time against samples or cycles (instead of --campaign)")
     ap.add_argument("--quick", action="store_true",
                     help="4 records, and the scaling's first two rows only")
+    ap.add_argument("--cache", metavar="DIR",
+                    help="the stickslip command's persistent compilation cache in DIR")
     args = ap.parse_args(argv)
+    _cache(args.cache)
     if args.base == "cycle":
         return scaling(args) if args.scaling else cycle(args)
 
