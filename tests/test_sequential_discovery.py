@@ -244,7 +244,8 @@ ALSO = {"stribeck": {"stribeck", "rate_state"}}
 """Names that count for a family (a Stribeck drop may be named as rate-and-state)."""
 
 
-def pair_campaigns(seeds: int = 5):
+def pair_campaigns(seeds: int = 5, first: int = 600):
+    """`seeds` campaigns of every pair, seeds from `first`, lubricants A and C in turn."""
     names, out = list(PAIRS_OF), []
     for i, a in enumerate(names):
         for b in names[i + 1:]:
@@ -254,7 +255,7 @@ def pair_campaigns(seeds: int = 5):
                 for n in (a, b):
                     kind, by_lube = PAIRS_OF[n]
                     (phys if kind == "physics" else imp).update(by_lube[lube])
-                out.append(((a, b), 600 + len(out), ir.LUBRICANT_A if lube == "A"
+                out.append(((a, b), first + len(out), ir.LUBRICANT_A if lube == "A"
                             else ir.LUBRICANT_C, dict(physics=ir.Physics(**phys),
                                                       imp=ir.Imperfections(**imp))))
     return out
@@ -293,7 +294,8 @@ def test_pairs_of_effects_are_both_named():
 
 
 if __name__ == "__main__":
-    # `python tests/test_sequential_discovery.py [SEEDS] [--reduced]`
-    args = [a for a in sys.argv[1:] if a != "--reduced"]
-    for c in pair_campaigns(int(args[0]) if args else 1):
+    # `python tests/test_sequential_discovery.py [SEEDS] [--reduced] [--from=FIRST_SEED]`
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    first = [int(a.split("=")[1]) for a in sys.argv[1:] if a.startswith("--from=")]
+    for c in pair_campaigns(int(args[0]) if args else 1, *first):
         print(run_pair(*c, REDUCED if "--reduced" in sys.argv else None), flush=True)
