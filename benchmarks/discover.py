@@ -42,7 +42,8 @@ rows, the weights as one compiled program, the host Levenberg-Marquardt update i
 and the model's programs compiled in a warm-up thread while the campaign is prepared:
 three of them (the Jacobian block without and with the sensor kernel, whose spectrum is
 computed once per record; the sensor's residuals; the other residuals run the Jacobian
-block with a zero tangent block), with XLA's classic CPU emitter (`fit.COMPILER_OPTIONS`).
+block with a zero tangent block), with XLA's classic CPU emitter (`fit.COMPILER_OPTIONS`);
+the sensor's Jacobian block only once a refit with the sensor may come (`CycleModel.warm`).
 Run with `JAX_LOG_COMPILES=1` to see each program's compilation time.
 
 `--base smooth`, the whole-record workflow:

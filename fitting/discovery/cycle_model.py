@@ -75,8 +75,8 @@ from ..objectives.trace import TraceData
 from .cycle_effects import (DAMPING_FORMS, FAMILIES, STICK_SCALE, STICK_TERMS, STRIBECK_FORMS,
                             Family, Shape, drive_error, stick_terms)
 
-__all__ = ["BLOCK", "CycleModel", "N_STEPS", "TAIL_STEPS", "kernel_cdf", "previous_rows",
-           "tail_sources", "window_rows"]
+__all__ = ["BLOCK", "CycleModel", "Later", "N_STEPS", "TAIL_STEPS", "kernel_cdf",
+           "previous_rows", "tail_sources", "window_rows"]
 
 N_STEPS = 128
 """RK4 steps per slip (over 2.5 pi/omega_0: room for slips lengthened by the effects)."""
@@ -573,6 +573,35 @@ def _value_and_block(z, T, scales, shape, sensor, data, tref, prev, sd, layout, 
     return r, J, ok, yd
 
 
+class Later:
+    """A `Future` of a call that starts, in a thread of its own, at its first `start()`
+    or `result()` (a program only some campaigns need, compiled while the caller works
+    once it is known to be needed); `cancel()` before that: never started."""
+
+    def __init__(self, fn, *args, **kwargs):
+        self._call, self._future, self._cancelled = (fn, args, kwargs), None, False
+
+    def start(self) -> Later:
+        if self._future is None and not self._cancelled:
+            fn, args, kwargs = self._call
+            pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="stickslip-warm")
+            self._future = pool.submit(fn, *args, **kwargs)
+            pool.shutdown(wait=False)
+        return self
+
+    def result(self):
+        if self._future is None and self._cancelled:  # asked for after all: run here
+            fn, args, kwargs = self._call
+            return fn(*args, **kwargs)
+        return self.start()._future.result()
+
+    def cancel(self) -> bool:
+        if self._future is None:
+            self._cancelled = True
+            return True
+        return self._future.cancel()
+
+
 class CycleModel:
     """The per-cycle model of one campaign (module doc): residuals and Jacobians.
 
@@ -666,11 +695,12 @@ class CycleModel:
         too) and `residuals` with the sensor in a background thread while the caller
         works (XLA compiles without the GIL; on a campaign of 0.4 M samples each takes
         1.5-5 s), in the order discovery needs them: the Jacobian program without the
-        sensor kernel (the start's residuals, the base fit), the sensor's residuals (the
-        ranking's secant probes), then its Jacobian program (a refit with the sensor).
-        Returns {("evaluate" | "residuals", sensor): Future}; wait for a program's future
-        before its first call (a call while it is still compiling compiles it a second
-        time).
+        sensor kernel (the start's residuals, the base fit), then the sensor's residuals
+        (the ranking's secant probes). The sensor's Jacobian program (a refit with the
+        sensor, which many campaigns never make) compiles from its first `start()` or
+        `result()` (`Later`). Returns {("evaluate" | "residuals", sensor): Future}; wait
+        for a program's future before its first call (a call while it is still compiling
+        compiles it a second time).
 
         The thread is not what crashes XLA's compiler in a long process: that is the
         process's memory-map limit (`stickslip_jax.programs`), reached with or without
@@ -680,7 +710,7 @@ class CycleModel:
         futures = {("residuals", False): pool.submit(self.evaluate, z, [0])}
         futures["evaluate", False] = futures["residuals", False]  # one program
         futures["residuals", True] = pool.submit(self.residuals, z, sensor=True)
-        futures["evaluate", True] = pool.submit(self.evaluate, z, [0], sensor=True)
+        futures["evaluate", True] = Later(self.evaluate, z, [0], sensor=True)
         pool.shutdown(wait=False)
         return futures
 

@@ -313,6 +313,11 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
     scores, significant = fx.ranking.scores, fx.ranking.significant
     to_refit = (sorted(scores, key=lambda s: -s.chi2_predicted) if fx.base.misfit
                 else significant[:fx.opts.top])
+    if fx.base.sensor or "sensor_lowpass" in {
+            sc.family.name for sc in scores if sc in to_refit or sc in significant
+            or np.nan_to_num(sc.p_value, nan=1.0) < fx.opts.alpha}:
+        # a refit with the sensor may come (below): its program compiles meanwhile
+        fx.prep.warm["evaluate", True].start()
     # the winner: the physical refit that lowers chi-square most among the families the
     # calibrated test let through (the first refits, and contenders that are significant
     # themselves: a significant family ranked below `top` by its p-value may explain most)
