@@ -128,10 +128,9 @@ def film_from_mu_s(pair: SurfacePair, contact: BoundaryContact, mu_s, *,
     With $W_s = 0$ (eq 33, 34): $A_{ms} = (W/p_m)(C_3 - \mu_s)/(C_3 - C_1)$ and
     $A_{bs} = (W/p_m)(\mu_s - C_1)/(C_2 (C_3 - C_1))$ (eq 35); then $a_s = (A_{ms}/K)^{1/3}$
     (eq 31) and $t_b = (A_{bs}/K + a_s^3)^{1/3} - a_s$ (eq 32). Needs $C_3 < \mu_s < C_1$.
-    Lengths in mm; Table 11 lists the result for lubricants A-G on S1G1. A concrete
-    `mu_s` outside raises ValueError, a traced one `eqx.error_if` (a host callback, which
-    keeps the caller's program out of JAX's persistent compilation cache); `check=False`
-    leaves the check out for callers that keep `mu_s` inside.
+    Lengths in mm; Table 11 lists the result for lubricants A-G on S1G1. `check=False`
+    leaves out the check of a traced `mu_s` (`eqx.error_if`, a host callback: the program
+    stays out of the compilation cache) for callers that keep it inside.
     """
     mu_s = jnp.asarray(mu_s, dtype=float)
     if check and is_concrete(mu_s, contact.C1, contact.C3):

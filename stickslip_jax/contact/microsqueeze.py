@@ -98,10 +98,9 @@ class MicrosqueezeStatic(AbstractStaticFriction):
     initial film thickness (mm), `Q` squeeze factor (mm$^4$), `mu_d` (dimensionless).
 
     Physically impossible concrete parameters raise `ValueError` at construction
-    (naming which); traced values are checked with `eqx.error_if` when used, unless
-    `check_traced` is False (for callers that keep the values inside the law's domain, such
-    as the fitting's parameterisation: a run-time check is a host callback, which keeps
-    the program out of JAX's persistent compilation cache).
+    (naming which); traced values are checked with `eqx.error_if` when used (a host
+    callback: the program stays out of the compilation cache) unless `check_traced` is
+    False, for callers that keep them inside the law's domain (the fitting's parameters).
 
     ```python
     >>> law = MicrosqueezeStatic.from_table11("A")

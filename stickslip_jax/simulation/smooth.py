@@ -31,10 +31,8 @@ and $\mu_{sl} = \mu_m(q, \mu_d, T_2)$ of eq (3), $T_2 = \pi/\omega_0$ (eq 7,
   breakaway is late by about $\sqrt{2\eta}/\omega_0$ (5 % amplitude near $v_c$ at
   $\eta = 0.03$), gradients match finite differences to 1e-4 for $\eta \ge 0.03$.
 
-Every formulation renders its samples from the accepted steps by cubic Hermite
-interpolation (Kvaerno5's own interpolant), so a run costs more the larger
-`max_steps` is; the simulator's program has no host callback (its concrete inputs are
-checked on the host, `check_inputs`), so JAX's persistent compilation cache keeps it.
+Samples are rendered from the accepted steps by cubic Hermite interpolation (Kvaerno5's
+own interpolant), so a run costs more the larger `max_steps` is.
 Gradients are taken through the solver (discretise-then-optimise). Parts with fast states
 (a 10 us sensor low-pass) make any formulation stiff: pass an implicit `solver`.
 
