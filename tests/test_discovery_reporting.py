@@ -275,7 +275,8 @@ def test_the_figure_gives_the_parameters_with_dashes_for_unknowns(tmp_path):
     res = _result({}, {}, [effect_estimate("c", "kgf*s/mm", 1.0, 0.0, (0.0, 1.0))])
     mask = np.ones((2, 50), bool)
     time = np.linspace(0, 1, 100).reshape(2, 50)
-    data = NS(mask=mask, time=time, deflection=np.sin(time), record=np.array([0, 1]))
+    data = NS(mask=mask, time=time, deflection=np.sin(time), record=np.array([0, 1]),
+              window=np.array([0, 0]))
     model = NS(data=data, sd=np.full((2, 50), 1e-3), n_records=2,
                residuals=lambda z, *a: (np.zeros(100),))
     phases = {"stick": {"rms": 2e-3}, "slip": {"rms": 1e-3}}

@@ -132,24 +132,29 @@ def test_broken_at_gaps_puts_nan_between_windows():
     k = int(np.flatnonzero(np.isnan(tt))[0])
     assert tt[k - 1] == pytest.approx(0.9) and tt[k + 1] == pytest.approx(5.0)
     assert np.isnan(broken_at_gaps(np.arange(20) * 0.1)[0]).sum() == 0
+    # labelled windows: a break between two windows, never inside one, whatever its
+    # sampling (a cycle window's stick is binned: its samples lie far apart)
+    t = np.r_[0.0, 0.5, 1.0, 1.001, 1.002, 1.003, 1.5, 2.0, 2.001, 2.002]
+    window = np.r_[np.zeros(6), np.ones(4)]
+    tt, y = broken_at_gaps(t[::-1], t[::-1], segment=window[::-1])
+    assert np.isnan(tt).sum() == 1 and int(np.flatnonzero(np.isnan(tt))[0]) == 6
+    assert np.array_equal(tt[~np.isnan(tt)], t) and np.array_equal(y[~np.isnan(y)], t)
 
 
 class _CycleModel:
-    """The surface of `cycle_model.CycleModel` the figure reads: two records, each in
-    two windows of 50 samples (rows of 25) separated by a gap of 10 s."""
+    """The surface of `cycle_model.CycleModel` the figure reads: `n_records` records, each
+    in two windows of 50 samples (rows of 25) separated by a gap of 10 s."""
 
-    n_records = 2
-
-    def __init__(self):
-        rows, self.per = [], 25
-        for g in range(2):
+    def __init__(self, n_records=2):
+        rows, self.per, self.n_records = [], 25, n_records
+        for g in range(n_records):
             for start in (0.0, 0.5, 10.0, 10.5):
-                rows.append((g, start + 0.02 * np.arange(self.per)))
+                rows.append((g, start + 0.02 * np.arange(self.per), int(start > 5.0)))
         self.data = types.SimpleNamespace(
             mask=np.ones((len(rows), self.per), bool),
             time=np.array([r[1] for r in rows]),
             deflection=np.array([0.1 + 0.01 * np.sin(r[1]) for r in rows]),
-            record=np.array([r[0] for r in rows]))
+            record=np.array([r[0] for r in rows]), window=np.array([r[2] for r in rows]))
         self.sd = np.full((len(rows), self.per), 1e-3)
 
     def residuals(self, z, shape=None, sensor=None):
@@ -157,8 +162,8 @@ class _CycleModel:
         return (rng.standard_normal(self.data.mask.sum()),)
 
 
-def _cycle_result():
-    model = _CycleModel()
+def _cycle_result(n_records=2):
+    model = _CycleModel(n_records)
     phases = {"stick": {"rms": 2e-3}, "slip": {"rms": 3e-3}}
     return types.SimpleNamespace(
         model=model, z_before=0, z_after=1, shape=None, sensor=None,
@@ -167,7 +172,8 @@ def _cycle_result():
         learned=None, indistinguishable_from=[{"name": "stribeck"}],
         campaign=types.SimpleNamespace(
             records=[_record("paper_k1002Nm_v42um-s", 0.102, 0.042),
-                     _record("paper_k168Nm_v42um-s", 0.0171, 0.042)],
+                     _record("paper_k168Nm_v42um-s", 0.0171, 0.042)]
+            + [_record(f"r{g}", 86.9, 0.1) for g in range(2, n_records)],
             screening=[None, None, None]))
 
 
@@ -175,14 +181,15 @@ def test_cycle_discovery_figure_titles_records_and_breaks_lines_at_gaps():
     from stickslip_fitting.discovery.plots import TITLE_CHARS, plot_cycle_discovery
 
     fig = plot_cycle_discovery(_cycle_result())
-    axes = np.asarray(fig.axes).reshape(-1, 2)
-    assert axes.shape[0] == 3  # the summary row and both records
-    for row, name in zip(axes[1:], ("paper_k1002Nm", "paper_k168Nm")):
+    top, grid = fig.subfigs
+    axes = np.asarray(grid.axes).reshape(-1, 2)  # per record: deflection, residual
+    assert len(top.axes) == 2 and axes.shape[0] == 2
+    for row, name in zip(axes, ("paper_k1002Nm", "paper_k168Nm")):
         title = row[0].get_title()
         assert title.startswith(name) and len(title) <= TITLE_CHARS and "licence" not in title
         for ax in row:
-            assert ax.get_legend() is not None
             assert "(um)" in ax.get_ylabel() or "(mm)" in ax.get_ylabel()
+            assert ax.get_xlabel() in ("", "time (s)") and ax.get_legend() is None
             lines = [ln for ln in ax.get_lines() if ln.get_linestyle() not in ("None", "")]
             assert lines
             for ln in lines:  # one break per record: the 9.5 s gap between its windows
@@ -190,14 +197,58 @@ def test_cycle_discovery_figure_titles_records_and_breaks_lines_at_gaps():
                 assert np.isnan(x).sum() == 1, ln.get_label()
                 k = int(np.flatnonzero(np.isnan(x))[0])
                 assert x[k + 1] - x[k - 1] > 9.0
-    assert all(ax.get_xlabel() == "time (s)" for ax in axes[-1])
-    summary = axes[0, 1].texts[0].get_text()
+        assert row[1].get_xlabel() == "time (s)"
+    (legend,) = grid.legends  # one legend above the records names every line
+    assert [t.get_text() for t in legend.get_texts()] == [
+        "record", "paper's model", "with viscous_damping", "+-1 noise sd"]
+    summary = top.axes[1].texts[0].get_text()
     assert "viscous_damping or stribeck (low)" in summary and "3 given" in summary
-    for ax in axes[1:, 1]:  # the residuals over the noise band, +-1 um (noise 1e-3 mm)
+    assert "traces of all 2 records used" in summary
+    for ax in axes[:, 1]:  # the residuals over the noise band, +-1 um (noise 1e-3 mm)
         band = [p for p in ax.patches if p.get_label() == "+-1 noise sd"]
-        assert len(band) == 1 and "+-1 noise sd" in ax.get_legend_handles_labels()[1]
+        assert len(band) == 1
         y = ax.transData.inverted().transform(band[0].get_verts())[:, 1]
         assert y.min() == pytest.approx(-1.0) and y.max() == pytest.approx(1.0)
+
+
+def test_cycle_discovery_figure_shows_every_record_in_a_grid():
+    from stickslip_fitting.discovery.plots import plot_cycle_discovery
+
+    fig = plot_cycle_discovery(_cycle_result(12))
+    grid = fig.subfigs[1]
+    titles = [ax.get_title() for ax in grid.axes if ax.get_title()]
+    assert len(titles) == 12
+    assert titles[0].startswith("paper_k1002Nm") and titles[-1].startswith("r11")
+    columns = {round(ax.get_position().x0, 3) for ax in grid.axes}
+    assert len(columns) == 3  # three records a row beyond four records
+
+
+def test_discovery_figure_legends_hide_no_sample():
+    """Every legend of the figure (the records' legend above their grid, the phase bars',
+    the staircase's, the learned correction's, the misfit's) against every panel's points."""
+    from stickslip_fitting.discovery.plots import plot_cycle_discovery
+    from test_plots_legends import _hidden_points
+
+    rng = np.random.default_rng(3)
+    clock = np.linspace(0.0, 1.6, 400)
+    learned = types.SimpleNamespace(
+        correction_at=lambda: (np.linspace(0, 2.5, 100), 1e-3 * np.sin(np.linspace(0, 6, 100))),
+        gap_after=1.2e-3, closes=0.4)
+    misfit = types.SimpleNamespace(
+        phase="slip", shares={"stick": 0.1, "breakaway": 0.2, "slip": 0.7},
+        forms=[{"name": "level", "share": 0.5}],
+        profile={"clock": clock, "residual": 1e-3 * rng.standard_normal(400),
+                 "fit": 1e-4 * clock, "clock_words": "the time since the breakaway"})
+    steps = [{"effect": "viscous_damping", "gap_after": 1.5e-3, "kept": True},
+             {"effect": "stribeck", "gap_after": 1.4e-3, "kept": False}]
+    for extra in ({}, {"learned": learned, "misfit_left": misfit, "steps": steps}):
+        fig = plot_cycle_discovery(types.SimpleNamespace(**{**vars(_cycle_result(5)), **extra}))
+        legends = [*fig.subfigs[1].legends] + [a.get_legend() for a in fig.axes
+                                               if a.get_legend() is not None]
+        assert len(legends) == 2 + 3 * bool(extra)
+        for ax in fig.axes:
+            for legend in legends:
+                assert _hidden_points(ax, legend) == 0, (ax.get_title(), ax.get_ylabel())
 
 
 def test_discovery_figure_of_no_effect_names_no_effect():
@@ -267,20 +318,17 @@ def _smooth_result():
 
 
 def test_smooth_discovery_figure_titles_records_and_breaks_lines_at_gaps():
-    import matplotlib.pyplot as plt
-
     from stickslip_fitting.discovery.plots import plot_discovery
 
     fig = plot_discovery(_smooth_result())
-    axes = np.asarray(fig.axes).reshape(-1, 2)
-    assert axes.shape[0] == 4
-    assert axes[1, 0].get_title() == "record 0: k = 27.3 kgf/mm, v = 5 mm/min, W = 36 kgf"
-    for row in axes[1:]:
+    axes = np.asarray(fig.subfigs[1].axes).reshape(-1, 2)  # per record: deflection, residual
+    assert axes.shape[0] == 3 and len(fig.subfigs[1].legends) == 1
+    assert axes[0, 0].get_title() == "record 0: k = 27.3 kgf/mm, v = 5 mm/min, W = 36 kgf"
+    for row in axes:
         for ax in row:
-            assert ax.get_legend() is not None and "(" in ax.get_ylabel()
+            assert "(" in ax.get_ylabel()
             for ln in ax.get_lines():
                 if ln.get_linestyle() in ("None", ""):
                     continue
                 x = np.asarray(ln.get_xdata(), float)
                 assert np.isnan(x).sum() == 1 and x[~np.isnan(x)].min() == 0.0
-    plt.close(fig)

@@ -1,5 +1,5 @@
-"""Legends never hide data: in the fit figure's friction panels and in the record plot, no
-measured point lies under a legend box."""
+"""Legends never hide data: in the fit figure's friction panels, in the record plot and in
+the discovery figure (`test_figures`), no measured point lies under a legend box."""
 
 from __future__ import annotations
 
@@ -11,12 +11,13 @@ import pytest
 import stickslip_jax as ss
 
 
-def _hidden_points(ax) -> int:
+def _hidden_points(ax, legend=None) -> int:
     """How many of the points drawn as markers on `ax` (its data, not the legend's handles)
-    lie inside its legend's box on the rendered figure."""
-    fig = ax.figure
-    fig.canvas.draw()
-    box = ax.get_legend().get_window_extent()
+    lie inside its legend's box (or `legend`'s, e.g. a figure's) on the laid-out figure."""
+    fig = ax.get_figure(root=True)
+    if fig.stale:  # laid out once (a bare Figure's canvas draws nothing: drawn here)
+        fig.draw_without_rendering()
+    box = (legend or ax.get_legend()).get_window_extent()
     hidden = 0
     for line in ax.get_lines():
         x, y = (np.asarray(v, float) for v in line.get_data())

@@ -1,9 +1,10 @@
 """Figures of a discovery result: residual RMS by phase before/after, and the traces.
 
-The traces are drawn over the samples the fit used: where a record's fitted windows leave
-time out (cycles set aside, the run-in), the lines break instead of crossing the gap.
-Each record's panel is titled by its file stem, spring and drive speed (never its free-
-text note, which may be a licence paragraph).
+The traces of every record are drawn, in a grid, over the samples the fit used: the lines
+break between the fitted cycle windows instead of crossing the time they leave out
+(cycles set aside, the run-in). Each record's panel is titled by its file stem, spring
+and drive speed (never its free-text note, which may be a licence paragraph); one legend
+above the grid names the lines of every panel, so that no legend hides a sample.
 """
 
 from __future__ import annotations
@@ -38,19 +39,24 @@ def record_title(record, index: int | None = None) -> str:
     return text if len(text) <= TITLE_CHARS else text[:TITLE_CHARS - 3] + "..."
 
 
-def broken_at_gaps(t, *ys, factor: float = 1.5):
-    """`t` and `ys` sorted by time with a NaN inserted wherever the time step exceeds
-    `factor` times the median step (the gaps between fitted windows), so that a line
-    drawn through them breaks there."""
+def broken_at_gaps(t, *ys, segment=None, factor: float = 1.5):
+    """`t` and `ys` in time order with a NaN inserted between two segments (`segment`:
+    a label per sample, e.g. its cycle window; the segments in the order of their labels)
+    or, without labels, wherever the time step exceeds `factor` times the median step (the
+    gaps between fitted windows), so that a line drawn through them breaks there."""
     t = np.asarray(t, dtype=float)
-    order = np.argsort(t, kind="stable")
-    t = t[order]
+    labels = np.zeros(t.size) if segment is None else np.asarray(segment)
+    order = np.lexsort((t, labels))
+    t, labels = t[order], labels[order]
     ys = [np.asarray(y, dtype=float)[order] for y in ys]
-    if t.size < 3:
+    if segment is not None:
+        cut = np.flatnonzero(np.diff(labels) != 0) + 1
+    elif t.size < 3:
         return (t, *ys)
-    dt = np.diff(t)
-    step = np.median(dt[dt > 0]) if np.any(dt > 0) else 0.0
-    cut = np.flatnonzero(dt > factor * step) + 1 if step > 0 else np.array([], int)
+    else:
+        dt = np.diff(t)
+        step = np.median(dt[dt > 0]) if np.any(dt > 0) else 0.0
+        cut = np.flatnonzero(dt > factor * step) + 1 if step > 0 else np.array([], int)
     return (np.insert(t, cut, np.nan), *(np.insert(y, cut, np.nan) for y in ys))
 
 
@@ -59,23 +65,26 @@ def _after_label(effects: str) -> str:
     return "final model (no effect named)" if effects == "none" else f"with {effects}"
 
 
-def _picked(n: int, records: int) -> list[int]:
-    """Up to `records` record indices spread evenly over `n` (all when n <= records)."""
-    if n <= records:
-        return list(range(n))
-    return sorted({int(round(i)) for i in np.linspace(0, n - 1, max(1, records))})
+def _layout(n_records: int, top: float, bottom: bool):
+    """A figure of three bands: the top pair of axes (`top` inches high), the grid of
+    `n_records` records (`_trace_panels`: two columns, three beyond four records), and
+    with `bottom` a last pair of axes. Returns (figure, top axes, the grid's subfigure,
+    columns, bottom axes or None)."""
+    from matplotlib.figure import Figure
+
+    cols = min(n_records, 3 if n_records > 4 else 2)
+    grid = 3.4 * -(-n_records // cols)
+    heights = [top, grid] + [2.6] * bottom
+    fig = Figure(figsize=(5.2 * max(cols, 2) + 0.6, sum(heights)), layout="constrained")
+    bands = fig.subfigures(len(heights), 1, height_ratios=heights)
+    return (fig, bands[0].subplots(1, 2), bands[1], cols,
+            bands[2].subplots(1, 2) if bottom else None)
 
 
-def plot_discovery(result, path=None, *, records: int = 4):
-    """Residual RMS by phase (um) before/after, and the traces of up to `records` records
-    (spread over the campaign) with the base and final fits (mm against s) and their
-    residuals (um), the lines broken between fitted windows. Returns the `Figure` (the
-    user's backend is never switched); with `path`, saves it there (atomically) and
-    closes it."""
-    import matplotlib.pyplot as plt
-
-    from stickslip_jax.output import save_figure
-
+def plot_discovery(result):
+    """Residual RMS by phase (um) before/after, and the traces of every record with the
+    base and final fits (mm against s) and their residuals (um), the lines broken
+    between fitted windows. Returns the `Figure` (the user's backend is never switched)."""
     tr = result.base_problem.traces
     m = np.asarray(tr.mask)
     t = np.asarray(tr.time)
@@ -84,10 +93,8 @@ def plot_discovery(result, path=None, *, records: int = 4):
     base = result.base_problem.trajectories(result.base_fit.z)[0]
     final = result.final_problem.trajectories(result.final_fit.z)[0]
     R = tr.time.shape[0]
-    pick = _picked(R, records)
-    fig, axes = plt.subplots(1 + len(pick), 2, figsize=(11, 2.6 * (1 + len(pick))),
-                             squeeze=False)
-    ax = axes[0, 0]
+    fig, top, grid, cols, _ = _layout(R, 2.8, False)
+    ax = top[0]
     x = np.arange(len(PHASES))
     rb = [result.residuals_before.phases[p]["rms"] * 1e3 for p in PHASES]
     ra = [result.residuals_after.phases[p]["rms"] * 1e3 for p in PHASES]
@@ -97,10 +104,11 @@ def plot_discovery(result, path=None, *, records: int = 4):
     ax.set_xticks(x, PHASES)
     ax.set_xlabel("phase of the cycle")
     ax.set_ylabel("residual RMS (um)")
-    ax.legend(fontsize=8)
-    ax.set_title(f"effect: {result.effect} ({result.confidence}); traces of {len(pick)} "
-                 f"of {R} records", fontsize=9)
-    ax = axes[0, 1]
+    ax.set_ylim(0.0, 1.6 * ax.get_ylim()[1])  # room for the legend above the bars
+    ax.legend(fontsize=8, loc="upper left", ncols=3)
+    ax.set_title(f"effect: {result.effect} ({result.confidence}); traces of all {R} "
+                 "records", fontsize=9)
+    ax = top[1]
     names = [c["name"] for c in result.candidates]
     ax.barh(names, [max(c["score"], 1e-3) for c in result.candidates])
     ax.set_xscale("log")
@@ -108,46 +116,37 @@ def plot_discovery(result, path=None, *, records: int = 4):
     recs = getattr(result, "records", None)
     titles = [record_title(recs[i] if recs is not None and i < len(recs) else SimpleNamespace(
         name=f"record {i}", stiffness=float(tr.stiffness[i]), drive_speed=float(tr.speed[i]),
-        weight=float(tr.weight[i])), i) for i in pick]
-    _trace_panels(axes, [(title, t[i][m[i]], d[i][m[i]], base[i][m[i]], final[i][m[i]])
-                         for title, i in zip(titles, pick)], "base fit", "final fit",
-                  result.noise)
-    fig.tight_layout()
-    if path is not None:
-        save_figure(fig, str(path), dpi=110)
-        plt.close(fig)
+        weight=float(tr.weight[i])), i) for i in range(R)]
+    _trace_panels(grid, cols, [(title, t[i][m[i]], d[i][m[i]], base[i][m[i]],
+                                final[i][m[i]], None) for i, title in enumerate(titles)],
+                  "base fit", "final fit", result.noise)
     return fig
 
 
-def plot_cycle_discovery(result, *, records: int = 4):
+def plot_cycle_discovery(result):
     """Figure of a per-cycle discovery (`cycle_workflow.CycleDiscovery`): residual RMS by
-    phase before and after (um) against the noise, and for up to `records` records
-    (spread over the campaign) the measured deflection with the paper's model and the
-    model with the effect (mm against s) and their residuals (um), each record's panel
-    titled by `record_title` and its lines broken between the fitted cycle windows.
-    With the effects named (`steps`), a staircase of the gap after each (`_staircase`).
-    Returns the `matplotlib.figure.Figure` (the backend is left as it is)."""
-    from matplotlib.figure import Figure
-
+    phase before and after (um) against the noise, and for every record used the
+    measured deflection with the paper's model and the model with the effect (mm against
+    s) and their residuals (um), each record's panel titled by `record_title` and its
+    lines broken between the fitted cycle windows (`_trace_panels`). With the effects
+    named (`steps`), a staircase of the gap after each (`_staircase`). Returns the
+    `matplotlib.figure.Figure` (the backend is left as it is)."""
     model = result.model
     data = model.data
     mask = np.asarray(data.mask)
     t = np.asarray(data.time)[mask]
     x = np.asarray(data.deflection)[mask]
     rec = np.broadcast_to(np.asarray(data.record)[:, None], mask.shape)[mask]
+    window = np.broadcast_to(np.asarray(data.window)[:, None], mask.shape)[mask]
     sd = np.asarray(model.sd)[mask]
     r0 = model.residuals(result.z_before)[0] * sd
     r1 = model.residuals(result.z_after, result.shape, result.sensor)[0] * sd
     G = model.n_records
-    pick = _picked(G, records)
     left = getattr(result, "misfit_left", None)
-    rows = 1 + len(pick) + (left is not None)
-    fig = Figure(figsize=(11, 2.6 * rows + 1.3), layout="constrained")  # a taller top row
-    axes = fig.subplots(rows, 2, squeeze=False, height_ratios=[1.5] + [1] * (rows - 1))
+    fig, axes, grid, cols, bottom = _layout(G, 3.9, left is not None)  # a taller top row
     if left is not None:
-        _misfit_panels(axes[-1], left)
-        axes = axes[:-1]
-    ax = axes[0, 0]
+        _misfit_panels(bottom, left)
+    ax = axes[0]
     names = list(result.phases_before)
     pos = np.arange(len(names))
     ax.bar(pos - 0.2, [1e3 * (result.phases_before[n]["rms"] or 0) for n in names], 0.4,
@@ -177,22 +176,22 @@ def plot_cycle_discovery(result, *, records: int = 4):
     summary = (f"effect: {joint} ({result.confidence})\n"
                f"gap {result.gap_before * 1e3:.3g} -> {result.gap_after * 1e3:.3g} um "
                f"(noise {result.noise * 1e3:.3g} um)\n"
-               f"traces of {len(pick)} of the {G} records used"
+               f"traces of all {G} records used"
                + (f" ({given} given)" if given > G else "") + ", fitted cycle windows only")
     learned, steps = result.learned, getattr(result, "steps", None) or []
     if steps and learned is not None:  # both: the top right panel split in two
-        spec = axes[0, 1].get_subplotspec()
-        axes[0, 1].remove()
-        stair, axes[0, 1] = spec.subgridspec(1, 2).subplots()
+        spec = axes[1].get_subplotspec()
+        axes[1].remove()
+        stair, axes[1] = spec.subgridspec(1, 2).subplots()
     elif steps:
-        stair = axes[0, 1]
+        stair = axes[1]
     if steps:
         _staircase(stair, result, steps, summary if learned is None else None)
     if learned is None and not steps:
-        axes[0, 1].axis("off")
-        axes[0, 1].text(0, 0.5, summary, fontsize=9, va="center")
+        axes[1].axis("off")
+        axes[1].text(0, 0.5, summary, fontsize=9, va="center")
     elif learned is not None:  # the learned phase correction over the cycle, at the median climb
-        ax = axes[0, 1]
+        ax = axes[1]
         phase, corr = learned.correction_at()
         ax.plot(phase, 1e3 * corr, color="C3", label="learned correction")
         ax.axvline(1.0, color="k", lw=0.6, ls=":", label="stick | slip")
@@ -200,12 +199,12 @@ def plot_cycle_discovery(result, *, records: int = 4):
         ax.set_xlabel("stick phase (0-1), then 1 + slip phase (dimensionless)")
         ax.set_ylabel("learned correction (um)")
         ax.legend(fontsize=7)
-        ax.set_title(summary.replace("\n", "; ", 1) + f"\nlearned: gap "
+        ax.set_title(summary + f"\nlearned: gap "
                      f"-> {learned.gap_after * 1e3:.3g} um ({100 * learned.closes:.0f} % of "
                      "the excess)", fontsize=8)
-    _trace_panels(axes, [(record_title(result.campaign.records[g], g), t[rec == g],
-                          x[rec == g], (x - r0)[rec == g], (x - r1)[rec == g]) for g in pick],
-                  "paper's model", after, result.noise)
+    panels = [(record_title(result.campaign.records[g], g), *(a[rec == g] for a in (
+        t, x, x - r0, x - r1, window))) for g in range(G)]
+    _trace_panels(grid, cols, panels, "paper's model", after, result.noise)
     return fig
 
 
@@ -227,8 +226,10 @@ def _parameter_box(ax, result, after: str) -> None:
 
 def _misfit_panels(axes, left) -> None:
     """The misfit the final model leaves (`misfit.MisfitLeft`): the phase's residual (um)
-    against its own clock (s) with the forms fitted, and every phase's share of the excess
-    with the forms' shares."""
+    against its own clock (s) with the forms fitted (the legend above the axes), and every
+    phase's share of the excess with the forms' shares."""
+    from ..report.plots import above_axes
+
     p, um = left.profile, 1e3
     ax = axes[0]
     ax.plot(p["clock"], um * p["residual"], ".", ms=1.5, color="0.5", label="residual")
@@ -236,8 +237,9 @@ def _misfit_panels(axes, left) -> None:
             label="level + ramp + oscillation")
     ax.set_xlabel(f"{p['clock_words']} (s)")
     ax.set_ylabel(f"{left.phase} residual (um)")
-    ax.legend(fontsize=7, markerscale=4)
-    ax.set_title(f"misfit left: {left.phase} phases", fontsize=9)
+    above_axes(ax, f"misfit left: {left.phase} phases")
+    for handle in ax.get_legend().legend_handles:
+        handle.set_markersize(6)  # the points' own 1.5 is too small to read
     ax = axes[1]
     names = list(left.shares) + [f"{left.phase}: {f['name']}" for f in left.forms]
     ax.bar(range(len(names)), [100 * v for v in left.shares.values()]
@@ -265,25 +267,30 @@ def _staircase(ax, result, steps, title) -> None:
         ax.set_title(title, fontsize=8)
 
 
-def _trace_panels(axes, panels, before: str, after: str, noise: float) -> None:
-    """The rows after the first: per record (`panels`: title, time s, deflection mm, the
-    models `before` and `after`), the deflection with both models (mm) and their
-    residuals (um) against time over the band of +-1 `noise` (mm), the lines broken
-    between fitted windows."""
-    for row, (title, *series) in enumerate(panels, start=1):
-        tt, xx, m0, m1 = broken_at_gaps(*series)
-        ax = axes[row, 0]
+def _trace_panels(grid, cols, panels, before: str, after: str, noise: float) -> None:
+    """The records in the (sub)figure `grid`, `cols` a row: per record (`panels`: title,
+    time s, deflection mm, the models `before` and `after`, each sample's cycle window or
+    None), the deflection with both models (mm) above their residuals (um) against time
+    over the band of +-1 `noise`, the lines broken between fitted windows
+    (`broken_at_gaps`); one legend of the lines of every panel above the grid."""
+    rows = -(-len(panels) // cols)
+    spec = grid.add_gridspec(2 * rows, cols, height_ratios=[1.7, 1.0] * rows)
+    for k, (title, *series, window) in enumerate(panels):
+        tt, xx, m0, m1 = broken_at_gaps(*series, segment=window)
+        ax = grid.add_subplot(spec[2 * (k // cols), k % cols])
         ax.plot(tt, xx, ".", ms=1, color="0.5", label="record")
-        ax.plot(tt, m0, lw=0.8, label=before)
-        ax.plot(tt, m1, lw=0.8, label=after)
+        ax.plot(tt, m0, lw=0.8, color="C0", label=before)
+        ax.plot(tt, m1, lw=0.8, color="C1", label=after)
         ax.set_ylabel("deflection (mm)")
-        ax.set_title(title, fontsize=9)
-        ax.legend(fontsize=7)
-        ax = axes[row, 1]
+        ax.set_title(title, fontsize=8)
+        ax.tick_params(labelbottom=False)
+        ax = grid.add_subplot(spec[2 * (k // cols) + 1, k % cols], sharex=ax)
         ax.axhspan(-1e3 * noise, 1e3 * noise, color="0.85", zorder=0, label="+-1 noise sd")
-        ax.plot(tt, 1e3 * (xx - m0), lw=0.5, label=before)
-        ax.plot(tt, 1e3 * (xx - m1), lw=0.5, alpha=0.7, label=after)
+        ax.plot(tt, 1e3 * (xx - m0), lw=0.5, color="C0")
+        ax.plot(tt, 1e3 * (xx - m1), lw=0.5, color="C1", alpha=0.7)
         ax.set_ylabel("residual (um)")
-        ax.legend(fontsize=7)
-    for ax in axes[-1]:
         ax.set_xlabel("time (s)")
+    handles = [h for a in grid.axes[:2] for h in a.get_legend_handles_labels()[0]]
+    grid.legend(handles=handles, loc="outside upper center", ncols=len(handles), fontsize=8,
+                title="every record: deflection (mm) with both models, and residual (um) "
+                      "= record - model", title_fontsize=8)
