@@ -30,7 +30,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from stickslip_fitting.data.campaign import boundary_check, load_campaign
+from stickslip_fitting.data.campaign import load_campaign
+from stickslip_fitting.report.fit_table import build_report
 from stickslip_fitting.solve.fit import fit_features
 from stickslip_fitting.uncertainty.laplace import laplace
 
@@ -77,7 +78,7 @@ print(f"chi2/dof {fit.reduced_chi2:.3g}; chi2/n by record before scaling:",
       {f.name: round(float(c), 1) for f, c in zip(fit.features, fit.record_chi2)})
 for w in unc.warnings:
     print("warning:", w)
-for s in boundary_check(fit.params.friction.friction(), campaign):
+for s in build_report(fit, unc, campaign)["steady_records"]:  # `stickslip fit`'s lines
     print(s["message"])
 
 # %% [markdown]
