@@ -39,8 +39,10 @@ def test_significance_count_agrees_with_the_table():
              _candidate("stribeck", 0.42, 0.9, "per-sample"),
              _candidate("gauge_drift", 0.001, 0.004, "family-wise"),
              _candidate("friction_drift", 0.64, 1.0, None)]
+    cands[0]["per_sample_p_value"] = 0.0  # underflowed: printed as a bound, never as 0
     text = candidate_table(cands)
     lines = text.splitlines()
+    assert "<1e-300" in lines[2] and "<1e-300" not in lines[3]
     rows = [ln for ln in lines[2:] if ln.split() and ln.split()[0] in
             {c["name"] for c in cands}]
     marked = [ln for ln in rows if ln.split()[-2] in ("per-sample", "family-wise")]

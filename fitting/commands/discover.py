@@ -194,7 +194,9 @@ def candidate_table(candidates) -> str:
     from ..report.rows import text_table
 
     def p_text(p):
-        return "-" if p is None or p != p else format(p, ".2g")
+        if p is None or p != p:
+            return "-"
+        return "<1e-300" if p < 1e-300 else format(p, ".2g")  # 0: below double precision
 
     rows = []
     for c in candidates:
