@@ -541,6 +541,13 @@ def _solve(fn, free, static, args, solver, has_aux, max_steps, jac, linearise):
     return sol, r.ravel(), jac_t.reshape(v.size, -1).T
 
 
+def _host_finite(r, J, ok) -> bool:
+    """A host evaluation the solver can use: the model ran (`ok`) and its residuals and
+    Jacobian are finite (a non-finite Jacobian with finite residuals would be accepted and
+    break the next step's eigendecomposition), as `_finite` asks of a traced one."""
+    return bool(ok) and bool(np.all(np.isfinite(r))) and bool(np.all(np.isfinite(J)))
+
+
 def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, rounding,
           stall) -> LeastSquaresSolution:
     t0 = time.perf_counter()
@@ -548,7 +555,7 @@ def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, round
     active = np.ones(z.size, bool) if active is None else np.asarray(active, bool)
     r, J, ok = problem.evaluate(z) if problem.first is None else problem.first
     n_evals = int(problem.first is None)
-    if not ok or not np.all(np.isfinite(r)):
+    if not _host_finite(r, J, ok):
         raise ValueError("the model failed at the starting point of the fit; check the "
                          "records (stick-slip present) and the start")
     cost = float(r @ r)
@@ -564,7 +571,7 @@ def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, round
         step, pred = damped_step(A, g, lam, active, xp=np)
         r_try, J_try, ok_try = problem.evaluate(z + step)
         n_evals += 1
-        good = bool(ok_try) and bool(np.all(np.isfinite(r_try)))
+        good = _host_finite(r_try, J_try, ok_try)
         cost_try = float(r_try @ r_try) if good else np.inf
         history.append(cost_try)
         accept, flat = (bool(x) for x in acceptance(cost, cost_try, good, rounding, np))

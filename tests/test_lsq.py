@@ -122,6 +122,20 @@ def test_rejected_steps_never_end_a_solve_by_the_stall_rule(scipy_ref):
             assert host.n_evals < 30
 
 
+def test_a_non_finite_jacobian_is_a_failed_evaluation(scipy_ref):
+    """Finite residuals with a non-finite Jacobian (a model whose derivative overflows
+    there): the host driver rejects the trial point, as the traced driver does through
+    the gradient, and reaches the minimum instead of breaking on the next step."""
+    def evaluate_nan_jacobian(z):
+        r, J, _ = evaluate(z)
+        return r, J if z[1] > RATE_MIN else np.full_like(J, np.nan), True
+
+    host = lsq(HostResiduals(evaluate_nan_jacobian), Z0, rtol=0.0, atol=0.0, rounding=0.0,
+               max_steps=400, stall=Stall(4, 1e-3))
+    assert np.all(np.isinf(host.stats["history"][1:5])) and host.converged
+    np.testing.assert_allclose(canonical(host.z), canonical(scipy_ref.x), rtol=1e-6)
+
+
 @pytest.mark.parametrize("jac", ["fwd", "bwd"])
 def test_optimistix_solver_reaches_scipy_minimum(scipy_ref, jac):
     solver = LevenbergMarquardt(rtol=1e-12, atol=1e-10)
