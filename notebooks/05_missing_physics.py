@@ -34,6 +34,8 @@ import stickslip_fitting as sf
 from stickslip_fitting.discovery.synthetic import hidden_effect_campaign
 from stickslip_jax.lubricants import lubricant
 
+# %matplotlib inline
+
 SMALL = os.environ.get("STICKSLIP_SMALL") == "1"
 FIG = Path(os.environ.get("STICKSLIP_FIGDIR", "notebooks/figures"))
 FIG.mkdir(parents=True, exist_ok=True)
@@ -91,6 +93,7 @@ pd.DataFrame({"truth": {k: truth.get(k) for k in res.parameters_after},
 # ## Figure (as `stickslip discover --plot`)
 
 # %%
-fig = found.plot()  # the Figure, shown here; saved as PNG too
+fig = found.plot()  # the Figure, shown below in Jupyter; saved as PNG too
 fig.savefig(FIG / "05_missing_physics.png", dpi=110)
 print("figure:", FIG / "05_missing_physics.png")
+fig
