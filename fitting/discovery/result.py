@@ -25,7 +25,7 @@ __all__ = ["NO_STDERR", "CycleDiscovery", "Discovery", "SmoothDiscovery", "effec
            "steps_text"]
 
 FIT_CRITERION = ("converged when a full Gauss-Newton step would lower chi-square by < 0.05, "
-                 "or the last 4 evaluations lowered it by < 0.5 together")
+                 "or the last 4 accepted steps lowered it by < 0.5 together")
 """When the base fit counts as converged (`subproblems.AbstractProblem.solve`'s defaults)."""
 
 
