@@ -288,7 +288,7 @@ def test_the_figure_gives_the_parameters_with_dashes_for_unknowns(tmp_path):
         campaign=NS(records=[NS(name=f"r{g}") for g in range(2)], screening=[]), learned=None,
         steps=[], misfit_left=None, candidates=[], indistinguishable_from=[])
     fig = plot_cycle_discovery(res)
-    (box,) = [t for a in fig.axes for t in a.texts if t.get_label() == "parameters"]
+    (box,) = [t for a in fig.axes for t in a.texts if t.get_gid() == "parameters"]
     text = box.get_text().replace("\n  ", " ")  # wrapped lines joined
     assert "delta = - (the fit left the physical range 0.001-100000)" in text
     assert "n = - (the fit left" in text and "e+07" not in text and "e-05" not in text

@@ -221,7 +221,7 @@ def _parameter_box(ax, result, after: str) -> None:
                                            getattr(result, "estimates", list)()]]
     ax.axvline(ax.get_xlim()[0] + 0.6 * np.ptp(ax.get_xlim()), color="0.7", lw=0.6)
     ax.text(0.61, 0.97, "\n".join(lines), va="top", fontsize=6, family="monospace",
-            transform=ax.transAxes, label="parameters")
+            transform=ax.transAxes, gid="parameters")  # a gid: a label enters legends
 
 
 def _misfit_panels(axes, left) -> None:
