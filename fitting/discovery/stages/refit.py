@@ -218,8 +218,8 @@ def refit_family(fx: Fits, sc: FamilyScore, lead: float = 0.0) -> FamilyRefit:
             z1[step_cols] += option.step
         s1 = SubProblem(model, z1, cols, shape, sensor, prior)
         try:
-            # from a bent base the Gauss-Newton step overshoots: start damped and allow
-            # more rejected trials before calling it stalled
+            # from a bent base the Gauss-Newton step overshoots: start damped and judge
+            # the stall over 8 accepted steps (the first gain little while the damping falls)
             fit = s1.solve(z1[cols], max_evals=refit_evals, lam0=1.0 if misfit else 1e-6,
                            stall_evals=8 if misfit else 4, target=aim)
         except ValueError:  # the score step left the simulator's domain
