@@ -202,7 +202,6 @@ def discover(records: RecordsSpec, *, base: CycleBase | SmoothBase | None = None
     from ..discovery.cycle_workflow import CycleBase
     from ..discovery.engine import AbstractBaseModel
     from ..discovery.engine import discover as run
-    from ..discovery.options import DEFAULTS
 
     if base is None:
         if isinstance(only, str):
@@ -212,9 +211,9 @@ def discover(records: RecordsSpec, *, base: CycleBase | SmoothBase | None = None
         if bad:
             raise ValueError(f"only: unknown effect families {', '.join(bad)}; the families "
                              f"are {', '.join(names)}")
-        opts = dataclasses.replace(DEFAULTS, top=top, alpha=alpha, max_evals=max_evals)
-        base = CycleBase(candidates=tuple(only) if only else None, opts=opts, strict=strict,
-                         learn=learn, loss=loss_option(loss), max_effects=max_effects)
+        base = CycleBase.tuned(only=only, top=top, alpha=alpha, max_evals=max_evals,
+                               strict=strict, learn=learn, loss=loss_option(loss),
+                               max_effects=max_effects)
     elif not isinstance(base, AbstractBaseModel):
         raise ValueError(f"base: a CycleBase or SmoothBase (from stickslip_fitting), got "
                          f"{base!r}")

@@ -266,8 +266,6 @@ def smooth_candidate_table(candidates) -> str:
 def _base(args, cycle: bool, loss, unreadable):
     """The base model of `--base` with the command's options (`engine.AbstractBaseModel`:
     `CycleBase` or `SmoothBase`)."""
-    import dataclasses
-
     only = tuple(args.only) if args.only else None
     if not cycle:
         from ..discovery.effects import CANDIDATES
@@ -283,14 +281,12 @@ def _base(args, cycle: bool, loss, unreadable):
                           unreadable=tuple(unreadable))
     from ..discovery.cycle_effects import FAMILIES
     from ..discovery.cycle_workflow import CycleBase
-    from ..discovery.options import DEFAULTS
 
     names = {f.name for f in FAMILIES}
     bad = [n for n in only or () if n not in names]
     if bad:
         raise ValueError(f"--only: {', '.join(bad)} exist only with --base smooth; the "
                          f"cycle base has {', '.join(sorted(names))}")
-    opts = dataclasses.replace(DEFAULTS, top=args.top, alpha=args.alpha,
-                               max_evals=args.max_evals)
-    return CycleBase(candidates=only, opts=opts, strict=args.strict, learn=args.learn,
-                     loss=loss, unreadable=tuple(unreadable), max_effects=args.max_effects)
+    return CycleBase.tuned(only=only, top=args.top, alpha=args.alpha,
+                           max_evals=args.max_evals, strict=args.strict, learn=args.learn,
+                           loss=loss, unreadable=tuple(unreadable), max_effects=args.max_effects)

@@ -10,18 +10,17 @@ result.effect, result.confidence, result.gap_before, result.gap_after
 
 Stages (each timed in `result.timings`, reported to `progress` as it finishes):
 
-1. `prepare`: screening (`stickslip_fitting.data.campaign.screen_records`: records without usable
+1. `prepare`: screening (`data.campaign.screen_records`: records without usable
    stick-slip are set aside and listed), the features fit (start), the cycle windows
-   (`stickslip_fitting.objectives.trace.trace_data`, the drive error left in the data).
-2. `base_fit`: the paper's model on every window (`cycle_model`, all effects zero):
-   the objective of `stickslip fit --objective trace`, fitted by Levenberg-Marquardt
+   (`objectives.trace.trace_data`, the drive error left in the data).
+2. `base_fit`: the paper's model on every window (`cycle_model`, all effects zero), the
+   objective of `stickslip fit --objective trace` fitted by Levenberg-Marquardt
    (friction + one gauge offset per record), weights refreshed once at the optimum.
-   A record described much worse than the others (chi2/n above `record_chi2` times the
+   A record described much worse than the others (chi2/n above `record_chi2` x the
    campaign's median: a marginal record near the stick-slip boundary) weighs by its own
    scatter and is listed (`records_scaled`); the gaps, the misfit test and the score
    tests are over the other records (its structured residuals would otherwise be
-   "explained" a little by every family; the gap after also counts the records that
-   weigh fully again with the named effect), `gap_all_before` / `gap_all_after` over all.
+   "explained" a little by every family), `gap_all_before` / `gap_all_after` over all.
 3. `ranking`: a **robust score test** of every family and shape (`cycle_effects`) from
    one Jacobian block each at the base fit: the efficient score (the family's columns
    with the base parameters projected out) is summed per cycle window, $g_w$, and
@@ -30,69 +29,52 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    windows are the independent units: residuals within a window share the errors of its
    measured restart state, so a per-sample test would raise false alarms on clean data.
    A family is significant when its best shape's **family-wise** p-value is below
-   `alpha`: the share of sign flips of the windows (`flips`, Westfall-Young min-p) whose
-   smallest p-value over all family-shape tests is as small, so the false-alarm rate of
-   the whole ranking is measured on the data with the tests' correlations kept (the
-   shapes of a family and the slip-shape families are strongly correlated; Bonferroni's
-   `alpha` / (number of tests) assumed them independent and lost power); or when its
-   predicted chi-square drop is at least `relevant` of the samples and the per-sample
-   score test passes Bonferroni's level (the window-level test loses power when a few
-   windows carry most of the signal).
+   `alpha` (`flips`: Westfall-Young min-p over sign flips of the windows, which keeps the
+   tests' strong correlations; Bonferroni assumed them independent and lost power), or
+   when its predicted chi-square drop is at least `relevant` of the samples and the
+   per-sample score test passes Bonferroni's level (the window test loses power when a
+   few windows carry most of the signal).
 4. `refit`: the `top` significant families, each refitted from the score step with its
    best shape (the sensor with both kernel orders). A fit beyond a family's physical
-   bounds or signs, or one whose traces do not change with the family's parameters (a
-   zero Jacobian: e.g. a damping that stops every slip), is reported as unphysical and
-   never named. Far from the data (base chi2/n > `misfit`), the physical refits that
-   explain at least `joint` of the best
-   one's drop have their continuous shape parameters refined before the choice
+   bounds or signs, or one whose traces do not change with its parameters (a zero
+   Jacobian: e.g. a damping that stops every slip), is unphysical and never named. Far
+   from the data (base chi2/n > `misfit`), the physical refits that explain at least
+   `joint` of the best one's drop have their continuous shape parameters refined
    (`refine_contenders`; the grid shapes alone let a per-record screw beat a rational
    Stribeck curve on lubricant C). When none of the `top` refits is physical, the other
    significant families are refitted too.
-5. `decision`: every other family with nominal evidence (robust p < `alpha` without
-   the family-wise adjustment) is refitted as a contender. The physical refit with the
-   largest chi-square drop net of its parameters' price wins (ln n each,
-   `stages.decide.price`); each other refit is compared with it by the **paired
-   window test** (`paired_z`: the difference of their chi-squares over its window-level
-   standard error) and the principal cosine of their efficient-score directions
-   (`decide`; the winner stays a significant family). A contender that is not clearly
-   beaten (z < `clear`) is named jointly when it is physical and changes the traces in
-   nearly the same way (cosine >= `collinear`): `indistinguishable_from`, "X or Y:
-   these records cannot tell them apart". Far from the data, a named fit that still
-   leaves more than `refine_gap` x the noise is run again from the friction the base
-   fit started from (`restart`: the base bent its friction to absorb the effect).
-   Confidence is "high" only when the answer explains the gap (residual RMS after
-   within 15 % of the noise) and no other contender that explains a comparable share
-   (drop >= `joint` of the winner's: another direction, or unphysical) is unbeaten;
-   when the base model leaves a gap that no family explains (less than half of the excess chi-square
-   removed) the answer is "unexplained" with the residual pattern and a learned
-   correction over the cycle phase (`cycle_learned`: where the gap lies and how much of
-   it a smooth phase-locked term closes; `learned`, JSON `learned_correction`).
-   The explanation names every phase (stick, slip) left above the noise, and whether its
-   residual is within its own standard errors (a slip's timing error moves the fast
-   trace); "none" is "low" when a phase's chi2/n exceeds `phase_chi2`.
-
-6. `more`: the sequential search for several effects at once (`stages.more`, whose
-   module doc justifies the stopping rule). The named effect joins the base (its
-   coordinates base columns, its shape held) and stages 3-5 run again on the extended
-   base over the families not yet in it, until no family is significant or
-   `max_effects` are named; after each new effect every earlier one is tested again
-   given it (drop-one) and dropped when no longer significant (a shadow of the new
-   one). The confidence and the gap after are those of the final model, all effects
-   fitted together; `result.steps` is the staircase (each effect's size, interval,
-   family-wise p, confidence and the gap after it), `result.effect` the first effect kept.
-   The records weighed by their scatter are tried at full weight (`reweigh`) on the
-   final model.
+5. `decision`: every other family with nominal evidence (robust p < `alpha`) is refitted
+   as a contender. The physical refit with the largest chi-square drop net of its
+   parameters' price (ln n each, `stages.decide.price`) wins; each other refit is
+   compared with it by the **paired window test** (`paired_z`) and the principal cosine
+   of their efficient-score directions (`decide`). A contender not clearly beaten
+   (z < `clear`) that is physical and nearly collinear (cosine >= `collinear`) is named
+   jointly (`indistinguishable_from`: "X or Y: these records cannot tell them apart").
+   Far from the data, a named fit that leaves more than `refine_gap` x the noise is run
+   again from the base fit's starting friction (the base bent its friction to absorb the
+   effect). Confidence is "high" only when the answer explains the gap (residual RMS
+   within 15 % of the noise) and no contender that explains a comparable share (drop >=
+   `joint` of the winner's) is unbeaten; a gap that no family explains (less than half
+   of the excess chi-square removed) is "unexplained", with the residual pattern and a
+   learned correction over the cycle phase (`cycle_learned`, JSON `learned_correction`).
+   The explanation names every phase left above the noise and whether it is within its
+   own standard errors (a slip's timing error moves the fast trace); "none" is "low"
+   when a phase's chi2/n exceeds `phase_chi2`.
+6. `more`: the sequential search (`stages.more`, whose module doc justifies the stopping
+   rule): the named effect joins the base and stages 3-5 run again over the families not
+   yet in it, until none is significant or `max_effects` are named; each earlier effect
+   is tested again given the new one and dropped when no longer significant.
+   `result.steps` is the staircase, `result.effect` the first effect kept. The records
+   weighed by their scatter are tried at full weight (`reweigh`) on the final model.
 
 Gaps are residual RMS in mm; `noise` is the campaign's noise level (RMS of the records'
 robust noise estimates, `RecordFeatures.noise`).
 
-Layout: `CycleBase` is the per-cycle base model of the one pipeline (`engine.discover`);
-its stages are functions in `stickslip_fitting.discovery.stages` (`prepare`, `base_fit`,
-`rank`, `refit` and `sharpen`, `choose`, `more_effects` and `reweigh`, `conclude`) that
-hand on frozen states (`stages.state`); the tuning is `options.DiscoveryOptions`
-(`DEFAULTS`; the lower-case names above are its fields), the statistics and decision rules
-are in `decision`, the sub-problems over flat coordinates in `subproblems`, the result
-type in `result`.
+Layout: `CycleBase` is the per-cycle base of the one pipeline (`engine.discover`); its
+stages are the functions of `discovery.stages`, which hand on frozen states
+(`stages.state`); the tuning is `options.DiscoveryOptions` (the lower-case names above
+are its fields), the statistics and decision rules are in `decision`, the sub-problems
+in `subproblems`, the result type in `result`.
 """
 
 from __future__ import annotations
@@ -119,16 +101,13 @@ class CycleBase(AbstractBaseModel):
     """The per-cycle base (module doc) and its options.
 
     `candidates`: family names (default all of `cycle_effects.FAMILIES`); `opts`: the
-    tuning (`options.DiscoveryOptions`: how many significant families to refit, the
-    family-wise false-alarm rate, the rules that name two families together, the
-    Levenberg-Marquardt budgets); `strict`: refuse the campaign when a record has no
-    usable stick-slip; `learn`: fit the learned phase correction (`cycle_learned`) even
-    when a family explains the residual (it is always fitted for "unexplained");
-    `loss`: a heavy-tailed likelihood (`stickslip_fitting.objectives.losses`, `--loss`)
-    whose weights at the base fit are held fixed through the workflow (None or Gaussian:
-    least squares); `unreadable`: the errors of the campaign's files that could not be
-    read (`read_campaign_files`), listed in the screening; `max_effects`: how many effects
-    the sequential search may name (stage 6; 1: the first search's answer alone).
+    tuning (`options.DiscoveryOptions`); `strict`: refuse the campaign when a record has
+    no usable stick-slip; `learn`: fit the learned phase correction (`cycle_learned`)
+    whatever the answer (always for "unexplained"); `loss`: a heavy-tailed likelihood
+    (`objectives.losses`, `--loss`) whose weights at the base fit are held fixed (None or
+    Gaussian: least squares); `unreadable`: the errors of the files that could not be
+    read, listed in the screening; `max_effects`: how many effects the sequential search
+    may name (stage 6; 1: the first search's answer alone).
     """
 
     candidates: tuple[str, ...] | None = None
@@ -147,6 +126,16 @@ class CycleBase(AbstractBaseModel):
                 raise ValueError(f"{key}: must be at least {low}, got {value}")
         if not 0 < self.opts.alpha < 1:
             raise ValueError(f"alpha: must be between 0 and 1, got {self.opts.alpha}")
+
+    @classmethod
+    def tuned(cls, *, only=None, **options) -> CycleBase:
+        """The base of `only` the families named (None or empty: all) from `options`, the
+        fields of `CycleBase` and of its tuning `DiscoveryOptions` (over `DEFAULTS`)."""
+        tuning = {k: options.pop(k) for k in list(options)
+                  if k in DiscoveryOptions.__dataclass_fields__}
+        if only:
+            options["candidates"] = tuple(only)
+        return cls(opts=dataclasses.replace(DEFAULTS, **tuning), **options)
 
     @property
     def families(self) -> list:
@@ -184,10 +173,9 @@ class CycleBase(AbstractBaseModel):
 
 def with_uncertainty(result: CycleDiscovery, base) -> CycleDiscovery:
     """The friction rows before and after with their standard errors and identifiability
-    (`result.friction_rows` of the base and the final fit, one cluster per cycle window
-    of the model's data, chi-square as the refits count it). Without a refit of its own
-    (no effect, or a form outside the library) the final friction is the base's: a value
-    the form moved keeps the base's verdict and has no standard error."""
+    (`result.friction_rows`, one cluster per cycle window). Without a refit of its own (no
+    effect, or a form outside the library) the final friction is the base's: a value the
+    form moved keeps the base's verdict and has no standard error."""
     data = result.model.data
     mask = np.asarray(data.mask)
     clusters = [np.broadcast_to(np.asarray(a)[:, None], mask.shape)[mask]
@@ -206,12 +194,6 @@ def with_uncertainty(result: CycleDiscovery, base) -> CycleDiscovery:
 
 
 def discover_cycles(records, *, progress=None, **options) -> CycleDiscovery:
-    """Run the workflow (module doc) on `records` (a campaign of `Record`s): the one
-    pipeline (`engine.discover`) on the per-cycle base; `options` are the fields of
-    `CycleBase` and of its tuning `DiscoveryOptions` (`top`, `alpha`, `collinear`, `joint`,
-    `clear`, `max_evals`, `refit_evals`, ...); `progress` is called with one line per
-    finished stage."""
-    tuning = {k: options.pop(k) for k in list(options)
-              if k in DiscoveryOptions.__dataclass_fields__}
-    return discover(records, CycleBase(opts=dataclasses.replace(DEFAULTS, **tuning), **options),
-                    progress=progress)
+    """Run the workflow (module doc) on `records` (a campaign of `Record`s) with the
+    `options` of `CycleBase.tuned`; `progress` is called with one line per finished stage."""
+    return discover(records, CycleBase.tuned(**options), progress=progress)
