@@ -15,19 +15,14 @@ with one or two parameters that are **zero when the effect is absent**, a short
 | `load_coupling` | normal load $N = W + \kappa k x$ (drive moment, ch. 6) | `kappa` (-) |
 | `rate_state` | extra kinetic friction $b\,e^{-s/L}$ decaying with slip distance $s$ | `b` (-), $L$ fixed mm |
 
-`EffectSet` holds one instance of every effect; `EffectSet.zeros()` is the paper's
-model, and `EffectSet.smooth_model(slideway)` assembles the `SmoothModel` in which all
-effects are present (inactive ones at zero), so that a single compiled residual
-function serves the base model and every candidate. `EffectGauge` composes the three
-effects that act on what the gauge reads (low-pass, gauge drift, and the drive error,
-which changes the true spring deflection to $x + e(u)$).
+`EffectSet.zeros()` is the paper's model; `EffectSet.smooth_model(slideway)` has every
+effect present (inactive ones at zero), so one compiled residual function serves the base
+and every candidate. `EffectGauge` composes the effects on what the gauge reads.
 
-Each effect also has `SCALES`: a typical detectable size of each parameter, used to
-make the fitted coordinates O(1) (the fit works with `value / scale`), and `SIGNS`:
-+1 where physics requires the parameter to be >= 0 (a passive damper dissipates,
-c >= 0; a recording chain is causal, time constant >= 0; rate-and-state friction is
-highest at breakaway and decays, b >= 0), 0 where either sign is physical. A fitted
-value of the wrong sign is never named (`ranking`).
+`SCALES`: a typical detectable size of each parameter (fit coordinate = value / scale).
+`SIGNS`: +1 where physics requires >= 0 (a passive damper dissipates; a recording chain
+is causal; rate-and-state friction is highest at breakaway and decays), 0 for either
+sign; a fitted value of the wrong sign is never named (`ranking`).
 """
 
 from __future__ import annotations
@@ -71,8 +66,7 @@ def _f(x):
 
 
 class _Effect:
-    """Mixin: a library entry. `PARAMS` names the zero-when-absent fields, `UNITS` their
-    units, `SCALES` their typical sizes (fit coordinates are value / scale)."""
+    """Mixin: a library entry; `PARAMS` names the zero-when-absent fields (module doc)."""
 
     NAME: ClassVar[str]
     EXPLANATION: ClassVar[str]
@@ -83,8 +77,7 @@ class _Effect:
 
     @classmethod
     def unphysical(cls, values: dict[str, float]) -> str | None:
-        """Why `values` ({param: natural value}) break a sign that physics requires, or
-        None when they are physical."""
+        """Why `values` ({param: natural value}) break a required sign, or None."""
         bad = [f"{p} = {values[p]:.3g} < 0" for p, s in zip(cls.PARAMS, cls.SIGNS)
                if s > 0 and values[p] < 0]
         return "; ".join(bad) or None
@@ -126,14 +119,9 @@ class Stribeck(AbstractForceTerm, _Effect):
 
 
 class DrivePeriodicError(AbstractForceTerm, _Effect):
-    r"""Drive position error periodic in the drive position (lead screw or gear).
-
-    The true drive displacement is $u + e(u)$ with
-    $e(u) = a_s\sin(2\pi u/\lambda) + a_c(\cos(2\pi u/\lambda) - 1)$ (mm, $e(0) = 0$), so the
-    spring pulls with $k(x + e)$: the part adds the force $k\,e(u)$ (kgf) and
-    `EffectGauge` adds $e(u)$ to the deflection the gauge reads. `pitch` $\lambda$ (mm)
-    is fixed (the screw lead or gear pitch).
-    """
+    r"""Drive position error periodic in the drive position (lead screw or gear): the
+    true drive displacement is $u + e(u)$ (module doc, $e(0) = 0$), so the part adds the
+    force $k\,e(u)$ (kgf) and `EffectGauge` adds $e(u)$ to the deflection read."""
 
     NAME = "drive_periodic_error"
     EXPLANATION = (
@@ -163,15 +151,12 @@ class DrivePeriodicError(AbstractForceTerm, _Effect):
 class SensorLowpass(AbstractMeasurement, _Effect):
     r"""First-order low-pass recording chain: reads $z$ with $\tau\dot z = x - z$.
 
-    State $e = x - z$ (mm): $\dot e = \dot x - e/\tau_{eff}$, reading $x - e$.
-    $\tau_{eff} = \tau_{min} + \tau$ for $\tau \ge 0$ and
-    $\tau_{min}/(1 - \tau/\tau_{min})$ for $\tau < 0$ (s): positive, so a negative
-    trial value of the fitted `time_constant` $\tau$ cannot make the filter unstable,
-    with value and slope continuous at 0 (slope 1), so the Jacobian at $\tau = 0$ (score
-    test, first refit step) is the physical one-sided slope. (A symmetric smooth floor,
-    $\tfrac12(\tau + \sqrt{\tau^2 + \tau_{min}^2})$, has slope 1/2 at 0: it halved that
-    Jacobian and doubled the predicted step.) $\tau_{min}$ = 10 us is far below any
-    sample interval, so $\tau = 0$ reads $x$ to within $10^{-5}\,\dot x$.
+    State $e = x - z$ (mm): $\dot e = \dot x - e/\tau_{eff}$, reading $x - e$, with
+    $\tau_{eff} = \tau_{min} + \tau$ for $\tau \ge 0$, $\tau_{min}/(1 - \tau/\tau_{min})$
+    below (s): positive (a negative trial $\tau$ cannot make the filter unstable), with
+    slope 1 at 0, so the Jacobian at $\tau = 0$ (score test) is the physical one-sided
+    slope (a symmetric smooth floor has slope 1/2 there: it doubled the predicted step).
+    $\tau_{min}$ = 10 us: $\tau = 0$ reads $x$ to within $10^{-5}\,\dot x$.
     """
 
     NAME = "sensor_lowpass"
@@ -205,12 +190,9 @@ class SensorLowpass(AbstractMeasurement, _Effect):
 
 
 class FrictionDrift(AbstractForceTerm, _Effect):
-    r"""All friction coefficients shift by $r\,t$ during a record ($t$ from its start).
-
-    Shifting $\mu_s$ and $\mu_d$ together shifts $\mu_0$ and $\mu_m$ (eqs 1, 3) by the same
-    amount, i.e. an extra friction force $-N\,r\,t\,\mathrm{sign}(\dot y)$ (kgf), with the
-    simulator's smoothed sign (so it also raises the force the stick can hold).
-    """
+    r"""All friction coefficients shift by $r\,t$ during a record ($t$ from its start):
+    $\mu_0$ and $\mu_m$ (eqs 1, 3) shift alike, an extra force
+    $-N\,r\,t\,\mathrm{sign}(\dot y)$ (kgf, the simulator's smoothed sign)."""
 
     NAME = "friction_drift"
     EXPLANATION = (
@@ -241,22 +223,16 @@ class GaugeDrift(AbstractMeasurement, _Effect):
 
 
 class LoadCoupling(AbstractLoadCoupling, _Effect):
-    r"""Normal load changed by the drive moment (chapter 6): $N = W + \kappa\,k x$ (kgf).
+    r"""Normal load changed by the drive moment (chapter 6): $N = W + \kappa\,k x$ (kgf);
+    the spring force acts above the friction plane, and its moment loads the slideway.
 
-    The spring force $kx$ acts above the friction plane; its moment tilts the slider
-    and loads the slideway by a fraction $\kappa$ of the spring force (a drive line
-    inclined by $\arctan\kappa$ does the same).
-
-    In discovery fits the friction coefficients are *apparent* ones, referred to $W$
-    (`load_referred_friction`): a stick breaks away at $kx = N\mu_0$, i.e. at
-    $kx = W\mu_0/(1 - \kappa\mu_0)$, so a friction law fitted without the effect
-    has absorbed exactly $\mu_{app} = \mu/(1 - \kappa\mu)$; what is left for
-    $\kappa$ is the slip, which oscillates about the same centre with the softer
-    spring $k(1 - \kappa\mu_m)$. With physical coefficients as fit coordinates the
-    $\kappa$ direction is nearly collinear with the friction level (its efficient
-    part ~1e-3 of its column) and so non-linear that no refit from the base optimum
-    moved (measured: the Gauss-Newton step to the score test's predicted size
-    raised chi-square 70-fold).
+    Discovery fits apparent friction coefficients, referred to $W$
+    (`load_referred_friction`): a stick breaks away at $kx = W\mu_0/(1 - \kappa\mu_0)$,
+    so a law fitted without the effect has absorbed $\mu_{app} = \mu/(1 - \kappa\mu)$
+    and what is left for $\kappa$ is the slip (the softer spring $k(1 - \kappa\mu_m)$).
+    With physical coefficients the $\kappa$ direction is nearly collinear with the
+    friction level and so non-linear that no refit moved (measured: the Gauss-Newton step
+    to the score test's size raised chi-square 70-fold).
     """
 
     NAME = "load_coupling"
@@ -280,9 +256,8 @@ def _apparent(mu, kappa):
 
 
 class LoadReferredStatic(AbstractStaticFriction):
-    r"""Static law $\mu_0 = g(\mu_{0,app}(T_1))$, $g(\mu) = \mu/(1 + \kappa\mu)$ (see
-    `LoadCoupling`): the physical coefficient (against $N$) of an apparent law
-    (against $W$); dimensionless, $T_1$ in s."""
+    r"""Static law $\mu_0 = g(\mu_{0,app}(T_1))$, $g(\mu) = \mu/(1 + \kappa\mu)$: the
+    physical coefficient (against $N$) of an apparent law (against $W$, `LoadCoupling`)."""
 
     apparent: AbstractStaticFriction
     kappa: Scalar
@@ -309,9 +284,8 @@ class LoadReferredKinetic(AbstractKineticFriction):
 
 
 def load_referred_friction(apparent: Friction, kappa) -> Friction:
-    """The physical `Friction` (coefficients against N = W + kappa k x) whose breakaway
-    and slip-centre forces equal those of the `apparent` law against W (`LoadCoupling`);
-    kappa = 0 gives the same law."""
+    """The physical `Friction` (against N = W + kappa k x) with the breakaway and
+    slip-centre forces of the `apparent` law against W (`LoadCoupling`)."""
     return Friction(LoadReferredStatic(apparent.static, kappa),
                     LoadReferredKinetic(apparent.kinetic, kappa))
 
@@ -319,9 +293,9 @@ def load_referred_friction(apparent: Friction, kappa) -> Friction:
 class RateState(AbstractForceTerm, _Effect):
     r"""Kinetic friction that evolves with slip distance: $\Delta\mu = b\,e^{-s/L}$.
 
-    State $s$ = slip distance since breakaway (mm): $\dot s = |\dot y|\,(1 - w) - s\,w/t_r$
-    with $w = \exp(-(\dot y/(4\varepsilon))^8)$ the simulator's stick weight and
-    $t_r = \pi/(40\,\omega_0)$, so $s$ resets while the slider sticks. Force
+    State $s$, the slip distance since breakaway (mm): $\dot s = |\dot y|(1 - w) - s w/t_r$
+    with $w = \exp(-(\dot y/(4\varepsilon))^8)$ the simulator's stick weight,
+    $t_r = \pi/(40\,\omega_0)$ (it resets while sticking). Force
     $-N\,b\,e^{-s/L}\,(1-w)\,\mathrm{sign}(\dot y)$ (kgf); `L` (mm) fixed.
     """
 
