@@ -1,29 +1,23 @@
 r"""Trace model of a campaign for discovery: the smoothed simulator with every library effect.
 
-A campaign enters as padded traces (`stickslip_fitting.objectives.smooth.SmoothData`,
-arrays [R records, N samples], mm and s), built from `stickslip_jax.records.Record`s by
-`campaign_traces`. Each record must start
-at the end of a slip (the slider just stuck, stick time 0): synthetic discovery
-records do, and `campaign_traces(..., crop="slip_end")` cuts a measured record at its
-first detected slip end (`stickslip_fitting.data.features`).
+A campaign enters as padded traces (`objectives.smooth.SmoothData`, [R records, N
+samples], mm and s, `campaign_traces`). Each record must start at the end of a slip
+(stick time 0): synthetic discovery records do, and `crop="slip_end"` cuts a measured
+record at its first detected slip end.
 
-The model of record $r$ is `simulate_smooth` (Kvaerno5, `Settings`) of
-`EffectSet.smooth_model(Slideway(friction, W_r, k_r))` driven at its constant drive speed
-$v_r$ or, for a record with a measured `drive` (or `drive_speed`) column or a
-`drive_program`, by its drive through `SmoothData.drive_knots`, started at rest at the deflection $x_{0,r}$ (a per-record nuisance; its initial
-guess is a line fitted to the first samples). Parameters live in one typed pytree,
-`DiscoveryParams` (friction in the log coordinates of `stickslip_fitting.params`, the
-`EffectSet`, the $x_0$).
+The model of record $r$ is `simulate_smooth` (`Settings`) of
+`EffectSet.smooth_model(Slideway(friction, W_r, k_r))` driven at its drive speed $v_r$
+(or its measured or programmed drive, `SmoothData.drive_knots`), started at rest at the
+deflection $x_{0,r}$ (a per-record nuisance, first guessed by a line through the first
+samples). Parameters: `DiscoveryParams` (friction logs, the `EffectSet`, the $x_0$).
 
 **One compilation for every candidate.** `Problem.evaluate(z)` returns the whitened
 residuals $(model - data)/\sigma$ and their Jacobian (forward mode through the solver)
-with respect to a flat vector $z$ = [free friction coordinates (chosen with
-`eqx.partition`), `n_slots` effect slots, the R offsets of $x_0$]. Which effect
-parameters the slots drive is a selection matrix passed as *data*, so the base model
-(slots unused), every candidate and the score test all run the same compiled function.
-Effect slots are in units of each parameter's `SCALES` (O(1) coordinates). The friction
-coordinates of a fit are apparent coefficients, referred to W (`effects.LoadCoupling`;
-the same as the physical ones unless load coupling is present).
+over $z$ = [free friction coordinates, `n_slots` effect slots, the R offsets of $x_0$].
+Which effect parameters the slots drive is a selection matrix passed as *data*, so the
+base, every candidate and the score test run the same compiled function. Slots are in
+units of each parameter's `SCALES`; the friction coordinates are apparent coefficients,
+referred to W (`effects.LoadCoupling`).
 """
 
 from __future__ import annotations
@@ -62,21 +56,18 @@ __all__ = [
 EFFECT_PARAMS: tuple[tuple[str, str], ...] = tuple(
     (name, p) for name in CANDIDATES for p in getattr(EffectSet(), name).PARAMS)
 """(effect, parameter) pairs in the order of the flat effect vector."""
+_SCALES = tuple(s for name in CANDIDATES for s in getattr(EffectSet(), name).SCALES)
 
 
 @dataclasses.dataclass(frozen=True)
 class Settings:
     """Simulator settings of discovery fits (hashable: part of the compiled function).
 
-    `smoothing` is the simulator's dimensionless smoothing (1e-2: the stick creeps at
-    1 % of the drive speed; synthetic discovery campaigns use the same value),
-    `rtol`/`atol` the solver tolerances (mm, mm/s): 1e-6 is needed for Jacobians
-    (forward mode through the solver) within a few % of central finite differences;
-    at 1e-4 the traces are still right (0.003 um RMS against 1e-8) but the derivative
-    of the discretised solution is not. `max_steps` per record,
-    `solver` one of kvaerno3/4/5. `formulation` is the smoothed simulator's
-    formulation, pinned here (not left to `simulate_smooth`'s default) so that the
-    discovery results cannot change when that default does.
+    `smoothing`: dimensionless (1e-2: the stick creeps at 1 % of the drive speed, as in
+    the synthetic campaigns); `rtol`/`atol` (mm, mm/s): 1e-6 keeps the forward-mode
+    Jacobians within a few % of finite differences (at 1e-4 the traces are right, their
+    derivatives not); `max_steps` per record; `solver`: kvaerno3/4/5; `formulation`
+    pinned, so that a new default of `simulate_smooth` cannot change discovery.
     """
 
     smoothing: float = 1e-2
@@ -124,13 +115,9 @@ def _crop_at_first_slip_end(record):
 
 def campaign_traces(records, *, crop: str = "none", max_samples: int | None = None
                     ) -> SmoothData:
-    """Padded traces from records: `start_level` the reading at the start (a line
-    through the first samples), `sigma` the campaign's robust noise (mm, the median over
-    records) for every record, `drive_knots` each record's drive from its start where a
-    record's drive is measured or programmed (`objectives.smooth.drive_knots`).
-
-    `crop`: "none" (each record starts at a slip end) or "slip_end" (cut at the first
-    detected slip end). `max_samples` caps each record's length.
+    """Padded traces from records (module doc): `start_level` a line through the first
+    samples, `sigma` the median of the records' robust noise (mm); `crop` "none" (each
+    record starts at a slip end) or "slip_end"; `max_samples` caps each record's length.
     """
     if crop not in ("none", "slip_end"):
         raise ValueError(f"crop must be 'none' or 'slip_end', got {crop!r}")
@@ -184,20 +171,14 @@ def simulate_campaign(params: DiscoveryParams, traces: SmoothData, settings: Set
 
 def effects_to_vector(effects: EffectSet) -> Float[Array, " E"]:
     """Flat effect vector in SCALES units (order `EFFECT_PARAMS`)."""
-    out = []
-    for name, p in EFFECT_PARAMS:
-        part = getattr(effects, name)
-        out.append(getattr(part, p) / part.SCALES[part.PARAMS.index(p)])
-    return jnp.stack(out)
+    return jnp.stack([getattr(getattr(effects, n), p) / s
+                      for (n, p), s in zip(EFFECT_PARAMS, _SCALES)])
 
 
 def effects_from_vector(template: EffectSet, vec) -> EffectSet:
     """Inverse of `effects_to_vector` (the fixed shape settings come from `template`)."""
-    scales = [getattr(template, n).SCALES[getattr(template, n).PARAMS.index(p)]
-              for n, p in EFFECT_PARAMS]
-    return eqx.tree_at(
-        lambda s: [getattr(getattr(s, n), p) for n, p in EFFECT_PARAMS], template,
-        [vec[i] * scales[i] for i in range(len(EFFECT_PARAMS))])
+    return eqx.tree_at(lambda s: [getattr(getattr(s, n), p) for n, p in EFFECT_PARAMS],
+                       template, [vec[i] * s for i, s in enumerate(_SCALES)])
 
 
 def slot_matrix(effect: str | None, n_slots: int = 2) -> np.ndarray:
@@ -283,14 +264,13 @@ def combine_friction(z_base, friction_static: EmpiricalFriction, free_names
 
 @dataclasses.dataclass
 class Problem(AbstractProblem):
-    """A campaign and a model structure (which effect the slots drive, if any, and an
-    `extra` force term whose arrays are fitted too, such as the learned correction's).
+    """A campaign and a model structure: the `effect` the slots drive (None: none) and an
+    `extra` force term whose arrays are fitted too (the learned correction's).
 
     `evaluate(z)` -> (residuals [M], Jacobian [M, P], ok) over the masked samples, with
-    $z$ = [free friction coordinates (log, `NAMES` order less `fixed`), slots, the extra
-    term's arrays (flat), dx0 (R)]; `params(z)` the `DiscoveryParams`, `extra_term(z)` the
-    term. All Problems of a campaign without an extra term share one compiled function
-    (same shapes; `effect` only changes the data matrix S).
+    $z$ = [free friction logs (`NAMES` less `fixed`), slots, the extra term's arrays
+    (flat), dx0 (R)]. The Problems of a campaign without an extra term share one compiled
+    function (`effect` only changes the data matrix S).
     """
 
     traces: SmoothData
