@@ -13,11 +13,8 @@ found.to_json("discover.json")  # the document of `stickslip discover --json`
 smooth = sf.discover("data/examples", base=sf.SmoothBase(top=2, crop="slip_end"))  # --base smooth
 ```
 
-The call runs `stickslip discover` with the same functions: the records read as the
-command reads them (a file that cannot be read is set aside and listed), the one pipeline
-`discovery.engine.discover` on the base model (the per-cycle `CycleBase` built from the
-keywords, or the base given), the figure of the result's base (`discovery.plots`) and the
-document of the command's `json_document`.
+The call runs `stickslip discover`'s functions: the records read as the command reads
+them, `discovery.engine.discover` on the base, its figure and the command's JSON document.
 """
 
 from __future__ import annotations
@@ -44,39 +41,24 @@ __all__ = ["FAMILY_COLUMNS", "SMOOTH_COLUMNS", "CampaignDiscovery", "discover"]
 
 FAMILY_COLUMNS = ("shape", "score", "p_value", "family_wise_p_value", "significant",
                   "significant_by", "chi2_drop", "unphysical", "named")
-"""The columns of `CampaignDiscovery.summary()`: the family's shape, its robust window
-test (statistic F `score`, its `p_value` and the `family_wise_p_value` over every
-family-shape test), whether and by which test it is significant, the refit's chi-square
-drop (NaN when not refitted), whether the refit left the physical range, and whether the
-answer names it."""
+"""The columns of `CampaignDiscovery.summary()` on the per-cycle base: the family's shape,
+its robust window test (F `score`, `p_value`, `family_wise_p_value`), whether and by which
+test it is significant, the refit's chi-square drop (NaN: not refitted), whether the refit
+left the physical range, and whether the answer names it."""
 
 SMOOTH_COLUMNS = ("score", "p_value", "dof", "delta_bic", "lr_p_value", "unphysical", "named")
-"""The columns of `summary()` on the smoothed whole-record base (`SmoothBase`): the
-effect's score test at the base fit (statistic, p-value, degrees of freedom), the refit's
-BIC change and likelihood-ratio p-value (NaN when not refitted), whether the score step
-or the refit left the physical range, and whether the answer names it."""
+"""The columns of `summary()` on the smoothed base (`SmoothBase`): the score test
+(statistic, p-value, dof), the refit's BIC change and likelihood-ratio p-value (NaN: not
+refitted), whether the score step or the refit was unphysical, and whether it is named."""
 
 
 @dataclasses.dataclass(frozen=True)
 class CampaignDiscovery(ResultDocument):
-    """The result of `discover`: the effect the paper's model misses in a campaign.
-
-    - `effect`, `confidence`, `explanation`: the answer (an effect's name, "none" or
-      "unexplained"); `named`: the effects the answer names (the effect and those the
-      records cannot tell from it);
-    - `summary()`: a pandas DataFrame, one row per effect tested (`FAMILY_COLUMNS` on the
-      per-cycle base, `SMOOTH_COLUMNS` on the smoothed one); `parameters(when)`: one row
-      per parameter before or after, as `CampaignFit.summary()`;
-    - `plot(path)`: the figure of `stickslip discover --plot`;
-    - `to_json(path)`: the document of `stickslip discover --json`; `to_dict()` the same
-      as a dict;
-    - `str(result)`: the answer, the gap, the candidate table and the parameters, as the
-      command prints them.
-
-    `result` is the pipeline's `discovery.result.Discovery` (`CycleDiscovery` or
-    `SmoothDiscovery`, after the base: fits, residuals by phase, the screened campaign,
-    the learned correction).
-    """
+    """The result of `discover`: the effect the paper's model misses in a campaign
+    (`effect`: a name, "none" or "unexplained"), its tables (`summary()`,
+    `parameters(when)`), figure (`plot`), `stickslip discover --json` document
+    (`to_json`, `to_dict`) and, as `str`, what the command prints. `result` is the
+    pipeline's `discovery.result.Discovery` (fits, residuals by phase, the campaign)."""
 
     result: Discovery
     loss: str = "gaussian"
@@ -107,10 +89,8 @@ class CampaignDiscovery(ResultDocument):
         return [n for n in joint if n in names]
 
     def summary(self) -> pandas.DataFrame:
-        """One row per effect tested, indexed by its name, in the order of the candidate
-        table: the columns `FAMILY_COLUMNS` (index "family") on the per-cycle base,
-        `SMOOTH_COLUMNS` (index "effect") on the smoothed one. Needs pandas (the
-        `[pandas]` extra)."""
+        """One row per effect tested, in the candidate table's order: `FAMILY_COLUMNS`
+        (index "family") or `SMOOTH_COLUMNS` (index "effect"). Needs pandas."""
         pd = pandas_module("CampaignDiscovery.summary()")
         cycle = self.result.BASE == "cycle"
         columns = FAMILY_COLUMNS if cycle else SMOOTH_COLUMNS
@@ -130,10 +110,9 @@ class CampaignDiscovery(ResultDocument):
         return frame
 
     def parameters(self, when: str = "after") -> pandas.DataFrame:
-        """The friction parameters (and the named effects' as "effect.name") `when` =
-        "after" the named effects were added, or "before": one row per parameter with
-        the columns of `CampaignFit.summary()` (value NaN with the reason where the
-        records do not determine it). Needs pandas (the `[pandas]` extra)."""
+        """The friction parameters (and the named effects' as "effect.name") "before" or
+        "after" the named effects, with the columns of `CampaignFit.summary()` (NaN with
+        the reason where the records do not determine a value). Needs pandas."""
         if when not in ("before", "after"):
             raise ValueError(f"when: 'before' or 'after', got {when!r}")
         return parameter_frame(self.report[f"estimates_{when}"],
@@ -148,9 +127,7 @@ class CampaignDiscovery(ResultDocument):
         return {**json_document(self.result), **loss}
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
-        """The figure of `stickslip discover --plot` (`discovery.plots`: residual RMS by
-        phase before and after, traces and residuals of the records): returned, and
-        saved to `path` when given."""
+        """The figure of `stickslip discover --plot`, saved to `path` when given."""
         path = self.output_path(path, "plot")
         fig = self.result.figure()
         if path is not None:
@@ -174,29 +151,18 @@ def discover(records: RecordsSpec, *, base: CycleBase | SmoothBase | None = None
              alpha: float = 0.01, max_evals: int = 80, loss: AbstractLoss | str = "gaussian",
              strict: bool = False, learn: bool = False, progress=None,
              max_effects: int = 3) -> CampaignDiscovery:
-    """Find the effect the paper's model misses in a campaign, as `stickslip discover`
-    does.
+    """Find the effect the paper's model misses in a campaign, as `stickslip discover`.
 
-    - `records`: a file, a folder (its *.csv), a glob, a list of these, or `Record`
-      objects; at least two.
-    - `base`: the base model with its options, as `--base`: None for the per-cycle
-      model built from the keywords below (`--base cycle`, seconds), or a base object
-      from `stickslip_fitting`: `CycleBase(...)` or `SmoothBase(...)` (the smoothed
-      simulator over whole records, `--base smooth`, minutes). A base given carries its
-      own options (its fields): the keywords below then keep their defaults.
-    - `only`: the effect families to consider (`discovery.cycle_effects.FAMILIES`'
-      names; default all), as `--only`.
-    - `top`: how many significant families to refit; `alpha`: the false-alarm rate of
-      the test over all families; `max_evals`: the evaluation budget of the base fit;
-      `loss`: the likelihood ("gaussian", "huber:C", "student-t:NU" or an
-      `AbstractLoss`); `strict`: refuse the campaign when a record has no usable
-      stick-slip; `learn`: fit the learned phase correction whatever the answer;
-      `max_effects`: how many effects may be named one after another, as
-      `--max-effects` (1: the single best effect).
-    - `progress`: called with one line per finished stage (e.g. `print`).
+    - `records`: a file, a folder (its *.csv), a glob, a list of these, or `Record`s;
+      at least two.
+    - `base`: None for the per-cycle base built from the keywords below (`--base
+      cycle`), or `CycleBase(...)` / `SmoothBase(...)` carrying its own options (the
+      keywords then keep their defaults).
+    - `only`, `top`, `alpha`, `max_evals`, `strict`, `learn`, `max_effects`: as the
+      command's options; `loss`: "gaussian", "huber:C", "student-t:NU" or an
+      `AbstractLoss`; `progress`: called with one line per finished stage.
 
-    Every mistake in the options raises ValueError naming the keyword, before any fit
-    (the checks of `cycle_workflow.CycleBase`).
+    A mistake in the options raises ValueError naming the keyword, before any fit.
     """
     from ..discovery.cycle_effects import FAMILIES
     from ..discovery.cycle_workflow import CycleBase
