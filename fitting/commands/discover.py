@@ -1,17 +1,12 @@
 """`stickslip discover RECORDS...`: which effect is the paper's model missing?
 
-Default (`--base cycle`): the per-cycle model of `stickslip fit --objective trace`
-(every cycle restarted at its measured slip end), a robust score test of every effect
-family, refits of the significant ones, and a named effect, "none" or "unexplained"
-(`stickslip_fitting.discovery.cycle_workflow`). `--base smooth`: the whole-record workflow on
-the smoothed simulator over whole records (`stickslip_fitting.discovery.workflow`: BIC choice).
-Progress lines go to stderr (`--quiet` turns them off). Prints the answer,
-the gap (residual RMS) before and after, the candidate table and the parameters
-before and after. `--json OUT` writes {"effect", "explanation", "gap_before",
-"gap_after", "criterion", "candidates": [{"name", "score", "delta_criterion"}...],
-"parameters_before", "parameters_after", "estimates_before", "estimates_after", ...}
-(gaps in mm; a parameter the records do not determine is null with a reason);
-`--plot OUT.png` the residuals by phase before and after, the parameters and the traces.
+`--base cycle` (default): the per-cycle model of `stickslip fit --objective trace`, a
+robust score test of every effect family, refits, and a named effect, "none" or
+"unexplained" (`discovery.cycle_workflow`); `--base smooth`: the smoothed simulator
+over whole records (`discovery.workflow`, BIC choice). Prints the answer, the gap
+(residual RMS) before and after, the candidate and parameter tables; `--json OUT` the
+result's document (`discovery.result.Discovery.to_json`, gaps in mm); `--plot OUT.png`
+the residuals by phase, the parameters and the traces.
 """
 
 from __future__ import annotations
@@ -22,10 +17,8 @@ HELP = "find the physical effect the paper's model is missing in a campaign of r
 
 EFFECTS = ("viscous_damping", "stribeck", "drive_periodic_error", "sensor_lowpass",
            "friction_drift", "gauge_drift", "load_coupling", "rate_state", "drive_speed_drift")
-"""The choices of --only: the smooth base's candidates (`discovery.effects.CANDIDATES`)
-then the cycle base's families (`discovery.cycle_effects.FAMILIES`), written out so the
-parser is built without importing the discovery code (tests/test_cli_grammar.py checks
-that they agree)."""
+"""The choices of --only: the smooth base's candidates, then the cycle base's families,
+written out so that the parser does not import the discovery code (tested to agree)."""
 
 
 def add_arguments(parser):
@@ -142,13 +135,11 @@ def run(args) -> int:
 
 
 JSON_ALIASES = {"noise_mm": "noise", "gap_before_mm": "gap_before", "gap_after_mm": "gap_after"}
-"""JSON keys renamed to the one convention (`stickslip_jax.output.UNIT_SUFFIXES`) ->
-their old names, still written beside them for one release (`deprecated_keys`)."""
+"""JSON keys under the one unit convention -> their old names, written beside them."""
 
 
 def json_document(result) -> dict:
-    """The result's JSON (`to_json()`) under the one key convention, versioned: the
-    campaign's noise and gaps (mm) carry their unit in the key."""
+    """The result's JSON (`to_json()`), versioned, the noise and gaps keyed with "_mm"."""
     from stickslip_jax.output import versioned
 
     new = {old: new for new, old in JSON_ALIASES.items()}
@@ -157,11 +148,9 @@ def json_document(result) -> dict:
 
 
 def parameter_table(result) -> str:
-    """The parameter table, from the result's typed rows (`stickslip_fitting.report.rows.
-    ParameterEstimate`): each parameter's unit, its value before and after (effect
-    parameters after only) and the standard error after, "-" for a value the data do not
-    determine, and a note (the reason it is not determined, "at upper bound 1"); when
-    the final fit kept every friction parameter of the base fit, a line says so."""
+    """The parameter table (`report.rows.ParameterEstimate` rows): unit, value before and
+    after, standard error after, "-" for a value the data do not determine, and a note
+    (why, "at upper bound 1"); a line says when the final fit kept the base's friction."""
     from ..report.rows import note_text, text_table, value_text
 
     before = {e.name: e.to_json() for e in result.estimates_before}
@@ -184,12 +173,8 @@ def parameter_table(result) -> str:
 
 
 def candidate_table(candidates) -> str:
-    """The cycle base's candidate table: each family's robust window test (F, its p and
-    the family-wise p over every family-shape test), its per-sample score test (p and the
-    chi-square drop it predicts), which test made it significant ("family-wise",
-    "per-sample" or "no": the count of the ranking's progress line) and the refit's
-    chi-square drop; then how many are significant by each test and what the columns
-    mean."""
+    """The cycle base's candidate table (its footer says what the columns mean) and how
+    many families are significant by each test."""
     from ..discovery.stages.state import SIGNIFICANT_BY
     from ..report.rows import text_table
 
@@ -224,8 +209,7 @@ def candidate_table(candidates) -> str:
 
 
 def _compare_laws(campaign):
-    """The base friction laws fitted to the records discovery used
-    (`discovery.laws.compare_laws`)."""
+    """The base friction laws fitted to the records discovery used (`compare_laws`)."""
     from stickslip_jax.logs import logger
 
     from ..discovery.laws import compare_laws
@@ -237,9 +221,8 @@ def _compare_laws(campaign):
 
 
 def answer_text(result) -> str:
-    """What the command prints (`discovery.result.Discovery`): the answer with the
-    families the records cannot tell from it, the explanation, the gap against the
-    noise, the candidate table of the result's base and the parameter table."""
+    """What the command prints: the answer (with the families the records cannot tell
+    from it), the explanation, the gap against the noise and the two tables."""
     r = result
     joint = " or ".join([r.effect] + [x["name"] for x in r.indistinguishable_from])
     kept = [s["effect"] for s in getattr(r, "steps", ()) if s["kept"]]
@@ -264,8 +247,7 @@ def smooth_candidate_table(candidates) -> str:
 
 
 def _base(args, cycle: bool, loss, unreadable):
-    """The base model of `--base` with the command's options (`engine.AbstractBaseModel`:
-    `CycleBase` or `SmoothBase`)."""
+    """The base model of `--base` with the command's options."""
     only = tuple(args.only) if args.only else None
     if not cycle:
         from ..discovery.effects import CANDIDATES
