@@ -21,40 +21,30 @@ the effects of `cycle_effects` enter as parts of it:
   $x = x_b + \dot u(t_b)(t - t_b) - y$, $\mu_m$ from eq (3) with $T_2 = \pi/\omega_0$ (eq 7);
   the slider stops where $\dot y$ first returns to 0 (interpolated), and sticks again;
 - **measurement**: the gauge reads $c_r + (K * x)(t) + r_g (t - t_\mathrm{mid})$ with gauge
-  drift $r_g$ and a low-pass kernel $K$ of mean delay $\tau$ (order 1: $e^{-s/\tau}/\tau$;
-  order 2: the impulse response of a second-order sensor of damping ratio $\zeta$ and
-  natural frequency $2\zeta/\tau$, at $\zeta = 1$ $4 s e^{-2s/\tau}/\tau^2$; `kernel_cdf`).
-  Write $x = L - D$ with the stick
-  line $L(t) = x_0 + u(t) - u(t_0)$ and the slip displacement $D$ (0 before breakaway, $y$
-  during the slip, $y_\mathrm{stop}$ after). $K * L = L(t - \tau)$ (exact for a steady
-  drive); $K * D$ is a discrete convolution on the RK4 grid with the kernel's bin
-  masses (its CDF at the bin edges), interpolated like the slip, run on `TAIL_STEPS`
-  nodes (the slip and the gauge's settling after it). The gauge still settles from the
-  previous slip when a window starts: the measured restart level holds that tail at
-  $t_0$, and its decay after $t_0$ (the previous window's $K * D$ minus its final
-  value) is added (`previous_rows`). A window without a previous one (a record's first,
-  or one after a cycle left out) takes its own slip's tail for the slip before it,
-  placed where that slip began by its own measured length (`tail_sources`: a record's
-  slips repeat; without it the first windows of a 7 Hz sensor missed by 30 um, 60 times
-  the noise, in their first 10 ms). The window's measured
-  restart state is itself a reading, so the slider's clock starts $\tau$ earlier
-  ($t_0 - \tau$): a pure delay is then invisible in the per-cycle model, and what the
-  sensor changes is the shape of the slips (second order in $\tau$; the score test
-  probes it with a secant, `cycle_workflow`). With `sensor=False` the parameter is ignored.
+  drift $r_g$ and a low-pass kernel $K$ of mean delay $\tau$ (order 1 or 2, `kernel_cdf`).
+  With $x = L - D$ (stick line $L$, slip displacement $D$: 0 before breakaway, $y$ in the
+  slip, $y_\mathrm{stop}$ after), $K * L = L(t - \tau)$ (exact for a steady drive) and
+  $K * D$ is a discrete convolution on the RK4 grid with the kernel's bin masses, over
+  `TAIL_STEPS` nodes (the slip and the gauge's settling). The gauge still settles from
+  the previous slip when a window starts: that tail's decay after $t_0$ is added
+  (`previous_rows`); a window without a previous one takes its own slip's tail, placed
+  where the slip before began (`tail_sources`: without it the first windows of a 7 Hz
+  sensor missed by 30 um, 60 times the noise). The measured restart state is itself a
+  reading, so the slider's clock starts at $t_0 - \tau$: a pure delay is invisible, and
+  the sensor changes the shape of the slips (second order in $\tau$; the score test
+  probes it with a secant). With `sensor=False` the parameter is ignored.
 
 Between the RK4 nodes the slip is a cubic Hermite interpolant (error ~(h omega_0)^4).
-Residuals are whitened by the trace objective's standard errors (`trace_sd`, effective
-variance at the base parameters, held fixed). Units: mm, s, kgf, kgf/mm, mm/s.
+Residuals are whitened by the trace objective's standard errors (`trace_sd`, held
+fixed). Units: mm, s, kgf, kgf/mm, mm/s.
 
-Coordinates `z`: the 6 `EmpiricalFriction` logs, one gauge offset per record (mm), then
-the effect parameters divided by their `SCALES`, family by family in `FAMILIES` order
-(per-record families: record-major), then the stick terms' coefficients over
-`STICK_SCALE` (`cycle_effects.stick_terms`: a displacement added to the stick line
-before the breakaway condition; `stick_cols`). `CycleModel.evaluate` gives residuals and the
-Jacobian of any set of coordinates (forward mode, `BLOCK` tangents per compiled call; the
-gauge offsets of all records share one tangent, as does each coefficient of a per-record
-family: a record's rows depend only on its own, so the base model's 6 + R columns cost
-7 tangents).
+Coordinates `z`: the 6 `EmpiricalFriction` logs, one gauge offset per record (mm), the
+effect parameters over their `SCALES` in `FAMILIES` order (per-record families:
+record-major), then the stick terms' coefficients over `STICK_SCALE`
+(`cycle_effects.stick_terms`). `CycleModel.evaluate` gives residuals and the Jacobian of
+any coordinates (forward mode, `BLOCK` tangents per compiled call; a record's rows depend
+only on its own offset and per-record coefficients, so those share one tangent: the base
+model's 6 + R columns cost 7 tangents).
 """
 
 from __future__ import annotations
@@ -87,11 +77,10 @@ NEWTON = 40
 DR_V_REF = 1.0
 """mm/s: reference speed of the rate-and-state direct effect a ln(1 + V / V_REF)."""
 TAIL_STEPS = 512
-"""Nodes (RK4 steps of the slip grid) over which the sensor kernel's convolution runs:
-the slip and 3 times its grid after it (10 pi/omega_0 in all), where the gauge settles
-(read by the next window, `_model`). A 7 Hz sensor (damping ratio 0.7) on a 20 ms slip
-still owes 8 % of the slip 80 ms after it: with 256 nodes the model at the generator's
-truth missed by 1.30 um against 0.5 um noise, with 512 by 0.68 um (1024: the same)."""
+"""Nodes of the sensor kernel's convolution: the slip grid and 3 times it after (10
+pi/omega_0), where the gauge settles. A 7 Hz sensor on a 20 ms slip still owes 8 % of it
+80 ms later: with 256 nodes the model at the truth missed by 1.30 um (noise 0.5 um), with
+512 by 0.68 um (1024: the same)."""
 FFT_SIZE = 1024
 """FFT length of the sensor kernel's convolution (at least 2 TAIL_STEPS - 1)."""
 
@@ -270,15 +259,10 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
         x = x_b + vdrive * tau - y
         N = N0 + eff.kappa * k * x
         V = jnp.abs(yd)
-        # the Stribeck curve (`cycle_effects.STRIBECK_FORMS`): exponential, logarithmic
-        # (velocity weakening without a floor, as rate-and-state's steady state),
-        # linear (the falling branch's constant negative slope) or rational (Hess and
-        # Soom's 1 / (1 + (v/v_s)^p)); every form is 0 at rest, so mu_m (eq 3) is the
-        # friction the slip starts against and b > 0 lowers it with speed (anchored at
-        # speed instead, a drop of 0.2 on lubricant A needed mu_m 0.2 lower, mu_d -> 0,
-        # where the fit's log mu_d has no gradient left: gap after 18.5x the noise)
-        # (one form a program run: `form` is the same in every window, so the switch
-        # stays a branch and the RK4 step computes one curve, not four, per stage)
+        # the Stribeck curve (`cycle_effects.STRIBECK_FORMS`), 0 at rest: mu_m (eq 3) is
+        # the friction the slip starts against (anchored at speed instead, a drop of 0.2
+        # on lubricant A drove mu_d -> 0, where log mu_d has no gradient: gap 18.5x the
+        # noise); `form` is the same in every window, so the switch computes one curve
         fall = jax.lax.switch(form.astype(jnp.int32), (
             lambda x: jnp.exp(-safe_power(x, p)) - 1.0, lambda x: -jnp.log1p(x),
             lambda x: -x, lambda x: 1.0 / (1.0 + safe_power(x, p)) - 1.0), V / vs)
@@ -522,8 +506,7 @@ def tail_sources(data: TraceData) -> tuple[np.ndarray, np.ndarray]:
     the window holds no slip; [N] the measured time that slip began, s). After a
     previous window of the record: that window and its measured breakaway
     (start time + stick time). Otherwise (a record's first window, a cycle left out
-    before it) the window's own slip stands for the one before: its first row, placed
-    its measured length (window end - breakaway) before the window's start."""
+    before it) the window's own slip, placed its measured length before the start."""
     prev = previous_rows(data)
     rec = np.asarray(data.record)
     win = np.asarray(data.window)
@@ -605,12 +588,9 @@ class Later:
 class CycleModel:
     """The per-cycle model of one campaign (module doc): residuals and Jacobians.
 
-    `data`: the `TraceData` windows (built without the features' drive correction, so
-    that a drive error stays in the data for the drive effects to explain); `tref`:
-    `drift_origins` (the origins of the drifts); `sd`: per-sample
-    standard errors [N, L] (mm). `evaluate(z, cols, shape, order)`: whitened residuals
-    (flat, padded samples removed), their Jacobian with respect to z[cols], and whether
-    every row's breakaway and slip end were found.
+    `data`: the `TraceData` windows (without the features' drive correction: a drive
+    error stays for the drive effects to explain); `tref`: `drift_origins`; `sd`:
+    per-sample standard errors [N, L] (mm).
     """
 
     def __init__(self, data: TraceData, tref: np.ndarray, sd, n_records: int):
@@ -668,12 +648,11 @@ class CycleModel:
         the measured stick times at the friction `logs` (the six `EmpiricalFriction`
         coordinates): the median over the record's windows of the measured breakaway
         reading (start level + v T1) minus the breakaway deflection $N \\mu_0(T_1)/k$
-        (eq 1). A fit's offsets belong to its friction: started from another friction
-        with them, the model's breakaways fall outside the windows, where the residual no
-        longer depends on the offset (measured: a Stribeck drop of 0.2 on A, refitted
-        from the generator's own friction with the bent base's offsets, 3.48 um against
-        0.5 um noise; with these, 0.508 um). `current`: kept for a record without a
-        window."""
+        (eq 1). A fit's offsets belong to its friction: with another friction the model's
+        breakaways fall outside the windows, where the residual no longer depends on the
+        offset (measured: a Stribeck drop of 0.2 on A refitted from the true friction
+        with the bent base's offsets, 3.48 um, noise 0.5 um; with these, 0.508 um).
+        `current`: kept for a record without a window."""
         d = self.data
         has = np.asarray(d.mask).any(1)
         static = EmpiricalFriction(*[float(x) for x in logs]).friction().static
@@ -691,20 +670,13 @@ class CycleModel:
         return out
 
     def warm(self) -> dict:
-        """Compile the programs of `evaluate` (which `residuals` runs without the sensor
-        too) and `residuals` with the sensor in a background thread while the caller
-        works (XLA compiles without the GIL; on a campaign of 0.4 M samples each takes
-        1.5-5 s), in the order discovery needs them: the Jacobian program without the
-        sensor kernel (the start's residuals, the base fit), then the sensor's residuals
-        (the ranking's secant probes). The sensor's Jacobian program (a refit with the
-        sensor, which many campaigns never make) compiles from its first `start()` or
-        `result()` (`Later`). Returns {("evaluate" | "residuals", sensor): Future}; wait
-        for a program's future before its first call (a call while it is still compiling
-        compiles it a second time).
-
-        The thread is not what crashes XLA's compiler in a long process: that is the
-        process's memory-map limit (`stickslip_jax.programs`), reached with or without
-        the thread."""
+        """Compile the programs of `evaluate` and of `residuals` with the sensor in a
+        background thread while the caller works (XLA compiles without the GIL; 1.5-5 s
+        each on 0.4 M samples), in the order discovery needs them; the sensor's Jacobian
+        program (a refit with the sensor, which many campaigns never make) from its first
+        `start()` or `result()` (`Later`). Returns {("evaluate" | "residuals", sensor):
+        Future}; wait for a future before the program's first call (a call while it
+        compiles compiles it again)."""
         z = np.zeros(self.layout.size)
         pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="stickslip-warm")
         futures = {("residuals", False): pool.submit(self.evaluate, z, [0])}
@@ -716,11 +688,9 @@ class CycleModel:
 
     def residuals(self, z, shape: Shape = Shape(), sensor: bool = False):
         """(whitened residuals flat [n], slider velocity [N, L], ok [N]); `sensor`: the
-        kernel convolution (else a pure delay by tau, module doc). Without the sensor
-        from `evaluate`'s program, no tangent asked: discovery asks for few residuals
-        alone (4 records, 111 windows: 4 calls), and a program of their own takes 7 s of
-        CPU time to compile to save 0.04 s a call; with the sensor (its secant probes:
-        48 calls) a program of its own."""
+        kernel convolution. Without it, `evaluate`'s program with no tangent (few calls:
+        a program of their own took 7 s of CPU to compile to save 0.04 s a call); with it
+        (the secant probes: 48 calls) a program of its own."""
         if sensor:
             r, yd, ok = _value(jnp.asarray(z), self._scales, self._shape(shape), True,
                                self.data, self.tref, self._prev, self.sd, self.layout)
@@ -730,8 +700,7 @@ class CycleModel:
         return np.asarray(r), np.asarray(yd), np.asarray(ok)
 
     def _block(self, zj, part, sh, sensor: bool):
-        """`_value_and_block` at zj along the tangents `part` [size, <= BLOCK] (padded
-        with zero tangents to one compiled shape)."""
+        """`_value_and_block` along the tangents `part`, padded to `BLOCK` (one shape)."""
         T = np.zeros((self.layout.size, BLOCK))
         T[:, :part.shape[1]] = part
         return _value_and_block(zj, jax.device_put(T), self._scales, sh, bool(sensor),
@@ -739,12 +708,9 @@ class CycleModel:
                                 self._idx)
 
     def _tangents(self, cols):
-        """Group `cols` into tangents (Jacobian compression): a record's rows depend only
-        on its own gauge offset and its own coefficients of a per-record family, so the
-        same coordinate of every record can share one tangent and each record's rows
-        read their own column from it (exact: every row sees the tangent it would see
-        alone). Returns (T [size, n_tangents], tangent of each col, record of each col or
-        -1 where the tangent is the column's alone)."""
+        """Group `cols` into tangents (module doc: the same per-record coordinate of every
+        record shares one, exact since a record's rows see only their own). Returns (T
+        [size, n_tangents], tangent of each col, record of each col or -1)."""
         lay = self.layout
         per = {lay.first(f.name): (f.name, len(f.params), f.n_params(self.n_records))
                for f in FAMILIES if f.per_record}
@@ -763,9 +729,7 @@ class CycleModel:
         return T, np.asarray(tangent, int), np.asarray(record, int)
 
     def evaluate(self, z, cols, shape: Shape = Shape(), sensor: bool = False):
-        """(r [n], J [n, len(cols)], ok) at z (module doc); `BLOCK` tangents per compiled
-        call, one tangent for the gauge offsets of all records (and one per coefficient
-        of a per-record family; `_tangents`)."""
+        """(r [n], J [n, len(cols)], ok) at z (module doc, `_tangents`)."""
         cols = np.asarray(cols, int)
         T_all, tangent, record = self._tangents(cols)
         sh = self._shape(shape)
