@@ -81,15 +81,6 @@ def _slope(y: np.ndarray, time: np.ndarray, w: int) -> np.ndarray:
     return rate
 
 
-def deflection_rate(record: Record, window: int | None = None) -> np.ndarray:
-    """dx/dt in mm/s: slope of a least-squares line through `window` samples about each one.
-
-    At the ends, where the window does not fit, the one-sided differences of `np.gradient`.
-    """
-    w = default_window(record) if window is None else int(window)
-    return _slope(record.deflection, record.time, w)
-
-
 @dataclasses.dataclass(frozen=True)
 class PhaseSplit:
     """Stick/slip labels of every sample of a record (see the module docstring for the rule)."""
@@ -107,9 +98,7 @@ class PhaseSplit:
 
     def runs(self, label: int) -> list[tuple[int, int]]:
         """(first, last + 1) sample indices of each run of `label`."""
-        m = np.concatenate([[False], self.labels == label, [False]])
-        edges = np.flatnonzero(np.diff(m.astype(np.int8)))
-        return list(zip(edges[::2].tolist(), edges[1::2].tolist()))
+        return runs(self.labels == label)
 
     @property
     def n_slips(self) -> int:
@@ -214,9 +203,7 @@ def classify_phases(
     in_slip = np.zeros(r.shape, dtype=bool)
     for a, b in slips:
         in_slip[a:b] = True
-    moving = np.concatenate([[False], ~stick, [False]]).astype(np.int8)
-    edges = np.flatnonzero(np.diff(moving))
-    for a, b in zip(edges[::2], edges[1::2]):  # a slip runs from stick to stick
+    for a, b in runs(~stick):  # a slip runs from stick to stick
         if in_slip[a:b].any():
             in_slip[a:b] = True
     labels = np.where(in_slip, UNCLASSIFIED, SLIDE).astype(np.int8)

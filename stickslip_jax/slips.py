@@ -117,7 +117,6 @@ def clipped_mean(y: np.ndarray, sigma: float) -> tuple[float, int]:
     return float(np.mean(y)), int(y.size)
 
 
-
 @dataclasses.dataclass(frozen=True)
 class Plateau:
     """The slider's position y during one stick: its level (5-sigma clipped mean) and
@@ -164,15 +163,12 @@ def plateau(t: np.ndarray, y: np.ndarray, lo: int, hi: int, sigma: float,
     return Plateau(level, count, lo, hi, max(sigma, floor), flat)
 
 
-
 def runs(flag: np.ndarray) -> list[tuple[int, int]]:
     """(start, stop) index pairs (stop exclusive) of the True runs of a bool array."""
     if flag.size == 0:
         return []
     d = np.diff(np.concatenate([[0], flag.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
-
-
+    return list(zip(np.flatnonzero(d == 1).tolist(), np.flatnonzero(d == -1).tolist()))
 
 
 def rest(t: np.ndarray, y: np.ndarray, u: np.ndarray, lo: int, hi: int, sigma: float,

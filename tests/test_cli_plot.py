@@ -11,7 +11,6 @@ from stickslip_jax.record_plots import (
     STICK,
     classify_phases,
     default_window,
-    deflection_rate,
     plot_record,
 )
 from stickslip_jax.records import Record, write_record
@@ -66,8 +65,8 @@ def test_phases_of_a_noisy_sawtooth(noisy):
 
 def test_phase_plane_slip_is_a_half_circle():
     record, stick, _ = sawtooth(noise=0.0, rate=5000.0, duration=0.6)
-    rate = deflection_rate(record, 5)
     phases = classify_phases(record, window=5)
+    rate = phases.rate
     slip = np.zeros_like(stick)
     for a, b in phases.runs(SLIP):  # away from the turning points
         slip[a + 2:b - 2] = True
@@ -109,7 +108,7 @@ def test_hold_of_a_drive_program_is_stick():
 
 def test_even_window_is_refused(noisy):
     with pytest.raises(ValueError, match="odd"):
-        deflection_rate(noisy[0], 4)
+        classify_phases(noisy[0], window=4)
 
 
 def test_figure_has_trace_and_phase_plane(noisy):
