@@ -2,23 +2,18 @@ r"""Batches of campaign fits, spread over processes (`jax.distributed`) or run i
 
 A batch is a list of campaigns (each a record folder, glob or list of files, as `stickslip
 fit` takes them) and one function that fits a campaign and returns a JSON-ready dict.
-`fit_batch` gives every process its share, runs the fits of that share one after the
-other, and exchanges the results so that every process ends with the whole batch, in the
-order of the campaigns given. With one process (no `jax.distributed.initialize`) it is a
-plain loop: the same code on one machine and on many.
+`fit_batch` gives every process its share, runs it, and exchanges the results so that
+every process ends with the whole batch in the order given. With one process it is a
+plain loop.
 
-- **Shares** (`shares`): campaigns are dealt largest first (by the bytes of their record
-  files, a proxy of their fit time) to the process with the least work so far, so one big
-  campaign does not leave the other processes idle at the end. Every process computes the
-  same shares from the same file sizes: no communication is needed to agree on them.
-- **Exchange** (`exchange`): each process's results are serialised as JSON bytes and
-  gathered with `jax.experimental.multihost_utils.process_allgather` (the collective
-  `jax.distributed` sets up: gloo between CPU processes, NCCL/ICI between accelerators).
-- **Failures stay local**: a campaign whose records cannot be fitted (a `ValueError`: no
-  usable stick-slip, a bad file) gets status "failed" with the message; an unexpected
-  exception gets status "error" with its type and message. The other campaigns go on, and
-  every process still reaches the exchange (a process that stopped would leave the others
-  waiting for ever).
+- **Shares** (`shares`): campaigns dealt largest first (bytes of their record files, a
+  proxy of fit time) to the least loaded process, so one big campaign does not leave the
+  others idle; every process computes the same shares without communicating.
+- **Exchange** (`exchange`): each process's results as JSON bytes, gathered with
+  `jax.experimental.multihost_utils.process_allgather`.
+- **Failures stay local**: a `ValueError` (no usable stick-slip, a bad file) gives status
+  "failed", any other exception "error"; the other campaigns go on, and every process
+  still reaches the exchange (a process that stopped would leave the others waiting).
 
 Units are those of the fits (kgf, mm, s); `seconds` is the wall time of one campaign.
 """

@@ -1,35 +1,25 @@
 r"""Joint least-squares fit of the friction parameters to a campaign of records.
 
 One verb, `fit_features(features, ...)` (or `fit_records(records, ...)`), returns a
-`FitResult`. The residuals are the whitened features objective of
-`stickslip_fitting.objectives.cycle_features` (its sum of squares is $-2\log$ likelihood up to a constant), so
-the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
+`FitResult`. The residuals are whitened (sum of squares $-2\log$ likelihood up to a
+constant), so the Levenberg-Marquardt optimum is the maximum-likelihood estimate.
 
-- Parameters: `stickslip_fitting.params.CampaignParams` (friction in unconstrained coordinates,
-  one gauge offset per record); the free leaves are chosen with `eqx.partition`
-  (`free_spec(hold=..., offsets=...)`; the held parameters a `params.Hold`).
-- Options: typed objects with defaults (`stickslip_fitting.modes`): the `Objective` and
-  the `ModelModes`, `Weighting`, `Padding` and `SolverOptions` groups.
-- Solver: the project's one least-squares verb, `stickslip_jax.lsq.least_squares`
-  (Levenberg-Marquardt: Marquardt scaling, Nielsen damping, the Jacobian once per
-  evaluated point by forward mode), the whole multi-start run (a
-  `lax.map` over starting points) inside one `eqx.filter_jit`, so a campaign compiles
-  once. It stops when the Gauss-Newton step would lower chi2 by less than
-  `atol + rtol * chi2`.
+- Parameters: `stickslip_fitting.params.CampaignParams`; the free leaves are chosen with
+  `eqx.partition` (`free_spec(hold=..., offsets=...)`).
+- Options: `Objective`, `ModelModes`, `Weighting`, `Padding`, `SolverOptions`
+  (`stickslip_fitting.modes`).
+- Solver: `stickslip_jax.lsq.least_squares`, the whole multi-start run (a `lax.map` over
+  starting points) inside one compiled program, so a campaign compiles once.
 - Weights: the effective-variance standard errors depend on the parameters; each
-  Levenberg-Marquardt run holds them fixed (exact Jacobian, quadratic convergence) and
-  a few reweighting rounds reach the estimate (`_solve_rounds`).
+  Levenberg-Marquardt run holds them fixed and a few reweighting rounds reach the
+  estimate (`_solve_rounds`).
 - Starts ("features first"): mu_d and mu_s from the measured per-cycle $\mu_m$ and
   $\mu_0$, and a grid over gamma, m and delta (n = 1, the paper's value), so that a poor
-  guess does not end in a local minimum. Every start gets `SCREEN_ROUNDS` short rounds
-  (at most `SCREEN_STEPS` steps each: a start stuck on a plateau of the objective stops
-  there instead of spending the whole step budget); then only the best few are
-  polished to the tolerances, and the best converged start wins.
-- Objective (`objective=`, a `stickslip_fitting.modes.Objective`): the cycle
-  features (default), the full trace through the exact simulator restarted per cycle
-  (`stickslip_fitting.objectives.trace`), both (`stickslip_fitting.objectives.combined`), or whole
-  records through the smoothed simulator (`stickslip_fitting.objectives.smooth`); all but
-  the features start from the features optimum.
+  guess does not end in a local minimum; short screening rounds, then the best few are
+  polished.
+- Objective: the cycle features (default), the trace (`objectives.trace`), both
+  (`objectives.combined`) or whole records (`objectives.smooth`); all but the features
+  start from the features optimum.
 """
 
 from __future__ import annotations
@@ -142,6 +132,11 @@ def _stack(trees):
     return jax.tree_util.tree_map(lambda *xs: jax.device_put(np.stack(xs)), *trees)
 
 
+def _n_free(free) -> int:
+    """Number of free parameters: the array entries of a partitioned free part."""
+    return sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free, eqx.is_array)))
+
+
 def _take(trees, i):
     """Entry `i` of every stacked leaf (on the host, like `_stack`)."""
     return jax.tree_util.tree_map(lambda x: jax.device_put(np.asarray(x)[i]), trees)
@@ -161,14 +156,11 @@ def _residual_fn(template, static, objective, ref_free, vel):
 def _solve_starts_impl(free_starts, ref_starts, velocity, caps, lams, static, objective, rtol,
                        atol, max_steps):
     """Levenberg-Marquardt from every start (leading axis of `free_starts`), each with the
-    weights frozen at its reference (`ref_starts`, `velocity`: same leading axis) and
-    stopped after `caps` steps (int per start; a traced value, so screening rounds and
-    the polish of one start reuse the compilation), with initial damping `lams`. One
-    compiled solve run start after start (`lax.map`: a `vmap` would turn the solver's loop
-    and branches into selects, about three times the compilation). Returns the optima,
-    their chi2, results (and whether each is successful), step counts, the trace
-    simulations' success flags and slider
-    velocities at the optima."""
+    weights frozen at its reference (`ref_starts`, `velocity`) and stopped after `caps`
+    steps (traced, so screening and polish reuse the compilation), initial damping `lams`.
+    Start after start (`lax.map`: a `vmap` would turn the solver's loop and branches into
+    selects, about three times the compilation). Returns the optima, their chi2, results,
+    success, step counts, the trace simulations' flags and slider velocities."""
     free0 = jax.tree_util.tree_map(lambda x: x[0], free_starts)
     _, unravel = jax.flatten_util.ravel_pytree(free0)
     flat_starts = jax.vmap(lambda f: jax.flatten_util.ravel_pytree(f)[0])(free_starts)
@@ -243,50 +235,29 @@ the features optimum): the quadratic model is trusted there, and a larger dampin
 hold back the weakly determined directions (gamma against m) for several steps."""
 
 
-def _screen_rounds(n_start: int) -> int:
-    """Screening rounds of `_solve_rounds` for `n_start` starts (none for a single start)."""
-    return SCREEN_ROUNDS if n_start > 1 else 0
-
-
-def _first_round(free_starts, static, objective, rtol, atol, max_steps):
-    """The arguments of `_solve_starts` in the first round of `_solve_rounds`: weights at
-    the starts, the trace's slider velocity 0, step caps for screening (several starts)
-    or the full budget."""
-    n_start = jax.tree_util.tree_leaves(free_starts)[0].shape[0]
-    vel = None
-    if objective.velocity_shape() is not None:
-        vel = jax.device_put(np.zeros((n_start,) + objective.velocity_shape()))
-    caps = np.full(n_start, SCREEN_STEPS if _screen_rounds(n_start) else max_steps + 1,
-                   np.int32)
-    lams = np.full(n_start, LAMBDA_START if _screen_rounds(n_start) else LAMBDA_NEAR)
-    return (free_starts, free_starts, vel, jax.device_put(caps), jax.device_put(lams), static,
-            objective, rtol, atol, max_steps)
-
-
 def _solve_rounds(free_starts, static, objective, rtol, atol, max_steps):
     """Levenberg-Marquardt with effective-variance weights by iterative reweighting.
 
-    The standard errors of both objectives depend on the parameters (the timing errors
-    propagate through the slope of eq (1)). They are held fixed in the derivative, so the
-    estimate is the fixed point where the weights evaluated at the optimum give that same
-    optimum. Each round freezes the weights at the previous round's optimum (the first:
-    at the start, with the trace's slider velocity 0, i.e. every sample weighted as in a
-    stick) and runs Levenberg-Marquardt on that fixed least-squares problem, whose
-    Jacobian is then exact: it converges quadratically and its tolerances are reachable.
-    Two or three rounds reach the fixed point; all rounds reuse one compilation.
+    The standard errors depend on the parameters (the timing errors propagate through the
+    slope of eq (1)); they are held fixed in the derivative, so the estimate is the fixed
+    point where the weights at the optimum give that same optimum. Each round freezes the
+    weights at the previous optimum (the first: at the start, the trace's slider velocity
+    0, every sample weighted as in a stick), so its Jacobian is exact and it converges
+    quadratically; two or three rounds reach the fixed point on one compilation.
 
     With several starts, the first `SCREEN_ROUNDS` rounds run every start for at most
-    `SCREEN_STEPS` steps (a start stuck on a plateau of the objective stops there instead
-    of spending the whole step budget); the `POLISH_STARTS` starts with the lowest chi2
-    then continue with the full `max_steps` (the others are stopped after their first
-    step) until the best converged one moves less than `ROUND_TOL`.
+    `SCREEN_STEPS` steps (a start stuck on a plateau stops there); the `POLISH_STARTS`
+    with the lowest chi2 then continue with `max_steps` until the best converged one
+    moves less than `ROUND_TOL`.
     """
     ref = free_starts
     n_start = jax.tree_util.tree_leaves(free_starts)[0].shape[0]
-    screen = _screen_rounds(n_start)
-    _, _, vel, caps, lams, *_ = _first_round(free_starts, static, objective, rtol, atol,
-                                             max_steps)
-    caps = np.asarray(caps)
+    screen = SCREEN_ROUNDS if n_start > 1 else 0
+    vel = None  # the first round: the trace's slider velocity 0
+    if objective.velocity_shape() is not None:
+        vel = jax.device_put(np.zeros((n_start,) + objective.velocity_shape()))
+    caps = np.full(n_start, SCREEN_STEPS if screen else max_steps + 1, np.int32)
+    lams = jax.device_put(np.full(n_start, LAMBDA_START if screen else LAMBDA_NEAR))
     total = np.zeros(n_start, int)
     polished = np.ones(n_start, bool)
     for k in range(screen + MAX_ROUNDS):
@@ -339,11 +310,8 @@ def fit_features(
 ) -> FitResult:
     r"""Fit mu_s, mu_d, gamma, m, delta, n jointly to the cycle features of a campaign.
 
-    - `objective`: a `stickslip_fitting.modes.Objective`: FEATURES (default), TRACE, BOTH
-      (`stickslip_fitting.objectives.combined`) or SMOOTH (whole records,
-      `stickslip_fitting.objectives.smooth`); all but FEATURES need `records` (the
-      `Record`s the features came from) and start from the features fit's optimum
-      ("features first").
+    - `objective`: an `Objective`; all but FEATURES need `records` (the `Record`s the
+      features came from) and start from the features fit's optimum.
     - `hold`: the parameters held at given values (`stickslip_fitting.params.Hold`, e.g.
       `Hold(lambda f: f.log_n, 1.0)`).
     - `starts`: starting friction modules (default `initial_guesses`).
@@ -355,14 +323,11 @@ def fit_features(
       `RECORD_CHI2`); `padding`: `Padding` (campaigns of other sizes reuse the
       compilation); `solver`: `SolverOptions` (tolerances, step cap).
 
-    The flat keywords `fixed` ({name: value}), `offset`, `slip_time`, `reslip`,
-    `weights`, `rescale_records`, `pad_cycles`, `pad_length`, `pad_windows`, `rtol`,
-    `atol` and `max_steps`, and modes given by their values, are read into these objects
-    in one place (`flat_options`).
+    The flat keywords (`fixed` {name: value}, `offset`, ..., `max_steps`) and modes given
+    by their values are read into these objects by `flat_options`.
 
-    Before it starts, JAX's compiled programs are dropped when the process nears its
-    memory-map limit (`stickslip_jax.programs`: a process that fits many campaigns
-    would otherwise die in XLA's compiler).
+    JAX's compiled programs are dropped first when the process nears its memory-map
+    limit (`stickslip_jax.programs`: XLA's compiler would otherwise die there).
     """
     release_programs()
     o = _Options(hold, modes, weighting, padding, solver)
@@ -376,9 +341,8 @@ def fit_features(
     if loss is not None and not isinstance(loss, Gaussian):
         return _fit_heavy_tailed(features, records, loss, objective, starts, o)
     if objective.needs_records:
-        # the two solves compile one after the other, in this thread (compiling the
-        # trace solve in a background thread meanwhile saves nothing measurable: 3.1 s
-        # including compilation either way)
+        # the two solves compile one after the other (a background thread for the trace
+        # solve saves nothing measurable: 3.1 s with compilation either way)
         first = _fit_problem(_features_problem(features, o, starts), features, o.solver)
         if objective is Objective.SMOOTH:
             from ..objectives.smooth import SmoothObjective, smooth_data
@@ -389,7 +353,8 @@ def fit_features(
                                pad_windows=o.padding.windows)
             obj = make_objective(objective, first.data, tdata, weights=o.weighting.pair,
                                  slip_time=o.modes.slip_time)
-        return _refine(first, obj, o.solver.refine())
+        return fit_objective(obj, first.params, first.spec, solver=o.solver.refine(),
+                             base=first)
     if not o.weighting.rescale_records:
         fit = _fit_problem(_features_problem(features, o, starts), features, o.solver)
         return dataclasses.replace(fit, record_chi2=_record_chi2(fit))
@@ -406,8 +371,7 @@ _FLAT = {"offset": ("modes", "offset"), "slip_time": ("modes", "slip_time"),
 
 def flat_options(objective, options: _Options, flat: dict) -> tuple[Objective, _Options]:
     """`fit_features`' flat keywords (`_FLAT`, `fixed` {name: value}, `weights`
-    (w_features, w_trace)) and modes given by their values, as the option objects: the
-    one place inside the fit where they are read."""
+    (w_features, w_trace)) and modes given by their values, as the option objects."""
     unknown = sorted(set(flat) - set(_FLAT) - {"fixed", "weights"})
     if unknown:
         raise TypeError(f"fit_features() got unexpected keyword argument(s) "
@@ -541,11 +505,9 @@ def _fit_problem(problem: _FeaturesProblem, features, solver: SolverOptions) -> 
         solver.max_steps)
     free_best = _take(values, best)
     params = eqx.combine(free_best, problem.static)
-    n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(free_best,
-                                                                              eqx.is_array)))
     return FitResult(
         params=params, spec=problem.spec, data=problem.data, features=list(features),
-        chi2=float(chi2s[best]), dof=problem.data.n_residuals() - n_free,
+        chi2=float(chi2s[best]), dof=problem.data.n_residuals() - _n_free(free_best),
         result=result, converged=bool(ok[best]), n_starts=len(problem.starts),
         n_steps=int(np.asarray(steps)[best]), slip_time=problem.objective.slip_time,
         start_chi2=chi2s, objective=problem.objective, n_rounds=rounds,
@@ -582,12 +544,6 @@ def _gn_terms(free, static, objective):
     return J.T @ res(flat), J.T @ J
 
 
-def _gn_decrement(free, static, objective) -> float:
-    """Predicted chi2 decrease of a Gauss-Newton step, g^T (J^T J)^+ g (g = J^T r)."""
-    g, F = _gn_terms(free, static, objective)
-    return float(gauss_newton_decrease(F, g))
-
-
 def fit_objective(objective: AbstractObjective, params: CampaignParams, free, *,
                   solver: SolverOptions = SolverOptions().refine(),
                   base: FitResult | None = None) -> FitResult:
@@ -599,32 +555,27 @@ def fit_objective(objective: AbstractObjective, params: CampaignParams, free, *,
 
         fit_objective(obj, params, lambda p: (p.friction.log_mu_d, p.friction.log_gap))
 
-    `solver`: tolerances and step cap (default `SolverOptions().refine()`: 1e-8, 1e-8,
-    100 steps a round). `base`: the `FitResult` this one refines (its features and data
-    carry over to the report; `fit_features` refines its features fit this way). Converged when the solver
-    met its tolerances, or when a Gauss-Newton step would lower chi2 by less than 1e-3
-    (stationarity in units of the noise) although the step budget ran out."""
+    `solver`: tolerances and step cap (default `SolverOptions().refine()`). `base`: the
+    `FitResult` this one refines (its features and data carry over to the report).
+    Converged when the solver met its tolerances, or when a Gauss-Newton step would lower
+    chi2 by less than 1e-3 (stationary in units of the noise) though the budget ran out."""
     spec = free_filter(params, free)
     part, static = eqx.partition(params, spec)
     values, chi2s, result, ok, steps, flags, _, rounds = _solve_rounds(
         _stack([part]), static, objective, solver.rtol, solver.atol, solver.max_steps)
     free_opt = _take(values, 0)
-    n_free = sum(int(np.size(x)) for x in jax.tree_util.tree_leaves(eqx.filter(part, eqx.is_array)))
-    converged = bool(ok[0]) or _gn_decrement(free_opt, static, objective) < 1e-3
+    # a Gauss-Newton step would lower chi2 by g^T (J^T J)^+ g (g = J^T r)
+    converged = bool(ok[0]) or float(gauss_newton_decrease(
+        *_gn_terms(free_opt, static, objective)[::-1])) < 1e-3
     fields = dict(
         params=eqx.combine(free_opt, static), spec=spec, chi2=float(np.asarray(chi2s)[0]),
-        dof=int(round(objective.dof())) - n_free, result=result, converged=converged,
+        dof=int(round(objective.dof())) - _n_free(part), result=result, converged=converged,
         n_steps=int(np.asarray(steps)[0]), start_chi2=np.asarray(chi2s), objective=objective,
         n_rounds=rounds, trace_failures=objective.failures(np.asarray(flags)[0]))
     if base is not None:
         return dataclasses.replace(base, **fields)
     return FitResult(data=None, features=[], n_starts=1, slip_time=objective.slip_time,
                      **fields)
-
-
-def _refine(first: FitResult, obj: AbstractObjective, solver: SolverOptions) -> FitResult:
-    """Levenberg-Marquardt (with reweighting rounds) of `obj` from the features fit's optimum."""
-    return fit_objective(obj, first.params, first.spec, solver=solver, base=first)
 
 
 def fit_records(records, **kwargs) -> FitResult:

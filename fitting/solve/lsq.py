@@ -1,29 +1,19 @@
 r"""The objective interface and the least-squares verb over any parameter pytree.
 
 Every objective of the package is an `AbstractResiduals` (an `eqx.Module`):
-
-- `residuals(params)`: the whitened residual vector (sum of squares = $-2\log$
-  likelihood up to a constant; a Gaussian prior enters as extra residuals);
-- `blocks()`: named lengths of the residual vector, in order (`split(r)` cuts a vector
-  by them, so reports never slice by position);
-- `dof()`: the (weighted) number of residuals that carry data.
-
-Final objectives: the campaign objectives (`stickslip_fitting.objectives.combined.AbstractObjective`,
-which add the simulations' flags, clusters and trace data the campaign fit needs:
-features, trace, weighted sum, smooth, heavy-tailed), `stickslip_fitting.solve.pitch.
-PitchObjective` (the pitching/yawing channels) and `stickslip_fitting.design.experiment.
-SteadyObservables` (the steady observables of a planned campaign, with its prior).
+`residuals(params)`, the whitened residual vector (sum of squares = $-2\log$ likelihood
+up to a constant; a Gaussian prior enters as extra residuals); `blocks()`, named lengths
+of that vector in order (`split(r)` cuts by them, so reports never slice by position);
+`dof()`, the (weighted) number of residuals that carry data. Final objectives: the
+campaign objectives (`objectives.combined.AbstractObjective`), `solve.pitch.PitchObjective`
+and `design.experiment.SteadyObservables`.
 
 An objective is also the residual function of the one least-squares verb,
-`stickslip_jax.lsq.least_squares` (re-exported here with its `LeastSquaresSolution` and
-`free_filter`): `least_squares(objective, params, free)` minimises its residuals over the
-leaves `free` selects (a function `params -> leaf or tuple of leaves` like
-`eqx.tree_at`'s `where`, a boolean filter spec as for `eqx.partition`, or None: every
-array leaf) with the project's one solver (`stickslip_jax.lsq.LevenbergMarquardt`);
-with `linearise=True` it also returns the residuals and their Jacobian over the same
-leaves at the optimum (for `stickslip_jax.lsq.gauss_newton_covariance`). The campaign fit
-(`stickslip_fitting.solve.fit.fit_objective`) adds multi-start and reweighting rounds around
-the same verb.
+`stickslip_jax.lsq.least_squares` (re-exported here with `LeastSquaresSolution` and
+`free_filter`), which minimises it over the leaves `free` selects (a `where` function like
+`eqx.tree_at`'s, a boolean filter spec, or None: every array leaf); `linearise=True` also
+returns the residuals and Jacobian at the optimum. `solve.fit.fit_objective` adds
+multi-start and reweighting rounds around it.
 
 ```python
 sol = least_squares(PitchObjective(template, batch, scale), params, spec)

@@ -16,19 +16,15 @@ is seen), so the neutral point is fitted only when the records span at least two
 heights (two offsets for $l_{Mh}$); otherwise it stays at the template's value and is
 reported as fixed.
 
-The objective is `PitchObjective` (an `stickslip_fitting.solve.lsq.AbstractResiduals`): every
-observed channel sample of every record, padded records stacked into one batch, in
-units of the data's RMS (`scale`), over a `PitchParams` pytree.
+The objective, `PitchObjective`, takes every observed channel sample of every record
+(padded and stacked into one batch) in units of the data's RMS.
 
-Procedure: (1) a deterministic start: for each time constant on a log grid the gains
-$g_r = c(h_r - h_{Mv})$ follow by linear least squares, and a straight line through
-$(h_r, g_r)$ gives $c$ (slope) and $h_{Mv}$ (zero crossing); the best grid point starts
-(2) Levenberg-Marquardt (`stickslip_fitting.solve.lsq.least_squares`, the project's one
-solver) on all free parameters, jitted as a whole; (3) the Gauss-Newton covariance
-$s^2 (J^T J)^{-1}$ (`stickslip_jax.lsq.gauss_newton_covariance`) with $s^2$ = RSS/(N - p)
-(or the given noise), mapped to natural units (`report.ParameterEstimate.from_log` and
-`from_normal`); 95 % intervals are $\pm 1.96$ sd in the
-stored coordinates (so asymmetric for log-stored parameters).
+Procedure: (1) start: for each time constant on a log grid the gains
+$g_r = c(h_r - h_{Mv})$ follow by linear least squares, and a line through $(h_r, g_r)$
+gives $c$ (slope) and $h_{Mv}$ (zero crossing); (2) Levenberg-Marquardt
+(`solve.lsq.least_squares`) on all free parameters; (3) the Gauss-Newton covariance
+$s^2 (J^T J)^{-1}$ with $s^2$ = RSS/(N - p) (or the given noise); 95 % intervals are
+$\pm 1.96$ sd in the stored coordinates (asymmetric for log-stored parameters).
 """
 
 from __future__ import annotations
@@ -276,8 +272,8 @@ def _plane_start(template, runs, plane, taus):
 def fit_pitching(runs, template: pt.PitchingModel | None = None, noise=None, taus=None,
                  rtol: float = 1e-10, atol: float = 1e-10, max_steps: int = 200) -> PitchFit:
     """Fit compliance, neutral point and squeeze time constant of each observed plane to
-    `runs` (`PitchRun`s, see `pitch_run`), starting from the grid start described in the
-    module docstring. `template`: geometry and viscosity (default `pt.default_model()`);
+    `runs` (`PitchRun`s, see `pitch_run`; module doc). `template`: geometry and viscosity
+    (default `pt.default_model()`);
     `noise`: displacement noise sd in mm (default: estimated from the residuals);
     `taus`: the start grid of time constants (s)."""
     runs = tuple(runs)
