@@ -17,22 +17,19 @@ exactly, so a family is a set of forms, not one formula. Units are internal (kgf
 | `gauge_drift` | gauge zero drifts: reads $x + r t$ | r mm/s | - |
 | `load_coupling` | normal load $N = W + \kappa k x$ (drive moment, ch. 6) | $\kappa$ (-) | - |
 
-`SCALES`: a typical detectable size (fit coordinate = value / scale). `SIGNS`: +1 where
-physics requires >= 0 (a passive damper dissipates; a sensor is causal; a Stribeck
-curve and slip weakening lower friction as the slip goes on), 0 for either sign.
-`BOUND`: the largest physical magnitude (natural units, per parameter; a fit beyond it
-is reported as unphysical and never named), with the reason in `BOUND_NOTE`. The drive
-error is bounded on the error itself, not its coefficients (a record that travels less
-than a pitch sees a piece of the sine, which large coefficients of opposite sign draw):
-`drive_error_range` is at most `DRIVE_ERROR_MAX` over every record.
+`scales`: a typical detectable size (fit coordinate = value / scale); `signs`: +1 where
+physics requires >= 0 (a passive damper dissipates; a sensor is causal; a Stribeck curve
+lowers friction as the slip goes on), 0 for either sign; `bound`: the largest physical
+magnitude (a fit beyond it is unphysical, never named; why in `bound_note`). The drive
+error is bounded on the error itself (`drive_error_range` <= `DRIVE_ERROR_MAX`), not its
+coefficients: a record shorter than a pitch sees a piece of the sine, which large
+coefficients of opposite sign draw.
 
-Beside the families the model carries the **stick terms** (`STICK_TERMS`, `stick_terms`):
-a displacement $q(s) = \sum_j c_j\phi_j(s)$ (mm) of the spring's deflection during the
-stick, $s$ the time since the last slip, added to the stick line before the breakaway
-condition, so that a term moves the breakaway and the slip starts from the displaced
-deflection (a pre-slide creep of the slider, a drive's lost motion after each slip). They
-are no family (never scanned or named); the sparse form of the residual
-(`discovery.sparse`) chooses and refits them.
+The **stick terms** (`STICK_TERMS`, `stick_terms`) are no family (never scanned or
+named): a displacement $q(s) = \sum_j c_j\phi_j(s)$ (mm) of the deflection during the
+stick ($s$ the time since the last slip) added to the stick line before the breakaway
+condition, so it moves the breakaway (a pre-slide creep, a drive's lost motion); the
+sparse form of the residual (`discovery.sparse`) chooses and refits them.
 """
 
 from __future__ import annotations
@@ -48,15 +45,12 @@ __all__ = ["DAMPING_FORMS", "DRIVE_ERROR_MAX", "FAMILIES", "PITCH_STEP", "SHAPE_
            "stick_terms"]
 
 STRIBECK_FORMS = ("exp", "log", "linear", "rational")
+"""Forms of the Stribeck curve (`Shape.form`). The linear form is not scanned: with a
+negative coefficient it is viscous damping's own (measured: on the damping benchmark
+campaign its refit outran the damping refit and made the answer uncertain)."""
 DAMPING_FORMS = ("dashpot", "ratio")
-"""Viscous damping's forms: one dashpot c for every record (kgf s/mm), or one damping
-ratio zeta, c = 2 zeta sqrt(k m) in each record (the way a machine's modal damping is
-quoted; c then differs between sliders and springs)."""
-"""Forms of the Stribeck family's falling friction (`Shape.form`): exponential (a floor at
-high speed), logarithmic (no floor, as rate-and-state's steady state), linear (the falling
-branch's negative slope). The linear form is not scanned: with a negative coefficient it
-is viscous damping's own form (measured: on the damping benchmark campaign its refit
-outran the damping refit and made the answer uncertain)."""
+"""Viscous damping's forms: one dashpot c (kgf s/mm) for every record, or one damping
+ratio zeta, c = 2 zeta sqrt(k m) in each record (as a machine's modal damping is quoted)."""
 SENSOR_ZETAS = (0.4, 0.55, 0.7, 0.85, 1.0)
 """Damping ratios of the second-order sensor kernels scanned: under-damped amplifiers,
 the Butterworth response of most anti-aliasing filters, critically damped."""
@@ -95,9 +89,8 @@ def stick_terms(s, T1, x, v):
 
 def drive_error(coef, t, speed, pitch, xp=jnp):
     """The drive error (mm) of `drive_periodic_error` at times t (s) of a record driven
-    at `speed` (mm/s): coef = (a1_sin, a1_cos, a2_sin, a2_cos) mm, `pitch` mm; `xp`
-    `jax.numpy` (traced inside `cycle_model`) or `numpy` (on the host: eager JAX
-    compiles a program per record length)."""
+    at `speed` (mm/s): coef = (a1_sin, a1_cos, a2_sin, a2_cos) mm, `pitch` mm; `xp`:
+    `numpy` on the host (eager JAX would compile a program per record length)."""
     ph = 2.0 * xp.pi * speed * t / pitch
     s, c = xp.sin(ph), xp.cos(ph)  # the second harmonic by the double-angle formulas
     return coef[0] * s + coef[1] * c + coef[2] * (2.0 * s * c) + coef[3] * (c * c - s * s)
@@ -111,15 +104,12 @@ def drive_error_range(coef, t, speed, pitch) -> float:
 
 @dataclasses.dataclass(frozen=True)
 class Shape:
-    """Shape settings of the model (traced values, so one compilation serves every
-    shape): Stribeck speed scale `vs` (mm/s) and exponent `p`, rate-and-state
-    characteristic slip distance D_c `length` (mm), screw pitch `pitch` (mm), sensor
-    kernel `order` (1: first-order low-pass, 2: second order) and, for order 2, its
-    damping ratio `zeta` (1: critically damped); `form`: the Stribeck curve, "exp"
-    $e^{-(v/v_s)^p} - 1$, "log" $-\\ln(1 + v/v_s)$, "linear" $-v/v_s$ or "rational"
-    $1/(1 + (v/v_s)^p) - 1$ (Hess and Soom's form with p = 2; every form 0 at rest)
-    (`STRIBECK_FORMS`); `damping`:
-    viscous damping as one dashpot or one damping ratio (`DAMPING_FORMS`)."""
+    """Shape settings of the model (traced, so one compilation serves every shape):
+    Stribeck speed scale `vs` (mm/s), exponent `p` and curve `form` ("exp"
+    $e^{-(v/v_s)^p} - 1$, "log" $-\\ln(1 + v/v_s)$, "linear" $-v/v_s$, "rational"
+    $1/(1 + (v/v_s)^p) - 1$, Hess and Soom's with p = 2), rate-and-state D_c `length`
+    (mm), screw `pitch` (mm), sensor kernel `order` (1 or 2) and its damping ratio
+    `zeta`, viscous `damping` form (`DAMPING_FORMS`)."""
 
     vs: float = 10.0
     p: float = 1.0
@@ -252,13 +242,10 @@ pitches are 1.2-1.5x apart)."""
 
 
 def neighbour_shapes(fam: Family, shape: Shape) -> list[Shape]:
-    """The shapes next to `shape` in the family's continuous shape parameters (the local
-    search of the shape refinement, `cycle_workflow`): the Stribeck speed scale times or
-    over `SHAPE_STEP`, its exponent +-1 (0.5 at least) and its other forms; the
-    rate-and-state slip distance times or over `SHAPE_STEP`, the screw pitch times or over
-    `PITCH_STEP`; the
-    second-order sensor's damping ratio +-0.15 (0.3-1) and the other kernel order. Empty
-    for families without shapes."""
+    """The shapes next to `shape` (the shape refinement's local search): speed scales and
+    slip distances x or / `SHAPE_STEP`, pitches x or / `PITCH_STEP`, the Stribeck exponent
+    +-1 (0.5 at least) and other forms, the sensor's damping ratio +-0.15 (0.3-1) and
+    other order. Empty for families without shapes."""
     rep = dataclasses.replace
     out: list[Shape] = []
     if fam.name == "stribeck":
@@ -272,7 +259,7 @@ def neighbour_shapes(fam: Family, shape: Shape) -> list[Shape]:
     elif fam.name == "rate_state":
         out += [rep(shape, length=shape.length * SHAPE_STEP),
                 rep(shape, length=shape.length / SHAPE_STEP)]
-    elif fam.name == "drive_periodic_error":  # the scanned pitches are 1.2-1.5x apart
+    elif fam.name == "drive_periodic_error":
         out += [rep(shape, pitch=shape.pitch * PITCH_STEP),
                 rep(shape, pitch=shape.pitch / PITCH_STEP)]
     elif fam.name == "sensor_lowpass":
