@@ -12,39 +12,31 @@ $J_b$, `scores.project_out`),
 $$S = \frac{r^T J_c^\perp\,(J_c^{\perp T} J_c^\perp)^{-1}\,J_c^{\perp T} r}{\hat s^2}, \qquad
 \hat s^2 = \|r\|^2 / N,$$
 
-which is $\chi^2$ with as many degrees of freedom as the candidate has parameters when
-the candidate is absent. It equals the drop of $-2\log L$ that one Gauss-Newton step
-in the candidate's direction would give, so it predicts the refit's gain; the step
-itself is the predicted size of the effect. One Jacobian evaluation per candidate,
-all with the same compiled function (`model.Problem`).
+is $\chi^2$ with the candidate's parameter count when it is absent, and the drop of
+$-2\log L$ one Gauss-Newton step would give (the step: the effect's predicted size). One
+Jacobian per candidate, all with the same compiled function (`model.Problem`).
 
-**Refits and BIC.** For each of the `top` candidates of the score test, the model with
-that effect is refitted (Levenberg-Marquardt from the base optimum, whose first,
-practically undamped step is the score test's Gauss-Newton step). With $N$ samples,
-$\mathrm{RSS}$ the whitened residual sum of squares and $d$ the candidate's number of
-parameters, the Gaussian likelihood with the noise level profiled out gives
+**Refits and BIC.** The `top` candidates are refitted (Levenberg-Marquardt from the base
+optimum: its first, practically undamped step is the score step). With $N$ samples,
+$\mathrm{RSS}$ the whitened residual sum of squares and $d$ parameters, the Gaussian
+likelihood with the noise level profiled out gives
 
 $$\Delta\mathrm{BIC} = N \ln(\mathrm{RSS}_c / \mathrm{RSS}_0) + d \ln N,$$
 
 and the likelihood-ratio statistic $\Lambda = N\ln(\mathrm{RSS}_0/\mathrm{RSS}_c)$
-($\chi^2_d$ under "no effect", reported with its p-value). The candidate with the lowest
-$\Delta\mathrm{BIC}$ is named only if $\Delta\mathrm{BIC} < -$`threshold`; otherwise the
-answer is "none". Naming an effect that is not there is the worst failure, so the
-threshold (default 10, i.e. $\Lambda > 18.6$ for one parameter on 5000 samples) was
-chosen on campaigns with no hidden effect (tests).
+($\chi^2_d$ under "no effect"). The lowest $\Delta\mathrm{BIC}$ is named only if below
+$-$`threshold`, else "none": naming an effect that is not there is the worst failure, so
+the threshold (10: $\Lambda > 18.6$ for one parameter on 5000 samples) was chosen on
+campaigns with no hidden effect.
 
-**Physical signs.** For an effect whose parameter physics requires to be >= 0
-(`SIGNS` in effects.py: c >= 0 for viscous damping, ...), a predicted step of the wrong
-sign is no evidence for it: the likelihood's maximum over the physical half-line is at
-zero (the one-sided score test), so such a candidate is ranked with statistic 0
-(`rank_statistic`; `unphysical` says why) and gets no refit slot; its two-sided
-`statistic` is still reported. A refit whose fitted value breaks such a sign is not a
-physical explanation either: the constrained maximum is then the base model, so its
-$\Lambda$ is set to 0 and $\Delta\mathrm{BIC}$ to $d\ln N$ (it cannot be named).
+**Physical signs.** Where physics requires a parameter >= 0 (`SIGNS`), a predicted step
+of the wrong sign is no evidence: the one-sided maximum is at zero, so the candidate
+ranks with statistic 0 (`rank_statistic`, `unphysical` says why) and gets no refit; a
+refit of the wrong sign gets $\Lambda = 0$, $\Delta\mathrm{BIC} = d\ln N$ (never named).
 
-Confidence is "high" when the named effect also leaves residuals that pass the
-misspecification test (p >= `p_explained`), beats the runner-up by at least `margin`
-in BIC, and was also first in the score-test ranking; otherwise "low".
+Confidence is "high" when the named effect's residuals pass the misspecification test
+(p >= `p_explained`), it beats the runner-up by `margin` in BIC and was first in the
+score ranking; otherwise "low".
 """
 
 from __future__ import annotations
@@ -67,17 +59,15 @@ __all__ = ["CandidateScore", "Refit", "choose", "effect_rows", "refit_candidates
 
 
 def _natural(name: str, coords) -> tuple[object, dict]:
-    """Effect `name`'s library part and its parameters {param: natural value} at the
-    slot coordinates `coords` (units of the part's `SCALES`)."""
+    """Effect `name`'s part and its {param: natural value} at slot coordinates `coords`."""
     part = getattr(EffectSet(), name)
     return part, {p: float(coords[j] * part.SCALES[j]) for j, p in enumerate(part.PARAMS)}
 
 
 @dataclasses.dataclass
 class CandidateScore:
-    """name, statistic S, dof, p_value (chi-square), predicted size {param: natural value},
-    the efficient-score direction and `unphysical` (None, or why the predicted size breaks
-    a sign that physics requires)."""
+    """A candidate's score test (module doc): statistic S, dof, p-value, predicted size
+    {param: natural value}, efficient-score direction, why it is `unphysical` (or None)."""
 
     name: str
     statistic: float
@@ -118,8 +108,7 @@ def score_candidates(base_problem: Problem, base_z: np.ndarray, base_rss: float,
 
 @dataclasses.dataclass
 class Refit:
-    """A candidate refitted: name, problem, fit (Solution), delta_bic, lr, lr_p_value,
-    dof, and `unphysical` (None, or why the fitted size breaks a required sign)."""
+    """A candidate refitted and judged (module doc)."""
 
     name: str
     problem: Problem
@@ -133,8 +122,7 @@ class Refit:
     @classmethod
     def judged(cls, name: str, problem: Problem, fit: Solution, base_fit: Solution,
                dof: int) -> Refit:
-        """The refit `fit` of effect `name` against the base fit (module doc: LR, BIC,
-        and no LR where the fitted size breaks a required sign)."""
+        """The refit `fit` of effect `name` judged against the base fit (module doc)."""
         N, nb = base_fit.n_data, problem.n_base
         part, values = _natural(name, fit.z[nb:nb + problem.n_slots])
         bad = part.unphysical(values)
@@ -150,12 +138,9 @@ def refit_candidates(base_problem: Problem, base_fit: Solution, scores: list[Can
     out = []
     for sc in [s for s in scores if not s.unphysical][:top]:
         pc = dataclasses.replace(base_problem, effect=sc.name)
-        # start at the base optimum (effect zero): the first damped step is the score
-        # test's Gauss-Newton step
-        # undamped (lam0 1e-9): Marquardt's damping acts on each column's own scale, so
-        # an effect nearly collinear with the base parameters (load coupling against the
-        # friction level: its efficient part is ~1e-3 of its column) would otherwise see
-        # its step damped away
+        # from the base optimum, undamped (lam0 1e-9): Marquardt's damping acts on each
+        # column's own scale, so an effect nearly collinear with the base (load coupling:
+        # its efficient part ~1e-3 of its column) would see its step damped away
         fit = pc.solve(base_fit.z, max_evals=max_evals, lam0=1e-9)
         # little progress (under a tenth of the drop the score test predicts: a damped
         # crawl of 6750 -> 6749 on the stribeck campaign after the features program
@@ -167,12 +152,10 @@ def refit_candidates(base_problem: Problem, base_fit: Solution, scores: list[Can
 
 
 def _backtracked_refit(pc, base_fit: Solution, fit: Solution, max_evals: int) -> Solution:
-    """A refit that made little progress although the score test predicts a large drop: its
-    Gauss-Newton step overshoots (the model is quadratic only over a few per cent of it,
-    e.g. stribeck against the friction law's valley) and Marquardt's damping turns the
-    step away from it. Try fractions of that step, and continue from the best one that
-    lowers chi-square. Measured on the stribeck campaign: the full step raises chi-square
-    from 6750 to 1.3e6, 3 % of it lowers it to 6743."""
+    """A refit that made little progress though the score predicts a large drop: its
+    Gauss-Newton step overshoots (quadratic over a few per cent of it) and damping turns
+    it away. Continue from the best fraction of it that lowers chi-square (stribeck
+    campaign: the full step raises chi-square 6750 -> 1.3e6, 3 % of it lowers it to 6743)."""
     r, J, ok = pc.evaluate(base_fit.z)
     act = pc.active()
     Ja = J[:, act]
@@ -200,8 +183,7 @@ def choose(refits: list[Refit], *, threshold: float = 10.0) -> Refit | None:
 
 
 def effect_rows(refit: Refit) -> list[ParameterEstimate]:
-    """The chosen effect's parameters (natural units) with their Gauss-Newton standard
-    errors, as parameter rows."""
+    """The chosen effect's parameters (natural units) with Gauss-Newton standard errors."""
     pc, fit = refit.problem, refit.fit
     act = pc.active()
     cov = fit.covariance(act)

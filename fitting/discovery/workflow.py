@@ -11,25 +11,13 @@ result.effect, result.explanation, result.gap_before, result.gap_after
 result.to_json()          # the `stickslip discover --json` contract
 ```
 
-`SmoothBase` is a base model of the one pipeline (`engine.discover`); its stages (each
-timed in `result.timings`):
-
-1. `prepare`: records -> padded traces (`model.campaign_traces`); a features-first
-   starting point for the friction (`stickslip_fitting.solve.fit.fit_features` on the records with at
-   least two complete cycles).
-2. `base_fit`: the paper's model (all effects zero) fitted to the full traces by
-   Levenberg-Marquardt (`Problem.solve`), friction + one initial deflection per record;
-   `residuals_before`: `residuals.analyse_residuals` (phases, misspecification test).
-3. `rank` ("ranking"): score test of every library effect (`ranking.score_candidates`).
-4. `refit`: the `top` candidates refitted (`ranking.refit_candidates`).
-5. `decide` ("decision"): BIC choice or "none" (`ranking.choose`, the disagreement rule
-   of `SmoothBase`), the chosen model polished.
-6. `conclude` ("residuals_after"): the analysis again with the chosen effect, the
-   answer; "learned" (only when `learn` is set and the final residuals still fail the
-   misspecification test): the learned correction, from the base fit
-   (`learned.fit_learned_correction`) and its sparse regression.
-
-Gaps are residual RMS in mm (the noise level is `noise`, estimated from the data).
+`SmoothBase`'s stages of the one pipeline (`engine.discover`): padded traces and a
+features-first friction (`prepare`); the paper's model fitted to the full traces, friction
++ one initial deflection per record, and its residual analysis (`base_fit`,
+`residuals_before`); the score test of every library effect (`rank`, `ranking`); the `top`
+refitted (`refit`); the BIC choice or "none", polished (`decide`); the analysis with the
+chosen effect and, with `learn` where the residuals still fail the misspecification test,
+the learned correction (`conclude`). Gaps are residual RMS in mm.
 """
 
 from __future__ import annotations
@@ -59,22 +47,17 @@ __all__ = ["SmoothBase", "discover", "initial_friction"]
 
 
 def initial_friction(features) -> EmpiricalFriction:
-    """Features-first starting friction (stickslip_fitting.solve.fit on the records'
-    `features` with >= 2 complete cycles).
-
-    Where the campaign cannot separate mu_s from gamma (a degenerate features fit,
-    mu_s > 1.5), mu_s is set to 1.5 and gamma chosen to keep mu_0 at the median stick time.
-    """
+    """Features-first starting friction (the records with >= 2 complete cycles); where
+    the campaign cannot separate mu_s from gamma (mu_s > 1.5), mu_s is 1.5 and gamma keeps
+    mu_0 at the median stick time."""
     from ..solve.fit import fit_features
 
     good = [f for f in features if f.stick_slip and f.n_complete >= 2]
     if len(good) < 2:
         raise ValueError("discovery needs at least two records with two or more complete "
                          "stick-slip cycles (record longer or slower)")
-    # with the re-slip model always on: a hidden effect distorts the slips, and the start
-    # the slow discovery checks were calibrated with (viscous damping: with the re-slip
-    # model left out on detection the base fit started elsewhere and the answer fell to
-    # "low", gap 0.56 um for noise 0.52)
+    # the re-slip model always on: the start the slow checks were calibrated with (without
+    # it, viscous damping's base fit started elsewhere: "low", gap 0.56 um, noise 0.52)
     fit = fit_features(good, reslip=True)
     v = fit.values
     if not (0.1 < v["m"] < 2.0 and 0.3 < v["n"] < 3.0):
@@ -92,9 +75,7 @@ def initial_friction(features) -> EmpiricalFriction:
 
 
 def _friction_values(problem: Problem, z) -> dict:
-    """Fitted friction parameters; with load coupling, mu_s and mu_d converted from the
-    fit's apparent coefficients (against W) to physical ones (against N), the shape
-    parameters as fitted (`effects.LoadCoupling`)."""
+    """Fitted friction parameters, mu_s and mu_d physical (against N, `LoadCoupling`)."""
     params = problem.params(z)
     v = params.friction.named_values()
     kappa = float(params.effects.load_coupling.kappa)
@@ -110,9 +91,7 @@ def _analyse(problem: Problem, z):
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class SmoothFit:
-    """A fit of the smoothed base: the screened campaign, the problem and its solution,
-    the residual analysis (`residuals.analyse_residuals`) and, once ranked, the score
-    tests (`ranking`)."""
+    """A fit of the smoothed base, its residual analysis and, once ranked, the scores."""
 
     campaign: Campaign
     problem: Problem
@@ -130,28 +109,22 @@ class SmoothFit:
 class SmoothBase(AbstractBaseModel):
     """The smoothed whole-record base (module doc) and its options.
 
-    `strict`: refuse the campaign when a record has no usable stick-slip (else it is set
-    aside and listed, `data.campaign.screen_records`; `unreadable`: the files that could
-    not be read); `candidates`: library names to consider; `top`: how many to refit;
-    `threshold`: BIC margin needed to name an effect; `p_explained`, `margin`: for
+    `strict`, `unreadable`: as `CycleBase`; `candidates`: library names; `top`: how many
+    to refit; `threshold`: BIC margin to name an effect; `p_explained`, `margin`: for
     "high" confidence; `learn`: fit the learned correction when nothing explains the
-    residuals; `crop`:
-    see `model.campaign_traces`; `effects`: fixed shape settings (`EffectSet.zeros`);
-    `fixed`: friction parameters held at their features-fit value; `max_evals`: budget
-    of the base fit and of the chosen model's polish (LM stops earlier at convergence:
-    a full Gauss-Newton step would lower chi-square by < 0.05, or 4 accepted steps
-    gained < 0.5 together); `refit_evals`: budget
-    of each ranking refit; `collinear`: see "disagreement" below.
+    residuals; `crop`: `model.campaign_traces`; `effects`: fixed shape settings
+    (`EffectSet.zeros`); `fixed`: friction parameters held at their features-fit value;
+    `max_evals`: budget of the base fit and of the chosen model's polish; `refit_evals`:
+    of each ranking refit.
 
-    Disagreement: when the score test's winner (all statistics at the same converged
-    base fit, so comparable) and the refits' BIC winner differ, their efficient-score
-    directions are nearly parallel (cosine > `collinear`) and the score winner's own
-    refit also passes the BIC threshold, the short refits are not trusted to separate
-    them (they crawl along the friction law's flat valley at different speeds): the
-    score winner is named with "low" confidence and the other is reported in
-    `indistinguishable_from`. Measured on the stribeck campaign: the score
-    test prefers stribeck (170 vs 130), 40-evaluation refits prefer rate_state, and the
-    true parameters give the chi-square drop the score test predicted (166).
+    Disagreement: when the score winner (all statistics at one base fit, so comparable)
+    and the refits' BIC winner differ, their efficient-score directions are nearly
+    parallel (cosine > `collinear`) and the score winner's refit passes the threshold
+    too, the short refits are not trusted to separate them (they crawl along the
+    friction law's flat valley): the score winner is named, "low", the other in
+    `indistinguishable_from`. Measured on the stribeck campaign: the score test prefers
+    stribeck (170 vs 130), 40-evaluation refits rate_state, and the true parameters give
+    the drop the score test predicted (166).
     """
 
     candidates: tuple[str, ...] = CANDIDATES
@@ -204,8 +177,7 @@ class SmoothBase(AbstractBaseModel):
         return refits
 
     def decide(self, ranked: SmoothFit, refitted: list[Refit], clock: Clock):
-        """The refits, the one named (None: "none") and its rivals (the disagreement rule);
-        a chosen refit that has not converged is polished first."""
+        """The refits, the one named (None: "none", polished) and its rivals."""
         scores, threshold, refits = ranked.scores, self.threshold, refitted
         chosen, rivals = choose(refits, threshold=threshold), []
         if chosen is not None and scores[0].name != chosen.name:
@@ -279,8 +251,7 @@ class SmoothBase(AbstractBaseModel):
 
 
 def discover(records, *, progress=None, **options) -> SmoothDiscovery:
-    """Run the workflow (module doc) on `records` (a campaign of `Record`s): the one
-    pipeline (`engine.discover`) on the smoothed base with the `options` of `SmoothBase`;
+    """Run the workflow (module doc) on `records` with the `options` of `SmoothBase`;
     `progress` is called with one line per finished stage."""
     return engine.discover(records, SmoothBase(**options), progress=progress)
 
