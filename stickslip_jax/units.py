@@ -97,11 +97,10 @@ def factor(unit: str, dimension: str) -> float:
     return got
 
 
-_PINT_INTERNAL = {"time": "s", "length": "mm", "force": "kgf", "speed": "mm/s",
-                  "stiffness": "kgf/mm", "mass": "kgf*s**2/mm", "viscosity": "kgf*s/mm**2",
-                  "pressure": "kgf/mm**2", "dimensionless": "dimensionless", "angle": "rad",
-                  "angular_speed": "rad/s", "torque": "kgf*mm", "torsional_stiffness": "kgf*mm/rad",
-                  "inertia": "kgf*mm*s**2"}
+_PINT_INTERNAL = {d: u.replace("^", "**") for d, u in {
+    **INTERNAL_UNIT, "dimensionless": "dimensionless",
+    **{d: next(iter(table)) for d, table in RIG_UNITS.items()}}.items()}
+"""Internal unit of each dimension as pint spells it (a rig's first unit is its internal one)."""
 
 
 def _pint_factor(unit: str, dimension: str) -> float | None:

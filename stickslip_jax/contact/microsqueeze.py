@@ -131,7 +131,7 @@ class MicrosqueezeStatic(AbstractStaticFriction):
         if not np.all(np.isfinite(t_b)) or np.any(t_b < 0):
             raise ValueError(f"MicrosqueezeStatic: t_b must be finite and >= 0, got {t_b}")
         kin = _unchecked_kinematics(self)
-        mu_0_at_contact = np.asarray(_mu_at_contact(self))
+        mu_0_at_contact = np.asarray(_mu_at(self, 0.0))
         if np.any(np.asarray(kin.a_d) < 0):
             raise ValueError(
                 f"MicrosqueezeStatic: mu_d = {np.asarray(self.mu_d)} is below mu_0(a=0) = "
@@ -258,11 +258,6 @@ def _evaluate(law: MicrosqueezeStatic, T1):
 @eqx.filter_jit
 def _unchecked_kinematics(law: MicrosqueezeStatic) -> Kinematics:
     return law.kinematics(check=False)
-
-
-@eqx.filter_jit
-def _mu_at_contact(law: MicrosqueezeStatic):
-    return static_coefficient(law.pair, law.contact, 0.0, law.t_b)
 
 
 @eqx.filter_jit
