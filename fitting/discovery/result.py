@@ -1,7 +1,5 @@
-"""The result of a discovery, whichever its base model: `Discovery` and its two final
-subclasses, `CycleDiscovery` (the per-cycle base, `cycle_workflow.discover_cycles`) and
-`SmoothDiscovery` (the smoothed whole-record base, `workflow.discover`), their JSON (the
-`stickslip discover --json` contract) and the explanation text."""
+"""The result of a discovery: `Discovery` and its final subclasses `CycleDiscovery` and
+`SmoothDiscovery` (one per base), their JSON (`stickslip discover --json`) and texts."""
 
 from __future__ import annotations
 
@@ -31,13 +29,11 @@ FIT_CRITERION = ("converged when a full Gauss-Newton step would lower chi-square
 
 @dataclasses.dataclass(kw_only=True)
 class Discovery(DiscoveryEstimates, abc.ABC):
-    """The answer of `stickslip discover`: the `effect` named (a family's name, "none" or
+    """The answer of `stickslip discover`: the `effect` named (a name, "none" or
     "unexplained"), its `confidence` and `explanation`, the gaps (residual RMS, mm)
-    before and after against the `noise` (mm), the `candidates` tested, the fits, and the
-    parameter rows (`stickslip_fitting.report.rows.ParameterEstimate`s;
-    `DiscoveryEstimates` derives `parameters_before`, `parameters_after` and
-    `effect_size`). `to_json` is the `--json` contract: the keys every base writes, with
-    those of the base (`base_json`) after the effect's size."""
+    before and after against the `noise` (mm), the `candidates` tested, the fits and the
+    parameter rows (`report.rows.ParameterEstimate`). `to_json` is the `--json` contract:
+    the keys of every base, with the base's own (`base_json`) after "effect_size"."""
 
     effect: str
     explanation: str
@@ -66,8 +62,7 @@ class Discovery(DiscoveryEstimates, abc.ABC):
 
     @abc.abstractmethod
     def figure(self):
-        """The figure of `stickslip discover --plot` (`discovery.plots`): the residuals
-        by phase before and after, and the traces."""
+        """The figure of `stickslip discover --plot` (`discovery.plots`)."""
 
     def gaps_json(self) -> dict:
         """The keys of this base's document after "gap_unit"."""
@@ -95,11 +90,9 @@ class Discovery(DiscoveryEstimates, abc.ABC):
 
 @dataclasses.dataclass(kw_only=True)
 class CycleDiscovery(Discovery):
-    """The answer on the per-cycle base (`discover_cycles`): with the residuals by phase,
-    the screened `campaign`, the per-cycle `model` and its coordinates before and after,
-    the records weighed by their scatter and the windows set aside; `learned` is the
-    phase correction (`cycle_learned.CycleLearned`), fitted when the answer is
-    "unexplained" or with `learn=True`."""
+    """The answer on the per-cycle base: with the residuals by phase, the `campaign`, the
+    `model` and its coordinates before and after, the records weighed by their scatter
+    and the windows set aside; `learned`: the phase correction (`CycleLearned`), if any."""
 
     phases_before: dict
     phases_after: dict
@@ -119,16 +112,13 @@ class CycleDiscovery(Discovery):
     it leaves more than `misfit.LEFT` x the noise."""
     gap_all_before: float = float("nan")
     gap_all_after: float = float("nan")
-    """The residual RMS (mm) over every record used, those weighed by their scatter
-    (`records_scaled`) included; `gap_before` and `gap_after` are over the records the
-    paper's model describes (the ones the decision uses)."""
+    """The residual RMS (mm) over every record used, `records_scaled` included
+    (`gap_before`, `gap_after`: over the records the decision uses)."""
     steps: list = dataclasses.field(default_factory=list)
-    """The staircase of the sequential search (`stages.more`, `Step.to_json`): every
-    effect named, in order, with its values and standard errors (in the final model
-    where kept), the gap after its step, its family-wise p-value and confidence; empty
-    when none is named. With several effects kept, `effect` is the first of them,
-    `effect_size` and `effect_of` its parameters and name, and the others' parameters
-    (`more_estimates`, named "family.parameter") follow its in `parameters_after`."""
+    """The sequential search's staircase (`Step.to_json`): every effect named, in order,
+    with its values, the gap after it, its family-wise p-value and confidence. With
+    several kept, `effect` is the first; the others' parameters (`more_estimates`,
+    "family.parameter") follow its in `parameters_after`."""
     more_estimates: list = dataclasses.field(default_factory=list)
     BASE: ClassVar[str] = "cycle"
 
@@ -137,9 +127,8 @@ class CycleDiscovery(Discovery):
 
     @property
     def effect_size(self) -> dict[str, dict]:
-        """The named effect's parameters: value, stderr, unit (`EFFECT_KEYS`), and
-        "at_bound" (on an end of its physical range, `Family.support`) with the "reason"
-        (null when neither at a bound nor undetermined; value null when undetermined)."""
+        """The named effect's parameters: `EFFECT_KEYS`, "at_bound" (an end of its
+        physical range, `Family.support`) and the "reason" (value null: undetermined)."""
         return {e.name: e.to_json(self.EFFECT_KEYS + ("at_bound", "reason"))
                 for e in self.effect_estimates}
 
@@ -169,11 +158,8 @@ class CycleDiscovery(Discovery):
 
 @dataclasses.dataclass(kw_only=True)
 class SmoothDiscovery(Discovery):
-    """The answer on the smoothed whole-record base (`workflow.discover`): with the
-    residual analyses before and after (`residuals.analyse_residuals`: phases and the
-    misspecification test), the problems (`model.Problem`) of the base and final fits and
-    the screened `campaign`; `learned` is the MLP friction correction (`learned`), when
-    fitted."""
+    """The answer on the smoothed base: with the residual analyses before and after, the
+    problems of the base and final fits, the `campaign`; `learned`: the MLP correction."""
 
     residuals_before: object
     residuals_after: object
@@ -206,10 +192,9 @@ NO_STDERR = ("no standard error: the refit's derivatives do not determine it (th
 
 def effect_estimate(name: str, unit: str, value: float, stderr: float,
                     bounds: tuple[float, float]) -> ParameterEstimate:
-    """A named effect's parameter: its value, standard error and physical range
-    (`Family.support`: "at_bound" in the JSON when it sits on an end); a standard error
-    of zero or none (a direction the Jacobian does not see) is no standard error, and the
-    value is then not determined (`NO_STDERR`)."""
+    """A named effect's parameter with its physical range (`Family.support`); a standard
+    error of zero or none (a direction the Jacobian does not see) leaves the value
+    undetermined (`NO_STDERR`) unless it sits on an end of the range."""
     s = float(stderr)
     if np.isfinite(s) and s > 0:
         return ParameterEstimate.from_normal(name, unit, value, s, bounds=bounds)
@@ -220,9 +205,8 @@ def effect_estimate(name: str, unit: str, value: float, stderr: float,
 
 
 def effect_rows(refit, G: int) -> list[ParameterEstimate]:
-    """The parameters of an effect fitted in a refit or a step (`family`, `shape`,
-    `values`, `stderr`; per record: `name[g]` over the `G` records), each with its
-    physical range (`effect_estimate`)."""
+    """The parameters of an effect fitted in a refit or a step (per record: `name[g]`
+    over the `G` records), each with its physical range (`effect_estimate`)."""
     if refit is None:
         return []
     f = refit.family
@@ -238,15 +222,11 @@ def effect_rows(refit, G: int) -> list[ParameterEstimate]:
 
 def friction_rows(fit: Solution, features, clusters, *, chi2: float,
                   dof: int) -> list[ParameterEstimate]:
-    """The friction parameters of a per-cycle fit (`fit.z` and `fit.J` over its
-    coordinates: the six `EmpiricalFriction` logs, then the offsets and effects) with the
-    uncertainty and identifiability of the one covariance path (`uncertainty.laplace`:
-    the cluster-robust sandwich of the trace objective, one cluster per cycle window,
-    `clusters` = (record, window) of every data residual; the other coordinates
-    marginalised; the design checks on the records' `features`; `chi2` over `dof` for its
-    warnings). A value the records do not determine (outside its physical range, a
-    relative error over 0.5, one slip time, a direction the residuals do not see) is a
-    row without one: "-" and the reason."""
+    """The friction parameters of a per-cycle fit (its first six coordinates are the
+    `EmpiricalFriction` logs) with the one covariance path (`uncertainty.laplace`: the
+    cluster-robust sandwich, `clusters` = (record, window) of every data residual, the
+    other coordinates marginalised; `chi2` over `dof` for its warnings). A value the
+    records do not determine is a row without one: "-" and the reason."""
     from ..modes import Covariance
     from ..params import CampaignParams, EmpiricalFriction
     from ..solve.fit import FitResult
@@ -275,9 +255,8 @@ def friction_rows(fit: Solution, features, clusters, *, chi2: float,
 
 
 def estimate_text(e: ParameterEstimate) -> str:
-    """"name = value +- stderr unit", or "name = value unit (at bound)" for a value on
-    an end of its range, or "name = - (reason)" for a value the data do not determine
-    ("no standard error", "the fit left the physical range ..."): never "+- 0"."""
+    """"name = value +- stderr unit", "name = value unit (at bound)" or "name = -
+    (reason)" for a value the data do not determine: never "+- 0"."""
     unit = f" {e.unit}" if e.unit and e.unit != "-" else ""
     if not e.determined:  # the reason's head: "no standard error", "the fit left ..."
         return f"{e.name} = - ({(e.reason or 'not identifiable').split(':')[0]})"
@@ -290,11 +269,9 @@ def estimate_text(e: ParameterEstimate) -> str:
 
 def phase_text(phases: dict, noise: float, explained_gap: float = DEFAULTS.explained_gap,
                phase_chi2: float = DEFAULTS.phase_chi2, by: str = "any family") -> str:
-    """The residual of every phase (stick, slip) larger than `explained_gap` x the noise,
-    in words: within its own standard errors (a slip's timing error moves the fast trace,
-    so a slip phase's scatter is larger than the gauge noise) when its chi2/n is at most
-    `phase_chi2`, else not explained (`by`: "any family", or the effect named); "" when
-    every phase is at the noise."""
+    """The residual of every phase larger than `explained_gap` x the noise, in words:
+    within its own standard errors (a slip's timing error moves the fast trace) when its
+    chi2/n is at most `phase_chi2`, else not explained `by`; "" when all are at the noise."""
     um, said = 1e3, []
     for name, ph in phases.items():
         rms = ph.get("rms")
@@ -327,9 +304,7 @@ def phase_misfit(phases: dict, phase_chi2: float = DEFAULTS.phase_chi2) -> list[
 
 def steps_text(steps, decision, gap_before, gap_after, noise,
                explained_gap: float = DEFAULTS.explained_gap) -> str:
-    """The answer of the sequential search in words (several effects kept): what each
-    effect is, the staircase of gaps, the effects dropped as another's shadow, and what
-    keeps the confidence low."""
+    """The answer of the sequential search in words (several effects kept)."""
     um = 1e3
     named = " + ".join(s.family.name for s in steps)
     text = (f"{len(steps)} effects named one after another ({named}). "
@@ -344,14 +319,18 @@ def steps_text(steps, decision, gap_before, gap_after, noise,
     if gone:
         text += (f" Dropped as a shadow of a later effect (no longer significant given "
                  f"it): {', '.join(gone)}.")
-    if gap_after > explained_gap * noise:
-        text += (f" The residual is still {gap_after / noise:.2g} x the noise: something "
-                 "else is missing too.")
+    text += _still(gap_after, noise, explained_gap)
     if decision is not None and decision.unbeaten:
         text += (" Not certain: " + "; ".join(
             f"{c.name}{'' if c.physical else ' (unphysical)'} lowers chi-square by "
             f"{c.drop:.0f} and is not clearly beaten" for c in decision.unbeaten) + ".")
     return text
+
+
+def _still(gap_after, noise, explained_gap) -> str:
+    """The sentence that the residual is still above the noise, or ""."""
+    return (f" The residual is still {gap_after / noise:.2g} x the noise: something else is "
+            "missing too." if gap_after > explained_gap * noise else "")
 
 
 def explanation_text(effect, chosen, decision, gap_before, gap_after, noise, pattern, phases,
@@ -378,9 +357,7 @@ def explanation_text(effect, chosen, decision, gap_before, gap_after, noise, pat
             f"{'; ' + sizes if not f.per_record else ''}) lowers chi-square by "
             f"{chosen.drop:.0f} and the residual RMS from {gap_before * um:.3g} um to "
             f"{gap_after * um:.3g} um (noise {noise * um:.3g} um).")
-    if gap_after > explained_gap * noise:
-        text += (f" The residual is still {gap_after / noise:.2g} x the noise: something "
-                 "else is missing too.")
+    text += _still(gap_after, noise, explained_gap)
     if decision is not None and decision.joint:
         names = " or ".join([f.name] + [c.name for c in decision.joint])
         text = (f"{names}: these records cannot tell them apart ("
