@@ -7,21 +7,17 @@ a smooth function of where in its cycle each sample lies:
 $$x_\mathrm{model}(t) + A_w\,g_\mathrm{stick}(\phi) + g_\mathrm{stick}^0(\phi)
   + A_w\,g_\mathrm{slip}(\psi),$$
 
-with $\phi = (t - t_e)/T_1 \in [0, 1]$ the stick phase of the sample (from the
-window's measured slip end $t_e$ and stick time $T_1$), $\psi = (t - t_e - T_1)
-\omega_0/\pi$ the slip phase (0 at the measured breakaway, 1 a single slip later,
-$\omega_0 = \sqrt{k g/W}$), and $A_w = v T_1$ the window's climb (mm): a pattern that
-scales with the cycle's size (a spring law, a slip shape) and one that does not (a creep
-of fixed size, a gauge artefact). Each $g$ is a cubic B-spline (`STICK_KNOTS`,
-`SLIP_KNOTS` coefficients), so the correction is linear in its coefficients: it is
-fitted jointly with the base parameters by one Gauss-Newton step from the base optimum
-(least squares on the base Jacobian and the spline columns, in the whitened residuals).
+with the stick phase $\phi = (t - t_e)/T_1 \in [0, 1]$ (measured slip end $t_e$, stick
+time $T_1$), the slip phase $\psi = (t - t_e - T_1)\omega_0/\pi$ (0 at the measured
+breakaway, 1 a single slip later) and the window's climb $A_w = v T_1$ (mm): a pattern
+that scales with the cycle (a spring law, a slip shape) and one that does not (a creep,
+a gauge artefact). Each $g$ is a cubic B-spline, so the correction is linear: fitted
+with the base parameters by one Gauss-Newton step from the base optimum.
 
-Nothing here is a physical law: the answer is **where** the gap lies (`signature`: the
-phase and the size of the largest correction) and **how much of it** a smooth
-phase-locked term closes (`closes`: the share of the excess of the gap over the noise).
-A residual the correction cannot close is not locked to the cycle (noise that is not
-white, irregular slips, a drift between cycles). Units: mm and s.
+Nothing here is a physical law: the answer is **where** the gap lies (`signature`) and
+**how much of it** a smooth phase-locked term closes (`closes`: the share of the gap's
+excess over the noise); what it cannot close is not locked to the cycle (coloured noise,
+irregular slips, a drift between cycles). Units: mm and s.
 """
 
 from __future__ import annotations
@@ -50,10 +46,9 @@ SMOOTHING = 1.0
 difference of one noise unit costs like this many samples."""
 
 
-
 def phase_coordinates(data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per masked sample of the `TraceData` `data` (flat, padding removed): the stick
-    phase phi (s/s), the slip phase psi (-) and the window's climb A_w = v T1 (mm)."""
+    """Per masked sample of `data`: the stick phase phi, the slip phase psi and the
+    window's climb A_w = v T1 (mm)."""
     mask = np.asarray(data.mask)
     t = np.asarray(data.time)
     per_row = {name: np.broadcast_to(np.asarray(row)[:, None], mask.shape)[mask]
@@ -97,8 +92,7 @@ def correction_columns(phi, psi, climb) -> tuple[np.ndarray, list[str]]:
 
 @dataclasses.dataclass(frozen=True)
 class CycleLearned:
-    """The learned phase correction of the per-cycle base (module doc). Gaps are residual
-    RMS in mm; `closes` the share of (gap_before - noise) it removes (1: to the noise)."""
+    """The learned phase correction of the per-cycle base (module doc); gaps in mm."""
 
     gap_before: float
     gap_after: float
@@ -134,8 +128,7 @@ class CycleLearned:
 
 
 def _profile(coef, n_grid: int = 31) -> dict:
-    """The fitted correction on a phase grid: the scaled parts in mm per mm of climb, the
-    fixed part in mm."""
+    """The fitted correction on a phase grid (scaled parts in mm per mm of climb)."""
     grid = np.linspace(0.0, 1.0, n_grid)
     slip_grid = np.linspace(0.0, SLIP_SPAN, n_grid)
     bs = _bspline_columns(grid, STICK_KNOTS, 0.0, 1.0)
@@ -143,22 +136,18 @@ def _profile(coef, n_grid: int = 31) -> dict:
     s_scaled = bs @ coef[:STICK_KNOTS]
     s_fixed = bs @ coef[STICK_KNOTS:2 * STICK_KNOTS] * 1e-3
     slip = bl @ coef[2 * STICK_KNOTS:]
-    profile = {"stick_phase": grid.tolist(), "stick_per_mm_of_climb": s_scaled.tolist(),
-               "stick_fixed_mm": s_fixed.tolist(), "slip_phase": slip_grid.tolist(),
-               "slip_per_mm_of_climb": slip.tolist()}
-    return profile
+    return {"stick_phase": grid.tolist(), "stick_per_mm_of_climb": s_scaled.tolist(),
+            "stick_fixed_mm": s_fixed.tolist(), "slip_phase": slip_grid.tolist(),
+            "slip_per_mm_of_climb": slip.tolist()}
 
 
 def fit_cycle_correction(data, r0: np.ndarray, Jb: np.ndarray, sd: np.ndarray,
                          noise: float, use: np.ndarray | None = None,
                          samples=None) -> CycleLearned:
-    """Fit the phase correction jointly with the base parameters (one Gauss-Newton step
-    from the base optimum: least squares on [Jb, correction columns / sd]) and report
-    the gap it leaves (module doc). `r0`, `Jb`: the base fit's whitened residuals and
-    Jacobian over the masked samples; `sd`: their standard errors (mm); `noise`: the
-    campaign's noise (mm); `use`: the residuals the gaps are measured over (default all;
-    discovery leaves out the records it set aside); `samples`: what each residual stands
-    for (`thinning.Samples`: the gaps are over all samples)."""
+    """Fit the phase correction with the base parameters (module doc) from the base
+    fit's whitened residuals `r0` and Jacobian `Jb` (standard errors `sd`, mm); `noise`
+    (mm); `use`: the residuals the gaps are over (default all); `samples`: what each
+    residual stands for (`thinning.Samples`)."""
     from scipy.linalg import block_diag
 
     from .decision import rms_gap

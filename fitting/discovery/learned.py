@@ -7,26 +7,18 @@ extra term learned from the data,
 $$M\ddot y = k x - F_{fric} + N\,\mu_{ref}\,g_\phi\!\left(\frac{x}{x_s}, \frac{k x}{W f_s},
 \frac{\dot y}{v_s}, \frac{t}{t_s}\right),$$
 
-with $g_\phi$ a small `equinox.nn.MLP` (4 inputs, `width` tanh units, 1 output),
-$\mu_{ref} = 0.01$, and the scales $x_s$ (largest deflection, mm), $f_s$ (largest
-spring force per weight $k x/W$ of the campaign), $v_s$ (slip-velocity scale
-$\omega_0 x_s$, mm/s) and $t_s$ (longest record, s). The spring force per weight is
-an input because records differ in $k/W$: a force law of the spring (a hardening
-spring, $k\beta x^3$) is, per unit normal load, a function of $x$ *and* $k/W$, which
-$x$ alone cannot give across a campaign (measured on the hardening campaign: with
-inputs $x, \dot y, t$ only, the gap fell from 1.53 to 1.21 um, noise 0.51). It is a force term of the
-smoothed simulator (`LearnedForce`), fitted through the ODE jointly with the friction
-parameters and the initial deflections by the same Levenberg-Marquardt as every
-other model (Jacobians in forward mode through the solver). The output layer starts
-at zero, so the fit starts at the base model.
+with $g_\phi$ a small `equinox.nn.MLP` (4 inputs, `width` tanh units), $\mu_{ref} = 0.01$
+and the campaign's scales $x_s$ (largest deflection, mm), $f_s$ (largest $k x/W$), $v_s =
+\omega_0 x_s$ (mm/s) and $t_s$ (longest record, s). $k x/W$ is an input because a spring
+force law (hardening, $k\beta x^3$) per unit load depends on $x$ *and* $k/W$ (measured on
+the hardening campaign: with $x, \dot y, t$ only the gap fell from 1.53 to 1.21 um, noise
+0.51). It is a force term of the smoothed simulator (`LearnedForce`), fitted through the
+ODE with the friction and initial deflections by the same Levenberg-Marquardt; its output
+layer starts at zero, so the fit starts at the base model.
 
-**Which variables?** The learned force, evaluated along the fitted trajectories, is
-regressed on a library of physically meaningful features (`FEATURES`: powers of the
-deflection, the spring force per weight $kx/W$ and its cube-law analogue $kx^3/W$,
-the slider velocity and its sign, time, and their products with the sign of the
-velocity) by sequentially thresholded least squares (STLSQ, as in SINDy): fit,
-zero the coefficients whose standardised size is below `threshold` of the largest,
-refit on the rest, repeat. The surviving features are the answer (`named_terms`).
+**Which variables?** The learned force along the fitted trajectories is regressed on
+`FEATURES` by sequentially thresholded least squares (STLSQ, as in SINDy); the surviving
+features are the answer (`named_terms`).
 """
 
 from __future__ import annotations
@@ -106,11 +98,9 @@ def feature_matrix(x, v, t, v_eps, k_over_w):
 
 
 def stlsq(A, y, *, threshold: float = 0.1, iterations: int = 10):
-    """Sequentially thresholded least squares on standardised columns.
-
-    Returns (coefficients in the original units, active mask). A column is dropped when
-    its standardised coefficient is below `threshold` times the largest one.
-    """
+    """Sequentially thresholded least squares on standardised columns: a column is
+    dropped when its coefficient is below `threshold` x the largest. Returns
+    (coefficients in the original units, active mask)."""
     scale = A.std(axis=0)
     scale[scale == 0] = 1.0
     scale[0] = 1.0  # the constant column
@@ -151,11 +141,9 @@ class LearnedCorrection:
 def fit_learned_correction(base: Problem, base_fit: Solution, *, width: int = 6,
                            max_evals: int = 40, threshold: float = 0.1, seed: int = 0
                            ) -> LearnedCorrection:
-    """Fit the MLP friction correction (module docstring) from the base fit, then STLSQ.
-
-    `max_evals` 40: on the hardening-spring campaign (12 records) the gap fell from 1.378
-    to 0.930 um after 20 evaluations and to 0.839 um after 40 (noise 0.506 um).
-    """
+    """Fit the MLP friction correction (module doc) from the base fit, then STLSQ
+    (`max_evals` 40: on the hardening campaign the gap fell 1.378 -> 0.930 um after 20
+    evaluations, 0.839 um after 40, noise 0.506 um)."""
     lp = dataclasses.replace(base, extra=make_learned_force(base.traces, width=width,
                                                             seed=seed))
     fit = lp.solve(lp.z0(base_fit.z), max_evals=max_evals)

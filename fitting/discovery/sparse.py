@@ -1,16 +1,14 @@
 r"""Effects outside the library, named by their form: a sparse model of the residual.
 
 When a gap remains that no effect family explains, the per-cycle base (`cycle_model`)
-gets a few terms chosen from a library of candidate forms in the physical coordinates
-of the cycle (`TERMS`), fitted jointly with the base parameters:
+gets a few terms from a library of forms in the cycle's physical coordinates (`TERMS`),
+fitted jointly with the base parameters:
 
 - **stick** (a displacement of the deflection before the breakaway, mm, carried by the
-  model itself, `cycle_effects.stick_terms`: it moves the breakaway and the slip starts
-  from it): a constant, powers of the deflection $x$, powers of the time since the last
-  slip $s$ (in s, and as the share $s/T_1$ of the window's stick time), the approach to
-  the breakaway $e^{-(T_1 - s)/\tau}$ (a creep of the slider before it breaks away) and
-  a lost motion of the drive taken up over its first $L$ of travel, $\min(v s, L)/L$
-  (backlash);
+  model itself, `cycle_effects.stick_terms`): a constant, powers of the deflection $x$
+  and of the time since the last slip $s$ (in s, and as $s/T_1$), the approach to the
+  breakaway $e^{-(T_1 - s)/\tau}$ (creep) and a lost motion of the drive taken up over
+  its first $L$ of travel, $\min(v s, L)/L$ (backlash);
 - **slip** (a force on the slider, in units of its weight W): powers of the reduced
   deflection $\xi = k x/W$, the sign and powers of the slider velocity $\dot y$ (over
   $V = $ `V_REF`), a drift in time; a force $f(t)$ moves the slider by
@@ -18,14 +16,12 @@ of the cycle (`TERMS`), fitted jointly with the base parameters:
   (its first-order response during the slip, held after the slider stops);
 - **drift**: the reading's drift over the record.
 
-The terms are chosen by sequentially thresholded least squares (`stlsq`, the SINDy
-regression, with a forward selection beside it) on the base residuals with the base
-Jacobian's columns projected out (a stick term's column is the model's own Jacobian
-column, the breakaway's move included), at a path of thresholds; the support with the
-least chi-square plus a cost per term (`TERM_COST` of the excess chi-square, at least
-2 ln n) wins, at most `MAX_TERMS` terms. The chosen form is refitted with the model's
-own parameters by Gauss-Newton steps through the model (`fit_sparse_form`), and found
-when it closes at least `FOUND_SHARE` of the gap's excess over the noise. Units: mm, s, kgf.
+The terms are chosen by sequentially thresholded least squares (`stlsq`, SINDy's
+regression, and a forward selection) on the base residuals with the base Jacobian
+projected out (a stick term's column is the model's own, the breakaway's move included);
+the support of least chi-square plus `TERM_COST` per term wins, at most `MAX_TERMS`. The
+form is refitted with the model's parameters (`fit_sparse_form`) and found when it closes
+at least `FOUND_SHARE` of the gap's excess over the noise. Units: mm, s, kgf.
 """
 
 from __future__ import annotations
@@ -54,9 +50,8 @@ V_REF = 10.0
 
 @dataclasses.dataclass(frozen=True)
 class Term:
-    """One candidate: its `phase` (stick, slip, record), the `variable` it is a power of,
-    its `symbol`, the coefficient's `unit` and what it does in `words` (the sign of the
-    coefficient completes them)."""
+    """One candidate form: its `phase`, `variable`, `symbol`, the coefficient's `unit` and
+    what it does in `words`."""
 
     name: str
     phase: str
@@ -107,9 +102,8 @@ TERMS = _terms()
 
 
 def coordinates(model, z, r, sd, shape=None, sensor: bool = False) -> dict:
-    """Per masked sample, sorted window by window in time (`order`): the coordinates of
-    the cycle at the model's trace (module doc; with the effects' `shape` and `sensor`
-    where given)."""
+    """The cycle's coordinates per masked sample at the model's trace, sorted window by
+    window in time (`order`)."""
     data, mask = model.data, np.asarray(model.data.mask)
     row = {f: np.broadcast_to(np.asarray(getattr(data, f))[:, None], mask.shape)[mask]
            for f in ("record", "window", "start_time", "stick_time", "speed", "stiffness",
@@ -140,8 +134,7 @@ def coordinates(model, z, r, sd, shape=None, sensor: bool = False) -> dict:
 
 
 def _slip_response(c: dict, f: np.ndarray) -> np.ndarray:
-    """The reading's change (mm) under a force W f (f per unit weight) during the slips
-    (module doc): the first-order response, held after the slider stops."""
+    """The reading's change (mm) under a force W f during the slips (module doc)."""
     w0 = np.sqrt(c["stiffness"] * G_MM_S2 / c["weight"])
     tau = c["t"] - c["t"][c["start_idx"]]
     fj = np.where(c["slip"], f, 0.0) * c["dt"]
@@ -156,9 +149,7 @@ def _slip_response(c: dict, f: np.ndarray) -> np.ndarray:
 
 
 def library(model, z, r, sd) -> np.ndarray:
-    """The columns of `TERMS` (mm of reading per unit coefficient) at the model's trace
-    at z, in the masked samples' order (`r`, `sd`: whitened residuals and their standard
-    errors, mm)."""
+    """The columns of `TERMS` (mm per unit coefficient) at the model's trace at z."""
     c = coordinates(model, z, r, sd)
     stick, s, x = c["stick"], c["t"] - c["start_time"], c["x"]
     xi, v = c["stiffness"] * x / c["weight"], np.maximum(c["yd"], 0.0) / V_REF
@@ -180,13 +171,11 @@ def library(model, z, r, sd) -> np.ndarray:
 
 def stlsq(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: int = MAX_TERMS,
           cost: float | None = None) -> tuple[np.ndarray, float]:
-    """Sequentially thresholded least squares of b on the columns C (whitened) with the
-    columns `base` always in (projected out): at every threshold of a path (a share of
-    the excess chi-square each standardised coefficient must explain), drop the terms
-    below it and refit until the support settles, and along a forward selection (the
-    term that lowers chi-square most, added one at a time); keep the support (at most
-    `max_terms`) with the least chi-square + `cost` per term (default `TERM_COST` of the
-    excess, at least 2 ln n). Returns the support (column indices) and its chi-square."""
+    """Sequentially thresholded least squares of b on the whitened columns C, `base`
+    projected out: at each threshold of a path (a share of the excess chi-square each
+    standardised coefficient must explain) and along a forward selection, the support
+    (at most `max_terms`) of least chi-square + `cost` per term (default `TERM_COST` of
+    the excess, at least 2 ln n). Returns the support (column indices) and its chi-square."""
     n = b.size
     Q = np.linalg.qr(base)[0] if base.size else np.zeros((n, 0))
     Cp, bp = C - Q @ (Q.T @ C), b - Q @ (Q.T @ b)
@@ -234,12 +223,9 @@ def stlsq(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: int = MA
 
 @dataclasses.dataclass(frozen=True)
 class SparseForm:
-    """The sparse form of the residual (module doc): its `terms` (dicts: name, phase,
-    variable, symbol, coefficient, stderr, unit, words; the most significant first), the
-    gaps (residual RMS, mm) before and after its refit with the base parameters, the
-    `noise` (mm), whether it
-    was `found` (closes at least `FOUND_SHARE` of the excess), the model coordinates
-    after the refit `z`, and the refit's whitened residuals `r`."""
+    """The sparse form of the residual (module doc): its `terms` (the most significant
+    first), the gaps (mm) before and after its refit, the `noise` (mm), whether it was
+    `found`, and the refit's coordinates `z` and whitened residuals `r`."""
 
     terms: tuple
     gap_before: float
@@ -256,8 +242,7 @@ class SparseForm:
 
     @property
     def formula(self) -> str:
-        """The terms in words and symbols, e.g. "slip: a force on the slider during the
-        slip grows with the deflection^3, +0.31 W (k x/W)^3 (-)"."""
+        """The terms in words and symbols."""
         return "; ".join(f"{t['phase']}: {t['words']}, {t['coefficient']:+.3g} "
                          f"{t['symbol'][2:]} (c in {t['unit']})" for t in self.terms) or "-"
 
@@ -277,14 +262,11 @@ def _gap(r, sd, use) -> float:
 
 def fit_sparse_form(model, z, r, J, noise: float, use=None, *, gap=None,
                     iterations: int = 8) -> SparseForm:
-    """Choose the sparse form of the residual `r` (whitened, at the base coordinates z
-    with the base Jacobian J over the base coordinates `model.n_base`) and refit it with
-    the base parameters by Gauss-Newton steps through `model` (module doc: the stick terms
-    are the model's own coordinates, the others are added to its reading), at most
-    `iterations`, a step that does not lower the gap halved, until a step closes less
-    than 0.5 % of the excess; `use`: the residuals the regression and the gaps use
-    (default all); `gap`: the gap (mm) of whitened residuals over all of them (default
-    the RMS over `use`)."""
+    """Choose the sparse form of the whitened residual `r` at z (base Jacobian J) and
+    refit it with the base by Gauss-Newton steps through `model` (a step that does not
+    lower the gap halved) until a step closes less than 0.5 % of the excess; `use`: the
+    residuals the regression and gaps use; `gap`: the gap (mm) of whitened residuals
+    (default the RMS over `use`)."""
     sd = np.asarray(model.sd).ravel()[model.mask]
     use = np.ones(r.size, bool) if use is None else np.asarray(use, bool)
     gap_of = gap if gap is not None else (lambda rr: _gap(rr, sd, use))
