@@ -160,11 +160,10 @@ def _limit_cycle(friction, weight, stiffness, speed, rtol, max_steps, zeta) -> L
     t2 = slip_time(weight, stiffness)
     omega = natural_angular_frequency(weight, stiffness)
     double = _double(friction, t2)
-    sol = optx.root_find(_stick_time_residual, optx.Newton(rtol=rtol, atol=rtol),
-                         jnp.asarray(_LOG_T_START),
-                         args=(friction, weight, stiffness, speed, t2, double),
-                         max_steps=max_steps, throw=False)
-    t1 = jnp.exp(sol.value)
+    log_t1, result = _newton_root(_stick_time_residual, jnp.asarray(_LOG_T_START),
+                                  (friction, weight, stiffness, speed, t2, double),
+                                  rtol, max_steps)
+    t1 = jnp.exp(log_t1)
     mu_0 = friction.static(t1)
     mu_m = friction.kinetic(mu_0, friction.mu_d, t2)
     peak = mu_0 * weight / stiffness
@@ -177,7 +176,7 @@ def _limit_cycle(friction, weight, stiffness, speed, rtol, max_steps, zeta) -> L
     return LimitCycle(stick_time=t1, slip_time=slip, peak=peak, trough=trough,
                       amplitude=0.5 * (peak - trough), frequency=1.0 / (t1 + slip),
                       critical_speed=critical_speed(friction, weight, stiffness),
-                      regime=jnp.where(double, RESTICK_FAILURE, STICK_SLIP), result=sol.result)
+                      regime=jnp.where(double, RESTICK_FAILURE, STICK_SLIP), result=result)
 
 
 def cycle_map(friction: Friction, weight, stiffness, speed, trough, damping_ratio=None):
@@ -231,10 +230,25 @@ def _tolerance_speed(friction, weight, stiffness, amplitude, rtol, max_steps):
         return jnp.log(cyc.amplitude) - jnp.log(a)
 
     v0 = jnp.log(critical_speed(friction, weight, stiffness))
-    sol = optx.root_find(residual, optx.Newton(rtol=rtol, atol=rtol), v0,
-                         args=(friction, weight, stiffness, amplitude),
+    log_v, result = _newton_root(residual, v0, (friction, weight, stiffness, amplitude),
+                                 rtol, max_steps)
+    return jnp.exp(log_v), result
+
+
+def _newton_root(fn, y0, args, rtol, max_steps):
+    """The root of the scalar `fn(y, args)` by Newton's method from `y0` (optimistix,
+    rtol = atol = `rtol`), and its `optimistix.RESULTS`. The root is found without
+    gradients and given the implicit function theorem's (`_with_implicit_gradient`):
+    optimistix's own implicit derivative solves its linear system with lineax's run-time
+    check, a host callback, and JAX's persistent compilation cache keeps no program with
+    one (here: every program that differentiates the cycle, as the tolerance speed's and
+    `stickslip_fitting.design.tolerance`'s Newton steps do). That check fails only where
+    the slope is zero or not finite; here such a slope gives a non-finite gradient."""
+    fixed = jax.tree_util.tree_map(lambda x: jax.lax.stop_gradient(x) if eqx.is_array(x) else x,
+                                   args)
+    sol = optx.root_find(fn, optx.Newton(rtol=rtol, atol=rtol), y0, args=fixed,
                          max_steps=max_steps, throw=False)
-    return jnp.exp(sol.value), sol.result
+    return _with_implicit_gradient(sol.value, lambda y: fn(y, args)), sol.result
 
 
 # --------------------------------------------------------------------------------------
@@ -247,10 +261,28 @@ _LOG_T_LO, _LOG_T_HI = math.log(1e-12), math.log(1e12)
 
 def _with_implicit_gradient(root, fn):
     """`root` (a converged root of `fn`, found without gradients) with the derivative of
-    the implicit function theorem: value `root`, tangent $-\\partial_\\theta f / f'$."""
+    the implicit function theorem: value `root`, tangent $-\\partial_\\theta f / f'$.
+    First derivatives only (the slope $f'$ is held fixed)."""
     root = jax.lax.stop_gradient(root)
     value, slope = jax.jvp(fn, (root,), (jnp.ones_like(root),))
-    return root - (value - jax.lax.stop_gradient(value)) / jax.lax.stop_gradient(slope)
+    return _implicit_tangent(root, value, jax.lax.stop_gradient(-1.0 / slope))
+
+
+@jax.custom_jvp
+def _implicit_tangent(root, value, scale):
+    """`root`, with the tangent `scale` times the tangent of `value` (an `fn(root)` that
+    carries $\\partial_\\theta f$). Not differentiated, the value is the root exactly
+    (also where the slope is zero or `value` not finite) and the compiled program
+    computes neither `value` nor `scale`."""
+    return root
+
+
+@_implicit_tangent.defjvp
+def _implicit_tangent_jvp(primals, tangents):
+    root, value, scale = primals
+    # the value as an expression in `value`, so that a derivative taken around this one
+    # (a root inside the residual of another root) sees the same tangent
+    return root + (value - jax.lax.stop_gradient(value)) * scale, tangents[1] * scale
 
 
 def _damped_slip(x_start, mu, weight, stiffness, speed, omega, zeta):
