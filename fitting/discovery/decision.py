@@ -17,10 +17,9 @@ __all__ = ["Contender", "Decision", "decide", "noise_of", "paired_z"]
 
 @dataclasses.dataclass(frozen=True)
 class Contender:
-    """Another refitted family as the decision sees it beside the winner: its refit's
-    chi-square drop, the principal cosine between its efficient-score directions and the
-    winner's (`scores.principal_cosine`), the winner's advantage in the paired window
-    test (`paired_z`), and whether its fit is physical."""
+    """Another refit beside the winner: its chi-square drop, the principal cosine of its
+    efficient-score directions with the winner's, the winner's `paired_z` advantage, and
+    whether its fit is physical."""
 
     name: str
     drop: float
@@ -35,8 +34,8 @@ class Contender:
 
 @dataclasses.dataclass(frozen=True)
 class Decision:
-    """`decide`'s answer: the contenders named with the winner (`joint`) and those not
-    named that the winner does not beat clearly (`unbeaten`: the confidence is low)."""
+    """The contenders named with the winner (`joint`) and those it does not beat clearly
+    (`unbeaten`: the confidence is low)."""
 
     joint: tuple[Contender, ...]
     unbeaten: tuple[Contender, ...]
@@ -48,10 +47,8 @@ class Decision:
 
 def paired_z(r_winner: np.ndarray, r_other: np.ndarray, starts: np.ndarray) -> float:
     r"""The winner's advantage over another refit in standard errors: the difference of
-    their chi-squares, $\Delta = \sum_w \delta_w$ with $\delta_w$ the difference within
-    cycle window w, over its window-level standard error $\sqrt{n}\,\mathrm{sd}(\delta_w)$
-    (the windows are the independent units, as in the score test). Near 0: the records
-    do not prefer either; large: the winner fits clearly better."""
+    their chi-squares $\Delta = \sum_w \delta_w$ over cycle windows w (the independent
+    units) over its window-level standard error $\sqrt{n}\,\mathrm{sd}(\delta_w)$."""
     d = np.add.reduceat(np.asarray(r_other) ** 2 - np.asarray(r_winner) ** 2, starts)
     total = float(d.sum())
     se = float(np.sqrt(d.size) * d.std(ddof=1)) if d.size > 1 else 0.0
@@ -64,16 +61,12 @@ def decide(winner_drop: float, others, *, joint: float = DEFAULTS.joint,
            collinear: float = DEFAULTS.collinear, clear: float = DEFAULTS.clear) -> Decision:
     """Which contenders are named with the winner, and which keep the confidence low.
 
-    Only contenders that the winner does not beat clearly (`paired_z` < `clear`) count.
-    A physical one whose direction is close (cosine >= `collinear`) and that lowers
-    chi-square at all is named jointly ("X or Y: these records cannot tell them apart"):
-    the paired test, not the ratio of the drops, says whether the records prefer one (on
-    a campaign with a damping ratio of 0.02, rate_state lowered chi-square by 32 and
-    damping by 13, cosine 0.94, z 1.4: the records cannot tell them apart, and naming
-    rate_state alone with high confidence was the refit's path). Any other that explains
-    a comparable share (drop >= `joint` x the winner's, possibly more) is `unbeaten` and
-    the answer not certain (a family in another direction, or an unphysical refit, that
-    explains as much says the named one is not the whole story).
+    Only contenders not clearly beaten (`paired_z` < `clear`) count. A physical one in a
+    close direction (cosine >= `collinear`) that lowers chi-square at all is named
+    jointly: the paired test, not the ratio of the drops, says whether the records prefer
+    one (damping ratio 0.02: rate_state lowered chi-square by 32, damping by 13, cosine
+    0.94, z 1.4). Any other that explains a comparable share (drop >= `joint` x the
+    winner's) is `unbeaten`: the named one is not the whole story.
 
     >>> decide(30.0, [Contender("rate_state", 24.0, 0.46, 1.1)]).clear
     False
@@ -97,8 +90,7 @@ def window_scores(Jp, r, starts) -> np.ndarray:
 
 def hotelling(Jp, r, starts, g=None):
     """(F, p-value, dof, Gauss-Newton step, predicted chi-square drop) of the efficient
-    score Jp^T r with window-level contributions (module doc); `starts`: index of the
-    first sample of every window (samples are stored window by window)."""
+    score Jp^T r by Hotelling's T^2 over the windows (`starts`: their first samples)."""
     p = Jp.shape[1]
     if not (np.all(np.isfinite(Jp)) and np.all(np.isfinite(r))):
         # the family's derivative is not finite at the base (the simulator left its
@@ -127,9 +119,8 @@ def _samples(r, samples):
 
 
 def chi2_by_record(r, rec_of, G, samples=None, sd=None) -> np.ndarray:
-    """chi2/n of the whitened residuals `r` of every record (`rec_of`: record per
-    residual; NaN for a record without residuals) over the samples they stand for
-    (`samples`, with the residuals' standard errors `sd`, mm: binned sticks)."""
+    """chi2/n of the whitened residuals `r` of every record (`rec_of`; NaN: none) over
+    the `samples` they stand for (standard errors `sd`, mm)."""
     if samples is None:
         return np.array([np.mean(r[rec_of == g] ** 2) if np.any(rec_of == g) else np.nan
                          for g in range(G)])
@@ -139,17 +130,14 @@ def chi2_by_record(r, rec_of, G, samples=None, sd=None) -> np.ndarray:
 
 
 def rms_gap(r, sd, samples=None) -> float:
-    """Residual RMS (mm) of whitened residuals `r` with standard errors `sd`, over the
-    samples they stand for (`samples`, `thinning`: binned sticks)."""
+    """Residual RMS (mm) of whitened residuals `r` (standard errors `sd`) over `samples`."""
     return _samples(r, samples).rms(r * sd)
 
 
 def rms_by_phase(r_mm, slipping, sd=None, samples=None):
-    """Residual RMS (mm) and count by phase; with the residuals' standard errors `sd` (mm)
-    also the RMS they lead one to expect ("expected_rms", mm) and the whitened residuals'
-    chi2/n ("chi2_per_sample"): a slip's timing error moves the fast trace, so a slip
-    phase's residual is larger than the gauge noise and still at its own noise. Over the
-    samples the residuals stand for (`samples`: binned sticks)."""
+    """Residual RMS (mm) and count by phase over `samples`; with the standard errors `sd`
+    (mm) also the RMS they lead one to expect and the chi2/n (a slip's timing error moves
+    the fast trace: a slip phase's residual exceeds the gauge noise, not its own)."""
     out = {}
     samples = _samples(r_mm, samples)
     for name, sel in (("stick", ~slipping), ("slip", slipping)):
@@ -165,8 +153,8 @@ def rms_by_phase(r_mm, slipping, sd=None, samples=None):
 
 
 def noise_of(data, samples=None) -> float:
-    """The campaign's noise level (mm): RMS of its windows' record noise estimates, each
-    row weighing by its samples (`samples`, [N, L]: binned sticks; else by its count)."""
+    """The campaign's noise (mm): RMS of the windows' record noise, each row weighing by
+    its samples."""
     mask = np.asarray(data.mask)
     n = mask.any(1) if samples is None else np.where(mask, samples.count, 0.0).sum(1)
     return float(np.sqrt(np.sum(n * np.asarray(data.sigma) ** 2) / np.sum(n)))

@@ -1,13 +1,7 @@
-r"""The one discovery pipeline: a base model taken through the stages
-
-`prepare` -> `base_fit` -> `rank` -> `refit` -> `decide` -> `conclude`
-
-`discover(records, base)` runs them in this order, each a method of the base model
-(`AbstractBaseModel`) that takes the state the stage before it handed on and returns its
-own; one `Clock` times every stage (`result.timings`, the progress lines). The final
-subclasses are the per-cycle base (`cycle_workflow.CycleBase`, whose stages are the
-modules of `discovery.stages`) and the smoothed whole-record base
-(`workflow.SmoothBase`); both answer with one `result.Discovery`.
+r"""The one discovery pipeline: `discover(records, base)` takes a base model
+(`AbstractBaseModel`: `cycle_workflow.CycleBase`, `workflow.SmoothBase`) through its
+stages `prepare` -> `base_fit` -> `rank` -> `refit` -> `decide` -> `conclude`, each
+handed the states before it; one `Clock` times them (`result.timings`, progress lines).
 
 ```python
 from stickslip_fitting.discovery.engine import discover
@@ -33,9 +27,8 @@ __all__ = ["AbstractBaseModel", "discover"]
 
 
 class AbstractBaseModel(abc.ABC):
-    """A base model of discovery and what each stage does with it: the model the records
-    are fitted with, the effects it may be extended by and the rules that name one.
-    Subclasses are final frozen dataclasses whose fields are the stages' options."""
+    """A base model of discovery and its stages (module doc); subclasses are final frozen
+    dataclasses whose fields are the stages' options."""
 
     NAME: ClassVar[str]
     """The base's name (`stickslip discover --base`, the document's "base")."""
@@ -66,8 +59,8 @@ class AbstractBaseModel(abc.ABC):
 
 
 def discover(records, base: AbstractBaseModel, *, progress=None) -> Discovery:
-    """Which effect does `base`'s model miss in `records` (a campaign of `Record`s)? The
-    stages of the module doc; `progress` is called with one line per finished stage."""
+    """Which effect does `base`'s model miss in `records`? `progress` is called with one
+    line per finished stage."""
     # the host's linear algebra (Levenberg-Marquardt's J^T J, the score tests' projections)
     # on one BLAS thread: its tall, thin products gain nothing from a second thread, and
     # on a busy machine OpenBLAS's waiting threads made each product 20-40 times slower

@@ -1,13 +1,11 @@
 r"""The misfit a discovery's final model leaves, said by its phase and its form.
 
 When the final model leaves more than `LEFT` x the noise, its residual is split by the
-phase of the model's cycle: the **stick** (from the window's start to the last
-`TAIL` of the stick time), the **breakaway** (that last part of the stick, and
-whatever the model still sticks after the record's breakaway: a wrong breakaway time or a
-creep shows there) and the **slip** (from the model's slip start to
-the window's end). The phase holding the largest share of the excess sum of squares over
-the noise is described by three simple forms fitted one after another by weighted least
-squares (each residual weighs by the samples it stands for):
+phase of the model's cycle: the **stick** (up to the last `TAIL` of the stick time), the
+**breakaway** (that last part, and whatever the model still sticks after the record's
+breakaway: a wrong breakaway time or a creep shows there) and the **slip** (from the
+model's slip start). The phase with the largest share of the excess sum of squares over
+the noise is described by three forms fitted one after another (weighted least squares):
 
 1. a **level** per cycle (the phase's mean residual differs from cycle to cycle);
 2. a **ramp** per cycle, linear in the phase's own time (the time since the last slip in
@@ -17,13 +15,10 @@ squares (each residual weighs by the samples it stands for):
    frequency of a grid (`FREQUENCIES`, Hz) that lowers the sum of squares most.
 
 Each form's share is the part of the phase's excess it removes; the words name the phase,
-the form with the largest share and the others worth at least `WORTH` of it, with their
-sizes and units (um, um/s, Hz). What the three leave is said too: irregular from cycle to
-cycle, or a shape within the phase that no form of these describes. At the breakaway the
-words also give the model's **breakaway delay** per cycle (the model's stick time minus
-the record's, ms), with the deflection v dt (um) and the static friction k v dt / W it
-stands for: a delay that changes sign from cycle to cycle is a breakaway level mu_0 that
-scatters, which no smooth law follows.
+the largest form and those worth at least `WORTH`, with their sizes, and what the three
+leave. At the breakaway they also give the model's **breakaway delay** per cycle (ms; the
+deflection v dt and static friction k v dt / W it stands for): a delay that changes sign
+from cycle to cycle is a scattering breakaway level mu_0, which no smooth law follows.
 """
 
 from __future__ import annotations
@@ -51,12 +46,9 @@ _CLOCK = {"stick": "the time since the last slip",
 
 @dataclasses.dataclass(frozen=True)
 class MisfitLeft:
-    """The misfit left (module doc): the `phase` described, every phase's residual RMS
-    (`rms`, mm) and share of the excess (`shares`), the `forms` fitted in the phase (dicts:
-    name, share, and their sizes in um, um/s, Hz), the `words`, the breakaway `delay`
-    (`_delay`); `profile`: per residual of
-    the phase, its clock (s), residual (mm), the three forms' fit (mm) and its cycle, for
-    the figure."""
+    """The misfit left (module doc): the `phase` described, every phase's RMS (mm) and
+    share of the excess, the `forms` fitted, the `words`, the breakaway `delay`; `profile`:
+    the phase's clock (s), residual and fit (mm) and cycle, for the figure."""
 
     phase: str
     rms: dict
@@ -129,10 +121,8 @@ def _forms(clock, win, t, rec, e, w, excess) -> tuple[list, np.ndarray]:
 
 
 def _delay(c) -> dict:
-    """The model's breakaway delay per cycle (module doc): its quartiles (ms), the share of
-    cycles it breaks away late, and the median deflection (um) and static friction (-)
-    the delay stands for at the drive speed; a window in which the model does not slip
-    counts its end as the model's breakaway (a lower bound; `no_slip` of them)."""
+    """The model's breakaway delay per cycle (module doc); a window in which the model
+    does not slip counts its end as the breakaway (a lower bound; `no_slip` of them)."""
     first = c["slip"] & ~np.r_[False, c["slip"][:-1]]
     win = c["window"]
     t1 = np.full(int(win.max()) + 1, np.inf)
@@ -183,9 +173,8 @@ def _words(phase, share, forms, rest, delay) -> str:
 
 def misfit_left(model, z, r, sd, noise: float, use, samples=None, shape=None,
                 sensor: bool = False) -> MisfitLeft:
-    """The misfit the model leaves at `z` (its whitened residuals `r`, standard errors
-    `sd` mm, over the residuals `use`; `samples`: what each stands for, `thinning`), said
-    by phase and form (module doc)."""
+    """The misfit the model leaves at `z` (whitened residuals `r`, standard errors `sd` mm,
+    over `use`; `samples`: what each stands for), by phase and form (module doc)."""
     c = coordinates(model, z, r, sd, shape, sensor)
     o = c["order"]
     e = (np.asarray(r) * np.asarray(sd))[o]

@@ -1,8 +1,6 @@
-"""The problems discovery fits, over flat coordinate vectors: `AbstractProblem` (its
-`solve` is the one place discovery calls the solver), the per-cycle model with some of
-its coordinates free (`SubProblem`), and the screw error with one amplitude per harmonic
-and a phase per record (`SharedScrewProblem`); the smoothed whole-record base's is
-`model.Problem` (its learned correction an extra force term of it)."""
+"""The problems discovery fits over flat coordinates: `AbstractProblem` (its `solve` is
+the one place discovery calls the solver), `SubProblem`, `SharedScrewProblem`; the
+smoothed base's is `model.Problem`."""
 
 from __future__ import annotations
 
@@ -22,18 +20,16 @@ __all__ = ["HOPE", "SHAPE_FIELDS", "AbstractProblem", "SharedScrewProblem", "Sub
            "with_shape"]
 
 HOPE = 4.0
-"""A fit with a `target` (`AbstractProblem.solve`) stops once its best point, lowered by
-this many times the full Gauss-Newton step's predicted decrease there, stays above the
-target (checked from its `HOPE_AFTER`-th evaluation: the first steps from a bent start
-gain more than the linear model says)."""
+"""A fit with a `target` stops once its best point, lowered by this many times the
+Gauss-Newton decrease predicted there, stays above the target (from the `HOPE_AFTER`-th
+evaluation: the first steps from a bent start gain more than the linear model says)."""
 HOPE_AFTER = 4
 
 SHAPE_FIELDS = {"viscous_damping": ("damping",), "stribeck": ("vs", "p", "form"),
                 "rate_state": ("length",), "drive_periodic_error": ("pitch",),
                 "sensor_lowpass": ("order", "zeta")}
-"""The `Shape` settings each family owns (a family not listed has none): one `Shape`
-holds every family's at once, so the effects named so far keep theirs while another
-family's shapes are scanned (`with_shape`)."""
+"""The `Shape` settings each family owns: one `Shape` holds every family's, so the
+effects named keep theirs while another family's are scanned (`with_shape`)."""
 
 
 def with_shape(held: Shape, fam, shape: Shape) -> Shape:
@@ -43,9 +39,8 @@ def with_shape(held: Shape, fam, shape: Shape) -> Shape:
 
 
 class AbstractProblem(abc.ABC):
-    """A discovery model over a flat coordinate vector z, as Levenberg-Marquardt fits it:
-    `evaluate(z)` -> (whitened residuals, their Jacobian [N, P] over z, whether the model
-    ran), `active()` the coordinates the fit moves (None: all)."""
+    """A model over flat coordinates z: `evaluate(z)` -> (whitened residuals, Jacobian
+    [N, P], whether the model ran), `active()` the coordinates the fit moves (None: all)."""
 
     @abc.abstractmethod
     def evaluate(self, z) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -57,16 +52,13 @@ class AbstractProblem(abc.ABC):
     def solve(self, z0, *, max_evals: int = 25, chi2_tol: float = 0.05, first=None,
               lam0: float = 1e-3, stall_evals: int = 4, stall_tol: float = 0.5,
               target: float | None = None) -> LeastSquaresSolution:
-        """The fit from z0 over `active()` (`stickslip_jax.lsq.least_squares` over a
-        `HostResiduals`): converged when the full Gauss-Newton step would lower the cost
-        by less than `chi2_tol` (a chi-square), when the last `stall_evals` accepted
-        steps lowered it by < `stall_tol` together, or where no step can lower it; else
-        it stops after `max_evals` evaluations. `first`: (r, J, ok) at z0 already; a
-        small `lam0` (0: the plain Gauss-Newton step) suits a start where the quadratic
-        model is trusted, such as a refit from a base optimum whose step is a score test's.
-        `target`: a chi-square the fit is worth running for only if it can end below it
-        (a refit that cannot win): the fit stops at its best point so far once that point
-        cannot get there (`HOPE`; the solution's `stats["hopeless"]` True)."""
+        """The fit from z0 over `active()` (`lsq.least_squares`): converged when the
+        Gauss-Newton step would lower the cost by less than `chi2_tol`, when the last
+        `stall_evals` accepted steps lowered it by < `stall_tol` together, or where no
+        step can; else after `max_evals` evaluations. `first`: (r, J, ok) at z0; a small
+        `lam0` suits a start where the quadratic model is trusted (a score step).
+        `target`: a chi-square worth reaching; the fit stops at its best point once it
+        cannot (`HOPE`; `stats["hopeless"]` True)."""
         watch = _Watch(self.evaluate, target, first, z0)
         try:
             return least_squares(HostResiduals(watch if target is not None else self.evaluate,
@@ -85,9 +77,7 @@ class _Hopeless(Exception):
 
 
 class _Watch:
-    """An `evaluate` that keeps the best point of a fit and raises `_Hopeless` once that
-    point, lowered by `HOPE` times the Gauss-Newton decrease predicted there, stays above
-    `target` (from the `HOPE_AFTER`-th evaluation on)."""
+    """An `evaluate` that keeps the fit's best point and raises `_Hopeless` (`HOPE`)."""
 
     def __init__(self, evaluate, target, first, z0):
         self.evaluate, self.target, self.n = evaluate, target, 0
@@ -161,10 +151,8 @@ class SubProblem(AbstractProblem):
 class SharedScrewProblem(SubProblem):
     """The screw error with one amplitude per harmonic and a phase per record (one lead
     screw, records starting at different places on it): free coordinates are the base's
-    `n_base` columns (friction, offsets and the effects already named), then A1, A2
-    (model scale units) and the G first- then G second-harmonic phases (rad). `cols` are
-    the model columns: base, then the family's 4 per record (a1_sin = A1 cos phi1,
-    a1_cos = A1 sin phi1, likewise A2, phi2)."""
+    `n_base`, then A1, A2 (scale units) and the G first- then G second-harmonic phases
+    (rad); `cols`: base, then the family's 4 per record (a1_sin = A1 cos phi1, ...)."""
 
     n_base: int = 0
 
@@ -213,8 +201,7 @@ class SharedScrewProblem(SubProblem):
     @staticmethod
     def start(coef, G):
         """Free screw coordinates from per-record coefficients (z units, 4 per record):
-        the median first- and second-harmonic amplitudes over the records that have
-        any, and each record's phases."""
+        the median amplitudes of the records that have any, and each record's phases."""
         c = np.asarray(coef, float).reshape(G, 4)
         amp1, amp2 = np.hypot(c[:, 0], c[:, 1]), np.hypot(c[:, 2], c[:, 3])
         a1 = float(np.median(amp1[amp1 > 0])) if np.any(amp1 > 0) else 1.0

@@ -9,20 +9,15 @@ $$\sum_i \frac{(x_i - f(t_i))^2}{s^2} = \frac{(\bar x - f(\bar t))^2}{s^2/m}
   + \frac{S}{s^2},$$
 
 with $S$ the bins' scatter about the line of the drive's slope (`spread`, mm$^2$, data
-only; exact for a model linear over the bin). So a bin is one residual: its mean at its
-mean time, standard error $s/\sqrt m$: every chi-square difference, score and window
-sum is that of all samples, and the noise of the statistics is unchanged (the bin mean
-carries the samples' information). Levels (chi2/n, gaps) add the scatter back
-(`Samples`).
+only; exact for a model linear over the bin). So a bin is one residual, its mean at its
+mean time with standard error $s/\sqrt m$: every chi-square difference and score is that
+of all samples; levels (chi2/n, gaps) add the scatter back (`Samples`).
 
-Bins grow with the distance to the window's events (`RESOLUTION` of it: the gauge's
-settling after the previous slip at the window start, the breakaway): the samples within
-`RAW` sample steps of an event are kept as they are, and from one slip time
-$\pi/\omega_0$ before the measured breakaway to the window's end (the slip) only samples
-closer than `SLIP_BIN` slip times are averaged (about their own line). A stick of $T_1$
-then holds about $2 \ln(T_1 / 8\Delta t)/\ln(1 + $ `RESOLUTION`$)$ bins and a slip at
-most about $2/$`SLIP_BIN`: the cost of the model grows with the windows, and only
-logarithmically with the sampling rate.
+Bins grow with the distance to the window's events (window start, breakaway; `RESOLUTION`
+of it), samples within `RAW` steps of an event kept; from `GUARD` slip times before the
+breakaway (the slip) only samples closer than `SLIP_BIN` slip times are averaged. A stick
+of $T_1$ holds about $2 \ln(T_1 / 8\Delta t)/\ln(1 + $ `RESOLUTION`$)$ bins: the model's
+cost grows only logarithmically with the sampling rate.
 """
 
 from __future__ import annotations
@@ -54,8 +49,8 @@ slope (slips sampled well above the model's resolution)."""
 
 @dataclasses.dataclass(frozen=True)
 class Samples:
-    """What every residual stands for: `count` samples (1: a sample of its own) whose
-    scatter about their bin's line is `spread` (mm^2), flat like the residuals or [N, L]."""
+    """What every residual stands for: `count` samples whose scatter about their bin's
+    line is `spread` (mm^2), flat like the residuals or [N, L]."""
 
     count: np.ndarray
     spread: np.ndarray
@@ -73,8 +68,7 @@ class Samples:
         return int(self.count.sum())
 
     def within(self, sd) -> float:
-        """The chi-square of the bins' scatter, for residuals of standard errors `sd` (mm,
-        the bins' own: s / sqrt(m))."""
+        """The chi-square of the bins' scatter (`sd`: the bins' standard errors, mm)."""
         return float(np.sum(self.spread / (np.asarray(sd) ** 2 * self.count)))
 
     def chi2(self, r, sd) -> float:
@@ -88,8 +82,7 @@ class Samples:
 
 
 def _bins(t, window, t0, t_end, dt, T2):
-    """Bin index of every sample (contiguous, in time order) and whether its bin is in
-    the slip zone (from `t_end` on: bins of `SLIP_BIN` T2)."""
+    """Bin index of every sample and whether its bin is in the slip zone (from `t_end`)."""
     d1, d2 = t - t0, t_end - t
     stick = d2 > 0  # False where the stick time is not known (kept as it is)
     d = np.where(stick, np.minimum(d1, d2), 0.0)
@@ -115,8 +108,8 @@ def _bucket(n: int) -> int:
 
 
 def thin_windows(data: TraceData) -> tuple[TraceData, Samples]:
-    """`data` with every window's stick binned (module doc), cut into rows again (a
-    window's bins in one row where they fit), and the `Samples` [N, L] of its entries."""
+    """`data` with every window's stick binned (module doc), in rows again, and the
+    `Samples` [N, L] of its entries."""
     mask = np.asarray(data.mask)
     rows, cols = np.nonzero(mask)
     t = np.asarray(data.time)[mask]
