@@ -1,18 +1,6 @@
 r"""Time-domain simulators of the slideway (Fig 5): x(t), the spring deflection in mm.
 
-One verb per simulator, both returning a `Trace` (see `trace.py`):
-
-```python
-from stickslip_jax import Slideway, lubricant
-from stickslip_jax.drives import ConstantSpeed, SpeedProgram
-from stickslip_jax.simulation import simulate_exact
-
-slideway = Slideway(lubricant("A"), weight=36.0, stiffness=86.9)   # kgf, kgf/mm
-drive = ConstantSpeed(1.0 / 60)                                    # mm/s (1 mm/min)
-ts = jnp.linspace(0.0, 60.0, 60_001)                               # s
-trace = simulate_exact(slideway, drive, ts)                        # eqx.filter_jit it
-trace.deflection, trace.slider_velocity, trace.cycles.amplitude()
-```
+One verb per simulator, both returning a `Trace` (examples: docs/simulators.md):
 
 - `simulate_exact` (exact.py): the paper's model solved event by event in closed form;
   `simulate_exact_campaign`: B records of different lengths without padding (`slideway`,

@@ -436,11 +436,8 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
     n_steps = (max_events + 1) // 2
     final, (rows, info) = jax.lax.scan(step, init, None, length=n_steps)
     # interleave the stick and slip halves of each step: phase order
-    rows, info = jax.tree_util.tree_map(
-        lambda a, b: jnp.stack([a, b], axis=1).reshape((2 * n_steps,) + a.shape[1:]),
-        *rows), jax.tree_util.tree_map(
-        lambda a, b: jnp.stack([a, b], axis=1).reshape((2 * n_steps,) + a.shape[1:]),
-        *info)
+    rows, info = (jax.tree_util.tree_map(lambda a, b: jnp.stack([a, b], axis=1).reshape(
+        (2 * n_steps,) + a.shape[1:]), *halves) for halves in (rows, info))
     return _Events(
         row_time=rows["t"], coef=rows["coef"], knot_table=knot_table, omega=omega,
         cycles=_cycle_table(info, max_events) if cycle_table else None,
@@ -559,10 +556,7 @@ def simulate_exact_campaign(slideway: Slideway, drive: AbstractDrive, ts: Float[
     local = _count_positions(lo, n) - 1 - rec * n_rows
     row = rec * n_rows + jnp.clip(local, 0, n_rows - 1)
     knots = ev.knot_table[rec]  # [N, K, 3]: each sample's drive knots
-    if knots.shape[1] == 1:
-        u = knots[:, 0, 1] + knots[:, 0, 2] * (ts - knots[:, 0, 0])
-    else:
-        u = jax.vmap(lambda kn, t: _drive_at(kn, t)[0])(knots, ts)
+    u = jax.vmap(lambda kn, t: _drive_at(kn, t)[0])(knots, ts)
     deflection, velocity, sticking = _render(
         ts, row, ev.coef.reshape(n_rec * n_rows, 4), ev.omega[rec], u)
     return Trace(time=ts, deflection=deflection, slider_velocity=velocity, sticking=sticking,

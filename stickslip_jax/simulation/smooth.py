@@ -111,7 +111,7 @@ def smoothing_velocity(drive: AbstractDrive, smoothing):
 
 
 def friction_curve(r, mu_0, mu_slip):
-    r"""Friction coefficient against $r = \dot y/arepsilon$: peak $\mu_0$ near $r = 1$,
+    r"""Friction coefficient against $r = \dot y/\varepsilon$: peak $\mu_0$ near $r = 1$,
     kinetic level $\mu_{sl}$ for $|r| \gg 1$ (module docstring)."""
     return mu_slip * jnp.tanh(8.0 * r) + (mu_0 - mu_slip) * r * jnp.exp(0.5 * (1.0 - r * r))
 
@@ -214,15 +214,11 @@ def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Flo
 
     - `model`: a `SmoothModel`, or a `Slideway` (then no extra parts); `drive`: any
       `AbstractDrive` (its knots are step-size jump points when there are at most 256).
-    - `smoothing`: dimensionless $\eta$ (default `DEFAULT_SMOOTHING` = 1e-3; gradients are
-      verified against finite differences: rigid stick at 1e-3 with rtol 1e-10, velocity
-      for $\eta \ge$ 0.03 at rtol <= 1e-9, latch for 1e-4 ... 1e-2 at rtol <= 1e-9);
-      `slip_time`: `SlipTime.PAPER` ("paper") or seconds.
+    - `smoothing`: dimensionless $\eta$ (where each formulation's gradients are verified:
+      module docstring); `slip_time`: `SlipTime.PAPER` ("paper") or seconds.
     - `rtol`, `atol` (mm, mm/s), `solver` (default Kvaerno5; Tsit5 for "latch"), `max_steps`,
       `adjoint` (default `RecursiveCheckpointAdjoint`), `dt0` (s, default automatic).
-    - `formulation`: a `Formulation` or its value: "latch" (default; not stiff, 45-60 times
-      cheaper than "rigid_stick" on the benchmark campaign, its cost grows with `max_steps`),
-      "rigid_stick" or "velocity" (module docstring).
+    - `formulation`: a `Formulation` or its value (module docstring).
     - The slider starts at rest with `initial_deflection` (mm), stuck for
       `initial_stick_time` (s), at `ts[0]` (a rate-and-state law: module docstring).
 

@@ -1,11 +1,5 @@
-r"""Synthetic records: simulate a run and write it in the record format with its truth.
-
-`synthetic_record(slideway, drive, duration, sample_rate, *, noise_std, key, ...)`
-simulates with `simulate_exact` (or `simulate_smooth` when `smoothing` is given),
-adds white Gaussian noise of `noise_std` mm to the deflection and returns a
-`stickslip_jax.records.Record` whose `truth` holds the parameters it was made from
-(internal units: kgf, mm, s), the noise level, the seed and the simulator.
-"""
+"""Synthetic records: a simulated run with white noise, as a `Record` whose `truth` holds
+the parameters it was made from (internal units: kgf, mm, s), the noise, seed and simulator."""
 
 from __future__ import annotations
 
