@@ -1,24 +1,17 @@
 r"""Family-wise p-values of many correlated score tests by sign flips of the cycle windows.
 
-Discovery tests every family and shape (`cycle_workflow`, stage 3): 30-50 tests whose
-efficient scores are far from independent (the shapes of one family, and the slip-shape
-families Stribeck, rate-and-state and damping, change the slips in similar ways).
-Bonferroni's level alpha / K assumes the worst and loses power; this module measures the
-false-alarm rate of "the smallest p-value of all tests" instead (Westfall & Young's
-single-step min-p), from the data themselves:
+Discovery runs 30-50 score tests (`cycle_workflow`, stage 3) that are far from
+independent (a family's shapes; Stribeck, rate-and-state and damping change the slips
+alike): Bonferroni's alpha / K loses power, so the false-alarm rate of "the smallest
+p-value of all tests" is measured on the data (Westfall & Young's single-step min-p).
 
 Test k has window contributions $g_{k,w}$ (its efficient score summed over cycle window
-w; `n` windows). Under the base model the windows are independent with mean-zero,
-symmetric contributions, so flipping the sign of every window's contribution (the same
-signs $s_w = \pm 1$ for all tests: their correlation is kept) gives data that are as
-likely as those observed. The self-normalised score statistic
-$U_k(s) = s^\top g_k (g_k^\top g_k)^{-1} g_k^\top s$ (invariant $g_k^\top g_k$ under flips)
-is a monotone function of Hotelling's $T^2$ of the same contributions, so the observed
-test's p-value is the F p-value that `cycle_workflow._hotelling` reports, and each flip's
-p-values come from the same transform. The adjusted p-value of test k is the share of
-flips whose smallest p-value over *all* tests is at most test k's observed one.
-
-Pure NumPy (host side, after the Jacobians); a fixed seed makes the answer reproducible.
+w). Under the base model the windows are independent and symmetric about zero, so
+flipping every window's sign (the same $s_w = \pm 1$ for all tests: their correlation
+kept) gives equally likely data. $U_k(s) = s^\top g_k (g_k^\top g_k)^{-1} g_k^\top s$ is a
+monotone function of Hotelling's $T^2$, so each flip's p-values come from the transform
+of `decision.hotelling`'s. The adjusted p-value of test k is the share of flips whose
+smallest p-value over all tests is at most k's observed one (NumPy; a fixed seed).
 """
 
 from __future__ import annotations
@@ -33,9 +26,8 @@ FLIPS = 4000
 
 
 def hotelling_p_of_u(u: np.ndarray, n: int, p: int) -> np.ndarray:
-    """Hotelling's p-value (F(p, n - p), unbiased covariance, as in
-    `cycle_workflow._hotelling`) of window contributions whose self-normalised
-    statistic is `u` (`u` = n gbar' (g'g/n)^-1 gbar, in [0, n))."""
+    """Hotelling's p-value (F(p, n - p), as `decision.hotelling`) of window contributions
+    whose self-normalised statistic is `u` = n gbar' (g'g/n)^-1 gbar, in [0, n)."""
     u = np.minimum(np.asarray(u, float), n * (1.0 - 1e-12))
     a = u / (1.0 - u / n)  # n gbar' C^-1 gbar with the biased covariance C
     t2 = a * (n - 1) / n
@@ -52,10 +44,9 @@ def _basis(g: np.ndarray) -> np.ndarray:
 
 def family_wise_p(contributions: list[np.ndarray], *, flips: int = FLIPS,
                   seed: int = 0) -> np.ndarray:
-    """Adjusted p-values (Westfall-Young min-p over sign flips; module doc) of the tests
-    whose window contributions are `contributions` (each n x p_k, the same n windows in
-    the same order; rows of zeros are windows a test does not see). A test with
-    non-finite contributions, or fewer windows than p_k + 2, gets NaN and takes no part."""
+    """Adjusted p-values (module doc) of the tests of window `contributions` (each n x
+    p_k over the same windows; zero rows: windows a test does not see). A test with
+    non-finite contributions or fewer than p_k + 2 windows gets NaN and takes no part."""
     if not contributions:
         return np.zeros(0)
     n_rows = contributions[0].shape[0]

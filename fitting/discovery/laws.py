@@ -2,24 +2,18 @@ r"""Which base friction law describes a campaign: the paper's eqs (1), (3) again
 laws (`stickslip_fitting.modes.FrictionLaw`) on the same records.
 
 `compare_laws(records, laws)` fits every law through whole records (the smoothed
-simulator, `stickslip_fitting.solve.laws.fit_law`) on the earlier part of each record
-(from the first slip end to `1 - hold_out` of its length) and scores it twice:
-- the information criteria of the fitted samples' whitened residuals (noise sd of each
-  record, `objectives.smooth`): $\mathrm{AIC} = \chi^2 + 2k$,
-  $\mathrm{BIC} = \chi^2 + k\ln n$, $k$ the free parameters, $n$ the residuals;
-- the held-out cycles: $\chi^2/n$ of the later samples, the fitted model run on freely
-  past the fitted part (a law that only bends to the fitted cycles drifts off there).
+simulator, `solve.laws.fit_law`) on the earlier part of each record (up to `1 -
+hold_out` of it) and scores it by $\mathrm{AIC} = \chi^2 + 2k$ and $\mathrm{BIC} = \chi^2 +
+k\ln n$ of the fitted residuals and by $\chi^2/n$ of the held-out cycles, the model run
+on past the fitted part (a law that only bends to the fitted cycles drifts off there).
 
-Each record is compared over its first `CYCLES` cycles after its first slip end (a long
-record's later cycles add cost, not evidence: a rate-and-state law with a small direct
-effect a takes about 3000 implicit solver steps per cycle, and 30 cycles of a real
-record outran the solver's step budget; 4 cycles cost 1.5-2.6 CPU minutes a campaign of
-two records, and a law other than the paper's is solved at `LAW_TOLERANCES`). The
-preferred law has the lowest BIC; a law the smoothed simulator cannot run through the
-records from any of its starts scores an infinite chi-square, with the `reason` said.
-The paper's law is called the wrong base when another law beats it by at least
-`BIC_MARGIN` (strong evidence, a Bayes factor above 150) and is not worse on the
-held-out cycles.
+Each record is compared over its first `CYCLES` cycles after its first slip end (later
+cycles add cost, not evidence: a rate-and-state law with a small direct effect takes
+about 3000 solver steps per cycle, and 30 cycles of a real record outran the step budget;
+4 cost 1.5-2.6 CPU minutes for two records). The preferred law has the lowest BIC; a law
+the simulator cannot run through the records scores an infinite chi-square, with the
+`reason`. The paper's law is the wrong base when another beats it by `BIC_MARGIN` (a
+Bayes factor above 150) and is not worse on the held-out cycles.
 """
 
 from __future__ import annotations
@@ -37,17 +31,14 @@ BIC_MARGIN = 10.0
 CYCLES = 4
 """Cycles of each record (after its first slip end) the laws are compared over."""
 LAW_TOLERANCES = dict(rtol=1e-7, atol=1e-9, max_steps=32768)
-"""The implicit solve of a law other than the paper's (mm, mm/s; steps): 100 x looser than
-the latch's 1e-9 (an error of 1e-8 mm on a 0.1 mm deflection, far below any record's
-noise) and twice its step budget."""
+"""The solve of a law other than the paper's (mm, mm/s; steps): 100 x looser than the
+latch's 1e-9 (1e-8 mm on a 0.1 mm deflection, far below any noise), twice its budget."""
 
 
 @dataclasses.dataclass(frozen=True)
 class LawScore:
-    """One law's fit: `chi2` of the `n` fitted residuals, `k` free parameters, `aic`,
-    `bic`, `held_out` ($\\chi^2/n$ of the held-out samples), `converged`, `values`
-    ({name: natural value}, the law's units), `reason`: why a law has no finite score
-    (else "")."""
+    """One law's fit (module doc): `chi2` of the `n` fitted residuals, `k` free
+    parameters, `held_out` chi2/n, `values` (natural units), `reason` for no finite score."""
 
     law: FrictionLaw
     chi2: float
@@ -69,8 +60,8 @@ class LawScore:
 
 @dataclasses.dataclass(frozen=True)
 class LawComparison:
-    """The scores of every law (`scores`, in the order given), the `preferred` law (lowest
-    BIC), `paper_wrong_base` (module doc) and a one-paragraph `message`."""
+    """The scores of every law in the order given, the `preferred` one, `paper_wrong_base`
+    (module doc) and a one-paragraph `message`."""
 
     scores: tuple[LawScore, ...]
     preferred: FrictionLaw
@@ -104,8 +95,7 @@ def _verdict(scores) -> tuple[FrictionLaw, bool, str]:
 
 
 def _crop(d, features, cycles):
-    """`SmoothData` d cut after the `cycles`-th slip end following each record's first (a
-    cut record repeats its last sample, masked: its simulation ends there)."""
+    """`SmoothData` d cut after the `cycles`-th slip end following each record's first."""
     import jax.numpy as jnp
 
     t = np.asarray(d.time)
@@ -129,12 +119,10 @@ def compare_laws(records, laws=tuple(FrictionLaw), *, hold_out: float = 1 / 3,
                  cycles: int | None = CYCLES) -> LawComparison:
     """Fit and score each of `laws` (`FrictionLaw` members) on `records` (module doc).
 
-    `hold_out`: the fraction of each record (after its first slip end) kept out of the
-    fit and scored on; `features`: the records' `RecordFeatures` (extracted when None);
-    `modes`, `solver` as in `fit_features`; `pad_to`: samples per record at least (padding,
-    so that campaigns of other lengths reuse the compiled fit); `cycles`: the cycles of each
-    record compared (module doc; None: whole records). ValueError when `hold_out` is
-    outside [0, 0.8].
+    `hold_out`: the fraction of each record kept out of the fit (0 to 0.8); `features`:
+    the records' `RecordFeatures` (None: extracted); `modes`, `solver` as in
+    `fit_features`; `pad_to`: samples per record at least (other lengths reuse the
+    compiled fit); `cycles`: per record (None: whole records).
     """
     import jax.numpy as jnp
 

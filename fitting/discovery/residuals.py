@@ -1,21 +1,17 @@
 r"""Where does a fitted model disagree with the records? Residuals by phase and a
 calibrated misspecification test.
 
-`analyse_residuals(residuals, mask, sticking)` takes the residuals data - model (mm, one
-array per record, the samples of `mask` [R, N] only) and the fitted model's sticking
-flags [R, N], and returns a `ResidualReport`:
+`analyse_residuals(residuals, mask, sticking)` (data - model, mm, per record; the
+model's sticking flags) returns a `ResidualReport`:
 
-- **phases**: each sample is *stick*, *breakaway* (the last `edge` samples of a stick
-  before a slip and the first `edge` samples of the slip), *slip*, or *end of slip*
-  (the last `edge` samples of a slip and the first `edge` of the next stick); per
-  phase the RMS, the mean and the number of samples (mm).
-- **misspecification test** (`misspecification_test`): residuals are cut into windows
-  of `window` consecutive samples; if they are white noise the window means carry only
-  noise and $F = \frac{w\sum_b \bar r_b^2 / B}{\sum (r - \bar r_b)^2/(N-B)}$ follows an
-  $F(B, N-B)$ distribution (exactly for i.i.d. Gaussian noise; fitted parameters make
-  the test slightly conservative). Any smooth structure the model misses raises the
-  window means. The p-value is calibrated on campaigns with no hidden effect in
-  `tests/test_discovery_workflow.py`. The noise level does not have to be known.
+- **phases**: each sample is *stick*, *breakaway* (`edge` samples either side of a slip
+  start), *slip* or *end of slip* (`edge` either side of a slip end); per phase the RMS,
+  mean (mm) and count.
+- **misspecification test**: in windows of `window` samples, white residuals give
+  $F = \frac{w\sum_b \bar r_b^2 / B}{\sum (r - \bar r_b)^2/(N-B)} \sim F(B, N-B)$ (exactly
+  for i.i.d. Gaussian noise; fitted parameters make it slightly conservative); smooth
+  structure the model misses raises the window means. The noise need not be known; the
+  p-value is calibrated on campaigns with no hidden effect (tests).
 """
 
 from __future__ import annotations
@@ -70,8 +66,7 @@ def misspecification_test(residuals: list[np.ndarray], window: int = 5) -> dict:
 
 @dataclasses.dataclass
 class ResidualReport:
-    """The residuals by phase ({phase: rms mm, mean mm, n}) and the misspecification
-    `test` (module doc)."""
+    """The residuals by phase and the misspecification `test` (module doc)."""
 
     phases: dict
     test: dict
@@ -87,8 +82,7 @@ class ResidualReport:
 
 def analyse_residuals(residuals, mask, sticking, *, window: int = 5, edge: int = 2
                       ) -> ResidualReport:
-    """`ResidualReport` of per-record residuals (data - model, mm, the samples of `mask`)
-    with the fitted model's sticking flags [R, N]."""
+    """`ResidualReport` of per-record residuals (module doc)."""
     r = np.concatenate(residuals)
     ph = np.concatenate([phase_labels(np.asarray(s)[np.asarray(m)], edge)
                          for s, m in zip(sticking, mask)])

@@ -12,16 +12,14 @@ __all__ = ["lift_mu_d", "plausible_start"]
 
 
 def plausible_start(logs, stick_times, slip_times) -> np.ndarray:
-    """The features' six logs (log mu_d, log(mu_s - mu_d), log gamma, log m, log delta,
-    log n; `EmpiricalFriction`) moved into a range where the per-cycle model runs:
-    parameters the features cannot determine may wander far (the real records: m -> 0,
-    delta 2e12, n 1e116, so exp(-delta T2^n) = 1 and no slip ends; a strong Stribeck
-    campaign: mu_s - mu_d 9e5 with gamma 5e-8). An exponent m or n outside
-    `DiscoveryOptions.exponents` starts at 1; gamma and delta keep what the records
-    measure, gamma T1^m and delta T2^n at the median stick and slip times (s), with
-    exp(-gamma T1^m) in [0.02, 0.98] and exp(-delta T2^n) in [0.02, 0.9] (a mean
-    kinetic friction within 10 % of mu_0 - mu_d of the breakaway level leaves no slip
-    that ends); mu_s - mu_d then keeps eq (1)'s rise mu_0(T1) - mu_d at the median stick time."""
+    """The features' six `EmpiricalFriction` logs moved where the per-cycle model runs:
+    parameters the features cannot determine may wander far (real records: m -> 0, delta
+    2e12, n 1e116, so no slip ends; a strong Stribeck campaign: mu_s - mu_d 9e5 with gamma
+    5e-8). An exponent outside `DiscoveryOptions.exponents` starts at 1; gamma T1^m and
+    delta T2^n keep what the records measure at the median stick and slip times (s), with
+    exp(-gamma T1^m) in [0.02, 0.98] and exp(-delta T2^n) in [0.02, 0.9] (a kinetic
+    friction within 10 % of the breakaway level leaves no slip that ends); mu_s - mu_d
+    keeps eq (1)'s rise mu_0(T1) - mu_d at the median stick time."""
     z = np.asarray(logs, float).copy()
     lgap, lg, lm, ld, ln = (float(v) for v in z[1:6])
     T1 = float(np.nanmedian(stick_times[stick_times > 0])) if np.any(stick_times > 0) else 1.0
@@ -45,12 +43,9 @@ def plausible_start(logs, stick_times, slip_times) -> np.ndarray:
 
 
 def lift_mu_d(logs) -> np.ndarray:
-    """The six friction logs (`EmpiricalFriction`) with mu_d lifted to `mu_d_lift` x mu_s
-    (mu_s kept) when it is below `mu_d_floor` x mu_s (`DiscoveryOptions`). The fit's
-    coordinate is log mu_d: a fit that has driven mu_d towards 0 (a large effect lowering
-    the slips' friction, such as a Stribeck drop of 0.2 on lubricant A: mu_d 1e-13 in both
-    the features fit and the base) has no gradient left to bring it back once the effect
-    is added."""
+    """The six friction logs with mu_d lifted to `mu_d_lift` x mu_s (mu_s kept) when below
+    `mu_d_floor` x mu_s: a fit that drove mu_d towards 0 (a Stribeck drop of 0.2 on A:
+    mu_d 1e-13) has no gradient left in log mu_d to bring it back once the effect is added."""
     z = np.asarray(logs, float).copy()
     mu_d, gap = np.exp(z[0]), np.exp(z[1])
     mu_s = mu_d + gap

@@ -1,16 +1,11 @@
 r"""Synthetic discovery campaigns: smoothed-simulator records with a hidden effect and noise.
 
 `hidden_effect_campaign(friction, effect=NAME, values={param: value})` simulates a
-campaign with the parts of `stickslip_fitting.discovery.effects` (and optionally any other
-force term, `extra_force_terms`, for effects outside the library), adds white
-Gaussian noise and returns `Record`s whose `truth` holds the friction, the effect and
-its values. Layout: every (W, k) of `conditions` at drive speeds `speed_fractions` x
-the critical speed $v_c$ (eq 12) of the paper's model; each record starts at the end of
-a slip on the steady limit cycle (eqs 5-6) and lasts about `cycles` cycles, so records
-are short (a few hundred to a thousand samples at `sample_rate`).
-
-The records are made with the simulator settings of the discovery fits
-(`model.Settings`, smoothing 1e-2) but tighter tolerances (rtol 1e-7).
+campaign with the parts of `discovery.effects` (or any force term, `extra_force_terms`),
+adds white Gaussian noise and returns `Record`s whose `truth` holds the friction and the
+effect: every (W, k) of `conditions` at drive speeds `speed_fractions` x the critical
+speed $v_c$ (eq 12), each record from a slip end on the steady limit cycle (eqs 5-6) for
+about `cycles` cycles, with the fits' smoothing (`model.Settings`) at rtol 1e-7.
 """
 
 from __future__ import annotations
