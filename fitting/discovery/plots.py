@@ -1,10 +1,9 @@
 """Figures of a discovery result: residual RMS by phase before/after, and the traces.
 
-The traces of every record are drawn, in a grid, over the samples the fit used: the lines
-break between the fitted cycle windows instead of crossing the time they leave out
-(cycles set aside, the run-in). Each record's panel is titled by its file stem, spring
-and drive speed (never its free-text note, which may be a licence paragraph); one legend
-above the grid names the lines of every panel, so that no legend hides a sample.
+Every record's traces are drawn over the samples the fit used, the lines broken between
+fitted windows; each panel is titled by the file stem, spring and drive speed (never the
+free-text note, which may be a licence paragraph); one legend above the grid, so that no
+legend hides a sample.
 """
 
 from __future__ import annotations
@@ -40,10 +39,9 @@ def record_title(record, index: int | None = None) -> str:
 
 
 def broken_at_gaps(t, *ys, segment=None, factor: float = 1.5):
-    """`t` and `ys` in time order with a NaN inserted between two segments (`segment`:
-    a label per sample, e.g. its cycle window; the segments in the order of their labels)
-    or, without labels, wherever the time step exceeds `factor` times the median step (the
-    gaps between fitted windows), so that a line drawn through them breaks there."""
+    """`t` and `ys` in time order with a NaN between two segments (`segment`: a label per
+    sample, e.g. its window) or, without labels, where the time step exceeds `factor` x
+    the median step, so that a line drawn through them breaks there."""
     t = np.asarray(t, dtype=float)
     labels = np.zeros(t.size) if segment is None else np.asarray(segment)
     order = np.lexsort((t, labels))
@@ -66,10 +64,9 @@ def _after_label(effects: str) -> str:
 
 
 def _layout(n_records: int, top: float, bottom: bool):
-    """A figure of three bands: the top pair of axes (`top` inches high), the grid of
-    `n_records` records (`_trace_panels`: two columns, three beyond four records), and
-    with `bottom` a last pair of axes. Returns (figure, top axes, the grid's subfigure,
-    columns, bottom axes or None)."""
+    """A figure of a top pair of axes (`top` inches), the records' grid (two columns,
+    three beyond four records) and, with `bottom`, a last pair. Returns (figure, top axes,
+    the grid's subfigure, columns, bottom axes or None)."""
     from matplotlib.figure import Figure
 
     cols = min(n_records, 3 if n_records > 4 else 2)
@@ -82,9 +79,8 @@ def _layout(n_records: int, top: float, bottom: bool):
 
 
 def plot_discovery(result):
-    """Residual RMS by phase (um) before/after, and the traces of every record with the
-    base and final fits (mm against s) and their residuals (um), the lines broken
-    between fitted windows. Returns the `Figure` (the user's backend is never switched)."""
+    """The smoothed base's figure: residual RMS by phase (um) before/after, the scores, and
+    every record's traces and residuals. Returns the `Figure` (the backend is kept)."""
     tr = result.base_problem.traces
     m = np.asarray(tr.mask)
     t = np.asarray(tr.time)
@@ -124,13 +120,10 @@ def plot_discovery(result):
 
 
 def plot_cycle_discovery(result):
-    """Figure of a per-cycle discovery (`cycle_workflow.CycleDiscovery`): residual RMS by
-    phase before and after (um) against the noise, and for every record used the
-    measured deflection with the paper's model and the model with the effect (mm against
-    s) and their residuals (um), each record's panel titled by `record_title` and its
-    lines broken between the fitted cycle windows (`_trace_panels`). With the effects
-    named (`steps`), a staircase of the gap after each (`_staircase`). Returns the
-    `matplotlib.figure.Figure` (the backend is left as it is)."""
+    """The per-cycle base's figure: residual RMS by phase (um) before and after against the
+    noise, the parameters, the staircase of the effects named or the learned correction,
+    every record's traces and residuals, and the misfit left. Returns the `Figure` (the
+    backend is kept)."""
     model = result.model
     data = model.data
     mask = np.asarray(data.mask)
@@ -209,9 +202,8 @@ def plot_cycle_discovery(result):
 
 
 def _parameter_box(ax, result, after: str) -> None:
-    """The final model's parameters (`result.estimate_text`: value +- standard error
-    and unit, "at bound", or "-" with the reason the data do not determine it), wrapped,
-    in the right 40 % of the axes `ax`; the text's label is "parameters"."""
+    """The final model's parameters (`result.estimate_text`), wrapped, in the right 40 %
+    of the axes `ax`."""
     import textwrap
 
     from .result import estimate_text
@@ -225,9 +217,8 @@ def _parameter_box(ax, result, after: str) -> None:
 
 
 def _misfit_panels(axes, left) -> None:
-    """The misfit the final model leaves (`misfit.MisfitLeft`): the phase's residual (um)
-    against its own clock (s) with the forms fitted (the legend above the axes), and every
-    phase's share of the excess with the forms' shares."""
+    """The misfit left (`misfit.MisfitLeft`): the phase's residual (um) against its clock
+    (s) with the forms fitted, and each phase's and form's share of the excess."""
     from ..report.plots import above_axes
 
     p, um = left.profile, 1e3
@@ -250,8 +241,7 @@ def _misfit_panels(axes, left) -> None:
 
 
 def _staircase(ax, result, steps, title) -> None:
-    """The sequential search's staircase: the gap (um) with the paper's model and after
-    each effect named (a dropped one marked), against the noise."""
+    """The staircase: the gap (um) with the paper's model and after each effect named."""
     um = 1e3
     gaps = [result.gap_before * um] + [s["gap_after"] * um for s in steps]
     labels = ["paper's model"] + [("+ " if s["kept"] else "(dropped) ") + s["effect"]
@@ -268,11 +258,9 @@ def _staircase(ax, result, steps, title) -> None:
 
 
 def _trace_panels(grid, cols, panels, before: str, after: str, noise: float) -> None:
-    """The records in the (sub)figure `grid`, `cols` a row: per record (`panels`: title,
-    time s, deflection mm, the models `before` and `after`, each sample's cycle window or
-    None), the deflection with both models (mm) above their residuals (um) against time
-    over the band of +-1 `noise`, the lines broken between fitted windows
-    (`broken_at_gaps`); one legend of the lines of every panel above the grid."""
+    """The records in the (sub)figure `grid`, `cols` a row (`panels`: title, time s,
+    deflection mm, the models `before` and `after`, each sample's window or None): the
+    deflection with both models above their residuals (um) over +-1 `noise`."""
     rows = -(-len(panels) // cols)
     spec = grid.add_gridspec(2 * rows, cols, height_ratios=[1.7, 1.0] * rows)
     for k, (title, *series, window) in enumerate(panels):
