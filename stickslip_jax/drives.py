@@ -6,13 +6,8 @@ last speed continues after the last knot and the first one extends backwards bef
 the first knot. The exact simulator uses the knots (a constant drive speed makes the
 slip a closed form); the smoothed simulator calls `position(t)` and `speed(t)`.
 
-- `ConstantSpeed(speed)`: $u = v t$, the paper's experiments.
-- `SpeedProgram(start_times, speeds)`: piecewise-constant speed; velocity steps and
-  slide-hold-slide tests (speed 0 during a hold). $u(\text{start\_times}[0]) = 0$.
-- `MeasuredDrive(times, positions)`: a measured $u(t)$ (for example a record's
-  `drive` column), linearly interpolated; held constant after the last sample.
-- `drive_from_record(record)`: the drive of a `Record` (its `drive` column, its
-  `drive_program`, or its constant `drive_speed`).
+The drives: `ConstantSpeed` (the paper's experiments), `SpeedProgram` (velocity steps,
+slide-hold-slide), `MeasuredDrive` (a record's `drive` column) and `drive_from_record`.
 """
 
 from __future__ import annotations
@@ -23,6 +18,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
+
 from .numerics import as_float, is_concrete
 from .records import Record
 
@@ -70,8 +66,8 @@ class ConstantSpeed(AbstractDrive):
 class SpeedProgram(AbstractDrive):
     """Piecewise-constant speed: `speeds[i]` (mm/s, >= 0) from `start_times[i]` (s) on.
 
-    `start_times` must increase strictly. Example, slide-hold-slide at 10 um/s with a
-    30 s hold: `SpeedProgram([0, 20, 50], [0.01, 0.0, 0.01])`.
+    `start_times` must increase strictly; u = 0 at `start_times[0]`. Example: a 30 s
+    hold between slides at 10 um/s, `SpeedProgram([0, 20, 50], [0.01, 0.0, 0.01])`.
     """
 
     start_times: Float[Array, " K"] = eqx.field(converter=as_float)

@@ -1,23 +1,16 @@
 r"""Mode options as small string-valued enums (no JAX import: the command parsers use them).
 
-A mode is a choice among a few named behaviours. Each is a `str`-valued `enum.Enum`, so
-the old string arguments keep working: `SlipTime("paper") is SlipTime.PAPER`,
-`SlipTime.PAPER == "paper"`, it hashes like its string (a jit cache or an equinox static
-field sees one value whichever form came in) and it prints, formats and JSON-encodes as
-its value. Functions validate a mode once where it enters (`SlipTime.parse(value)`, or
-`type=SlipTime` on the command line) and compare with the members inside.
+Each mode is a `str`-valued `enum.Enum` (`AbstractMode`), so a plain string works wherever
+a member does: `SlipTime("paper") is SlipTime.PAPER`, `SlipTime.PAPER == "paper"`, and it
+hashes like its string (a jit cache or an equinox static field sees one value whichever
+form came in). A mode is validated once where it enters (`SlipTime.parse(value)`, a
+ValueError naming the choices, or `type=SlipTime` on the command line).
 
 - `SlipTime`: the $T_2$ put into the mean kinetic friction, eq (3).
 - `GaugeOffset`: how the fits treat a record's gauge zero.
 - `Formulation`: the smoothed simulator's equations (`stickslip_jax.simulation.smooth`).
 
-The fitting package's modes (the objective, the design criterion) are in
-`stickslip_fitting.modes`, built on `AbstractMode`.
-
-```python
-SlipTime.parse("self_consistent")      # SlipTime.SELF_CONSISTENT
-SlipTime.parse("exact")                # ValueError: slip_time must be one of ...
-```
+The fitting package's modes are in `stickslip_fitting.modes`, built on `AbstractMode`.
 """
 
 from __future__ import annotations

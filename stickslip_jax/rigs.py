@@ -3,17 +3,9 @@ r"""Rotational rigs in the equivalent linear coordinates of the paper's slideway
 A torsional rig (a drive turns a shaft of torsional stiffness $k_t$ whose end, of moment
 of inertia $J$, rubs under a normal load $N$ at the friction radius $R$) obeys
 $J\ddot\theta = k_t(\varphi - \theta) - \mu N R$. Divided by $R$ this is the slideway's
-$M\ddot y = k(u - y) - \mu N$ in the coordinates
-
-| rig (its own units)                  | equivalent slideway (internal units)          |
-|--------------------------------------|-----------------------------------------------|
-| angle $\theta$, $\varphi$ [rad]      | $y = R\theta$, $u = R\varphi$ [mm]            |
-| angular speed $\omega$ [rad/s]       | $v = R\omega$ [mm/s]                          |
-| torque $T$ [kgf*mm]                  | $F = T/R$ [kgf]                               |
-| torsional stiffness $k_t$ [kgf*mm/rad] | $k = k_t/R^2$ [kgf/mm]                      |
-| inertia $J$ [kgf*mm*s^2]             | $M = J/R^2$ [kgf*s^2/mm], $W = Mg$ [kgf]      |
-| normal load $N$ [kgf]                | $N$ (friction force $\mu N$, torque $\mu N R$) |
-
+$M\ddot y = k(u - y) - \mu N$ in the coordinates $y = R\theta$, $u = R\varphi$ (rad to mm),
+$v = R\omega$, $F = T/R$ (torque kgf*mm to kgf), $k = k_t/R^2$ (kgf*mm/rad to kgf/mm),
+$M = J/R^2$ (kgf*mm*s^2 to kgf*s^2/mm, $W = Mg$), with $N$ unchanged (`ROTATIONAL`),
 so every model, fit and result of the slideway holds for the rig; friction coefficients
 and times are the same in both. The conversion happens at the records edge: a record
 whose header gives `friction_radius` may state its quantities in rotational units
@@ -46,7 +38,7 @@ RIG_COLUMNS = {"angle": "deflection", "torque": "force"}
 @dataclasses.dataclass(frozen=True)
 class RotationalRig:
     """A rotational rig of friction radius `radius` R (mm): the factor between its
-    quantities and the equivalent slideway's (module table)."""
+    quantities and the equivalent slideway's (module doc)."""
 
     radius: float
 
@@ -153,7 +145,7 @@ def rotational_record(time, angle=None, *, torque=None, torsional_stiffness, ine
     internal units (kgf*mm/rad, kgf*mm*s^2, kgf, mm, rad/s) or strings with a unit
     (`torsional_stiffness="0.5 N*m/rad"`, `inertia="2e-4 kg*m^2"`, `normal_load="40 N"`,
     `friction_radius="20 mm"`, `drive_speed="30 rpm"`). The record holds the equivalent
-    slideway (module table) and the radius. Raises `RecordError`."""
+    slideway (module doc) and the radius. Raises `RecordError`."""
     from .records import Record, RecordError
     from .units import parse_quantity
 

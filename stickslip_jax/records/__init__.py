@@ -15,14 +15,8 @@ File format (UTF-8, version 1; the full description is docs/records.md)::
     time [s],deflection [mm]
     0.000,0.1203
 
-Header lines are `# key: value`; quantities are `number unit` (a bare number is an error:
-no unit is guessed). Required: `stiffness`, `slider_weight` (or `slider_mass`), a `time`
-and a `deflection` (or `force`) column, and a drive: `drive_speed`, `drive_program`
-(`0 s 1 mm/min; 30 s 0 mm/min`: segments `start-time speed`) or a `drive` column (the
-first present of column, program, speed is the drive). Optional: `lubricant`, `surface`,
-`note`, `truth: {json}`, other `key: value` (kept as text) and more columns `name [unit]`
-(`Record.channels`). Time must increase strictly and be uniform within `TIME_STEP_RTOL`;
-files over `MAX_FILE_BYTES` are refused.
+Header lines are `# key: value`, quantities `number unit` (no unit is guessed); the keys,
+columns, drives and clock rules are in docs/records.md.
 
 Reading never guesses and never crashes: every problem is one `RecordError` (a
 `ValueError`) whose message names the file, the line and what to fix. Writing with the

@@ -339,34 +339,14 @@ class Record:
                        extra_columns="all", **fields) -> Record:
         """A record from a pandas DataFrame: `from_arrays` with the columns chosen by label.
 
-        - `time`, `deflection` or `force` (x = F/k), `drive`: a column's full label
-          (`"force [N]"`) or its name, case-insensitive (`"force"` matches `Force [N]`,
-          `force (N)` and `force`); `time` may name the index. Without `deflection` and
-          `force`, the one column named either is taken; a column named `drive` is the
-          measured drive displacement unless `drive=` names another. `time=None`: the
-          index.
-        - Units: `time_unit`, `deflection_unit`, `force_unit`, `drive_unit` when given,
-          else the label's brackets or parentheses (`time [ms]`, `force (N)`); a unit is
-          never guessed. A datetime or timedelta time column (or index) counts seconds
-          from its first stamp.
-        - Conditions as in `from_arrays`: numbers in internal units or strings with a unit
-          (`stiffness="852 N/um"`, `mass="30.7 g"`, `drive_speed="40 in/min"`);
-          `stiffness` is required.
-        - `extra_columns`: `"all"` (default: every other column becomes a channel; one
-          that cannot, non-numeric or with a reserved or repeated name, is left out with a
-          note in `Record.notes`), a list of labels, or `{label: unit}`. A channel is named
-          by its label's name (other characters than letters, digits and `_` become `_`),
-          held in internal units, with its unit in `channel_units`: the label's, else `-`
-          (a pure number, with a note).
-        - A frame made by `to_dataframe` (its `attrs` say so) carries its conditions:
-          `Record.from_dataframe(df)` with no other argument gives the record back
-          exactly (`fields` such as `lubricant=` replace single fields).
-
-        Needs pandas (`pip install pandas`); raises `RecordError`.
-
-            df = pd.read_csv("run.txt", sep=";", decimal=",")   # time [s], force [N], temp [degC]
-            rec = Record.from_dataframe(df, force="force", stiffness="852 N/um",
-                                        mass="30.7 g", drive_speed="40 in/min")
+        `time`, `deflection` or `force` (x = F/k), `drive`: a column's full label or its
+        name, case-insensitive (`time` may name the index; `time=None`: the index). Units:
+        the `*_unit` arguments, else the label's brackets or parentheses, never guessed.
+        `extra_columns`: `"all"` (every other column a channel; one that cannot be is left
+        out with a note), a list of labels, or `{label: unit}`. Conditions as in
+        `from_arrays`. A frame made by `to_dataframe` gives its record back exactly
+        (`fields` replace single fields). Needs pandas; raises `RecordError`. The rules in
+        full: docs/records.md.
         """
         return _dataframe.record_from_dataframe(
             cls, df, time=time, deflection=deflection, force=force, drive=drive,
@@ -389,12 +369,7 @@ class Record:
         ((start s, speed mm/s), ...), `lubricant`, `surface`, `note`, `truth`, `source`,
         `extra_header`, `notes`, `channel_units` (each channel's unit in the file) and
         `channel_columns` (each channel's column), None where the record has none.
-        `Record.from_dataframe(df)` gives the record back.
-
-        Needs pandas (`pip install "stickslip-jax[pandas]"`).
-
-            df = read_record("run.csv").to_dataframe()
-            df.plot(x="time_s", y="x_mm")
+        `Record.from_dataframe(df)` gives the record back. Needs pandas.
         """
         return _dataframe.record_to_dataframe(self)
 

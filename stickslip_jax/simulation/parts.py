@@ -20,11 +20,6 @@ zeros); `own` is the part's state vector (shape `(num_states,)`).
 - `AbstractMeasurement.observe(t, core, own, ctx) -> mm`: what the strain gauge
   reports for the deflection (offset, drift, sensor dynamics via its own states);
   `noise_std` (mm) is the white-noise level used by synthetic records and likelihoods.
-
-`Core` holds the simulator's own state at one instant (deflection `x` mm, slider
-velocity `ydot` mm/s, stick-time state `tau` s, breakaway-friction memory `mu_0_memory`)
-and `Context` the constants and derived quantities (W, k, M, omega0, drive position and
-speed, smoothing velocity `eps` in mm/s, normal load).
 """
 
 from __future__ import annotations
@@ -35,13 +30,15 @@ from typing import ClassVar
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
+
 from ..numerics import as_float
 
 Scalar = Float[Array, ""]
 
 
 class Core(eqx.Module):
-    """Simulator state at one time: x (mm), ydot (mm/s), tau (s), mu_0_memory (-)."""
+    """Simulator state at one time: deflection x (mm), slider velocity ydot (mm/s),
+    stick-time state tau (s), breakaway-friction memory mu_0_memory (-)."""
 
     x: Scalar
     ydot: Scalar
