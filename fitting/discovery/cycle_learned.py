@@ -28,6 +28,8 @@ import numpy as np
 
 from stickslip_jax.units import G_MM_S2
 
+from .cycle_model import per_sample
+
 __all__ = ["CycleLearned", "SLIP_KNOTS", "STICK_KNOTS", "fit_cycle_correction",
            "phase_coordinates"]
 
@@ -49,18 +51,12 @@ difference of one noise unit costs like this many samples."""
 def phase_coordinates(data) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per masked sample of `data`: the stick phase phi, the slip phase psi and the
     window's climb A_w = v T1 (mm)."""
-    mask = np.asarray(data.mask)
-    t = np.asarray(data.time)
-    per_row = {name: np.broadcast_to(np.asarray(row)[:, None], mask.shape)[mask]
-               for name, row in (("start", data.start_time), ("stick", data.stick_time),
-                                 ("speed", data.speed), ("k", data.stiffness),
-                                 ("w", data.weight))}
-    since = t[mask] - per_row["start"]
-    stick = np.maximum(per_row["stick"], 1e-12)
-    omega0 = np.sqrt(per_row["k"] * G_MM_S2 / per_row["w"])
-    phi = since / stick
-    psi = (since - stick) * omega0 / np.pi
-    return phi, psi, per_row["speed"] * stick
+    start, T1, speed, k, w = per_sample(data, "start_time", "stick_time", "speed",
+                                        "stiffness", "weight")
+    since = np.asarray(data.time)[np.asarray(data.mask)] - start
+    stick = np.maximum(T1, 1e-12)
+    psi = (since - stick) * np.sqrt(k * G_MM_S2 / w) / np.pi
+    return since / stick, psi, speed * stick
 
 
 def _bspline_columns(x: np.ndarray, n_coef: int, lo: float, hi: float) -> np.ndarray:

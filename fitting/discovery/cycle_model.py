@@ -59,14 +59,14 @@ import numpy as np
 from stickslip_jax.numerics import safe_power
 from stickslip_jax.units import G_MM_S2
 
+from ..objectives.trace import TraceData
 from ..params import EmpiricalFriction
 from ..solve.fit import COMPILER_OPTIONS
-from ..objectives.trace import TraceData
 from .cycle_effects import (DAMPING_FORMS, FAMILIES, STICK_SCALE, STICK_TERMS, STRIBECK_FORMS,
                             Family, Shape, drive_error, stick_terms)
 
 __all__ = ["BLOCK", "CycleModel", "Later", "N_STEPS", "TAIL_STEPS", "kernel_cdf",
-           "previous_rows", "tail_sources", "window_rows"]
+           "per_sample", "previous_rows", "tail_sources", "window_rows"]
 
 N_STEPS = 128
 """RK4 steps per slip (over 2.5 pi/omega_0: room for slips lengthened by the effects)."""
@@ -472,6 +472,13 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
     return read + offset[data.record][:, None], yd, ok
 
 
+def per_sample(data: TraceData, *fields: str) -> list[np.ndarray]:
+    """The row attributes `fields` of `data` at its masked samples (flat, row by row)."""
+    mask = np.asarray(data.mask)
+    return [np.broadcast_to(np.asarray(getattr(data, f))[:, None], mask.shape)[mask]
+            for f in fields]
+
+
 def window_rows(data: TraceData) -> tuple[np.ndarray, np.ndarray]:
     """([W] the first row of every cycle window of `data`, in order; [N] the position of
     every row's window among them). The rows of one window share its restart state
@@ -605,8 +612,7 @@ class CycleModel:
         self.scales[self.layout.stick_cols()] = STICK_SCALE
         self._scales = jax.device_put(self.scales)
         self.mask = np.asarray(data.mask).ravel()
-        self._record = np.broadcast_to(np.asarray(data.record)[:, None],
-                                       np.asarray(data.mask).shape).ravel()[self.mask]
+        self._record = per_sample(data, "record")[0]
         self._idx = jax.device_put(np.flatnonzero(self.mask).astype(np.int32))
         self._real_rows = np.asarray(data.mask).any(1)
         # every record's samples, one contiguous span of the residual vector (`trace_data`

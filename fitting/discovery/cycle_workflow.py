@@ -82,10 +82,9 @@ from __future__ import annotations
 import dataclasses
 from typing import ClassVar
 
-import numpy as np
-
 from ..objectives.losses import AbstractLoss
 from .cycle_effects import FAMILIES, family
+from .cycle_model import per_sample
 from .engine import AbstractBaseModel, discover
 from .options import DEFAULTS, DiscoveryOptions
 from .result import CycleDiscovery, friction_rows
@@ -176,10 +175,7 @@ def with_uncertainty(result: CycleDiscovery, base) -> CycleDiscovery:
     (`result.friction_rows`, one cluster per cycle window). Without a refit of its own (no
     effect, or a form outside the library) the final friction is the base's: a value the
     form moved keeps the base's verdict and has no standard error."""
-    data = result.model.data
-    mask = np.asarray(data.mask)
-    clusters = [np.broadcast_to(np.asarray(a)[:, None], mask.shape)[mask]
-                for a in (data.record, data.window)]
+    clusters = per_sample(result.model.data, "record", "window")
 
     def rows(fit):
         return friction_rows(fit, result.campaign.features, clusters,

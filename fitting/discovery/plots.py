@@ -124,13 +124,14 @@ def plot_cycle_discovery(result):
     noise, the parameters, the staircase of the effects named or the learned correction,
     every record's traces and residuals, and the misfit left. Returns the `Figure` (the
     backend is kept)."""
+    from .cycle_model import per_sample
+
     model = result.model
     data = model.data
     mask = np.asarray(data.mask)
     t = np.asarray(data.time)[mask]
     x = np.asarray(data.deflection)[mask]
-    rec = np.broadcast_to(np.asarray(data.record)[:, None], mask.shape)[mask]
-    window = np.broadcast_to(np.asarray(data.window)[:, None], mask.shape)[mask]
+    rec, window = per_sample(data, "record", "window")
     sd = np.asarray(model.sd)[mask]
     r0 = model.residuals(result.z_before)[0] * sd
     r1 = model.residuals(result.z_after, result.shape, result.sensor)[0] * sd

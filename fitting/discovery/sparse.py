@@ -33,6 +33,7 @@ import numpy as np
 from stickslip_jax.units import G_MM_S2
 
 from .cycle_effects import STICK_SCALE, STICK_TAUS, STICK_TERMS, STICK_TRAVELS, stick_terms
+from .cycle_model import per_sample
 
 __all__ = ["FOUND_SHARE", "MAX_TERMS", "SparseForm", "TERMS", "Term", "coordinates",
            "fit_sparse_form",
@@ -105,9 +106,8 @@ def coordinates(model, z, r, sd, shape=None, sensor: bool = False) -> dict:
     """The cycle's coordinates per masked sample at the model's trace, sorted window by
     window in time (`order`)."""
     data, mask = model.data, np.asarray(model.data.mask)
-    row = {f: np.broadcast_to(np.asarray(getattr(data, f))[:, None], mask.shape)[mask]
-           for f in ("record", "window", "start_time", "stick_time", "speed", "stiffness",
-                     "weight")}
+    fields = ("record", "window", "start_time", "stick_time", "speed", "stiffness", "weight")
+    row = dict(zip(fields, per_sample(data, *fields)))
     t_all = np.asarray(data.time)
     dt = np.broadcast_to((t_all[:, 1] - t_all[:, 0])[:, None], mask.shape)[mask]
     t = t_all[mask]
