@@ -1,8 +1,6 @@
-"""The tuning of the per-cycle discovery (`cycle_workflow.discover_cycles`) in one place.
-
-`DiscoveryOptions` holds every threshold, budget and start of the stages; `DEFAULTS` is
-the tuning the README's rates were measured with. Each field's comment says what it does
-and which measurement set it.
+"""The tuning of the per-cycle discovery in one place: `DiscoveryOptions` (each field's
+comment says what it does and which measurement set it); `DEFAULTS`, the tuning the
+README's rates were measured with.
 """
 
 from __future__ import annotations
@@ -14,9 +12,9 @@ __all__ = ["DEFAULTS", "DiscoveryOptions"]
 
 @dataclasses.dataclass(frozen=True)
 class DiscoveryOptions:
-    """Thresholds, budgets and starts of `discover_cycles` (module doc)."""
+    """Thresholds, budgets and starts of the per-cycle discovery (module doc)."""
 
-    # -- the call's choices (`discover_cycles` keywords) --
+    # -- the call's choices --
     # how many significant families are refitted first (stage 4)
     top: int = 3
     # family-wise false-alarm rate of the whole ranking (stage 3)
@@ -71,8 +69,8 @@ class DiscoveryOptions:
     refine_gap: float = 1.15
 
     # -- decision (stage 5) --
-    # contender's chi2 drop / winner's from which it is comparable (drifts vs screw: 0.59-0.60);
-    # a later effect must beat such a physical one clearly (Stribeck vs load coupling: 0.54)
+    # contender's chi2 drop / winner's from which it is comparable, and a later effect must beat
+    # it clearly (drifts vs screw: 0.59-0.60; Stribeck vs load coupling: 0.54)
     joint: float = 0.5
     # principal cosine above which two families change the traces in nearly the same way
     collinear: float = 0.9
@@ -85,9 +83,8 @@ class DiscoveryOptions:
     # a phase's chi2/n (residuals over their own standard errors) above which "none" is "low"
     phase_chi2: float = 2.0
 
-    # share of the excess chi2 over the noise a later effect must remove to be named (real
-    # records: irrelevant later effects removed 0.8 % and 1.8 %; the second effect of 4-record
-    # pair campaigns 5.1-44 %, read from their residual RMS gaps)
+    # share of the excess chi2 a later effect must remove to be named (real records: irrelevant
+    # ones removed 0.8 % and 1.8 %; the second effect of 4-record pair campaigns 5.1-44 %)
     later_share: float = 0.03
 
     # -- re-weighing (stage 6) --
