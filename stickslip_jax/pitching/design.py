@@ -56,10 +56,7 @@ def variation_map(model: PitchingModel, friction: Friction, weight, stiffness, s
     other coordinate stays at its neutral value). Figs 52-53 and the design map of $\Delta
     \varepsilon$ over height and speed. Uses the linearity in the arm: one steady sweep at
     a unit arm, scaled."""
-    names = model.points.names
-    if point not in names:
-        raise ValueError(f"point must be one of {names}, got {point!r}")
-    idx = names.index(point)
+    idx = model.points.index(point)
     pitch = model.points.planes[idx] == "pitch"
     unit = DrivePoint(height=model.pitch.neutral + (1.0 if pitch else 0.0),
                       offset=model.yaw.neutral + (0.0 if pitch else 1.0))

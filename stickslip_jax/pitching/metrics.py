@@ -28,7 +28,7 @@ from ..friction import Friction
 from ..steady import critical_speed
 from .cycle import ForceCycle, steady_force_cycle
 from .model import DrivePoint, PitchingModel
-from .response import filtered_force
+from .response import filtered_force, point_displacements
 
 
 class PlaneSummary(eqx.Module):
@@ -64,16 +64,11 @@ class SteadyTilt(eqx.Module):
 
 
 def _points_summary(model: PitchingModel, pitch: PlaneSummary, yaw: PlaneSummary):
-    pts = model.points
-    is_pitch = jnp.asarray(pts.is_pitch)
-    lever = jnp.where(is_pitch, pts.positions - model.pitch.pivot, pts.positions - model.yaw.pivot)
+    def at_points(field):
+        return point_displacements(model, getattr(pitch, field), getattr(yaw, field))
 
-    def pick(a, b):
-        return jnp.where(is_pitch, jnp.asarray(a)[..., None], jnp.asarray(b)[..., None])
-
-    return PlaneSummary(peak=pick(pitch.peak, yaw.peak) * lever,
-                        mean=pick(pitch.mean, yaw.mean) * lever,
-                        variation=pick(pitch.variation, yaw.variation) * jnp.abs(lever))
+    return PlaneSummary(peak=at_points("peak"), mean=at_points("mean"),
+                        variation=jnp.abs(at_points("variation")))
 
 
 def cycle_tilt(model: PitchingModel, cycle: ForceCycle, drive: DrivePoint) -> SteadyTilt:
@@ -137,10 +132,7 @@ def critical_pitch_speed(model: PitchingModel, friction: Friction, weight, stiff
     per-cycle variation $\Delta\varepsilon$ falls to `ratio` $\cdot|\varepsilon'|$ or to
     `resolution` (mm), whichever is larger; found by bisection in $\log v$ between `v_low`
     (mm/s, default $10^{-4} v_0$) and just below $v_0 = v_c$."""
-    names = model.points.names
-    if point not in names:
-        raise ValueError(f"point must be one of {names}, got {point!r}")
-    idx = names.index(point)
+    idx = model.points.index(point)
     v_0 = critical_speed(friction, jnp.asarray(weight, float), jnp.asarray(stiffness, float))
     lo = jnp.log(v_0 * 1e-4 if v_low is None else jnp.asarray(v_low, dtype=float))
     hi = jnp.log(v_0 * (1.0 - 1e-6))

@@ -25,6 +25,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, Float
+
 from ..numerics import as_float
 
 ETA_A = 2.2e-8
@@ -128,6 +129,12 @@ class MeasuringPoints(eqx.Module):
     @property
     def is_pitch(self) -> tuple[bool, ...]:
         return tuple(p == PITCH for p in self.planes)
+
+    def index(self, point: str) -> int:
+        """The index of the point named `point`; ValueError naming the points otherwise."""
+        if point not in self.names:
+            raise ValueError(f"point must be one of {self.names}, got {point!r}")
+        return self.names.index(point)
 
 
 def paper_points(length: float = 240.0, point2: float = 10.0) -> MeasuringPoints:
