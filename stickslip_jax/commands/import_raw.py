@@ -1,15 +1,7 @@
 """`stickslip import RAW --time-col ... --force-col|--deflection-col ... --stiffness ...`:
-a raw logger file (plain CSV, TSV, `;`-separated with decimal commas or blank-separated;
-gzip-compressed, UTF-16 or Latin-1; a preamble above the column row, a units row under it,
-`hh:mm:ss.fff` time stamps, extra columns) to a record file in the stickslip format.
-
-Columns are chosen by name (case-insensitive; `force [N]`, `Force (N)` and `force` all
-match `force`) or by 0-based index; their units come from the header's brackets or
-parentheses or a units row, or from `--time-unit`/`--value-unit`/`--drive-unit` (a
-unit is never guessed, and an option contradicting the file is refused). Time stamps of a jittered clock (`stickslip_jax.records.jittered_clock`) are
-resampled to a uniform step with a note; the run's conditions take any unit pint knows (`--stiffness "852 N/um"`,
-`--mass "30.7 g"`, `--speed "40 in/min"`). The input is only read; the output is written
-to a temporary file and renamed, and an existing output is kept unless `--force`.
+a raw logger file to a record file in the stickslip format. What it reads (separators,
+decimal commas, encodings, preambles, units rows, clock stamps) and how columns and their
+units are chosen (never guessed): docs/records.md, "Raw logger files".
 """
 
 from __future__ import annotations

@@ -1,12 +1,8 @@
 """Contact and microsqueeze model of chapter 7: surfaces, boundary lubrication, eq (28).
 
-- `surfaces`: `Surface`, `SurfacePair`, `surface_pair`, `symmetric_pair` (Table 10, eqs 29-32, xi).
-- `boundary`: `BoundaryContact`, `load_shares`, `static_coefficient`, `film_from_mu_s`,
-  `final_approach`, `approach_for`, `static_limit` (eqs 13-15, 33-35).
-- `microsqueeze`: `MicrosqueezeStatic` (an `AbstractStaticFriction`), `microsqueeze_curve`
-  (diffrax solve of eq 28).
-- `bridge`: `fit_kato` (eq (1) parameters of a microsqueeze curve).
-- `profile`: `estimate_surface` (H_max, R, z, D from a measured 1-D profile).
+Modules: `surfaces` (Table 10, eqs 29-32, xi), `boundary` (eqs 13-15, 33-35),
+`microsqueeze` (eq 28 as a static-friction law and its diffrax solve), `bridge` (eq (1)
+fitted to a microsqueeze curve) and `profile` (a surface's numbers from a measured profile).
 """
 
 from .boundary import (BoundaryContact, FilmEstimate, approach_for, film_from_mu_s, final_approach,

@@ -1,18 +1,10 @@
 r"""Rough surfaces and surface pairs of the model slideway (paper section 7.2.2, Table 10).
 
-A `Surface` is described by four numbers (Table 10): the maximum asperity height
-$H_{max}$ (mm), the asperity (tip) radius $R$ (mm), the number of asperities per unit
-length $z$ (1/mm) and the distribution factor $D$ (dimensionless, slope of the linear
-height distribution $\phi(x) = D\,x/H_{max}$, eq 29). A `SurfacePair` (slider,
-slideway) in contact over the apparent area $A_0$ (mm$^2$) gives
-
-- the equivalent radius $R_e = R_1 R_2/(R_1 + R_2)$ (mm),
-- the total asperity count $I_0 = z_1 z_2 A_0$ (NOTES.md: the reading that reproduces
-  Table 11),
-- the contact-point count $I(a)$ (eq 30), the metallic area $A_m(a)$ (eq 31) and the
-  film-carrying area $A_b(a)$ (eq 32) as functions of the approach $a$ (mm),
-- the coefficient of surface topography $\xi = D (R/H_{max}) z L_u$ ($L_u$ = 1 mm) and
-  the pair product $\xi_1\xi_2$ (section 7.4, Tables 10 and 12).
+A `Surface` (Table 10) is the linear-distribution asperity model of eq (29); a
+`SurfacePair` (slider, slideway) in contact over the apparent area $A_0$ (mm$^2$) gives the
+equivalent radius $R_e$, the asperity count $I_0$, the contact-point count (eq 30), the
+metallic and film-carrying areas (eqs 31, 32) against the approach $a$ (mm), and the
+coefficient of surface topography $\xi_1\xi_2$ (section 7.4, Tables 10 and 12).
 
 ```python
 >>> from stickslip_jax.contact import surface_pair
@@ -28,8 +20,8 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from ..tables import load_table
 from ..numerics import as_float, check_positive
+from ..tables import load_table
 
 Scalar = Float[Array, ""]
 
@@ -93,7 +85,8 @@ class SurfacePair(eqx.Module):
 
     @property
     def I_0(self) -> Scalar:
-        r"""Total number of asperities $I_0 = z_1 z_2 A_0$ (dimensionless)."""
+        r"""Total number of asperities $I_0 = z_1 z_2 A_0$ (dimensionless; NOTES.md: the
+        reading that reproduces Table 11)."""
         return self.slider.z * self.slideway.z * self.A_0
 
     @property
