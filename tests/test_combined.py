@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.objectives.combined import CampaignObjective, residual_cycles
+from stickslip_fitting.objectives.combined import make_objective, residual_cycles
 from stickslip_fitting.data.features import record_features
 from stickslip_fitting.solve.fit import fit_features
 from stickslip_fitting.modes import Covariance, Objective, Padding
@@ -28,7 +28,7 @@ def campaign():
 def test_every_residual_is_labelled_with_its_stick_phase(campaign):
     recs, feats, fit = campaign
     td = trace_data(recs, feats)
-    obj = CampaignObjective(fit.data, td, kind="both")
+    obj = make_objective(Objective.BOTH, fit.data, td)
     rec, cyc = residual_cycles(obj, feats)
     fd = fit.data
     R, C = fd.t1.shape
@@ -54,7 +54,7 @@ def test_every_residual_is_labelled_with_its_stick_phase(campaign):
         assert float(td.start_level[w]) == pytest.approx(feats[r].trough[j], abs=1e-12)
         assert has[r, j]  # the same stick phase has feature residuals
     # kind "trace" and "features" give the matching slices
-    rt, ct = residual_cycles(CampaignObjective(fit.data, td, kind="trace"), feats)
+    rt, ct = residual_cycles(make_objective(Objective.TRACE, fit.data, td), feats)
     assert np.array_equal(rt, rec[2 * R * C + R:]) and np.array_equal(ct, cyc[2 * R * C + R:])
 
 

@@ -142,7 +142,7 @@ def test_covariance_and_small_sample_modes():
 
 
 def test_objective_factory_and_weighted_sum_take_members():
-    from stickslip_fitting.objectives.combined import (OBJECTIVES, CampaignObjective, FeaturesObjective,
+    from stickslip_fitting.objectives.combined import (OBJECTIVES, FeaturesObjective,
                                             TraceObjective, WeightedSum, make_objective)
     from stickslip_fitting.modes import Objective
 
@@ -155,10 +155,6 @@ def test_objective_factory_and_weighted_sum_take_members():
     with pytest.raises(ValueError, match="SmoothObjective"):
         make_objective(Objective.SMOOTH, None)
     assert make_objective(Objective.FEATURES, None).kind is Objective.FEATURES
-    # the factory of values parses them
-    assert CampaignObjective(None, kind="features").kind is Objective.FEATURES
-    with pytest.raises(ValueError, match="objective must be one of"):
-        CampaignObjective(None, kind="samples")
     both = WeightedSum((FeaturesObjective(None), FeaturesObjective(None)), (0.25, 0.5))
     assert both.kind == "features+features"
     assert both.weight_of(Objective.FEATURES) == 0.75

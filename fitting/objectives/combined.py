@@ -12,15 +12,11 @@ with final subclasses:
   read the same samples, and the cluster-robust covariance of `uncertainty.laplace`
   measures that overlap instead of assuming it.
 
-The interface the solver, uncertainty, sampler and report use: `residuals_and_aux(params,
-weights_at, slider_velocity)` (aux: the simulations' success flags and the slider
-velocity), `velocity_shape()`, `dof()`, `blocks()`, `clusters(features)` (module function
-`residual_cycles`: the stick phase, (record, cycle $j$) = the stick after slip $j$, whose
-samples each residual reads; phases share no samples, which the sandwich covariance
-needs), `robust` (True: the default covariance is the cluster sandwich), `describe()`,
-`kind` (a `modes.Objective`; a weighted sum of other terms joins theirs with "+") and
-`slip_time` (a `stickslip_jax.modes.SlipTime`, its string converted once).
-`make_objective(kind, features, trace, weights=..., slip_time=...)` builds one.
+Beside the residuals: `residuals_and_aux` (aux: the simulations' success flags and the
+slider velocity), `clusters(features)` (`residual_cycles`: the stick phase (record, cycle
+$j$) whose samples each residual reads; phases share no samples, as the sandwich
+covariance needs), `robust` (the default covariance is the cluster sandwich), `kind` (a
+`modes.Objective`) and `slip_time`. `make_objective(kind, features, trace, ...)` builds one.
 """
 
 from __future__ import annotations
@@ -40,7 +36,7 @@ from ..solve.lsq import AbstractResiduals
 from .cycle_features import FeatureData, feature_residuals
 from .trace import TraceData, failed_windows, trace_residuals_and_flags
 
-__all__ = ["OBJECTIVES", "AbstractObjective", "CampaignObjective", "FeaturesObjective",
+__all__ = ["OBJECTIVES", "AbstractObjective", "FeaturesObjective",
            "TraceObjective", "WeightedSum", "make_objective", "residual_cycles",
            "slip_time_field"]
 
@@ -55,9 +51,7 @@ def slip_time_field():
 
 
 class AbstractObjective(AbstractResiduals):
-    """What a campaign fit minimises (module doc): an `stickslip_fitting.solve.lsq.
-    AbstractResiduals` over `CampaignParams` with the flags, clusters and trace data the
-    campaign fit, its uncertainty and its report read."""
+    """What a campaign fit minimises (module doc), over `CampaignParams`."""
 
     kind: ClassVar[Objective]
     robust: ClassVar[bool]
@@ -276,14 +270,6 @@ def make_objective(kind: Objective, features: FeatureData,
         return TraceObjective(trace, slip_time)
     return WeightedSum((FeaturesObjective(features, slip_time), TraceObjective(trace, slip_time)),
                        (float(weights[0]), float(weights[1])))
-
-
-def CampaignObjective(features, trace=None, kind: Objective | str = Objective.FEATURES,
-                      weight_features: float = 0.5, weight_trace: float = 0.5,
-                      slip_time: SlipTime | str = SlipTime.PAPER) -> AbstractObjective:
-    """`make_objective` with the kind given by its value and two weights."""
-    return make_objective(Objective.parse(kind), features, trace,
-                          weights=(weight_features, weight_trace), slip_time=slip_time)
 
 
 def residual_cycles(objective: AbstractObjective, features) -> tuple[np.ndarray, np.ndarray]:

@@ -94,16 +94,13 @@ def feature_data(
     """Stack the features of a campaign's records (see `FeatureData`).
 
     `pad_cycles`: pad the cycle axis to at least this length (one compilation for
-    campaigns of different lengths). `reslip`: model re-slips in the objective; None:
-    when at least half the slips of some record are measured as re-slips
-    (`RecordFeatures.slipped_on`: slower than 1.3x a single slip of its size, or not
-    timed; a steady limit cycle re-slips every cycle or never, while noise flags the odd
-    small fast slip: 2 of 15 in the stiffest record of benchmarks/fit.py, which has no
-    re-slip; of 30 prior draws of the calibration the 3 that need the model are found,
-    with one false positive, which costs only compilation). Without them the features program
-    is a third smaller (about 0.6 s less compilation on benchmarks/fit.py), and a
-    campaign whose slips all stop where they should is fitted by the same model. Raises
-    ValueError when a record has no usable stick-slip.
+    campaigns of different lengths). `reslip`: model re-slips; None: when at least half
+    the slips of some record are measured as re-slips (`RecordFeatures.slipped_on`: a
+    steady limit cycle re-slips every cycle or never, while noise flags the odd small
+    fast slip; of 30 prior draws of the calibration the 3 that need the model are found,
+    with one false positive). Without them the program is a third smaller (about 0.6 s
+    less compilation on benchmarks/fit.py). ValueError for a record without usable
+    stick-slip.
     """
     bad = [f"{f.name} ({f.message})" for f in features if not f.stick_slip]
     if bad:

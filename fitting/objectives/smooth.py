@@ -2,30 +2,24 @@ r"""The smoothed-simulator objective: every sample of whole records against the
 differentiable smoothed simulator (`stickslip_jax.simulation.simulate_smooth`), run once
 per record (`stickslip fit --objective smooth`).
 
-Each record is simulated from its first measured slip end $t_e$ (the slider at rest,
-stick time 0, deflection = the measured trough $x_1$ there minus the record's gauge
-offset) to its last sample, driven at its constant drive speed or, for a record with a
-measured `drive` column (a `drive_speed` column is integrated to one when the record is
-read) or a `drive_program`, by its drive interpolated linearly between `KNOTS` knots
-evenly spread over the simulated span (a 6 um lead-screw error on a 2 mm pitch, second
-harmonic 0.3, to within 0.0062 um at 10 mm/min over 60 s); the residuals are
-$(x_i - c - x_\mathrm{sim}(t_i)) / \sigma$ with $\sigma$ the record's robust noise
-estimate (mm) and $c$ its gauge offset (`CampaignParams.offset`). Unlike the trace
-objective (`fitting.trace_objective`, restarted at every measured slip end) the model
-runs freely over the record, so it tests what the trace objective cannot: whether the
-model reproduces the whole oscillogram, the timing of every slip included. A small
-error of the period accumulates over the cycles, so its residuals are correlated over a
-record: the robust covariance treats each record as one cluster.
+Each record is simulated from its first measured slip end (the slider at rest, stick
+time 0, deflection the measured trough there less the gauge offset) to its last sample,
+driven at its constant speed or, for a measured drive or a `drive_program`, by its drive
+interpolated linearly between `KNOTS` knots (a 6 um lead-screw error on a 2 mm pitch to
+within 0.0062 um at 10 mm/min over 60 s). The residuals are
+$(x_i - c - x_\mathrm{sim}(t_i)) / \sigma$ ($\sigma$ the record's noise, $c$ its gauge
+offset). Unlike the trace objective (restarted at every measured slip end) the model runs
+freely over the record, so it tests whether it reproduces the whole oscillogram, the
+timing of every slip included; an error of the period accumulates over the cycles, so
+the robust covariance treats each record as one cluster.
 
-Settings (`SmoothObjective` fields): the simulator's `formulation` (a
-`stickslip_jax.modes.Formulation` or its value; default "latch": not stiff,
+Settings (`SmoothObjective` fields): `formulation` (default "latch": not stiff,
 gradients verified against finite differences for smoothing 1e-4 ... 1e-2 at rtol <=
-1e-9), `smoothing` (dimensionless, default 1e-4: at 1e-3 the smoothed slips of a slow record
-drift from exact ones by several noise standard deviations), `rtol`/`atol` (mm, mm/s;
-default 1e-9, 1e-11),
-`max_steps`. Jacobians by forward mode through the solver (`diffrax.ForwardMode`).
-Cost: one simulation per record per parameter direction, so long records are slow;
-`max_samples` in `smooth_data` caps each record.
+1e-9), `smoothing` (default 1e-4: at 1e-3 the smoothed slips of a slow record drift from
+exact ones by several noise standard deviations), `rtol`/`atol` (mm, mm/s; default
+1e-9, 1e-11), `max_steps`. Jacobians by forward mode through the solver. Cost: one
+simulation per record per parameter direction; `max_samples` in `smooth_data` caps each
+record.
 """
 
 from __future__ import annotations

@@ -1,61 +1,44 @@
 r"""Trace objective: every sample of the deflection against the exact simulator, cycle by cycle.
 
 A small error in a stick time shifts every later slip, so a record simulated from its
-start drifts out of phase with the measurement and the residuals stop carrying
-information. Here the simulation is **restarted at the end of every slip**: cycle $j$
-of a record is the window from the measured end of slip $j-1$ ($t_{e,j-1}$, from
-`stickslip_fitting.data.features`) to the end of slip $j$. In it the exact simulator
-(`stickslip_jax.simulation.simulate_exact`, chapters 2-5: stick while
-$k x < \mu_0(T_1) W$ (eq 1), slip with $\mu_m$ (eq 3) on eq (10)) starts at
-$t_{e,j-1}$ with the slider at rest, stick time 0 and the measured slip-end deflection
-$x_{1,j-1} - c$ ($c$ the record's gauge offset), and predicts the stick (the spring
-follows the drive), the breakaway time and the slip. Nothing accumulates from cycle to
-cycle.
+start drifts out of phase with the measurement. Here the simulation is **restarted at the
+end of every slip**: cycle $j$ of a record is the window from the measured end of slip
+$j-1$ ($t_{e,j-1}$) to the end of slip $j$. In it the exact simulator
+(`stickslip_jax.simulation.simulate_exact`: stick while $k x < \mu_0(T_1) W$ (eq 1), slip
+with $\mu_m$ (eq 3) on eq (10)) starts with the slider at rest, stick time 0 and the
+measured slip-end deflection $x_{1,j-1} - c$ ($c$ the gauge offset). Nothing accumulates
+from cycle to cycle.
 
-Residual of sample $i$ of window $w$: $(x_i - c - x_\mathrm{sim}(t_i)) / s_i$ with
+Residual of sample $i$: $(x_i - c - x_\mathrm{sim}(t_i)) / s_i$ with
 $s_i^2 = \sigma^2 + (\dot x_\mathrm{sim}(t_i)\,\sigma_B)^2$: $\sigma$ the record's noise
-level (robust estimate from the second differences of the deflection,
-`RecordFeatures.noise`) and $\sigma_B$ the standard error of the predicted breakaway
-time caused by the errors of the restart state (the measured $x_{1,j-1}$ and
-$t_{e,j-1}$): breakaway is where the stick line $k(x_1 + v T_1)$ meets $W\mu_0(T_1)$, so
-$\sigma_B^2 = [(k\,\mathrm{sd}\,x_1)^2 + (W\mu_0'\,\mathrm{sd}\,t_e)^2] / (k v - W\mu_0')^2$, large
-at slow speeds where the two cross at a shallow angle ("effective variance" weights,
-held fixed in the derivative like those of the features objective). So the sum of
-squares is about $-2\log$ likelihood.
+(`RecordFeatures.noise`) and $\sigma_B$ the standard error of the predicted breakaway
+time from the errors of the restart state: breakaway is where the stick line
+$k(x_1 + v T_1)$ meets $W\mu_0(T_1)$, so
+$\sigma_B^2 = [(k\,\mathrm{sd}\,x_1)^2 + (W\mu_0'\,\mathrm{sd}\,t_e)^2] / (k v - W\mu_0')^2$,
+large at slow speeds where the two cross at a shallow angle (effective-variance weights,
+held fixed in the derivative). So the sum of squares is about $-2\log$ likelihood.
 
-Layout: the stick times of a campaign differ by orders of magnitude (a slow record's
-cycle holds tens of thousands of samples, a fast one's a hundred), so padding every
-window to the longest would simulate mostly padding. Each window is instead cut into
-rows of `CHUNK` samples; every row is simulated from its window's start (the events of
-a cycle are a few scalars, cheap to repeat) and rendered on its own samples only. The
-rows (their number rounded up to a multiple of 8) run in one `vmap`, so a campaign
-compiles once and the padding is at most one partial row per window.
+Layout: stick times differ by orders of magnitude, so padding every window to the
+longest would simulate mostly padding. Each window is cut into rows of `CHUNK` samples,
+every row simulated from its window's start (a cycle's events are a few scalars) and
+rendered on its own samples; the rows run in one `vmap`, so a campaign compiles once.
 Units: mm, s, kgf, kgf/mm, mm/s.
 
-A window that starts after a slip with a re-slip (`RecordFeatures.slipped_on`) is left
-out (`reslip_windows` counts them): that jump is two slips, the slider comes to rest
-later than the measured slip end and above the measured level, so the restart state
-would be wrong (at the true parameters such windows gave residuals up to 29 standard
-errors). The cycles are still in the features objective, which models the re-slip.
+A window after a slip with a re-slip (`RecordFeatures.slipped_on`) is left out
+(`reslip_windows`): the slider comes to rest later and higher than the measured slip
+end, so the restart state would be wrong (residuals up to 29 standard errors at the
+truth); the features objective models those cycles.
 
-A record whose drive is not $u = v t$ (a measured `drive` column, or a `drive_speed`
-column integrated to one when the record is read, or a `drive_program`) drives every
-window with its own piecewise-linear drive (`drive_knots`, `KNOTS` knots per window):
-`KNOTS` - 2 knots spread evenly from the window's start to its measured breakaway, so
-the stick line and the breakaway follow the measured drive, one at the window's end,
-and one far beyond it. Where a campaign's measured drive bends within a slip (the
-parabola fitted to it from the measured breakaway to the window's end departs from its
-chord by more than the record's noise: a torsional rig's motor whose speed swings),
-`SLIP_KNOTS` more are spread evenly over every window's slip, so the slider is driven
-through the drive's own speed profile and its stop follows it (the exact simulator
-restarts its closed form at every knot it crosses); elsewhere the slip is driven at the
-mean speed between the breakaway and the window's end. The knots' linear interpolation
-follows a 6 um lead-screw error on a 2 mm pitch
-to within 0.08 um where a 60 s stick spans a whole pitch (`KNOTS`); at the truth the residuals
-of such records are the noise (rms 0.995 on the independent generator's records,
-tests/test_drives.py); a drive program's speed step is spread over the interval of the two
-knots about it. A campaign whose drives are all constant speeds is
-simulated with `ConstantSpeed` drives (`TraceData.drive_knots` is None).
+A record whose drive is not $u = v t$ (a measured `drive` or `drive_speed` column, a
+`drive_program`) drives every window with a piecewise-linear drive (`drive_knots`):
+`KNOTS` - 2 knots from the window's start to its measured breakaway, one at its end, one
+far beyond. Where a campaign's measured drive bends within a slip by more than the noise
+(a torsional rig's motor whose speed swings), `SLIP_KNOTS` more cover every slip, so the
+slider's stop follows the drive's speed profile; elsewhere the slip is driven at the
+mean speed. The knots follow a 6 um lead-screw error on a 2 mm pitch to within 0.08 um
+where a 60 s stick spans a pitch; at the truth the residuals of such records are the
+noise (rms 0.995, tests/test_drives.py). With constant-speed drives only,
+`TraceData.drive_knots` is None.
 """
 
 from __future__ import annotations
@@ -76,7 +59,7 @@ from ..params import CampaignParams
 
 __all__ = ["CHUNK", "KNOTS", "SLIP_KNOTS", "TraceData", "cycle_windows", "failed_windows",
            "reslip_windows", "trace_data", "trace_residuals", "trace_residuals_and_flags",
-           "trace_sd", "trace_simulation", "window_failures"]
+           "trace_sd", "trace_simulation"]
 
 MAX_EVENTS = 6
 """Stick and slip phases simulated per window (stick, slip, and room for an early extra cycle;
@@ -93,17 +76,13 @@ slips (module doc); each crossed knot costs the exact simulator 2 events."""
 class TraceData(eqx.Module):
     """Cycle windows of a campaign cut into rows of L samples, padded to [N rows, L] (mm, s).
 
-    Per row: `record` (index of its record: gauge offset), `window` (index of its cycle
-    window; a long window spans several rows, each simulated from the window's start),
-    `weight` W (kgf), `normal_load` N (kgf, W unless the record gives it),
-    `stiffness` k (kgf/mm), `speed` v (mm/s), `start_time` (s, the measured end of the
-    previous slip), `start_level` (mm, the measured slip-end deflection there, offset
-    included), `start_level_sd` (mm) and `start_time_sd` (s) their standard errors,
-    `stick_time` (s, the measured stick time of the window), `sigma` (mm, the record's
-    noise), `drive_poly` (a measured drive's cubic, `trace_data`), `drive_knots` [N, KNOTS
-    (+ SLIP_KNOTS), 2] (knot times s, drive positions mm of the window's drive, module doc;
-    None when every record is driven at a constant speed); per sample `time` (s), `deflection`
-    (mm), `mask` (False on padding).
+    Per row: `record`, `window` (a long window spans several rows), `weight` W and
+    `normal_load` N (kgf), `stiffness` k (kgf/mm), `speed` v (mm/s), `start_time` (s, the
+    measured end of the previous slip), `start_level` (mm, the slip-end deflection there,
+    offset included) with standard errors `start_level_sd`, `start_time_sd`,
+    `stick_time` (s), `sigma` (mm, the record's noise), `drive_poly` (a measured drive's
+    cubic), `drive_knots` [N, K, 2] (knot times s, drive positions mm; None with
+    constant-speed drives); per sample `time` (s), `deflection` (mm), `mask`.
     """
 
     record: Int[Array, " N"]
@@ -139,24 +118,15 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     """Cut every record into its complete cycles (module doc), the cycles into rows of
     `chunk` samples, and pad them into a `TraceData`.
 
-    `records`: `stickslip_jax.records.Record`s; `features`: their `RecordFeatures`
-    (same order). `chunk` (multiple of 256 after rounding up):
-    samples per row; a cycle window of n samples fills ceil(n / chunk) rows, each
-    simulated from the window's own start, so short and long cycles waste little
-    padding. `pad_length`: rows at least this long; `pad_windows`: at least this many
-    rows (campaigns of other sizes reuse the compilation). `drive_fix`: take out the drive
-    error the features found (`RecordFeatures.drive_fix`; False keeps it in the data, for
-    a model that has its own drive error, `stickslip_fitting.discovery.cycle_model`).
-    A record driven by a `drive` column or a `drive_program` gets its window drives
-    (`drive_knots`, module doc); besides, over each window the drive's displacement is
-    least-squares fitted by the cubic
-    $u - u(t_s) = v s + c_2 s^2 + c_3 s^3$ ($s$ = time since the window's start t_s, s),
-    v as the row's `speed` and `drive_poly` = (0, c_2, c_3) (mm/s^2, mm/s^3);
-    constant-speed records get zeros (a model that reads `drive_poly`:
-    `stickslip_fitting.discovery.cycle_model`). `keep_reslips`: keep the windows after
-    slips measured as re-slips too (a model whose measurement chain may lengthen every
-    slip: `stickslip_fitting.discovery.cycle_workflow`). Raises ValueError for a record
-    without stick-slip.
+    `records` and their `features` in the same order. `chunk`: samples per row (rounded
+    up to a multiple of 256). `pad_length`, `pad_windows`: rows at least this long and
+    this many (campaigns of other sizes reuse the compilation). `drive_fix`: take out the
+    drive error the features found (False keeps it, for a model with its own drive
+    error, `discovery.cycle_model`). Over each window of a measured drive, the drive is
+    least-squares fitted by $u - u(t_s) = v s + c_2 s^2 + c_3 s^3$ ($s$ the time since
+    the window's start), v the row's `speed`, `drive_poly` = (0, c_2, c_3) (mm/s^2,
+    mm/s^3; zeros at constant speed). `keep_reslips`: keep the windows after re-slips too
+    (`discovery.cycle_workflow`). ValueError for a record without stick-slip.
     """
     if len(records) != len(features):
         raise ValueError("trace_data: give one RecordFeatures per record")
@@ -326,12 +296,11 @@ def trace_residuals_and_flags(params: CampaignParams, data: TraceData,
                               slip_time: SlipTime | str = SlipTime.PAPER,
                               weights_at: CampaignParams | None = None, slider_velocity=None):
     """`trace_residuals` and, from the same simulations, a bool per row (its simulation
-    succeeded, `SimulationResult.successful`) and the simulated slider velocity [N, L] (mm/s).
+    succeeded) and the simulated slider velocity [N, L] (mm/s).
 
-    The standard errors $s_i$ are evaluated at `params` with the simulated velocity
-    (default), or at `weights_at` with `slider_velocity` (both given: the fit freezes the
-    weights for one Levenberg-Marquardt run, see `stickslip_fitting.fit`); they are held fixed in
-    the derivative either way."""
+    The standard errors $s_i$ are evaluated at `params` with the simulated velocity, or at
+    `weights_at` with `slider_velocity` (the fit freezes the weights for one
+    Levenberg-Marquardt run); they are held fixed in the derivative either way."""
     trace = trace_simulation(params, data, slip_time)
     offset = params.offset[data.record]
     if weights_at is None:
@@ -360,18 +329,6 @@ def reslip_windows(features: list[RecordFeatures]) -> int:
     """Complete cycles that `trace_data` leaves out because the slip before them had a
     re-slip (module doc)."""
     return sum(int(np.count_nonzero(_after_reslip(f))) for f in features if f.stick_slip)
-
-
-@eqx.filter_jit
-def _window_ok(params, data, slip_time):
-    return trace_simulation(params, data, slip_time).result == SimulationResult.successful
-
-
-def window_failures(params: CampaignParams, data: TraceData,
-                    slip_time: SlipTime | str = SlipTime.PAPER) -> int:
-    """Number of cycle windows with a row whose simulation did not report success (e.g. too
-    many events)."""
-    return failed_windows(np.asarray(_window_ok(params, data, slip_time)), data)
 
 
 def failed_windows(ok, data: TraceData) -> int:
