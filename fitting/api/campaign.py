@@ -9,12 +9,9 @@ result.plot("fit.png")                   # the diagnostic figure
 result.to_json("fit.json")               # the document of `stickslip fit --json`
 ```
 
-The call runs the steps of `stickslip fit` with the same functions, so it gives the same
-numbers and document: `data.campaign.load_campaign` (`screen_records` for `Record`
-objects), `solve.fit.fit_features` (`solve.microsqueeze.fit_microsqueeze` for the
-microsqueeze law), `uncertainty.laplace` and `report.fit_table.build_report`. The options
-are the command's, each the object it names (`Objective.TRACE`, `{"n": 1.0}`,
-`Huber(2.0)`, `EmpiricalFriction`) or the command line's string for it.
+The call runs `stickslip fit`'s steps (`fit_campaign`, `campaign_result`), so it gives
+the same numbers and document. The options are the command's, each the object it names
+(`Objective.TRACE`, `{"n": 1.0}`, `Huber(2.0)`, `EmpiricalFriction`) or its string.
 
 Units are the internal ones (kgf, mm, s; mu dimensionless, gamma s^-m, delta s^-n). A
 parameter the records do not determine has no value: NaN in `summary()`, null with a
@@ -134,16 +131,14 @@ class CampaignFit(ResultDocument):
         return list(self.campaign.notes)
 
     def summary(self) -> pandas.DataFrame:
-        """One row per parameter, indexed by its name: `value`, `std_err` and the 95 %
-        interval `low`, `high` (internal units, `unit`), `identifiable`, and `reason`
-        (empty for an estimate; why not, for a parameter that is fixed, at a bound of its
-        support, or not identifiable). A parameter the records do not determine has value
-        NaN. Needs pandas (the `[pandas]` extra)."""
+        """One row per parameter (`SUMMARY_COLUMNS`, internal units); `reason` says why a
+        parameter is fixed, at a bound or not identifiable (value NaN then). Needs
+        pandas."""
         return parameter_frame(self.report["parameters"], "CampaignFit.summary()")
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
-        """The diagnostic figure of `stickslip fit --plot` (`stickslip_fitting.report.plots.
-        fit_figure`): returned, and saved to `path` (closed then) when given."""
+        """The diagnostic figure of `stickslip fit --plot` (`report.plots.fit_figure`):
+        returned, and saved to `path` (closed then) when given."""
         from ..report.plots import fit_figure
 
         path = self.output_path(path, "plot")
@@ -171,22 +166,15 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
         eta: float | str | None = None, surface: str = "S1G1") -> CampaignFit:
     """Fit the friction parameters to a campaign of records, as `stickslip fit` does.
 
-    - `records`: a file, a folder (its *.csv), a glob ("data/examples/*.csv"), a list of
-      these, or `Record` objects (`stickslip_jax.records`).
-    - `model`: the static-friction law, `EmpiricalFriction` (eq (1), "empirical", the
-      default) or `MicrosqueezeFriction` ("microsqueeze": h_e and Q in place of gamma
-      and m, with the viscosity `eta` and the surface pair `surface` given).
-    - `objective`: a `stickslip_fitting.modes.Objective` (or its value): FEATURES (cycle
-      features, the default), TRACE, BOTH or SMOOTH.
-    - `fix`: {name: value} held fixed, e.g. {"n": 1.0}.
-    - `loss`: the likelihood, a `stickslip_fitting.objectives.losses.AbstractLoss` (`Gaussian()`,
-      `Huber(c)`, `StudentT(nu)`) or its spec ("gaussian", "huber:1.345", "student-t:4").
-    - `gauge_offset`: a `stickslip_jax.modes.GaugeOffset`: ZERO (trust the gauge zero)
-      or START (read it from each record's first sample).
-    - `slip_time`: a `stickslip_jax.modes.SlipTime`: PAPER (pi/omega0, eq 7) or
-      SELF_CONSISTENT.
+    - `records`: a `RecordsSpec`.
+    - `model`: `EmpiricalFriction` (eq (1), "empirical", the default) or
+      `MicrosqueezeFriction` ("microsqueeze": h_e and Q in place of gamma and m).
+    - `objective`: an `Objective` (or its value); `fix`: {name: value} held fixed.
+    - `loss`: an `objectives.losses.AbstractLoss` or its spec ("huber:1.345").
+    - `gauge_offset`: a `GaugeOffset` (ZERO or START); `slip_time`: a `SlipTime` (PAPER,
+      pi/omega0 of eq 7, or SELF_CONSISTENT).
     - `strict`: refuse the campaign when a record has no usable stick-slip (default: fit
-      the records that have it; the others are listed in the report).
+      the others, listed in the report).
     - `eta`: microsqueeze only: the viscosity, a number in Pa*s or a string with its unit
       ("216 cP"); default the records' lubricant in Table 11. `surface`: the surface pair
       of Table 10.
@@ -195,9 +183,6 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
     (a glob that matches no file names the pattern), before any fitting. A fit that does
     not converge gives a RuntimeWarning (`CampaignFit.converged` is then False).
     """
-    from ..report.fit_table import build_report
-    from ..uncertainty.laplace import laplace
-
     goal = Objective.parse(objective)
     modes = ModelModes(offset=GaugeOffset.parse(gauge_offset, "gauge_offset"),
                        slip_time=SlipTime.parse(slip_time))
@@ -206,7 +191,7 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
     fixed = _fixed(fix, law)
     pair = eta_value = None
     if model_name == "microsqueeze":
-        pair = _surface(surface)
+        pair = surface_option(surface)
         eta_value = None if eta is None else _viscosity(eta)
     elif eta is not None:
         raise ValueError("eta: only used with model='microsqueeze'")
@@ -220,10 +205,7 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
         from stickslip_jax.records import record_paths
 
         inputs = tuple(str(p) for p in record_paths(given))
-    unc = laplace(result)
-    report = build_report(result, unc, campaign, model=model_name, extra=extra)
-    out = CampaignFit(report=report, fit=result, uncertainty=unc, campaign=campaign,
-                      model=model_name, inputs=inputs)
+    out = campaign_result(result, campaign, model_name, extra, inputs)
     if not out.converged:
         warnings.warn("the fit did not converge (see str(result) for the warnings): its "
                       "values are not an optimum", RuntimeWarning, stacklevel=2)
@@ -234,13 +216,11 @@ def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Obje
                  loss: AbstractLoss, modes: ModelModes, strict: bool = False,
                  eta: float | None = None, pair=None, surface: str = "S1G1",
                  loss_text: str = "gaussian", check=None):
-    """The steps of `stickslip fit` and `fit` up to the optimum: the campaign of `records`
-    (paths or `Record` objects) read and screened (`data.campaign.load_campaign`), the law
-    `law` fitted (`solve.fit.fit_features`, `solve.microsqueeze.fit_microsqueeze`) with
-    `fixed` {name: value} held; a single record holds `one_record_holds` too (the merged
-    holds checked by `check` when given). `eta` (kgf*s/mm^2; None: the records'
-    lubricant's) and `pair` (the surface pair `surface`): the microsqueeze law's givens.
-    Returns (FitResult, Campaign, None or the microsqueeze givens for the report)."""
+    """`stickslip fit`'s steps up to the optimum: `records` read and screened
+    (`load_campaign`), `law` fitted with `fixed` {name: value} held (a single record holds
+    `one_record_holds` too, the merged holds checked by `check`). `eta` (kgf*s/mm^2; None:
+    the records' lubricant's) and `pair`: the microsqueeze law's givens. Returns
+    (FitResult, Campaign, None or the microsqueeze givens for the report)."""
     from stickslip_jax.logs import logger
 
     from ..data.campaign import load_campaign, one_record_holds
@@ -266,6 +246,19 @@ def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Obje
     eta = default_eta(campaign.records[0].lubricant) if eta is None else eta
     return (fit_microsqueeze(campaign.features, eta=eta, pair=pair, **kw), campaign,
             {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"}, "surface": surface}})
+
+
+def campaign_result(result: FitResult, campaign: Campaign, model: str, extra=None,
+                    inputs: tuple[str, ...] = ()) -> CampaignFit:
+    """The `CampaignFit` of a fit that `fit_campaign` returned: its Laplace intervals and
+    `--json` report (what `fit`, `stickslip fit` and `fit-batch` print and write)."""
+    from ..report.fit_table import build_report
+    from ..uncertainty.laplace import laplace
+
+    unc = laplace(result)
+    return CampaignFit(report=build_report(result, unc, campaign, model=model, extra=extra),
+                       fit=result, uncertainty=unc, campaign=campaign, model=model,
+                       inputs=inputs)
 
 
 def as_list(records) -> list:
@@ -336,13 +329,14 @@ def _fixed(fix, law) -> dict[str, float]:
         raise _keyword(err, "fix") from None
 
 
-def _surface(name: str):
+def surface_option(name: str, option: str = "surface"):
+    """The `SurfacePair` of Table 10 named `name`; a ValueError naming `option` otherwise."""
     from stickslip_jax.contact import surface_pair
 
     try:
         return surface_pair(name)
     except (KeyError, ValueError) as err:
-        raise ValueError(f"surface: unknown surface pair {name!r} ({err})") from None
+        raise ValueError(f"{option}: unknown surface pair {name!r} ({err})") from None
 
 
 def _viscosity(eta) -> float:

@@ -1,11 +1,9 @@
 """`stickslip fit RECORDS...`: friction parameters of a campaign, with errors and diagnostics.
 
-Prints a table (value, unit, standard error, 95 % interval; truth and error when the
-records carry the truth they were made from), the identifiability warnings, and the
-fit quality; `--json OUT` writes the same as JSON, `--plot OUT.png` the diagnostic
-figure. Units: mu dimensionless, gamma s^-m, delta s^-n; internal kgf, mm, s.
-`--model microsqueeze` fits h_e (mm) and Q (mm^4) in place of gamma and m, with the
-viscosity `--eta` and the surface pair `--surface` given (`stickslip_fitting.solve.microsqueeze`).
+Prints the table of `report.fit_table` (values, standard errors, 95 % intervals, truth
+when the records carry it, warnings, fit quality); `--json OUT` writes the same as JSON,
+`--plot OUT.png` the diagnostic figure. `--model microsqueeze` fits h_e (mm) and Q (mm^4)
+in place of gamma and m (`solve.microsqueeze`).
 """
 
 from __future__ import annotations
@@ -15,7 +13,6 @@ import math
 from stickslip_jax.modes import GaugeOffset, SlipTime
 
 from ..modes import FrictionLaw, ModelModes, Objective
-from ..report.fit_table import build_report, format_table
 
 NAME = "fit"
 HELP = "fit the friction parameters (eq 1, eq 3) to a campaign of records"
@@ -47,11 +44,9 @@ def add_arguments(parser):
 
 def add_campaign_fit_arguments(parser, *, objective_help: str, strict_help: str,
                                old_offset_name: bool = True):
-    """The options of one campaign's fit (--model, --gauge-offset, --slip-time,
-    --objective, --strict, --fix, --loss, --eta, --surface): shared by `stickslip fit`,
-    `mcmc` and `fit-batch`, each with its own help for --objective and --strict; the
-    hidden old name --offset of --gauge-offset unless `old_offset_name` is False (a
-    command newer than the rename)."""
+    """The options of one campaign's fit, shared by `fit`, `mcmc` and `fit-batch` (each
+    with its own help for --objective and --strict); the hidden old name --offset of
+    --gauge-offset unless `old_offset_name` is False."""
     import argparse
 
     parser.add_argument("--model", choices=("empirical", "microsqueeze"), default="empirical",
@@ -101,10 +96,9 @@ def check_model_options(args) -> dict[str, float]:
 
 
 def fit_from_args(args, *, objective: Objective | str = "features"):
-    """Read the campaign of `args.records`, screen it and fit `args.model` (or `args.law`)
-    to the records with usable stick-slip (all of them with `args.strict`):
-    `api.campaign.fit_campaign`. Returns (fit, campaign, extra): `extra` None or the
-    microsqueeze givens. Every user error is a ValueError naming the option or file."""
+    """`api.campaign.fit_campaign` (or `solve.laws.fit_law` for `--law`) with the command
+    line's options: (fit, campaign, extra). Every user error is a ValueError naming the
+    option or file."""
     from ..api.campaign import fit_campaign
     from ..objectives.losses import parse_loss
 
@@ -120,15 +114,10 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
 
     pair = None
     if args.model == "microsqueeze":  # imported only here: the contact model loads diffrax
-        from stickslip_jax.contact import surface_pair
-
+        from ..api.campaign import surface_option
         from ..microsqueeze_params import MicrosqueezeFriction as friction_law
 
-        try:
-            pair = surface_pair(args.surface or "S1G1")
-        except (KeyError, ValueError) as err:
-            raise ValueError(f"--surface: unknown surface pair {args.surface!r} ({err})") \
-                from None
+        pair = surface_option(args.surface or "S1G1", "--surface")
     return fit_campaign(args.records, friction_law, fixed, objective=objective, loss=loss,
                         modes=modes, strict=getattr(args, "strict", False), eta=args.eta,
                         pair=pair, surface=args.surface or "S1G1", loss_text=args.loss)
@@ -201,37 +190,29 @@ def parse_fix(items, law=None) -> dict[str, float]:
 
 
 def run(args) -> int:
-    from stickslip_jax.output import check_outputs, versioned, write_json
-    from stickslip_jax.records import record_paths
-
-    from ..uncertainty.laplace import laplace
-
-    check_outputs({"--json": args.json, "--plot": args.plot}, record_paths(args.records))
     import sys
 
     from stickslip_jax.logs import logger
+    from stickslip_jax.output import check_outputs, versioned, write_json
+    from stickslip_jax.records import record_paths
 
+    from ..api.campaign import campaign_result
+
+    check_outputs({"--json": args.json, "--plot": args.plot}, record_paths(args.records))
     fit, campaign, extra = fit_from_args(args, objective=args.objective)
     logger.info(f"fit {'converged' if fit.converged else 'did not converge'}; intervals...")
-    records = campaign.records
-    unc = laplace(fit)
-    report = build_report(fit, unc, campaign, model=args.model, extra=extra)
+    result = campaign_result(fit, campaign, args.model, extra)
     logger.info("report done")
-    print(format_table(report))
-    for n in campaign.notes:
-        print("note: " + n)
-
+    print(result)  # the table and the campaign's notes
     if args.json:
-        write_json(args.json, versioned(report))
+        write_json(args.json, versioned(result.report))
         if args.json != "-":
             print(f"wrote {args.json}")
     if args.plot:
-        from ..report.plots import fit_figure, interruptible
+        from ..report.plots import interruptible
 
         logger.info("drawing the figure...")
-        reasons = {s.name: s.reason for s in campaign.screening}
-        interruptible(fit_figure, fit, unc, records, args.plot, not_used=[
-            (r, reasons.get(f.name) or "not used") for r, f in campaign.not_used])
+        interruptible(result.plot, args.plot)
         print(f"wrote {args.plot}")
     if not fit.converged:
         print("stickslip fit: the fit did not converge (see the warnings): the values above "
