@@ -10,24 +10,20 @@ result.effect, result.confidence, result.gap_before, result.gap_after
 
 Stages (each timed in `result.timings`, reported to `progress` as it finishes):
 
-1. `prepare`: screening (`data.campaign.screen_records`: records without usable
-   stick-slip are set aside and listed), the features fit (start), the cycle windows
-   (`objectives.trace.trace_data`, the drive error left in the data).
+1. `prepare`: screening (records without usable stick-slip set aside and listed), the
+   features fit (start), the cycle windows (the drive error left in the data).
 2. `base_fit`: the paper's model on every window (`cycle_model`, all effects zero), the
-   objective of `stickslip fit --objective trace` fitted by Levenberg-Marquardt
-   (friction + one gauge offset per record), weights refreshed once at the optimum.
-   A record described much worse than the others (chi2/n above `record_chi2` x the
-   campaign's median: a marginal record near the stick-slip boundary) weighs by its own
-   scatter and is listed (`records_scaled`); the gaps, the misfit test and the score
-   tests are over the other records (its structured residuals would otherwise be
-   "explained" a little by every family), `gap_all_before` / `gap_all_after` over all.
+   objective of `stickslip fit --objective trace` (friction + one gauge offset per
+   record), weights refreshed once at the optimum. A record described much worse than
+   the others (chi2/n above `record_chi2` x the median: a marginal record) weighs by its
+   own scatter (`records_scaled`); the gaps and tests are over the other records (its
+   structured residuals would be "explained" a little by every family).
 3. `ranking`: a **robust score test** of every family and shape (`cycle_effects`) from
    one Jacobian block each at the base fit: the efficient score (the family's columns
    with the base parameters projected out) is summed per cycle window, $g_w$, and
-   Hotelling's $T^2$ tests that the window contributions have mean zero,
-   $F = \frac{n - p}{p(n-1)} T^2 \sim F(p, n - p)$ ($n$ windows, $p$ parameters). The
-   windows are the independent units: residuals within a window share the errors of its
-   measured restart state, so a per-sample test would raise false alarms on clean data.
+   Hotelling's $T^2$ tests its mean zero, $F = \frac{n - p}{p(n-1)} T^2 \sim F(p, n - p)$
+   ($n$ windows, $p$ parameters): residuals within a window share the errors of its
+   measured restart, so a per-sample test would raise false alarms on clean data.
    A family is significant when its best shape's **family-wise** p-value is below
    `alpha` (`flips`: Westfall-Young min-p over sign flips of the windows, which keeps the
    tests' strong correlations; Bonferroni assumed them independent and lost power), or
@@ -56,10 +52,8 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    within 15 % of the noise) and no contender that explains a comparable share (drop >=
    `joint` of the winner's) is unbeaten; a gap that no family explains (less than half
    of the excess chi-square removed) is "unexplained", with the residual pattern and a
-   learned correction over the cycle phase (`cycle_learned`, JSON `learned_correction`).
-   The explanation names every phase left above the noise and whether it is within its
-   own standard errors (a slip's timing error moves the fast trace); "none" is "low"
-   when a phase's chi2/n exceeds `phase_chi2`.
+   learned correction over the cycle phase (`cycle_learned`). The explanation names every
+   phase left above the noise; "none" is "low" when a phase's chi2/n exceeds `phase_chi2`.
 6. `more`: the sequential search (`stages.more`, whose module doc justifies the stopping
    rule): the named effect joins the base and stages 3-5 run again over the families not
    yet in it, until none is significant or `max_effects` are named; each earlier effect
@@ -67,14 +61,9 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    `result.steps` is the staircase, `result.effect` the first effect kept. The records
    weighed by their scatter are tried at full weight (`reweigh`) on the final model.
 
-Gaps are residual RMS in mm; `noise` is the campaign's noise level (RMS of the records'
-robust noise estimates, `RecordFeatures.noise`).
-
-Layout: `CycleBase` is the per-cycle base of the one pipeline (`engine.discover`); its
-stages are the functions of `discovery.stages`, which hand on frozen states
-(`stages.state`); the tuning is `options.DiscoveryOptions` (the lower-case names above
-are its fields), the statistics and decision rules are in `decision`, the sub-problems
-in `subproblems`, the result type in `result`.
+Gaps are residual RMS in mm; `noise` is the RMS of the records' robust noise estimates.
+The stages are the functions of `discovery.stages`; the lower-case names above are the
+fields of `options.DiscoveryOptions`.
 """
 
 from __future__ import annotations
