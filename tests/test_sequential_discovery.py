@@ -182,6 +182,43 @@ def test_a_later_effect_must_clearly_beat_its_physical_rivals():
     assert unbeaten_rival(choice("stribeck", [Contender("rate_state", 150.0, 0.5, 0.3)])) is None
 
 
+def test_a_later_effect_and_its_rival_are_tested_given_each_other(monkeypatch):
+    """Where a later winner does not clearly beat a physical rival, each is tested at the
+    other's refit (`more.given_each_other`): the one still needed is named (the rival
+    where only it is, if the calibrated test let it through); both or neither: no choice."""
+    import types
+
+    from stickslip_fitting.discovery.decision import Contender, decide
+    from stickslip_fitting.discovery.options import DEFAULTS
+    from stickslip_fitting.discovery.stages import more
+    from stickslip_fitting.discovery.stages.state import Choice, Refitted
+
+    def refit(name, drop):
+        return types.SimpleNamespace(family=types.SimpleNamespace(name=name), drop=drop,
+                                     unphysical=None, failed=None)
+
+    win, other = refit("load_coupling", 162.0), refit("stribeck", 88.0)
+    rival = Contender("stribeck", 88.0, 0.4, 0.79)
+    choice = Choice(chosen=win, decision=decide(162.0, [rival]), rivals=[], compared={},
+                    decided_drop=162.0)
+    fx = types.SimpleNamespace(opts=DEFAULTS)
+    refitted = Refitted(refits=[win, other], eligible=frozenset({"load_coupling", "stribeck"}))
+    clock = lambda *a: None  # noqa: E731
+
+    def given(p_win, p_other, eligible=refitted.eligible):
+        ps = {"load_coupling": p_win, "stribeck": p_other}
+        monkeypatch.setattr(more, "_needed", lambda fx_, one, at: ps[one.family.name])
+        return more.given_each_other(fx, choice, Refitted(refitted.refits, eligible),
+                                     rival, clock)
+
+    out = given(0.034, 0.0037)  # the rival is needed given the winner, not the reverse
+    assert out.chosen is other and more.unbeaten_rival(out) is None
+    out = given(1e-4, 0.44)  # the winner is needed, its rival only stood in
+    assert out.chosen is win and more.unbeaten_rival(out) is None
+    assert given(1e-4, 1e-4) is None and given(0.3, 0.3) is None
+    assert given(0.034, 0.0037, frozenset({"load_coupling"})) is None
+
+
 def test_confirmed_effects_that_explain_the_records_are_not_replaced_by_a_form():
     """Several effects the sequential search confirmed, leaving at most `explained_gap` x
     the noise together, are the answer: no sparse form is fitted in their place
