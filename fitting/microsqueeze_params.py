@@ -17,14 +17,10 @@ parameters and their unconstrained coordinates:
 
 The margin coordinate makes $h_e > t_b + a_d$ (a squeeze film is left at the start of
 the stick) hold at every trial point. Trial points outside the law's other physical
-limits ($C_3 < \mu_s < C_1$, $\mu_d > \mu_0(a=0)$, a margin that underflows below
-$10^{-9}(t_b + a_d)$, $|\log Q| > 200$) are clipped onto them inside
-`friction()` (zero gradient there, so Levenberg-Marquardt rejects such steps) instead
-of raising. At any physical point the clipping is inactive.
-
-A final subclass of `stickslip_fitting.params.AbstractFrictionParams`: the generic fit,
-uncertainty and sampler code read its class variables and methods (`physical()`: no
-clipping needed, the support of the MCMC prior).
+limits ($C_3 < \mu_s < C_1$, $\mu_d > \mu_0(a=0)$, a margin below $10^{-9}(t_b + a_d)$,
+$|\log Q| > 200$) are clipped onto them inside `friction()` (zero gradient there, so
+Levenberg-Marquardt rejects such steps) instead of raising; `physical()` says whether a
+point needs none (the support of the MCMC prior).
 """
 
 from __future__ import annotations

@@ -3,21 +3,9 @@ parsers use them.
 
 Modes are str-valued enums like `stickslip_jax.modes` (`AbstractMode`): hashed, printed
 and JSON-encoded as their value (`Objective.TRACE == "trace"`). A user's string becomes a
-member once, where it enters (`Objective.parse(value)` in `stickslip_fitting.commands`
-and `stickslip_fitting.api.campaign`); inside the package members are passed and compared.
-
-- `Objective`: what a campaign fit minimises (`--objective`).
-- `DesignCriterion`: what the experiment design optimises (`stickslip plan --criterion`).
-- `MapMethod`: how a design map computes each point (`stickslip design --method`).
-- `Covariance`: how a fit's covariance is computed (`laplace(covariance=...)`).
-- `SmallSample`: the small-sample correction of the cluster-robust covariance.
-- `DiscoveryBase`: the base model of missing-physics discovery (`stickslip discover --base`).
-- `FrictionLaw`: the base friction law of a fit (`stickslip fit --law`).
-
-The option groups of a campaign fit (`stickslip_fitting.solve.fit.fit_features`) are frozen
-dataclasses with defaults: `ModelModes` (gauge offset, slip time, re-slips), `Weighting`
-(objective weights, per-record error scaling), `Padding` (shapes that reuse a
-compilation) and `SolverOptions` (tolerances and step cap).
+member once, where it enters (`Objective.parse(value)`); inside the package members are
+passed and compared. The option groups of a campaign fit (`solve.fit.fit_features`) are
+frozen dataclasses with defaults: `ModelModes`, `Weighting`, `Padding`, `SolverOptions`.
 
 ```python
 Objective.parse("both")            # Objective.BOTH
@@ -39,16 +27,13 @@ __all__ = ["Covariance", "DesignCriterion", "DiscoveryBase", "FrictionLaw", "Map
 
 
 class Objective(AbstractMode):
-    """What a campaign fit minimises (`stickslip_fitting.objectives.combined`, `.smooth_objective`).
+    """What a campaign fit minimises (`--objective`; `objectives.combined`, `.smooth`).
 
     - `FEATURES` ("features", the default): plateau levels and eq (6) per cycle.
     - `TRACE` ("trace"): every sample against the exact simulator restarted at every
       measured slip end.
     - `BOTH` ("both"): the features and the trace, weights 1/2 each (`WeightedSum`).
     - `SMOOTH` ("smooth"): whole records against the smoothed simulator.
-
-    All but `FEATURES` read the records' samples (`needs_records`) and start from the
-    features fit's optimum.
     """
 
     FEATURES = "features"
@@ -63,8 +48,9 @@ class Objective(AbstractMode):
 
 
 class DesignCriterion(AbstractMode):
-    r"""The optimality criterion of the experiment design (`stickslip_fitting.design.
-    experiment.greedy_design`), over the posterior precision $P$ of the log parameters.
+    r"""The optimality criterion of the experiment design (`stickslip plan --criterion`,
+    `design.experiment.greedy_design`), over the posterior precision $P$ of the log
+    parameters.
 
     - `D` ("D", the default): maximise $\log\det P$ (the volume of the credible region).
     - `A` ("A"): minimise $\operatorname{tr} P^{-1}$ (the mean posterior variance).
@@ -76,7 +62,7 @@ class DesignCriterion(AbstractMode):
 
 
 class MapMethod(AbstractMode):
-    """How a design map computes each point (`stickslip_fitting.design.maps`).
+    """How a design map computes each point (`stickslip design --method`, `design.maps`).
 
     - `STEADY` ("steady", the default): the paper's steady-state analysis, eqs (5)-(7)
       and (12).
@@ -92,7 +78,7 @@ class MapMethod(AbstractMode):
 
 
 class Covariance(AbstractMode):
-    """How a fit's covariance is computed (`stickslip_fitting.uncertainty.laplace.laplace`).
+    """How a fit's covariance is computed (`uncertainty.laplace.laplace`).
 
     - `AUTO` ("auto", the default): chosen from the objective and the fit (`laplace`).
     - `FISHER` ("fisher"): the Gauss-Newton information, scaled by max(1, chi2/dof).
@@ -113,7 +99,7 @@ class Covariance(AbstractMode):
 
 class SmallSample(AbstractMode):
     """The small-sample correction of the cluster-robust covariance
-    (`stickslip_fitting.uncertainty.laplace.sandwich_covariance`).
+    (`uncertainty.laplace.sandwich_covariance`).
 
     - `JACKKNIFE` ("jackknife", the default): leave-one-cluster-out scores (CR3).
     - `CR2` ("cr2"): Bell-McCaffrey, each cluster's residuals scaled by
@@ -127,12 +113,10 @@ class SmallSample(AbstractMode):
 
 
 class DiscoveryBase(AbstractMode):
-    """The base model of missing-physics discovery (`stickslip discover --base`).
-
-    - `CYCLE` ("cycle", the default): the per-cycle exact model of `stickslip fit
-      --objective trace` (`stickslip_fitting.discovery.cycle_workflow`; seconds).
-    - `SMOOTH` ("smooth"): the smoothed simulator over whole records
-      (`stickslip_fitting.discovery.workflow`; minutes).
+    """The base model of missing-physics discovery (`stickslip discover --base`):
+    `CYCLE` ("cycle", the default), the per-cycle exact model of `--objective trace`
+    (`discovery.cycle_workflow`; seconds), or `SMOOTH` ("smooth"), the smoothed simulator
+    over whole records (`discovery.workflow`; minutes).
     """
 
     CYCLE = "cycle"
@@ -141,7 +125,7 @@ class DiscoveryBase(AbstractMode):
 
 
 class FrictionLaw(AbstractMode):
-    """The base friction law of a fit (`stickslip_fitting.solve.laws`, `stickslip fit --law`).
+    """The base friction law of a fit (`stickslip fit --law`, `solve.laws`).
 
     - `PAPER` ("paper", the default): eqs (1) and (3) (or `--model microsqueeze`).
     - `RATE_STATE_AGING` ("rate_state_aging"): Dieterich-Ruina, aging evolution law.
@@ -169,14 +153,14 @@ def check_member(name: str, value, kind: type) -> None:
 
 @dataclasses.dataclass(frozen=True)
 class ModelModes:
-    """How a campaign fit models the records (`stickslip_fitting.solve.fit.fit_features`)."""
+    """How a campaign fit models the records."""
 
     offset: GaugeOffset = GaugeOffset.ZERO
     """ZERO: trust the gauge zero; START: fit one offset per record from its first plateau."""
     slip_time: SlipTime = SlipTime.PAPER
     r"""$T_2$ in eq (3): PAPER ($\pi/\omega_0$) or SELF_CONSISTENT."""
     reslip: bool | None = None
-    """Model re-slips (`stickslip_fitting.objectives.cycle_features.feature_data`); None: detected."""
+    """Model re-slips (`objectives.cycle_features.feature_data`); None: detected."""
 
     def __post_init__(self):
         check_member("offset", self.offset, GaugeOffset)
@@ -185,7 +169,7 @@ class ModelModes:
 
 @dataclasses.dataclass(frozen=True)
 class Weighting:
-    """Weights of a campaign fit's residuals (`stickslip_fitting.solve.fit.fit_features`)."""
+    """Weights of a campaign fit's residuals."""
 
     features: float = 0.5
     """Weight of the features objective in `Objective.BOTH`."""
@@ -193,11 +177,11 @@ class Weighting:
     """Weight of the trace objective in `Objective.BOTH`."""
     rescale_records: bool = True
     """Scale the errors of records the model describes worse than their noise
-    (`stickslip_fitting.solve.fit.RECORD_CHI2`) to their scatter and refit."""
+    (`solve.fit.RECORD_CHI2`) to their scatter and refit."""
 
     @property
     def pair(self) -> tuple[float, float]:
-        """(w_features, w_trace), as `stickslip_fitting.objectives.combined.make_objective` takes them."""
+        """(w_features, w_trace), as `objectives.combined.make_objective` takes them."""
         return (self.features, self.trace)
 
 
@@ -208,7 +192,7 @@ class Padding:
     cycles: int = 0
     """Cycle axis of the features data at least this long."""
     length: int = 0
-    """Trace rows at least this long (`stickslip_fitting.objectives.trace.trace_data`)."""
+    """Trace rows at least this long (`objectives.trace.trace_data`)."""
     windows: int = 0
     """Trace rows at least this many."""
 

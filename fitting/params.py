@@ -15,20 +15,15 @@ sampler work in unconstrained coordinates:
 | delta | s^-n | `log_delta` |
 | n | - | `log_n` |
 
-`CampaignParams` adds one gauge offset per record (mm, a nuisance). Which leaves are
-fitted is chosen with a boolean filter spec and `eqx.partition` (`free_spec`); the
-parameters a fit holds at given values are a `Hold`, whose `where` selects their leaves
-like `eqx.tree_at`'s (`Hold(lambda f: f.log_n, 1.0)`). Names appear only at the edges:
-the command line's and `stickslip_fitting.api.campaign`'s `fix` (`Hold.named`) and reports
-(`NAMES`, `UNITS`).
+`CampaignParams` adds one gauge offset per record (mm, a nuisance). The fitted leaves
+are chosen with a boolean filter spec (`free_spec`); the parameters held at given values
+are a `Hold`, whose `where` selects their leaves like `eqx.tree_at`'s. Names appear only
+at the edges: `--fix` and `fit(fix=...)` (`Hold.named`) and reports (`NAMES`, `UNITS`).
 
-Every friction law that can be fitted is a final subclass of `AbstractFrictionParams`
-(this module's `EmpiricalFriction`; `stickslip_fitting.microsqueeze_params.MicrosqueezeFriction`):
-names, units, the leaf storing each parameter, the parameters of the rise of
-$\mu_0(T_1)$, the support of the MCMC prior, and the conversions the fit, the
-uncertainty and the sampler need. Generic code reads those and never probes a class
-for what it offers. A new law goes here: subclass, fill the class variables, implement
-the abstract methods.
+Every fittable friction law is a final subclass of `AbstractFrictionParams`
+(`EmpiricalFriction`, `microsqueeze_params.MicrosqueezeFriction`, `law_params`): generic
+code reads its class variables and methods and never probes a class for what it
+offers. A new law: subclass, fill the class variables, implement the abstract methods.
 """
 
 from __future__ import annotations
@@ -64,17 +59,11 @@ units: gamma s^-m, delta s^-n)."""
 
 
 class AbstractFrictionParams(eqx.Module):
-    """A fittable friction law in unconstrained coordinates (abstract).
-
-    Class variables every final subclass sets:
-    - `MODEL`: the law's name in reports and JSON ("empirical", "microsqueeze");
-    - `NAMES`: the natural parameters in reporting order (`values()` order);
-    - `UNITS`: {name: unit} in the internal units (dimensionless shown as -);
-    - `LEAVES`: {name: the field that stores it} (what `Hold.named` selects);
-    - `SHAPE_NAMES`: the parameters of the rise of mu_0 with stick time (eq (1) or its
-      microsqueeze counterpart): undetermined when every record has one drive speed;
-    - `PRIOR_BOUNDS`: {name: (low, high)}, the support of the log-uniform MCMC prior;
-    - `REGION`: the law's physical region beyond those bounds, in words ("" if none).
+    """A fittable friction law in unconstrained coordinates (abstract). Class variables:
+    `MODEL` (its name in reports), `NAMES` (natural parameters, `values()` order), `UNITS`,
+    `LEAVES` ({name: the field that stores it}), `SHAPE_NAMES` (the parameters of the rise
+    of mu_0 with stick time: undetermined with one drive speed), `PRIOR_BOUNDS` (support
+    of the log-uniform MCMC prior), `REGION` (the physical region beyond those, in words).
     """
 
     MODEL: ClassVar[str]
@@ -185,12 +174,7 @@ class AbstractFrictionParams(eqx.Module):
 
 
 class EmpiricalFriction(AbstractFrictionParams):
-    r"""Eq (1) + eq (3) friction in unconstrained coordinates (all logs, see module doc).
-
-    `friction()` builds the `stickslip_jax.Friction` (KatoStatic + KatoKinetic);
-    `values()` returns the natural parameters in `NAMES` order (mu_s, mu_d
-    dimensionless; gamma in s^-m; m; delta in s^-n; n).
-    """
+    r"""Eq (1) + eq (3) friction in unconstrained coordinates (all logs, module doc)."""
 
     log_mu_d: Float[Array, ""] = eqx.field(converter=as_float)
     log_gap: Float[Array, ""] = eqx.field(converter=as_float)
@@ -263,11 +247,9 @@ def _floats(values) -> tuple[float, ...]:
 
 
 class Hold(eqx.Module):
-    """Friction parameters a fit holds at given natural values.
-
-    `where`: a function of the friction module to the stored leaf or tuple of leaves of
-    the held parameters (like `eqx.tree_at`'s `where`); `values`: their natural values,
-    in the same order (mu_s held means mu_s itself, see `with_fixed`)::
+    """Friction parameters a fit holds at given natural values: `where` selects their
+    stored leaves (like `eqx.tree_at`'s), `values` in the same order (mu_s held means mu_s
+    itself, `with_fixed`)::
 
         Hold(lambda f: f.log_n, 1.0)                       # n = 1, the paper's value
         Hold(lambda f: (f.log_m, f.log_n), (0.5, 1.0))

@@ -1,6 +1,5 @@
 r"""One call for a design map: `stickslip_fitting.design_map(weight, stiffness, speed, ...)`
--> `DesignStudy`, the map of `stickslip design` (which builds the same `MapOptions` and
-calls `map_study`).
+-> `DesignStudy`, the map of `stickslip design` (`MapOptions`, `map_study`).
 
 ```python
 import stickslip_fitting as sf
@@ -12,9 +11,8 @@ study.plot("map.png")           # the figure of `stickslip design --plot`
 study.to_json("map.json")       # the document of `stickslip design --json`
 ```
 
-Each axis is a string as the command reads it (``"36"``, ``"10:60:50"``,
-``"0.5:200:40:log um/s"``; default units kgf, kgf/mm, mm/min) or numbers in the
-package's units (kgf, kgf/mm, mm/s)."""
+Each axis is a string as the command reads it (``"0.5:200:40:log um/s"``; default units
+kgf, kgf/mm, mm/min) or numbers in the package's units (kgf, kgf/mm, mm/s)."""
 
 from __future__ import annotations
 
@@ -113,20 +111,14 @@ def _positive(values, arg, text) -> np.ndarray:
 @dataclasses.dataclass(frozen=True)
 class MapOptions:
     """What a design map computes: the options of `stickslip design`, the keywords of
-    `design_map`.
-
-    - `weight`, `stiffness`, `speed`: the grid axes (module doc).
-    - `lubricant`, `table`: the friction parameters of Table 6 (4, 9) of the paper; or
-      `posterior`: a CSV/JSON file of draws (what `stickslip mcmc --json` writes) or a
-      `CampaignPosterior`, giving P(stick-slip) and credible bands at `level` (0.9).
-    - `method`: a `MapMethod` or its name: steady (eqs 5-7, 12), exact (the exact
-      simulator) or cycle (the time-domain limit cycle; `damping_ratio` zeta there).
-    - `max_amplitude` (mm): the design to a tolerance, met with probability `meet` (0.95).
-    - `chunk_size` points a device batch; `progress` a bar; `outputs`: the command's
-      outputs ("--json", "--csv", "--netcdf") that the memory check sizes.
-    - `normal_load` N (kgf, or a string with its unit; None: N = W): the friction load
-      when a dead weight or a cylinder sets it apart from the moving weight W; the map at
-      (W, k, v) is then the paper's at v W/N with lengths and speeds times N/W.
+    `design_map`. `weight`, `stiffness`, `speed`: the grid axes (module doc); `lubricant`,
+    `table`: Table 6 (4, 9) of the paper, or `posterior`: a file of draws (`stickslip
+    mcmc --json`) or a `CampaignPosterior`, giving P(stick-slip) and credible bands at
+    `level` (0.9); `method`: a `MapMethod` (`damping_ratio` zeta with cycle);
+    `max_amplitude` (mm): the design to a tolerance, met with probability `meet` (0.95);
+    `chunk_size` points a device batch; `progress` a bar; `outputs`: the command's outputs
+    the memory check sizes; `normal_load` N (kgf or a string with its unit; None: N = W):
+    the map at (W, k, v) is then the paper's at v W/N with lengths and speeds times N/W.
     """
 
     weight: object
@@ -365,16 +357,11 @@ def figure_axes(axes: dict, option: str = "plot") -> list[str]:
 @dataclasses.dataclass(frozen=True)
 class DesignStudy(ResultDocument):
     """The result of `design_map`: stick-slip amplitude and critical speed over W, k, v.
-
-    - `summary()`: a pandas DataFrame, one row per grid point (the `--csv` columns);
-    - `plot(path)`: the figure of `stickslip design --plot`;
-    - `to_json(path)`: the document of `stickslip design --json`; `to_dict()` the same
-      as a dict; `to_csv(path)`, `to_netcdf(path)`: the `--csv` and `--netcdf` files;
-    - `str(result)`: the summary the command prints.
-
-    `maps`: {"axes": {axis: internal units}, quantity: array [weight][stiffness][speed]
-    in internal units (amplitude mm, critical_speed mm/s, ...), "tolerance": the design
-    to a tolerance}; `options`: the `MapOptions` it was made with.
+    `summary()` (pandas, the `--csv` columns), `plot(path)`, `to_json(path)` /
+    `to_dict()`, `to_csv(path)`, `to_netcdf(path)`: the outputs of `stickslip design`;
+    `str(result)`: the summary it prints. `maps`: {"axes": {axis: values}, quantity: array
+    [weight][stiffness][speed] in internal units, "tolerance": the design to a
+    tolerance}; `options`: the `MapOptions` it was made with.
     """
 
     maps: dict
@@ -422,9 +409,8 @@ class DesignStudy(ResultDocument):
         return doc
 
     def _columns(self) -> dict[str, np.ndarray]:
-        """The long-format columns: weight_kgf, stiffness_kgf_per_mm,
-        drive_speed_mm_per_min, every quantity the map has (`design.netcdf.VARIABLES`), `regime` by
-        name and, with a tolerance, `probability_met`."""
+        """The long-format columns: the axes, every quantity the map has
+        (`design.netcdf.VARIABLES`), `regime` by name, with a tolerance `probability_met`."""
         from stickslip_jax.steady import REGIMES
 
         from ..design import outer
@@ -446,8 +432,7 @@ class DesignStudy(ResultDocument):
         return cols
 
     def summary(self) -> pandas.DataFrame:
-        """One row per grid point: the `--csv` columns (the JSON's key names and units).
-        Needs pandas (the `[pandas]` extra)."""
+        """One row per grid point: the `--csv` columns. Needs pandas."""
         pd = pandas_module("DesignStudy.summary()")
         return pd.DataFrame(self._columns())
 
@@ -476,9 +461,8 @@ class DesignStudy(ResultDocument):
             "damping_ratio": self.options.damping_ratio}))
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
-        """Amplitude and v_c maps (two grid axes) or curves (one), with P(stick-slip) for a
-        posterior, the stick-slip boundary dashed where the grid crosses it; returned, and
-        saved to `path` (closed then) when given."""
+        """Amplitude and v_c maps (two grid axes) or curves (one), P(stick-slip) for a
+        posterior, the boundary dashed; returned, and saved to `path` when given."""
         import matplotlib.pyplot as plt
 
         from ..report.plots import finish_figure

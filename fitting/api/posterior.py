@@ -10,10 +10,9 @@ post.plot("corner.png")      # the corner plot of `stickslip mcmc --plot`
 post.to_json("mcmc.json")    # the document of `stickslip mcmc --json`
 ```
 
-The call runs the steps of `stickslip mcmc` with the same functions: the fit of
-`stickslip_fitting.fit` (the same options), then `mcmc.run_mcmc` around its optimum, and
-the document of `report.mcmc_document`. A `CampaignFit` given in place of the records
-is sampled around without fitting again.
+The call runs `stickslip mcmc`'s steps: `stickslip_fitting.fit`, `mcmc.run_mcmc` around
+its optimum, `report.mcmc_document`. A `CampaignFit` given in place of the records is
+sampled around without fitting again.
 """
 
 from __future__ import annotations
@@ -42,19 +41,11 @@ tau_steps: the integrated autocorrelation time in steps; ess: the effective samp
 @dataclasses.dataclass(frozen=True)
 class CampaignPosterior(ResultDocument):
     """The result of `sample`: posterior draws of the campaign's free friction parameters.
-
-    - `summary()`: a pandas DataFrame indexed by sampled parameter (`POSTERIOR_COLUMNS`);
-      the acceptance fraction in its `attrs["acceptance"]`;
-    - `plot(path)`: the corner plot of `stickslip mcmc --plot`;
-    - `to_json(path)`: the document of `stickslip mcmc --json` (with the thinned draws
-      that `stickslip design --posterior` and `stickslip plan` read); `to_dict()` the
-      same as a dict;
-    - `str(result)`: the posterior table, the prior, the sampler's settings and warnings.
-
-    The parts: `mcmc` (`stickslip_fitting.uncertainty.mcmc.McmcResult`: the flat chain `samples`,
-    `names`, `units`, `tau`, `ess`, `acceptance`), `campaign_fit` (the `CampaignFit` the
-    chain started from), `report` (the JSON document before strict encoding) and `truth`
-    (the parameters the records were made from, when they carry them; None otherwise).
+    `summary()` (pandas, `POSTERIOR_COLUMNS`), `plot(path)` (`stickslip mcmc --plot`),
+    `to_json(path)` / `to_dict()` (`stickslip mcmc --json`, with the thinned draws that
+    `design --posterior` and `plan` read), `str(result)` (the table the command prints).
+    Parts: `mcmc` (`uncertainty.mcmc.McmcResult`), `campaign_fit` (the `CampaignFit` the
+    chain started from), `report` (the JSON document) and `truth` (or None).
     """
 
     report: dict
@@ -90,11 +81,8 @@ class CampaignPosterior(ResultDocument):
         return list(self.mcmc.warnings)
 
     def summary(self) -> pandas.DataFrame:
-        """One row per sampled parameter, indexed by its name: the posterior `median`, the
-        central 95 % interval `low`, `high` (internal units, `unit`), the standard
-        deviation `sd`, the `mean`, the autocorrelation time `tau_steps` and the effective
-        sample size `ess`. `attrs["acceptance"]` holds the acceptance fraction. Needs
-        pandas (the `[pandas]` extra)."""
+        """One row per sampled parameter (`POSTERIOR_COLUMNS`, internal units);
+        `attrs["acceptance"]` holds the acceptance fraction. Needs pandas."""
         pd = pandas_module("CampaignPosterior.summary()")
         rows = {}
         for name, p in self.report["parameters"].items():
@@ -107,19 +95,16 @@ class CampaignPosterior(ResultDocument):
         return frame
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
-        """The corner plot of `stickslip mcmc --plot` (`stickslip_fitting.report.posterior_plots.
-        corner_plot`: histograms, contours, 16/50/84 % quantiles, the truth where known):
-        returned, and saved to `path` (closed then) when given. Needs the `corner`
-        package."""
+        """The corner plot of `stickslip mcmc --plot` (`report.posterior_plots.corner_plot`):
+        returned, and saved to `path` (closed then) when given. Needs `corner`."""
         from ..report.posterior_plots import corner_plot
 
         return corner_plot(self.mcmc.samples, self.mcmc.names, self.output_path(path, "plot"),
                            truth=self.truth, units=self.mcmc.units)
 
     def __str__(self) -> str:
-        """The table `stickslip mcmc` prints: per parameter the median, sd, 95 % interval,
-        autocorrelation time, ESS (and the truth where known), then the prior, the given
-        quantities, the likelihood, the sampler's settings and its warnings."""
+        """The table `stickslip mcmc` prints, then the prior, the given quantities, the
+        likelihood, the sampler's settings and its warnings."""
         r, truth = self.report, self.truth
         head = (f"{'parameter':<10}{'median':>12}{'unit':>7}{'sd':>11}{'95 % interval':>26}"
                 f"{'tau':>8}{'ESS':>8}" + (f"{'truth':>10}" if truth else ""))
@@ -152,18 +137,14 @@ def sample(records: RecordsSpec | CampaignFit, *, steps: int = 3000, walkers: in
            burn: int | None = None, seed: int = 0, draws: int = 2000, progress: bool = False,
            **fit_options) -> CampaignPosterior:
     """Sample the posterior of the friction parameters of a campaign, as `stickslip
-    mcmc` does: fit (`stickslip_fitting.fit` with `fit_options`, its keywords `model`,
-    `objective`, `fix`, `loss`, `gauge_offset`, `slip_time`, `strict`, `eta`, `surface`),
-    then run emcee around the optimum (`mcmc.run_mcmc`).
+    mcmc` does: fit (`stickslip_fitting.fit` with `fit_options`), then run emcee around
+    the optimum (`mcmc.run_mcmc`).
 
-    - `records`: what `stickslip_fitting.fit` reads (files, a folder, a glob, a list, or
-      `Record` objects), or a `CampaignFit` to sample around (then without
-      `fit_options`: the fit's options are its own).
-    - `steps`, `walkers`, `burn` (default steps // 4), `seed`: the sampler's settings, as
-      `--steps`, `--walkers`, `--burn`, `--seed` (at least 10 steps; at least twice as
-      many walkers as free parameters; seed in 0 to 2**32 - 1).
-    - `draws`: at most this many draws in the JSON document (evenly thinned).
-    - `progress`: show emcee's progress bar.
+    - `records`: what `stickslip_fitting.fit` reads, or a `CampaignFit` to sample around
+      (then without `fit_options`).
+    - `steps`, `walkers`, `burn` (default steps // 4), `seed`: as `--steps`, `--walkers`,
+      `--burn`, `--seed`; `draws`: at most this many draws in the JSON document (evenly
+      thinned); `progress`: emcee's progress bar.
 
     Every mistake in the options raises ValueError naming the keyword, before the fit.
     """

@@ -1,19 +1,12 @@
 """`stickslip mcmc RECORDS...`: posterior of the friction parameters with emcee.
 
-Fits first (as `stickslip fit`, either model: `--model microsqueeze` samples h_e and Q
-in place of gamma and m, with `--eta` and `--surface` given), then samples around the
-optimum; prints the posterior
-median, standard deviation, 95 % interval, autocorrelation time and effective sample
-size of every parameter, the prior used, and a warning when the chain is too short.
-`--json OUT` writes the summary ("parameters", "prior", ...) and the posterior draws
-("names", "samples": a (draws, parameters) matrix thinned to at most `--draws` rows,
-"fixed": the values of parameters held fixed), which `stickslip design --posterior OUT`
-and `stickslip plan OUT` read. `--chain OUT.nc` saves the full chain after burn-in as
-arviz InferenceData in netCDF (`McmcResult.save_chain`; chain = walker, draw = step),
-and with arviz installed (the extra `stickslip-jax[posterior]`) arviz's ESS and R-hat
-of the walkers are printed, R-hat only indicative for an ensemble's walkers.
-`--plot OUT.png` (or `--corner`) draws the corner plot with the `corner` package.
-The command runs `stickslip_fitting.sample` and prints and writes its `CampaignPosterior`.
+Fits first (as `stickslip fit`, either model), then samples around the optimum (the
+command runs `stickslip_fitting.sample`); prints the posterior median, sd, 95 % interval,
+autocorrelation time and effective sample size of every parameter and the prior.
+`--json OUT` writes the summary and the thinned draws (`report.mcmc_document`), which
+`stickslip design --posterior OUT` and `stickslip plan OUT` read; `--chain OUT.nc` the
+full chain after burn-in as arviz InferenceData (with arviz installed, its ESS and R-hat
+of the walkers are printed, R-hat only indicative); `--plot` the corner plot.
 """
 
 from __future__ import annotations

@@ -12,8 +12,8 @@ A campaign is not all-or-nothing: every record is read, its cycles extracted
   the fix; `stickslip_jax.records.read_campaign_files`).
 
 The fit goes on with the used records (at least `min_records` of them); `strict=True`
-refuses a campaign with any record not used (the behaviour before screening). Records
-the user gave are never changed: screening only reads them. Units: kgf, mm, s.
+refuses a campaign with any record not used. Screening only reads the records. Units:
+kgf, mm, s.
 """
 
 from __future__ import annotations
@@ -34,11 +34,10 @@ USED, NO_STICK_SLIP, SET_ASIDE, UNREADABLE = "used", "no_stick_slip", "set_aside
 
 @dataclasses.dataclass(frozen=True)
 class RecordStatus:
-    """The screening of one record: `status` (USED, NO_STICK_SLIP or SET_ASIDE), the
-    `reason` when not used, the slips found (`cycles`) and complete cycles, the cycles
-    left out by reason, spikes replaced, the noise (mm) and the run's W (kgf), k (kgf/mm),
-    v (mm/s), normal load N (kgf, None: N = W) and a rotational rig's conditions in its
-    own units (`stickslip_jax.rigs.rig_quantities`)."""
+    """The screening of one record: `status`, the `reason` when not used, the slips found
+    (`cycles`), complete cycles, cycles left out by reason, spikes replaced, the noise
+    (mm), the run's W (kgf), k (kgf/mm), v (mm/s), normal load N (kgf, None: N = W) and a
+    rotational rig's conditions (`stickslip_jax.rigs.rig_quantities`)."""
 
     name: str
     status: str
@@ -241,14 +240,11 @@ def find_truth(records, names=None) -> dict[str, float] | None:
 
 
 def boundary_check(friction, campaign: Campaign) -> list[dict]:
-    r"""Records without stick-slip against the fitted model's stick-slip boundary.
-
-    For every record with status NO_STICK_SLIP: eq (6)'s steady amplitude $a$ of the
-    fitted `friction` (a `stickslip_jax.friction.Friction`) at the record's W, k, v and
-    eq (12)'s critical speed $v_c$. A record sliding steadily where the model predicts
-    a peak-to-peak swing 2a larger than the detection threshold of its noise (five
-    standard deviations) is a misfit ("misfit": True): the model is missing something
-    there, or the drive speed in the file is wrong. Units in the result: um, mm/min."""
+    r"""Records without stick-slip against the fitted model's stick-slip boundary: for
+    every record with status NO_STICK_SLIP, eq (6)'s steady amplitude $a$ of `friction`
+    at the record's W, k, v and eq (12)'s $v_c$. A record sliding steadily where the model
+    predicts a swing 2a above five noise standard deviations is a misfit (the model
+    misses something there, or the file's drive speed is wrong). Units: um, mm/min."""
     from stickslip_jax.steady import steady_state
 
     out = []

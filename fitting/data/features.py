@@ -10,35 +10,29 @@ The paper reads friction off each stick-slip cycle of the spring deflection $x(t
 How the features are measured (robust to noise, partial cycles and gauge offsets):
 
 1. The slider displacement $y = u(t) - x(t)$ ($u$ the drive displacement) is constant
-   during a stick, whatever the drive does (constant speed, programs with holds,
-   measured $u$). A slip is a sudden rise of $y$, found as a run of samples where the
-   deflection falls by more than `threshold` noise standard deviations over half a
-   natural period $T_2 = \pi/\omega_0$ (eq 7). The noise $\sigma$ is estimated robustly
-   from the second differences of $x$ (median absolute deviation). Two runs are one slip
-   when they overlap, or when the slider does not rest (y not flat) between them: near
-   the stick-slip boundary a stick can be shorter than the slip.
-2. Each stick plateau level $Y_j$ is the (5-sigma clipped) mean of $y$ over the stick,
-   away from the slips, so $x_2$ and $x_1$ average thousands of samples instead of
-   picking the noisiest sample at a peak. A plateau starts only where $y$ has settled
-   (half-period blocks within 2 standard errors of its level): a slow re-slip keeps
-   the slider moving after its fall of $x$ is lost in the noise.
+   during a stick, whatever the drive does. A slip is a sudden rise of $y$: a run of
+   samples where the deflection falls by more than `threshold` noise standard
+   deviations over half a natural period $T_2 = \pi/\omega_0$ (eq 7); the noise
+   $\sigma$ is estimated from the second differences of $x$. Two runs are one slip when
+   they overlap or the slider does not rest between them (near the boundary a stick
+   can be shorter than the slip).
+2. Each stick plateau level $Y_j$ is the clipped mean of $y$ over the stick, so $x_2$
+   and $x_1$ average thousands of samples instead of the noisiest one at a peak. A
+   plateau starts only where $y$ has settled: a slow re-slip keeps the slider moving
+   after its fall of $x$ is lost in the noise.
 3. A slip with constant friction is half a cosine (eq 11), symmetric about the time
-   $t_c$ at which $y$ crosses the middle of its jump. $t_c$ comes from a line fit
-   over the middle half of the jump, refined on the deflection's half sine; the breakaway
-   is $t_b = t_c - T/2$ and the slip ends at $t_e = t_c + T/2$, where the duration $T$
-   from rest to rest with the drive moving solves $\omega_0 T = \pi + 2\arctan(v /
-   (\omega_0 a))$, $a = (x_2 - x_1)/2$ (`sticks.slip_duration`; $T_2 = \pi/\omega_0$ when the
-   drive is slow). Its standard error (from the plateau levels' errors) is part of
-   `stick_time_sd`.
-   Then $x_2 = u(t_b) - Y_{j-1}$, $x_1 = u(t_e) - Y_j$, $T_1 = t_b - t_{e,\mathrm{prev}}$.
-   The measured slip time (reported, `slip_time`) comes from the 10 %-90 % rise time
-   of the jump, scaled for a half cosine.
+   $t_c$ at which $y$ crosses the middle of its jump ($t_c$ from a line over the middle
+   half of the jump, refined on the deflection's half sine); $t_b = t_c - T/2$,
+   $t_e = t_c + T/2$, the duration from rest to rest with the drive moving solving
+   $\omega_0 T = \pi + 2\arctan(v/(\omega_0 a))$, $a = (x_2 - x_1)/2$
+   (`sticks.slip_duration`). Then $x_2 = u(t_b) - Y_{j-1}$, $x_1 = u(t_e) - Y_j$,
+   $T_1 = t_b - t_{e,\mathrm{prev}}$. The reported `slip_time` comes from the 10 %-90 %
+   rise time of the jump, scaled for a half cosine.
 
-The first cycle's stick began before the record (its $T_1$ is unknown: `complete`
-False); a slip cut off by the end of the record is dropped. A record with no slip
-event, or with fewer than two complete cycles, is reported (`stick_slip` False and a
-`message`), never an exception. Units: mm, s; features are plain NumPy (this is data
-preparation, run once before fitting).
+The first cycle's stick began before the record (`complete` False); a slip cut off by
+the end of the record is dropped. A record without usable stick-slip is reported
+(`stick_slip` False and a `message`), never an exception. Units: mm, s; plain NumPy
+(data preparation, run once before fitting).
 """
 
 from __future__ import annotations
@@ -71,22 +65,18 @@ campaigns), slips with a re-slip 1.4-2.3."""
 class RecordFeatures:
     r"""Per-cycle features of one record (internal units: mm, s, kgf).
 
-    Cycle arrays (length C, one entry per detected slip with a stick on both sides):
+    Cycle arrays (length C, one per detected slip with a stick on both sides):
     `breakaway_time`, `end_time` (s), `stick_time` $T_1$ (s; NaN for the first, partial
-    cycle), `slip_time` $T_2$ measured (s), `peak` $x_2$ and `trough` $x_1$ (mm) with their
-    standard errors `peak_sd`, `trough_sd` (mm), `stick_time_sd` (s), `complete`.
-    `noise` is the estimated noise standard deviation of the deflection (mm);
-    `start_level` the deflection at the first sample if the record starts in a stick
-    (from the first plateau; NaN otherwise). `stick_slip` False means no usable
-    stick-slip, with the reason in `message`. `spikes`: samples replaced as impulsive
-    outliers (Hampel filter); `left_out`: cycles not used, counted by reason (a stick
-    too short or not flat, a jump below the threshold, a slip not timed); `drive_note`:
-    the drive error found in the sticks and corrected, if any; `deflection_used`: the
-    deflection (mm, at the record's times) as the features saw it (spikes replaced);
-    `drive_fix`: the correction added to the nominal drive (mm, at the record's times)
-    or None; `trough_shift` per cycle: eq (5)'s trough (the slip's swing symmetric about
-    its centre, as under a steady drive) less the measured one, from the slip fitted
-    under a drive whose speed changes during it (`sticks.slip_fit`; 0 otherwise, mm).
+    cycle), measured `slip_time` $T_2$ (s), `peak` $x_2$ and `trough` $x_1$ (mm) with
+    standard errors `peak_sd`, `trough_sd` (mm), `stick_time_sd` (s), `complete`,
+    `trough_shift` (eq (5)'s symmetric trough less the measured one under a drive whose
+    speed changes during the slip, `sticks.slip_fit`; 0 otherwise, mm). `noise`: the
+    deflection's noise sd (mm); `start_level`: the deflection at the first sample if the
+    record starts in a stick (NaN otherwise); `stick_slip` False: no usable stick-slip,
+    the reason in `message`; `spikes`: samples replaced as impulsive outliers;
+    `left_out`: cycles not used, counted by reason; `drive_note`: the drive error found
+    in the sticks and corrected; `deflection_used`: the deflection as the features saw it
+    (spikes replaced); `drive_fix`: the correction added to the nominal drive (mm) or None.
     """
 
     name: str
@@ -144,11 +134,9 @@ class RecordFeatures:
     def slipped_on(self) -> np.ndarray:
         r"""Per cycle: True where the slip lasted over `RESLIP_RATIO` times a single slip
         of its amplitude $a$ at the drive speed $v$ (eq 11 with the drive:
-        $\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$), or could not be timed. Such a
-        slip ended above $\mu_d W/k$ and slipped on from rest (a re-slip, see
-        `stickslip_fitting.objectives.cycle_features._levels`): one jump made of two slips, so its `end_time`
-        (the end of a single half cosine about the jump's middle) is not when the
-        slider came to rest."""
+        $\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$), or could not be timed: a
+        re-slip (`objectives.cycle_features._levels`), one jump made of two slips, whose
+        `end_time` is not when the slider came to rest."""
         a = np.maximum(self.amplitude, 1e-300)
         single = (math.pi + 2.0 * np.arctan(self.drive_speed / (self.omega0 * a))) / self.omega0
         with np.errstate(invalid="ignore"):
@@ -168,22 +156,17 @@ def extract_cycles(time, deflection, *, weight: float, stiffness: float, drive,
     - `weight` W (kgf), `stiffness` k (kgf/mm).
     - `drive`: the drive displacement u (mm) at `time` (array), or a constant drive
       speed v (mm/s, a number: u = v t).
-    - `threshold`: a slip is a fall of x (averaged over a quarter natural period) larger
-      than `threshold` standard deviations of that fall within half a natural period;
+    - `threshold`: a slip is a fall of x larger than `threshold` standard deviations;
       None (default): set by the record's length for about 0.01 false slips per record
-      (`sticks.detection_z`), so slips of about 5 noise standard deviations are found.
+      (`sticks.detection_z`).
     - `min_cycles`: fewer complete cycles than this is reported as no usable stick-slip.
     - `correct_drive`: estimate the drive's error from the sticks (`sticks.drive_error`:
       speed off, slow drift, lead-screw periodic error) and extract again with the
-      corrected drive when the sticks show one (`RecordFeatures.drive_note` says what was
-      found).
+      corrected drive when the sticks show one (`RecordFeatures.drive_note`).
 
-    Returns `RecordFeatures`; never raises for a record without stick-slip (a record
-    that slides continuously says so in `message`). The stages: `_prepare` (noise, y =
-    u - x, and the slips of `stickslip_jax.slips.find_slips`, the detector every command
-    uses), `_stick_plateaus` (the sticks between them; a stick shorter than the slips
-    where y rests, `slips.rest`), `_cycle_row` (one cycle's features; a slip under a
-    drive whose speed changes timed by `sticks.slip_fit`), `_assemble`.
+    Never raises for a record without stick-slip (`message` says why). The stages:
+    `_prepare` (noise, y = u - x, the slips of `stickslip_jax.slips.find_slips`),
+    `_stick_plateaus`, `_cycle_row` (one cycle's features), `_assemble`.
     """
     r = _prepare(time, deflection, weight, stiffness, drive, name, threshold)
     events, thr = r.found.events, r.found.threshold

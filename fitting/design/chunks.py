@@ -1,14 +1,12 @@
 r"""Stream a large batch through a jitted kernel in fixed-size, sharded chunks.
 
 `map_chunks(kernel, batch, shape)` evaluates ``kernel(chunk, shared)`` on chunks of
-``chunk_size`` points. The batch leaves are NumPy arrays that only need to
-*broadcast* to `shape` (an outer grid of W, k and v costs no memory: rows of a chunk
-are gathered from the broadcast views by flat index), so a map can be far larger
-than memory as long as the consumer of the chunks keeps up (write them to disk, or
-reduce them). Every chunk has the same padded shape, so the kernel compiles once;
-chunk ``i + 1`` is dispatched before chunk ``i`` is copied back, so device work and
-host transfers overlap. Chunks are split over all devices by
-`stickslip_fitting.design.sharding`.
+``chunk_size`` points. The batch leaves only need to *broadcast* to `shape` (an outer
+grid of W, k and v costs no memory), so a map can be far larger than memory as long as
+the consumer of the chunks keeps up. Every chunk has the same padded shape, so the
+kernel compiles once; chunk ``i + 1`` is dispatched before chunk ``i`` is copied back,
+so device work and host transfers overlap. Chunks are split over all devices
+(`design.sharding`).
 """
 
 from __future__ import annotations
@@ -48,11 +46,10 @@ def map_chunks(kernel: Callable, batch, shape: tuple[int, ...], *, shared=None,
                desc: str = "design map") -> Iterator[tuple[int, int, object]]:
     """Yield ``(start, stop, result)`` for consecutive chunks of the flattened batch.
 
-    `kernel(chunk, shared)` must be vmapped over the leading axis of `chunk` and return
-    a pytree of arrays with that leading axis; it is wrapped in `eqx.filter_jit`
-    (pass the same kernel object to reuse its compilation). `result` holds NumPy
-    arrays of ``stop - start`` rows. `mesh` defaults to all devices
-    (`sharding.batch_mesh`); `chunk_size` is rounded up to a multiple of the device count.
+    `kernel(chunk, shared)` is vmapped over the leading axis of `chunk` and returns a
+    pytree with that leading axis; it is jitted once per kernel object. `result` holds
+    NumPy arrays of ``stop - start`` rows. `mesh` defaults to all devices; `chunk_size`
+    is rounded up to a multiple of the device count.
     """
     shape = tuple(int(s) for s in shape)
     total = math.prod(shape)
@@ -93,12 +90,10 @@ def map_chunks(kernel: Callable, batch, shape: tuple[int, ...], *, shared=None,
 def _process_share(mesh, size: int):
     """(local mesh, rows per process, this process's first row) of a chunk of `size` rows.
 
-    One process: (mesh, size, 0). Several (`jax.distributed`): each process computes its
-    own contiguous block of every chunk on its own devices, and the blocks are
-    all-gathered afterwards (`_gather`). A chunk sharded over devices of several processes
-    would run a kernel with a data-dependent loop (the exact simulator's `while_loop`) in
-    lock-step: its stop condition is a reduction over the whole batch, an all-reduce
-    between the processes at every iteration, which made 2 processes no faster than one
+    Several processes (`jax.distributed`): each computes its own block of every chunk on
+    its own devices, all-gathered afterwards (`_gather`). A chunk sharded over several
+    processes would run a data-dependent loop (the exact simulator's `while_loop`) in
+    lock-step, an all-reduce per iteration, which made 2 processes no faster than one
     (benchmarks/design.py)."""
     n_proc = jax.process_count()
     if n_proc == 1:

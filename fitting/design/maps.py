@@ -1,18 +1,12 @@
 r"""Design maps: steady stick-slip (chapter 5) over grids or samples of W, k, v and friction.
 
 `design_map(friction, weight, stiffness, speed)` evaluates `stickslip_jax.steady_state`
-(eqs 5-7 and corrected eq 12) at every point of the *broadcast* of its arguments:
-W (kgf), k (kgf/mm), v (mm/s) and every leaf of `friction` (a `Friction` whose
-parameters may be arrays: a grid of parameters or a posterior sample). For example
-``design_map(f, W[:, None], k[None, :], v)`` is a W x k map at one speed, and a
-friction sample with leaves of shape ``(S, 1)`` against ``W`` of shape ``(G,)`` gives
-an ``(S, G)`` map. The points stream through `chunks.map_chunks` (jit + vmap, fixed
-chunk size, sharded over all devices, optional progress bar); `iter_design_map` yields
-the chunks for maps that do not fit in memory.
-
-``method="exact"`` takes amplitude, frequency and stick time from the exact
-event-driven time-domain simulator instead (`stickslip_fitting.design.exact`), after a few
-cycles, when the limit cycle is reached.
+(eqs 5-7 and corrected eq 12) at every point of the *broadcast* of W (kgf), k (kgf/mm),
+v (mm/s) and every leaf of `friction` (a grid of parameters or a posterior sample):
+``design_map(f, W[:, None], k[None, :], v)`` is a W x k map at one speed. The points
+stream through `chunks.map_chunks`; `iter_design_map` yields the chunks for maps that do
+not fit in memory. ``method="exact"`` and ``"cycle"`` take the limit cycle of the exact
+simulator instead (`design.exact`, `stickslip_jax.limit_cycle`).
 """
 
 from __future__ import annotations
@@ -107,13 +101,11 @@ def iter_design_map(friction: Friction, weight, stiffness, speed, *, method: str
 def design_map(friction: Friction, weight, stiffness, speed, **options) -> DesignMap:
     r"""Stick-slip characteristics over the broadcast of friction parameters, W, k and v.
 
-    Units in: W kgf, k kgf/mm, v mm/s; out as in `DesignMap`. The `options` are those of
-    `iter_design_map`: `method` ``"steady"`` (eqs 5-7, 12; fast), ``"cycle"`` or
-    ``"exact"`` (limit cycle of the event-driven simulator); `chunk_size` points a chunk,
-    sharded over every device of `mesh` (default: all devices JAX sees); `progress=True`
-    shows a tqdm bar; `damping_ratio` (``method="cycle"`` only): the viscous damping
-    ratio zeta of the damped limit cycle (`stickslip_jax.limit_cycle`), which makes the
-    stick-slip boundary sharp.
+    Units in: W kgf, k kgf/mm, v mm/s; out as in `DesignMap`. `options` (those of
+    `iter_design_map`): `method` ``"steady"`` (eqs 5-7, 12; fast), ``"cycle"`` or
+    ``"exact"``; `chunk_size` points a chunk, sharded over `mesh` (default: all devices);
+    `progress` a tqdm bar; `damping_ratio` (``"cycle"`` only): zeta of the damped limit
+    cycle, whose stick-slip boundary is sharp.
     """
     points = design_points(friction, weight, stiffness, speed)
     if math.prod(points.shape) == 0:

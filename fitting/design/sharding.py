@@ -1,25 +1,18 @@
 r"""Spread a batch of design points over every device JAX sees (`jax.sharding`).
 
-A batch is any pytree whose leaves share a leading axis. `shard_batch` pads that axis
-to a multiple of the device count and places it on a one-axis `Mesh` named
-``"batch"`` with `NamedSharding(mesh, P("batch"))`; shared arguments (a posterior
-sample, solver settings) are replicated with `replicate`. A jitted, vmapped kernel
-applied to such arrays runs on all devices at once (GSPMD), and every point gets the
-same arithmetic as on one device, so the results are identical.
+A batch is any pytree whose leaves share a leading axis. `shard_batch` places it
+(padded by `pad_batch` to a multiple of the device count) on a one-axis `Mesh` named
+``"batch"``; shared arguments are copied to every device with `replicate`. A jitted,
+vmapped kernel on such arrays runs on all devices at once with the same arithmetic as on
+one, so the results are identical.
 
-Several hosts: start every process with the same script and call
-``jax.distributed.initialize()`` (coordinator address, process count and id from the
-cluster, e.g. SLURM sets them automatically) before any other JAX call. Then
-`jax.devices()` lists the devices of *all* hosts and `batch_mesh()` spans them.
-`stickslip_fitting.design.chunks.map_chunks` (what `design_map` runs) then gives each
-process a contiguous block of every chunk, computed on a mesh of its own devices, and
-all-gathers the blocks (`jax.experimental.multihost_utils.process_allgather`), so every
-process ends with the whole map (every process computes the same cheap grid of design
-points); write files from ``jax.process_index() == 0`` only. For other uses,
-`shard_batch` builds a global array over several processes with
-`jax.make_array_from_callback` (each process supplying the rows its devices hold) and
-`to_host` gathers one; a kernel with a data-dependent loop should not run on such an
-array, since its stop condition then needs an all-reduce between processes per step.
+Several hosts: call ``jax.distributed.initialize()`` in every process before any other
+JAX call; `batch_mesh()` then spans the devices of all hosts. `chunks.map_chunks` gives
+each process its own block of every chunk and all-gathers the blocks, so every process
+ends with the whole map (write files from process 0 only). `shard_batch` also builds a
+global array over several processes and `to_host` gathers one; a kernel with a
+data-dependent loop should not run on such an array (its stop condition would need an
+all-reduce between processes per step).
 """
 
 from __future__ import annotations

@@ -1,8 +1,6 @@
-"""The report of a campaign fit: the `--json` document of `stickslip fit` (`build_report`:
-parameters with their intervals and reasons, records, residuals, adequacy, identifiability)
-and its printed table (`format_table`). Used by the command, by `stickslip_fitting.fit`
-(the Python call) and by `fit-batch`, whose table and long CSV of a batch of such reports
-are `batch_table` and `batch_csv`; the rows and cells come from `report.rows`."""
+"""The report of a campaign fit: the `--json` document of `stickslip fit` (`build_report`)
+and its printed table (`format_table`), for the command, `stickslip_fitting.fit` and
+`fit-batch` (whose table and long CSV are `batch_table` and `batch_csv`)."""
 
 from __future__ import annotations
 
@@ -201,10 +199,9 @@ def format_table(report) -> str:
 def batch_table(batch) -> str:
     """The table `stickslip fit-batch` prints of a `solve.batch.BatchResult`: one row per
     campaign (status, records used, parameter values headed with their units, chi2/dof,
-    time), columns padded to their widest cell. A parameter the campaign
-    does not determine shows "-" and is listed with the reason below the table; a value at
-    a bound of its support or fixed says so in its cell; a campaign not fitted has "-"
-    everywhere and its message below."""
+    time). A parameter the campaign does not determine shows "-", with the reason below
+    the table; a fixed value or one at a bound says so in its cell; a campaign not fitted
+    has "-" everywhere and its message below."""
     from .rows import note_text, text_table, value_text
 
     names = list(dict.fromkeys(p for e in batch.entries if e.report

@@ -1,16 +1,12 @@
 """The document of `stickslip mcmc --json` (`mcmc_document`), built from a posterior
-sample (`mcmc.McmcResult`), the fit it started from and the screened campaign; the command
-and `stickslip_fitting.sample` both write it.
+sample (`mcmc.McmcResult`), the fit it started from and the screened campaign.
 
-Keys: "model", "parameters" (per parameter the fit's row keys, value = median,
-stderr = sd, ci95, truth_in_ci95 where the truth is known, and the sampler's own:
-median, mean, sd, tau_steps, ess), "prior", "objective", "loss", "interrupted",
-"likelihood_scale", "walkers", "steps", "burn", "acceptance", "warnings",
-"record_names", "records_screened", "notes" (the campaign's: what reading did, what one
-record holds), and the draws in the layout that
-`stickslip_fitting.design.posterior.load_samples` reads: "names", "samples" (a (draws,
-parameters) matrix thinned to at most `max_draws` rows) and "fixed" (the values of the
-parameters held fixed); for the microsqueeze law also "given" (eta, surface).
+Keys: "model", "parameters" (per parameter the fit's row keys with value = median,
+stderr = sd, and the sampler's median, mean, sd, tau_steps, ess), "prior", "objective",
+"loss", "interrupted", "likelihood_scale", "walkers", "steps", "burn", "acceptance",
+"warnings", "record_names", "records_screened", "notes", and the draws in the layout
+`design.posterior.load_samples` reads: "names", "samples" (thinned to at most
+`max_draws` rows) and "fixed"; for the microsqueeze law also "given" (eta, surface).
 """
 
 from __future__ import annotations
@@ -45,12 +41,10 @@ def fixed_misfit(fit, free) -> list[str]:
 
 def mcmc_document(res, fit, campaign, *, model: str, truth: dict | None = None,
                   max_draws: int = 2000, extra: dict | None = None) -> dict:
-    """The `stickslip mcmc --json` document (module doc) before versioning: `res` the
-    `mcmc.McmcResult`, `fit` the `fit.FitResult` it sampled around, `campaign` the
-    screened `campaign.Campaign`, `model` the law's name (the objective's and the loss's
-    are the fit's), `truth` the parameters the records were made from (or None), `max_draws` the
-    most rows of "samples", `extra` the microsqueeze law's {"given": ...}. Written with
-    `stickslip_jax.output.versioned(doc, JSON_ALIASES)`."""
+    """The `stickslip mcmc --json` document (module doc) before versioning
+    (`versioned(doc, JSON_ALIASES)`): `res` the `McmcResult`, `fit` the `FitResult` it
+    sampled around, `campaign` the screened `Campaign`, `model` the law's name, `truth`
+    (or None), `extra` the microsqueeze law's {"given": ...}."""
     from ..modes import Objective
     from ..objectives.losses import loss_of
 

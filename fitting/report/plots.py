@@ -1,10 +1,8 @@
 r"""Figures of a fit: traces with the fitted model, $\mu_0(T_1)$ and $\mu_m(T_2)$ with bands, corner plot.
 
-With matplotlib; the corner plot with the `corner` package (the community's standard
-posterior figure: quantiles, contours, truths). Units on the axes: s, um, mu
-dimensionless; the corner plot's from the parameter family's `UNITS`. Following
-matplotlib's convention, every function returns its `Figure` and never switches the
-user's backend; given a `path` it also saves the figure there
+With matplotlib; the corner plot with the `corner` package. Units on the axes: s, um,
+mu dimensionless; the corner plot's from the law's `UNITS`. Every function returns its
+`Figure` and never switches the user's backend; given a `path` it also saves the figure
 (atomically) and closes it, without one it leaves it open for Jupyter to show.
 """
 
@@ -27,11 +25,10 @@ def _plt():
 
 
 def interruptible(draw, *args, **kwargs):
-    """`draw(*args, **kwargs)` in a worker thread while this thread waits for it, so that a
-    Ctrl-C reaches a command at once: compiling the fitted simulation and rendering run
-    in C code, which Python interrupts only when it returns (seconds). Returns what
-    `draw` returns and raises what it raises; interrupted, the worker's output is never
-    renamed into place (`stickslip_jax.output`)."""
+    """`draw(*args, **kwargs)` in a worker thread while this thread waits, so that a Ctrl-C
+    reaches a command at once (compiling and rendering run in C code, which Python
+    interrupts only when it returns). Returns what `draw` returns, raises what it raises;
+    interrupted, the worker's output is never renamed into place."""
     import threading
 
     box: dict = {}
@@ -93,10 +90,9 @@ def friction_curves(fit, unc, n_draws: int = 200, seed: int = 0, extend: float =
 
 def fitted_traces(fit, records):
     """The fitted model over `records` (the first ones of the fit): per record, (time s,
-    deflection mm without the gauge offset) of the exact simulator restarted at the
-    end of every slip, as the trace objective compares it (`stickslip_fitting.objectives.trace`),
-    NaN between the cycle windows. None where that is not possible (a drive program,
-    no complete cycle); the figure then shows the fitted levels only."""
+    deflection mm without the gauge offset) of the exact simulator restarted at the end
+    of every slip, as `objectives.trace` compares it, NaN between the cycle windows. None
+    where that is not possible (no complete cycle); the figure then shows levels only."""
     import jax
 
     from ..solve.fit import compiled
@@ -128,13 +124,11 @@ PHASE_ORDER = ("levels", "stick_times", "start_level", "trace_stick", "trace_sli
 
 
 def residual_panel(report, ax=None):
-    """chi2/n of the residuals by record and phase (one panel; returns its `Figure`, drawn
-    on `ax` when given): for each record a group of bars, one per phase of `report`, a
-    `stickslip_fitting.uncertainty.adequacy.Adequacy` (`adequacy(fit)`): levels, stick times, the first
-    plateau (`--offset start`), the trace objective's stick and slip samples (trace and
-    combined fits). chi2/n is in the records' own errors, so 1 is "to the noise"; dashed
-    lines at `GOOD` and `BAD`, log scale. Each phase is one `BarContainer` labelled with
-    the phase, its bars in record order, NaN where a record has no residual in the phase.
+    """chi2/n of the residuals by record and phase of `report`, an
+    `uncertainty.adequacy.Adequacy` (one panel; returns its `Figure`, drawn on `ax` when
+    given). chi2/n is in the records' own errors, so 1 is "to the noise"; dashed lines at
+    `GOOD` and `BAD`, log scale. Each phase is one `BarContainer` labelled with the phase,
+    its bars in record order, NaN where a record has no residual in the phase.
     Example: `residual_panel(adequacy(fit))`.
     """
     from ..uncertainty.adequacy import BAD, GOOD
@@ -210,13 +204,10 @@ def fit_figure(fit, unc, records, path=None, max_traces: int | None = None, *,
       Rows are springs and weights, columns drive speeds, when the campaign is such a
       grid. The records the fit did not use (`not_used`: (record, reason) pairs) get a
       grey panel that says why. `max_traces` limits the panels to the first records.
-    - Middle: mu_0 against T1 with the fitted eq (1) and its 95 % band (Laplace draws,
-      `friction_curves`; over the measured stick times only when a parameter of eq (1) is
-      not identifiable), and under it mu_0 less the fitted curve with the same band;
-      mu_m against T2 with the fitted eq (3); points coloured by spring and weight
-      (legends above the panels, `above_axes`); the parameters with units, "-" and the
-      reason for one the records do not determine, "at bound" for one at a bound of its
-      support.
+    - Middle: mu_0 against T1 with the fitted eq (1) and its 95 % band (`friction_curves`;
+      over the measured stick times only when a parameter of eq (1) is not identifiable),
+      under it mu_0 less the fitted curve; mu_m against T2 with the fitted eq (3); points
+      coloured by spring and weight; the parameters (`_parameter_box`).
     - Bottom: chi2/n of the residuals by record and phase (`residual_panel`, every record).
 
     Record panels are the axes labelled "record NAME" (`Axes.get_label`), in the order of
@@ -418,14 +409,11 @@ def _parameter_box(ax, fit, unc) -> None:
 
 
 def batch_figure(batch, path=None, dpi: int = 120):
-    """The parameters of a batch of campaign fits side by side (`stickslip fit-batch
-    --plot`): one panel per fitted parameter, a point per campaign with its 95 % interval
-    (a hollow point where it was fixed, a square where it lies at a bound of its support),
-    campaigns not fitted left empty and named in the title. A parameter a campaign does
-    not determine has no point: a grey cross at the foot of the panel marks it. A panel
-    whose values span more than two decades has a log axis. `batch` is a
-    `stickslip_fitting.solve.batch.BatchResult`; returns the `Figure` (saved and closed when
-    `path` is given)."""
+    """The parameters of a `solve.batch.BatchResult` side by side (`stickslip fit-batch
+    --plot`): one panel per parameter, a point per campaign with its 95 % interval (hollow
+    where fixed, a square at a bound of its support); campaigns not fitted are named in
+    the title; a grey cross at the foot marks a parameter a campaign does not determine.
+    A panel whose values span more than two decades has a log axis."""
     from matplotlib.lines import Line2D
 
     entries = list(batch.entries)

@@ -1,25 +1,19 @@
 """One typed row per estimated parameter, shared by the reports (`stickslip fit`, `mcmc`,
 `pitch`, `discover`, `plan`): dicts only when writing JSON.
 
-`ParameterEstimate(name, unit, value, stderr, ci95, fixed, identifiable, truth, log_sd,
-reason, bounds)`: units are the internal ones (`AbstractFrictionParams.UNITS`); `stderr`
-and `ci95` are None for a fixed or unidentifiable parameter, or where only a value is
-reported (the smoothed discovery base's parameters); `truth` only when the records carry
-the values they were made from; `log_sd` the standard deviation of log(value) (a
-relative error) for an estimate made in log coordinates (`from_log`: pitching,
-`stickslip plan`); `reason` why the data do not determine a parameter that is not
-identifiable; `bounds` (low, high) the support of the parameter, when it has one
-(`PRIOR_BOUNDS` of the friction law).
+`ParameterEstimate`: units are the internal ones (`AbstractFrictionParams.UNITS`);
+`stderr` and `ci95` are None for a fixed or unidentifiable parameter, or where only a
+value is reported; `truth` only when the records carry the values they were made from;
+`log_sd` the standard deviation of log(value) for an estimate made in log coordinates
+(`from_log`); `reason` why the data do not determine it; `bounds` (low, high) its
+support, when it has one (`PRIOR_BOUNDS`).
 
-**Unknowns look unknown.** A free parameter the data do not determine has no value: its
-`value` holds the optimiser's last point (a placeholder, kept for code that restarts from
-it), but JSON writes `"value": null` with `"identifiable": false` and `"reason"`, and the
-tables and figures show "-" with the reason (`value_text`, `note_text`). A value within a
-relative 1e-6 of a bound of its support is "at bound" (`at_bound`: "lower", "upper" or
-None): its standard error says nothing about the parameter, only about the bound.
-
-Beside the row: `DiscoveryEstimates` (the rows of the discovery results), `value_text`
-and `note_text` (a JSON entry's cells in a text table), `text_table`.
+**Unknowns look unknown.** A free parameter the data do not determine keeps the
+optimiser's last point in `value` (a placeholder for code that restarts from it), but
+JSON writes `"value": null` with `"identifiable": false` and `"reason"`, and tables and
+figures show "-" with the reason (`value_text`, `note_text`). A value within a relative
+1e-6 of a bound of its support is "at bound": its standard error says nothing about the
+parameter, only about the bound.
 """
 
 from __future__ import annotations
@@ -147,15 +141,11 @@ class ParameterEstimate:
 
 
 class DiscoveryEstimates:
-    """Mixin of the discovery results (`stickslip discover`): the parameter rows are typed,
-    the dicts of the `--json` contract are derived from them.
-
-    The result dataclass holds `estimates_before` and `estimates_after` (the friction
-    parameters of the base fit and of the final fit: with standard errors and
-    identifiability on the per-cycle base, `discovery.result.friction_rows`; values only
-    on the smoothed base), `effect_estimates`
-    (the refitted effect's parameters, unprefixed names, with standard errors and units)
-    and `effect_of` (that effect's name)."""
+    """Mixin of the discovery results (`stickslip discover`): the dicts of the `--json`
+    contract derived from typed rows. The result dataclass holds `estimates_before` and
+    `estimates_after` (the friction parameters of the base fit and of the final fit;
+    values only on the smoothed base), `effect_estimates` (the refitted effect's
+    parameters, unprefixed names) and `effect_of` (that effect's name)."""
 
     EFFECT_KEYS = ("value", "stderr", "unit")
     """The keys of an `effect_size` entry."""
@@ -208,11 +198,10 @@ def note_text(entry: dict) -> str:
 
 
 def text_table(header, rows, align: str | None = None) -> str:
-    """Lines of a table: every column padded to its widest cell (header included),
-    columns separated by two spaces, `align` one letter per column ("l" left, "r" right;
-    default: the first left, the others right), a rule of dashes under the header. Runs of
-    spaces inside a cell are collapsed to one, so a row splits back into its cells at
-    two spaces or more. Trailing spaces are dropped."""
+    """Lines of a table: columns padded to their widest cell and separated by two spaces,
+    `align` one letter per column ("l", "r"; default: the first left, the others right),
+    a rule of dashes under the header. Runs of spaces inside a cell collapse to one, so a
+    row splits back into its cells at two spaces or more."""
     import re
 
     def clean(c) -> str:

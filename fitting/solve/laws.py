@@ -1,10 +1,9 @@
 r"""Campaign fit of another base friction law through whole records (`stickslip fit --law`).
 
-`fit_law(features, records, law)` fits a `stickslip_fitting.modes.FrictionLaw` other than
-the paper's: the features fit of eqs (1), (3) first (its gauge offsets and the measured
-per-cycle levels), starts for the law from the cycle features (`law_starts`), then
-Levenberg-Marquardt of the smoothed-simulator objective (`objectives.smooth`), the only
-objective that expresses a law of the slider velocity or of a state variable.
+`fit_law(features, records, law)` fits a `modes.FrictionLaw` other than the paper's: the
+features fit of eqs (1), (3) first (its gauge offsets), starts for the law from the cycle
+features (`law_starts`), then the smoothed-simulator objective (`objectives.smooth`), the
+only one that expresses a law of the slider velocity or of a state variable.
 
 Starts (the one of least chi-square on the records is refined; the next one too when the
 fit misses the records by more than `FAR_MISS` times their noise), from the per-cycle

@@ -1,11 +1,9 @@
 r"""Campaign fit of the microsqueeze model: mu_s, mu_d, h_e, Q, delta, n.
 
-`fit_microsqueeze(features, eta=..., pair="S1G1")` runs the same jitted multi-start
-Levenberg-Marquardt fit as the empirical model (`stickslip_fitting.solve.fit.fit_features`, features
-objective: $\mu_0$ per cycle against `MicrosqueezeStatic`$(T_1)$, $\mu_m$ by eq (3)),
-with `stickslip_fitting.microsqueeze_params.MicrosqueezeFriction` in place of
-`EmpiricalFriction`; `stickslip_fitting.uncertainty.laplace.laplace` then gives the Gauss-Newton
-intervals of h_e (mm) and Q (mm$^4$) like those of gamma and m.
+`fit_microsqueeze(features, eta=..., pair="S1G1")` runs the multi-start fit of the
+empirical model (`solve.fit.fit_features`) with `MicrosqueezeFriction` in place of
+`EmpiricalFriction`; `uncertainty.laplace` gives the intervals of h_e (mm) and Q
+(mm$^4$) like those of gamma and m.
 
 Starts ("features first"): mu_d, mu_s from the measured per-cycle $\mu_m$, $\mu_0$ (as
 for the empirical model); a grid of margins $h_e - t_b - a_d$ = (0.5, 1.2, 3) x
@@ -89,9 +87,7 @@ def fit_microsqueeze(features: list[RecordFeatures], *, eta: float,
     """Fit mu_s, mu_d, h_e (mm), Q (mm^4), delta, n to a campaign's cycle features.
 
     `eta` (kgf s/mm^2), `pair` (name in Table 10 or a `SurfacePair`) and `contact` are
-    given; `modes` and the other keywords as in `stickslip_fitting.solve.fit.fit_features`
-    (`objective` a `stickslip_fitting.modes.Objective`: FEATURES, or TRACE, BOTH, SMOOTH
-    with `records`; `hold` a `stickslip_fitting.params.Hold`).
+    given; `modes` and the other keywords as in `solve.fit.fit_features`.
     """
     if not (np.isfinite(eta) and eta > 0):
         raise ValueError(f"--eta: the viscosity must be positive and finite, got {eta}")

@@ -3,26 +3,16 @@ what to do about it, in sentences.
 
 `adequacy(fit)` returns an `Adequacy`: one `PhaseRow` per (record, phase) with the
 number of residuals and their chi2/n **in the records' own errors** (before any scaling
-of a record's errors to its scatter, `stickslip_fitting.solve.fit.RECORD_CHI2`, and before a
-heavy-tailed loss, `stickslip_fitting.objectives.losses`), the campaign's chi2/dof, a `verdict`
-("describes": no phase of a record beyond chi2/n `GOOD`; "misses": some beyond `BAD`;
-"marginal" between; beyond meaning also improbable under the noise, `LEVEL`) and plain sentences a user can act on.
+to a record's scatter, `solve.fit.RECORD_CHI2`, and before a heavy-tailed loss), the
+campaign's chi2/dof, a `verdict` ("describes": no phase of a record beyond chi2/n `GOOD`;
+"misses": some beyond `BAD`; "marginal" between; beyond meaning also improbable under
+the noise, `LEVEL`) and sentences a user can act on.
 
-Phases (chi2/n of whitened residuals, so 1 is "to the noise"):
-
-- "levels": the plateau levels of every cycle (stick phase; eq (1) at the measured stick
-  time, eq (3) for the level after the slip);
-- "stick_times": eq (6), the stick time each cycle's levels imply against the measured one;
-- "start_level": the first plateau (`--offset start` only);
-- "trace_stick", "trace_slip": the trace objective's samples (trace and combined fits)
-  while the fitted slider sticks and while it slips.
-
-A fit is judged on what it fitted: a trace fit (`--objective trace`) on its samples only,
-a combined fit on both.
-
-Which phase misses names the likely cause: scattered levels (irregular slips, a drive or
-gauge error), stick times off eq (6) (creep before breakaway, a drive speed error), a
-slip shape the model lacks (damping, Stribeck, sensor dynamics: `stickslip discover`).
+Phases (chi2/n of whitened residuals, 1 is "to the noise"): "levels" (plateau levels,
+eqs (1) and (3)), "stick_times" (eq (6)), "start_level" (`--offset start` only),
+"trace_stick" and "trace_slip" (the trace objective's samples while the fitted slider
+sticks or slips). A fit is judged on what it fitted: a trace fit on its samples only, a
+combined fit on both. Which phase misses names the likely cause (`PHASE_HINT`).
 """
 
 from __future__ import annotations
@@ -80,9 +70,8 @@ class PhaseRow:
 
     def p_value(self) -> float:
         """Probability of a chi2 this large under the noise: chi2 with n degrees of freedom
-        for independent residuals; for correlated ones the quadratic form's distribution
-        (a weighted sum of chi2_1 over the eigenvalues of the residuals' correlation)
-        by Satterthwaite's scaled chi2 (same mean and variance)."""
+        for independent residuals; for correlated ones Satterthwaite's scaled chi2 (same
+        mean and variance as the sum of chi2_1 over the correlation's eigenvalues)."""
         from scipy.linalg import toeplitz
         from scipy.special import chdtrc  # chi2's survival function (chdtrc(dof, x))
 
@@ -224,13 +213,12 @@ def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
 
 def adequacy(fit) -> Adequacy:
     """The adequacy report of a `stickslip_fitting.solve.fit.FitResult` (module doc)."""
+    from ..modes import Objective
     from ..objectives.losses import Gaussian, loss_of
 
     names = [f.name or f"record {i}" for i, f in enumerate(fit.features)]
     scale = (np.ones(len(names)) if fit.record_scale is None
              else np.asarray(fit.record_scale, float))
-    from ..modes import Objective
-
     # the phases the fit fitted: a trace-only fit is judged on its samples, not on the
     # cycle features, whose stick times are far more precise than the trace determines
     # the parameters (clean records at the trace optimum reach chi2/n 1e4 there)

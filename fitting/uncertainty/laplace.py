@@ -68,13 +68,12 @@ class LogJacobian:
 class Uncertainty:
     """Laplace uncertainty of the friction parameters (NAMES order).
 
-    `value`, `stderr` (natural units), `log_se` (relative), `ci95` (low, high),
-    `free` (fitted, not fixed), `corr` (P x P correlation in log coordinates, NaN for
-    fixed), `fisher_eigenvalues` (friction block, offsets marginalised, ascending),
-    `weakest_direction` ({name: weight}), `identifiable` ({name: bool}),
-    `warnings` (plain-language lines), `scale` (the chi2/dof factor applied),
-    `reasons` ({name: why the records do not determine it} for every free parameter
-    that is not identifiable: a short phrase for tables and the JSON's "reason").
+    `value`, `stderr` (natural units), `log_se` (relative), `ci95` (low, high), `free`,
+    `corr` (correlation in log coordinates, NaN for fixed), `fisher_eigenvalues`
+    (friction block, offsets marginalised, ascending), `weakest_direction` ({name:
+    weight}), `identifiable` ({name: bool}), `warnings` (plain-language lines), `scale`
+    (the chi2/dof factor applied), `reasons` ({name: why the records do not determine
+    it}, a short phrase for tables and the JSON's "reason").
     """
 
     value: np.ndarray
@@ -94,14 +93,12 @@ class Uncertainty:
     reasons: dict = dataclasses.field(default_factory=dict)
 
     def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
-        """One typed row per parameter (`stickslip_fitting.report.rows.ParameterEstimate`), with the
-        truth when given ({name: value})."""
+        """One `report.rows.ParameterEstimate` per parameter, with the truth when given."""
         rows = []
         for i, n in enumerate(self.identifiable):
             ok = bool(self.identifiable[n])
             shown = ok and bool(self.free[i])
-            # a held value is stored as its logarithm: 15 digits give back the value
-            # given (67, not 66.99999999999997)
+            # a held value is stored as its log: 15 digits give back 67, not 66.99999999999997
             value = float(self.value[i]) if self.free[i] else float(f"{self.value[i]:.15g}")
             rows.append(ParameterEstimate(
                 name=n, unit=self.units[n], value=value,
@@ -122,11 +119,7 @@ class Uncertainty:
 def _jacobian_log(params, idx: tuple, objective, fit_offsets: bool):
     """(J, r, values): residuals and their Jacobian in (log friction, free offsets)
     coordinates at `params`, the friction parameters `idx` (static) free, and the natural
-    values of `params`.
-
-    Module level and jitted on its arguments, so fits of one campaign layout share it;
-    the coordinates and values are computed inside (no small program compiled per
-    operation)."""
+    values of `params`. One program for fits of one campaign layout."""
     k = len(idx)
     logs0 = params.friction.log_values()
     sel = jnp.asarray(idx, dtype=jnp.int32)
@@ -319,28 +312,25 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
     """Laplace covariance, intervals and identifiability report of a fit (module doc).
 
     `covariance` (a `modes.Covariance`): FISHER ($F^{-1}$ scaled by max(1, chi2/dof)),
-    SANDWICH (cluster-robust per stick phase, `sandwich_covariance` with `lag` and
-    `small_sample`), or AUTO: the sandwich for the trace and combined objectives (module
-    doc), FISHER for features unless chi2/dof > `SANDWICH_CHI2` or some record's errors
-    were scaled to its scatter (`fit.RECORD_CHI2`) (records the model does not describe
-    to their noise: drive or sensor imperfections, creep; the residuals are then
-    correlated within each stick phase and a scaled Fisher matrix undercovers: on an
-    independent SciPy campaign with such imperfections, chi2/dof 426, its 95 % interval
-    missed mu_s).
-    A fit under a heavy-tailed loss (`stickslip_fitting.objectives.losses.HeavyTailed`) gets the
-    two-level covariance with 3 records or more, the stick-phase sandwich otherwise.
-    `jacobian` (a `LogJacobian`): the residuals and Jacobian of another model of these
-    parameters at its optimum (default: the fit's objective at `fit.params`).
+    SANDWICH (per stick phase, `sandwich_covariance` with `lag` and `small_sample`),
+    TWO_LEVEL (`_two_level`), or AUTO: the sandwich for the trace and combined objectives;
+    for features FISHER, or TWO_LEVEL with 3 records or more when chi2/dof >
+    `SANDWICH_CHI2` or some record's errors were scaled to its scatter
+    (`fit.RECORD_CHI2`): the residuals of records the model does not describe to their
+    noise are correlated within each stick phase and a scaled Fisher matrix undercovers
+    (on an independent SciPy campaign, chi2/dof 426, its 95 % interval missed mu_s). A
+    heavy-tailed loss (`objectives.losses.HeavyTailed`) gets TWO_LEVEL with 3 records or
+    more, the stick-phase sandwich otherwise. `jacobian`: a `LogJacobian` of another
+    model of these parameters (default: the fit's objective at `fit.params`).
     """
     check_member("covariance", covariance, Covariance)
     if covariance is Covariance.AUTO:
         traced = fit.objective is not None and fit.objective.robust
         misfit = fit.objective is not None and (fit.reduced_chi2 > SANDWICH_CHI2
                                                 or fit.record_scale is not None)
-        # with fewer than 3 records the between-record scatter cannot be estimated and a stick-
-        # phase sandwich of a badly described pair collapses: Fisher at the scaled errors then
-        # a heavy-tailed loss is chosen for records the model does not describe to their
-        # noise: the two-level covariance (measured, tests/test_real_world_coverage.py)
+        # with fewer than 3 records the between-record scatter cannot be estimated (and a
+        # stick-phase sandwich of a badly described pair collapses): Fisher at the scaled
+        # errors then (measured, tests/test_real_world_coverage.py)
         heavy = isinstance(fit.objective, HeavyTailed)
         many = len(fit.features) >= 3
         covariance = (Covariance.TWO_LEVEL if heavy and many else Covariance.SANDWICH if traced

@@ -14,20 +14,16 @@ $s$ is multiplied by the largest ratio over the free parameters of the cluster-r
 the scaled Fisher variance (`likelihood_scale`, reported), so no posterior is narrower
 than its robust Laplace interval (`uncertainty.laplace`).
 
-Written for emcee's `vectorize=True`: one `jax.jit` of a `jax.vmap` of the residuals
-evaluates the whole ensemble over a flat (walkers, dim) array of (log parameters,
-offsets), flattened only here. Walkers start in a small ball around the optimum, shaped
-by the Laplace covariance. The integrated autocorrelation time $\tau$ and the effective
-sample size $N_\mathrm{walkers}(N_\mathrm{steps} - \mathrm{burn})/\tau$ are reported,
-with a warning under 50 $\tau$ (emcee's rule of thumb).
+Written for emcee's `vectorize=True`: one compiled `jax.vmap` of the residuals evaluates
+the whole ensemble over a flat (walkers, dim) array of (log parameters, offsets). Walkers
+start in a small ball around the optimum, shaped by the Laplace covariance. The
+integrated autocorrelation time $\tau$ and the effective sample size
+$N_\mathrm{walkers}(N_\mathrm{steps} - \mathrm{burn})/\tau$ are reported, with a
+warning under 50 $\tau$ (emcee's rule of thumb).
 
-The chain after burn-in (`McmcResult.chain`, `log_prob`) converts to an arviz
-`InferenceData` (`to_inference_data`, netCDF by `save_chain`; chain = walker, draw =
-step, one variable per parameter in natural units with a `units` attribute,
-`gauge_offset` in mm over `record`, `lp` in sample_stats; the optional extra
-`stickslip-jax[posterior]`). `arviz_summary` gives ESS and R-hat with the walkers as
-chains; the walkers of an ensemble are not independent chains, so R-hat across them is
-only indicative (`ENSEMBLE_CAVEAT`).
+The chain after burn-in converts to an arviz `InferenceData` (`to_inference_data`,
+netCDF by `save_chain`; the extra `stickslip-jax[posterior]`). `arviz_summary` gives ESS
+and R-hat with the walkers as chains, only indicative (`ENSEMBLE_CAVEAT`).
 """
 
 from __future__ import annotations
@@ -198,12 +194,12 @@ class McmcResult:
     offsets: np.ndarray | None = None
 
     def to_inference_data(self, attrs: dict | None = None, records=None):
-        """The chain after burn-in as an arviz `InferenceData` (module doc): chain = walker,
-        draw = step (numbered from the burn-in), one variable per parameter in natural
-        units, sample_stats `lp`. `attrs` (the objective, loss, model, seed...) join the
-        result's own (likelihood_scale, units, walkers, steps, burn, ...) on every group;
-        values that are not numbers or strings are stored as JSON text. `records`: names
-        of the records along `gauge_offset`. Raises `MissingExtra` without arviz."""
+        """The chain after burn-in as an arviz `InferenceData`: chain = walker, draw = step
+        (numbered from the burn-in), one variable per parameter in natural units with a
+        `units` attribute, `gauge_offset` (mm) over `record` (names: `records`),
+        sample_stats `lp`. `attrs` (objective, loss, model, seed...) join the result's own
+        on every group, as JSON text unless numbers or strings. `MissingExtra` without
+        arviz."""
         az = import_arviz()
         if self.chain is None:
             raise ValueError("this result keeps no chain (made without run_mcmc)")
@@ -240,8 +236,7 @@ class McmcResult:
     def save_chain(self, path: str, attrs: dict | None = None, records=None,
                    idata=None) -> None:
         """Write `to_inference_data(attrs, records)` (or `idata`, already made from it) as
-        netCDF to `path`, atomically (a temporary file renamed over it:
-        `stickslip_jax.output.write_atomic`). Read it back with `arviz.from_netcdf`."""
+        netCDF to `path`, atomically. Read it back with `arviz.from_netcdf`."""
         from stickslip_jax.output import write_atomic
 
         idata = self.to_inference_data(attrs, records) if idata is None else idata
@@ -249,8 +244,7 @@ class McmcResult:
 
     def arviz_summary(self, idata=None):
         """arviz's diagnostics of the walkers as chains (a pandas DataFrame, one row per
-        parameter: ess_bulk, ess_tail, r_hat, mcse_*). See the module doc's caveat: R-hat
-        across the walkers of an ensemble is only indicative."""
+        parameter: ess_bulk, ess_tail, r_hat, mcse_*; R-hat only indicative)."""
         az = import_arviz()
         idata = self.to_inference_data() if idata is None else idata
         with warnings.catch_warnings():
@@ -258,9 +252,8 @@ class McmcResult:
             return az.summary(idata, var_names=list(self.names), kind="diagnostics")
 
     def estimates(self, truth: dict | None = None) -> list[ParameterEstimate]:
-        """One typed row per sampled parameter (`stickslip_fitting.report.rows`): the posterior
-        median as the value, its standard deviation as the standard error and the central
-        95 % interval; with the truth when given."""
+        """One `ParameterEstimate` per sampled parameter: the posterior median, its
+        standard deviation as the standard error, the central 95 % interval."""
         summ = self.summary()
         return [ParameterEstimate(name=n, unit=(self.units or {}).get(n, "-"),
                                   value=s["median"], stderr=s["sd"],
@@ -279,10 +272,9 @@ class McmcResult:
 
 
 def _sample(sampler, p0, steps: int, progress: bool) -> bool:
-    """Run the sampler; a Ctrl-C (SIGINT) ends it after the current step instead of inside
-    the log-posterior (where emcee would print a traceback). Returns True when it was
-    interrupted. A second Ctrl-C stops at once. Off the main thread (no signal handler
-    possible) the interrupt goes through as usual."""
+    """Run the sampler; a Ctrl-C ends it after the current step instead of inside the
+    log-posterior (where emcee would print a traceback), a second at once. True when it
+    was interrupted. Off the main thread (no signal handler) it goes through as usual."""
     import signal
     import threading
 
@@ -357,7 +349,6 @@ def run_mcmc(fit: FitResult, *, walkers: int = 32, steps: int = 2000, burn: int 
             "or at a bound, or --fix values the records contradict); check `stickslip fit` "
             "with the same records and options, and fix fewer parameters or add records") from None
     if interrupted:
-        # Ctrl-C: keep the chain so far (at least MIN_KEPT steps), say so
         done = int(sampler.iteration)
         if done < MIN_KEPT:
             raise KeyboardInterrupt
