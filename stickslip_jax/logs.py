@@ -2,12 +2,8 @@
 
 The logger `stickslip` (`logger`) carries the stage lines of the long commands (INFO: what
 runs now, what it found) and details (DEBUG). The command line (`stickslip_jax.cli.main`)
-attaches one handler that writes to stderr with the time since the command started:
-
-    stickslip fit [  0.9 s] fitting 12 records (objective features, model empirical)...
-    stickslip fit [  4.2 s] fit done: converged, chi2/n 0.52
-
-at level INFO by default, WARNING with the command's `--quiet`, DEBUG with `stickslip
+attaches one handler that writes to stderr with the time since the command started
+(`stickslip fit [  0.9 s] fitting 12 records ...`), at level INFO by default, WARNING with the command's `--quiet`, DEBUG with `stickslip
 --debug COMMAND`. Used as a library, the package prints nothing: an application that wants
 the lines configures logging itself (`logging.basicConfig(level=logging.INFO)`).
 Nothing here imports JAX.

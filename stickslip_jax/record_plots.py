@@ -1,38 +1,33 @@
 r"""Stick and slip phases detected in a measured record, and its figure (trace + phase plane).
 
-Phase rule (`classify_phases`): in a stick the slider rests, so the spring deflection
-rises with the drive, $\dot x = \dot u$; in a slip $x$ falls fast, $\dot x < 0$.
+Phase rule (`classify_phases`; in prose in docs/records.md): in a stick the slider rests,
+so the deflection rises with the drive, $\dot x = \dot u$; in a slip $x$ falls fast.
 
-1. $\dot x$ and $\dot u$ are least-squares slopes through `window` samples about each
-   sample (default: the odd count nearest a quarter of $T_2 = \pi/\omega_0$, at least 3);
-   near the ends, the slope of the first (last) full window.
-2. The noise $\sigma$ of $\dot x - \dot u$ is that of a slope through `window` samples of
-   $y = u - x$, from its second differences (`stickslip_jax.slips.robust_sigma`): it does
-   not depend on the share of time in stick.
-3. With $r = \dot x - \dot u$ and $\theta = \max(5\sigma, 0.05 \max|r|,
-   10^{-9}\max(|\dot x|, |\dot u|))$, a sample is **stick** when $|r| \le \theta$, **slip**
-   when $\dot x < -\theta$ within a slip of the detector every command uses
-   (`stickslip_jax.slips.find_slips`), **other** for the rest of a slip, and **sliding**
-   when the slider moves outside every slip (`PhaseSplit.verdict` says when the detector
-   finds the record sliding continuously).
-4. A stick with motion on both sides is a **pause** within a slip (the slider all but
-   stops, or stops for a moment, and slips on) when neither it nor the rest the cycle
-   detector finds about it (`stickslip_jax.slips.rest`, within `window` samples each
-   side) is a stick to the detector: each is shorter than the shortest rest
-   (`stickslip_jax.slips.rest_length`) or has y's shape of a pause
-   (`stickslip_jax.slips.paused`). The slip runs on through it.
+1. $\dot x$, $\dot u$: least-squares slopes through `window` samples about each sample
+   (default the odd count nearest $T_2/4 = \pi/(4\omega_0)$, at least 3); near the ends,
+   the slope of the first (last) full window.
+2. $\sigma$: the noise of such a slope of $y = u - x$, from its second differences
+   (`stickslip_jax.slips.robust_sigma`), whatever the share of time in stick.
+3. $r = \dot x - \dot u$, $\theta = \max(5\sigma, 0.05 \max|r|, 10^{-9}\max(|\dot x|,
+   |\dot u|))$: **stick** where $|r| \le \theta$, **slip** where $\dot x < -\theta$ within a
+   slip of `stickslip_jax.slips.find_slips`, **other** for the rest of a slip, **sliding**
+   outside every slip (`PhaseSplit.verdict` says when the record slides continuously).
+4. A stick with motion on both sides is a **pause** within a slip when neither it nor the
+   rest `stickslip_jax.slips.rest` finds about it (within `window` samples each side) is a
+   stick to the detector: shorter than `stickslip_jax.slips.rest_length`, or with a
+   pause's shape (`stickslip_jax.slips.paused`). The slip runs on through it.
 
 Two logger defects are handled first, so that they do not change the count of slips:
-**glitches** (a sample further from the median of the 5 about it than half the record's
-1st-99th percentile range and 10 noise sd is a spike, replaced by the line through its
-neighbours and counted in `PhaseSplit.glitches`; one 10 mm spike otherwise made a 6-slip
-record show 1 slip) and **quantisation** (when every change is a whole number of a step
-q and x stays constant while the drive moves, $\theta \ge 3q/(w\,\Delta t)$,
-`PhaseSplit.quantum`; a 5 um-quantised record otherwise counted 81 slips instead of 6).
+**glitches** (further from the median of the 5 samples about it than half the 1st-99th
+percentile range and 10 noise sd: replaced by the line through its neighbours, counted in
+`PhaseSplit.glitches`; one 10 mm spike otherwise made a 6-slip record show 1 slip) and
+**quantisation** (every change a whole number of a step q and x constant while the drive
+moves: $\theta \ge 3q/(w\,\Delta t)$, `PhaseSplit.quantum`; a 5 um-quantised record
+otherwise counted 81 slips instead of 6).
 
-The phase plane is that of the paper's Figs 34/35: $x$ (mm) against $\dot x/\omega_0$
-(mm), $\omega_0 = \sqrt{g k / W}$, on equal axes: a slip under constant kinetic friction
-is a half circle about $\mu_m W/k$.
+The phase plane is that of Figs 34/35: $x$ (mm) against $\dot x/\omega_0$ (mm),
+$\omega_0 = \sqrt{g k / W}$, on equal axes: a slip under constant kinetic friction is a
+half circle about $\mu_m W/k$.
 """
 
 from __future__ import annotations

@@ -24,9 +24,7 @@ its initial value), so nothing overflows or turns into NaN for any stick time.
 
 Two solvers share that integrand:
 
-- `microsqueeze_curve(law, T1)`: **diffrax** integrates $ds/d\tau = t/(dt/ds)$ in
-  log-time $\tau = \log t$ (adaptive Tsit5, PID step control) and saves at the requested
-  stick times; gradients flow through the solve. This is the reference.
+- `microsqueeze_curve(law, T1)`: diffrax integrates $s$ in log-time; the reference.
 - `MicrosqueezeStatic.__call__(T1)`: the law used by simulators and fitters. It
   tabulates $t(s)$ by composite 3-point Gauss-Legendre quadrature of $dt/ds$ on a
   fixed $s$ grid (vectorised, no loop, about 400 rate evaluations) and inverts it by a
@@ -47,10 +45,10 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ..friction import AbstractStaticFriction
+from ..numerics import as_float, is_concrete
 from ..tables import load_table
 from .boundary import BoundaryContact, approach_for, film_from_mu_s, final_approach, static_coefficient
 from .surfaces import SurfacePair, surface_pair
-from ..numerics import as_float, is_concrete
 
 Scalar = Float[Array, ""]
 

@@ -67,6 +67,11 @@ def _text(name, value):
     return value
 
 
+_COMPARED = ("stiffness", "weight", "normal_load", "friction_radius", "drive_speed",
+             "drive_program", "lubricant", "surface", "note", "truth", "extra_header")
+"""The fields `Record.__eq__` compares with `==` (the arrays and channels apart)."""
+
+
 @dataclasses.dataclass(frozen=True, eq=False)
 class Record:
     r"""One run of the slideway, in internal units (kgf, mm, s).
@@ -386,23 +391,13 @@ class Record:
                 return a is None and b is None
             return np.array_equal(a, b)
 
-        return (same(self.time, other.time)
-                and same(self.deflection, other.deflection)
-                and same(self.drive, other.drive)
-                and self.stiffness == other.stiffness
-                and self.weight == other.weight
-                and self.normal_load == other.normal_load
-                and self.friction_radius == other.friction_radius
-                and self.drive_speed == other.drive_speed
-                and self.drive_program == other.drive_program
-                and (self.lubricant, self.surface, self.note)
-                == (other.lubricant, other.surface, other.note)
+        return (all(same(getattr(self, f), getattr(other, f))
+                    for f in ("time", "deflection", "drive"))
+                and all(getattr(self, f) == getattr(other, f) for f in _COMPARED)
                 and self.channels.keys() == other.channels.keys()
                 and all(same(v, other.channels[k]) for k, v in self.channels.items())
                 and all(channel_dimension(u) == channel_dimension(other.channel_units[k])
-                        for k, u in self.channel_units.items())
-                and self.truth == other.truth
-                and self.extra_header == other.extra_header)
+                        for k, u in self.channel_units.items()))
 
     __hash__ = None
 

@@ -21,10 +21,9 @@ displacement, both mm). Two phases alternate:
   exactly $x_1 = 2c - x_2$ (so eq (5) holds for every cycle at constant speed).
   A knot of the drive inside a slip is an event: the closed form restarts there.
 
-The $T_2$ in eq (3) is a `stickslip_jax.modes.SlipTime` (its string works too):
-`SlipTime.PAPER` ("paper"): $\pi/\omega_0$ (eq 7), or `SlipTime.SELF_CONSISTENT`
-("self_consistent"): the actual slip duration (a scalar root solve; with a speed
-change inside the slip the duration is predicted at the speed at breakaway).
+$T_2$ in eq (3) (`SlipTime`): $\pi/\omega_0$ (eq 7, "paper") or the actual slip duration
+("self_consistent", a scalar root solve; predicted at the speed at breakaway when the
+drive changes speed inside the slip).
 
 If a slip ends with $k x_1 > \mu_0(0) W$ the slider cannot stick: the next stick lasts
 $T_1 = 0$, it slips on with $\mu_0(0) = \mu_d$ (flag `restick_failed`, trace flag
