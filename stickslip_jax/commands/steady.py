@@ -177,13 +177,11 @@ def run(args) -> int:
         for (key, _), w in zip(columns, widths):
             val = r[key]
             if key == "stick_slip" and r["regime"] == REGIMES[RESTICK_FAILURE]:
-                cells.append("double".rjust(w))  # re-stick failure: see the note below
+                val = "double"  # re-stick failure: see the note below
             elif isinstance(val, bool):
-                cells.append(("yes" if val else "no").rjust(w))
-            elif isinstance(val, str):
-                cells.append(val.rjust(w))
-            else:
-                cells.append(("-" if val is None else f"{val:.5g}").rjust(w))
+                val = "yes" if val else "no"
+            cells.append((val if isinstance(val, str) else "-" if val is None
+                          else f"{val:.5g}").rjust(w))
         print("  ".join(cells))
     print("a_cycle, T1_cycle: the limit cycle of the time-domain model (the exact "
           "simulator's; eq (6) at every speed): above v_c of eq (12) it keeps a smaller "
