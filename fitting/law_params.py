@@ -12,9 +12,9 @@ r"""Fit parameters of the other base friction laws (`stickslip_jax.friction.rate
 | | c | - | `log_c` |
 | | v_c | mm/s | `log_v_c` |
 
-The reference velocity `v_0` of the rate-and-state law (mm/s, default 1e-3) is given,
-not fitted ($\mu_*$ and $v_0$ trade off exactly). These laws are fitted through whole
-records (`stickslip_fitting.objectives.smooth`); their mean-kinetic interface is a stand-in.
+The rate-and-state law's reference velocity `v_0` (mm/s, default 1e-3) is given
+($\mu_*$ and $v_0$ trade off exactly). These laws are fitted through whole records
+(`objectives.smooth`).
 """
 
 from __future__ import annotations

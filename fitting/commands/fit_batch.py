@@ -1,15 +1,12 @@
 """`stickslip fit-batch CAMPAIGN...`: fit many campaigns, one per folder or glob, on one
 machine or spread over processes and hosts (`jax.distributed`).
 
-Every CAMPAIGN is fitted as `stickslip fit CAMPAIGN` would fit it, with the same options
-(`--objective`, `--fix`, `--loss`, ...). A campaign that cannot be fitted is listed with
-the reason and the others go on (`stickslip_fitting.solve.batch`). Prints one row per campaign;
-`--json OUT` writes every campaign's `stickslip fit --json` report, `--csv OUT` a long
-table (one row per campaign and parameter, units in a column), `--plot OUT.png` the
-parameters of every campaign side by side with their 95 % intervals. Across processes: start
-the same command on every process with `--coordinator HOST:PORT --num-processes N
---process-id I`; process 0 prints the table and writes the files. Exit 0 when every
-campaign fitted and converged, 3 when some did not.
+Every CAMPAIGN is fitted as `stickslip fit CAMPAIGN` would, with the same options; one
+that cannot be fitted is listed with the reason and the others go on (`solve.batch`).
+Prints one row per campaign; `--json`, `--csv`, `--plot` write every report, a long
+table and the parameters side by side. Across processes: the same command on every
+process with `--coordinator HOST:PORT --num-processes N --process-id I`; process 0
+prints and writes. Exit 0 when every campaign fitted and converged, 3 when some did not.
 """
 
 from __future__ import annotations

@@ -4,13 +4,11 @@
                     [--viscosity ETA] [--fit] [--json OUT.json] [--plot OUT.png]
 
 For each record the model of `stickslip_jax.pitching` turns the spring force k x into the
-tilt at the drive point (height H above the slide surface, offset L from the centre of
-gravity, mm unless a unit is given) and prints, per measuring point, the tilt eps'
-(signed extreme), the mean and the variation d_eps over the second half of the record,
-in um; for channels the record carries (`pitch_N`, `yaw_N`) the measured values too.
-With `--fit` the compliances, neutral points and squeeze time constants are identified
-from those channels first (`stickslip_fitting.solve.pitch`) and printed with 95 % intervals.
-Without `--fit` the model is the illustrative `default_model()` at the given viscosity.
+tilt at the drive point (height H, offset L from the centre of gravity; mm unless a unit
+is given) and prints, per measuring point, the tilt eps' (signed extreme), the mean and
+the variation d_eps over the second half of the record in um, with the measured values
+of the channels the record carries (`pitch_N`, `yaw_N`). `--fit` identifies the model
+from those channels first (`solve.pitch`); without it the model is `default_model()`.
 """
 
 from __future__ import annotations

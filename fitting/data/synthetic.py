@@ -1,12 +1,10 @@
 r"""Synthetic campaigns for testing the identification: exact-simulator records with noise.
 
 `synthetic_campaign(friction, ...)` lays out a campaign like the paper's (weights and
-stiffnesses x drive speeds below the critical speed $v_c$, eq 12), simulates every
-record with `stickslip_jax.simulation.simulate_exact` (all records in one `vmap`),
-adds white Gaussian noise of standard deviation `noise` (mm) and returns
-`stickslip_jax.records.Record`s carrying the truth. Speeds are fractions of each
-(W, k)'s $v_c$ so that any parameter set gives stick-slip; the records start on the
-steady limit cycle (the slip-end deflection of eq 5-6) unless `from_rest`.
+stiffnesses x drive speeds, fractions of each (W, k)'s critical speed $v_c$ of eq 12 so
+that any parameter set gives stick-slip), simulates every record with `simulate_exact`
+(all in one `vmap`) from the steady limit cycle (eqs 5-6) unless `from_rest`, adds white
+Gaussian noise of sd `noise` (mm) and returns `Record`s carrying the truth.
 """
 
 from __future__ import annotations
@@ -74,10 +72,9 @@ def synthetic_campaign(friction, *, conditions=SPREAD_CONDITIONS, speed_fraction
                        slip_time: SlipTime | str = SlipTime.PAPER, pad_to: int = 0) -> list[Record]:
     """Records of every (W, k) in `conditions` at speeds `speed_fractions` x v_c(W, k).
 
-    Each record lasts about `cycles` stick-slip cycles (eq 6 steady state) at
-    `sample_rate` Hz; `noise` in mm; `seed` for the
-    noise; `pad_to`: simulate on at least this many (padded) samples so that campaigns
-    of other parameters reuse one compilation. Units: W kgf, k kgf/mm, speeds mm/s.
+    Each record lasts about `cycles` cycles (eq 6) at `sample_rate` Hz; `noise` in mm,
+    drawn with `seed`; `pad_to`: simulate on at least this many samples, so that
+    campaigns of other parameters reuse one compilation. Units: W kgf, k kgf/mm, v mm/s.
     """
     slip_time = SlipTime.parse(slip_time)
     rng = np.random.default_rng(seed)

@@ -1,18 +1,8 @@
-"""Design studies: maps, devices, uncertainty propagation, inverse and experiment design.
-
-- `design_map(friction, W, k, v)`: steady (or exact time-domain) stick-slip over a
-  broadcast grid/sample of friction parameters, W (kgf), k (kgf/mm), v (mm/s);
-  chunked, jit+vmap, sharded over all devices (`maps`, `chunks`, `sharding`).
-- `propagate(sample, W, k, v)`: probability of stick-slip and credible bands of v_c and
-  a from a posterior sample (`uncertainty`, samples read by `posterior.load_samples`).
-- `minimum_stiffness`, `maximum_weight`: inverse design by Newton through the steady
-  analysis (`inverse`).
-- `fisher_information`, `greedy_design`: D-optimal choice of the next records,
-  `laplace_fit` (objective `SteadyObservables`) and `sequential_campaign` to check a
-  plan on synthetic data (`experiment`).
-
-`method="exact"` maps use `exact.exact_kernel` (the limit cycle of
-`stickslip_jax.simulation.simulate_exact`). Units: kgf, mm, s; speeds mm/s.
+"""Design studies: maps (`maps`, `chunks`, `sharding`; `design_map`), posterior
+propagation (`uncertainty`; `propagate`, samples read by `posterior.load_samples`),
+inverse design by Newton through the steady analysis (`inverse`; `minimum_stiffness`,
+`maximum_weight`) and experiment design (`experiment`; `greedy_design`,
+`sequential_campaign`). Units: kgf, mm, s; speeds mm/s.
 """
 
 __all__ = ["Campaign", "LaplaceFit", "Noise", "Plan", "SteadyObservables", "TanhBounded",

@@ -12,9 +12,8 @@ wherever $v < v_c$. At a feed rate $v$:
   ``amplitude_tolerance`` the largest $W$ with smooth sliding or $a \le$ tol.
 
 Both solve $\log v_c = \log v$ (or $\log a = \log \mathrm{tol}$) in $\log k$ / $\log W$
-with `optimistix.Newton`, whose derivative is the derivative of the steady analysis
-(itself through the implicit function theorem of the eq (6) root find); the answer
-is differentiable in the friction parameters, W, k and v in turn.
+with `optimistix.Newton` through the steady analysis, so the answer is differentiable in
+the friction parameters, W, k and v in turn.
 """
 
 from __future__ import annotations

@@ -1,15 +1,12 @@
 """Design maps as xarray Datasets and NetCDF files (`stickslip design --netcdf OUT.nc`).
 
-`map_dataset(res, attrs)` turns a map (`api.design.DesignStudy.maps`: axes and arrays
-in internal units, [weight][stiffness][speed]) into an `xarray.Dataset` with
-dimensions ``W`` (kgf), ``k`` (kgf/mm) and ``v`` (mm/min, as in the JSON and CSV maps),
-one variable per quantity with a ``units`` and a ``long_name`` attribute, ``regime`` as
-a CF flag variable (``flag_values`` 0, 1, 2, ``flag_meanings``), the posterior's credible
-bands along a ``band`` dimension (lower, median, upper) and, with ``--max-amplitude``,
+`map_dataset(res, attrs)` turns a map (`api.design.DesignStudy.maps`) into an
+`xarray.Dataset` with dimensions ``W`` (kgf), ``k`` (kgf/mm) and ``v`` (mm/min), one
+variable per quantity with ``units`` and ``long_name``, ``regime`` as a CF flag
+variable, the posterior's credible bands along ``band`` and, with ``--max-amplitude``,
 ``probability_met`` and the inverse design per (W, v). `write_netcdf(path, ds)` writes
-it atomically (`stickslip_jax.output.write_atomic`): NetCDF-4 through h5netcdf when it
-is installed, else NetCDF-3 through SciPy (a core dependency). xarray is the optional
-extra ``[netcdf]``; without it `import_xarray` raises `MissingExtra` naming it.
+it atomically: NetCDF-4 through h5netcdf when installed, else NetCDF-3 through SciPy.
+xarray is the optional extra ``[netcdf]`` (`import_xarray`).
 """
 
 from __future__ import annotations

@@ -1,14 +1,11 @@
-"""The corner plot of posterior draws (`stickslip mcmc --plot`), drawn by the `corner`
-package (the community's standard posterior figure: histograms, density contours,
-quantiles, truths).
+"""The corner plot of posterior draws (`stickslip mcmc --plot`), drawn by `corner`.
 
-Two choices make it readable for parameters whose posterior is narrow beside its value
-(mu_d = 0.21 known to 5e-5): the ticks carry every digit that tells them apart and no
-offset text (the "1e-5+2.1e-1" that matplotlib's `ScalarFormatter` would print in a corner
-over the neighbouring axis label), and each diagonal title gives the median with as many
-decimals as its 68 % interval needs. Where the truth is known, every axis is widened to
-show it; a truth too far from the draws to share an axis with them (more than `TRUTH_REACH`
-widths of the draws away) is named in the title instead.
+For parameters whose posterior is narrow beside its value (mu_d = 0.21 known to 5e-5)
+the ticks carry every digit that tells them apart and no offset text (matplotlib's
+"1e-5+2.1e-1" would print over the neighbouring axis label), and each diagonal title
+gives the median with as many decimals as its 68 % interval needs. Every axis is widened
+to show a known truth, unless it lies more than `TRUTH_REACH` widths of the draws away
+(then the title names it).
 """
 
 from __future__ import annotations
@@ -94,15 +91,13 @@ def _value_title(name: str, q16: float, q50: float, q84: float, unit: str,
 
 def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int = 30,
                 units: dict | None = None, **kwargs):
-    """Corner plot of posterior samples (N, d) drawn by the `corner` package (returned;
-    saved to `path` when given, at 100 dpi, and closed): histograms with the 16, 50 and
-    84 % quantiles on the diagonal (median and interval in the titles, with units), 2-D
-    histograms with density contours below, the truth as red lines where `truth` names a
-    parameter (the axes widened to show it, see `TRUTH_REACH`), axes labelled
-    `name [unit]` from `units` (the parameter family's `UNITS`; `name [-]` for a
-    dimensionless one or one without a unit), ticks without offset text. Other keywords go
-    to `corner.corner` (a `range` given there is kept as it is). Example, for an `McmcResult`:
-    `corner_plot(res.samples, res.names, truth=truth, units=res.units)`.
+    """Corner plot of posterior samples (N, d) (returned; saved to `path` at 100 dpi and
+    closed when given): histograms with the 16, 50 and 84 % quantiles on the diagonal
+    (median and interval in the titles), 2-D histograms with density contours below, the
+    truth as red lines where `truth` names a parameter, axes labelled `name [unit]` from
+    `units` (`[-]` without one). Other keywords go to `corner.corner` (a `range` given
+    there is kept). Example: `corner_plot(res.samples, res.names, truth=truth,
+    units=res.units)` for an `McmcResult`.
     """
     import corner  # draws through pyplot with the user's backend, as it is
 

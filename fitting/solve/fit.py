@@ -55,19 +55,16 @@ __all__ = ["FitResult", "fit_features", "fit_objective", "fit_records", "initial
 class FitResult:
     """Outcome of a campaign fit.
 
-    - `params`: the best `CampaignParams`; `spec`: the filter spec of the free leaves.
-    - `data`: the `FeatureData` fitted; `features`: the per-record `RecordFeatures`.
-    - `chi2`: sum of squared whitened residuals at the optimum; `dof`: residuals with
-      data minus free parameters; `result`: optimistix result of the best start;
-      `converged`: that result is successful; `n_starts`, `n_steps` (Levenberg-Marquardt
-      steps of the best start, all reweighting rounds); `n_rounds` (reweighting rounds).
-    - `slip_time`: the $T_2$ mode of eq (3) used (`SlipTime`).
-    - `objective`: the `stickslip_fitting.objectives.combined.AbstractObjective` minimised (features, trace
-      or both); `trace_failures`: windows of the trace objective whose simulation did not
-      succeed at the optimum (0 when all ran).
-    - `record_chi2`: chi2/n of each record's features residuals before any rescaling
-      (the adequacy of the model record by record); `record_scale`: the factor each
-      record's feature standard errors were multiplied by (`RECORD_CHI2`), or None.
+    - `params`: the best `CampaignParams`; `spec`: the filter spec of the free leaves;
+      `data`: the `FeatureData` fitted; `features`: the per-record `RecordFeatures`.
+    - `chi2` at the optimum; `dof`: residuals with data minus free parameters; `result`:
+      optimistix result of the best start, `converged` when successful; `n_starts`,
+      `n_steps` (of the best start, all rounds), `n_rounds` (reweighting rounds).
+    - `slip_time`: the $T_2$ mode of eq (3); `objective`: the `AbstractObjective`
+      minimised; `trace_failures`: trace windows whose simulation failed at the optimum.
+    - `record_chi2`: chi2/n of each record's features residuals before any rescaling;
+      `record_scale`: the factor its standard errors were multiplied by
+      (`RECORD_CHI2`), or None.
     """
 
     params: CampaignParams
@@ -312,16 +309,11 @@ def fit_features(
 
     - `objective`: an `Objective`; all but FEATURES need `records` (the `Record`s the
       features came from) and start from the features fit's optimum.
-    - `hold`: the parameters held at given values (`stickslip_fitting.params.Hold`, e.g.
-      `Hold(lambda f: f.log_n, 1.0)`).
-    - `starts`: starting friction modules (default `initial_guesses`).
-    - `loss`: a heavy-tailed likelihood (`stickslip_fitting.objectives.losses`: `Huber()`,
-      `StudentT()`; None or `Gaussian()`: least squares). The Gaussian fit is the start,
-      then the objective under the loss is fitted from it (`_fit_heavy_tailed`).
-    - `modes`: `ModelModes` (gauge offset, the slip time $T_2$ of eq (3), re-slips);
-      `weighting`: `Weighting` (the weights of BOTH, per-record error scaling,
-      `RECORD_CHI2`); `padding`: `Padding` (campaigns of other sizes reuse the
-      compilation); `solver`: `SolverOptions` (tolerances, step cap).
+    - `hold`: a `params.Hold`, e.g. `Hold(lambda f: f.log_n, 1.0)`; `starts`: starting
+      friction modules (default `initial_guesses`).
+    - `loss`: a heavy-tailed likelihood (`Huber()`, `StudentT()`; None or `Gaussian()`:
+      least squares), fitted from the Gaussian fit (`_fit_heavy_tailed`).
+    - `modes`, `weighting`, `padding`, `solver`: the option groups (`stickslip_fitting.modes`).
 
     The flat keywords (`fixed` {name: value}, `offset`, ..., `max_steps`) and modes given
     by their values are read into these objects by `flat_options`.
