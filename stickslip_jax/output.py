@@ -16,10 +16,6 @@
   before raising KeyboardInterrupt, so an interrupt that lands where Python swallows
   exceptions (a garbage-collector callback of JAX, a `__del__`) is still honoured: no
   output is renamed into place afterwards, and the command exits 130.
-- `json_owns_stdout(active)`: while a command runs with `--json -` (`stickslip_jax.cli`
-  wraps every command in it), what the command prints goes to stderr and only the JSON
-  (`write_json("-", ...)`) reaches stdout, so `stickslip fit ... --json - | jq` reads one
-  document.
 """
 
 from __future__ import annotations
@@ -99,8 +95,7 @@ def null_reasons(obj, where: str = "") -> dict[str, str]:
 
 def _explained(obj):
     """`strict_json(obj)`, and a document (dict) with nulls made of NaN or infinity gets
-    `NULL_REASONS`: where each is and why (strict JSON has no NaN; a bare null would not
-    say whether a value is missing or undefined)."""
+    `NULL_REASONS` (a bare null would not say whether a value is missing or undefined)."""
     reasons: dict[str, str] = {}
     out = strict_json(obj, reasons if isinstance(obj, dict) else None)
     if reasons:
@@ -142,8 +137,10 @@ _JSON_STDOUT = None
 
 @contextlib.contextmanager
 def json_owns_stdout(active: bool):
-    """With `active` (the command's `--json` is "-"): inside, `print` goes to stderr and
-    `write_text("-", ...)` / `write_json("-", ...)` to the stdout of entry."""
+    """With `active` (the command's `--json` is "-"; `stickslip_jax.cli` wraps every command
+    in it): inside, `print` goes to stderr and only `write_text("-", ...)` /
+    `write_json("-", ...)` reach the stdout of entry, so `... --json - | jq` reads one
+    document."""
     global _JSON_STDOUT
     if not active:
         yield

@@ -12,10 +12,7 @@ of the cycle is found as well as one that fills it. `find_slips` runs both on a 
 and says, in one line with the evidence, when there is no stick-slip: the slider stuck
 for the whole record, or it slides continuously (it never rests).
 
-The pieces: the noise of the deflection (`robust_sigma`) and its impulsive spikes
-(`despike`), running means (`moving_mean`), runs of a flag (`runs`), a level robust to
-outliers (`clipped_mean`) and the flatness of a stretch of $y$ (`plateau`). Units: mm,
-s. Plain NumPy.
+Units: mm, s. Plain NumPy.
 """
 
 from __future__ import annotations

@@ -7,14 +7,8 @@ the repository is a link to that folder. `$STICKSLIP_DATA/paper` overrides it.
 Each CSV starts with `#` comment lines (table number and notes), then a header row
 whose columns carry their unit in brackets, e.g. `stiffness [kgf/mm]`. Values are in
 the internal unit system (kgf, mm, s) except where the header says otherwise (Table 1
-contact pressure in kgf/cm^2, viscosities in cSt as printed).
-
-```python
->>> from stickslip_jax.tables import load_table
->>> t6 = load_table(6)
->>> t6.row("A").delta
-67.0
-```
+contact pressure in kgf/cm^2, viscosities in cSt as printed). Example:
+`load_table(6).row("A").delta` is 67.0.
 """
 
 from __future__ import annotations

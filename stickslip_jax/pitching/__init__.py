@@ -1,11 +1,6 @@
-r"""Pitching and yawing of the slider with stick-slip (chapter 6 of the paper).
-
-The drive force $F = kx$ acts at a height $h$ and a sideways offset $l$ while the
-friction resultant acts at the neutral points $h_{Mv}$, $l_{Mh}$; the moments
-$F(h - h_{Mv})$ and $F(l - l_{Mh})$ tilt the slider through a compliance, and the squeeze
-of the lubricant makes the tilt lag the moment (one linear model, so the rise
-$\varepsilon_u$ and recovery $\varepsilon_d$ of section 6.3 superpose). See `model` for
-coordinates and units.
+r"""Pitching and yawing of the slider with stick-slip (chapter 6 of the paper): the moments
+of the drive force about the neutral points tilt the slider through a compliance, with a
+squeeze-film lag (sections 6.2-6.4). `model` gives the coordinates, units and physics.
 """
 
 from .cycle import ForceCycle, steady_force_cycle
