@@ -145,7 +145,6 @@ class MicrosqueezeStatic(AbstractStaticFriction):
                 f"mu_0(a_s) = {np.asarray(_mu_at(self, kin.a_s))}"
             )
 
-    # ------------------------------------------------------------------ constructors
     @classmethod
     def from_table11(cls, lubricant: str, pair: SurfacePair | str = "S1G1", contact=None, **kw):
         r"""Lubricant `lubricant` (A-G) of Table 11 on surface pair `pair`: $\eta$, $h_e$, $Q$,
@@ -161,7 +160,6 @@ class MicrosqueezeStatic(AbstractStaticFriction):
         t_b = film_from_mu_s(pair, contact, mu_s).t_b
         return cls(pair=pair, contact=contact, t_b=t_b, eta=eta, h_e=h_e, Q=Q, mu_d=mu_d, **kw)
 
-    # ------------------------------------------------------------------ physics
     def kinematics(self, check: bool = True) -> Kinematics:
         """Start, end and span of the approach (mm); with `check` and `check_traced`,
         `eqx.error_if` guards."""
@@ -209,7 +207,6 @@ class MicrosqueezeStatic(AbstractStaticFriction):
         kin = self.kinematics()
         return static_coefficient(self.pair, self.contact, kin.a_s, self.t_b)
 
-    # ------------------------------------------------------------------ fast law
     def table(self):
         """Tabulated (s_k, t_k, dt/ds_k), k >= 1, by composite Gauss-Legendre quadrature."""
         kin = self.kinematics()

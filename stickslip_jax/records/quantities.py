@@ -48,9 +48,6 @@ def internal_channel_unit(unit: str) -> str:
     return unit.strip() if dim.startswith("raw:") else INTERNAL_UNIT[dim]
 
 
-# ---------------------------------------------------------------------------- record
-
-
 _DECIMAL_COMMA = re.compile(r"(\s*[-+]?\d+),(\d+\s*(?:[eE][-+]?\d+)?\s*(?:[^\d\s,.].*)?)")
 
 

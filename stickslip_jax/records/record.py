@@ -195,7 +195,6 @@ class Record:
             extra[key] = _text(f"extra header {key!r}", value)
         put("extra_header", extra)
 
-    # -- derived quantities
     @property
     def n_samples(self) -> int:
         """Number of samples n."""

@@ -486,17 +486,14 @@ def simulate_exact_campaign(slideway: Slideway, drive: AbstractDrive, ts: Float[
     runs from its first to its last sample time.
 
     - `slideway`, `drive`: batched over the records, every array leaf with leading axis
-      B, e.g. `jax.vmap(lambda W, k, v: (Slideway(friction, W, k), ConstantSpeed(v)))(
-      Ws, ks, vs)` (shared friction parameters are then broadcast, and gradients
-      with respect to them still flow).
+      B (built with `jax.vmap`, docs/simulators.md; shared friction parameters are then
+      broadcast, and gradients with respect to them still flow).
     - `initial_deflection` (mm), `initial_stick_time` (s): scalars or [B].
     - `slip_time`, `max_events`: as in `simulate_exact`.
 
-    The cheap cycle loop runs vmapped over the records; the rendering (the costly part,
-    about 10 ns per sample on CPU) then runs once over the N real samples: the phase
-    starts of each record are placed among that record's samples, and every sample
-    gathers its phase's closed-form coefficients (the same `_render` as
-    `simulate_exact`), so x(ts) equals per-record `simulate_exact` to rounding.
+    The cheap cycle loop runs vmapped over the records, the rendering (about 10 ns a
+    sample) once over the N real samples with the same `_render`, so x(ts) equals
+    per-record `simulate_exact` to rounding.
 
     Returns a `Trace` whose `time`, `deflection` (mm), `slider_velocity` (mm/s),
     `sticking`, `mask` (all True) are flat [N] like `ts`, and whose `cycles` ([B, C]),
