@@ -74,8 +74,6 @@ def run(args) -> int:
         drive = SpeedProgram(starts, speeds)
     if os.path.exists(args.out) and not args.overwrite:  # after the values, before the work
         raise ValueError(f"--out: {args.out} exists; use --force to replace it")
-    if args.normal_load is not None and not args.normal_load > 0:
-        raise ValueError(f"--normal-load: must be positive, got {args.normal_load:g} kgf")
     slideway = Slideway(lubricant(args.lubricant), args.weight, args.stiffness,
                         normal_load=args.normal_load)
     record = synthetic_record(

@@ -146,8 +146,6 @@ def run(args) -> int:
                                                      zeta)))
     tol = None
     if args.tolerance is not None:
-        if not args.tolerance > 0:
-            raise ValueError(f"--tolerance: must be positive, got {args.tolerance}")
         tol = {"max_amplitude_mm": args.tolerance,
                "drive_speed_mm_per_min": _tolerance_speed(friction, args, out, s)}
     if args.json:
