@@ -55,8 +55,6 @@ def steady_force_cycle(friction: Friction, weight, stiffness, speed, n_stick: in
     slider weight `weight` (kgf), spring stiffness `stiffness` (kgf/mm); scalars (vmap for
     many). Returns a `ForceCycle` with `n_stick + n_slip` samples whose last force equals
     the first (ready for `lag_response(..., periodic=True)`)."""
-    if not isinstance(friction, Friction):
-        raise ValueError(f"friction must be a Friction, got {type(friction)}")
     st = steady_state(friction, weight, stiffness, speed)
     w = jnp.asarray(weight, dtype=float)
     stick = st.stick_slip
