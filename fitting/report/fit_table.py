@@ -67,7 +67,10 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
                "weakest_direction": unc.weakest_direction,
                "correlation": [[None if not np.isfinite(x) else float(x) for x in row]
                                for row in unc.corr],
-               "warnings": list(unc.warnings) + _fixed_misfit(fit, unc)},
+               "warnings": list(unc.warnings) + fixed_misfit_warning(
+                   [f"{e.name}={e.value:g}" for e in unc.estimates() if e.fixed],
+                   fit.record_chi2, "the other estimates and their intervals are not "
+                   "meaningful")},
            "truth_available": truth is not None,
            "adequacy": adequacy(fit).to_json()}
     td = fit.objective.trace_data()
@@ -98,13 +101,6 @@ def fixed_misfit_warning(fixed: list[str], record_chi2, consequence: str) -> lis
     return [f"with the fixed values ({', '.join(fixed)}) the model misses the records far "
             f"beyond their noise (median record chi2/n {med:.3g} before scaling their errors): "
             f"the fixed values are incompatible with these records, and {consequence}."]
-
-
-def _fixed_misfit(fit, unc) -> list[str]:
-    """A warning when fixed values leave the records far from the model (`FIXED_MISFIT`)."""
-    return fixed_misfit_warning([f"{e.name}={e.value:g}" for e in unc.estimates() if e.fixed],
-                                fit.record_chi2,
-                                "the other estimates and their intervals are not meaningful")
 
 
 def _record_rows(fit, campaign) -> list[dict]:

@@ -139,17 +139,6 @@ def _take(trees, i):
     return jax.tree_util.tree_map(lambda x: jax.device_put(np.asarray(x)[i]), trees)
 
 
-def _residual_fn(template, static, objective, ref_free, vel):
-    """v (flat free parameters) -> (whitened residuals, aux) with weights frozen at `ref_free`."""
-    _, unravel = jax.flatten_util.ravel_pytree(template)
-    ref = eqx.combine(ref_free, static)
-
-    def fun(v):
-        return objective.residuals_and_aux(eqx.combine(unravel(v), static), ref, vel)
-
-    return fun
-
-
 def _solve_starts_impl(free_starts, ref_starts, velocity, caps, lams, static, objective, rtol,
                        atol, max_steps):
     """Levenberg-Marquardt from every start (leading axis of `free_starts`), each with the
@@ -164,10 +153,10 @@ def _solve_starts_impl(free_starts, ref_starts, velocity, caps, lams, static, ob
 
     def solve(args):
         y0, ref_free, vel, cap, lam0 = args
-        res = _residual_fn(free0, static, objective, ref_free, vel)
+        ref = eqx.combine(ref_free, static)  # the weights frozen there
 
         def residuals(v, _):
-            r, aux = res(v)
+            r, aux = objective.residuals_and_aux(eqx.combine(unravel(v), static), ref, vel)
             return r, (jnp.sum(r * r), aux)
 
         sol = least_squares(residuals, y0, has_aux=True, rtol=rtol, atol=atol,

@@ -62,10 +62,6 @@ def _cycles(features, offsets):
     return np.concatenate(rows).T
 
 
-def _clip(law, values):
-    return {n: float(np.clip(values[n], *law.PRIOR_BOUNDS[n])) for n in law.NAMES}
-
-
 def law_starts(law: FrictionLaw, features, offsets=None) -> list:
     """Starting points of `law`'s parameters from the cycle features (module doc)."""
     cls = LAW_PARAMS[law]
@@ -88,7 +84,8 @@ def law_starts(law: FrictionLaw, features, offsets=None) -> list:
             a = r * b
             mu_ref = np.mean(mu0 - a * np.log(v / v0) - b * np.log(v0 * t1 / d_c))
             out.append(dict(mu_ref=mu_ref, a=a, b=b, d_c=d_c))
-    return [cls.from_values(**_clip(cls, x)) for x in out]
+    return [cls.from_values(**{n: float(np.clip(x[n], *cls.PRIOR_BOUNDS[n])) for n in cls.NAMES})
+            for x in out]
 
 
 def fit_law(features, records, law: FrictionLaw, *, hold: Hold | None = None,

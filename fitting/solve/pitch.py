@@ -160,13 +160,6 @@ def _stack(runs) -> dict:
     return {k: jnp.asarray(np.stack(v)) for k, v in cols.items()}
 
 
-def _predict(model: pt.PitchingModel, batch: dict):
-    def one(t, f, h, o):
-        return pt.tilt_history(model, t, f, pt.DrivePoint(h, o)).displacement
-
-    return jax.vmap(one)(batch["time"], batch["force"], batch["height"], batch["offset"])
-
-
 class PitchObjective(AbstractResiduals):
     """The channel displacements of a batch of records against the pitching model with
     `PitchParams` put into `template`; residuals (predicted - measured, 0 on padding and
@@ -179,7 +172,12 @@ class PitchObjective(AbstractResiduals):
     def residuals(self, params: PitchParams) -> Float[Array, " N"]:
         model = params.into(self.template)
         b = self.batch
-        r = jnp.where(b["mask"], _predict(model, b) - b["displacement"], 0.0)
+
+        def one(t, f, h, o):
+            return pt.tilt_history(model, t, f, pt.DrivePoint(h, o)).displacement
+
+        pred = jax.vmap(one)(b["time"], b["force"], b["height"], b["offset"])
+        r = jnp.where(b["mask"], pred - b["displacement"], 0.0)
         return r.ravel() / self.scale
 
     def blocks(self) -> dict[str, int]:
@@ -307,7 +305,10 @@ def fit_pitching(runs, template: pt.PitchingModel | None = None, noise=None, tau
     if not free_names:
         raise ValueError("no record carries pitch_N or yaw_N channels; nothing to fit")
 
-    scale = _data_scale(runs)
+    vals = np.concatenate([np.asarray(r.displacement)[:, np.asarray(r.observed)].ravel()
+                           for r in runs])
+    scale = float(np.sqrt(np.mean(vals**2)))  # the data's RMS (mm)
+    scale = scale if scale > 0 else 1.0
     objective = PitchObjective(template, _stack(runs), jnp.asarray(scale))
     n_data = int(objective.dof())
     sol = least_squares(objective, params, spec, rtol=rtol, atol=atol, max_steps=max_steps,
@@ -330,10 +331,3 @@ def fit_pitching(runs, template: pt.PitchingModel | None = None, noise=None, tau
     return PitchFit(model=fitted.into(template), parameters=parameters, residual_rms_mm=rms,
                     sigma_mm=sigma, n_data=n_data, n_free=len(free_names), free_names=free_names,
                     covariance=cov, result=sol.result, notes=tuple(notes))
-
-
-def _data_scale(runs):
-    vals = [np.asarray(r.displacement)[:, np.asarray(r.observed)] for r in runs]
-    s = float(np.sqrt(np.mean(np.concatenate([v.ravel() for v in vals]) ** 2)))
-    return s if s > 0 else 1.0
-
