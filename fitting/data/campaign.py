@@ -1,15 +1,10 @@
 r"""A campaign of records, screened record by record before any fitting.
 
-A campaign is not all-or-nothing: every record is read, its cycles extracted
-(`stickslip_fitting.data.features`), and it gets a status:
-
-- `used`: at least `min_cycles` complete stick-slip cycles; fitted;
-- `no_stick_slip`: no slip found at all (steady sliding, or stick-slip too small for the
-  noise): information about the stick-slip boundary, not an error;
-- `set_aside`: slips were found but too few complete cycles passed the checks (the
-  reason names what failed, e.g. sticks that are not flat);
-- `unreadable`: the file could not be read as a record (the reason names the line and
-  the fix; `stickslip_jax.records.read_campaign_files`).
+Every record is read, its cycles extracted (`data.features`), and it gets a status:
+`used` (enough complete cycles; fitted), `no_stick_slip` (no slip found at all: steady
+sliding, or stick-slip too small for the noise; information about the boundary, not an
+error), `set_aside` (slips found, but too few complete cycles passed the checks; the
+reason names what failed) or `unreadable` (the reason names the line and the fix).
 
 The fit goes on with the used records (at least `min_records` of them); `strict=True`
 refuses a campaign with any record not used. Screening only reads the records. Units:

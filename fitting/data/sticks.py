@@ -306,23 +306,18 @@ def slip_fit(t: np.ndarray, u: np.ndarray, y: np.ndarray, y_pre: float, y_post: 
     between samples the motion is exact: $y = u - c + e$, $e + i\dot e/\omega_0$ turning
     by $\omega_0 \Delta t$ each step and jumping by $-i\,\Delta\dot u/\omega_0$ where the
     drive's slope changes. $t_b$ and $c$ are the least-squares fit to y from sample
-    `first` (in the stick before) up to where the slip may end, from each breakaway
-    time of `starts` (s), the best kept: first over half a natural period past the
-    earliest start, then up to the model's next speed minimum under `SLOW` times the
-    drive's speed. There the data decide whether the slider stopped (the friction's
-    rise at low speed holds a slider that all but stops) or slid through: over the
-    quarter natural period after the minimum, a slider at rest there that may slip on
-    (the same fit from rest) must fit y better than the motion sliding through by a
-    chi-square of 25. Where $\dot y$ reaches 0 it stops. A slide can hold several slips:
-    a slider that stops and slips on from rest (a re-slip: y rising from the stop by
-    more than 5 sigma over that quarter period) is fitted up to its stop only, so the
-    motion after it cannot move the breakaway, and the rest of the slide from that stop
-    by the same fit (one slip fitted over such a slide puts the breakaway up to 16 ms
-    from where the stick ends, on the torsional generator of `tests/torsional_rig.py`).
-    The last stop ends the slide and must land on y_post within 10 % of its jump
-    (`last`: the end of the samples, in the stick after). Exact for any drive
-    (a motor whose speed swings, a slip that runs past a stop the constant-speed formula
-    predicts)."""
+    `first` (in the stick before), from each breakaway time of `starts` (s), the best
+    kept: first over half a natural period past the earliest start, then up to the
+    model's next speed minimum under `SLOW` times the drive's speed. There the data
+    decide whether the slider stopped or slid through: over the next quarter natural
+    period, a slider at rest there (the same fit from rest) must fit y better than the
+    motion sliding through by a chi-square of 25. Where $\dot y$ reaches 0 it stops. A
+    slider that stops and slips on from rest (y rising from the stop by more than 5 sigma
+    over that quarter period) is fitted up to its stop only, and the rest of the slide
+    from that stop by the same fit (one slip fitted over such a slide put the breakaway
+    up to 16 ms off on `tests/torsional_rig.py`'s records). The last stop must land on
+    y_post within 10 % of its jump (`last`: the end of the samples, in the stick after).
+    Exact for any drive."""
     from scipy.optimize import least_squares  # here: only records with a varying drive
 
     dt = float(t[1] - t[0])

@@ -1,8 +1,7 @@
 r"""Friction-parameter samples: eq (1) + eq (3) parameters as a batched `Friction`.
 
-A sample is a `Friction(KatoStatic(mu_s, mu_d, gamma, m), KatoKinetic(delta, n))` whose
-six leaves are arrays of draws (shape ``(S,)``): gamma in s^-m, delta in s^-n, the
-rest dimensionless. Files read by `load_samples`:
+A sample is a `Friction(KatoStatic(...), KatoKinetic(...))` whose six leaves are arrays
+of draws (shape ``(S,)``). Files read by `load_samples`:
 
 - CSV with a header naming the columns ``mu_s, mu_d, gamma, m, delta, n`` (any order,
   other columns ignored, ``#`` comment lines allowed), one draw per row;
@@ -10,10 +9,9 @@ rest dimensionless. Files read by `load_samples`:
   ``{"samples": {"mu_s": [...], ..., "n": [...]}}`` (columns),
   ``{"samples": [{"mu_s": ..., ...}, ...]}`` (rows),
   ``{"parameters": ["mu_s", ...], "samples": [[...], ...]}`` (a matrix, one draw per row;
-  ``"names"`` is accepted for ``"parameters"``, the layout of `stickslip_fitting.uncertainty.mcmc.McmcResult`),
-  or the same objects without the ``"samples"`` wrapper / under ``"posterior"``.
-  Parameters that were held fixed (not sampled) come from an optional
-  ``"fixed": {"delta": 67, "n": 1}`` object next to the samples.
+  ``"names"`` for ``"parameters"``: `stickslip mcmc --json`), or the same without the
+  ``"samples"`` wrapper or under ``"posterior"``; parameters held fixed come from an
+  optional ``"fixed": {"delta": 67, "n": 1}`` object next to the samples.
 
 `plan_sources` reads the estimate and prior of `stickslip plan` from such a sample, a
 posterior summary, a prior JSON or a lubricant name, with the records already measured.

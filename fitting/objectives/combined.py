@@ -1,16 +1,10 @@
-r"""The objective of a campaign fit: an `eqx.Module` whose `residuals(params)` are the
-whitened residuals the Levenberg-Marquardt fit minimises (sum of squares = -2 log
-likelihood up to a constant). `AbstractObjective` (over `solve.lsq.AbstractResiduals`)
-with final subclasses:
-
-- `FeaturesObjective`: `objectives.cycle_features.feature_residuals` (plateau levels and
-  eq (6) per cycle; robust, fast);
-- `TraceObjective`: `objectives.trace.trace_residuals` (every sample against the exact
-  simulator restarted per cycle);
-- `WeightedSum`: terms concatenated, each scaled by $\sqrt{w}$ (sum of squares
-  $\sum w \chi^2$). `--objective both` is the features and the trace at weights 1/2: both
-  read the same samples, and the cluster-robust covariance of `uncertainty.laplace`
-  measures that overlap instead of assuming it.
+r"""The objective of a campaign fit, `AbstractObjective` (a `solve.lsq.AbstractResiduals`),
+with final subclasses `FeaturesObjective` (`cycle_features.feature_residuals`: plateau
+levels and eq (6) per cycle; robust, fast), `TraceObjective` (`trace.trace_residuals`:
+every sample against the exact simulator restarted per cycle) and `WeightedSum` (terms
+concatenated, each scaled by $\sqrt{w}$). `--objective both` is the features and the
+trace at weights 1/2: both read the same samples, and the cluster-robust covariance of
+`uncertainty.laplace` measures that overlap instead of assuming it.
 
 Beside the residuals: `residuals_and_aux` (aux: the simulations' success flags and the
 slider velocity), `clusters(features)` (`residual_cycles`: the stick phase (record, cycle

@@ -1,16 +1,15 @@
 r"""Objectives: whitened residual vectors whose sum of squares is $-2\log$ likelihood.
 
 **Features objective** (`feature_residuals`). The measurements of a record are its
-stick plateaus (the slider at rest; each level averages many samples, standard error
-$\sigma/\sqrt{N}$) and its slip times (see `stickslip_fitting.data.features`). With the measured stick
-times $T_{1,j}$, the model predicts for every complete cycle $j$ (gauge offset $c$):
+stick plateaus (each level averages many samples, standard error $\sigma/\sqrt{N}$) and
+its slip times (`data.features`). With the measured stick times $T_{1,j}$, the model
+predicts for every complete cycle $j$ (gauge offset $c$):
 
 - breakaway level $L_0(T_1) = c + (W/k)\,\mu_0(T_1)$, eq (1) (section 3.1);
 - slip-end level $L_1(T_1) = c + (W/k)\,(2\mu_m - \mu_0)$, eq (5) with eq (3)
   $\mu_m = \mu_d + (\mu_0 - \mu_d)e^{-\delta T_2^n}$ and $T_2 = \pi/\omega_0$ (eq 7,
-  `slip_time=SlipTime.PAPER`) or the actual slip duration
-  $\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$ (`SlipTime.SELF_CONSISTENT`);
-  `SlipTime` is `stickslip_jax.modes.SlipTime`.
+  `SlipTime.PAPER`) or the actual slip duration
+  $\omega_0 T_2 = \pi + 2\arctan(v/(\omega_0 a))$ (`SlipTime.SELF_CONSISTENT`).
 
 Two kinds of residual, each built from independent noise so that no measurement is
 counted twice (restart per cycle: nothing accumulates from cycle to cycle):
@@ -265,14 +264,11 @@ def _levels(friction, scale, offset, omega0, t1, climb_hint, slip_time, speed=No
 def feature_residuals(
     params: CampaignParams, data: FeatureData, slip_time: SlipTime = SlipTime.PAPER,
     weights_at: CampaignParams | None = None) -> Float[Array, " N"]:
-    """Whitened residuals of the features objective (module doc); padded entries are 0.
-
-    Shape: (2 R C + R,), fixed by the data, so one compilation serves every parameter
-    value. `slip_time` selects the $T_2$ of eq (3): `SlipTime.PAPER` (eq 7) or
-    `SlipTime.SELF_CONSISTENT`.
+    """Whitened residuals of the features objective (module doc), shape (2 R C + R,)
+    fixed by the data; padded entries are 0. `slip_time`: the $T_2$ of eq (3).
     `weights_at`: evaluate the effective-variance standard errors at these parameters
-    instead of at `params` (the fit freezes them for one Levenberg-Marquardt run, so that
-    its Jacobian is the exact derivative of what it minimises; see `stickslip_fitting.fit`).
+    (the fit freezes them for one Levenberg-Marquardt run, so that its Jacobian is the
+    exact derivative of what it minimises).
     """
     check_member("slip_time", slip_time, SlipTime)
     ref = params if weights_at is None else weights_at

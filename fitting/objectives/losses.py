@@ -8,25 +8,19 @@ $$\tilde r = \operatorname{sign}(r)\,\sqrt{2\rho(r)}, \qquad
   \sum_i \tilde r_i^2 = 2\sum_i \rho(r_i) = -2\log L + \text{const},$$
 
 so the same Levenberg-Marquardt, Jacobian, cluster-robust covariance and emcee
-log-posterior serve every loss (the "square-rooted" robust cost of Triggs, McLauchlan,
-Hartley and Fitzgibbon, *Bundle adjustment: a modern synthesis*, 2000, sec. 4.3). The
-residuals are those of the objective, already divided by their standard errors, so
-the losses are in units of the noise.
+log-posterior serve every loss (the "square-rooted" robust cost of Triggs et al.,
+*Bundle adjustment: a modern synthesis*, 2000, sec. 4.3). The residuals are already
+whitened, so the losses are in units of the noise.
 
-Final losses (`AbstractLoss`):
+Final losses: `Gaussian()` ($\rho = r^2/2$, the default); `Huber(c=1.345)` ($r^2/2$ for
+$|r| \le c$, $c|r| - c^2/2$ beyond: 95 % efficiency on Gaussian noise, a residual beyond
+$c$ pulls with a constant force); `StudentT(nu=4)`
+($\frac{\nu+1}{2}\log(1 + r^2/\nu)$: a far outlier pulls with a force that falls as
+$1/r$, for sporadic irregular slips and spikes the filter missed).
 
-- `Gaussian()`: $\rho = r^2/2$ (the default: the transform is the identity);
-- `Huber(c=1.345)`: $\rho = r^2/2$ for $|r| \le c$, $c|r| - c^2/2$ beyond (95 %
-  efficiency on Gaussian noise; a residual of $c$ noise standard deviations or more
-  pulls with a constant force);
-- `StudentT(nu=4)`: $\rho = \frac{\nu+1}{2}\log(1 + r^2/\nu)$, the Student-t density
-  with $\nu$ degrees of freedom and unit scale (a far outlier pulls with a force that
-  falls as $1/r$: sporadic irregular slips, spikes the filter missed).
-
-`HeavyTailed(objective, loss)` is the objective whose residuals are the transformed
-residuals of another (`stickslip_fitting.objectives.combined.AbstractObjective`); its intervals
-come from the cluster-robust (sandwich) covariance, which does not assume the loss is
-the true density. `parse_loss("student-t:4")` reads the command line's `--loss`.
+`HeavyTailed(objective, loss)` is another objective's residuals transformed; its
+intervals come from the cluster-robust (sandwich) covariance, which does not assume the
+loss is the true density. `parse_loss("student-t:4")` reads `--loss`.
 """
 
 from __future__ import annotations
@@ -88,15 +82,13 @@ class AbstractLoss(eqx.Module):
         return np.where(small, float(self.curvature(0.0)), np.asarray(self.psi(safe)) / safe)
 
     def score_form(self, J, r):
-        """(J', r') of the M-estimator with Jacobian `J` (rows: residuals) and residuals
-        `r` of the *untransformed* objective, such that J'^T r' = sum_i psi(r_i) J_i (the
-        score) and J'^T J' = sum_i max(rho''(r_i), 0) J_i J_i^T (the Hessian of the loss,
-        the residuals' second derivatives left out): fed to a least-squares covariance
-        they give Huber's sandwich. The Gauss-Newton matrix of the transformed residuals
-        instead weights residual i by psi^2 / (2 rho), larger than rho'' (at one noise
-        standard deviation 0.90 against 0.60 for Student-t with nu 4), so intervals from it
-        are too narrow (measured: 90 % coverage 0.74 / 0.79 for mu_s / mu_d on 24
-        independent campaigns, tests/test_real_world_coverage.py)."""
+        """(J', r') of the M-estimator from the Jacobian `J` and residuals `r` of the
+        *untransformed* objective: J'^T r' = sum_i psi(r_i) J_i (the score) and J'^T J' =
+        sum_i max(rho''(r_i), 0) J_i J_i^T (the loss's Hessian), which a least-squares
+        covariance turns into Huber's sandwich. The transformed residuals' Gauss-Newton
+        matrix weights residual i by psi^2 / (2 rho) > rho'' (0.90 against 0.60 at one
+        sd for Student-t, nu 4): too narrow (90 % coverage 0.74 / 0.79 for mu_s / mu_d on
+        24 independent campaigns, tests/test_real_world_coverage.py)."""
         J, r = np.asarray(J), np.asarray(r)
         psi = np.asarray(self.psi(r))
         w = np.maximum(np.asarray(self.curvature(r)), 1e-9 * float(self.curvature(0.0)))

@@ -154,20 +154,16 @@ def sandwich_covariance(J, r, record, cycle, *, lag: int = 1,
     r"""Cluster-robust covariance $H^{-1} M H^{-1}$ of a least-squares estimate.
 
     $H = J^\top J$; $M = \sum_{c,c'} \tilde g_c \tilde g_{c'}^\top$ over clusters $c$
-    (the (record, cycle) labels of `stickslip_fitting.objectives.combined.residual_cycles`, $G$ of them) and
+    (the (record, cycle) labels of `objectives.combined.residual_cycles`, $G$ of them) and
     $c'$ = $c$ or a neighbour of the same record within `lag` cycles (the slip between
-    two stick phases times both), with the cluster scores $g_c = \sum_{i \in c} J_i r_i$.
-    The residuals at the optimum are shrunk by the fit, which biases the plain estimate
-    low when a few clusters carry most of the information about a parameter;
-    `small_sample` (`stickslip_fitting.modes.SmallSample`): JACKKNIFE (default) undoes
-    that with the leave-one-cluster-out
-    scores $\tilde g_c = (I - A_c H^{-1})^{-1} g_c$, $A_c = J_c^\top J_c$, times
-    $(G-1)/G$ (the "CR3" estimator); CR2 (Bell-McCaffrey) scales each cluster's
-    residuals by $(I - P_{cc})^{-1/2}$, $P_{cc} = J_c H^{-1} J_c^\top$ (between CR1 and CR3;
-    the usual choice with few, large clusters); NONE uses $\tilde g_c = g_c$ times
-    $G/(G-1)$.
-    M is clipped to be positive semi-definite; entries labelled record -1 (padding) are
-    left out.
+    two stick phases moves both), with the scores $g_c = \sum_{i \in c} J_i r_i$. The
+    fit shrinks the residuals, which biases the plain estimate low when a few clusters
+    carry most of the information; `small_sample`: JACKKNIFE (default) undoes that with
+    the leave-one-cluster-out scores $\tilde g_c = (I - A_c H^{-1})^{-1} g_c$,
+    $A_c = J_c^\top J_c$, times $(G-1)/G$ ("CR3"); CR2 (Bell-McCaffrey) scales each
+    cluster's residuals by $(I - P_{cc})^{-1/2}$, $P_{cc} = J_c H^{-1} J_c^\top$ (the
+    usual choice with few, large clusters); NONE: $\tilde g_c = g_c$ times $G/(G-1)$.
+    M is clipped to be positive semi-definite; record -1 (padding) is left out.
     """
     check_member("small_sample", small_sample, SmallSample)
     J, r = np.asarray(J), np.asarray(r)
