@@ -26,10 +26,6 @@ COMMAND_GROUP = "stickslip.commands"
 """Entry-point group through which other packages register subcommand modules."""
 
 
-class UsageError(Exception):
-    """An input problem the user can fix; printed as one line, exit code 2."""
-
-
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one line, exit code 2
         self.exit(2, f"{self.prog}: error: {message}\n")
@@ -152,7 +148,7 @@ def main(argv=None, *, prepare=None) -> int:
         if interrupted():  # a Ctrl-C swallowed on the way (module output)
             raise KeyboardInterrupt
         return code
-    except (UsageError, ValueError, FileNotFoundError) as exc:
+    except (ValueError, FileNotFoundError) as exc:
         if args.debug:
             raise
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__

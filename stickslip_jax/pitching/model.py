@@ -12,12 +12,10 @@ Coordinates and units (internal: kgf, mm, s, rad):
   $\delta = \varepsilon\,(s - s_{pivot})$ in mm: vertically for pitch points (the
   paper's points 1-3), sideways for yaw points (points 4-5).
 
-Physics (section 6.2-6.4). The spring force $F = k x$ (kgf) acts at the drive point and
-the friction resultant at the neutral points, so the moments are
-$M_v = F (h - h_{Mv})$ and $M_h = F (l - l_{Mh})$ (kgf mm). The static tilt (the
-paper's line $\varepsilon_s$, Figs 54-55) is $c M$ with the compliance $c$ in
-rad/(kgf mm); the squeeze of the lubricant makes the slider follow it with a linear lag
-(`LinearLag`), whose time constants scale with the viscosity $\eta$ (Figs 55-56).
+Physics (sections 6.2-6.4): the moments $M_v = F (h - h_{Mv})$, $M_h = F (l - l_{Mh})$
+(kgf mm) of the spring force $F = k x$ tilt the slider by $c M$ (`TiltPlane`; the line
+$\varepsilon_s$, Figs 54-55), followed through a squeeze-film lag (`LinearLag`) whose time
+constants scale with the viscosity $\eta$ (`PitchingModel`, Figs 55-56).
 """
 
 from __future__ import annotations
