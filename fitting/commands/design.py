@@ -15,13 +15,6 @@ HELP = ("design map of stick-slip amplitude and critical speed over grids of W, 
         "(steady analysis, or the exact simulator with --exact; a posterior with --posterior)")
 
 
-def _method(args) -> MapMethod:
-    """The map's method: --method, or `exact` for the --exact flag."""
-    if args.exact and args.method not in (None, MapMethod.EXACT):
-        raise ValueError(f"--exact and --method {args.method} disagree: give one of them")
-    return MapMethod.EXACT if args.exact else MapMethod.parse(args.method or "steady")
-
-
 def add_arguments(p):
     from stickslip_jax.commands.options import (add_lubricant_options, add_normal_load_option,
                                                 quantity)
@@ -78,15 +71,18 @@ def add_arguments(p):
 
 
 def options(args):
-    """The `MapOptions` of the command line (a terminal shows the bar unless --quiet;
-    --progress shows it off a terminal too)."""
+    """The `MapOptions` of the command line (the method: --method, or exact for --exact; a
+    terminal shows the bar unless --quiet, --progress shows it off a terminal too)."""
     import sys
 
     from ..api.design import MapOptions
 
+    if args.exact and args.method not in (None, MapMethod.EXACT):
+        raise ValueError(f"--exact and --method {args.method} disagree: give one of them")
+    method = MapMethod.EXACT if args.exact else MapMethod.parse(args.method or "steady")
     return MapOptions(
         args.weight, args.stiffness, args.speed, lubricant=args.lubricant, table=args.table,
-        posterior=args.posterior, level=args.level, method=_method(args),
+        posterior=args.posterior, level=args.level, method=method,
         damping_ratio=args.damping_ratio, max_amplitude=args.max_amplitude, meet=args.meet,
         chunk_size=args.chunk_size, normal_load=args.normal_load,
         progress=not args.quiet and (args.progress or sys.stderr.isatty()),

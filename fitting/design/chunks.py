@@ -33,14 +33,6 @@ def gather_rows(batch, shape: tuple[int, ...], start: int, stop: int):
     return jax.tree_util.tree_map(take, batch)
 
 
-def _progress(total: int, enabled: bool, desc: str):
-    if not enabled:
-        return None
-    from tqdm.auto import tqdm
-
-    return tqdm(total=total, desc=desc, unit="pt", unit_scale=True, leave=False)
-
-
 def map_chunks(kernel: Callable, batch, shape: tuple[int, ...], *, shared=None,
                chunk_size: int = 65_536, mesh=None, progress: bool = False,
                desc: str = "design map") -> Iterator[tuple[int, int, object]]:
@@ -63,7 +55,11 @@ def map_chunks(kernel: Callable, batch, shape: tuple[int, ...], *, shared=None,
     local, part, first = _process_share(mesh, size)
     across = local is not mesh  # several processes: each computes its block, then gather
     shared_dev = replicate(shared, local) if shared is not None else None
-    bar = _progress(total, progress, desc)
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=total, desc=desc, unit="pt", unit_scale=True, leave=False)
 
     def dispatch(start):
         stop = min(start + size, total)
