@@ -91,14 +91,10 @@ def add_plot_option(parser, what: str, *, aliases=(), hidden=()) -> None:
     parser.set_defaults(plot_option="--plot")
 
 
-def add_quiet_option(parser, *, hidden=()) -> None:
-    """`--quiet`: no progress lines or bars on stderr (they are on by default).
-    `hidden`: old opt-out flags kept as deprecated aliases."""
+def add_quiet_option(parser) -> None:
+    """`--quiet`: no progress lines or bars on stderr (they are on by default)."""
     parser.add_argument("--quiet", "-q", action="store_true",
                         help="print no progress (stage lines, bars) on stderr")
-    for name in hidden:
-        parser.add_argument(name, dest="quiet", action="store_true",
-                            default=argparse.SUPPRESS, help=argparse.SUPPRESS)
 
 
 BARE_VISCOSITY_FLOOR = 1e-5
