@@ -155,9 +155,7 @@ def quantum(x: np.ndarray, moving: np.ndarray) -> float:
     return q if n_moving and still.sum() >= 0.25 * n_moving else 0.0
 
 
-def classify_phases(
-    record: Record, window: int | None = None, k_sigma: float = 5.0, fraction: float = 0.05
-) -> PhaseSplit:
+def classify_phases(record: Record, window: int | None = None) -> PhaseSplit:
     """Label each sample of `record` stick, slip or unclassified (rule in the module docstring)."""
     w = default_window(record) if window is None else int(window)
     time = record.time
@@ -175,7 +173,7 @@ def classify_phases(
     dt = (time[-1] - time[0]) / (time.shape[0] - 1)
     noise = robust_sigma(drive - x) * math.sqrt(12.0 / max(w * (w * w - 1), 6)) / dt
     roundoff = ROUNDOFF * max(float(np.max(np.abs(rate))), float(np.max(np.abs(drive_rate))))
-    threshold = max(k_sigma * noise, fraction * float(np.max(np.abs(r))), roundoff)
+    threshold = max(5.0 * noise, 0.05 * float(np.max(np.abs(r))), roundoff)  # module doc
     if q > 0:
         threshold = max(threshold, 3.0 * q / (max(w, 2) * dt))
     found = find_slips(time, record.deflection, drive, record.omega0)
