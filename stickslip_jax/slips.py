@@ -173,18 +173,16 @@ def rest(t: np.ndarray, y: np.ndarray, u: np.ndarray, lo: int, hi: int, sigma: f
     """The slider at rest within y[lo:hi] (a stick), or None.
 
     The level is where y dwells longest (the densest window of 6 sigma of its sorted
-    values); the rest is the longest run of samples within 3 sigma of it (single
-    outlying samples bridged), at least `rest_length(h)` samples long (`h`: samples in
-    half a natural period). It is a stick when y
-    passes through it forwards (below the level before it, above after it, where
-    y[lo:hi] reaches that far: a turning point of a slider that reverses is no rest;
-    asked of rests shorter than 8 `min_len`, about half a natural period: a longer one
-    is a rest whichever way a drive error tilts it) and
-    the slider is slower there than `creep` times the drive u: the slope fitted over
-    the run's middle half (away from the slider's approach and departure) 3 standard
-    errors below it, or for `creep` 0 (at rest) within 3 standard errors of 0. Slow
-    sliding, and a slider that slows down without stopping, stay in the band for a
-    while too."""
+    values); the rest is the longest run of samples within 3 sigma of it (single outlying
+    samples bridged), at least `rest_length(h)` samples long (`h`: samples in half a natural
+    period). It is a stick when y passes through it forwards (below the level before it,
+    above after it, where y[lo:hi] reaches that far: a turning point of a slider that
+    reverses is no rest; asked of rests shorter than 8 `min_len`, about half a natural
+    period: a longer one is a rest whichever way a drive error tilts it) and the slider is
+    slower there than `creep` times the drive u: the slope fitted over the run's middle half
+    (away from the slider's approach and departure) 3 standard errors below it, or for
+    `creep` 0 (at rest) within 3 standard errors of 0. Slow sliding, and a slider that slows
+    down without stopping, stay in the band for a while too."""
     min_len = rest_length(h)
     if hi - lo < min_len:
         return None

@@ -172,9 +172,9 @@ def read_campaign(spec, *, max_bytes: int = MAX_FILE_BYTES) -> list[Record]:
     """Read a campaign: a file, a directory (its *.csv, sorted), a glob, or a list of these.
 
     Files are returned in the order given (sorted within a directory or glob); a file
-    named twice is an error, files with the same data count once (with a note). Raises `RecordError` for the first bad file
-    (`read_campaign_files` lists the bad files and reads the rest).
-    """
+    named twice is an error, files with the same data count once (with a note). Raises
+    `RecordError` for the first bad file (`read_campaign_files` lists the bad files and
+    reads the rest)."""
     got = read_campaign_files(spec, max_bytes=max_bytes, same=None)
     got.check(strict=True)
     return got.records
@@ -184,10 +184,8 @@ def check_campaign(
     records, *, same: Iterable[str] = ("lubricant", "surface"), strict: bool = True) -> list[str]:
     """Problems with fitting `records` together: a field of `same` that differs between
     them (a field missing, None, in some records but given in others too), or records of
-    another rig (`rig_problems`). Returns
-    the list of messages (empty when fine); with `strict` raises `RecordError` instead
-    when there is any.
-    """
+    another rig (`rig_problems`). Returns the list of messages (empty when fine); with
+    `strict` raises `RecordError` instead when there is any."""
     records = list(records)
     problems = [p for field in same for p in _mixed(records, field)] + rig_problems(records)
     if strict and problems:

@@ -16,10 +16,10 @@ and $\mu_{sl} = \mu_m(q, \mu_d, T_2)$ of eq (3), $T_2 = \pi/\omega_0$ (eq 7,
   clock and the memory stop once the slider moves, $\tau$ resets in a slip at rate
   $20/T_0$, the memory catches up after a restick at rate $4/(\tau + T_0/20)$; the
   step-size controller's error norm leaves these two states out. About 130-150 steps
-  per cycle at rtol 1e-8. Measured (tests): amplitude
-  error vs exact linear in $\eta$ (1.2 %, 0.10 %, 0.008 % at $\eta$ = 1e-2, 1e-3, 1e-4
-  at 3 mm/min), steps independent of $\eta$, gradients within 1e-4 of finite differences
-  for $\eta$ = 1e-2 ... 1e-4 at rtol 1e-9 and 1e-10.
+  per cycle at rtol 1e-8. Measured (tests): amplitude error vs exact linear in $\eta$
+  (1.2 %, 0.10 %, 0.008 % at $\eta$ = 1e-2, 1e-3, 1e-4 at 3 mm/min), steps independent
+  of $\eta$, gradients within 1e-4 of finite differences for $\eta$ = 1e-2 ... 1e-4 at
+  rtol 1e-9 and 1e-10.
 - **rigid_stick** (stiff, Kvaerno5): friction balances $F_a$ and pins $\dot y$ to 0 while
   $|F_a| < N\mu_0(\tau)$ and the slider rests (`rigid_stick_friction`); the memory holds
   the last stick time. Amplitude within 0.15 % of the exact simulator at $\eta = 10^{-3}$
@@ -32,9 +32,9 @@ and $\mu_{sl} = \mu_m(q, \mu_d, T_2)$ of eq (3), $T_2 = \pi/\omega_0$ (eq 7,
   $\eta = 0.03$), gradients match finite differences to 1e-4 for $\eta \ge 0.03$.
 
 Samples are rendered from the accepted steps by cubic Hermite interpolation (Kvaerno5's
-own interpolant), so a run costs more the larger `max_steps` is.
-Gradients are taken through the solver (discretise-then-optimise). Parts with fast states
-(a 10 us sensor low-pass) make any formulation stiff: pass an implicit `solver`.
+own interpolant), so a run costs more the larger `max_steps` is. Gradients are taken
+through the solver (discretise-then-optimise). Parts with fast states (a 10 us sensor
+low-pass) make any formulation stiff: pass an implicit `solver`.
 
 **Other friction laws** (`stickslip_jax.friction`). A kinetic law of the velocity
 (`AbstractVelocityKinetic`) sets $\mu_{sl}$ at $\dot y$ in any formulation. A rate-and-state
