@@ -182,10 +182,12 @@ def test_a_later_effect_must_clearly_beat_its_physical_rivals():
     assert unbeaten_rival(choice("stribeck", [Contender("rate_state", 150.0, 0.5, 0.3)])) is None
 
 
-def test_a_later_effect_and_its_rival_are_tested_given_each_other(monkeypatch):
+def test_a_later_effect_and_its_rivals_are_tested_given_each_other(monkeypatch):
     """Where a later winner does not clearly beat a physical rival, each is tested at the
-    other's refit (`more.given_each_other`): the one still needed is named (the rival
-    where only it is, if the calibrated test let it through); both or neither: no choice."""
+    other's refit (`more.given_each_other`): the one still needed wins and the other is
+    set aside (the rival wins where only it is needed, if the calibrated test let it
+    through), then the next rival of the winner; both or neither needed: that rival stays
+    unsettled (the search stops)."""
     import types
 
     from stickslip_fitting.discovery.decision import Contender, decide
@@ -197,26 +199,53 @@ def test_a_later_effect_and_its_rival_are_tested_given_each_other(monkeypatch):
         return types.SimpleNamespace(family=types.SimpleNamespace(name=name), drop=drop,
                                      unphysical=None, failed=None)
 
-    win, other = refit("load_coupling", 162.0), refit("stribeck", 88.0)
-    rival = Contender("stribeck", 88.0, 0.4, 0.79)
-    choice = Choice(chosen=win, decision=decide(162.0, [rival]), rivals=[], compared={},
-                    decided_drop=162.0)
-    fx = types.SimpleNamespace(opts=DEFAULTS)
-    refitted = Refitted(refits=[win, other], eligible=frozenset({"load_coupling", "stribeck"}))
-    clock = lambda *a: None  # noqa: E731
+    lc, st = refit("load_coupling", 162.0), refit("stribeck", 88.0)
+    rs = refit("rate_state", 90.0)
+    every = Refitted(refits=[lc, st, rs], eligible=frozenset({"load_coupling", "stribeck",
+                                                             "rate_state"}))
+    # the contenders of each winner: z 0.8 (not clearly beaten) between all three
+    monkeypatch.setattr(more, "_decided", lambda fx_, refits, win, aside: decide(
+        win.drop, [Contender(rf.family.name, rf.drop, 0.4, 0.8) for rf in refits
+                   if rf.family.name not in aside | {win.family.name}]))
+    fx, clock = types.SimpleNamespace(opts=DEFAULTS), (lambda *a: None)
 
-    def given(p_win, p_other, eligible=refitted.eligible):
-        ps = {"load_coupling": p_win, "stribeck": p_other}
-        monkeypatch.setattr(more, "_needed", lambda fx_, one, at: ps[one.family.name])
-        return more.given_each_other(fx, choice, Refitted(refitted.refits, eligible),
-                                     rival, clock)
+    def given(ps, refitted=every):
+        monkeypatch.setattr(more, "_needed", lambda fx_, one, at: ps[one.family.name,
+                                                                     at.family.name])
+        win = refitted.refits[0]
+        choice = Choice(chosen=win, decision=more._decided(fx, refitted.refits, win, set()),
+                        rivals=[], compared={}, decided_drop=win.drop)
+        return more.given_each_other(fx, choice, refitted, clock)
 
-    out = given(0.034, 0.0037)  # the rival is needed given the winner, not the reverse
-    assert out.chosen is other and more.unbeaten_rival(out) is None
-    out = given(1e-4, 0.44)  # the winner is needed, its rival only stood in
-    assert out.chosen is win and more.unbeaten_rival(out) is None
-    assert given(1e-4, 1e-4) is None and given(0.3, 0.3) is None
-    assert given(0.034, 0.0037, frozenset({"load_coupling"})) is None
+    two = Refitted(refits=[lc, st], eligible=every.eligible)
+    # only the rival is needed given the winner: it wins, no rival left
+    out = given({("load_coupling", "stribeck"): 0.034, ("stribeck", "load_coupling"): 0.0037},
+                two)
+    assert out.chosen is st and more.unbeaten_rival(out) is None
+    # the winner is needed, its rival only stood in
+    out = given({("load_coupling", "stribeck"): 1e-4, ("stribeck", "load_coupling"): 0.44},
+                two)
+    assert out.chosen is lc and more.unbeaten_rival(out) is None
+    for p in (1e-4, 0.3):  # both or neither needed: the rival stays
+        out = given({("load_coupling", "stribeck"): p, ("stribeck", "load_coupling"): p}, two)
+        assert out.chosen is lc and more.unbeaten_rival(out).name == "stribeck"
+    # the rival needed but not let through by the calibrated test: unsettled
+    out = given({("load_coupling", "stribeck"): 0.034, ("stribeck", "load_coupling"): 0.0037},
+                Refitted(refits=[lc, st], eligible=frozenset({"load_coupling"})))
+    assert out.chosen is lc and more.unbeaten_rival(out).name == "stribeck"
+    # every rival in turn: rate-and-state only stood in for load coupling (set aside),
+    # then the Stribeck drop is needed given load coupling and not the reverse
+    out = given({("load_coupling", "rate_state"): 1e-4, ("rate_state", "load_coupling"): 0.5,
+                 ("load_coupling", "stribeck"): 0.034, ("stribeck", "load_coupling"): 0.0037})
+    assert out.chosen is st and more.unbeaten_rival(out) is None
+    # damping needed given load coupling, but rate-and-state and damping both needed
+    dm = refit("viscous_damping", 150.0)
+    out = given({("load_coupling", "viscous_damping"): 0.5,
+                 ("viscous_damping", "load_coupling"): 1e-6,
+                 ("viscous_damping", "rate_state"): 1e-6,
+                 ("rate_state", "viscous_damping"): 1e-6},
+                Refitted(refits=[lc, dm, rs], eligible=every.eligible | {"viscous_damping"}))
+    assert out.chosen is dm and more.unbeaten_rival(out).name == "rate_state"
 
 
 def test_confirmed_effects_that_explain_the_records_are_not_replaced_by_a_form():
