@@ -295,38 +295,32 @@ def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Flo
         r = core.ydot / eps
         extra = sum((f.force(t, core, o, ctx) for f, o in zip(model.force_terms, own)),
                     jnp.zeros(()))
+        applied = k * core.x + extra
+        rest = stick_weight(r)  # 1 while the slider rests
         if rs:
-            ydd, d_tau, d_memory = rate_state_rates(friction, core, k * core.x + extra, N, M)
+            ydd, d_tau, d_memory = rate_state_rates(friction, core, applied, N, M)
         elif latch:
-            applied = k * core.x + extra
             drop = _drop_scale(mu0)
             v_d = jnp.maximum(jnp.abs(ctx.drive_speed), eps)
             shift = latch_shift(M, k, v_d, N * drop)
-            s_w, f_net = latch_acceleration(applied, r, N, mu0, mu_sl, drop, smoothing,
-                                            shift)
+            _, f_net = latch_acceleration(applied, r, N, mu0, mu_sl, drop, smoothing, shift)
             ydd = f_net / M
             # clock and memory stop once the slip is under way (r > 2); after a restick
             # the memory catches up with tau algebraically (not stiff)
-            rest = stick_weight(r)
             d_memory = rest * (1.0 + 4.0 * (tau - memory) / (tau + t_r_latch))
-            d_tau = rest - (1.0 - rest) * tau / t_r_latch
         elif formulation is Formulation.VELOCITY:
-            sig = stick_weight(r)
             f_fric = N * friction_curve(r, mu0, mu_sl)
             ydd = (k * core.x - f_fric + extra) / M
-            d_memory = sig * (mu0 - memory) / t_r
-            rest = sig
-            d_tau = rest - (1.0 - rest) * tau / t_r
+            d_memory = rest * (mu0 - memory) / t_r
         else:
-            applied = k * core.x + extra
-            sig, f_fric = rigid_stick_friction(applied, r, N, mu0, mu_sl,
-                                               _drop_scale(mu0), smoothing)
+            _, f_fric = rigid_stick_friction(applied, r, N, mu0, mu_sl, _drop_scale(mu0),
+                                             smoothing)
             ydd = (applied - f_fric) / M
             # the memory equals tau while sticking, is frozen while slipping and relaxes
             # to the new tau in t_r / 10 after a restick
-            rest = stick_weight(r)
             d_memory = rest * (1.0 + (tau - memory) / t_reset)
-            d_tau = rest - (1.0 - rest) * tau / t_r
+        if not rs:  # the stick clock runs at rest and resets in a slip
+            d_tau = rest - (1.0 - rest) * tau / (t_r_latch if latch else t_r)
         d_core = jnp.stack([ctx.drive_speed - core.ydot, ydd, d_tau, d_memory])
         d_own = tuple(p.state_derivative(t, core, o, ctx) for p, o in zip(parts, own))
         return d_core, d_own
