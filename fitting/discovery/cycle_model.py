@@ -193,7 +193,7 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
     """One cycle window's stick and slip (module doc; `sensor` static: the kernel
     convolution of the slip on its grid, with the kernel's spectrum `wf`,
     `_kernel_spectrum`): friction under the normal load N0 (kgf), inertia W / g."""
-    vs, p, length, pitch, _, _, form, damping = (shape[i] for i in range(8))  # order, zeta: wf
+    vs, p, length, pitch, _, _, form, damping = (shape[i] for i in range(8))  # order, zeta: in wf
     tw = t0  # the window's measured start: origin of a measured drive's cubic
     tau = jnp.maximum(eff.tau, 1e-7)
     if sensor:
