@@ -320,9 +320,8 @@ class Record:
             raise RecordError(str(exc)) from None
         if (weight is None) == (mass is None):
             raise RecordError("give exactly one of weight= and mass=")
-        w = q(weight, "force", "weight") if weight is not None else (
-            float(mass) * G_MM_S2 if not isinstance(mass, str) else
-            q(mass, "mass", "mass") * G_MM_S2)
+        w = (q(weight, "force", "weight") if weight is not None
+             else q(mass, "mass", "mass") * G_MM_S2)
         notes = list(fields.pop("notes", ()))
         if t.ndim == 1 and x.shape == t.shape:  # epoch stamps, dropped samples, jitter
             channels = fields.get("channels")
