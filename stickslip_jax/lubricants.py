@@ -61,13 +61,10 @@ def static_law(law: str, lubricant_name: str = "A"):
     if not rows:
         raise ValueError(f"Table 3 has no {law!r} parameters for lubricant {lubricant_name!r}")
     r = rows[0]
-    if law == "howe":
-        return HoweStatic(mu_s=r.mu_s, mu_d=r.mu_d, C=r.C1)
-    if law == "derjaguin":
-        return DerjaguinStatic(mu_d=r.mu_d, C1=r.C1, C2=r.C2)
-    if law == "power_law":
-        return PowerLawStatic(mu_d=r.mu_d, C1=r.C1, C2=r.C2)
-    return OkamuraStatic(mu_s=r.mu_s, mu_d=r.mu_d, C=r.C1)
+    if law in ("howe", "okamura"):  # mu_s, mu_d and a rate C (Table 3's C1)
+        return {"howe": HoweStatic, "okamura": OkamuraStatic}[law](r.mu_s, r.mu_d, r.C1)
+    return {"derjaguin": DerjaguinStatic, "power_law": PowerLawStatic}[law](
+        mu_d=r.mu_d, C1=r.C1, C2=r.C2)
 
 
 def experimental_conditions() -> tuple[tuple[float, float], ...]:
