@@ -1,9 +1,6 @@
 """`stickslip plot RECORD [--plot OUT.png]`: the trace with stick/slip phases and its
-phase plane.
-
-Without `--plot` the figure is NAME.png in the current folder (NAME: the record's file
-name without its extension), never beside the record in its data folder unless that is
-where the command runs."""
+phase plane; by default NAME.png in the current folder, never beside the record in its
+data folder (NAME: the record's file name without its extension)."""
 
 from __future__ import annotations
 
