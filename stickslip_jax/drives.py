@@ -20,7 +20,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .numerics import as_float, is_concrete
-from .records import Record
+from .records import Record, program_speed
 
 
 class AbstractDrive(eqx.Module):
@@ -111,16 +111,20 @@ def _check_knots(owner: str, names, times, values, least: int) -> None:
         raise ValueError(f"{owner}: {names[0]} must increase strictly")
 
 
+def program_drive(program) -> SpeedProgram:
+    """The `SpeedProgram` of a drive program ((start s, speed mm/s), ...): at rest before
+    its first start, u(0) = 0."""
+    starts = [s for s, _ in program]
+    starts = [0.0, *starts] if starts[0] > 0 else starts
+    return SpeedProgram(starts, program_speed(program, starts))
+
+
 def drive_from_record(record: Record) -> AbstractDrive:
     """The drive of a `stickslip_jax.records.Record`, as `record.drive_source` says: its
-    measured `drive` column (mm), its `drive_program` (the record's `drive_velocity` from
-    each start, s; at rest before the first, u(0) = 0) or its constant `drive_speed` (mm/s).
-    """
+    measured `drive` column (mm), its `drive_program` (`program_drive`) or its constant
+    `drive_speed` (mm/s)."""
     if record.drive_source == "column":
         return MeasuredDrive(record.time, record.drive)
     if record.drive_source == "speed":
         return ConstantSpeed(record.drive_speed)
-    starts = [s for s, _ in record.drive_program]
-    if starts[0] > 0:
-        starts = [0.0, *starts]
-    return SpeedProgram(starts, record.drive_velocity(starts))
+    return program_drive(record.drive_program)

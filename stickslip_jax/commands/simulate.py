@@ -37,7 +37,7 @@ def add_arguments(p):
 
 
 def run(args) -> int:
-    from ..drives import ConstantSpeed, SpeedProgram
+    from ..drives import ConstantSpeed, program_drive
     from ..lubricants import lubricant, lubricants
     from ..output import check_outputs
     from ..records import parse_drive_program, write_record
@@ -68,10 +68,7 @@ def run(args) -> int:
             program = parse_drive_program(args.drive_program)
         except (ValueError, argparse.ArgumentTypeError) as exc:
             raise ValueError(f"--drive-program: {exc}") from None
-        starts, speeds = (list(v) for v in zip(*program))
-        if starts[0] > 0:
-            starts, speeds = [0.0, *starts], [0.0, *speeds]
-        drive = SpeedProgram(starts, speeds)
+        drive = program_drive(program)
     if os.path.exists(args.out) and not args.overwrite:  # after the values, before the work
         raise ValueError(f"--out: {args.out} exists; use --force to replace it")
     slideway = Slideway(lubricant(args.lubricant), args.weight, args.stiffness,
