@@ -73,18 +73,16 @@ def _enable_x64() -> None:
 
 _enable_x64()
 
-_HOME = {"AbstractKineticFriction": "friction", "AbstractStaticFriction": "friction",
-         "DerjaguinStatic": "friction", "Friction": "friction", "HoweStatic": "friction",
-         "KatoKinetic": "friction", "KatoStatic": "friction", "OkamuraStatic": "friction",
-         "PowerLawStatic": "friction",
-         "experimental_conditions": "lubricants", "lubricant": "lubricants",
-         "static_law": "lubricants",
-         "REGIMES": "steady", "SteadyState": "steady", "restick_failure": "steady",
-         "critical_speed": "steady", "natural_angular_frequency": "steady",
-         "slip_time": "steady", "slip_trajectory": "steady", "steady_map": "steady",
-         "steady_state": "steady", "Slideway": "slideway",
-         "Formulation": "modes", "GaugeOffset": "modes", "SlipTime": "modes",
-         "load_table": "tables"}
+_HOME = {name: module for module, names in {
+    "friction": ("AbstractKineticFriction", "AbstractStaticFriction", "DerjaguinStatic",
+                 "Friction", "HoweStatic", "KatoKinetic", "KatoStatic", "OkamuraStatic",
+                 "PowerLawStatic"),
+    "lubricants": ("experimental_conditions", "lubricant", "static_law"),
+    "steady": ("REGIMES", "SteadyState", "restick_failure", "critical_speed",
+               "natural_angular_frequency", "slip_time", "slip_trajectory", "steady_map",
+               "steady_state"),
+    "slideway": ("Slideway",), "modes": ("Formulation", "GaugeOffset", "SlipTime"),
+    "tables": ("load_table",)}.items() for name in names}
 """Public name -> the module that defines it (imported on first use)."""
 
 
