@@ -341,7 +341,7 @@ def dumps(obj, **kwargs) -> str:
 
 def write_json(path: str, obj, indent: int | None = 2) -> None:
     """Strict JSON (`strict_json`), indented by `indent` (None: one line), atomically."""
-    write_text(path, json.dumps(_explained(obj), indent=indent, allow_nan=False) + "\n")
+    write_text(path, dumps(obj, indent=indent) + "\n")
 
 
 def save_figure(fig, path: str, **kwargs) -> None:
