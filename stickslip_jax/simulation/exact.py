@@ -282,8 +282,7 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
     friction = slideway.friction
     static = friction.static
     # W is the friction load N below (the paper's N = W); the inertia is weight / g
-    W, k, weight = slideway.load, slideway.stiffness, slideway.weight
-    omega = jnp.sqrt(9806.65 * k / weight)
+    W, k, omega = slideway.load, slideway.stiffness, slideway.omega0
     kt, ku, ks = drive.knots()
     bounds = jnp.concatenate([kt, t_end[None]])
     mu_restick = static(jnp.asarray(0.0))

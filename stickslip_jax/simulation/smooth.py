@@ -59,7 +59,6 @@ from ..drives import AbstractDrive
 from ..friction import AbstractVelocityKinetic, RateStateKinetic
 from ..modes import Formulation, SlipTime
 from ..slideway import Slideway
-from ..units import G_MM_S2
 from .exact import check_inputs, count_at_or_before
 from .parts import (AbstractForceTerm, AbstractLoadCoupling, AbstractMeasurement,
                     ConstantLoad, Context, Core, IdealGauge)
@@ -254,8 +253,7 @@ def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Flo
     sw = model.slideway
     friction, static = sw.friction, sw.friction.static
     W, k = sw.weight, sw.stiffness
-    M = W / G_MM_S2
-    omega = jnp.sqrt(G_MM_S2 * k / W)
+    M, omega = sw.mass, sw.omega0
     t0, t1 = ts[0], jnp.max(ts)
     T2 = jnp.pi / omega if isinstance(slip_time, SlipTime) else jnp.asarray(slip_time, float)
     t_r = jnp.pi / omega / 40.0
