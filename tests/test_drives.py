@@ -69,13 +69,13 @@ RUNS = ((36.0, 86.9, 5.0, 12.0), (20.0, 27.3, 10.0, 12.0), (36.0, 86.9, 2.0, 20.
 """(W kgf, k kgf/mm, drive speed mm/min, duration s) of the screw-error campaign."""
 
 
-def _screw_runs(imp, runs=RUNS):
+def _screw_runs(imp):
     """Runs of the independent generator (lubricant A, 0.5 um noise, drive `imp`)."""
     import independent_records as ir
 
     return [(ir.simulate(ir.LUBRICANT_A, weight=W, stiffness=k, speed_mm_min=v, duration=T,
                          rate_hz=1000.0, imp=imp, seed=i), W, k, v)
-            for i, (W, k, v, T) in enumerate(runs)]
+            for i, (W, k, v, T) in enumerate(RUNS)]
 
 
 def _records(runs, drive):
@@ -97,6 +97,15 @@ def screw_runs():
     return _screw_runs(ir.Imperfections(**SCREW))
 
 
+@pytest.fixture(scope="module")
+def clean_runs():
+    """`RUNS` without a drive error: all three for the trace objective (the screw runs'
+    88 windows, so one compiled program serves both), the first two for the smoothed one."""
+    import independent_records as ir
+
+    return _screw_runs(ir.Imperfections())
+
+
 def _truth_params(n):
     import independent_records as ir
     from stickslip_fitting.params import CampaignParams, EmpiricalFriction
@@ -115,22 +124,19 @@ def _trace_rms(records):
     return r[np.asarray(data.mask).ravel()], data
 
 
-def test_trace_objective_drives_with_the_measured_column(screw_runs):
+def test_trace_objective_drives_with_the_measured_column(screw_runs, clean_runs):
     """At the generator's truth the trace objective's residuals are the noise when the 6 um
     screw error is in the records' `drive` column (each window driven through its knots),
     and 17x the noise with only the nominal speed (the features' own drive correction
     taken out: measured 17.4); a drive column holding u = v t gives the residuals of the
     nominal speed to rounding."""
-    import independent_records as ir
-
     measured, data = _trace_rms(_records(screw_runs, "column"))
     assert data.drive_knots is not None
     assert 0.9 < np.sqrt(np.mean(measured**2)) < 1.1 and np.abs(measured).max() < 6.0
     nominal, data = _trace_rms(_records(screw_runs, "speed"))
     assert data.drive_knots is None and np.sqrt(np.mean(nominal**2)) > 5.0
-    clean = _screw_runs(ir.Imperfections(), RUNS[:2])
-    a, _ = _trace_rms(_records(clean, "speed"))
-    b, data = _trace_rms(_records(clean, "steady"))
+    a, _ = _trace_rms(_records(clean_runs, "speed"))
+    b, data = _trace_rms(_records(clean_runs, "steady"))
     assert data.drive_knots is not None
     np.testing.assert_allclose(b, a, rtol=0, atol=1e-6)
 
@@ -156,27 +162,45 @@ def test_trace_objective_drives_with_a_measured_speed(screw_runs):
     assert 0.9 < np.sqrt(np.mean(r**2)) < 1.1 and np.abs(r).max() < 6.0
 
 
+SMOOTH_SAMPLES = 12_001
+"""Samples of every record of the smoothed objective's tests, padded (a record's samples
+after its first slip end, at most its 12 s at 1 kHz): one compiled program for the records
+with a drive column and one for those without."""
+
+
+@eqx.filter_jit
+def _smooth_residuals(objective, params):
+    return objective.residuals_and_aux(params)
+
+
 def _smooth_rms(records):
     from stickslip_fitting.data.features import record_features
     from stickslip_fitting.objectives.smooth import SmoothObjective, smooth_data
 
-    obj = SmoothObjective(smooth_data(records, [record_features(r) for r in records]))
-    r, (ok, _) = obj.residuals_and_aux(_truth_params(len(records)))
+    data = smooth_data(records, [record_features(r) for r in records])
+    pad = SMOOTH_SAMPLES - data.time.shape[1]  # padding as `pad_series` pads: masked out
+
+    def padded(x, mode):
+        return jnp.pad(x, ((0, 0), (0, pad)), mode=mode)
+
+    data = eqx.tree_at(lambda d: (d.time, d.deflection, d.mask), data,
+                       (padded(data.time, "edge"), padded(data.deflection, "edge"),
+                        padded(data.mask, "constant")))
+    obj = SmoothObjective(data)
+    r, (ok, _) = _smooth_residuals(obj, _truth_params(len(records)))
     assert np.asarray(ok).all()
     return np.asarray(r)[np.asarray(obj.data.mask).ravel()], obj.data
 
 
-def test_smooth_objective_drives_with_the_measured_column(screw_runs):
+def test_smooth_objective_drives_with_the_measured_column(screw_runs, clean_runs):
     """The smoothed simulator run freely over whole records at the truth: with the 6 um
     screw error in the `drive` column its residuals are those of the same runs without
     any drive error (measured: rms 1.266 and 1.260, the smoothing's own slip timing),
     with only the nominal speed 40x the noise; a `drive` column holding u = v t gives the
     nominal speed's residuals (to 0.05 standard errors)."""
-    import independent_records as ir
-
     measured, data = _smooth_rms(_records(screw_runs[:2], "column"))
     assert data.drive_knots is not None
-    clean_runs = _screw_runs(ir.Imperfections(), RUNS[:2])
+    clean_runs = clean_runs[:2]
     clean, _ = _smooth_rms(_records(clean_runs, "speed"))
     assert np.sqrt(np.mean(measured**2)) < 1.03 * np.sqrt(np.mean(clean**2)) < 1.4
     nominal, _ = _smooth_rms(_records(screw_runs[:2], "speed"))
@@ -186,7 +210,7 @@ def test_smooth_objective_drives_with_the_measured_column(screw_runs):
     np.testing.assert_allclose(steady, clean, rtol=0, atol=0.05)
 
 
-def test_fit_trace_with_a_measured_drive_column(tmp_path):
+def test_fit_trace_with_a_measured_drive_column(tmp_path, screw_runs):
     """`stickslip fit --objective trace` on records whose `drive` column holds a 6 um
     lead-screw error: the misfit is the noise (measured chi2/n 0.988) and every 95 %
     interval holds the truth (mu_s, set here by three records' stick times, to +-12 %)."""
@@ -195,7 +219,7 @@ def test_fit_trace_with_a_measured_drive_column(tmp_path):
     from stickslip_jax.cli import main
 
     paths = []
-    for i, (tr, W, k, v) in enumerate(_screw_runs(ir.Imperfections(**SCREW))):
+    for i, (tr, W, k, v) in enumerate(screw_runs):
         paths.append(str(tmp_path / f"r{i}.csv"))
         ir.write_record(paths[-1], tr, friction=ir.LUBRICANT_A, weight=W, stiffness=k,
                         speed_mm_min=v, drive_column=True)
