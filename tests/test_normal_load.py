@@ -63,10 +63,14 @@ def test_exact_simulator_matches_the_scaled_slideway(load):
 def test_smooth_simulator_matches_the_scaled_slideway():
     s = W / N
     ts = jnp.linspace(0.0, 8.0, 801)
-    kw = dict(smoothing=1e-3, rtol=1e-9, atol=1e-11)
-    rig = simulate_smooth(ss.Slideway(FR, W, K, normal_load=N), ConstantSpeed(V), ts, **kw)
-    twin = simulate_smooth(ss.Slideway(FR, N, K / s), ConstantSpeed(V * s), ts,
-                           **{**kw, "atol": 1e-11 * s})
+    a = jnp.asarray
+    kw = dict(smoothing=a(1e-3), rtol=a(1e-9))
+    # compiled whole (two programs: with and without a normal load), not op by op
+    smooth = eqx.filter_jit(simulate_smooth)
+    rig = smooth(ss.Slideway(FR, W, K, normal_load=N), ConstantSpeed(a(V)), ts, **kw,
+                 atol=a(1e-11))
+    twin = smooth(ss.Slideway(FR, N, K / s), ConstantSpeed(a(V * s)), ts, **kw,
+                  atol=a(1e-11 * s))
     x, y = np.asarray(rig.deflection) * s, np.asarray(twin.deflection)
     assert np.ptp(x) > 0.05
     assert np.max(np.abs(x - y)) < 2e-4 * np.ptp(y)
