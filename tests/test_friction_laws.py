@@ -125,11 +125,16 @@ def generated():
     return V, t[j:] - t[j], x[j:]
 
 
+_smooth = eqx.filter_jit(simulate_smooth)
+"""The smoothed simulator compiled whole (op by op, its first run compiles some 170 small
+programs); `test_paper_law_is_the_default` runs it op by op, as its reference numbers were."""
+
+
 def test_smooth_simulator_follows_the_independent_generator(generated):
     V, ts, x = generated
     fr = rate_state_friction(LAW.mu_ref, LAW.a, LAW.b, LAW.d_c, LAW.v_0, AgingLaw())
-    tr = simulate_smooth(ss.Slideway(fr, W, K), ConstantSpeed(V), jnp.asarray(ts),
-                         initial_deflection=x[0], smoothing=1e-4, rtol=1e-9, atol=1e-11)
+    tr = _smooth(ss.Slideway(fr, W, K), ConstantSpeed(V), jnp.asarray(ts),
+                 initial_deflection=x[0], smoothing=1e-4, rtol=1e-9, atol=1e-11)
     d = np.asarray(tr.deflection) - x
     assert tr.result == ss.simulation.SimulationResult.successful
     # the same limit cycle: sub-micrometre RMS, a few um only at the samples of a slip
