@@ -291,8 +291,8 @@ def test_design_map_draws_the_boundary_its_title_promises_dashed(tmp_path, monke
 
 
 def _smooth_result():
-    """The surface of `workflow.DiscoveryResult` that `plot_discovery` reads: three
-    records, each with samples at 0-1 s and 6-7 s (a 5 s window gap) and padding."""
+    """The surface of `SmoothDiscovery` that `plot_discovery` reads: three records, each
+    with samples at 0-1 s and 6-7 s (a 5 s window gap) and padding."""
     from stickslip_fitting.discovery.residuals import PHASES
 
     R, N = 3, 120
@@ -314,7 +314,10 @@ def _smooth_result():
         base_fit=types.SimpleNamespace(z=None), final_fit=types.SimpleNamespace(z=None),
         residuals_before=phases, residuals_after=phases, noise=5e-4, effect="stribeck",
         confidence="high", candidates=[{"name": "stribeck", "score": 30.0},
-                                       {"name": "rate_state", "score": 2.0}])
+                                       {"name": "rate_state", "score": 2.0}],
+        campaign=types.SimpleNamespace(records=[types.SimpleNamespace(
+            name=f"k{k:g}", stiffness=k, drive_speed=v, weight=36.0)
+            for k, v in zip(traces.stiffness, traces.speed)]))
 
 
 def test_smooth_discovery_figure_titles_records_and_breaks_lines_at_gaps():
@@ -323,7 +326,9 @@ def test_smooth_discovery_figure_titles_records_and_breaks_lines_at_gaps():
     fig = plot_discovery(_smooth_result())
     axes = np.asarray(fig.subfigs[1].axes).reshape(-1, 2)  # per record: deflection, residual
     assert axes.shape[0] == 3 and len(fig.subfigs[1].legends) == 1
-    assert axes[0, 0].get_title() == "record 0: k = 27.3 kgf/mm, v = 5 mm/min, W = 36 kgf"
+    # titled by the record's name (file stem), the rows in the campaign's order
+    assert axes[0, 0].get_title() == "k27.3: k = 27.3 kgf/mm, v = 5 mm/min, W = 36 kgf"
+    assert axes[2, 0].get_title().startswith("k128.5: ")
     for row in axes:
         for ax in row:
             assert "(" in ax.get_ylabel()

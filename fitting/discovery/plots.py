@@ -109,8 +109,8 @@ def plot_discovery(result):
     ax.barh(names, [max(c["score"], 1e-3) for c in result.candidates])
     ax.set_xscale("log")
     ax.set_xlabel("score statistic (chi-square, dimensionless)")
-    recs = getattr(result, "records", None)
-    titles = [record_title(recs[i] if recs is not None and i < len(recs) else SimpleNamespace(
+    recs = result.campaign.records  # the traces' rows, in order
+    titles = [record_title(recs[i] if i < len(recs) else SimpleNamespace(
         name=f"record {i}", stiffness=float(tr.stiffness[i]), drive_speed=float(tr.speed[i]),
         weight=float(tr.weight[i])), i) for i in range(R)]
     _trace_panels(grid, cols, [(title, t[i][m[i]], d[i][m[i]], base[i][m[i]],
