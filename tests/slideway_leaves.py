@@ -22,13 +22,16 @@ def amplitude_error_against_exact():
     """Sample times (s) of a 6.5 s run of `SW` at `V`, and a function of a deflection
     trace on them: the relative error of its last cycle's amplitude against the exact
     simulator's."""
+    import equinox as eqx
     import jax.numpy as jnp
 
     from stickslip_jax.drives import ConstantSpeed
     from stickslip_jax.simulation import simulate_exact
 
     ts = jnp.linspace(0.0, 6.5, 6501)
-    ex = simulate_exact(SW, ConstantSpeed(V), ts, max_events=16)
+    # compiled whole: one program, which JAX's persistent cache keeps for the other
+    # module's process (op by op, some 90 small programs compiled in each)
+    ex = eqx.filter_jit(simulate_exact)(SW, ConstantSpeed(V), ts, max_events=16)
     c = ex.cycles
     t_from = float(c.breakaway_time[int(c.valid.sum()) - 1]) - 0.2  # the last cycle
     amp = amplitude_after(ex.deflection, ts, t_from)
