@@ -121,3 +121,17 @@ def test_preference_rates(make, truth):
     hits = [_check(compare_laws(make(seed), LAWS, pad_to=PAD, solver=SOLVER), truth)
             for seed in range(1, 11)]
     assert np.mean(hits) >= 0.9, hits
+
+
+def test_a_failed_fit_is_reported_by_its_message():
+    """A fit that fails inside the solver (an `EquinoxRuntimeError`) is reported by the
+    error's own message on one line, without equinox's stacks and hints around it."""
+    from stickslip_fitting.solve.laws import _first_message
+
+    text = ("Above is the stack outside of JIT.\n  File \"x.py\", line 1\n"
+            "equinox.EquinoxRuntimeError: A linear solver received non-finite (NaN or inf) "
+            "input and cannot determine a\nsolution.\n\nThis means that you have a bug\n")
+    assert _first_message(RuntimeError(text)) == (
+        "A linear solver received non-finite (NaN or inf) input and cannot determine a "
+        "solution.")
+    assert _first_message(RuntimeError("no stack")) == "no stack"

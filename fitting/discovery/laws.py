@@ -11,8 +11,8 @@ Each record is compared over its first `CYCLES` cycles after its first slip end 
 cycles add cost, not evidence: a rate-and-state law with a small direct effect takes
 about 3000 solver steps per cycle, and 30 cycles of a real record outran the step budget;
 4 cost 1.5-2.6 CPU minutes for two records). The preferred law has the lowest BIC; a law
-the simulator cannot run through the records scores an infinite chi-square, with the
-`reason`. The paper's law is the wrong base when another beats it by `BIC_MARGIN` (a
+that cannot be fitted (no start simulates through the records, or the fit fails from every
+start it refines) scores an infinite chi-square, with the `reason`. The paper's law is the wrong base when another beats it by `BIC_MARGIN` (a
 Bayes factor above 150) and is not worse on the held-out cycles.
 """
 
@@ -154,9 +154,9 @@ def compare_laws(records, laws=tuple(FrictionLaw), *, hold_out: float = 1 / 3,
             fit_obj, **LAW_TOLERANCES)
         try:
             fit = fit_law(features, records, law, modes=modes, solver=solver, objective=obj)
-        except ValueError as err:  # the law cannot be simulated through these records
+        except ValueError as err:  # the law cannot be fitted to these records
             scores.append(LawScore(law, float("inf"), n, 0, float("inf"), False, {},
-                                   reason=f"{err} within {obj.max_steps} solver steps"))
+                                   reason=str(err)))
             continue
         r = np.asarray(dataclasses.replace(full, max_steps=obj.max_steps, rtol=obj.rtol,
                                            atol=obj.atol).residuals(fit.params))

@@ -110,18 +110,31 @@ def fit_law(features, records, law: FrictionLaw, *, hold: Hold | None = None,
     scores = np.array([float(chi2(p)) if len(trials) > 1 else 0.0 for p in trials])
     order = np.argsort(np.where(np.isfinite(scores), scores, np.inf))
     spec = free_spec(trials[0], hold=hold, offsets=modes.offset is GaugeOffset.START)
-    best = None
+    best, errors = None, []
     for i in order[:RETRIES]:  # the next start only while the fit misses the records far
         if not np.isfinite(scores[i]):
             break
         try:
             fit = fit_objective(obj, trials[i], spec, solver=solver.refine(), base=first)
-        except eqx.EquinoxRuntimeError:  # the simulation failed inside the solve (non-finite)
+        except eqx.EquinoxRuntimeError as err:  # a non-finite value inside the solve
+            errors.append(_first_message(err))
             continue
         best = fit if best is None or fit.chi2 < best.chi2 else best
         if best.reduced_chi2 < FAR_MISS:
             break
+    if best is None and errors:
+        raise ValueError(f"--law {law}: the fit failed from every start refined "
+                         f"({len(errors)} of {len(trials)}: {errors[0]})")
     if best is None:
         raise ValueError(f"--law {law}: no start of the law could be simulated through the "
-                         "records (the smoothed simulator failed at every start)")
+                         f"records within {obj.max_steps} solver steps")
     return best
+
+
+def _first_message(err: Exception) -> str:
+    """The message of an `EquinoxRuntimeError` on one line, without the stacks and hints
+    that equinox adds around it."""
+    text = str(err)
+    key = "EquinoxRuntimeError: "
+    text = text[text.rfind(key) + len(key):] if key in text else text
+    return " ".join(text.strip().split("\n\n")[0].split())
