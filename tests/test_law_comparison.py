@@ -117,9 +117,15 @@ def test_hold_out_is_checked():
 @pytest.mark.parametrize("make,truth", [(rate_state_campaign, FrictionLaw.RATE_STATE_AGING),
                                         (paper_campaign, FrictionLaw.PAPER)])
 def test_preference_rates(make, truth):
-    # >= 90 % of 10 campaigns (seeds 1-10) prefer the law that made the records
-    hits = [_check(compare_laws(make(seed), LAWS, pad_to=PAD, solver=SOLVER), truth)
-            for seed in range(1, 11)]
+    # >= 90 % of 10 campaigns (seeds 1-10) prefer the law that made the records; a
+    # campaign compare_laws refuses (a record without two complete cycles) is a miss
+    def hit(seed):
+        try:
+            return _check(compare_laws(make(seed), LAWS, pad_to=PAD, solver=SOLVER), truth)
+        except ValueError:
+            return False
+
+    hits = [hit(seed) for seed in range(1, 11)]
     assert np.mean(hits) >= 0.9, hits
 
 
