@@ -113,7 +113,7 @@ def test_hold_out_is_checked():
 
 
 @pytest.mark.slow
-@pytest.mark.targets  # 20 campaigns of 1.5-2.6 CPU minutes each (4 cycles a record); not in CI
+@pytest.mark.targets  # 20 campaigns of 20-120 CPU s each (once 550); not in CI
 @pytest.mark.parametrize("make,truth", [(rate_state_campaign, FrictionLaw.RATE_STATE_AGING),
                                         (paper_campaign, FrictionLaw.PAPER)])
 def test_preference_rates(make, truth):

@@ -10,10 +10,11 @@ on past the fitted part (a law that only bends to the fitted cycles drifts off t
 Each record is compared over its first `CYCLES` cycles after its first slip end (later
 cycles add cost, not evidence: a rate-and-state law with a small direct effect takes
 about 3000 solver steps per cycle, and 30 cycles of a real record outran the step budget;
-4 cost 1.5-2.6 CPU minutes for two records). The preferred law has the lowest BIC; a law
+4 cost 20-120 CPU s for two records, once 550). The preferred law has the lowest BIC; a law
 that cannot be fitted (no start simulates through the records, or the fit fails from every
-start it refines) scores an infinite chi-square, with the `reason`. The paper's law is the wrong base when another beats it by `BIC_MARGIN` (a
-Bayes factor above 150) and is not worse on the held-out cycles.
+start it refines) scores an infinite chi-square, with the `reason`. The paper's law is the
+wrong base when another beats it by `BIC_MARGIN` (a Bayes factor above 150) and is not
+worse on the held-out cycles.
 """
 
 from __future__ import annotations
