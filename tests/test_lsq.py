@@ -69,6 +69,13 @@ def test_host_driver_respects_active_mask():
     assert np.all(np.abs(g[active]) < 1e-3 * np.abs(J.T @ evaluate(Z0)[0])[active])
 
 
+STALL_RTOL = 1e-5
+"""How close (relative) a solve ended by the stall rule (cost falling by less than 1e-3 over
+four accepted steps) stands to SciPy's minimum in its flattest parameter: its cost equals
+the minimum's to 1e-9, and the parameter sits about 1e-6 away, which the order of
+floating-point sums (CPU or GPU) moves by as much again."""
+
+
 RATE_MIN = 0.7
 """The failing model below runs only where the second rate exceeds this (s^-1): the first
 four trial points from Z0 (damping 1e-3 to 0.06) lie beyond it, the fifth (damping 1)
@@ -116,7 +123,7 @@ def test_rejected_steps_never_end_a_solve_by_the_stall_rule(scipy_ref):
         assert host.lam < 1.0
         if stall.tol < 0.5:
             assert host.rss == pytest.approx(2 * scipy_ref.cost, rel=1e-9)
-            np.testing.assert_allclose(canonical(host.z), canonical(scipy_ref.x), rtol=1e-6)
+            np.testing.assert_allclose(canonical(host.z), canonical(scipy_ref.x), rtol=STALL_RTOL)
         else:  # the floor: a few chi-square units above the minimum, in fewer steps
             assert 2 * scipy_ref.cost < host.rss < 2 * scipy_ref.cost + 5.0
             assert host.n_evals < 30
@@ -133,7 +140,7 @@ def test_a_non_finite_jacobian_is_a_failed_evaluation(scipy_ref):
     host = lsq(HostResiduals(evaluate_nan_jacobian), Z0, rtol=0.0, atol=0.0, rounding=0.0,
                max_steps=400, stall=Stall(4, 1e-3))
     assert np.all(np.isinf(host.stats["history"][1:5])) and host.converged
-    np.testing.assert_allclose(canonical(host.z), canonical(scipy_ref.x), rtol=1e-6)
+    np.testing.assert_allclose(canonical(host.z), canonical(scipy_ref.x), rtol=STALL_RTOL)
 
 
 @pytest.mark.parametrize("jac", ["fwd", "bwd"])
