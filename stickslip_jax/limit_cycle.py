@@ -65,6 +65,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from .friction import Friction
+from .implicit import newton_root, with_implicit_gradient
 from .numerics import bisect, check_positive, is_concrete
 from .steady import (RESTICK_FAILURE, STEADY_SLIDING, STICK_SLIP, critical_speed,
                      natural_angular_frequency, restick_failure, slip_from_rest, slip_time)
@@ -160,9 +161,9 @@ def _limit_cycle(friction, weight, stiffness, speed, rtol, max_steps, zeta) -> L
     t2 = slip_time(weight, stiffness)
     omega = natural_angular_frequency(weight, stiffness)
     double = _double(friction, t2)
-    log_t1, result = _newton_root(_stick_time_residual, jnp.asarray(_LOG_T_START),
-                                  (friction, weight, stiffness, speed, t2, double),
-                                  rtol, max_steps)
+    log_t1, result = newton_root(_stick_time_residual, jnp.asarray(_LOG_T_START),
+                                 (friction, weight, stiffness, speed, t2, double),
+                                 rtol, max_steps)
     t1 = jnp.exp(log_t1)
     mu_0 = friction.static(t1)
     mu_m = friction.kinetic(mu_0, friction.mu_d, t2)
@@ -230,25 +231,9 @@ def _tolerance_speed(friction, weight, stiffness, amplitude, rtol, max_steps):
         return jnp.log(cyc.amplitude) - jnp.log(a)
 
     v0 = jnp.log(critical_speed(friction, weight, stiffness))
-    log_v, result = _newton_root(residual, v0, (friction, weight, stiffness, amplitude),
-                                 rtol, max_steps)
+    log_v, result = newton_root(residual, v0, (friction, weight, stiffness, amplitude),
+                                rtol, max_steps)
     return jnp.exp(log_v), result
-
-
-def _newton_root(fn, y0, args, rtol, max_steps):
-    """The root of the scalar `fn(y, args)` by Newton's method from `y0` (optimistix,
-    rtol = atol = `rtol`), and its `optimistix.RESULTS`. The root is found without
-    gradients and given the implicit function theorem's (`_with_implicit_gradient`):
-    optimistix's own implicit derivative solves its linear system with lineax's run-time
-    check, a host callback, and JAX's persistent compilation cache keeps no program with
-    one (here: every program that differentiates the cycle, as the tolerance speed's and
-    `stickslip_fitting.design.tolerance`'s Newton steps do). That check fails only where
-    the slope is zero or not finite; here such a slope gives a non-finite gradient."""
-    fixed = jax.tree_util.tree_map(lambda x: jax.lax.stop_gradient(x) if eqx.is_array(x) else x,
-                                   args)
-    sol = optx.root_find(fn, optx.Newton(rtol=rtol, atol=rtol), y0, args=fixed,
-                         max_steps=max_steps, throw=False)
-    return _with_implicit_gradient(sol.value, lambda y: fn(y, args)), sol.result
 
 
 # --------------------------------------------------------------------------------------
@@ -257,32 +242,6 @@ def _newton_root(fn, y0, args, rtol, max_steps):
 
 _N_RESLIP = 4  # re-slips from rest followed after one slip at most
 _LOG_T_LO, _LOG_T_HI = math.log(1e-12), math.log(1e12)
-
-
-def _with_implicit_gradient(root, fn):
-    """`root` (a converged root of `fn`, found without gradients) with the derivative of
-    the implicit function theorem: value `root`, tangent $-\\partial_\\theta f / f'$.
-    First derivatives only (the slope $f'$ is held fixed)."""
-    root = jax.lax.stop_gradient(root)
-    value, slope = jax.jvp(fn, (root,), (jnp.ones_like(root),))
-    return _implicit_tangent(root, value, jax.lax.stop_gradient(-1.0 / slope))
-
-
-@jax.custom_jvp
-def _implicit_tangent(root, value, scale):
-    """`root`, with the tangent `scale` times the tangent of `value` (an `fn(root)` that
-    carries $\\partial_\\theta f$). Not differentiated, the value is the root exactly
-    (also where the slope is zero or `value` not finite) and the compiled program
-    computes neither `value` nor `scale`."""
-    return root
-
-
-@_implicit_tangent.defjvp
-def _implicit_tangent_jvp(primals, tangents):
-    root, value, scale = primals
-    # the value as an expression in `value`, so that a derivative taken around this one
-    # (a root inside the residual of another root) sees the same tangent
-    return root + (value - jax.lax.stop_gradient(value)) * scale, tangents[1] * scale
 
 
 def _damped_slip(x_start, mu, weight, stiffness, speed, omega, zeta):
@@ -309,7 +268,7 @@ def _damped_slip(x_start, mu, weight, stiffness, speed, omega, zeta):
     stopped = velocity(t_min) <= 0.0
     lo, hi = bisect(lambda t: velocity(t) <= 0.0, t_max, t_min)
     t_end = jnp.where(stopped, 0.5 * (lo + hi), t_min)
-    t_end = _with_implicit_gradient(t_end, velocity)
+    t_end = with_implicit_gradient(t_end, velocity)
     z = jnp.exp(-zeta * omega * t_end) * (
         d * jnp.cos(wd * t_end) + (speed + zeta * omega * d) / wd * jnp.sin(wd * t_end))
     return x_eq + z, t_end, stopped
@@ -373,7 +332,7 @@ def _damped_limit_cycle(friction, weight, stiffness, speed, zeta) -> LimitCycle:
     small = 1e-9 * peak_lo
     found = (stop_lo & stop_hi & (n_lo == n_hi) & (jnp.abs(r_lo) <= small)
              & (jnp.abs(r_hi) <= small) & settles_above(jnp.asarray(_LOG_T_HI)))
-    log_t1 = _with_implicit_gradient(hi, lambda s: _damped_residual(s, *args)[0])
+    log_t1 = with_implicit_gradient(hi, lambda s: _damped_residual(s, *args)[0])
     _, (slip, n, _, peak) = _damped_residual(log_t1, *args)
     t1 = jnp.exp(log_t1)
     zero = jnp.zeros_like(t1)

@@ -53,6 +53,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from ..drives import AbstractDrive
+from ..implicit import with_implicit_gradient
 from ..modes import SlipTime
 from ..numerics import bisect, check_positive, is_concrete
 from ..slideway import Slideway
@@ -139,13 +140,6 @@ def _render(ts, row, coef, omega, u):
     deflection = P + jnp.where(sticking, u, 0.0) + A * cs + Bs * sn
     velocity = V + omega * (A * sn - Bs * cs)
     return deflection, velocity, sticking
-
-
-def _implicit(root_value, fun, dfun):
-    """Attach implicit-function-theorem gradients to a root found with stopped values."""
-    r = jax.lax.stop_gradient(root_value)
-    d = jax.lax.stop_gradient(dfun(r))
-    return r - fun(r) / jnp.where(d != 0, d, 1.0)
 
 
 def _slip_state(x0, yd0, c, v, omega, tau):
@@ -306,13 +300,10 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
             mum = friction.kinetic(mu0, friction.mu_d, T2)
             return T2 - slip_from_rest(x_b - mum * W / k, v_b, omega)
 
-        def dg(T2):
-            return jax.jvp(g, (T2,), (jnp.ones_like(T2),))[1]
-
         p_sg = jax.lax.stop_gradient(p)
         lo, hi = jax.lax.stop_gradient((jnp.pi / omega, _TWO_PI / omega))
         root = 0.5 * sum(bisect(lambda T2: ~(g(T2, p_sg) < 0), lo, jnp.where(active, hi, lo), 64))
-        return _implicit(root, g, dg)
+        return with_implicit_gradient(root, g)
 
     def stick_step(s: _State, active):
         u_t, v_t = u_at(s.t)
@@ -353,7 +344,7 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         run = active & found & ~immediate
         root = _newton_root(lambda tp: fun(tp, p_sg), lambda tp: dfun(tp, p_sg), lo_sg, hi_sg,
                             active=run)
-        t_b = _implicit(root, fun, dfun)
+        t_b = with_implicit_gradient(root, fun)
         t_b = jnp.where(immediate, s.t, jnp.where(found, t_b, t_end))
         x_b = jnp.where(immediate, s.x, x_lo + v_seg * (t_b - lo_safe))
         v_b = jnp.where(immediate, v_t, v_seg)
