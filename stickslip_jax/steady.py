@@ -27,6 +27,7 @@ import optimistix as optx
 from jaxtyping import Array, ArrayLike, Bool, Float
 
 from .friction import Friction
+from .implicit import newton_root
 from .numerics import check_positive
 from .units import G_MM_S2
 
@@ -121,7 +122,8 @@ def steady_state(friction: Friction, weight: Float[ArrayLike, ""], stiffness: Fl
     `jax.vmap` for many points); `normal_load` N in kgf (None: the paper's N = W). Eq (6)
     is solved for $\log T_1$ with an optimistix Newton root finder started above the root
     (the residual is concave in $\log T_1$, so Newton converges monotonically); its
-    derivative follows from the implicit function theorem.
+    derivative follows from the implicit function theorem (`implicit.newton_root`: first
+    derivatives, no host callback, so programs that differentiate it are cached).
 
     W, k and v are converted to arrays before the (cached) compiled call, so new
     Python-float values do not trigger recompilation; concrete values are checked here
@@ -157,11 +159,9 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps,
     stick = speed < v_c
     # Above v_c solve at a safe speed and mask (double-where: finite gradients).
     v_solve = jnp.where(stick, speed, 0.5 * v_c)
-    solver = optx.Newton(rtol=rtol, atol=rtol)
-    sol = optx.root_find(_log_residual, solver, _LOG_T_START,
-                         args=(friction, load, stiffness, v_solve, t2), max_steps=max_steps,
-                         throw=False)
-    t1 = jnp.exp(sol.value)
+    log_t1, solved = newton_root(_log_residual, jnp.asarray(_LOG_T_START),
+                                 (friction, load, stiffness, v_solve, t2), rtol, max_steps)
+    t1 = jnp.exp(log_t1)
     mu_0 = friction.static(t1)
     mu_m = friction.kinetic(mu_0, friction.mu_d, t2)
     amplitude = (mu_0 - mu_m) * load / stiffness
@@ -172,7 +172,7 @@ def _steady_state(friction, weight, stiffness, speed, rtol, max_steps,
     freq = jnp.where(stick, 1.0 / (t1 + t2), zero)
     mu_0_out = jnp.where(stick, mu_0, friction.static(t2))
     mu_m_out = jnp.where(stick, mu_m, friction.mu_d + zero)
-    result = optx.RESULTS.where(stick, sol.result, optx.RESULTS.successful)
+    result = optx.RESULTS.where(stick, solved, optx.RESULTS.successful)
     fails = restick_failure(friction, mu_0, t2)
     regime = jnp.where(stick, jnp.where(fails, RESTICK_FAILURE, STICK_SLIP), STEADY_SLIDING)
     return SteadyState(stick_time=t1, slip_time=t2, amplitude=amplitude,
