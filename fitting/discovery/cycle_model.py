@@ -27,9 +27,10 @@ the effects of `cycle_effects` enter as parts of it:
   $K * D$ is a discrete convolution on the RK4 grid with the kernel's bin masses, over
   `TAIL_STEPS` nodes (the slip and the gauge's settling). The gauge still settles from
   the previous slip when a window starts: that tail's decay after $t_0$ is added
-  (`previous_rows`); a window without a previous one takes its own slip's tail, placed
-  where the slip before began (`tail_sources`: without it the first windows of a 7 Hz
-  sensor missed by 30 um, 60 times the noise). The measured restart state is itself a
+  (`previous_rows`), from where the features time that slip as read (`_centre`); a
+  window without a previous one takes its own slip's tail, placed where the slip before
+  began (`tail_sources`: without it the first windows of a 7 Hz sensor missed by 30 um,
+  60 times the noise). The measured restart state is itself a
   reading, so the slider's clock starts at $t_0 - \tau$: a pure delay is invisible, and
   the sensor changes the shape of the slips (second order in $\tau$; the score test
   probes it with a secant). With `sensor=False` the parameter is ignored.
@@ -181,32 +182,26 @@ def _grid(W, k):
     return mass, T2, 2.5 * T2 / N_STEPS
 
 
-CENTRE_BAND = 0.75
-"""|s| below which the features' centre fit uses a sample (`_centre`)."""
-CENTRE_ROUNDS = 4
-"""Refinements of the features' centre fit (`_centre`)."""
-
-
 def _centre(X, t, omega0, T2):
     r"""Where `stickslip_fitting.data.features` puts the centre of a slip whose fraction
     done is X [n] at the times t [n] (s, step h): its half-sine fit (`_cycle_row`), the
     weighted mean of $t - \arcsin(s)/\omega_0$, $s = 2X - 1$, weights $1 - s^2$ over
-    $|s| <$ `CENTRE_BAND` and within 0.3 T2 of the centre, refined `CENTRE_ROUNDS` times.
+    $|s| < 0.75$ and within 0.3 T2 of the centre, refined 4 times.
     The features sample at random phases of the model's grid, so a node at a band's edge
     counts with the fraction of its cell inside the band (with hard edges the delay of a
     20 Hz sensor jumped by up to 0.05 ms between mean delays 0.05 ms apart; with the ramp
     by 0.002 ms, and it stays within 0.04 ms of the hard edges' value)."""
     s = 2.0 * X - 1.0
     ds = jnp.maximum(jnp.abs(jnp.gradient(s)), 1e-12)  # a node's cell, in s
-    w0 = (1.0 - s * s) * jnp.clip((CENTRE_BAND - jnp.abs(s)) / ds + 0.5, 0.0, 1.0)
-    est = t - jnp.arcsin(jnp.clip(s, -CENTRE_BAND, CENTRE_BAND)) / omega0
+    w0 = (1.0 - s * s) * jnp.clip((0.75 - jnp.abs(s)) / ds + 0.5, 0.0, 1.0)
+    est = t - jnp.arcsin(jnp.clip(s, -0.75, 0.75)) / omega0
     h = t[1] - t[0]
 
     def mean(w):
         return jnp.sum(w * est) / jnp.maximum(jnp.sum(w), 1e-30)
 
     c = mean(w0)
-    for _ in range(CENTRE_ROUNDS):
+    for _ in range(4):
         c = mean(w0 * jnp.clip((0.3 * T2 - jnp.abs(t - c)) / h + 0.5, 0.0, 1.0))
     return c
 
@@ -491,11 +486,10 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
         # the gauge still settles from the previous slip when a window starts: the
         # measured restart level is the settled stick line (`features`: the plateau
         # after the slip), so the reading is that line plus what the gauge still owes
-        # (placed at the previous slip's measured breakaway, less how late the features
-        # time that slip as read (`_Slip.delay`): the model's breakaway may miss it by
-        # the stick time's scatter; at the mean delay tau instead, 0.6 ms late for a
-        # 20 Hz sensor, the tail left +0.5..1.3 um at every window's start (noise 0.5
-        # um), which damping and load coupling then took up)
+        # (placed at the previous slip's measured breakaway less how late the features
+        # time that slip as read, `_Slip.delay`: the model's breakaway may miss it by
+        # the stick time's scatter; at tau instead, 0.6 ms late at 20 Hz, +0.5..1.3 um
+        # at every window's start, noise 0.5 um, taken up by damping or load coupling)
         p = slot[jnp.maximum(prev, 0)]
         E = slips.F[:, -1:] - slips.F  # [W, TAIL_STEPS]: what each slip still owes after it
         origin = began - slips.delay[p]
