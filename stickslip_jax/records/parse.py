@@ -1,10 +1,10 @@
 """Reading a record file: the header, the column row, the run's conditions, the data rows
-and the clock, each checked in the order a reader meets them, into one `Record`."""
+and the clock, each read in the order a reader meets them, into one `Record`; the values
+are checked once, by `Record`, and its refusals reported at the file's line (`_at_line`)."""
 
 from __future__ import annotations
 
 import json
-import math
 import re
 from pathlib import Path
 
@@ -18,20 +18,12 @@ from .errors import RecordError
 from .grammar import (COLUMN, FORMAT_VERSION, HEADER, KEY, KNOWN_KEYS, MAX_FILE_BYTES, NUMBER,
                       QUANTITY, RESERVED_COLUMNS, UNIT_CELL)
 from .quantities import channel_factor, quantity, unit_choices
-from .record import Record
+from .record import UNEVEN_FIX, Record
 from .rows import parse_data, resolution_of
-from .sampling import TIME_STEP_RTOL, time_step_deviation, uniform_clock
+from .sampling import uniform_clock
 
 _DIMENSIONS = {"time": "time", "deflection": "length", "force": "force", "drive": "length",
                "drive_speed": "speed"}
-
-
-def _text_value(key, value, path, line):
-    if value == "":
-        raise RecordError(f"{key}: empty value; give a value or delete the line", path, line)
-    if not value.isprintable():
-        raise RecordError(f"{key}: the value has control characters; remove them", path, line)
-    return value
 
 
 def _split_lines(text: str, path: str, notes: list[str]) -> tuple[list[str], str | None]:
@@ -200,38 +192,28 @@ def _weight(header, path: str, column_line: int) -> float:
                               column_line)
         w_text, w_line = header["slider_weight"]
         weight = quantity(w_text, "force", "slider_weight", path, w_line)
-    if not (math.isfinite(weight) and weight > 0):
-        raise RecordError("slider weight must be positive and finite", path, w_line)
     return weight
 
 
-def _conditions(header, columns, path: str, column_line: int) -> dict:
-    """The `Record` fields the header gives: stiffness, weight, drive, texts, truth, extra."""
+def _conditions(header, path: str, column_line: int) -> dict:
+    """The `Record` fields the header gives: stiffness, weight, drive, texts, truth, extra
+    (their values checked by `Record`)."""
     if "stiffness" not in header:
         raise RecordError("missing header line '# stiffness: 86.9 kgf/mm'", path, column_line)
     k_text, k_line = header["stiffness"]
     stiffness = quantity(k_text, "stiffness", "stiffness", path, k_line)
-    if not stiffness > 0:
-        raise RecordError("stiffness must be positive", path, k_line)
     weight = _weight(header, path, column_line)
     drive_speed = None
     if "drive_speed" in header:
         v_text, v_line = header["drive_speed"]
         drive_speed = quantity(v_text, "speed", "drive_speed", path, v_line)
-        if drive_speed < 0:
-            raise RecordError("drive_speed must be >= 0", path, v_line)
     program = None
     if "drive_program" in header:
         program = parse_drive_program(header["drive_program"][0], path, header["drive_program"][1])
-    if drive_speed is None and program is None and not {"drive", "drive_speed"} & set(columns):
-        raise RecordError("no drive: add '# drive_speed: 1 mm/min', a '# drive_program: ...' line, "
-                          "a 'drive [mm]' column or a 'drive_speed [mm/s]' column", path,
-                          column_line)
     fields = dict(stiffness=stiffness, weight=weight, drive_speed=drive_speed,
                   drive_program=program)
     for key in ("lubricant", "surface", "note"):
-        fields[key] = (_text_value(key, header[key][0], path, header[key][1])
-                       if key in header else None)
+        fields[key] = header[key][0] if key in header else None
     truth = None
     if "truth" in header:
         t_text, t_line = header["truth"]
@@ -239,20 +221,15 @@ def _conditions(header, columns, path: str, column_line: int) -> dict:
             truth = json.loads(t_text)
         except (ValueError, RecursionError) as exc:
             raise RecordError(f"truth: not valid JSON ({str(exc)[:80]})", path, t_line) from None
-        if not isinstance(truth, dict):
-            raise RecordError("truth: must be a JSON object {...}", path, t_line)
     fields["truth"] = truth
-    fields["extra_header"] = {key: _text_value(key, value, path, line)
-                              for key, (value, line) in header.items() if key not in KNOWN_KEYS}
+    fields["extra_header"] = {key: value for key, (value, _) in header.items()
+                              if key not in KNOWN_KEYS}
     return fields
 
 
-def _data(lines, start, columns, factors, path: str, column_line: int):
+def _data(lines, start, columns, factors, path: str):
     """(data rows in internal units, their line numbers) after the column row."""
     data, rows = parse_data(lines, start, columns, path)
-    if data.shape[0] < 2:
-        raise RecordError(f"{data.shape[0]} data row(s); a record needs at least two samples", path,
-                          rows[-1] if rows else column_line)
     with np.errstate(over="ignore", invalid="ignore"):
         data = data * np.array(factors)
     if not np.all(np.isfinite(data)):
@@ -261,37 +238,32 @@ def _data(lines, start, columns, factors, path: str, column_line: int):
     return data, rows
 
 
-def _clock(data, rows, lines, j: int, time_factor: float, path: str, notes: list[str]):
-    """The data with a uniform clock in column `j`: strictly increasing time, epoch
-    stamps counted from the first, dropped samples and jitter resampled with a note;
-    other unevenness is refused with the line and the fix."""
-    time = data[:, j]
-    steps = np.diff(time)
-    bad = np.flatnonzero(~(steps > 0))
-    if bad.size:
-        r = int(bad[0])
-        raise RecordError(
-            f"time does not increase: {float(time[r + 1]):.10g} s after {float(time[r]):.10g} s "
-            f"(line {rows[r]}); sort the rows and remove duplicates", path,
-            rows[r + 1])
-    # epoch stamps, a logger's dropped samples and jitter; if resampled, the clock is
-    # uniform now: the line numbers below are not needed again
-    time, cols = uniform_clock(time, [data[:, c] for c in range(data.shape[1]) if c != j],
-                               notes)
-    data = np.column_stack(cols[:j] + [time] + cols[j:])
-    dev, r, dt = time_step_deviation(time)
-    if not dev <= TIME_STEP_RTOL:
-        msg = (f"time is uneven: the step to this line is {steps[r]:.6g} s against the mean "
-               f"step {dt:.6g} s (relative deviation {dev:.3g}, tolerance {TIME_STEP_RTOL:g}); ")
-        cells = [lines[rows[r] - 1].split(",")[j], lines[rows[r + 1] - 1].split(",")[j]]
-        rounding = 0.5 * sum(resolution_of(c) for c in cells) * time_factor  # of a written step
-        if abs(steps[r] - dt) <= 1.01 * rounding:
-            msg += ("this is within the rounding of the written digits: if the time stamps "
-                    "were rounded, write them with more digits, else resample uniformly")
-        else:
-            msg += "resample the run to a uniform step (or split it at the gap)"
-        raise RecordError(msg, path, rows[r + 1])
-    return data
+_HEADER_OF = {"weight": ("slider_weight", "slider_mass")}
+"""The header keys a `Record` field comes from, where they are not its name."""
+
+
+def _at_line(exc: RecordError, path: str, header, rows, column_line: int, time, written):
+    """`Record`'s refusal `exc` at the file's line: the header line of its field, the
+    data row of its sample (the clock is resampled only where it was increasing and
+    becomes uniform, so a refused sample's row is the file's), else the column row. An
+    uneven step within the rounding of its written time stamps (`written(r)`: the last
+    digit of row r's, s) says so."""
+    line = next((header[k][1] for k in _HEADER_OF.get(exc.field, (exc.field,)) if k in header),
+                None)
+    if exc.index is not None:
+        line = rows[exc.index]
+    elif exc.field == "time" and rows:
+        line = rows[-1]
+    reason = exc.reason
+    if exc.field == "time step":
+        i = exc.index
+        mean = (time[-1] - time[0]) / (time.shape[0] - 1)
+        rounding = 0.5 * (written(i - 1) + written(i))  # of a written step
+        if abs(time[i] - time[i - 1] - mean) <= 1.01 * rounding:
+            reason = reason.replace(UNEVEN_FIX, "this is within the rounding of the written "
+                                    "digits: if the time stamps were rounded, write them with "
+                                    "more digits, else resample uniformly")
+    return RecordError(reason, path, line or column_line)
 
 
 def parse_record(text: str, source=None, notes=()) -> Record:
@@ -300,19 +272,23 @@ def parse_record(text: str, source=None, notes=()) -> Record:
     path = "<text>" if source is None else str(source)
     notes = list(notes)
     lines, delim = _split_lines(text, path, notes)
-    header, i = _header(lines, path, notes)
-    rig, header, rig_fields = rig_header(header, path)
+    header_in, i = _header(lines, path, notes)
+    rig, header, rig_fields = rig_header(header_in, path)
     column_line = i + 1
     lines = lines[:i] + normalise_dialect(lines[i:], notes, delim)
     columns, units, factors = _column_row(lines, i, header, path, rig)
-    fields = _conditions(header, columns, path, column_line)
-    data, rows = _data(lines, i + 1, columns, factors, path, column_line)
+    fields = _conditions(header, path, column_line)
+    data, rows = _data(lines, i + 1, columns, factors, path)
     j = columns.index("time")
-    data = _clock(data, rows, lines, j, factors[j], path, notes)
+    # epoch stamps, a logger's dropped samples and jitter, each with a note
+    time, cols = uniform_clock(data[:, j], [data[:, c] for c in range(data.shape[1]) if c != j],
+                               notes)
+    data = np.column_stack(cols[:j] + [time] + cols[j:])
     if "deflection" in columns:
         deflection = data[:, columns.index("deflection")]
     else:
-        deflection = data[:, columns.index("force")] / fields["stiffness"]
+        with np.errstate(divide="ignore", invalid="ignore"):  # a stiffness Record refuses
+            deflection = data[:, columns.index("force")] / fields["stiffness"]
     channels = {name: data[:, c] for c, name in enumerate(columns) if name not in RESERVED_COLUMNS}
     unit_of = dict(zip(columns, units))
     drive = data[:, columns.index("drive")] if "drive" in columns else None
@@ -325,7 +301,11 @@ def parse_record(text: str, source=None, notes=()) -> Record:
                       source=None if source is None else str(source), notes=tuple(notes), **fields,
                       **rig_fields)
     except RecordError as exc:
-        raise RecordError(exc.reason, path) from None
+        def written(r):
+            return resolution_of(lines[rows[r] - 1].split(",")[j]) * factors[j]
+
+        raise _at_line(exc, path, {**header_in, **header}, rows, column_line, data[:, j],
+                       written) from None
 
 
 def read_record(path, *, max_bytes: int = MAX_FILE_BYTES) -> Record:

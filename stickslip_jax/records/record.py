@@ -46,25 +46,57 @@ def _positive(name, value, zero: bool = False):
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise RecordError(f"{name} must be a number, got {value!r}") from None
+        raise RecordError(f"{name} must be a number, got {value!r}", field=name) from None
     if not (math.isfinite(v) and (v >= 0 if zero else v > 0)):
         rule = "finite and >= 0" if zero else "positive and finite"
-        raise RecordError(f"{name} must be {rule}, got {v}")
+        raise RecordError(f"{name} must be {rule}, got {v:.10g}", field=name)
     return v
 
 
-def _text(name, value):
+def _text(name, value, field=None):
+    """`value` (one line of text) or None, else a RecordError naming it (`field`: where
+    it came from, `name` by default)."""
     if value is None:
         return None
+    field = field or name
     if not isinstance(value, str):
-        raise RecordError(f"{name} must be a string, got {type(value).__name__}")
-    if value == "" or value != value.strip() or not value.isprintable():
-        raise RecordError(f"{name} must be one line of printable text without surrounding spaces, "
-                          f"got {value!r}")
+        raise RecordError(f"{name} must be a string, got {type(value).__name__}", field=field)
+    if value == "":
+        raise RecordError(f"{name}: empty value; give a value or leave it out", field=field)
+    if value != value.strip() or not value.isprintable():
+        raise RecordError(f"{name} must be one line of printable text without surrounding spaces "
+                          f"or control characters, got {value!r}", field=field)
     if value.endswith((",", ";")):
         raise RecordError(f"{name} must not end in ',' or ';' (a spreadsheet's padding of a "
-                          f"header line reads the same), got {value!r}")
+                          f"header line reads the same), got {value!r}", field=field)
     return value
+
+
+UNEVEN_FIX = "resample the run to a uniform step (or split it at the gap)"
+"""The fix `Record` gives for an uneven clock (a file reader may give a closer one)."""
+
+
+def _clock(time):
+    """`time` checked: at least two samples, strictly increasing, uniform within
+    `TIME_STEP_RTOL` (errors with `field` "time", or "time step" for unevenness, and the
+    `index` of the sample)."""
+    n = time.shape[0]
+    if n < 2:
+        raise RecordError(f"{n} data row(s) (samples); a record needs at least two",
+                          field="time")
+    steps = np.diff(time)
+    if not np.all(steps > 0):
+        i = int(np.flatnonzero(~(steps > 0))[0])
+        raise RecordError(
+            f"time does not increase strictly: {float(time[i + 1]):.10g} s after "
+            f"{float(time[i]):.10g} s; sort the rows and remove duplicates",
+            field="time", index=i + 1)
+    dev, i, dt = time_step_deviation(time)
+    if not dev <= TIME_STEP_RTOL:
+        raise RecordError(
+            f"time is uneven: the step to {float(time[i + 1]):.10g} s is {float(steps[i]):.6g} s "
+            f"against the mean step {dt:.6g} s (relative deviation {dev:.3g}, tolerance "
+            f"{TIME_STEP_RTOL:g}); {UNEVEN_FIX}", field="time step", index=i + 1)
 
 
 _COMPARED = ("stiffness", "weight", "normal_load", "friction_radius", "drive_speed",
@@ -125,23 +157,9 @@ class Record:
             object.__setattr__(self, name, value)
 
         time = _array("time", self.time)
+        _clock(time)
         n = time.shape[0]
-        if n < 2:
-            raise RecordError(f"a record needs at least two samples, got {n}")
-        steps = np.diff(time)
-        if not np.all(steps > 0):
-            i = int(np.flatnonzero(~(steps > 0))[0])
-            raise RecordError(
-                f"time must increase strictly: time[{i + 1}] = {float(time[i + 1]):.10g} s "
-                f"follows time[{i}] = {float(time[i]):.10g} s")
-        dev, i, dt = time_step_deviation(time)
-        if not dev <= TIME_STEP_RTOL:
-            raise RecordError(
-                f"time is uneven: step {i} is {float(steps[i]):.10g} s against the mean step "
-                f"{float(dt):.10g} s "
-                f"(relative deviation {dev:.3g} > {TIME_STEP_RTOL:g}); resample uniformly")
         put("time", time)
-        put("deflection", _array("deflection", self.deflection, n))
         put("stiffness", _positive("stiffness", self.stiffness))
         put("weight", _positive("weight", self.weight))
         for name in ("normal_load", "friction_radius"):
@@ -154,9 +172,13 @@ class Record:
         if self.drive_program is not None:
             put("drive_program", check_program(self.drive_program))
         if self.drive_speed is None and self.drive is None and self.drive_program is None:
-            raise RecordError("a record needs a drive: drive_speed, drive_program or drive")
+            raise RecordError("no drive: a record needs a drive_speed, a drive_program or a drive "
+                              "(in a file: a '# drive_speed: 1 mm/min' or '# drive_program: ...' "
+                              "line, a 'drive [mm]' or a 'drive_speed [mm/s]' column)",
+                              field="drive")
         for name in ("lubricant", "surface", "note"):
             put(name, _text(name, getattr(self, name)))
+        put("deflection", _array("deflection", self.deflection, n))
         channels, units = {}, {}
         if not isinstance(self.channels, Mapping) or not isinstance(self.channel_units, Mapping):
             raise RecordError("channels and channel_units must be dicts keyed by column name")
@@ -178,11 +200,13 @@ class Record:
         put("channel_units", units)
         if self.truth is not None:
             if not isinstance(self.truth, Mapping):
-                raise RecordError(f"truth must be a dict, got {type(self.truth).__name__}")
+                raise RecordError(f"truth must be a JSON object (a dict), got "
+                                  f"{type(self.truth).__name__}", field="truth")
             try:
                 json.dumps(dict(self.truth))
             except (TypeError, ValueError) as exc:
-                raise RecordError(f"truth must be JSON-serialisable: {exc}") from None
+                raise RecordError(f"truth must be JSON-serialisable: {exc}",
+                                  field="truth") from None
             put("truth", dict(self.truth))
         if self.source is not None:
             put("source", str(self.source))
@@ -192,7 +216,7 @@ class Record:
                 raise RecordError(
                     f"extra header key {key!r} must be lowercase letters, digits, _ or - "
                     f"and not one of {', '.join(KNOWN_KEYS)}")
-            extra[key] = _text(f"extra header {key!r}", value)
+            extra[key] = _text(f"extra header {key!r}", value, key)
         put("extra_header", extra)
 
     @property
