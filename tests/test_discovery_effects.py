@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import stickslip_jax as ss
-from stickslip_fitting.discovery.effects import CANDIDATES, EffectSet, effect_class
+from stickslip_fitting.discovery.effects import CANDIDATES, EffectSet
 from stickslip_fitting.discovery.model import (
     EFFECT_PARAMS,
     effects_from_vector,
@@ -42,7 +42,7 @@ def test_library_metadata():
                                "sensor_lowpass", "friction_drift", "gauge_drift",
                                "load_coupling", "rate_state"}
     for name in CANDIDATES:
-        cls = effect_class(name)
+        cls = getattr(EffectSet(), name)  # the library's part of effect `name`
         assert cls.NAME == name
         assert len(cls.EXPLANATION) > 40 and cls.EXPLANATION.endswith(".")
         assert 1 <= len(cls.PARAMS) <= 2 and len(cls.UNITS) == len(cls.PARAMS)
@@ -92,7 +92,8 @@ def test_physical_signs():
     assert RateState.unphysical({"b": -1e-3}) is not None
     assert Stribeck.unphysical({"b": -1e-3}) is None  # rising friction is physical
     for name in CANDIDATES:
-        assert len(effect_class(name).SIGNS) == len(effect_class(name).PARAMS)
+        part = getattr(EffectSet(), name)
+        assert len(part.SIGNS) == len(part.PARAMS)
 
 
 def test_unphysical_score_direction_is_ranked_last():

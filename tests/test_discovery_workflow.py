@@ -163,10 +163,10 @@ def test_effect_outside_the_library_is_not_named_confidently_and_is_learned():
     _report("hardening_spring", recs, res)
     assert res.effect == "none" or res.confidence == "low", res.candidates
     if res.effect != "none":  # never a physically impossible size (such as c < 0)
-        from stickslip_fitting.discovery.effects import effect_class
+        from stickslip_fitting.discovery.effects import EffectSet
 
         size = {p: v["value"] for p, v in res.effect_size.items()}
-        assert effect_class(res.effect).unphysical(size) is None
+        assert getattr(EffectSet(), res.effect).unphysical(size) is None
     if res.test_after["p_value"] < 1e-3:  # residuals still unexplained
         assert res.learned is not None
         assert res.learned.gap_after < 0.9 * res.learned.gap_before

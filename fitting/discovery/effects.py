@@ -54,7 +54,6 @@ __all__ = [
     "SensorLowpass",
     "Stribeck",
     "ViscousDamping",
-    "effect_class",
     "load_referred_friction",
 ]
 
@@ -397,8 +396,3 @@ def effect_field(name: str) -> str:
     if name not in CANDIDATES:
         raise ValueError(f"unknown effect {name!r}; choose from {', '.join(CANDIDATES)}")
     return name
-
-
-def effect_class(name: str):
-    """The part class of effect `name`."""
-    return type(getattr(EffectSet(), effect_field(name)))
