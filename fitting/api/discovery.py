@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     from ..discovery.workflow import SmoothBase
     from ..objectives.losses import AbstractLoss
 
-__all__ = ["FAMILY_COLUMNS", "SMOOTH_COLUMNS", "CampaignDiscovery", "discover"]
+__all__ = ["FAMILY_COLUMNS", "SMOOTH_COLUMNS", "CampaignDiscovery", "discover", "named_effects"]
 
 FAMILY_COLUMNS = ("shape", "score", "p_value", "family_wise_p_value", "significant",
                   "significant_by", "chi2_drop", "unphysical", "named")
@@ -50,6 +50,14 @@ SMOOTH_COLUMNS = ("score", "p_value", "dof", "delta_bic", "lr_p_value", "unphysi
 """The columns of `summary()` on the smoothed base (`SmoothBase`): the score test
 (statistic, p-value, dof), the refit's BIC change and likelihood-ratio p-value (NaN: not
 refitted), whether the score step or the refit was unphysical, and whether it is named."""
+
+
+def named_effects(result: Discovery) -> tuple[list[str], list[str]]:
+    """What an answer names: (the effect and the effects the records cannot tell from it,
+    the further effects the sequential search kept after it, in order). The command
+    prints them as "a or b + c"; `CampaignDiscovery.named` lists them."""
+    kept = [s["effect"] for s in getattr(result, "steps", ()) if s["kept"]]
+    return [result.effect] + [r["name"] for r in result.indistinguishable_from], kept[1:]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,10 +91,8 @@ class CampaignDiscovery(ResultDocument):
         it, and the further effects of the sequential search (empty for "none" and
         "unexplained")."""
         names = {c["name"] for c in self.result.candidates}
-        joint = [self.result.effect] + [r["name"] for r in self.result.indistinguishable_from]
-        joint += [s["effect"] for s in getattr(self.result, "steps", ())
-                  if s["kept"] and s["effect"] not in joint]
-        return [n for n in joint if n in names]
+        joint, further = named_effects(self.result)
+        return [n for n in joint + [n for n in further if n not in joint] if n in names]
 
     def summary(self) -> pandas.DataFrame:
         """One row per effect tested, in the candidate table's order: `FAMILY_COLUMNS`

@@ -223,11 +223,11 @@ def _compare_laws(campaign):
 def answer_text(result) -> str:
     """What the command prints: the answer (with the families the records cannot tell
     from it), the explanation, the gap against the noise and the two tables."""
+    from ..api.discovery import named_effects
+
     r = result
-    joint = " or ".join([r.effect] + [x["name"] for x in r.indistinguishable_from])
-    kept = [s["effect"] for s in getattr(r, "steps", ()) if s["kept"]]
-    if len(kept) > 1:  # several effects (`effect` is the first): all of them
-        joint = " + ".join([joint] + kept[1:])
+    alternatives, further = named_effects(r)
+    joint = " + ".join([" or ".join(alternatives)] + further)
     table = candidate_table if r.BASE == "cycle" else smooth_candidate_table
     return "\n".join([
         f"effect: {joint} (confidence {r.confidence})"
