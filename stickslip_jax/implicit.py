@@ -1,16 +1,9 @@
-r"""Scalar roots with the implicit function theorem's derivative.
-
-A root $y^*(\theta)$ of $f(y, \theta) = 0$ is found with its value only (no gradients
-through the iterations), then given the tangent $-\partial_\theta f / f'(y^*)$
-(`with_implicit_gradient`). `newton_root` does both for optimistix's Newton method: the
-stick-time equations of `steady`, `limit_cycle` and `tolerance_speed`; the exact
-simulator's breakaway and slip-time roots (bracketed iterations) use
-`with_implicit_gradient` alone.
-
-optimistix's own implicit derivative solves its linear system with lineax's run-time
-check, a host callback, and JAX's persistent compilation cache keeps no program with one
-(here: every program that differentiates a root, as `stickslip_fitting.design`'s
-tolerance steps do); that check fails only where the slope is zero or not finite.
+r"""Scalar roots with the implicit function theorem's derivative: a root $y^*(\theta)$ of
+$f(y, \theta) = 0$ found without gradients gets the tangent $-\partial_\theta f / f'(y^*)$
+(`with_implicit_gradient`); `newton_root` is optimistix's Newton method with it (the
+stick-time equations of `steady` and `limit_cycle`). optimistix's own implicit derivative
+checks its linear solve at run time with a host callback, and JAX's persistent compilation
+cache keeps no program that has one.
 """
 
 from __future__ import annotations
