@@ -66,6 +66,27 @@ def test_rate_state_law_values():
     assert float(fr.static(10.0)) == pytest.approx(0.2 + 0.02 * np.log1p(10.0), rel=1e-12)
 
 
+def test_rate_state_start_at_a_slip_end():
+    """A slider at a slip end moves with the drive, in the state where the law balances the
+    spring: state_at inverts the law, the start is at the drive speed (not the law's
+    velocity at a slip's short contact age, which far outruns any physical speed), heals
+    by the stick time, and stays finite for a level the law cannot reach near v_0."""
+    kin = rate_state_friction(0.2, 0.0076, 0.025, 1e-4, 1e-3).kinetic
+    V = 0.1
+    for mu in (0.15, 0.22, 0.3):
+        theta = float(kin.state_at(mu, V, 0.2))
+        assert float(kin.coefficient(V, theta, 0.2)) == pytest.approx(mu, rel=1e-10)
+        v0, theta0 = (float(x) for x in kin.start(mu, V, 0.0, 0.2))
+        assert v0 == pytest.approx(V, rel=1e-9) and theta0 == pytest.approx(theta, rel=1e-12)
+        v1, theta1 = (float(x) for x in kin.start(mu, V, 0.5, 0.2))
+        assert theta1 == pytest.approx(theta + 0.5) and 0.0 < v1 < V
+    assert [float(x) for x in kin.start(0.0, V, 0.0, 0.2)] == [0.0, pytest.approx(1e-3)]
+    far = kin.state_at(5.0, V, 0.2)  # ln(v0 theta / D_c) clipped, not an overflow
+    assert np.isfinite(float(far)) and float(far) > 0.0
+    g = jax.grad(lambda m: kin.start(m, V, 0.0, 0.2)[1])(0.22)
+    assert np.isfinite(float(g)) and float(g) > 0.0
+
+
 def test_log_aging_law_values():
     st, kin = LogAgingStatic(0.2, 0.03, 0.5), LogVelocityKinetic(0.02, 2.0)
     assert float(st(0.0)) == 0.2 and float(st(0.5)) == pytest.approx(0.2 + 0.03 * np.log(2))

@@ -13,7 +13,13 @@ slip speed $v_s = \omega_0 (x_{peak} - x_{trough})/2$ (mm/s):
 - rate-and-state: the breakaway level of the aging law at rest,
   $\mu_0 = \mu_* + a\ln(V/v_0) + b\ln(v_0 T_1/D_c)$, whose slope against $\ln V$ is $a - b$
   ($T_1 \propto 1/V$), on a grid $a/b \in \{0.3, 0.45, 0.6\}$,
-  $D_c \in \{1, 2.5, 6, 16\} \times 10^{-4}$ mm, with $\mu_*$ from the mean level;
+  $D_c \in \{1, 2.5, 6, 16\} \times 10^{-4}$ mm, with $\mu_*$ from the mean level; and at
+  each $D_c$ the $(\mu_*, a, b)$ of bounded linear least squares on both levels, the
+  breakaway level as above and the mid-slip level as the steady state at the slip speed,
+  $\mu_m = \mu_* + (a - b)\ln(v_s/v_0)$ (the slip levels then bound $b - a$ too:
+  records whose peaks fall with the drive speed while their mid-slip level hardly moves,
+  as under the paper's law, get a far smaller $b - a$ than from the peaks alone, whose
+  steady state at the slip speed would fall far below the mid-slip level);
 - log aging: $t_c$ = (0.01, 0.1, 1) x the shortest stick and $v_c$ = (0.3, 3) x the median
   slip speed, $\mu_d$ and $\beta$ from the least squares of $\mu_0$ on $\ln(1 + T_1/t_c)$,
   $c$ from the mean $\mu_m$.
@@ -39,6 +45,8 @@ __all__ = ["LAW_PARAMS", "fit_law", "law_starts"]
 
 RETRIES = 2
 """Starts refined at most, in the order of their chi-square."""
+D_C_GRID = (1e-4, 2.5e-4, 6e-4, 1.6e-3)
+"""D_c (mm) of the rate-and-state starts."""
 FAR_MISS = 3.0
 """chi2/dof above which the fit from the next start is tried too."""
 
@@ -62,6 +70,19 @@ def _cycles(features, offsets):
     return np.concatenate(rows).T
 
 
+def _levels_start(cls, mu0, mum, t1, v, vs, v0, d_c) -> dict:
+    """(mu_ref, a, b) of least squares within the prior bounds on both levels at `d_c`
+    (module doc): linear in them at a given D_c."""
+    from scipy.optimize import lsq_linear
+
+    one = np.ones_like(mu0)
+    A = np.concatenate([np.stack([one, np.log(v / v0), np.log(v0 * t1 / d_c)], 1),
+                        np.stack([one, np.log(vs / v0), -np.log(vs / v0)], 1)])
+    lo, hi = zip(*(cls.PRIOR_BOUNDS[n] for n in ("mu_ref", "a", "b")))
+    mu_ref, a, b = lsq_linear(A, np.concatenate([mu0, mum]), bounds=(lo, hi)).x
+    return dict(mu_ref=mu_ref, a=a, b=b, d_c=d_c)
+
+
 def law_starts(law: FrictionLaw, features, offsets=None) -> list:
     """Starting points of `law`'s parameters from the cycle features (module doc)."""
     cls = LAW_PARAMS[law]
@@ -79,11 +100,12 @@ def law_starts(law: FrictionLaw, features, offsets=None) -> list:
         v0 = 1e-3
         # the peaks give a - b only (T1 ~ 1/V): a/b and D_c on a grid
         slope = np.polyfit(np.log(v / v0), mu0, 1)[0] if np.ptp(v) > 0 else -0.005
-        for r, d_c in itertools.product((0.3, 0.45, 0.6), (1e-4, 2.5e-4, 6e-4, 1.6e-3)):
+        for r, d_c in itertools.product((0.3, 0.45, 0.6), D_C_GRID):
             b = -min(slope, -1e-3) / (1.0 - r)
             a = r * b
             mu_ref = np.mean(mu0 - a * np.log(v / v0) - b * np.log(v0 * t1 / d_c))
             out.append(dict(mu_ref=mu_ref, a=a, b=b, d_c=d_c))
+        out += [_levels_start(cls, mu0, mum, t1, v, vs, v0, d_c) for d_c in D_C_GRID]
     return [cls.from_values(**{n: float(np.clip(x[n], *cls.PRIOR_BOUNDS[n])) for n in cls.NAMES})
             for x in out]
 

@@ -37,6 +37,9 @@ from .static import Scalar
 
 PSI_CAP = 500.0
 r"""$\psi/a$ is capped here inside the exponential (friction levels above 500 a)."""
+LOG_STATE_CAP = 50.0
+r"""`state_at` keeps $\ln(v_0\theta/D_c)$ within this of 0 ($\theta$ within $e^{\pm 50}$
+of $D_c/v_0$: far beyond any contact age, and finite)."""
 
 
 class AbstractStateEvolution(eqx.Module):
@@ -87,6 +90,28 @@ class RateStateKinetic(AbstractKineticFriction):
         """The velocity (mm/s) at which the regularised law gives `mu` in state `theta`."""
         s = self.psi_over_a(theta, mu_d)
         return self.v_0 * (jnp.exp(mu / self.a - s) - jnp.exp(-mu / self.a - s))
+
+    def state_at(self, mu, velocity, mu_d):
+        r"""The state (s) at which the regularised law gives `mu` (> 0) at `velocity`
+        (mm/s, > 0): $\psi = a\ln[(2v_0/v)\sinh(\mu/a)]$ solved for $\theta$, in logarithms
+        (no overflow), $\mu/a$ floored at 1e-6 and $\ln(v_0\theta/D_c)$ clipped to
+        $\pm$`LOG_STATE_CAP`."""
+        m = jnp.maximum(mu / self.a, 1e-6)
+        psi = self.a * (jnp.log(self.v_0 / velocity) + m + jnp.log(-jnp.expm1(-2.0 * m)))
+        log_ratio = jnp.clip((psi - mu_d) / self.b, -LOG_STATE_CAP, LOG_STATE_CAP)
+        return self.d_c / self.v_0 * jnp.exp(log_ratio)
+
+    def start(self, mu, v_drive, stick_time, mu_d):
+        r"""Initial (velocity mm/s, state s) of a slider held by the friction level `mu`
+        (the spring's $kx_0/N$) at a slip end, `stick_time` (s) after it: at a trough the
+        deflection stops falling, so the slider moves with the drive ($\dot y = $
+        `v_drive`), in the state where the law balances `mu` there (`state_at`); the state
+        heals by `stick_time` (the aging law at rest) and the velocity is where the law
+        balances `mu` in that state. With no load (`mu` <= 0) the state is the steady
+        state $D_c/$`v_drive` and the slider rests."""
+        theta = stick_time + jnp.where(mu > 0, self.state_at(mu, v_drive, mu_d),
+                                       self.d_c / v_drive)
+        return self.velocity_at(mu, theta, mu_d), theta
 
     def state_rate(self, velocity, theta):
         r"""$\dot\theta$ of the evolution law."""

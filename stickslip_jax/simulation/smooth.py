@@ -40,8 +40,9 @@ low-pass) make any formulation stiff: pass an implicit `solver`.
 (`AbstractVelocityKinetic`) sets $\mu_{sl}$ at $\dot y$ in any formulation. A rate-and-state
 law (`RateStateKinetic`) replaces the switch: $M\ddot y = k x - N\mu(\dot y, \theta) +
 \sum_i F_i$, the state $\theta$ (s) in the place of $\tau$, solved by Kvaerno5 (stiff while
-it creeps); the slider starts at $\theta = D_c/v_s$ plus the initial stick time,
-$v_s = \max(\omega_0|x_0|, \dot u)$, at the velocity where the law balances the spring.
+it creeps); the slider starts as at a slip end: moving with the drive, in the state where
+the law balances the spring there, healed by the initial stick time
+(`RateStateKinetic.start`).
 """
 
 from __future__ import annotations
@@ -191,13 +192,14 @@ def rate_state_rates(friction, core: Core, applied, N, M):
     return (applied - N * mu) / M, kin.state_rate(core.ydot, core.tau), 0.0 * core.mu_0_memory
 
 
-def rate_state_start(slideway: Slideway, omega, v_drive, x0, stick_time):
-    r"""Initial core state of a rate-and-state law (module docstring): $\theta = D_c/v_s$ plus
-    `stick_time` (s), $v_s = \max(\omega_0|x_0|, v_{drive})$, and the velocity (mm/s) at
-    which the law balances the spring's $k x_0$ (mm, kgf/mm)."""
+def rate_state_start(slideway: Slideway, v_drive, x0, stick_time):
+    r"""Initial core state of a rate-and-state law (module docstring): the deflection `x0`
+    (mm), the velocity (mm/s) and state (s) of `RateStateKinetic.start` for the spring's
+    friction level $kx_0/N$ at the drive speed `v_drive` (mm/s), `stick_time` (s) after
+    a slip end."""
     fr = slideway.friction
-    theta0 = stick_time + fr.kinetic.d_c / jnp.maximum(omega * jnp.abs(x0), v_drive)
-    v0 = fr.kinetic.velocity_at(slideway.stiffness * x0 / slideway.load, theta0, fr.mu_d)
+    v0, theta0 = fr.kinetic.start(slideway.stiffness * x0 / slideway.load, v_drive,
+                                  stick_time, fr.mu_d)
     return jnp.stack([x0, v0, theta0, fr.mu_d + 0.0 * x0])
 
 
@@ -324,7 +326,7 @@ def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Flo
         return d_core, d_own
 
     tau0, x0 = (jnp.asarray(v, float) + 0.0 * W for v in (initial_stick_time, initial_deflection))
-    core0 = rate_state_start(sw, omega, smoothing_velocity(drive, 1.0), x0, tau0) if rs else (
+    core0 = rate_state_start(sw, smoothing_velocity(drive, 1.0), x0, tau0) if rs else (
         jnp.stack([x0, 0.0 * W, tau0 + 0.0 * W, (tau0 if rigid else static(tau0)) + 0.0 * W]))
     ctx0 = context(t0)
     y0 = (core0, tuple(p.init_state(ctx0) for p in parts))
