@@ -119,23 +119,74 @@ def _make(kw, small):
     return ir.campaign(friction, **kw)
 
 
+class _Spent:
+    """Since the last stage line: the model's calls from the discovery's thread (Jacobian
+    blocks and residuals, `CycleModel.evaluate` / `residuals`: their number and wall
+    seconds) and JAX's compilation (tracing, lowering, XLA; wall seconds in any thread,
+    the warm-up thread's included). Installed once per process."""
+
+    calls, call_s, compile_s = 0, 0.0, 0.0
+    _on = False
+
+    @classmethod
+    def install(cls):
+        if cls._on:
+            return
+        import threading
+
+        import jax
+
+        from stickslip_fitting.discovery.cycle_model import CycleModel
+
+        def timed(fn):
+            def call(*a, **k):
+                if threading.current_thread() is not threading.main_thread():
+                    return fn(*a, **k)
+                t = time.perf_counter()
+                try:
+                    return fn(*a, **k)
+                finally:
+                    cls.calls += 1
+                    cls.call_s += time.perf_counter() - t
+            return call
+
+        def compiled(event, seconds, **_):
+            if event.startswith("/jax/core/compile/"):
+                cls.compile_s += seconds
+
+        CycleModel.evaluate = timed(CycleModel.evaluate)
+        CycleModel.residuals = timed(CycleModel.residuals)
+        jax.monitoring.register_event_duration_secs_listener(compiled)
+        cls._on = True
+
+    @classmethod
+    def take(cls) -> tuple[int, float, float]:
+        out = cls.calls, cls.call_s, cls.compile_s
+        cls.calls, cls.call_s, cls.compile_s = 0, 0.0, 0.0
+        return out
+
+
 def _discover(recs, label, progress=True):
     """(result, wall seconds, CPU seconds, CPU seconds by stage) of one discovery, its
-    stage lines printed with their CPU seconds. CPU time is the process's, every thread
-    (the compilation thread too): on a machine shared with other jobs it is the figure
-    that does not grow with the load."""
+    stage lines printed with their CPU seconds, the model's calls and the compilation
+    (`_Spent`). CPU time is the process's, every thread (the compilation thread too): on
+    a machine shared with other jobs it is the figure that does not grow with the load."""
     from stickslip_fitting.discovery.cycle_workflow import discover_cycles
 
     cpu = {}
     last = [time.process_time()]
+    _Spent.install()
+    _Spent.take()
 
     def line(text):  # a stage's line: "name: what it found (s)"
         now = time.process_time()
         stage, spent = text.split(":")[0], now - last[0]
         cpu[stage] = cpu.get(stage, 0.0) + spent
         last[0] = now
+        calls, call_s, compile_s = _Spent.take()
         if progress:
-            print(f"  {label}: {text} [{spent:.1f} s CPU]", flush=True)
+            print(f"  {label}: {text} [{spent:.1f} s CPU; {calls} model calls "
+                  f"{call_s:.1f} s, compiling {compile_s:.1f} s]", flush=True)
 
     t, c = time.perf_counter(), time.process_time()
     res = discover_cycles(recs, progress=line)
