@@ -63,7 +63,7 @@ from .trace import Cycles, SimulationResult, Trace
 _TWO_PI = 2.0 * jnp.pi
 
 
-def _newton_root(fun, dfun, lo, hi, max_iter=80, active=True):
+def _newton_root(fun, lo, hi, max_iter=80, active=True):
     """Root of `fun` in [lo, hi] with fun(lo) < 0 <= fun(hi): Newton from `hi`, bisection
     whenever a step leaves the bracket. Values only (call under stop_gradient).
     Where `active` is False no iteration runs (returns `hi`)."""
@@ -77,8 +77,7 @@ def _newton_root(fun, dfun, lo, hi, max_iter=80, active=True):
 
     def body(c):
         lo, hi, x, _, i = c
-        f = fun(x)
-        fp = dfun(x)
+        f, fp = jax.jvp(fun, (x,), (jnp.ones_like(x),))
         lo = jnp.where(f < 0, x, lo)
         hi = jnp.where(f < 0, hi, x)
         newton = x - f / jnp.where(fp != 0, fp, 1.0)
@@ -327,11 +326,6 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
             x_lo, t_lo, v_seg, t_stick, k, W, static = p
             return k * (x_lo + v_seg * (tp - t_lo)) - W * static(tp - t_stick)
 
-        def dfun(tp, p=p):
-            x_lo, t_lo, v_seg, t_stick, k, W, static = p
-            slope = jax.jvp(static, (tp - t_stick,), (jnp.ones_like(tp),))[1]
-            return k * v_seg - W * slope
-
         p_sg = jax.lax.stop_gradient(p)
         lo_sg, hi_sg = jax.lax.stop_gradient((lo_safe, hi_safe))
         # A tighter right end: where k x reaches W mu_0(infinity) (an upper bound of the
@@ -342,8 +336,7 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         t_cap = jnp.where(use_cap, t_cap, hi_sg)
         hi_sg = jnp.where(use_cap & (fun(t_cap, p_sg) >= 0), t_cap, hi_sg)
         run = active & found & ~immediate
-        root = _newton_root(lambda tp: fun(tp, p_sg), lambda tp: dfun(tp, p_sg), lo_sg, hi_sg,
-                            active=run)
+        root = _newton_root(lambda tp: fun(tp, p_sg), lo_sg, hi_sg, active=run)
         t_b = with_implicit_gradient(root, fun)
         t_b = jnp.where(immediate, s.t, jnp.where(found, t_b, t_end))
         x_b = jnp.where(immediate, s.x, x_lo + v_seg * (t_b - lo_safe))
