@@ -266,6 +266,10 @@ ERRORS = [
     (replace("time [s],deflection [mm]\n0.000,0.1203\n0.001,0.1204\n0.002,0.1206\n0.003,0.1207\n",
              ""), 6, ["no column row"]),
     (replace("0.001,0.1204", "0.001,0.1204\r0.0015,2"), 9, ["carriage return"]),
+    # values Record refuses, at the line they come from
+    (replace("86.9 kgf/mm", "0 kgf/mm"), 3, ["stiffness must be positive"]),
+    (replace("# lubricant: A", "# Operator: x"), 5, ["extra header key 'Operator'"]),
+    (replace("# lubricant: A", "# operator: x\x01"), 5, ["control characters"]),
 ]
 
 

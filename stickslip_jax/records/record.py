@@ -215,7 +215,7 @@ class Record:
             if not isinstance(key, str) or not KEY.fullmatch(key) or key in KNOWN_KEYS:
                 raise RecordError(
                     f"extra header key {key!r} must be lowercase letters, digits, _ or - "
-                    f"and not one of {', '.join(KNOWN_KEYS)}")
+                    f"and not one of {', '.join(KNOWN_KEYS)}", field=str(key))
             extra[key] = _text(f"extra header {key!r}", value, key)
         put("extra_header", extra)
 
