@@ -139,12 +139,22 @@ JSON_ALIASES = {"noise_mm": "noise", "gap_before_mm": "gap_before", "gap_after_m
 
 
 def json_document(result) -> dict:
-    """The result's JSON (`to_json()`), versioned, the noise and gaps keyed with "_mm"."""
+    """The result's JSON (`to_json()`), versioned, the noise and gaps keyed with "_mm" at
+    every depth (the learned correction's and the sparse form's gaps too)."""
     from stickslip_jax.output import versioned
 
-    new = {old: new for new, old in JSON_ALIASES.items()}
-    doc = {new.get(k, k): v for k, v in result.to_json().items()}
-    return versioned(doc, JSON_ALIASES)
+    return versioned(_renamed(result.to_json(), {old: new for new, old in JSON_ALIASES.items()}),
+                     JSON_ALIASES)
+
+
+def _renamed(obj, names: dict[str, str]):
+    """`obj` with each dict key in `names` renamed (not where the new key is there too)."""
+    if isinstance(obj, list):
+        return [_renamed(v, names) for v in obj]
+    if not isinstance(obj, dict):
+        return obj
+    return {(names[k] if k in names and names[k] not in obj else k): _renamed(v, names)
+            for k, v in obj.items()}
 
 
 def parameter_table(result) -> str:
