@@ -14,36 +14,15 @@ import numpy as np
 import pytest
 
 import independent_records as ir
+from record_files import SMALL_CAMPAIGN, clean_discovery_files
 from stickslip_fitting.discovery.cycle_workflow import discover_cycles
 
-SMALL = dict(runs=((36.0, 86.9), (20.0, 27.3)), speeds=(5.0, 10.0), cycles=5.0)
+SMALL = SMALL_CAMPAIGN
 
 
 @pytest.fixture(scope="module")
 def clean_files(tmp_path_factory):
-    from stickslip_jax.records import write_record
-
-    d = tmp_path_factory.mktemp("clean")
-    paths = []
-    for i, r in enumerate(ir.campaign(seed=11, **SMALL)):
-        p = d / f"r{i}.csv"
-        write_record(r, p)
-        paths.append(str(p))
-    # and one irregular record (mu_s drawn per cycle, 5 % spread): the paper's model
-    # describes it at chi2/n ~500 (measured); it must be set aside and listed, not bend
-    # the others' base fit (before, the campaign's median chi2/n rose to 107 and the
-    # screw error was named on the clean records)
-    bad = ir.campaign(seed=12, imp=ir.Imperfections(mu_s_jitter=0.05),
-                      runs=((20.0, 27.3),), speeds=(5.0,), cycles=5.0)[0]
-    p = d / "irregular.csv"
-    write_record(dataclasses.replace(bad, note="irregular"), p)
-    paths.append(str(p))
-    # and a file that is not a record (a summary table left among the records): listed
-    # as unreadable, the campaign goes on (it stopped the whole campaign before)
-    summary = d / "summary.csv"
-    summary.write_text("run,speed,amplitude\n1,5,0.02\n")
-    paths.append(str(summary))
-    return paths
+    return clean_discovery_files(tmp_path_factory.mktemp("clean"))
 
 
 def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):

@@ -70,17 +70,16 @@ SKIP = {"units"}
 """Subtrees whose keys name kinds of quantity, not values (pitch's `units` map)."""
 
 
-def _synthetic_discovery_campaign(folder: pathlib.Path) -> list[str]:
+def _discovery_campaign(folder: pathlib.Path) -> list[str]:
+    """test_cycle_discovery's clean campaign (`record_files.clean_discovery_files`: an
+    irregular record set aside, a file that is not a record), run with the same options
+    (`--learn`): the document has the learned correction and the null reasons, and the
+    compiled programs are made once in a test run (persistent compilation cache)."""
     sys.path.insert(0, str(ROOT / "tests"))
-    import independent_records as ir
-    from stickslip_jax.records import write_record
+    from record_files import clean_discovery_files
 
-    paths = []
-    for i, r in enumerate(ir.campaign(seed=11, runs=((36.0, 86.9),), speeds=(5.0, 10.0),
-                                      cycles=5.0)):
-        paths.append(str(folder / f"d{i}.csv"))
-        write_record(r, paths[-1])
-    return paths
+    folder.mkdir()
+    return clean_discovery_files(folder)
 
 
 def _pitch_records(folder: pathlib.Path) -> list[str]:
@@ -105,7 +104,7 @@ def documents(tmp_path_factory):
         "plan": ["plan", "A", "--budget", "2", "--quiet"],
         "fit": ["fit", *EXAMPLES, "--quiet"],
         "mcmc": ["mcmc", *EXAMPLES[:4], "--steps", "20", "--walkers", "14", "--quiet"],
-        "discover": ["discover", *_synthetic_discovery_campaign(d), "--quiet", "--top", "1"],
+        "discover": ["discover", *_discovery_campaign(d / "discover"), "--learn"],
         "pitch": ["pitch", *_pitch_records(d), "--fit"],
         "fit-batch": ["fit-batch", str(ROOT / "data" / "examples" / "A_W36_k27.3_*.csv"),
                       str(d / "no_such_folder"), "--quiet"],
