@@ -10,7 +10,8 @@ independent SciPy generator (`tests/independent_records.py`; 3 (W, k) x 4 speeds
 0.5 um), `discover_cycles` timed by stage, compilation included (a fresh process), each
 against its target (the ratio printed), with the machine's load and the CPU seconds of
 every stage (the process's, all its threads: on a machine shared with other jobs the
-wall-clock time grows with the load, the CPU time much less):
+wall-clock time grows with the load, the CPU time much less), its calls of the model
+and their seconds, and JAX's compilation seconds (`_Spent`):
 
 - `damping`: lubricant A, about 7 cycles per record at 2 kHz (0.5 M samples), a damping
   ratio of 0.1 hidden; with a second, warm run of the same campaign in the same process
