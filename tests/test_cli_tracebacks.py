@@ -165,7 +165,26 @@ def test_ctrl_c_during_a_trace_fit_is_one_line(tmp_path):
     assert snapshot(tmp_path) == before  # inputs unchanged, no partial output
 
 
+SIMULATING = ("import sys, time; import stickslip_jax.simulation.synthetic as s; "
+              "s.synthetic_record = lambda *a, **k: (print('simulating', file=sys.stderr, "
+              "flush=True), time.sleep(120)); ")
+"""`simulate`'s simulation replaced by two minutes of waiting that say when they start."""
+
+
 def test_ctrl_c_during_simulate_is_one_line(tmp_path):
+    """Ctrl-C while `simulate` simulates: one line, no traceback, no record (the command
+    alone, its simulation a wait: 4 s instead of 20; the compiled simulation:
+    `test_ctrl_c_while_simulate_compiles_is_one_line`, slow)."""
+    code, _, stderr = interrupt([*SIMULATE[:-2], "--duration", "2000", "--out",
+                                 tmp_path / "long.csv"], "simulating", 0.5, tmp_path,
+                                prelude=SIMULATING)
+    assert code == 130, stderr[-2000:]
+    assert "Traceback" not in stderr and stderr.strip().splitlines()[-1].endswith("interrupted")
+    assert snapshot(tmp_path) == {}
+
+
+@pytest.mark.slow  # 20 s: the simulator's compilation, which Ctrl-C waits for
+def test_ctrl_c_while_simulate_compiles_is_one_line(tmp_path):
     """Ctrl-C during `simulate`: one line, no traceback, and no partial record left."""
     code, _, stderr = interrupt(
         ["simulate", "--lubricant", "A", "--weight", "36", "--stiffness", "86.9", "--speed",
