@@ -36,7 +36,15 @@ from .log_aging import LogAgingStatic
 from .static import Scalar
 
 PSI_CAP = 500.0
-r"""$\psi/a$ is capped here inside the exponential (friction levels above 500 a)."""
+r"""$\psi/a$ is capped here inside the exponential of the law near rest, $|z| \le 1$
+(`RateStateKinetic.coefficient`): the slope at rest of friction levels above 500 a."""
+STATE_FLOOR = 1e-100
+r"""$v_0\theta/D_c$ is floored here inside the logarithm: a contact age of $10^{-100}
+D_c/v_0$, no physical state, but a trial $\theta \le 0$ of an implicit solver's Newton
+iteration gets a finite law, and the law's derivative in the state, $b/\theta$, stays
+finite (at a floor of 1e-300 it overflowed)."""
+EXP_CAP = 700.0
+"""Exponents above this are capped in `velocity_at` (no overflow to infinity)."""
 LOG_STATE_CAP = 50.0
 r"""`state_at` keeps $\ln(v_0\theta/D_c)$ within this of 0 ($\theta$ within $e^{\pm 50}$
 of $D_c/v_0$: far beyond any contact age, and finite)."""
@@ -78,18 +86,35 @@ class RateStateKinetic(AbstractKineticFriction):
     evolution: AbstractStateEvolution = AgingLaw()
 
     def psi_over_a(self, theta, mu_d):
-        ratio = jnp.maximum(self.v_0 * theta / self.d_c, 1e-300)
-        return jnp.minimum((mu_d + self.b * jnp.log(ratio)) / self.a, PSI_CAP)
+        r"""$\psi/a$ at the state (s), with $v_0\theta/D_c$ floored at `STATE_FLOOR`."""
+        ratio = jnp.maximum(self.v_0 * theta / self.d_c, STATE_FLOOR)
+        return (mu_d + self.b * jnp.log(ratio)) / self.a
 
     def coefficient(self, velocity, theta, mu_d):
-        """Regularised friction coefficient at the velocity (mm/s) and state (s)."""
-        z = 0.5 * velocity / self.v_0 * jnp.exp(self.psi_over_a(theta, mu_d))
-        return self.a * jnp.arcsinh(z)
+        r"""Regularised friction coefficient at the velocity (mm/s) and state (s),
+        $a\,\mathrm{asinh}(z)$, $z = v/(2v_0)\,e^{\psi/a}$: directly where $|z| \le 1$
+        ($\psi/a$ capped at `PSI_CAP` there), and elsewhere as
+        $a\,\mathrm{sign}(v)[\ln|z| + \ln(1 + \sqrt{1 + z^{-2}})]$ from
+        $\ln|z| = \ln(|v|/2v_0) + \psi/a$: the same law, whose value and derivatives stay
+        finite at every finite velocity and state (the exponential overflowed in a slip that
+        runs away, and its derivatives turned to infinity times zero)."""
+        s = self.psi_over_a(theta, mu_d)
+        speed = jnp.abs(velocity)
+        moving = speed > 0
+        log_z = jnp.log(0.5 * jnp.where(moving, speed, self.v_0) / self.v_0) + s
+        far = moving & (log_z > 0)
+        lz = jnp.where(far, log_z, 1.0)
+        outer = jnp.sign(velocity) * (lz + jnp.log1p(jnp.sqrt(1.0 + jnp.exp(-2.0 * lz))))
+        near = jnp.where(far, 0.0, velocity)
+        inner = jnp.arcsinh(0.5 * near / self.v_0 * jnp.exp(jnp.minimum(s, PSI_CAP)))
+        return self.a * jnp.where(far, outer, inner)
 
     def velocity_at(self, mu, theta, mu_d):
-        """The velocity (mm/s) at which the regularised law gives `mu` in state `theta`."""
+        """The velocity (mm/s) at which the regularised law gives `mu` in state `theta`
+        (exponents capped at `EXP_CAP`)."""
         s = self.psi_over_a(theta, mu_d)
-        return self.v_0 * (jnp.exp(mu / self.a - s) - jnp.exp(-mu / self.a - s))
+        return self.v_0 * (jnp.exp(jnp.minimum(mu / self.a - s, EXP_CAP))
+                           - jnp.exp(jnp.minimum(-mu / self.a - s, EXP_CAP)))
 
     def state_at(self, mu, velocity, mu_d):
         r"""The state (s) at which the regularised law gives `mu` (> 0) at `velocity`
