@@ -87,6 +87,25 @@ def test_rate_state_start_at_a_slip_end():
     assert np.isfinite(float(g)) and float(g) > 0.0
 
 
+def test_rate_state_law_is_finite_far_from_its_physical_states():
+    """The law and its derivatives (in the parameters, the velocity and the state) stay
+    finite for any velocity an implicit solver may try (a slip that runs away, 1e100
+    mm/s) and any state (0, negative, 1e-300 s and 1e100 s): a forward-mode derivative
+    of the simulation passes through them inside the solver's Newton stages."""
+    def law(p, v, theta):
+        a, b, d_c, mu = jnp.exp(p)
+        kin = rate_state_friction(mu, a, b, d_c, 1e-3).kinetic
+        return kin.coefficient(v, theta, mu)
+
+    jac = jax.jit(jax.jacfwd(law, argnums=(0, 1, 2)))
+    for a, b, d_c in [(2e-3, 1e-4, 1e-6), (7e-3, 0.012, 1e-4), (1e-4, 0.05, 5e-3)]:
+        p = jnp.log(jnp.array([a, b, d_c, 0.25]))
+        for v in (-1e100, -1.0, 0.0, 1e-300, 1e-3, 1e12, 1e100):
+            for theta in (-1.0, 0.0, 1e-300, 1e-6, 1.0, 1e100):
+                out = [law(p, v, theta), *jac(p, v, theta)]
+                assert all(np.all(np.isfinite(np.asarray(o))) for o in out), (a, b, v, theta)
+
+
 def test_log_aging_law_values():
     st, kin = LogAgingStatic(0.2, 0.03, 0.5), LogVelocityKinetic(0.02, 2.0)
     assert float(st(0.0)) == 0.2 and float(st(0.5)) == pytest.approx(0.2 + 0.03 * np.log(2))
