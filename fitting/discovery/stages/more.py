@@ -111,34 +111,21 @@ def _same_physics(name: str) -> set:
 
 def extended(fx: Fits, rf: FamilyRefit, held) -> Base:
     """The base with the effects `held` (the last of them `rf`'s family) at the refit
-    `rf`: its fit over the base columns, the gap and the misfit there. Where `rf` was
-    fitted over other coordinates (one screw for all records, `decide.one_screw`), the
-    base is fitted on from it over its own columns (the held screw's coefficients per
-    record, free in every later refit), so that the later search tests and refits at the
-    base's optimum. Else every later refit first spent its evaluations on the same drop
-    (measured on a 6 um screw error: 264 k of each family's 265-330 k chi-square drop on
-    4 records, 499 k of 499-515 k on 12), every family looked as close to the winner as
-    the next and was continued and restarted, and the later ranking tested at a point
-    off the optimum: on the 4 records it named a Stribeck drop after the screw, which the
-    records do not hold (at the optimum the best family-wise p is 0.012, above alpha)."""
+    `rf`: its fit over the base columns, the gap and the misfit there."""
     base, model, n, opts = fx.base, fx.base.model, fx.base.n, fx.opts
     new = dataclasses.replace(base, held=tuple(held), shape=rf.shape, sensor=rf.sensor)
-    cols, z, fit = new.cols, rf.sub.full(rf.fit.z), rf.fit
-    if not (type(rf.sub) is SubProblem and np.array_equal(rf.sub.cols, cols)):
-        sub = SubProblem(model, z, cols, rf.shape, rf.sensor, prior_of(fx, cols))
-        try:
-            fit = sub.solve(z[cols], max_evals=opts.max_evals, lam0=1e-3, stall_evals=8)
-            z = sub.full(fit.z)
-        except ValueError:  # the start left the simulator's domain: the Jacobian there
-            fit = dataclasses.replace(rf.fit, jacobian=model.evaluate(z, cols, rf.shape,
-                                                                      rf.sensor)[1])
-    r, d = fit.r[:n], base.described
+    cols, z = new.cols, rf.sub.full(rf.fit.z)
+    if type(rf.sub) is SubProblem and np.array_equal(rf.sub.cols, cols):
+        J = rf.fit.J[:n]
+    else:  # a shared screw or a reduced fit: the Jacobian over the base columns
+        J = model.evaluate(z, cols, rf.shape, rf.sensor)[1]
+    r, d = rf.fit.r[:n], base.described
     gap = rms_gap(r[d], base.sd[d], base.samples[d])
     # rss with the screw's prior rows: the next refits carry them too
-    fit = dataclasses.replace(fit, params=z[cols], residuals=r, jacobian=fit.J[:n])
+    fit = dataclasses.replace(rf.fit, params=z[cols], residuals=r, jacobian=J)
     return dataclasses.replace(
         new, fit=fit, z=z, gap_before=gap, gap_all_before=rms_gap(r, base.sd, base.samples),
-        misfit=((fit.rss + base.within) / base.n_used > opts.misfit
+        misfit=((rf.fit.rss + base.within) / base.n_used > opts.misfit
                 or gap > opts.misfit * base.noise))
 
 
