@@ -69,16 +69,13 @@ A later effect must also beat clearly every physical contender that explains a c
 share (the decision's `unbeaten`: paired z below `clear`, a drop from `joint` x the
 winner's; a law of the same physics aside): where it does not, the records do not say
 which family is missing, and the one that lowers chi-square most is often the flexible
-one standing in for the partner the first effect bent (measured, 4 records: load coupling
--162 against the Stribeck drop's -88 beside a 20 Hz sensor; rate-and-state friction -261
-named third against load coupling's -244 after a sensor and a screw). The search stops
+one standing in for the partner the first effect bent (a per-record screw or load coupling
+beside a sensor, docs/discovery.md's pair table). The search stops
 there, and the answer is not certain (both are listed as not clearly beaten): the first
 effect is still named when it is not clear (with low confidence), a later one is not.
 Testing the two given each other instead (the robust window test of each at the other's
-refit, the one still needed named) names more true partners but also a damping after a
-20 Hz sensor alone, whose remainder on lubricant A damping fits given load coupling and
-rate-and-state (measured, 4 records: both of a pair named in 16 of 36 campaigns against
-12, no third effect in 29 against 31, damping named after the sensor alone in 2 of 2).
+refit, the one still needed named) would name a family for any remainder the first effect
+leaves, since such a remainder is needed given every rival.
 """
 
 from __future__ import annotations
