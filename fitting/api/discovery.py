@@ -170,19 +170,11 @@ def discover(records: RecordsSpec, *, base: CycleBase | SmoothBase | None = None
 
     A mistake in the options raises ValueError naming the keyword, before any fit.
     """
-    from ..discovery.cycle_effects import FAMILIES
     from ..discovery.cycle_workflow import CycleBase
     from ..discovery.engine import AbstractBaseModel
     from ..discovery.engine import discover as run
 
-    if base is None:
-        if isinstance(only, str):
-            only = [only]
-        names = [f.name for f in FAMILIES]
-        bad = [n for n in only or () if n not in names]
-        if bad:
-            raise ValueError(f"only: unknown effect families {', '.join(bad)}; the families "
-                             f"are {', '.join(names)}")
+    if base is None:  # CycleBase checks the options and names the keyword
         base = CycleBase.tuned(only=only, top=top, alpha=alpha, max_evals=max_evals,
                                strict=strict, learn=learn, loss=loss_option(loss),
                                max_effects=max_effects)

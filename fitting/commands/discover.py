@@ -74,27 +74,18 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
+    import dataclasses
     import sys
 
+    from stickslip_jax.output import check_outputs, save_figure, write_json
     from stickslip_jax.records import read_campaign_files
 
-    for option, value, least in (("--top", args.top, 1), ("--max-evals", args.max_evals, 2),
-                                 ("--max-effects", args.max_effects, 1)):
-        if value < least:
-            raise ValueError(f"{option}: must be at least {least}, got {value}")
-    from stickslip_fitting.modes import DiscoveryBase
+    from ..modes import DiscoveryBase
+    from ..objectives.losses import parse_loss
 
     cycle = DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE
-    for option, value in (("--threshold", args.threshold), ("--crop", args.crop)):
-        if cycle and value is not None:
-            raise ValueError(f"{option}: acts only with --base smooth; add --base smooth or "
-                             f"leave {option} out")
-    if args.threshold is not None and not args.threshold >= 0:
-        raise ValueError(f"--threshold: must be >= 0, got {args.threshold}")
-    if not 0 < args.alpha < 1:
-        raise ValueError(f"--alpha: must be between 0 and 1, got {args.alpha}")
-    from stickslip_jax.output import check_outputs, save_figure, write_json
-
+    loss = parse_loss(args.loss)
+    base = _base(args, cycle, loss)  # the options checked before any file is read
     files = read_campaign_files(args.records)  # an unreadable file is set aside, listed
     records, unreadable = files.records, files.unreadable
     files.check(args.strict)
@@ -102,10 +93,7 @@ def run(args) -> int:
                   [r.source for r in records if r.source] + [e.path for e in unreadable])
     if len(records) + len(unreadable) < 2:
         raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
-    from ..objectives.losses import parse_loss
-
-    loss = parse_loss(args.loss)
-    base = _base(args, cycle, loss, unreadable)
+    base = dataclasses.replace(base, unreadable=tuple(unreadable))
     from stickslip_jax.logs import logger
 
     from ..discovery.engine import discover
@@ -256,29 +244,37 @@ def smooth_candidate_table(candidates) -> str:
     return "\n".join(lines)
 
 
-def _base(args, cycle: bool, loss, unreadable):
-    """The base model of `--base` with the command's options."""
+BASE_OPTIONS = ("only", "top", "alpha", "max_evals", "max_effects", "threshold")
+"""The base's fields (and `CycleBase.tuned`'s keywords) that are options of the command:
+the base checks them, and its error "name: ..." is printed as "--name: ..."."""
+
+
+def _base(args, cycle: bool, loss):
+    """The base model of `--base` with the command's options (checked by the base)."""
+    for option, value in (("--threshold", args.threshold), ("--crop", args.crop)):
+        if cycle and value is not None:
+            raise ValueError(f"{option}: acts only with --base smooth; add --base smooth or "
+                             f"leave {option} out")
+    if not cycle and loss.spec() != "gaussian":
+        raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
+                         "fits least squares); drop --loss or use --base cycle")
     only = tuple(args.only) if args.only else None
-    if not cycle:
-        from ..discovery.effects import CANDIDATES
-        from ..discovery.workflow import SmoothBase
+    try:
+        if not cycle:
+            from ..discovery.effects import CANDIDATES
+            from ..discovery.workflow import SmoothBase
 
-        if loss.spec() != "gaussian":
-            raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
-                             "fits least squares); drop --loss or use --base cycle")
-        return SmoothBase(candidates=only or CANDIDATES, top=args.top,
-                          threshold=10.0 if args.threshold is None else args.threshold,
-                          crop=args.crop or "slip_end", learn=args.learn,
-                          max_evals=args.max_evals, strict=args.strict,
-                          unreadable=tuple(unreadable))
-    from ..discovery.cycle_effects import FAMILIES
-    from ..discovery.cycle_workflow import CycleBase
+            return SmoothBase(candidates=only or CANDIDATES, top=args.top,
+                              threshold=10.0 if args.threshold is None else args.threshold,
+                              crop=args.crop or "slip_end", learn=args.learn,
+                              max_evals=args.max_evals, strict=args.strict)
+        from ..discovery.cycle_workflow import CycleBase
 
-    names = {f.name for f in FAMILIES}
-    bad = [n for n in only or () if n not in names]
-    if bad:
-        raise ValueError(f"--only: {', '.join(bad)} exist only with --base smooth; the "
-                         f"cycle base has {', '.join(sorted(names))}")
-    return CycleBase.tuned(only=only, top=args.top, alpha=args.alpha,
-                           max_evals=args.max_evals, strict=args.strict, learn=args.learn,
-                           loss=loss, unreadable=tuple(unreadable), max_effects=args.max_effects)
+        return CycleBase.tuned(only=only, top=args.top, alpha=args.alpha,
+                               max_evals=args.max_evals, strict=args.strict, learn=args.learn,
+                               loss=loss, max_effects=args.max_effects)
+    except ValueError as err:
+        head, colon, rest = str(err).partition(":")
+        if head not in BASE_OPTIONS:
+            raise
+        raise ValueError(f"--{head.replace('_', '-')}{colon}{rest}") from None

@@ -75,7 +75,7 @@ from ..objectives.losses import AbstractLoss
 from .cycle_effects import FAMILIES, family
 from .cycle_model import per_sample
 from .engine import AbstractBaseModel, discover
-from .options import DEFAULTS, DiscoveryOptions
+from .options import DEFAULTS, DiscoveryOptions, at_least
 from .result import CycleDiscovery, friction_rows
 from .stages import (Clock, Fits, Prepared, Refitted, base_fit, choose, conclude, more_effects,
                      prepare, rank, refit, reweigh, settled, sharpen)
@@ -88,7 +88,8 @@ __all__ = ["CycleBase", "CycleDiscovery", "DiscoveryOptions", "discover_cycles"]
 class CycleBase(AbstractBaseModel):
     """The per-cycle base (module doc) and its options.
 
-    `candidates`: family names (default all of `cycle_effects.FAMILIES`); `opts`: the
+    `candidates`: family names (default all of `cycle_effects.FAMILIES`; `only` of
+    `tuned`, of `stickslip_fitting.discover` and of `--only`); `opts`: the
     tuning (`options.DiscoveryOptions`); `strict`: refuse the campaign when a record has
     no usable stick-slip; `learn`: fit the learned phase correction (`cycle_learned`)
     whatever the answer (always for "unexplained"); `loss`: a heavy-tailed likelihood
@@ -108,19 +109,24 @@ class CycleBase(AbstractBaseModel):
     NAME: ClassVar[str] = "cycle"
 
     def __post_init__(self):
-        for key, value, low in (("top", self.opts.top, 1), ("max_evals", self.opts.max_evals, 2),
-                                ("max_effects", self.max_effects, 1)):
-            if value < low:
-                raise ValueError(f"{key}: must be at least {low}, got {value}")
-        if not 0 < self.opts.alpha < 1:
-            raise ValueError(f"alpha: must be between 0 and 1, got {self.opts.alpha}")
+        """The one check of the options (`opts` checks its own); an error names the option
+        as `tuned` and `stickslip_fitting.discover` spell it (the command adds "--")."""
+        at_least("max_effects", self.max_effects, 1)
+        names = [f.name for f in FAMILIES]
+        bad = [n for n in self.candidates or () if n not in names]
+        if bad:
+            raise ValueError(f"only: unknown effect families {', '.join(bad)}; the families "
+                             f"are {', '.join(names)}")
 
     @classmethod
     def tuned(cls, *, only=None, **options) -> CycleBase:
-        """The base of `only` the families named (None or empty: all) from `options`, the
-        fields of `CycleBase` and of its tuning `DiscoveryOptions` (over `DEFAULTS`)."""
+        """The base of `only` the families named (a name or names; None or empty: all)
+        from `options`, the fields of `CycleBase` and of its tuning `DiscoveryOptions` (over
+        `DEFAULTS`)."""
         tuning = {k: options.pop(k) for k in list(options)
                   if k in DiscoveryOptions.__dataclass_fields__}
+        if isinstance(only, str):
+            only = (only,)
         if only:
             options["candidates"] = tuple(only)
         return cls(opts=dataclasses.replace(DEFAULTS, **tuning), **options)

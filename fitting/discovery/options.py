@@ -7,7 +7,14 @@ from __future__ import annotations
 
 import dataclasses
 
-__all__ = ["DEFAULTS", "DiscoveryOptions"]
+__all__ = ["DEFAULTS", "DiscoveryOptions", "at_least"]
+
+
+def at_least(name: str, value, low) -> None:
+    """A ValueError naming the option `name` and its smallest value unless `value` >= `low`
+    (the discovery bases check their options with it; the command names them --name)."""
+    if not value >= low:
+        raise ValueError(f"{name}: must be at least {low}, got {value}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,6 +99,12 @@ class DiscoveryOptions:
     reweigh_rounds: int = 3
     # a round is kept if the described gap stays within this factor (Stribeck 0.16 on C: +52 %)
     reweigh_tolerance: float = 1.02
+
+    def __post_init__(self):
+        at_least("top", self.top, 1)
+        at_least("max_evals", self.max_evals, 2)
+        if not 0 < self.alpha < 1:
+            raise ValueError(f"alpha: must be between 0 and 1, got {self.alpha}")
 
 
 DEFAULTS = DiscoveryOptions()

@@ -37,6 +37,7 @@ from . import engine
 from .effects import CANDIDATES, EffectSet
 from .engine import AbstractBaseModel
 from .model import Problem, Settings, campaign_traces
+from .options import at_least
 from .ranking import Refit, choose, effect_rows, refit_candidates, score_candidates
 from .residuals import ResidualReport, analyse_residuals
 from .result import SmoothDiscovery, estimate_text
@@ -143,6 +144,11 @@ class SmoothBase(AbstractBaseModel):
     strict: bool = False
     unreadable: tuple = ()
     NAME: ClassVar[str] = "smooth"
+
+    def __post_init__(self):
+        at_least("top", self.top, 1)
+        at_least("max_evals", self.max_evals, 2)
+        at_least("threshold", self.threshold, 0)
 
     def prepare(self, records, clock: Clock) -> tuple[Campaign, Problem]:
         campaign = screen_records(list(records), strict=self.strict,
