@@ -36,20 +36,20 @@ def _planted(seed: int, j: int, size: float):
 
 
 @pytest.mark.parametrize("seed", range(8))
-def test_stlsq_recovers_a_planted_term_exactly(seed):
+def test_select_terms_recovers_a_planted_term_exactly(seed):
     j = seed * 3 % len(sparse.TERMS)
     base, b, C = _planted(seed, j, size=0.8)
-    S, rss = sparse.stlsq(base, b, C)
+    S, rss = sparse.select_terms(base, b, C)
     assert list(S) == [j]
     beta = np.linalg.lstsq(np.hstack([base, C[:, S]]), b, rcond=None)[0]
     assert beta[-1] == pytest.approx(0.8, abs=0.1)
     assert rss < 1.1 * b.size
 
 
-def test_stlsq_keeps_nothing_in_noise():
+def test_select_terms_keeps_nothing_in_noise():
     rng = np.random.default_rng(5)
     base, _, C = _planted(5, 0, 0.0)
-    hits = sum(sparse.stlsq(base, rng.standard_normal(base.shape[0]), C)[0].size > 0
+    hits = sum(sparse.select_terms(base, rng.standard_normal(base.shape[0]), C)[0].size > 0
                for _ in range(20))
     assert hits <= 1
 

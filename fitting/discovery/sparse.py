@@ -16,12 +16,13 @@ fitted jointly with the base parameters:
   (its first-order response during the slip, held after the slider stops);
 - **drift**: the reading's drift over the record.
 
-The terms are chosen by sequentially thresholded least squares (`stlsq`, SINDy's
-regression, and a forward selection) on the base residuals with the base Jacobian
-projected out (a stick term's column is the model's own, the breakaway's move included);
-the support of least chi-square plus `TERM_COST` per term wins, at most `MAX_TERMS`. The
-form is refitted with the model's parameters (`fit_sparse_form`) and found when it closes
-at least `FOUND_SHARE` of the gap's excess over the noise. Units: mm, s, kgf.
+The terms are chosen by `select_terms` (sequentially thresholded least squares, SINDy's
+regression, along a path of thresholds, and a forward selection) on the base residuals
+with the base Jacobian projected out (a stick term's column is the model's own, the
+breakaway's move included); the support of least chi-square plus `TERM_COST` per term
+wins, at most `MAX_TERMS`. The form is refitted with the model's parameters
+(`fit_sparse_form`) and found when it closes at least `FOUND_SHARE` of the gap's excess
+over the noise. Units: mm, s, kgf.
 """
 
 from __future__ import annotations
@@ -36,8 +37,7 @@ from .cycle_effects import STICK_SCALE, STICK_TAUS, STICK_TERMS, STICK_TRAVELS, 
 from .cycle_model import per_sample
 
 __all__ = ["FOUND_SHARE", "MAX_TERMS", "SparseForm", "TERMS", "Term", "coordinates",
-           "fit_sparse_form",
-           "library", "stlsq"]
+           "fit_sparse_form", "library", "select_terms"]
 
 MAX_TERMS = 3
 """A form of more than three terms is a fit, not a form."""
@@ -169,13 +169,14 @@ def library(model, z, r, sd) -> np.ndarray:
     return out
 
 
-def stlsq(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: int = MAX_TERMS,
-          cost: float | None = None) -> tuple[np.ndarray, float]:
-    """Sequentially thresholded least squares of b on the whitened columns C, `base`
-    projected out: at each threshold of a path (a share of the excess chi-square each
-    standardised coefficient must explain) and along a forward selection, the support
-    (at most `max_terms`) of least chi-square + `cost` per term (default `TERM_COST` of
-    the excess, at least 2 ln n). Returns the support (column indices) and its chi-square."""
+def select_terms(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: int = MAX_TERMS,
+                 cost: float | None = None) -> tuple[np.ndarray, float]:
+    """The terms of the sparse form: sequentially thresholded least squares of b on the
+    whitened columns C, `base` projected out: at each threshold of a path (a share of the
+    excess chi-square each standardised coefficient must explain) and along a forward
+    selection, the support (at most `max_terms`) of least chi-square + `cost` per term
+    (default `TERM_COST` of the excess, at least 2 ln n). Returns the support (column
+    indices) and its chi-square."""
     n = b.size
     Q = np.linalg.qr(base)[0] if base.size else np.zeros((n, 0))
     Cp, bp = C - Q @ (Q.T @ C), b - Q @ (Q.T @ b)
@@ -276,7 +277,7 @@ def fit_sparse_form(model, z, r, J, noise: float, use=None, *, gap=None,
     _, Js, _ = model.evaluate(z, scols)
     Cw[:, stick] = -np.asarray(Js) / STICK_SCALE  # per mm of coefficient
     w = use.astype(float)
-    S, _ = stlsq(J * w[:, None], r * w, Cw * w[:, None])
+    S, _ = select_terms(J * w[:, None], r * w, Cw * w[:, None])
     inside, add = S[stick[S]], S[~stick[S]]
     cols = np.r_[np.arange(model.n_base), scols[inside]]
     z_k, r_k = np.array(z, float), np.asarray(r, float)
