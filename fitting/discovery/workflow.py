@@ -51,19 +51,23 @@ def initial_friction(features) -> EmpiricalFriction:
     """Features-first starting friction (the records with >= 2 complete cycles); where
     the campaign cannot separate mu_s from gamma (mu_s > 1.5), mu_s is 1.5 and gamma keeps
     mu_0 at the median stick time."""
+    from ..modes import ModelModes
+    from ..params import Hold
     from ..solve.fit import fit_features
 
+    reslip = ModelModes(reslip=True)
     good = [f for f in features if f.stick_slip and f.n_complete >= 2]
     if len(good) < 2:
         raise ValueError("discovery needs at least two records with two or more complete "
                          "stick-slip cycles (record longer or slower)")
     # the re-slip model always on: the start the slow checks were calibrated with (without
     # it, viscous damping's base fit started elsewhere: "low", gap 0.56 um, noise 0.52)
-    fit = fit_features(good, reslip=True)
+    fit = fit_features(good, modes=reslip)
     v = fit.values
     if not (0.1 < v["m"] < 2.0 and 0.3 < v["n"] < 3.0):
         # too few cycles to separate the exponents: hold them at typical values
-        fit = fit_features(good, fixed={"m": 0.5, "n": 1.0}, reslip=True)
+        fit = fit_features(good, hold=Hold(lambda f: (f.log_m, f.log_n), (0.5, 1.0)),
+                           modes=reslip)
         v = fit.values
     if not (v["mu_s"] < 1.5 and 1e-3 < v["gamma"] < 1e3 and 0.05 < v["m"] < 3.0):
         t1 = float(np.nanmedian(np.concatenate([f.stick_time for f in good])))
