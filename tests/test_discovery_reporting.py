@@ -15,13 +15,13 @@ import re
 import numpy as np
 import pytest
 
-from stickslip_fitting.commands.discover import candidate_table, parameter_table
 from stickslip_fitting.discovery.cycle_effects import family
 from stickslip_fitting.discovery.decision import rms_by_phase
 from stickslip_fitting.discovery.result import (CycleDiscovery, effect_estimate, estimate_text,
                                                 phase_misfit, phase_text)
 from stickslip_fitting.discovery.stages.rank import significance_line
 from stickslip_fitting.discovery.stages.refit import dead
+from stickslip_fitting.report.discovery_text import candidate_table, parameter_table
 from stickslip_fitting.report.rows import DiscoveryEstimates
 
 

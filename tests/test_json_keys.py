@@ -218,13 +218,15 @@ def test_old_keys_are_kept_for_one_release(documents):
 def test_aliases_are_declared_by_the_command(documents, name):
     """The deprecated keys a document lists are the JSON_ALIASES its command declares (in
     the command module, or in the module that writes the document: for design the map's
-    contract, stickslip_fitting.api.design; for mcmc stickslip_fitting.report.mcmc_document)."""
+    contract, stickslip_fitting.api.design; for mcmc stickslip_fitting.report.mcmc_document;
+    for discover stickslip_fitting.report.discovery_text)."""
     from stickslip_jax.cli import registered
 
     module = next(importlib.import_module(m) for m in registered()
                   if importlib.import_module(m).NAME == name)
     writer = {"design": "stickslip_fitting.api.design",
-              "mcmc": "stickslip_fitting.report.mcmc_document"}.get(name)
+              "mcmc": "stickslip_fitting.report.mcmc_document",
+              "discover": "stickslip_fitting.report.discovery_text"}.get(name)
     if writer:
         module = importlib.import_module(writer)
     aliases = getattr(module, "JSON_ALIASES", {})

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 
 from stickslip_jax.records import Record
 
+from ..report.discovery_text import answer_text, json_document, named_effects
 from .campaign import RecordsSpec, as_list, loss_option, parameter_frame
 from .results import ResultDocument, pandas_module
 
@@ -50,14 +51,6 @@ SMOOTH_COLUMNS = ("score", "p_value", "dof", "delta_bic", "lr_p_value", "unphysi
 """The columns of `summary()` on the smoothed base (`SmoothBase`): the score test
 (statistic, p-value, dof), the refit's BIC change and likelihood-ratio p-value (NaN: not
 refitted), whether the score step or the refit was unphysical, and whether it is named."""
-
-
-def named_effects(result: Discovery) -> tuple[list[str], list[str]]:
-    """What an answer names: (the effect and the effects the records cannot tell from it,
-    the further effects the sequential search kept after it, in order). The command
-    prints them as "a or b + c"; `CampaignDiscovery.named` lists them."""
-    kept = [s["effect"] for s in getattr(result, "steps", ()) if s["kept"]]
-    return [result.effect] + [r["name"] for r in result.indistinguishable_from], kept[1:]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -127,8 +120,6 @@ class CampaignDiscovery(ResultDocument):
     @property
     def report(self) -> dict:
         """The `stickslip discover --json` document before strict encoding."""
-        from ..commands.discover import json_document
-
         loss = {"loss": self.loss} if self.result.BASE == "cycle" else {}
         return {**json_document(self.result), **loss}
 
@@ -143,8 +134,6 @@ class CampaignDiscovery(ResultDocument):
         return fig
 
     def __str__(self) -> str:
-        from ..commands.discover import answer_text
-
         return answer_text(self.result)
 
     def __repr__(self) -> str:
