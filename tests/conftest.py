@@ -30,8 +30,8 @@ import pytest  # noqa: E402
 
 matplotlib.use("Agg")
 
-QUICK_MODULES = ("test_code_size", "test_layering", "test_product_text", "test_units",
-                 "test_friction", "test_tables", "test_contact_boundary",
+QUICK_MODULES = ("test_code_size", "test_layering", "test_import_graph", "test_product_text",
+                 "test_units", "test_friction", "test_tables", "test_contact_boundary",
                  "test_contact_surfaces", "test_lsq", "test_lsq_pieces", "test_steady")
 """Modules whose tests are marked `quick` (`pytest -m quick`): the source checks and the
 model's unit tests (friction laws, tables, contact, the least-squares solver, the steady
