@@ -14,7 +14,8 @@ smooth = sf.discover("data/examples", base=sf.SmoothBase(top=2, crop="slip_end")
 ```
 
 The call runs `stickslip discover`'s functions: the records read as the command reads
-them, `discovery.engine.discover` on the base, its figure and the command's JSON document.
+them, `discovery.engine.discover` on the base, its figure, and the answer text and JSON
+document of `report.discovery_text`.
 """
 
 from __future__ import annotations
