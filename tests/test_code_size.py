@@ -2,11 +2,8 @@
 than 150 lines, no module longer than 800 lines. A function or module over the limit is
 read in pieces or not at all; the limits keep each one readable in one sitting.
 
-`ALLOWED` lists the functions and modules over the limit with their length: each may
-shrink (its length may then be lowered there), none may grow, and one that fits the limit
-leaves the list (the test says so), so the list only ever shortens. A function is named
-`path:Class.function` (nested functions by their enclosing names); its length runs from
-its `def` to its last line."""
+A function is named `path:Class.function` (nested functions by their enclosing names)
+in the failure message; its length runs from its `def` to its last line."""
 
 from __future__ import annotations
 
@@ -17,11 +14,6 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 PACKAGES = ("stickslip_jax", "fitting")
 FUNCTION_LINES = 150
 MODULE_LINES = 800
-
-ALLOWED = {
-    "stickslip_jax/simulation/exact.py:_events": 169,
-    "stickslip_jax/simulation/smooth.py:simulate_smooth": 165,
-}
 
 
 def _functions(node, prefix, path, out):
@@ -52,18 +44,8 @@ def sizes() -> dict[str, int]:
 
 def test_functions_and_modules_within_their_limits():
     over = sizes()
-    new = {k: v for k, v in over.items() if k not in ALLOWED}
-    grown = {k: (ALLOWED[k], v) for k, v in over.items() if k in ALLOWED and v > ALLOWED[k]}
-    assert not new, (f"over the limit ({FUNCTION_LINES} lines a function, {MODULE_LINES} a "
-                     f"module): {new}")
-    assert not grown, f"grew beyond their allowed length (allowed, now): {grown}"
-
-
-def test_allowed_list_is_honest():
-    """An allowed item that no longer exceeds its limit (shortened, renamed or removed)
-    leaves `ALLOWED`."""
-    gone = sorted(k for k in ALLOWED if k not in sizes())
-    assert not gone, f"within the limits now, remove from ALLOWED: {gone}"
+    assert not over, (f"over the limit ({FUNCTION_LINES} lines a function, {MODULE_LINES} a "
+                      f"module): {over}")
 
 
 def test_the_measure_counts_nested_functions_and_methods():

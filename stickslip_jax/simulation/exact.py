@@ -44,7 +44,9 @@ number of cycles).
 
 from __future__ import annotations
 
+import functools
 import math
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -267,6 +269,28 @@ def check_inputs(owner: str, slideway: Slideway, ts=None) -> None:
         raise ValueError(f"{owner}: ts must be non-decreasing (sample times, s)")
 
 
+class _Setup(NamedTuple):
+    """What every step of one record's event loop reads: the friction law, the friction
+    load W (kgf, the paper's N = W), k (kgf/mm), omega0 (rad/s), the drive's knots
+    (times `kt` s; `bounds` with the run's end `t_end` appended; `knot_table` [K, 3] of
+    time, position, speed), the restick level mu_0(0), the gradient-free W, k and
+    mu_0(infinity) of the root brackets, and the `SlipTime`."""
+
+    friction: object
+    W: Array
+    k: Array
+    omega: Array
+    kt: Array
+    bounds: Array
+    t_end: Array
+    knot_table: Array
+    mu_restick: Array
+    W_sg: Array
+    k_sg: Array
+    mu_cap: Array
+    slip_time: SlipTime
+
+
 def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_time, *,
             slip_time, max_events, cycle_table=True) -> _Events:
     """Run the stick/slip events of one record from `t_start` to `t_end` (s)."""
@@ -284,131 +308,9 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
     mu_cap = jax.lax.stop_gradient(static.asymptote())
 
     knot_table = jnp.stack([kt, ku, ks], axis=1)
-
-    def u_at(t):
-        return _drive_at(knot_table, t)
-
-    def model_t2(x_b, v_b, mu0, active):
-        if slip_time == SlipTime.PAPER:
-            return jnp.pi / omega
-
-        p = (x_b, v_b, mu0, friction, W, k, omega)
-
-        def g(T2, p=p):
-            x_b, v_b, mu0, friction, W, k, omega = p
-            mum = friction.kinetic(mu0, friction.mu_d, T2)
-            return T2 - slip_from_rest(x_b - mum * W / k, v_b, omega)
-
-        p_sg = jax.lax.stop_gradient(p)
-        lo, hi = jax.lax.stop_gradient((jnp.pi / omega, _TWO_PI / omega))
-        root = 0.5 * sum(bisect(lambda T2: ~(g(T2, p_sg) < 0), lo, jnp.where(active, hi, lo), 64))
-        return with_implicit_gradient(root, g)
-
-    def stick_step(s: _State, active):
-        u_t, v_t = u_at(s.t)
-        x_b_all = s.x + u_at(bounds)[0] - u_t
-        r_b = k * x_b_all - W * static(jnp.maximum(bounds - s.t_stick, 0.0))
-        valid_b = (bounds > s.t) & (bounds <= t_end)
-        r_start = k * s.x - W * static(s.t - s.t_stick)
-        immediate = r_start >= 0
-        hit = valid_b & (r_b >= 0)
-        found = jnp.any(hit)
-        j = jnp.argmax(hit)
-        hi = bounds[j]
-        lo = jnp.maximum(s.t, jnp.max(jnp.where(valid_b & (bounds < hi), bounds, -jnp.inf)))
-        u_lo, v_seg = u_at(lo)
-        x_lo = s.x + u_lo - u_t
-        hi_safe = jnp.where(found, hi, s.t + 1.0)
-        lo_safe = jnp.where(found, lo, s.t)
-        p = (x_lo, lo_safe, v_seg, s.t_stick, k, W, static)
-
-        def fun(tp, p=p):
-            x_lo, t_lo, v_seg, t_stick, k, W, static = p
-            return k * (x_lo + v_seg * (tp - t_lo)) - W * static(tp - t_stick)
-
-        p_sg = jax.lax.stop_gradient(p)
-        lo_sg, hi_sg = jax.lax.stop_gradient((lo_safe, hi_safe))
-        # A tighter right end: where k x reaches W mu_0(infinity) (an upper bound of the
-        # root when the law is bounded by its asymptote; used only if r >= 0 there).
-        x_lo_sg, v_sg = p_sg[0], p_sg[2]
-        t_cap = lo_sg + (W_sg * mu_cap - k_sg * x_lo_sg) / (k_sg * jnp.where(v_sg > 0, v_sg, 1.0))
-        use_cap = (v_sg > 0) & (t_cap > lo_sg) & (t_cap < hi_sg)
-        t_cap = jnp.where(use_cap, t_cap, hi_sg)
-        hi_sg = jnp.where(use_cap & (fun(t_cap, p_sg) >= 0), t_cap, hi_sg)
-        run = active & found & ~immediate
-        root = _newton_root(lambda tp: fun(tp, p_sg), lo_sg, hi_sg, active=run)
-        t_b = with_implicit_gradient(root, fun)
-        t_b = jnp.where(immediate, s.t, jnp.where(found, t_b, t_end))
-        x_b = jnp.where(immediate, s.x, x_lo + v_seg * (t_b - lo_safe))
-        v_b = jnp.where(immediate, v_t, v_seg)
-        breaks = immediate | found
-        T1 = t_b - s.t_stick
-        mu0 = static(T1)
-        T2 = model_t2(x_b, v_b, mu0, active & breaks)
-        mum = friction.kinetic(mu0, friction.mu_d, T2)
-        new = _State(t=t_b, x=x_b, yd=jnp.zeros_like(s.yd), sticking=~breaks, t_stick=s.t_stick,
-                     c=jnp.where(breaks, mum * W / k, s.c), done=~breaks, steady=s.steady,
-                     slip_start=jnp.where(breaks, t_b, s.slip_start))
-        info = dict(is_break=breaks & active, t_b=t_b, x2=x_b, T1=T1, mu0=mu0, mum=mum, T2model=T2,
-                    is_end=jnp.asarray(False), t_stop=t_b, x1=x_b, restick=jnp.asarray(False))
-        return new, info, u_t, v_t
-
-    def slip_step(s: _State, active):
-        u_t, v = u_at(s.t)
-        later = kt > s.t
-        t_next = jnp.min(jnp.where(later, kt, jnp.inf))
-        A = omega * (s.x - s.c)
-        B = s.yd - v
-        R2 = A * A + B * B
-        R = jnp.sqrt(jnp.where(R2 > 0, R2, 1.0))
-        stops = (R2 > 0) & (R > v)
-        R_safe = jnp.where(stops, R, 2.0 * v + 1.0)
-        theta = jnp.mod(jnp.arctan2(A, B) + jnp.arccos(-v / R_safe), _TWO_PI)
-        t_stop = s.t + theta / omega
-        stop_here = stops & (t_stop <= t_next) & (t_stop <= t_end)
-        t_new = jnp.where(stop_here, t_stop, jnp.minimum(t_next, t_end))
-        x_new, yd_new = _slip_state(s.x, s.yd, s.c, v, omega, t_new - s.t)
-        yd_new = jnp.where(stop_here, 0.0, yd_new)
-        restick = stop_here & (k * x_new > W * mu_restick)
-        never = ~stops & ~(t_next < t_end)
-        new = _State(t=t_new, x=x_new, yd=yd_new, sticking=stop_here,
-                     t_stick=jnp.where(stop_here, t_new, s.t_stick), c=s.c,
-                     done=~stop_here & (t_new >= t_end), steady=s.steady | restick | never,
-                     slip_start=s.slip_start)
-        info = dict(is_break=jnp.asarray(False), t_b=s.slip_start, x2=s.x, T1=jnp.zeros_like(s.t),
-                    mu0=jnp.zeros_like(s.t), mum=s.c * k / W, T2model=jnp.zeros_like(s.t),
-                    is_end=stop_here & active, t_stop=t_new, x1=x_new, restick=restick & active)
-        return new, info, u_t, v
-
-    def keep(active, new, old):
-        return jax.tree_util.tree_map(lambda a, b: jnp.where(active, a, b), new, old)
-
-    def row(s: _State, active, u_t, v_t):
-        # an inactive row before the end (the stick half of a step that starts in a
-        # slip) keeps the current time, so the row times stay sorted for rendering
-        t = jnp.where(active, s.t, jnp.where(s.done, jnp.inf, s.t))
-        # closed-form coefficients of the phase for rendering (see below): the slip's
-        # cos/sin of omega (t - t_row) are expanded by the angle-addition formulas so
-        # that the samples need cos/sin of omega t only (no per-sample row time)
-        st, z = s.sticking, jnp.zeros_like(s.x)
-        Q = s.x - s.c
-        S = (v_t - s.yd) / omega
-        phase = omega * jnp.where(jnp.isfinite(t), t, t_end)
-        c_row, s_row = jnp.cos(phase), jnp.sin(phase)
-        coef = jnp.stack([jnp.where(st, s.x - u_t, s.c), jnp.where(st, z, Q * c_row - S * s_row),
-                          jnp.where(st, z, Q * s_row + S * c_row), jnp.where(st, z, v_t)])
-        return dict(t=t, active=active, coef=coef)
-
-    def step(s: _State, _):
-        # one cycle per step: the stick (if the slider rests), then the slip
-        stick_on = ~s.done & s.sticking
-        s1, info1, u1, v1 = stick_step(s, stick_on)
-        s1 = keep(stick_on, s1, s)
-        slip_on = ~s1.done & ~s1.sticking
-        s2, info2, u2, v2 = slip_step(s1, slip_on)
-        s2 = keep(slip_on, s2, s1)
-        rows = (row(s, stick_on, u1, v1), row(s1, slip_on, u2, v2))
-        return s2, (rows, (info1, info2))
+    setup = _Setup(friction=friction, W=W, k=k, omega=omega, kt=kt, bounds=bounds, t_end=t_end,
+                   knot_table=knot_table, mu_restick=mu_restick, W_sg=W_sg, k_sg=k_sg,
+                   mu_cap=mu_cap, slip_time=slip_time)
 
     zero = jnp.zeros(())
     x0 = jnp.asarray(initial_deflection, dtype=float) + zero
@@ -416,7 +318,8 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
                   t_stick=t_start - jnp.asarray(initial_stick_time, dtype=float), c=zero,
                   done=t_start >= t_end, steady=jnp.asarray(False), slip_start=t_start + zero)
     n_steps = (max_events + 1) // 2
-    final, (rows, info) = jax.lax.scan(step, init, None, length=n_steps)
+    final, (rows, info) = jax.lax.scan(functools.partial(_step, setup), init, None,
+                                       length=n_steps)
     # interleave the stick and slip halves of each step: phase order
     rows, info = (jax.tree_util.tree_map(lambda a, b: jnp.stack([a, b], axis=1).reshape(
         (2 * n_steps,) + a.shape[1:]), *halves) for halves in (rows, info))
@@ -427,6 +330,149 @@ def _events(slideway, drive, t_start, t_end, initial_deflection, initial_stick_t
         result=SimulationResult.where(
             final.done, SimulationResult.successful, SimulationResult.max_events_reached),
         num_events=jnp.sum(rows["active"]).astype(int))
+
+
+def _step(setup: _Setup, s: _State, _):
+    """One cycle of the event loop: the stick (if the slider rests), then the slip; the
+    two phase rows and the two event records."""
+    stick_on = ~s.done & s.sticking
+    s1, info1, u1, v1 = _stick_step(setup, s, stick_on)
+    s1 = _keep(stick_on, s1, s)
+    slip_on = ~s1.done & ~s1.sticking
+    s2, info2, u2, v2 = _slip_step(setup, s1, slip_on)
+    s2 = _keep(slip_on, s2, s1)
+    rows = (_row(setup, s, stick_on, u1, v1), _row(setup, s1, slip_on, u2, v2))
+    return s2, (rows, (info1, info2))
+
+
+def _keep(active, new, old):
+    return jax.tree_util.tree_map(lambda a, b: jnp.where(active, a, b), new, old)
+
+
+def _model_t2(setup: _Setup, x_b, v_b, mu0, active):
+    """The slip time T2 (s) of eq (3) for a breakaway at deflection `x_b` (mm), drive
+    speed `v_b` (mm/s) and mu_0: pi / omega0, or the root of the slip's own duration."""
+    omega = setup.omega
+    if setup.slip_time == SlipTime.PAPER:
+        return jnp.pi / omega
+
+    p = (x_b, v_b, mu0, setup.friction, setup.W, setup.k, omega)
+
+    def g(T2, p=p):
+        x_b, v_b, mu0, friction, W, k, omega = p
+        mum = friction.kinetic(mu0, friction.mu_d, T2)
+        return T2 - slip_from_rest(x_b - mum * W / k, v_b, omega)
+
+    p_sg = jax.lax.stop_gradient(p)
+    lo, hi = jax.lax.stop_gradient((jnp.pi / omega, _TWO_PI / omega))
+    root = 0.5 * sum(bisect(lambda T2: ~(g(T2, p_sg) < 0), lo, jnp.where(active, hi, lo), 64))
+    return with_implicit_gradient(root, g)
+
+
+def _stick_step(setup: _Setup, s: _State, active):
+    """The stick from state `s` to its breakaway (the first root of k x - W mu_0, knot
+    segment by segment), or to the run's end when none comes."""
+    friction, W, k, bounds, t_end = setup.friction, setup.W, setup.k, setup.bounds, setup.t_end
+    static = friction.static
+    u_t, v_t = _drive_at(setup.knot_table, s.t)
+    x_b_all = s.x + _drive_at(setup.knot_table, bounds)[0] - u_t
+    r_b = k * x_b_all - W * static(jnp.maximum(bounds - s.t_stick, 0.0))
+    valid_b = (bounds > s.t) & (bounds <= t_end)
+    r_start = k * s.x - W * static(s.t - s.t_stick)
+    immediate = r_start >= 0
+    hit = valid_b & (r_b >= 0)
+    found = jnp.any(hit)
+    j = jnp.argmax(hit)
+    hi = bounds[j]
+    lo = jnp.maximum(s.t, jnp.max(jnp.where(valid_b & (bounds < hi), bounds, -jnp.inf)))
+    u_lo, v_seg = _drive_at(setup.knot_table, lo)
+    x_lo = s.x + u_lo - u_t
+    hi_safe = jnp.where(found, hi, s.t + 1.0)
+    lo_safe = jnp.where(found, lo, s.t)
+    p = (x_lo, lo_safe, v_seg, s.t_stick, k, W, static)
+
+    def fun(tp, p=p):
+        x_lo, t_lo, v_seg, t_stick, k, W, static = p
+        return k * (x_lo + v_seg * (tp - t_lo)) - W * static(tp - t_stick)
+
+    p_sg = jax.lax.stop_gradient(p)
+    lo_sg, hi_sg = jax.lax.stop_gradient((lo_safe, hi_safe))
+    # A tighter right end: where k x reaches W mu_0(infinity) (an upper bound of the
+    # root when the law is bounded by its asymptote; used only if r >= 0 there).
+    x_lo_sg, v_sg = p_sg[0], p_sg[2]
+    W_sg, k_sg = setup.W_sg, setup.k_sg
+    t_cap = lo_sg + (W_sg * setup.mu_cap - k_sg * x_lo_sg) / (k_sg * jnp.where(v_sg > 0, v_sg, 1.0))
+    use_cap = (v_sg > 0) & (t_cap > lo_sg) & (t_cap < hi_sg)
+    t_cap = jnp.where(use_cap, t_cap, hi_sg)
+    hi_sg = jnp.where(use_cap & (fun(t_cap, p_sg) >= 0), t_cap, hi_sg)
+    run = active & found & ~immediate
+    root = _newton_root(lambda tp: fun(tp, p_sg), lo_sg, hi_sg, active=run)
+    t_b = with_implicit_gradient(root, fun)
+    t_b = jnp.where(immediate, s.t, jnp.where(found, t_b, t_end))
+    x_b = jnp.where(immediate, s.x, x_lo + v_seg * (t_b - lo_safe))
+    v_b = jnp.where(immediate, v_t, v_seg)
+    breaks = immediate | found
+    T1 = t_b - s.t_stick
+    mu0 = static(T1)
+    T2 = _model_t2(setup, x_b, v_b, mu0, active & breaks)
+    mum = friction.kinetic(mu0, friction.mu_d, T2)
+    new = _State(t=t_b, x=x_b, yd=jnp.zeros_like(s.yd), sticking=~breaks, t_stick=s.t_stick,
+                 c=jnp.where(breaks, mum * W / k, s.c), done=~breaks, steady=s.steady,
+                 slip_start=jnp.where(breaks, t_b, s.slip_start))
+    info = dict(is_break=breaks & active, t_b=t_b, x2=x_b, T1=T1, mu0=mu0, mum=mum, T2model=T2,
+                is_end=jnp.asarray(False), t_stop=t_b, x1=x_b, restick=jnp.asarray(False))
+    return new, info, u_t, v_t
+
+
+def _slip_step(setup: _Setup, s: _State, active):
+    """The slip from state `s` (closed form of eq 10) to its end, the next drive knot or
+    the run's end, whichever comes first."""
+    W, k, omega, t_end = setup.W, setup.k, setup.omega, setup.t_end
+    u_t, v = _drive_at(setup.knot_table, s.t)
+    later = setup.kt > s.t
+    t_next = jnp.min(jnp.where(later, setup.kt, jnp.inf))
+    A = omega * (s.x - s.c)
+    B = s.yd - v
+    R2 = A * A + B * B
+    R = jnp.sqrt(jnp.where(R2 > 0, R2, 1.0))
+    stops = (R2 > 0) & (R > v)
+    R_safe = jnp.where(stops, R, 2.0 * v + 1.0)
+    theta = jnp.mod(jnp.arctan2(A, B) + jnp.arccos(-v / R_safe), _TWO_PI)
+    t_stop = s.t + theta / omega
+    stop_here = stops & (t_stop <= t_next) & (t_stop <= t_end)
+    t_new = jnp.where(stop_here, t_stop, jnp.minimum(t_next, t_end))
+    x_new, yd_new = _slip_state(s.x, s.yd, s.c, v, omega, t_new - s.t)
+    yd_new = jnp.where(stop_here, 0.0, yd_new)
+    restick = stop_here & (k * x_new > W * setup.mu_restick)
+    never = ~stops & ~(t_next < t_end)
+    new = _State(t=t_new, x=x_new, yd=yd_new, sticking=stop_here,
+                 t_stick=jnp.where(stop_here, t_new, s.t_stick), c=s.c,
+                 done=~stop_here & (t_new >= t_end), steady=s.steady | restick | never,
+                 slip_start=s.slip_start)
+    info = dict(is_break=jnp.asarray(False), t_b=s.slip_start, x2=s.x, T1=jnp.zeros_like(s.t),
+                mu0=jnp.zeros_like(s.t), mum=s.c * k / W, T2model=jnp.zeros_like(s.t),
+                is_end=stop_here & active, t_stop=t_new, x1=x_new, restick=restick & active)
+    return new, info, u_t, v
+
+
+def _row(setup: _Setup, s: _State, active, u_t, v_t):
+    """The phase row that starts at state `s`: its start time (s) and closed-form
+    coefficients for rendering."""
+    omega = setup.omega
+    # an inactive row before the end (the stick half of a step that starts in a
+    # slip) keeps the current time, so the row times stay sorted for rendering
+    t = jnp.where(active, s.t, jnp.where(s.done, jnp.inf, s.t))
+    # closed-form coefficients of the phase for rendering (see below): the slip's
+    # cos/sin of omega (t - t_row) are expanded by the angle-addition formulas so
+    # that the samples need cos/sin of omega t only (no per-sample row time)
+    st, z = s.sticking, jnp.zeros_like(s.x)
+    Q = s.x - s.c
+    S = (v_t - s.yd) / omega
+    phase = omega * jnp.where(jnp.isfinite(t), t, setup.t_end)
+    c_row, s_row = jnp.cos(phase), jnp.sin(phase)
+    coef = jnp.stack([jnp.where(st, s.x - u_t, s.c), jnp.where(st, z, Q * c_row - S * s_row),
+                      jnp.where(st, z, Q * s_row + S * c_row), jnp.where(st, z, v_t)])
+    return dict(t=t, active=active, coef=coef)
 
 
 def _cycle_table(info, max_events: int) -> Cycles:

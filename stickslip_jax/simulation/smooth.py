@@ -48,13 +48,15 @@ the law balances the spring there, healed by the initial stick time
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from typing import NamedTuple
 
 import diffrax as dfx
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import optimistix as optx
-from jaxtyping import ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from ..drives import AbstractDrive
 from ..friction import AbstractVelocityKinetic, RateStateKinetic
@@ -203,60 +205,30 @@ def rate_state_start(slideway: Slideway, v_drive, x0, stick_time):
     return jnp.stack([x0, v0, theta0, fr.mu_d + 0.0 * x0])
 
 
-def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Float[ArrayLike, " N"],
-                    *, smoothing: float = DEFAULT_SMOOTHING,
-                    slip_time: SlipTime | str | float = SlipTime.PAPER, rtol: float = 1e-8,
-                    atol: float = 1e-10, solver: dfx.AbstractSolver | None = None,
-                    max_steps: int = 16384, initial_deflection: Float[ArrayLike, ""] = 0.0,
-                    initial_stick_time: Float[ArrayLike, ""] = 0.0, mask: ArrayLike | None = None,
-                    adjoint: dfx.AbstractAdjoint | None = None, dt0: float | None = None,
-                    formulation: Formulation | str = Formulation.LATCH) -> Trace:
-    r"""Simulate the smoothed model (module docstring) on the sample times `ts` (s).
+class _Dynamics(NamedTuple):
+    """The smoothed model's ODE: `vector_field(t, y, args)` over the states y = (core
+    vector [x, ydot, tau, 4th], parts' states), `make_core` (core vector -> `Core`),
+    `context` (t -> `Context`), the slip time `T2` (s) of eq (3), the smoothing velocity
+    `eps` (mm/s), whether the 4th core state is the last stick time (`rigid`; mu_0
+    itself otherwise) and the model's parts."""
 
-    - `model`: a `SmoothModel`, or a `Slideway` (then no extra parts); `drive`: any
-      `AbstractDrive` (its knots are step-size jump points when there are at most 256).
-    - `smoothing`: dimensionless $\eta$ (where each formulation's gradients are verified:
-      module docstring); `slip_time`: `SlipTime.PAPER` ("paper") or seconds.
-    - `rtol`, `atol` (mm, mm/s), `solver` (default Kvaerno5; Tsit5 for "latch"), `max_steps`,
-      `adjoint` (default `RecursiveCheckpointAdjoint`), `dt0` (s, default automatic).
-    - `formulation`: a `Formulation` or its value (module docstring).
-    - The slider starts at rest with `initial_deflection` (mm), stuck for
-      `initial_stick_time` (s), at `ts[0]` (a rate-and-state law: module docstring).
+    vector_field: Callable
+    make_core: Callable
+    context: Callable
+    T2: Array
+    eps: Array
+    rigid: bool
+    parts: tuple
 
-    Returns a `Trace`: `deflection` is what the measurement part observes (mm, noise-free),
-    `slider_velocity` (mm/s), `sticking` = $|\dot y| < 3\varepsilon$, `cycles` estimated from
-    the samples (`cycles_from_samples`), `result` (`solver_failed` if diffrax did not
-    succeed), `num_events` = accepted steps.
-    """
-    if isinstance(model, Slideway):
-        model = SmoothModel(model)
-    if not isinstance(model, SmoothModel):
-        raise ValueError(f"model must be a SmoothModel or Slideway, got {type(model)}")
-    if not isinstance(drive, AbstractDrive):
-        raise ValueError(f"drive must be an AbstractDrive, got {type(drive)}")
-    if isinstance(slip_time, str):
-        slip_time = SlipTime.parse(slip_time)
-        if slip_time != SlipTime.PAPER:
-            raise ValueError('slip_time must be "paper" or a number of seconds '
-                             '(the smoothed simulator has no self-consistent mode)')
-    formulation = Formulation.parse(formulation)
-    ts = jnp.asarray(ts, dtype=float)
-    if ts.ndim != 1 or ts.shape[0] < 2:
-        raise ValueError("ts must be a 1-D array of at least two times (s); vmap for batches")
-    mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
-    rs = isinstance(model.slideway.friction.kinetic, RateStateKinetic)
-    latch = formulation is Formulation.LATCH and not rs
-    # concrete inputs checked (`check_inputs`); the rendering from the accepted steps
-    # needs sorted sample times
-    check_inputs("simulate_smooth", model.slideway, ts)
-    if solver is None:
-        solver = dfx.Tsit5() if latch else default_solver(rtol, atol)
 
+def _dynamics(model: SmoothModel, drive: AbstractDrive, *, slip_time, smoothing: float,
+              formulation: Formulation, rs: bool, latch: bool) -> _Dynamics:
+    """The vector field of `model` driven by `drive` in `formulation` (`rs`: a rate-and-
+    state kinetic law; `latch`: the latch formulation), with what it is built from."""
     sw = model.slideway
     friction, static = sw.friction, sw.friction.static
     W, k = sw.weight, sw.stiffness
     M, omega = sw.mass, sw.omega0
-    t0, t1 = ts[0], jnp.max(ts)
     T2 = jnp.pi / omega if isinstance(slip_time, SlipTime) else jnp.asarray(slip_time, float)
     t_r = jnp.pi / omega / 40.0
     t_r_latch = jnp.pi / omega / 20.0  # latch: tau resets by e^-20 or more in a slip
@@ -324,6 +296,67 @@ def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Flo
         d_core = jnp.stack([ctx.drive_speed - core.ydot, ydd, d_tau, d_memory])
         d_own = tuple(p.state_derivative(t, core, o, ctx) for p, o in zip(parts, own))
         return d_core, d_own
+
+    return _Dynamics(vector_field=vector_field, make_core=make_core, context=context, T2=T2,
+                     eps=eps, rigid=rigid, parts=parts)
+
+
+def simulate_smooth(model: SmoothModel | Slideway, drive: AbstractDrive, ts: Float[ArrayLike, " N"],
+                    *, smoothing: float = DEFAULT_SMOOTHING,
+                    slip_time: SlipTime | str | float = SlipTime.PAPER, rtol: float = 1e-8,
+                    atol: float = 1e-10, solver: dfx.AbstractSolver | None = None,
+                    max_steps: int = 16384, initial_deflection: Float[ArrayLike, ""] = 0.0,
+                    initial_stick_time: Float[ArrayLike, ""] = 0.0, mask: ArrayLike | None = None,
+                    adjoint: dfx.AbstractAdjoint | None = None, dt0: float | None = None,
+                    formulation: Formulation | str = Formulation.LATCH) -> Trace:
+    r"""Simulate the smoothed model (module docstring) on the sample times `ts` (s).
+
+    - `model`: a `SmoothModel`, or a `Slideway` (then no extra parts); `drive`: any
+      `AbstractDrive` (its knots are step-size jump points when there are at most 256).
+    - `smoothing`: dimensionless $\eta$ (where each formulation's gradients are verified:
+      module docstring); `slip_time`: `SlipTime.PAPER` ("paper") or seconds.
+    - `rtol`, `atol` (mm, mm/s), `solver` (default Kvaerno5; Tsit5 for "latch"), `max_steps`,
+      `adjoint` (default `RecursiveCheckpointAdjoint`), `dt0` (s, default automatic).
+    - `formulation`: a `Formulation` or its value (module docstring).
+    - The slider starts at rest with `initial_deflection` (mm), stuck for
+      `initial_stick_time` (s), at `ts[0]` (a rate-and-state law: module docstring).
+
+    Returns a `Trace`: `deflection` is what the measurement part observes (mm, noise-free),
+    `slider_velocity` (mm/s), `sticking` = $|\dot y| < 3\varepsilon$, `cycles` estimated from
+    the samples (`cycles_from_samples`), `result` (`solver_failed` if diffrax did not
+    succeed), `num_events` = accepted steps.
+    """
+    if isinstance(model, Slideway):
+        model = SmoothModel(model)
+    if not isinstance(model, SmoothModel):
+        raise ValueError(f"model must be a SmoothModel or Slideway, got {type(model)}")
+    if not isinstance(drive, AbstractDrive):
+        raise ValueError(f"drive must be an AbstractDrive, got {type(drive)}")
+    if isinstance(slip_time, str):
+        slip_time = SlipTime.parse(slip_time)
+        if slip_time != SlipTime.PAPER:
+            raise ValueError('slip_time must be "paper" or a number of seconds '
+                             '(the smoothed simulator has no self-consistent mode)')
+    formulation = Formulation.parse(formulation)
+    ts = jnp.asarray(ts, dtype=float)
+    if ts.ndim != 1 or ts.shape[0] < 2:
+        raise ValueError("ts must be a 1-D array of at least two times (s); vmap for batches")
+    mask = jnp.ones(ts.shape, bool) if mask is None else jnp.asarray(mask, bool)
+    rs = isinstance(model.slideway.friction.kinetic, RateStateKinetic)
+    latch = formulation is Formulation.LATCH and not rs
+    # concrete inputs checked (`check_inputs`); the rendering from the accepted steps
+    # needs sorted sample times
+    check_inputs("simulate_smooth", model.slideway, ts)
+    if solver is None:
+        solver = dfx.Tsit5() if latch else default_solver(rtol, atol)
+
+    sw = model.slideway
+    friction, static = sw.friction, sw.friction.static
+    W = sw.weight
+    t0, t1 = ts[0], jnp.max(ts)
+    vector_field, make_core, context, T2, eps, rigid, parts = _dynamics(
+        model, drive, slip_time=slip_time, smoothing=smoothing, formulation=formulation,
+        rs=rs, latch=latch)
 
     tau0, x0 = (jnp.asarray(v, float) + 0.0 * W for v in (initial_stick_time, initial_deflection))
     core0 = rate_state_start(sw, smoothing_velocity(drive, 1.0), x0, tau0) if rs else (
