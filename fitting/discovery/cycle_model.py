@@ -51,6 +51,7 @@ model's 6 + R columns cost 7 tangents).
 from __future__ import annotations
 
 import concurrent.futures
+import functools
 
 import equinox as eqx
 import jax
@@ -72,7 +73,9 @@ __all__ = ["BLOCK", "CycleModel", "Later", "N_STEPS", "TAIL_STEPS", "kernel_cdf"
 N_STEPS = 128
 """RK4 steps per slip (over 2.5 pi/omega_0: room for slips lengthened by the effects)."""
 BLOCK = 8
-"""Tangents per compiled forward-mode call (`CycleModel.evaluate`)."""
+"""Tangents per compiled forward-mode call (`CycleModel.evaluate`); without the sensor, an
+evaluation's last call of at most `BLOCK // 2` takes that width (a call costs about its
+width: a screw refit's 11 tangents as 8 + 4, not 16; each lane's column is the same)."""
 NEWTON = 40
 """Bracketed Newton iterations for the breakaway time."""
 DR_V_REF = 1.0
@@ -648,7 +651,7 @@ class CycleModel:
         self.mask = np.asarray(data.mask).ravel()
         self._record = per_sample(data, "record")[0]
         self._idx = jax.device_put(np.flatnonzero(self.mask).astype(np.int32))
-        self._real_rows = np.asarray(data.mask).any(1)
+        self._real_rows, self._grouped = np.asarray(data.mask).any(1), {}  # `_tangents` by cols
         # every record's samples, one contiguous span of the residual vector (`trace_data`
         # cuts the records in order)
         self._span = np.zeros((n_records, 2), int)
@@ -669,6 +672,7 @@ class CycleModel:
         return self.layout.cols(fam)
 
     @staticmethod
+    @functools.lru_cache(maxsize=256)
     def _shape(shape: Shape):
         return jnp.asarray([shape.vs, shape.p, shape.length, shape.pitch, shape.order,
                             shape.zeta, float(STRIBECK_FORMS.index(shape.form)),
@@ -737,9 +741,9 @@ class CycleModel:
                                    self._shape(shape), False)
         return np.asarray(r), np.asarray(yd), np.asarray(ok)
 
-    def _block(self, zj, part, sh, sensor: bool):
-        """`_value_and_block` along the tangents `part`, padded to `BLOCK` (one shape)."""
-        T = np.zeros((self.layout.size, BLOCK))
+    def _block(self, zj, part, sh, sensor: bool, width: int = BLOCK):
+        """`_value_and_block` along the tangents `part`, padded to `width` (`BLOCK`)."""
+        T = np.zeros((self.layout.size, width))
         T[:, :part.shape[1]] = part
         return _value_and_block(zj, jax.device_put(T), self._scales, sh, bool(sensor),
                                 self.data, self.tref, self._prev, self.sd, self.layout,
@@ -769,25 +773,22 @@ class CycleModel:
     def evaluate(self, z, cols, shape: Shape = Shape(), sensor: bool = False):
         """(r [n], J [n, len(cols)], ok) at z (module doc, `_tangents`)."""
         cols = np.asarray(cols, int)
-        T_all, tangent, record = self._tangents(cols)
-        sh = self._shape(shape)
-        zj = jnp.asarray(z)
-        blocks, r, ok = [], None, True
-        n_t = T_all.shape[1]
-        for a in range(0, max(n_t, 1), BLOCK):
+        if (key := cols.tobytes()) not in self._grouped:
+            self._grouped[key] = self._tangents(cols)
+        T_all, tangent, record = self._grouped[key]
+        sh, zj, blocks, ok = self._shape(shape), jnp.asarray(z), [], True
+        for a in range(0, max(T_all.shape[1], 1), BLOCK):
             part = T_all[:, a:a + BLOCK]
-            r_, J_, ok_, _ = self._block(zj, part, sh, sensor)
+            narrow = a > 0 and part.shape[1] <= BLOCK // 2 and not sensor  # `BLOCK`
+            r, J_, ok_, _ = self._block(zj, part, sh, sensor, BLOCK // 2 if narrow else BLOCK)
             blocks.append(np.asarray(J_)[:, :part.shape[1]])
-            r, ok = r_, ok and bool(np.all(np.asarray(ok_)[self._real_rows]))
+            ok = ok and bool(np.all(np.asarray(ok_)[self._real_rows]))
         Jt = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=1)
         # columns in Fortran order: each is written (and later read) contiguously
         J = np.zeros((Jt.shape[0], cols.size), order="F")
-        for i, (t, g) in enumerate(zip(tangent, record)):
-            if g < 0:
-                J[:, i] = Jt[:, t]
-            else:  # a record's own coefficient: its samples only
-                a, b = self._span[g]
-                J[a:b, i] = Jt[a:b, t]
+        for i, (t, g) in enumerate(zip(tangent, record)):  # a record's coefficient: its rows
+            a, b = self._span[g] if g >= 0 else (0, Jt.shape[0])
+            J[a:b, i] = Jt[a:b, t]
         return np.asarray(r), J, ok
 
 
