@@ -565,10 +565,12 @@ def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, round
     history, (window, _) = [cost], stall.update(stall.window(xp=np), cost, True, xp=np)
     while n_evals < max_steps:
         A, g = J.T @ J, J.T @ r
-        if float(gauss_newton_decrease(A, g, active, xp=np)) < atol + rtol * cost:
+        eigen = _eigen(A, g, active, np)  # one decomposition: the stationarity test, the step
+        if float(_decrease(eigen, 1e-12, np)) < atol + rtol * cost:
             converged = True
             break
-        step, pred = damped_step(A, g, lam, active, xp=np)
+        step = _damped(eigen, lam, active, np)  # `damped_step`
+        pred = -(2.0 * g @ step + step @ (A @ step))
         r_try, J_try, ok_try = problem.evaluate(z + step)
         n_evals += 1
         good = _host_finite(r_try, J_try, ok_try)
