@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import abc
 import dataclasses
+import math
 from collections.abc import Callable, Mapping
 from typing import ClassVar
 
@@ -44,7 +45,7 @@ from stickslip_jax.lsq import free_filter
 from stickslip_jax.numerics import as_float
 
 __all__ = ["AbstractFrictionParams", "NAMES", "UNITS", "CampaignParams", "EmpiricalFriction",
-           "Hold", "free_spec"]
+           "Hold", "free_spec", "parse_fix"]
 
 NAMES = ("mu_s", "mu_d", "gamma", "m", "delta", "n")
 """Friction parameters of the empirical model (eqs 1 and 3), in reporting order."""
@@ -316,3 +317,40 @@ def free_spec(params: CampaignParams, *, hold: Hold | None = None,
 def free_mask(spec: CampaignParams) -> np.ndarray:
     """Which friction parameters (`NAMES` order) a filter spec frees."""
     return np.array([bool(b) for b in spec.friction.leaves()])
+
+
+def parse_fix(items, law=None) -> dict[str, float]:
+    """{name: value} from `--fix NAME=VALUE` options, checked against the friction law
+    `law` (an `AbstractFrictionParams` subclass, default the empirical law): known names,
+    each at most once, values inside the law's physical range (its MCMC prior support),
+    mu_s > mu_d when both are given, and at least one parameter left to fit."""
+    law = EmpiricalFriction if law is None else law
+    names, bounds, units = law.NAMES, law.PRIOR_BOUNDS, law.UNITS
+    out = {}
+    for item in items:
+        name, _, value = item.partition("=")
+        name = name.strip()
+        if name not in names or not value:
+            raise ValueError(f"--fix: expected NAME=VALUE with NAME in {', '.join(names)}, "
+                             f"got {item!r}")
+        try:
+            v = float(value)
+        except ValueError:
+            raise ValueError(f"--fix {name}: {value!r} is not a number") from None
+        if not (math.isfinite(v) and v > 0):
+            raise ValueError(f"--fix {name}: the value must be positive and finite, got {v}")
+        if name in out and out[name] != v:
+            raise ValueError(f"--fix {name}: given twice ({out[name]:g} and {v:g}); give it "
+                             "once")
+        lo, hi = bounds[name]
+        if not lo <= v <= hi:
+            unit = "" if units[name] == "-" else f" {units[name]}"
+            raise ValueError(f"--fix {name}={v:g} lies outside the physical range "
+                             f"{lo:g}-{hi:g}{unit} of {name}")
+        out[name] = v
+    if "mu_s" in out and "mu_d" in out and not out["mu_s"] > out["mu_d"]:
+        raise ValueError(f"--fix: mu_s ({out['mu_s']:g}) must exceed mu_d ({out['mu_d']:g})")
+    if len(out) == len(names):
+        raise ValueError("--fix: every parameter is fixed, nothing is left to fit; leave at "
+                         "least one free")
+    return out

@@ -27,8 +27,6 @@ DEFERRED_CIRCLES = {
                "stickslip_jax.records.write", "stickslip_jax.rigs"}),
     # posterior_plots.corner_plot draws with plots.finish_figure; plots re-exports corner_plot
     frozenset({"stickslip_fitting.report.plots", "stickslip_fitting.report.posterior_plots"}),
-    # the API's fit parses `fix` with the command's parse_fix; the command calls the API
-    frozenset({"stickslip_fitting.api.campaign", "stickslip_fitting.commands.fit"}),
     # posterior.prior_from_campaign builds an experiment.Campaign
     frozenset({"stickslip_fitting.design.experiment", "stickslip_fitting.design.posterior"}),
     # the result's figure() draws with plots, which labels with result.estimate_text

@@ -131,8 +131,8 @@ def test_a_fit_that_did_not_converge_exits_3(monkeypatch, capsys):
     real = fit_command.fit_from_args
 
     def not_converged(args, **kwargs):
-        fit, campaign, extra = real(args, **kwargs)
-        return dataclasses.replace(fit, converged=False), campaign, extra
+        result = real(args, **kwargs)
+        return dataclasses.replace(result, report={**result.report, "converged": False})
 
     monkeypatch.setattr(fit_command, "fit_from_args", not_converged)
     assert main(["fit", *map(str, EXAMPLES)]) == 3

@@ -195,7 +195,7 @@ def test_steady_records_against_the_boundary(tmp_path):
     48.9 mm/min at W 36 kgf, k 86.9 kgf/mm, is a misfit of the model; at 200 mm/min it is
     consistent with it."""
     import stickslip_jax as ss
-    from stickslip_fitting.data.campaign import boundary_check
+    from stickslip_fitting.solve.summary import boundary_check
 
     good = _campaign(tmp_path)[:2]
     recs = [read_record(p) for p in good]

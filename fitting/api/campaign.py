@@ -9,8 +9,8 @@ result.plot("fit.png")                   # the diagnostic figure
 result.to_json("fit.json")               # the document of `stickslip fit --json`
 ```
 
-The call runs `stickslip fit`'s steps (`fit_campaign`, `campaign_result`), so it gives
-the same numbers and document. The options are the command's, each the object it names
+The call runs `stickslip fit`'s one verb (`fit_campaign`), so it gives the same numbers,
+document and text. The options are the command's, each the object it names
 (`Objective.TRACE`, `{"n": 1.0}`, `Huber(2.0)`, `EmpiricalFriction`) or its string.
 
 Units are the internal ones (kgf, mm, s; mu dimensionless, gamma s^-m, delta s^-n). A
@@ -95,8 +95,8 @@ _MODELS = ("empirical", "microsqueeze")
 class CampaignFit(ResultDocument):
     """The result of `fit`: the campaign's friction parameters with their intervals.
     `summary()` (pandas, `SUMMARY_COLUMNS`), `plot(path)` (`stickslip fit --plot`),
-    `to_json(path)` / `to_dict()` (`stickslip fit --json`), `str(result)` (the table the
-    command prints). Parts: `report` (the JSON document), `fit` (`solve.fit.FitResult`),
+    `to_json(path)` / `to_dict()` (`stickslip fit --json`), `str(result)` (`text`, the table
+    the command prints). Parts: `report` (the JSON document), `fit` (`solve.fit.FitResult`),
     `uncertainty` (`uncertainty.laplace.Uncertainty`), `campaign` (`data.campaign.Campaign`)
     and `model` ("empirical" or "microsqueeze"); `run_mcmc(result.fit)` for the posterior.
     """
@@ -108,6 +108,8 @@ class CampaignFit(ResultDocument):
     model: str = "empirical"
     inputs: tuple[str, ...] = ()
     """The record files read (an output may not overwrite one of them)."""
+    text: str = ""
+    """The table `stickslip fit` prints, then the campaign's notes (`report.fit_table.fit_text`)."""
 
     @property
     def converged(self) -> bool:
@@ -148,9 +150,11 @@ class CampaignFit(ResultDocument):
                           not_used=not_used)
 
     def __str__(self) -> str:
-        from ..report.fit_table import format_table
+        if self.text:
+            return self.text
+        from ..report.fit_table import fit_text
 
-        return "\n".join([format_table(self.report)] + [f"note: {n}" for n in self.notes])
+        return fit_text(self.report, self.notes)
 
     def __repr__(self) -> str:
         used = sum(s.status == "used" for s in self.campaign.screening)
@@ -196,16 +200,13 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
     elif eta is not None:
         raise ValueError("eta: only used with model='microsqueeze'")
     given = as_list(records)
-    result, campaign, extra = fit_campaign(
-        given, law, fixed, objective=goal, loss=loss, modes=modes, strict=strict,
-        eta=eta_value, pair=pair, surface=surface, loss_text=loss.spec(),
-        check=lambda held: _fixed(held, law))
-    inputs: tuple[str, ...] = ()
+    out = fit_campaign(given, law, fixed, objective=goal, loss=loss, modes=modes, strict=strict,
+                       eta=eta_value, pair=pair, surface=surface, loss_text=loss.spec(),
+                       check=lambda held: _fixed(held, law))
     if not isinstance(given[0], Record):
         from stickslip_jax.records import record_paths
 
-        inputs = tuple(str(p) for p in record_paths(given))
-    out = campaign_result(result, campaign, model_name, extra, inputs)
+        out = dataclasses.replace(out, inputs=tuple(str(p) for p in record_paths(given)))
     if not out.converged:
         warnings.warn("the fit did not converge (see str(result) for the warnings): its "
                       "values are not an optimum", RuntimeWarning, stacklevel=2)
@@ -215,20 +216,22 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
 def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Objective,
                  loss: AbstractLoss, modes: ModelModes, strict: bool = False,
                  eta: float | None = None, pair=None, surface: str = "S1G1",
-                 loss_text: str = "gaussian", check=None):
-    """`stickslip fit`'s steps up to the optimum: `records` read and screened
-    (`load_campaign`), `law` fitted with `fixed` {name: value} held (a single record holds
-    `one_record_holds` too, the merged holds checked by `check`). `eta` (kgf*s/mm^2; None:
-    the records' lubricant's) and `pair`: the microsqueeze law's givens. Returns
-    (FitResult, Campaign, None or the microsqueeze givens for the report)."""
+                 loss_text: str = "gaussian", check=None) -> CampaignFit:
+    """`stickslip fit`'s steps, each once in the order the data flows: `records` read and
+    screened (`data.campaign`), `law` fitted with `fixed` {name: value} held (`solve.fit`,
+    `solve.microsqueeze`; a single record holds `one_record_holds` too, the merged holds
+    checked by `check`), the intervals and checks (`uncertainty`), the report and its
+    table (`report.fit_table`). `eta` (kgf*s/mm^2; None: the records' lubricant's) and
+    `pair`: the microsqueeze law's givens."""
     from stickslip_jax.logs import logger
 
-    from ..data.campaign import load_campaign, one_record_holds
+    from ..data.campaign import find_truth, load_campaign, one_record_holds
     from ..params import Hold
 
     micro = law.MODEL == "microsqueeze"
     campaign = load_campaign(records, min_records=2 if micro else None, strict=strict)
     held = {} if micro else one_record_holds(campaign)
+    truth, notes = find_truth(campaign.records, law.NAMES), campaign.notes
     if held:
         fixed = {**held, **fixed}
         fixed = fixed if check is None else check(fixed)
@@ -240,25 +243,56 @@ def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Obje
     if not micro:
         from ..solve.fit import fit_features
 
-        return fit_features(campaign.features, **kw), campaign, None
-    from ..solve.microsqueeze import default_eta, fit_microsqueeze
+        result, extra = fit_features(campaign.features, **kw), None
+    else:
+        from ..solve.microsqueeze import default_eta, fit_microsqueeze
 
-    eta = default_eta(campaign.records[0].lubricant) if eta is None else eta
-    return (fit_microsqueeze(campaign.features, eta=eta, pair=pair, **kw), campaign,
-            {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"}, "surface": surface}})
+        eta = default_eta(campaign.records[0].lubricant) if eta is None else eta
+        result = fit_microsqueeze(campaign.features, eta=eta, pair=pair, **kw)
+        extra = {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"}, "surface": surface}}
+    return _conclude(result, campaign, truth, notes, law.MODEL, extra)
 
 
-def campaign_result(result: FitResult, campaign: Campaign, model: str, extra=None,
-                    inputs: tuple[str, ...] = ()) -> CampaignFit:
-    """The `CampaignFit` of a fit that `fit_campaign` returned: its Laplace intervals and
-    `--json` report (what `fit`, `stickslip fit` and `fit-batch` print and write)."""
-    from ..report.fit_table import build_report
+def fit_law_campaign(records: list, law, fixed: dict[str, float], *, modes: ModelModes,
+                     strict: bool = False) -> CampaignFit:
+    """`fit_campaign` for a base law other than the paper's (a `FrictionLaw`, fitted through
+    whole records by `solve.laws.fit_law`), `fixed` held."""
+    from stickslip_jax.logs import logger
+
+    from ..data.campaign import find_truth, load_campaign
+    from ..params import Hold
+    from ..solve.laws import LAW_PARAMS, fit_law
+
+    campaign = load_campaign(records, strict=strict)
+    truth, notes = find_truth(campaign.records, LAW_PARAMS[law].NAMES), campaign.notes
+    n = sum(s.status == "used" for s in campaign.screening)
+    logger.info(f"fitting {n} records (objective {Objective.SMOOTH}, model {law.value})...")
+    result = fit_law(campaign.features, campaign.records, law,
+                     hold=Hold.named(fixed) if fixed else None, modes=modes)
+    return _conclude(result, campaign, truth, notes, law.value, None)
+
+
+def _conclude(result: FitResult, campaign: Campaign, truth, notes, model: str,
+              extra) -> CampaignFit:
+    """A fit's figures and its boundary at the records without stick-slip
+    (`solve.summary`), Laplace intervals and adequacy checks (`uncertainty`), then its
+    report and printed text (`report.fit_table`)."""
+    from stickslip_jax.logs import logger
+
+    from ..report.fit_table import build_report, fit_text
+    from ..solve.summary import fit_figures
+    from ..uncertainty.adequacy import adequacy
     from ..uncertainty.laplace import laplace
 
-    unc = laplace(result)
-    return CampaignFit(report=build_report(result, unc, campaign, model=model, extra=extra),
-                       fit=result, uncertainty=unc, campaign=campaign, model=model,
-                       inputs=inputs)
+    figures = fit_figures(result, campaign)
+    logger.info(f"fit {'converged' if figures.converged else 'did not converge'}; "
+                "intervals...")
+    unc, checks = laplace(result), adequacy(result)
+    report = build_report(result, unc, campaign, model=model, extra=extra, truth=truth,
+                          figures=figures, checks=checks)
+    logger.info("report done")
+    return CampaignFit(report=report, fit=result, uncertainty=unc, campaign=campaign,
+                       model=model, text=fit_text(report, notes))
 
 
 def as_list(records) -> list:
@@ -308,9 +342,8 @@ def loss_option(loss) -> AbstractLoss:
 
 
 def _fixed(fix, law) -> dict[str, float]:
-    """{name: value} held, checked by the command's own `parse_fix` (names, ranges, one
-    free)."""
-    from ..commands.fit import parse_fix
+    """{name: value} held, checked by `params.parse_fix` (names, ranges, one free)."""
+    from ..params import parse_fix
 
     if fix is None:
         fix = {}

@@ -8,8 +8,6 @@ in place of gamma and m (`solve.microsqueeze`).
 
 from __future__ import annotations
 
-import math
-
 from stickslip_jax.modes import GaugeOffset, SlipTime
 
 from ..modes import FrictionLaw, ModelModes, Objective
@@ -90,15 +88,17 @@ def check_model_options(args) -> dict[str, float]:
         if value is not None and not micro:
             raise ValueError(f"{option}: only used with --model microsqueeze; add it, or "
                              f"leave out {option}")
+    from ..params import parse_fix
+
     if micro:  # imported only here: it loads the contact model (and diffrax)
         from ..microsqueeze_params import MicrosqueezeFriction as law
     return parse_fix(args.fix, law if micro else None)
 
 
 def fit_from_args(args, *, objective: Objective | str = "features"):
-    """`api.campaign.fit_campaign` (or `solve.laws.fit_law` for `--law`) with the command
-    line's options: (fit, campaign, extra). Every user error is a ValueError naming the
-    option or file."""
+    """The `CampaignFit` of `api.campaign.fit_campaign` (or `fit_law_campaign` for `--law`)
+    with the command line's options parsed into objects. Every user error is a ValueError
+    naming the option or file."""
     from ..api.campaign import fit_campaign
     from ..objectives.losses import parse_loss
 
@@ -124,13 +124,11 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
 
 
 def _fit_law_from_args(args, law, objective, modes, loss):
-    """`fit_from_args` for a base law other than the paper's (`solve.laws.fit_law`)."""
-    from stickslip_jax.logs import logger
-
-    from ..data.campaign import load_campaign
+    """`fit_from_args` for a base law other than the paper's (`api.campaign.fit_law_campaign`)."""
+    from ..api.campaign import fit_law_campaign
     from ..objectives.losses import Gaussian
-    from ..params import Hold
-    from ..solve.laws import LAW_PARAMS, fit_law
+    from ..params import parse_fix
+    from ..solve.laws import LAW_PARAMS
 
     if args.model != "empirical" or args.eta is not None or args.surface is not None:
         raise ValueError(f"--law {law}: the law replaces --model; leave out --model, --eta "
@@ -139,82 +137,32 @@ def _fit_law_from_args(args, law, objective, modes, loss):
         raise ValueError(f"--law {law}: fitted through whole records (--objective smooth) "
                          "with the Gaussian --loss only")
     fixed = parse_fix(args.fix, LAW_PARAMS[law])
-    campaign = load_campaign(args.records, strict=getattr(args, "strict", False))
-    args.model = law.value  # the law's name in the log line and the report's "model"
-    n = sum(s.status == "used" for s in campaign.screening)
-    loss_text = "" if args.loss == "gaussian" else f", loss {args.loss}"
-    logger.info(f"fitting {n} records (objective {Objective.SMOOTH}{loss_text}, model "
-                f"{args.model})...")
-    fit = fit_law(campaign.features, campaign.records, law,
-                  hold=Hold.named(fixed) if fixed else None, modes=modes)
-    return fit, campaign, None
-
-
-def parse_fix(items, law=None) -> dict[str, float]:
-    """{name: value} from `--fix NAME=VALUE` options, checked against the friction law
-    `law` (an `AbstractFrictionParams` subclass, default the empirical law): known names,
-    each at most once, values inside the law's physical range (its MCMC prior support),
-    mu_s > mu_d when both are given, and at least one parameter left to fit."""
-    from ..params import EmpiricalFriction
-
-    law = EmpiricalFriction if law is None else law
-    names, bounds, units = law.NAMES, law.PRIOR_BOUNDS, law.UNITS
-    out = {}
-    for item in items:
-        name, _, value = item.partition("=")
-        name = name.strip()
-        if name not in names or not value:
-            raise ValueError(f"--fix: expected NAME=VALUE with NAME in {', '.join(names)}, "
-                             f"got {item!r}")
-        try:
-            v = float(value)
-        except ValueError:
-            raise ValueError(f"--fix {name}: {value!r} is not a number") from None
-        if not (math.isfinite(v) and v > 0):
-            raise ValueError(f"--fix {name}: the value must be positive and finite, got {v}")
-        if name in out and out[name] != v:
-            raise ValueError(f"--fix {name}: given twice ({out[name]:g} and {v:g}); give it "
-                             "once")
-        lo, hi = bounds[name]
-        if not lo <= v <= hi:
-            unit = "" if units[name] == "-" else f" {units[name]}"
-            raise ValueError(f"--fix {name}={v:g} lies outside the physical range "
-                             f"{lo:g}-{hi:g}{unit} of {name}")
-        out[name] = v
-    if "mu_s" in out and "mu_d" in out and not out["mu_s"] > out["mu_d"]:
-        raise ValueError(f"--fix: mu_s ({out['mu_s']:g}) must exceed mu_d ({out['mu_d']:g})")
-    if len(out) == len(names):
-        raise ValueError("--fix: every parameter is fixed, nothing is left to fit; leave at "
-                         "least one free")
-    return out
+    return fit_law_campaign(args.records, law, fixed, modes=modes,
+                            strict=getattr(args, "strict", False))
 
 
 def run(args) -> int:
     import sys
 
-    from stickslip_jax.logs import logger
     from stickslip_jax.output import check_outputs, versioned, write_json
     from stickslip_jax.records import record_paths
 
-    from ..api.campaign import campaign_result
-
     check_outputs({"--json": args.json, "--plot": args.plot}, record_paths(args.records))
-    fit, campaign, extra = fit_from_args(args, objective=args.objective)
-    logger.info(f"fit {'converged' if fit.converged else 'did not converge'}; intervals...")
-    result = campaign_result(fit, campaign, args.model, extra)
-    logger.info("report done")
-    print(result)  # the table and the campaign's notes
+    result = fit_from_args(args, objective=args.objective)
+    print(result.text)  # the table and the campaign's notes
     if args.json:
         write_json(args.json, versioned(result.report))
         if args.json != "-":
             print(f"wrote {args.json}")
     if args.plot:
+        from stickslip_jax.logs import logger
+
         from ..report.plots import interruptible
 
         logger.info("drawing the figure...")
         interruptible(result.plot, args.plot)
         print(f"wrote {args.plot}")
-    if not fit.converged:
+    if not result.report["converged"]:
         print("stickslip fit: the fit did not converge (see the warnings): the values above "
               "are not an optimum", file=sys.stderr)
         return 3

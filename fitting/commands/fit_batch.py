@@ -107,14 +107,13 @@ def _join(args) -> None:
 
 def _fit_one(args):
     """fit_one(spec) of `stickslip_fitting.solve.batch.fit_batch`: `stickslip fit`'s path."""
-    from ..api.campaign import campaign_result
     from .fit import fit_from_args
 
     def fit_one(spec) -> dict:
         one = argparse.Namespace(**{**vars(args), "records": [spec]})
-        fit, campaign, extra = fit_from_args(one, objective=args.objective)
-        report = campaign_result(fit, campaign, args.model, extra).report
-        report["notes"] = list(campaign.notes)
+        result = fit_from_args(one, objective=args.objective)
+        report = result.report
+        report["notes"] = result.notes
         return report
 
     return fit_one

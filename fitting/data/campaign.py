@@ -232,33 +232,3 @@ def find_truth(records, names=None) -> dict[str, float] | None:
     if not truths or any(t is None for t in truths) or any(t != truths[0] for t in truths):
         return None
     return truths[0]
-
-
-def boundary_check(friction, campaign: Campaign) -> list[dict]:
-    r"""Records without stick-slip against the fitted model's stick-slip boundary: for
-    every record with status NO_STICK_SLIP, eq (6)'s steady amplitude $a$ of `friction`
-    at the record's W, k, v and eq (12)'s $v_c$. A record sliding steadily where the model
-    predicts a swing 2a above five noise standard deviations is a misfit (the model
-    misses something there, or the file's drive speed is wrong). Units: um, mm/min."""
-    from stickslip_jax.steady import steady_state
-
-    out = []
-    for rec, f in campaign.not_used:
-        if _status(f).status != NO_STICK_SLIP:
-            continue
-        st = steady_state(friction, f.weight, f.stiffness, f.drive_speed,
-                          normal_load=f.normal_load)
-        amp = float(st.amplitude) if bool(st.stick_slip) else 0.0
-        visible = 2.0 * amp > 5.0 * float(f.noise)
-        v_c = float(st.critical_speed) * 60.0
-        if visible:
-            text = (f"{f.name}: slides steadily, but the fitted model predicts stick-slip of "
-                    f"amplitude {amp * 1e3:.3g} um (eq 6; v = {f.drive_speed * 60:.4g} mm/min "
-                    f"is below eq (12)'s v_c = {v_c:.4g} mm/min): a misfit of the model")
-        else:
-            text = (f"{f.name}: slides steadily, consistent with the fitted model (eq 6 "
-                    f"amplitude {amp * 1e3:.3g} um, eq (12) v_c = {v_c:.4g} mm/min)")
-        out.append({"name": f.name, "predicted_amplitude_um": amp * 1e3,
-                    "critical_speed_mm_per_min": v_c, "misfit": bool(visible),
-                    "message": text})
-    return out

@@ -6,46 +6,49 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FIXED_MISFIT", "batch_csv", "batch_table", "build_report", "fixed_misfit_warning",
-           "format_table"]
+__all__ = ["FIXED_MISFIT", "batch_csv", "batch_table", "build_report", "fit_text",
+           "fixed_misfit_warning", "format_table"]
 
 FIXED_MISFIT = 100.0
 """With fixed values, a median record chi2/n (before any error scaling) above this means
 the fixed values do not describe the records: said in a warning."""
 
 
-def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
-    """The JSON-ready result of a fit (the `--json` contract).
+def build_report(fit, unc, campaign, *, model="empirical", extra=None, truth=None,
+                 figures=None, checks=None) -> dict:
+    """The JSON-ready result of a fit (the `--json` contract), from the steps before it:
+    `fit` (`solve.fit.FitResult`), `unc` (`uncertainty.laplace.Uncertainty`), `campaign`
+    (`data.campaign.Campaign`), `truth` (the records' parameters, `data.campaign.find_truth`),
+    `figures` (`solve.summary.FitFigures`) and `checks` (`uncertainty.adequacy.Adequacy`).
+    A call without `figures` (a notebook's, with the fit alone) finds the truth, figures
+    and checks here.
 
     `records` lists every record given, in order: the used ones with their fitted gauge
     offset, the others with `status` and `reason` (`stickslip_fitting.data.campaign`);
-    `steady_records` compares records without stick-slip with the fitted boundary."""
-    from ..data.campaign import ONE_RECORD_HOLDS, Campaign, boundary_check, find_truth
+    `steady_records` compares records without stick-slip with the fitted boundary
+    (`solve.summary.boundary_check`)."""
+    from ..data.campaign import ONE_RECORD_HOLDS, Campaign
 
     if not isinstance(campaign, Campaign):  # a plain list of records: all used
         from ..data.campaign import screen_records
 
         campaign = screen_records(list(campaign), min_records=1)
+    if figures is None:  # the fit alone: what the steps before the report give
+        from ..data.campaign import find_truth
+        from ..solve.summary import fit_figures
+        from ..uncertainty.adequacy import adequacy
+
+        truth = find_truth(campaign.records, fit.params.friction.NAMES)
+        figures, checks = fit_figures(fit, campaign), adequacy(fit)
     records = campaign.records
-    truth = find_truth(records, fit.params.friction.NAMES)
     bounds = fit.params.friction.PRIOR_BOUNDS  # the support: a value there is "at bound"
-    params = {e.name: e.with_bounds(bounds).to_json() for e in unc.estimates(truth)}
+    estimates = unc.estimates(truth)
+    params = {e.name: e.with_bounds(bounds).to_json() for e in estimates}
     held = [n for n in ONE_RECORD_HOLDS if len(records) == 1 and params.get(n, {}).get("fixed")]
     for n in held:  # fixed at a value one record cannot check: said with the reason
         params[n].update(identifiable=False, reason="not identifiable from one record: "
                          + ONE_RECORD_HOLDS[n])
-    from ..uncertainty.adequacy import adequacy
-    from ..objectives.combined import FeaturesObjective
-    from ..solve.fit import compiled
-    from ..objectives.losses import loss_of
-    from ..objectives.cycle_features import feature_residuals
-
-    res = compiled(feature_residuals, fit.params, fit.data, fit.slip_time)
-    level_sd = np.asarray(fit.data.trough_sd)
-    levels = FeaturesObjective(fit.data).split(res)["levels"].reshape(level_sd.shape) * level_sd
-    mask = np.asarray(fit.data.has_end) | np.asarray(fit.data.has_next)  # on the host
-    rms = float(np.sqrt(np.mean(levels[mask] ** 2))) if mask.any() else float("nan")
-    steady = boundary_check(fit.params.friction.friction(), campaign)
+    steady = list(figures.steady_records)
     unknown = [n for n, ok in unc.identifiable.items() if not ok]
     if unknown:  # the boundary of a model the records do not determine predicts nothing
         steady = [dict(s, predicted_amplitude_um=None, critical_speed_mm_per_min=None,
@@ -55,10 +58,10 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
     out = {"model": model, "parameters": params, "records": _record_rows(fit, campaign),
            "records_not_used": sum(s.status != "used" for s in campaign.screening),
            "steady_records": steady,
-           "residual_rms_mm": rms, "chi2": fit.chi2, "dof": fit.dof,
-           "reduced_chi2": fit.reduced_chi2, "converged": fit.converged,
-           "objective": fit.objective.describe(), "loss": loss_of(fit.objective).spec(),
-           "slip_time": str(fit.slip_time), "covariance": unc.covariance,
+           "residual_rms_mm": figures.residual_rms_mm, "chi2": figures.chi2,
+           "dof": figures.dof, "reduced_chi2": figures.reduced_chi2,
+           "converged": figures.converged, "objective": figures.objective,
+           "loss": figures.loss, "slip_time": figures.slip_time, "covariance": unc.covariance,
            "covariance_scale": unc.scale,
            "identifiability": {
                "not_identifiable": [n for n, ok in unc.identifiable.items()
@@ -68,22 +71,16 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None) -> dict:
                "correlation": [[None if not np.isfinite(x) else float(x) for x in row]
                                for row in unc.corr],
                "warnings": list(unc.warnings) + fixed_misfit_warning(
-                   [f"{e.name}={e.value:g}" for e in unc.estimates() if e.fixed],
+                   [f"{e.name}={e.value:g}" for e in estimates if e.fixed],
                    fit.record_chi2, "the other estimates and their intervals are not "
                    "meaningful")},
            "truth_available": truth is not None,
-           "adequacy": adequacy(fit).to_json()}
-    td = fit.objective.trace_data()
-    if td is not None:
-        from ..objectives.trace import reslip_windows, trace_residuals
-
-        rt = np.asarray(compiled(trace_residuals, fit.params, td, fit.slip_time))
-        rt = rt.reshape(td.mask.shape)
-        rt = rt * np.asarray(td.sigma)[:, None]
-        out["trace_residual_rms_mm"] = float(np.sqrt(np.mean(rt[np.asarray(td.mask)] ** 2)))
-        out["trace_samples"] = td.n_residuals()
-        out["trace_window_failures"] = fit.trace_failures
-        out["trace_windows_after_reslip"] = reslip_windows(fit.features)
+           "adequacy": checks.to_json()}
+    if figures.trace_samples is not None:
+        out.update(trace_residual_rms_mm=figures.trace_residual_rms_mm,
+                   trace_samples=figures.trace_samples,
+                   trace_window_failures=figures.trace_window_failures,
+                   trace_windows_after_reslip=figures.trace_windows_after_reslip)
     if extra:
         out.update(extra)
     return out
@@ -190,6 +187,11 @@ def format_table(report) -> str:
     for s in report.get("steady_records", []):
         lines.append(("warning: " if s["misfit"] else "note: ") + s["message"])
     return "\n".join(lines)
+
+
+def fit_text(report, notes) -> str:
+    """What `stickslip fit` prints: the table (`format_table`), then the campaign's notes."""
+    return "\n".join([format_table(report)] + [f"note: {n}" for n in notes])
 
 
 def batch_table(batch) -> str:
