@@ -6,10 +6,8 @@ one way: docs/architecture.md).
 
 Read from the source with `ast`: every `import` and `from ... import` of the two packages,
 relative ones resolved, a name that is a module counted as that module; imports under
-`if TYPE_CHECKING:` (never run) are left out. The imports at module level close no circle.
-The imports inside a function (run when it is called) still close the circles in
-`DEFERRED_CIRCLES`: each may go (the test then says to drop it), none may come, so the
-list only shortens."""
+`if TYPE_CHECKING:` (never run) are left out. Neither the imports at module level nor
+those inside functions (run when the function is called) close a circle."""
 
 from __future__ import annotations
 
@@ -19,19 +17,6 @@ import pathlib
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 PACKAGES = {"stickslip_jax": "stickslip_jax", "fitting": "stickslip_fitting"}
 """Source folder -> import name (the folder fitting/ installs as stickslip_fitting)."""
-
-DEFERRED_CIRCLES = {
-    # record.Record.rig imports rigs; rigs.rotational_record imports the records package
-    frozenset({"stickslip_jax.records", "stickslip_jax.records.campaign",
-               "stickslip_jax.records.parse", "stickslip_jax.records.record",
-               "stickslip_jax.records.write", "stickslip_jax.rigs"}),
-    # posterior_plots.corner_plot draws with plots.finish_figure; plots re-exports corner_plot
-    frozenset({"stickslip_fitting.report.plots", "stickslip_fitting.report.posterior_plots"}),
-    # posterior.prior_from_campaign builds an experiment.Campaign
-    frozenset({"stickslip_fitting.design.experiment", "stickslip_fitting.design.posterior"}),
-    # the result's figure() draws with plots, which labels with result.estimate_text
-    frozenset({"stickslip_fitting.discovery.plots", "stickslip_fitting.discovery.result"}),
-}
 
 
 def modules() -> dict[str, tuple[pathlib.Path, bool]]:
@@ -126,14 +111,10 @@ def test_module_level_imports_close_no_circle():
         " <-> ".join(sorted(c)) for c in found)
 
 
-def test_deferred_imports_close_only_the_known_circles():
+def test_imports_inside_functions_close_no_circle():
     found = circles(graph(deferred=True))
-    new = found - DEFERRED_CIRCLES
-    assert not new, "new import circles (through imports inside functions):\n" + "\n".join(
-        " <-> ".join(sorted(c)) for c in new)
-    gone = DEFERRED_CIRCLES - found
-    assert not gone, "closed no longer, remove from DEFERRED_CIRCLES:\n" + "\n".join(
-        " <-> ".join(sorted(c)) for c in gone)
+    assert not found, "import circles (through imports inside functions):\n" + "\n".join(
+        " <-> ".join(sorted(c)) for c in found)
 
 
 def test_the_reader_resolves_imports_and_finds_a_planted_circle():

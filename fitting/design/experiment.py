@@ -49,7 +49,8 @@ from stickslip_jax.steady import STICK_SLIP
 from ..modes import DesignCriterion, check_member
 from ..params import EmpiricalFriction
 from ..solve.lsq import AbstractResiduals, least_squares
-from .posterior import PARAMETERS
+from .campaign import Campaign
+from .posterior import PARAMETERS, log_params
 
 N_OBS = 4
 
@@ -65,31 +66,6 @@ class Noise(eqx.Module):
 
     def sigma(self):
         return jnp.array([self.log_amplitude, self.log_stick_time, self.mu_0, self.mu_m])
-
-
-class Campaign(eqx.Module):
-    """Design points of a campaign: W (kgf), k (kgf/mm), v (mm/s), arrays of shape (N,)."""
-
-    weight: Float[Array, " N"]
-    stiffness: Float[Array, " N"]
-    speed: Float[Array, " N"]
-
-    def __check_init__(self):
-        shapes = {jnp.shape(self.weight), jnp.shape(self.stiffness), jnp.shape(self.speed)}
-        if len(shapes) != 1 or len(next(iter(shapes))) != 1:
-            raise ValueError(f"Campaign needs W, k and v of one shape (N,), got {shapes}")
-
-    def __len__(self):
-        return int(np.shape(self.weight)[0])
-
-    def take(self, idx) -> Campaign:
-        idx = np.asarray(idx)
-        return Campaign(*(np.asarray(x)[idx] for x in (self.weight, self.stiffness, self.speed)))
-
-
-def log_params(friction: Friction) -> np.ndarray:
-    """$u = \\log$ of the six eq (1) + eq (3) parameters, in the order of `PARAMETERS`."""
-    return np.asarray(EmpiricalFriction.from_friction(friction).log_values())
 
 
 def friction_of(u: Float[Array, " 6"]) -> Friction:

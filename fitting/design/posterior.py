@@ -32,7 +32,15 @@ import numpy as np
 
 from stickslip_jax import Friction, KatoKinetic, KatoStatic
 
+from ..params import EmpiricalFriction
+from .campaign import Campaign
+
 PARAMETERS = ("mu_s", "mu_d", "gamma", "m", "delta", "n")
+
+
+def log_params(friction: Friction) -> np.ndarray:
+    """$u = \\log$ of the six eq (1) + eq (3) parameters, in the order of `PARAMETERS`."""
+    return np.asarray(EmpiricalFriction.from_friction(friction).log_values())
 
 
 def friction_from_params(params: Mapping[str, object]) -> Friction:
@@ -250,13 +258,11 @@ def _sd_vector(sd, source) -> np.ndarray:
 
 
 def plan_sources(sources, table: int = 6, prior_sd: float = 0.5):
-    """(estimate u, prior sd of u, existing `experiment.Campaign` or None, description)
+    """(estimate u, prior sd of u, existing `Campaign` or None, description)
     of `stickslip plan`'s sources (its RECORDS-OR-PRIOR, named in the errors): a
     lubricant name of Table `table`, a posterior summary, a prior JSON or a posterior
     sample, and record files already measured; `prior_sd` where the source gives none."""
     from stickslip_jax.lubricants import lubricant, lubricants
-
-    from .experiment import Campaign, log_params
 
     estimate = sd = None
     desc = []

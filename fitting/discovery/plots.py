@@ -203,11 +203,11 @@ def plot_cycle_discovery(result):
 
 
 def _parameter_box(ax, result, after: str) -> None:
-    """The final model's parameters (`result.estimate_text`), wrapped, in the right 40 %
+    """The final model's parameters (`report.rows.estimate_text`), wrapped, in the right 40 %
     of the axes `ax`."""
     import textwrap
 
-    from .result import estimate_text
+    from ..report.rows import estimate_text
 
     lines = [textwrap.fill(text, 36, subsequent_indent="  ") for text in
              [f"parameters ({after}):"] + [estimate_text(e) for e in

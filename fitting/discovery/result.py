@@ -12,7 +12,7 @@ import numpy as np
 from stickslip_jax.lsq import LeastSquaresSolution as Solution
 
 from ..data.campaign import Campaign
-from ..report.rows import DiscoveryEstimates, ParameterEstimate
+from ..report.rows import DiscoveryEstimates, ParameterEstimate, estimate_text
 from .cycle_effects import Shape
 from .cycle_learned import CycleLearned
 from .cycle_model import CycleModel
@@ -252,19 +252,6 @@ def friction_rows(fit: Solution, features, clusters, *, chi2: float,
     return laplace(as_fit, covariance=Covariance.SANDWICH, jacobian=LogJacobian(
         J, np.asarray(fit.r, float), np.ones(6, bool), np.arange(6), values, record,
         window)).estimates()
-
-
-def estimate_text(e: ParameterEstimate) -> str:
-    """"name = value +- stderr unit", "name = value unit (at bound)" or "name = -
-    (reason)" for a value the data do not determine: never "+- 0"."""
-    unit = f" {e.unit}" if e.unit and e.unit != "-" else ""
-    if not e.determined:  # the reason's head: "no standard error", "the fit left ..."
-        return f"{e.name} = - ({(e.reason or 'not identifiable').split(':')[0]})"
-    if e.at_bound is not None:
-        return f"{e.name} = {e.value:.3g}{unit} (at bound)"
-    if e.stderr is None or not e.stderr > 0:
-        return f"{e.name} = - (no standard error)"
-    return f"{e.name} = {e.value:.3g} +- {e.stderr:.2g}{unit}"
 
 
 def phase_text(phases: dict, noise: float, explained_gap: float = DEFAULTS.explained_gap,

@@ -8,53 +8,13 @@ mu dimensionless; the corner plot's from the law's `UNITS`. Every function retur
 
 from __future__ import annotations
 
-from stickslip_jax.output import save_figure
+import numpy as np
 
 from .posterior_plots import corner_plot  # noqa: F401 (this module's name for it)
-
-import numpy as np
+from .saving import finish_figure, interruptible, pyplot  # noqa: F401 (also its names)
 
 __all__ = ["batch_figure", "corner_plot", "finish_figure", "fit_figure", "fitted_traces",
            "friction_curves", "interruptible", "residual_panel"]
-
-
-def _plt():
-    import matplotlib.pyplot as plt  # the user's backend, as it is
-
-    return plt
-
-
-def interruptible(draw, *args, **kwargs):
-    """`draw(*args, **kwargs)` in a worker thread while this thread waits, so that a Ctrl-C
-    reaches a command at once (compiling and rendering run in C code, which Python
-    interrupts only when it returns). Returns what `draw` returns, raises what it raises;
-    interrupted, the worker's output is never renamed into place."""
-    import threading
-
-    box: dict = {}
-
-    def work():
-        try:
-            box["value"] = draw(*args, **kwargs)
-        except BaseException as exc:  # noqa: BLE001 - raised again in the caller's thread
-            box["error"] = exc
-
-    worker = threading.Thread(target=work, name="stickslip-figure", daemon=True)
-    worker.start()
-    while worker.is_alive():
-        worker.join(0.05)
-    if "error" in box:
-        raise box["error"]
-    return box.get("value")
-
-
-def finish_figure(fig, path, dpi):
-    """Save `fig` to `path` (atomically) and close it when a `path` is given; return the
-    figure either way."""
-    if path is not None:
-        save_figure(fig, str(path), dpi=dpi)
-        _plt().close(fig)
-    return fig
 
 
 def _static_curves(logs, template, grid):
@@ -134,7 +94,7 @@ def residual_panel(report, ax=None):
     from ..uncertainty.adequacy import BAD, GOOD
 
     if ax is None:
-        fig, ax = _plt().subplots(figsize=(8, 3.5))
+        fig, ax = pyplot().subplots(figsize=(8, 3.5))
     else:
         fig = ax.figure
     records = list(dict.fromkeys(r.record for r in report.rows))
@@ -214,7 +174,7 @@ def fit_figure(fit, unc, records, path=None, max_traces: int | None = None, *,
     `records`, then the records not used."""
     from ..uncertainty.adequacy import adequacy
 
-    plt = _plt()
+    plt = pyplot()
     n = len(records) if max_traces is None else min(int(max_traces), len(records))
     extra = list(not_used) if max_traces is None else []
     items = [(f.weight, f.stiffness, f.drive_speed) for f in fit.features[:n]]
@@ -421,7 +381,7 @@ def batch_figure(batch, path=None, dpi: int = 120):
                                for p in e.report["parameters"]))
     ncol = min(3, max(len(names), 1))
     nrow = max(1, -(-len(names) // ncol))
-    fig, axes = _plt().subplots(nrow, ncol, figsize=(4.2 * ncol, 1.2 + 2.6 * nrow),
+    fig, axes = pyplot().subplots(nrow, ncol, figsize=(4.2 * ncol, 1.2 + 2.6 * nrow),
                                 squeeze=False, sharex=True, layout="constrained")
     x = np.arange(len(entries))
     seen = set()  # the kinds of point drawn (for the legend)

@@ -149,6 +149,6 @@ def corner_plot(samples, names, path=None, truth: dict | None = None, bins: int 
                 axis.set_major_locator(_inner_locator(n_ticks))
             if isinstance(axis.get_major_formatter(), ScalarFormatter):
                 axis.set_major_formatter(_tick_formatter())
-    from .plots import finish_figure
+    from .saving import finish_figure
 
     return finish_figure(fig, path, 100)

@@ -22,8 +22,8 @@ import dataclasses
 
 import numpy as np
 
-__all__ = ["DiscoveryEstimates", "ParameterEstimate", "Z95", "note_text", "text_table",
-           "value_text"]
+__all__ = ["DiscoveryEstimates", "ParameterEstimate", "Z95", "estimate_text", "note_text",
+           "text_table", "value_text"]
 
 Z95 = 1.959963984540054
 """The standard normal's 97.5 % quantile (two-sided 95 % intervals)."""
@@ -173,6 +173,19 @@ class DiscoveryEstimates:
     @property
     def effect_size(self) -> dict[str, dict]:
         return {e.name: e.to_json(self.EFFECT_KEYS) for e in self.effect_estimates}
+
+
+def estimate_text(e: ParameterEstimate) -> str:
+    """"name = value +- stderr unit", "name = value unit (at bound)" or "name = -
+    (reason)" for a value the data do not determine: never "+- 0"."""
+    unit = f" {e.unit}" if e.unit and e.unit != "-" else ""
+    if not e.determined:  # the reason's head: "no standard error", "the fit left ..."
+        return f"{e.name} = - ({(e.reason or 'not identifiable').split(':')[0]})"
+    if e.at_bound is not None:
+        return f"{e.name} = {e.value:.3g}{unit} (at bound)"
+    if e.stderr is None or not e.stderr > 0:
+        return f"{e.name} = - (no standard error)"
+    return f"{e.name} = {e.value:.3g} +- {e.stderr:.2g}{unit}"
 
 
 def value_text(entry: dict, fmt: str = ".5g") -> str:

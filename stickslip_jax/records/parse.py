@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..rigs import RIG_COLUMNS, rig_header
 from ..units import G_MM_S2, UnitError, factor
 from .dialects import decode, normalise_dialect, read_bytes, spreadsheet_header, text_lines
 from .drive import parse_drive_program, speed_position
@@ -19,6 +18,7 @@ from .grammar import (COLUMN, FORMAT_VERSION, HEADER, KEY, KNOWN_KEYS, MAX_FILE_
                       QUANTITY, RESERVED_COLUMNS, UNIT_CELL)
 from .quantities import channel_factor, quantity, unit_choices
 from .record import UNEVEN_FIX, Record
+from .rig import RIG_COLUMNS, rig_header
 from .rows import parse_data, resolution_of
 from .sampling import uniform_clock
 

@@ -19,6 +19,7 @@ from .drive import check_program, program_position, program_speed
 from .errors import RecordError
 from .grammar import KEY, KNOWN_KEYS, NAME, RESERVED_COLUMNS
 from .quantities import channel_dimension
+from .rig import RotationalRig
 from .sampling import TIME_STEP_RTOL, time_step_deviation, uniform_clock
 
 if TYPE_CHECKING:
@@ -246,10 +247,8 @@ class Record:
 
     @property
     def rig(self):
-        """The `stickslip_jax.rigs.RotationalRig` of a record with a `friction_radius`,
+        """The `RotationalRig` of a record with a `friction_radius`,
         else None (a linear rig)."""
-        from ..rigs import RotationalRig
-
         return None if self.friction_radius is None else RotationalRig(self.friction_radius)
 
     @property
