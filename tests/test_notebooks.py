@@ -12,12 +12,17 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
-SLOW = {"02_contact_microsqueeze", "04_design", "05_missing_physics", "06_pitching"}
+SLOW = {"02_contact_microsqueeze", "03_identification", "04_design", "05_missing_physics",
+        "06_pitching", "07_real_records"}
 """The longest notebooks at small size (04_design: 56 s of CPU time; 02 and 06: 31 and
-24 s on the quiet 2-core machine, compiling most of it), their functions each checked
-by their own modules (04: test_experiment_design, test_inverse_design, test_design_maps;
-02: test_microsqueeze, test_contact_boundary, test_contact_surfaces; 06: test_pitching):
-run with the slow tests (`.ci/run` runs those too), keeping the default suite short."""
+24 s on the quiet 2-core machine, compiling most of it; 03 and 07: 22 and 18 s with an
+empty compilation cache, load 10-19), their functions each checked by their own modules (04:
+test_experiment_design, test_inverse_design, test_design_maps; 02: test_microsqueeze,
+test_contact_boundary, test_contact_surfaces; 06: test_pitching; 03's fit, summary,
+plot and posterior: test_api, test_api_results, test_one_record; 07's fit of the
+measured records with their screening and steady-record lines: test_real_data, its
+Student-t fit: test_losses, test_cli_loss): run with the slow tests (`.ci/run` runs those
+too), keeping the default suite short."""
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem in SLOW
