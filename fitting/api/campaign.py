@@ -232,6 +232,7 @@ def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Obje
     campaign = load_campaign(records, min_records=2 if micro else None, strict=strict)
     held = {} if micro else one_record_holds(campaign)
     truth, notes = find_truth(campaign.records, law.NAMES), campaign.notes
+    screening = [s.to_json() for s in campaign.screening]
     if held:
         fixed = {**held, **fixed}
         fixed = fixed if check is None else check(fixed)
@@ -250,7 +251,7 @@ def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Obje
         eta = default_eta(campaign.records[0].lubricant) if eta is None else eta
         result = fit_microsqueeze(campaign.features, eta=eta, pair=pair, **kw)
         extra = {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"}, "surface": surface}}
-    return _conclude(result, campaign, truth, notes, law.MODEL, extra)
+    return _conclude(result, campaign, (truth, notes, screening), law.MODEL, extra)
 
 
 def fit_law_campaign(records: list, law, fixed: dict[str, float], *, modes: ModelModes,
@@ -265,18 +266,20 @@ def fit_law_campaign(records: list, law, fixed: dict[str, float], *, modes: Mode
 
     campaign = load_campaign(records, strict=strict)
     truth, notes = find_truth(campaign.records, LAW_PARAMS[law].NAMES), campaign.notes
+    screening = [s.to_json() for s in campaign.screening]
     n = sum(s.status == "used" for s in campaign.screening)
     logger.info(f"fitting {n} records (objective {Objective.SMOOTH}, model {law.value})...")
     result = fit_law(campaign.features, campaign.records, law,
                      hold=Hold.named(fixed) if fixed else None, modes=modes)
-    return _conclude(result, campaign, truth, notes, law.value, None)
+    return _conclude(result, campaign, (truth, notes, screening), law.value, None)
 
 
-def _conclude(result: FitResult, campaign: Campaign, truth, notes, model: str,
+def _conclude(result: FitResult, campaign: Campaign, read: tuple, model: str,
               extra) -> CampaignFit:
     """A fit's figures and its boundary at the records without stick-slip
     (`solve.summary`), Laplace intervals and adequacy checks (`uncertainty`), then its
-    report and printed text (`report.fit_table`)."""
+    report and printed text (`report.fit_table`). `read`: what the data step gave (the
+    records' truth, the campaign's notes, the JSON of its screening)."""
     from stickslip_jax.logs import logger
 
     from ..report.fit_table import build_report, fit_text
@@ -284,12 +287,15 @@ def _conclude(result: FitResult, campaign: Campaign, truth, notes, model: str,
     from ..uncertainty.adequacy import adequacy
     from ..uncertainty.laplace import laplace
 
+    truth, notes, screening = read
     figures = fit_figures(result, campaign)
     logger.info(f"fit {'converged' if figures.converged else 'did not converge'}; "
                 "intervals...")
-    unc, checks = laplace(result), adequacy(result)
+    unc = laplace(result)
+    estimates, checks = unc.estimates(truth), adequacy(result).to_json()
     report = build_report(result, unc, campaign, model=model, extra=extra, truth=truth,
-                          figures=figures, checks=checks)
+                          figures=figures, estimates=estimates, checks=checks,
+                          screening=screening)
     logger.info("report done")
     return CampaignFit(report=report, fit=result, uncertainty=unc, campaign=campaign,
                        model=model, text=fit_text(report, notes))

@@ -15,13 +15,15 @@ the fixed values do not describe the records: said in a warning."""
 
 
 def build_report(fit, unc, campaign, *, model="empirical", extra=None, truth=None,
-                 figures=None, checks=None) -> dict:
-    """The JSON-ready result of a fit (the `--json` contract), from the steps before it:
-    `fit` (`solve.fit.FitResult`), `unc` (`uncertainty.laplace.Uncertainty`), `campaign`
-    (`data.campaign.Campaign`), `truth` (the records' parameters, `data.campaign.find_truth`),
-    `figures` (`solve.summary.FitFigures`) and `checks` (`uncertainty.adequacy.Adequacy`).
-    A call without `figures` (a notebook's, with the fit alone) finds the truth, figures
-    and checks here.
+                 figures=None, estimates=None, checks=None, screening=None) -> dict:
+    """The JSON-ready result of a fit (the `--json` contract), from the values the steps
+    before it handed on: `fit` (`solve.fit.FitResult`), `unc`
+    (`uncertainty.laplace.Uncertainty`), `campaign` (`data.campaign.Campaign`), `truth`
+    (the records' parameters, `data.campaign.find_truth`), `figures`
+    (`solve.summary.FitFigures`), `estimates` (`unc.estimates(truth)`), `checks` (the
+    JSON of `uncertainty.adequacy.adequacy`) and `screening` (the JSON of each record's
+    `RecordStatus`). A call without `figures` (a notebook's, with the fit alone) finds
+    them here.
 
     `records` lists every record given, in order: the used ones with their fitted gauge
     offset, the others with `status` and `reason` (`stickslip_fitting.data.campaign`);
@@ -39,10 +41,10 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None, truth=Non
         from ..uncertainty.adequacy import adequacy
 
         truth = find_truth(campaign.records, fit.params.friction.NAMES)
-        figures, checks = fit_figures(fit, campaign), adequacy(fit)
+        figures, estimates = fit_figures(fit, campaign), unc.estimates(truth)
+        checks, screening = adequacy(fit).to_json(), [s.to_json() for s in campaign.screening]
     records = campaign.records
     bounds = fit.params.friction.PRIOR_BOUNDS  # the support: a value there is "at bound"
-    estimates = unc.estimates(truth)
     params = {e.name: e.with_bounds(bounds).to_json() for e in estimates}
     held = [n for n in ONE_RECORD_HOLDS if len(records) == 1 and params.get(n, {}).get("fixed")]
     for n in held:  # fixed at a value one record cannot check: said with the reason
@@ -55,7 +57,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None, truth=Non
                        misfit=None, message=f"{s['name']}: slides steadily; not compared with "
                        f"the fitted model ({', '.join(unknown)} not identifiable)")
                   for s in steady]
-    out = {"model": model, "parameters": params, "records": _record_rows(fit, campaign),
+    out = {"model": model, "parameters": params, "records": _record_rows(fit, campaign, screening),
            "records_not_used": sum(s.status != "used" for s in campaign.screening),
            "steady_records": steady,
            "residual_rms_mm": figures.residual_rms_mm, "chi2": figures.chi2,
@@ -75,7 +77,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None, truth=Non
                    fit.record_chi2, "the other estimates and their intervals are not "
                    "meaningful")},
            "truth_available": truth is not None,
-           "adequacy": checks.to_json()}
+           "adequacy": checks}
     if figures.trace_samples is not None:
         out.update(trace_residual_rms_mm=figures.trace_residual_rms_mm,
                    trace_samples=figures.trace_samples,
@@ -100,14 +102,14 @@ def fixed_misfit_warning(fixed: list[str], record_chi2, consequence: str) -> lis
             f"the fixed values are incompatible with these records, and {consequence}."]
 
 
-def _record_rows(fit, campaign) -> list[dict]:
+def _record_rows(fit, campaign, screening) -> list[dict]:
     offsets = np.asarray(fit.params.offset)
     used = {f.name: i for i, f in enumerate(fit.features)}
     rows = []
     chi = fit.record_chi2
     scale = fit.record_scale
-    for s in campaign.screening:
-        row = s.to_json()
+    for s, row in zip(campaign.screening, screening):
+        row = dict(row)
         if s.status == "used" and s.name in used:
             i = used[s.name]
             row["gauge_offset_mm"] = float(offsets[i])
