@@ -169,7 +169,8 @@ def _verdict(scores) -> tuple[FrictionLaw, bool, str]:
     best = min(scores, key=lambda s: s.bic)
     paper = next((s for s in scores if s.law is FrictionLaw.PAPER), None)
     lines = [f"{s.law.value}: BIC {s.bic:.1f}, held-out chi2/n {s.held_out:.3g}"
-             + (f" ({s.reason})" if s.reason else "") for s in scores]
+             + (f" ({s.reason})" if s.reason else "" if s.converged else
+                " (its fit not converged within its step budget)") for s in scores]
     if paper is None or best is paper:
         return best.law, False, f"preferred: {best.law.value} ({'; '.join(lines)})"
     wrong = paper.bic - best.bic >= BIC_MARGIN and best.held_out <= paper.held_out

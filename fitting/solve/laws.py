@@ -5,8 +5,9 @@ features fit of eqs (1), (3) first (its gauge offsets), starts for the law from 
 features (`law_starts`), then the smoothed-simulator objective (`objectives.smooth`), the
 only one that expresses a law of the slider velocity or of a state variable.
 
-Starts (the one of least chi-square on the records is refined; the next one too when the
-fit misses the records by more than `FAR_MISS` times their noise), from the per-cycle
+Starts (the one of least chi-square on the records is refined, within `LAW_STEPS`
+Levenberg-Marquardt steps; the next one too when that fit converged and misses the records
+by more than `FAR_MISS` times their noise), from the per-cycle
 breakaway level $\mu_0 = k x_{peak}/W$, the mid-slip level
 $\mu_m = k (x_{peak} + x_{trough})/(2W)$, the stick time $T_1$, the drive speed $V$ and the
 slip speed $v_s = \omega_0 (x_{peak} - x_{trough})/2$ (mm/s):
@@ -28,6 +29,7 @@ All clipped into the prior bounds.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 
 import equinox as eqx
@@ -39,7 +41,7 @@ from stickslip_jax.modes import GaugeOffset
 from ..law_params import LogAgingFriction, RateStateAgingFriction, RateStateSlipFriction
 from ..modes import FrictionLaw, ModelModes, SolverOptions
 from ..params import CampaignParams, EmpiricalFriction, Hold, free_spec
-from .fit import FitResult, fit_features, fit_objective
+from .fit import MAX_ROUNDS, FitResult, fit_features, fit_objective
 
 __all__ = ["LAW_PARAMS", "fit_law", "law_starts"]
 
@@ -49,6 +51,14 @@ D_C_GRID = (1e-4, 2.5e-4, 6e-4, 1.6e-3)
 """D_c (mm) of the rate-and-state starts."""
 FAR_MISS = 3.0
 """chi2/dof above which the fit from the next start is tried too."""
+LAW_STEPS = 120
+"""Levenberg-Marquardt steps at most from a start of a law other than the paper's, over
+the reweighting rounds of `fit.fit_objective` (`MAX_ROUNDS`, an equal share each); the
+next start is refined only after a fit that converged (to a far miss, `FAR_MISS`). Each
+step costs a simulation per free parameter through the records (10,000-20,000 solver
+steps each on records of the paper's law with few long cycles), so a fit that has not
+converged within them is returned as not converged instead of running on (six rounds of
+40 steps from each of two starts took more than 45 minutes there)."""
 
 LAW_PARAMS = {FrictionLaw.PAPER: EmpiricalFriction,
               FrictionLaw.RATE_STATE_AGING: RateStateAgingFriction,
@@ -133,16 +143,19 @@ def fit_law(features, records, law: FrictionLaw, *, hold: Hold | None = None,
     order = np.argsort(np.where(np.isfinite(scores), scores, np.inf))
     spec = free_spec(trials[0], hold=hold, offsets=modes.offset is GaugeOffset.START)
     best, errors = None, []
+    opts = solver.refine()
+    if law is not FrictionLaw.PAPER:  # within `LAW_STEPS`
+        opts = dataclasses.replace(opts, max_steps=min(opts.max_steps, LAW_STEPS // MAX_ROUNDS))
     for i in order[:RETRIES]:  # the next start only while the fit misses the records far
         if not np.isfinite(scores[i]):
             break
         try:
-            fit = fit_objective(obj, trials[i], spec, solver=solver.refine(), base=first)
+            fit = fit_objective(obj, trials[i], spec, solver=opts, base=first)
         except eqx.EquinoxRuntimeError as err:  # a non-finite value inside the solve
             errors.append(_first_message(err))
             continue
         best = fit if best is None or fit.chi2 < best.chi2 else best
-        if best.reduced_chi2 < FAR_MISS:
+        if best.reduced_chi2 < FAR_MISS or not fit.converged:
             break
     if best is None and errors:
         raise ValueError(f"--law {law}: the fit failed from every start refined "
