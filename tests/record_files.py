@@ -17,8 +17,8 @@ def record_files(records, folder) -> list[str]:
 def clean_discovery_files(folder) -> list[str]:
     """`stickslip discover`'s input in test_cycle_discovery and test_json_keys: the clean
     `SMALL_CAMPAIGN` (seed 11) as files r0-r3.csv, one irregular record and one file that
-    is not a record. Both modules run `discover FILES --json OUT --learn` on it, so the
-    second loads the first's compiled programs from the persistent compilation cache."""
+    is not a record. Both modules read one run of `discover FILES --json OUT --learn` on
+    it (conftest `clean_discovery`)."""
     import independent_records as ir
 
     paths = []

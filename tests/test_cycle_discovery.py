@@ -6,6 +6,7 @@ over many campaigns are in `test_cycle_discovery_rates.py` (slow)."""
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import json
 import re
@@ -14,24 +15,18 @@ import numpy as np
 import pytest
 
 import independent_records as ir
-from record_files import SMALL_CAMPAIGN, clean_discovery_files
+from record_files import SMALL_CAMPAIGN
 from stickslip_fitting.discovery.cycle_workflow import discover_cycles
 
 SMALL = SMALL_CAMPAIGN
 
 
-@pytest.fixture(scope="module")
-def clean_files(tmp_path_factory):
-    return clean_discovery_files(tmp_path_factory.mktemp("clean"))
-
-
-def test_clean_campaign_names_nothing(clean_files, tmp_path, capsys):
-    from stickslip_jax.cli import main
-
-    out = tmp_path / "d.json"
-    assert main(["discover", *clean_files, "--json", str(out), "--learn"]) == 0
-    captured = capsys.readouterr()
-    rep = json.loads(out.read_text())
+def test_clean_campaign_names_nothing(clean_discovery):
+    """`stickslip discover FILES --json OUT --learn` on the clean campaign with an
+    irregular record and a file that is not a record (conftest `clean_discovery`)."""
+    rc, rep, out, err = clean_discovery
+    assert rc == 0
+    captured = argparse.Namespace(out=out, err=err)
     assert rep["effect"] == "none", rep["explanation"]
     assert rep["steps"] == []  # the sequential search (3 effects by default) names none
     # --learn: the learned phase correction is fitted whatever the answer (on clean

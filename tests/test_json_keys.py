@@ -70,18 +70,6 @@ SKIP = {"units"}
 """Subtrees whose keys name kinds of quantity, not values (pitch's `units` map)."""
 
 
-def _discovery_campaign(folder: pathlib.Path) -> list[str]:
-    """test_cycle_discovery's clean campaign (`record_files.clean_discovery_files`: an
-    irregular record set aside, a file that is not a record), run with the same options
-    (`--learn`): the document has the learned correction and the null reasons, and the
-    compiled programs are made once in a test run (persistent compilation cache)."""
-    sys.path.insert(0, str(ROOT / "tests"))
-    from record_files import clean_discovery_files
-
-    folder.mkdir()
-    return clean_discovery_files(folder)
-
-
 def _pitch_records(folder: pathlib.Path) -> list[str]:
     """The docs figures' two tilt records (`docs/make_figures.py`: `pitch_records`)."""
     sys.path.insert(0, str(pathlib.Path(__file__).parents[1] / "docs"))
@@ -93,8 +81,10 @@ def _pitch_records(folder: pathlib.Path) -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def documents(tmp_path_factory):
-    """{command: its --json document} on small inputs, every option that adds keys on."""
+def documents(tmp_path_factory, clean_discovery):
+    """{command: its --json document} on small inputs, every option that adds keys on;
+    discover's: test_cycle_discovery's clean campaign with its options (`--learn`; conftest
+    `clean_discovery`: the learned correction and the null reasons, run once)."""
     d = tmp_path_factory.mktemp("json_keys")
     runs = {
         "steady": ["steady", "--weight", "36", "--stiffness", "86.9", "--speed", "1", "60",
@@ -104,13 +94,13 @@ def documents(tmp_path_factory):
         "plan": ["plan", "A", "--budget", "2", "--quiet"],
         "fit": ["fit", *EXAMPLES, "--quiet"],
         "mcmc": ["mcmc", *EXAMPLES[:4], "--steps", "20", "--walkers", "14", "--quiet"],
-        "discover": ["discover", *_discovery_campaign(d / "discover"), "--learn"],
         "pitch": ["pitch", *_pitch_records(d), "--fit"],
         "fit-batch": ["fit-batch", str(ROOT / "data" / "examples" / "A_W36_k27.3_*.csv"),
                       str(d / "no_such_folder"), "--quiet"],
     }
-    assert set(runs) == set(JSON_COMMANDS)
-    docs = {}
+    rc, discovered, _, _ = clean_discovery
+    assert set(runs) | {"discover"} == set(JSON_COMMANDS) and rc == 0
+    docs = {"discover": discovered}
     for name, argv in runs.items():
         out = d / f"{name}.json"
         rc = main([*argv, "--json", str(out)])
