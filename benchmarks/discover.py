@@ -37,14 +37,17 @@ compiling them (a user's later campaigns), the first fills DIR.
 
 The cost rests on: the sticks binned to the statistics the model needs (`thinning`: a
 window's cost grows with its events, not with its samples), far from the data the refits
-stopped once they cannot win (`refit.CANNOT_WIN`), the compressed Jacobian, the
+stopped once they cannot win (`refit.CANNOT_WIN`), the compressed Jacobian (an
+evaluation's last tangent block 4 wide where its tangents fit, `cycle_model.BLOCK`), the
 FFT sensor kernel, the vectorised pitch scan, a window's slip solved once for all its
 rows, the weights as one compiled program, the host Levenberg-Marquardt update in NumPy,
 and the model's programs compiled in a warm-up thread while the campaign is prepared:
 three of them (the Jacobian block without and with the sensor kernel, whose spectrum is
 computed once per record; the sensor's residuals; the other residuals run the Jacobian
 block with a zero tangent block), with XLA's classic CPU emitter (`fit.COMPILER_OPTIONS`);
-the sensor's Jacobian block only once a refit with the sensor may come (`CycleModel.warm`).
+the sensor's Jacobian block only once a refit with the sensor may come (`CycleModel.warm`),
+the 4-wide block at the first evaluation of more than 8 tangents (a screw refit: about
+10 s CPU to compile, each such evaluation 8 + 4 tangents instead of 16).
 Run with `JAX_LOG_COMPILES=1` to see each program's compilation time.
 
 `--base smooth`, the whole-record workflow:
