@@ -87,9 +87,9 @@ def test_rate_state_records_prefer_rate_state():
 @pytest.mark.slow
 def test_paper_records_prefer_the_paper():
     """Records of the paper's law prefer it by its criterion. Seed 0 re-slips after every
-    slip: measured, the paper's fit through the exact simulator reaches chi2/n 1.02 (the
-    truth's 1.00) and held-out 1.18, the rate-and-state fit converges at chi2/n 42 and
-    held-out 391 (BIC 2,480 against 99,949); about 100 CPU s, 10 of them the paper's."""
+    slip: measured, the paper's fit through the exact simulator reaches chi2/n 1.01 (the
+    truth's 1.00) and held-out 1.01, the rate-and-state fit converges at chi2/n 40 and
+    held-out 387 (BIC 2,454 against 94,980); 97 CPU s, 10 of them the paper's."""
     cmp = compare_laws(paper_campaign(0), LAWS, pad_to=PAD, solver=SOLVER)
     assert _check(cmp, FrictionLaw.PAPER), cmp.message
     assert not cmp.paper_wrong_base
