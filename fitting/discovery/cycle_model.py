@@ -73,9 +73,9 @@ __all__ = ["BLOCK", "CycleModel", "Later", "N_STEPS", "TAIL_STEPS", "kernel_cdf"
 N_STEPS = 128
 """RK4 steps per slip (over 2.5 pi/omega_0: room for slips lengthened by the effects)."""
 BLOCK = 8
-"""Tangents per compiled forward-mode call (`CycleModel.evaluate`); without the sensor, an
-evaluation's last call of at most `BLOCK // 2` takes that width (a call costs about its
-width: a screw refit's 11 tangents as 8 + 4, not 16; each lane's column is the same)."""
+"""Tangents per compiled forward-mode call (`CycleModel.evaluate`). Without the sensor, the
+last call of an evaluation, and once compiled any call, of at most `BLOCK // 2` takes that
+width (a call costs about its width: 11 tangents as 8 + 4, not 16; the lanes are identical)."""
 NEWTON = 40
 """Bracketed Newton iterations for the breakaway time."""
 DR_V_REF = 1.0
@@ -651,9 +651,8 @@ class CycleModel:
         self.mask = np.asarray(data.mask).ravel()
         self._record = per_sample(data, "record")[0]
         self._idx = jax.device_put(np.flatnonzero(self.mask).astype(np.int32))
-        self._real_rows, self._grouped = np.asarray(data.mask).any(1), {}  # `_tangents` by cols
-        # every record's samples, one contiguous span of the residual vector (`trace_data`
-        # cuts the records in order)
+        self._real_rows, self._grouped, self._narrow = np.asarray(data.mask).any(1), {}, False
+        # every record's samples: one contiguous span of the residuals (`trace_data`'s order)
         self._span = np.zeros((n_records, 2), int)
         for g in range(n_records):
             where = np.flatnonzero(self._record == g)
@@ -738,7 +737,7 @@ class CycleModel:
                                self.data, self.tref, self._prev, self.sd, self.layout)
             return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
         r, _, ok, yd = self._block(jnp.asarray(z), np.zeros((self.layout.size, 1)),
-                                   self._shape(shape), False)
+                                   self._shape(shape), False, BLOCK // (1 + self._narrow))
         return np.asarray(r), np.asarray(yd), np.asarray(ok)
 
     def _block(self, zj, part, sh, sensor: bool, width: int = BLOCK):
@@ -775,11 +774,12 @@ class CycleModel:
         cols = np.asarray(cols, int)
         if (key := cols.tobytes()) not in self._grouped:
             self._grouped[key] = self._tangents(cols)
-        T_all, tangent, record = self._grouped[key]
-        sh, zj, blocks, ok = self._shape(shape), jnp.asarray(z), [], True
+        (T_all, tangent, record), blocks, ok = self._grouped[key], [], True
+        sh, zj = self._shape(shape), jnp.asarray(z)
         for a in range(0, max(T_all.shape[1], 1), BLOCK):
             part = T_all[:, a:a + BLOCK]
-            narrow = a > 0 and part.shape[1] <= BLOCK // 2 and not sensor  # `BLOCK`
+            self._narrow |= (narrow := part.shape[1] <= BLOCK // 2 and not sensor
+                                       and (a > 0 or self._narrow))  # `BLOCK`
             r, J_, ok_, _ = self._block(zj, part, sh, sensor, BLOCK // 2 if narrow else BLOCK)
             blocks.append(np.asarray(J_)[:, :part.shape[1]])
             ok = ok and bool(np.all(np.asarray(ok_)[self._real_rows]))
