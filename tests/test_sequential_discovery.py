@@ -159,9 +159,10 @@ def test_a_later_effect_pays_for_its_flexibility():
 
 
 def test_a_later_effect_must_clearly_beat_its_physical_rivals():
-    """A later effect is not named where a physical contender that explains a comparable
-    share is not clearly beaten (`more.unbeaten_rival`); an unphysical one, or a law of
-    the same physics (rate-and-state beside a Stribeck drop), does not stop it."""
+    """A later effect meets every physical contender that explains a comparable share and
+    that it does not clearly beat (`more.unbeaten_rival`, then `given_each_other`); an
+    unphysical one, or a law of the same physics (rate-and-state beside a Stribeck drop),
+    is no rival."""
     import types
 
     from stickslip_fitting.discovery.decision import Contender, decide
@@ -180,6 +181,66 @@ def test_a_later_effect_must_clearly_beat_its_physical_rivals():
     assert unbeaten_rival(choice("viscous_damping", [
         Contender("stribeck", 120.0, 0.4, 1.2, physical=False)])) is None
     assert unbeaten_rival(choice("stribeck", [Contender("rate_state", 150.0, 0.5, 0.3)])) is None
+
+
+def test_a_later_effect_and_its_rivals_are_tested_given_each_other(monkeypatch):
+    """Where a later winner does not clearly beat a physical rival, each is tested at the
+    other's refit (`more.given_each_other`): a winner still needed given the rival is
+    named (the rival set aside, for the next search to test); where only the rival is
+    needed it wins (if the calibrated test let it through) and meets the next rival;
+    neither needed: that rival stays unsettled (the search stops)."""
+    import types
+
+    from stickslip_fitting.discovery.decision import Contender, decide
+    from stickslip_fitting.discovery.options import DEFAULTS
+    from stickslip_fitting.discovery.stages import more
+    from stickslip_fitting.discovery.stages.state import Choice, Refitted
+
+    def refit(name, drop):
+        return types.SimpleNamespace(family=types.SimpleNamespace(name=name), drop=drop,
+                                     unphysical=None, failed=None)
+
+    lc, st = refit("load_coupling", 162.0), refit("stribeck", 88.0)
+    rs = refit("rate_state", 90.0)
+    every = Refitted(refits=[lc, st, rs], eligible=frozenset({"load_coupling", "stribeck",
+                                                             "rate_state"}))
+    # the contenders of each winner: z 0.8 (not clearly beaten) between all three
+    monkeypatch.setattr(more, "_decided", lambda fx_, refits, win, aside: decide(
+        win.drop, [Contender(rf.family.name, rf.drop, 0.4, 0.8) for rf in refits
+                   if rf.family.name not in aside | {win.family.name}]))
+    monkeypatch.setattr(more, "one_screw", lambda fx_, rf: rf)
+    fx, clock = types.SimpleNamespace(opts=DEFAULTS), (lambda *a: None)
+
+    def given(ps, refitted=every):
+        monkeypatch.setattr(more, "_needed", lambda fx_, one, at: ps[one.family.name,
+                                                                     at.family.name])
+        win = refitted.refits[0]
+        choice = Choice(chosen=win, decision=more._decided(fx, refitted.refits, win, set()),
+                        rivals=[], compared={}, decided_drop=win.drop)
+        return more.given_each_other(fx, choice, refitted, clock)
+
+    two = Refitted(refits=[lc, st], eligible=every.eligible)
+    # only the rival is needed given the winner: it wins, no rival left
+    out = given({("load_coupling", "stribeck"): 0.034, ("stribeck", "load_coupling"): 0.0037},
+                two)
+    assert out.chosen is st and more.unbeaten_rival(out) is None
+    # the winner is needed given its rival, whether or not the rival is given it
+    for p in (0.44, 1e-4):
+        out = given({("load_coupling", "stribeck"): 1e-4, ("stribeck", "load_coupling"): p},
+                    two)
+        assert out.chosen is lc and more.unbeaten_rival(out) is None
+    # neither needed: the rival stays
+    out = given({("load_coupling", "stribeck"): 0.3, ("stribeck", "load_coupling"): 0.3}, two)
+    assert out.chosen is lc and more.unbeaten_rival(out).name == "stribeck"
+    # the rival needed but not let through by the calibrated test: unsettled
+    out = given({("load_coupling", "stribeck"): 0.034, ("stribeck", "load_coupling"): 0.0037},
+                Refitted(refits=[lc, st], eligible=frozenset({"load_coupling"})))
+    assert out.chosen is lc and more.unbeaten_rival(out).name == "stribeck"
+    # every rival in turn: rate-and-state only stood in for load coupling (set aside),
+    # then the Stribeck drop is needed given load coupling and not the reverse
+    out = given({("load_coupling", "rate_state"): 1e-4, ("rate_state", "load_coupling"): 0.5,
+                 ("load_coupling", "stribeck"): 0.034, ("stribeck", "load_coupling"): 0.0037})
+    assert out.chosen is st and more.unbeaten_rival(out) is None
 
 
 def test_confirmed_effects_that_explain_the_records_are_not_replaced_by_a_form():
