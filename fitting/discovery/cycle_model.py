@@ -73,9 +73,10 @@ __all__ = ["BLOCK", "CycleModel", "Later", "N_STEPS", "TAIL_STEPS", "kernel_cdf"
 N_STEPS = 128
 """RK4 steps per slip (over 2.5 pi/omega_0: room for slips lengthened by the effects)."""
 BLOCK = 8
-"""Tangents per compiled forward-mode call (`CycleModel.evaluate`). Without the sensor, the
-last call of an evaluation, and once compiled any call, of at most `BLOCK // 2` takes that
-width (a call costs about its width: 11 tangents as 8 + 4, not 16; the lanes are identical)."""
+"""Tangents per compiled forward-mode call (`CycleModel.evaluate`). Without the sensor, once
+64 evaluations padded their last call (its compilation, ~9 s CPU, pays back over hundreds), a
+call of at most `BLOCK // 2` takes that width (a call costs about its width: 11 tangents as
+8 + 4, not 16; the lanes are identical)."""
 NEWTON = 40
 """Bracketed Newton iterations for the breakaway time."""
 DR_V_REF = 1.0
@@ -651,7 +652,7 @@ class CycleModel:
         self.mask = np.asarray(data.mask).ravel()
         self._record = per_sample(data, "record")[0]
         self._idx = jax.device_put(np.flatnonzero(self.mask).astype(np.int32))
-        self._real_rows, self._grouped, self._narrow = np.asarray(data.mask).any(1), {}, False
+        self._real_rows, self._grouped, self._tails = np.asarray(data.mask).any(1), {}, 0
         # every record's samples: one contiguous span of the residuals (`trace_data`'s order)
         self._span = np.zeros((n_records, 2), int)
         for g in range(n_records):
@@ -737,7 +738,7 @@ class CycleModel:
                                self.data, self.tref, self._prev, self.sd, self.layout)
             return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
         r, _, ok, yd = self._block(jnp.asarray(z), np.zeros((self.layout.size, 1)),
-                                   self._shape(shape), False, BLOCK // (1 + self._narrow))
+                                   self._shape(shape), False, BLOCK // (1 + (self._tails > 64)))
         return np.asarray(r), np.asarray(yd), np.asarray(ok)
 
     def _block(self, zj, part, sh, sensor: bool, width: int = BLOCK):
@@ -778,14 +779,13 @@ class CycleModel:
         sh, zj = self._shape(shape), jnp.asarray(z)
         for a in range(0, max(T_all.shape[1], 1), BLOCK):
             part = T_all[:, a:a + BLOCK]
-            self._narrow |= (narrow := part.shape[1] <= BLOCK // 2 and not sensor
-                                       and (a > 0 or self._narrow))  # `BLOCK`
+            self._tails += (narrow := part.shape[1] <= BLOCK // 2 and not sensor) and a > 0
+            narrow = narrow and self._tails > 64  # `BLOCK`
             r, J_, ok_, _ = self._block(zj, part, sh, sensor, BLOCK // 2 if narrow else BLOCK)
             blocks.append(np.asarray(J_)[:, :part.shape[1]])
             ok = ok and bool(np.all(np.asarray(ok_)[self._real_rows]))
         Jt = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=1)
-        # columns in Fortran order: each is written (and later read) contiguously
-        J = np.zeros((Jt.shape[0], cols.size), order="F")
+        J = np.zeros((Jt.shape[0], cols.size), order="F")  # each column written, read at once
         for i, (t, g) in enumerate(zip(tangent, record)):  # a record's coefficient: its rows
             a, b = self._span[g] if g >= 0 else (0, Jt.shape[0])
             J[a:b, i] = Jt[a:b, t]
