@@ -46,8 +46,8 @@ three of them (the Jacobian block without and with the sensor kernel, whose spec
 computed once per record; the sensor's residuals; the other residuals run the Jacobian
 block with a zero tangent block), with XLA's classic CPU emitter (`fit.COMPILER_OPTIONS`);
 the sensor's Jacobian block only once a refit with the sensor may come (`CycleModel.warm`),
-the 4-wide block at the first evaluation of more than 8 tangents (a screw refit: about
-10 s CPU to compile, each such evaluation 8 + 4 tangents instead of 16).
+the 4-wide block once 64 evaluations of 9-12 tangents padded their last call (screw
+refits: about 9 s CPU to compile, each such evaluation then 8 + 4 tangents, not 16).
 Run with `JAX_LOG_COMPILES=1` to see each program's compilation time.
 
 `--base smooth`, the whole-record workflow:
