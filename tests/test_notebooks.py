@@ -12,17 +12,22 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 NOTEBOOKS = sorted((ROOT / "notebooks").glob("[0-9][0-9]_*.py"))
-SLOW = {"02_contact_microsqueeze", "03_identification", "04_design", "05_missing_physics",
-        "06_pitching", "07_real_records"}
+SLOW = {"01_paper_model", "02_contact_microsqueeze", "03_identification", "04_design",
+        "05_missing_physics", "06_pitching", "07_real_records", "08_rotational_rigs"}
 """The longest notebooks at small size (04_design: 56 s of CPU time; 02 and 06: 31 and
 24 s on the quiet 2-core machine, compiling most of it; 03 and 07: 22 and 18 s with an
-empty compilation cache, load 10-19), their functions each checked by their own modules (04:
-test_experiment_design, test_inverse_design, test_design_maps; 02: test_microsqueeze,
-test_contact_boundary, test_contact_surfaces; 06: test_pitching; 03's fit, summary,
-plot and posterior: test_api, test_api_results, test_one_record; 07's fit of the
-measured records with their screening and steady-record lines: test_real_data, its
-Student-t fit: test_losses, test_cli_loss): run with the slow tests (`.ci/run` runs those
-too), keeping the default suite short."""
+empty compilation cache, load 10-19; 01 and 08: 22 s together, empty cache, load 10), their
+functions each checked by their own modules (04: test_experiment_design,
+test_inverse_design, test_design_maps; 02: test_microsqueeze, test_contact_boundary,
+test_contact_surfaces; 06: test_pitching; 03's fit, summary, plot and posterior: test_api,
+test_api_results, test_one_record; 07's fit of the measured records with their screening
+and steady-record lines: test_real_data, its Student-t fit: test_losses, test_cli_loss;
+01's static laws of Tables 3 and 4, steady maps, slip trajectory and critical speeds
+against the natural frequency and the friction parameters (Figs 36-41): test_friction,
+test_tables, test_steady; 08's rotational records, their rig units and the fit of a
+rotational campaign with a normal load: test_rigs, test_normal_load): run with the slow
+tests (`.ci/run` runs all the notebooks in a step of their own), keeping the default suite
+short."""
 
 
 @pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.slow) if p.stem in SLOW
