@@ -166,6 +166,11 @@ def test_discovery_model_takes_the_normal_load():
     from stickslip_fitting.objectives.trace import trace_data, trace_sd, trace_simulation
     from stickslip_fitting.params import CampaignParams, EmpiricalFriction
 
+    @eqx.filter_jit  # one program: outside jit they compile operation by operation
+    def _simulation_and_sd(params, data):
+        sim = trace_simulation(params, data)
+        return sim, trace_sd(params, data, sim.slider_velocity)
+
     records = _campaign(FR, N)[::2]
     feats = [record_features(r) for r in records]
     params = CampaignParams(EmpiricalFriction.from_friction(FR), jnp.zeros(len(records)))
@@ -173,8 +178,7 @@ def test_discovery_model_takes_the_normal_load():
     plain = [r.replace(normal_load=None) for r in records]
     for data in (trace_data(records, feats, drive_fix=False),
                  trace_data(plain, [record_features(r) for r in plain], drive_fix=False)):
-        sim = trace_simulation(params, data)
-        sd = trace_sd(params, data, sim.slider_velocity)
+        sim, sd = _simulation_and_sd(params, data)
         model = CycleModel(data, drift_origins(records), sd, len(records))
         r, _, ok = model.residuals(model.z0(params.friction, np.zeros(len(records))))
         rms.append(float(np.sqrt(np.mean(r**2))))
