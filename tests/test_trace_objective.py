@@ -107,8 +107,8 @@ def test_windows_after_a_reslip_are_left_out():
     rows = np.asarray(data.mask).any(axis=1)
     assert np.unique(np.asarray(data.window)[rows]).size == sum(
         f.n_complete for f, s in zip(feats, stiff) if not s)
-    r = np.asarray(trace_residuals(CampaignParams(EmpiricalFriction.from_friction(fr),
-                                                  jnp.zeros(len(recs))), data))
+    r = np.asarray(eqx.filter_jit(trace_residuals)(  # one program, not op by op
+        CampaignParams(EmpiricalFriction.from_friction(fr), jnp.zeros(len(recs))), data))
     m = np.asarray(data.mask).ravel()
     assert 0.9 < np.std(r[m]) < 1.1 and np.max(np.abs(r[m])) < 6.0
     with pytest.raises(ValueError, match="re-slip"):  # only re-slipping records: said so
