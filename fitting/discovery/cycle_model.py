@@ -738,12 +738,13 @@ class CycleModel:
                                self.data, self.tref, self._prev, self.sd, self.layout)
             return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
         r, _, ok, yd = self._block(jnp.asarray(z), np.zeros((self.layout.size, 1)),
-                                   self._shape(shape), False, BLOCK // (1 + (self._tails > 64)))
+                                   self._shape(shape), False)
         return np.asarray(r), np.asarray(yd), np.asarray(ok)
 
-    def _block(self, zj, part, sh, sensor: bool, width: int = BLOCK):
-        """`_value_and_block` along the tangents `part`, padded to `width` (`BLOCK`)."""
-        T = np.zeros((self.layout.size, width))
+    def _block(self, zj, part, sh, sensor: bool):
+        """`_value_and_block` along the tangents `part`, padded to its width (`BLOCK`)."""
+        narrow = part.shape[1] <= BLOCK // 2 and not sensor and self._tails > 64
+        T = np.zeros((self.layout.size, BLOCK // 2 if narrow else BLOCK))
         T[:, :part.shape[1]] = part
         return _value_and_block(zj, jax.device_put(T), self._scales, sh, bool(sensor),
                                 self.data, self.tref, self._prev, self.sd, self.layout,
@@ -779,9 +780,8 @@ class CycleModel:
         sh, zj = self._shape(shape), jnp.asarray(z)
         for a in range(0, max(T_all.shape[1], 1), BLOCK):
             part = T_all[:, a:a + BLOCK]
-            self._tails += (narrow := part.shape[1] <= BLOCK // 2 and not sensor) and a > 0
-            narrow = narrow and self._tails > 64  # `BLOCK`
-            r, J_, ok_, _ = self._block(zj, part, sh, sensor, BLOCK // 2 if narrow else BLOCK)
+            self._tails += part.shape[1] <= BLOCK // 2 and not sensor and a > 0  # `BLOCK`
+            r, J_, ok_, _ = self._block(zj, part, sh, sensor)
             blocks.append(np.asarray(J_)[:, :part.shape[1]])
             ok = ok and bool(np.all(np.asarray(ok_)[self._real_rows]))
         Jt = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=1)
