@@ -204,6 +204,7 @@ def _answer(res) -> str:
 
 def cycle(args):
     from stickslip_fitting.data.campaign import screen_records
+    from stickslip_fitting.modes import Objective
     from stickslip_fitting.solve.fit import fit_features
 
     table = campaigns()
@@ -224,7 +225,7 @@ def cycle(args):
             warm = _discover(recs, name, progress=False)[0].timings
             c = screen_records(recs)
             t = time.perf_counter()
-            fit_features(c.features, records=c.records, objective="trace")
+            fit_features(c.features, records=c.records, objective=Objective.TRACE)
             t_fit = time.perf_counter() - t
             print(f"{'stage':12s} {'cold s':>9s} {'x trace fit':>12s} {'warm s':>9s}")
             for k, v in res.timings.items():

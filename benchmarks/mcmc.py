@@ -43,6 +43,7 @@ def main():
     import jax.numpy as jnp
 
     from stickslip_fitting.data.campaign import find_truth
+    from stickslip_fitting.modes import Objective
     from stickslip_fitting.solve.fit import fit_records
     from stickslip_fitting.uncertainty.mcmc import likelihood_scale, run_mcmc
     from stickslip_fitting.objectives.trace import trace_sd
@@ -54,7 +55,7 @@ def main():
     truth = find_truth(recs)
 
     t0 = time.perf_counter()
-    fit = fit_records(recs, objective="trace")
+    fit = fit_records(recs, objective=Objective.TRACE)
     t_fit = time.perf_counter() - t0
     t0 = time.perf_counter()
     res = run_mcmc(fit, walkers=args.walkers, steps=args.steps, seed=0)

@@ -21,8 +21,8 @@ import dataclasses
 
 from stickslip_jax.modes import AbstractMode, GaugeOffset, SlipTime
 
-__all__ = ["Covariance", "DesignCriterion", "DiscoveryBase", "FrictionLaw", "MapMethod",
-           "ModelModes",
+__all__ = ["Covariance", "Crop", "DesignCriterion", "DiscoveryBase", "FrictionLaw",
+           "MapMethod", "ModelModes",
            "Objective", "Padding", "SmallSample", "SolverOptions", "Weighting", "check_member"]
 
 
@@ -122,6 +122,18 @@ class DiscoveryBase(AbstractMode):
     CYCLE = "cycle"
     SMOOTH = "smooth"
     option = classmethod(lambda cls: "base")
+
+
+class Crop(AbstractMode):
+    """Where each record starts for the smoothed whole-record base of discovery
+    (`stickslip discover --crop`, `discovery.model.campaign_traces`).
+
+    - `SLIP_END` ("slip_end", the command's default): at its first slip end.
+    - `NONE` ("none"): the whole record (it must start just after a slip).
+    """
+
+    SLIP_END = "slip_end"
+    NONE = "none"
 
 
 class FrictionLaw(AbstractMode):

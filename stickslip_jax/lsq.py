@@ -22,7 +22,7 @@ algorithm, assembled from public optimistix pieces:
 - `least_squares(fn, params, free)` -> `LeastSquaresSolution` (fitted parameters,
   result code, step count, aux): the verb, over the leaves of a parameter pytree that
   `free` selects;
-- options as objects: `Stall` (stop at an objective's noise floor), `HostResiduals` (an
+- options as objects: `JacobianMode` (forward or reverse mode), `Stall` (stop at an objective's noise floor), `HostResiduals` (an
   objective that is not one traceable function: the discovery models evaluate residuals
   and Jacobian blocks by several compiled programs; the verb then drives the same rules
   from Python), a start damping `lam0` (a warm restart from a solution's `stats["lam"]`);
@@ -56,9 +56,12 @@ import optimistix as optx
 from jax.flatten_util import ravel_pytree
 from jaxtyping import Array, Bool, Float, Int, PyTree, Scalar
 
+from .modes import AbstractMode
+
 __all__ = [
     "LAMBDA_MAX",
     "HostResiduals",
+    "JacobianMode",
     "LeastSquaresSolution",
     "LevenbergMarquardt",
     "MarquardtDescent",
@@ -342,23 +345,42 @@ def _model(cost, g, A):
         0.5 * cost, g, lx.MatrixLinearOperator(A, lx.positive_semidefinite_tag))
 
 
-def _value_and_jacobian(fn, unravel, v, args, jac: str = "fwd"):
-    """r, J^T [P, N] and aux at the flat point v: forward mode, one tangent per parameter,
-    tangent axis leading (`jac="fwd"`), or reverse mode (`"bwd"`, for residuals through a
-    `jax.custom_vjp`)."""
+class JacobianMode(AbstractMode):
+    """How `least_squares` builds the Jacobian at each evaluated point.
+
+    - `FORWARD` ("fwd", the default): forward mode, one tangent per parameter (the
+      parameters are few, the residuals many).
+    - `REVERSE` ("bwd"): reverse mode, for residuals through a `jax.custom_vjp`.
+    """
+
+    FORWARD = "fwd"
+    REVERSE = "bwd"
+    option = classmethod(lambda cls: "jac")
+
+    @classmethod
+    def check(cls, jac) -> JacobianMode:
+        """`jac` if it is a member; a TypeError naming the option otherwise (a string
+        becomes a member where it is parsed, `JacobianMode.parse`)."""
+        if not isinstance(jac, cls):
+            raise TypeError(f"jac: a member of JacobianMode, got {jac!r} (a string becomes "
+                            "one with JacobianMode.parse)")
+        return jac
+
+
+def _value_and_jacobian(fn, unravel, v, args, jac: JacobianMode = JacobianMode.FORWARD):
+    """r, J^T [P, N] and aux at the flat point v, by `jac` (forward mode: the tangent axis
+    leading)."""
 
     def f(x):
         return fn(unravel(x), args)
 
-    if jac == "bwd":
+    if JacobianMode.check(jac) is JacobianMode.REVERSE:
         def f2(x):
             r, aux = f(x)
             return r, (r, aux)
 
         jac_rows, (r, aux) = jax.jacrev(f2, has_aux=True)(v)
         return r, jnp.moveaxis(jac_rows, -1, 0), aux
-    if jac != "fwd":
-        raise ValueError(f"options['jac'] must be 'fwd' or 'bwd', got {jac!r}")
 
     def push(t):
         return jax.jvp(f, (v,), (t,), has_aux=True)
@@ -386,8 +408,8 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     - `active`: boolean mask of the flattened parameters to move (None: all).
     - `stall`: a `Stall` rule (None: none).
 
-    `options={"jac": "bwd"}` builds the Jacobian by reverse mode (residuals through a
-    `jax.custom_vjp`); the default is forward mode.
+    `options={"jac": JacobianMode.REVERSE}` builds the Jacobian by reverse mode (residuals
+    through a `jax.custom_vjp`); the default is forward mode.
 
     Its `Solution.stats` add `num_steps`; `Solution.result` is `RESULTS.successful` when a
     stopping rule above ended the solve, `nonfinite` at the damping limit after a failed
@@ -428,7 +450,7 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     def step(self, fn, y, args, options, state: _State, tags):
         _, unravel = ravel_pytree(y)
         r, jac_t, aux = _value_and_jacobian(fn, unravel, state.y_try, args,
-                                            options.get("jac", "fwd"))
+                                            options.get("jac", JacobianMode.FORWARD))
         r = r.ravel() if r.ndim != 1 else r
         jac_t = jac_t.reshape(jac_t.shape[0], -1)
         trial = _model(jnp.sum(r * r), jac_t @ r, jac_t @ jac_t.T)
@@ -595,7 +617,7 @@ def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, round
 
 def least_squares(fn, params: PyTree, free=None, *, args=None, has_aux: bool = False,
                   rtol: float = 1e-10, atol: float = 1e-10, max_steps: int = 200,
-                  jac: str = "fwd", lam0=1e-3, cap=None, rounding: float = 1e-10,
+                  jac: JacobianMode = JacobianMode.FORWARD, lam0=1e-3, cap=None, rounding: float = 1e-10,
                   stall: Stall | None = None,
                   linearise: bool = False) -> LeastSquaresSolution:
     """Minimise the sum of squares of `fn(params, args)` (a residual array; with
@@ -604,10 +626,11 @@ def least_squares(fn, params: PyTree, free=None, *, args=None, has_aux: bool = F
     in one compiled `optimistix.least_squares` (jit-compatible: `lam0` and `cap` may be
     traced). `fn` may be an `eqx.Module` (an objective: its arrays are traced, not baked
     in), or a `HostResiduals` over the flat vector `params` (`free`: a boolean mask over
-    it or None; `max_steps` counts evaluations). `jac="bwd"` builds the Jacobian by
-    reverse mode (residuals through a `jax.custom_vjp`). `linearise`: also return the
+    it or None; `max_steps` counts evaluations). `jac`: a `JacobianMode`
+    (`JacobianMode.REVERSE` for residuals through a `jax.custom_vjp`). `linearise`: also return the
     residuals and Jacobian at the optimum. Never raises on a failed solve: read `result`
     (a `HostResiduals` that fails at its start raises ValueError)."""
+    JacobianMode.check(jac)
     if isinstance(fn, HostResiduals):
         return _host(fn, params, free, rtol, atol, max_steps, lam0, rounding, stall)
     free_part, static = eqx.partition(params, free_filter(params, free))

@@ -224,7 +224,7 @@ def test_discover_on_the_smooth_base(tmp_path):
                                         speed_fractions=(0.26, 0.36), cycles=3,
                                         sample_rate=500.0, seed=3)]
     base = sf.SmoothBase(candidates=("gauge_drift", "viscous_damping"), top=1, max_evals=8,
-                         refit_evals=4, crop="slip_end")
+                         refit_evals=4, crop=sf.Crop.SLIP_END)
     found = sf.discover(recs, base=base)
     assert found.result.BASE == "smooth" and found.effect == "gauge_drift"
     assert found.named == ["gauge_drift"] and found.result.gap_after < found.result.gap_before

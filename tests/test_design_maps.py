@@ -24,6 +24,7 @@ from stickslip_fitting.design import (
 )
 from stickslip_fitting.design.chunks import _jitted
 from stickslip_fitting.design.maps import steady_kernel
+from stickslip_fitting.modes import MapMethod
 
 FIELDS = ("amplitude", "amplitude_ratio", "frequency", "frequency_ratio", "stick_time",
           "slip_time", "natural_frequency", "critical_speed")
@@ -94,8 +95,10 @@ def test_bad_inputs(lub_a):
         design_map(lub_a, -1.0, 86.9, 0.01)
     with pytest.raises(ValueError, match="broadcast"):
         design_map(lub_a, np.ones(3) * 36, np.ones(4) * 86.9, 0.01)
-    with pytest.raises(ValueError, match="method"):
+    with pytest.raises(ValueError, match="method must be one of"):
         design_map(lub_a, 36.0, 86.9, 0.01, method="magic")
+    with pytest.raises(TypeError, match="method: a member of MapMethod"):
+        next(iter_design_map(lub_a, 36.0, 86.9, 0.01, method="exact"))
     with pytest.raises(ValueError, match="Friction"):
         design_map({"mu_s": 0.5}, 36.0, 86.9, 0.01)
 
@@ -106,7 +109,7 @@ def test_exact_map_matches_steady_limit_cycle(lub_a):
     w, k, v = outer(np.array([11.3, 36.0, 53.2]), np.array([27.3, 86.9, 128.5]),
                     np.array([0.01, 1.0]) / 60)
     st = design_map(lub_a, w, k, v, chunk_size=16)
-    ex = design_map(lub_a, w, k, v, method="exact", chunk_size=18)
+    ex = design_map(lub_a, w, k, v, method=MapMethod.EXACT, chunk_size=18)
     assert st.stick_slip.all()
     # A slip from rest ends at x1 = 2 mu_m W/k - x2; the slider resticks only if
     # k x1 < mu_d W, i.e. exp(-delta T2^n) < 1/2. Otherwise it slips again at once and

@@ -56,13 +56,14 @@ def test_recovery_within_intervals(campaign):
         assert fit.values[n] == pytest.approx(truth[n], rel=0.02)
 
 
-def test_flat_keywords_give_the_option_objects_fit(campaign):
-    """The flat keywords (`pad_cycles`, ...) read into the option objects: the same fit."""
-    _, _, feats, fit, _ = campaign
-    flat = fit_features(feats, pad_cycles=8, rtol=1e-10, offset="zero")
-    assert flat.chi2 == fit.chi2 and flat.values == fit.values
-    with pytest.raises(TypeError, match="unexpected keyword argument.*pad_cycle"):
-        fit_features(feats, pad_cycle=8)
+def test_options_are_objects(campaign):
+    """`fit_features` takes its options as objects: a string mode or a loose keyword is
+    refused before any work, naming what to give instead."""
+    _, _, feats, _, _ = campaign
+    with pytest.raises(TypeError, match="objective: a member of Objective"):
+        fit_features(feats, objective="features")
+    with pytest.raises(TypeError, match="unexpected keyword argument 'pad_cycles'"):
+        fit_features(feats, pad_cycles=8)
 
 
 def test_residuals_at_truth_are_unit_normal(campaign):

@@ -8,6 +8,7 @@ import pytest
 from matplotlib.figure import Figure
 from stickslip_fitting.uncertainty.adequacy import BAD, GOOD, PhaseRow, adequacy
 from stickslip_fitting.data.features import record_features
+from stickslip_fitting.modes import Objective, Padding
 from stickslip_fitting.solve.fit import fit_features
 from stickslip_fitting.data.synthetic import synthetic_campaign
 
@@ -80,7 +81,8 @@ def test_trace_fit_panel_has_stick_and_slip_phases(campaign):
     from stickslip_fitting.report.plots import residual_panel
 
     recs, feats = campaign
-    report = adequacy(fit_features(feats, objective="trace", records=recs, pad_cycles=8))
+    report = adequacy(fit_features(feats, objective=Objective.TRACE, records=recs,
+                                   padding=Padding(cycles=8)))
     fig = residual_panel(report)
     try:
         bars = _bars(fig.axes[0])

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from stickslip_fitting.data.features import record_features
+from stickslip_fitting.modes import Objective
 from stickslip_fitting.uncertainty.mcmc import PRIOR_BOUNDS, log_posterior, run_mcmc
 from stickslip_fitting.solve.microsqueeze import default_eta, fit_microsqueeze
 from stickslip_fitting.microsqueeze_params import MICROSQUEEZE_NAMES, MicrosqueezeFriction
@@ -125,7 +126,7 @@ def test_trace_objective_with_the_microsqueeze_law(records, paths, tmp_path, tru
 
     truth = truth_values(truth_friction)
     fit = fit_microsqueeze([record_features(r) for r in records], eta=ETA_A, pair="S1G1",
-                           objective="trace", records=records)
+                           objective=Objective.TRACE, records=records)
     unc = laplace(fit)
     assert fit.converged and fit.objective.kind == "trace" and unc.covariance == "sandwich"
     assert 0.8 < fit.reduced_chi2 < 1.3

@@ -102,6 +102,7 @@ def test_student_t_fit_resists_an_outlier_cycle(features):
     import json
     from pathlib import Path
 
+    from stickslip_fitting.modes import Weighting
     from stickslip_fitting.solve.fit import fit_features
     from stickslip_fitting.uncertainty.laplace import laplace
 
@@ -114,7 +115,7 @@ def test_student_t_fit_resists_an_outlier_cycle(features):
     bad = list(features)
     bad[4] = dataclasses.replace(f0, peak=peak)
     clean = fit_features(features).values["mu_s"]
-    plain = fit_features(bad, rescale_records=False).values["mu_s"]
+    plain = fit_features(bad, weighting=Weighting(rescale_records=False)).values["mu_s"]
     gauss = laplace(fit_features(bad))
     robust = fit_features(bad, loss=StudentT())
     unc = laplace(robust)

@@ -10,8 +10,8 @@ import optimistix as optx
 import pytest
 from scipy.optimize import least_squares
 
-from stickslip_jax.lsq import (HostResiduals, LevenbergMarquardt, Stall, damped_step,
-                               gauss_newton_decrease, nielsen_update)
+from stickslip_jax.lsq import (HostResiduals, JacobianMode, LevenbergMarquardt, Stall,
+                               damped_step, gauss_newton_decrease, nielsen_update)
 from stickslip_jax.lsq import least_squares as lsq
 
 T = np.linspace(0.0, 3.0, 200)
@@ -143,7 +143,7 @@ def test_a_non_finite_jacobian_is_a_failed_evaluation(scipy_ref):
     np.testing.assert_allclose(canonical(host.z), canonical(scipy_ref.x), rtol=STALL_RTOL)
 
 
-@pytest.mark.parametrize("jac", ["fwd", "bwd"])
+@pytest.mark.parametrize("jac", list(JacobianMode))
 def test_optimistix_solver_reaches_scipy_minimum(scipy_ref, jac):
     solver = LevenbergMarquardt(rtol=1e-12, atol=1e-10)
     sol = optx.least_squares(residuals, solver, jnp.asarray(Z0), max_steps=400, throw=False,
@@ -152,6 +152,18 @@ def test_optimistix_solver_reaches_scipy_minimum(scipy_ref, jac):
     np.testing.assert_allclose(canonical(sol.value), canonical(scipy_ref.x), rtol=1e-6)
     r = np.asarray(residuals(sol.value))
     assert float(r @ r) == pytest.approx(2 * scipy_ref.cost, rel=1e-9)
+
+
+def test_the_jacobian_mode_is_an_object():
+    """Forward and reverse mode reach the same optimum through the verb; a string is
+    refused, naming the mode to give."""
+    fwd, bwd = (lsq(residuals, jnp.asarray(Z0), rtol=1e-12, atol=1e-10, max_steps=400,
+                    jac=jac) for jac in JacobianMode)
+    np.testing.assert_allclose(canonical(fwd.params), canonical(bwd.params), rtol=1e-8)
+    with pytest.raises(TypeError, match="jac: a member of JacobianMode"):
+        lsq(residuals, jnp.asarray(Z0), jac="bwd")
+    with pytest.raises(ValueError, match=r"jac must be one of \('fwd', 'bwd'\)"):
+        JacobianMode.parse("central")
 
 
 def test_optimistix_solver_cap_and_budget():

@@ -131,9 +131,9 @@ def test_fit_honours_fixed_values():
     fit = fit_features(feats, hold=Hold(lambda f: (f.log_gap, f.log_n), (0.3, 1.2)))
     assert fit.values["mu_s"] == 0.3 and fit.values["n"] == pytest.approx(1.2, rel=1e-15)
     assert fit.values["mu_d"] < 0.3
-    # the flat keyword of names reads into the same hold
-    flat = fit_features(feats, fixed={"mu_s": 0.3, "n": 1.2})
-    assert flat.values == fit.values
+    # held by name: the same hold
+    named = fit_features(feats, hold=Hold.named({"mu_s": 0.3, "n": 1.2}))
+    assert named.values == fit.values
 
 
 def test_mcmc_rows_are_the_fit_rows():

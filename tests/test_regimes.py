@@ -62,14 +62,15 @@ def test_cycle_map_kernel_agrees_with_the_exact_simulator_across_both_boundaries
 
     import stickslip_jax as ss
     from stickslip_fitting.design.maps import design_map
+    from stickslip_fitting.modes import MapMethod
     from stickslip_jax.steady import RESTICK_FAILURE, STEADY_SLIDING, STICK_SLIP
 
     fr = ss.lubricant("C")
     k = jnp.asarray([15.0, 27.3, 40.0, 60.0, 86.9, 128.5])[:, None]
     v = (jnp.asarray([0.5, 2.0, 8.0, 30.0, 100.0]) / 60.0)[None, :]
-    ex = design_map(fr, 11.3, k, v, method="exact")
-    cy = design_map(fr, 11.3, k, v, method="cycle")
-    st = design_map(fr, 11.3, k, v, method="steady")
+    ex = design_map(fr, 11.3, k, v, method=MapMethod.EXACT)
+    cy = design_map(fr, 11.3, k, v, method=MapMethod.CYCLE)
+    st = design_map(fr, 11.3, k, v, method=MapMethod.STEADY)
     reg = np.asarray(cy.regime)
     np.testing.assert_array_equal(np.asarray(ex.regime), reg)
     assert set(np.unique(reg)) == {STICK_SLIP, RESTICK_FAILURE}

@@ -223,7 +223,7 @@ def test_bad_inputs(campaign):
     _, recs, feats = campaign
     with pytest.raises(ValueError, match="needs the records"):
         fit_features(feats, objective=Objective.TRACE)
-    with pytest.raises(ValueError, match="objective must be one of"):
+    with pytest.raises(TypeError, match="objective: a member of Objective"):
         fit_features(feats, objective="samples")
 
 

@@ -10,7 +10,7 @@ print(found.summary())          # pandas DataFrame: one row per effect tested
 found.plot("discover.png")      # the figure of `stickslip discover --plot`
 found.to_json("discover.json")  # the document of `stickslip discover --json`
 
-smooth = sf.discover("data/examples", base=sf.SmoothBase(top=2, crop="slip_end"))  # --base smooth
+smooth = sf.discover("data/examples", base=sf.SmoothBase(top=2, crop=sf.Crop.SLIP_END))  # --base smooth
 ```
 
 The call runs `stickslip discover`'s functions: the records read as the command reads

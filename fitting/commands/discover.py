@@ -30,7 +30,7 @@ def add_arguments(parser):
 
     add_json_option(parser, "the result")
     add_plot_option(parser, "the residuals by phase before and after and the traces")
-    from stickslip_fitting.modes import DiscoveryBase
+    from stickslip_fitting.modes import Crop, DiscoveryBase
 
     parser.add_argument("--base", choices=DiscoveryBase.choices(),
                         default=DiscoveryBase.CYCLE.value,
@@ -46,7 +46,7 @@ def add_arguments(parser):
                         help="--base smooth: BIC drop needed to name an effect (default 10)")
     parser.add_argument("--only", action="append", choices=EFFECTS, default=None,
                         metavar="EFFECT", help="consider only these effects (repeatable)")
-    parser.add_argument("--crop", choices=("slip_end", "none"), default=None,
+    parser.add_argument("--crop", choices=Crop.choices(), default=None,
                         help="--base smooth: start each record at its first slip end "
                         "(default) or use it whole (it must start just after a slip)")
     parser.add_argument("--max-effects", type=int, default=3, metavar="N",
@@ -146,6 +146,8 @@ def _base(args, cycle: bool, loss):
         if cycle and value is not None:
             raise ValueError(f"{option}: acts only with --base smooth; add --base smooth or "
                              f"leave {option} out")
+    from ..modes import Crop
+
     if not cycle and loss.spec() != "gaussian":
         raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
                          "fits least squares); drop --loss or use --base cycle")
@@ -157,7 +159,7 @@ def _base(args, cycle: bool, loss):
 
             return SmoothBase(candidates=only or CANDIDATES, top=args.top,
                               threshold=10.0 if args.threshold is None else args.threshold,
-                              crop=args.crop or "slip_end", learn=args.learn,
+                              crop=Crop.parse(args.crop or Crop.SLIP_END), learn=args.learn,
                               max_evals=args.max_evals, strict=args.strict)
         from ..discovery.cycle_workflow import CycleBase
 

@@ -43,7 +43,7 @@ import optimistix as optx
 from jaxtyping import Array, Float
 
 from stickslip_jax import Friction, steady_state
-from stickslip_jax.lsq import gauss_newton_covariance
+from stickslip_jax.lsq import JacobianMode, gauss_newton_covariance
 from stickslip_jax.steady import STICK_SLIP
 
 from ..modes import DesignCriterion, check_member
@@ -266,7 +266,8 @@ def _map_estimate(objective: SteadyObservables, max_steps: int):
     bounded = TanhBounded(objective, objective.prior_mean,
                           jnp.minimum(3.0 * objective.prior_sd, 2.0))
     sol = least_squares(bounded, jnp.zeros_like(objective.prior_mean), rtol=1e-10,
-                        atol=1e-10, max_steps=max_steps, jac="bwd")
+                        atol=1e-10, max_steps=max_steps,
+                        jac=JacobianMode.REVERSE)
     u_hat = bounded.to_params(sol.params)
     return u_hat, jax.jacfwd(objective.residuals)(u_hat), sol.result
 

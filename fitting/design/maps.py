@@ -5,8 +5,8 @@ r"""Design maps: steady stick-slip (chapter 5) over grids or samples of W, k, v 
 v (mm/s) and every leaf of `friction` (a grid of parameters or a posterior sample):
 ``design_map(f, W[:, None], k[None, :], v)`` is a W x k map at one speed. The points
 stream through `chunks.map_chunks`; `iter_design_map` yields the chunks for maps that do
-not fit in memory. ``method="exact"`` and ``"cycle"`` take the limit cycle of the exact
-simulator instead (`design.exact`, `stickslip_jax.limit_cycle`).
+not fit in memory. ``method=MapMethod.EXACT`` and ``MapMethod.CYCLE`` take the limit cycle
+of the exact simulator instead (`design.exact`, `stickslip_jax.limit_cycle`).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from stickslip_jax import Friction, steady_state
 from stickslip_jax import slip_time as ss_slip_time
 from stickslip_jax.steady import STEADY_SLIDING
 
-from ..modes import MapMethod
+from ..modes import MapMethod, check_member
 from .chunks import collect, map_chunks
 from .exact import exact_kernel
 from .points import DesignMap, DesignPoints, design_points, outer
@@ -75,7 +75,8 @@ def _kernel(method: MapMethod):
     return cycle_kernel if method is MapMethod.CYCLE else steady_kernel
 
 
-def iter_design_map(friction: Friction, weight, stiffness, speed, *, method: str = "steady",
+def iter_design_map(friction: Friction, weight, stiffness, speed, *,
+                    method: MapMethod = MapMethod.STEADY,
                     chunk_size: int = 65_536, mesh=None, progress: bool = False,
                     damping_ratio=None):
     """Yield ``(start, stop, DesignMap)`` chunks of the flattened map (NumPy leaves).
@@ -83,13 +84,13 @@ def iter_design_map(friction: Friction, weight, stiffness, speed, *, method: str
     Use it to stream maps larger than memory to disk or into a reduction; the map's
     shape is ``design_points(...).shape``.
     """
-    method = MapMethod.parse(method)
+    check_member("method", method, MapMethod)
     points = design_points(friction, weight, stiffness, speed)
     batch = DesignPoints(points.friction, points.weight, points.stiffness, points.speed, ())
     shared = None
     if damping_ratio is not None:
         if method is not MapMethod.CYCLE:
-            raise ValueError(f"damping_ratio: only method 'cycle' has damping, not {method!r}")
+            raise ValueError(f"damping_ratio: only MapMethod.CYCLE has damping, not {method}")
         if not 0 <= float(damping_ratio) < 1:
             raise ValueError(f"damping ratio must lie in [0, 1), got {damping_ratio}")
         shared = jnp.asarray(float(damping_ratio))
@@ -102,11 +103,14 @@ def design_map(friction: Friction, weight, stiffness, speed, **options) -> Desig
     r"""Stick-slip characteristics over the broadcast of friction parameters, W, k and v.
 
     Units in: W kgf, k kgf/mm, v mm/s; out as in `DesignMap`. `options` (those of
-    `iter_design_map`): `method` ``"steady"`` (eqs 5-7, 12; fast), ``"cycle"`` or
-    ``"exact"``; `chunk_size` points a chunk, sharded over `mesh` (default: all devices);
-    `progress` a tqdm bar; `damping_ratio` (``"cycle"`` only): zeta of the damped limit
-    cycle, whose stick-slip boundary is sharp.
+    `iter_design_map`): `method` a `MapMethod` (STEADY: eqs 5-7, 12, fast; CYCLE or
+    EXACT; its value, "exact", is read as the member, a ValueError naming the choices
+    otherwise); `chunk_size` points a chunk, sharded over `mesh` (default: all devices);
+    `progress` a tqdm bar; `damping_ratio` (CYCLE only): zeta of the damped limit cycle,
+    whose stick-slip boundary is sharp.
     """
+    if "method" in options:
+        options["method"] = MapMethod.parse(options["method"], "method")
     points = design_points(friction, weight, stiffness, speed)
     if math.prod(points.shape) == 0:
         raise ValueError("empty design map: every axis needs at least one point")

@@ -43,7 +43,7 @@ from stickslip_jax.stored_programs import stored_jit
 from ..objectives.combined import AbstractObjective, FeaturesObjective, make_objective
 from ..data.features import RecordFeatures, record_features
 from ..objectives.losses import AbstractLoss, Gaussian, with_loss
-from ..modes import ModelModes, Objective, Padding, SolverOptions, Weighting
+from ..modes import ModelModes, Objective, Padding, SolverOptions, Weighting, check_member
 from ..objectives.cycle_features import FeatureData, feature_data, feature_residuals
 from ..params import AbstractFrictionParams, CampaignParams, EmpiricalFriction, Hold, free_spec
 from ..objectives.trace import trace_data
@@ -292,7 +292,6 @@ def fit_features(
     weighting: Weighting = Weighting(),
     padding: Padding = Padding(),
     solver: SolverOptions = SolverOptions(),
-    **flat,
 ) -> FitResult:
     r"""Fit mu_s, mu_d, gamma, m, delta, n jointly to the cycle features of a campaign.
 
@@ -304,16 +303,15 @@ def fit_features(
       least squares), fitted from the Gaussian fit (`_fit_heavy_tailed`).
     - `modes`, `weighting`, `padding`, `solver`: the option groups (`stickslip_fitting.modes`).
 
-    The flat keywords (`fixed` {name: value}, `offset`, ..., `max_steps`) and modes given
-    by their values are read into these objects by `flat_options`.
+    Every option is an object: a string (a command line's) becomes a member where it is
+    parsed (`Objective.parse`); held values by name are `Hold.named({"n": 1.0})`.
 
     JAX's compiled programs are dropped first when the process nears its memory-map
     limit (`stickslip_jax.programs`: XLA's compiler would otherwise die there).
     """
     release_programs()
+    check_member("objective", objective, Objective)
     o = _Options(hold, modes, weighting, padding, solver)
-    if flat or not isinstance(objective, Objective):
-        objective, o = flat_options(objective, o, flat)
     if objective.needs_records and records is None:
         raise ValueError(f"objective {objective.value!r} needs the records (records=...)")
     if not features:
@@ -340,39 +338,6 @@ def fit_features(
         fit = _fit_problem(_features_problem(features, o, starts), features, o.solver)
         return dataclasses.replace(fit, record_chi2=_record_chi2(fit))
     return _fit_rescaled(lambda fs: _features_problem(fs, o, starts), features, o.solver)
-
-
-_FLAT = {"offset": ("modes", "offset"), "slip_time": ("modes", "slip_time"),
-         "reslip": ("modes", "reslip"), "rescale_records": ("weighting", "rescale_records"),
-         "pad_cycles": ("padding", "cycles"), "pad_length": ("padding", "length"),
-         "pad_windows": ("padding", "windows"), "rtol": ("solver", "rtol"),
-         "atol": ("solver", "atol"), "max_steps": ("solver", "max_steps")}
-"""Flat keyword of `fit_features` -> (option object, its field)."""
-
-
-def flat_options(objective, options: _Options, flat: dict) -> tuple[Objective, _Options]:
-    """`fit_features`' flat keywords (`_FLAT`, `fixed` {name: value}, `weights`
-    (w_features, w_trace)) and modes given by their values, as the option objects."""
-    unknown = sorted(set(flat) - set(_FLAT) - {"fixed", "weights"})
-    if unknown:
-        raise TypeError(f"fit_features() got unexpected keyword argument(s) "
-                        f"{', '.join(unknown)}")
-    parts = options._asdict()
-    for name, value in flat.items():
-        if name == "fixed":
-            parts["hold"] = Hold.named(dict(value)) if value else None
-            continue
-        if name == "weights":
-            parts["weighting"] = dataclasses.replace(
-                parts["weighting"], features=float(value[0]), trace=float(value[1]))
-            continue
-        group, field = _FLAT[name]
-        if name == "offset":
-            value = GaugeOffset.parse(value, "offset")
-        elif name == "slip_time":
-            value = SlipTime.parse(value)
-        parts[group] = dataclasses.replace(parts[group], **{field: value})
-    return Objective.parse(objective), _Options(**parts)
 
 
 def _fit_heavy_tailed(features, records, loss, objective: Objective, starts,

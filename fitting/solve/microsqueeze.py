@@ -15,7 +15,6 @@ Q mm$^4$, T in s.
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
 
 import jax.numpy as jnp
@@ -93,9 +92,6 @@ def fit_microsqueeze(features: list[RecordFeatures], *, eta: float,
         raise ValueError(f"--eta: the viscosity must be positive and finite, got {eta}")
     from ..objectives.cycle_features import feature_data
 
-    if "offset" in kwargs:  # fit_features' flat keyword (`fit.flat_options`), needed here
-        modes = dataclasses.replace(modes, offset=GaugeOffset.parse(kwargs.pop("offset"),
-                                                                    "offset"))
     offsets0 = None
     if modes.offset is GaugeOffset.START:
         offsets0 = np.asarray(feature_data(features, offset_from_start=True).start_level)
