@@ -88,12 +88,18 @@ class _Watch:
             self._keep(np.array(z0, float), *first)
 
     def _keep(self, z, r, J, ok):
-        cost = float(r @ r) if ok and np.all(np.isfinite(r)) else np.inf
+        usable = ok and np.all(np.isfinite(r)) and np.all(np.isfinite(J))
+        cost = float(r @ r) if usable else np.inf  # a point the solver itself would accept
         if cost < self.cost:
             self.z, self.r, self.J, self.ok, self.cost = z, r, J, ok, cost
             J = np.asarray(J)
-            self.floor = cost - HOPE * float(gauss_newton_decrease(
-                J.T @ J, J.T @ np.asarray(r), xp=np))
+            A, g = J.T @ J, J.T @ np.asarray(r)
+            self.floor = -np.inf  # no judgement where the linear model is not finite
+            if np.all(np.isfinite(A)) and np.all(np.isfinite(g)):
+                try:
+                    self.floor = cost - HOPE * float(gauss_newton_decrease(A, g, xp=np))
+                except np.linalg.LinAlgError:
+                    pass
 
     def __call__(self, z):
         r, J, ok = self.evaluate(z)
