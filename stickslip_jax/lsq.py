@@ -22,10 +22,10 @@ algorithm, assembled from public optimistix pieces:
 - `least_squares(fn, params, free)` -> `LeastSquaresSolution` (fitted parameters,
   result code, step count, aux): the verb, over the leaves of a parameter pytree that
   `free` selects;
-- options as objects: `JacobianMode` (forward or reverse mode), `Stall` (stop at an objective's noise floor), `HostResiduals` (an
-  objective that is not one traceable function: the discovery models evaluate residuals
-  and Jacobian blocks by several compiled programs; the verb then drives the same rules
-  from Python), a start damping `lam0` (a warm restart from a solution's `stats["lam"]`);
+- options as objects: `JacobianMode` (forward or reverse mode), `Stall` (stop at an
+  objective's noise floor), `HostResiduals` (an objective that is not one traceable
+  function: the discovery models evaluate residuals and Jacobian blocks by several
+  compiled programs; the verb then drives the same rules from Python), a start damping `lam0` (a warm restart from a solution's `stats["lam"]`);
   `linearise=True` returns the residuals and Jacobian at the optimum (a solve over a
   `HostResiduals` always has them, and reads as a flat vector: `z`, `r`, `J`, `rss`,
   `covariance`).
@@ -617,8 +617,8 @@ def _host(problem: HostResiduals, z0, active, rtol, atol, max_steps, lam0, round
 
 def least_squares(fn, params: PyTree, free=None, *, args=None, has_aux: bool = False,
                   rtol: float = 1e-10, atol: float = 1e-10, max_steps: int = 200,
-                  jac: JacobianMode = JacobianMode.FORWARD, lam0=1e-3, cap=None, rounding: float = 1e-10,
-                  stall: Stall | None = None,
+                  jac: JacobianMode = JacobianMode.FORWARD, lam0=1e-3, cap=None,
+                  rounding: float = 1e-10, stall: Stall | None = None,
                   linearise: bool = False) -> LeastSquaresSolution:
     """Minimise the sum of squares of `fn(params, args)` (a residual array; with
     `has_aux`, a pair (residuals, aux)) over the leaves of `params` that `free` selects
