@@ -37,7 +37,7 @@ if TYPE_CHECKING:
     import pandas
     from matplotlib.figure import Figure
 
-    from ..data.campaign import Campaign
+    from ..data.campaign import Campaign, FitCampaign
     from ..solve.fit import FitResult
     from ..objectives.losses import AbstractLoss
     from ..params import AbstractFrictionParams
@@ -98,18 +98,34 @@ class CampaignFit(ResultDocument):
     `to_json(path)` / `to_dict()` (`stickslip fit --json`), `str(result)` (`text`, the table
     the command prints). Parts: `report` (the JSON document), `fit` (`solve.fit.FitResult`),
     `uncertainty` (`uncertainty.laplace.Uncertainty`), `campaign` (`data.campaign.Campaign`)
-    and `model` ("empirical" or "microsqueeze"); `run_mcmc(result.fit)` for the posterior.
+    and `notes` (what reading and cycle extraction did to each record, `Campaign.notes`);
+    `model` is the report's ("empirical", "microsqueeze" or another base law's name);
+    `run_mcmc(result.fit)` for the posterior.
     """
 
     report: dict
     fit: FitResult
     uncertainty: Uncertainty
     campaign: Campaign
-    model: str = "empirical"
-    inputs: tuple[str, ...] = ()
-    """The record files read (an output may not overwrite one of them)."""
-    text: str = ""
-    """The table `stickslip fit` prints, then the campaign's notes (`report.fit_table.fit_text`)."""
+    notes: list[str] = dataclasses.field(default_factory=list)
+
+    @property
+    def model(self) -> str:
+        """The friction law fitted, as the report names it."""
+        return self.report["model"]
+
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        """The record files read (an output may not overwrite one of them)."""
+        return self.campaign.inputs
+
+    @property
+    def text(self) -> str:
+        """The table `stickslip fit` prints, then the campaign's notes
+        (`report.fit_table.fit_text`)."""
+        from ..report.fit_table import fit_text
+
+        return fit_text(self.report, self.notes)
 
     @property
     def converged(self) -> bool:
@@ -127,11 +143,6 @@ class CampaignFit(ResultDocument):
         """{name: value}; NaN for a parameter the records do not determine."""
         return {name: row[0] for name, row in parameter_rows(self.report["parameters"]).items()}
 
-    @property
-    def notes(self) -> list[str]:
-        """What reading and cycle extraction did to each record (`Campaign.notes`)."""
-        return list(self.campaign.notes)
-
     def summary(self) -> pandas.DataFrame:
         """One row per parameter (`SUMMARY_COLUMNS`, internal units); `reason` says why a
         parameter is fixed, at a bound or not identifiable (value NaN then). Needs
@@ -141,20 +152,13 @@ class CampaignFit(ResultDocument):
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
         """The diagnostic figure of `stickslip fit --plot` (`report.plots.fit_figure`):
         returned, and saved to `path` (closed then) when given."""
-        from ..report.plots import fit_figure
+        from ..report.plots import campaign_fit_figure
 
         path = self.output_path(path, "plot")
-        reasons = {s.name: s.reason for s in self.campaign.screening}
-        not_used = [(r, reasons.get(f.name) or "not used") for r, f in self.campaign.not_used]
-        return fit_figure(self.fit, self.uncertainty, self.campaign.records, path,
-                          not_used=not_used)
+        return campaign_fit_figure(self.fit, self.uncertainty, self.campaign, path)
 
     def __str__(self) -> str:
-        if self.text:
-            return self.text
-        from ..report.fit_table import fit_text
-
-        return fit_text(self.report, self.notes)
+        return self.text
 
     def __repr__(self) -> str:
         used = sum(s.status == "used" for s in self.campaign.screening)
@@ -199,14 +203,9 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
         eta_value = None if eta is None else _viscosity(eta)
     elif eta is not None:
         raise ValueError("eta: only used with model='microsqueeze'")
-    given = as_list(records)
-    out = fit_campaign(given, law, fixed, objective=goal, loss=loss, modes=modes, strict=strict,
-                       eta=eta_value, pair=pair, surface=surface, loss_text=loss.spec(),
-                       check=lambda held: _fixed(held, law))
-    if not isinstance(given[0], Record):
-        from stickslip_jax.records import record_paths
-
-        out = dataclasses.replace(out, inputs=tuple(str(p) for p in record_paths(given)))
+    out = fit_campaign(as_list(records), law, fixed, objective=goal, loss=loss, modes=modes,
+                       strict=strict, eta=eta_value, pair=pair, surface=surface,
+                       loss_text=loss.spec(), check=lambda held: _fixed(held, law))
     if not out.converged:
         warnings.warn("the fit did not converge (see str(result) for the warnings): its "
                       "values are not an optimum", RuntimeWarning, stacklevel=2)
@@ -216,89 +215,91 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
 def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Objective,
                  loss: AbstractLoss, modes: ModelModes, strict: bool = False,
                  eta: float | None = None, pair=None, surface: str = "S1G1",
-                 loss_text: str = "gaussian", check=None) -> CampaignFit:
+                 loss_text: str = "gaussian", check=None, outputs=None) -> CampaignFit:
     """`stickslip fit`'s steps, each once in the order the data flows: `records` read and
-    screened (`data.campaign`), `law` fitted with `fixed` {name: value} held (`solve.fit`,
+    screened (`data.campaign`; the command's `outputs` checked against the files read,
+    `_read`), `law` fitted with `fixed` {name: value} held (`solve.fit`,
     `solve.microsqueeze`; a single record holds `one_record_holds` too, the merged holds
-    checked by `check`), the intervals and checks (`uncertainty`), the report and its
-    table (`report.fit_table`). `eta` (kgf*s/mm^2; None: the records' lubricant's) and
-    `pair`: the microsqueeze law's givens."""
-    from stickslip_jax.logs import logger
-
-    from ..data.campaign import find_truth, load_campaign, one_record_holds
+    checked by `check`), the intervals and checks (`uncertainty`), the report
+    (`report.fit_table`). `eta` (kgf*s/mm^2; None: the records' lubricant's) and `pair`:
+    the microsqueeze law's givens."""
     from ..params import Hold
 
     micro = law.MODEL == "microsqueeze"
-    campaign = load_campaign(records, min_records=2 if micro else None, strict=strict)
-    held = {} if micro else one_record_holds(campaign)
-    truth, notes = find_truth(campaign.records, law.NAMES), campaign.notes
-    screening = [s.to_json() for s in campaign.screening]
-    if held:
-        fixed = {**held, **fixed}
+    what = f"objective {objective}" + ("" if loss_text == "gaussian" else f", loss {loss_text}")
+    data = _read(records, law, one_record=not micro, strict=strict, outputs=outputs, what=what)
+    if data.holds:
+        fixed = {**data.holds, **fixed}
         fixed = fixed if check is None else check(fixed)
-    used = sum(s.status == "used" for s in campaign.screening)
-    logger.info(f"fitting {used} records (objective {objective}"
-                f"{'' if loss_text == 'gaussian' else ', loss ' + loss_text}, model {law.MODEL})...")
     kw: dict[str, Any] = dict(hold=Hold.named(fixed) if fixed else None, modes=modes,
-                              objective=objective, records=campaign.records, loss=loss)
+                              objective=objective, records=data.campaign.records, loss=loss)
     if not micro:
         from ..solve.fit import fit_features
 
-        result, extra = fit_features(campaign.features, **kw), None
+        result, extra = fit_features(data.campaign.features, **kw), None
     else:
         from ..solve.microsqueeze import default_eta, fit_microsqueeze
 
-        eta = default_eta(campaign.records[0].lubricant) if eta is None else eta
-        result = fit_microsqueeze(campaign.features, eta=eta, pair=pair, **kw)
+        eta = default_eta(data.campaign.records[0].lubricant) if eta is None else eta
+        result = fit_microsqueeze(data.campaign.features, eta=eta, pair=pair, **kw)
         extra = {"given": {"eta": {"value": eta, "unit": "kgf*s/mm^2"}, "surface": surface}}
-    return _conclude(result, campaign, (truth, notes, screening), law.MODEL, extra)
+    return _conclude(result, data, extra)
 
 
 def fit_law_campaign(records: list, law, fixed: dict[str, float], *, modes: ModelModes,
-                     strict: bool = False) -> CampaignFit:
+                     strict: bool = False, outputs=None) -> CampaignFit:
     """`fit_campaign` for a base law other than the paper's (a `FrictionLaw`, fitted through
     whole records by `solve.laws.fit_law`), `fixed` held."""
-    from stickslip_jax.logs import logger
-
-    from ..data.campaign import find_truth, load_campaign
     from ..params import Hold
     from ..solve.laws import LAW_PARAMS, fit_law
 
-    campaign = load_campaign(records, strict=strict)
-    truth, notes = find_truth(campaign.records, LAW_PARAMS[law].NAMES), campaign.notes
-    screening = [s.to_json() for s in campaign.screening]
-    n = sum(s.status == "used" for s in campaign.screening)
-    logger.info(f"fitting {n} records (objective {Objective.SMOOTH}, model {law.value})...")
-    result = fit_law(campaign.features, campaign.records, law,
+    data = _read(records, LAW_PARAMS[law], one_record=False, strict=strict, outputs=outputs,
+                 what=f"objective {Objective.SMOOTH}")
+    result = fit_law(data.campaign.features, data.campaign.records, law,
                      hold=Hold.named(fixed) if fixed else None, modes=modes)
-    return _conclude(result, campaign, (truth, notes, screening), law.value, None)
+    return _conclude(result, data, None)
 
 
-def _conclude(result: FitResult, campaign: Campaign, read: tuple, model: str,
-              extra) -> CampaignFit:
-    """A fit's figures and its boundary at the records without stick-slip
-    (`solve.summary`), Laplace intervals and adequacy checks (`uncertainty`), then its
-    report and printed text (`report.fit_table`). `read`: what the data step gave (the
-    records' truth, the campaign's notes, the JSON of its screening)."""
+def _read(records: list, law, *, one_record: bool, strict: bool, outputs, what: str
+          ) -> FitCampaign:
+    """The data step of a campaign fit (`data.campaign.read_fit_campaign` for `law`'s
+    parameters), then the command's `outputs` ({option: path}) checked against the files
+    read, before any fitting; `what` the fit says it runs."""
     from stickslip_jax.logs import logger
 
-    from ..report.fit_table import build_report, fit_text
+    from ..data.campaign import read_fit_campaign
+
+    data = read_fit_campaign(records, law.NAMES, one_record=one_record, strict=strict)
+    if outputs:
+        from stickslip_jax.output import check_outputs
+
+        check_outputs(outputs, data.campaign.inputs)
+    logger.info(f"fitting {len(data.campaign.records)} records ({what}, model {law.MODEL})...")
+    return data
+
+
+def _conclude(result: FitResult, data: FitCampaign, extra) -> CampaignFit:
+    """A fit's figures and its boundary at the records without stick-slip
+    (`solve.summary`), Laplace intervals and adequacy checks (`uncertainty`), then its
+    report (`report.fit_table`), from what the data step gave (`data`)."""
+    from stickslip_jax.logs import logger
+
+    from ..report.fit_table import build_report
     from ..solve.summary import fit_figures
     from ..uncertainty.adequacy import adequacy
     from ..uncertainty.laplace import laplace
 
-    truth, notes, screening = read
-    figures = fit_figures(result, campaign)
+    figures = fit_figures(result, data.campaign)
     logger.info(f"fit {'converged' if figures.converged else 'did not converge'}; "
                 "intervals...")
     unc = laplace(result)
-    estimates, checks = unc.estimates(truth), adequacy(result).to_json()
-    report = build_report(result, unc, campaign, model=model, extra=extra, truth=truth,
+    estimates, checks = unc.estimates(data.truth), adequacy(result).to_json()
+    report = build_report(result, unc, data.campaign, extra=extra, truth=data.truth,
                           figures=figures, estimates=estimates, checks=checks,
-                          screening=screening)
+                          screening=data.screening)
     logger.info("report done")
-    return CampaignFit(report=report, fit=result, uncertainty=unc, campaign=campaign,
-                       model=model, text=fit_text(report, notes))
+    return CampaignFit(report=report, fit=result, uncertainty=unc, campaign=data.campaign,
+                       notes=list(data.notes))
 
 
 def as_list(records) -> list:

@@ -95,9 +95,10 @@ def check_model_options(args) -> dict[str, float]:
     return parse_fix(args.fix, law if micro else None)
 
 
-def fit_from_args(args, *, objective: Objective | str = "features"):
+def fit_from_args(args, *, objective: Objective | str = "features", outputs=None):
     """The `CampaignFit` of `api.campaign.fit_campaign` (or `fit_law_campaign` for `--law`)
-    with the command line's options parsed into objects. Every user error is a ValueError
+    with the command line's options parsed into objects; `outputs` ({option: path}) are
+    checked against the records read before the fit. Every user error is a ValueError
     naming the option or file."""
     from ..api.campaign import fit_campaign
     from ..objectives.losses import parse_loss
@@ -108,7 +109,7 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
                        slip_time=SlipTime.parse(args.slip_time))
     law = FrictionLaw.parse(getattr(args, "law", FrictionLaw.PAPER))
     if law is not FrictionLaw.PAPER:
-        return _fit_law_from_args(args, law, objective, modes, loss)
+        return _fit_law_from_args(args, law, objective, modes, loss, outputs)
     fixed = check_model_options(args)
     from ..params import EmpiricalFriction as friction_law
 
@@ -120,10 +121,11 @@ def fit_from_args(args, *, objective: Objective | str = "features"):
         pair = surface_option(args.surface or "S1G1", "--surface")
     return fit_campaign(args.records, friction_law, fixed, objective=objective, loss=loss,
                         modes=modes, strict=getattr(args, "strict", False), eta=args.eta,
-                        pair=pair, surface=args.surface or "S1G1", loss_text=args.loss)
+                        pair=pair, surface=args.surface or "S1G1", loss_text=args.loss,
+                        outputs=outputs)
 
 
-def _fit_law_from_args(args, law, objective, modes, loss):
+def _fit_law_from_args(args, law, objective, modes, loss, outputs):
     """`fit_from_args` for a base law other than the paper's (`api.campaign.fit_law_campaign`)."""
     from ..api.campaign import fit_law_campaign
     from ..objectives.losses import Gaussian
@@ -138,18 +140,19 @@ def _fit_law_from_args(args, law, objective, modes, loss):
                          "with the Gaussian --loss only")
     fixed = parse_fix(args.fix, LAW_PARAMS[law])
     return fit_law_campaign(args.records, law, fixed, modes=modes,
-                            strict=getattr(args, "strict", False))
+                            strict=getattr(args, "strict", False), outputs=outputs)
 
 
 def run(args) -> int:
     import sys
 
-    from stickslip_jax.output import check_outputs, versioned, write_json
-    from stickslip_jax.records import record_paths
+    from stickslip_jax.output import versioned, write_json
 
-    check_outputs({"--json": args.json, "--plot": args.plot}, record_paths(args.records))
-    result = fit_from_args(args, objective=args.objective)
-    print(result.text)  # the table and the campaign's notes
+    from ..report.fit_table import fit_text
+
+    result = fit_from_args(args, objective=args.objective,
+                           outputs={"--json": args.json, "--plot": args.plot})
+    print(fit_text(result.report, result.notes))  # the table and the campaign's notes
     if args.json:
         write_json(args.json, versioned(result.report))
         if args.json != "-":
@@ -157,10 +160,11 @@ def run(args) -> int:
     if args.plot:
         from stickslip_jax.logs import logger
 
-        from ..report.plots import interruptible
+        from ..report.plots import campaign_fit_figure, interruptible
 
         logger.info("drawing the figure...")
-        interruptible(result.plot, args.plot)
+        interruptible(campaign_fit_figure, result.fit, result.uncertainty, result.campaign,
+                      args.plot)
         print(f"wrote {args.plot}")
     if not result.report["converged"]:
         print("stickslip fit: the fit did not converge (see the warnings): the values above "

@@ -16,13 +16,15 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from stickslip_jax.records import Record, RecordError, check_campaign, read_campaign_files
+from stickslip_jax.records import (Record, RecordError, check_campaign, read_campaign_files,
+                                   record_paths)
 from stickslip_jax.rigs import rig_quantities
 
 from .features import RecordFeatures, record_features
 
 __all__ = ["USED", "NO_STICK_SLIP", "SET_ASIDE", "UNREADABLE", "ONE_RECORD_HOLDS", "Campaign",
-           "RecordStatus", "find_truth", "load_campaign", "one_record_holds", "screen_records"]
+           "FitCampaign", "RecordStatus", "find_truth", "load_campaign", "one_record_holds",
+           "read_fit_campaign", "screen_records"]
 
 USED, NO_STICK_SLIP, SET_ASIDE, UNREADABLE = "used", "no_stick_slip", "set_aside", "unreadable"
 
@@ -73,12 +75,14 @@ class RecordStatus:
 @dataclasses.dataclass(frozen=True)
 class Campaign:
     """Screened campaign: `records`/`features` of the used records (same order), the
-    `screening` of every record in the order given, and the records not used."""
+    `screening` of every record in the order given, the records not used, and the files
+    read (`inputs`; empty for `Record` objects)."""
 
     records: list[Record]
     features: list[RecordFeatures]
     screening: list[RecordStatus]
     not_used: list[tuple[Record, RecordFeatures]]
+    inputs: tuple[str, ...] = ()
 
     @property
     def warnings(self) -> list[str]:
@@ -188,12 +192,13 @@ def load_campaign(specs, *, min_records: int | None = 2, strict: bool = False) -
     read is listed as UNREADABLE and the rest are fitted (`strict`: its error is raised, as
     is the only file's). `min_records` None: 1 for a single record (`one_record_holds`),
     else 2. Raises ValueError naming what to fix."""
-    specs = list(specs)
+    specs, inputs = list(specs), ()
     if specs and all(isinstance(s, Record) for s in specs):
         records, unreadable = specs, ()
     else:
-        files = read_campaign_files(specs)
-        records, unreadable = files.records, files.unreadable
+        paths = record_paths(specs)
+        files = read_campaign_files(paths)
+        records, unreadable, inputs = files.records, files.unreadable, tuple(map(str, paths))
         files.check(strict)
     if min_records is None:
         min_records = 1 if len(records) + len(unreadable) == 1 else 2
@@ -202,8 +207,32 @@ def load_campaign(specs, *, min_records: int | None = 2, strict: bool = False) -
             f"a campaign needs at least {min_records} records (got {len(records)}): one run "
             "cannot separate the six friction parameters; give records at several speeds")
     check_campaign(records, same=("lubricant",))
-    return screen_records(records, min_records=min_records, strict=strict,
-                          unreadable=unreadable)
+    campaign = screen_records(records, min_records=min_records, strict=strict,
+                              unreadable=unreadable)
+    return dataclasses.replace(campaign, inputs=inputs)
+
+
+@dataclasses.dataclass(frozen=True)
+class FitCampaign:
+    """What the data step hands a campaign fit (`read_fit_campaign`), each part computed
+    once: the screened `campaign`, the `holds` of a campaign of one record
+    (`one_record_holds`), the records' `truth` (`find_truth`), the campaign's `notes`
+    and the JSON of each record's screening."""
+
+    campaign: Campaign
+    holds: dict[str, float]
+    truth: dict[str, float] | None
+    notes: tuple[str, ...]
+    screening: list[dict]
+
+
+def read_fit_campaign(specs, names, *, one_record: bool = True,
+                      strict: bool = False) -> FitCampaign:
+    """`load_campaign` for a fit of the law whose parameters are `names`: a campaign of one
+    record is fitted when `one_record` (with its holds), else two records at least."""
+    campaign = load_campaign(specs, min_records=None if one_record else 2, strict=strict)
+    return FitCampaign(campaign, one_record_holds(campaign), find_truth(campaign.records, names),
+                       tuple(campaign.notes), [s.to_json() for s in campaign.screening])
 
 
 def find_truth(records, names=None) -> dict[str, float] | None:

@@ -14,16 +14,16 @@ FIXED_MISFIT = 100.0
 the fixed values do not describe the records: said in a warning."""
 
 
-def build_report(fit, unc, campaign, *, model="empirical", extra=None, truth=None,
-                 figures=None, estimates=None, checks=None, screening=None) -> dict:
+def build_report(fit, unc, campaign, *, extra=None, truth=None, figures=None, estimates=None,
+                 checks=None, screening=None) -> dict:
     """The JSON-ready result of a fit (the `--json` contract), from the values the steps
     before it handed on: `fit` (`solve.fit.FitResult`), `unc`
     (`uncertainty.laplace.Uncertainty`), `campaign` (`data.campaign.Campaign`), `truth`
     (the records' parameters, `data.campaign.find_truth`), `figures`
     (`solve.summary.FitFigures`), `estimates` (`unc.estimates(truth)`), `checks` (the
     JSON of `uncertainty.adequacy.adequacy`) and `screening` (the JSON of each record's
-    `RecordStatus`). A call without `figures` (a notebook's, with the fit alone) finds
-    them here.
+    `RecordStatus`); "model" names the fitted law (its `MODEL`). A call without
+    `figures` (a notebook's, with the fit alone) finds them here.
 
     `records` lists every record given, in order: the used ones with their fitted gauge
     offset, the others with `status` and `reason` (`stickslip_fitting.data.campaign`);
@@ -57,7 +57,7 @@ def build_report(fit, unc, campaign, *, model="empirical", extra=None, truth=Non
                        misfit=None, message=f"{s['name']}: slides steadily; not compared with "
                        f"the fitted model ({', '.join(unknown)} not identifiable)")
                   for s in steady]
-    out = {"model": model, "parameters": params, "records": _record_rows(fit, campaign, screening),
+    out = {"model": fit.params.friction.MODEL, "parameters": params, "records": _record_rows(fit, campaign, screening),
            "records_not_used": sum(s.status != "used" for s in campaign.screening),
            "steady_records": steady,
            "residual_rms_mm": figures.residual_rms_mm, "chi2": figures.chi2,

@@ -13,8 +13,8 @@ import numpy as np
 from .posterior_plots import corner_plot  # noqa: F401 (this module's name for it)
 from .saving import finish_figure, interruptible, pyplot  # noqa: F401 (also its names)
 
-__all__ = ["batch_figure", "corner_plot", "finish_figure", "fit_figure", "fitted_traces",
-           "friction_curves", "interruptible", "residual_panel"]
+__all__ = ["batch_figure", "campaign_fit_figure", "corner_plot", "finish_figure", "fit_figure",
+           "fitted_traces", "friction_curves", "interruptible", "residual_panel"]
 
 
 def _static_curves(logs, template, grid):
@@ -152,6 +152,14 @@ def _record_grid(items):
         return len(keys), max(len(g) for g in groups.values()), place
     cols = min(4, max(len(items), 1))
     return -(-len(items) // cols), cols, [divmod(i, cols) for i in range(len(items))]
+
+
+def campaign_fit_figure(fit, unc, campaign, path=None):
+    """`fit_figure` of a fit to a screened `data.campaign.Campaign`: its used records, then
+    the records not used with the reason of their screening."""
+    reasons = {s.name: s.reason for s in campaign.screening}
+    not_used = [(r, reasons.get(f.name) or "not used") for r, f in campaign.not_used]
+    return fit_figure(fit, unc, campaign.records, path, not_used=not_used)
 
 
 def fit_figure(fit, unc, records, path=None, max_traces: int | None = None, *,
