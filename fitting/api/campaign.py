@@ -205,7 +205,7 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
         raise ValueError("eta: only used with model='microsqueeze'")
     out = fit_campaign(as_list(records), law, fixed, objective=goal, loss=loss, modes=modes,
                        strict=strict, eta=eta_value, pair=pair, surface=surface,
-                       loss_text=loss.spec(), check=lambda held: _fixed(held, law))
+                       check=lambda held: _fixed(held, law))
     if not out.converged:
         warnings.warn("the fit did not converge (see str(result) for the warnings): its "
                       "values are not an optimum", RuntimeWarning, stacklevel=2)
@@ -215,7 +215,7 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
 def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Objective,
                  loss: AbstractLoss, modes: ModelModes, strict: bool = False,
                  eta: float | None = None, pair=None, surface: str = "S1G1",
-                 loss_text: str = "gaussian", check=None, outputs=None) -> CampaignFit:
+                 check=None, outputs=None) -> CampaignFit:
     """`stickslip fit`'s steps, each once in the order the data flows: `records` read and
     screened (`data.campaign`; the command's `outputs` checked against the files read,
     `_read`), `law` fitted with `fixed` {name: value} held (`solve.fit`,
@@ -226,7 +226,8 @@ def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Obje
     from ..params import Hold
 
     micro = law.MODEL == "microsqueeze"
-    what = f"objective {objective}" + ("" if loss_text == "gaussian" else f", loss {loss_text}")
+    gaussian = loss.spec() == "gaussian"
+    what = f"objective {objective}" + ("" if gaussian else f", loss {loss.spec()}")
     data = _read(records, law, one_record=not micro, strict=strict, outputs=outputs, what=what)
     if data.holds:
         fixed = {**data.holds, **fixed}

@@ -121,8 +121,7 @@ def fit_from_args(args, *, objective: Objective | str = "features", outputs=None
         pair = surface_option(args.surface or "S1G1", "--surface")
     return fit_campaign(args.records, friction_law, fixed, objective=objective, loss=loss,
                         modes=modes, strict=getattr(args, "strict", False), eta=args.eta,
-                        pair=pair, surface=args.surface or "S1G1", loss_text=args.loss,
-                        outputs=outputs)
+                        pair=pair, surface=args.surface or "S1G1", outputs=outputs)
 
 
 def _fit_law_from_args(args, law, objective, modes, loss, outputs):
