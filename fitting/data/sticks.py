@@ -328,7 +328,7 @@ def slip_fit(t: np.ndarray, u: np.ndarray, y: np.ndarray, y_pre: float, y_post: 
     us = np.convolve(u, np.ones(5) / 5.0, mode="same")[lo:hi]  # the drive's noise off
     us[:2], us[-2:] = u[lo:lo + 2], u[hi - 2:hi]
     slope = np.diff(us) / dt
-    rot = np.exp(-1j * omega0 * dt)
+    turns = np.exp(-1j * omega0 * dt) ** np.arange(slope.size)  # once: the model's costliest
 
     def model(p, y0=y_pre):  # y over the window, the stop (s), the slow minima before it
         # (their samples and times)
@@ -339,8 +339,7 @@ def slip_fit(t: np.ndarray, u: np.ndarray, y: np.ndarray, y_pre: float, y_post: 
         w = (y0 - (ub - c)) - 1j * s0 / omega0  # e + i e'/omega0 at tb (y' = 0)
         w = w * np.exp(-1j * omega0 * (ts[k] - tb))
         ds = np.diff(slope[k - 1:])  # slope changes at ts[k], ts[k+1], ...
-        steps = np.arange(ds.size)
-        turn = rot ** steps
+        turn = turns[:ds.size]
         ws = turn * (w - 1j / omega0 * np.cumsum(ds / turn))
         yk = us[k:k + ws.size] - c + ws.real
         speed = slope[k:k + ws.size] + omega0 * ws.imag  # y' (continuous at the samples)
