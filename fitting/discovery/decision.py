@@ -9,6 +9,7 @@ import dataclasses
 import numpy as np
 import scipy.stats
 
+from .flips import one_sided
 from .options import DEFAULTS
 from .thinning import Samples
 
@@ -88,9 +89,11 @@ def window_scores(Jp, r, starts) -> np.ndarray:
     return np.add.reduceat(Jp * r[:, None], starts, axis=0)
 
 
-def hotelling(Jp, r, starts, g=None):
+def hotelling(Jp, r, starts, g=None, side: int = 0):
     """(F, p-value, dof, Gauss-Newton step, predicted chi-square drop) of the efficient
-    score Jp^T r by Hotelling's T^2 over the windows (`starts`: their first samples)."""
+    score Jp^T r by Hotelling's T^2 over the windows (`starts`: their first samples); a
+    test of one column one-sided where `side` is +1 or -1 (`flips.one_sided`: the effect's
+    physical sign)."""
     p = Jp.shape[1]
     if not (np.all(np.isfinite(Jp)) and np.all(np.isfinite(r))):
         # the family's derivative is not finite at the base (the simulator left its
@@ -101,15 +104,19 @@ def hotelling(Jp, r, starts, g=None):
     n = g.shape[0]
     info = Jp.T @ Jp
     U = Jp.T @ r
-    step = np.linalg.lstsq(info, U, rcond=1e-12)[0]  # r = data - model: model += J step
-    predicted = float(U @ step)
+    # J is the residuals' derivative: the Gauss-Newton step lowers r + J step
+    step = -np.linalg.lstsq(info, U, rcond=1e-12)[0]
+    predicted = float(-U @ step)
     if n <= p + 1:
         return float("nan"), float("nan"), p, step, predicted
     gbar = g.mean(axis=0)
     cov = np.cov(g.T).reshape(p, p)
     t2 = n * float(gbar @ np.linalg.lstsq(cov, gbar, rcond=1e-10)[0])
     F = (n - p) / (p * (n - 1)) * t2
-    return F, float(scipy.stats.f.sf(F, p, n - p)), p, step, predicted
+    p_value = scipy.stats.f.sf(F, p, n - p)
+    if p == 1:
+        p_value = one_sided(p_value, gbar[0], side)
+    return F, float(p_value), p, step, predicted
 
 
 def _samples(r, samples):

@@ -12,6 +12,14 @@ kept) gives equally likely data. $U_k(s) = s^\top g_k (g_k^\top g_k)^{-1} g_k^\t
 monotone function of Hotelling's $T^2$, so each flip's p-values come from the transform
 of `decision.hotelling`'s. The adjusted p-value of test k is the share of flips whose
 smallest p-value over all tests is at most k's observed one (NumPy; a fixed seed).
+
+A test of one coordinate whose effect has a physical sign (a damper's c >= 0, a Stribeck
+drop b >= 0, a sensor's delay tau >= 0; `Family.signs`) is one-sided: its p-value is
+Student's one-sided one, half the two-sided where the score points to the physical side
+and one minus that where it points away (`one_sided`). A score to the wrong side is no
+evidence of the effect, so the test loses nothing there and has more power at the same
+level where the effect is; each flip's p-value is the one-sided one of the flipped score,
+so the min-p stays calibrated.
 """
 
 from __future__ import annotations
@@ -19,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.stats
 
-__all__ = ["FLIPS", "family_wise_p", "hotelling_p_of_u"]
+__all__ = ["FLIPS", "family_wise_p", "hotelling_p_of_u", "one_sided"]
 
 FLIPS = 4000
 """Sign-flip draws (the adjusted p-value's resolution is 1 / (FLIPS + 1))."""
@@ -35,6 +43,17 @@ def hotelling_p_of_u(u: np.ndarray, n: int, p: int) -> np.ndarray:
     return scipy.stats.f.sf(F, p, n - p)
 
 
+def one_sided(p_two, total, side: int):
+    """The one-sided p-value of a one-coordinate test from its two-sided `p_two`, its
+    summed score `total` (J^T r, J the residuals' derivative, so the Gauss-Newton step of
+    the coordinate has the sign of -`total`) and the sign `side` the coordinate must have
+    (+1, -1; 0: two-sided, `p_two` itself) (module doc)."""
+    p_two = np.asarray(p_two, float)
+    if side == 0:
+        return p_two
+    return np.where(np.sign(total) == -np.sign(side), 0.5 * p_two, 1.0 - 0.5 * p_two)
+
+
 def _basis(g: np.ndarray) -> np.ndarray:
     """Orthonormal basis of the columns of g (numerical rank)."""
     u, s, _ = np.linalg.svd(g, full_matrices=False)
@@ -42,10 +61,11 @@ def _basis(g: np.ndarray) -> np.ndarray:
     return u[:, keep]
 
 
-def family_wise_p(contributions: list[np.ndarray], *, flips: int = FLIPS,
+def family_wise_p(contributions: list[np.ndarray], *, sides=None, flips: int = FLIPS,
                   seed: int = 0) -> np.ndarray:
     """Adjusted p-values (module doc) of the tests of window `contributions` (each n x
-    p_k over the same windows; zero rows: windows a test does not see). A test with
+    p_k over the same windows; zero rows: windows a test does not see), a test of one
+    column one-sided where its entry of `sides` is +1 or -1 (`one_sided`). A test with
     non-finite contributions or fewer than p_k + 2 windows gets NaN and takes no part."""
     if not contributions:
         return np.zeros(0)
@@ -62,12 +82,16 @@ def family_wise_p(contributions: list[np.ndarray], *, flips: int = FLIPS,
             continue
         seen = np.any(g != 0, axis=1)
         n = int(seen.sum())
-        Q = _basis(g[seen])
+        side = 0 if sides is None or g.shape[1] != 1 else int(sides[k])
+        # a one-sided test keeps its column's sign (an SVD basis may flip it)
+        Q = _basis(g[seen]) if side == 0 else g[seen] / np.linalg.norm(g[seen])
         p = Q.shape[1]
-        if p == 0 or n <= p + 1:
+        if p == 0 or n <= p + 1 or not np.all(np.isfinite(Q)):
             continue
-        observed[k] = hotelling_p_of_u(np.sum(Q.sum(axis=0) ** 2), n, p)
-        u = np.sum((Q.T @ S[seen]) ** 2, axis=0)
-        min_p = np.minimum(min_p, hotelling_p_of_u(u, n, p))
+        total = Q.sum(axis=0)
+        observed[k] = one_sided(hotelling_p_of_u(np.sum(total ** 2), n, p), total[0], side)
+        t = Q.T @ S[seen]
+        min_p = np.minimum(min_p, one_sided(hotelling_p_of_u(np.sum(t ** 2, axis=0), n, p),
+                                            t[0], side))
     adjusted = (1.0 + np.sum(min_p[None, :] <= observed[:, None], axis=1)) / (flips + 1.0)
     return np.where(np.isfinite(observed), np.minimum(adjusted, 1.0), np.nan)

@@ -19,7 +19,7 @@ from ..scores import base_basis, project_out
 from ..subproblems import with_shape
 from .state import Base, Clock, FamilyScore, Prepared, Ranking
 
-__all__ = ["held_p", "rank", "shape_columns", "significance_line"]
+__all__ = ["held_p", "physical_side", "rank", "shape_columns", "significance_line"]
 
 _SHAPE_STEPS = {"stribeck": (("vs", 0.05, True), ("p", 0.1, False)),
                 "rate_state": (("length", 0.05, True),),
@@ -65,6 +65,13 @@ def _nuisance(J, model, z, shape, sensor, held, described) -> np.ndarray:
     (`shape_columns`) over the described records."""
     S = shape_columns(model, z, shape, sensor, held)
     return base_basis((np.hstack([J, S]) if S.size else J) * described[:, None])
+
+
+def physical_side(model, f, G) -> int:
+    """The side of family `f`'s one-sided score test (`flips.one_sided`): its physical
+    sign where its test has one column and the effect has a sign (damping, a Stribeck
+    drop, the sensor's delay), else 0 (two-sided)."""
+    return int(f.signs[0]) if score_cols(model, f, G).size == 1 else 0
 
 
 def _leads(sc: FamilyScore) -> tuple[bool, float]:
@@ -146,7 +153,8 @@ def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, 
             test = len(window_g)
             window_g.append(window_scores(Jp, r_rank, starts))
         F, p, dof, step, pred = hotelling(
-            Jp, r_rank, starts, window_g[test] if finite and test >= 0 else None)
+            Jp, r_rank, starts, window_g[test] if finite and test >= 0 else None,
+            side=physical_side(model, f, G))
         out.append(FamilyScore(f, shape, F, p, dof, step, Jp, pred, test=test if finite else -1))
     return out
 
@@ -167,7 +175,8 @@ def held_p(base: Base, starts, fit, z, f, shape, sensor: bool, value, others=())
     else:
         Jc = model.evaluate(z, cols, shape, sensor)[1]
     Qb = _nuisance(fit.J[:n], model, z, shape, sensor, others, described)
-    return hotelling(_efficient(Qb, described, Jc), np.where(described, r, 0.0), starts)[1]
+    return hotelling(_efficient(Qb, described, Jc), np.where(described, r, 0.0), starts,
+                     side=physical_side(model, f, model.n_records))[1]
 
 
 def significance_line(significant, n_families: int, alpha: float, level: float,
@@ -197,6 +206,7 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
     shape_scores: dict[str, list[FamilyScore]] = {}
     sensor_probe: dict[Shape, float] = {}
     window_g: list[np.ndarray] = []  # every test's window contributions (`flips`)
+    sides: list[int] = []  # and its side (`physical_side`)
 
     def efficient(Jc):
         return _efficient(Qb, described, Jc)
@@ -206,6 +216,7 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
             prep.warm["residuals", True].result()
         shape_scores[f.name] = _family_scores(f, model, base, opts, G, plain_J, efficient,
                                               r_rank, starts, window_g, sensor_probe)
+        sides += [physical_side(model, f, G)] * (len(window_g) - len(sides))
         best = max(shape_scores[f.name], key=_leads)
         if len(f.shapes) > 1:
             logger.debug(f"{f.name}: predicted chi2 drop by shape: " + ", ".join(
@@ -215,7 +226,7 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
     # the family-wise p-value of every family's chosen shape: the share of sign flips of
     # the windows whose smallest p-value over all tests is as small (`flips`; Bonferroni's
     # alpha / n_tests assumed the tests independent, and they are strongly correlated)
-    adjusted = family_wise_p(window_g)
+    adjusted = family_wise_p(window_g, sides=sides)
     for sc in scores:
         sc.p_family = float(adjusted[sc.test]) if sc.test >= 0 else float("nan")
     scores.sort(key=lambda s: (np.nan_to_num(s.p_value, nan=1.0), -s.chi2_predicted))
