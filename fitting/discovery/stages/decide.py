@@ -113,4 +113,5 @@ def choose(fx: Fits, refitted: Refitted, *, clock: Clock) -> Choice:
                            f"-{refined.drop:.0f}, {tried} short refits")
             chosen = refined
     return Choice(chosen=chosen, decision=decision, rivals=rivals, compared=compared,
-                  decided_drop=chosen.drop if chosen is not None else 0.0)
+                  decided_drop=chosen.drop if chosen is not None else 0.0,
+                  judged=tuple(refits))

@@ -278,7 +278,8 @@ def given_each_other(fx: Fits, choice: Choice, refitted: Refitted, clock: Clock)
     test let through, is decided anew against the refits not set aside. Returns the
     choice where every rival is settled, else the choice with the first rival left
     unsettled (neither needed given the other)."""
-    refits = [one_screw(fx, rf) for rf in refitted.refits]
+    # the refits as the decision judged them (a screw as the machine's one screw)
+    refits = list(choice.judged) or [one_screw(fx, rf) for rf in refitted.refits]
     aside, alpha = set(), fx.opts.alpha
     while (rival := unbeaten_rival(choice)) is not None:
         win = choice.chosen

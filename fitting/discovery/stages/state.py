@@ -218,6 +218,7 @@ class Choice:
     rivals: list  # `indistinguishable_from`
     compared: dict  # family name -> `Contender`
     decided_drop: float
+    judged: tuple = ()  # the refits as decided (a per-record screw as one screw: `one_screw`)
 
 
 @dataclasses.dataclass(frozen=True, eq=False)
