@@ -55,7 +55,7 @@ fill the end of both workers."""
 SHARED_PROGRAMS = {
     **dict.fromkeys(("test_cli_steady", "test_logging", "test_design_netcdf",
                      "test_cli_design"), "test_json_keys"),
-    "test_cycle_discovery": "test_json_keys",
+    **dict.fromkeys(("test_cycle_discovery", "test_api_results"), "test_json_keys"),
     **dict.fromkeys(("test_smooth_objective", "test_combined", "test_trace_objective",
                      "test_fit_figure"), "test_mcmc"),
 }
@@ -72,8 +72,9 @@ padded to 40,000 samples) with its features and trace fits 78 s the first time, 
 another seed. Programs with host callbacks (the `eqx.error_if` checks of traced values:
 lineax's in the implicit gradients of the stiff solvers, a microsqueeze law's unless built
 with `check_traced=False`) are not kept in the persistent cache, so only the one process
-shares them. test_cycle_discovery and test_json_keys read one discovery of the clean
-campaign (`clean_discovery`), run once on their worker."""
+shares them. test_cycle_discovery, test_json_keys and test_api_results read one discovery
+of the clean campaign (`clean_discovery`), run once on their worker; test_api_results
+discovers on its files again through the API, with its compiled programs."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about
@@ -100,24 +101,31 @@ def allclose_tree():
 
 
 @pytest.fixture(scope="session")
-def clean_discovery(tmp_path_factory):
-    """`stickslip discover FILES --json OUT --learn` on `record_files.clean_discovery_files`
-    (the clean campaign, an irregular record, a file that is not a record): (exit code,
-    JSON document, printed text, stderr text), run once for test_cycle_discovery (its
-    answer) and test_json_keys (its keys)."""
+def clean_discovery_paths(tmp_path_factory):
+    """`record_files.clean_discovery_files` (the clean campaign, an irregular record, a
+    file that is not a record), written once for the test run."""
+    from record_files import clean_discovery_files
+
+    return clean_discovery_files(tmp_path_factory.mktemp("clean_discovery"))
+
+
+@pytest.fixture(scope="session")
+def clean_discovery(clean_discovery_paths, tmp_path_factory):
+    """`stickslip discover FILES --json OUT --learn` on `clean_discovery_paths`: (exit
+    code, JSON document, printed text, stderr text), run once for test_cycle_discovery
+    (its answer), test_json_keys (its keys) and test_api_results (the document
+    `stickslip_fitting.discover` gives on the same files)."""
     import contextlib
     import io
     import json
 
-    from record_files import clean_discovery_files
     from stickslip_jax.cli import main
 
-    folder = tmp_path_factory.mktemp("clean_discovery")
-    files = clean_discovery_files(folder)
+    out_json = tmp_path_factory.mktemp("clean_discovery_json") / "d.json"
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        rc = main(["discover", *files, "--json", str(folder / "d.json"), "--learn"])
-    return rc, json.loads((folder / "d.json").read_text()), out.getvalue(), err.getvalue()
+        rc = main(["discover", *clean_discovery_paths, "--json", str(out_json), "--learn"])
+    return rc, json.loads(out_json.read_text()), out.getvalue(), err.getvalue()
 
 
 def _compilation_cache(config) -> str:

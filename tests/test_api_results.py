@@ -20,7 +20,7 @@ EXAMPLES = ROOT / "data" / "examples"
 NAMES = ["mu_s", "mu_d", "gamma", "m", "delta", "n"]
 SAMPLER = dict(steps=20, walkers=12, seed=3)
 PNG = b"\x89PNG\r\n\x1a\n"
-# three records of the shipped campaign: enough for the discovery's test, about 40 s
+# three records of the shipped campaign: the options' checks, which answer before any fit
 DISCOVERY_FILES = sorted(str(p) for p in EXAMPLES.glob("*.csv"))[:3]
 
 
@@ -118,21 +118,22 @@ def test_sample_errors_name_the_keyword_before_fitting(kw, word):
 
 
 @pytest.fixture(scope="module")
-def found():
-    return sf.discover(DISCOVERY_FILES)
+def found(clean_discovery_paths):
+    """`stickslip_fitting.discover(FILES, learn=True)` on the files of conftest's
+    `clean_discovery` (`stickslip discover FILES --json OUT --learn`, run once for the test
+    run: its document is the command's here)."""
+    return sf.discover(clean_discovery_paths, learn=True)
 
 
 @pytest.fixture(scope="module")
-def discover_document(tmp_path_factory):
-    out = tmp_path_factory.mktemp("discover") / "discover.json"
-    assert main(["discover", *DISCOVERY_FILES, "--json", str(out), "--quiet"]) == 0
-    return json.loads(out.read_text())
+def discover_document(clean_discovery):
+    return clean_discovery[1]
 
 
 def test_discover_is_the_package_attribute(found):
     assert isinstance(found, CampaignDiscovery)
     assert "discover" in sf.__all__ and "CampaignDiscovery" in sf.__all__
-    # the shipped campaign has no effect beyond the paper's model
+    # the clean campaign has no effect beyond the paper's model
     assert found.effect == "none" and found.named == []
 
 
