@@ -84,6 +84,14 @@ turn. Where neither is, the records do not say which family is missing, and the 
 stops there: the answer is not certain (both are listed as not clearly beaten); the
 first effect is still named when it is not clear (with low confidence), a later one is
 not.
+
+**Either law of one physics.** Where a later search's calibrated test lets through a
+family that describes its physics in one of two laws (`ALTERNATIVES`), the other law is
+refitted too (`either_law`) and may be the winner: the test named the physics, the refits choose
+the law, and no further effect is claimed (measured, 4 records, a Stribeck drop and a
+20 Hz sensor: after the sensor rate-and-state friction was significant, family-wise p
+0.001, chi-square -155, the Stribeck curve, a contender, -314; with rate-and-state named,
+load coupling took up what its shape left, family-wise p 0.0012, and was named third).
 """
 
 from __future__ import annotations
@@ -98,13 +106,13 @@ from ..decision import Contender, Decision, decide, paired_z, rms_gap
 from ..scores import principal_cosine
 from ..subproblems import SubProblem, with_shape
 from .rank import held_p, rank
-from .refit import judge, prior_of, refit
+from .refit import judge, prior_of, ranked_refits, refit, refit_family, said
 from .sharpen import sharpen
 from .decide import choose, one_screw, price, price_of
 from .state import Base, Choice, Clock, FamilyRefit, Fits, Refitted, Step
 
-__all__ = ["ALTERNATIVES", "confirmed", "drop_one", "extended", "given_each_other", "level",
-           "more_effects", "settled", "unbeaten_rival"]
+__all__ = ["ALTERNATIVES", "confirmed", "drop_one", "either_law", "extended",
+           "given_each_other", "level", "more_effects", "settled", "unbeaten_rival"]
 
 ALTERNATIVES = (frozenset({"stribeck", "rate_state"}),)
 """Families that describe one physical effect in two laws (module doc): never both named."""
@@ -210,6 +218,7 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
             break
         fx_k = Fits(opts=fx.opts, prep=fx.prep, base=base, ranking=ranking)
         refitted = sharpen(fx_k, refit(fx_k, clock=clock), clock=clock)
+        refitted = either_law(fx_k, refitted, clock)
         choice_k = choose(fx_k, refitted, clock=clock)
         if choice_k.chosen is not None and unbeaten_rival(choice_k) is not None:
             choice_k = given_each_other(fx_k, choice_k, refitted, clock)
@@ -242,6 +251,20 @@ def more_effects(fx: Fits, choice: Choice, fams, *, max_effects: int, clock: Clo
     return fx, Choice(chosen=chosen, decision=Decision(joint[lead.family.name], tuple(unbeaten)),
                       rivals=lead.rivals, compared=choice.compared,
                       decided_drop=first.base.fit.rss - chosen.fit.rss), steps
+
+
+def either_law(fx: Fits, refitted: Refitted, clock: Clock) -> Refitted:
+    """The refits with the other law of every eligible family's physics (`ALTERNATIVES`)
+    refitted where it was not, and eligible as well (module doc, Either law)."""
+    eligible = frozenset().union(*(_same_physics(name) for name in refitted.eligible))
+    done = {rf.family.name for rf in refitted.refits}
+    lead = max([rf.drop for rf in ranked_refits(refitted.refits)
+                if rf.family.name in refitted.eligible], default=0.0)
+    new = [refit_family(fx, sc, lead) for sc in fx.ranking.scores
+           if sc.family.name in eligible - done]
+    if new:
+        clock("other law", ", ".join(said(rf) for rf in new))
+    return dataclasses.replace(refitted, refits=[*refitted.refits, *new], eligible=eligible)
 
 
 def _needed(fx: Fits, f_rf: FamilyRefit, at: FamilyRefit) -> float:

@@ -19,7 +19,8 @@ from ..subproblems import SharedScrewProblem, SubProblem
 from .base_fit import friction_values
 from .state import Clock, FamilyRefit, FamilyScore, Fits, Refitted
 
-__all__ = ["CANNOT_WIN", "continued", "dead", "judge", "prior_of", "refine_shape", "refit"]
+__all__ = ["CANNOT_WIN", "continued", "dead", "judge", "prior_of", "ranked_refits",
+           "refine_shape", "refit", "refit_family", "said"]
 
 CANNOT_WIN = 0.5
 """Far from the data, a refit stops once it cannot lower chi-square by this share of
@@ -62,7 +63,7 @@ def _one_screw(coef, recs, pitch, spans, opts: DiscoveryOptions = DEFAULTS) -> s
             "one amplitude")
 
 
-def _said(rf: FamilyRefit) -> str:
+def said(rf: FamilyRefit) -> str:
     """A refit in a progress line: its chi-square drop and why it is not a result."""
     why = (" (refit failed)" if rf.failed else " (unphysical)" if rf.unphysical
            else " (stopped: cannot win)" if rf.fit.stats.get("hopeless") else "")
@@ -333,7 +334,7 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
         return refits[len(refits) - len(scores_):]
 
     more_refits(to_refit)
-    clock("refit", ", ".join(_said(rf) for rf in refits) or "nothing to refit")
+    clock("refit", ", ".join(said(rf) for rf in refits) or "nothing to refit")
     physical = ranked_refits(refits)
     if not physical:
         # none of the `top` refits is physical: the other significant families are
@@ -344,7 +345,7 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
         more = [sc for sc in significant if sc.family.name not in done]
         if more:
             clock("refit", "the next significant: " + ", ".join(
-                _said(rf) for rf in more_refits(more)))
+                said(rf) for rf in more_refits(more)))
             physical = ranked_refits(refits)
     if physical:
         # contenders: every family with nominal evidence (robust p < alpha without the
@@ -357,5 +358,5 @@ def refit(fx: Fits, *, clock: Clock) -> Refitted:
                  and (sc in significant
                       or np.nan_to_num(sc.p_value, nan=1.0) < fx.opts.alpha)]
         if extra:
-            clock("contenders", ", ".join(_said(rf) for rf in more_refits(extra)))
+            clock("contenders", ", ".join(said(rf) for rf in more_refits(extra)))
     return Refitted(refits=refits, eligible=eligible)
