@@ -9,7 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stickslip_fitting.uncertainty.adequacy import BAD, PhaseRow, _sentences, adequacy
+from stickslip_fitting.uncertainty.adequacy import (BAD, PhaseRow, _sentences, adequacy,
+                                                   model_text)
 
 
 @pytest.fixture(scope="module")
@@ -82,6 +83,24 @@ def test_sentences_need_more_than_chance():
     assert verdict == "misses" and "1 of 2 records" in text[0]
     assert _sentences([PhaseRow("a", "trace_slip", 500, 3.0)], 3.0, 1)[0] == "marginal"
     assert BAD > 2
+
+
+def test_sentences_name_the_law_fitted():
+    """The verdict's sentence names the law the fit fitted (its `MODEL`): the paper's
+    model for eq (1), another law by the name `stickslip fit --law` gives it."""
+    missed = [PhaseRow(r, "levels", 300, 40.0) for r in "abc"]
+    clean = [PhaseRow(r, "levels", 300, 1.0) for r in "abc"]
+    for model, name in (("empirical", "The paper's model"),
+                        ("microsqueeze", "The paper's microsqueeze model"),
+                        ("log_aging", "The log_aging law"),
+                        ("rate_state_aging", "The rate_state_aging law")):
+        assert model_text(model) == name
+        verdict, text = _sentences(missed, 40.0, 3, model=model)
+        assert verdict == "misses"
+        assert text[0].startswith(f"{name} does not describe these records")
+        verdict, text = _sentences(clean, 1.0, 3, model=model)
+        assert verdict == "describes" and text[0].startswith(f"{name} describes every record")
+    assert "paper" not in " ".join(_sentences(missed, 40.0, 3, model="log_aging")[1])
 
 
 def test_correlated_stick_times_p_value_is_calibrated():

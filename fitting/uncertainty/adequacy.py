@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-__all__ = ["Adequacy", "BAD", "GOOD", "PhaseRow", "TAIL_RATIO", "adequacy"]
+__all__ = ["Adequacy", "BAD", "GOOD", "PhaseRow", "TAIL_RATIO", "adequacy", "model_text"]
 
 TAIL_RATIO = 2.0
 """Root mean square over normalised median absolute deviation above which a phase's
@@ -171,12 +171,22 @@ chance is never called a miss. Measured on notebook 03's clean synthetic campaig
 6.8), with these correlations none."""
 
 
+def model_text(model: str) -> str:
+    """How the sentences name a fitted law (its `MODEL`): the paper's eq (1) law as "The
+    paper's model", its eq (28) microsqueeze law as "The paper's microsqueeze model",
+    another law by its name ("The log_aging law")."""
+    named = {"empirical": "The paper's model", "microsqueeze": "The paper's microsqueeze model"}
+    return named.get(model, f"The {model} law")
+
+
 def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
-               heavy_tailed: bool | None = None) -> tuple[str, list]:
+               heavy_tailed: bool | None = None, model: str = "empirical"
+               ) -> tuple[str, list]:
+    name = model_text(model)
     bad = [r for r in rows if _beyond(r, BAD, len(rows))]
     marginal = [r for r in rows if _beyond(r, GOOD, len(rows)) and r not in bad]
     if not bad and not marginal:
-        return "describes", [f"The paper's model describes every record to its noise (no "
+        return "describes", [f"{name} describes every record to its noise (no "
                              f"phase of a record beyond chi2/n {GOOD:g} by more than chance; "
                              f"chi2/dof {reduced_chi2:.3g})."]
     out = []
@@ -184,7 +194,7 @@ def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
     if bad:
         frac = len(missed) / max(n_records, 1)
         if frac > 0.5:
-            out.append(f"The paper's model does not describe these records: it misses "
+            out.append(f"{name} does not describe these records: it misses "
                        f"{len(missed)} of {n_records} beyond their noise. The intervals then "
                        "follow the records' scatter (robust covariance); read the values as "
                        "the model's best compromise, not as the slideway's friction law.")
@@ -228,5 +238,6 @@ def adequacy(fit) -> Adequacy:
     if td is not None:
         rows += _trace_rows(fit, names, td)
     heavy = fit.objective is not None and not isinstance(loss_of(fit.objective), Gaussian)
-    verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), heavy)
+    verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), heavy,
+                                    fit.params.friction.MODEL)
     return Adequacy(fit.reduced_chi2, rows, verdict, sentences)
