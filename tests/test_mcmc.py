@@ -140,8 +140,11 @@ def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, cap
     ratio = np.nanmax(np.diag(robust.cov_log) / np.diag(fisher.cov_log))
     assert scale == pytest.approx(max(1.0, tfit.reduced_chi2) * max(1.0, ratio), rel=1e-9)
     logp, theta0, _, _ = log_posterior(tfit, scale)
-    assert float(np.asarray(logp(jnp.asarray(theta0)[None]))[0]) == pytest.approx(
-        -0.5 * tfit.chi2 / scale, rel=1e-6)
+    # 8 rows, as the command's sampler evaluates its 16 walkers (two halves of 8 a step):
+    # its compiled program
+    lp = np.asarray(logp(jnp.tile(jnp.asarray(theta0), (8, 1))))
+    assert lp.shape == (8,) and np.all(lp == lp[0])
+    assert float(lp[0]) == pytest.approx(-0.5 * tfit.chi2 / scale, rel=1e-6)
     # the CLI: the objective and the tempering travel in the JSON
     paths = record_files(recs, tmp_path)
     out = tmp_path / "t.json"
