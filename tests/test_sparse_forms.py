@@ -83,6 +83,46 @@ def test_slip_terms_are_the_response_to_a_force():
     assert np.all(C[t <= 0.05, stick] == 1.0) and np.all(C[t > 0.05, stick] == 0.0)
 
 
+def _first_cycle(creep_mm: float):
+    """The independent generator's first cycle (W 36, k 86.9, 5 mm/min, noise-free) as the
+    sparse form's coordinates: the slider's velocity from the record without creep."""
+    kw = dict(weight=36.0, stiffness=86.9, speed_mm_min=5.0, duration=4.0, rate_hz=1000.0,
+              seed=3)
+    plain = ir.simulate(ir.LUBRICANT_A, imp=ir.Imperfections(noise_mm=0.0), **kw)
+    crept = ir.simulate(ir.LUBRICANT_A, imp=ir.Imperfections(noise_mm=0.0, creep_mm=creep_mm),
+                        **kw)
+    t = plain.time
+    keep = t < plain.slip_ends[0] + 0.05
+    t, tb, te = t[keep], plain.breakaways[0], plain.slip_ends[0]
+    yd = np.gradient(plain.drive[keep] - plain.clean[keep], t)
+    slip = (t >= tb) & (t < te)
+    one = np.ones_like(t)
+    c = dict(t=t, window=0 * one, start_time=0 * one, stick_time=(tb + 0.002) * one,
+             stiffness=86.9 * one, weight=36.0 * one, yd=np.where(slip, yd, 0.0), slip=slip,
+             stick=t < tb, after=t >= te)
+    return c, tb, (crept.clean - plain.clean)[keep]
+
+
+def test_breakaways_are_the_models_half_sine():
+    """The model's breakaway is read from its slider velocity (a half sine), not from the
+    measured stick time (here 2 ms late)."""
+    c, tb, _ = _first_cycle(0.0)
+    assert np.all(np.abs(sparse._breakaways(c) - tb) < 2e-4)
+
+
+def test_preslide_term_is_the_generators_creep():
+    """A creep of c before the breakaway that leaves the breakaway where it was: the
+    reading falls by c exp(-(t_b - t)/tau) in the stick, and the slip, starting c lower,
+    swings c cos(omega_0 (t - t_b)) from it and ends c higher (the independent
+    generator's creep against the same record without it)."""
+    c, _, diff = _first_cycle(0.003)
+    t_b = sparse._breakaways(c)
+    col = np.where(c["stick"], np.exp(-np.maximum(t_b - c["t"], 0.0) / 0.05),
+                   sparse._start_response(c, t_b))
+    assert np.max(np.abs(-0.003 * col - diff)) < 0.2e-3
+    assert np.sqrt(np.mean((-0.003 * col - diff) ** 2)) < 0.05e-3
+
+
 def test_backlash_holds_the_spring_for_the_play_after_every_slip():
     """The independent generator's backlash: after each slip the deflection stays flat
     while the drive takes up its play b (b/v), then climbs at the drive speed."""

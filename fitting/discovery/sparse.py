@@ -9,6 +9,11 @@ fitted jointly with the base parameters:
   and of the time since the last slip $s$ (in s, and as $s/T_1$), the approach to the
   breakaway $e^{-(T_1 - s)/\tau}$ (creep) and a lost motion of the drive taken up over
   its first $L$ of travel, $\min(v s, L)/L$ (backlash);
+- **pre-slide** (linear, outside the model): the slider creeps by $c\,e^{-(t_b - t)/\tau}$
+  before it breaks away while the breakaway stays where the stick line alone reaches
+  static friction (eq 1), so the slip starts from the crept deflection:
+  $c\cos\omega_0(t - t_b)$ during the slip, held after it ($t_b$ the model's breakaway,
+  `_breakaways`; the independent generator's creep);
 - **slip** (a force on the slider, in units of its weight W): powers of the reduced
   deflection $\xi = k x/W$, the sign and powers of the slider velocity $\dot y$ (over
   $V = $ `V_REF`), a drift in time; a force $f(t)$ moves the slider by
@@ -21,8 +26,13 @@ regression, along a path of thresholds, and a forward selection) on the base res
 with the base Jacobian projected out (a stick term's column is the model's own, the
 breakaway's move included); the support of least chi-square plus `TERM_COST` per term
 wins, at most `MAX_TERMS`. The form is refitted with the model's parameters
-(`fit_sparse_form`) and found when it closes at least `FOUND_SHARE` of the gap's excess
-over the noise. Units: mm, s, kgf.
+(`fit_sparse_form`, Levenberg-Marquardt on the model's coordinates, the linear terms
+solved at every point) and found when it closes at least `FOUND_SHARE` of the gap's
+excess over the noise. Selection and refit hold every window's restart level free
+(`_levels`, linear, one per window): the measured level is a plateau's mean, and a form
+that bends the stick (a creep) biases it (measured: creep of 3 um over 50 ms, lubricant
+A, seed 0: the fastest records' sticks 0.5-2 um above the model at the true friction
+and creep; with the levels free the linear fit leaves the noise). Units: mm, s, kgf.
 """
 
 from __future__ import annotations
@@ -47,6 +57,9 @@ FOUND_SHARE = 0.5
 """The share of the gap's excess over the noise a form must close to be reported."""
 V_REF = 10.0
 """mm/s: the slider velocity the velocity powers are measured in (a slip's peak speed)."""
+PRESLIDE_TAUS = STICK_TAUS
+"""s: time constants of the pre-slide terms (creep that leaves the breakaway where the
+stick line alone puts it)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -83,6 +96,11 @@ def _terms() -> tuple[Term, ...]:
                  "the drive loses motion after each slip (backlash): the spring's far end "
                  f"lags by the coefficient, taken up over {L * 1e3:g} um of drive travel "
                  "since the last slip") for L in STICK_TRAVELS]
+    out += [Term(f"stick_preslide{int(tau * 1e3)}ms", "stick", "time to the breakaway",
+                 f"c exp(-(T1 - s)/{tau * 1e3:g} ms)", "mm",
+                 "the slider creeps before it breaks away, the breakaway where the stick "
+                 "line alone reaches static friction (the slip starts from the crept "
+                 "deflection)") for tau in PRESLIDE_TAUS]
     out += [Term(f"slip_xi{p}", "slip", "deflection", f"c W (k x/W)^{p}", "-",
                  f"a force on the slider during the slip grows with the deflection^{p}"
                  + (" (a spring that stiffens with deflection)" if p == 3 else ""))
@@ -148,6 +166,41 @@ def _slip_response(c: dict, f: np.ndarray) -> np.ndarray:
     return -dy
 
 
+def _breakaways(c: dict) -> np.ndarray:
+    r"""The model's breakaway per sample (s): the half sine $a\sin\omega_0(t - t_b)$ fitted
+    to the slider velocity of its window's slip (least squares, linear in $a\cos$ and
+    $a\sin\omega_0 t_b$); the measured one (start + stick time) where the window has
+    no slip."""
+    w0 = np.sqrt(c["stiffness"] * G_MM_S2 / c["weight"])
+    _, win = np.unique(c["window"], return_inverse=True)
+    ph = w0 * (c["t"] - c["start_time"])
+    sn, cs, v = np.sin(ph), np.cos(ph), np.where(c["slip"], c["yd"], 0.0)
+    on = c["slip"].astype(float)
+
+    def total(a):
+        return np.bincount(win, a * on)
+
+    ss, sc, cc, vs, vc = (total(sn * sn), total(sn * cs), total(cs * cs), total(v * sn),
+                          total(v * cs))
+    det = ss * cc - sc * sc
+    ok = (total(np.ones_like(v)) >= 3) & (np.abs(det) > 1e-12 * np.maximum(ss * cc, 1e-300))
+    det = np.where(ok, det, 1.0)
+    p_, q_ = (vs * cc - vc * sc) / det, (vc * ss - vs * sc) / det  # v = p sin + q cos
+    # w0 (t_b - start) = atan2(-q, p) modulo 2 pi: the branch nearest the measured breakaway
+    off = np.angle(np.exp(1j * (np.arctan2(-q_, p_)[win] - w0 * c["stick_time"])))
+    return c["start_time"] + c["stick_time"] + np.where(ok[win], off / w0, 0.0)
+
+
+def _start_response(c: dict, t_b: np.ndarray) -> np.ndarray:
+    r"""The reading's change (mm) per mm added to the deflection the slip starts from (the
+    kinetic friction unchanged): $\cos\omega_0(t - t_b)$ during the slip from the
+    model's breakaway t_b, held after the slider stops; 0 in the stick."""
+    w0 = np.sqrt(c["stiffness"] * G_MM_S2 / c["weight"])
+    dx = np.where(c["slip"], np.cos(w0 * (c["t"] - t_b)), 0.0)
+    last = np.maximum.accumulate(np.where(c["slip"], np.arange(dx.size), 0))
+    return np.where(c["after"], dx[last], dx)
+
+
 def library(model, z, r, sd) -> np.ndarray:
     """The columns of `TERMS` (mm per unit coefficient) at the model's trace at z."""
     c = coordinates(model, z, r, sd)
@@ -155,6 +208,11 @@ def library(model, z, r, sd) -> np.ndarray:
     xi, v = c["stiffness"] * x / c["weight"], np.maximum(c["yd"], 0.0) / V_REF
     cols = dict(zip(STICK_TERMS, np.moveaxis(np.asarray(
         stick_terms(s, c["stick_time"], x, c["speed"])), -1, 0)))
+    t_b = _breakaways(c)
+    start = _start_response(c, t_b)
+    for tau in PRESLIDE_TAUS:  # the stick's creep, and the slip from the crept deflection
+        creep = np.exp(-np.maximum(t_b - c["t"], 0.0) / tau)
+        cols[f"stick_preslide{int(tau * 1e3)}ms"] = np.where(stick, creep, start)
     cols["drift"] = c["t_rel"]
     force = {f"slip_xi{p}": xi ** p for p in (1, 2, 3)}
     force.update({f"slip_v{p}": v ** p for p in (1, 2, 3)})
@@ -163,8 +221,10 @@ def library(model, z, r, sd) -> np.ndarray:
     for j, term in enumerate(TERMS):
         if term.phase == "slip":
             col = _slip_response(c, force[term.name])
+        elif term.name in STICK_TERMS:
+            col = cols[term.name] * stick
         else:
-            col = cols[term.name] * (stick if term.phase == "stick" else 1.0)
+            col = cols[term.name]
         out[c["order"], j] = col
     return out
 
@@ -235,6 +295,7 @@ class SparseForm:
     found: bool
     z: np.ndarray = dataclasses.field(repr=False)
     r: np.ndarray = dataclasses.field(repr=False)
+    gap_levels: float = float("nan")  # the base with the windows' restart levels free alone
 
     @property
     def closes(self) -> float:
@@ -250,53 +311,94 @@ class SparseForm:
     def to_json(self) -> dict:
         return {"found": self.found, "formula": self.formula, "terms": list(self.terms),
                 "gap_before": self.gap_before, "gap_after": self.gap_after,
+                "gap_levels_alone": self.gap_levels,
                 "noise": self.noise, "gap_unit": "mm", "closes": self.closes,
                 "library": [t.name for t in TERMS],
                 "method": "sequentially thresholded least squares over the library, "
                           f"at most {MAX_TERMS} terms, each worth {TERM_COST:g} of the "
-                          "excess chi-square; refitted with the base parameters"}
+                          "excess chi-square; refitted with the base parameters and every "
+                          "window's restart level"}
 
 
 def _gap(r, sd, use) -> float:
     return float(np.sqrt(np.mean((r * sd)[use] ** 2)))
 
 
+def _levels(model, sd):
+    r"""The windows' restart levels as free parameters: J (whitened, base columns first)
+    -> [n, windows] the whitened reading change per mm added to each window's restart
+    level, $1/s + \partial r/\partial o_g$ on its rows ($o_g$ its record's gauge offset:
+    the offset lowers the restart level and raises the reading by as much)."""
+    rec, win = per_sample(model.data, "record", "window")
+    _, wid = np.unique(win, return_inverse=True)
+    rows = np.arange(rec.size)
+
+    def columns(J):
+        out = np.zeros((rec.size, wid.max() + 1))
+        out[rows, wid] = 1.0 / sd + np.asarray(J)[rows, 6 + rec]
+        return out
+    return columns
+
+
 def fit_sparse_form(model, z, r, J, noise: float, use=None, *, gap=None,
-                    iterations: int = 8) -> SparseForm:
+                    iterations: int = 30, levels: bool = True) -> SparseForm:
     """Choose the sparse form of the whitened residual `r` at z (base Jacobian J) and
-    refit it with the base by Gauss-Newton steps through `model` (a step that does not
-    lower the gap halved) until a step closes less than 0.5 % of the excess; `use`: the
-    residuals the regression and gaps use; `gap`: the gap (mm) of whitened residuals
-    (default the RMS over `use`)."""
+    refit it with the base by Levenberg-Marquardt steps through `model` (the linear
+    terms, and with `levels` the windows' restart levels, solved at every point; a step
+    that does not lower chi-square damped more) until a step lowers the excess
+    chi-square by less than 0.2 %; `use`: the residuals the regression and gaps use;
+    `gap`: the gap (mm) of whitened residuals (default the RMS over `use`)."""
     sd = np.asarray(model.sd).ravel()[model.mask]
     use = np.ones(r.size, bool) if use is None else np.asarray(use, bool)
     gap_of = gap if gap is not None else (lambda rr: _gap(rr, sd, use))
     Cw = library(model, z, r, sd) / sd[:, None]
-    stick = np.array([t.phase == "stick" for t in TERMS])
+    stick = np.array([t.name in STICK_TERMS for t in TERMS])  # carried by the model
     scols = model.layout.stick_cols()  # TERMS begin with the stick terms, in their order
     _, Js, _ = model.evaluate(z, scols)
     Cw[:, stick] = -np.asarray(Js) / STICK_SCALE  # per mm of coefficient
     w = use.astype(float)
-    S, _ = select_terms(J * w[:, None], r * w, Cw * w[:, None])
+    level = _levels(model, sd) if levels else None
+    J = np.asarray(J, float)
+    S, _ = select_terms(np.hstack([J, level(J)]) * w[:, None] if levels else J * w[:, None],
+                        r * w, Cw * w[:, None])
     inside, add = S[stick[S]], S[~stick[S]]
     cols = np.r_[np.arange(model.n_base), scols[inside]]
     z_k, r_k = np.array(z, float), np.asarray(r, float)
-    Jk = np.hstack([np.asarray(J, float), -Cw[:, inside] * STICK_SCALE])
+    Jk = np.hstack([J, -Cw[:, inside] * STICK_SCALE])
     best = (gap_of(r), z_k, r_k, {}, {})
-    at, step = (z_k, r_k, Jk), 1.0  # the best point's residuals and Jacobian; the step share
+    # the added terms and, with `levels`, the windows' restart levels (at the base point,
+    # as the library's columns)
+    lin = np.hstack([Cw[:, add]] + ([level(J)] if levels else []))
+    gap_levels = best[0]
+    if levels:  # what the free levels alone do (linear, at the base point)
+        B = np.hstack([J, lin[:, add.size:]])
+        gap_levels = gap_of(r - B @ np.linalg.lstsq(B * w[:, None], r * w, rcond=None)[0])
+
+    def linear(r_k):  # their coefficients at the model's point (least squares)
+        coef = (np.linalg.lstsq(lin * w[:, None], r_k * w, rcond=None)[0] if lin.shape[1]
+                else np.zeros(0))
+        return r_k - lin @ coef, coef[:add.size]
+
+    at, lam = (z_k, r_k, Jk), 1e-3  # the best point's residuals and Jacobian; the damping
+    best_chi2 = float(np.sum((r * w) ** 2))
     for _ in range(iterations if S.size else 0):
         z_k, r_k, Jk = at
-        A = np.hstack([Jk, Cw[:, add]]) * w[:, None]
-        beta, *_ = np.linalg.lstsq(A, r_k * w, rcond=None)
+        A = np.hstack([Jk, lin]) * w[:, None]
+        # Levenberg-Marquardt on the model's coordinates (the linear ones undamped): the
+        # breakaways make the friction's steps far from linear
+        d = np.zeros(A.shape[1])
+        d[:cols.size] = np.sqrt(lam * np.maximum(np.sum(A[:, :cols.size] ** 2, axis=0), 1e-30))
+        beta, *_ = np.linalg.lstsq(np.vstack([A, np.diag(d)]), np.r_[r_k * w, np.zeros(d.size)],
+                                   rcond=None)
         z_k = z_k.copy()
-        z_k[cols] -= step * beta[:cols.size]
-        coef_add = beta[cols.size:]
+        z_k[cols] -= beta[:cols.size]
         r_k, Jk, ok = model.evaluate(z_k, cols)
         r_k, Jk = np.asarray(r_k), np.asarray(Jk)
-        r_new = r_k - Cw[:, add] @ coef_add
-        gap = gap_of(r_new) if np.all(ok) and np.isfinite(r_new).all() else np.inf
-        if not gap < best[0]:  # a step too long for the breakaways' nonlinearity: halve it
-            step *= 0.5
+        r_new, coef_add = linear(r_k)
+        chi2 = (float(np.sum((r_new * w) ** 2)) if np.all(ok) and np.isfinite(r_new).all()
+                else np.inf)
+        if not chi2 < best_chi2:  # a step too long for the breakaways' nonlinearity: damp more
+            lam *= 8.0
             continue
         A = np.hstack([Jk, Cw[:, add]]) * w[:, None]
         cov = np.linalg.pinv(A.T @ A) * max(float(np.sum((r_new * w) ** 2))
@@ -305,9 +407,11 @@ def fit_sparse_form(model, z, r, J, noise: float, use=None, *, gap=None,
         values = np.r_[z_k[scols[inside]] * STICK_SCALE, coef_add]
         se = np.r_[se[:inside.size] * STICK_SCALE, se[inside.size:]]
         order = np.r_[inside, add]
-        small = best[0] - gap < 0.005 * max(best[0] - noise, 0.0)
-        best, at = (gap, z_k, r_new, dict(zip(order, values)), dict(zip(order, se))), (
+        small = best_chi2 - chi2 < 0.002 * max(best_chi2 - w.sum(), 0.0)
+        best_chi2 = chi2
+        best, at = (gap_of(r_new), z_k, r_new, dict(zip(order, values)), dict(zip(order, se))), (
             z_k, r_k, Jk)
+        lam = max(lam / 4.0, 1e-6)
         if small:
             break
     gap_after, z_after, r_after, coef, se = best
@@ -321,4 +425,4 @@ def fit_sparse_form(model, z, r, J, noise: float, use=None, *, gap=None,
     closes = (gap_before - gap_after) / max(gap_before - noise, 1e-300)
     return SparseForm(terms=terms, gap_before=gap_before, gap_after=gap_after,
                       noise=float(noise), found=bool(terms) and closes >= FOUND_SHARE,
-                      z=z_after, r=r_after)
+                      z=z_after, r=r_after, gap_levels=gap_levels)
