@@ -66,6 +66,7 @@ from ..params import EmpiricalFriction
 from ..solve.fit import COMPILER_OPTIONS
 from .cycle_effects import (DAMPING_FORMS, FAMILIES, STICK_SCALE, STICK_TERMS, STRIBECK_FORMS,
                             Family, Shape, drive_error, stick_terms)
+from .later import Later
 
 __all__ = ["BLOCK", "CycleModel", "Later", "N_STEPS", "TAIL_STEPS", "kernel_cdf",
            "per_sample", "previous_rows", "tail_sources", "window_rows"]
@@ -359,11 +360,13 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
                  Fd=Fd, tau=tau, T1m=T1m, delay=delay)
 
 
-def _render(sl: _Slip, eff: _Eff, shape, sensor, v, tref, tw, poly, ts):
-    """One row of a window (`sl`, `_slip`) at the sample times ts [L]: (the deflection
-    as read by the gauge, without offset [L] (mm); slider velocity [L] (mm/s); ok)."""
+def _render(sl: _Slip, w, eff: _Eff, shape, sensor, v, tref, tw, poly, ts):
+    """One sample of window `w` at the time ts (s): (the deflection as read by the gauge,
+    without offset (mm); slider velocity (mm/s)). `sl`: the window's `_Slip` numbers, its
+    grids (Y, YD, F, Fd) those of every window [W, K], read at row `w`."""
     u = _drive(eff, v, tref, tw, poly, shape[3])
-    t0, t_b, h, Y, YD, t_stop = sl.t0, sl.t_b, sl.h, sl.Y, sl.YD, sl.t_stop
+    t0, t_b, h, t_stop = sl.t0, sl.t_b, sl.h, sl.t_stop
+    Y, YD = (lambda j: sl.Y[w, j]), (lambda j: sl.YD[w, j])  # a node, not the row
     line = _stick_line(sl.x0, eff, u, t0, sl.u0, tw, sl.T1m, v)
 
     def render(t):
@@ -371,7 +374,7 @@ def _render(sl: _Slip, eff: _Eff, shape, sensor, v, tref, tw, poly, ts):
         tau = (t - t_b) / h
         j = jnp.clip(jnp.floor(tau), 0, N_STEPS - 1).astype(jnp.int32)
         f = jnp.clip(tau - j, 0.0, 1.0)
-        y0, y1, m0, m1 = Y[j], Y[j + 1], YD[j] * h, YD[j + 1] * h
+        y0, y1, m0, m1 = Y(j), Y(j + 1), YD(j) * h, YD(j + 1) * h
         y = _hermite(y0, y1, m0, m1, f)
         yd = _hermite_slope(y0, y1, m0, m1, f) / h
         ut = u(t)
@@ -382,20 +385,18 @@ def _render(sl: _Slip, eff: _Eff, shape, sensor, v, tref, tw, poly, ts):
         return x, yd
 
     if sensor:
-        F, Fd, last = sl.F, sl.Fd, TAIL_STEPS - 1
+        F, Fd, last = (lambda j: sl.F[w, j]), (lambda j: sl.Fd[w, j]), TAIL_STEPS - 1
         s_ = (ts - t_b) / h
         j = jnp.clip(jnp.floor(s_), 0, last - 1).astype(jnp.int32)
         f = jnp.clip(s_ - j, 0.0, 1.0)
-        Fv = _hermite(F[j], F[j + 1], Fd[j] * h, Fd[j + 1] * h, f)
-        Fv = jnp.where(ts < t_b, 0.0, jnp.where(s_ > last, F[last], Fv))
+        Fv = _hermite(F(j), F(j + 1), Fd(j) * h, Fd(j + 1) * h, f)
+        Fv = jnp.where(ts < t_b, 0.0, jnp.where(s_ > last, F(last), Fv))
         q_b = sl.x_b - (sl.x0 + sl.u_b - sl.u0)  # the stick terms' part at the breakaway
         x = jnp.where(ts < t_b, line(ts - sl.tau), sl.x0 + u(ts - sl.tau) - sl.u0 + q_b) - Fv
         yd = render(ts)[1]
     else:
         x, yd = render(ts)
-    read = x + eff.r_g * (ts - tref)
-    ok = sl.ok & jnp.all(jnp.isfinite(read))
-    return read, yd, ok
+    return x + eff.r_g * (ts - tref), yd
 
 
 class _Layout(eqx.Module):
@@ -447,12 +448,14 @@ def _effects_of(layout: _Layout, theta, record):
                 stick=theta[theta.shape[0] - len(STICK_TERMS):])
 
 
-def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layout):
-    """(gauge reading incl. offset [N, L], slider velocity [N, L], ok [N]). `prev`:
+def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layout, idx):
+    """(gauge reading incl. offset [n], slider velocity [N, L] (0 at the padding), ok [N])
+    at the samples `idx` (flat indices of the unpadded entries of [N, L]). `prev`:
     ([N] the row whose slip's tail the gauge still owes at the window's start, or -1;
     [N] where that slip began, s) (`tail_sources`), then ([W] the first row of every
     window; [N] every row's window among them) (`window_rows`): a window's stick and
-    slip are solved once (`_slip`) and rendered for each of its rows (`_render`)."""
+    slip are solved once (`_slip`) and rendered at each of its samples (`_render`), the
+    unpadded ones only (the padding: up to a third of a thinned campaign's entries)."""
     prev, began, first, slot = prev
     tref, tstart = tref[0], tref[1]
     nat = z * scales
@@ -479,13 +482,21 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
         data.record, data.weight, data.stiffness, data.speed, data.start_time, x0,
         data.stick_time, data.drive_poly, data.normal_load)))
 
-    def one_row(s, rec, v, tw, poly, ts):
-        sl = jax.tree.map(lambda a: a[s], slips)
-        eff = _effects_of(layout, theta, rec)
-        return _render(sl, eff, shape, sensor, v, tref[rec], tw, poly, ts)
+    N, L = data.time.shape
+    row = idx // L
+    rec_e = data.record[row]
 
-    read, yd, ok = jax.vmap(one_row)(slot, data.record, data.speed, data.start_time,
-                                     data.drive_poly, data.time)
+    def one_sample(s, rec, v, tw, poly, ts):
+        sl = jax.tree.map(lambda a: a[s] if a.ndim == 1 else a, slips)  # grids: whole
+        eff = _effects_of(layout, theta, rec)
+        return _render(sl, s, eff, shape, sensor, v, tref[rec], tw, poly, ts)
+
+    read, yd = jax.vmap(one_sample)(slot[row], rec_e, data.speed[row],
+                                    data.start_time[row], data.drive_poly[row],
+                                    data.time.ravel()[idx])
+    bad = jnp.zeros(N, bool).at[row].max(~jnp.isfinite(read))
+    ok = slips.ok[slot] & ~bad
+    yd = jnp.zeros(N * L).at[idx].set(yd).reshape(N, L)
     if sensor:
         # the gauge still settles from the previous slip when a window starts: the
         # measured restart level is the settled stick line (`features`: the plateau
@@ -494,20 +505,15 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
         # time that slip as read, `_Slip.delay`: the model's breakaway may miss it by
         # the stick time's scatter; at tau instead, 0.6 ms late at 20 Hz, +0.5..1.3 um
         # at every window's start, noise 0.5 um, taken up by damping or load coupling)
-        p = slot[jnp.maximum(prev, 0)]
+        p = slot[jnp.maximum(prev, 0)][row]  # per sample: the window of that slip
         E = slips.F[:, -1:] - slips.F  # [W, TAIL_STEPS]: what each slip still owes after it
-        origin = began - slips.delay[p]
-
-        def owed(t):  # [N, L]: the previous slip's tail at times t (0 beyond its grid)
-            s_ = (t - origin[:, None]) / slips.h[p][:, None]
-            j = jnp.clip(jnp.floor(s_), 0, TAIL_STEPS - 2).astype(jnp.int32)
-            f = jnp.clip(s_ - j, 0.0, 1.0)
-            Ep = E[p]
-            e = (1 - f) * jnp.take_along_axis(Ep, j, 1) + f * jnp.take_along_axis(Ep, j + 1, 1)
-            return jnp.where((s_ >= 0) & (s_ <= TAIL_STEPS - 1), e, 0.0)
-
-        read = read + jnp.where((prev >= 0)[:, None], owed(data.time), 0.0)
-    return read + offset[data.record][:, None], yd, ok
+        s_ = (data.time.ravel()[idx] - (began[row] - slips.delay[p])) / slips.h[p]
+        j = jnp.clip(jnp.floor(s_), 0, TAIL_STEPS - 2).astype(jnp.int32)
+        f = jnp.clip(s_ - j, 0.0, 1.0)
+        owed = jnp.where((s_ >= 0) & (s_ <= TAIL_STEPS - 1),
+                         (1 - f) * E[p, j] + f * E[p, j + 1], 0.0)
+        read = read + jnp.where(prev[row] >= 0, owed, 0.0)
+    return read + offset[rec_e], yd, ok
 
 
 def per_sample(data: TraceData, *fields: str) -> list[np.ndarray]:
@@ -576,10 +582,9 @@ def tail_sources(data: TraceData) -> tuple[np.ndarray, np.ndarray]:
 
 
 @eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
-def _value(z, scales, shape, sensor, data, tref, prev, sd, layout):
-    read, yd, ok = _model(z, scales, shape, sensor, data, tref, prev, layout)
-    r = jnp.where(data.mask, (data.deflection - read) / sd, 0.0)
-    return r, yd, ok
+def _value(z, scales, shape, sensor, data, tref, prev, sd, layout, idx):
+    read, yd, ok = _model(z, scales, shape, sensor, data, tref, prev, layout, idx)
+    return (data.deflection.ravel()[idx] - read) / sd.ravel()[idx], yd, ok
 
 
 @eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
@@ -588,8 +593,8 @@ def _value_and_block(z, T, scales, shape, sensor, data, tref, prev, sd, layout, 
     `idx` (flat indices of the unpadded samples) and their derivatives along the B
     tangents T [size, B]."""
     def f(zz):
-        read, yd, ok = _model(zz, scales, shape, sensor, data, tref, prev, layout)
-        return ((data.deflection - read) / sd).ravel()[idx], (ok, yd)
+        read, yd, ok = _model(zz, scales, shape, sensor, data, tref, prev, layout, idx)
+        return (data.deflection.ravel()[idx] - read) / sd.ravel()[idx], (ok, yd)
 
     def col(t):
         return jax.jvp(f, (z,), (t,), has_aux=True)
@@ -597,35 +602,6 @@ def _value_and_block(z, T, scales, shape, sensor, data, tref, prev, sd, layout, 
     # the primal does not depend on the tangent: computed once, not per column
     r, J, (ok, yd) = jax.vmap(col, in_axes=1, out_axes=(None, -1, None))(T)
     return r, J, ok, yd
-
-
-class Later:
-    """A `Future` of a call that starts, in a thread of its own, at its first `start()`
-    or `result()` (a program only some campaigns need, compiled while the caller works
-    once it is known to be needed); `cancel()` before that: never started."""
-
-    def __init__(self, fn, *args, **kwargs):
-        self._call, self._future, self._cancelled = (fn, args, kwargs), None, False
-
-    def start(self) -> Later:
-        if self._future is None and not self._cancelled:
-            fn, args, kwargs = self._call
-            pool = concurrent.futures.ThreadPoolExecutor(1, thread_name_prefix="stickslip-warm")
-            self._future = pool.submit(fn, *args, **kwargs)
-            pool.shutdown(wait=False)
-        return self
-
-    def result(self):
-        if self._future is None and self._cancelled:  # asked for after all: run here
-            fn, args, kwargs = self._call
-            return fn(*args, **kwargs)
-        return self.start()._future.result()
-
-    def cancel(self) -> bool:
-        if self._future is None:
-            self._cancelled = True
-            return True
-        return self._future.cancel()
 
 
 class CycleModel:
@@ -735,8 +711,9 @@ class CycleModel:
         (the secant probes: 48 calls) a program of its own."""
         if sensor:
             r, yd, ok = _value(jnp.asarray(z), self._scales, self._shape(shape), True,
-                               self.data, self.tref, self._prev, self.sd, self.layout)
-            return np.asarray(r).ravel()[self.mask], np.asarray(yd), np.asarray(ok)
+                               self.data, self.tref, self._prev, self.sd, self.layout,
+                               self._idx)
+            return np.asarray(r), np.asarray(yd), np.asarray(ok)
         r, _, ok, yd = self._block(jnp.asarray(z), np.zeros((self.layout.size, 1)),
                                    self._shape(shape), False)
         return np.asarray(r), np.asarray(yd), np.asarray(ok)
