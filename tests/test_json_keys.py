@@ -82,7 +82,8 @@ def _pitch_records(folder: pathlib.Path) -> list[str]:
 
 @pytest.fixture(scope="module")
 def documents(tmp_path_factory, clean_discovery):
-    """{command: its --json document} on small inputs, every option that adds keys on;
+    """{command: its --json document} on small inputs, every option that adds keys on
+    (mcmc: the fit's records and test_api_results's walkers, their compiled programs);
     discover's: test_cycle_discovery's clean campaign with its options (`--learn`; conftest
     `clean_discovery`: the learned correction and the null reasons, run once)."""
     d = tmp_path_factory.mktemp("json_keys")
@@ -93,7 +94,7 @@ def documents(tmp_path_factory, clean_discovery):
                    "--max-amplitude", "1um", "--quiet"],
         "plan": ["plan", "A", "--budget", "2", "--quiet"],
         "fit": ["fit", *EXAMPLES, "--quiet"],
-        "mcmc": ["mcmc", *EXAMPLES[:4], "--steps", "20", "--walkers", "14", "--quiet"],
+        "mcmc": ["mcmc", *EXAMPLES, "--steps", "20", "--walkers", "12", "--quiet"],
         "pitch": ["pitch", *_pitch_records(d), "--fit"],
         "fit-batch": ["fit-batch", str(ROOT / "data" / "examples" / "A_W36_k27.3_*.csv"),
                       str(d / "no_such_folder"), "--quiet"],

@@ -90,11 +90,12 @@ def test_fit_and_mcmc_stage_lines(capsys):
     _assert_in_order(stages, "fitting 12 records (objective features, model empirical)",
                      "fit converged", "report done")
     assert "mu_s" in captured.out and "fitting 12" not in captured.out  # the table: stdout
-    assert main(["mcmc", *EXAMPLES[:4], "--steps", "12", "--walkers", "14"]) == 0
+    # the fit's records and test_json_keys's walkers: their compiled programs
+    assert main(["mcmc", *EXAMPLES, "--steps", "12", "--walkers", "12"]) == 0
     stages = _stages(capsys.readouterr().err, "mcmc")
-    _assert_in_order(stages, "fitting 4 records", "sampling: 14 walkers x 12 steps",
+    _assert_in_order(stages, "fitting 12 records", "sampling: 12 walkers x 12 steps",
                      "sampling done: acceptance")
-    assert main(["mcmc", *EXAMPLES[:4], "--steps", "12", "--walkers", "14", "--quiet"]) == 0
+    assert main(["mcmc", *EXAMPLES, "--steps", "12", "--walkers", "12", "--quiet"]) == 0
     assert _stages(capsys.readouterr().err, "mcmc") == []
 
 
