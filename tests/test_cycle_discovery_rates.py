@@ -127,6 +127,9 @@ def summarise(rows):
                 found_gap_ok=all(r["gap_after"] <= 1.15 for r in found),
                 outside_high=[r["kind"] for r in outside
                               if r["confidence"] == "high" and r["effect"] not in ("none",)],
+                # answered by a library family (a low-confidence wrong name still misleads)
+                outside_named=[r["kind"] for r in outside
+                               if r["effect"] not in ("sparse_form", "unexplained", "none")],
                 # an outside effect left unexplained: the learned phase correction must
                 # close at least half the gap's excess over the noise
                 outside_learned=[(r["kind"], r["learned_closes"]) for r in outside
@@ -172,6 +175,9 @@ def test_discovery_rates_do_not_regress(rows):
     s = summarise(rows)
     assert s["false_alarms"] <= 0.05
     assert not s["outside_high"]
+    # the outside effects by their form, not a family's name (measured: both sparse_form,
+    # creep 1.58 -> 1.04 and the 0.1 stiffening 1.03 -> 1.00 x the noise)
+    assert len(s["outside_named"]) <= 1, s["outside_named"]
     assert not s["wrong_high"]
     assert s["found"] >= 0.6
     assert not [(r["kind"], r["silent_failures"]) for r in rows if r["silent_failures"]]

@@ -303,6 +303,13 @@ class SparseForm:
         return float((self.gap_before - self.gap_after) / excess) if excess > 0 else 0.0
 
     @property
+    def closes_beyond_levels(self) -> float:
+        """The share of the excess left by the free restart levels alone that the terms
+        close (`gap_levels`)."""
+        excess = self.gap_levels - self.noise
+        return float((self.gap_levels - self.gap_after) / excess) if excess > 0 else 0.0
+
+    @property
     def formula(self) -> str:
         """The terms in words and symbols."""
         return "; ".join(f"{t['phase']}: {t['words']}, {t['coefficient']:+.3g} "
@@ -312,6 +319,7 @@ class SparseForm:
         return {"found": self.found, "formula": self.formula, "terms": list(self.terms),
                 "gap_before": self.gap_before, "gap_after": self.gap_after,
                 "gap_levels_alone": self.gap_levels,
+                "closes_beyond_levels": self.closes_beyond_levels,
                 "noise": self.noise, "gap_unit": "mm", "closes": self.closes,
                 "library": [t.name for t in TERMS],
                 "method": "sequentially thresholded least squares over the library, "
