@@ -31,7 +31,7 @@ if TYPE_CHECKING:
 
     from ..uncertainty.mcmc import McmcResult
 
-__all__ = ["POSTERIOR_COLUMNS", "CampaignPosterior", "sample"]
+__all__ = ["POSTERIOR_COLUMNS", "CampaignPosterior", "check_sampler", "sample"]
 
 POSTERIOR_COLUMNS = ("median", "low", "high", "unit", "sd", "mean", "tau_steps", "ess")
 """The columns of `CampaignPosterior.summary()` (low, high: the central 95 % interval;
@@ -148,19 +148,11 @@ def sample(records: RecordsSpec | CampaignFit, *, steps: int = 3000, walkers: in
 
     Every mistake in the options raises ValueError naming the keyword, before the fit.
     """
-    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
-        raise ValueError(f"seed: an integer in 0 to 2**32 - 1, got {seed!r}")
-    if draws < 1:
-        raise ValueError(f"draws: need at least 1 draw, got {draws}")
-    if steps < 10:
-        raise ValueError(f"steps: need at least 10 steps, got {steps}")
-    free = 6 - len(fit_options.get("fix") or {})
-    if walkers < 2 * max(free, 1):
-        raise ValueError(f"walkers: need at least {2 * max(free, 1)} walkers (twice the "
-                         f"{max(free, 1)} free parameters), got {walkers}")
-    if burn is not None and not 0 <= burn < steps:
-        raise ValueError(f"burn: must lie in [0, steps), got {burn}")
-    if isinstance(records, CampaignFit):
+    given = isinstance(records, CampaignFit)
+    free = (sum(not p.get("fixed", False) for p in records.parameters.values()) if given
+            else 6 - len(fit_options.get("fix") or {}))
+    check_sampler(steps=steps, walkers=walkers, burn=burn, seed=seed, draws=draws, free=free)
+    if given:
         if fit_options:
             raise ValueError(f"{', '.join(fit_options)}: the options of the fit given; give "
                              "the records to fit with other options")
@@ -191,3 +183,20 @@ def sample(records: RecordsSpec | CampaignFit, *, steps: int = 3000, walkers: in
     doc = mcmc_document(res, cf.fit, cf.campaign, model=cf.model,
                         truth=truth, max_draws=draws, extra=extra)
     return CampaignPosterior(report=doc, mcmc=res, campaign_fit=cf, truth=truth)
+
+
+def check_sampler(*, steps: int, walkers: int, burn: int | None, seed: int, draws: int,
+                  free: int) -> None:
+    """The sampler's settings of `sample` checked before any fit: a ValueError naming the
+    keyword (`free`: the parameters sampled, half the least number of walkers)."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
+        raise ValueError(f"seed: an integer in 0 to 2**32 - 1, got {seed!r}")
+    if draws < 1:
+        raise ValueError(f"draws: need at least 1 draw, got {draws}")
+    if steps < 10:
+        raise ValueError(f"steps: need at least 10 steps, got {steps}")
+    if walkers < 2 * max(free, 1):
+        raise ValueError(f"walkers: need at least {2 * max(free, 1)} walkers (twice the "
+                         f"{max(free, 1)} free parameters), got {walkers}")
+    if burn is not None and not 0 <= burn < steps:
+        raise ValueError(f"burn: must lie in [0, steps), got {burn}")

@@ -127,6 +127,10 @@ def run(args) -> int:
     from ..report.fit_table import batch_csv, batch_table
     from ..solve.batch import ERROR, fit_batch
 
+    # the outputs against every campaign's files, listed before any campaign is read:
+    # each campaign's one data step (`fit_from_args`) runs later, on the process given
+    # its share, and a clash found there would fail one campaign and write the others'
+    # outputs over a record
     inputs = []
     for spec in args.campaigns:
         try:

@@ -12,6 +12,7 @@ of the walkers are printed, R-hat only indicative); `--plot` the corner plot.
 from __future__ import annotations
 
 import argparse
+import contextlib
 
 NAME = "mcmc"
 HELP = "sample the posterior of the friction parameters (emcee) for a campaign of records"
@@ -49,29 +50,32 @@ def add_arguments(parser):
     parser.add_argument("--no-progress", action="store_true", help=argparse.SUPPRESS)
 
 
-SAMPLER_KEYWORDS = ("seed", "draws", "steps", "walkers", "burn", "eta", "surface")
+SAMPLER_KEYWORDS = ("seed", "draws", "steps", "walkers", "burn")
 """Keywords of `stickslip_fitting.sample` whose errors name the command's option."""
 
 
-def posterior(args):
-    """`stickslip_fitting.sample` with the command line's options (errors name them)."""
-    import warnings
+def posterior(args, outputs: dict | None = None):
+    """`stickslip_fitting.sample` around the fit of `stickslip fit` (`fit.fit_from_args`:
+    `api.campaign.fit_campaign`, its one data step checking `outputs` {option: path}
+    against the records read), the sampler's settings checked before the fit (errors
+    name the command's options)."""
+    from ..api.posterior import check_sampler, sample
+    from .fit import check_model_options, fit_from_args
 
-    from ..api.posterior import sample
-    from ..objectives.losses import parse_loss
-    from .fit import check_model_options
+    settings = dict(steps=args.steps, walkers=args.walkers, burn=args.burn, seed=args.seed,
+                    draws=args.draws)
+    with _options_named():
+        check_sampler(**settings, free=6 - len(check_model_options(args)))
+    fitted = fit_from_args(args, objective=args.objective, outputs=outputs)
+    with _options_named():
+        return sample(fitted, **settings, progress=not (args.quiet or args.no_progress))
 
-    fixed = check_model_options(args)
+
+@contextlib.contextmanager
+def _options_named():
+    """A sampler keyword's ValueError ("seed: ...") as the command's option ("--seed: ...")."""
     try:
-        with warnings.catch_warnings():  # the table's warnings say it
-            warnings.filterwarnings("ignore", "the fit did not converge", RuntimeWarning)
-            return sample(
-                args.records, steps=args.steps, walkers=args.walkers, burn=args.burn,
-                seed=args.seed, draws=args.draws, model=args.model, objective=args.objective,
-                fix=fixed, loss=parse_loss(args.loss), gauge_offset=args.offset,
-                slip_time=args.slip_time, strict=args.strict, surface=args.surface or "S1G1",
-                eta=None if args.eta is None else f"{args.eta!r} kgf*s/mm^2",
-                progress=not (args.quiet or args.no_progress))
+        yield
     except ValueError as err:
         head, colon, rest = str(err).partition(":")
         if head not in SAMPLER_KEYWORDS:
@@ -82,19 +86,15 @@ def posterior(args):
 def run(args) -> int:
     import sys
 
-    from stickslip_jax.output import check_outputs
-    from stickslip_jax.records import record_paths
-
     from ..uncertainty.mcmc import ENSEMBLE_CAVEAT, MissingExtra, import_arviz
 
-    check_outputs({"--json": args.json, args.plot_option: args.plot, "--chain": args.chain},
-                  record_paths(args.records))
     if args.chain == "-":
         raise ValueError("--chain: give a file name such as chain.nc (netCDF is not written "
                          "to stdout)")
     if args.chain:
         import_arviz("--chain")  # before the fit: a one-line error naming the extra
-    post = posterior(args)
+    post = posterior(args, {"--json": args.json, args.plot_option: args.plot,
+                            "--chain": args.chain})
     res, report = post.mcmc, post.report
     for w in post.campaign_fit.campaign.warnings:
         print("warning: " + w)
