@@ -23,7 +23,8 @@ from stickslip_jax.modes import AbstractMode, GaugeOffset, SlipTime
 
 __all__ = ["Covariance", "Crop", "DesignCriterion", "DiscoveryBase", "FrictionLaw",
            "MapMethod", "ModelModes",
-           "Objective", "Padding", "SmallSample", "SolverOptions", "Weighting", "check_member"]
+           "Objective", "Padding", "SmallSample", "SolverOptions", "Weighting", "When",
+           "check_member"]
 
 
 class Objective(AbstractMode):
@@ -153,6 +154,16 @@ class FrictionLaw(AbstractMode):
     RATE_STATE_SLIP = "rate_state_slip"
     LOG_AGING = "log_aging"
     option = classmethod(lambda cls: "law")
+
+
+class When(AbstractMode):
+    """Which estimates of a discovery (`api.discovery.CampaignDiscovery.parameters`):
+    `BEFORE` ("before"), the paper's model alone, or `AFTER` ("after", the default), with
+    the named effects.
+    """
+
+    BEFORE = "before"
+    AFTER = "after"
 
 
 def check_member(name: str, value, kind: type) -> None:

@@ -247,3 +247,30 @@ def test_fit_option_groups_are_typed_frozen_and_have_defaults():
     with pytest.raises(TypeError, match="slip_time: a member of SlipTime"):
         ModelModes(slip_time="paper")
 
+
+
+def test_discovery_parameters_take_a_when_member_or_its_string():
+    """`CampaignDiscovery.parameters(when)`: `When.BEFORE` / `When.AFTER` or their strings
+    pick the estimates before or after the named effects; another value is a ValueError
+    naming `when` and the choices (on a stand-in with the JSON document's two keys, no
+    discovery run)."""
+    import types
+
+    import stickslip_fitting as sf
+    from stickslip_fitting.api.discovery import CampaignDiscovery
+    from stickslip_fitting.modes import When
+
+    def entry(value):
+        return {"value": value, "stderr": 0.01, "ci95": [value - 0.02, value + 0.02],
+                "unit": "-", "identifiable": True}
+
+    found = types.SimpleNamespace(report={"estimates_before": {"mu_d": entry(0.2)},
+                                          "estimates_after": {"mu_d": entry(0.3)}})
+    assert sf.When is When and When.parse("before") is When.BEFORE
+    for when, value in ((When.BEFORE, 0.2), ("before", 0.2), (When.AFTER, 0.3),
+                        ("after", 0.3)):
+        assert CampaignDiscovery.parameters(found, when).loc["mu_d", "value"] == value
+    assert CampaignDiscovery.parameters(found).loc["mu_d", "value"] == 0.3  # after
+    with pytest.raises(ValueError, match=r"when must be one of \('before', 'after'\), "
+                                         r"got 'later'"):
+        CampaignDiscovery.parameters(found, "later")

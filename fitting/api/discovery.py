@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING
 
 from stickslip_jax.records import Record
 
+from ..modes import When
 from ..report.discovery_text import answer_text, json_document, named_effects
 from .campaign import RecordsSpec, as_list, loss_option, parameter_frame
 from .results import ResultDocument, pandas_module
@@ -109,13 +110,13 @@ class CampaignDiscovery(ResultDocument):
         frame.index.name = "family" if cycle else "effect"
         return frame
 
-    def parameters(self, when: str = "after") -> pandas.DataFrame:
-        """The friction parameters (and the named effects' as "effect.name") "before" or
-        "after" the named effects, with the columns of `CampaignFit.summary()` (NaN with
-        the reason where the records do not determine a value). Needs pandas."""
-        if when not in ("before", "after"):
-            raise ValueError(f"when: 'before' or 'after', got {when!r}")
-        return parameter_frame(self.report[f"estimates_{when}"],
+    def parameters(self, when: When | str = When.AFTER) -> pandas.DataFrame:
+        """The friction parameters (and the named effects' as "effect.name") `When.BEFORE`
+        or `When.AFTER` the named effects (or its string, "before", "after"), with the
+        columns of `CampaignFit.summary()` (NaN with the reason where the records do not
+        determine a value). Needs pandas."""
+        when = When.parse(when)
+        return parameter_frame(self.report[f"estimates_{when.value}"],
                                "CampaignDiscovery.parameters()")
 
     @property
