@@ -40,7 +40,7 @@ window's cost grows with its events, not with its samples), far from the data th
 stopped once they cannot win (`refit.CANNOT_WIN`), the compressed Jacobian (an
 evaluation's last tangent block 4 wide where its tangents fit, `cycle_model.BLOCK`), the
 FFT sensor kernel, the vectorised pitch scan, a window's slip solved once for all its
-rows, the weights as one compiled program, the host Levenberg-Marquardt update in NumPy,
+rows and rendered at its unpadded samples only, the weights as one compiled program, the host Levenberg-Marquardt update in NumPy,
 and the model's programs compiled in a warm-up thread while the campaign is prepared:
 three of them (the Jacobian block without and with the sensor kernel, whose spectrum is
 computed once per record; the sensor's residuals; the other residuals run the Jacobian
