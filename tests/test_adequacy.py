@@ -126,3 +126,31 @@ def test_correlated_stick_times_p_value_is_calibrated():
     row = PhaseRow("r", "levels", 4, 2.0)
     assert row.p_value() == pytest.approx(chi2.sf(8.0, 4))
     assert PhaseRow("r", "stick_times", 4, 2.0, False, STICK_LAGS).p_value() > row.p_value()
+
+
+def test_law_fit_is_judged_on_its_own_residuals():
+    """A law other than the paper's is judged on its whole-records objective's own
+    residuals, split at the records' detected slips (breakaway to slip end), padding left
+    out; its hints cite none of the paper's equations. A stand-in fit: no simulation."""
+    from types import SimpleNamespace as NS
+
+    time = np.tile(np.arange(10.0), (2, 1))  # from each record's first slip end
+    mask = np.ones((2, 10), bool)
+    mask[1, 8:] = False  # padding of the shorter record
+    r = np.ones((2, 10))
+    r[0, 3:5] = 10.0  # record a's slip, 11 s up to 13 s on its own clock (8 s on)
+    r[1, 8:] = 1e3  # padding's value never counts
+    obj = NS(data=NS(time=time, mask=mask), residuals=lambda params: r.ravel())
+    feats = [NS(name="a", breakaway_time=np.array([0.0, 11.0]), end_time=np.array([8.0, 13.0])),
+             NS(name="b", breakaway_time=np.array([1.0]), end_time=np.array([2.0]))]
+    law = type("Law", (), {"MODEL": "log_aging"})  # hashable: the residuals' static argument
+    fit = NS(params=type("Params", (), {"friction": law}), features=feats, objective=obj,
+             record_scale=None, reduced_chi2=20.0)
+    rep = adequacy(fit)
+    rows = {(row.record, row.phase): (row.n, row.chi2_per_n) for row in rep.rows}
+    assert rows == {("a", "stick"): (8, 1.0), ("a", "slip"): (2, 100.0),
+                    ("b", "stick"): (8, 1.0)}
+    assert rep.verdict == "misses"
+    text = " ".join(rep.sentences)
+    assert "1 of 2 records" in rep.sentences[0] and "slip: chi2/n above" in text
+    assert "eq (" not in text and "paper" not in text

@@ -1,6 +1,6 @@
 """`stickslip fit --law`: a base law other than the paper's, fitted through whole records;
-its table, adequacy sentences and JSON name the law, and a wrong option is one line
-before any work."""
+its table, adequacy sentences and JSON name the law, its adequacy rows are its own
+residuals', and a wrong option is one line before any work."""
 
 from __future__ import annotations
 
@@ -35,6 +35,15 @@ def test_fit_law_names_the_law_in_table_and_json(tmp_path, capsys):
     assert list(rep["parameters"]) == list(LOG_NAMES)
     assert rep["adequacy"]["sentences"][0].startswith("The log_aging law ")
     assert sum(r.get("status", "used") == "used" for r in rep["records"]) == 3
+    # judged on the law fit's own residuals: its rows add up to its chi2/dof (the paper's
+    # feature residuals at these parameters reach chi2/n 1e3-1e9), hints without eq (...)
+    rows = rep["adequacy"]["rows"]
+    assert {r["phase"] for r in rows} == {"stick", "slip"}
+    n = sum(r["n"] for r in rows)
+    pooled = sum(r["n"] * r["chi2_per_n"] for r in rows) / n
+    assert pooled == pytest.approx(rep["adequacy"]["reduced_chi2"], rel=0.02)
+    assert max(r["chi2_per_n"] for r in rows) < 100 * rep["adequacy"]["reduced_chi2"]
+    assert "eq (" not in text.out
 
 
 @pytest.mark.parametrize("extra, words", [

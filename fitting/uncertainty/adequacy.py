@@ -13,6 +13,13 @@ eqs (1) and (3)), "stick_times" (eq (6)), "start_level" (`--offset start` only),
 "trace_stick" and "trace_slip" (the trace objective's samples while the fitted slider
 sticks or slips). A fit is judged on what it fitted: a trace fit on its samples only, a
 combined fit on both. Which phase misses names the likely cause (`PHASE_HINT`).
+
+A base law other than the paper's (`stickslip fit --law`, fitted through whole records by
+`solve.laws.fit_law`) is judged on its own objective's residuals only, the whole records'
+samples, split by the records' measured phases (`_law_rows`): "stick" (outside the
+detected slips) and "slip" (from a detected breakaway to its slip end); the paper's
+feature residuals would measure its equations, not the law. Their hints (`LAW_HINT`)
+name no equation of the paper.
 """
 
 from __future__ import annotations
@@ -45,6 +52,13 @@ PHASE_HINT = {
                    "creep, sensor dynamics)",
     "trace_slip": "the slips' shape differs from the model's half cosine (damping, "
                   "Stribeck, sensor dynamics): `stickslip discover` names the effect"}
+
+LAW_HINT = {
+    "stick": "the sticks differ from the law's (creep before breakaway, a drive error, the "
+             "breakaway level's dependence on the stick time or the drive speed)",
+    "slip": "the slips differ from the law's (their drop, duration or shape: the law's "
+            "velocity dependence, damping, sensor dynamics)"}
+"""The hints of a law fit's phases (`_law_rows`)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -105,6 +119,12 @@ class Adequacy:
                 "rows": [r.to_json() for r in self.rows], "sentences": list(self.sentences)}
 
 
+def _heavy_tailed(x: np.ndarray) -> bool:
+    """`PhaseRow.heavy_tailed` of the residuals `x` (`TAIL_RATIO`)."""
+    mad = 1.4826 * float(np.median(np.abs(x - np.median(x))))
+    return bool(x.size >= 8 and math.sqrt(float(np.mean(x**2))) > TAIL_RATIO * mad)
+
+
 def _features_rows(fit, names, scale) -> list[PhaseRow]:
     from ..objectives.combined import FeaturesObjective
     from ..solve.fit import compiled
@@ -123,9 +143,7 @@ def _features_rows(fit, names, scale) -> list[PhaseRow]:
             if sel.any():
                 x = parts[block][sel]
                 chi = float(np.mean(x**2)) * scale[i] ** 2
-                mad = 1.4826 * float(np.median(np.abs(x - np.median(x))))
-                heavy = x.size >= 8 and math.sqrt(float(np.mean(x**2))) > TAIL_RATIO * mad
-                rows.append(PhaseRow(name, label, int(sel.sum()), chi, bool(heavy),
+                rows.append(PhaseRow(name, label, int(sel.sum()), chi, _heavy_tailed(x),
                                      lags.get(block, (0.0, 0.0))))
     return rows
 
@@ -145,6 +163,30 @@ def _trace_rows(fit, names, td) -> list[PhaseRow]:
             sel = mask & where & (rec == i)[:, None]
             if sel.any():
                 rows.append(PhaseRow(name, label, int(sel.sum()), float(np.mean(r[sel] ** 2))))
+    return rows
+
+
+def _law_rows(fit, names) -> list[PhaseRow]:
+    """Rows of a whole-records fit (`objectives.smooth.SmoothObjective`) from its own
+    residuals, in the records' own errors: per record its samples inside the detected
+    slips (from a breakaway up to its slip end, `RecordFeatures`) and the others."""
+    from ..solve.fit import compiled
+
+    d = fit.objective.data
+    r = np.asarray(compiled(fit.objective.residuals, fit.params)).reshape(d.mask.shape)
+    mask, time = np.asarray(d.mask), np.asarray(d.time)
+    rows = []
+    for i, (name, f) in enumerate(zip(names, fit.features)):
+        t = time[i] + float(f.end_time[0])  # the record's own clock (`smooth_data`)
+        slip = np.zeros(t.shape, bool)
+        for b, e in zip(np.asarray(f.breakaway_time), np.asarray(f.end_time)):
+            slip |= (t >= b) & (t < e)
+        for label, where in (("stick", ~slip), ("slip", slip)):
+            sel = mask[i] & where
+            if sel.any():
+                x = r[i][sel]
+                rows.append(PhaseRow(name, label, int(sel.sum()), float(np.mean(x**2)),
+                                     _heavy_tailed(x)))
     return rows
 
 
@@ -171,6 +213,10 @@ chance is never called a miss. Measured on notebook 03's clean synthetic campaig
 6.8), with these correlations none."""
 
 
+PAPER_MODELS = ("empirical", "microsqueeze")
+"""The `MODEL`s of the paper's laws, judged on their feature residuals."""
+
+
 def model_text(model: str) -> str:
     """How the sentences name a fitted law (its `MODEL`): the paper's eq (1) law as "The
     paper's model", its eq (28) microsqueeze law as "The paper's microsqueeze model",
@@ -180,8 +226,8 @@ def model_text(model: str) -> str:
 
 
 def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
-               heavy_tailed: bool | None = None, model: str = "empirical"
-               ) -> tuple[str, list]:
+               heavy_tailed: bool | None = None, model: str = "empirical",
+               hints: dict[str, str] = PHASE_HINT) -> tuple[str, list]:
     name = model_text(model)
     bad = [r for r in rows if _beyond(r, BAD, len(rows))]
     marginal = [r for r in rows if _beyond(r, GOOD, len(rows)) and r not in bad]
@@ -201,13 +247,13 @@ def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
         else:
             out.append(f"The model misses {len(missed)} of {n_records} records beyond their "
                        f"noise ({', '.join(missed)}); the others it describes.")
-        for phase in PHASE_HINT:
+        for phase, hint in hints.items():
             hit = [r for r in bad if r.phase == phase]
             if hit:
                 worst = max(hit, key=lambda r: r.chi2_per_n)
                 out.append(f"{phase.replace('_', ' ')}: chi2/n above {BAD:g} in {len(hit)} "
                            f"record(s), worst {worst.record} ({worst.chi2_per_n:.3g}): "
-                           f"{PHASE_HINT[phase]}.")
+                           f"{hint}.")
     tails = sorted({r.record for r in bad if r.phase == "levels" and r.heavy_tailed})
     if heavy_tailed is False and tails:
         out.append(f"The levels of {', '.join(tails)} are heavy-tailed (a few cycles far "
@@ -229,6 +275,12 @@ def adequacy(fit) -> Adequacy:
     names = [f.name or f"record {i}" for i, f in enumerate(fit.features)]
     scale = (np.ones(len(names)) if fit.record_scale is None
              else np.asarray(fit.record_scale, float))
+    model = fit.params.friction.MODEL
+    if model not in PAPER_MODELS:  # a law fitted through whole records: its own residuals
+        rows = _law_rows(fit, names)
+        verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), model=model,
+                                        hints=LAW_HINT)
+        return Adequacy(fit.reduced_chi2, rows, verdict, sentences)
     # the phases the fit fitted: a trace-only fit is judged on its samples, not on the
     # cycle features, whose stick times are far more precise than the trace determines
     # the parameters (clean records at the trace optimum reach chi2/n 1e4 there)
@@ -238,6 +290,5 @@ def adequacy(fit) -> Adequacy:
     if td is not None:
         rows += _trace_rows(fit, names, td)
     heavy = fit.objective is not None and not isinstance(loss_of(fit.objective), Gaussian)
-    verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), heavy,
-                                    fit.params.friction.MODEL)
+    verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), heavy, model)
     return Adequacy(fit.reduced_chi2, rows, verdict, sentences)
