@@ -175,8 +175,8 @@ def test_discovery_rates_do_not_regress(rows):
     s = summarise(rows)
     assert s["false_alarms"] <= 0.05
     assert not s["outside_high"]
-    # the outside effects by their form, not a family's name (measured: both sparse_form,
-    # creep 1.58 -> 1.04 and the 0.1 stiffening 1.03 -> 1.00 x the noise)
+    # the outside effects by their form, not a family's name (measured: the creep
+    # sparse_form, 1.58 -> 1.04 x the noise; the 0.1 stiffening load_coupling (low))
     assert len(s["outside_named"]) <= 1, s["outside_named"]
     assert not s["wrong_high"]
     assert s["found"] >= 0.6
