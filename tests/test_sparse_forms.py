@@ -198,7 +198,20 @@ def test_outside_effects_are_answered_by_their_form():
     assert all(r["closes"] >= 0.7 and r["words_ok"] for r in by_form)
 
 
+def test_library_forms_name_terms_and_families():
+    """Every term that `sparse.LIBRARY_FORMS` gives a family to is a term of the library,
+    and the family is one of the effect families (a form holding it confirms that family
+    rather than replacing it, `stages.form`)."""
+    from stickslip_fitting.discovery.cycle_effects import FAMILIES
+    from stickslip_fitting.discovery.sparse import LIBRARY_FORMS, TERMS
+
+    names = {f.name for f in FAMILIES}
+    assert set(LIBRARY_FORMS) <= {t.name for t in TERMS}
+    assert set(LIBRARY_FORMS.values()) <= names
+
+
 if __name__ == "__main__":
     for kind in OUTSIDE:
         for seed in range(int(sys.argv[1]) if len(sys.argv) > 1 else 2):
             print(run_one(kind, seed), flush=True)
+
