@@ -184,6 +184,7 @@ def run_one(kind: str, seed: int) -> dict:
 
 
 @pytest.mark.slow
+@pytest.mark.targets  # the 70 % holds for creep on seed 0 (86 %), not seed 1 (56 %)
 def test_outside_effects_are_answered_by_their_form():
     rows = [run_one(kind, seed) for kind in OUTSIDE for seed in range(2)]
     for r in rows:
