@@ -93,7 +93,8 @@ class _Watch:
         if cost < self.cost:
             self.z, self.r, self.J, self.ok, self.cost = z, r, J, ok, cost
             J = np.asarray(J)
-            A, g = J.T @ J, J.T @ np.asarray(r)
+            with np.errstate(over="ignore", invalid="ignore"):  # judged finite below
+                A, g = J.T @ J, J.T @ np.asarray(r)
             self.floor = -np.inf  # no judgement where the linear model is not finite
             if np.all(np.isfinite(A)) and np.all(np.isfinite(g)):
                 try:
