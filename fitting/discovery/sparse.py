@@ -119,12 +119,14 @@ def _terms() -> tuple[Term, ...]:
 
 TERMS = _terms()
 
-LIBRARY_FORMS = {"slip_v1": "viscous_damping", "slip_xi1": "load_coupling",
-                 "slip_drift": "friction_drift", "drift": "gauge_drift"}
-"""Terms whose form is a library family's own (a force along the slider velocity is a
-dashpot; one along the deflection, a normal load coupled to the spring force; a force
-or a reading drifting over the record, the friction's or the gauge's drift): a sparse
-form that holds the family named does not replace it (`stages.form`)."""
+LIBRARY_FORMS = {"slip_v1": ("viscous_damping", "stribeck", "rate_state"),
+                 "slip_xi1": ("load_coupling",), "slip_drift": ("friction_drift",),
+                 "drift": ("gauge_drift",)}
+"""Terms whose form is a library family's own: a force along the slider velocity is the
+first order of any speed-dependent friction (a dashpot, a Stribeck curve, rate-and-state
+friction); one along the deflection, a normal load coupled to the spring force; a force
+or a reading drifting over the record, the friction's or the gauge's drift. A sparse form
+that holds the family named does not replace it (`stages.form`)."""
 
 
 def coordinates(model, z, r, sd, shape=None, sensor: bool = False) -> dict:
