@@ -128,8 +128,14 @@ def test_bad_input_is_one_clear_error():
     short = Record(time=t, deflection=0.01 * t, stiffness=86.9, weight=36.0, drive=0.01 * t)
     with pytest.raises(ValueError, match="too few samples"):
         dmodel.campaign_traces([short])
+    with pytest.raises(TypeError, match="crop: a member of Crop"):
+        dmodel.campaign_traces([short], crop="slip_end")
+    from stickslip_fitting.discovery.workflow import SmoothBase
+    from stickslip_fitting.modes import Crop
+
+    assert SmoothBase(crop="slip_end").crop is Crop.SLIP_END
     with pytest.raises(ValueError, match="crop must be"):
-        dmodel.campaign_traces([short], crop="start")
+        SmoothBase(crop="start")
 
 
 @pytest.mark.slow

@@ -2,7 +2,7 @@ r"""Trace model of a campaign for discovery: the smoothed simulator with every l
 
 A campaign enters as padded traces (`objectives.smooth.SmoothData`, [R records, N
 samples], mm and s, `campaign_traces`). Each record must start at the end of a slip
-(stick time 0): synthetic discovery records do, and `crop="slip_end"` cuts a measured
+(stick time 0): synthetic discovery records do, and `crop=Crop.SLIP_END` cuts a measured
 record at its first detected slip end.
 
 The model of record $r$ is `simulate_smooth` (`Settings`) of
@@ -39,6 +39,7 @@ from stickslip_jax.simulation.parts import AbstractForceTerm
 from stickslip_jax.simulation.smooth import simulate_smooth
 from stickslip_jax.slips import robust_sigma
 
+from ..modes import Crop, check_member
 from ..objectives.smooth import SmoothData, pack_records, record_drive
 from ..params import NAMES, EmpiricalFriction
 from .effects import CANDIDATES, EffectSet, load_referred_friction
@@ -66,24 +67,23 @@ class Settings:
     `smoothing`: dimensionless (1e-2: the stick creeps at 1 % of the drive speed, as in
     the synthetic campaigns); `rtol`/`atol` (mm, mm/s): 1e-6 keeps the forward-mode
     Jacobians within a few % of finite differences (at 1e-4 the traces are right, their
-    derivatives not); `max_steps` per record; `solver`: kvaerno3/4/5; `formulation`
-    pinned, so that a new default of `simulate_smooth` cannot change discovery.
+    derivatives not); `max_steps` per record; `solver`: an implicit diffrax solver class
+    taking a `root_finder` (`dfx.Kvaerno3`, 4 or 5); `formulation` pinned, so that a new
+    default of `simulate_smooth` cannot change discovery.
     """
 
     smoothing: float = 1e-2
     rtol: float = 1e-6
     atol: float = 1e-8
     max_steps: int = 8192
-    solver: str = "kvaerno5"
+    solver: type[dfx.AbstractImplicitSolver] = dfx.Kvaerno5
     formulation: Formulation = Formulation.RIGID_STICK
 
     def make_solver(self):
-        """The implicit diffrax solver named by `solver` (full Newton stages)."""
+        """The implicit diffrax solver `solver` with full Newton stages."""
         import optimistix as optx
 
-        cls = {"kvaerno3": dfx.Kvaerno3, "kvaerno4": dfx.Kvaerno4,
-               "kvaerno5": dfx.Kvaerno5}[self.solver]
-        return cls(root_finder=optx.Newton(rtol=self.rtol, atol=self.atol))
+        return self.solver(root_finder=optx.Newton(rtol=self.rtol, atol=self.atol))
 
 
 class DiscoveryParams(eqx.Module):
@@ -113,19 +113,19 @@ def _crop_at_first_slip_end(record):
     return np.asarray(record.time[keep], float), record.deflection[keep]
 
 
-def campaign_traces(records, *, crop: str = "none", max_samples: int | None = None
+def campaign_traces(records, *, crop: Crop = Crop.NONE, max_samples: int | None = None
                     ) -> SmoothData:
     """Padded traces from records (module doc): `start_level` a line through the first
-    samples, `sigma` the median of the records' robust noise (mm); `crop` "none" (each
-    record starts at a slip end) or "slip_end"; `max_samples` caps each record's length.
+    samples, `sigma` the median of the records' robust noise (mm); `crop` a `Crop`
+    (`Crop.NONE`: each record starts at a slip end); `max_samples` caps each record's
+    length.
     """
-    if crop not in ("none", "slip_end"):
-        raise ValueError(f"crop must be 'none' or 'slip_end', got {crop!r}")
+    check_member("crop", crop, Crop)
     if len(records) < 1:
         raise ValueError("discovery needs at least one record")
     times, xs, starts = [], [], []
     for rec in records:
-        if crop == "slip_end":
+        if crop is Crop.SLIP_END:
             t, x = _crop_at_first_slip_end(rec)
         else:
             t, x = np.asarray(rec.time, float), np.asarray(rec.deflection)

@@ -31,6 +31,7 @@ import numpy as np
 from stickslip_jax.lsq import LeastSquaresSolution as Solution
 
 from ..data.campaign import Campaign, screen_records
+from ..modes import Crop
 from ..params import EmpiricalFriction
 from ..report.rows import DiscoveryEstimates
 from . import engine
@@ -117,10 +118,10 @@ class SmoothBase(AbstractBaseModel):
     `strict`, `unreadable`: as `CycleBase`; `candidates`: library names; `top`: how many
     to refit; `threshold`: BIC margin to name an effect; `p_explained`, `margin`: for
     "high" confidence; `learn`: fit the learned correction when nothing explains the
-    residuals; `crop`: `model.campaign_traces`; `effects`: fixed shape settings
-    (`EffectSet.zeros`); `fixed`: friction parameters held at their features-fit value;
-    `max_evals`: budget of the base fit and of the chosen model's polish; `refit_evals`:
-    of each ranking refit.
+    residuals; `crop`: a `Crop` (`model.campaign_traces`; its string is read here too);
+    `effects`: fixed shape settings (`EffectSet.zeros`); `fixed`: friction parameters held
+    at their features-fit value; `max_evals`: budget of the base fit and of the chosen
+    model's polish; `refit_evals`: of each ranking refit.
 
     Disagreement: when the score winner (all statistics at one base fit, so comparable)
     and the refits' BIC winner differ, their efficient-score directions are nearly
@@ -138,7 +139,7 @@ class SmoothBase(AbstractBaseModel):
     p_explained: float = 1e-3
     margin: float = 20.0
     learn: bool = False
-    crop: str = "none"
+    crop: Crop = Crop.NONE
     settings: Settings = Settings()
     effects: EffectSet | None = None
     max_evals: int = 80
@@ -153,6 +154,7 @@ class SmoothBase(AbstractBaseModel):
         at_least("top", self.top, 1)
         at_least("max_evals", self.max_evals, 2)
         at_least("threshold", self.threshold, 0)
+        object.__setattr__(self, "crop", Crop.parse(self.crop, "crop"))
 
     def prepare(self, records, clock: Clock) -> tuple[Campaign, Problem]:
         campaign = screen_records(list(records), strict=self.strict,
