@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING
 
 from stickslip_jax.records import Record
 
-from ..modes import When
+from ..modes import DiscoveryBase, When
 from ..report.discovery_text import answer_text, json_document, named_effects
 from .campaign import RecordsSpec, as_list, loss_option, parameter_frame
 from .results import ResultDocument, pandas_module
@@ -93,7 +93,7 @@ class CampaignDiscovery(ResultDocument):
         """One row per effect tested, in the candidate table's order: `FAMILY_COLUMNS`
         (index "family") or `SMOOTH_COLUMNS` (index "effect"). Needs pandas."""
         pd = pandas_module("CampaignDiscovery.summary()")
-        cycle = self.result.BASE == "cycle"
+        cycle = self.result.BASE is DiscoveryBase.CYCLE
         columns = FAMILY_COLUMNS if cycle else SMOOTH_COLUMNS
         keys = {"p_value": "score_p_value", "delta_bic": "delta_criterion"}
         kinds = dict(shape=str, significant_by=str, dof=int, significant=bool,
@@ -122,7 +122,7 @@ class CampaignDiscovery(ResultDocument):
     @property
     def report(self) -> dict:
         """The `stickslip discover --json` document before strict encoding."""
-        loss = {"loss": self.loss} if self.result.BASE == "cycle" else {}
+        loss = {"loss": self.loss} if self.result.BASE is DiscoveryBase.CYCLE else {}
         return {**json_document(self.result), **loss}
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
@@ -140,7 +140,7 @@ class CampaignDiscovery(ResultDocument):
 
     def __repr__(self) -> str:
         return (f"CampaignDiscovery(effect={self.effect!r}, confidence={self.confidence!r}, "
-                f"base={self.result.BASE!r}, effects={len(self.result.candidates)})")
+                f"base={self.result.BASE.value!r}, effects={len(self.result.candidates)})")
 
 
 def discover(records: RecordsSpec, *, base: CycleBase | SmoothBase | None = None,

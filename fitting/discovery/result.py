@@ -12,6 +12,7 @@ import numpy as np
 from stickslip_jax.lsq import LeastSquaresSolution as Solution
 
 from ..data.campaign import Campaign
+from ..modes import DiscoveryBase
 from ..report.rows import DiscoveryEstimates, ParameterEstimate, estimate_text
 from .cycle_effects import Shape
 from .cycle_learned import CycleLearned
@@ -53,8 +54,8 @@ class Discovery(DiscoveryEstimates, abc.ABC):
     effect_of: str = ""
     learned: object = None
     """The learned correction, where one was fitted (None otherwise)."""
-    BASE: ClassVar[str]
-    """The base model (the document's "base": "cycle" or "smooth")."""
+    BASE: ClassVar[DiscoveryBase]
+    """The base model (its value the document's "base": "cycle" or "smooth")."""
 
     @abc.abstractmethod
     def base_json(self) -> dict:
@@ -72,7 +73,7 @@ class Discovery(DiscoveryEstimates, abc.ABC):
         return {
             "effect": self.effect, "explanation": self.explanation,
             "confidence": self.confidence,
-            "indistinguishable_from": self.indistinguishable_from, "base": self.BASE,
+            "indistinguishable_from": self.indistinguishable_from, "base": self.BASE.value,
             "base_fit": {"converged": self.base_fit.converged,
                          "evaluations": self.base_fit.n_evals, "criterion": FIT_CRITERION},
             "final_fit": {"converged": self.final_fit.converged,
@@ -120,7 +121,7 @@ class CycleDiscovery(Discovery):
     several kept, `effect` is the first; the others' parameters (`more_estimates`,
     "family.parameter") follow its in `parameters_after`."""
     more_estimates: list = dataclasses.field(default_factory=list)
-    BASE: ClassVar[str] = "cycle"
+    BASE: ClassVar[DiscoveryBase] = DiscoveryBase.CYCLE
 
     def estimates(self) -> list[ParameterEstimate]:
         return super().estimates() + list(self.more_estimates or ())
@@ -168,7 +169,7 @@ class SmoothDiscovery(Discovery):
     base_problem: object
     final_problem: object
     campaign: Campaign
-    BASE: ClassVar[str] = "smooth"
+    BASE: ClassVar[DiscoveryBase] = DiscoveryBase.SMOOTH
 
     def figure(self):
         from .plots import plot_discovery
