@@ -121,24 +121,10 @@ def _fit_one(args):
 
 def run(args) -> int:
     from stickslip_jax.logs import logger
-    from stickslip_jax.output import check_outputs, versioned, write_json, write_text
-    from stickslip_jax.records import RecordError, record_paths
+    from stickslip_jax.output import versioned, write_json, write_text
 
     from ..report.fit_table import batch_csv, batch_table
     from ..solve.batch import ERROR, fit_batch
-
-    # the outputs against every campaign's files, listed before any campaign is read:
-    # each campaign's one data step (`fit_from_args`) runs later, on the process given
-    # its share, and a clash found there would fail one campaign and write the others'
-    # outputs over a record
-    inputs = []
-    for spec in args.campaigns:
-        try:
-            inputs.extend(record_paths(spec))
-        except RecordError:
-            pass  # the campaign fails with this message; the batch goes on
-    check_outputs({"--json": args.json, "--csv": args.csv, args.plot_option: args.plot},
-                  inputs)
     from .fit import check_model_options
 
     check_model_options(args)  # a bad --fix is the command's error, not every campaign's
@@ -150,9 +136,9 @@ def run(args) -> int:
     parse_loss(args.loss)  # after joining: it starts JAX
 
     lead = jax.process_index() == 0
-    logger.info(f"fitting {len(args.campaigns)} campaigns on {jax.process_count()} "
-                f"process(es)...")
-    batch = fit_batch(args.campaigns, _fit_one(args), progress=logger.info)
+    batch = fit_batch(args.campaigns, _fit_one(args), progress=logger.info,
+                      outputs={"--json": args.json, "--csv": args.csv,
+                               args.plot_option: args.plot})
     errors = batch.count(ERROR) > 0
     code = 1 if errors else 0 if batch.all_fitted else 3
     if not lead:  # every process ends with the batch and its exit code; one writes

@@ -84,14 +84,21 @@ def campaign_name(spec) -> str:
     return campaign_name(spec[0]) + (f"+{len(spec) - 1}" if len(spec) > 1 else "")
 
 
-def _size(spec) -> int:
-    """Bytes of the record files of `spec` (0 when they cannot be listed: the fit will say
-    why)."""
+def _paths(spec) -> list:
+    """The record files of `spec` (none when they cannot be listed: the fit will say why)."""
     from stickslip_jax.records import RecordError, record_paths
 
     try:
-        return sum(p.stat().st_size for p in record_paths(spec))
+        return list(record_paths(spec))
     except (RecordError, OSError):
+        return []
+
+
+def _size(paths) -> int:
+    """Bytes of the files `paths` (0 when one cannot be read: the fit will say why)."""
+    try:
+        return sum(p.stat().st_size for p in paths)
+    except OSError:
         return 0
 
 
@@ -132,19 +139,31 @@ def exchange(local: dict[int, dict]) -> dict[int, dict]:
 
 
 def fit_batch(specs: Sequence, fit_one: Callable[[object], dict], *,
+              outputs: dict[str, str | None] | None = None,
               progress: Callable[[str], None] | None = None) -> BatchResult:
     """Fit every campaign of `specs` (module doc). `fit_one(spec)` fits one campaign and
     returns {"converged": bool, ...} (JSON-ready: the `stickslip fit --json` report); a
     ValueError it raises marks the campaign FAILED, any other exception ERROR.
-    `progress(line)` gets one line per campaign done on this process."""
+    `outputs` ({option: path}, `stickslip_jax.output.check_outputs`) are checked against
+    every campaign's files before any campaign is fitted: a clash found in one campaign's
+    fit would fail it alone and let the batch write over a record. `progress(line)` gets
+    one line per campaign done on this process."""
     import jax
 
     specs = list(specs)
     if not specs:
         raise ValueError("the batch has no campaigns; give at least one folder or glob")
     names = [campaign_name(s) for s in specs]
+    paths = [_paths(s) for s in specs]
+    if outputs:
+        from stickslip_jax.output import check_outputs
+
+        check_outputs(outputs, [p for ps in paths for p in ps])
+    from stickslip_jax.logs import logger
+
     pid, n_proc = jax.process_index(), jax.process_count()
-    mine = shares([_size(s) for s in specs], n_proc)[pid]
+    logger.info(f"fitting {len(specs)} campaigns on {n_proc} process(es)...")
+    mine = shares([_size(ps) for ps in paths], n_proc)[pid]
     start = time.perf_counter()
     local: dict[int, dict] = {}
     for j, i in enumerate(mine):
