@@ -254,7 +254,7 @@ def make_objective(kind: Objective, features: FeatureData,
     check_member("kind", kind, Objective)
     if kind is Objective.SMOOTH:
         raise ValueError(f"make_objective builds the objectives {OBJECTIVES}; 'smooth' "
-                         "reads the records: smooth_objective.SmoothObjective(smooth_data("
+                         "reads the records: objectives.smooth.SmoothObjective(smooth_data("
                          "records, features))")
     if kind is Objective.FEATURES:
         return FeaturesObjective(features, slip_time)
