@@ -28,8 +28,8 @@ import sys
 import tempfile
 
 __all__ = [
-    "catch_interrupts", "check_outputs", "interrupted", "json_owns_stdout", "null_reasons",
-    "outputs_together", "save_figure", "strict_json", "write_atomic", "write_json", "write_text"]
+    "catch_interrupts", "check_outputs", "interrupted", "json_owns_stdout", "outputs_together",
+    "save_figure", "strict_json", "write_atomic", "write_json", "write_text"]
 
 
 def _same(a: str, b: str) -> bool:
@@ -82,15 +82,7 @@ def check_outputs(outputs: dict[str, str | None], inputs=()) -> None:
 
 NULL_REASONS = "null_reasons"
 """Key of a JSON document that lists, for each value written as null because it was NaN or
-infinite, its place and why (`null_reasons`)."""
-
-
-def null_reasons(obj, where: str = "") -> dict[str, str]:
-    """{place of the value ("results[0].critical_speed_mm_min"): why it is null} for every
-    NaN or infinity in `obj` (which `strict_json` writes as null)."""
-    reasons: dict[str, str] = {}
-    strict_json(obj, reasons, where)
-    return reasons
+infinite, its place and why (`strict_json`'s `reasons`)."""
 
 
 def _explained(obj):
