@@ -113,12 +113,10 @@ def _crop_at_first_slip_end(record):
     return np.asarray(record.time[keep], float), record.deflection[keep]
 
 
-def campaign_traces(records, *, crop: Crop = Crop.NONE, max_samples: int | None = None
-                    ) -> SmoothData:
+def campaign_traces(records, *, crop: Crop = Crop.NONE) -> SmoothData:
     """Padded traces from records (module doc): `start_level` a line through the first
     samples, `sigma` the median of the records' robust noise (mm); `crop` a `Crop`
-    (`Crop.NONE`: each record starts at a slip end); `max_samples` caps each record's
-    length.
+    (`Crop.NONE`: each record starts at a slip end).
     """
     check_member("crop", crop, Crop)
     if len(records) < 1:
@@ -129,7 +127,7 @@ def campaign_traces(records, *, crop: Crop = Crop.NONE, max_samples: int | None 
             t, x = _crop_at_first_slip_end(rec)
         else:
             t, x = np.asarray(rec.time, float), np.asarray(rec.deflection)
-        t0, t, x = float(t[0]), t[:max_samples] - float(t[0]), x[:max_samples]
+        t0, t = float(t[0]), t - t[0]
         if t.shape[0] < 16:
             raise ValueError(f"{rec.name or 'record'}: too few samples ({t.shape[0]}) left")
         times.append(t)
