@@ -73,8 +73,9 @@ another seed. Programs with host callbacks (the `eqx.error_if` checks of traced 
 lineax's in the implicit gradients of the stiff solvers, a microsqueeze law's unless built
 with `check_traced=False`) are not kept in the persistent cache, so only the one process
 shares them. test_cycle_discovery, test_json_keys and test_api_results read one discovery
-of the clean campaign (`clean_discovery`), run once on their worker; test_api_results
-discovers on its files again through the API, with its compiled programs."""
+of the clean campaign (`clean_discovery_run`), run once on their worker: test_api_results
+checks that the API calls the command's discovery engine with the command's records and
+base, and gives the command's document from its result."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about
@@ -110,22 +111,45 @@ def clean_discovery_paths(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def clean_discovery(clean_discovery_paths, tmp_path_factory):
-    """`stickslip discover FILES --json OUT --learn` on `clean_discovery_paths`: (exit
-    code, JSON document, printed text, stderr text), run once for test_cycle_discovery
-    (its answer), test_json_keys (its keys) and test_api_results (the document
-    `stickslip_fitting.discover` gives on the same files)."""
+def clean_discovery_run(clean_discovery_paths, tmp_path_factory):
+    """`stickslip discover FILES --json OUT --learn` on `clean_discovery_paths`, run once
+    for the test run: {"rc": exit code, "document": the JSON document, "out": printed
+    text, "err": stderr text, "call": (records, base, result) of the command's one call of
+    `discovery.engine.discover`}."""
     import contextlib
     import io
     import json
 
+    import stickslip_fitting.discovery.engine as engine
+
     from stickslip_jax.cli import main
 
+    calls = []
+
+    def recorded(records, base, **kw):
+        result = run(records, base, **kw)
+        calls.append((records, base, result))
+        return result
+
+    run = engine.discover
     out_json = tmp_path_factory.mktemp("clean_discovery_json") / "d.json"
     out, err = io.StringIO(), io.StringIO()
-    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(out), \
+            contextlib.redirect_stderr(err):
+        mp.setattr(engine, "discover", recorded)
         rc = main(["discover", *clean_discovery_paths, "--json", str(out_json), "--learn"])
-    return rc, json.loads(out_json.read_text()), out.getvalue(), err.getvalue()
+    assert len(calls) == 1
+    return dict(rc=rc, document=json.loads(out_json.read_text()), out=out.getvalue(),
+                err=err.getvalue(), call=calls[0])
+
+
+@pytest.fixture(scope="session")
+def clean_discovery(clean_discovery_run):
+    """`clean_discovery_run` as (exit code, JSON document, printed text, stderr text):
+    read by test_cycle_discovery (its answer), test_json_keys (its keys) and
+    test_api_results (the document `stickslip_fitting.discover` gives on the same files)."""
+    run = clean_discovery_run
+    return run["rc"], run["document"], run["out"], run["err"]
 
 
 def _compilation_cache(config) -> str:

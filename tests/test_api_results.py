@@ -118,11 +118,30 @@ def test_sample_errors_name_the_keyword_before_fitting(kw, word):
 
 
 @pytest.fixture(scope="module")
-def found(clean_discovery_paths):
+def found(clean_discovery_paths, clean_discovery_run):
     """`stickslip_fitting.discover(FILES, learn=True)` on the files of conftest's
-    `clean_discovery` (`stickslip discover FILES --json OUT --learn`, run once for the test
-    run: its document is the command's here)."""
-    return sf.discover(clean_discovery_paths, learn=True)
+    `clean_discovery_run` (`stickslip discover FILES --json OUT --learn`): its call of the
+    discovery engine checked to be the command's (the same records, in order, and the
+    same base), answered with the command's result (one discovery for both)."""
+    import dataclasses
+
+    import numpy as np
+    import stickslip_fitting.discovery.engine as engine
+
+    records, base, result = clean_discovery_run["call"]
+
+    def command_result(recs, given, progress=None):
+        assert [r.source for r in recs] == [r.source for r in records]
+        for a, b in zip(recs, records):
+            np.testing.assert_array_equal(a.deflection, b.deflection)
+        assert [e.path for e in given.unreadable] == [e.path for e in base.unreadable]
+        assert dataclasses.replace(given, unreadable=()) == dataclasses.replace(
+            base, unreadable=())
+        return result
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(engine, "discover", command_result)
+        return sf.discover(clean_discovery_paths, learn=True)
 
 
 @pytest.fixture(scope="module")
