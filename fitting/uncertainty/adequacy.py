@@ -106,7 +106,9 @@ LAW_HINT = {
 
 @dataclasses.dataclass(frozen=True)
 class PhaseRow:
-    """chi2/n of one record's residuals in one phase (module doc), `n` residuals."""
+    """chi2/n of one record's residuals in one phase (module doc): `chi2_per_n` is the
+    mean square of its `n` residuals, each over its standard error (dimensionless, 1 at
+    the noise)."""
 
     record: str
     phase: str
