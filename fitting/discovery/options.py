@@ -68,9 +68,6 @@ class DiscoveryOptions:
     screw_spread: float = 3.0
     # a one-sided first parameter also starts at these shares of its bound (Stribeck b 0.1)
     large_starts: tuple[float, ...] = (0.1, 0.3)
-    # evaluations of the extended base over its own columns before a later search's refits
-    # (`more._relaxed`: each later refit of a 6 um screw, 4 records, regained 264 k of it in 15)
-    relax_evals: int = 30
     # short refits the shape refinement may spend
     refine_fits: int = 12
     # refits whose shapes are refined before the choice (rational Stribeck lost to a screw on C)
