@@ -231,6 +231,52 @@ def test_discover_base_is_an_object_that_carries_its_options(kw, word):
         sf.discover(DISCOVERY_FILES, **kw)
 
 
+def test_discover_hands_a_smooth_base_to_the_engine_and_reads_its_result(tmp_path):
+    """`base=SmoothBase(...)` goes to the discovery engine as given (its options its own
+    fields), and a smoothed base's answer reads as its table (`SMOOTH_COLUMNS`, by effect),
+    its document (base "smooth", no loss) and its text: here an answer built by hand (the
+    whole run on a campaign is `test_discover_on_the_smooth_base`, slow: its smoothed
+    base's programs, with host callbacks, compile in no other test of the default run)."""
+    from types import SimpleNamespace as NS
+
+    import stickslip_fitting.discovery.engine as engine
+    from stickslip_fitting.discovery.result import SmoothDiscovery
+
+    fit = NS(converged=True, n_evals=8)
+    analysis = NS(phases={}, test={"p_value": 1e-20})
+    cands = [dict(name="gauge_drift", score=120.0, score_p_value=1e-20, dof=2,
+                  delta_criterion=-194.6, lr_p_value=1e-40, unphysical=None),
+             dict(name="viscous_damping", score=3.0, score_p_value=0.2, dof=1,
+                  delta_criterion=None, lr_p_value=None, unphysical=None)]
+    answer = SmoothDiscovery(
+        effect="gauge_drift", explanation="a drifting gauge zero", confidence="high",
+        gap_before=6.3e-4, gap_after=4.8e-4, noise=5e-4, criterion="BIC", candidates=cands,
+        estimates_before=[], estimates_after=[], effect_estimates=[], timings={},
+        base_fit=fit, final_fit=fit, residuals_before=analysis, residuals_after=analysis,
+        test_before=analysis.test, test_after={"p_value": 0.3}, base_problem=None,
+        final_problem=None, campaign=NS(screening=[]))
+    base = sf.SmoothBase(candidates=("gauge_drift", "viscous_damping"), top=1, max_evals=8,
+                         refit_evals=4, crop=sf.Crop.SLIP_END)
+    given = []
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(engine, "discover",
+                   lambda recs, b, progress=None: given.append((recs, b)) or answer)
+        found = sf.discover(DISCOVERY_FILES, base=base)
+    (recs, b), = given
+    assert len(recs) == 3 and b == base and found.result is answer
+    assert found.effect == "gauge_drift" and found.named == ["gauge_drift"]
+    frame = found.summary()
+    assert tuple(frame.columns) == SMOOTH_COLUMNS and frame.index.name == "effect"
+    assert list(frame.index) == ["gauge_drift", "viscous_damping"]
+    assert frame.loc["gauge_drift", "delta_bic"] == -194.6 and frame["delta_bic"].isna().sum() == 1
+    assert frame.loc["viscous_damping", "dof"] == 1 and list(frame["named"]) == [True, False]
+    doc = saved_document(found, tmp_path / "smooth.json")
+    assert doc["base"] == "smooth" and "loss" not in doc
+    assert doc["misspecification_after"] == {"p_value": 0.3}
+    assert str(found).startswith("effect: gauge_drift") and "dBIC" in str(found)
+
+
+@pytest.mark.slow  # 46 s of CPU in one process: the smoothed base's programs compiled
 def test_discover_on_the_smooth_base(tmp_path):
     """`base=SmoothBase(...)` runs `stickslip discover --base smooth` through the same
     result: two short records of the exact simulator with a drifting gauge zero added (no
