@@ -87,7 +87,7 @@ class Settings:
 
 
 class DiscoveryParams(eqx.Module):
-    """friction (log coordinates, `stickslip_fitting.params.EmpiricalFriction`), effects, x0 [R] mm."""
+    """friction (log coordinates, `params.EmpiricalFriction`), effects, x0 [R] mm."""
 
     friction: EmpiricalFriction
     effects: EffectSet
@@ -266,7 +266,7 @@ class Problem(AbstractProblem):
     `extra` force term whose arrays are fitted too (the learned correction's).
 
     `evaluate(z)` -> (residuals [M], Jacobian [M, P], ok) over the masked samples, with
-    $z$ = [free friction logs (`NAMES` less `fixed`), slots, the extra term's arrays
+    $z$ = [friction logs (`NAMES`), slots, the extra term's arrays
     (flat), dx0 (R)]. The Problems of a campaign without an extra term share one compiled
     function (`effect` only changes the data matrix S).
     """
@@ -278,7 +278,6 @@ class Problem(AbstractProblem):
     settings: Settings = Settings()
     n_slots: int = 2
     sigma: float | None = None
-    fixed: tuple[str, ...] = ()
     extra: AbstractForceTerm | None = None
 
     def __post_init__(self):
@@ -287,10 +286,7 @@ class Problem(AbstractProblem):
         if self.sigma is None:
             self.sigma = float(self.traces.sigma[0])
         self._mask = np.asarray(self.traces.mask)
-        bad = [n for n in self.fixed if n not in NAMES]
-        if bad:
-            raise ValueError(f"unknown friction parameter(s) {bad}; choose from {NAMES}")
-        self.free_names = tuple(n for n in NAMES if n not in self.fixed)
+        self.free_names = tuple(NAMES)
         self._trajectories = {}  # z bytes -> (model, velocity, sticking) [R, N] of evaluate
         arrays = eqx.filter(self.extra, eqx.is_inexact_array)
         self.extra0 = (np.zeros(0) if self.extra is None

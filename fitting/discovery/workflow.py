@@ -119,9 +119,8 @@ class SmoothBase(AbstractBaseModel):
     to refit; `threshold`: BIC margin to name an effect; `p_explained`, `margin`: for
     "high" confidence; `learn`: fit the learned correction when nothing explains the
     residuals; `crop`: a `Crop` (`model.campaign_traces`; its string is read here too);
-    `effects`: fixed shape settings (`EffectSet.zeros`); `fixed`: friction parameters held
-    at their features-fit value; `max_evals`: budget of the base fit and of the chosen
-    model's polish; `refit_evals`: of each ranking refit.
+    `effects`: fixed shape settings (`EffectSet.zeros`); `max_evals`: budget of the base
+    fit and of the chosen model's polish; `refit_evals`: of each ranking refit.
 
     Disagreement: when the score winner (all statistics at one base fit, so comparable)
     and the refits' BIC winner differ, their efficient-score directions are nearly
@@ -145,7 +144,6 @@ class SmoothBase(AbstractBaseModel):
     max_evals: int = 80
     refit_evals: int = 12
     collinear: float = 0.8
-    fixed: tuple[str, ...] = ()
     strict: bool = False
     unreadable: tuple = ()
     NAME: ClassVar[str] = "smooth"
@@ -161,8 +159,7 @@ class SmoothBase(AbstractBaseModel):
                                   unreadable=self.unreadable)
         traces = campaign_traces(campaign.records, crop=self.crop)
         effects = EffectSet.zeros() if self.effects is None else self.effects
-        base = Problem(traces, initial_friction(campaign.features), effects,
-                       settings=self.settings, fixed=tuple(self.fixed))
+        base = Problem(traces, initial_friction(campaign.features), effects, settings=self.settings)
         clock("prepare", f"{traces.time.shape[0]} records, {traces.n_residuals()} samples")
         return campaign, base
 
