@@ -147,8 +147,9 @@ def _base(args, cycle: bool, loss):
             raise ValueError(f"{option}: acts only with --base smooth; add --base smooth or "
                              f"leave {option} out")
     from ..modes import Crop
+    from ..objectives.losses import Gaussian
 
-    if not cycle and loss.spec() != "gaussian":
+    if not cycle and not isinstance(loss, Gaussian):
         raise ValueError(f"--loss {args.loss}: only with --base cycle (the smoothed base "
                          "fits least squares); drop --loss or use --base cycle")
     only = tuple(args.only) if args.only else None
