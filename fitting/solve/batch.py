@@ -84,22 +84,16 @@ def campaign_name(spec) -> str:
     return campaign_name(spec[0]) + (f"+{len(spec) - 1}" if len(spec) > 1 else "")
 
 
-def _paths(spec) -> list:
-    """The record files of `spec` (none when they cannot be listed: the fit will say why)."""
+def _files(spec) -> tuple[list, int]:
+    """The record files of `spec` and their bytes (none and 0 when they cannot be listed:
+    the fit will say why)."""
     from stickslip_jax.records import RecordError, record_paths
 
     try:
-        return list(record_paths(spec))
+        paths = list(record_paths(spec))
+        return paths, sum(p.stat().st_size for p in paths)
     except (RecordError, OSError):
-        return []
-
-
-def _size(paths) -> int:
-    """Bytes of the files `paths` (0 when one cannot be read: the fit will say why)."""
-    try:
-        return sum(p.stat().st_size for p in paths)
-    except OSError:
-        return 0
+        return [], 0
 
 
 def shares(sizes: Sequence[float], n_processes: int) -> list[list[int]]:
@@ -154,16 +148,14 @@ def fit_batch(specs: Sequence, fit_one: Callable[[object], dict], *,
     if not specs:
         raise ValueError("the batch has no campaigns; give at least one folder or glob")
     names = [campaign_name(s) for s in specs]
-    paths = [_paths(s) for s in specs]
-    if outputs:
-        from stickslip_jax.output import check_outputs
-
-        check_outputs(outputs, [p for ps in paths for p in ps])
+    files = [_files(s) for s in specs]
     from stickslip_jax.logs import logger
+    from stickslip_jax.output import check_outputs
 
+    check_outputs(outputs or {}, [p for paths, _ in files for p in paths])
     pid, n_proc = jax.process_index(), jax.process_count()
     logger.info(f"fitting {len(specs)} campaigns on {n_proc} process(es)...")
-    mine = shares([_size(ps) for ps in paths], n_proc)[pid]
+    mine = shares([size for _, size in files], n_proc)[pid]
     start = time.perf_counter()
     local: dict[int, dict] = {}
     for j, i in enumerate(mine):
