@@ -167,7 +167,7 @@ def generated():
 
 _smooth = eqx.filter_jit(simulate_smooth)
 """The smoothed simulator compiled whole (op by op, its first run compiles some 170 small
-programs); `test_paper_law_is_the_default` runs it op by op, as its reference numbers were."""
+programs: 17 s of CPU against 7 s whole for `test_paper_law_is_the_default`'s run)."""
 
 
 def test_smooth_simulator_follows_the_independent_generator(generated):
@@ -186,7 +186,6 @@ def test_rate_state_simulation_gradient_matches_finite_differences(generated):
     V, ts, x = generated
     ts = jnp.asarray(ts[:600])  # the first stick and its breakaway
 
-    @eqx.filter_jit
     def out(log_a):
         fr = rate_state_friction(LAW.mu_ref, jnp.exp(log_a), LAW.b, LAW.d_c, LAW.v_0)
         tr = simulate_smooth(ss.Slideway(fr, W, K), ConstantSpeed(V), ts,
@@ -194,9 +193,12 @@ def test_rate_state_simulation_gradient_matches_finite_differences(generated):
                              adjoint=dfx.ForwardMode())
         return jnp.sum(tr.deflection[::50])
 
-    la = jnp.asarray(np.log(LAW.a))  # an array: la +- h reuse one compiled `out`
-    g = float(jax.jacfwd(out)(la))
-    fd = float(_fd(out, la, 1e-5))
+    # one compiled program: the value and its forward-mode derivative (the finite
+    # differences read the values at la +- h from it)
+    value_and_slope = eqx.filter_jit(lambda la: jax.jvp(out, (la,), (jnp.ones_like(la),)))
+    la = jnp.asarray(np.log(LAW.a))  # an array: la +- h reuse the one program
+    g = float(value_and_slope(la)[1])
+    fd = float(_fd(lambda v: value_and_slope(v)[0], la, 1e-5))
     assert np.isfinite(g) and abs(g - fd) <= 1e-3 * abs(fd)
 
 
@@ -227,10 +229,12 @@ def test_paper_law_is_the_default():
     assert FrictionLaw.parse(parser.parse_args(["x.csv"]).law) is FrictionLaw.PAPER
     assert LAW_PARAMS[FrictionLaw.PAPER] is EmpiricalFriction
     # the smoothed simulator on the paper's law gives the numbers it gives without the other
-    # laws (reference values of the same run computed by the simulator without them)
+    # laws (reference values of the same run computed op by op by the simulator without
+    # them), compiled whole: the same to the solver's tolerance (rtol 1e-8), its accepted
+    # steps within 1 % (measured: 3e-10, 2e-9 and 8 steps apart)
     sw = ss.Slideway(ss.lubricant("A"), W, K)
-    tr = simulate_smooth(sw, ConstantSpeed(3.0 / 60), jnp.linspace(0.0, 20.0, 4001),
-                         initial_deflection=0.05)
-    assert float(jnp.sum(tr.deflection)) == pytest.approx(397.98401821909454, rel=1e-12)
-    assert tr.limit_cycle()[0] == pytest.approx(0.039482480236357934, rel=1e-12)
-    assert int(tr.num_events) == 2065
+    tr = _smooth(sw, ConstantSpeed(3.0 / 60), jnp.linspace(0.0, 20.0, 4001),
+                 initial_deflection=0.05)
+    assert float(jnp.sum(tr.deflection)) == pytest.approx(397.98401821909454, rel=1e-8)
+    assert tr.limit_cycle()[0] == pytest.approx(0.039482480236357934, rel=1e-7)
+    assert abs(int(tr.num_events) - 2065) <= 20
