@@ -199,7 +199,7 @@ per campaign shape, whatever the candidate)."""
 
 @eqx.filter_jit
 def _evaluate(z_base, z_slots, z_extra, dx0, S, eff0, friction_static, effects_template,
-              extra, traces, settings, sigma, free_names):
+              extra, traces, settings, sigma):
     """Whitened residuals [R, N], per-record Jacobians [R, N, nb + ns + ne + 1], success
     flags [R], and the model's slider velocity [R, N] (mm/s) and sticking flags [R, N]."""
     TRACE_COUNT["evaluate"] += 1
@@ -211,7 +211,7 @@ def _evaluate(z_base, z_slots, z_extra, dx0, S, eff0, friction_static, effects_t
 
         def f(q):
             zb, zs, ze, dx = q[:nb], q[nb:nb + ns], q[nb + ns:-1], q[-1]
-            fr = combine_friction(zb, friction_static, free_names)
+            fr = combine_friction(zb, friction_static)
             eff = effects_from_vector(effects_template, eff0 + S @ zs)
             terms = () if extra is None else (eqx.combine(unravel(ze), static),)
             # friction coordinates are apparent (referred to W): see effects.LoadCoupling
@@ -253,11 +253,10 @@ def stack_records(r, J, mask) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate([r[i][mask[i]] for i in range(R)]), Jfull
 
 
-def combine_friction(z_base, friction_static: EmpiricalFriction, free_names
-                      ) -> EmpiricalFriction:
-    """Friction with the leaves of `free_names` (log coordinates) taken from z_base."""
-    return eqx.tree_at(lambda f: f.leaves(free_names),
-                       friction_static, [z_base[i] for i in range(len(free_names))])
+def combine_friction(z_base, friction_static: EmpiricalFriction) -> EmpiricalFriction:
+    """Friction with its leaves (log coordinates, `NAMES` order) taken from z_base."""
+    return eqx.tree_at(lambda f: f.leaves(), friction_static,
+                       [z_base[i] for i in range(len(NAMES))])
 
 
 @dataclasses.dataclass
@@ -286,7 +285,6 @@ class Problem(AbstractProblem):
         if self.sigma is None:
             self.sigma = float(self.traces.sigma[0])
         self._mask = np.asarray(self.traces.mask)
-        self.free_names = tuple(NAMES)
         self._trajectories = {}  # z bytes -> (model, velocity, sticking) [R, N] of evaluate
         arrays = eqx.filter(self.extra, eqx.is_inexact_array)
         self.extra0 = (np.zeros(0) if self.extra is None
@@ -298,7 +296,7 @@ class Problem(AbstractProblem):
 
     @property
     def n_base(self) -> int:
-        return len(self.free_names)
+        return len(NAMES)
 
     @property
     def n_params(self) -> int:
@@ -309,7 +307,7 @@ class Problem(AbstractProblem):
         the coordinates of `base_z` (a Problem's without an extra term) with the term's."""
         nb, ns = self.n_base, self.n_slots
         if base_z is None:
-            fb = [float(x) for x in self.friction0.leaves(self.free_names)]
+            fb = [float(x) for x in self.friction0.leaves()]
             base_z = np.concatenate([fb, np.zeros(ns), np.zeros(self.n_records)])
         return np.concatenate([base_z[:nb + ns], self.extra0, base_z[nb + ns:]])
 
@@ -330,8 +328,7 @@ class Problem(AbstractProblem):
         try:
             r, J, ok, vel, stk = _evaluate(zb, zs, ze, dx0, self.S, self.eff0, self.friction0,
                                            self.effects0, self.extra, self.traces,
-                                           self.settings, jnp.asarray(self.sigma),
-                                           self.free_names)
+                                           self.settings, jnp.asarray(self.sigma))
         except eqx.EquinoxRuntimeError:
             # a wild trial point (a diverging implicit stage): reject it, never crash
             return np.full(1, np.inf), np.full((1, self.n_params), np.nan), False
@@ -345,7 +342,7 @@ class Problem(AbstractProblem):
 
     def params(self, z) -> DiscoveryParams:
         zb, zs, _, dx0 = self.split(z)
-        fr = combine_friction(zb, self.friction0, self.free_names)
+        fr = combine_friction(zb, self.friction0)
         eff = effects_from_vector(self.effects0, self.eff0 + self.S @ zs)
         return DiscoveryParams(fr, eff, self.traces.start_level + dx0)
 
