@@ -243,6 +243,45 @@ def test_a_later_effect_and_its_rivals_are_tested_given_each_other(monkeypatch):
     assert out.chosen is st and more.unbeaten_rival(out) is None
 
 
+def test_a_later_search_names_the_contender_that_explains_most():
+    """In the first search the winner is a family the calibrated test let through; in a
+    later one (the test has already found something) every physical contender with
+    evidence of its own may win (`decide.choose`): a weak family that passed the test
+    does not stand in for one that explains ten times more."""
+    import types
+
+    from stickslip_fitting.discovery.options import DEFAULTS
+    from stickslip_fitting.discovery.stages.decide import choose
+    from stickslip_fitting.discovery.stages.state import Refitted
+
+    rng = np.random.default_rng(0)
+    starts = np.arange(0, 40, 4)
+
+    def refit(name, drop):
+        return types.SimpleNamespace(
+            family=types.SimpleNamespace(name=name), drop=drop, unphysical=None,
+            failed=None, fit=types.SimpleNamespace(r=rng.normal(size=40),
+                                                   z=np.zeros(9), converged=True),
+            shape=None)
+
+    sensor, stribeck = refit("sensor_lowpass", 20.0), refit("stribeck", 259.0)
+    refitted = Refitted(refits=[sensor, stribeck], eligible=frozenset({"sensor_lowpass"}))
+
+    def fx(held):
+        base = types.SimpleNamespace(held=held, n=40, misfit=False, cols=np.arange(8),
+                                     described=np.ones(40, bool),
+                                     fit=types.SimpleNamespace(rss=40.0), within=0.0,
+                                     n_used=40)
+        scores = [types.SimpleNamespace(family=rf.family, direction=rng.normal(size=(40, 1)))
+                  for rf in refitted.refits]
+        return types.SimpleNamespace(opts=DEFAULTS, base=base, prep=types.SimpleNamespace(
+            starts=starts), ranking=types.SimpleNamespace(scores=scores))
+
+    clock = (lambda *a: None)
+    assert choose(fx(()), refitted, clock=clock).chosen is sensor
+    assert choose(fx(("viscous_damping",)), refitted, clock=clock).chosen is stribeck
+
+
 def test_confirmed_effects_that_explain_the_records_are_not_replaced_by_a_form():
     """Several effects the sequential search confirmed, leaving at most `explained_gap` x
     the noise together, are the answer: no sparse form is fitted in their place
