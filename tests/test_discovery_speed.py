@@ -30,3 +30,39 @@ def test_a_cancelled_program_is_never_started_but_still_answers():
     later.start()
     assert calls == []
     assert later.result() == "program" and calls == [1]  # asked for after all: run then
+
+
+def test_a_family_that_cannot_win_far_from_the_data_is_not_refitted():
+    """`refit.cannot_win`: far from the data, a family whose refit could not reach the
+    stop rule's target even with `HOPE` times its Gauss-Newton decrease at the start (the
+    base's own, none at a converged base, plus the score's predicted drop) is skipped; a
+    family with large starts, near the data, or before any lead is refitted."""
+    from types import SimpleNamespace as NS
+
+    import numpy as np
+
+    from stickslip_fitting.discovery.cycle_effects import family
+    from stickslip_fitting.discovery.options import DEFAULTS
+    from stickslip_fitting.discovery.stages.refit import CANNOT_WIN, cannot_win
+    from stickslip_fitting.discovery.subproblems import HOPE
+
+    J = np.eye(3)
+    base = NS(misfit=True, sensor=False, fit=NS(J=J, r=np.zeros(3)))  # converged
+    fx = NS(base=base, opts=DEFAULTS, ranking=NS(shape_scores={}))
+    lead = 1e6
+    edge = CANNOT_WIN * DEFAULTS.joint * lead / HOPE  # the predicted drop that could win
+
+    def score(name, predicted):
+        return NS(family=family(name), shape=None, chi2_predicted=predicted, p_value=1e-3)
+
+    assert cannot_win(fx, score("sensor_lowpass", 0.9 * edge), lead)
+    assert not cannot_win(fx, score("sensor_lowpass", 1.1 * edge), lead)
+    assert not cannot_win(fx, score("sensor_lowpass", 0.9 * edge), 0.0)  # no lead yet
+    assert not cannot_win(fx, score("stribeck", 0.0), lead)  # also from large starts
+    # the base's own decrease counts: a base that has chi-square left to gain
+    bent = NS(base=NS(misfit=True, sensor=False, fit=NS(J=J, r=np.full(3, np.sqrt(edge)))),
+              opts=DEFAULTS, ranking=fx.ranking)
+    assert not cannot_win(bent, score("sensor_lowpass", 0.0), lead)
+    near = NS(base=NS(misfit=False, sensor=False, fit=base.fit), opts=DEFAULTS,
+              ranking=fx.ranking)
+    assert not cannot_win(near, score("sensor_lowpass", 0.0), lead)
