@@ -54,6 +54,20 @@ def test_select_terms_keeps_nothing_in_noise():
     assert hits <= 1
 
 
+def test_select_terms_keeps_no_pair_of_one_creep_with_opposite_signs():
+    """Two collinear columns that cancel (a creep's two parts with opposite signs, whose
+    difference no creep makes) are not both kept where `same_sign` pairs them; the pair
+    is kept where it is not paired."""
+    base, _, C = _planted(11, 0, 0.0)
+    rng = np.random.default_rng(11)
+    C[:, 1] = C[:, 0] + 0.2 * C[:, 2]
+    b = rng.standard_normal(base.shape[0]) + 3.0 * C[:, 0] - 2.5 * C[:, 1]
+    free, _ = sparse.select_terms(base, b, C)
+    paired, _ = sparse.select_terms(base, b, C, same_sign=((0, 1),))
+    assert {0, 1} <= set(free)
+    assert not {0, 1} <= set(paired)
+
+
 def _one_slip_model(W=36.0, k=86.9, rate=20000.0):
     """A stand-in for the per-cycle model: one window, the slider slipping from 50 ms for
     half a period pi/omega_0, then at rest."""
