@@ -226,7 +226,8 @@ FAMILIES: tuple[Family, ...] = (
            ("r",), ("mm/s",), (1e-5,), (0,), (1e-3,), "more than 1 um/s of zero drift"),
     Family("load_coupling",
            "The normal load changes with the spring force (a drive moment pitching the "
-           "slider, ch. 6): friction grows with the deflection.",
+           "slider, ch. 6): friction grows with the deflection where the moment presses "
+           "the slider down (kappa > 0) and falls where it lifts it (kappa < 0).",
            ("kappa",), ("-",), (0.01,), (0,), (1.0,), "kappa mu above 1 lifts the slider"),
 )
 
