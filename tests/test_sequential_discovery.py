@@ -338,8 +338,12 @@ PAIRS_OF = {
                                "C": {"sensor_order": 2, "sensor_hz": 12.0}}),
 }
 """Four common families, each at about 3x the noise in the traces by itself
-(`test_cycle_discovery_rates.CALIBRATED`'s small sizes, per lubricant: 2-5x the
-single-effect detection limit; half these sizes are at the limit)."""
+(`test_cycle_discovery_rates.CALIBRATED`'s small sizes, per lubricant). Each alone is
+named at these sizes on the damping + Stribeck seeds (600-604, 12 records): the damping
+at family-wise p 0.00025 on A (600, 604) and C (603) and 0.0045 on C (601, near the
+limit), the Stribeck drop on A (600, 1.09 -> 1.05 x the noise) and C (601, 2.27 ->
+1.03). Together damping and a Stribeck drop cancel in the slips' speed dependence: the
+pair leaves 1.04-1.09 x the noise at the paper's model (docs/validation.md)."""
 ALSO = {"stribeck": {"stribeck", "rate_state"}}
 """Names that count for a family (a Stribeck drop may be named as rate-and-state)."""
 
