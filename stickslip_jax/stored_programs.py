@@ -14,7 +14,10 @@ the devices and the host's CPU. A stored program is loaded and called directly
 A call is not stored where an argument's text does not name its value exactly (an object
 printed with its address, an elided array), where the program has a host callback (an
 `eqx.error_if` check) or cannot be serialised: it then runs as `eqx.filter_jit` would.
-The store is off by default: a program is kept for the package's files as they are, so
+In a `jax.distributed` job (more than one process) calls run as `eqx.filter_jit`'s: a
+loaded program's outputs are not placed on the process's own devices there (JAX's
+persistent compilation cache still serves the compiled programs). The store is off by
+default: a program is kept for the package's files as they are, so
 code that patches the package at run time (tests) would store what it patched.
 """
 
@@ -207,7 +210,10 @@ def stored_jit(fn=None, *, compiler_options: dict | None = None):
     def call(*args):
         where = _STATE["folder"]
         dynamic, static = eqx.partition(args, eqx.is_array)
-        key = None if where is None else _key(fn, compiler_options, dynamic, static)
+        # In a `jax.distributed` job a loaded program's outputs are not placed on the
+        # process's own devices (a later operation on them fails): calls there are traced.
+        off = where is None or jax.process_count() > 1
+        key = None if off else _key(fn, compiler_options, dynamic, static)
         if key is None:
             return jitted(*args)
         path = os.path.join(where, key)

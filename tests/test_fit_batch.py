@@ -150,5 +150,8 @@ def test_two_processes_give_the_one_process_batch(tmp_path):
     for a, b in zip(one["campaigns"], two["campaigns"]):
         assert a["campaign"] == b["campaign"] and a["status"] == b["status"] == FITTED
         for name, p in a["result"]["parameters"].items():
-            assert b["result"]["parameters"][name]["value"] == pytest.approx(p["value"],
-                                                                            rel=1e-9)
+            value = b["result"]["parameters"][name]["value"]
+            if p["value"] is None:  # a parameter the campaign cannot determine
+                assert value is None, name
+            else:
+                assert value == pytest.approx(p["value"], rel=1e-9), name
