@@ -25,8 +25,8 @@ The terms are chosen by `select_terms` (sequentially thresholded least squares, 
 regression, along a path of thresholds, and a forward selection) on the base residuals
 with the base Jacobian projected out (a stick term's column is the model's own, the
 breakaway's move included); the support of least chi-square plus `TERM_COST` per term
-wins, at most `MAX_TERMS`; a creep's two parts (`SAME_SIGN`) are kept together only
-with one sign. The form is refitted with the model's parameters (`fit_sparse_form`,
+wins, at most `MAX_TERMS`; creep terms (`SAME_SIGN`) are kept together only with one
+sign. The form is refitted with the model's parameters (`fit_sparse_form`,
 Levenberg-Marquardt on the model's coordinates, the linear terms solved at every point)
 and found when it closes at least `FOUND_SHARE` of the gap's excess over the noise.
 Selection and refit hold every window's restart level free (`_levels`, linear, one per
@@ -126,15 +126,15 @@ def _terms() -> tuple[Term, ...]:
 
 TERMS = _terms()
 
-_NAMES = [t.name for t in TERMS]
-SAME_SIGN = tuple((_NAMES.index(f"stick_creep{int(tau * 1e3)}ms"),
-                   _NAMES.index(f"stick_preslide{int(tau * 1e3)}ms")) for tau in STICK_TAUS
-                  if tau in PRESLIDE_TAUS)
-"""Pairs of terms (indices into `TERMS`) that are one creep split in two, the part that
-moves the breakaway and the part that leaves it: the same displacement in the stick, so
-their coefficients share the creep's sign. Of opposite signs the two nearly cancel in the
-stick and act as a breakaway moved against the creep, which no creep does (measured: 3 um
-over 50 ms on A, seed 1, the levels as measured: -5.54 and +3.58 um over 30 ms)."""
+_CREEPS = [j for j, t in enumerate(TERMS) if t.variable == "time to the breakaway"]
+SAME_SIGN = tuple((i, j) for i in _CREEPS for j in _CREEPS if i < j)
+"""Pairs of terms (indices into `TERMS`) of one creep: the creep terms, which move the
+breakaway, and the pre-slide terms, which leave it, at every time constant. A slider
+creeps one way, toward the breakaway, so their coefficients share the creep's sign. Of
+opposite signs two of them nearly cancel in the stick and act as a breakaway moved
+against the creep, which no creep does (measured: 3 um over 50 ms on A, seed 1, the
+levels as measured: -5.54 and +3.58 um over 30 ms, then, the same time constant
+paired, -2.73 um over 30 ms and +1.12 um over 10 ms)."""
 
 LIBRARY_FORMS = {"slip_v1": ("viscous_damping", "stribeck", "rate_state"),
                  "slip_xi1": ("load_coupling",), "slip_drift": ("friction_drift",),
