@@ -198,8 +198,10 @@ def run_one(kind: str, seed: int) -> dict:
 
 
 @pytest.mark.slow
-@pytest.mark.targets  # the 70 % holds for creep on seed 0 (86 %), not seed 1 (56 %)
 def test_outside_effects_are_answered_by_their_form():
+    """Measured (2-core machine): creep 86 % and 90 % of the excess by its form, the 0.5
+    stiffening load coupling (low) on seed 0 and its form on seed 1 (103 %), backlash
+    94 % and 93 %: 5 of 6 by their form."""
     rows = [run_one(kind, seed) for kind in OUTSIDE for seed in range(2)]
     for r in rows:
         print(r)

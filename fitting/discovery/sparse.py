@@ -60,8 +60,8 @@ FOUND_SHARE = 0.5
 """The share of the gap's excess over the noise a form must close to be reported."""
 LEVELS_MOST = 0.7
 """With free restart levels, the largest share of the excess the levels alone may close
-for the terms to be found (`_beyond_levels`; measured: creep 3 um on A, seeds 0 and 1,
-22 % and 44 %; a 0.5 um screw 100 %, a 0.1 stiffening 85 %)."""
+for the terms to be found (`_beyond_levels`; measured: creep 3 um on A, seeds 0-3,
+22-44 %; a 0.5 um screw 100 %, a 0.1 stiffening 85 %)."""
 V_REF = 10.0
 """mm/s: the slider velocity the velocity powers are measured in (a slip's peak speed)."""
 PRESLIDE_TAUS = STICK_TAUS
