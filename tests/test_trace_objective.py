@@ -96,7 +96,8 @@ def test_windows_after_a_reslip_are_left_out():
     counted; every other window stays, and the residuals at the truth are unit normal."""
     fr = ss.Friction(ss.KatoStatic(mu_s=0.5698, mu_d=0.2174, gamma=0.3446, m=0.5057),
                      ss.KatoKinetic(delta=33.84, n=0.9216))
-    recs = synthetic_campaign(fr, speed_fractions=(0.05, 0.3), cycles=4, seed=525)
+    recs = synthetic_campaign(fr, speed_fractions=(0.05, 0.3), cycles=4, seed=525,
+                              pad_to=40_000)  # `campaign`'s simulation program
     feats = [record_features(r) for r in recs]
     stiff = [f.stiffness == 200.0 for f in feats]
     assert all(f.slipped_on.all() for f, s in zip(feats, stiff) if s)
