@@ -125,8 +125,9 @@ def test_fit_honours_fixed_values():
     from stickslip_fitting.solve.fit import fit_features
     from stickslip_fitting.data.synthetic import synthetic_campaign
 
+    # the synthetic campaigns' padded length: their simulation program, compiled once
     recs = synthetic_campaign(ss.lubricant("A"), speed_fractions=(0.05, 0.3), cycles=3,
-                              seed=4, pad_to=20_000)
+                              seed=4, pad_to=40_000)
     feats = [record_features(r) for r in recs]
     fit = fit_features(feats, hold=Hold(lambda f: (f.log_gap, f.log_n), (0.3, 1.2)))
     assert fit.values["mu_s"] == 0.3 and fit.values["n"] == pytest.approx(1.2, rel=1e-15)

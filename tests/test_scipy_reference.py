@@ -78,7 +78,10 @@ def test_event_budget_is_rendered_like_the_exact_simulator():
 
 @pytest.fixture(scope="module")
 def campaign():
-    recs = synthetic_campaign(RESLIP, speed_fractions=(0.05, 0.3), cycles=4, seed=525)
+    # simulated on test_trace_objective's padded length: the exact simulator's campaign
+    # program of the synthetic campaigns, compiled once
+    recs = synthetic_campaign(RESLIP, speed_fractions=(0.05, 0.3), cycles=4, seed=525,
+                              pad_to=40_000)
     feats = [record_features(r) for r in recs]
     tdata = trace_data(recs, feats)
     truth = CampaignParams(EmpiricalFriction.from_friction(RESLIP), jnp.zeros(len(recs)))
