@@ -240,6 +240,7 @@ ignore_missing_imports = True
 """
 
 
+@pytest.mark.slow  # a mypy process over the imported packages: about 6 s of CPU, 8-12 s wall
 def test_public_api_type_checks(tmp_path):
     """mypy over the public entry points (the packages ship py.typed): a user's script
     that calls `stickslip_fitting.fit` type-checks, a wrong option type is reported, and
