@@ -6,6 +6,7 @@ analysis are checked against that equivalence, the default N = W against the pla
 slideway bit for bit, and a campaign with N != W is fitted back.
 """
 
+import functools
 import math
 
 import equinox as eqx
@@ -65,12 +66,13 @@ def test_smooth_simulator_matches_the_scaled_slideway():
     ts = jnp.linspace(0.0, 8.0, 801)
     a = jnp.asarray
     kw = dict(smoothing=a(1e-3), rtol=a(1e-9))
-    # compiled whole (two programs: with and without a normal load), not op by op
+    # compiled whole, not op by op: one program, the twin's normal load given as its
+    # weight (the paper's N = W, checked bit for bit above)
     smooth = eqx.filter_jit(simulate_smooth)
     rig = smooth(ss.Slideway(FR, W, K, normal_load=N), ConstantSpeed(a(V)), ts, **kw,
                  atol=a(1e-11))
-    twin = smooth(ss.Slideway(FR, N, K / s), ConstantSpeed(a(V * s)), ts, **kw,
-                  atol=a(1e-11 * s))
+    twin = smooth(ss.Slideway(FR, N, K / s, normal_load=N), ConstantSpeed(a(V * s)), ts,
+                  **kw, atol=a(1e-11 * s))
     x, y = np.asarray(rig.deflection) * s, np.asarray(twin.deflection)
     assert np.ptp(x) > 0.05
     assert np.max(np.abs(x - y)) < 2e-4 * np.ptp(y)
@@ -111,6 +113,13 @@ def _simulate(friction, loads, ks, vs, x0s, ts, mask):
     return jax.vmap(one)(loads, ks, vs, x0s, ts, mask)
 
 
+@functools.cache
+def _campaign_at_n():
+    """`_campaign(FR, N)`, simulated once for the module's tests (records are not changed
+    in place: `Record.replace` gives new ones)."""
+    return tuple(_campaign(FR, N))
+
+
 def _campaign(friction, load, seed=3, noise=5e-4, rate=1000.0):
     """Records of W = 36 kgf under the normal load `load` at three k and two speeds, each
     from its steady slip end (eq 5 with N), white noise `noise` mm."""
@@ -134,7 +143,7 @@ def _campaign(friction, load, seed=3, noise=5e-4, rate=1000.0):
 
 
 def test_campaign_with_a_normal_load_is_fitted_back():
-    records = _campaign(FR, N)
+    records = list(_campaign_at_n())
     feats = [record_features(r) for r in records]
     assert all(f.stick_slip for f in feats) and all(f.load == N for f in feats)
     fit = fit_features(feats, padding=Padding(cycles=8))
@@ -171,7 +180,7 @@ def test_discovery_model_takes_the_normal_load():
         sim = trace_simulation(params, data)
         return sim, trace_sd(params, data, sim.slider_velocity)
 
-    records = _campaign(FR, N)[::2]
+    records = list(_campaign_at_n()[::2])
     feats = [record_features(r) for r in records]
     params = CampaignParams(EmpiricalFriction.from_friction(FR), jnp.zeros(len(records)))
     rms = []
@@ -200,7 +209,7 @@ def test_discover_with_a_normal_load(tmp_path):
     from stickslip_jax.cli import main
     from stickslip_jax.records import write_record
 
-    paths = [str(write_record(r, tmp_path / r.source)) for r in _campaign(FR, N)[::2]]
+    paths = [str(write_record(r, tmp_path / r.source)) for r in _campaign_at_n()[::2]]
     out = tmp_path / "d.json"
     assert main(["discover", *paths, "--json", str(out), "--quiet"]) == 0
     rep = json.loads(out.read_text())
@@ -307,7 +316,7 @@ def test_law_starts_read_the_normal_load():
     from stickslip_fitting.modes import FrictionLaw
     from stickslip_fitting.solve.laws import law_starts
 
-    feats = [record_features(r) for r in _campaign(FR, N)[::2]]
+    feats = [record_features(r) for r in _campaign_at_n()[::2]]
     same = [dataclasses.replace(f, weight=N, normal_load=None) for f in feats]
     for law in (FrictionLaw.LOG_AGING, FrictionLaw.RATE_STATE_AGING):
         assert law_starts(law, feats) == law_starts(law, same)
