@@ -188,7 +188,7 @@ class SmoothDiscovery(Discovery):
 
 
 NO_STDERR = ("no standard error: the refit's derivatives do not determine it (the "
-             "Gauss-Newton covariance gives it no variance)")
+             "covariance gives it no variance)")
 
 
 def effect_estimate(name: str, unit: str, value: float, stderr: float,

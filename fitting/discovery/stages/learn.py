@@ -16,6 +16,7 @@ from ..misfit import LEFT, misfit_left
 from ..result import (CycleDiscovery, effect_rows, explanation_text, phase_misfit,
                       phase_text, steps_text)
 from .base_fit import friction_values
+from .errors import robust_errors
 from .form import form_text, outside_form
 from .state import Choice, Clock, Fits, Refitted, Reweighed
 
@@ -104,8 +105,9 @@ def conclude(fx: Fits, refitted: Refitted, choice: Choice, after: Reweighed, *, 
     `steps`: the effects of the sequential search (`more`; `choice` then holds the final
     model, every effect kept in it)."""
     opts, base, prep = fx.opts, fx.base, fx.prep
+    chosen, steps = robust_errors(base.model, after.chosen, steps)  # the answer's errors
     kept = [s for s in steps if s.kept]
-    chosen, sd_after, n, described = after.chosen, after.sd_after, base.n, base.described
+    sd_after, n, described = after.sd_after, base.n, base.described
     r0, sd, noise, gap_before = base.r, base.sd, base.noise, base.gap_before
     if chosen is not None:
         z_after = chosen.sub.full(chosen.fit.z)
