@@ -111,8 +111,8 @@ def test_fitted_traces_follow_the_records(fitted):
     from stickslip_fitting.report.plots import fitted_traces, friction_curves
 
     recs, fit = fitted
-    sims = fitted_traces(fit, recs[:2])
-    assert sims is not None and len(sims) == 2
+    sims = fitted_traces(fit, recs)  # every record: the program of the figure's traces
+    assert sims is not None and len(sims) == len(recs)
     for rec, f, (t, x) in zip(recs, fit.features, sims):
         gaps = np.isnan(t)
         assert gaps.sum() == np.count_nonzero(f.complete[1:]) and np.isnan(x[gaps]).all()
