@@ -204,16 +204,33 @@ def cannot_win(fx: Fits, sc: FamilyScore, lead: float) -> bool:
     predicted = [option.chi2_predicted for option, _ in options]
     if len(starts) > 1 or not (np.all(np.isfinite(predicted)) and np.isfinite(sc.p_value)):
         return False
-    J, r = np.asarray(fx.base.fit.J), np.asarray(fx.base.fit.r)
+    own = _own_decrease(fx.base)
+    return (np.isfinite(own)
+            and HOPE * (own + max(predicted)) < CANNOT_WIN * fx.opts.joint * lead)
+
+
+_OWN: dict = {"fit": (None, None), "decrease": float("nan")}
+"""The last base fit's Jacobian and residuals `_own_decrease` was computed for, and its
+decrease."""
+
+
+def _own_decrease(base) -> float:
+    """The Gauss-Newton decrease of the base fit over its own columns (NaN where its
+    derivatives are not finite), computed once for a base fit, not once per family
+    (`cannot_win`)."""
+    if all(a is b for a, b in zip(_OWN["fit"], (base.fit.J, base.fit.r))):
+        return _OWN["decrease"]
+    J, r = np.asarray(base.fit.J), np.asarray(base.fit.r)
     with np.errstate(over="ignore", invalid="ignore"):
         A, g = J.T @ J, J.T @ r
-    if not (np.all(np.isfinite(A)) and np.all(np.isfinite(g))):
-        return False
-    try:
-        own = float(gauss_newton_decrease(A, g, xp=np))
-    except np.linalg.LinAlgError:
-        return False
-    return HOPE * (own + max(predicted)) < CANNOT_WIN * fx.opts.joint * lead
+    decrease = float("nan")
+    if np.all(np.isfinite(A)) and np.all(np.isfinite(g)):
+        try:
+            decrease = float(gauss_newton_decrease(A, g, xp=np))
+        except np.linalg.LinAlgError:
+            pass
+    _OWN.update(fit=(base.fit.J, base.fit.r), decrease=decrease)
+    return decrease
 
 
 def refit_family(fx: Fits, sc: FamilyScore, lead: float = 0.0) -> FamilyRefit:
