@@ -35,22 +35,50 @@ sparse form of the residual (`discovery.sparse`) chooses and refits them.
 from __future__ import annotations
 
 import dataclasses
+import enum
 
 import jax.numpy as jnp
 import numpy as np
 
 __all__ = ["DAMPING_FORMS", "DRIVE_ERROR_MAX", "FAMILIES", "PITCH_STEP", "SHAPE_STEP",
            "STICK_SCALE", "STICK_TAUS", "STICK_TERMS", "STICK_TRAVELS", "STRIBECK_FORMS",
-           "Family", "Shape", "drive_error", "drive_error_range", "family", "neighbour_shapes",
-           "stick_terms"]
+           "DampingForm", "Family", "Shape", "StribeckForm", "drive_error",
+           "drive_error_range", "family", "neighbour_shapes", "stick_terms"]
 
-STRIBECK_FORMS = ("exp", "log", "linear", "rational")
-"""Forms of the Stribeck curve (`Shape.form`). The linear form is not scanned: with a
-negative coefficient it is viscous damping's own (measured: on the damping benchmark
-campaign its refit outran the damping refit and made the answer uncertain)."""
-DAMPING_FORMS = ("dashpot", "ratio")
-"""Viscous damping's forms: one dashpot c (kgf s/mm) for every record, or one damping
-ratio zeta, c = 2 zeta sqrt(k m) in each record (as a machine's modal damping is quoted)."""
+
+class StribeckForm(enum.StrEnum):
+    r"""Form of the Stribeck curve $s(w)$, $w = v/v_s$ (`Shape.form`): `EXP`
+    $e^{-w^p} - 1$, `LOG` $-\ln(1 + w)$, `LINEAR` $-w$, `RATIONAL` $1/(1 + w^p) - 1$ (Hess
+    and Soom's with p = 2). The value names the form in labels and JSON; the member's
+    position is the per-cycle model's switch index (`cycle_model`). The linear form is
+    not scanned: with a negative coefficient it is viscous damping's own (measured: on the
+    damping benchmark campaign its refit outran the damping refit and made the answer
+    uncertain)."""
+
+    EXP = "exp"
+    LOG = "log"
+    LINEAR = "linear"
+    RATIONAL = "rational"
+
+    @property
+    def has_exponent(self) -> bool:
+        """Whether the curve has the exponent p (`EXP`, `RATIONAL`)."""
+        return self in (StribeckForm.EXP, StribeckForm.RATIONAL)
+
+
+class DampingForm(enum.StrEnum):
+    """Viscous damping's form (`Shape.damping`): one dashpot c (kgf s/mm) for every record
+    (`DASHPOT`), or one damping ratio zeta, c = 2 zeta sqrt(k m) in each record (`RATIO`,
+    as a machine's modal damping is quoted). The value names the form in labels and JSON."""
+
+    DASHPOT = "dashpot"
+    RATIO = "ratio"
+
+
+STRIBECK_FORMS = tuple(StribeckForm)
+"""The Stribeck forms in the per-cycle model's switch order."""
+DAMPING_FORMS = tuple(DampingForm)
+"""Viscous damping's forms in the per-cycle model's index order."""
 SENSOR_ZETAS = (0.4, 0.55, 0.7, 0.85, 1.0)
 """Damping ratios of the second-order sensor kernels scanned: under-damped amplifiers,
 the Butterworth response of most anti-aliasing filters, critically damped."""
@@ -105,11 +133,10 @@ def drive_error_range(coef, t, speed, pitch) -> float:
 @dataclasses.dataclass(frozen=True)
 class Shape:
     """Shape settings of the model (traced, so one compilation serves every shape):
-    Stribeck speed scale `vs` (mm/s), exponent `p` and curve `form` ("exp"
-    $e^{-(v/v_s)^p} - 1$, "log" $-\\ln(1 + v/v_s)$, "linear" $-v/v_s$, "rational"
-    $1/(1 + (v/v_s)^p) - 1$, Hess and Soom's with p = 2), rate-and-state D_c `length`
-    (mm), screw `pitch` (mm), sensor kernel `order` (1 or 2) and its damping ratio
-    `zeta`, viscous `damping` form (`DAMPING_FORMS`)."""
+    Stribeck speed scale `vs` (mm/s), exponent `p` and curve `form` (`StribeckForm`),
+    rate-and-state D_c `length` (mm), screw `pitch` (mm), sensor kernel `order` (1 or 2)
+    and its damping ratio `zeta`, viscous `damping` form (`DampingForm`). A form given by
+    its value ("rational", "ratio") is taken as that member."""
 
     vs: float = 10.0
     p: float = 1.0
@@ -117,19 +144,24 @@ class Shape:
     pitch: float = 5.0
     order: int = 1
     zeta: float = 1.0
-    form: str = "exp"
-    damping: str = "dashpot"
+    form: StribeckForm = StribeckForm.EXP
+    damping: DampingForm = DampingForm.DASHPOT
+
+    def __post_init__(self):
+        object.__setattr__(self, "form", StribeckForm(self.form))
+        object.__setattr__(self, "damping", DampingForm(self.damping))
 
     def label(self, fam: "Family") -> str:
-        keys = {"stribeck": {"exp": ("vs", "p"), "rational": ("form", "vs", "p")}.get(
+        keys = {"stribeck": {StribeckForm.EXP: ("vs", "p"),
+                             StribeckForm.RATIONAL: ("form", "vs", "p")}.get(
                     self.form, ("form", "vs")),
                 "rate_state": ("D_c",),
                 "viscous_damping": ("damping",),
                 "drive_periodic_error": ("pitch",),
                 "sensor_lowpass": ("order",) if self.order == 1 else ("order", "zeta")}
         value = {"vs": self.vs, "p": self.p, "D_c": self.length, "pitch": self.pitch,
-                 "order": self.order, "zeta": self.zeta, "form": self.form,
-                 "damping": self.damping}
+                 "order": self.order, "zeta": self.zeta, "form": self.form.value,
+                 "damping": self.damping.value}
         return ", ".join(f"{k} = {value[k]:g}" if k not in ("form", "damping")
                          else f"{value[k]}"
                          for k in keys.get(fam.name, ()))
@@ -151,7 +183,7 @@ class Family:
     def named(self, shape: Shape) -> tuple[tuple[str, ...], tuple[str, ...]]:
         """The parameters' names and units in this shape (viscous damping's ratio form
         fits the damping ratio zeta, dimensionless, instead of c)."""
-        if self.name == "viscous_damping" and shape.damping == "ratio":
+        if self.name == "viscous_damping" and shape.damping is DampingForm.RATIO:
             return ("zeta",), ("-",)
         return self.params, self.units
 
@@ -184,13 +216,13 @@ FAMILIES: tuple[Family, ...] = (
            "resists the slip, so slips are slower and smaller than dry friction predicts.",
            ("c",), ("kgf*s/mm",), (0.01,), (1,), (1.0,),
            "a damping ratio above about 1 would stop stick-slip altogether",
-           shapes=(Shape(), Shape(damping="ratio"))),
+           shapes=(Shape(), Shape(damping=DampingForm.RATIO))),
     Family("stribeck",
            "Kinetic friction falls with slip speed (a Stribeck curve): the slip starts "
            "against higher friction than it ends with.",
            ("b",), ("-",), (0.01,), (1,), (0.5,), "a friction step larger than mu itself",
            shapes=tuple(Shape(vs=vs, p=p) for vs in (3.0, 10.0, 30.0) for p in (1.0, 2.0))
-           + tuple(Shape(vs=vs, form="log") for vs in (1.0, 10.0))),
+           + tuple(Shape(vs=vs, form=StribeckForm.LOG) for vs in (1.0, 10.0))),
     Family("rate_state",
            "Rate-and-state friction (Dieterich-Ruina): friction rises with the slip speed "
            "(direct effect a) and falls as the contact state renews over a slip distance "
@@ -251,12 +283,13 @@ def neighbour_shapes(fam: Family, shape: Shape) -> list[Shape]:
     out: list[Shape] = []
     if fam.name == "stribeck":
         out += [rep(shape, vs=shape.vs * SHAPE_STEP), rep(shape, vs=shape.vs / SHAPE_STEP)]
-        if shape.form in ("exp", "rational"):
+        if shape.form.has_exponent:
             out += [rep(shape, p=shape.p + 1.0), rep(shape, p=max(shape.p - 1.0, 0.5))]
-        out += [rep(shape, form=f, p=shape.p if f in ("exp", "rational") else 1.0)
-                for f in ("exp", "rational", "log") if f != shape.form]
+        out += [rep(shape, form=f, p=shape.p if f.has_exponent else 1.0)
+                for f in (StribeckForm.EXP, StribeckForm.RATIONAL, StribeckForm.LOG)
+                if f is not shape.form]
     elif fam.name == "viscous_damping":
-        out += [rep(shape, damping=d) for d in DAMPING_FORMS if d != shape.damping]
+        out += [rep(shape, damping=d) for d in DampingForm if d is not shape.damping]
     elif fam.name == "rate_state":
         out += [rep(shape, length=shape.length * SHAPE_STEP),
                 rep(shape, length=shape.length / SHAPE_STEP)]
