@@ -9,7 +9,7 @@ import numpy as np
 from stickslip_jax.logs import logger
 
 from ...solve.fit import fit_features
-from ...objectives.losses import AbstractLoss
+from ...objectives.losses import AbstractLoss, Gaussian
 from ...params import EmpiricalFriction
 from ..cycle_model import CycleModel
 from ..decision import rms_gap, chi2_by_record, noise_of
@@ -43,7 +43,7 @@ def _solve_base(prep: Prepared, opts: DiscoveryOptions, loss: AbstractLoss | Non
     fit = sub.solve(z_base[base_cols], max_evals=max_evals)
     z_base = sub.full(fit.z)
     robust = np.ones(np.asarray(data.mask).shape)  # per sample: sd multiplier of the loss
-    if loss is not None and loss.spec() != "gaussian":
+    if loss is not None and not isinstance(loss, Gaussian):
         # heavy-tailed noise (`--loss`): the loss's IRLS weights at the base fit, held
         # fixed like the effective variance (every model is compared on the same
         # weights): a sample far out weighs psi(r)/r of a Gaussian one
