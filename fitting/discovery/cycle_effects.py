@@ -35,10 +35,11 @@ sparse form of the residual (`discovery.sparse`) chooses and refits them.
 from __future__ import annotations
 
 import dataclasses
-import enum
 
 import jax.numpy as jnp
 import numpy as np
+
+from stickslip_jax.modes import AbstractMode
 
 __all__ = ["DAMPING_FORMS", "DRIVE_ERROR_MAX", "FAMILIES", "PITCH_STEP", "SHAPE_STEP",
            "STICK_SCALE", "STICK_TAUS", "STICK_TERMS", "STICK_TRAVELS", "STRIBECK_FORMS",
@@ -46,7 +47,7 @@ __all__ = ["DAMPING_FORMS", "DRIVE_ERROR_MAX", "FAMILIES", "PITCH_STEP", "SHAPE_
            "drive_error_range", "family", "neighbour_shapes", "stick_terms"]
 
 
-class StribeckForm(enum.StrEnum):
+class StribeckForm(AbstractMode):
     r"""Form of the Stribeck curve $s(w)$, $w = v/v_s$ (`Shape.form`): `EXP`
     $e^{-w^p} - 1$, `LOG` $-\ln(1 + w)$, `LINEAR` $-w$, `RATIONAL` $1/(1 + w^p) - 1$ (Hess
     and Soom's with p = 2). The value names the form in labels and JSON; the member's
@@ -66,7 +67,7 @@ class StribeckForm(enum.StrEnum):
         return self in (StribeckForm.EXP, StribeckForm.RATIONAL)
 
 
-class DampingForm(enum.StrEnum):
+class DampingForm(AbstractMode):
     """Viscous damping's form (`Shape.damping`): one dashpot c (kgf s/mm) for every record
     (`DASHPOT`), or one damping ratio zeta, c = 2 zeta sqrt(k m) in each record (`RATIO`,
     as a machine's modal damping is quoted). The value names the form in labels and JSON."""
@@ -148,8 +149,8 @@ class Shape:
     damping: DampingForm = DampingForm.DASHPOT
 
     def __post_init__(self):
-        object.__setattr__(self, "form", StribeckForm(self.form))
-        object.__setattr__(self, "damping", DampingForm(self.damping))
+        object.__setattr__(self, "form", StribeckForm.parse(self.form, "form"))
+        object.__setattr__(self, "damping", DampingForm.parse(self.damping, "damping"))
 
     def label(self, fam: "Family") -> str:
         keys = {"stribeck": {StribeckForm.EXP: ("vs", "p"),
