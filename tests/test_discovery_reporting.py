@@ -183,6 +183,10 @@ def test_both_bases_answer_with_one_document():
     assert set(s) - shared == {"misspecification_before", "misspecification_after",
                                "records_screened"}
     assert s["misspecification_after"] == {"p_value": 0.5} and c["learned_correction"] is None
+    from stickslip_fitting.report.discovery_text import answer_text
+
+    # each base prints its own candidate table
+    assert "dBIC" in answer_text(smooth) and "p family-wise" in answer_text(cycle)
 
 
 def _cycle_fit(values, offsets=(0.01, -0.02), seed=0):

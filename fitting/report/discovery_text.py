@@ -4,6 +4,8 @@ tables) and the JSON document (`json_document`) of a `discovery.result.Discovery
 
 from __future__ import annotations
 
+from ..modes import DiscoveryBase
+
 __all__ = ["JSON_ALIASES", "answer_text", "candidate_table", "json_document", "named_effects",
            "parameter_table", "smooth_candidate_table"]
 
@@ -22,7 +24,7 @@ def answer_text(result) -> str:
     r = result
     alternatives, further = named_effects(r)
     joint = " + ".join([" or ".join(alternatives)] + further)
-    table = candidate_table if r.BASE == "cycle" else smooth_candidate_table
+    table = candidate_table if r.BASE is DiscoveryBase.CYCLE else smooth_candidate_table
     return "\n".join([
         f"effect: {joint} (confidence {r.confidence})"
         + (": these records cannot tell them apart" if r.indistinguishable_from else ""),
