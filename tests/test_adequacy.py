@@ -86,21 +86,27 @@ def test_sentences_need_more_than_chance():
 
 
 def test_sentences_name_the_law_fitted():
-    """The verdict's sentence names the law the fit fitted (its `MODEL`): the paper's
-    model for eq (1), another law by the name `stickslip fit --law` gives it."""
+    """The verdict's sentence names the law the fit fitted (its friction parameters): the
+    paper's model for eq (1), another law by the name `stickslip fit --law` gives it."""
+    from stickslip_fitting.law_params import LogAgingFriction, RateStateAgingFriction
+    from stickslip_fitting.microsqueeze_params import MicrosqueezeFriction
+    from stickslip_fitting.params import EmpiricalFriction
+
     missed = [PhaseRow(r, "levels", 300, 40.0) for r in "abc"]
     clean = [PhaseRow(r, "levels", 300, 1.0) for r in "abc"]
-    for model, name in (("empirical", "The paper's model"),
-                        ("microsqueeze", "The paper's microsqueeze model"),
-                        ("log_aging", "The log_aging law"),
-                        ("rate_state_aging", "The rate_state_aging law")):
-        assert model_text(model) == name
-        verdict, text = _sentences(missed, 40.0, 3, model=model)
+    laws = ((EmpiricalFriction.from_values(0.4, 0.3, 1.0, 0.5, 2.0, 1.3), "The paper's model"),
+            (MicrosqueezeFriction.from_values(0.4, 0.2, 0.01, 1.0, 50.0, 1.0, eta=2.2e-8),
+             "The paper's microsqueeze model"),
+            (LogAgingFriction(*[0.0] * 5), "The log_aging law"),
+            (RateStateAgingFriction(*[0.0] * 4), "The rate_state_aging law"))
+    for friction, name in laws:
+        assert model_text(friction) == name
+        verdict, text = _sentences(missed, 40.0, 3, name=name)
         assert verdict == "misses"
         assert text[0].startswith(f"{name} does not describe these records")
-        verdict, text = _sentences(clean, 1.0, 3, model=model)
+        verdict, text = _sentences(clean, 1.0, 3, name=name)
         assert verdict == "describes" and text[0].startswith(f"{name} describes every record")
-    assert "paper" not in " ".join(_sentences(missed, 40.0, 3, model="log_aging")[1])
+    assert "paper" not in " ".join(_sentences(missed, 40.0, 3, name="The log_aging law")[1])
 
 
 def test_correlated_stick_times_p_value_is_calibrated():
@@ -143,7 +149,7 @@ def test_law_fit_is_judged_on_its_own_residuals():
     obj = NS(data=NS(time=time, mask=mask), residuals=lambda params: r.ravel())
     feats = [NS(name="a", breakaway_time=np.array([0.0, 11.0]), end_time=np.array([8.0, 13.0])),
              NS(name="b", breakaway_time=np.array([1.0]), end_time=np.array([2.0]))]
-    law = type("Law", (), {"MODEL": "log_aging"})  # hashable: the residuals' static argument
+    law = type("Law", (), {"MODEL": "log_aging"})()  # not one of the paper's laws
     fit = NS(params=type("Params", (), {"friction": law}), features=feats, objective=obj,
              record_scale=None, reduced_chi2=20.0)
     rep = adequacy(fit)

@@ -329,22 +329,30 @@ chance is never called a miss. Measured on notebook 03's clean synthetic campaig
 6.8), with these correlations none."""
 
 
-PAPER_MODELS = ("empirical", "microsqueeze")
-"""The `MODEL`s of the paper's laws, judged on their feature residuals."""
+def _paper_laws() -> tuple[type, ...]:
+    """The paper's laws, eq (1) and eq (28): judged on their feature residuals."""
+    from ..microsqueeze_params import MicrosqueezeFriction
+    from ..params import EmpiricalFriction
+
+    return EmpiricalFriction, MicrosqueezeFriction
 
 
-def model_text(model: str) -> str:
-    """How the sentences name a fitted law (its `MODEL`): the paper's eq (1) law as "The
-    paper's model", its eq (28) microsqueeze law as "The paper's microsqueeze model",
-    another law by its name ("The log_aging law")."""
-    named = {"empirical": "The paper's model", "microsqueeze": "The paper's microsqueeze model"}
-    return named.get(model, f"The {model} law")
+def model_text(friction) -> str:
+    """How the sentences name a fitted law (the fit's friction parameters): the paper's
+    eq (1) law (`EmpiricalFriction`) as "The paper's model", its eq (28) law
+    (`MicrosqueezeFriction`) as "The paper's microsqueeze model", another law by its
+    `MODEL` ("The log_aging law")."""
+    empirical, microsqueeze = _paper_laws()
+    if isinstance(friction, empirical):
+        return "The paper's model"
+    if isinstance(friction, microsqueeze):
+        return "The paper's microsqueeze model"
+    return f"The {friction.MODEL} law"
 
 
 def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
-               heavy_tailed: bool | None = None, model: str = "empirical",
+               heavy_tailed: bool | None = None, name: str = "The paper's model",
                hints: dict[str, str] = PHASE_HINT) -> tuple[str, list]:
-    name = model_text(model)
     bad = [r for r in rows if _beyond(r, BAD, len(rows))]
     marginal = [r for r in rows if _beyond(r, GOOD, len(rows)) and r not in bad]
     if not bad and not marginal:
@@ -391,10 +399,10 @@ def adequacy(fit) -> Adequacy:
     names = [f.name or f"record {i}" for i, f in enumerate(fit.features)]
     scale = (np.ones(len(names)) if fit.record_scale is None
              else np.asarray(fit.record_scale, float))
-    model = fit.params.friction.MODEL
-    if model not in PAPER_MODELS:  # a law fitted through whole records: its own residuals
-        rows = _law_rows(fit, names)
-        verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), model=model,
+    name = model_text(fit.params.friction)
+    if not isinstance(fit.params.friction, _paper_laws()):  # a law fitted through whole
+        rows = _law_rows(fit, names)                           # records: its own residuals
+        verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), name=name,
                                         hints=LAW_HINT)
         return Adequacy(fit.reduced_chi2, rows, verdict, sentences)
     # the phases the fit fitted: a trace-only fit is judged on its samples, not on the
@@ -406,5 +414,5 @@ def adequacy(fit) -> Adequacy:
     if td is not None:
         rows += _trace_rows(fit, names, td)
     heavy = fit.objective is not None and not isinstance(loss_of(fit.objective), Gaussian)
-    verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), heavy, model)
+    verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), heavy, name)
     return Adequacy(fit.reduced_chi2, rows, verdict, sentences)
