@@ -199,8 +199,10 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
     n_tests = sum(len(f.shapes) * (len(opts.sensor_probes) if f.name == "sensor_lowpass"
                                    else 1) for f in fams)
     level = alpha / n_tests
-    if base.sensor or (base.misfit and any(f.name == "sensor_lowpass" for f in fams)):
-        prep.warm["evaluate", True].start()  # a refit with the sensor comes: built meanwhile
+    if base.sensor:  # every refit runs with the sensor: its program built meanwhile
+        # (far from the data a refit with the sensor may come, but the sensor's refit is
+        # often not made, `refit.cannot_win`: its program is built when that refit comes)
+        prep.warm["evaluate", True].start()
     plain_J = _plain_jacobians(model, base, fams, G)
     scores: list[FamilyScore] = []
     shape_scores: dict[str, list[FamilyScore]] = {}
