@@ -361,12 +361,9 @@ class EffectSet(eqx.Module):
     rate_state: RateState = RateState()
 
     @classmethod
-    def zeros(cls, *, stribeck_speed: float = 1.0, drive_pitch: float = 0.05,
-              rate_state_length: float = 0.005) -> EffectSet:
-        """The paper's model; the fixed shape settings (mm/s, mm, mm) of three effects."""
-        return cls(stribeck=Stribeck(v_s=stribeck_speed),
-                   drive_periodic_error=DrivePeriodicError(pitch=drive_pitch),
-                   rate_state=RateState(length=rate_state_length))
+    def zeros(cls) -> EffectSet:
+        """The paper's model: every effect zero, at its class's fixed shape settings."""
+        return cls()
 
     def with_effect(self, name: str, **values) -> EffectSet:
         """A copy with effect `name`'s parameters set (natural units)."""

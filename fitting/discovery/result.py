@@ -248,8 +248,8 @@ def friction_rows(fit: Solution, features, clusters, *, chi2: float,
     record, window = (np.r_[np.asarray(c), -np.ones(extra, int)] for c in clusters)
     as_fit = FitResult(params=CampaignParams(friction, np.zeros(0)), spec=None, data=None,
                        features=list(features), chi2=float(chi2), dof=int(dof),
-                       result=fit.result, converged=fit.converged, n_starts=1,
-                       n_steps=fit.n_evals, slip_time=None, start_chi2=np.array([chi2]))
+                       result=fit.result, converged=fit.converged,
+                       n_steps=fit.n_evals, slip_time=None)
     return laplace(as_fit, covariance=Covariance.SANDWICH, jacobian=LogJacobian(
         J, np.asarray(fit.r, float), np.ones(6, bool), np.arange(6), values, record,
         window)).estimates()

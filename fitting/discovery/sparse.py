@@ -255,13 +255,13 @@ def library(model, z, r, sd) -> np.ndarray:
     return out
 
 
-def select_terms(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: int = MAX_TERMS,
-                 cost: float | None = None, same_sign=()) -> tuple[np.ndarray, float]:
+def select_terms(base: np.ndarray, b: np.ndarray, C: np.ndarray, *,
+                 same_sign=()) -> tuple[np.ndarray, float]:
     """The terms of the sparse form: sequentially thresholded least squares of b on the
     whitened columns C, `base` projected out: at each threshold of a path (a share of the
     excess chi-square each standardised coefficient must explain) and along a forward
-    selection, the support (at most `max_terms`) of least chi-square + `cost` per term
-    (default `TERM_COST` of the excess, at least 2 ln n); a support holding both columns
+    selection, the support (at most `MAX_TERMS`) of least chi-square + a cost per term
+    (`TERM_COST` of the excess, at least 2 ln n); a support holding both columns
     of a pair of `same_sign` with coefficients of opposite signs is not a form (`SAME_SIGN`).
     Returns the support (column indices) and its chi-square."""
     n = b.size
@@ -272,7 +272,7 @@ def select_terms(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: i
     Cs = np.where(live, Cp / np.where(live, norm, 1.0), 0.0)
     rss0 = float(bp @ bp)
     excess = max(rss0 - n, 0.0)
-    cost = max(TERM_COST * excess, 2.0 * np.log(n)) if cost is None else cost
+    cost = max(TERM_COST * excess, 2.0 * np.log(n))
 
     def rss_of(S):
         if not S.size:
@@ -290,8 +290,8 @@ def select_terms(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: i
         for _ in range(20):
             _, beta = rss_of(S)
             keep = np.abs(beta) >= np.sqrt(share * excess)
-            if keep.sum() > max_terms:  # the largest standardised coefficients
-                keep = np.isin(np.arange(S.size), np.argsort(-np.abs(beta))[:max_terms])
+            if keep.sum() > MAX_TERMS:  # the largest standardised coefficients
+                keep = np.isin(np.arange(S.size), np.argsort(-np.abs(beta))[:MAX_TERMS])
             if keep.all():
                 break
             S = S[keep]
@@ -299,7 +299,7 @@ def select_terms(base: np.ndarray, b: np.ndarray, C: np.ndarray, *, max_terms: i
         if rss + cost * S.size < best_score:
             best, best_score = S, rss + cost * S.size
     S = np.zeros(0, int)
-    for _ in range(max_terms):  # and forward selection: strongly collinear columns (creep
+    for _ in range(MAX_TERMS):  # and forward selection: strongly collinear columns (creep
         # terms of neighbouring time constants) split their coefficients under the joint
         # fit, so that every threshold dropped them all
         rest = np.setdiff1d(np.flatnonzero(live), S)

@@ -58,8 +58,8 @@ class FitResult:
     - `params`: the best `CampaignParams`; `spec`: the filter spec of the free leaves;
       `data`: the `FeatureData` fitted; `features`: the per-record `RecordFeatures`.
     - `chi2` at the optimum; `dof`: residuals with data minus free parameters; `result`:
-      optimistix result of the best start, `converged` when successful; `n_starts`,
-      `n_steps` (of the best start, all rounds), `n_rounds` (reweighting rounds).
+      optimistix result of the best start, `converged` when successful; `n_steps` (of
+      the best start, all rounds), `n_rounds` (reweighting rounds).
     - `slip_time`: the $T_2$ mode of eq (3); `objective`: the `AbstractObjective`
       minimised; `trace_failures`: trace windows whose simulation failed at the optimum.
     - `record_chi2`: chi2/n of each record's features residuals before any rescaling;
@@ -75,10 +75,8 @@ class FitResult:
     dof: int
     result: optx.RESULTS
     converged: bool
-    n_starts: int
     n_steps: int
     slip_time: SlipTime
-    start_chi2: np.ndarray
     objective: AbstractObjective | None = None
     trace_failures: int = 0
     n_rounds: int = 1
@@ -433,15 +431,13 @@ def _fit_rescaled(problem_of, features, solver: SolverOptions, rounds: int = 4) 
 
 class _FeaturesProblem(NamedTuple):
     """A features fit set up (`_features_problem`): its data and objective, the stacked
-    free parts of the starts and their common static part, the filter spec, the starting
-    frictions."""
+    free parts of the starts and their common static part, the filter spec."""
 
     data: FeatureData
     objective: AbstractObjective
     free_starts: CampaignParams
     static: CampaignParams
     spec: CampaignParams
-    starts: list
 
 
 def _fit_problem(problem: _FeaturesProblem, features, solver: SolverOptions) -> FitResult:
@@ -454,9 +450,8 @@ def _fit_problem(problem: _FeaturesProblem, features, solver: SolverOptions) -> 
     return FitResult(
         params=params, spec=problem.spec, data=problem.data, features=list(features),
         chi2=float(chi2s[best]), dof=problem.data.n_residuals() - _n_free(free_best),
-        result=result, converged=bool(ok[best]), n_starts=len(problem.starts),
-        n_steps=int(np.asarray(steps)[best]), slip_time=problem.objective.slip_time,
-        start_chi2=chi2s, objective=problem.objective, n_rounds=rounds,
+        result=result, converged=bool(ok[best]), n_steps=int(np.asarray(steps)[best]),
+        slip_time=problem.objective.slip_time, objective=problem.objective, n_rounds=rounds,
     )
 
 
@@ -476,7 +471,7 @@ def _features_problem(features, o: _Options, starts=None, loss=None,
     params0 = [CampaignParams(s, jax.device_put(offsets0)) for s in starts]
     spec = free_spec(params0[0], hold=o.hold, offsets=from_start)
     frees, statics = zip(*(eqx.partition(p, spec) for p in params0))
-    return _FeaturesProblem(data, obj, _stack(frees), statics[0], spec, starts)
+    return _FeaturesProblem(data, obj, _stack(frees), statics[0], spec)
 
 
 @stored_jit(compiler_options=QUICK_OPTIONS)
@@ -516,12 +511,11 @@ def fit_objective(objective: AbstractObjective, params: CampaignParams, free, *,
     fields = dict(
         params=eqx.combine(free_opt, static), spec=spec, chi2=float(np.asarray(chi2s)[0]),
         dof=int(round(objective.dof())) - _n_free(part), result=result, converged=converged,
-        n_steps=int(np.asarray(steps)[0]), start_chi2=np.asarray(chi2s), objective=objective,
-        n_rounds=rounds, trace_failures=objective.failures(np.asarray(flags)[0]))
+        n_steps=int(np.asarray(steps)[0]), objective=objective, n_rounds=rounds,
+        trace_failures=objective.failures(np.asarray(flags)[0]))
     if base is not None:
         return dataclasses.replace(base, **fields)
-    return FitResult(data=None, features=[], n_starts=1, slip_time=objective.slip_time,
-                     **fields)
+    return FitResult(data=None, features=[], slip_time=objective.slip_time, **fields)
 
 
 def fit_records(records, **kwargs) -> FitResult:

@@ -17,7 +17,7 @@ the truth in 92 % ("both") and 89 % ("trace") of 108 cases, against 55 % and 62 
 $F^{-1}$.
 
 Identifiability, reported in plain language: by the numbers, a relative standard error
-over `max_relative_se` (0.5: a 95 % interval wider than a factor 2.7 either way), pairs
+over `MAX_RELATIVE_SE` (0.5: a 95 % interval wider than a factor 2.7 either way), pairs
 with |correlation| > 0.95, and the eigenvalues of the friction block of $F$ (offsets
 marginalised) with the weakest direction; by the design, one slip time $T_2 =
 \pi/\omega_0$ for all records (one $k/W$) determines only $\delta T_2^n$ ($n$ and
@@ -280,6 +280,8 @@ SANDWICH_CHI2 = 4.0
 """Above this chi2/dof the features fit's intervals use the cluster-robust covariance."""
 
 
+MAX_RELATIVE_SE = 0.5
+"""A free parameter's relative standard error above this is not identified (module doc)."""
 NULL_SHARE = 1e-3
 """A parameter whose unit vector has more than this squared share in the null space of
 the information is not identifiable."""
@@ -301,8 +303,7 @@ def _null_share(F) -> np.ndarray:
     return np.sum(V[:, null] ** 2, axis=1)
 
 
-def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
-            covariance: Covariance = Covariance.AUTO, lag: int = 1,
+def laplace(fit: FitResult, *, covariance: Covariance = Covariance.AUTO, lag: int = 1,
             small_sample: SmallSample = SmallSample.JACKKNIFE,
             jacobian: LogJacobian | None = None) -> Uncertainty:
     """Laplace covariance, intervals and identifiability report of a fit (module doc).
@@ -377,7 +378,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
     identifiable = {}
     reasons = {n: r for n, r in flagged.items() if free[names.index(n)]}
     for i, n in enumerate(names):
-        bad_num = bool(free[i]) and not (log_se[i] <= max_relative_se)
+        bad_num = bool(free[i]) and not (log_se[i] <= MAX_RELATIVE_SE)
         # a standard error of exactly 0: the data do not move the fit in that direction at
         # all (e.g. eq (1) saturated, exp(-gamma T1^m) = 0 at every stick): the
         # pseudo-inverse dropped it; not a perfectly determined value
@@ -391,7 +392,7 @@ def laplace(fit: FitResult, *, max_relative_se: float = 0.5,
             reasons.setdefault(n, "the residuals do not change with it")
         elif bad_num:
             reasons.setdefault(n, f"relative standard error {log_se[i]:.2g} > "
-                                  f"{max_relative_se}")
+                                  f"{MAX_RELATIVE_SE}")
     # a parameter with a share in a direction the records do not see at all (a zero
     # eigenvalue of the information: e.g. m = 0 makes mu_s and gamma one number) has no
     # standard error, whatever the pseudo-inverse gives it
