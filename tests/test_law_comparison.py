@@ -215,3 +215,47 @@ def test_a_re_slip_is_simulated_from_where_the_slider_rests():
     other = paper_campaign(1)[0]
     f = record_features(other)
     assert at_rest(other, f) is f
+
+
+def test_discover_compare_laws_is_the_discover_verbs_option(tmp_path, monkeypatch, capsys):
+    """`stickslip discover --compare-laws` is `discover(..., compare_laws=True)`: the laws
+    are compared on the records and features discovery used, their message is printed
+    after the answer and their document written under "laws" (stand-ins for the
+    discovery and the fits: no simulation)."""
+    import json
+    from types import SimpleNamespace as NS
+
+    import stickslip_fitting.discovery.engine as engine
+    import stickslip_fitting.discovery.laws as laws
+    from stickslip_fitting.discovery.result import CycleDiscovery
+    from stickslip_jax.cli import main
+
+    fit = NS(converged=True, n_evals=3)
+    seen = {}
+
+    def run(records, base, progress=None):
+        return CycleDiscovery(
+            effect="none", explanation="", confidence="high", gap_before=1e-3,
+            gap_after=1e-3, noise=1e-3, criterion="", candidates=[], estimates_before=[],
+            estimates_after=[], effect_estimates=[], timings={}, base_fit=fit, final_fit=fit,
+            phases_before={}, phases_after={}, model=None, z_before=None, z_after=None,
+            shape=None, sensor=False, campaign=NS(screening=[], records=records,
+                                                  features=["f"] * len(records)))
+
+    def compare(records, chosen, features=None):
+        seen.update(records=len(records), laws=chosen, features=features)
+        return LawComparison((), FrictionLaw.PAPER, False, "the paper's law is preferred")
+
+    monkeypatch.setattr(engine, "discover", run)
+    monkeypatch.setattr(laws, "compare_laws", compare)
+    examples = sorted(Path(__file__).parents[1].joinpath("data", "examples").glob("*.csv"))
+    out = tmp_path / "d.json"
+    assert main(["discover", *map(str, examples[:2]), "--compare-laws", "--json", str(out),
+                 "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert printed.index("effect: none") < printed.index("the paper's law is preferred")
+    assert seen == {"records": 2, "features": ["f", "f"], "laws": (
+        FrictionLaw.PAPER, FrictionLaw.RATE_STATE_AGING, FrictionLaw.LOG_AGING)}
+    doc = json.loads(out.read_text())
+    assert doc["laws"]["preferred"] == "paper" and doc["loss"] == "gaussian"
+    assert list(doc).index("loss") == list(doc).index("laws") - 1

@@ -11,11 +11,12 @@ found.plot("discover.png")      # the figure of `stickslip discover --plot`
 found.to_json("discover.json")  # the document of `stickslip discover --json`
 
 smooth = sf.discover("data/examples", base=sf.SmoothBase(top=2, crop=sf.Crop.SLIP_END))  # --base smooth
+laws = sf.discover("data/examples", compare_laws=True).laws  # --compare-laws
 ```
 
-The call runs `stickslip discover`'s functions: the records read as the command reads
-them, `discovery.engine.discover` on the base, its figure, and the answer text and JSON
-document of `report.discovery_text`.
+`stickslip discover` is this call: the records read, `discovery.engine.discover` on the
+base, the base friction laws compared where asked (`discovery.laws.compare_laws`), its
+figure, and the answer text and JSON document of `report.discovery_text`.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
     from ..discovery.cycle_workflow import CycleBase
+    from ..discovery.laws import LawComparison
     from ..discovery.result import Discovery
     from ..discovery.workflow import SmoothBase
     from ..objectives.losses import AbstractLoss
@@ -61,12 +63,15 @@ class CampaignDiscovery(ResultDocument):
     (`effect`: a name, "none" or "unexplained"), its tables (`summary()`,
     `parameters(when)`), figure (`plot`), `stickslip discover --json` document
     (`to_json`, `to_dict`) and, as `str`, what the command prints. `result` is the
-    pipeline's `discovery.result.Discovery` (fits, residuals by phase, the campaign)."""
+    pipeline's `discovery.result.Discovery` (fits, residuals by phase, the campaign);
+    `laws` the base friction laws compared on the records it used (`compare_laws=True`;
+    JSON key "laws"), else None."""
 
     result: Discovery
     loss: str = "gaussian"
     inputs: tuple[str, ...] = ()
     """The record files read (an output may not overwrite one of them)."""
+    laws: LawComparison | None = None
 
     @property
     def effect(self) -> str:
@@ -123,7 +128,8 @@ class CampaignDiscovery(ResultDocument):
     def report(self) -> dict:
         """The `stickslip discover --json` document before strict encoding."""
         loss = {"loss": self.loss} if self.result.BASE is DiscoveryBase.CYCLE else {}
-        return {**json_document(self.result), **loss}
+        laws = {} if self.laws is None else {"laws": self.laws.to_json()}
+        return {**json_document(self.result), **loss, **laws}
 
     def plot(self, path: str | os.PathLike[str] | None = None) -> Figure:
         """The figure of `stickslip discover --plot`, saved to `path` when given."""
@@ -136,7 +142,7 @@ class CampaignDiscovery(ResultDocument):
         return fig
 
     def __str__(self) -> str:
-        return answer_text(self.result)
+        return answer_text(self.result) + ("" if self.laws is None else "\n" + self.laws.message)
 
     def __repr__(self) -> str:
         return (f"CampaignDiscovery(effect={self.effect!r}, confidence={self.confidence!r}, "
@@ -147,7 +153,8 @@ def discover(records: RecordsSpec, *, base: CycleBase | SmoothBase | None = None
              only: tuple[str, ...] | list[str] | None = None, top: int = 3,
              alpha: float = 0.01, max_evals: int = 80, loss: AbstractLoss | str = "gaussian",
              strict: bool = False, learn: bool = False, progress=None,
-             max_effects: int = 3) -> CampaignDiscovery:
+             max_effects: int = 3, compare_laws: bool = False,
+             outputs: dict[str, str | None] | None = None) -> CampaignDiscovery:
     """Find the effect the paper's model misses in a campaign, as `stickslip discover`.
 
     - `records`: a file, a folder (its *.csv), a glob, a list of these, or `Record`s;
@@ -158,6 +165,11 @@ def discover(records: RecordsSpec, *, base: CycleBase | SmoothBase | None = None
     - `only`, `top`, `alpha`, `max_evals`, `strict`, `learn`, `max_effects`: as the
       command's options; `loss`: "gaussian", "huber:C", "student-t:NU" or an
       `AbstractLoss`; `progress`: called with one line per finished stage.
+    - `compare_laws`: also fit the base friction laws (the paper's, rate-and-state with
+      aging, logarithmic aging) to the records discovery used (`CampaignDiscovery.laws`;
+      minutes on the smoothed simulator).
+    - `outputs`: {option: path} of files to be written, checked against the files read
+      before any fit (an output never overwrites an input).
 
     A mistake in the options raises ValueError naming the keyword, before any fit.
     """
@@ -193,10 +205,30 @@ def discover(records: RecordsSpec, *, base: CycleBase | SmoothBase | None = None
         recs, unreadable = files.records, list(files.unreadable)
         files.check(base.strict)
         inputs = tuple([r.source for r in recs if r.source] + [e.path for e in unreadable])
+    if outputs:
+        from stickslip_jax.output import check_outputs
+
+        check_outputs(outputs, inputs)
     if len(recs) + len(unreadable) < 2:
         raise ValueError("records: discovery needs at least two records (a campaign)")
+    from stickslip_jax.logs import logger
+
+    logger.info(f"discovery on {len(recs)} records (base {base.NAME})...")
     result = run(recs, dataclasses.replace(base, unreadable=tuple(unreadable)),
                  progress=progress)
-    used = getattr(base, "loss", None)
+    used = base.loss if isinstance(base, CycleBase) else None
     return CampaignDiscovery(result=result, loss=used.spec() if used else "gaussian",
-                             inputs=inputs)
+                             inputs=inputs, laws=_compare_laws(result.campaign)
+                             if compare_laws else None)
+
+
+def _compare_laws(campaign) -> LawComparison:
+    """The base friction laws fitted to the records discovery used (`compare_laws`)."""
+    from stickslip_jax.logs import logger
+
+    from ..discovery.laws import compare_laws
+    from ..modes import FrictionLaw
+
+    logger.info("comparing the base friction laws on the smoothed simulator (minutes)...")
+    return compare_laws(campaign.records, (FrictionLaw.PAPER, FrictionLaw.RATE_STATE_AGING,
+                                           FrictionLaw.LOG_AGING), features=campaign.features)

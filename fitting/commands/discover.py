@@ -6,7 +6,9 @@ robust score test of every effect family, refits, and a named effect, "none" or
 over whole records (`discovery.workflow`, BIC choice). Prints the answer, the gap
 (residual RMS) before and after, the candidate and parameter tables; `--json OUT` the
 result's document (`discovery.result.Discovery.to_json`, gaps in mm); `--plot OUT.png`
-the residuals by phase, the parameters and the traces.
+the residuals by phase, the parameters and the traces. The command parses its options
+into a base model and calls `api.discovery.discover`, which compares the base friction
+laws too with `--compare-laws`.
 """
 
 from __future__ import annotations
@@ -74,65 +76,41 @@ def add_arguments(parser):
 
 
 def run(args) -> int:
-    import dataclasses
     import sys
 
-    from stickslip_jax.output import check_outputs, save_figure, write_json
-    from stickslip_jax.records import read_campaign_files
+    from stickslip_jax.logs import logger
+    from stickslip_jax.output import save_figure, write_json
 
+    from ..api.discovery import discover
     from ..modes import DiscoveryBase
     from ..objectives.losses import parse_loss
-    from ..report.discovery_text import answer_text, json_document
 
     cycle = DiscoveryBase.parse(args.base) is DiscoveryBase.CYCLE
-    loss = parse_loss(args.loss)
-    base = _base(args, cycle, loss)  # the options checked before any file is read
-    files = read_campaign_files(args.records)  # an unreadable file is set aside, listed
-    records, unreadable = files.records, files.unreadable
-    files.check(args.strict)
-    check_outputs({"--json": args.json, "--plot": args.plot},
-                  [r.source for r in records if r.source] + [e.path for e in unreadable])
-    if len(records) + len(unreadable) < 2:
-        raise ValueError("RECORDS: discovery needs at least two records (a campaign)")
-    base = dataclasses.replace(base, unreadable=tuple(unreadable))
-    from stickslip_jax.logs import logger
-
-    from ..discovery.engine import discover
-
-    logger.info(f"discovery on {len(records)} records (base {base.NAME})...")
-    result = discover(records, base, progress=None if args.quiet else logger.info)
-    for s in result.campaign.screening:
+    base = _base(args, cycle, parse_loss(args.loss))  # checked before any file is read
+    try:
+        found = discover(args.records, base=base, compare_laws=args.compare_laws,
+                         outputs={"--json": args.json, "--plot": args.plot},
+                         progress=None if args.quiet else logger.info)
+    except ValueError as err:  # the verb's keyword is the command's argument
+        head, colon, rest = str(err).partition(":")
+        if head != "records":
+            raise
+        raise ValueError(f"RECORDS{colon}{rest}") from None
+    for s in found.result.campaign.screening:
         if s.status != "used":
             print(f"warning: {s.name}: {s.status.replace('_', ' ')} ({s.reason}); not used",
                   file=sys.stderr)
-    extra = {"loss": loss.spec()} if cycle else {}
-    print(answer_text(result))
-    if args.compare_laws:
-        laws = _compare_laws(result.campaign)
-        print(laws.message)
-        extra["laws"] = laws.to_json()
+    print(found)
     if args.json:
-        write_json(args.json, {**json_document(result), **extra})
+        write_json(args.json, found.report)
     if args.plot:
         from ..report.plots import interruptible
 
         logger.info("drawing the figure...")
         # in a worker thread: a Ctrl-C in the figure's compilation or rendering takes
         # effect at once, and the JSON above is renamed into place only with the figure
-        interruptible(lambda: save_figure(result.figure(), args.plot, dpi=120))
+        interruptible(lambda: save_figure(found.result.figure(), args.plot, dpi=120))
     return 0
-
-
-def _compare_laws(campaign):
-    """The base friction laws fitted to the records discovery used (`compare_laws`)."""
-    from stickslip_jax.logs import logger
-
-    from ..discovery.laws import compare_laws
-    from ..modes import FrictionLaw
-
-    logger.info("comparing the base friction laws on the smoothed simulator (minutes)...")
-    return compare_laws(campaign.records, (FrictionLaw.PAPER, FrictionLaw.RATE_STATE_AGING,
-                                           FrictionLaw.LOG_AGING), features=campaign.features)
 
 
 BASE_OPTIONS = ("only", "top", "alpha", "max_evals", "max_effects", "threshold")
