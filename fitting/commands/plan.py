@@ -1,4 +1,7 @@
-"""`stickslip plan`: propose the next records that most reduce the friction-parameter uncertainty."""
+"""`stickslip plan`: propose the next records that most reduce the friction-parameter uncertainty.
+
+The command parses its options (the candidate axes with their units) and calls
+`api.plan.plan_records`, whose `RecordPlan` it prints and writes."""
 
 from __future__ import annotations
 
@@ -101,15 +104,16 @@ def _values(text, dim, unit, arg):
     return parse_grid(text, dim, unit, arg)
 
 
-MAX_BUDGET = 1000
-"""Most records one plan proposes (the greedy design adds them one at a time)."""
+PLAN_OPTIONS = ("budget", "noise", "weights/stiffnesses/speeds")
+"""The plan verb's keywords that are options of the command: its error "name: ..." is
+printed as "--name: ..."."""
 
 
 def run(args) -> int:
     from stickslip_jax.output import check_outputs
 
-    from ..design import PARAMETERS, Noise, candidate_grid, greedy_design, observables
-    from ..design.posterior import plan_sources
+    from ..api.plan import plan_records
+    from ..design import Noise
 
     if args.json_source is not None:  # `plan --json SOURCE ...`: the old bare --json
         args.sources = [args.json_source, *args.sources]
@@ -117,69 +121,23 @@ def run(args) -> int:
         raise ValueError("RECORDS-OR-PRIOR: give a lubricant name, a prior JSON or a "
                          "posterior sample (and records already measured)")
     check_outputs({"--json": args.json}, [s for s in args.sources if Path(s).exists()])
-    if not 1 <= args.budget <= MAX_BUDGET:
-        raise ValueError(f"--budget: must lie in 1-{MAX_BUDGET} records (a plan proposes "
-                         f"records one at a time), got {args.budget}")
-    if not all(x > 0 for x in args.noise):
-        raise ValueError("--noise: every noise level must be positive")
-    u, sd, existing, desc = plan_sources(args.sources, args.table, args.prior_sd)
-    axes = (_values(args.weights, "force", "kgf", "--weights"),
-            _values(args.stiffnesses, "stiffness", "kgf/mm", "--stiffnesses"),
-            _values(args.speeds, "speed", "mm/min", "--speeds"))
-    from stickslip_jax.output import check_memory
-
-    # the Fisher matrix of every candidate (6 x 6) and its observables, per greedy step;
-    # checked before the grid of candidates is built (3000^3 of them died building it)
-    n_cands = float(np.prod([np.size(a) for a in axes], dtype=float))
-    check_memory(f"{' x '.join(str(np.size(a)) for a in axes)} = {n_cands:.3g} candidate "
-                 "records", "--weights/--stiffnesses/--speeds", n_cands * 64 * 8)
-    cands = candidate_grid(*axes)
-    if args.no_repeats and args.budget > len(cands):
-        raise ValueError(f"--budget: {args.budget} exceeds the {len(cands)} candidates")
-    noise = Noise(*args.noise)
-    from stickslip_jax.logs import logger
-
-    logger.info(f"choosing {args.budget} of {len(cands)} candidate records "
-                f"({args.criterion}-optimal)...")
-    plan = greedy_design(u, cands, args.budget, noise=noise, prior_sd=sd, existing=existing,
-                         repeats=not args.no_repeats,
-                         criterion=DesignCriterion.parse(args.criterion))
-    logger.info("plan done")
-    rows = []
-    for i in range(args.budget):
-        w, k, v = (float(np.asarray(x)[i]) for x in
-                   (plan.campaign.weight, plan.campaign.stiffness, plan.campaign.speed))
-        _, mask = observables(u, w, k, v)
-        rows.append({"weight_kgf": w, "stiffness_kgf_per_mm": k,
-                     "drive_speed_mm_per_min": v * 60.0,
-                     "stick_slip_expected": bool(np.asarray(mask)[0] > 0)})
-    # the parameter rows: the estimate (log coordinates) with its sd before and after
-    from ..params import UNITS
-    from ..report.rows import ParameterEstimate
-
-    before, after = ([ParameterEstimate.from_log(p, UNITS[p], x, s)
-                      for p, x, s in zip(PARAMETERS, u, sds)]
-                     for sds in (plan.sd_before, plan.sd_after))
-    doc = {"source": desc, "criterion": args.criterion,
-           "estimate": {e.name: e.value for e in before},
-           "relative_sd_before": {e.name: e.log_sd for e in before},
-           "relative_sd_after": {e.name: e.log_sd for e in after}, "records": rows}
+    try:
+        plan = plan_records(args.sources, _values(args.weights, "force", "kgf", "--weights"),
+                            _values(args.stiffnesses, "stiffness", "kgf/mm", "--stiffnesses"),
+                            _values(args.speeds, "speed", "mm/min", "--speeds"),
+                            budget=args.budget, table=args.table, prior_sd=args.prior_sd,
+                            noise=Noise(*args.noise), repeats=not args.no_repeats,
+                            criterion=DesignCriterion.parse(args.criterion))
+    except ValueError as err:
+        head, colon, rest = str(err).partition(":")
+        if head not in PLAN_OPTIONS:
+            raise
+        raise ValueError(f"--{head.replace('/', '/--')}{colon}{rest}") from None
     if args.json:
         from stickslip_jax.output import versioned, write_json
 
-        write_json(args.json, versioned(doc, JSON_ALIASES))
+        write_json(args.json, versioned(plan.report, JSON_ALIASES))
         if args.json != "-":  # with "-" the table below goes to stderr
             print(f"wrote {args.json}")
-    print(f"plan from {desc}: {args.budget} record(s), {args.criterion}-optimal, "
-          f"{len(cands)} candidates")
-    print(f"{'#':>3} {'W [kgf]':>9} {'k [kgf/mm]':>11} {'v [mm/min]':>11}  regime")
-    for i, r in enumerate(rows, 1):
-        regime = "stick-slip" if r["stick_slip_expected"] else "smooth"
-        print(f"{i:>3} {r['weight_kgf']:>9.4g} {r['stiffness_kgf_per_mm']:>11.4g} "
-              f"{r['drive_speed_mm_per_min']:>11.4g}  {regime}")
-    print("relative sd of the parameters (sd of log), before -> after:")
-    for b, a in zip(before, after):
-        print(f"  {b.name:>6}: {b.log_sd:.3g} -> {a.log_sd:.3g}")
-    print("note: the design is local to the estimate; record one or two proposals, re-fit, "
-          "and plan again (see stickslip_fitting.design.sequential_campaign)")
+    print(plan)
     return 0
