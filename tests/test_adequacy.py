@@ -149,7 +149,9 @@ def test_law_fit_is_judged_on_its_own_residuals():
     obj = NS(data=NS(time=time, mask=mask), residuals=lambda params: r.ravel())
     feats = [NS(name="a", breakaway_time=np.array([0.0, 11.0]), end_time=np.array([8.0, 13.0])),
              NS(name="b", breakaway_time=np.array([1.0]), end_time=np.array([2.0]))]
-    law = type("Law", (), {"MODEL": "log_aging"})()  # not one of the paper's laws
+    from stickslip_fitting.law_params import LogAgingFriction
+
+    law = LogAgingFriction(*[0.0] * 5)  # a law other than the paper's
     fit = NS(params=type("Params", (), {"friction": law}), features=feats, objective=obj,
              record_scale=None, reduced_chi2=20.0)
     rep = adequacy(fit)

@@ -329,12 +329,14 @@ chance is never called a miss. Measured on notebook 03's clean synthetic campaig
 6.8), with these correlations none."""
 
 
-def _paper_laws() -> tuple[type, ...]:
-    """The paper's laws, eq (1) and eq (28): judged on their feature residuals."""
-    from ..microsqueeze_params import MicrosqueezeFriction
-    from ..params import EmpiricalFriction
+def _whole_record_law(friction) -> bool:
+    """Whether `friction` is a base law other than the paper's (`solve.laws.LAW_PARAMS`):
+    fitted through whole records, judged on that objective's own residuals."""
+    from ..modes import FrictionLaw
+    from ..solve.laws import LAW_PARAMS
 
-    return EmpiricalFriction, MicrosqueezeFriction
+    return isinstance(friction, tuple(cls for law, cls in LAW_PARAMS.items()
+                                      if law is not FrictionLaw.PAPER))
 
 
 def model_text(friction) -> str:
@@ -342,12 +344,13 @@ def model_text(friction) -> str:
     eq (1) law (`EmpiricalFriction`) as "The paper's model", its eq (28) law
     (`MicrosqueezeFriction`) as "The paper's microsqueeze model", another law by its
     `MODEL` ("The log_aging law")."""
-    empirical, microsqueeze = _paper_laws()
-    if isinstance(friction, empirical):
+    from ..params import EmpiricalFriction
+
+    if _whole_record_law(friction):
+        return f"The {friction.MODEL} law"
+    if isinstance(friction, EmpiricalFriction):
         return "The paper's model"
-    if isinstance(friction, microsqueeze):
-        return "The paper's microsqueeze model"
-    return f"The {friction.MODEL} law"
+    return "The paper's microsqueeze model"
 
 
 def _sentences(rows: list[PhaseRow], reduced_chi2: float, n_records: int,
@@ -400,8 +403,8 @@ def adequacy(fit) -> Adequacy:
     scale = (np.ones(len(names)) if fit.record_scale is None
              else np.asarray(fit.record_scale, float))
     name = model_text(fit.params.friction)
-    if not isinstance(fit.params.friction, _paper_laws()):  # a law fitted through whole
-        rows = _law_rows(fit, names)                           # records: its own residuals
+    if _whole_record_law(fit.params.friction):  # its own objective's residuals
+        rows = _law_rows(fit, names)
         verdict, sentences = _sentences(rows, fit.reduced_chi2, len(names), name=name,
                                         hints=LAW_HINT)
         return Adequacy(fit.reduced_chi2, rows, verdict, sentences)
