@@ -194,11 +194,13 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
     goal = Objective.parse(objective)
     modes = ModelModes(offset=GaugeOffset.parse(gauge_offset, "gauge_offset"),
                        slip_time=SlipTime.parse(slip_time))
-    law, model_name = _law(model)
+    from ..params import EmpiricalFriction
+
+    law, _ = _law(model)
     loss = loss_option(loss)
     fixed = _fixed(fix, law)
     pair = eta_value = None
-    if model_name == "microsqueeze":
+    if not issubclass(law, EmpiricalFriction):  # the microsqueeze law
         pair = surface_option(surface)
         eta_value = None if eta is None else _viscosity(eta)
     elif eta is not None:
@@ -223,11 +225,12 @@ def fit_campaign(records: list, law, fixed: dict[str, float], *, objective: Obje
     checked by `check`), the intervals and checks (`uncertainty`), the report
     (`report.fit_table`). `eta` (kgf*s/mm^2; None: the records' lubricant's) and `pair`:
     the microsqueeze law's givens."""
-    from ..params import Hold
+    from ..objectives.losses import Gaussian
+    from ..params import EmpiricalFriction, Hold
 
-    micro = law.MODEL == "microsqueeze"
-    gaussian = loss.spec() == "gaussian"
-    what = f"objective {objective}" + ("" if gaussian else f", loss {loss.spec()}")
+    micro = not issubclass(law, EmpiricalFriction)  # the other law it takes: microsqueeze
+    what = f"objective {objective}" + ("" if isinstance(loss, Gaussian)
+                                       else f", loss {loss.spec()}")
     data = _read(records, law, one_record=not micro, strict=strict, outputs=outputs, what=what)
     if data.holds:
         fixed = {**data.holds, **fixed}
