@@ -13,8 +13,10 @@ __all__ = ["JSON_ALIASES", "answer_text", "candidate_table", "json_document", "n
 def named_effects(result) -> tuple[list[str], list[str]]:
     """What an answer names: (the effect and the effects the records cannot tell from it,
     the further effects the sequential search kept after it, in order). The command
-    prints them as "a or b + c"; `CampaignDiscovery.named` lists them."""
-    kept = [s["effect"] for s in getattr(result, "steps", ()) if s["kept"]]
+    prints them as "a or b + c"; `CampaignDiscovery.named` lists them. Only the per-cycle
+    base searches on after its first effect (its `steps`)."""
+    steps = result.steps if result.BASE is DiscoveryBase.CYCLE else ()
+    kept = [s["effect"] for s in steps if s["kept"]]
     return [result.effect] + [r["name"] for r in result.indistinguishable_from], kept[1:]
 
 
@@ -83,7 +85,7 @@ def parameter_table(result) -> str:
     out = text_table(["parameter", "unit", "before", "after", "std err", "note"], rows,
                      align="llrrrl")
     after = {e.name: e.value for e in result.estimates_after}
-    if (getattr(result, "effect_of", "") and before and after
+    if (result.effect_of and before and after
             and all(after.get(e.name) == e.value for e in result.estimates_before)):
         out += ("\nfriction parameters unchanged by the refit: the final fit kept the base "
                 "fit's values")
