@@ -58,6 +58,7 @@ SHARED_PROGRAMS = {
     **dict.fromkeys(("test_cycle_discovery", "test_api_results"), "test_json_keys"),
     **dict.fromkeys(("test_smooth_objective", "test_combined", "test_trace_objective",
                      "test_fit_figure"), "test_mcmc"),
+    "test_real_data": "test_unknowns",
 }
 """Modules that run on the worker of another (module -> that module) under `pytest -n 2`:
 they run the same commands or fits at the same design points and shapes, so the later
@@ -75,7 +76,8 @@ with `check_traced=False`) are not kept in the persistent cache, so only the one
 shares them. test_cycle_discovery, test_json_keys and test_api_results read one discovery
 of the clean campaign (`clean_discovery_run`), run once on their worker: test_api_results
 checks that the API calls the command's discovery engine with the command's records and
-base, and gives the command's document from its result."""
+base, and gives the command's document from its result. test_unknowns and test_real_data
+read one `stickslip fit` of the shipped measured records (`real_records_fit`)."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about
@@ -150,6 +152,39 @@ def clean_discovery(clean_discovery_run):
     test_api_results (the document `stickslip_fitting.discover` gives on the same files)."""
     run = clean_discovery_run
     return run["rc"], run["document"], run["out"], run["err"]
+
+
+@pytest.fixture(scope="session")
+def real_records_fit(tmp_path_factory):
+    """`stickslip fit data/real/*.csv --json --plot --quiet`, run once for the test run:
+    its printed table, JSON document, figure file and the figure it drew. Read by
+    test_unknowns (the table and figure) and test_real_data (the document)."""
+    import contextlib
+    import io
+    import json
+    import pathlib
+
+    import stickslip_fitting.report.plots as plots
+
+    from stickslip_jax.cli import main
+
+    real = sorted(str(p) for p in
+                  (pathlib.Path(__file__).parents[1] / "data" / "real").glob("*.csv"))
+    d = tmp_path_factory.mktemp("real_records_fit")
+    out, png = d / "fit.json", d / "fit.png"
+    drawn = []
+    original = plots.fit_figure
+
+    def keep(*args, **kwargs):
+        drawn.append(original(*args, **kwargs))
+        return drawn[-1]
+
+    buf = io.StringIO()
+    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(buf):
+        mp.setattr(plots, "fit_figure", keep)
+        code = main(["fit", *real, "--json", str(out), "--plot", str(png), "--quiet"])
+    assert code == 0 and len(drawn) == 1
+    return buf.getvalue(), json.loads(out.read_text()), png, drawn[0]
 
 
 def _compilation_cache(config) -> str:

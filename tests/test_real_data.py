@@ -5,23 +5,20 @@ records, with no interval for what two records at one speed cannot determine."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from stickslip_jax.cli import main
-
 REAL = sorted(str(p) for p in (Path(__file__).parents[1] / "data/real").glob("*.csv"))
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory):
-    out = tmp_path_factory.mktemp("real") / "fit.json"
+def report(real_records_fit):
+    """The JSON document of `stickslip fit data/real/*.csv` (conftest `real_records_fit`:
+    one fit read by test_unknowns too)."""
     assert len(REAL) == 3
-    assert main(["fit", *REAL, "--json", str(out), "--quiet"]) == 0
-    return json.loads(out.read_text())
+    return real_records_fit[1]
 
 
 def test_sliding_control_is_set_aside(report):

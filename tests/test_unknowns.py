@@ -7,17 +7,13 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
 from stickslip_fitting.solve.batch import FAILED, FITTED, BatchEntry, BatchResult
 from stickslip_fitting.report.rows import ParameterEstimate, note_text, text_table, value_text
 
-ROOT = Path(__file__).resolve().parents[1]
-REAL = sorted(str(p) for p in (ROOT / "data" / "real").glob("*.csv"))
 NUMBER = re.compile(r"[-+]?\d+(\.\d*)?([eE][-+]?\d+)?")
 
 
@@ -187,35 +183,8 @@ def dataclass_replace(obj, **changes):
 
 # -- the shipped measured records, end to end -----------------------------------------
 
-@pytest.fixture(scope="module")
-def real_fit(tmp_path_factory):
-    """`stickslip fit data/real/*.csv --json --plot` (about a minute): its printed table,
-    JSON, figure file and the figure it drew."""
-    import contextlib
-
-    import stickslip_fitting.report.plots as plots
-
-    from stickslip_jax.cli import main
-
-    d = tmp_path_factory.mktemp("real_unknowns")
-    out, png = d / "fit.json", d / "fit.png"
-    drawn = []
-    original = plots.fit_figure
-
-    def keep(*args, **kwargs):
-        drawn.append(original(*args, **kwargs))
-        return drawn[-1]
-
-    buf = io.StringIO()
-    with pytest.MonkeyPatch.context() as mp, contextlib.redirect_stdout(buf):
-        mp.setattr(plots, "fit_figure", keep)
-        code = main(["fit", *REAL, "--json", str(out), "--plot", str(png), "--quiet"])
-    assert code == 0 and len(drawn) == 1
-    return buf.getvalue(), json.loads(out.read_text()), png, drawn[0]
-
-
-def test_real_records_print_dashes_for_what_they_do_not_determine(real_fit):
-    text, report, _, _ = real_fit
+def test_real_records_print_dashes_for_what_they_do_not_determine(real_records_fit):
+    text, report, _, _ = real_records_fit
     params = report["parameters"]
     unknown = [n for n, p in params.items() if not p["identifiable"] and not p["fixed"]]
     assert len(unknown) >= 3  # two records at one speed: eq (1)'s rise and eq (3)'s decay
@@ -238,10 +207,10 @@ def test_real_records_print_dashes_for_what_they_do_not_determine(real_fit):
         assert abs(value) < 1e9, (token.group(), text)
 
 
-def test_real_records_figure_shows_every_record(real_fit):
+def test_real_records_figure_shows_every_record(real_records_fit):
     """One panel per record (the two fitted and the one set aside, said so), each over
     its own time; the parameter box gives "-" for what the records do not determine."""
-    text, report, png, fig = real_fit
+    text, report, png, fig = real_records_fit
     assert png.stat().st_size > 20_000
     panels = [a for a in fig.axes if a.get_label().startswith("record ")]
     assert len(panels) == len(report["records"]) == 3
