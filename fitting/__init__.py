@@ -12,7 +12,9 @@ result.summary(); result.plot("fit.png"); result.to_json("fit.json")
 `sample(records)` -> `api.posterior.CampaignPosterior` (as `stickslip mcmc`),
 `discover(records)` -> `api.discovery.CampaignDiscovery` (as `stickslip discover`) and
 `design_map(weight, stiffness, speed)` -> `api.design.DesignStudy` (as `stickslip design`)
-have the same shape: `summary()`, `plot(path)`, `to_json(path)`.
+have the same shape: `summary()`, `plot(path)`, `to_json(path)`;
+`plan_records(sources, weights, stiffnesses, speeds)` -> `api.plan.RecordPlan` (as
+`stickslip plan`) prints its table and has `to_json(path)`.
 
 The subpackages follow the data flow, one way (each knows only the ones before it):
 
@@ -60,7 +62,8 @@ _HOME = {"AbstractFrictionParams": "params", "CampaignParams": "params",
          "fit": "api.campaign",
          "CampaignPosterior": "api.posterior", "sample": "api.posterior",
          "CampaignDiscovery": "api.discovery", "discover": "api.discovery",
-         "DesignStudy": "api.design", "design_map": "api.design"}
+         "DesignStudy": "api.design", "design_map": "api.design",
+         "RecordPlan": "api.plan", "plan_records": "api.plan"}
 __all__ = sorted(_HOME)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 
 import pytest
+import stickslip_fitting as sf
 from stickslip_fitting.api.design import parse_grid
 from stickslip_fitting.api.plan import RecordPlan, plan_records
 from stickslip_fitting.modes import DesignCriterion
@@ -17,6 +18,7 @@ AXES = ([11.3, 36.0, 53.2], [27.3, 86.9, 128.5],
 
 
 def test_plan_records_is_the_command(capsys):
+    assert sf.plan_records is plan_records and sf.RecordPlan is RecordPlan
     plan = plan_records(["A"], *AXES, budget=2)
     assert isinstance(plan, RecordPlan) and plan.criterion is DesignCriterion.D
     assert main(["plan", "A", "--budget", "2", "--json"]) == 0

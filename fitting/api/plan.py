@@ -3,10 +3,10 @@ speeds, ...)` -> `RecordPlan`, the plan `stickslip plan` prints and writes.
 
 ```python
 import numpy as np
-from stickslip_fitting.api.plan import plan_records
+import stickslip_fitting as sf
 
-plan = plan_records(["A"], [11.3, 36.0, 53.2], [27.3, 86.9, 128.5],
-                    np.geomspace(0.0022, 92.0, 12) / 60.0, budget=2)
+plan = sf.plan_records(["A"], [11.3, 36.0, 53.2], [27.3, 86.9, 128.5],
+                       np.geomspace(0.0022, 92.0, 12) / 60.0, budget=2)
 print(plan)                  # the table `stickslip plan` prints
 plan.to_json("plan.json")    # the document of `stickslip plan --json`
 ```
