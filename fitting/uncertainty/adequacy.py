@@ -23,45 +23,20 @@ name no equation of the paper.
 
 ## The chance of a chi2: correlated residuals
 
-A row's statistic is $q = \sum_i x_i^2 = n \cdot \chi^2/n$ over its $n$ whitened
-residuals $x_i$ (dimensionless: residual over the record's noise sd). Under the noise,
-$E[q] = n$, and for Gaussian residuals of correlation $\rho_k$ at lag $k$
-$\mathrm{Var}[q] = 2\sum_{i,j}\rho_{|i-j|}^2 = 2 n c$ with
-$c = 1 + 2\sum_k (N_k/n)\rho_k^2$, $N_k$ the row's pairs of residuals $k$ samples apart.
-`PhaseRow.p_value` takes Satterthwaite's scaled chi2 of the same mean and variance:
-$q/c \sim \chi^2_{n/c}$, so $n_\mathrm{eff} = n/c$ (`PhaseRow.n_effective`) counts the
-independent residuals the row is worth and $p = P(\chi^2_{n_\mathrm{eff}} > n_\mathrm{eff}
-\cdot \chi^2/n)$. Independent residuals have $c = 1$, the plain chi2 with $n$ degrees of
-freedom; the sum of squared terms makes $c \ge 1$ for any correlation, so a correlation
-never makes a row look worse than its independent chi2.
-
-Where the correlation comes from:
-
-- the cycle features: per cycle one residual, and how they are built fixes their
-  correlation: levels and start levels of separate plateaus are independent; stick times
-  are close to second differences of independent slip timings (`STICK_LAGS`);
-- time series, the samples of a trace (`_trace_rows`) or of a whole-records law fit
-  (`_law_rows`): sampled at 1-2 kHz, neighbouring samples share the sensor's and the
-  drive's slow errors and the error of a window's start state, so $\rho_k$ is measured on
-  the row's own residuals (`effective_samples`): within each contiguous stretch (a cycle
-  window or a record) only, summed up to the window $M$ chosen as emcee's `autocorr`
-  does (Sokal's rule, the smallest $M \ge 5 c(M)$), with each $\rho_k^2$'s chance
-  part $1/N_k$ taken off. This is the integrated autocorrelation time of the squared
-  residuals, $c = \tau(x^2)$ for Gaussian residuals.
-
-Measured on a straight line fitted by least squares through four stretches of 2,000
-samples, 1,000 draws each (`tests/test_adequacy_correlated.py`): with white noise p <
-0.05 in 4.0 % of draws (the independent chi2: 4.0 %); with AR(1) noise of lag-1
-correlation 0.9, 3.3 % (the independent chi2: 23 %; n_effective near n / 9.5). A misfit
-smooth over a stretch is as correlated as noise can be and enters the measured
-correlation too (n_effective then falls to about 5 per stretch): such a row is judged
-first by its chi2/n against `GOOD` and `BAD`, the p-value saying that it is not chance
-(a bend of chi2/n 3 still has p below 1e-4 with AR(1) noise of 0.9).
-
-Why a measured correlation and not a block bootstrap or cycles as blocks: a row's chi2 is
-judged against the records' own noise level, which a resampling of the residuals would
-replace by their own spread (a misfit would look like noise), and a record holds too few
-cycles (4-20) for a statistic of cycle blocks to reach a test at 1 % over many rows.
+A row's statistic $q = \sum_i x_i^2 = n \cdot \chi^2/n$ over its $n$ whitened residuals
+$x_i$ (dimensionless) has, for Gaussian residuals of lag-$k$ correlation $\rho_k$,
+$E[q] = n$ and $\mathrm{Var}[q] = 2 n c$, $c = 1 + 2\sum_k (N_k/n)\rho_k^2$ ($N_k$ the
+row's pairs $k$ samples apart). `PhaseRow.p_value` takes Satterthwaite's scaled chi2,
+$q/c \sim \chi^2_{n/c}$: $n_\mathrm{eff} = n/c$ (`PhaseRow.n_effective`, $c \ge 1$, so a
+correlation never makes a row look worse than its independent chi2). The cycle features'
+correlations follow from how they are built (levels independent, stick times close to
+second differences of slip timings: `STICK_LAGS`); a time series (a trace's samples,
+`_trace_rows`, or a law fit's, `_law_rows`) has $\rho_k$ measured on its own residuals
+within each contiguous stretch (`effective_samples`: summed up to emcee's `autocorr`
+window, each $\rho_k^2$'s chance part $1/N_k$ taken off), $c = \tau(x^2)$; its calibration
+on AR(1) noise: docs/identification.md, `tests/test_adequacy_correlated.py`. Not a block
+bootstrap: a resampling would judge the residuals against their own spread, not the
+records' noise, and a record holds too few cycles (4-20) for cycle blocks.
 """
 
 from __future__ import annotations
