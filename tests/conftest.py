@@ -57,7 +57,9 @@ SHARED_PROGRAMS = {
                      "test_cli_design"), "test_json_keys"),
     **dict.fromkeys(("test_cycle_discovery", "test_api_results"), "test_json_keys"),
     **dict.fromkeys(("test_smooth_objective", "test_combined", "test_trace_objective",
-                     "test_fit_figure"), "test_mcmc"),
+                     "test_fit_figure", "test_plots_legends", "test_laplace_jacobian",
+                     "test_cli_fit", "test_rigs", "test_params", "test_scipy_reference"),
+                    "test_mcmc"),
     "test_real_data": "test_unknowns",
 }
 """Modules that run on the worker of another (module -> that module) under `pytest -n 2`:
@@ -70,10 +72,12 @@ test_cli_steady's runs with --damping-ratio 0.05 and with --tolerance after it 3
 after json_keys's design, 17.3 s without, and test_cli_design's same map 0.1 s after
 it; the synthetic campaign of lubricant A at speed fractions 0.05 and 0.3 (4 cycles,
 padded to 40,000 samples) with its features and trace fits 78 s the first time, 5 s for
-another seed. Programs with host callbacks (the `eqx.error_if` checks of traced values:
-lineax's in the implicit gradients of the stiff solvers, a microsqueeze law's unless built
-with `check_traced=False`) are not kept in the persistent cache, so only the one process
-shares them. test_cycle_discovery, test_json_keys and test_api_results read one discovery
+another seed; test_mcmc and the six modules after test_fit_figure (campaigns on that
+padded length) took 89.6 s of CPU time cold in one process, 138.4 s in seven processes
+sharing the persistent cache (load 4-7). Programs with host callbacks (the
+`eqx.error_if` checks of traced values: lineax's in the implicit gradients of the stiff
+solvers, a microsqueeze law's unless built with `check_traced=False`) are not kept in the
+persistent cache, so only the one process shares them. test_cycle_discovery, test_json_keys and test_api_results read one discovery
 of the clean campaign (`clean_discovery_run`), run once on their worker: test_api_results
 checks that the API calls the command's discovery engine with the command's records and
 base, and gives the command's document from its result. test_unknowns and test_real_data
