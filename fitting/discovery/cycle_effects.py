@@ -19,9 +19,12 @@ exactly, so a family is a set of forms, not one formula. Units are internal (kgf
 
 `scales`: a typical detectable size (fit coordinate = value / scale); `signs`: +1 where
 physics requires >= 0 (a passive damper dissipates; a sensor is causal; a Stribeck curve
-lowers friction as the slip goes on), 0 for either sign; `bound`: the largest physical
-magnitude (a fit beyond it is unphysical, never named; why in `bound_note`). The drive
-error is bounded on the error itself (`drive_error_range` <= `DRIVE_ERROR_MAX`), not its
+lowers friction as the slip goes on; rate-and-state's a and b are Dieterich and Ruina's
+positive constants, the evolution effect b a friction that falls as the contact state
+renews, as the base law `law_params.RateStateAgingFriction` and the whole-record base's
+`effects.RateState` hold them), 0 for either sign; `bound`: the largest physical magnitude
+(a fit beyond it is unphysical, never named; why in `bound_note`). The drive error is
+bounded on the error itself (`drive_error_range` <= `DRIVE_ERROR_MAX`), not its
 coefficients: a record shorter than a pitch sees a piece of the sine, which large
 coefficients of opposite sign draw.
 
@@ -229,7 +232,7 @@ FAMILIES: tuple[Family, ...] = (
            "(direct effect a) and falls as the contact state renews over a slip distance "
            "D_c (evolution effect b), so each slip starts against the friction the stick "
            "has aged to and ends against less.",
-           ("a", "b"), ("-", "-"), (0.001, 0.001), (1, 0), (0.1, 0.1),
+           ("a", "b"), ("-", "-"), (0.001, 0.001), (1, 1), (0.1, 0.1),
            "rate-and-state coefficients above 0.1 (lubricated metals: 0.001-0.02)",
            shapes=tuple(Shape(length=L) for L in (0.01, 0.03, 0.1))),
     Family("drive_periodic_error",
