@@ -282,6 +282,45 @@ def test_a_later_search_names_the_contender_that_explains_most():
     assert choose(fx(("viscous_damping",)), refitted, clock=clock).chosen is stribeck
 
 
+def test_a_later_effect_of_the_same_slip_speed_physics_is_set_aside():
+    """A later refit that describes again, in another law, the slip-speed dependence of an
+    effect kept before is no further effect (`more.new_physics`): rate-and-state friction
+    whose steady state rises with the slip speed (a > b) after a viscous damping; one
+    that falls (b > a), a Stribeck drop's physics, remains a candidate, as does every
+    family without a slip-speed dependence."""
+    import types
+
+    from stickslip_fitting.discovery.stages.more import new_physics, speed_sign
+    from stickslip_fitting.discovery.stages.state import Refitted
+
+    def refit(name, *values, unphysical=None):
+        return types.SimpleNamespace(family=types.SimpleNamespace(name=name), drop=174.0,
+                                     values=np.array(values), unphysical=unphysical)
+
+    assert speed_sign("rate_state", [0.0038, 0.0009]) == 1  # velocity strengthening
+    assert speed_sign("rate_state", [0.001, 0.004]) == -1  # velocity weakening
+    assert (speed_sign("viscous_damping", [0.2]), speed_sign("stribeck", [0.06]),
+            speed_sign("load_coupling", [0.1])) == (1, -1, 0)
+    damping = types.SimpleNamespace(family=types.SimpleNamespace(name="viscous_damping"),
+                                    values=np.array([0.1]), kept=True)
+    refits = [refit("rate_state", 0.0038, 0.0009), refit("stribeck", 0.008),
+              refit("load_coupling", 0.01)]
+    said = []
+    out = new_physics(Refitted(refits=refits, eligible=frozenset({"rate_state"})),
+                      [damping], types.SimpleNamespace(say=said.append))
+    assert [rf.family.name for rf in out.refits] == ["stribeck", "load_coupling"]
+    assert "rate_state" in said[0] and "viscous_damping" in said[0]
+    weakening = [refit("rate_state", 0.001, 0.004), refit("load_coupling", 0.01)]
+    out = new_physics(Refitted(refits=weakening, eligible=frozenset()), [damping],
+                      types.SimpleNamespace(say=said.append))
+    assert out.refits == weakening
+    # an effect dropped before is no longer in the model: nothing is set aside for it
+    gone = types.SimpleNamespace(family=damping.family, values=damping.values, kept=False)
+    out = new_physics(Refitted(refits=refits, eligible=frozenset()), [gone],
+                      types.SimpleNamespace(say=said.append))
+    assert out.refits == refits
+
+
 def test_confirmed_effects_that_explain_the_records_are_not_replaced_by_a_form():
     """Several effects the sequential search confirmed, leaving at most `explained_gap` x
     the noise together, are the answer: no sparse form is fitted in their place
@@ -344,8 +383,17 @@ at family-wise p 0.00025 on A (600, 604) and C (603) and 0.0045 on C (601, near 
 limit), the Stribeck drop on A (600, 1.09 -> 1.05 x the noise) and C (601, 2.27 ->
 1.03). Together damping and a Stribeck drop cancel in the slips' speed dependence: the
 pair leaves 1.04-1.09 x the noise at the paper's model (docs/validation.md)."""
-ALSO = {"stribeck": {"stribeck", "rate_state"}}
-"""Names that count for a family (a Stribeck drop may be named as rate-and-state)."""
+def counts_for(step: dict) -> set:
+    """The families of `PAIRS_OF` an effect named (a step of the JSON's "steps") counts
+    for: its own family; rate-and-state friction counts as the Stribeck drop only where
+    its fitted steady state falls with the slip speed (evolution effect b above the
+    direct effect a: a velocity-weakening friction, the Stribeck drop's physics). With
+    a >= b its friction rises with the slip speed (a viscous damping's physics): it is
+    then no name of a Stribeck drop, and the pair test counts it as another effect."""
+    if step["effect"] != "rate_state":
+        return {step["effect"]}
+    a, b = (step["values"].get(k) for k in ("a", "b"))
+    return {"stribeck"} if a is not None and b is not None and b > a else set()
 
 
 def pair_campaigns(seeds: int = 5, first: int = 600):
@@ -371,18 +419,35 @@ loaded 2-core machine (docs/validation.md)."""
 
 
 def run_pair(pair, seed, lube, kw, design=None):
+    """One pair campaign: the effects kept, whether both families of `pair` are named and
+    whether any other effect is (`counts_for`), the gaps over the noise (before, then
+    after each step) and the seconds."""
     from stickslip_fitting.discovery.cycle_workflow import discover_cycles
 
     t = time.perf_counter()
     res = discover_cycles(ir.campaign(lube, seed=seed, cycles=4.0, **(design or {}), **kw))
-    names = set(kept(res))
-    found = [bool(names & ALSO.get(n, {n})) for n in pair]
-    return dict(pair=pair, seed=seed, named=sorted(names), both=all(found),
-                third=len(names) > 2 or len(names - set().union(*(ALSO.get(n, {n})
-                                                                  for n in pair))) > 0,
+    steps = [s for s in res.to_json()["steps"] if s["kept"]]
+    counts = [counts_for(s) for s in steps]
+    return dict(pair=pair, seed=seed, named=sorted(s["effect"] for s in steps),
+                both=all(any(n in c for c in counts) for n in pair),
+                third=len(steps) > 2 or any(not c & set(pair) for c in counts),
                 gaps=[res.gap_before / res.noise] + [s["gap_after"] / res.noise
                                                      for s in res.steps],
                 seconds=time.perf_counter() - t)
+
+
+def test_rate_and_state_counts_as_a_stribeck_drop_only_where_it_weakens():
+    """The pair test's counting (`counts_for`): a family counts for itself; rate-and-state
+    friction for the Stribeck drop only where its steady state falls with the slip speed
+    (b > a), else for no family of the pair (another effect named)."""
+    def step(name, **values):
+        return {"effect": name, "values": values}
+
+    assert counts_for(step("viscous_damping", zeta=0.2)) == {"viscous_damping"}
+    assert counts_for(step("rate_state", a=0.001, b=0.004)) == {"stribeck"}
+    assert counts_for(step("rate_state", a=0.0038, b=0.0009)) == set()  # strengthening
+    assert counts_for(step("rate_state", a=0.0084, b=-0.0022)) == set()
+    assert counts_for(step("rate_state", a=None, b=0.004)) == set()  # not determined
 
 
 @pytest.mark.slow
