@@ -60,7 +60,9 @@ SHARED_PROGRAMS = {
                      "test_fit_figure", "test_plots_legends", "test_laplace_jacobian",
                      "test_cli_fit", "test_rigs", "test_params", "test_scipy_reference"),
                     "test_mcmc"),
-    "test_real_data": "test_unknowns",
+    **dict.fromkeys(("test_cli_fit_law", "test_cli_loss", "test_mcmc_outputs",
+                     "test_one_record", "test_output_safety", "test_tolerance_design",
+                     "test_unknowns", "test_real_data"), "test_api"),
 }
 """Modules that run on the worker of another (module -> that module) under `pytest -n 2`:
 they run the same commands or fits at the same design points and shapes, so the later
@@ -69,19 +71,22 @@ modules find the first's compiled programs in memory. Measured in one process at
 test_cli_steady's runs with --damping-ratio 0.05 and with --tolerance after it 3.8 and
 0.8 s; test_logging's plan, fit and mcmc took 0.1, 3.1 and 0.9 s after test_json_keys's,
 14.9, 6.6 and 12.4 s in a process of their own; test_design_netcdf's cycle map 9.7 s
-after json_keys's design, 17.3 s without, and test_cli_design's same map 0.1 s after
-it; the synthetic campaign of lubricant A at speed fractions 0.05 and 0.3 (4 cycles,
-padded to 40,000 samples) with its features and trace fits 78 s the first time, 5 s for
-another seed; test_mcmc and the six modules after test_fit_figure (campaigns on that
-padded length) took 89.6 s of CPU time cold in one process, 138.4 s in seven processes
-sharing the persistent cache (load 4-7). Programs with host callbacks (the
-`eqx.error_if` checks of traced values: lineax's in the implicit gradients of the stiff
-solvers, a microsqueeze law's unless built with `check_traced=False`) are not kept in the
-persistent cache, so only the one process shares them. test_cycle_discovery, test_json_keys and test_api_results read one discovery
+after json_keys's design, 17.3 s without, and test_cli_design's same map 0.1 s after it;
+the synthetic campaign of lubricant A at speed fractions 0.05 and 0.3 (4 cycles, padded
+to 40,000 samples) with its features and trace fits 78 s the first time, 5 s for another
+seed. Cold, load 4-7: test_mcmc and the six modules after test_fit_figure (campaigns on
+that padded length) took 89.6 s of CPU time in one process, 138.4 s in seven processes
+sharing the persistent cache; test_api and the six modules of its group that fit the
+shipped campaign (`data/examples`) 62.3 s in one process, 104.3 s in seven. Programs with
+host callbacks (the `eqx.error_if` checks of traced values: lineax's in the implicit
+gradients of the stiff solvers, a microsqueeze law's unless built with
+`check_traced=False`) are not kept in the persistent cache, so only the one process
+shares them. test_cycle_discovery, test_json_keys and test_api_results read one discovery
 of the clean campaign (`clean_discovery_run`), run once on their worker: test_api_results
 checks that the API calls the command's discovery engine with the command's records and
 base, and gives the command's document from its result. test_unknowns and test_real_data
-read one `stickslip fit` of the shipped measured records (`real_records_fit`)."""
+read one `stickslip fit` of the shipped measured records (`real_records_fit`), which
+test_api fits through the API."""
 
 CACHE_MIN_COMPILE_S = 0.1
 """Programs that compiled faster than this are not kept (reading one back costs about
