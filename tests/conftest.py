@@ -43,7 +43,7 @@ LONG_MODULES = ("test_real_world_records", "test_json_keys", "test_cli_steady",
                 "test_smooth", "test_drives", "test_microsqueeze", "test_fit_microsqueeze",
                 "test_exact_campaign", "test_sequential_discovery", "test_normal_load",
                 "test_friction_laws", "test_exact", "test_short_sticks", "test_limit_cycle",
-                "test_mcmc", "test_smooth_objective", "test_cycle_discovery",
+                "test_mcmc", "test_smooth_objective", "test_api", "test_cycle_discovery",
                 "test_api_results", "test_experiment_design", "test_cli_tracebacks",
                 "test_cycle_model")
 """Test modules that take longest in the default run, longest first (each module's
