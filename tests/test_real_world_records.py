@@ -147,8 +147,14 @@ def _campaign(tmp_path, seed=0):
     return [str(p) for p in paths]
 
 
-def test_screening_sets_records_aside(tmp_path):
-    paths = _campaign(tmp_path)
+@pytest.fixture(scope="module")
+def campaign(tmp_path_factory):
+    """`_campaign`'s files, written once for the module (the tests only read them)."""
+    return _campaign(tmp_path_factory.mktemp("mixed_campaign"))
+
+
+def test_screening_sets_records_aside(campaign):
+    paths = campaign
     camp = screen_records([read_record(p) for p in paths])
     status = {s.name: s.status for s in camp.screening}
     assert status["A_k86.9_v200_steady"] in (NO_STICK_SLIP, SET_ASIDE)
@@ -158,11 +164,11 @@ def test_screening_sets_records_aside(tmp_path):
         screen_records([read_record(p) for p in paths], strict=True)
 
 
-def test_fit_goes_on_with_the_good_records(tmp_path, capsys):
+def test_fit_goes_on_with_the_good_records(campaign, tmp_path, capsys):
     """`stickslip fit` on a mixed independent campaign: exit 0, the two records without
     usable stick-slip listed (printed and in the JSON), mu_s and mu_d within 2 % with 95 %
     intervals containing the truth; the input files unchanged."""
-    paths = _campaign(tmp_path)
+    paths = campaign
     before = {p: open(p, "rb").read() for p in paths}
     out = tmp_path / "fit.json"
     assert main(["fit", *paths, "--json", str(out)]) == 0
@@ -190,14 +196,14 @@ def _steady_file(path, speed_mm_min, seed):
     return read_record(str(path))
 
 
-def test_steady_records_against_the_boundary(tmp_path):
+def test_steady_records_against_the_boundary(campaign, tmp_path):
     """A record sliding steadily at 2 mm/min, far below lubricant A's eq (12) v_c of
     48.9 mm/min at W 36 kgf, k 86.9 kgf/mm, is a misfit of the model; at 200 mm/min it is
     consistent with it."""
     import stickslip_jax as ss
     from stickslip_fitting.solve.summary import boundary_check
 
-    good = _campaign(tmp_path)[:2]
+    good = campaign[:2]
     recs = [read_record(p) for p in good]
     recs += [_steady_file(tmp_path / "slow.csv", 2.0, 1), _steady_file(tmp_path / "fast.csv",
                                                                         200.0, 2)]
@@ -208,10 +214,10 @@ def test_steady_records_against_the_boundary(tmp_path):
     assert got["fast"]["critical_speed_mm_per_min"] == pytest.approx(48.9, rel=0.01)
 
 
-def test_discover_screens_the_campaign(tmp_path, capsys):
+def test_discover_screens_the_campaign(campaign, tmp_path, capsys):
     """`stickslip discover` screens like `fit`: with one usable record of two it stops
     before any fitting with a line naming the other record."""
-    good = _campaign(tmp_path)[0]
+    good = campaign[0]
     _steady_file(tmp_path / "flat.csv", 60.0, 3)
     assert main(["discover", good, str(tmp_path / "flat.csv")]) == 2
     err = capsys.readouterr().err
