@@ -39,18 +39,18 @@ state), without fits, discovery or subprocess commands. A test of theirs marked 
 is not marked `quick` (`-m quick` replaces the default `-m 'not slow'`)."""
 
 LONG_MODULES = ("test_real_world_records", "test_json_keys", "test_cli_steady",
-                "test_logging", "test_design_netcdf", "test_cli_design", "test_notebooks",
-                "test_smooth", "test_drives", "test_microsqueeze", "test_fit_microsqueeze",
-                "test_exact_campaign", "test_sequential_discovery", "test_normal_load",
-                "test_friction_laws", "test_exact", "test_short_sticks", "test_limit_cycle",
-                "test_mcmc", "test_smooth_objective", "test_api", "test_cycle_discovery",
-                "test_api_results", "test_experiment_design", "test_cli_tracebacks",
-                "test_cycle_model")
+                "test_logging", "test_design_netcdf", "test_cli_design", "test_mcmc",
+                "test_smooth_objective", "test_notebooks", "test_smooth", "test_drives",
+                "test_microsqueeze", "test_fit_microsqueeze", "test_exact_campaign",
+                "test_sequential_discovery", "test_normal_load", "test_friction_laws",
+                "test_exact", "test_short_sticks", "test_limit_cycle", "test_api",
+                "test_cycle_discovery", "test_api_results", "test_experiment_design",
+                "test_cli_tracebacks", "test_cycle_model")
 """Test modules that take longest in the default run, longest first (each module's
 seconds summed from `pytest -n 2 --durations=200`, or single-process `--durations=0`
 for the modules whose tests changed since; a module of `SHARED_PROGRAMS` right after
-the module it runs with): they run first, so that under `pytest -n 2` the short modules
-fill the end of both workers."""
+the module it runs with; test_mcmc's and test_api's by their groups' CPU time): they run
+first, so that under `pytest -n 2` the short modules fill the end of both workers."""
 
 SHARED_PROGRAMS = {
     **dict.fromkeys(("test_cli_steady", "test_logging", "test_design_netcdf",
