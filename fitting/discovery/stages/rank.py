@@ -47,7 +47,7 @@ def shape_columns(model, z, shape: Shape, sensor: bool, held) -> np.ndarray:
     moved = []
     for f in held:
         for field, h, relative in _SHAPE_STEPS.get(f.name, ()):
-            if ((field == "p" and shape.form not in ("exp", "rational"))
+            if ((field == "p" and not shape.form.has_exponent)
                     or (field == "zeta" and shape.order != 2)):
                 continue
             v = getattr(shape, field)
