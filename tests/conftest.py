@@ -14,21 +14,12 @@ Under `pytest -n 2` without the slow tests, each worker takes whole test modules
 (its fitted campaigns and discoveries) are built once, not once on each worker, and the
 two workers end together; modules that compile the same programs run on one worker
 (`SHARED_PROGRAMS`). `--dist` on the command line chooses another distribution.
-
-A run without the slow tests compiles with LLVM's optimisation level 0 (`TEST_XLA_FLAGS`):
-it spends most of its time compiling the package's programs, each run a few times, so cheaper machine code
-beats faster machine code. The programs (XLA's HLO, its fusions and its arithmetic) are the
-ones users run; only the backend's code generation is cheaper. Measured cold, one process
-(load 4-6 on 2 cores, CPU time): test_fit + test_normal_load 110 -> 77 s,
-test_discovery_thinning 35 -> 23 s, test_json_keys + test_cycle_discovery 112 -> 98 s,
-test_cycle_model 72 -> 64 s, test_mcmc 59 -> 58 s. An `XLA_FLAGS` that names
-`--xla_backend_optimization_level` itself is kept (e.g. `=2` tests the users' code generation).
-The slow checks (long campaigns: bound by running, not compiling) keep XLA's default level.
 """
 
 import os
 
 import jax
+
 jax.config.update("jax_enable_x64", True)
 
 import equinox as eqx  # noqa: E402
@@ -214,17 +205,7 @@ def _compilation_cache(config) -> str:
     return path
 
 
-TEST_XLA_FLAGS = "--xla_backend_optimization_level=0"
-"""XLA flags of a run without the slow tests (module doc), added to the environment's
-`XLA_FLAGS` before the backend starts; subprocess commands inherit them, so their programs
-match the cache's."""
-
-
 def pytest_configure(config):
-    flags = os.environ.get("XLA_FLAGS", "")
-    if ((config.option.markexpr or "").strip() == "not slow"
-            and "xla_backend_optimization_level" not in flags):
-        os.environ["XLA_FLAGS"] = f"{flags} {TEST_XLA_FLAGS}".strip()
     path = _compilation_cache(config)
     os.environ["STICKSLIP_CACHE_DIR"] = path  # subprocess commands: the same folder
     if path:
