@@ -54,7 +54,7 @@ def make_record(n=50, **kw):
 # ---------------------------------------------------------------- reading good files
 
 
-def test_example_of_the_issue(tmp_path):
+def test_the_documented_example_record_is_read(tmp_path):
     r = read_record(write(tmp_path, EXAMPLE))
     assert r.n_samples == 4
     np.testing.assert_array_equal(r.time, [0.0, 0.001, 0.002, 0.003])
