@@ -11,7 +11,7 @@ import itertools
 import numpy as np
 
 from stickslip_jax.logs import logger
-from stickslip_jax.lsq import gauss_newton_covariance, gauss_newton_decrease
+from stickslip_jax.lsq import gauss_newton_covariance
 
 from ..cycle_effects import DRIVE_ERROR_MAX, drive_error_range, family, neighbour_shapes
 from ..options import DEFAULTS, DiscoveryOptions
@@ -204,33 +204,9 @@ def cannot_win(fx: Fits, sc: FamilyScore, lead: float) -> bool:
     predicted = [option.chi2_predicted for option, _ in options]
     if len(starts) > 1 or not (np.all(np.isfinite(predicted)) and np.isfinite(sc.p_value)):
         return False
-    own = _own_decrease(fx.base)
+    own = fx.base.own_decrease
     return (np.isfinite(own)
             and HOPE * (own + max(predicted)) < CANNOT_WIN * fx.opts.joint * lead)
-
-
-_OWN: dict = {"fit": (None, None), "decrease": float("nan")}
-"""The last base fit's Jacobian and residuals `_own_decrease` was computed for, and its
-decrease."""
-
-
-def _own_decrease(base) -> float:
-    """The Gauss-Newton decrease of the base fit over its own columns (NaN where its
-    derivatives are not finite), computed once for a base fit, not once per family
-    (`cannot_win`)."""
-    if all(a is b for a, b in zip(_OWN["fit"], (base.fit.J, base.fit.r))):
-        return _OWN["decrease"]
-    J, r = np.asarray(base.fit.J), np.asarray(base.fit.r)
-    with np.errstate(over="ignore", invalid="ignore"):
-        A, g = J.T @ J, J.T @ r
-    decrease = float("nan")
-    if np.all(np.isfinite(A)) and np.all(np.isfinite(g)):
-        try:
-            decrease = float(gauss_newton_decrease(A, g, xp=np))
-        except np.linalg.LinAlgError:
-            pass
-    _OWN.update(fit=(base.fit.J, base.fit.r), decrease=decrease)
-    return decrease
 
 
 def refit_family(fx: Fits, sc: FamilyScore, lead: float = 0.0) -> FamilyRefit:

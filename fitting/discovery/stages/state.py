@@ -11,12 +11,14 @@ decision (`decide`), `Reweighed` the winner with the records tried at full weigh
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 from collections.abc import Callable
 
 import numpy as np
 
 from stickslip_jax.lsq import LeastSquaresSolution as Solution
+from stickslip_jax.lsq import gauss_newton_decrease
 
 from ...data.campaign import Campaign
 from ..cycle_effects import Family, Shape
@@ -123,6 +125,21 @@ class Base:
         and `fit.z` are over these."""
         return np.concatenate([np.arange(self.model.n_base)]
                               + [self.model.cols(f) for f in self.held])
+
+    @functools.cached_property
+    def own_decrease(self) -> float:
+        """The Gauss-Newton decrease of the base fit over its own columns (NaN where its
+        derivatives are not finite): once for a base fit, read by every family's
+        `refit.cannot_win`."""
+        J, r = np.asarray(self.fit.J), np.asarray(self.fit.r)
+        with np.errstate(over="ignore", invalid="ignore"):
+            A, g = J.T @ J, J.T @ r
+        if not (np.all(np.isfinite(A)) and np.all(np.isfinite(g))):
+            return float("nan")
+        try:
+            return float(gauss_newton_decrease(A, g, xp=np))
+        except np.linalg.LinAlgError:
+            return float("nan")
 
     @property
     def r(self) -> np.ndarray:
