@@ -54,6 +54,16 @@ def test_select_terms_keeps_nothing_in_noise():
     assert hits <= 1
 
 
+def test_terms_refitted_to_zero_are_not_reported():
+    """A term whose refitted coefficient is within `MIN_T` standard errors of zero is left
+    out of the form (its words would name a phase the records do not show); the others
+    keep their order by significance, and a term without a standard error stays."""
+    coef = {3: -2.69, 10: -4.1e-10, 7: 0.5, 12: 1.0}
+    se = {3: 0.03, 10: 1e-3, 7: 0.2, 12: 0.0}
+    assert sparse.significant_terms([10, 7, 3, 12, 20], coef, se) == [12, 3, 7]
+    assert sparse.significant_terms([10], coef, se) == []
+
+
 def test_select_terms_keeps_no_pair_of_one_creep_with_opposite_signs():
     """Two collinear columns that cancel (a creep's two parts with opposite signs, whose
     difference no creep makes) are not both kept where `same_sign` pairs them; the pair
