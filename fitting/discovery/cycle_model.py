@@ -27,7 +27,13 @@ the effects of `cycle_effects` enter as parts of it:
   $K * D$ is a discrete convolution on the RK4 grid with the kernel's bin masses, over
   `TAIL_STEPS` nodes (the slip and the gauge's settling). The gauge still settles from
   the previous slip when a window starts: that tail's decay after $t_0$ is added
-  (`previous_rows`), from where the features time that slip as read (`_centre`); a
+  (`previous_rows`), the slip placed where the features put its breakaway as read: their
+  half-sine centre (`_centre`) less half the duration they give it (`_slip_time`, an
+  undamped slip's). A damped slip is not symmetric: at a damping ratio of 0.2 that
+  centre comes 0.077/omega_0 (0.23-0.67 ms on the campaigns' sliders) before the middle
+  of the slip, so placing the slip by the model's own centre of it put every tail that
+  much early: with a 20 Hz sensor at its truth a damping ratio of 0.2 refitted to 0 (12
+  records, seed 610); placed so, to 0.21. A
   window without a previous one takes its own slip's tail, placed where the slip before
   began (`tail_sources`: without it the first windows of a 7 Hz sensor missed by 30 um,
   60 times the noise). The measured restart state is itself a
@@ -168,7 +174,7 @@ class _Slip(eqx.Module):
     Fd: jax.Array  # its slope (mm/s)
     tau: jax.Array  # the sensor's mean delay (s)
     T1m: jax.Array  # the measured stick time (s)
-    delay: jax.Array  # how late the features time the slip as read (s; `_centre`)
+    delay: jax.Array  # how late the features put the breakaway as read (s; `_centre`)
 
 
 def _stick_line(sl_or_x0, eff: _Eff, u, t0, u0, tw, T1m, v):
@@ -209,6 +215,19 @@ def _centre(X, t, omega0, T2):
     for _ in range(4):
         c = mean(w0 * jnp.clip((0.3 * T2 - jnp.abs(t - c)) / h + 0.5, 0.0, 1.0))
     return c
+
+
+def _slip_time(omega0, v, jump, iterations=40):
+    r"""The duration the features give a slip of displacement `jump` (mm) under the drive
+    speed v (`stickslip_fitting.data.sticks.slip_duration`): the fixed point of
+    $\omega_0 T = \pi + 2\arctan(v/(\omega_0 a))$, $a = (\mathrm{jump} - v T)/2$, by
+    plain iterations from $\pi/\omega_0$: each contracts the error by $q^2/(1 + q^2)$,
+    $q = v/(\omega_0 a)$ (0.59 near the stick-slip boundary, q 1.2: 7e-10 after 40)."""
+    def step(_, T):
+        a = 0.5 * (jump - v * T)
+        return jnp.where(a > 0, (jnp.pi + 2.0 * jnp.arctan(v / (omega0 * jnp.maximum(a, 1e-12))))
+                         / omega0, 2.0 * jnp.pi / omega0)
+    return jax.lax.fori_loop(0, iterations, step, jnp.pi / omega0 + 0.0 * jump)
 
 
 def _kernel_spectrum(h, tau, order, zeta):
@@ -346,12 +365,14 @@ def _slip(friction, eff: _Eff, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart
         # a matrix of lags would carry a [TAIL_STEPS]^2 tangent per row and Jacobian column
         F = jnp.fft.irfft(jnp.fft.rfft(D, FFT_SIZE) * wf, FFT_SIZE)[:TAIL_STEPS]
         Fd = jnp.fft.irfft(jnp.fft.rfft(Dd, FFT_SIZE) * wf, FFT_SIZE)[:TAIL_STEPS]
-        # how late the features time this slip as read (`_centre`: the filtered against
-        # the unfiltered slip): the mean delay tau plus what the kernel's rounding adds
-        # to the half-sine fit (+0.6 ms at 20 Hz, damping ratio 0.7; +3 ms at 0.4)
+        # how late the features put this slip's breakaway as read: their half-sine
+        # centre of the filtered slip (`_centre`: the mean delay tau plus what the
+        # kernel's rounding adds, +0.6 ms at 20 Hz, damping ratio 0.7; +3 ms at 0.4)
+        # less half the slip duration they assume (`_slip_time`), not less the
+        # unfiltered slip's own centre, which a damped slip reaches early (module doc)
         omega0 = jnp.pi / T2
         ys = jnp.maximum(y_stop, 1e-12)
-        delay = (_centre(F / ys, n * h, omega0, T2) - _centre(D / ys, n * h, omega0, T2))
+        delay = _centre(F / ys, n * h, omega0, T2) - 0.5 * _slip_time(omega0, v, y_stop)
     else:
         F = Fd = jnp.zeros(1)
         delay = tau
@@ -502,7 +523,7 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
         # measured restart level is the settled stick line (`features`: the plateau
         # after the slip), so the reading is that line plus what the gauge still owes
         # (placed at the previous slip's measured breakaway less how late the features
-        # time that slip as read, `_Slip.delay`: the model's breakaway may miss it by
+        # put it as read, `_Slip.delay`: the model's breakaway may miss it by
         # the stick time's scatter; at tau instead, 0.6 ms late at 20 Hz, +0.5..1.3 um
         # at every window's start, noise 0.5 um, taken up by damping or load coupling)
         p = slot[jnp.maximum(prev, 0)][row]  # per sample: the window of that slip
