@@ -170,4 +170,7 @@ def test_smooth_base_drives_a_record_by_its_measured_drive():
     b, ok_b = simulate_campaign(params, column, Settings())
     assert bool(np.all(ok_a)) and bool(np.all(ok_b))
     gap = float(jnp.max(jnp.abs(a - b)))
-    assert gap < 1e-5, gap  # mm: the solver's tolerance, far below a gauge's 0.5 um noise
+    # mm: the two drives take their own solver steps (rtol 1e-6), so the readings agree to
+    # the solve's accuracy (measured 1e-5 mm), not bitwise: within 1/5 of a gauge's 0.5 um
+    # noise, where a drive one sample (2 ms) late moves them by V x 2 ms = 5e-4 mm
+    assert gap < 1e-4, gap
