@@ -123,6 +123,40 @@ def test_joint_naming_rule():
     assert decide(100.0, [Contender("gauge_drift", 0.0, 0.99, 0.0)]).clear
 
 
+def test_a_joint_partner_the_winner_is_needed_beside_is_told_apart(monkeypatch):
+    """A close contender that the paired test does not separate is named jointly only
+    where the winner is not needed given it (`decide.told_apart`): given a drive speed
+    drift's refit, a drift of the friction still has robust p 0.0054 (measured,
+    friction_drift/small of the rates campaigns), so the speed drift is no other
+    description of it; a per-record screw given which the winner has robust p 0.3 and
+    predicts a drop below the relevant share stays joint; a predicted drop of at least
+    `relevant` of the samples with per-sample p < alpha tells them apart too."""
+    import types
+
+    from stickslip_fitting.discovery.decision import Contender, Decision
+    from stickslip_fitting.discovery.options import DEFAULTS
+    from stickslip_fitting.discovery.stages import decide as stage
+
+    def refit(name):
+        return types.SimpleNamespace(family=types.SimpleNamespace(name=name),
+                                     fit=types.SimpleNamespace(rss=1000.0), values=np.zeros(2))
+
+    win = refit("friction_drift")
+    partners = {n: refit(n) for n in ("drive_speed_drift", "drive_periodic_error",
+                                      "gauge_drift")}
+    tests = {"drive_speed_drift": (0.0054, 20.0), "drive_periodic_error": (0.3, 9.0),
+             "gauge_drift": (0.3, 50.0)}
+    monkeypatch.setattr(stage, "needed_given", lambda fx_, one, at: tests[at.family.name])
+    fx = types.SimpleNamespace(opts=DEFAULTS, base=types.SimpleNamespace(n_used=1000,
+                                                                         within=0.0))
+    joint = tuple(Contender(n, 900.0, 0.98, 1.5) for n in partners)
+    said = []
+    out = stage.told_apart(fx, win, list(partners.values()), Decision(joint, ()),
+                           types.SimpleNamespace(say=said.append))
+    assert [c.name for c in out.joint] == ["drive_periodic_error"]
+    assert out.clear and "told apart" in said[0]
+
+
 def test_paired_window_test():
     """`paired_z`: 0 for identical fits, large when one fits every window better, of order
     1 when two fits differ by noise only."""

@@ -45,7 +45,8 @@ Stages (each timed in `result.timings`, reported to `progress` as it finishes):
    compared with it by the **paired window test** (`paired_z`) and the principal cosine
    of their efficient-score directions (`decide`). A contender not clearly beaten
    (z < `clear`) that is physical and nearly collinear (cosine >= `collinear`) is named
-   jointly (`indistinguishable_from`: "X or Y: these records cannot tell them apart").
+   jointly (`indistinguishable_from`: "X or Y: these records cannot tell them apart"),
+   unless the winner is still needed given it (`stages.decide.told_apart`).
    Far from the data, a named fit that leaves more than `refine_gap` x the noise is run
    again from the base fit's starting friction (the base bent its friction to absorb the
    effect). Confidence is "high" only when the answer explains the gap (residual RMS

@@ -19,7 +19,7 @@ from ..scores import base_basis, project_out
 from ..subproblems import with_shape
 from .state import Base, Clock, FamilyScore, Prepared, Ranking
 
-__all__ = ["held_p", "physical_side", "rank", "shape_columns", "significance_line"]
+__all__ = ["held_p", "held_test", "physical_side", "rank", "shape_columns", "significance_line"]
 
 _SHAPE_STEPS = {"stribeck": (("vs", 0.05, True), ("p", 0.1, False)),
                 "rate_state": (("length", 0.05, True),),
@@ -165,6 +165,12 @@ def held_p(base: Base, starts, fit, z, f, shape, sensor: bool, value, others=())
     drop-one test of the sequential search (`stages.more`), the ranking's test of one
     family in its named shape (the sensor by its secant to its fitted value `value`),
     the shapes of the effects `others` in the fit free (`shape_columns`)."""
+    return held_test(base, starts, fit, z, f, shape, sensor, value, others)[0]
+
+
+def held_test(base: Base, starts, fit, z, f, shape, sensor: bool, value, others=()
+              ) -> tuple[float, float]:
+    """`held_p` and the chi-square drop the score step of `f` predicts at that fit."""
     model, described, n = base.model, base.described, base.n
     r = fit.r[:n]
     cols = score_cols(model, f, model.n_records)
@@ -175,8 +181,10 @@ def held_p(base: Base, starts, fit, z, f, shape, sensor: bool, value, others=())
     else:
         Jc = model.evaluate(z, cols, shape, sensor)[1]
     Qb = _nuisance(fit.J[:n], model, z, shape, sensor, others, described)
-    return hotelling(_efficient(Qb, described, Jc), np.where(described, r, 0.0), starts,
-                     side=physical_side(model, f, model.n_records))[1]
+    _, p, _, _, predicted = hotelling(_efficient(Qb, described, Jc),
+                                      np.where(described, r, 0.0), starts,
+                                      side=physical_side(model, f, model.n_records))
+    return p, predicted
 
 
 def significance_line(significant, n_families: int, alpha: float, level: float,
