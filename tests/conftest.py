@@ -14,6 +14,17 @@ Under `pytest -n 2` without the slow tests, each worker takes whole test modules
 (its fitted campaigns and discoveries) are built once, not once on each worker, and the
 two workers end together; modules that compile the same programs run on one worker
 (`SHARED_PROGRAMS`). `--dist` on the command line chooses another distribution.
+
+A run without the slow tests (`-m 'not slow'`, the default) compiles with LLVM's
+optimisation level 0 (`TEST_XLA_FLAGS`): it spends most of its time compiling the
+package's programs, most of them run a few times, so cheaper machine code beats faster
+machine code. The programs (XLA's HLO, its fusions and its arithmetic) are the ones users
+run; only the backend's code generation differs, and with it the last bits of rounding,
+as they differ between the users' CPUs (AVX2 or AVX-512, fused multiply-adds or not).
+No test's verdict rests on those bits: an adaptive solve is compared within its accuracy,
+a finite difference within its estimated error. The slow checks (long campaigns, bound by
+running, not compiling) keep XLA's default level, and an `XLA_FLAGS` that names
+`--xla_backend_optimization_level` itself is kept (`=2`: the default level in any run).
 """
 
 import os
@@ -205,7 +216,17 @@ def _compilation_cache(config) -> str:
     return path
 
 
+TEST_XLA_FLAGS = "--xla_backend_optimization_level=0"
+"""XLA flags of a run without the slow tests (module doc), added to the environment's
+`XLA_FLAGS` before the backend starts; subprocess commands inherit them, so their programs
+match the cache's."""
+
+
 def pytest_configure(config):
+    flags = os.environ.get("XLA_FLAGS", "")
+    if ((config.option.markexpr or "").strip() == "not slow"
+            and "xla_backend_optimization_level" not in flags):
+        os.environ["XLA_FLAGS"] = f"{flags} {TEST_XLA_FLAGS}".strip()
     path = _compilation_cache(config)
     os.environ["STICKSLIP_CACHE_DIR"] = path  # subprocess commands: the same folder
     if path:
