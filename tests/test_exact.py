@@ -18,6 +18,11 @@ G = 9806.65
 LUB_A = lubricant("A")
 
 
+SAMPLES, EVENTS = 4001, 24
+"""The runs at a constant speed share one compiled program (`sim`) where the test allows:
+4001 samples, at most 24 events."""
+
+
 @pytest.fixture(scope="module")
 def sim():
     return eqx.filter_jit(simulate_exact)
@@ -31,8 +36,8 @@ def test_limit_cycle_matches_eq6_below_tenth_of_critical_speed(sim, pair):
     ss0 = steady_state(LUB_A, W, k, 1.0)
     v = 0.08 * float(ss0.critical_speed)  # below v_c / 10
     ss = steady_state(LUB_A, W, k, v)
-    ts = jnp.linspace(0.0, 9.0 * float(ss.stick_time), 4001)
-    tr = sim(sw, ConstantSpeed(v), ts, max_events=24)
+    ts = jnp.linspace(0.0, 9.0 * float(ss.stick_time), SAMPLES)
+    tr = sim(sw, ConstantSpeed(v), ts, max_events=EVENTS)
     assert tr.result == SimulationResult.successful
     assert not bool(tr.steady_sliding)
     amp, t1 = tr.limit_cycle(last=2)
@@ -150,8 +155,8 @@ def setup_36():
 def test_constant_speed_matches_scipy(sim, setup_36):
     sw, W, k = setup_36
     v = 0.05  # mm/s = 3 mm/min: stick time about 2 s
-    ts = np.linspace(0.0, 8.0, 801)
-    tr = sim(sw, ConstantSpeed(v), jnp.asarray(ts), max_events=16)
+    ts = np.linspace(0.0, 8.0, SAMPLES)
+    tr = sim(sw, ConstantSpeed(v), jnp.asarray(ts), max_events=EVENTS)
     assert int(tr.cycles.valid.sum()) >= 3
     ref = scipy_reference(LUB_A, W, k, [0.0], [v], ts, 8.0)
     np.testing.assert_allclose(np.asarray(tr.deflection), ref, atol=1e-6, rtol=0)
@@ -160,8 +165,8 @@ def test_constant_speed_matches_scipy(sim, setup_36):
 def test_slide_hold_slide_with_step_inside_a_slip_matches_scipy(sim, setup_36):
     sw, W, k = setup_36
     v = 0.05
-    ts0 = np.linspace(0.0, 8.0, 801)
-    first = sim(sw, ConstantSpeed(v), jnp.asarray(ts0), max_events=16)
+    ts0 = np.linspace(0.0, 8.0, SAMPLES)
+    first = sim(sw, ConstantSpeed(v), jnp.asarray(ts0), max_events=EVENTS)
     t_b1 = float(first.cycles.breakaway_time[1])
     # speed doubles 8 ms into the second slip, a 3 s hold later, then v again
     starts = [0.0, t_b1 + 0.008, t_b1 + 2.0, t_b1 + 5.0]
@@ -219,27 +224,26 @@ def test_gradients_match_finite_differences(setup_36):
 
 
 # ---------------------------------------------------------------- batches, modes, failures
-def test_vmap_over_records_of_different_lengths(setup_36):
+def test_vmap_over_records_of_different_lengths(sim, setup_36):
     sw, _, _ = setup_36
-    lengths = (301, 451, 201)
+    lengths = (2667, SAMPLES, 1779)  # 6, 9 and 4 s at 2.25 ms
     speeds = jnp.asarray([0.05, 0.08, 0.12])
-    times = [np.linspace(0.0, 0.02 * (n - 1), n) for n in lengths]
+    times = [np.linspace(0.0, 2.25e-3 * (n - 1), n) for n in lengths]
     ts, mask = pad_times(times)
 
     @eqx.filter_jit
     @eqx.debug.assert_max_traces(max_traces=1)
     def batch(sw, speeds, ts, mask):
         return jax.vmap(
-            lambda v, t, m: simulate_exact(sw, ConstantSpeed(v), t, mask=m, max_events=24)
+            lambda v, t, m: simulate_exact(sw, ConstantSpeed(v), t, mask=m, max_events=EVENTS)
         )(speeds, ts, mask)
 
     out = batch(sw, speeds, ts, mask)
     out2 = batch(sw, speeds * 1.01, ts, mask)  # new values: no retrace
     assert out.deflection.shape == (3, max(lengths))
     assert np.all(np.isfinite(np.asarray(out2.deflection)))
-    single = eqx.filter_jit(simulate_exact)
     for i, n in enumerate(lengths):  # one compile: the padded times share a shape
-        one = single(sw, ConstantSpeed(speeds[i]), ts[i], max_events=24)
+        one = sim(sw, ConstantSpeed(speeds[i]), ts[i], max_events=EVENTS)
         np.testing.assert_allclose(np.asarray(out.deflection[i, :n]),
                                    np.asarray(one.deflection[:n]), atol=1e-12)
         assert bool(out.mask[i, n - 1]) and not np.any(np.asarray(out.mask[i, n:]))
@@ -261,11 +265,11 @@ def test_self_consistent_slip_time_equals_the_actual_slip(sim, setup_36):
 def test_slider_that_cannot_stick_is_flagged_and_finite(sim):
     # lubricant C, light slider, stiff spring: k x1 > mu_d W after each slip
     sw = Slideway(lubricant("C"), 11.3, 128.5)
-    tr = sim(sw, ConstantSpeed(0.01), jnp.linspace(0.0, 5.0, 501), max_events=64)
+    tr = sim(sw, ConstantSpeed(0.01), jnp.linspace(0.0, 5.0, SAMPLES), max_events=EVENTS)
     assert bool(tr.steady_sliding)
     assert bool(np.any(np.asarray(tr.cycles.restick_failed)))
     assert np.all(np.isfinite(np.asarray(tr.deflection)))
-    assert int(tr.num_events) <= 64
+    assert int(tr.num_events) <= EVENTS
     # every slip that could not stick is followed by one at mu_d that does stick
     c = tr.cycles
     failed = np.flatnonzero(np.asarray(c.restick_failed) & np.asarray(c.valid))
@@ -277,7 +281,8 @@ def test_slider_that_cannot_stick_is_flagged_and_finite(sim):
 
 def test_running_out_of_events_is_reported(sim, setup_36):
     sw, _, _ = setup_36
-    tr = sim(sw, ConstantSpeed(0.5), jnp.linspace(0.0, 5.0, 101), max_events=4)
+    # about 150 events in 5 s at 0.5 mm/s (a 65 ms cycle)
+    tr = sim(sw, ConstantSpeed(0.5), jnp.linspace(0.0, 5.0, SAMPLES), max_events=EVENTS)
     assert tr.result == SimulationResult.max_events_reached
     assert np.all(np.isfinite(np.asarray(tr.deflection)))
 
