@@ -4,6 +4,7 @@ Jacobian matches finite differences; the sensor kernels are normalised."""
 
 from __future__ import annotations
 
+import equinox as eqx
 import numpy as np
 import pytest
 
@@ -19,7 +20,7 @@ def _model(last_duration, seed0=0, imp=ir.Imperfections()):
 
     from stickslip_fitting.data.campaign import screen_records
     from stickslip_fitting.solve.fit import fit_features
-    from stickslip_fitting.objectives.trace import trace_data, trace_sd, trace_simulation
+    from stickslip_fitting.objectives.trace import trace_data
 
     recs = []
     for i, (W, k, v, T) in enumerate(((36.0, 86.9, 5.0, 12.0), (20.0, 27.3, 10.0, 12.0),
@@ -31,9 +32,19 @@ def _model(last_duration, seed0=0, imp=ir.Imperfections()):
     c = screen_records(recs)
     fit = fit_features(c.features)
     data = trace_data(c.records, c.features, drive_fix=False)
-    sim = trace_simulation(fit.params, data)
-    sd = trace_sd(fit.params, data, sim.slider_velocity)
+    sim, sd = _simulation_and_sd(fit.params, data)
     return CycleModel(data, drift_origins(c.records), sd, len(c.records)), fit, data, sim, sd
+
+
+@eqx.filter_jit
+def _simulation_and_sd(params, data):
+    """The trace simulation and the samples' standard errors as one program: run
+    operation by operation they compile 115 small programs (measured: 7.7 s of CPU time
+    cold against 3.1 s)."""
+    from stickslip_fitting.objectives.trace import trace_sd, trace_simulation
+
+    sim = trace_simulation(params, data)
+    return sim, trace_sd(params, data, sim.slider_velocity)
 
 
 @pytest.fixture(scope="module")
