@@ -4,6 +4,7 @@ slips (cycles with no stick between them), and only there."""
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -18,10 +19,15 @@ POINTS = [("A", 36.0, 86.9), ("A", 11.3, 128.5), ("A", 36.0, 27.3), ("C", 11.3, 
           ("C", 36.0, 86.9), ("C", 36.0, 27.3)]
 
 
+_simulate = eqx.filter_jit(simulate_exact)
+"""The exact simulator compiled whole: one program for every point (op by op, its first
+run compiles some 200 small programs)."""
+
+
 def _double_slips(lub, W, k, v, t1):
     sw = ss.Slideway(ss.lubricant(lub), W, k)
     horizon = 6.0 * t1 + 10.0  # the start-up stick and several steady cycles
-    tr = simulate_exact(sw, ConstantSpeed(v), jnp.linspace(0.0, horizon, 2001), max_events=120)
+    tr = _simulate(sw, ConstantSpeed(v), jnp.linspace(0.0, horizon, 2001), max_events=120)
     st = np.asarray(tr.cycles.stick_time)[np.asarray(tr.cycles.valid)]
     assert st.size >= 3, (lub, W, k)
     return bool(np.any(st[1:] <= 1e-9))  # after the first (start-up) stick
