@@ -10,7 +10,7 @@ import stickslip_jax as ss
 from stickslip_fitting.data.features import record_features
 from stickslip_fitting.solve.fit import fit_features
 from stickslip_fitting.uncertainty.mcmc import log_posterior, run_mcmc
-from stickslip_fitting.modes import Covariance, Objective
+from stickslip_fitting.modes import Covariance
 from stickslip_fitting.data.synthetic import synthetic_campaign, truth_values
 from stickslip_fitting.uncertainty.laplace import laplace
 from record_files import record_files
@@ -125,15 +125,31 @@ def test_fitted_traces_follow_the_records(fitted):
     assert np.allclose(best, np.asarray(fit.params.friction.friction().static(grid)))
 
 
-def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, capsys):
+def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, capsys,
+                                                          monkeypatch):
     """`stickslip mcmc --objective trace`: the sampler draws from the trace objective the
     fit minimised, tempered so that no parameter's posterior is narrower than its
-    cluster-robust Laplace interval (module doc of stickslip_fitting.uncertainty.mcmc)."""
+    cluster-robust Laplace interval (module doc of stickslip_fitting.uncertainty.mcmc).
+    The checks of the tempering read the command's own trace fit."""
+    from stickslip_fitting.commands import mcmc as mcmc_command
     from stickslip_fitting.uncertainty.mcmc import likelihood_scale
     from stickslip_jax.cli import main
 
-    recs, ffit = fitted
-    tfit = fit_features(ffit.features, objective=Objective.TRACE, records=recs)
+    recs, _ = fitted
+    paths = record_files(recs, tmp_path)
+    out = tmp_path / "t.json"
+    posteriors = []
+    sample = mcmc_command.posterior
+
+    def kept(*args, **kwargs):
+        posteriors.append(sample(*args, **kwargs))
+        return posteriors[-1]
+
+    monkeypatch.setattr(mcmc_command, "posterior", kept)
+    assert main(["mcmc", *paths, "--objective", "trace", "--walkers", "16", "--steps", "400",
+                 "--no-progress", "--json", str(out)]) == 0
+    assert "likelihood: trace objective" in capsys.readouterr().out
+    tfit = posteriors[0].campaign_fit.fit
     scale = likelihood_scale(tfit)
     robust, fisher = laplace(tfit), laplace(tfit, covariance=Covariance.FISHER)
     assert robust.covariance == "sandwich"
@@ -145,12 +161,7 @@ def test_trace_likelihood_tempered_to_the_robust_intervals(fitted, tmp_path, cap
     lp = np.asarray(logp(jnp.tile(jnp.asarray(theta0), (8, 1))))
     assert lp.shape == (8,) and np.all(lp == lp[0])
     assert float(lp[0]) == pytest.approx(-0.5 * tfit.chi2 / scale, rel=1e-6)
-    # the CLI: the objective and the tempering travel in the JSON
-    paths = record_files(recs, tmp_path)
-    out = tmp_path / "t.json"
-    assert main(["mcmc", *paths, "--objective", "trace", "--walkers", "16", "--steps", "400",
-                 "--no-progress", "--json", str(out)]) == 0
-    assert "likelihood: trace objective" in capsys.readouterr().out
+    # the objective and the tempering travel in the JSON
     rep = json.loads(out.read_text())
     assert rep["objective"] == "trace" and rep["likelihood_scale"] == pytest.approx(scale,
                                                                                     rel=1e-6)
