@@ -233,9 +233,11 @@ def test_a_drive_program_drives_the_windows(campaign):
     program of one constant speed gives the residuals of that drive speed."""
     fr, recs, feats = campaign
     prog = dataclasses.replace(recs[0], drive_program=((0.0, recs[0].drive_speed),))
-    params = CampaignParams(EmpiricalFriction.from_friction(fr), jnp.zeros(1))
-    res = eqx.filter_jit(trace_residuals)
-    plain, knotted = trace_data(recs[:1], feats[:1]), trace_data([prog], feats[:1])
+    params = CampaignParams(EmpiricalFriction.from_friction(fr), jnp.zeros(len(recs)))
+    # the whole campaign, its first record driven by the program: the plain windows are
+    # `test_residuals_at_truth_are_unit_normal`'s, so their residuals' program is shared
+    res = jax.jit(trace_residuals)
+    plain, knotted = trace_data(recs, feats), trace_data([prog, *recs[1:]], feats)
     assert plain.drive_knots is None and knotted.drive_knots is not None
     np.testing.assert_allclose(np.asarray(res(params, knotted)), np.asarray(res(params, plain)),
                                rtol=0, atol=1e-6)
