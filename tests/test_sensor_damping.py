@@ -36,19 +36,21 @@ def test_a_damped_slips_sensor_tail_starts_where_the_features_place_its_breakawa
                          rate_hz=1000.0, seed=30 + i, imp=imp, physics=physics)
         recs.append(Record(time=tr.time, deflection=tr.deflection, stiffness=k, weight=W,
                            drive_speed=v / 60.0, note=str(i)))
-    c = screen_records(recs)
-    data = trace_data(c.records, c.features, drive_fix=False, keep_reslips=True)
+    campaign = screen_records(recs)
+    data = trace_data(campaign.records, campaign.features, drive_fix=False,
+                      keep_reslips=True)  # a rounded slip's tail can look like a re-slip
     mask = np.asarray(data.mask)
-    model = CycleModel(data, drift_origins(c.records), np.ones(mask.shape), len(c.records))
-    f = ir.LUBRICANT_A
-    z = model.z0(EmpiricalFriction.from_values(f.mu_s, f.mu_d, f.gamma, f.m, f.delta, f.n),
-                 np.zeros(len(c.records)))
-    z[model.cols(family("sensor_lowpass"))] = 2 * 0.7 / (2 * np.pi * 20.0) / 1e-3  # ms
-    z[model.cols(family("viscous_damping"))] = 0.2 / family("viscous_damping").scales[0]
+    truth = {"sensor_lowpass": 2 * 0.7 / (2 * np.pi * 20.0), "viscous_damping": 0.2}
+    model = CycleModel(data, drift_origins(campaign.records), np.ones(mask.shape), 3)
+    lube = ir.LUBRICANT_A
+    z = model.z0(EmpiricalFriction.from_values(lube.mu_s, lube.mu_d, lube.gamma, lube.m,
+                                               lube.delta, lube.n), np.zeros(3))
+    for name, value in truth.items():  # natural values over the families' scales
+        z[model.cols(family(name))] = value / family(name).scales[0]
     shape = Shape(order=2, zeta=0.7, damping=DampingForm.RATIO)
     r = model.residuals(z, shape, sensor=True)[0]  # mm (sd 1 mm)
-    since = np.asarray(data.time) - np.asarray(data.start_time)[:, None]
-    early = ((since < 0.010) & (cm.previous_rows(data) >= 0)[:, None])[mask]
+    after = np.asarray(data.time) - np.asarray(data.start_time)[:, None]  # s into a window
+    early = ((after < 0.010) & (cm.previous_rows(data) >= 0)[:, None])[mask]
     assert early.sum() > 300
     noise = imp.noise_mm
     assert abs(np.mean(r[early])) < 0.2 * noise, np.mean(r[early])
