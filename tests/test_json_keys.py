@@ -83,7 +83,9 @@ def _pitch_records(folder: pathlib.Path) -> list[str]:
 @pytest.fixture(scope="module")
 def documents(tmp_path_factory, clean_discovery):
     """{command: its --json document} on small inputs, every option that adds keys on
-    (mcmc: the fit's records and test_api_results's walkers, their compiled programs);
+    (mcmc: the fit's records and test_api_results's walkers, their compiled programs;
+    fit-batch: the fit's campaign, whose programs it reuses: 0.8 s of CPU time after the
+    fit against 3.2 s for a part of it);
     discover's: test_cycle_discovery's clean campaign with its options (`--learn`; conftest
     `clean_discovery`: the learned correction and the null reasons, run once)."""
     d = tmp_path_factory.mktemp("json_keys")
@@ -96,7 +98,7 @@ def documents(tmp_path_factory, clean_discovery):
         "fit": ["fit", *EXAMPLES, "--quiet"],
         "mcmc": ["mcmc", *EXAMPLES, "--steps", "20", "--walkers", "12", "--quiet"],
         "pitch": ["pitch", *_pitch_records(d), "--fit"],
-        "fit-batch": ["fit-batch", str(ROOT / "data" / "examples" / "A_W36_k27.3_*.csv"),
+        "fit-batch": ["fit-batch", str(ROOT / "data" / "examples" / "*.csv"),
                       str(d / "no_such_folder"), "--quiet"],
     }
     rc, discovered, _, _ = clean_discovery
