@@ -116,13 +116,13 @@ def fd_grad():
     return fd
 
 
-def _check_slopes(eta, formulation, fd_grad, rtols):
-    """Every friction parameter's forward-mode slope at the solver tolerances `rtols`
+def _check_slopes(eta, formulation, fd_grad, rtols, names=tuple(LEAVES)):
+    """The friction parameters' (`names`) forward-mode slopes at the solver tolerances `rtols`
     (atol 1e-2 rtol) against the finite difference, within both sides' own errors: the
     difference's (twice its estimate) and the slope's (its change over `rtols`) and 1e-4
     of the slope, so that the check holds whatever the CPU's rounding; a slope that
     misses a term of the model is off by far more."""
-    for name in LEAVES:
+    for name in names:
         fd, fd_error = fd_grad(eta, name, formulation)
         gs = [_slope(eta, name, r, r * 1e-2, formulation) for r in rtols]
         assert np.all(np.isfinite(gs)), name
@@ -131,11 +131,13 @@ def _check_slopes(eta, formulation, fd_grad, rtols):
             assert abs(g - fd) <= tol, (eta, name, rtol, g, fd, tol)
 
 
-@pytest.mark.parametrize("eta", [0.1, 0.03])
-def test_gradients_match_finite_differences(eta, fd_grad):
-    # the velocity formulation; the rigid-stick default is tested below, the latch
-    # formulation in test_smooth_latch.py
-    _check_slopes(eta, "velocity", fd_grad, (1e-9, 1e-10))
+@pytest.mark.parametrize("eta, names", [(0.1, tuple(LEAVES)), (0.03, ("mu_s", "m", "delta"))])
+def test_gradients_match_finite_differences(eta, names, fd_grad):
+    # the velocity formulation, every parameter at one smoothing and at a sharper one the
+    # static level, the aging exponent and the kinetic decay (each parameter takes the
+    # same path through the model at both); the rigid-stick default is tested below, the
+    # latch formulation in test_smooth_latch.py
+    _check_slopes(eta, "velocity", fd_grad, (1e-9, 1e-10), names)
 
 
 def test_rigid_stick_gradients_match_finite_differences(fd_grad):
