@@ -14,6 +14,8 @@ Ratios (eq 35): $C_1 = S_m/p_m$, $C_2 = p_b/p_m$, $C_3 = S_b/p_b$; the paper's v
 
 from __future__ import annotations
 
+import functools
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -64,27 +66,35 @@ def static_coefficient(pair: SurfacePair, contact: BoundaryContact, a, t_b) -> F
     return F / contact.W
 
 
+def _cubic(a, alpha, beta, t, target):
+    return alpha * a**3 + beta * (a + t) ** 3 - target
+
+
+def _cubic_slope(a, alpha, beta, t):
+    return 3.0 * alpha * a**2 + 3.0 * beta * (a + t) ** 2
+
+
+@functools.partial(jax.jit, static_argnames="iterations")
+def _newton_cubic(alpha, beta, t, target, iterations: int):
+    """Newton's iterations for `_cubic_root` from the upper bound, as one compiled program
+    (a loop traced on every eager call would compile again on every call)."""
+    def body(_, a):
+        return jnp.maximum(a - _cubic(a, alpha, beta, t, target)
+                           / _cubic_slope(a, alpha, beta, t), 0.0)
+
+    a0 = jnp.cbrt(jnp.maximum(target, 0.0) / (alpha + beta))
+    return jax.lax.fori_loop(0, iterations, body, a0)
+
+
 def _cubic_root(alpha, beta, t, target, iterations: int = 60):
     r"""Root $a \ge 0$ of $\alpha a^3 + \beta (a + t)^3 = $ `target` (increasing in a for
     $\beta \ge 0$, $\alpha + \beta > 0$). Newton from the upper bound
     $(\mathrm{target}/(\alpha+\beta))^{1/3}$ under `stop_gradient`, then one
     differentiable Newton step, which gives exact first-order (implicit) gradients."""
-
-    def g(a, alpha, beta, t, target):
-        return alpha * a**3 + beta * (a + t) ** 3 - target
-
-    def dg(a, alpha, beta, t):
-        return 3.0 * alpha * a**2 + 3.0 * beta * (a + t) ** 2
-
     sg = jax.lax.stop_gradient
-    al, be, tt, tg = sg(alpha), sg(beta), sg(t), sg(target)
-    a0 = jnp.cbrt(jnp.maximum(tg, 0.0) / (al + be))
-
-    def body(_, a):
-        return jnp.maximum(a - g(a, al, be, tt, tg) / dg(a, al, be, tt), 0.0)
-
-    a = jax.lax.fori_loop(0, iterations, body, a0)
-    return a - g(a, alpha, beta, t, target) / dg(a, alpha, beta, t)
+    a = _newton_cubic(*(sg(jnp.asarray(x, dtype=float)) for x in (alpha, beta, t, target)),
+                      iterations)
+    return a - _cubic(a, alpha, beta, t, target) / _cubic_slope(a, alpha, beta, t)
 
 
 def final_approach(pair: SurfacePair, contact: BoundaryContact, t_b) -> Scalar:
