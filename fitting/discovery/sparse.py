@@ -329,6 +329,7 @@ class SparseForm:
     z: np.ndarray = dataclasses.field(repr=False)
     r: np.ndarray = dataclasses.field(repr=False)
     gap_levels: float = float("nan")  # the base with the windows' restart levels free alone
+    selected: tuple = ()  # the names of every term the selection chose, reported or not
 
     @property
     def closes(self) -> float:
@@ -481,7 +482,8 @@ def _fit_form(model, z, r, J, noise: float, use=None, *, gap=None, iterations: i
     closes = (gap_before - gap_after) / max(gap_before - noise, 1e-300)
     form = SparseForm(terms=terms, gap_before=gap_before, gap_after=gap_after,
                       noise=float(noise), found=bool(terms) and closes >= FOUND_SHARE,
-                      z=z_after, r=r_after, gap_levels=gap_levels)
+                      z=z_after, r=r_after, gap_levels=gap_levels,
+                      selected=tuple(TERMS[j].name for j in S))
     return dataclasses.replace(form, found=form.found and (not levels or _beyond_levels(form)))
 
 
