@@ -40,7 +40,7 @@ def outside_form(fx: Fits, effect: str, confidence: str, gap_after: float,
                            use, gap=gap)
     # the selection's choice of the family's own form confirms the family, whether or not
     # the refit leaves that term beyond its errors (collinear terms take its share there:
-    # damping of 0.3 on C, seed 101, its slip-velocity term refitted to -0.7 standard
+    # a damping ratio of 0.2 on C, seed 101: its slip-velocity term refitted to -0.7 standard
     # errors beside a creep and a stick-phase term)
     holds_named = any(effect in LIBRARY_FORMS.get(name, ()) for name in form.selected)
     return form, form.found and (effect == "unexplained"
