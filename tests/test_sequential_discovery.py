@@ -212,8 +212,8 @@ def test_a_later_effect_and_its_rivals_are_tested_given_each_other(monkeypatch):
     fx, clock = types.SimpleNamespace(opts=DEFAULTS), (lambda *a: None)
 
     def given(ps, refitted=every):
-        monkeypatch.setattr(more, "_needed", lambda fx_, one, at: ps[one.family.name,
-                                                                     at.family.name])
+        monkeypatch.setattr(more, "needed_given", lambda fx_, one, at: (
+            ps[one.family.name, at.family.name], 0.0))
         win = refitted.refits[0]
         choice = Choice(chosen=win, decision=more._decided(fx, refitted.refits, win, set()),
                         rivals=[], compared={}, decided_drop=win.drop)

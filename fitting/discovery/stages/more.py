@@ -117,7 +117,7 @@ from ..subproblems import SubProblem, with_shape
 from .rank import held_p, rank
 from .refit import judge, prior_of, ranked_refits, refit, refit_family, said
 from .sharpen import sharpen
-from .decide import choose, one_screw, price, price_of
+from .decide import choose, needed_given, one_screw, price, price_of
 from .state import Base, Choice, Clock, FamilyRefit, Fits, Refitted, Step
 
 __all__ = ["ALTERNATIVES", "SPEED_SIGN", "confirmed", "drop_one", "either_law", "extended",
@@ -316,16 +316,6 @@ def either_law(fx: Fits, refitted: Refitted, clock: Clock) -> Refitted:
     return dataclasses.replace(refitted, refits=[*refitted.refits, *new], eligible=eligible)
 
 
-def _needed(fx: Fits, f_rf: FamilyRefit, at: FamilyRefit) -> float:
-    """The robust window test's p-value of `f_rf`'s family at the refit `at` of another
-    family (`rank.held_p`): whether the one is still needed given the other."""
-    base = fx.base
-    shape = with_shape(at.shape, f_rf.family, f_rf.shape)
-    value = f_rf.sub.full(f_rf.fit.z)[base.model.cols(f_rf.family)]
-    return held_p(base, fx.prep.starts, at.fit, at.sub.full(at.fit.z), f_rf.family, shape,
-                  at.sensor, value, others=(*base.held, at.family))
-
-
 def _decided(fx: Fits, refits, chosen: FamilyRefit, aside) -> Decision:
     """The decision (`decision.decide`) of the winner `chosen` against the other refits
     that lower chi-square, those of the families `aside` left out."""
@@ -359,7 +349,7 @@ def given_each_other(fx: Fits, choice: Choice, refitted: Refitted, clock: Clock)
         if other is None or other.unphysical is not None or other.failed:
             return choice
         try:
-            p_win, p_other = _needed(fx, win, other), _needed(fx, other, win)
+            p_win, p_other = needed_given(fx, win, other)[0], needed_given(fx, other, win)[0]
         except ValueError:  # a model outside the simulator's domain
             return choice
         clock("given each other", f"{win.family.name} given {other.family.name}: p "
