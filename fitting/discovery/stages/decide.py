@@ -107,9 +107,12 @@ def told_apart(fx: Fits, chosen: FamilyRefit, refits, decision: Decision,
     kept, said = [], []
     for c in decision.joint:
         rf = by_name.get(c.name)
+        if rf is None:  # a contender without a refit of its own: not told apart
+            kept.append(c)
+            continue
         try:
             p, predicted = needed_given(fx, chosen, rf)
-        except (ValueError, AttributeError):  # outside the simulator's domain: not told
+        except ValueError:  # outside the simulator's domain: not told apart
             kept.append(c)
             continue
         s2 = max((rf.fit.rss + base.within) / max(base.n_used, 1), 1.0)
