@@ -123,7 +123,7 @@ def allclose_tree():
     return tree_allclose
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")  # the tests directory: built once for the run
 def clean_discovery_paths(tmp_path_factory):
     """`record_files.clean_discovery_files` (the clean campaign, an irregular record, a
     file that is not a record), written once for the test run."""
@@ -132,7 +132,7 @@ def clean_discovery_paths(tmp_path_factory):
     return clean_discovery_files(tmp_path_factory.mktemp("clean_discovery"))
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")  # the tests directory: built once for the run
 def clean_discovery_run(clean_discovery_paths, tmp_path_factory):
     """`stickslip discover FILES --json OUT --learn` on `clean_discovery_paths`, run once
     for the test run: {"rc": exit code, "document": the JSON document, "out": printed
@@ -165,7 +165,7 @@ def clean_discovery_run(clean_discovery_paths, tmp_path_factory):
                 err=err.getvalue(), call=calls[0])
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")  # the tests directory: built once for the run
 def clean_discovery(clean_discovery_run):
     """`clean_discovery_run` as (exit code, JSON document, printed text, stderr text):
     read by test_cycle_discovery (its answer), test_json_keys (its keys) and
@@ -174,7 +174,7 @@ def clean_discovery(clean_discovery_run):
     return run["rc"], run["document"], run["out"], run["err"]
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")  # the tests directory: built once for the run
 def real_records_fit(tmp_path_factory):
     """`stickslip fit data/real/*.csv --json --plot --quiet`, run once for the test run:
     its printed table, JSON document, figure file and the figure it drew. Read by
