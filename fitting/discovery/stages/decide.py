@@ -19,13 +19,12 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
-import scipy.stats
 
 from ..cycle_effects import neighbour_shapes
 from ..decision import Contender, Decision, decide, paired_z, rms_gap
 from ..scores import principal_cosine
 from ..subproblems import SharedScrewProblem, SubProblem, with_shape
-from .rank import held_test
+from .rank import held_test, relevant_drop
 from .refit import ranked_refits, continued, judge, refine_shape
 from .state import Choice, Clock, FamilyRefit, Fits, Refitted
 
@@ -116,9 +115,8 @@ def told_apart(fx: Fits, chosen: FamilyRefit, refits, decision: Decision,
             kept.append(c)
             continue
         s2 = max((rf.fit.rss + base.within) / max(base.n_used, 1), 1.0)
-        apart = bool(p < opts.alpha or (
-            predicted >= opts.relevant * base.n_used
-            and scipy.stats.chi2.sf(predicted / s2, dof) < opts.alpha))
+        apart = p < opts.alpha or relevant_drop(predicted, s2, dof, base.n_used, opts,
+                                                opts.alpha)
         said.append(f"{chosen.family.name} given {c.name}: p {p:.2g}, predicted chi2 "
                     f"-{predicted:.0f} ({'told apart' if apart else 'joint'})")
         if not apart:

@@ -19,7 +19,8 @@ from ..scores import base_basis, project_out
 from ..subproblems import with_shape
 from .state import Base, Clock, FamilyScore, Prepared, Ranking
 
-__all__ = ["held_p", "held_test", "physical_side", "rank", "shape_columns", "significance_line"]
+__all__ = ["held_p", "held_test", "physical_side", "rank", "relevant_drop", "shape_columns",
+           "significance_line"]
 
 _SHAPE_STEPS = {"stribeck": (("vs", 0.05, True), ("p", 0.1, False)),
                 "rate_state": (("length", 0.05, True),),
@@ -187,6 +188,15 @@ def held_test(base: Base, starts, fit, z, f, shape, sensor: bool, value, others=
     return p, predicted
 
 
+def relevant_drop(predicted: float, s2: float, dof: int, n_used: int, opts,
+                  level: float) -> bool:
+    """The ranking's second route of significance: a predicted chi-square drop of at least
+    `relevant` of the samples used whose per-sample score test (the drop over the
+    residual variance `s2`, chi-square with `dof` degrees of freedom) has p < `level`."""
+    return bool(predicted >= opts.relevant * n_used
+                and scipy.stats.chi2.sf(predicted / s2, dof) < level)
+
+
 def significance_line(significant, n_families: int, alpha: float, level: float,
                       n_tests: int) -> str:
     """How many families are significant, and by which test (the count of the candidate
@@ -250,7 +260,7 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
         sc.p_sample = float(scipy.stats.chi2.sf(sc.chi2_predicted / s2, sc.dof))
         if sc.p_family < alpha:
             sc.significant_by = "family-wise"
-        elif sc.chi2_predicted >= opts.relevant * n_used and sc.p_sample < level:
+        elif relevant_drop(sc.chi2_predicted, s2, sc.dof, n_used, opts, level):
             sc.significant_by = "per-sample"
     significant = [s for s in scores if s.significant_by is not None]
     clock("ranking", significance_line(significant, len(fams), alpha, level, len(window_g))
