@@ -189,11 +189,12 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
     defl = np.zeros((N, L))
     mask = np.zeros((N, L), bool)
     cols = [[row[i] for row in rows] for i in range(14)]
+    constant = all(rec.drive_source == "speed" for rec in records)  # no knot tables then
     made = {}  # one knot table per window, SLIP_KNOTS more inside the slips where they bend
-    for k in cols[13]:
+    for k in [] if constant else cols[13]:
         if id(k) not in made:
             made[id(k)] = _window_knots(*k, slip=SLIP_KNOTS * bends)
-    cols[13] = [made[id(k)] for k in cols[13]]
+    cols[13] = [made.get(id(k)) for k in cols[13]]
     for i, row in enumerate(rows):
         n = row[-2].size
         time[i, :n], time[i, n:] = row[-2], row[-2][-1]
@@ -213,8 +214,7 @@ def trace_data(records, features: list[RecordFeatures], *, pad_length: int = 0,
         sigma=j(cols[9]), window=j(np.asarray(cols[10], np.int32)),
         drive_poly=j(np.asarray(cols[11], float).reshape(-1, 3)), normal_load=j(cols[12]),
         time=j(time), deflection=j(defl), mask=j(mask),
-        drive_knots=(None if all(rec.drive_source == "speed" for rec in records)
-                     else j(np.stack(cols[13]))),
+        drive_knots=None if constant else j(np.stack(cols[13])),
     )
 
 
