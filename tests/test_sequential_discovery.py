@@ -158,6 +158,45 @@ def test_a_later_effect_pays_for_its_flexibility():
     assert confirmed(base, one, 0.01, 0.0, price_of(base, 1))
 
 
+def test_a_later_effect_far_below_the_noise_is_not_named():
+    """A later effect's size is the RMS change of the traces when its parameters are set
+    to zero at its refit (`more.trace_size`, over the described records' samples, x the
+    noise); below `more.SMALLEST` the search stops (610, 612: a screw of 0.01-0.04 um
+    after a sensor and the damping, 0.31 x the noise)."""
+    import types
+
+    from stickslip_fitting.discovery.stages.more import SMALLEST, trace_size
+    from stickslip_fitting.discovery.thinning import Samples
+
+    sd = np.full(6, 0.5e-3)  # mm
+    shape = object()
+
+    def residuals(z, shape_, sensor=False):  # whitened: 2 records, the family at z[1:3]
+        assert shape_ is shape
+        return np.r_[z[1] * np.ones(3), z[2] * np.ones(3)] + 0.1 * sensor, None, True
+
+    model = types.SimpleNamespace(residuals=residuals, cols=lambda f: np.array([1, 2]))
+    base = types.SimpleNamespace(model=model, described=np.r_[True, True, True, False,
+                                                              False, False],
+                                 sd=sd, noise=0.5e-3,
+                                 samples=Samples(np.array([1, 1, 2, 5, 5, 5.0]), np.zeros(6)))
+    fx = types.SimpleNamespace(base=base)
+
+    def rf(name, a, b, sensor=False):
+        z = np.array([3.0, a, b])
+        return types.SimpleNamespace(family=types.SimpleNamespace(name=name), shape=shape,
+                                     sensor=sensor, fit=types.SimpleNamespace(z=z),
+                                     sub=types.SimpleNamespace(full=lambda z_: z_))
+
+    # only the described record counts: a change of 0.2 noise (whitened) there
+    assert np.isclose(trace_size(fx, rf("drive_periodic_error", 0.2, 9.0)), 0.2)
+    assert trace_size(fx, rf("drive_periodic_error", 0.2, 9.0)) < SMALLEST
+    assert np.isclose(trace_size(fx, rf("gauge_drift", -2.0, 0.0)), 2.0)
+    # the sensor's own size: without it the traces are read without the low-pass
+    assert np.isclose(trace_size(fx, rf("sensor_lowpass", 0.0, 0.0, sensor=True)), 0.1)
+    assert np.isclose(trace_size(fx, rf("gauge_drift", 0.0, 0.0, sensor=True)), 0.0)
+
+
 def test_a_later_effect_must_clearly_beat_its_physical_rivals():
     """A later effect meets every physical contender that explains a comparable share and
     that it does not clearly beat (`more.unbeaten_rival`, then `given_each_other`); an
