@@ -1,4 +1,5 @@
-"""Discovery's compiled programs are built only when a stage needs them (`cycle_model`)."""
+"""Discovery's cost: compiled programs built only when a stage needs them (`cycle_model`), fits
+stopped once they cannot win (`refit`, `subproblems`)."""
 
 from __future__ import annotations
 
@@ -72,3 +73,32 @@ def test_a_family_that_cannot_win_far_from_the_data_is_not_refitted():
     near = NS(base=NS_base(misfit=False, sensor=False, fit=base.fit), opts=DEFAULTS,
               ranking=fx.ranking)
     assert not cannot_win(near, score("sensor_lowpass", 0.0), lead)
+
+
+def test_a_fit_too_slow_for_its_target_stops():
+    """`subproblems.PACE`: a fit whose Gauss-Newton decrease keeps promising its whole
+    chi-square (so `HOPE` never judges) but which gains one unit an evaluation stops once
+    twice that pace over the evaluations left cannot reach its target; a target its
+    budget reaches leaves the fit as it is."""
+    import numpy as np
+
+    from stickslip_fitting.discovery.subproblems import PACE_AFTER, AbstractProblem
+
+    class Slow(AbstractProblem):  # chi-square 100, 99, 98, ...: one unit an evaluation
+        def __init__(self):
+            self.calls = 0
+
+        def evaluate(self, z):
+            self.calls += 1
+            return np.array([np.sqrt(101.0 - self.calls)]), np.ones((1, 1)), True
+
+    kw = dict(max_evals=20)
+    free = Slow().solve(np.zeros(1), **kw)
+    assert free.n_evals == 20 and free.rss == 81.0 and not free.converged
+    reached = Slow().solve(np.zeros(1), target=85.0, **kw)
+    assert reached.rss == free.rss and not reached.stats.get("hopeless")
+    p = Slow()
+    stopped = p.solve(np.zeros(1), target=70.0, **kw)
+    # after n evaluations the best is 101 - n; 2 x 1 x (20 - n) below it misses 70 from n = 10
+    assert stopped.stats["hopeless"] and p.calls == 10 > PACE_AFTER
+    assert stopped.rss == 91.0

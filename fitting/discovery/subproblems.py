@@ -24,6 +24,15 @@ HOPE = 4.0
 Gauss-Newton decrease predicted there, stays above the target (from the `HOPE_AFTER`-th
 evaluation: the first steps from a bent start gain more than the linear model says)."""
 HOPE_AFTER = 4
+PACE = 2.0
+"""A fit with a `target` also stops once its best point, lowered by this many times its
+recent pace (its best chi-square's drop per evaluation over the last `PACE_WINDOW`)
+over every evaluation its budget leaves, stays above the target (from the
+`PACE_AFTER`-th evaluation): far from the data the Gauss-Newton decrease keeps promising
+more than the fit gains, and a fit that gains at a slowing pace cannot reach a target
+that even twice its pace misses."""
+PACE_WINDOW = 4
+PACE_AFTER = 8
 
 SHAPE_FIELDS = {"viscous_damping": ("damping",), "stribeck": ("vs", "p", "form"),
                 "rate_state": ("length",), "drive_periodic_error": ("pitch",),
@@ -58,8 +67,8 @@ class AbstractProblem(abc.ABC):
         step can; else after `max_evals` evaluations. `first`: (r, J, ok) at z0; a small
         `lam0` suits a start where the quadratic model is trusted (a score step).
         `target`: a chi-square worth reaching; the fit stops at its best point once it
-        cannot (`HOPE`; `stats["hopeless"]` True)."""
-        watch = _Watch(self.evaluate, target, first, z0)
+        cannot (`HOPE`, `PACE`; `stats["hopeless"]` True)."""
+        watch = _Watch(self.evaluate, target, first, z0, max_evals)
         try:
             return least_squares(HostResiduals(watch if target is not None else self.evaluate,
                                                first), z0, self.active(), rtol=0.0,
@@ -77,15 +86,18 @@ class _Hopeless(Exception):
 
 
 class _Watch:
-    """An `evaluate` that keeps the fit's best point and raises `_Hopeless` (`HOPE`)."""
+    """An `evaluate` that keeps the fit's best point and raises `_Hopeless` (`HOPE`,
+    `PACE`; `budget`: the fit's evaluations)."""
 
-    def __init__(self, evaluate, target, first, z0):
-        self.evaluate, self.target, self.n = evaluate, target, 0
+    def __init__(self, evaluate, target, first, z0, budget):
+        self.evaluate, self.target, self.n, self.budget = evaluate, target, 0, budget
         self.cost, self.floor = np.inf, -np.inf
         self.z = self.r = self.J = None
         self.ok = False
+        self.costs = []  # the best chi-square after each evaluation (the start's first)
         if first is not None:
             self._keep(np.array(z0, float), *first)
+            self.costs.append(self.cost)
 
     def _keep(self, z, r, J, ok):
         usable = ok and np.all(np.isfinite(r)) and np.all(np.isfinite(J))
@@ -106,10 +118,18 @@ class _Watch:
         r, J, ok = self.evaluate(z)
         self.n += 1
         self._keep(np.array(z, float), r, J, ok)
+        self.costs.append(self.cost)
         if (self.n >= HOPE_AFTER and self.z is not None and np.isfinite(self.cost)
-                and self.floor > self.target):
+                and (self.floor > self.target or self._slow())):
             raise _Hopeless
         return r, J, ok
+
+    def _slow(self) -> bool:
+        """`PACE`: at twice its recent pace the fit's budget cannot reach the target."""
+        if self.n < PACE_AFTER or len(self.costs) <= PACE_WINDOW:
+            return False
+        pace = (self.costs[-1 - PACE_WINDOW] - self.cost) / PACE_WINDOW  # inf: no judgement
+        return bool(self.cost - PACE * pace * (self.budget - self.n) > self.target)
 
 
 @dataclasses.dataclass
