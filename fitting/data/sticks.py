@@ -221,7 +221,7 @@ def _pitch_scan(us, grp, Qp, yp, pitches, chunk: int = 8) -> np.ndarray:
     counts = np.diff(np.r_[cuts, grp.size])
     wave = 2.0 * np.pi / pitches
     a, q = np.empty((chunk, 4, us.size)), np.empty((chunk, us.size))
-    proj2 = np.empty(pitches.size)
+    gram, b = np.empty((pitches.size, 4, 4)), np.empty((pitches.size, 4))
     for i in range(0, pitches.size, chunk):
         n = min(chunk, pitches.size - i)
         ai, qi = a[:n], q[:n]
@@ -234,11 +234,10 @@ def _pitch_scan(us, grp, Qp, yp, pitches, chunk: int = 8) -> np.ndarray:
         np.square(c, out=c2)
         c2 -= np.square(s, out=qi)
         sums, aq = np.add.reduceat(ai, cuts, axis=2), ai @ Qp
-        gram = (ai @ ai.transpose(0, 2, 1) - (sums / counts) @ sums.transpose(0, 2, 1)
-                - aq @ aq.transpose(0, 2, 1))
-        b = ai @ yp
-        proj2[i:i + n] = np.einsum("pi,pij,pj->p", b, np.linalg.pinv(
-            gram, rcond=1e-13, hermitian=True), b)
+        gram[i:i + n] = (ai @ ai.transpose(0, 2, 1) - (sums / counts) @ sums.transpose(0, 2, 1)
+                         - aq @ aq.transpose(0, 2, 1))
+        b[i:i + n] = ai @ yp
+    proj2 = np.einsum("pi,pij,pj->p", b, np.linalg.pinv(gram, rcond=1e-13, hermitian=True), b)
     return float(yp @ yp) - proj2
 
 
