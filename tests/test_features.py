@@ -119,3 +119,33 @@ def test_too_few_cycles_is_reported(clean_and_noisy):
     short = clean.replace(time=clean.time[keep], deflection=clean.deflection[keep])
     f = record_features(short)
     assert not f.stick_slip and "complete stick-slip cycle" in f.message
+
+
+def _sticks_with_drive_error(error):
+    """Twelve sticks of 800 samples at their own levels under a drive of 0.02 mm/s whose
+    nominal position is off by `error(u)` (mm); noise 0.1 um."""
+    from types import SimpleNamespace
+
+    t = np.linspace(0.0, 120.0, 12001)
+    u = 0.02 * t
+    sticks = [SimpleNamespace(lo=lo, hi=lo + 800) for lo in range(100, 12000, 1000)]
+    y = np.random.default_rng(0).normal(0.0, 1e-4, t.size)
+    for j, p in enumerate(sticks):
+        y[p.lo:p.hi] += 0.01 * j
+    return t, u, y - error(u), sticks
+
+
+def test_drive_error_finds_a_lead_screw_error_and_leaves_an_exact_drive():
+    from stickslip_fitting.data.sticks import drive_error
+
+    screw = lambda u: 0.004 * np.sin(2.0 * np.pi * u / 0.5)  # noqa: E731
+    t, u, y, sticks = _sticks_with_drive_error(screw)
+    fix, note = drive_error(t, u, y, sticks, 1e-4, 0.1)
+    assert "periodic error 4 um at pitch 0.4999 mm" in note
+    at = np.array([p.lo for p in sticks])
+    np.testing.assert_allclose(fix[at] - fix[0], screw(u[at]) - screw(u[0]), atol=1e-4)
+    t, u, y, sticks = _sticks_with_drive_error(lambda u: 0.0 * u)
+    assert drive_error(t, u, y, sticks, 1e-4, 0.1) == (None, None)
+    t, u, y, sticks = _sticks_with_drive_error(lambda u: 0.01 * u)
+    assert drive_error(t, u, y, sticks, 1e-4, 0.1)[1].endswith("speed off by 0.012 mm/min on "
+                                                                 "average")
