@@ -126,8 +126,8 @@ class _Watch:
 
     def _slow(self) -> bool:
         """`PACE`: at twice its recent pace the fit's budget cannot reach the target."""
-        if self.n < PACE_AFTER or len(self.costs) <= PACE_WINDOW:
-            return False
+        if self.n < PACE_AFTER or self.n >= self.budget or len(self.costs) <= PACE_WINDOW:
+            return False  # the budget's last evaluation ends the fit as it is
         pace = (self.costs[-1 - PACE_WINDOW] - self.cost) / PACE_WINDOW  # inf: no judgement
         return bool(self.cost - PACE * pace * (self.budget - self.n) > self.target)
 
