@@ -37,9 +37,12 @@ compiling them (a user's later campaigns), the first fills DIR.
 
 The cost rests on: the sticks binned to the statistics the model needs (`thinning`: a
 window's cost grows with its events, not with its samples), far from the data the refits
-stopped once they cannot win (`refit.CANNOT_WIN`), or not made where their start already
-says so (`refit.cannot_win`: the sensor's refit and its program), in a later search only
-the leading refit continued and restarted (`sharpen`), the compressed Jacobian (an
+stopped once they cannot win (`refit.CANNOT_WIN`; by the Gauss-Newton decrease left,
+`subproblems.HOPE`, or by their recent pace over the budget left, `subproblems.PACE`),
+or not made where their start already says so (`refit.cannot_win`: the sensor's refit
+and its program), a close refit that is restarted continued only where no restart
+improves it, in a later search only the leading refit continued and restarted
+(`sharpen`), the compressed Jacobian (an
 evaluation's last tangent block 4 wide where its tangents fit, `cycle_model.BLOCK`), the
 FFT sensor kernel, the vectorised pitch scan, a window's slip solved once for all its
 rows and rendered at its unpadded samples only, the weights as one compiled program, the host Levenberg-Marquardt update in NumPy,
