@@ -8,6 +8,7 @@ answers with the form, in words naming the right phase and variable.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import sys
 import types
@@ -159,6 +160,31 @@ def test_backlash_holds_the_spring_for_the_play_after_every_slip():
         assert np.ptp(flat) < 1e-9
         climb = tr.clean[i + int(1.2 * b / v * 1000.0):][:100]
         assert np.diff(climb).mean() == pytest.approx(v / 1000.0, rel=1e-3)
+
+
+def test_scattered_breakaways_are_fitted_window_by_window():
+    """`sparse._scattered` gives every window the residuals of its own best static
+    friction among `SCATTER_SHIFTS` (mu_s (1 + e), mu_d held), whatever the others'; a
+    form that closes less than `FOUND_SHARE` of what they leave is not found."""
+    win = np.repeat([[3], [3], [7], [9]], 5, axis=1)  # 4 rows of 5 samples, 3 windows
+    wid = np.repeat([0, 0, 1, 2], 5)
+    mu_d, rise = 0.1, 0.02
+    truth = rise + np.array([0.01, -0.03, 0.0025])[wid] * (mu_d + rise)  # per sample
+
+    def evaluate(z, cols):  # each window's rows: its friction's miss, and a breakaway lost
+        miss = np.exp(z[sparse.MU_S]) - truth
+        return 1e3 * miss * np.linspace(1.0, 2.0, wid.size), None, z[sparse.MU_S] < -3.0
+    data = types.SimpleNamespace(mask=np.ones(win.shape, bool), record=np.zeros(4),
+                                 window=win[:, 0])
+    model = types.SimpleNamespace(data=data, scales=np.ones(8), evaluate=evaluate)
+    z = np.r_[np.log(mu_d), np.log(rise), np.zeros(6)]
+    r_s = sparse._scattered(model, z, np.ones(wid.size, bool))
+    assert np.allclose(r_s, 0.0, atol=1e-12)
+    form = sparse.SparseForm(terms=({"name": "stick_creep10ms"},), gap_before=3.0,
+                             gap_after=1.9, noise=1.0, found=True, z=np.zeros(1),
+                             r=np.zeros(1), gap_scatter=1.87)
+    assert form.closes > sparse.FOUND_SHARE and not sparse._beyond_scatter(form)
+    assert sparse._beyond_scatter(dataclasses.replace(form, gap_scatter=2.5, gap_after=1.2))
 
 
 def test_a_family_is_not_certain_where_the_gap_is_within_the_weights():
