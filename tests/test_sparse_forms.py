@@ -71,7 +71,8 @@ def test_select_terms_keeps_no_pair_of_one_creep_with_opposite_signs():
     is kept where it is not paired."""
     base, _, C = _planted(11, 0, 0.0)
     rng = np.random.default_rng(11)
-    C[:, 1] = C[:, 0] + 0.2 * C[:, 2]
+    # their difference is no column of the library (0.2 C[:, 2] would let {0, 2} stand in)
+    C[:, 1] = C[:, 0] + 0.2 * np.cos(40.0 * np.linspace(0.0, 1.0, base.shape[0]))
     b = rng.standard_normal(base.shape[0]) + 3.0 * C[:, 0] - 2.5 * C[:, 1]
     free, _ = sparse.select_terms(base, b, C)
     paired, _ = sparse.select_terms(base, b, C, same_sign=((0, 1),))
