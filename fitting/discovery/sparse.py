@@ -581,8 +581,7 @@ def _beyond_scatter(form: SparseForm) -> bool:
     breakaway that scatters leaves before each slip a residual that a creep's shape
     fits, of one sign in nearly every cycle, so the sign and size of the form's
     coefficient window by window do not tell the two apart (measured, irregular slips
-    on C: mu_s
-    scattering 1 % per cycle, seed 751, a creep before breakaway of +1.15 um over 10 ms
+    on C: mu_s scattering 1 % per cycle, seed 751, a creep before breakaway of +1.15 um over 10 ms
     and a stick-phase ramp, 3.08 -> 1.88 x the noise, the scattered breakaways alone
     1.09; Student-t, 3 dof, seed 761, a creep of +3.37 um over 10 ms, 5.89 -> 2.21, the
     breakaways alone 2.49, 19 % of their excess closed. Creep of 3 um over 50 ms, A seed

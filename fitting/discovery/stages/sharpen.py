@@ -90,14 +90,20 @@ def _continue_close(fx: Fits, refits: list, eligible, clock: Clock) -> set:
         if _restart_due(fx, close, rf):
             later.add(rf.family.name)
             continue
-        one = continued(fx, rf)
-        if one is not None:
-            refits[refits.index(rf)] = one
-            polished_.append(f"{one.family.name} chi2 -{one.drop:.0f} (was "
-                             f"-{rf.drop:.0f}, {one.fit.n_evals} more evaluations)")
+        _continue_one(fx, refits, rf, polished_)
     if polished_:
         clock("continue", ", ".join(polished_))
     return later
+
+
+def _continue_one(fx: Fits, refits: list, rf, polished_: list) -> None:
+    """`rf` continued from its own fit (`continued`): where that succeeds it replaces
+    `rf` in `refits` and its progress line joins `polished_`."""
+    one = continued(fx, rf)
+    if one is not None:
+        refits[refits.index(rf)] = one
+        polished_.append(f"{one.family.name} chi2 -{one.drop:.0f} (was "
+                         f"-{rf.drop:.0f}, {one.fit.n_evals} more evaluations)")
 
 
 def _restart_points(fx: Fits, rf) -> list[np.ndarray]:
@@ -154,11 +160,7 @@ def _restart_close(fx: Fits, refits: list, eligible, shaped: set, clock: Clock,
             shaped.discard(rf.family.name)
             fresh_.append(f"{rf.family.name} chi2 -{best_.drop:.0f} (was -{rf.drop:.0f})")
         elif rf.family.name in later:
-            one = continued(fx, rf)
-            if one is not None:
-                refits[refits.index(rf)] = one
-                polished_.append(f"{one.family.name} chi2 -{one.drop:.0f} (was "
-                                 f"-{rf.drop:.0f}, {one.fit.n_evals} more evaluations)")
+            _continue_one(fx, refits, rf, polished_)
     if fresh_:
         clock("restart", "from the start's friction: " + ", ".join(fresh_))
     if polished_:
