@@ -27,14 +27,11 @@ from jaxtyping import Array, Float
 
 from stickslip_jax.friction import (AbstractStateEvolution, AgingLaw, Friction, LogAgingStatic,
                                     LogVelocityKinetic, SlipLaw, rate_state_friction)
+from stickslip_jax.numerics import as_float
 
 from .params import AbstractFrictionParams
 
 __all__ = ["LogAgingFriction", "RateStateAgingFriction", "RateStateSlipFriction"]
-
-
-def _f(x):
-    return jnp.asarray(x, dtype=float)
 
 
 class _LogParams(AbstractFrictionParams):
@@ -75,10 +72,10 @@ RS_BOUNDS = {"mu_ref": (1e-3, 2.0), "a": (2e-3, 0.2), "b": (1e-4, 0.5), "d_c": (
 
 
 class _RateStateParams(_LogParams):
-    log_mu_ref: Float[Array, ""] = eqx.field(converter=_f)
-    log_a: Float[Array, ""] = eqx.field(converter=_f)
-    log_b: Float[Array, ""] = eqx.field(converter=_f)
-    log_d_c: Float[Array, ""] = eqx.field(converter=_f)
+    log_mu_ref: Float[Array, ""] = eqx.field(converter=as_float)
+    log_a: Float[Array, ""] = eqx.field(converter=as_float)
+    log_b: Float[Array, ""] = eqx.field(converter=as_float)
+    log_d_c: Float[Array, ""] = eqx.field(converter=as_float)
     v_0: float = eqx.field(static=True, default=1e-3)
 
     EVOLUTION: ClassVar[AbstractStateEvolution]
@@ -116,11 +113,11 @@ class LogAgingFriction(_LogParams):
     r"""Logarithmic aging $\mu_0 = \mu_d + \beta\ln(1 + T_1/t_c)$ with the kinetic friction
     $\mu_d - c\ln(1 + v/v_c)$ (`stickslip_jax.friction.log_aging`)."""
 
-    log_mu_d: Float[Array, ""] = eqx.field(converter=_f)
-    log_beta: Float[Array, ""] = eqx.field(converter=_f)
-    log_t_c: Float[Array, ""] = eqx.field(converter=_f)
-    log_c: Float[Array, ""] = eqx.field(converter=_f)
-    log_v_c: Float[Array, ""] = eqx.field(converter=_f)
+    log_mu_d: Float[Array, ""] = eqx.field(converter=as_float)
+    log_beta: Float[Array, ""] = eqx.field(converter=as_float)
+    log_t_c: Float[Array, ""] = eqx.field(converter=as_float)
+    log_c: Float[Array, ""] = eqx.field(converter=as_float)
+    log_v_c: Float[Array, ""] = eqx.field(converter=as_float)
 
     MODEL: ClassVar[str] = "log_aging"
     NAMES: ClassVar[tuple[str, ...]] = LOG_NAMES

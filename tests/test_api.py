@@ -185,8 +185,8 @@ def test_typed_options_are_accepted():
     from stickslip_fitting.microsqueeze_params import MicrosqueezeFriction
     from stickslip_fitting.params import EmpiricalFriction, Hold
 
-    assert api._law(EmpiricalFriction) == (EmpiricalFriction, "empirical")
-    assert api._law("microsqueeze") == (MicrosqueezeFriction, "microsqueeze")
+    assert api._law(EmpiricalFriction) is EmpiricalFriction
+    assert api._law("microsqueeze") is MicrosqueezeFriction
     assert api.loss_option(Huber(2.0)) == Huber(2.0)
     assert api.loss_option("huber:2").spec() == "huber:2"
     start = EmpiricalFriction.from_values(0.4, 0.3, 1.0, 0.5, 2.0, 1.3)

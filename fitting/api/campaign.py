@@ -88,9 +88,6 @@ def parameter_frame(entries: dict, owner: str) -> pandas.DataFrame:
     return frame
 
 
-_MODELS = ("empirical", "microsqueeze")
-
-
 @dataclasses.dataclass(frozen=True)
 class CampaignFit(ResultDocument):
     """The result of `fit`: the campaign's friction parameters with their intervals.
@@ -196,7 +193,7 @@ def fit(records: RecordsSpec, *, model: str | type[AbstractFrictionParams] = "em
                        slip_time=SlipTime.parse(slip_time))
     from ..params import EmpiricalFriction
 
-    law, _ = _law(model)
+    law = _law(model)
     loss = loss_option(loss)
     fixed = _fixed(fix, law)
     pair = eta_value = None
@@ -321,16 +318,16 @@ def as_list(records) -> list:
     return out
 
 
-def _law(model) -> tuple[type[AbstractFrictionParams], str]:
-    """(law class, its name in the report) of `model` (a class or its name)."""
+def _law(model) -> type[AbstractFrictionParams]:
+    """The law class of `model` (a class or its name)."""
     from ..microsqueeze_params import MicrosqueezeFriction
     from ..params import EmpiricalFriction
 
     laws = {"empirical": EmpiricalFriction, "microsqueeze": MicrosqueezeFriction}
     for name, law in laws.items():
         if model is law or model == name:
-            return law, name
-    raise ValueError(f"model must be one of {_MODELS} (or EmpiricalFriction, "
+            return law
+    raise ValueError(f"model must be one of {tuple(laws)} (or EmpiricalFriction, "
                      f"MicrosqueezeFriction), got {model!r}")
 
 
