@@ -92,8 +92,7 @@ def record_information(u, campaign: Campaign, noise: Noise = Noise()):
     """Fisher information (N, 6, 6) of each record of `campaign` about $u$."""
 
     def one(w, k, v):
-        jac = jax.jacfwd(lambda uu: observables(uu, w, k, v)[0])(u)
-        mask = observables(u, w, k, v)[1]
+        jac, mask = jax.jacfwd(lambda uu: observables(uu, w, k, v), has_aux=True)(u)
         wts = mask / noise.sigma() ** 2
         return jac.T @ (wts[:, None] * jac)
 
@@ -178,8 +177,7 @@ def even_design(candidates: Campaign, budget: int) -> Campaign:
     w, k, v = (np.asarray(x) for x in (candidates.weight, candidates.stiffness, candidates.speed))
     pairs = sorted({(a, b) for a, b in zip(w, k)})
     speeds = np.geomspace(v.min(), v.max(), budget)
-    pw = np.array([pairs[i % len(pairs)][0] for i in range(budget)])
-    pk = np.array([pairs[i % len(pairs)][1] for i in range(budget)])
+    pw, pk = np.array([pairs[i % len(pairs)] for i in range(budget)]).T
     return Campaign(pw, pk, speeds)
 
 

@@ -32,10 +32,9 @@ import numpy as np
 
 from stickslip_jax import Friction, KatoKinetic, KatoStatic
 
+from ..params import NAMES as PARAMETERS
 from ..params import EmpiricalFriction
 from .campaign import Campaign
-
-PARAMETERS = ("mu_s", "mu_d", "gamma", "m", "delta", "n")
 
 
 def log_params(friction: Friction) -> np.ndarray:
@@ -229,8 +228,6 @@ def _estimate(values: dict, source, key: str) -> np.ndarray:
     """The parameters of `values` (prior means, posterior medians) as a vector, each a
     number inside the law's physical range (its MCMC prior support): the design's
     estimate; a ValueError naming the file, key and range otherwise."""
-    from ..params import EmpiricalFriction
-
     missing = [p for p in PARAMETERS if p not in values]
     if missing:
         raise ValueError(f"{source}: {key} lacks {', '.join(missing)} (held fixed in the "
