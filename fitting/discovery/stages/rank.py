@@ -130,9 +130,11 @@ def _sensor_secant(model, base: Base, cols, shape, opts, efficient, r_rank, star
 
 
 def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, window_g,
-                   sensor_probe) -> list[FamilyScore]:
+                   sensor_probe, metrics) -> list[FamilyScore]:
     """Every shape's score test of family `f` (appending its window contributions to
-    `window_g`, the sensor's probes to `sensor_probe`)."""
+    `window_g`, the sensor's probes to `sensor_probe`, the Gram matrix of a test of
+    several columns to `metrics` by its index: `flips.family_wise_p` weighs its score by
+    the information)."""
     cols = score_cols(model, f, G)
     out = []
     for shape in f.shapes:
@@ -153,6 +155,8 @@ def _family_scores(f, model, base, opts, G, plain_J, efficient, r_rank, starts, 
         elif f.name != "sensor_lowpass":
             test = len(window_g)
             window_g.append(window_scores(Jp, r_rank, starts))
+            if Jp.shape[1] > 1:
+                metrics[test] = Jp.T @ Jp
         F, p, dof, step, pred = hotelling(
             Jp, r_rank, starts, window_g[test] if finite and test >= 0 else None,
             side=physical_side(model, f, G))
@@ -227,6 +231,7 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
     sensor_probe: dict[Shape, float] = {}
     window_g: list[np.ndarray] = []  # every test's window contributions (`flips`)
     sides: list[int] = []  # and its side (`physical_side`)
+    metrics: dict[int, np.ndarray] = {}  # and a test of several columns its Gram matrix
 
     def efficient(Jc):
         return _efficient(Qb, described, Jc)
@@ -235,7 +240,8 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
         if f.name == "sensor_lowpass":  # its program compiles while the others are tested
             prep.warm["residuals", True].result()
         shape_scores[f.name] = _family_scores(f, model, base, opts, G, plain_J, efficient,
-                                              r_rank, starts, window_g, sensor_probe)
+                                              r_rank, starts, window_g, sensor_probe,
+                                              metrics)
         sides += [physical_side(model, f, G)] * (len(window_g) - len(sides))
         best = max(shape_scores[f.name], key=_leads)
         if len(f.shapes) > 1:
@@ -245,8 +251,10 @@ def rank(prep: Prepared, base: Base, fams, *, opts: DiscoveryOptions, clock: Clo
         scores.append(best)
     # the family-wise p-value of every family's chosen shape: the share of sign flips of
     # the windows whose smallest p-value over all tests is as small (`flips`; Bonferroni's
-    # alpha / n_tests assumed the tests independent, and they are strongly correlated)
-    adjusted = family_wise_p(window_g, sides=sides)
+    # alpha / n_tests assumed the tests independent, and they are strongly correlated;
+    # a test of several columns weighs its score by the information, `flips`)
+    adjusted = family_wise_p(window_g, sides=sides,
+                             metrics=[metrics.get(k) for k in range(len(window_g))])
     for sc in scores:
         sc.p_family = float(adjusted[sc.test]) if sc.test >= 0 else float("nan")
     scores.sort(key=lambda s: (np.nan_to_num(s.p_value, nan=1.0), -s.chi2_predicted))
