@@ -336,12 +336,12 @@ def _step(setup: _Setup, s: _State, _):
     """One cycle of the event loop: the stick (if the slider rests), then the slip; the
     two phase rows and the two event records."""
     stick_on = ~s.done & s.sticking
-    s1, info1, u1, v1 = _stick_step(setup, s, stick_on)
+    s1, info1, u1, _ = _stick_step(setup, s, stick_on)
     s1 = _keep(stick_on, s1, s)
     slip_on = ~s1.done & ~s1.sticking
-    s2, info2, u2, v2 = _slip_step(setup, s1, slip_on)
+    s2, info2, _, v2 = _slip_step(setup, s1, slip_on)
     s2 = _keep(slip_on, s2, s1)
-    rows = (_row(setup, s, stick_on, u1, v1), _row(setup, s1, slip_on, u2, v2))
+    rows = (_stick_row(s, stick_on, u1), _slip_row(setup, s1, slip_on, v2))
     return s2, (rows, (info1, info2))
 
 
@@ -376,9 +376,11 @@ def _stick_step(setup: _Setup, s: _State, active):
     static = friction.static
     u_t, v_t = _drive_at(setup.knot_table, s.t)
     x_b_all = s.x + _drive_at(setup.knot_table, bounds)[0] - u_t
-    r_b = k * x_b_all - W * static(jnp.maximum(bounds - s.t_stick, 0.0))
+    # mu_0 at the segment ends and at the stick's current time, in one evaluation
+    mu_all = static(jnp.append(jnp.maximum(bounds - s.t_stick, 0.0), s.t - s.t_stick))
+    r_b = k * x_b_all - W * mu_all[:-1]
     valid_b = (bounds > s.t) & (bounds <= t_end)
-    r_start = k * s.x - W * static(s.t - s.t_stick)
+    r_start = k * s.x - W * mu_all[-1]
     immediate = r_start >= 0
     hit = valid_b & (r_b >= 0)
     found = jnp.any(hit)
@@ -455,23 +457,35 @@ def _slip_step(setup: _Setup, s: _State, active):
     return new, info, u_t, v
 
 
-def _row(setup: _Setup, s: _State, active, u_t, v_t):
-    """The phase row that starts at state `s`: its start time (s) and closed-form
-    coefficients for rendering."""
+def _row_time(s: _State, active):
+    """A phase row's start time (s): an inactive row before the end (the stick half of a
+    step that starts in a slip) keeps the current time, so the row times stay sorted for
+    rendering, and the slip row after it, at the same time, is the one rendered; a row
+    after the end is never rendered (infinity)."""
+    return jnp.where(active, s.t, jnp.where(s.done, jnp.inf, s.t))
+
+
+def _stick_row(s: _State, active, u_t):
+    """The stick row that starts at state `s` (the drive at `u_t` mm): its start time (s)
+    and closed-form coefficients for rendering, x = (x_s - u(t_s)) + u(t). Rendered only
+    where it is active (`_row_time`), that is where the slider sticks."""
+    z = jnp.zeros_like(s.x)
+    return dict(t=_row_time(s, active), active=active, coef=jnp.stack([s.x - u_t, z, z, z]))
+
+
+def _slip_row(setup: _Setup, s: _State, active, v_t):
+    """The slip row that starts at state `s` (drive speed `v_t` mm/s): its start time (s)
+    and the closed-form coefficients of eq (10) for rendering. The slip's cos/sin of
+    omega (t - t_row) are expanded by the angle-addition formulas so that the samples need
+    cos/sin of omega t only (no per-sample row time). Rendered only where it is active
+    (`_row_time`), that is where the slider slips."""
     omega = setup.omega
-    # an inactive row before the end (the stick half of a step that starts in a
-    # slip) keeps the current time, so the row times stay sorted for rendering
-    t = jnp.where(active, s.t, jnp.where(s.done, jnp.inf, s.t))
-    # closed-form coefficients of the phase for rendering (see below): the slip's
-    # cos/sin of omega (t - t_row) are expanded by the angle-addition formulas so
-    # that the samples need cos/sin of omega t only (no per-sample row time)
-    st, z = s.sticking, jnp.zeros_like(s.x)
+    t = _row_time(s, active)
     Q = s.x - s.c
     S = (v_t - s.yd) / omega
     phase = omega * jnp.where(jnp.isfinite(t), t, setup.t_end)
     c_row, s_row = jnp.cos(phase), jnp.sin(phase)
-    coef = jnp.stack([jnp.where(st, s.x - u_t, s.c), jnp.where(st, z, Q * c_row - S * s_row),
-                      jnp.where(st, z, Q * s_row + S * c_row), jnp.where(st, z, v_t)])
+    coef = jnp.stack([s.c, Q * c_row - S * s_row, Q * s_row + S * c_row, v_t])
     return dict(t=t, active=active, coef=coef)
 
 
