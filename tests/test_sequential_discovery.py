@@ -159,39 +159,46 @@ def test_a_later_effect_pays_for_its_flexibility():
 
 
 def test_a_later_effect_far_below_the_noise_is_not_named():
-    """A later effect's size is the RMS change of the traces when its parameters are set
-    to zero at its refit (`more.trace_size`, over the described records' samples, x the
-    noise); below `more.SMALLEST` the search stops (610, 612: a screw of 0.01-0.04 um
-    after a sensor and the damping, 0.31 x the noise)."""
+    """A later effect's size is the change of the traces when its parameters are set to
+    zero at its refit, as the RMS per sample in units of the samples' standard errors over
+    each phase (sticks, slips) of the described records, the larger of the two
+    (`more.trace_size`); below `more.SMALLEST` the search stops (610, 612: a screw of
+    0.01-0.04 um after a sensor and the damping, 0.79 and 0.61 in the slips;
+    618: a Stribeck drop after a screw, 1.41 in the slips, is named)."""
     import types
 
     from stickslip_fitting.discovery.stages.more import SMALLEST, trace_size
     from stickslip_fitting.discovery.thinning import Samples
 
-    sd = np.full(6, 0.5e-3)  # mm
     shape = object()
 
-    def residuals(z, shape_, sensor=False):  # whitened: 2 records, the family at z[1:3]
-        assert shape_ is shape
-        return np.r_[z[1] * np.ones(3), z[2] * np.ones(3)] + 0.1 * sensor, None, True
+    def residuals(z, shape_, sensor=False):  # whitened: 2 records of 4 residuals, the
+        assert shape_ is shape  # family at z[1:5]: its stick part z[1], its slip part z[2]
+        return np.r_[z[1], z[1], z[2], z[2], z[3], z[3], z[4], z[4]] + 0.1 * sensor, None, True
 
-    model = types.SimpleNamespace(residuals=residuals, cols=lambda f: np.array([1, 2]))
-    base = types.SimpleNamespace(model=model, described=np.r_[True, True, True, False,
-                                                              False, False],
-                                 sd=sd, noise=0.5e-3,
-                                 samples=Samples(np.array([1, 1, 2, 5, 5, 5.0]), np.zeros(6)))
+    model = types.SimpleNamespace(residuals=residuals, cols=lambda f: np.array([1, 2, 3, 4]))
+    # record 1: two stick bins of 9 samples each (whitened by the bin's standard error),
+    # two slip samples; record 2 set aside
+    base = types.SimpleNamespace(
+        model=model, described=np.r_[np.ones(4, bool), np.zeros(4, bool)],
+        slipping=np.tile([False, False, True, True], 2), noise=0.5e-3,
+        samples=Samples(np.array([9, 9, 1, 1] * 2, float), np.zeros(8)))
     fx = types.SimpleNamespace(base=base)
 
-    def rf(name, a, b, sensor=False):
-        z = np.array([3.0, a, b])
+    def rf(name, stick, slip, sensor=False, aside=9.0):
+        z = np.array([3.0, stick, slip, aside, aside])
         return types.SimpleNamespace(family=types.SimpleNamespace(name=name), shape=shape,
                                      sensor=sensor, fit=types.SimpleNamespace(z=z),
                                      sub=types.SimpleNamespace(full=lambda z_: z_))
 
-    # only the described record counts: a change of 0.2 noise (whitened) there
-    assert np.isclose(trace_size(fx, rf("drive_periodic_error", 0.2, 9.0)), 0.2)
-    assert trace_size(fx, rf("drive_periodic_error", 0.2, 9.0)) < SMALLEST
-    assert np.isclose(trace_size(fx, rf("gauge_drift", -2.0, 0.0)), 2.0)
+    # a bin's whitened change 0.6 is 0.2 per sample of its 9
+    assert np.isclose(trace_size(fx, rf("drive_periodic_error", 0.6, 0.0)), 0.2)
+    assert trace_size(fx, rf("drive_periodic_error", 0.6, 0.0)) < SMALLEST
+    # an effect of the slips alone is measured over the slips (not diluted by the sticks'
+    # 18 samples: 0.47 over all 20)
+    assert np.isclose(trace_size(fx, rf("stribeck", 0.0, 1.5)), 1.5) and SMALLEST < 1.5
+    assert np.isclose(trace_size(fx, rf("stribeck", 0.6, 1.5)), 1.5)
+    assert np.isclose(trace_size(fx, rf("gauge_drift", 6.0, -0.3)), 2.0)
     # the sensor's own size: without it the traces are read without the low-pass
     assert np.isclose(trace_size(fx, rf("sensor_lowpass", 0.0, 0.0, sensor=True)), 0.1)
     assert np.isclose(trace_size(fx, rf("gauge_drift", 0.0, 0.0, sensor=True)), 0.0)
