@@ -497,3 +497,26 @@ def test_stick_terms_move_the_breakaway(setup):
     z2 = z.copy()
     z2[pair] = 2.0
     _assert_jacobian_matches_fd(model, z2, np.r_[[0, 3], pair], Shape(), "stick")
+
+
+def test_stick_terms_left_out_only_where_they_add_nothing(setup):
+    """The programs without the stick terms (`CycleModel._stick`: their coefficients zero
+    and not differentiated) give the residuals and Jacobian of the full model: at the
+    features' friction the base columns agree with those of a call that differentiates a
+    stick term too (the full program; another program, so the last digits of some
+    samples differ: 1e-12 relative); a non-zero coefficient or a stick column selects
+    the full program."""
+    model, z, *_ = setup
+    stick = model.layout.stick_cols()
+    base = np.arange(model.n_base)
+    assert not model._stick(z, base)
+    assert model._stick(z, np.r_[base, stick[:1]])
+    z1 = z.copy()
+    z1[stick[-1]] = 0.5
+    assert model._stick(z1, base)
+    r, J, ok = model.evaluate(z, base)
+    r_full, J_full, ok_full = model.evaluate(z, np.r_[base, stick[:1]])
+    assert ok and ok_full
+    np.testing.assert_allclose(r, r_full, rtol=1e-9, atol=1e-12 * np.abs(r).max())
+    np.testing.assert_allclose(J, J_full[:, :base.size], rtol=1e-9,
+                               atol=1e-12 * np.abs(J).max())

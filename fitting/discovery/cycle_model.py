@@ -51,7 +51,8 @@ record-major), then the stick terms' coefficients over `STICK_SCALE`
 (`cycle_effects.stick_terms`). `CycleModel.evaluate` gives residuals and the Jacobian of
 any coordinates (forward mode, `BLOCK` tangents per compiled call; a record's rows depend
 only on its own offset and per-record coefficients, so those share one tangent: the base
-model's 6 + R columns cost 7 tangents).
+model's 6 + R columns cost 7 tangents). The stick terms are compiled in only where a
+call needs them (`CycleModel._stick`: the sparse form's fits).
 """
 
 from __future__ import annotations
@@ -132,7 +133,8 @@ def _effects_of(layout: _Layout, theta, record):
                 stick=theta[theta.shape[0] - len(STICK_TERMS):])
 
 
-def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layout, idx):
+def _model(z, scales, shape, sensor, stick, data: TraceData, tref, prev, layout: _Layout,
+           idx):
     """(gauge reading incl. offset [n], slider velocity [N, L] (0 at the padding), ended [N]:
     the row's window broke away, its slip ended on its grid and its reads are finite)
     at the samples `idx` (flat indices of the unpadded entries of [N, L]). `prev`:
@@ -140,7 +142,8 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
     [N] where that slip began, s) (`tail_sources`), then ([W] the first row of every
     window; [N] every row's window among them) (`window_rows`): a window's stick and
     slip are solved once (`solve_window`) and read at each of its samples (`read_sample`),
-    the unpadded ones only (the padding: up to a third of a thinned campaign's entries)."""
+    the unpadded ones only (the padding: up to a third of a thinned campaign's entries).
+    `sensor`, `stick` (static): the kernel convolution, the stick terms (`cycle_slip`)."""
     prev, began, first, slot = prev
     tref, tstart = tref[0], tref[1]
     nat = z * scales
@@ -152,7 +155,7 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
     def one_window(rec, W, k, v, t0, x0, T1m, poly, N0):
         eff = _effects_of(layout, theta, rec)
         return solve_window(fr, eff, shape, sensor, W, k, v, t0, x0, T1m, tref[rec], tstart[rec],
-                     poly, N0, wf[rec])
+                     poly, N0, wf[rec], stick)
 
     wf = jnp.zeros((layout.n_records, 1))
     if sensor:
@@ -174,7 +177,7 @@ def _model(z, scales, shape, sensor, data: TraceData, tref, prev, layout: _Layou
     def one_sample(s, rec, v, tw, poly, ts):
         sl = jax.tree.map(lambda a: a[s] if a.ndim == 1 else a, slips)  # grids: whole
         eff = _effects_of(layout, theta, rec)
-        return read_sample(sl, s, eff, shape, sensor, v, tref[rec], tw, poly, ts)
+        return read_sample(sl, s, eff, shape, sensor, v, tref[rec], tw, poly, ts, stick)
 
     read, yd = jax.vmap(one_sample)(slot[row], rec_e, data.speed[row],
                                     data.start_time[row], data.drive_poly[row],
@@ -267,18 +270,18 @@ def tail_sources(data: TraceData) -> tuple[np.ndarray, np.ndarray]:
 
 
 @eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
-def _value(z, scales, shape, sensor, data, tref, prev, sd, layout, idx):
-    read, yd, ok = _model(z, scales, shape, sensor, data, tref, prev, layout, idx)
+def _value(z, scales, shape, sensor, stick, data, tref, prev, sd, layout, idx):
+    read, yd, ok = _model(z, scales, shape, sensor, stick, data, tref, prev, layout, idx)
     return (data.deflection.ravel()[idx] - read) / sd.ravel()[idx], yd, ok
 
 
 @eqx.filter_jit(compiler_options=COMPILER_OPTIONS)
-def _value_and_block(z, T, scales, shape, sensor, data, tref, prev, sd, layout, idx):
+def _value_and_block(z, T, scales, shape, sensor, stick, data, tref, prev, sd, layout, idx):
     """(r [n], J [n, B], ok [N], slider velocity [N, L]): the residuals of the samples
     `idx` (flat indices of the unpadded samples) and their derivatives along the B
     tangents T [size, B]."""
     def f(zz):
-        read, yd, ok = _model(zz, scales, shape, sensor, data, tref, prev, layout, idx)
+        read, yd, ok = _model(zz, scales, shape, sensor, stick, data, tref, prev, layout, idx)
         return (data.deflection.ravel()[idx] - read) / sd.ravel()[idx], (ok, yd)
 
     def col(t):
@@ -395,22 +398,34 @@ class CycleModel:
         kernel convolution. Without it, `evaluate`'s program with no tangent (few calls:
         a program of their own took 7 s of CPU to compile to save 0.04 s a call); with it
         (the secant probes: 48 calls) a program of its own."""
+        stick = self._stick(z, ())
         if sensor:
             r, yd, ended = _value(jnp.asarray(z), self._scales, self._shape(shape), True,
-                                  self.data, self.tref, self._prev, self.sd, self.layout,
-                                  self._idx)
+                                  stick, self.data, self.tref, self._prev, self.sd,
+                                  self.layout, self._idx)
             return np.asarray(r), np.asarray(yd), np.asarray(ended)
         r, _, ended, yd = self._block(jnp.asarray(z), np.zeros((self.layout.size, 1)),
-                                      self._shape(shape), False)
+                                      self._shape(shape), False, stick)
         return np.asarray(r), np.asarray(yd), np.asarray(ended)
 
-    def _block(self, zj, part, sh, sensor: bool):
-        """`_value_and_block` along the tangents `part`, padded to its width (`BLOCK`)."""
-        narrow = part.shape[1] <= BLOCK // 2 and not sensor and self._tails > 64
+    def _stick(self, z, cols) -> bool:
+        """Whether the model at z needs its stick terms: a stick coefficient is non-zero
+        in z or among the columns `cols` differentiated. Without them (every fit but the
+        sparse form's) the programs leave the terms out: each sample's 17 stick columns
+        and their derivatives took 38 % of an 8-tangent evaluation (63 -> 39 ms CPU on
+        the 12-record screw campaign, 26,310 samples) and half of its compilation (10.7
+        -> 4.9 s CPU); the same residuals, since the terms add zero."""
+        sc = self.layout.stick_cols()
+        return bool(np.any(np.asarray(z)[sc] != 0) or np.any(np.isin(cols, sc)))
+
+    def _block(self, zj, part, sh, sensor: bool, stick: bool):
+        """`_value_and_block` along the tangents `part`, padded to its width (`BLOCK`; the
+        stick terms' calls, few, keep the full width: one program of their own, not two)."""
+        narrow = part.shape[1] <= BLOCK // 2 and not sensor and not stick and self._tails > 64
         T = np.zeros((self.layout.size, BLOCK // 2 if narrow else BLOCK))
         T[:, :part.shape[1]] = part
         return _value_and_block(zj, jax.device_put(T), self._scales, sh, bool(sensor),
-                                self.data, self.tref, self._prev, self.sd, self.layout,
+                                bool(stick), self.data, self.tref, self._prev, self.sd, self.layout,
                                 self._idx)
 
     def _tangents(self, cols):
@@ -441,11 +456,11 @@ class CycleModel:
         if (key := cols.tobytes()) not in self._grouped:
             self._grouped[key] = self._tangents(cols)
         (T_all, tangent, record), blocks, ok = self._grouped[key], [], True
-        sh, zj = self._shape(shape), jnp.asarray(z)
+        sh, zj, stick = self._shape(shape), jnp.asarray(z), self._stick(z, cols)
         for a in range(0, max(T_all.shape[1], 1), BLOCK):
             part = T_all[:, a:a + BLOCK]
             self._tails += part.shape[1] <= BLOCK // 2 and not sensor and a > 0  # `BLOCK`
-            r, J_, ended, _ = self._block(zj, part, sh, sensor)
+            r, J_, ended, _ = self._block(zj, part, sh, sensor, stick)
             blocks.append(np.asarray(J_)[:, :part.shape[1]])
             ok = ok and bool(np.all(np.asarray(ended)[self._real_rows]))
         Jt = blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=1)

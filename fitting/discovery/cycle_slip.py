@@ -118,12 +118,14 @@ class Slip(eqx.Module):
     delay: jax.Array  # how late the features put the breakaway as read (s; `_centre`)
 
 
-def _stick_line(sl_or_x0, eff: Effects, u, t0, u0, tw, T1m, v):
+def _stick_line(sl_or_x0, eff: Effects, u, t0, u0, tw, T1m, v, stick: bool):
     """The stick line at slider time t with the stick terms' displacement (module doc of
-    `cycle_effects`): x0 + u(t) - u0 + q(t - tw) (mm)."""
+    `cycle_effects`): x0 + u(t) - u0 + q(t - tw) (mm); `stick` False (static): q = 0,
+    the stick terms' coefficients zero and not differentiated, and their columns not
+    computed (`cycle_model.CycleModel.evaluate`)."""
     def line(t):
         xl = sl_or_x0 + u(t) - u0
-        return xl + stick_terms(t - tw, T1m, xl, v) @ eff.stick
+        return xl + stick_terms(t - tw, T1m, xl, v) @ eff.stick if stick else xl
     return line
 
 
@@ -180,10 +182,11 @@ def kernel_spectrum(h, tau, order, zeta):
 
 
 def solve_window(friction, eff: Effects, shape, sensor, W, k, v, t0, x0, T1m, tref, tstart,
-                 poly, N0, wf):
+                 poly, N0, wf, stick: bool = True):
     """One cycle window's stick and slip (module doc; `sensor` static: the kernel
     convolution of the slip on its grid, with the kernel's spectrum `wf`,
-    `kernel_spectrum`): friction under the normal load N0 (kgf), inertia W / g."""
+    `kernel_spectrum`; `stick` static: the stick terms, `_stick_line`): friction under
+    the normal load N0 (kgf), inertia W / g."""
     vs, p, length, pitch, _, _, form, damping = (shape[i] for i in range(8))  # order, zeta: in wf
     tw = t0  # the window's measured start: origin of a measured drive's cubic
     tau = jnp.maximum(eff.tau, 1e-7)
@@ -205,7 +208,7 @@ def solve_window(friction, eff: Effects, shape, sensor, W, k, v, t0, x0, T1m, tr
     u = _drive(eff, v, tref, tw, poly, pitch)  # speed drift, screw error, measured drive
     u0 = u(t0)
 
-    line = _stick_line(x0, eff, u, t0, u0, tw, T1m, v)
+    line = _stick_line(x0, eff, u, t0, u0, tw, T1m, v, stick)
 
     def g(T):
         x = line(t0 + T)
@@ -322,14 +325,16 @@ def solve_window(friction, eff: Effects, shape, sensor, W, k, v, t0, x0, T1m, tr
                  Fd=Fd, tau=tau, T1m=T1m, delay=delay)
 
 
-def read_sample(sl: Slip, w, eff: Effects, shape, sensor, v, tref, tw, poly, ts):
+def read_sample(sl: Slip, w, eff: Effects, shape, sensor, v, tref, tw, poly, ts,
+                stick: bool = True):
     """One sample of window `w` at the time ts (s): (the deflection as read by the gauge,
     without offset (mm); slider velocity (mm/s)). `sl`: the window's `Slip` numbers, its
-    grids (Y, YD, F, Fd) those of every window [W, K], read at row `w`."""
+    grids (Y, YD, F, Fd) those of every window [W, K], read at row `w`; `stick` static:
+    the stick terms (`_stick_line`)."""
     u = _drive(eff, v, tref, tw, poly, shape[3])
     t0, t_b, h, t_stop = sl.t0, sl.t_b, sl.h, sl.t_stop
     Y, YD = (lambda j: sl.Y[w, j]), (lambda j: sl.YD[w, j])  # a node, not the row
-    line = _stick_line(sl.x0, eff, u, t0, sl.u0, tw, sl.T1m, v)
+    line = _stick_line(sl.x0, eff, u, t0, sl.u0, tw, sl.T1m, v, stick)
 
     def render(t):
         t = jnp.maximum(t, t0)
