@@ -97,13 +97,12 @@ def _newton_root(fun, lo, hi, max_iter=80, active=True):
 
 def count_at_or_before(edges, ts):
     """For sorted `edges` and sorted `ts`: how many edges are <= each t, i.e.
-    `searchsorted(edges, ts, side="right")`. The edges are placed among the samples
-    (E binary searches); then each sample index is compared with all E positions (one
-    fused pass, E <= 64) or, for many edges, counted by a cumulative sum."""
-    pos = jnp.searchsorted(ts, edges, side="left").astype(jnp.int32)
+    `searchsorted(edges, ts, side="right")`. Up to 64 edges, each sample is compared with
+    all of them (one fused pass, no loop to compile); for more, the edges are placed
+    among the samples (E binary searches) and counted by a cumulative sum."""
     if edges.shape[0] <= 64:
-        j = jnp.arange(ts.shape[0], dtype=jnp.int32)
-        return jnp.searchsorted(pos, j, side="right", method="compare_all")
+        return jnp.searchsorted(edges, ts, side="right", method="compare_all")
+    pos = jnp.searchsorted(ts, edges, side="left").astype(jnp.int32)
     return _count_positions(pos, ts.shape[0])
 
 
