@@ -13,7 +13,8 @@ Under `pytest -n 2` without the slow tests, each worker takes whole test modules
 (`pytest_xdist_make_scheduler`), the longest first (`LONG_MODULES`): a module's fixtures
 (its fitted campaigns and discoveries) are built once, not once on each worker, and the
 two workers end together; modules that compile the same programs run on one worker
-(`SHARED_PROGRAMS`). `--dist` on the command line chooses another distribution.
+(`SHARED_PROGRAMS`); a module that releases the compiled programs runs first
+(`FIRST_MODULES`). `--dist` on the command line chooses another distribution.
 
 A run without the slow tests (`-m 'not slow'`, the default) compiles with LLVM's
 optimisation level 0 (`TEST_XLA_FLAGS`): it spends most of its time compiling the
@@ -62,6 +63,13 @@ seconds summed from `pytest -n 2 --durations=200`, or single-process `--duration
 for the modules whose tests changed since; a module of `SHARED_PROGRAMS` right after
 the module it runs with; test_mcmc's and test_api's by their groups' CPU time): they run
 first, so that under `pytest -n 2` the short modules fill the end of both workers."""
+
+FIRST_MODULES = ("test_programs",)
+"""Modules that run before the others (before `LONG_MODULES`): test_programs releases
+JAX's compiled programs (`stickslip_jax.programs.release_programs`, `jax.clear_caches`),
+which in a process that holds the suite's programs costs the release itself and the
+recompilation of any program a later module shares (measured cold: test_programs 7.5 s
+of CPU time in a process of its own, 14.7 s after 71 other modules in one process)."""
 
 SHARED_PROGRAMS = {
     **dict.fromkeys(("test_cli_steady", "test_logging", "test_design_netcdf",
@@ -239,7 +247,7 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if item.path.stem in QUICK_MODULES and item.get_closest_marker("slow") is None:
             item.add_marker(pytest.mark.quick)
-    rank = {stem: i for i, stem in enumerate(LONG_MODULES)}
+    rank = {stem: i for i, stem in enumerate(FIRST_MODULES + LONG_MODULES)}
     items.sort(key=lambda item: rank.get(item.path.stem, len(rank)))  # stable: file order kept
 
 
