@@ -157,6 +157,54 @@ def test_a_joint_partner_the_winner_is_needed_beside_is_told_apart(monkeypatch):
     assert out.clear and "told apart" in said[0]
 
 
+def test_an_unphysical_one_sided_refit_is_tried_from_the_wide_starts(monkeypatch):
+    """Near the data, a one-sided family (a Stribeck drop) whose refit from its score step
+    ends unphysical is fitted again from the shapes and starts of a base far from the data
+    (`refit.refit_family`), and a physical fit from there wins; a two-sided family, or a
+    base already far from the data, is not fitted twice."""
+    import importlib
+    import types
+
+    from stickslip_fitting.discovery.cycle_effects import family
+    from stickslip_fitting.discovery.options import DEFAULTS
+
+    stage = importlib.import_module("stickslip_fitting.discovery.stages.refit")
+
+    def fitted(rss, unphysical):
+        return types.SimpleNamespace(fit=types.SimpleNamespace(rss=rss, n_evals=3),
+                                     unphysical=unphysical, failed=None)
+
+    calls = []
+
+    def started(fx_, sc_, cols, prior, target, wide):
+        calls.append(wide)
+        one = fitted(900.0, None) if wide else fitted(850.0, "b = -0.02 < 0")
+        return one, [one]
+
+    monkeypatch.setattr(stage, "_started", started)
+    model = types.SimpleNamespace(cols=lambda f: np.array([9]))
+    for name, misfit, retried in (("stribeck", False, True), ("load_coupling", False, False),
+                                  ("stribeck", True, False)):
+        calls.clear()
+        fx = types.SimpleNamespace(opts=DEFAULTS, base=types.SimpleNamespace(
+            misfit=misfit, model=model, z=np.zeros(10), cols=np.arange(3),
+            fit=types.SimpleNamespace(rss=1000.0)))
+        best = stage.refit_family(fx, types.SimpleNamespace(family=family(name)))
+        assert calls == ([False, True] if retried else [misfit])
+        assert (best.unphysical is None) == (retried or misfit)
+    # the wide shapes and starts near the data: the three best Stribeck shapes, each from
+    # the base and from shares of its bound
+    scores = [types.SimpleNamespace(family=family("stribeck"), chi2_predicted=float(c))
+              for c in (5, 40, 20, 30)]
+    fx = types.SimpleNamespace(opts=DEFAULTS, ranking=types.SimpleNamespace(
+        shape_scores={"stribeck": scores}), base=types.SimpleNamespace(misfit=False,
+                                                                        sensor=False))
+    assert len(stage._options(fx, scores[0])[0]) == 1
+    options, starts = stage._options(fx, scores[0], True)
+    assert [o.chi2_predicted for o, _ in options] == [40.0, 30.0, 20.0]
+    assert starts[0] is None and len(starts) == 1 + len(DEFAULTS.large_starts)
+
+
 def test_paired_window_test():
     """`paired_z`: 0 for identical fits, large when one fits every window better, of order
     1 when two fits differ by noise only."""
