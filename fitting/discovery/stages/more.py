@@ -102,8 +102,11 @@ the fast trace; 1.7-2.9 x the noise there), so a family that only shifts the sli
 timing stays small there (measured, 12 records: after a 20 Hz sensor and the damping a
 per-record screw of 0.01-0.04 um, chi-square -688 and -322 on 610 and 612, family-wise p
 0.0025 on 612: 0.79 and 0.61 in the slips, 0.31 x the noise over all samples; after a
-12 um screw and the damping on C a sensor low-pass: 0.12 and 0.08 in the slips of 605 and
-609). The true second effects: the damping 7.4-15.1 in the slips. The first
+12 Hz sensor on C (613) a per-record screw in the damping's place, chi-square -365 as one
+screw: 0.85, the nearest to the limit; after a 12 um screw and the damping on C a sensor
+low-pass: 0.12 and 0.08 in the slips of 605 and 609). The true second effects: the
+damping 7.4-15.1 in the slips, Stribeck drops 1.41-5.55 (618, 620, 623, 600), a 12 um
+screw after a Stribeck drop on C 2.77 (617). The first
 search keeps its own rules: a single effect at the library's detectable size is named
 however small against the noise.
 
