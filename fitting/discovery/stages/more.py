@@ -96,10 +96,12 @@ the generator's is a systematic residual of that order too, which a flexible fam
 significantly on 100,000 samples. An effect below the standard errors of every phase is
 then no evidence of further physics. The size is taken phase by phase because an effect
 of the slip speed acts in the slips alone, 2-6 % of the samples, and over all of them its
-change is diluted by the sticks: a Stribeck drop after a 2 um screw on A (618) changes
-the slips by 1.41 standard errors, 0.32 x the noise over all samples, and is named. The slips' standard errors hold the timing term (a slip's timing error moves
-the fast trace; 1.7-2.9 x the noise there), so a family that only shifts the slips'
-timing stays small there (measured, 12 records: after a 20 Hz sensor and the damping a
+change is diluted by the sticks: a Stribeck drop after a 2 um screw on A (618, the screw's
+refit leaving 1.076 x the noise) changes the slips by 1.41 standard errors, 0.32 x the
+noise over all samples, and is named.
+The slips' standard errors hold the timing term (a slip's timing error moves the fast
+trace; 1.7-2.9 x the noise there), so a family that only shifts the slips' timing stays
+small there (measured, 12 records: after a 20 Hz sensor and the damping a
 per-record screw of 0.01-0.04 um, chi-square -688 and -322 on 610 and 612, family-wise p
 0.0025 on 612: 0.79 and 0.61 in the slips, 0.31 x the noise over all samples; after a
 12 Hz sensor on C (613) a per-record screw in the damping's place, chi-square -365 as one
